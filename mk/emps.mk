@@ -1,0 +1,7 @@
+# EMPS real-data benchmark (docs/emps.md): reproduce the published IDIM-LS
+# results from ../shared/data/emps (or $HDSERVO_EMPS_DIR) and write
+# build/verify/emps.json.  Fails when a number is outside the targets.
+.PHONY: verify-emps
+verify-emps: setup
+	@mkdir -p $(B)/verify
+	$(PY) -m hdservo.cli emps verify --json $(B)/verify/emps.json
