@@ -41,6 +41,37 @@ int32_t hd_gv_rand_range(hd_gv_rng_t *r, int32_t lo, int32_t hi);
  * two and their neighbours) about a quarter of the time, else uniform. */
 int32_t hd_gv_rand_edge32(hd_gv_rng_t *r);
 
+/* Additions (tests/golden/golden_common.c): a 64-bit edge-biased value
+ * (INT64_MIN/MAX, 0, +-1, powers of two and neighbours, else uniform over a
+ * random bit width) and the FNV-1a hash of a kernel name (the PRNG seed of
+ * each kernel is hd_gv_seed(name), so adding a kernel never changes the
+ * vectors of another). */
+int64_t hd_gv_rand_edge64(hd_gv_rng_t *r);
+uint64_t hd_gv_seed(const char *name);
+
+/* Word packing without implementation-defined conversions: int64 values
+ * travel as two int32 words (low word first), uint32 as its int32 image. */
+static inline int32_t hd_gv_u2s(uint32_t u)
+{
+    return (u > (uint32_t)INT32_MAX) ? ((int32_t)(u - 0x80000000u) - INT32_MAX - 1) : (int32_t)u;
+}
+static inline uint32_t hd_gv_s2u(int32_t s)
+{
+    return (uint32_t)s;
+}
+static inline void hd_gv_put64(int32_t *w, int64_t v)
+{
+    const uint64_t u = (uint64_t)v;
+    w[0] = hd_gv_u2s((uint32_t)(u & 0xFFFFFFFFu));
+    w[1] = hd_gv_u2s((uint32_t)(u >> 32));
+}
+static inline int64_t hd_gv_get64(const int32_t *w)
+{
+    const uint64_t u = ((uint64_t)hd_gv_s2u(w[1]) << 32) | (uint64_t)hd_gv_s2u(w[0]);
+    /* two's complement image back to int64 without a wrapping conversion */
+    return (u > (uint64_t)INT64_MAX) ? ((int64_t)(u - ((uint64_t)1 << 63)) - INT64_MAX - 1) : (int64_t)u;
+}
+
 /* Called immediately before and after the measured call inside cost(); the
  * instruction counter takes the difference (see tests/golden/README.md). */
 void hd_gv_cost_mark(void);

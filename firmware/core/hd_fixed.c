@@ -1,0 +1,478 @@
+/*
+ * hd_fixed.c - fixed-point base library (contract: hd_fixed.h).
+ *
+ * Implementation rules:
+ *  - Signed values are never shifted: a negative value is turned into its
+ *    magnitude as uint64_t (well-defined modular conversion), shifted and
+ *    rounded there, and turned back with hd__neg_mag() which never forms an
+ *    out-of-range signed value.
+ *  - Rounding is half away from zero, done on the magnitude as
+ *    (m >> s) + bit (s-1) of m, so it cannot overflow.
+ *  - Out-of-contract shift counts are clamped (documented per function) so
+ *    that no call can reach a shift >= the type width.
+ *
+ * Tables (hd_math_tables.h) were computed once in double precision and
+ * rounded to nearest; tools/gen_math_tables.py regenerates them.
+ * Accuracy and cost numbers: docs/fixed-point.md.
+ */
+#include "hd_fixed.h"
+#include "hd_math_tables.h"
+
+/* ---- internal helpers (static, no state) ----------------------------- */
+
+#define HD__U64_2P63 ((uint64_t)1 << 63)
+
+/* |x| as uint64 (|INT64_MIN| = 2^63 is representable). */
+static uint64_t hd__mag64(int64_t x)
+{
+    return (x < 0) ? ((uint64_t)0 - (uint64_t)x) : (uint64_t)x;
+}
+
+/* -m for 0 <= m <= 2^63, without forming an out-of-range signed value. */
+static int64_t hd__neg_mag(uint64_t m)
+{
+    return (m == 0u) ? 0 : (-(int64_t)(m - 1u) - 1);
+}
+
+/* sign * m saturated to int64. */
+static int64_t hd__signed_sat64(uint64_t m, bool neg)
+{
+    if (neg) {
+        return (m >= HD__U64_2P63) ? INT64_MIN : hd__neg_mag(m);
+    }
+    return (m > (uint64_t)INT64_MAX) ? INT64_MAX : (int64_t)m;
+}
+
+/* round_half_up(m / 2^s) on a magnitude, 0 <= s <= 63.  Never overflows. */
+static uint64_t hd__ushr_rnd(uint64_t m, uint32_t s)
+{
+    if (s == 0u) {
+        return m;
+    }
+    return (m >> s) + ((m >> (s - 1u)) & 1u);
+}
+
+/* ---- saturation ------------------------------------------------------ */
+
+int32_t hd_sat32(int64_t x)
+{
+    if (x > (int64_t)INT32_MAX) {
+        return INT32_MAX;
+    }
+    if (x < (int64_t)INT32_MIN) {
+        return INT32_MIN;
+    }
+    return (int32_t)x;
+}
+
+int64_t hd_satn(int64_t x, uint32_t n)
+{
+    /* n outside [1, 63] is clamped: n = 0 acts as 1, n >= 64 returns x. */
+    if (n >= 64u) {
+        return x;
+    }
+    if (n == 0u) {
+        n = 1u;
+    }
+    {
+        const int64_t hi = (int64_t)(((uint64_t)1 << (n - 1u)) - 1u);
+        const int64_t lo = -hi - 1;
+        if (x > hi) {
+            return hi;
+        }
+        if (x < lo) {
+            return lo;
+        }
+        return x;
+    }
+}
+
+int32_t hd_clamp32(int32_t x, int32_t lo, int32_t hi)
+{
+    if (x < lo) {
+        return lo;
+    }
+    if (x > hi) {
+        return hi;
+    }
+    return x;
+}
+
+int64_t hd_clamp64(int64_t x, int64_t lo, int64_t hi)
+{
+    if (x < lo) {
+        return lo;
+    }
+    if (x > hi) {
+        return hi;
+    }
+    return x;
+}
+
+/* ---- saturating add / sub / neg / abs -------------------------------- */
+
+int32_t hd_add_sat(int32_t a, int32_t b)
+{
+    return hd_sat32((int64_t)a + (int64_t)b); /* HD_ADD_SAT_SATURATION */
+}
+
+int32_t hd_sub_sat(int32_t a, int32_t b)
+{
+    return hd_sat32((int64_t)a - (int64_t)b);
+}
+
+int32_t hd_neg_sat(int32_t x)
+{
+    return (x == INT32_MIN) ? INT32_MAX : -x;
+}
+
+int32_t hd_abs_sat(int32_t x)
+{
+    if (x == INT32_MIN) {
+        return INT32_MAX;
+    }
+    return (x < 0) ? -x : x;
+}
+
+int64_t hd_add64_sat(int64_t a, int64_t b)
+{
+    if (b > 0 && a > INT64_MAX - b) {
+        return INT64_MAX;
+    }
+    if (b < 0 && a < INT64_MIN - b) {
+        return INT64_MIN;
+    }
+    return a + b;
+}
+
+int64_t hd_sub64_sat(int64_t a, int64_t b)
+{
+    if (b < 0 && a > INT64_MAX + b) {
+        return INT64_MAX;
+    }
+    if (b > 0 && a < INT64_MIN + b) {
+        return INT64_MIN;
+    }
+    return a - b;
+}
+
+int64_t hd_neg64_sat(int64_t x)
+{
+    return (x == INT64_MIN) ? INT64_MAX : -x;
+}
+
+int64_t hd_abs64_sat(int64_t x)
+{
+    if (x == INT64_MIN) {
+        return INT64_MAX;
+    }
+    return (x < 0) ? -x : x;
+}
+
+/* ---- shifts with defined rounding ------------------------------------ */
+
+int64_t hd_asr64_floor(int64_t x, uint32_t s)
+{
+    if (s > 63u) {
+        s = 63u;            /* same result as any s >= 63: 0 or -1 */
+    }
+    if (x >= 0) {
+        return (int64_t)((uint64_t)x >> s);
+    }
+    /* x < 0: floor(x / 2^s) = -1 - floor((-1 - x) / 2^s), and -1 - x >= 0. */
+    return -1 - (int64_t)((uint64_t)(-1 - x) >> s);
+}
+
+int64_t hd_asr64_rnd(int64_t x, uint32_t s)
+{
+    if (s > 63u) {
+        s = 63u;            /* out of contract: clamped */
+    }
+    if (s == 0u) {
+        return x;
+    }
+    /* s >= 1: the rounded magnitude is <= 2^62 + 1, so the casts are exact. */
+    if (x >= 0) {
+        return (int64_t)hd__ushr_rnd((uint64_t)x, s);
+    }
+    return -(int64_t)hd__ushr_rnd(hd__mag64(x), s);
+}
+
+int32_t hd_asr32_rnd(int64_t x, uint32_t s)
+{
+    return hd_sat32(hd_asr64_rnd(x, s));
+}
+
+int64_t hd_shl64_sat(int64_t x, uint32_t s)
+{
+    if (x == 0) {
+        return 0;
+    }
+    if (s >= 63u) {         /* only x = -1, s = 63 is exact (INT64_MIN) */
+        return (x > 0) ? INT64_MAX : INT64_MIN;
+    }
+    {
+        const int64_t lim = (int64_t)((uint64_t)INT64_MAX >> s); /* 2^(63-s) - 1 */
+        if (x > lim) {
+            return INT64_MAX;
+        }
+        if (x < -lim - 1) {
+            return INT64_MIN;
+        }
+        return x * (int64_t)((uint64_t)1 << s);   /* exact, no overflow */
+    }
+}
+
+int32_t hd_shl32_sat(int32_t x, uint32_t s)
+{
+    if (x == 0) {
+        return 0;
+    }
+    if (s > 31u) {
+        return (x > 0) ? INT32_MAX : INT32_MIN;
+    }
+    /* |x| * 2^31 <= 2^62: exact in int64. */
+    return hd_sat32((int64_t)x * (int64_t)((uint64_t)1 << s));
+}
+
+/* ---- multiply -------------------------------------------------------- */
+
+int32_t hd_mul_q(int32_t a, int32_t b, uint32_t q)
+{
+    const int64_t p = (int64_t)a * (int64_t)b;   /* |p| <= 2^62: exact */
+    if (q > 62u) {
+        q = 62u;            /* out of contract: clamped */
+    }
+    return hd_asr32_rnd(p, q); /* HD_MUL_Q_ROUNDING (tests/checks/30_golden_bite.sh edits this line) */
+}
+
+int64_t hd_mul64x32_q(int64_t a, int32_t b, uint32_t q)
+{
+    const bool neg = (a < 0) != (b < 0);
+    const uint64_t ua = hd__mag64(a);                 /* <= 2^63 */
+    const uint32_t ub = (uint32_t)hd__mag64(b);       /* <= 2^31 */
+    const uint64_t al = (uint64_t)(uint32_t)ua;
+    const uint64_t ah = ua >> 32;                      /* <= 2^31 */
+    /* 96-bit magnitude product as (hi:lo) = ah*ub*2^32 + al*ub. */
+    const uint64_t plo = al * (uint64_t)ub;            /* < 2^63 */
+    const uint64_t pmid = ah * (uint64_t)ub;           /* <= 2^62 */
+    uint64_t lo = plo + (pmid << 32);
+    uint64_t hi = (pmid >> 32) + ((lo < plo) ? 1u : 0u);
+    uint64_t m;
+
+    if (q > 62u) {
+        q = 62u;            /* out of contract: clamped */
+    }
+    if (q > 0u) {
+        /* add half an output LSB, then shift the 128-bit value right by q */
+        const uint64_t half = (uint64_t)1 << (q - 1u);
+        const uint64_t lo2 = lo + half;
+        hi += (lo2 < lo) ? 1u : 0u;
+        lo = lo2;
+        m = (lo >> q) | (hi << (64u - q));
+        hi >>= q;
+    } else {
+        m = lo;
+    }
+    if (hi != 0u) {
+        return neg ? INT64_MIN : INT64_MAX;
+    }
+    return hd__signed_sat64(m, neg);
+}
+
+int64_t hd_mac64(int64_t acc, int32_t a, int32_t b)
+{
+    return hd_add64_sat(acc, (int64_t)a * (int64_t)b);
+}
+
+/* ---- divide ---------------------------------------------------------- */
+
+int32_t hd_div_q(int32_t num, int32_t den, uint32_t q)
+{
+    const bool neg = (num < 0) != (den < 0);
+    uint64_t un;
+    uint64_t ud;
+    uint64_t quo;
+    uint64_t rem;
+
+    if (den == 0) {
+        return (num > 0) ? INT32_MAX : ((num < 0) ? INT32_MIN : 0);
+    }
+    if (q > 31u) {
+        q = 31u;            /* out of contract: clamped */
+    }
+    un = hd__mag64(num) << q;                          /* <= 2^62 */
+    ud = hd__mag64(den);                               /* <= 2^31 */
+    quo = un / ud;
+    rem = un - quo * ud;
+    if (rem >= ud - rem) { /* HD_DIV_Q_ROUNDING: 2*rem >= ud, half away */
+        quo += 1u;
+    }
+    return hd_sat32(hd__signed_sat64(quo, neg));
+}
+
+int64_t hd_div64_rnd(int64_t num, int64_t den)
+{
+    const bool neg = (num < 0) != (den < 0);
+    uint64_t un;
+    uint64_t ud;
+    uint64_t quo;
+    uint64_t rem;
+
+    if (den == 0) {
+        return (num > 0) ? INT64_MAX : ((num < 0) ? INT64_MIN : 0);
+    }
+    un = hd__mag64(num);                               /* <= 2^63 */
+    ud = hd__mag64(den);
+    quo = un / ud;
+    rem = un - quo * ud;
+    if (rem >= ud - rem) {
+        quo += 1u;                                     /* quo <= 2^62 + 1 here */
+    }
+    return hd__signed_sat64(quo, neg);
+}
+
+/* ---- nonlinear functions -------------------------------------------- */
+
+/*
+ * exp(-x), x = n + f (n integer part, f = fh/256 + fl/65536):
+ *   e^-x = e^-n * E1[fh] * E2[fl]
+ * E1, E2 in Q31 (rounded to nearest); their product is rounded to Q32;
+ * e^-n is a normalised mantissa m in [2^30, 2^31) with exponent z
+ * (e^-n = m * 2^-(30+z)), so its relative error is < 2^-31 for every n and
+ * the only rounding after the product is the final one.  Monotone by
+ * construction: within one n the result is a rounded product of
+ * non-increasing factors, and at n -> n+1 the exact values step down by a
+ * relative 1.5e-5, far more than the relative error of E1*E2 (< 2e-9).
+ * x >= 22 (22 << 16 in Q16) returns 0: e^-22 * 2^30 = 0.30 LSB.
+ */
+int32_t hd_exp_neg_q16(int32_t x_q16)
+{
+    uint32_t n;
+    uint32_t fh;
+    uint32_t fl;
+    uint64_t e12;
+    uint64_t r;
+
+    if (x_q16 <= 0) {
+        return HD_Q30_ONE;
+    }
+    if (x_q16 >= (int32_t)(HD_EXP_INT_N << 16)) {
+        return 0;
+    }
+    n = (uint32_t)x_q16 >> 16;
+    fh = ((uint32_t)x_q16 >> 8) & 0xFFu;
+    fl = (uint32_t)x_q16 & 0xFFu;
+    /* Q31 * Q31 = Q62 -> Q32 (<= 2^32) */
+    e12 = hd__ushr_rnd((uint64_t)hd_exp_tab_frac_hi[fh] * hd_exp_tab_frac_lo[fl], 30u);
+    /* m (< 2^31) * e12 (<= 2^32) < 2^63; shift 32 + z <= 63 */
+    r = hd__ushr_rnd((uint64_t)hd_exp_tab_int_m[n] * e12, 32u + (uint32_t)hd_exp_tab_int_z[n]);
+    return (int32_t)r;                                 /* <= 2^30 */
+}
+
+/*
+ * sin/cos of a turn fraction.  angle = quadrant q (2 bits) | r (30 bits).
+ * The pair is evaluated at p = r in quadrants 0 and 2 and at the mirror
+ * p = 2^30 - r in quadrants 1 and 3 (0 <= p <= 2^30, a quarter turn), so
+ * that a and -a, and a and a + half a turn, evaluate the very same point:
+ * sin is exactly odd, cos exactly even, both exactly anti-periodic by half a
+ * turn, and the quarter-turn points are exact (0 and +-1.0).
+ * p = k*h + d with h = 1/1024 turn, k = p >> 22 (0..256), d = the low 22 bits:
+ *   sin p = S[k] cos d + C[k] sin d,  cos p = C[k] cos d - S[k] sin d,
+ * S[k] = sin(k*h), C[k] = S[256-k] from one quarter-wave table (Q31), and
+ * d < 6.2e-3 rad with sin d = d - d^3/6 and cos d = 1 - d^2/2 + d^4/24
+ * (truncation error < 8e-14 and < 2e-18), in Q36, rounded to Q32.
+ */
+void hd_sincos_turn(uint32_t angle, int32_t *sin_q30, int32_t *cos_q30)
+{
+    const uint32_t quad = angle >> 30;
+    const uint32_t r = angle & 0x3FFFFFFFu;
+    const uint32_t p = ((quad & 1u) != 0u) ? (0x40000000u - r) : r;
+    const uint32_t k = p >> 22;                                     /* 0..256 */
+    const uint64_t l = p & 0x3FFFFFu;
+    /* d in Q36 rad: l * 2*pi * 2^36 / 2^32 = l * pi * 2^5; pi in Q29. */
+    const uint64_t d36 = hd__ushr_rnd(l * HD_PI_Q29, 24u);          /* < 2^29 */
+    const uint64_t d2_36 = hd__ushr_rnd(d36 * d36, 36u);            /* d^2, < 2^22 */
+    const uint64_t d3_6 = hd__ushr_rnd(d2_36 * d36, 36u) / 6u;     /* d^3/6 */
+    const uint64_t d4_24 = hd__ushr_rnd(d2_36 * d2_36, 36u) / 24u; /* d^4/24 */
+    const uint64_t sd32 = hd__ushr_rnd(d36 - d3_6, 4u);             /* sin d, Q32 */
+    const uint64_t cd32 = ((uint64_t)1 << 32)
+                          - hd__ushr_rnd((d2_36 >> 1) - d4_24, 4u); /* cos d, Q32 */
+    const uint64_t sk = hd_sin_tab_q31[k];
+    const uint64_t ck = hd_sin_tab_q31[256u - k];
+    /* Q31 * Q32 = Q63; sums < 2^63 + 2^56 fit uint64 */
+    const uint64_t s63 = sk * cd32 + ck * sd32;
+    const uint64_t c63p = ck * cd32;
+    const uint64_t c63n = sk * sd32;
+    uint64_t s30 = hd__ushr_rnd(s63, 33u);
+    uint64_t c30 = (c63p > c63n) ? hd__ushr_rnd(c63p - c63n, 33u) : 0u;
+    int32_t s;
+    int32_t c;
+
+    if (s30 > (uint64_t)HD_Q30_ONE) {
+        s30 = (uint64_t)HD_Q30_ONE;
+    }
+    if (c30 > (uint64_t)HD_Q30_ONE) {
+        c30 = (uint64_t)HD_Q30_ONE;
+    }
+    s = (int32_t)s30;
+    c = (int32_t)c30;
+    /* q0: (s, c)  q1: (s, -c)  q2: (-s, -c)  q3: (-s, c) */
+    *sin_q30 = (quad >= 2u) ? -s : s;
+    *cos_q30 = (quad == 1u || quad == 2u) ? -c : c;
+}
+
+int32_t hd_sign_smooth_q30(int32_t x, int32_t eps)
+{
+    uint64_t ux;
+    uint64_t ue;
+    uint64_t t31;
+    uint64_t t2;
+    uint64_t s;
+    int32_t r;
+
+    if (x == 0) {
+        return 0;
+    }
+    ux = hd__mag64(x);
+    ue = (eps > 0) ? (uint64_t)eps : 0u;
+    if (ux >= ue) {
+        return (x > 0) ? HD_Q30_ONE : -HD_Q30_ONE;
+    }
+    /* |t| = |x|/eps < 1 in Q31 (rounded), then s = t (3 - t^2) / 2 in Q30. */
+    {
+        const uint64_t num = ux << 31;
+        const uint64_t quo = num / ue;
+        const uint64_t rem = num - quo * ue;
+        t31 = quo + ((rem >= ue - rem) ? 1u : 0u);     /* <= 2^31 */
+    }
+    t2 = hd__ushr_rnd(t31 * t31, 31u);                 /* t^2, Q31, <= 2^31 */
+    s = hd__ushr_rnd(t31 * ((uint64_t)3u * ((uint64_t)1 << 31) - t2), 33u);
+    if (s > (uint64_t)HD_Q30_ONE) {
+        s = (uint64_t)HD_Q30_ONE;
+    }
+    r = (int32_t)s;
+    return (x > 0) ? r : -r;
+}
+
+uint32_t hd_isqrt64(uint64_t x)
+{
+    /* Digit-by-digit (binary restoring) square root: 32 iterations, exact. */
+    uint64_t rem = x;
+    uint64_t root = 0u;
+    uint64_t bit = (uint64_t)1 << 62;
+
+    while (bit > rem) {
+        bit >>= 2;
+    }
+    while (bit != 0u) {
+        if (rem >= root + bit) {
+            rem -= root + bit;
+            root = (root >> 1) + bit;
+        } else {
+            root >>= 1;
+        }
+        bit >>= 2;
+    }
+    return (uint32_t)root;
+}
