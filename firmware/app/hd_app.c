@@ -1,0 +1,558 @@
+/*
+ * hd_app.c - the drive application (contract: hd_app.h).
+ *
+ * Cascade per period (closed-loop modes):
+ *   pos_err = sat32(pos_ref - pos_out)                        2^-32 turn
+ *   vel_ref = PID_pos(pos_err) + vff_gain * v_ff              2^-32 turn/s, |.| <= pos_vlim
+ *             (position loop run in error form: ref = error, meas = 0, no D)
+ *   t_ff    = aff_gain * j_total * 2 pi * acc_ref + torque_cmd  Q15.16 N.m (output side)
+ *   t       = PID_vel(vel_ref, vel_fb) + t_ff                 Q15.16 N.m, |.| <= torque_limit
+ *   t_f     = biquad chain (notch, low-pass)(t), clamped to torque_limit
+ *   motor torque = t_f / N ; current = motor torque / Kt
+ * vel_fb = motor-encoder observer / N (vel_fb_src 0) or output-encoder observer (1).
+ */
+#include "hd_app.h"
+#include "hd_fixed.h"
+
+#define TWO_PI_Q28 1686629713   /* round(2 pi 2^28) */
+
+static int32_t P(const hd_app_t *a, hd_param_id_t id)
+{
+    return a->param[id];
+}
+
+/* 2 pi x for x in Q16 (Hz or per-rad gains) -> Q16, saturated */
+static int32_t two_pi(int32_t x)
+{
+    return hd_mul_q(x, TWO_PI_Q28, 28u);
+}
+
+int32_t hd_app_apply_params(hd_app_t *a)
+{
+    const int32_t n = P(a, HD_P_GEAR_RATIO);
+    if (n < 1 || P(a, HD_P_KT) <= 0) {
+        return -1;
+    }
+    /* position loop: in 2^-32 turn, out 2^-32 turn/s, gains Q16 */
+    a->pos_cfg.shift = 16u;
+    a->pos_cfg.kp = P(a, HD_P_POS_KP);
+    a->pos_cfg.ki_dt = hd_sat32(hd_div64_rnd(P(a, HD_P_POS_KI), HD_LOOP_HZ));
+    a->pos_cfg.kd_fs = 0;
+    a->pos_cfg.d_alpha = HD_Q30_ONE;
+    a->pos_cfg.out_max = P(a, HD_P_POS_VLIM);
+    a->pos_cfg.out_min = hd_neg_sat(a->pos_cfg.out_max);
+
+    /* velocity loop: in 2^-32 turn/s, out Q15.16 N.m, gains Q16 N.m/(turn/s) with shift 32 */
+    a->vel_cfg.shift = 32u;
+    a->vel_cfg.kp = two_pi(P(a, HD_P_VEL_KP));
+    a->vel_cfg.ki_dt = hd_sat32(hd_div64_rnd(hd_mul64x32_q(P(a, HD_P_VEL_KI), TWO_PI_Q28, 28u), HD_LOOP_HZ));
+    a->vel_cfg.kd_fs = hd_sat32(hd_mul64x32_q(hd_mul64x32_q(P(a, HD_P_VEL_KD), TWO_PI_Q28, 28u), HD_LOOP_HZ, 0u));
+    {
+        const int32_t x = hd_sat32(hd_div64_rnd(two_pi(P(a, HD_P_VEL_D_FC)), HD_LOOP_HZ)); /* 2 pi fc T, Q16 */
+        a->vel_cfg.d_alpha = HD_Q30_ONE - hd_exp_neg_q16(x);
+        if (a->vel_cfg.d_alpha <= 0) {
+            a->vel_cfg.d_alpha = 1;
+        }
+    }
+    a->vel_cfg.out_max = P(a, HD_P_TORQUE_LIMIT);
+    a->vel_cfg.out_min = hd_neg_sat(a->vel_cfg.out_max);
+
+    hd_velobs_design(&a->obs_mot_cfg, two_pi(P(a, HD_P_OBS_MOT_BW)), P(a, HD_P_OBS_ZETA));
+    hd_velobs_design(&a->obs_out_cfg, two_pi(P(a, HD_P_OBS_OUT_BW)), P(a, HD_P_OBS_ZETA));
+
+    {
+        const uint32_t en = (uint32_t)P(a, HD_P_FILT_ENABLE);
+        uint32_t k = 0;
+        if (en & 1u) {
+            hd_biquad_coef_t *c = &a->filt_cfg.c[k++];
+            c->b0 = P(a, HD_P_F1_B0); c->b1 = P(a, HD_P_F1_B1); c->b2 = P(a, HD_P_F1_B2);
+            c->a1 = P(a, HD_P_F1_A1); c->a2 = P(a, HD_P_F1_A2);
+        }
+        if (en & 2u) {
+            hd_biquad_coef_t *c = &a->filt_cfg.c[k++];
+            c->b0 = P(a, HD_P_F2_B0); c->b1 = P(a, HD_P_F2_B1); c->b2 = P(a, HD_P_F2_B2);
+            c->a1 = P(a, HD_P_F2_A1); c->a2 = P(a, HD_P_F2_A2);
+        }
+        a->filt_cfg.n = k;
+    }
+
+    a->traj_cfg.vmax = P(a, HD_P_TRAJ_VMAX);
+    a->traj_cfg.amax = P(a, HD_P_TRAJ_AMAX);
+    a->traj_cfg.jmax = P(a, HD_P_TRAJ_JMAX);
+    return 0;
+}
+
+static void reset_loops(hd_app_t *a)
+{
+    hd_pid_reset(&a->pos_pid);
+    hd_pid_reset(&a->vel_pid);
+    hd_biquad_chain_reset(&a->filt);
+    a->sat_count = 0;
+}
+
+void hd_app_init(hd_app_t *a)
+{
+    uint32_t i;
+    a->pstore_status = hd_pstore_load(a->param, &a->pstore_seq);
+    if (hd_app_apply_params(a) != 0) {
+        hd_params_defaults(a->param);
+        a->pstore_status = HD_PSTORE_CORRUPT;
+        (void)hd_app_apply_params(a);
+    }
+    reset_loops(a);
+    hd_velobs_reset(&a->obs_mot, 0);
+    hd_velobs_reset(&a->obs_out, 0);
+    hd_traj_reset(&a->traj, 0);
+    a->exc_cfg.kind = HD_EXC_NONE;
+    a->exc_cfg.amp = 0;
+    a->exc_cfg.offset = 0;
+    a->exc_cfg.length = 0;
+    a->exc_cfg.hold = 0;
+    a->exc_cfg.n = 0;
+    a->exc_cfg.m = 0;
+    a->exc_cfg.rate = 0;
+    a->exc_cfg.f0_q16 = 0;
+    a->exc_cfg.f1_q16 = 0;
+    a->exc_cfg.period = 0;
+    a->exc_cfg.seed = 0;
+    (void)hd_exc_start(&a->exc, &a->exc_cfg);
+    a->exc_inj = HD_INJ_TORQUE;
+    a->started = 0;
+    a->mot_raw_prev = 0;
+    a->out_raw_prev = 0;
+    a->pos_mot = 0;
+    a->pos_out = 0;
+    a->mode = HD_MODE_OFF;
+    a->mode_req = HD_MODE_OFF;
+    a->mode_changed = 0;
+    a->pos_cmd = 0;
+    a->vel_cmd = 0;
+    a->torque_cmd = 0;
+    a->ptp_target = 0;
+    a->rate_cmd = 0;
+    a->sine_amp = 0;
+    a->sine_f_q16 = 0;
+    a->hold_pos = 0;
+    a->fault = HD_FAULT_NONE;
+    hd_capture_reset(&a->cap);
+    for (i = 0; i < HD_CAPTURE_MAX_CH; i++) {
+        a->cap_sig[i] = 0;
+    }
+    {
+        hd_telemetry_t z = {0};
+        a->tel = z;
+    }
+}
+
+/* ---- sensors ------------------------------------------------------------ */
+
+static int64_t wrap_delta(uint32_t now, uint32_t prev, uint32_t bits)
+{
+    const uint32_t mask = (bits >= 32u) ? 0xFFFFFFFFu : ((1u << bits) - 1u);
+    const uint32_t d = (now - prev) & mask;
+    const uint32_t half = 1u << (bits - 1u);
+    return (d >= half) ? (int64_t)d - ((int64_t)mask + 1) : (int64_t)d;
+}
+
+/* returns 0 or a fault code */
+static int32_t read_sensors(hd_app_t *a, hd_hal_sensors_t *sn)
+{
+    const uint32_t mb = (uint32_t)P(a, HD_P_MOTOR_ENC_BITS);
+    const uint32_t ob = (uint32_t)P(a, HD_P_OUTPUT_ENC_BITS);
+    const uint32_t need = HD_HAL_VALID_MOTOR_ENC | HD_HAL_VALID_OUTPUT_ENC;
+    const uint32_t omask = (1u << ob) - 1u;
+    hd_hal_read_sensors(sn);
+    if ((sn->valid & need) != need) {
+        return HD_FAULT_SENSOR;
+    }
+    const uint32_t mraw = sn->motor_enc_raw & ((1u << mb) - 1u);
+    const uint32_t oraw = (sn->output_enc_raw - (uint32_t)P(a, HD_P_OUTPUT_ENC_ZERO)) & omask;
+    int32_t fault = 0;
+    if (!a->started) {
+        /* output: signed single turn in [-0.5, 0.5) */
+        const int64_t half = (int64_t)1 << (ob - 1u);
+        const int64_t so = ((int64_t)oraw >= half) ? (int64_t)oraw - 2 * half : (int64_t)oraw;
+        a->pos_out = hd_shl64_sat(so, 32u - ob);
+        /* motor: N * output angle, adjusted to the encoder's own fraction */
+        const int64_t base = hd_mul64x32_q(a->pos_out, P(a, HD_P_GEAR_RATIO), 0u);
+        const uint32_t mfrac = mraw << (32u - mb);
+        const uint32_t d = mfrac - (uint32_t)(uint64_t)base;
+        a->pos_mot = base + ((d >= 0x80000000u) ? (int64_t)d - 4294967296LL : (int64_t)d);
+        a->started = 1;
+        hd_velobs_reset(&a->obs_mot, a->pos_mot);
+        hd_velobs_reset(&a->obs_out, a->pos_out);
+        hd_traj_reset(&a->traj, a->pos_out);
+    } else {
+        const int64_t dm = wrap_delta(mraw, a->mot_raw_prev, mb);
+        const int64_t dout = wrap_delta(oraw, a->out_raw_prev, ob);
+        a->pos_mot = hd_add64_sat(a->pos_mot, hd_shl64_sat(dm, 32u - mb));
+        const int64_t dq = hd_shl64_sat(dout, 32u - ob);
+        a->pos_out = hd_add64_sat(a->pos_out, dq);
+        if (hd_abs64_sat(dq) > (int64_t)P(a, HD_P_ENC_JUMP_MAX)) {
+            fault = HD_FAULT_ENC_JUMP;
+        }
+    }
+    a->mot_raw_prev = mraw;
+    a->out_raw_prev = oraw;
+    return fault;
+}
+
+/* ---- modes ---------------------------------------------------------------- */
+
+static void enter_mode(hd_app_t *a, int32_t mode)
+{
+    reset_loops(a);
+    a->pos_cmd = a->pos_out;
+    a->vel_cmd = 0;
+    hd_traj_reset(&a->traj, a->pos_out);
+    a->hold_pos = a->pos_out;
+    switch (mode) {
+    case HD_MODE_TORQUE:
+        break;
+    case HD_MODE_PTP:
+        (void)hd_traj_ptp(&a->traj, &a->traj_cfg, a->ptp_target);
+        break;
+    case HD_MODE_RATE:
+        hd_traj_rate(&a->traj, &a->traj_cfg, a->rate_cmd);
+        break;
+    case HD_MODE_SINE:
+        (void)hd_traj_sine(&a->traj, a->pos_out, a->sine_amp, a->sine_f_q16);
+        break;
+    case HD_MODE_EXCITATION:
+        (void)hd_exc_start(&a->exc, &a->exc_cfg);
+        break;
+    default:
+        a->torque_cmd = 0;
+        break;
+    }
+    a->mode = mode;
+}
+
+int32_t hd_app_set_mode(hd_app_t *a, int32_t mode)
+{
+    if (mode < HD_MODE_OFF || mode > HD_MODE_EXCITATION) {
+        return -1;
+    }
+    if (a->fault != HD_FAULT_NONE && mode != HD_MODE_OFF) {
+        return -1;
+    }
+    a->mode_req = mode;
+    if (a->started) {
+        enter_mode(a, mode);
+        a->mode_changed = 0;
+    } else {
+        a->mode_changed = 1;     /* entered at the first sensor sample */
+    }
+    return 0;
+}
+
+void hd_app_set_torque(hd_app_t *a, hd_torque_t t) { a->torque_cmd = t; }
+void hd_app_set_velocity(hd_app_t *a, hd_vel_out_t v) { a->vel_cmd = v; }
+void hd_app_set_position(hd_app_t *a, hd_angle_t p) { a->pos_cmd = p; }
+
+int32_t hd_app_move_to(hd_app_t *a, hd_angle_t target)
+{
+    a->ptp_target = target;
+    if (a->mode == HD_MODE_PTP && a->started) {
+        return hd_traj_ptp(&a->traj, &a->traj_cfg, target);
+    }
+    return 0;
+}
+
+void hd_app_set_rate(hd_app_t *a, hd_vel_out_t v)
+{
+    a->rate_cmd = v;
+    if (a->mode == HD_MODE_RATE) {
+        hd_traj_rate(&a->traj, &a->traj_cfg, v);
+    }
+}
+
+void hd_app_set_sine(hd_app_t *a, int32_t amp, int32_t f_q16)
+{
+    a->sine_amp = amp;
+    a->sine_f_q16 = f_q16;
+}
+
+int32_t hd_app_set_excitation(hd_app_t *a, const hd_exc_cfg_t *c, int32_t inj)
+{
+    hd_exc_t probe;
+    if (inj < HD_INJ_TORQUE || inj > HD_INJ_POS_REF || hd_exc_start(&probe, c) != 0) {
+        return -1;
+    }
+    a->exc_cfg = *c;
+    a->exc_inj = inj;
+    return 0;
+}
+
+void hd_app_fault_reset(hd_app_t *a)
+{
+    a->fault = HD_FAULT_NONE;
+    a->sat_count = 0;
+    a->mode = HD_MODE_OFF;
+    a->mode_req = HD_MODE_OFF;
+    a->mode_changed = 0;
+    reset_loops(a);
+}
+
+int32_t hd_app_param_set(hd_app_t *a, uint32_t id, int32_t raw)
+{
+    if (hd_params_check(id, raw) != 0) {
+        return -1;
+    }
+    const int32_t old = a->param[id];
+    a->param[id] = raw;
+    if (hd_app_apply_params(a) != 0) {
+        a->param[id] = old;
+        (void)hd_app_apply_params(a);
+        return -1;
+    }
+    return 0;
+}
+
+int32_t hd_app_param_get(const hd_app_t *a, uint32_t id)
+{
+    return (id < HD_PARAM_COUNT) ? a->param[id] : 0;
+}
+
+int32_t hd_app_param_save(hd_app_t *a)
+{
+    if (a->mode != HD_MODE_OFF) {
+        return -1;
+    }
+    return hd_pstore_save(a->param, &a->pstore_seq);
+}
+
+int32_t hd_app_capture_arm(hd_app_t *a, const hd_capture_cfg_t *c, const uint32_t *sig)
+{
+    uint32_t i;
+    if (c->n_ch == 0u || c->n_ch > HD_CAPTURE_MAX_CH) {
+        return -1;
+    }
+    for (i = 0; i < c->n_ch; i++) {
+        if (sig[i] >= (uint32_t)HD_SIG_COUNT) {
+            return -1;
+        }
+    }
+    if (hd_capture_arm(&a->cap, c) != 0) {
+        return -1;
+    }
+    for (i = 0; i < c->n_ch; i++) {
+        a->cap_sig[i] = sig[i];
+    }
+    return 0;
+}
+
+void hd_app_capture_trigger(hd_app_t *a)
+{
+    hd_capture_trigger(&a->cap);
+}
+
+const hd_telemetry_t *hd_app_telemetry(const hd_app_t *a)
+{
+    return &a->tel;
+}
+
+/* ---- one period ------------------------------------------------------------ */
+
+static int32_t lo32(int64_t x)
+{
+    const uint32_t u = (uint32_t)(uint64_t)x;
+    return (u > 0x7FFFFFFFu) ? -(int32_t)(~u) - 1 : (int32_t)u;
+}
+
+static int32_t hi32(int64_t x)
+{
+    return hd_sat32(hd_asr64_floor(x, 32u));
+}
+
+static int32_t signal(const hd_app_t *a, uint32_t id)
+{
+    const hd_telemetry_t *t = &a->tel;
+    switch (id) {
+    case HD_SIG_TICK: return lo32((int64_t)t->tick);
+    case HD_SIG_POS_OUT_LO: return lo32(t->pos_out);
+    case HD_SIG_POS_OUT_HI: return hi32(t->pos_out);
+    case HD_SIG_POS_MOT_LO: return lo32(t->pos_mot);
+    case HD_SIG_POS_MOT_HI: return hi32(t->pos_mot);
+    case HD_SIG_VEL_OUT: return t->vel_out;
+    case HD_SIG_VEL_MOT: return t->vel_mot;
+    case HD_SIG_POS_REF_LO: return lo32(t->pos_ref);
+    case HD_SIG_POS_REF_HI: return hi32(t->pos_ref);
+    case HD_SIG_VEL_REF: return t->vel_ref;
+    case HD_SIG_ACC_REF: return t->acc_ref;
+    case HD_SIG_TORQUE_CMD: return t->torque_cmd;
+    case HD_SIG_CURRENT: return t->current;
+    case HD_SIG_GYRO: return t->gyro;
+    case HD_SIG_EXC: return t->exc;
+    case HD_SIG_POS_ERR: return t->pos_err;
+    case HD_SIG_FAULT: return t->fault;
+    default: return 0;
+    }
+}
+
+static void trip(hd_app_t *a, int32_t code)
+{
+    if (a->fault == HD_FAULT_NONE) {
+        a->fault = code;
+    }
+}
+
+void hd_app_step(hd_app_t *a)
+{
+    hd_hal_sensors_t sn;
+    const uint32_t fen = (uint32_t)P(a, HD_P_FAULT_ENABLE);
+    const int32_t sf = read_sensors(a, &sn);
+    if (sf == HD_FAULT_SENSOR && (fen & HD_FCHK_SENSOR) && a->mode != HD_MODE_OFF) {
+        trip(a, sf);
+    }
+    if (sf == HD_FAULT_ENC_JUMP && (fen & HD_FCHK_ENC_JUMP)) {
+        trip(a, sf);
+    }
+    if (a->started && a->mode_changed) {
+        a->mode_changed = 0;
+        enter_mode(a, a->mode_req);
+    }
+
+    /* velocity estimates */
+    hd_velobs_step(&a->obs_mot, &a->obs_mot_cfg, a->pos_mot);
+    hd_velobs_step(&a->obs_out, &a->obs_out_cfg, a->pos_out);
+    const int32_t n = P(a, HD_P_GEAR_RATIO);
+    const hd_vel_out_t v_mot_out = hd_sat32(hd_div64_rnd(hd_velobs_vel48(&a->obs_mot), (int64_t)n * 65536));
+    const hd_vel_out_t v_out_enc = hd_velobs_vel_out(&a->obs_out);
+    const hd_vel_out_t v_fb = (P(a, HD_P_VEL_FB_SRC) == 0) ? v_mot_out : v_out_enc;
+
+    int32_t mode = (a->fault != HD_FAULT_NONE) ? HD_MODE_OFF : a->mode;
+    hd_angle_t pos_ref = a->pos_out;
+    hd_vel_out_t v_ff = 0;
+    hd_acc_t acc_ref = 0;
+    hd_torque_t t_ff = a->torque_cmd;
+    int32_t exc = 0;
+    int32_t closed = 0;     /* 1 = velocity loop, 2 = position + velocity loops */
+    hd_vel_out_t vel_ref = 0;
+    int64_t t_out = 0;
+
+    switch (mode) {
+    case HD_MODE_TORQUE:
+        t_out = a->torque_cmd;
+        break;
+    case HD_MODE_VELOCITY:
+        vel_ref = a->vel_cmd;
+        closed = 1;
+        break;
+    case HD_MODE_POSITION:
+        pos_ref = a->pos_cmd;
+        v_ff = a->vel_cmd;
+        closed = 2;
+        break;
+    case HD_MODE_PTP:
+    case HD_MODE_RATE:
+    case HD_MODE_SINE:
+        hd_traj_step(&a->traj, &a->traj_cfg);
+        pos_ref = a->traj.pos;
+        v_ff = a->traj.vel;
+        acc_ref = a->traj.acc;
+        closed = 2;
+        break;
+    case HD_MODE_EXCITATION:
+        exc = hd_exc_step(&a->exc, &a->exc_cfg);
+        if (a->exc_inj == HD_INJ_TORQUE) {
+            t_out = exc;
+        } else if (a->exc_inj == HD_INJ_VEL_REF) {
+            vel_ref = exc;
+            closed = 1;
+        } else {
+            pos_ref = hd_add64_sat(a->hold_pos, exc);
+            closed = 2;
+        }
+        break;
+    default:
+        break;
+    }
+
+    const int32_t pos_err = hd_sat32(hd_sub64_sat(pos_ref, a->pos_out));
+    if (closed == 2) {
+        const hd_vel_out_t vff = hd_mul_q(v_ff, P(a, HD_P_VFF_GAIN), 30u);
+        vel_ref = hd_pid_step(&a->pos_pid, &a->pos_cfg, pos_err, 0, vff);
+    }
+    if (closed != 0) {
+        /* acceleration feed-forward: j_total [Q16 kg m^2] * acc [2^-24 turn/s^2] * 2 pi -> Q16 N.m */
+        const int64_t ja = hd_mul64x32_q((int64_t)P(a, HD_P_J_TOTAL), acc_ref, 24u);
+        const int64_t jaw = hd_mul64x32_q(ja, TWO_PI_Q28, 28u);
+        const int32_t aff = hd_mul_q(hd_sat32(jaw), P(a, HD_P_AFF_GAIN), 30u);
+        t_ff = hd_add_sat(t_ff, aff);
+        const int32_t t = hd_pid_step(&a->vel_pid, &a->vel_cfg, vel_ref, v_fb, t_ff);
+        t_out = hd_biquad_chain_step(&a->filt, &a->filt_cfg, t);
+    }
+    const int32_t tlim = P(a, HD_P_TORQUE_LIMIT);
+    const int32_t t_cmd = hd_clamp32(hd_sat32(t_out), hd_neg_sat(tlim), tlim);
+
+    /* limits and faults (latched) */
+    if (mode != HD_MODE_OFF) {
+        const int32_t at = hd_abs_sat(t_cmd);
+        if (at >= tlim || (closed && a->vel_pid.saturated)) {
+            a->sat_count++;
+        } else {
+            a->sat_count = 0;
+        }
+        if ((fen & HD_FCHK_TORQUE_SAT) && a->sat_count > (uint32_t)P(a, HD_P_TORQUE_SAT_TIME)) {
+            trip(a, HD_FAULT_TORQUE_SAT);
+        }
+        if ((fen & HD_FCHK_OVERSPEED) && hd_abs_sat(v_fb) > P(a, HD_P_VEL_TRIP)) {
+            trip(a, HD_FAULT_OVERSPEED);
+        }
+        if ((fen & HD_FCHK_TRAVEL) &&
+            (a->pos_out < hd_shl64_sat(P(a, HD_P_TRAVEL_MIN), 8u) ||
+             a->pos_out > hd_shl64_sat(P(a, HD_P_TRAVEL_MAX), 8u))) {
+            trip(a, HD_FAULT_TRAVEL);
+        }
+        if ((fen & HD_FCHK_FOLLOWING) && closed == 2 && hd_abs_sat(pos_err) > P(a, HD_P_FOLLOW_ERR_MAX)) {
+            trip(a, HD_FAULT_FOLLOWING);
+        }
+    }
+
+    hd_hal_command_t cmd;
+    if (a->fault != HD_FAULT_NONE || mode == HD_MODE_OFF) {
+        if (a->fault != HD_FAULT_NONE && a->mode != HD_MODE_OFF) {
+            a->mode = HD_MODE_OFF;
+            reset_loops(a);
+        }
+        cmd.torque = 0;
+        cmd.current = 0;
+        cmd.enable = 0;
+    } else {
+        cmd.torque = hd_sat32(hd_div64_rnd(t_cmd, n));
+        cmd.current = hd_div_q(cmd.torque, P(a, HD_P_KT), 16u);
+        cmd.enable = 1;
+    }
+    hd_hal_write_command(&cmd);
+
+    /* telemetry */
+    hd_telemetry_t *t = &a->tel;
+    t->tick = (a->started > 1u) ? t->tick + 1u : 0u;
+    a->started = 2u;
+    t->mode = a->mode;
+    t->fault = a->fault;
+    t->pos_out = a->pos_out;
+    t->pos_mot = a->pos_mot;
+    t->vel_out = v_fb;
+    t->vel_out_enc = v_out_enc;
+    t->vel_mot = hd_asr32_rnd(hd_velobs_vel48(&a->obs_mot), 24u);
+    t->pos_ref = pos_ref;
+    t->vel_ref = vel_ref;
+    t->acc_ref = acc_ref;
+    t->torque_cmd = cmd.enable ? t_cmd : 0;
+    t->motor_torque = cmd.torque;
+    t->current = sn.current;
+    t->gyro = sn.gyro_rate;
+    t->exc = exc;
+    t->pos_err = pos_err;
+
+    if (a->cap.state == HD_CAP_ARMED || a->cap.state == HD_CAP_TRIGGERED) {
+        int32_t smp[HD_CAPTURE_MAX_CH];
+        uint32_t i;
+        for (i = 0; i < a->cap.cfg.n_ch; i++) {
+            smp[i] = signal(a, a->cap_sig[i]);
+        }
+        hd_capture_step(&a->cap, smp);
+    }
+}

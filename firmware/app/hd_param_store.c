@@ -1,0 +1,206 @@
+/*
+ * hd_param_store.c - parameter defaults, range checks, atomic two-slot NVM store.
+ * Layout and rules: hd_param_store.h.
+ */
+#include "hd_param_store.h"
+#include "hal.h"
+
+#define HDR_WORDS 6u
+#define REC_BYTES ((HDR_WORDS + HD_PARAM_COUNT + 1u) * 4u)
+#define REC_PADDED ((REC_BYTES + 7u) & ~7u)
+
+void hd_params_defaults(int32_t values[HD_PARAM_COUNT])
+{
+    uint32_t i;
+    for (i = 0; i < HD_PARAM_COUNT; i++) {
+        values[i] = hd_param_table[i].def;
+    }
+}
+
+int32_t hd_params_check(uint32_t id, int32_t raw)
+{
+    if (id >= HD_PARAM_COUNT) {
+        return -1;
+    }
+    return (raw < hd_param_table[id].min || raw > hd_param_table[id].max) ? -1 : 0;
+}
+
+uint32_t hd_crc32(uint32_t crc, const uint8_t *p, uint32_t len)
+{
+    uint32_t i, b;
+    crc = ~crc;
+    for (i = 0; i < len; i++) {
+        crc ^= p[i];
+        for (b = 0; b < 8u; b++) {
+            crc = (crc & 1u) ? (crc >> 1) ^ 0xEDB88320u : (crc >> 1);
+        }
+    }
+    return ~crc;
+}
+
+static void put32(uint8_t *p, uint32_t v)
+{
+    p[0] = (uint8_t)(v & 0xFFu);
+    p[1] = (uint8_t)((v >> 8) & 0xFFu);
+    p[2] = (uint8_t)((v >> 16) & 0xFFu);
+    p[3] = (uint8_t)((v >> 24) & 0xFFu);
+}
+
+static uint32_t get32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
+}
+
+/* int32 <-> uint32 bit pattern without implementation-defined conversions */
+static uint32_t i2u(int32_t v)
+{
+    return (v < 0) ? (uint32_t)(-(v + 1)) ^ 0xFFFFFFFFu : (uint32_t)v;
+}
+
+static int32_t u2i(uint32_t u)
+{
+    return (u > 0x7FFFFFFFu) ? -(int32_t)(~u) - 1 : (int32_t)u;
+}
+
+static uint32_t slot_size(void)
+{
+    const uint32_t pg = hd_hal_nvm_page_size();
+    if (pg == 0u) {
+        return 0u;
+    }
+    return ((REC_PADDED + pg - 1u) / pg) * pg;
+}
+
+typedef enum { SLOT_EMPTY, SLOT_BAD, SLOT_OTHER, SLOT_OK, SLOT_IOERR } slot_res_t;
+
+static slot_res_t read_slot(uint32_t s, int32_t values[HD_PARAM_COUNT], uint32_t *seq)
+{
+    uint8_t rec[REC_PADDED];
+    uint32_t i;
+    if (hd_hal_nvm_read(s * slot_size(), rec, REC_PADDED) != 0) {
+        return SLOT_IOERR;
+    }
+    int32_t blank = 1;
+    for (i = 0; i < REC_PADDED; i++) {
+        if (rec[i] != 0xFFu) {
+            blank = 0;
+            break;
+        }
+    }
+    if (blank) {
+        return SLOT_EMPTY;
+    }
+    const uint32_t crc = get32(&rec[REC_BYTES - 4u]);
+    if (get32(&rec[0]) != HD_PSTORE_MAGIC || hd_crc32(0, rec, REC_BYTES - 4u) != crc) {
+        return SLOT_BAD;
+    }
+    if (get32(&rec[4]) != HD_PSTORE_FORMAT || get32(&rec[8]) != HD_PARAM_VERSION ||
+        get32(&rec[12]) != HD_PARAM_TABLE_HASH || get32(&rec[20]) != HD_PARAM_COUNT) {
+        return SLOT_OTHER;
+    }
+    for (i = 0; i < HD_PARAM_COUNT; i++) {
+        const int32_t v = u2i(get32(&rec[(HDR_WORDS + i) * 4u]));
+        if (hd_params_check(i, v) != 0) {
+            return SLOT_BAD;
+        }
+        values[i] = v;
+    }
+    *seq = get32(&rec[16]);
+    return SLOT_OK;
+}
+
+int32_t hd_pstore_load(int32_t values[HD_PARAM_COUNT], uint32_t *seq)
+{
+    int32_t v0[HD_PARAM_COUNT], v1[HD_PARAM_COUNT];
+    uint32_t s0 = 0, s1 = 0, i;
+    *seq = 0;
+    if (slot_size() == 0u || 2u * slot_size() > hd_hal_nvm_size()) {
+        hd_params_defaults(values);
+        return HD_PSTORE_NVM_ERROR;
+    }
+    const slot_res_t r0 = read_slot(0, v0, &s0);
+    const slot_res_t r1 = read_slot(1, v1, &s1);
+    const int32_t *pick = 0;
+    if (r0 == SLOT_OK && r1 == SLOT_OK) {
+        /* serial-number arithmetic: s1 newer if 0 < s1 - s0 < 2^31 */
+        const uint32_t d = s1 - s0;
+        if (d != 0u && d < 0x80000000u) {
+            pick = v1;
+            *seq = s1;
+        } else {
+            pick = v0;
+            *seq = s0;
+        }
+    } else if (r0 == SLOT_OK) {
+        pick = v0;
+        *seq = s0;
+    } else if (r1 == SLOT_OK) {
+        pick = v1;
+        *seq = s1;
+    }
+    if (pick) {
+        for (i = 0; i < HD_PARAM_COUNT; i++) {
+            values[i] = pick[i];
+        }
+        return HD_PSTORE_OK;
+    }
+    hd_params_defaults(values);
+    if (r0 == SLOT_IOERR || r1 == SLOT_IOERR) {
+        return HD_PSTORE_NVM_ERROR;
+    }
+    if (r0 == SLOT_OTHER || r1 == SLOT_OTHER) {
+        return HD_PSTORE_INCOMPATIBLE;
+    }
+    if (r0 == SLOT_BAD || r1 == SLOT_BAD) {
+        return HD_PSTORE_CORRUPT;
+    }
+    return HD_PSTORE_BLANK;
+}
+
+int32_t hd_pstore_save(const int32_t values[HD_PARAM_COUNT], uint32_t *seq)
+{
+    uint8_t rec[REC_PADDED];
+    uint32_t i, cur = 0, target;
+    int32_t tmp[HD_PARAM_COUNT];
+    const uint32_t ss = slot_size();
+    if (ss == 0u || 2u * ss > hd_hal_nvm_size()) {
+        return -1;
+    }
+    for (i = 0; i < HD_PARAM_COUNT; i++) {
+        if (hd_params_check(i, values[i]) != 0) {
+            return -1;
+        }
+    }
+    /* write the slot that does NOT hold the current newest valid set */
+    const slot_res_t r0 = read_slot(0, tmp, &cur);
+    uint32_t s1 = 0;
+    const slot_res_t r1 = read_slot(1, tmp, &s1);
+    if (r0 == SLOT_OK && r1 == SLOT_OK) {
+        const uint32_t d = s1 - cur;
+        target = (d != 0u && d < 0x80000000u) ? 0u : 1u;
+    } else if (r0 == SLOT_OK) {
+        target = 1u;
+    } else {
+        target = 0u;
+    }
+    const uint32_t nseq = *seq + 1u;
+    for (i = 0; i < REC_PADDED; i++) {
+        rec[i] = 0xFFu;
+    }
+    put32(&rec[0], HD_PSTORE_MAGIC);
+    put32(&rec[4], HD_PSTORE_FORMAT);
+    put32(&rec[8], HD_PARAM_VERSION);
+    put32(&rec[12], HD_PARAM_TABLE_HASH);
+    put32(&rec[16], nseq);
+    put32(&rec[20], HD_PARAM_COUNT);
+    for (i = 0; i < HD_PARAM_COUNT; i++) {
+        put32(&rec[(HDR_WORDS + i) * 4u], i2u(values[i]));
+    }
+    put32(&rec[REC_BYTES - 4u], hd_crc32(0, rec, REC_BYTES - 4u));
+    if (hd_hal_nvm_erase(target * ss, ss) != 0 ||
+        hd_hal_nvm_write(target * ss, rec, REC_PADDED) != 0) {
+        return -1;
+    }
+    *seq = nseq;
+    return 0;
+}

@@ -1,0 +1,50 @@
+/*
+ * hd_param_store.h - parameter values, range checks, and the NVM store.
+ *
+ * Values live in an int32 array indexed by hd_param_id_t (raw = round(SI *
+ * 2^frac), see the generated hd_param_table.h and docs/parameters.md).
+ *
+ * NVM layout (through hal.h): two slots, each at a page boundary and
+ * page-aligned in size, slot s at offset s * slot_size.  A slot is
+ *     header { magic 'HDPS', format 1, table version, table hash,
+ *              sequence number, count }  (6 x uint32, little-endian words)
+ *     values[count]                      (int32)
+ *     crc32                              (IEEE 802.3 CRC-32 over header+values)
+ * padded to a multiple of 8 bytes.  Load picks the valid slot with the
+ * higher sequence number (serial-number arithmetic); save erases and writes
+ * the OTHER slot with sequence + 1, so a power loss during save leaves the
+ * old set or the new set, never a mix.  A slot whose magic, CRC, format,
+ * table version, hash or count disagrees is ignored; if no slot is usable the
+ * defaults are loaded and the status says why.  Each loaded value is range
+ * checked too (out of range -> whole set rejected, defaults).
+ */
+#ifndef HD_PARAM_STORE_H
+#define HD_PARAM_STORE_H
+
+#include <stdint.h>
+#include "hd_param_table.h"
+
+typedef enum {
+    HD_PSTORE_OK = 0,             /* loaded from NVM */
+    HD_PSTORE_BLANK = 1,          /* no slot written yet: defaults */
+    HD_PSTORE_CORRUPT = 2,        /* slot(s) present but bad CRC/magic/range: defaults */
+    HD_PSTORE_INCOMPATIBLE = 3,   /* valid slot of another table version/layout: defaults */
+    HD_PSTORE_NVM_ERROR = 4       /* hal NVM call failed: defaults */
+} hd_pstore_status_t;
+
+#define HD_PSTORE_MAGIC 0x53504448u  /* "HDPS" */
+#define HD_PSTORE_FORMAT 1u
+
+/** Fill values with the table defaults. */
+void hd_params_defaults(int32_t values[HD_PARAM_COUNT]);
+/** Range check one raw value. 0 ok, -1 unknown id or out of range. */
+int32_t hd_params_check(uint32_t id, int32_t raw);
+/** CRC-32 (IEEE, reflected, init/xorout 0xFFFFFFFF) of len bytes, continuing from crc (start with 0). */
+uint32_t hd_crc32(uint32_t crc, const uint8_t *p, uint32_t len);
+
+/** Load from NVM into values (defaults on any failure); *seq gets the slot sequence (0 if none). */
+int32_t hd_pstore_load(int32_t values[HD_PARAM_COUNT], uint32_t *seq);
+/** Save values to the other slot with sequence *seq + 1; updates *seq. 0 ok, -1 error. */
+int32_t hd_pstore_save(const int32_t values[HD_PARAM_COUNT], uint32_t *seq);
+
+#endif

@@ -1,0 +1,71 @@
+/*
+ * hd_pid.c - PID loop (formats: see hd_pid.h).
+ */
+#include "hd_pid.h"
+#include "hd_fixed.h"
+
+void hd_pid_reset(hd_pid_t *s)
+{
+    s->integ = 0;
+    s->dfilt = 0;
+    s->meas_prev = 0;
+    s->p = 0;
+    s->i = 0;
+    s->d = 0;
+    s->out = 0;
+    s->saturated = 0;
+    s->primed = 0;
+}
+
+void hd_pid_preload(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t out_i)
+{
+    int32_t v = hd_clamp32(out_i, c->out_min, c->out_max);
+    s->integ = hd_shl64_sat((int64_t)v, c->shift);
+    s->i = v;
+}
+
+int32_t hd_pid_step(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t ref, int32_t meas, int32_t ff)
+{
+    const int32_t e = hd_sub_sat(ref, meas);
+
+    /* derivative on measurement, first-order filtered, in in-LSB * 2^16 per period */
+    int64_t dmeas = 0;
+    if (s->primed) {
+        dmeas = (int64_t)meas - (int64_t)s->meas_prev;
+    }
+    s->meas_prev = meas;
+    s->primed = 1;
+    {
+        const int64_t target = hd_shl64_sat(dmeas, 16);
+        const int64_t diff = hd_sub64_sat(target, s->dfilt);
+        /* |diff| < 2^49 so the 64x32 product fits the helper's 96-bit intermediate */
+        s->dfilt = hd_add64_sat(s->dfilt, hd_mul64x32_q(diff, c->d_alpha, 30));
+    }
+
+    const int32_t p = hd_mul_q(c->kp, e, c->shift);
+    const int32_t d = hd_neg_sat((int32_t)hd_sat32(hd_mul64x32_q(s->dfilt, c->kd_fs, c->shift + 16u)));
+
+    /* conditional integration: tentative update, kept unless it deepens saturation */
+    const int64_t lim_hi = hd_shl64_sat((int64_t)c->out_max, c->shift);
+    const int64_t lim_lo = hd_shl64_sat((int64_t)c->out_min, c->shift);
+    int64_t integ_new = hd_mac64(s->integ, c->ki_dt, e);
+    integ_new = hd_clamp64(integ_new, lim_lo, lim_hi);
+    int32_t i_new = hd_asr32_rnd(integ_new, c->shift);
+
+    int64_t u = (int64_t)p + (int64_t)i_new + (int64_t)d + (int64_t)ff;
+    if ((u > (int64_t)c->out_max && integ_new > s->integ) ||
+        (u < (int64_t)c->out_min && integ_new < s->integ)) {
+        integ_new = s->integ;                       /* freeze */
+        i_new = hd_asr32_rnd(integ_new, c->shift);
+        u = (int64_t)p + (int64_t)i_new + (int64_t)d + (int64_t)ff;
+    }
+    s->integ = integ_new;
+
+    const int64_t uc = hd_clamp64(u, (int64_t)c->out_min, (int64_t)c->out_max);
+    s->saturated = (uc != u) ? 1u : 0u;
+    s->p = p;
+    s->i = i_new;
+    s->d = d;
+    s->out = (int32_t)uc;
+    return s->out;
+}

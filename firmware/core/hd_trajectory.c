@@ -1,0 +1,381 @@
+/*
+ * hd_trajectory.c - exact integer reference generator (formats: hd_trajectory.h).
+ *
+ * PTP plan (per-period units, all exact integers):
+ *   phases  +j (tj) | 0 (ta) | -j (tj) | cruise (tv) | -j (tj) | 0 (ta) | +j (tj)
+ *   a += jerk; v += a; p += v (+ a residual share, below) each period.
+ * With unit jerk the accel/decel phases cover dist1(tj, ta) and the peak velocity
+ * is V1 = tj (tj + ta).  tj, ta are the largest with j * dist1 <= D and the
+ * velocity / acceleration limits; tv = floor((D - j dist1) / (j V1)); the
+ * residual R = D - j (dist1 + tv V1) < j V1 is spread over all K periods of
+ * the move with a Bresenham carry, so the move ends exactly on the target and
+ * the velocity reference deviates from the jerk-limited profile by < V / K.
+ */
+#include "hd_trajectory.h"
+#include "hd_fixed.h"
+
+#define TJ_CAP 65536u           /* jerk phase cap, periods (6.5 s) */
+#define TA_CAP 2097152u         /* constant-accel phase cap, periods (210 s) */
+#define TWO_PI_Q28 1686629713   /* round(2 pi 2^28) */
+
+/* floor division by a positive int64 with non-negative remainder */
+static int64_t floordiv(int64_t num, int64_t den, int64_t *rem)
+{
+    int64_t q = num / den;
+    int64_t r = num % den;
+    if (r < 0) {
+        q -= 1;
+        r += den;
+    }
+    *rem = r;
+    return q;
+}
+
+/* Advance (a, v, p) through n periods of constant jerk j (exact, saturating). */
+static void phase(uint32_t n, int64_t j, int64_t *a, int64_t *v, int64_t *p)
+{
+    const int64_t nn = (int64_t)n;
+    const int64_t t1 = nn * (nn + 1) / 2;
+    const int64_t t2 = hd_mul64x32_q(t1, (int32_t)(nn + 2 <= INT32_MAX ? nn + 2 : INT32_MAX), 0) / 3;
+    int64_t dp = hd_mul64x32_q(*v, (int32_t)n, 0);
+    dp = hd_add64_sat(dp, hd_mul64x32_q(t1, hd_sat32(*a), 0));
+    dp = hd_add64_sat(dp, hd_mul64x32_q(t2, hd_sat32(j), 0));
+    *p = hd_add64_sat(*p, dp);
+    *v = hd_add64_sat(*v, hd_add64_sat(hd_mul64x32_q(*a, (int32_t)n, 0), hd_mul64x32_q(t1, hd_sat32(j), 0)));
+    *a = hd_add64_sat(*a, hd_mul64x32_q(j, (int32_t)n, 0));
+}
+
+/* distance of the accel + decel phases with unit jerk */
+static int64_t dist1(uint32_t tj, uint32_t ta)
+{
+    int64_t a = 0, v = 0, p = 0;
+    phase(tj, 1, &a, &v, &p);
+    phase(ta, 0, &a, &v, &p);
+    phase(tj, -1, &a, &v, &p);
+    phase(tj, -1, &a, &v, &p);
+    phase(ta, 0, &a, &v, &p);
+    phase(tj, 1, &a, &v, &p);
+    return p;
+}
+
+static int32_t fits(uint32_t tj, uint32_t ta, int64_t j, int64_t d)
+{
+    return hd_mul64x32_q(dist1(tj, ta), hd_sat32(j), 0) <= d;
+}
+
+static void outputs(hd_traj_t *s, int64_t step48)
+{
+    s->pos = hd_asr64_rnd(s->p48, 16u);
+    s->vel = hd_sat32(hd_mul64x32_q(step48, HD_LOOP_HZ, 16u));
+    s->acc = hd_sat32(hd_mul64x32_q(s->a48, 100000000, 24u));
+}
+
+void hd_traj_reset(hd_traj_t *s, hd_angle_t pos)
+{
+    s->mode = HD_TRAJ_HOLD;
+    s->p48 = hd_shl64_sat(pos, 16u);
+    s->v48 = 0;
+    s->a48 = 0;
+    s->j48 = 0;
+    s->target48 = s->p48;
+    s->dir = 1;
+    s->k = 0;
+    s->tj = 0;
+    s->ta = 0;
+    s->tv = 0;
+    s->cruise_q = 0;
+    s->cruise_r = 0;
+    s->cruise_acc = 0;
+    s->rate_target = 0;
+    s->rate_cur = 0;
+    s->rate_dv = 1;
+    s->rate_rem = 0;
+    s->center = pos;
+    s->amp = 0;
+    s->w_q16 = 0;
+    s->phase = 0;
+    s->inc_q = 0;
+    s->inc_r = 0;
+    s->inc_acc = 0;
+    outputs(s, 0);
+}
+
+static uint32_t ptp_total(const hd_traj_t *s)
+{
+    return 4u * s->tj + 2u * s->ta + s->tv;
+}
+
+int32_t hd_traj_ptp(hd_traj_t *s, const hd_traj_cfg_t *c, hd_angle_t target)
+{
+    if (c->vmax <= 0 || c->amax <= 0 || c->jmax <= 0) {
+        return -1;
+    }
+    if (s->mode != HD_TRAJ_HOLD && !hd_traj_done(s)) {
+        return -1;
+    }
+    /* limits in per-period units of 2^-48 turn */
+    int64_t rem;
+    const int64_t vmax = floordiv((int64_t)c->vmax * 65536, HD_LOOP_HZ, &rem);
+    const int64_t amax = hd_div64_rnd((int64_t)c->amax * 16777216, 100000000);
+    int64_t j = hd_div64_rnd(hd_shl64_sat((int64_t)c->jmax, 32u), 1000000000000LL);
+    if (j < 1) {
+        j = 1;
+    }
+    const int64_t target48 = hd_shl64_sat(target, 16u);
+    int64_t d = hd_sub64_sat(target48, s->p48);
+    s->dir = (d < 0) ? -1 : 1;
+    d = hd_abs64_sat(d);
+
+    uint32_t tj, ta;
+    if (j >= amax) {                 /* acceleration limit reached within one period */
+        j = (amax > 0) ? amax : 1;
+        tj = 1;
+    } else {
+        int64_t q = amax / j;
+        tj = (q > (int64_t)TJ_CAP) ? TJ_CAP : (uint32_t)q;
+    }
+    /* velocity limit: V = j tj (tj + ta) <= vmax */
+    if (hd_mul64x32_q((int64_t)tj * (int64_t)tj, hd_sat32(j), 0) > vmax) {
+        int64_t q = vmax / j;
+        uint32_t r = hd_isqrt64((uint64_t)(q > 0 ? q : 0));
+        tj = (r < 1u) ? 1u : r;
+        ta = 0;
+    } else {
+        int64_t q = vmax / hd_mul64x32_q(j, (int32_t)tj, 0) - (int64_t)tj;
+        ta = (q <= 0) ? 0u : (q > (int64_t)TA_CAP ? TA_CAP : (uint32_t)q);
+    }
+    /* distance: shrink ta, then tj, to the largest that fits */
+    if (!fits(tj, ta, j, d)) {
+        if (!fits(tj, 0, j, d)) {
+            uint32_t lo = 1, hi = tj;
+            ta = 0;
+            if (!fits(1, 0, j, d)) {
+                tj = 1;
+                j = d / dist1(1, 0);  /* tiny move: reduce jerk (may be 0) */
+            } else {
+                while (lo < hi) {   /* largest tj in [1, hi] that fits */
+                    uint32_t mid = lo + (hi - lo + 1u) / 2u;
+                    if (fits(mid, 0, j, d)) {
+                        lo = mid;
+                    } else {
+                        hi = mid - 1u;
+                    }
+                }
+                tj = lo;
+            }
+        } else {
+            uint32_t lo = 0, hi = ta;
+            while (lo < hi) {
+                uint32_t mid = lo + (hi - lo + 1u) / 2u;
+                if (fits(tj, mid, j, d)) {
+                    lo = mid;
+                } else {
+                    hi = mid - 1u;
+                }
+            }
+            ta = lo;
+        }
+    }
+    const int64_t v1 = (int64_t)tj * (int64_t)(tj + ta);
+    const int64_t vpk = hd_mul64x32_q(v1, hd_sat32(j), 0);
+    const int64_t covered = hd_mul64x32_q(dist1(tj, ta), hd_sat32(j), 0);
+    int64_t left = d - covered;
+    int64_t tv = (vpk > 0) ? left / vpk : 0;
+    if (tv > (int64_t)INT32_MAX / 2) {
+        tv = INT32_MAX / 2;
+    }
+    left -= tv * vpk;                 /* residual, spread over the whole move */
+    s->j48 = j;
+    s->tj = tj;
+    s->ta = ta;
+    s->tv = (uint32_t)tv;
+    if (ptp_total(s) == 0u) {
+        s->tv = 1u;                   /* zero-jerk tiny move: one period */
+    }
+    s->cruise_r = left;
+    s->cruise_acc = 0;
+    s->cruise_q = 0;
+    s->target48 = target48;
+    s->k = 0;
+    s->v48 = 0;
+    s->a48 = 0;
+    s->mode = HD_TRAJ_PTP;
+    return 0;
+}
+
+void hd_traj_rate(hd_traj_t *s, const hd_traj_cfg_t *c, hd_vel_out_t v)
+{
+    int32_t dv = hd_sat32(hd_div64_rnd((int64_t)c->amax * 256, HD_LOOP_HZ));
+    if (s->mode != HD_TRAJ_RATE) {
+        s->rate_cur = s->vel;
+        s->rate_rem = 0;
+    }
+    s->rate_dv = (dv < 1) ? 1 : dv;
+    s->rate_target = hd_clamp32(v, hd_neg_sat(c->vmax), c->vmax);
+    s->mode = HD_TRAJ_RATE;
+}
+
+void hd_traj_stop(hd_traj_t *s, const hd_traj_cfg_t *c)
+{
+    hd_traj_rate(s, c, 0);
+}
+
+int32_t hd_traj_sine(hd_traj_t *s, hd_angle_t center, int32_t amp, int32_t f_q16)
+{
+    if (f_q16 <= 0 || amp < 0) {
+        return -1;
+    }
+    if (s->mode != HD_TRAJ_HOLD && !hd_traj_done(s)) {
+        return -1;
+    }
+    /* phase increment per period = f * 2^64 / HD_LOOP_HZ = f_q16 * 2^48 / HD_LOOP_HZ,
+     * as quotient + remainder (den HD_LOOP_HZ) so the phase is exact. */
+    const uint64_t x = (uint64_t)(uint32_t)f_q16 << 20;
+    const uint64_t q1 = x / HD_LOOP_HZ;
+    const uint64_t r1 = x % HD_LOOP_HZ;
+    const uint64_t y = r1 << 28;
+    s->inc_q = (q1 << 28) + y / HD_LOOP_HZ;
+    s->inc_r = (uint32_t)(y % HD_LOOP_HZ);
+    s->inc_acc = 0;
+    s->phase = 0;
+    s->center = center;
+    s->amp = amp;
+    s->w_q16 = hd_mul_q(f_q16, TWO_PI_Q28, 28u);
+    s->mode = HD_TRAJ_SINE;
+    return 0;
+}
+
+int32_t hd_traj_done(const hd_traj_t *s)
+{
+    if (s->mode == HD_TRAJ_HOLD) {
+        return 1;
+    }
+    if (s->mode == HD_TRAJ_PTP) {
+        return (s->k >= ptp_total(s)) ? 1 : 0;
+    }
+    return 0;
+}
+
+static void step_ptp(hd_traj_t *s)
+{
+    const uint32_t tj = s->tj, ta = s->ta, tv = s->tv;
+    const uint32_t k = s->k;
+    const uint32_t total = ptp_total(s);
+    int64_t jerk = 0;
+    if (k >= total) {
+        s->v48 = 0;
+        s->a48 = 0;
+        s->mode = HD_TRAJ_HOLD;
+        outputs(s, 0);
+        return;
+    }
+    if (k < tj) {
+        jerk = s->j48;
+    } else if (k < tj + ta) {
+        jerk = 0;
+    } else if (k < 2u * tj + ta) {
+        jerk = -s->j48;
+    } else if (k < 2u * tj + ta + tv) {
+        jerk = 0;
+    } else if (k < 3u * tj + ta + tv) {
+        jerk = -s->j48;
+    } else if (k < 3u * tj + 2u * ta + tv) {
+        jerk = 0;
+    } else {
+        jerk = s->j48;
+    }
+    s->a48 += jerk;
+    s->v48 += s->a48;
+    /* residual share: floor(R (k+1) / K) - floor(R k / K) */
+    s->cruise_acc += s->cruise_r;
+    const int64_t extra = s->cruise_acc / (int64_t)total;
+    s->cruise_acc -= extra * (int64_t)total;
+    const int64_t step = s->v48 + extra;
+    s->p48 = hd_add64_sat(s->p48, (s->dir < 0) ? -step : step);
+    s->k = k + 1u;
+    {
+        const int64_t a_keep = s->a48;
+        if (s->dir < 0) {
+            s->a48 = -a_keep;
+        }
+        outputs(s, (s->dir < 0) ? -step : step);
+        s->a48 = a_keep;
+    }
+    if (s->k >= total) {
+        s->v48 = 0;
+        s->a48 = 0;
+        s->mode = HD_TRAJ_HOLD;
+    }
+}
+
+static void step_rate(hd_traj_t *s)
+{
+    int32_t acc = 0;
+    if (s->rate_cur < s->rate_target) {
+        int32_t nv = hd_add_sat(s->rate_cur, s->rate_dv);
+        s->rate_cur = (nv > s->rate_target) ? s->rate_target : nv;
+        acc = 1;
+    } else if (s->rate_cur > s->rate_target) {
+        int32_t nv = hd_sub_sat(s->rate_cur, s->rate_dv);
+        s->rate_cur = (nv < s->rate_target) ? s->rate_target : nv;
+        acc = -1;
+    }
+    int64_t rem;
+    const int64_t num = (int64_t)s->rate_cur * 65536 + (int64_t)s->rate_rem;
+    const int64_t step = floordiv(num, HD_LOOP_HZ, &rem);
+    s->rate_rem = (int32_t)rem;
+    s->p48 = hd_add64_sat(s->p48, step);
+    s->v48 = step;
+    s->a48 = 0;
+    s->pos = hd_asr64_rnd(s->p48, 16u);
+    s->vel = s->rate_cur;
+    /* acceleration feed-forward: the ramp slope, 2^-24 turn/s^2 */
+    s->acc = (acc == 0) ? 0 : hd_sat32(hd_div64_rnd((int64_t)acc * s->rate_dv * HD_LOOP_HZ, 256));
+    if (s->rate_cur == 0 && s->rate_target == 0) {
+        s->mode = HD_TRAJ_HOLD;
+        s->v48 = 0;
+        s->acc = 0;
+    }
+}
+
+static void step_sine(hd_traj_t *s)
+{
+    s->inc_acc += s->inc_r;
+    uint64_t carry = 0;
+    if (s->inc_acc >= (uint32_t)HD_LOOP_HZ) {
+        s->inc_acc -= (uint32_t)HD_LOOP_HZ;
+        carry = 1;
+    }
+    s->phase += s->inc_q + carry;   /* uint64: wraps once per cycle, meant */
+    int32_t sn, cs;
+    hd_sincos_turn((uint32_t)(s->phase >> 32), &sn, &cs);
+    s->pos = hd_add64_sat(s->center, (int64_t)hd_mul_q(s->amp, sn, 30u));
+    s->p48 = hd_shl64_sat(s->pos, 16u);
+    const int64_t aw = hd_mul64x32_q((int64_t)s->amp, s->w_q16, 16u);        /* 2^-32 turn/s */
+    s->vel = hd_mul_q(hd_sat32(aw), cs, 30u);
+    const int64_t aww = hd_mul64x32_q(aw, s->w_q16, 24u);                      /* 2^-24 turn/s^2 */
+    s->acc = hd_neg_sat(hd_mul_q(hd_sat32(aww), sn, 30u));
+    s->v48 = 0;
+    s->a48 = 0;
+}
+
+void hd_traj_step(hd_traj_t *s, const hd_traj_cfg_t *c)
+{
+    (void)c;
+    switch (s->mode) {
+    case HD_TRAJ_PTP:
+        step_ptp(s);
+        break;
+    case HD_TRAJ_RATE:
+        step_rate(s);
+        break;
+    case HD_TRAJ_SINE:
+        step_sine(s);
+        break;
+    default:
+        s->v48 = 0;
+        s->a48 = 0;
+        outputs(s, 0);
+        break;
+    }
+}

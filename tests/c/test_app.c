@@ -1,0 +1,367 @@
+/*
+ * test_app.c - the drive application (hd_app) and the parameter store against
+ * a stub hal: a rigid axis (J = 1.3 kg m^2 at the output, gear N) simulated
+ * here in double, quantised 17-bit / 24-bit encoders, NVM in a RAM array
+ * with flash semantics (erase to 0xFF, write only erased bytes).
+ */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <math.h>
+#include <cmocka.h>
+
+#include "hd_app.h"
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+/* ---- stub hal ------------------------------------------------------------ */
+
+#define NVM_SIZE 4096u
+#define NVM_PAGE 1024u
+
+static struct {
+    double th, w;            /* output angle [turn], velocity [turn/s] */
+    double j, n, kt;
+    double t_load;           /* external torque at the output, N.m */
+    uint32_t valid;
+    uint32_t out_jump;       /* counts added to the output encoder */
+    hd_hal_command_t cmd;
+    uint32_t tick;
+    uint8_t nvm[NVM_SIZE];
+    int fail_write;          /* simulate power loss: write does nothing, returns error */
+} P;
+
+uint32_t hd_hal_tick(void) { return P.tick; }
+
+void hd_hal_read_sensors(hd_hal_sensors_t *s)
+{
+    double mt = P.th * P.n;
+    s->motor_enc_raw = (uint32_t)((int64_t)floor(mt * 131072.0) & 0x1FFFF);
+    s->output_enc_raw = (uint32_t)(((int64_t)floor(P.th * 16777216.0) + P.out_jump) & 0xFFFFFF);
+    s->current = P.cmd.current;
+    s->gyro_rate = (int32_t)lround(P.w * 4294967296.0);
+    s->valid = P.valid;
+}
+
+void hd_hal_write_command(const hd_hal_command_t *c)
+{
+    P.cmd = *c;
+    /* advance the rigid plant one period (10 sub-steps) */
+    double t_out = c->enable ? c->torque / 65536.0 * P.n : 0.0;
+    for (int i = 0; i < 10; i++) {
+        double acc = (t_out + P.t_load) / P.j / (2 * M_PI);   /* turn/s^2 */
+        P.w += acc * 1e-5;
+        P.th += P.w * 1e-5;
+    }
+    P.tick++;
+}
+
+bool hd_hal_can_send(const hd_can_frame_t *f) { (void)f; return true; }
+bool hd_hal_can_recv(hd_can_frame_t *f) { (void)f; return false; }
+uint32_t hd_hal_nvm_size(void) { return NVM_SIZE; }
+uint32_t hd_hal_nvm_page_size(void) { return NVM_PAGE; }
+
+int32_t hd_hal_nvm_read(uint32_t off, void *buf, uint32_t len)
+{
+    if (off + len > NVM_SIZE) return -1;
+    memcpy(buf, &P.nvm[off], len);
+    return 0;
+}
+
+int32_t hd_hal_nvm_write(uint32_t off, const void *buf, uint32_t len)
+{
+    if (off + len > NVM_SIZE || off % 8u || len % 8u) return -1;
+    if (P.fail_write) return -1;
+    for (uint32_t i = 0; i < len; i++) {
+        if (P.nvm[off + i] != 0xFF) return -2;       /* not erased */
+        P.nvm[off + i] = ((const uint8_t *)buf)[i];
+    }
+    return 0;
+}
+
+int32_t hd_hal_nvm_erase(uint32_t off, uint32_t len)
+{
+    if (off + len > NVM_SIZE || off % NVM_PAGE || len % NVM_PAGE) return -1;
+    memset(&P.nvm[off], 0xFF, len);
+    return 0;
+}
+
+static hd_app_t app;   /* large (capture buffer): static */
+
+static void plant_reset(double th0)
+{
+    P.th = th0;
+    P.w = 0;
+    P.j = 1.3;
+    P.n = 100;
+    P.kt = 0.1;
+    P.t_load = 0;
+    P.valid = HD_HAL_VALID_ALL;
+    P.out_jump = 0;
+    P.tick = 0;
+    P.fail_write = 0;
+    memset(&P.cmd, 0, sizeof P.cmd);
+}
+
+static int setup(void **st)
+{
+    (void)st;
+    plant_reset(0.01);
+    memset(P.nvm, 0xFF, sizeof P.nvm);
+    hd_app_init(&app);
+    return 0;
+}
+
+static void run(uint32_t n)
+{
+    for (uint32_t i = 0; i < n; i++) {
+        hd_app_step(&app);
+    }
+}
+
+static double arcsec(int64_t q32)
+{
+    return (double)q32 / 4294967296.0 * 1296000.0;
+}
+
+/* ---- parameter store --------------------------------------------------------- */
+
+static void test_params_blank_defaults(void **st)
+{
+    (void)st;
+    assert_int_equal(app.pstore_status, HD_PSTORE_BLANK);
+    for (uint32_t i = 0; i < HD_PARAM_COUNT; i++) {
+        assert_int_equal(app.param[i], hd_param_table[i].def);
+        assert_int_equal(hd_params_check(i, hd_param_table[i].def), 0);
+    }
+    assert_int_equal(hd_app_param_get(&app, HD_P_GEAR_RATIO), 100);
+}
+
+static void test_params_save_load_atomic(void **st)
+{
+    (void)st;
+    assert_int_equal(hd_app_param_set(&app, HD_P_POS_KP, 40 << 16), 0);
+    assert_int_equal(hd_app_param_set(&app, HD_P_POS_KP, -1), -1);           /* below min */
+    assert_int_equal(hd_app_param_set(&app, HD_PARAM_COUNT, 0), -1);         /* unknown */
+    assert_int_equal(app.param[HD_P_POS_KP], 40 << 16);
+    assert_int_equal(hd_app_param_save(&app), 0);
+    assert_int_equal(app.pstore_seq, 1u);
+    hd_app_init(&app);
+    assert_int_equal(app.pstore_status, HD_PSTORE_OK);
+    assert_int_equal(app.param[HD_P_POS_KP], 40 << 16);
+
+    /* second save goes to the other slot; a power loss during a third save
+     * (erase done, write lost) leaves the second set */
+    assert_int_equal(hd_app_param_set(&app, HD_P_POS_KP, 30 << 16), 0);
+    assert_int_equal(hd_app_param_save(&app), 0);
+    assert_int_equal(hd_app_param_set(&app, HD_P_POS_KP, 20 << 16), 0);
+    P.fail_write = 1;
+    assert_int_equal(hd_app_param_save(&app), -1);
+    P.fail_write = 0;
+    hd_app_init(&app);
+    assert_int_equal(app.pstore_status, HD_PSTORE_OK);
+    assert_int_equal(app.param[HD_P_POS_KP], 30 << 16);
+    assert_int_equal(app.pstore_seq, 2u);
+
+    /* corrupt the newest slot: falls back to the older valid set */
+    assert_int_equal(hd_app_param_set(&app, HD_P_POS_KP, 25 << 16), 0);
+    assert_int_equal(hd_app_param_save(&app), 0);                           /* seq 3 */
+    hd_app_init(&app);
+    assert_int_equal(app.param[HD_P_POS_KP], 25 << 16);
+    uint32_t slot = (app.pstore_seq % 2u == 1u) ? 0u : 1u;  /* seq 1,3 -> slot 0?  find it */
+    (void)slot;
+    /* flip one value byte in both candidate places in turn and check the fallback */
+    uint8_t save[NVM_SIZE];
+    memcpy(save, P.nvm, NVM_SIZE);
+    for (uint32_t s = 0; s < 2; s++) {
+        memcpy(P.nvm, save, NVM_SIZE);
+        P.nvm[s * NVM_PAGE + 40] ^= 0x01;
+        hd_app_init(&app);
+        assert_int_equal(app.pstore_status, HD_PSTORE_OK);
+        assert_true(app.param[HD_P_POS_KP] == (25 << 16) || app.param[HD_P_POS_KP] == (30 << 16));
+    }
+    /* both corrupt: defaults, reported */
+    memcpy(P.nvm, save, NVM_SIZE);
+    P.nvm[40] ^= 0x01;
+    P.nvm[NVM_PAGE + 40] ^= 0x01;
+    hd_app_init(&app);
+    assert_int_equal(app.pstore_status, HD_PSTORE_CORRUPT);
+    assert_int_equal(app.param[HD_P_POS_KP], hd_param_table[HD_P_POS_KP].def);
+}
+
+static void test_params_incompatible(void **st)
+{
+    (void)st;
+    assert_int_equal(hd_app_param_save(&app), 0);
+    /* rewrite slot 0 as if written by another table version, with a valid CRC */
+    uint8_t rec[NVM_PAGE];
+    memcpy(rec, P.nvm, NVM_PAGE);
+    rec[8] ^= 0x40;                                          /* table version word */
+    const uint32_t rec_bytes = (6u + HD_PARAM_COUNT + 1u) * 4u;
+    uint32_t crc = hd_crc32(0, rec, rec_bytes - 4u);
+    for (int i = 0; i < 4; i++) rec[rec_bytes - 4u + (uint32_t)i] = (uint8_t)(crc >> (8 * i));
+    memcpy(P.nvm, rec, NVM_PAGE);
+    hd_app_init(&app);
+    assert_int_equal(app.pstore_status, HD_PSTORE_INCOMPATIBLE);
+    /* crc32 check value */
+    assert_int_equal(hd_crc32(0, (const uint8_t *)"123456789", 9), 0xCBF43926u);
+}
+
+/* ---- closed loop on the rigid stub ----------------------------------------- */
+
+static void test_app_position_hold_and_ptp(void **st)
+{
+    (void)st;
+    run(10);
+    assert_int_equal(app.tel.mode, HD_MODE_OFF);
+    assert_int_equal(P.cmd.enable, 0u);
+    /* output angle from the absolute encoder, motor angle consistent with it */
+    assert_true(fabs(arcsec(app.pos_out) - 0.01 * 1296000.0) < 0.2);
+    assert_true(fabs((double)app.pos_mot / 4294967296.0 - 100 * 0.01) < 1e-4);
+
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_POSITION), 0);
+    run(5000);
+    assert_int_equal(app.fault, HD_FAULT_NONE);
+    assert_true(fabs(arcsec(app.tel.pos_err)) < 1.0);
+
+    /* 10 deg PTP: lands within 2 arcsec, no fault */
+    const hd_angle_t target = app.pos_out + (int64_t)llround(10.0 / 360 * 4294967296.0);
+    assert_int_equal(hd_app_move_to(&app, target), 0);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_PTP), 0);
+    double max_err = 0;
+    for (int k = 0; k < 20000; k++) {
+        hd_app_step(&app);
+        double e = fabs(arcsec(app.tel.pos_err));
+        max_err = e > max_err ? e : max_err;
+    }
+    printf("# rigid stub, 10 deg PTP: max following error %.2f arcsec, final %.3f arcsec\n",
+           max_err, arcsec(target - app.pos_out));
+    assert_int_equal(app.fault, HD_FAULT_NONE);
+    assert_true(fabs(arcsec(target - app.pos_out)) < 2.0);
+    assert_true(max_err < 60.0);
+}
+
+static void test_app_rate_low_speed(void **st)
+{
+    (void)st;
+    run(5);
+    hd_app_set_rate(&app, 11930);                  /* 0.001 deg/s */
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_RATE), 0);
+    const hd_angle_t p0 = app.pos_out;
+    run(20000);
+    double sum2 = 0;
+    const int n = 50000;
+    for (int k = 0; k < n; k++) {
+        hd_app_step(&app);
+        double e = arcsec(app.tel.pos_err);
+        sum2 += e * e;
+    }
+    double moved = arcsec(app.pos_out - p0);
+    printf("# rigid stub, 0.001 deg/s: rms tracking error %.3f arcsec over 5 s, moved %.2f arcsec\n",
+           sqrt(sum2 / n), moved);
+    assert_true(fabs(moved - 0.001 * 3600 * 7.0) < 1.0);
+    assert_true(sqrt(sum2 / n) < 0.5);
+}
+
+static void test_app_faults(void **st)
+{
+    (void)st;
+    run(5);
+    /* travel: axis driven outside the travel limit in torque mode */
+    assert_int_equal(hd_app_param_set(&app, HD_P_TRAVEL_MAX, (int32_t)(0.02 * 16777216)), 0);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_TORQUE), 0);
+    hd_app_set_torque(&app, 5 << 16);
+    for (int k = 0; k < 50000 && app.fault == HD_FAULT_NONE; k++) hd_app_step(&app);
+    assert_int_equal(app.fault, HD_FAULT_TRAVEL);
+    run(2);
+    assert_int_equal(P.cmd.enable, 0u);
+    assert_int_equal(P.cmd.torque, 0);
+    assert_int_equal(app.tel.mode, HD_MODE_OFF);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_TORQUE), -1);         /* latched */
+    hd_app_fault_reset(&app);
+    assert_int_equal(app.fault, HD_FAULT_NONE);
+
+    /* following error: a blocked axis (huge load torque) in PTP */
+    setup(NULL);
+    run(5);
+    P.t_load = -2000.0;
+    P.j = 1e6;
+    const hd_angle_t target = app.pos_out + (1LL << 28);
+    hd_app_move_to(&app, target);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_PTP), 0);
+    for (int k = 0; k < 30000 && app.fault == HD_FAULT_NONE; k++) hd_app_step(&app);
+    assert_true(app.fault == HD_FAULT_FOLLOWING || app.fault == HD_FAULT_TORQUE_SAT);
+
+    /* sensor invalid */
+    setup(NULL);
+    run(5);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_POSITION), 0);
+    run(5);
+    P.valid = HD_HAL_VALID_MOTOR_ENC;
+    run(1);
+    assert_int_equal(app.fault, HD_FAULT_SENSOR);
+
+    /* encoder jump */
+    setup(NULL);
+    run(5);
+    P.out_jump = 100000;      /* 0.006 turn in one period */
+    run(1);
+    assert_int_equal(app.fault, HD_FAULT_ENC_JUMP);
+
+    /* overspeed in torque mode */
+    setup(NULL);
+    run(5);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_TORQUE), 0);
+    hd_app_set_torque(&app, 50 << 16);
+    for (int k = 0; k < 50000 && app.fault == HD_FAULT_NONE; k++) hd_app_step(&app);
+    assert_int_equal(app.fault, HD_FAULT_OVERSPEED);
+}
+
+static void test_app_excitation_capture(void **st)
+{
+    (void)st;
+    run(5);
+    hd_exc_cfg_t c;
+    memset(&c, 0, sizeof c);
+    c.kind = HD_EXC_PRBS;
+    c.amp = 1 << 16;        /* 1 N.m */
+    c.n = 7;
+    c.hold = 2;
+    c.seed = 1;
+    assert_int_equal(hd_app_set_excitation(&app, &c, HD_INJ_TORQUE), 0);
+    assert_int_equal(hd_app_set_excitation(&app, &c, 9), -1);
+    const uint32_t sig[3] = {HD_SIG_TICK, HD_SIG_EXC, HD_SIG_TORQUE_CMD};
+    hd_capture_cfg_t cc = {3, 1, 200, 20, HD_CAP_TRIG_COMMAND, 0, 0};
+    assert_int_equal(hd_app_capture_arm(&app, &cc, sig), 0);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_EXCITATION), 0);
+    run(50);
+    hd_app_capture_trigger(&app);
+    run(300);
+    assert_int_equal(hd_capture_frames(&app.cap), 200u);
+    for (uint32_t f = 1; f < 200; f++) {
+        assert_int_equal(hd_capture_read(&app.cap, f, 0), hd_capture_read(&app.cap, f - 1, 0) + 1);
+        int32_t e = hd_capture_read(&app.cap, f, 1);
+        assert_true(e == (1 << 16) || e == -(1 << 16));
+        assert_int_equal(hd_capture_read(&app.cap, f, 2), e);   /* open-loop torque = excitation */
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup(test_params_blank_defaults, setup),
+        cmocka_unit_test_setup(test_params_save_load_atomic, setup),
+        cmocka_unit_test_setup(test_params_incompatible, setup),
+        cmocka_unit_test_setup(test_app_position_hold_and_ptp, setup),
+        cmocka_unit_test_setup(test_app_rate_low_speed, setup),
+        cmocka_unit_test_setup(test_app_faults, setup),
+        cmocka_unit_test_setup(test_app_excitation_capture, setup),
+    };
+    return cmocka_run_group_tests_name("hd_app", tests, NULL, NULL);
+}

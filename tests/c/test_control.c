@@ -1,0 +1,640 @@
+/*
+ * test_control.c - unit tests of the baseline controllers in firmware/core:
+ * PID (hd_pid), velocity observer (hd_vel_observer), biquads (hd_biquad),
+ * trajectory generator (hd_trajectory), excitation (hd_excitation),
+ * capture buffer (hd_capture).  Double precision is used here only as the
+ * reference; the firmware under test is integer-only.
+ */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <math.h>
+#include <cmocka.h>
+
+#include "hd_fixed.h"
+#include "hd_pid.h"
+#include "hd_vel_observer.h"
+#include "hd_biquad.h"
+#include "hd_trajectory.h"
+#include "hd_excitation.h"
+#include "hd_capture.h"
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+#define TURN_DEG 360.0
+#define DEG_S_TO_VEL(d) ((int32_t)llround((d) / TURN_DEG * 4294967296.0))
+
+/* ---------------------------------------------------------------- PID ---- */
+
+static hd_pid_cfg_t pcfg(int32_t kp, int32_t ki, int32_t kd, uint32_t shift, int32_t lim)
+{
+    hd_pid_cfg_t c = {kp, ki, kd, HD_Q30_ONE, shift, -lim, lim};
+    return c;
+}
+
+static void test_pid_p_rounding(void **st)
+{
+    (void)st;
+    hd_pid_t s;
+    hd_pid_cfg_t c = pcfg(3 << 15, 0, 0, 16, 1 << 30);   /* kp = 1.5 */
+    hd_pid_reset(&s);
+    assert_int_equal(hd_pid_step(&s, &c, 1001, 0, 0), 1502);  /* 1501.5 rounds away */
+    assert_int_equal(hd_pid_step(&s, &c, -1001, 0, 0), -1502);
+    assert_int_equal(hd_pid_step(&s, &c, 0, 0, 77), 77);      /* feed-forward passes */
+}
+
+static void test_pid_integrator_precision(void **st)
+{
+    (void)st;
+    hd_pid_t s;
+    /* ki_dt = 0.25 in Q16: I term after k steps of e = 1 is k/4, kept exactly */
+    hd_pid_cfg_t c = pcfg(0, 1 << 14, 0, 16, 1 << 30);
+    hd_pid_reset(&s);
+    int32_t out = 0;
+    for (int i = 0; i < 4000; i++) {
+        out = hd_pid_step(&s, &c, 1, 0, 0);
+    }
+    assert_int_equal(out, 1000);    /* sub-LSB increments accumulate, not lost */
+}
+
+static void test_pid_antiwindup(void **st)
+{
+    (void)st;
+    hd_pid_t s;
+    hd_pid_cfg_t c = pcfg(1 << 16, 1 << 16, 0, 16, 100);
+    hd_pid_reset(&s);
+    for (int i = 0; i < 10000; i++) {
+        assert_true(hd_pid_step(&s, &c, 1000, 0, 0) <= 100);
+    }
+    assert_true(s.saturated);
+    assert_true(s.integ <= ((int64_t)100 << 16));
+    /* error reverses: the output leaves saturation at once (no wound-up integral) */
+    int32_t out = hd_pid_step(&s, &c, -50, 0, 0);
+    assert_true(out < 100);
+    for (int i = 0; i < 5; i++) {
+        out = hd_pid_step(&s, &c, -50, 0, 0);
+    }
+    assert_true(out < 0);
+}
+
+static void test_pid_derivative_on_measurement(void **st)
+{
+    (void)st;
+    hd_pid_t s;
+    hd_pid_cfg_t c = pcfg(0, 0, 1 << 16, 16, 1 << 30);   /* kd_fs = 1: D = -dmeas */
+    hd_pid_reset(&s);
+    assert_int_equal(hd_pid_step(&s, &c, 0, 0, 0), 0);
+    assert_int_equal(hd_pid_step(&s, &c, 100000, 0, 0), 0);   /* no kick on a reference step */
+    assert_int_equal(hd_pid_step(&s, &c, 100000, 500, 0), -500);
+    /* with a filter (alpha = 0.5) the derivative of a measurement step decays */
+    c.d_alpha = HD_Q30_ONE / 2;
+    hd_pid_reset(&s);
+    (void)hd_pid_step(&s, &c, 0, 0, 0);
+    assert_int_equal(hd_pid_step(&s, &c, 0, 1000, 0), -500);
+    assert_int_equal(hd_pid_step(&s, &c, 0, 1000, 0), -250);
+}
+
+static void test_pid_extremes_no_ub(void **st)
+{
+    (void)st;
+    hd_pid_t s;
+    hd_pid_cfg_t c = pcfg(INT32_MAX, INT32_MAX, INT32_MAX, 0, INT32_MAX);
+    c.out_min = INT32_MIN;
+    hd_pid_reset(&s);
+    const int32_t v[] = {INT32_MIN, INT32_MAX, 0, -1, 1, INT32_MIN, INT32_MAX};
+    for (int k = 0; k < 200; k++) {
+        int32_t out = hd_pid_step(&s, &c, v[k % 7], v[(k * 3 + 1) % 7], v[(k * 5 + 2) % 7]);
+        assert_true(out >= c.out_min && out <= c.out_max);
+    }
+}
+
+/* ----------------------------------------------------------- observer ---- */
+
+static void observer_run(double deg_s, double bw_hz, double *mean_err_rel, double *rms_deg_s)
+{
+    hd_velobs_t s;
+    hd_velobs_cfg_t c;
+    hd_velobs_design(&c, (int32_t)lround(2 * M_PI * bw_hz * 65536), 65536);
+    const double v_turn = deg_s / TURN_DEG;
+    hd_velobs_reset(&s, 0);
+    const int n_settle = 20000, n = 100000;
+    double sum = 0, sum2 = 0;
+    for (int k = 0; k < n_settle + n; k++) {
+        double th = v_turn * k * 1e-4 + 0.123456;
+        /* 24-bit absolute encoder quantisation */
+        int64_t counts = (int64_t)floor(th * 16777216.0);
+        hd_velobs_step(&s, &c, counts * 256);
+        if (k >= n_settle) {
+            double v = hd_velobs_vel_out(&s) / 4294967296.0 * TURN_DEG;
+            sum += v;
+            sum2 += (v - deg_s) * (v - deg_s);
+        }
+    }
+    *mean_err_rel = fabs(sum / n - deg_s) / deg_s;
+    *rms_deg_s = sqrt(sum2 / n);
+}
+
+static void test_observer_low_speed(void **st)
+{
+    (void)st;
+    double rel, rms;
+    observer_run(0.001, 20.0, &rel, &rms);
+    printf("# observer 20 Hz, 0.001 deg/s on 24-bit encoder: mean error %.3g %%, rms %.3g deg/s\n",
+           rel * 100, rms);
+    assert_true(rel < 0.02);
+    observer_run(0.01, 20.0, &rel, &rms);
+    printf("# observer 20 Hz, 0.01 deg/s: mean error %.3g %%, rms %.3g deg/s\n", rel * 100, rms);
+    assert_true(rel < 0.01);
+    observer_run(60.0, 20.0, &rel, &rms);
+    assert_true(rel < 1e-4);
+}
+
+static void test_observer_exact_ramp(void **st)
+{
+    (void)st;
+    hd_velobs_t s;
+    hd_velobs_cfg_t c;
+    hd_velobs_design(&c, (int32_t)lround(2 * M_PI * 50 * 65536), 65536);
+    hd_velobs_reset(&s, 0);
+    /* unquantised ramp of 1193 LSB/s (0.0001 deg/s): velocity converges exactly */
+    const int64_t v = 1193;
+    for (int64_t k = 1; k <= 200000; k++) {
+        hd_velobs_step(&s, &c, (v * k) / 10000);
+    }
+    assert_true(llabs((long long)hd_velobs_vel_out(&s) - v) <= 2);
+    /* motor shaft speed 20 turn/s does not overflow */
+    hd_velobs_reset(&s, 0);
+    for (int64_t k = 1; k <= 20000; k++) {
+        hd_velobs_step(&s, &c, (int64_t)20 * 4294967296LL * k / 10000);
+    }
+    double vm = (double)hd_velobs_vel48(&s) / 281474976710656.0;
+    assert_true(fabs(vm - 20.0) < 1e-6);
+}
+
+/* ------------------------------------------------------------ biquad ----- */
+
+static hd_biquad_coef_t q30(double b0, double b1, double b2, double a1, double a2)
+{
+    hd_biquad_coef_t c = {(int32_t)lround(b0 * 1073741824.0), (int32_t)lround(b1 * 1073741824.0),
+                          (int32_t)lround(b2 * 1073741824.0), (int32_t)lround(a1 * 1073741824.0),
+                          (int32_t)lround(a2 * 1073741824.0)};
+    return c;
+}
+
+static double sine_gain(const hd_biquad_coef_t *c, double f, double amp)
+{
+    hd_biquad_state_t s;
+    hd_biquad_reset(&s);
+    double peak = 0;
+    int n = 40000;
+    for (int k = 0; k < n; k++) {
+        int32_t x = (int32_t)lround(amp * sin(2 * M_PI * f * k * 1e-4));
+        int32_t y = hd_biquad_step(&s, c, x);
+        if (k > n / 2 && fabs((double)y) > peak) {
+            peak = fabs((double)y);
+        }
+    }
+    return peak / amp;
+}
+
+static void test_biquad_identity_and_dc(void **st)
+{
+    (void)st;
+    hd_biquad_coef_t id;
+    hd_biquad_state_t s;
+    hd_biquad_identity(&id);
+    hd_biquad_reset(&s);
+    for (int32_t x = -1000; x < 1000; x += 7) {
+        assert_int_equal(hd_biquad_step(&s, &id, x), x);
+    }
+    hd_biquad_coef_t lp = q30(0.06745527, 0.13491055, 0.06745527, -1.1429805, 0.4128016);
+    hd_biquad_reset(&s);
+    int32_t y = 0;
+    for (int k = 0; k < 2000; k++) {
+        y = hd_biquad_step(&s, &lp, 1000000);
+    }
+    assert_true(abs(y - 1000000) <= 2);
+}
+
+static void test_biquad_notch_depth(void **st)
+{
+    (void)st;
+    hd_biquad_coef_t nt = q30(0.98883244, -1.97420856, 0.98635076, -1.97420856, 0.9751832);
+    double g50 = sine_gain(&nt, 50.0, 1e6);
+    double g5 = sine_gain(&nt, 5.0, 1e6);
+    double g500 = sine_gain(&nt, 500.0, 1e6);
+    printf("# notch 50 Hz: gain %.4f at 50 Hz, %.4f at 5 Hz, %.4f at 500 Hz\n", g50, g5, g500);
+    assert_true(g50 < 0.12);
+    assert_true(fabs(g5 - 1.0) < 0.03);
+    assert_true(fabs(g500 - 1.0) < 0.03);
+}
+
+static void test_biquad_chain_extremes(void **st)
+{
+    (void)st;
+    hd_biquad_chain_cfg_t c;
+    hd_biquad_chain_t s;
+    c.n = 2;
+    c.c[0] = q30(1.9999, -1.9999, 1.9999, -1.9999, 0.9999);
+    c.c[1] = q30(-2.0, 1.9999, -2.0, 1.5, 0.9);
+    hd_biquad_chain_reset(&s);
+    for (int k = 0; k < 5000; k++) {
+        (void)hd_biquad_chain_step(&s, &c, (k & 1) ? INT32_MAX : INT32_MIN);
+    }
+    c.n = 0;
+    assert_int_equal(hd_biquad_chain_step(&s, &c, 12345), 12345);
+}
+
+/* -------------------------------------------------------- trajectory ----- */
+
+static hd_traj_cfg_t tcfg_ref(void)
+{
+    /* reference axis: 60 deg/s, 100 deg/s^2, 1000 deg/s^3 */
+    hd_traj_cfg_t c = {(int32_t)llround(60.0 / 360 * 4294967296.0), (int32_t)llround(100.0 / 360 * 16777216.0),
+                       (int32_t)llround(1000.0 / 360 * 65536.0)};
+    return c;
+}
+
+static void run_ptp(hd_angle_t start, hd_angle_t target, const hd_traj_cfg_t *c, uint32_t *ticks)
+{
+    hd_traj_t s;
+    hd_traj_reset(&s, start);
+    assert_int_equal(hd_traj_ptp(&s, c, target), 0);
+    /* limits hold up to the residual spread (< V/K, documented) and output rounding */
+    const double vmax = c->vmax * 1.0005 + 4, amax = c->amax * 1.001 + 2;
+    uint32_t k = 0;
+    hd_angle_t prev = start;
+    while (!hd_traj_done(&s)) {
+        hd_traj_step(&s, c);
+        if (!(fabs((double)s.vel) <= vmax)) {
+            printf("# k=%u vel=%d vmax=%d tj=%u ta=%u tv=%u j=%lld R=%lld\n", k, s.vel, c->vmax, s.tj, s.ta, s.tv, (long long)s.j48, (long long)s.cruise_r);
+        }
+        assert_true(fabs((double)s.vel) <= vmax);
+        assert_true(fabs((double)s.acc) <= amax);
+        /* never overshoots */
+        if (target >= start) {
+            assert_true(s.pos >= prev - 1 && s.pos <= target);
+        } else {
+            assert_true(s.pos <= prev + 1 && s.pos >= target);
+        }
+        prev = s.pos;
+        k++;
+        assert_true(k < 50000000u);
+    }
+    assert_true(s.p48 == target * 65536);          /* exact landing */
+    assert_true(s.pos == target);
+    hd_traj_step(&s, c);
+    assert_true(s.pos == target && s.vel == 0 && s.acc == 0);
+    *ticks = k;
+}
+
+static void test_traj_ptp_exact(void **st)
+{
+    (void)st;
+    hd_traj_cfg_t c = tcfg_ref();
+    uint32_t k;
+    const int64_t T = 4294967296LL;
+    run_ptp(0, T / 4, &c, &k);                       /* 90 deg */
+    printf("# PTP 90 deg: %u periods (%.3f s)\n", k, k * 1e-4);
+    assert_true(k > 15000 && k < 25000);             /* ~1.5 s cruise + ramps */
+    run_ptp(T / 4, -T / 8, &c, &k);
+    run_ptp(12345, 12345 + 1, &c, &k);               /* 1 LSB */
+    run_ptp(0, -(T / 360 / 3600), &c, &k);           /* 1 arcsec */
+    run_ptp(0, 7 * T + 987654321, &c, &k);           /* several turns */
+    hd_traj_cfg_t slow = {DEG_S_TO_VEL(0.01), 1000, 100};
+    run_ptp(0, T / 36000, &slow, &k);                /* 0.01 deg at 0.01 deg/s */
+}
+
+static void test_traj_rate_exact(void **st)
+{
+    (void)st;
+    hd_traj_cfg_t c = tcfg_ref();
+    hd_traj_t s;
+    const int32_t v = DEG_S_TO_VEL(0.0001);           /* 1193 LSB/s */
+    assert_int_equal(v, 1193);
+    c.amax = 1 << 30;                                  /* immediate */
+    hd_traj_reset(&s, 0);
+    hd_traj_rate(&s, &c, v);
+    const int64_t n = 3000000;                          /* 300 s */
+    for (int64_t k = 1; k <= n; k++) {
+        hd_traj_step(&s, &c);
+        if (k % 100000 == 0 || k == n) {
+            /* exact: p48 = floor(k v 2^16 / 10^4) */
+            int64_t expect = (k * v * 65536) / 10000;
+            assert_true(s.p48 == expect);
+            assert_int_equal(s.vel, v);
+        }
+    }
+    /* ramp and stop at amax */
+    c = tcfg_ref();
+    hd_traj_reset(&s, 0);
+    hd_traj_rate(&s, &c, DEG_S_TO_VEL(10.0));
+    int k = 0;
+    while (s.vel != DEG_S_TO_VEL(10.0)) {
+        hd_traj_step(&s, &c);
+        assert_true(s.acc > 0);
+        k++;
+    }
+    assert_true(abs(k - 1000) <= 2);                  /* 10 deg/s at 100 deg/s^2 = 0.1 s */
+    hd_traj_stop(&s, &c);
+    while (s.mode != HD_TRAJ_HOLD) {
+        hd_traj_step(&s, &c);
+    }
+    assert_int_equal(s.vel, 0);
+    /* negative rate, exact */
+    hd_traj_reset(&s, 1000);
+    c.amax = 1 << 30;
+    hd_traj_rate(&s, &c, -v);
+    for (int64_t kk = 1; kk <= 12345; kk++) {
+        hd_traj_step(&s, &c);
+    }
+    int64_t num = -12345LL * v * 65536;
+    int64_t fl = num / 10000 - ((num % 10000) != 0);
+    assert_true(s.p48 == 1000 * 65536 + fl);
+}
+
+static void test_traj_sine(void **st)
+{
+    (void)st;
+    hd_traj_cfg_t c = tcfg_ref();
+    hd_traj_t s;
+    const int32_t amp = 1 << 24;                       /* 1/256 turn */
+    hd_traj_reset(&s, 5000);
+    assert_int_equal(hd_traj_sine(&s, 5000, amp, 1 << 16), 0);   /* 1 Hz */
+    for (int k = 0; k < 2500; k++) {
+        hd_traj_step(&s, &c);
+    }
+    assert_true(llabs((long long)(s.pos - 5000 - amp)) <= 4);      /* quarter period */
+    assert_true(abs(s.vel) < amp / 1000);
+    double wa = 2 * M_PI * amp;                                       /* peak velocity */
+    for (int k = 0; k < 2500; k++) {
+        hd_traj_step(&s, &c);
+    }
+    assert_true(llabs((long long)(s.pos - 5000)) <= 4);
+    assert_true(fabs(-s.vel - wa) < wa * 1e-3);
+    /* exact phase after many cycles of a non-integer-period frequency */
+    hd_traj_reset(&s, 0);
+    const int32_t f = 77777;                           /* 1.1868 Hz */
+    assert_int_equal(hd_traj_sine(&s, 0, amp, f), 0);
+    const uint64_t n = 1000003;
+    for (uint64_t k = 0; k < n; k++) {
+        hd_traj_step(&s, &c);
+    }
+    unsigned __int128 ph = ((unsigned __int128)n * (uint64_t)f << 48) / 10000;
+    assert_true(s.phase == (uint64_t)ph);
+}
+
+/* -------------------------------------------------------- excitation ----- */
+
+static void test_exc_vsteps(void **st)
+{
+    (void)st;
+    hd_exc_cfg_t c;
+    memset(&c, 0, sizeof c);
+    c.kind = HD_EXC_VSTEPS;
+    c.amp = 11930;                                     /* 0.001 deg/s */
+    c.hold = 3;
+    c.n = 4;
+    c.m = 1;
+    hd_exc_t s;
+    assert_int_equal(hd_exc_start(&s, &c), 0);
+    const uint32_t len = hd_exc_length(&c);
+    assert_int_equal(len, 2u * 5u * 3u);
+    int32_t out[40];
+    for (uint32_t k = 0; k < 35; k++) {
+        out[k] = hd_exc_step(&s, &c);
+    }
+    assert_int_equal(out[0], 11930);
+    assert_int_equal(out[2], 11930);
+    assert_int_equal(out[3], -11930);
+    assert_int_equal(out[6], 119300);
+    assert_int_equal(out[24], 119300000);              /* 4 decades up: 10 deg/s */
+    assert_int_equal(out[27], -119300000);
+    assert_int_equal(out[30], 0);
+    assert_true(s.done);
+    c.m = 10;
+    assert_int_equal(hd_exc_start(&s, &c), 0);
+    for (int k = 0; k < 12; k++) {
+        out[k] = hd_exc_step(&s, &c);
+    }
+    assert_true(abs(out[6] - (int32_t)lround(11930 * pow(10, 0.1))) <= 1);
+    assert_true(abs(out[9] + (int32_t)lround(11930 * pow(10, 0.1))) <= 1);
+    c.m = 3;
+    assert_int_equal(hd_exc_start(&s, &c), -1);
+}
+
+static void test_exc_prbs(void **st)
+{
+    (void)st;
+    const uint32_t orders[] = {7, 9, 10, 11, 15, 16};
+    for (unsigned i = 0; i < 6; i++) {
+        hd_exc_cfg_t c;
+        memset(&c, 0, sizeof c);
+        c.kind = HD_EXC_PRBS;
+        c.amp = 100;
+        c.offset = 5;
+        c.hold = 1;
+        c.n = orders[i];
+        c.seed = 1;
+        hd_exc_t s;
+        assert_int_equal(hd_exc_start(&s, &c), 0);
+        const uint32_t start = s.lfsr, per = (1u << c.n) - 1u;
+        uint32_t ones = 0, k = 0;
+        do {
+            int32_t v = hd_exc_step(&s, &c);
+            assert_true(v == 105 || v == -95);
+            ones += (v == 105);
+            k++;
+        } while (s.lfsr != start && k <= per);
+        assert_int_equal(k, per);                      /* maximal length */
+        assert_int_equal(ones, 1u << (c.n - 1));
+    }
+}
+
+static void test_exc_multisine_chirp(void **st)
+{
+    (void)st;
+    hd_exc_cfg_t c;
+    memset(&c, 0, sizeof c);
+    c.kind = HD_EXC_MULTISINE;
+    c.amp = 1 << 20;
+    c.n = 10;
+    c.period = 1000;
+    hd_exc_t s;
+    assert_int_equal(hd_exc_start(&s, &c), 0);
+    static int32_t v[3000];
+    double mean = 0;
+    int32_t peak = 0;
+    for (int k = 0; k < 3000; k++) {
+        v[k] = hd_exc_step(&s, &c);
+        if (k < 1000) {
+            mean += v[k];
+            peak = abs(v[k]) > peak ? abs(v[k]) : peak;
+        }
+    }
+    for (int k = 0; k < 2000; k++) {
+        assert_int_equal(v[k], v[k + 1000]);
+    }
+    assert_true(fabs(mean / 1000) < 16);
+    printf("# multisine 10 comps: crest %.2f x component amplitude\n", (double)peak / c.amp);
+    assert_true(peak < 5 * c.amp);                      /* Schroeder phases keep the crest low */
+
+    memset(&c, 0, sizeof c);
+    c.kind = HD_EXC_CHIRP;
+    c.amp = 1 << 20;
+    c.f0_q16 = 1 << 16;
+    c.f1_q16 = 100 << 16;
+    c.length = 100000;
+    assert_int_equal(hd_exc_start(&s, &c), 0);
+    int cross_a = 0, cross_b = 0;
+    int32_t prev = 0;
+    for (uint32_t k = 0; k < c.length + 10; k++) {
+        int32_t x = hd_exc_step(&s, &c);
+        if (k > 0 && ((prev < 0) != (x < 0))) {
+            if (k < 10000) {
+                cross_a++;
+            } else if (k >= 90000 && k < 100000) {
+                cross_b++;
+            }
+        }
+        prev = x;
+    }
+    assert_true(s.done);
+    /* first second: 1..10.9 Hz -> ~12 crossings; last: 90..100 Hz -> ~190 */
+    assert_true(cross_a >= 8 && cross_a <= 16);
+    assert_true(cross_b >= 180 && cross_b <= 200);
+}
+
+static void test_exc_forc_tramp(void **st)
+{
+    (void)st;
+    hd_exc_cfg_t c;
+    memset(&c, 0, sizeof c);
+    c.kind = HD_EXC_FORC;
+    c.amp = 1000;
+    c.rate = 10;
+    c.n = 4;
+    hd_exc_t s;
+    assert_int_equal(hd_exc_start(&s, &c), 0);
+    int32_t peaks[8];
+    int np = 0, k = 0;
+    int32_t prev = 0, prev2 = 0;
+    while (!s.done && k < 100000) {
+        int32_t v = hd_exc_step(&s, &c);
+        assert_true(v >= -1000 && v <= 1000);
+        if (k > 1 && prev > prev2 && v < prev && np < 8) {
+            peaks[np++] = prev;
+        }
+        prev2 = prev;
+        prev = v;
+        k++;
+    }
+    assert_true(s.done);
+    assert_int_equal(np, 4);
+    assert_int_equal(peaks[0], -500);
+    assert_int_equal(peaks[1], 0);
+    assert_int_equal(peaks[2], 500);
+    assert_int_equal(peaks[3], 1000);
+    assert_int_equal(prev, -1000);
+
+    memset(&c, 0, sizeof c);
+    c.kind = HD_EXC_TRAMP;
+    c.amp = 300;
+    c.rate = 7;
+    c.n = 2;
+    c.offset = 1;
+    assert_int_equal(hd_exc_start(&s, &c), 0);
+    int32_t mx = INT32_MIN, mn = INT32_MAX;
+    k = 0;
+    while (!s.done && k < 100000) {
+        int32_t v = hd_exc_step(&s, &c);
+        mx = v > mx ? v : mx;
+        mn = v < mn ? v : mn;
+        k++;
+    }
+    assert_int_equal(mx, 301);
+    assert_int_equal(mn, -299);
+    c.rate = 0;
+    assert_int_equal(hd_exc_start(&s, &c), -1);
+}
+
+/* ----------------------------------------------------------- capture ----- */
+
+static hd_capture_t cap;   /* 32 KiB: static, not on the stack */
+
+static void test_capture_pretrigger(void **st)
+{
+    (void)st;
+    hd_capture_cfg_t c = {2, 1, 100, 10, HD_CAP_TRIG_RISING, 0, 500};
+    hd_capture_reset(&cap);
+    assert_int_equal(hd_capture_arm(&cap, &c), 0);
+    for (int32_t k = 0; k < 2000; k++) {
+        int32_t smp[2] = {k, -k};
+        hd_capture_step(&cap, smp);
+    }
+    assert_int_equal(cap.state, HD_CAP_DONE);
+    assert_int_equal(hd_capture_frames(&cap), 100u);
+    assert_int_equal(hd_capture_read(&cap, 10, 0), 500);   /* trigger frame */
+    assert_int_equal(hd_capture_read(&cap, 0, 0), 490);
+    assert_int_equal(hd_capture_read(&cap, 99, 0), 589);
+    assert_int_equal(hd_capture_read(&cap, 99, 1), -589);
+    assert_int_equal(hd_capture_read(&cap, 100, 0), 0);
+
+    /* decimation + command trigger + ring wrap (4096 frames of 2 ch) */
+    hd_capture_cfg_t d = {2, 3, 0, 4000, HD_CAP_TRIG_COMMAND, 1, 0};
+    assert_int_equal(hd_capture_arm(&cap, &d), 0);
+    for (int32_t k = 0; k < 30000; k++) {
+        int32_t smp[2] = {k, 7};
+        if (k == 20001) {
+            hd_capture_trigger(&cap);
+        }
+        hd_capture_step(&cap, smp);
+    }
+    assert_int_equal(cap.state, HD_CAP_DONE);
+    assert_int_equal(hd_capture_frames(&cap), 4096u);
+    const int32_t t0 = hd_capture_read(&cap, 4000, 0);
+    assert_true(t0 >= 20001 && t0 <= 20004 && t0 % 3 == 0);
+    assert_int_equal(hd_capture_read(&cap, 3999, 0), t0 - 3);
+    assert_int_equal(hd_capture_read(&cap, 0, 0), t0 - 12000);
+    assert_int_equal(hd_capture_read(&cap, 4095, 0), t0 + 95 * 3);
+
+    /* bad configurations are refused */
+    hd_capture_cfg_t b = {9, 1, 0, 0, 0, 0, 0};
+    assert_int_equal(hd_capture_arm(&cap, &b), -1);
+    b.n_ch = 1;
+    b.frames = 9000;
+    assert_int_equal(hd_capture_arm(&cap, &b), -1);
+    b.frames = 100;
+    b.pretrig = 100;
+    assert_int_equal(hd_capture_arm(&cap, &b), -1);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_pid_p_rounding),
+        cmocka_unit_test(test_pid_integrator_precision),
+        cmocka_unit_test(test_pid_antiwindup),
+        cmocka_unit_test(test_pid_derivative_on_measurement),
+        cmocka_unit_test(test_pid_extremes_no_ub),
+        cmocka_unit_test(test_observer_low_speed),
+        cmocka_unit_test(test_observer_exact_ramp),
+        cmocka_unit_test(test_biquad_identity_and_dc),
+        cmocka_unit_test(test_biquad_notch_depth),
+        cmocka_unit_test(test_biquad_chain_extremes),
+        cmocka_unit_test(test_traj_ptp_exact),
+        cmocka_unit_test(test_traj_rate_exact),
+        cmocka_unit_test(test_traj_sine),
+        cmocka_unit_test(test_exc_vsteps),
+        cmocka_unit_test(test_exc_prbs),
+        cmocka_unit_test(test_exc_multisine_chirp),
+        cmocka_unit_test(test_exc_forc_tramp),
+        cmocka_unit_test(test_capture_pretrigger),
+    };
+    return cmocka_run_group_tests_name("hd_control", tests, NULL, NULL);
+}
