@@ -1,0 +1,124 @@
+/* hd_lugre.c - LuGre friction observer (contract: hd_lugre.h). */
+#include "hd_lugre.h"
+#include "hd_fixed.h"
+
+void hd_lugre_init(hd_lugre_t *s, uint32_t ramp_ticks, bool enabled)
+{
+    hd_blend_init(&s->blend, ramp_ticks, enabled);
+    s->z = 0;
+    s->dz = 0;
+    s->tau_raw = 0;
+    s->tau = 0;
+}
+
+void hd_lugre_set_enabled(hd_lugre_t *s, bool enabled)
+{
+    hd_blend_set_enabled(&s->blend, enabled);
+}
+
+/* Normalise m > 0 so that bit 62 is its top bit; returns the left shift. */
+static uint32_t hd__norm62(uint64_t *m)
+{
+    uint32_t sh = 0u;
+    static const uint32_t steps[6] = { 32u, 16u, 8u, 4u, 2u, 1u };
+    uint32_t k;
+    if (*m == 0u) {
+        return 0u;
+    }
+    for (k = 0; k < 6u; k++) {
+        if ((*m >> (63u - steps[k])) == 0u) {
+            *m <<= steps[k];
+            sh += steps[k];
+        }
+    }
+    return sh;
+}
+
+/*
+ * 1 - exp(-a) in Q46 for a = num / (den * 2^24) (num, den > 0), i.e.
+ * a = sigma0_Q8 |v|_Q32 / (g_Q16 f_s 2^24).  Full relative precision for
+ * small a (slow motion, where the per-period bristle change is tiny):
+ *   a < 2^-6:  a - a^2/2 + a^3/6 - a^4/24          (truncation < 1e-11 relative)
+ *   a >= 2^-6: 1 - exp(-a_hi) (1 - a_lo)             a_hi = a rounded down to Q16
+ *              (hd_exp_neg_q16), a_lo < 2^-16 the rest (error a_lo^2/2 < 1.2e-10)
+ */
+static int64_t hd__one_minus_exp_q46(uint64_t num, uint64_t den)
+{
+    const uint32_t sh = hd__norm62(&num);
+    const uint64_t q = (num + den / 2u) / den;           /* a * 2^(24 + sh), rounded */
+    uint64_t a46;
+    int64_t em1;
+
+    if (24u + sh >= 46u) {
+        const uint32_t r = 24u + sh - 46u;
+        a46 = (r == 0u) ? q : ((q >> r) + ((q >> (r - 1u)) & 1u));
+    } else {
+        const uint32_t l = 46u - 24u - sh;
+        a46 = (q >= ((uint64_t)1 << (51u - l))) ? ((uint64_t)1 << 51) : (q << l);
+    }
+    if (a46 >= ((uint64_t)32u << 46)) {
+        return (int64_t)1 << 46;                         /* exp(-32) < 2^-46 */
+    }
+    if (a46 < ((uint64_t)1 << 40)) {
+        const uint64_t a32 = a46 >> 14;                  /* Q32, < 2^26 */
+        const uint64_t a2 = (a32 * a32) >> 18;           /* Q46 */
+        const uint64_t a3 = ((a2 >> 8) * a32) >> 24;     /* Q46 */
+        const uint64_t a4 = ((a3 >> 8) * a32) >> 24;     /* Q46 */
+        em1 = (int64_t)(a46 - a2 / 2u + a3 / 6u - a4 / 24u);
+    } else {
+        const int32_t e30 = hd_exp_neg_q16((int32_t)(a46 >> 30));
+        const uint64_t alo = a46 & 0x3FFFFFFFu;          /* Q46, < 2^30 */
+        const uint64_t e46 = (uint64_t)e30 << 16;
+        const uint64_t corr = ((uint64_t)e30 * alo + ((uint64_t)1 << 29)) >> 30;
+        em1 = ((int64_t)1 << 46) - (int64_t)(e46 - corr);
+    }
+    return em1;
+}
+
+/* x * m / 2^46 for m in [0, 2^46], rounded (two 64x32 products). */
+static int64_t hd__mul_q46(int64_t x, int64_t m)
+{
+    const int32_t hi = (int32_t)(m >> 23);               /* < 2^24 */
+    const int32_t lo = (int32_t)(m & 0x7FFFFF);
+    return hd_add64_sat(hd_mul64x32_q(x, hi, 23u), hd_mul64x32_q(x, lo, 46u));
+}
+
+int32_t hd_lugre_step(hd_lugre_t *s, const hd_lugre_cfg_t *c, hd_vel_out_t v, hd_angle_t e)
+{
+    const int32_t sigma0 = (c->sigma0 > 0) ? c->sigma0 : 1;
+    const int32_t tmax = (c->tau_max > 0) ? c->tau_max : INT32_MAX;
+    int32_t g = hd_stribeck_g(&c->g, c->delta, v);
+    int64_t z1 = s->z;
+    int64_t t;
+
+    if (g < 1) {
+        g = 1;
+    }
+    if (v != 0) {
+        /* z_ss = g / sigma0 in Q48: g_Q16 * 2^40 / sigma0_Q8 */
+        const int64_t zmag = hd_div64_rnd(hd_shl64_sat((int64_t)g, 40u), (int64_t)sigma0);
+        const int64_t zss = (v > 0) ? zmag : -zmag;
+        /* a = sigma0 |v| T / g = sigma0_Q8 |v| / (g_Q16 f_s 2^24);
+         * z' = z + (z_ss - z) (1 - exp(-a)) */
+        const uint64_t num = (uint64_t)sigma0 * (uint64_t)hd_abs_sat(v);  /* < 2^62 */
+        const uint64_t den = (uint64_t)g * (uint64_t)HD_LOOP_HZ;
+        const int64_t em1 = hd__one_minus_exp_q46(num, den);
+        z1 = hd_add64_sat(s->z, hd__mul_q46(hd_sub64_sat(zss, s->z), em1));
+    }
+    if (c->k_obs != 0 && e != 0) {
+        /* k T e in Q48: k_Q16 * e_Q32 / f_s */
+        const int64_t ke = hd_mul64x32_q(e, c->k_obs, 0u);
+        z1 = hd_sub64_sat(z1, hd_div64_rnd(ke, (int64_t)HD_LOOP_HZ));
+    }
+    s->dz = hd_sub64_sat(z1, s->z);
+    s->z = z1;
+
+    /* F = sigma0 z + sigma1 dz/T + sigma2 v, each rounded once to Q16 */
+    t = hd_mul64x32_q(z1, sigma0, 40u);                                    /* Q48*Q8 -> Q16 */
+    t = hd_add64_sat(t, hd_mul64x32_q(hd_mul64x32_q(s->dz, HD_LOOP_HZ, 0u), c->sigma1, 48u));
+    t = hd_add64_sat(t, (int64_t)hd_mul_q(c->sigma2, v, 32u));
+    s->tau_raw = hd_clamp32(hd_sat32(t), -tmax, tmax);
+    (void)hd_blend_update(&s->blend);
+    s->tau = hd_blend_apply(&s->blend, s->tau_raw);
+    return s->tau;
+}

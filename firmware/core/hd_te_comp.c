@@ -1,0 +1,47 @@
+/* hd_te_comp.c - transmission-error compensation (contract: hd_te_comp.h). */
+#include "hd_te_comp.h"
+#include "hd_fixed.h"
+
+int64_t hd_te_model(const hd_te_cfg_t *c, hd_angle_t theta_m)
+{
+    const uint32_t n = (c->n < HD_TE_N_MAX) ? c->n : HD_TE_N_MAX;
+    const uint32_t frac = (uint32_t)((uint64_t)theta_m & 0xFFFFFFFFu);  /* wraps, meant */
+    int64_t acc = 0;
+    uint32_t h;
+
+    for (h = 0; h < n; h++) {
+        const uint32_t ang = c->order[h] * frac + c->phase[h];          /* mod 1 turn */
+        int32_t sn;
+        int32_t cs;
+        hd_sincos_turn(ang, &sn, &cs);
+        acc = hd_mac64(acc, c->amp[h], sn);                             /* 2^-32 turn * Q30 */
+    }
+    return hd_asr64_rnd(acc, 30u);
+}
+
+void hd_te_comp_init(hd_te_comp_t *s, uint32_t ramp_ticks, bool enabled)
+{
+    hd_blend_init(&s->blend, ramp_ticks, enabled);
+    s->te = 0;
+    s->dth = 0;
+    s->tau = 0;
+}
+
+void hd_te_comp_set_enabled(hd_te_comp_t *s, bool enabled)
+{
+    hd_blend_set_enabled(&s->blend, enabled);
+}
+
+hd_angle_t hd_te_comp_step(hd_te_comp_t *s, const hd_te_cfg_t *c, hd_angle_t theta_m)
+{
+    const int32_t tmax = (c->tau_max > 0) ? c->tau_max : INT32_MAX;
+    int32_t tau;
+
+    s->te = hd_te_model(c, theta_m);
+    (void)hd_blend_update(&s->blend);
+    s->dth = hd_blend_mix64(&s->blend, 0, hd_neg64_sat(s->te));
+    /* tau = -k1 * TE: Q8 * 2^-32 turn = Q40 -> Q16 */
+    tau = hd_clamp32(hd_sat32(hd_neg64_sat(hd_mul64x32_q(s->te, c->k1, 24u))), -tmax, tmax);
+    s->tau = hd_blend_apply(&s->blend, tau);
+    return s->dth;
+}

@@ -1,0 +1,61 @@
+/*
+ * hd_te_comp.h - transmission-error (kinematic error) compensation from
+ * identified harmonics of the wave-generator (motor) angle.
+ *
+ *   TE(theta_m) = sum_h amp_h * sin(2 pi (order_h * theta_m + phase_h))     theta_m in turns
+ *   TE = theta_L - theta_M / N (output minus output-referred motor angle)
+ * Outputs:
+ *   dth = -TE          position-command correction (semi-closed loop): add to the
+ *                      output-referred motor position command so that the
+ *                      output, not the motor, lands on the reference
+ *   tau = -k1 * TE     optional torque feed-forward (full closed loop): cancels the
+ *                      ripple torque K1*TE that the error pushes through the gear
+ *                      stiffness (quasi-static, valid well below the torsional mode)
+ *
+ * Formats:
+ *   theta_m           int64 Q32.32 motor turns; only the fraction of a turn
+ *                     (uint32, wraps once per turn, meant) is used, and
+ *                     order * fraction + phase is computed modulo one turn
+ *                     exactly in uint32 arithmetic
+ *   order_h           uint32 harmonic order per WG revolution (2 = dominant line)
+ *   amp_h             int32, 2^-32 turn at the output (1 arcsec = 3314 LSB)
+ *   phase_h           uint32 turn fraction (2^32 = 1 turn)
+ *   k1                Q23.8 N.m/turn (K1 = 3.1e4 N.m/rad -> 1.95e5 N.m/turn)
+ *   dth               int64 Q32.32 turns;  tau, tau_max Q15.16 N.m
+ * sin by hd_sincos_turn (Q30); the sum of amp*sin is accumulated exactly in
+ * int64 and rounded once.
+ */
+#ifndef HD_TE_COMP_H
+#define HD_TE_COMP_H
+
+#include <stdint.h>
+#include <stdbool.h>
+#include "hd_units.h"
+#include "hd_blend.h"
+
+#define HD_TE_N_MAX 8u
+
+typedef struct {
+    uint32_t n;                      /* harmonics in use, <= HD_TE_N_MAX */
+    uint32_t order[HD_TE_N_MAX];
+    int32_t  amp[HD_TE_N_MAX];       /* 2^-32 turn */
+    uint32_t phase[HD_TE_N_MAX];     /* 2^32 = 1 turn */
+    int32_t  k1;                     /* Q23.8 N.m/turn; 0 = no torque feed-forward */
+    int32_t  tau_max;                /* Q15.16 N.m, > 0 */
+} hd_te_cfg_t;
+
+typedef struct {
+    hd_blend_t blend;
+    int64_t te;                      /* last TE model value, 2^-32 turn (unweighted) */
+    hd_angle_t dth;                  /* weighted correction, Q32.32 turns */
+    int32_t tau;                     /* weighted torque feed-forward, Q15.16 N.m */
+} hd_te_comp_t;
+
+/** TE model at motor angle theta_m, 2^-32 turn. */
+int64_t hd_te_model(const hd_te_cfg_t *c, hd_angle_t theta_m);
+void hd_te_comp_init(hd_te_comp_t *s, uint32_t ramp_ticks, bool enabled);
+void hd_te_comp_set_enabled(hd_te_comp_t *s, bool enabled);
+/** One period: returns the weighted position correction dth (s->tau holds the torque). */
+hd_angle_t hd_te_comp_step(hd_te_comp_t *s, const hd_te_cfg_t *c, hd_angle_t theta_m);
+
+#endif

@@ -1,0 +1,195 @@
+/*
+ * test_comp_misc.c - Stribeck, LuGre, Maxwell-slip, TE and backstepping
+ * compensators and the bumpless blend (double references: tests/python/test_comp_ref.py).
+ */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <cmocka.h>
+
+#include "hd_fixed.h"
+#include "hd_stribeck.h"
+#include "hd_lugre.h"
+#include "hd_maxwell.h"
+#include "hd_te_comp.h"
+#include "hd_backstep.h"
+
+#define NM(x) ((int32_t)((x) * 65536))
+#define DEGS 11930465   /* 1 deg/s in 2^-32 turn/s */
+
+static int setUp(void **state) { *state = NULL; return 0; }
+static int tearDown(void **state) { (void)state; return 0; }
+
+static void test_blend_ramp_is_bumpless(void **state)
+{
+    hd_stribeck_cfg_t c = { { NM(5), NM(8), DEGS, NM(100) }, { NM(5), NM(8), DEGS, NM(100) },
+                            2u, DEGS / 1000, 1 << 30, NM(100) };
+    hd_stribeck_t s;
+    int32_t prev = 0;
+    uint32_t k;
+    (void)state;
+    hd_stribeck_init(&s, 100u, false);
+    assert_int_equal(hd_stribeck_step(&s, &c, 2 * DEGS, 0), 0);
+    hd_stribeck_set_enabled(&s, true);
+    for (k = 0; k < 100u; k++) {
+        const int32_t t = hd_stribeck_step(&s, &c, 2 * DEGS, 0);
+        assert_true(t >= prev && t - prev <= s.tau_raw / 100 + 2);
+        prev = t;
+    }
+    assert_int_equal(prev, s.tau_raw);
+    hd_stribeck_set_enabled(&s, false);
+    for (k = 0; k < 100u; k++) {
+        prev = hd_stribeck_step(&s, &c, 2 * DEGS, 0);
+    }
+    assert_int_equal(prev, 0);
+}
+
+static void test_stribeck_odd_and_breakaway(void **state)
+{
+    hd_stribeck_cfg_t c = { { NM(5), NM(8), DEGS, NM(100) }, { NM(5), NM(8), DEGS, NM(100) },
+                            2u, DEGS / 1000, 1 << 30, NM(100) };
+    int32_t v;
+    (void)state;
+    for (v = -3 * DEGS; v <= 3 * DEGS; v += DEGS / 7) {
+        assert_int_equal(hd_stribeck_map(&c, v), -hd_stribeck_map(&c, -v));
+    }
+    assert_int_equal(hd_stribeck_map(&c, 0), 0);
+    assert_true(abs(hd_stribeck_map(&c, DEGS / 1000) - NM(8)) < NM(0.01));   /* at eps: full static level */
+    c.delta = 1u;
+    assert_true(abs(hd_stribeck_g(&c.pos, 1u, DEGS) - (NM(5) + (int32_t)(NM(3) * 0.36787944117))) <= 2);
+}
+
+static void test_lugre_steady_state_and_hold(void **state)
+{
+    hd_lugre_cfg_t c = { { NM(8), NM(12), DEGS, 0 }, 2u, (int32_t)(1.9e5 * 256), NM(600), 0, 0, NM(200) };
+    hd_lugre_t s;
+    uint32_t k;
+    int32_t t = 0;
+    (void)state;
+    hd_lugre_init(&s, 0u, true);
+    for (k = 0; k < 3000u; k++) {
+        t = hd_lugre_step(&s, &c, 10 * DEGS, 0);
+    }
+    assert_true(abs(t - hd_stribeck_g(&c.g, 2u, 10 * DEGS)) <= 2);
+    /* v = 0: bristles hold, torque constant */
+    t = hd_lugre_step(&s, &c, 0, 0);
+    assert_int_equal(hd_lugre_step(&s, &c, 0, 0), t);
+}
+
+static void test_maxwell_saturation(void **state)
+{
+    hd_maxwell_cfg_t c;
+    hd_maxwell_t s;
+    int64_t x = 0;
+    int64_t sum = 0;
+    uint32_t i;
+    (void)state;
+    c.n = 4u;
+    for (i = 0; i < HD_MAXWELL_N_MAX; i++) {
+        c.k[i] = (int32_t)(1000u * 256u * (i + 1u));
+        c.d[i] = (int32_t)(100000u * (i + 1u));
+    }
+    c.compliance = 1 << 20;
+    c.tau_max = NM(1000);
+    hd_maxwell_init(&s, 0u, true);
+    (void)hd_maxwell_step(&s, &c, x);
+    for (i = 0; i < 200u; i++) {
+        x += 10000;
+        (void)hd_maxwell_step(&s, &c, x);
+    }
+    for (i = 0; i < 4u; i++) {
+        sum += (int64_t)c.k[i] * c.d[i];
+    }
+    assert_int_equal(s.tau, hd_asr32_rnd(sum, 24u));
+    assert_true(s.dth == hd_mul64x32_q(s.tau, c.compliance, 32u));
+    for (i = 0; i < 400u; i++) {
+        x -= 10000;
+        (void)hd_maxwell_step(&s, &c, x);
+    }
+    assert_int_equal(s.tau, -hd_asr32_rnd(sum, 24u));
+}
+
+static void test_te_single_harmonic(void **state)
+{
+    hd_te_cfg_t c = { 1u, { 2u }, { 100000 }, { 0u }, 256 * 1000, NM(100) };
+    hd_te_comp_t s;
+    (void)state;
+    hd_te_comp_init(&s, 0u, true);
+    /* theta_m = 1/8 turn: sin(2 * 2pi/8) = 1 */
+    assert_true(hd_te_comp_step(&s, &c, (int64_t)1 << 29) == -100000);
+    assert_true(s.te == 100000);
+    /* whole turns do not matter */
+    assert_true(hd_te_comp_step(&s, &c, ((int64_t)7 << 32) + ((int64_t)1 << 29)) == -100000);
+}
+
+/* Closed loop on an integer rigid plant: J w' = u - Fc sgn(w) - Tl. */
+static void test_backstep_closed_loop(void **state)
+{
+    const int32_t J = (int32_t)(1.3 * 6.283185307 * 65536);
+    hd_backstep_cfg_t c = { (int32_t)(50.0 * 65536), (int32_t)(50.0 * 65536), J,
+                            (int32_t)(1.3 * 6.283185307 * 2500 / 4 * 256), DEGS / 100, DEGS, 1 << 30, NM(150),
+                            { 1 << 23, 1 << 23, 1 << 22, 1 << 23 }, { 0, 0, 0, NM(-20) }, { NM(30), NM(30), NM(500), NM(20) } };
+    const int32_t th0[4] = { 0, 0, 0, 0 };
+    hd_backstep_t s;
+    hd_backstep_in_t in = { 0, 0, 0, 0, 0 };
+    int64_t w48 = 0;           /* plant velocity, 2^-48 turn/s */
+    int64_t th = 0;            /* plant angle Q32.32 (with 2^-16 carry in w48 integration) */
+    int64_t frac = 0;
+    int32_t u = 0;
+    uint32_t k;
+    int64_t maxerr = 0;
+    (void)state;
+    hd_backstep_init(&s, &c, th0, 0u, true);
+    for (k = 0; k < 40000u; k++) {
+        /* reference: slow sine of 0.002 turn at 0.5 Hz */
+        const uint32_t ph = (uint32_t)((uint64_t)k * 214748u);   /* 0.5 Hz */
+        int32_t sn, cs;
+        hd_sincos_turn(ph, &sn, &cs);
+        in.theta_d = hd_mul64x32_q((int64_t)8589935, sn, 30u);     /* 0.002 turn */
+        in.omega_d = hd_mul_q(26986075, cs, 30);                    /* 0.002*pi turn/s */
+        in.acc_d = hd_mul_q(-(int32_t)(0.002 * 9.8696 * 16777216), sn, 30);
+        in.theta = th;
+        in.omega = (int32_t)hd_asr64_rnd(w48, 16u);
+        u = hd_backstep_step(&s, &c, &in, 0);
+        {
+            /* plant: a = (u - 3 N.m sgn w - 2 N.m) / J  -> 2^-48 turn/s^2 */
+            const int32_t fr = (in.omega > 0) ? NM(3) : ((in.omega < 0) ? -NM(3) : 0);
+            const int64_t net = (int64_t)u - fr - NM(2);
+            const int64_t acc48 = hd_div64_rnd(net * ((int64_t)1 << 32), J);     /* Q16/Q16 -> 2^-32 */
+            w48 += hd_div64_rnd(acc48 * 65536, 10000);
+            frac += w48;                                           /* 2^-48 turn per 1/10000 s */
+            th += hd_div64_rnd(frac, (int64_t)10000 << 16);
+            frac -= hd_div64_rnd(frac, (int64_t)10000 << 16) * ((int64_t)10000 << 16);
+        }
+        if (k > 30000u) {
+            const int64_t e = llabs(th - in.theta_d);
+            maxerr = (e > maxerr) ? e : maxerr;
+        }
+    }
+    /* tracking error after adaptation: < 10 arcsec (1 arcsec = 3314 LSB; without
+     * adaptation the 5 N.m of friction + load leave ~320 arcsec), estimates near truth */
+    print_message("# backstep closed loop: max |e1| in the last second = %.3f arcsec, "
+                  "Fc_hat %.2f N.m, Tl_hat %.2f N.m\n", (double)maxerr / 3314.0,
+                  (double)s.th[0] / 281474976710656.0, (double)s.th[3] / 281474976710656.0);
+    assert_true(maxerr < 10 * 3314);
+    assert_true(llabs(s.th[0] - ((int64_t)NM(3) << 32)) < ((int64_t)NM(0.5) << 32));
+    assert_true(llabs(s.th[3] - ((int64_t)NM(2) << 32)) < ((int64_t)NM(0.5) << 32));
+    /* bumpless preload: the law equals the effort applied */
+    hd_backstep_preload(&s, &c, &in, u + NM(1));
+    assert_true(abs(hd_backstep_law(&s, &c, &in) - (u + NM(1))) <= 1);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(test_blend_ramp_is_bumpless, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_stribeck_odd_and_breakaway, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_lugre_steady_state_and_hold, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_maxwell_saturation, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_te_single_harmonic, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_backstep_closed_loop, setUp, tearDown),
+    };
+    return cmocka_run_group_tests_name("comp_misc", tests, NULL, NULL);
+}
