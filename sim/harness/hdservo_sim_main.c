@@ -16,6 +16,7 @@
 
 #include "harness.h"
 #include "scenario.h"
+#include "serve.h"   /* `serve`: the virtual drive over CAN (sim/harness/serve.c) */
 
 static const char *USAGE =
     "usage: hdservo-sim run SCENARIO.toml -o LOG.csv [--seed N] [--duration S] [--set SECTION.KEY=VALUE]... [-q]\n"
@@ -146,6 +147,7 @@ int main(int argc, char **argv)
         return argc < 2 ? 2 : 0;
     }
     if (strcmp(argv[1], "run") == 0) return cmd_run(argc - 2, argv + 2);
+    if (strcmp(argv[1], "serve") == 0) return hd_sim_serve_main(argc - 2, argv + 2);
     char msg[256];
     snprintf(msg, sizeof msg, "unknown command '%.100s' (expected: run)", argv[1]);
     return fail(msg);

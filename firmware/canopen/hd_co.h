@@ -1,0 +1,281 @@
+/*
+ * hd_co.h - the drive's CANopen device: CiA 301 (NMT slave, heartbeat
+ * producer/consumer, SDO server with expedited / segmented / block transfer,
+ * EMCY, SYNC, TPDO/RPDO with configurable mapping, identity, store/restore)
+ * and the CiA 402 drive profile (hd_co_402.c).
+ *
+ * One device = one hd_co_t (no globals, no malloc).  The object dictionary
+ * is the generated const table hd_co_od[] (hd_co_od.h); its data lives in
+ * co->od.  The application is reached only through hd_co_app_if_t
+ * (callbacks + context pointer), so the stack is tested without the app and
+ * the same code serves the real drive and the virtual drive.
+ *
+ * Use:
+ *   hd_co_init(&co, node_id, &app_if);       boot-up message goes out at once
+ *   per received frame:  hd_co_process(&co, &frame);
+ *   per control period:  hd_co_tick(&co, HD_CO_TICK_US);   (timers, PDOs, 402)
+ * Frames go out through app_if.send (false = TX queue full: the stack retries
+ * what it can, e.g. block-upload segments, and counts the rest in tx_dropped).
+ *
+ * Never trusts the bus: a frame with an unexpected DLC, an unknown COB-ID or
+ * a malformed SDO sequence is ignored or answered with an SDO abort; no
+ * state outside the addressed service changes.  Every value written through
+ * SDO or RPDO is range-checked against the table before it is stored.
+ */
+#ifndef HD_CO_H
+#define HD_CO_H
+
+#include <stdint.h>
+#include <stdbool.h>
+#include "hal.h"
+#include "hd_co_types.h"
+#include "hd_co_od.h"
+
+#define HD_CO_TICK_US          100u     /* one control period */
+#define HD_CO_SDO_TIMEOUT_MS   1000u    /* server-side SDO transfer time-out */
+#define HD_CO_SDO_BUF          64u      /* largest non-domain value */
+#define HD_CO_BLKSIZE          127u     /* block size the server asks for */
+#define HD_CO_ERR_HIST         8u       /* 0x1003 depth */
+
+/* NMT states (heartbeat encoding). */
+#define HD_CO_NMT_INIT      0x00u
+#define HD_CO_NMT_STOPPED   0x04u
+#define HD_CO_NMT_OP        0x05u
+#define HD_CO_NMT_PREOP     0x7Fu
+
+/* SDO abort codes. */
+#define HD_CO_AB_TOGGLE       0x05030000u
+#define HD_CO_AB_TIMEOUT      0x05040000u
+#define HD_CO_AB_CMD          0x05040001u
+#define HD_CO_AB_BLKSIZE      0x05040002u
+#define HD_CO_AB_SEQNO        0x05040003u
+#define HD_CO_AB_CRC          0x05040004u
+#define HD_CO_AB_WRITEONLY    0x06010001u
+#define HD_CO_AB_READONLY     0x06010002u
+#define HD_CO_AB_NO_OBJECT    0x06020000u
+#define HD_CO_AB_NO_MAP       0x06040041u
+#define HD_CO_AB_MAP_LEN      0x06040042u
+#define HD_CO_AB_TYPE_LEN     0x06070010u
+#define HD_CO_AB_LEN_HIGH     0x06070012u
+#define HD_CO_AB_LEN_LOW      0x06070013u
+#define HD_CO_AB_NO_SUB       0x06090011u
+#define HD_CO_AB_VALUE        0x06090030u
+#define HD_CO_AB_VALUE_HIGH   0x06090031u
+#define HD_CO_AB_VALUE_LOW    0x06090032u
+#define HD_CO_AB_GENERAL      0x08000000u
+#define HD_CO_AB_STORE        0x08000020u
+#define HD_CO_AB_STATE        0x08000022u
+
+/* Error register bits (0x1001). */
+#define HD_CO_ER_GENERIC   0x01u
+#define HD_CO_ER_CURRENT   0x02u
+#define HD_CO_ER_COMM      0x10u
+#define HD_CO_ER_PROFILE   0x20u
+#define HD_CO_ER_MFR       0x80u
+
+/* EMCY codes used by the stack. */
+#define HD_CO_EMCY_RESET        0x0000u
+#define HD_CO_EMCY_HB           0x8130u
+#define HD_CO_EMCY_PDO_LEN      0x8210u
+#define HD_CO_EMCY_CAN_OVERRUN  0x8110u
+
+/* ---- CiA 402 ------------------------------------------------------------ */
+#define HD_CO402_NOT_READY      0u
+#define HD_CO402_SO_DISABLED    1u
+#define HD_CO402_READY          2u
+#define HD_CO402_SWITCHED_ON    3u
+#define HD_CO402_OP_ENABLED     4u
+#define HD_CO402_QUICK_STOP     5u
+#define HD_CO402_FAULT_REACTION 6u
+#define HD_CO402_FAULT          7u
+
+#define HD_CO402_MODE_NONE  0
+#define HD_CO402_MODE_PP    1
+#define HD_CO402_MODE_CSP   8
+#define HD_CO402_MODE_CSV   9
+#define HD_CO402_MODE_CST   10
+
+/** Setpoints handed to the app every period in OPERATION ENABLED / QUICK STOP. */
+typedef struct {
+    int8_t   mode;            /* HD_CO402_MODE_* */
+    uint8_t  quick_stop;      /* 1: decelerate to standstill with quick_stop_decel */
+    uint8_t  pp_new;          /* PP: a new set-point was latched this period */
+    uint8_t  halt;            /* controlword bit 8 */
+    int32_t  target_position; /* 2^-24 turn (output) */
+    int32_t  target_velocity; /* 2^-32 turn/s */
+    int32_t  velocity_offset; /* 2^-32 turn/s */
+    int32_t  target_torque;   /* Q15.16 N.m, output (from 1/1000 rated, + offset) */
+    uint32_t profile_velocity;     /* 2^-32 turn/s */
+    uint32_t profile_acceleration; /* 2^-24 turn/s^2 */
+    uint32_t quick_stop_decel;     /* 2^-24 turn/s^2 */
+} hd_co_setpoint_t;
+
+/** What the app reports every period. */
+typedef struct {
+    uint32_t tick;            /* loop tick */
+    int64_t  load_angle;      /* Q32.32 turns */
+    int64_t  motor_angle;     /* Q32.32 motor turns */
+    int64_t  setpoint_angle;  /* Q32.32 turns */
+    int32_t  load_velocity;   /* 2^-32 turn/s */
+    int32_t  motor_velocity;  /* 2^-24 turn/s */
+    int32_t  output_torque;   /* Q15.16 N.m (output side command) */
+    int32_t  motor_torque;    /* Q15.16 N.m (motor side command) */
+    int32_t  motor_current;   /* Q15.16 A */
+    uint16_t fault_code;      /* app fault (0 = none) */
+    uint16_t fault_emcy;      /* EMCY error code of that fault */
+    uint8_t  power_enabled;
+    uint8_t  standstill;      /* |velocity| small (quick stop done) */
+    uint8_t  target_reached;
+    uint8_t  internal_limit;
+} hd_co_actual_t;
+
+typedef struct {
+    void *ctx;
+    /* required */
+    bool     (*send)(void *ctx, const hd_can_frame_t *f);
+    /* PARAM entries (drive parameters); param_set returns 0 or an abort code */
+    int32_t  (*param_get)(void *ctx, uint16_t id);
+    uint32_t (*param_set)(void *ctx, uint16_t id, int32_t raw);
+    /* DOMAIN entries; every function returns 0 or an abort code.
+     * write_end(complete = true) commits (checks the table CRC, swaps it in);
+     * complete = false discards (abort, time-out): the old data stays. */
+    uint32_t (*domain_size)(void *ctx, uint16_t dom, uint32_t *size);
+    uint32_t (*domain_read)(void *ctx, uint16_t dom, uint32_t off, uint8_t *buf, uint32_t len);
+    uint32_t (*domain_write_begin)(void *ctx, uint16_t dom, uint32_t size_or_0);
+    uint32_t (*domain_write)(void *ctx, uint16_t dom, uint32_t off, const uint8_t *buf, uint32_t len);
+    uint32_t (*domain_write_end)(void *ctx, uint16_t dom, uint32_t total, bool complete);
+    /* SPECIAL manufacturer entries (capture control/state) */
+    uint32_t (*special_read)(void *ctx, uint16_t index, uint8_t sub, int64_t *v);
+    uint32_t (*special_write)(void *ctx, uint16_t index, uint8_t sub, int64_t v);
+    /* 0x1010 / 0x1011 */
+    uint32_t (*store)(void *ctx);
+    uint32_t (*restore)(void *ctx);
+    /* NMT reset node (application reset); the stack then resets communication */
+    void     (*reset_node)(void *ctx);
+    /* SYNC received (counter or 0) */
+    void     (*on_sync)(void *ctx, uint8_t counter);
+    /* 402 drive */
+    uint32_t (*drive_enable)(void *ctx, int8_t mode, bool on);  /* 0 ok, else refused */
+    void     (*drive_setpoint)(void *ctx, const hd_co_setpoint_t *sp);
+    void     (*drive_actual)(void *ctx, hd_co_actual_t *a);
+    void     (*drive_fault_reset)(void *ctx);
+    /* stack-detected fault (host heartbeat lost): the app's fault reaction */
+    void     (*drive_comm_fault)(void *ctx, uint16_t emcy_code);
+} hd_co_app_if_t;
+
+typedef struct {
+    uint8_t  valid;
+    uint8_t  type;
+    uint8_t  nmap;
+    uint8_t  len;                          /* bytes */
+    uint16_t cob;
+    uint16_t ent[HD_CO_N_MAP];             /* entry numbers in the table */
+    uint8_t  esize[HD_CO_N_MAP];           /* bytes per mapped entry */
+    /* TPDO */
+    uint8_t  sync_cnt;
+    uint8_t  cos_armed;                    /* a change was seen (type 0) */
+    uint8_t  cos_len;
+    uint8_t  cos_prev[8];
+    uint64_t next_event_us;
+    uint64_t inhibit_until_us;
+    uint32_t stream_cnt;
+    /* RPDO */
+    uint8_t  rx_pending;
+    uint8_t  rx_data[8];
+} hd_co_pdo_rt_t;
+
+typedef struct {
+    uint8_t  state;          /* HD_CO_SDO_* (hd_co.c) */
+    uint8_t  toggle;
+    uint8_t  crc_on;
+    uint8_t  blksize;
+    uint8_t  seq;            /* block: last accepted (download) / last sent (upload) */
+    uint8_t  pend_len;       /* block download: bytes held back (last segment) */
+    uint8_t  last_seen;      /* block download: segment with c bit accepted */
+    uint8_t  pad;
+    uint16_t ent;            /* table entry of the transfer */
+    uint16_t crc;
+    uint32_t size;           /* indicated size (0 = not indicated) */
+    uint32_t off;            /* bytes transferred so far (upload: acked base in block mode) */
+    uint64_t deadline_us;
+    uint8_t  pend[7];
+    uint8_t  buf[HD_CO_SDO_BUF];
+} hd_co_sdo_t;
+
+typedef struct {
+    uint8_t  state;          /* HD_CO402_* */
+    uint8_t  mode_active;    /* 0x6061 (int8 stored unsigned) */
+    uint8_t  comm_fault;     /* latched stack-side fault */
+    uint8_t  fault_pending_reset;
+    uint16_t cw_prev;
+    uint16_t fault_code;     /* EMCY code of the active fault */
+    uint32_t standstill_ticks;
+} hd_co402_t;
+
+typedef struct {
+    uint32_t rx_frames, rx_ignored, tx_frames, tx_dropped;
+    uint32_t sdo_aborts_sent, emcy_sent, pdo_len_errors;
+} hd_co_stats_t;
+
+typedef struct {
+    const hd_co_entry_t *table;
+    uint32_t count;
+    hd_co_od_data_t od;
+    hd_co_app_if_t app;
+    uint8_t  node_id;
+    uint8_t  nmt;
+    uint8_t  sync_counter;
+    uint8_t  hbc_active, hbc_lost;
+    uint8_t  n_err;
+    uint8_t  emcy_pending;
+    uint64_t now_us;
+    uint64_t hb_next_us;
+    uint64_t hbc_last_us;
+    uint64_t emcy_inhibit_until_us;
+    uint8_t  emcy_pending_data[8];
+    uint32_t err_hist[HD_CO_ERR_HIST];
+    uint32_t last_abort;      /* last SDO abort code sent (diagnostics) */
+    uint32_t sdo_timeout_ms;
+    hd_co_sdo_t sdo;
+    hd_co_pdo_rt_t tpdo[HD_CO_N_PDO];
+    hd_co_pdo_rt_t rpdo[HD_CO_N_PDO];
+    hd_co402_t p402;
+    hd_co_actual_t act;
+    hd_co_stats_t stats;
+} hd_co_t;
+
+/** Set everything to defaults, enter PRE-OPERATIONAL, send the boot-up message. */
+void hd_co_init(hd_co_t *co, uint8_t node_id, const hd_co_app_if_t *app);
+/** One received frame. */
+void hd_co_process(hd_co_t *co, const hd_can_frame_t *f);
+/** Advance time by dt_us: timers, heartbeat, PDOs, SDO time-out, CiA 402. */
+void hd_co_tick(hd_co_t *co, uint32_t dt_us);
+
+/** Raise an error: error register bits, 0x1003 history, EMCY frame. */
+void hd_co_emcy(hd_co_t *co, uint16_t code, uint8_t reg_bits, const uint8_t mfr[5]);
+/** Clear error register bits; when none is left an EMCY 0x0000 (error reset) goes out. */
+void hd_co_emcy_clear(hd_co_t *co, uint8_t reg_bits);
+
+/** Entry number of (index, sub) or -1. */
+int32_t hd_co_find(const hd_co_t *co, uint16_t index, uint8_t sub);
+/** Read one non-domain entry into buf (little endian); returns 0 or an abort code. */
+uint32_t hd_co_read(hd_co_t *co, uint32_t ent, uint8_t *buf, uint32_t cap, uint32_t *len);
+/** Write one non-domain entry (checks type length, range, object rules, not access). */
+uint32_t hd_co_write(hd_co_t *co, uint32_t ent, const uint8_t *buf, uint32_t len);
+/** Local read/write by index (for the app and tests). */
+uint32_t hd_co_get_i64(hd_co_t *co, uint16_t index, uint8_t sub, int64_t *v);
+uint32_t hd_co_set_i64(hd_co_t *co, uint16_t index, uint8_t sub, int64_t v);
+
+/** CRC-16/XMODEM (SDO block transfer): poly 0x1021, init as given (0). */
+uint16_t hd_co_crc16(uint16_t crc, const uint8_t *p, uint32_t len);
+/** CRC-32 (IEEE 802.3, reflected) used by the table container. */
+uint32_t hd_co_crc32(uint32_t crc, const uint8_t *p, uint32_t len);
+
+/* CiA 402 (hd_co_402.c), called by hd_co.c. */
+void hd_co402_init(hd_co_t *co);
+void hd_co402_controlword(hd_co_t *co);
+void hd_co402_tick(hd_co_t *co);
+void hd_co402_comm_fault(hd_co_t *co, uint16_t emcy_code);
+uint32_t hd_co402_check_mode(int64_t mode);
+
+#endif /* HD_CO_H */

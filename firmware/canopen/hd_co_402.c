@@ -1,0 +1,332 @@
+/*
+ * hd_co_402.c - CiA 402 drive profile on top of hd_co.c.
+ *
+ * State machine (controlword 0x6040 -> statusword 0x6041):
+ *   NOT READY -> SWITCH ON DISABLED (automatic at init)
+ *   SOD  --shutdown 0x06-->  READY  --switch on 0x07-->  SWITCHED ON  --enable 0x0F-->  OPERATION ENABLED
+ *   READY --0x0F--> OPERATION ENABLED (transitions 3+4 at once)
+ *   OP --0x07--> SWITCHED ON, --0x06--> READY, --disable voltage--> SOD,
+ *      --quick stop 0x02--> QUICK STOP ACTIVE --(standstill)--> SOD
+ *   any state --fault--> FAULT REACTION ACTIVE --(power off)--> FAULT
+ *   FAULT --rising edge of bit 7, cause gone--> SOD
+ * Power is on only in OPERATION ENABLED and QUICK STOP ACTIVE.  In OPERATION
+ * ENABLED the targets (0x607A, 0x60FF, 0x6071, offsets, profile) go to the app
+ * every period; the actual values come back every period into the OD.
+ *
+ * Units: position 2^-24 turn at the output (i32), velocity 2^-32 turn/s,
+ * torque 1/1000 of 0x6076 (mN.m, output side).
+ */
+#include "hd_co_util.h"
+#include "hd_co.h"
+#include "hd_fixed.h"
+
+#define CW_SO      0x0001u
+#define CW_EV      0x0002u
+#define CW_QS      0x0004u
+#define CW_EO      0x0008u
+#define CW_NEW_SP  0x0010u
+#define CW_FR      0x0080u
+#define CW_HALT    0x0100u
+
+#define SW_RTSO    0x0001u
+#define SW_SO      0x0002u
+#define SW_OE      0x0004u
+#define SW_FAULT   0x0008u
+#define SW_VE      0x0010u
+#define SW_QS      0x0020u
+#define SW_SOD     0x0040u
+#define SW_REMOTE  0x0200u
+#define SW_TR      0x0400u
+#define SW_ILA     0x0800u
+#define SW_OMS1    0x1000u
+#define SW_OMS2    0x2000u
+
+uint32_t hd_co402_check_mode(int64_t mode)
+{
+    switch (mode) {
+    case HD_CO402_MODE_NONE:
+    case HD_CO402_MODE_PP:
+    case HD_CO402_MODE_CSP:
+    case HD_CO402_MODE_CSV:
+    case HD_CO402_MODE_CST:
+        return 0u;
+    default:
+        return HD_CO_AB_VALUE;
+    }
+}
+
+static int8_t mode_req(const hd_co_t *co) { return co->od.modes_of_operation; }
+
+static bool power_on(hd_co_t *co, int8_t mode)
+{
+    if (co->app.drive_enable == NULL) {
+        return true;
+    }
+    return co->app.drive_enable(co->app.ctx, mode, true) == 0u;
+}
+
+static void power_off(hd_co_t *co)
+{
+    if (co->app.drive_enable != NULL) {
+        (void)co->app.drive_enable(co->app.ctx, co->od.modes_of_operation_display, false);
+    }
+}
+
+static void enter(hd_co_t *co, uint8_t st)
+{
+    hd_co402_t *p = &co->p402;
+    uint8_t old = p->state;
+    bool was_on = old == HD_CO402_OP_ENABLED || old == HD_CO402_QUICK_STOP;
+    bool on = st == HD_CO402_OP_ENABLED || st == HD_CO402_QUICK_STOP;
+    if (on && !was_on) {
+        int8_t m = mode_req(co);
+        if (!power_on(co, m)) {
+            return;                     /* refused by the app: stay */
+        }
+        co->od.modes_of_operation_display = m;
+    } else if (!on && was_on) {
+        power_off(co);
+    }
+    p->state = st;
+    p->standstill_ticks = 0u;
+}
+
+static void fault(hd_co_t *co, uint16_t code)
+{
+    hd_co402_t *p = &co->p402;
+    if (p->state == HD_CO402_FAULT || p->state == HD_CO402_FAULT_REACTION) {
+        return;
+    }
+    p->fault_code = code;
+    co->od.error_code = code;
+    enter(co, HD_CO402_FAULT_REACTION);
+}
+
+void hd_co402_comm_fault(hd_co_t *co, uint16_t emcy_code)
+{
+    co->p402.comm_fault = 1u;
+    fault(co, emcy_code);
+}
+
+void hd_co402_init(hd_co_t *co)
+{
+    hd_co_fill(&co->p402, 0u, sizeof co->p402);
+    co->p402.state = HD_CO402_NOT_READY;
+    co->od.modes_of_operation_display = HD_CO402_MODE_NONE;
+    co->od.statusword = 0u;
+}
+
+void hd_co402_controlword(hd_co_t *co)
+{
+    hd_co402_t *p = &co->p402;
+    uint16_t cw = co->od.controlword;
+    bool fr_edge = (cw & CW_FR) != 0u && (p->cw_prev & CW_FR) == 0u;
+    p->cw_prev = (uint16_t)((cw & 0x7FFFu) | (p->cw_prev & 0x8000u));
+    uint16_t c = (uint16_t)(cw & 0x008Fu);
+    bool disable_voltage = (cw & CW_EV) == 0u;
+    bool quick_stop = (cw & (CW_EV | CW_QS)) == CW_EV;
+    bool shutdown = (c & 0x87u) == 0x06u;
+    bool switch_on = (c & 0x8Fu) == 0x07u;
+    bool enable_op = (c & 0x8Fu) == 0x0Fu;
+    switch (p->state) {
+    case HD_CO402_FAULT:
+        if (fr_edge) {
+            if (co->app.drive_fault_reset != NULL) {
+                co->app.drive_fault_reset(co->app.ctx);
+            }
+            p->comm_fault = 0u;
+            p->fault_pending_reset = 1u;   /* completes in tick when the cause is gone */
+        }
+        break;
+    case HD_CO402_SO_DISABLED:
+        if (shutdown) {
+            enter(co, HD_CO402_READY);
+        }
+        break;
+    case HD_CO402_READY:
+        if (disable_voltage || quick_stop) {
+            enter(co, HD_CO402_SO_DISABLED);
+        } else if (switch_on) {
+            enter(co, HD_CO402_SWITCHED_ON);
+        } else if (enable_op) {
+            enter(co, HD_CO402_SWITCHED_ON);
+            enter(co, HD_CO402_OP_ENABLED);
+        }
+        break;
+    case HD_CO402_SWITCHED_ON:
+        if (disable_voltage || quick_stop) {
+            enter(co, HD_CO402_SO_DISABLED);
+        } else if (shutdown) {
+            enter(co, HD_CO402_READY);
+        } else if (enable_op) {
+            enter(co, HD_CO402_OP_ENABLED);
+        }
+        break;
+    case HD_CO402_OP_ENABLED:
+        if (disable_voltage) {
+            enter(co, HD_CO402_SO_DISABLED);
+        } else if (quick_stop) {
+            if (co->od.quick_stop_option_code == 0) {
+                enter(co, HD_CO402_SO_DISABLED);
+            } else {
+                enter(co, HD_CO402_QUICK_STOP);
+            }
+        } else if (shutdown) {
+            enter(co, HD_CO402_READY);
+        } else if (switch_on) {
+            enter(co, HD_CO402_SWITCHED_ON);
+        }
+        break;
+    case HD_CO402_QUICK_STOP:
+        if (disable_voltage) {
+            enter(co, HD_CO402_SO_DISABLED);
+        }
+        break;
+    default:
+        break;
+    }
+}
+
+static int32_t torque_permille_to_q16(int32_t permille, uint32_t rated_mNm)
+{
+    /* permille/1000 * rated/1000 N.m * 2^16 */
+    int64_t num = (int64_t)permille * (int64_t)rated_mNm * 65536;
+    return hd_sat32(hd_div64_rnd(num, 1000000));
+}
+
+static int16_t torque_q16_to_permille(int32_t q16, uint32_t rated_mNm)
+{
+    if (rated_mNm == 0u) {
+        return 0;
+    }
+    int64_t v = hd_div64_rnd((int64_t)q16 * 1000000, (int64_t)rated_mNm * 65536);
+    return (int16_t)hd_clamp64(v, -32768, 32767);
+}
+
+static uint16_t statusword(const hd_co_t *co)
+{
+    const hd_co402_t *p = &co->p402;
+    uint16_t sw;
+    switch (p->state) {
+    case HD_CO402_SO_DISABLED:   sw = SW_SOD; break;
+    case HD_CO402_READY:         sw = SW_RTSO | SW_QS; break;
+    case HD_CO402_SWITCHED_ON:   sw = SW_RTSO | SW_SO | SW_QS; break;
+    case HD_CO402_OP_ENABLED:    sw = SW_RTSO | SW_SO | SW_OE | SW_QS; break;
+    case HD_CO402_QUICK_STOP:    sw = SW_RTSO | SW_SO | SW_OE; break;
+    case HD_CO402_FAULT_REACTION: sw = SW_RTSO | SW_SO | SW_OE | SW_FAULT; break;
+    case HD_CO402_FAULT:         sw = SW_FAULT; break;
+    default:                     sw = 0u; break;
+    }
+    if (co->act.power_enabled) {
+        sw |= SW_VE;
+    }
+    sw |= SW_REMOTE;
+    if (co->act.target_reached) {
+        sw |= SW_TR;
+    }
+    if (co->act.internal_limit) {
+        sw |= SW_ILA;
+    }
+    if (p->state == HD_CO402_OP_ENABLED) {
+        int8_t m = co->od.modes_of_operation_display;
+        if (m == HD_CO402_MODE_CSP || m == HD_CO402_MODE_CSV || m == HD_CO402_MODE_CST) {
+            sw |= SW_OMS1;               /* drive follows the command value */
+        } else if (m == HD_CO402_MODE_PP && (co->od.controlword & CW_NEW_SP) != 0u) {
+            sw |= SW_OMS1;               /* set-point acknowledge */
+        }
+    }
+    return sw;
+}
+
+void hd_co402_tick(hd_co_t *co)
+{
+    hd_co402_t *p = &co->p402;
+    hd_co_actual_t *a = &co->act;
+    if (co->app.drive_actual != NULL) {
+        co->app.drive_actual(co->app.ctx, a);
+    }
+    /* actual values into the OD */
+    co->od.drive_status_loop_tick = a->tick;
+    co->od.drive_status_load_phase = (uint32_t)((uint64_t)a->load_angle & 0xFFFFFFFFu);
+    co->od.drive_status_motor_phase = (uint32_t)((uint64_t)a->motor_angle & 0xFFFFFFFFu);
+    co->od.drive_status_load_velocity = a->load_velocity;
+    co->od.drive_status_motor_velocity = a->motor_velocity;
+    co->od.drive_status_motor_torque = a->motor_torque;
+    co->od.drive_status_motor_current = a->motor_current;
+    co->od.drive_status_setpoint_phase = (uint32_t)((uint64_t)a->setpoint_angle & 0xFFFFFFFFu);
+    co->od.drive_status_load_angle = a->load_angle;
+    co->od.drive_status_fault_code = a->fault_code;
+    co->od.drive_status_uptime_ticks++;
+    co->od.drive_status_power_enabled = a->power_enabled ? 1u : 0u;
+    co->od.position_actual_value = hd_sat32(hd_asr64_rnd(a->load_angle, 8u));
+    co->od.velocity_actual_value = a->load_velocity;
+    co->od.torque_actual_value = torque_q16_to_permille(a->output_torque, co->od.motor_rated_torque);
+    co->od.following_error_actual_value = hd_sat32(hd_asr64_rnd(hd_sub64_sat(a->setpoint_angle, a->load_angle), 8u));
+
+    if (p->state == HD_CO402_NOT_READY) {
+        enter(co, HD_CO402_SO_DISABLED);
+    }
+    /* app fault -> fault reaction */
+    if (a->fault_code != 0u && p->state != HD_CO402_FAULT && p->state != HD_CO402_FAULT_REACTION) {
+        uint8_t mfr[5] = {(uint8_t)(a->fault_code & 0xFFu), 0u, 0u, 0u, 0u};
+        uint16_t code = a->fault_emcy != 0u ? a->fault_emcy : 0x1000u;
+        fault(co, code);
+        hd_co_emcy(co, code, HD_CO_ER_MFR, mfr);
+    }
+    if (p->state == HD_CO402_FAULT_REACTION) {
+        power_off(co);
+        p->state = HD_CO402_FAULT;
+        p->fault_pending_reset = 0u;
+    }
+    if (p->state == HD_CO402_FAULT && p->fault_pending_reset) {
+        if (a->fault_code == 0u && !p->comm_fault) {
+            p->fault_pending_reset = 0u;
+            p->fault_code = 0u;
+            co->od.error_code = 0u;
+            enter(co, HD_CO402_SO_DISABLED);
+            hd_co_emcy_clear(co, (uint8_t)(HD_CO_ER_MFR | HD_CO_ER_COMM | HD_CO_ER_PROFILE));
+        }
+    }
+    /* mode change while enabled */
+    if (p->state == HD_CO402_OP_ENABLED && co->od.modes_of_operation != co->od.modes_of_operation_display) {
+        int8_t m = mode_req(co);
+        if (co->app.drive_enable == NULL || co->app.drive_enable(co->app.ctx, m, true) == 0u) {
+            co->od.modes_of_operation_display = m;
+        }
+    } else if (p->state != HD_CO402_OP_ENABLED && p->state != HD_CO402_QUICK_STOP) {
+        co->od.modes_of_operation_display = co->od.modes_of_operation;
+    }
+    /* setpoints */
+    if (p->state == HD_CO402_OP_ENABLED || p->state == HD_CO402_QUICK_STOP) {
+        hd_co_setpoint_t sp;
+        hd_co_fill(&sp, 0u, sizeof sp);
+        sp.mode = co->od.modes_of_operation_display;
+        sp.quick_stop = p->state == HD_CO402_QUICK_STOP ? 1u : 0u;
+        sp.halt = (co->od.controlword & CW_HALT) != 0u ? 1u : 0u;
+        sp.pp_new = ((co->od.controlword & CW_NEW_SP) != 0u && (p->cw_prev & 0x8000u) == 0u) ? 1u : 0u;
+        sp.target_position = co->od.target_position;
+        sp.target_velocity = co->od.target_velocity;
+        sp.velocity_offset = co->od.velocity_offset;
+        sp.target_torque = hd_add_sat(torque_permille_to_q16(co->od.target_torque, co->od.motor_rated_torque),
+                                      torque_permille_to_q16(co->od.torque_offset, co->od.motor_rated_torque));
+        sp.profile_velocity = co->od.profile_velocity;
+        sp.profile_acceleration = co->od.profile_acceleration;
+        sp.quick_stop_decel = co->od.quick_stop_deceleration;
+        /* bit 15 of cw_prev remembers that this new-set-point edge was handed over */
+        if ((co->od.controlword & CW_NEW_SP) != 0u) {
+            p->cw_prev = (uint16_t)(p->cw_prev | 0x8000u);
+        } else {
+            p->cw_prev = (uint16_t)(p->cw_prev & 0x7FFFu);
+        }
+        if (co->app.drive_setpoint != NULL) {
+            co->app.drive_setpoint(co->app.ctx, &sp);
+        }
+        if (p->state == HD_CO402_QUICK_STOP) {
+            p->standstill_ticks = a->standstill ? p->standstill_ticks + 1u : 0u;
+            if (p->standstill_ticks >= 10u) {
+                enter(co, HD_CO402_SO_DISABLED);
+            }
+        }
+    }
+    co->od.statusword = statusword(co);
+}

@@ -1,0 +1,357 @@
+"""CANopen client for an hdservo drive (real or the virtual drive ``hdservo-sim serve``).
+
+Built on python ``canopen``: a :class:`canopen.BaseNode402` with the generated
+EDS (``hdservo/data/hdservo.eds``).  Bus settings are the usual python-can
+ones (interface, channel, bitrate) and fall back to python-can's config file
+and ``CAN_*`` environment variables when not given.
+
+Example
+-------
+>>> with Drive.connect(interface="socketcand", channel="can0", host="127.0.0.1", port=29536) as d:
+...     d.start()
+...     d.enable("CYCLIC SYNCHRONOUS POSITION")
+...     d.set_param("pos_kp", 40.0)
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import logging
+import math
+import os
+import struct
+import tempfile
+import time
+import zlib
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any, Iterator, Optional
+
+import can
+import canopen
+
+from . import od_gen
+from .params_gen import BY_NAME as PARAMS
+
+# python-can's socketcand client logs every partial TCP read at WARNING level
+logging.getLogger("can.interfaces.socketcand").setLevel(logging.ERROR)
+
+EDS_PATH = Path(str(resources.files("hdservo") / "data" / "hdservo.eds"))
+LOOP_HZ = 10000
+TURN = 2.0 * math.pi
+
+MODES = {
+    "PROFILED POSITION": 1,
+    "CYCLIC SYNCHRONOUS POSITION": 8,
+    "CYCLIC SYNCHRONOUS VELOCITY": 9,
+    "CYCLIC SYNCHRONOUS TORQUE": 10,
+}
+
+
+class DriveError(Exception):
+    """A drive-side failure reported in one line (SDO abort, time-out, refused transition)."""
+
+
+def add_bus_arguments(p: argparse.ArgumentParser) -> None:
+    """Add the python-can bus options ``-i/-c/-b`` plus socketcand ``--host/--port`` and ``--node-id``."""
+    p.add_argument("-i", "--interface", help="python-can interface (default: config file / CAN_INTERFACE)")
+    p.add_argument("-c", "--channel", help="channel, e.g. can0 (default: config file / CAN_CHANNEL)")
+    p.add_argument("-b", "--bitrate", type=int, help="bitrate in bit/s")
+    p.add_argument("--host", default=None, help="socketcand server host (interface socketcand)")
+    p.add_argument("--port", type=int, default=None, help="socketcand server port (interface socketcand)")
+    p.add_argument("--node-id", type=int, default=1, help="CANopen node id of the drive (default 1)")
+
+
+def bus_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """python-can keyword arguments from parsed :func:`add_bus_arguments` options."""
+    kw: dict[str, Any] = {}
+    if args.interface:
+        kw["interface"] = args.interface
+    if args.channel:
+        kw["channel"] = args.channel
+    if args.bitrate:
+        kw["bitrate"] = args.bitrate
+    if args.host:
+        kw["host"] = args.host
+    if args.port is not None:
+        kw["port"] = args.port
+    if kw.get("interface") == "socketcand":
+        kw.setdefault("channel", "can0")
+        kw.setdefault("host", "127.0.0.1")
+    return kw
+
+
+@dataclass
+class Sample:
+    """One decoded streaming sample (SI units)."""
+
+    tick: int
+    values: dict[str, float]
+
+
+class Drive:
+    """One drive on a CANopen network.
+
+    Parameters
+    ----------
+    network
+        A connected :class:`canopen.Network`.
+    node_id
+        Node id of the drive.
+    """
+
+    def __init__(self, network: canopen.Network, node_id: int = 1) -> None:
+        self.network = network
+        self.node = canopen.BaseNode402(node_id, str(EDS_PATH))
+        network.add_node(self.node)
+        self.node_id = node_id
+        self._own_network = False
+
+    # ---- connection ----------------------------------------------------------
+    @classmethod
+    def connect(cls, node_id: int = 1, **bus: Any) -> "Drive":
+        """Open the bus with python-can settings and attach to the drive."""
+        net = canopen.Network()
+        try:
+            net.connect(**bus)
+        except (can.CanError, OSError, ValueError) as e:
+            raise DriveError(f"cannot open the CAN bus {bus or '(python-can defaults)'}: {e}") from None
+        d = cls(net, node_id)
+        d._own_network = True
+        return d
+
+    def close(self) -> None:
+        """Disconnect the bus if this object opened it."""
+        if self._own_network:
+            self.network.disconnect()
+            self._own_network = False
+
+    def __enter__(self) -> "Drive":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # ---- SDO -----------------------------------------------------------------
+    def _var(self, index: int, sub: int = 0) -> Any:
+        obj = self.node.sdo[index]
+        return obj[sub] if isinstance(obj, (canopen.sdo.base.SdoRecord, canopen.sdo.base.SdoArray)) else obj
+
+    def read(self, index: int, sub: int = 0) -> Any:
+        """Raw value of (index, sub) by SDO."""
+        try:
+            return self._var(index, sub).raw
+        except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
+            raise DriveError(f"read 0x{index:04X}:{sub}: {e}") from None
+
+    def write(self, index: int, sub: int, value: Any) -> None:
+        """Write a raw value by SDO."""
+        try:
+            self._var(index, sub).raw = value
+        except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
+            raise DriveError(f"write 0x{index:04X}:{sub} = {value!r}: {e}") from None
+
+    # ---- parameters by name ----------------------------------------------------
+    def get_param(self, name: str) -> float:
+        """A drive parameter (params.toml) in SI units."""
+        p = PARAMS.get(name)
+        if p is None:
+            raise DriveError(f"unknown parameter '{name}'")
+        return self.read(p.index, p.sub) / 2.0 ** p.frac
+
+    def set_param(self, name: str, value: float) -> None:
+        """Set a drive parameter in SI units (range-checked here and by the drive)."""
+        p = PARAMS.get(name)
+        if p is None:
+            raise DriveError(f"unknown parameter '{name}'")
+        if not p.min <= value <= p.max:
+            raise DriveError(f"{name} = {value} outside [{p.min}, {p.max}] {p.unit}")
+        raw = int(math.floor(value * 2.0 ** p.frac + 0.5)) if value >= 0 else -int(math.floor(-value * 2.0 ** p.frac + 0.5))
+        self.write(p.index, p.sub, raw)
+
+    def save(self) -> None:
+        """Store all parameters in the drive's NVM (0x1010:1 = 'save')."""
+        self.write(0x1010, 1, 0x65766173)
+
+    # ---- NMT and CiA 402 --------------------------------------------------------
+    def start(self) -> None:
+        """Load the PDO configuration from the drive, then NMT start (OPERATIONAL)."""
+        self.node.tpdo.read()
+        self.node.rpdo.read()
+        self.node.setup_402_state_machine(read_pdos=False)
+        self.node.nmt.state = "OPERATIONAL"
+        self.node.tpdo[1].wait_for_reception(2.0)
+
+    def enable(self, mode: str = "CYCLIC SYNCHRONOUS POSITION") -> None:
+        """Select a mode and walk the 402 state machine to OPERATION ENABLED."""
+        if mode not in MODES:
+            raise DriveError(f"mode must be one of {sorted(MODES)}")
+        self.write(0x6060, 0, MODES[mode])
+        self._walk("OPERATION ENABLED")
+
+    def disable(self) -> None:
+        """Back to SWITCH ON DISABLED (power stage off)."""
+        self._walk("SWITCH ON DISABLED")
+
+    def fault_reset(self) -> None:
+        """Rising edge of controlword bit 7, then wait for SWITCH ON DISABLED."""
+        self.write(0x6040, 0, 0x00)
+        self.write(0x6040, 0, 0x80)
+        self._wait_state("SWITCH ON DISABLED", 1.0)
+
+    def state(self) -> str:
+        """402 state from the statusword (read by SDO, always fresh)."""
+        sw = self.read(0x6041)
+        for name, (mask, val) in canopen.profiles.p402.State402.SW_MASK.items():
+            if sw & mask == val:
+                return name
+        return f"UNKNOWN (0x{sw:04X})"
+
+    def _wait_state(self, target: str, timeout: float) -> None:
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if self.state() == target:
+                return
+            time.sleep(0.002)
+        raise DriveError(f"drive did not reach {target} (state {self.state()})")
+
+    def _walk(self, target: str) -> None:
+        path = {
+            "OPERATION ENABLED": [0x06, 0x07, 0x0F],
+            "SWITCH ON DISABLED": [0x00],
+        }[target]
+        if self.state() == "FAULT":
+            raise DriveError("drive is in FAULT: fault_reset() first")
+        for cw in path:
+            self.write(0x6040, 0, cw)
+        self._wait_state(target, 1.0)
+
+    # ---- setpoints (SI, output side) ----------------------------------------------
+    def set_position(self, rad: float) -> None:
+        """CSP/PP target position, rad at the output."""
+        self.write(0x607A, 0, int(round(rad / TURN * 2 ** 24)))
+
+    def set_velocity(self, rad_s: float) -> None:
+        """CSV target velocity, rad/s at the output."""
+        self.write(0x60FF, 0, int(round(rad_s / TURN * 2 ** 32)))
+
+    def set_torque(self, nm: float) -> None:
+        """CST target torque, N.m at the output (1/1000 of the rated torque 0x6076)."""
+        rated = self.read(0x6076) / 1000.0
+        self.write(0x6071, 0, int(round(nm / rated * 1000.0)))
+
+    # ---- tables and capture --------------------------------------------------------
+    def download_table(self, sub: int, payload: bytes) -> None:
+        """Download a table domain (0x5100:sub) with its CRC-32 trailer and verify by read-back."""
+        blob = payload + struct.pack("<I", zlib.crc32(payload))
+        self.write_domain(0x5100, sub, blob)
+        back = self.read_domain(0x5100, sub)
+        if back != blob:
+            raise DriveError(f"table 0x5100:{sub}: read-back differs from what was written")
+
+    def write_domain(self, index: int, sub: int, blob: bytes) -> None:
+        """Block download of a domain (CRC-checked transfer)."""
+        try:
+            with self._var(index, sub).open("wb", size=len(blob), block_transfer=True) as f:
+                f.write(blob)
+        except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
+            raise DriveError(f"download 0x{index:04X}:{sub}: {e}") from None
+
+    def read_domain(self, index: int, sub: int) -> bytes:
+        """Block upload of a domain (CRC-checked transfer)."""
+        try:
+            with self._var(index, sub).open("rb", block_transfer=True) as f:
+                return bytes(f.read())
+        except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
+            raise DriveError(f"upload 0x{index:04X}:{sub}: {e}") from None
+
+    def capture(self, signals: list[int], samples: int, decimation: int = 1, timeout: float = 30.0) -> list[list[int]]:
+        """Arm the capture buffer, trigger it, wait until done and upload it (int32 per signal)."""
+        if not 1 <= len(signals) <= 4:
+            raise DriveError("capture takes 1 to 4 signals")
+        packed = 0
+        for k in range(4):
+            packed |= (signals[k] if k < len(signals) else 0xFF) << (8 * k)
+        self.write(0x5000, 3, packed)
+        self.write(0x5000, 4, samples)
+        self.write(0x5000, 5, decimation)
+        self.write(0x5000, 1, 1)
+        self.write(0x5000, 1, 2)
+        end = time.monotonic() + timeout
+        while self.read(0x5000, 2) != 3:
+            if time.monotonic() > end:
+                raise DriveError("capture did not finish")
+            time.sleep(0.01)
+        raw = self.read_domain(0x5000, 7)
+        words = struct.unpack(f"<{len(raw) // 4}i", raw)
+        n = len(signals)
+        return [list(words[i:i + n]) for i in range(0, len(words), n)]
+
+    # ---- streaming ----------------------------------------------------------------
+    def configure_stream(self, period_ticks: int) -> None:
+        """Default stream: TPDO2..4 = tick + load phase / motor phase / motor torque every period_ticks."""
+        for n in (2, 3, 4):
+            self.write(0x1800 + n - 1, 2, 254)
+            self.write(0x5F10, n, period_ticks)
+
+    def stream(self, duration_s: float) -> Iterator[tuple[int, int, bytes]]:
+        """Yield (cob_id, tick, data) of every streamed TPDO for duration_s of wall-clock time."""
+        q: list[can.Message] = []
+        cobs = {0x280 + self.node_id, 0x380 + self.node_id, 0x480 + self.node_id}
+        listener = _Collector(q)
+        self.network.notifier.add_listener(listener)
+        try:
+            end = time.monotonic() + duration_s
+            while time.monotonic() < end:
+                time.sleep(0.01)
+                while q:
+                    m = q.pop(0)
+                    if m.arbitration_id in cobs and len(m.data) >= 4:
+                        yield m.arbitration_id, struct.unpack_from("<I", m.data, 0)[0], bytes(m.data)
+        finally:
+            self.network.notifier.remove_listener(listener)
+
+
+class _Collector(can.Listener):
+    def __init__(self, q: list[can.Message]) -> None:
+        self.q = q
+
+    def on_message_received(self, msg: can.Message) -> None:
+        self.q.append(msg)
+
+
+# ---- decoding of the default stream into the DESIGN.md section 7 columns ------------
+def unwrap_phase(prev_turns: Optional[float], phase_u32: int) -> float:
+    """Continue a multi-turn angle (turns) from a wrapped 2^32-per-turn phase."""
+    frac = phase_u32 / 2.0 ** 32
+    if prev_turns is None:
+        return frac if frac < 0.5 else frac - 1.0
+    base = math.floor(prev_turns)
+    cands = (base - 1 + frac, base + frac, base + 1 + frac)
+    return min(cands, key=lambda c: abs(c - prev_turns))
+
+
+def write_csv_atomic(path: Path, header: list[str], rows: list[list[float]], meta: dict[str, Any]) -> None:
+    """Write CSV + JSON sidecar through temp files (no half-written output)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".rec.")
+    fd2, tmp2 = tempfile.mkstemp(dir=path.parent, prefix=".rec.")
+    try:
+        with os.fdopen(fd, "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(header)
+            w.writerows(rows)
+        with os.fdopen(fd2, "w") as f:
+            json.dump(meta, f, indent=2)
+        os.replace(tmp, path)
+        os.replace(tmp2, path.with_suffix(".json"))
+    finally:
+        for t in (tmp, tmp2):
+            if os.path.exists(t):
+                os.unlink(t)
+
+
+__all__ = ["Drive", "DriveError", "add_bus_arguments", "bus_kwargs", "unwrap_phase", "write_csv_atomic",
+           "EDS_PATH", "MODES", "od_gen"]

@@ -1,0 +1,814 @@
+/*
+ * test_canopen.c - CiA 301/402 device stack (firmware/canopen) against a
+ * scripted master: exact frames in, exact frames out.
+ */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "hd_co.h"
+#include "hd_param_table.h"
+
+
+#define NODE 5u
+#define TXQ 512u
+#define DOM_CAP 70000u
+
+typedef struct {
+    hd_can_frame_t tx[TXQ];
+    uint32_t ntx, rd;
+    bool tx_full;
+    int32_t param[HD_PARAM_COUNT];
+    uint8_t dom[DOM_CAP];        /* committed table (payload + CRC-32) */
+    uint32_t dom_len;
+    uint8_t stage[DOM_CAP];
+    uint32_t stage_len;
+    uint32_t stores, restores, comm_faults, fault_resets;
+    int8_t mode;
+    bool on;
+    hd_co_setpoint_t sp;
+    uint16_t app_fault;
+    uint32_t tick;
+} ctx_t;
+
+static bool t_send(void *c, const hd_can_frame_t *f)
+{
+    ctx_t *x = c;
+    if (x->tx_full || x->ntx >= TXQ) {
+        return false;
+    }
+    x->tx[x->ntx++] = *f;
+    return true;
+}
+static int32_t t_pget(void *c, uint16_t id) { return ((ctx_t *)c)->param[id]; }
+static uint32_t t_pset(void *c, uint16_t id, int32_t raw)
+{
+    ((ctx_t *)c)->param[id] = raw;
+    return 0u;
+}
+static uint32_t t_dsize(void *c, uint16_t dom, uint32_t *size)
+{
+    (void)dom;
+    *size = ((ctx_t *)c)->dom_len;
+    return 0u;
+}
+static uint32_t t_dread(void *c, uint16_t dom, uint32_t off, uint8_t *buf, uint32_t len)
+{
+    ctx_t *x = c;
+    (void)dom;
+    if (off + len > x->dom_len) {
+        return HD_CO_AB_GENERAL;
+    }
+    memcpy(buf, &x->dom[off], len);
+    return 0u;
+}
+static uint32_t t_dbegin(void *c, uint16_t dom, uint32_t size)
+{
+    (void)dom;
+    if (size > DOM_CAP) {
+        return HD_CO_AB_LEN_HIGH;
+    }
+    ((ctx_t *)c)->stage_len = 0u;
+    return 0u;
+}
+static uint32_t t_dwrite(void *c, uint16_t dom, uint32_t off, const uint8_t *buf, uint32_t len)
+{
+    ctx_t *x = c;
+    (void)dom;
+    if (off + len > DOM_CAP) {
+        return HD_CO_AB_LEN_HIGH;
+    }
+    memcpy(&x->stage[off], buf, len);
+    x->stage_len = off + len;
+    return 0u;
+}
+static uint32_t t_dend(void *c, uint16_t dom, uint32_t total, bool complete)
+{
+    ctx_t *x = c;
+    (void)dom;
+    if (!complete) {
+        return 0u;
+    }
+    if (total < 4u) {
+        return HD_CO_AB_STORE;
+    }
+    uint32_t crc = hd_co_crc32(0u, x->stage, total - 4u);
+    uint32_t got = (uint32_t)x->stage[total - 4u] | ((uint32_t)x->stage[total - 3u] << 8) |
+                   ((uint32_t)x->stage[total - 2u] << 16) | ((uint32_t)x->stage[total - 1u] << 24);
+    if (crc != got) {
+        return HD_CO_AB_STORE;
+    }
+    memcpy(x->dom, x->stage, total);
+    x->dom_len = total;
+    return 0u;
+}
+static uint32_t t_store(void *c) { ((ctx_t *)c)->stores++; return 0u; }
+static uint32_t t_restore(void *c) { ((ctx_t *)c)->restores++; return 0u; }
+static uint32_t t_enable(void *c, int8_t mode, bool on)
+{
+    ctx_t *x = c;
+    if (on && x->app_fault != 0u) {
+        return 1u;
+    }
+    x->mode = mode;
+    x->on = on;
+    return 0u;
+}
+static void t_setpoint(void *c, const hd_co_setpoint_t *sp) { ((ctx_t *)c)->sp = *sp; }
+static void t_actual(void *c, hd_co_actual_t *a)
+{
+    ctx_t *x = c;
+    memset(a, 0, sizeof *a);
+    a->tick = x->tick;
+    a->load_angle = (int64_t)x->tick << 16;
+    a->power_enabled = x->on ? 1u : 0u;
+    a->standstill = 1u;
+    a->fault_code = x->app_fault;
+    a->fault_emcy = x->app_fault != 0u ? 0x8611u : 0u;
+}
+static void t_fault_reset(void *c) { ((ctx_t *)c)->fault_resets++; ((ctx_t *)c)->app_fault = 0u; }
+static void t_comm_fault(void *c, uint16_t code) { (void)code; ((ctx_t *)c)->comm_faults++; }
+
+static ctx_t X;
+static hd_co_t CO;
+
+static void setup_dev(void)
+{
+    memset(&X, 0, sizeof X);
+    for (uint32_t i = 0; i < HD_PARAM_COUNT; i++) {
+        X.param[i] = hd_param_table[i].def;
+    }
+    hd_co_app_if_t ifc;
+    memset(&ifc, 0, sizeof ifc);
+    ifc.ctx = &X;
+    ifc.send = t_send;
+    ifc.param_get = t_pget;
+    ifc.param_set = t_pset;
+    ifc.domain_size = t_dsize;
+    ifc.domain_read = t_dread;
+    ifc.domain_write_begin = t_dbegin;
+    ifc.domain_write = t_dwrite;
+    ifc.domain_write_end = t_dend;
+    ifc.store = t_store;
+    ifc.restore = t_restore;
+    ifc.drive_enable = t_enable;
+    ifc.drive_setpoint = t_setpoint;
+    ifc.drive_actual = t_actual;
+    ifc.drive_fault_reset = t_fault_reset;
+    ifc.drive_comm_fault = t_comm_fault;
+    hd_co_init(&CO, NODE, &ifc);
+}
+
+static void rx(uint32_t id, uint8_t dlc, const uint8_t *d)
+{
+    hd_can_frame_t f;
+    memset(&f, 0, sizeof f);
+    f.id = id;
+    f.dlc = dlc;
+    if (dlc > 0u) {
+        memcpy(f.data, d, dlc);
+    }
+    hd_co_process(&CO, &f);
+}
+
+static void tick(uint32_t n)
+{
+    for (uint32_t i = 0; i < n; i++) {
+        X.tick++;
+        hd_co_tick(&CO, HD_CO_TICK_US);
+    }
+}
+
+/* next frame sent by the device, or NULL */
+static const hd_can_frame_t *next_tx(void)
+{
+    return X.rd < X.ntx ? &X.tx[X.rd++] : NULL;
+}
+
+static void flush(void) { X.rd = X.ntx = 0u; }
+
+/* next SDO response */
+static const hd_can_frame_t *sdo_rsp(void)
+{
+    const hd_can_frame_t *f;
+    while ((f = next_tx()) != NULL) {
+        if (f->id == 0x580u + NODE) {
+            return f;
+        }
+    }
+    return NULL;
+}
+
+static uint32_t u32le(const uint8_t *p)
+{
+    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
+}
+
+static void sdo_req(uint8_t cmd, uint16_t idx, uint8_t sub, uint32_t v)
+{
+    uint8_t d[8] = {cmd, (uint8_t)idx, (uint8_t)(idx >> 8), sub, (uint8_t)v, (uint8_t)(v >> 8),
+                    (uint8_t)(v >> 16), (uint8_t)(v >> 24)};
+    rx(0x600u + NODE, 8u, d);
+}
+
+/* expedited write of n bytes; returns 0 or the abort code */
+static uint32_t sdo_write(uint16_t idx, uint8_t sub, uint32_t v, uint32_t n)
+{
+    flush();
+    sdo_req((uint8_t)(0x23u | ((4u - n) << 2)), idx, sub, v);
+    const hd_can_frame_t *f = sdo_rsp();
+    assert_non_null(f);
+    if (f->data[0] == 0x80u) {
+        return u32le(&f->data[4]);
+    }
+    assert_int_equal(f->data[0], 0x60);
+    return 0u;
+}
+
+/* expedited read; returns 0 or the abort code */
+static uint32_t sdo_read(uint16_t idx, uint8_t sub, uint32_t *v)
+{
+    flush();
+    sdo_req(0x40u, idx, sub, 0u);
+    const hd_can_frame_t *f = sdo_rsp();
+    assert_non_null(f);
+    if (f->data[0] == 0x80u) {
+        return u32le(&f->data[4]);
+    }
+    *v = u32le(&f->data[4]);
+    return 0u;
+}
+
+/* ---- tests ------------------------------------------------------------------ */
+
+static void test_bootup_nmt_heartbeat(void **st)
+{
+    (void)st;
+    setup_dev();
+    const hd_can_frame_t *f = next_tx();
+    assert_non_null(f);
+    assert_int_equal(f->id, 0x700u + NODE);
+    assert_int_equal(f->dlc, 1);
+    assert_int_equal(f->data[0], 0);
+    assert_int_equal(CO.nmt, HD_CO_NMT_PREOP);
+    flush();
+    tick(1000);                                   /* 100 ms = one heartbeat period */
+    uint32_t hb = 0;
+    for (uint32_t i = 0; i < X.ntx; i++) {
+        if (X.tx[i].id == 0x700u + NODE) {
+            hb++;
+            assert_int_equal(X.tx[i].data[0], 0x7F);
+        }
+    }
+    assert_int_equal(hb, 1);
+    uint8_t start[2] = {0x01, NODE};
+    rx(0, 2, start);
+    assert_int_equal(CO.nmt, HD_CO_NMT_OP);
+    uint8_t bad[3] = {0x02, 0, 0};               /* wrong DLC: ignored */
+    rx(0, 3, bad);
+    assert_int_equal(CO.nmt, HD_CO_NMT_OP);
+    uint8_t other[2] = {0x02, NODE + 1u};        /* other node */
+    rx(0, 2, other);
+    assert_int_equal(CO.nmt, HD_CO_NMT_OP);
+    uint8_t stop[2] = {0x02, 0};                 /* broadcast */
+    rx(0, 2, stop);
+    assert_int_equal(CO.nmt, HD_CO_NMT_STOPPED);
+    flush();
+    sdo_req(0x40u, 0x1000u, 0u, 0u);             /* no SDO while stopped */
+    assert_null(sdo_rsp());
+    uint8_t rc[2] = {0x82, NODE};
+    rx(0, 2, rc);
+    assert_int_equal(CO.nmt, HD_CO_NMT_PREOP);
+}
+
+static void test_sdo_expedited_and_aborts(void **st)
+{
+    (void)st;
+    setup_dev();
+    uint32_t v = 0;
+    assert_int_equal(sdo_read(0x1000u, 0u, &v), 0);
+    assert_int_equal(v, 0x00020192u);
+    assert_int_equal(sdo_read(0x1018u, 1u, &v), 0);
+    assert_int_equal(v, HD_CO_VENDOR_ID);
+    assert_int_equal(sdo_read(0x1200u, 1u, &v), 0);
+    assert_int_equal(v, 0x600u + NODE);
+    assert_int_equal(sdo_read(0x1234u, 0u, &v), HD_CO_AB_NO_OBJECT);
+    assert_int_equal(sdo_read(0x1018u, 9u, &v), HD_CO_AB_NO_SUB);
+    assert_int_equal(sdo_write(0x1000u, 0u, 1u, 4u), HD_CO_AB_READONLY);
+    assert_int_equal(sdo_read(0x5F20u, 10u, &v), HD_CO_AB_WRITEONLY);
+    assert_int_equal(sdo_write(0x5F20u, 8u, 5u, 4u), HD_CO_AB_VALUE_LOW);
+    assert_int_equal(sdo_write(0x5F20u, 8u, 2000000u, 4u), HD_CO_AB_VALUE_HIGH);
+    assert_int_equal(sdo_write(0x5F20u, 8u, 1234u, 4u), 0);
+    assert_int_equal(sdo_read(0x5F20u, 8u, &v), 0);
+    assert_int_equal(v, 1234u);
+    assert_int_equal(sdo_write(0x5F20u, 8u, 12u, 2u), HD_CO_AB_LEN_LOW);
+    assert_int_equal(sdo_write(0x5F20u, 7u, 12u, 4u), HD_CO_AB_LEN_HIGH);
+    assert_int_equal(sdo_write(0x5F20u, 1u, 2u, 1u), HD_CO_AB_VALUE);     /* bool */
+    assert_int_equal(sdo_write(0x6060u, 0u, 7u, 1u), HD_CO_AB_VALUE);     /* unsupported mode */
+    assert_int_equal(sdo_write(0x5F20u, 2u, (uint32_t)(uint8_t)-50, 1u), 0);
+    assert_int_equal(sdo_read(0x5F20u, 2u, &v), 0);
+    assert_int_equal((int8_t)v, -50);
+    /* drive parameter through the app, range from the generated table */
+    assert_int_equal(sdo_write(0x2000u, 1u, 50u, 4u), 0);
+    assert_int_equal(X.param[HD_P_GEAR_RATIO], 50);
+    assert_int_equal(sdo_write(0x2000u, 1u, 5000u, 4u), HD_CO_AB_VALUE_HIGH);
+    assert_int_equal(X.param[HD_P_GEAR_RATIO], 50);
+    /* store / restore signatures */
+    assert_int_equal(sdo_write(0x1010u, 1u, 0x12345678u, 4u), HD_CO_AB_STORE);
+    assert_int_equal(sdo_write(0x1010u, 1u, 0x65766173u, 4u), 0);
+    assert_int_equal(X.stores, 1);
+    assert_int_equal(sdo_write(0x1011u, 1u, 0x64616F6Cu, 4u), 0);
+    assert_int_equal(X.restores, 1);
+    /* unknown command specifier, segment outside a transfer */
+    flush();
+    sdo_req(0xE0u, 0x1000u, 0u, 0u);
+    const hd_can_frame_t *f = sdo_rsp();
+    assert_non_null(f);
+    assert_int_equal(u32le(&f->data[4]), HD_CO_AB_CMD);
+    /* a short SDO frame is ignored */
+    flush();
+    uint8_t d[4] = {0x40, 0x00, 0x10, 0x00};
+    rx(0x600u + NODE, 4u, d);
+    assert_null(sdo_rsp());
+}
+
+static void test_sdo_segmented(void **st)
+{
+    (void)st;
+    setup_dev();
+    /* upload the device name */
+    flush();
+    sdo_req(0x40u, 0x1008u, 0u, 0u);
+    const hd_can_frame_t *f = sdo_rsp();
+    assert_int_equal(f->data[0], 0x41);
+    uint32_t size = u32le(&f->data[4]);
+    char name[64] = {0};
+    uint32_t got = 0;
+    uint8_t t = 0;
+    while (got < size) {
+        sdo_req((uint8_t)(0x60u | (t << 4)), 0, 0, 0);
+        f = sdo_rsp();
+        assert_non_null(f);
+        assert_int_equal(f->data[0] & 0x10, t << 4);
+        uint32_t n = 7u - ((f->data[0] >> 1) & 7u);
+        memcpy(&name[got], &f->data[1], n);
+        got += n;
+        t ^= 1u;
+        if (f->data[0] & 1u) {
+            break;
+        }
+    }
+    assert_string_equal(name, "hdservo harmonic-drive servo");
+    /* segmented download of an int64 */
+    flush();
+    sdo_req(0x21u, 0x5F20u, 5u, 8u);
+    f = sdo_rsp();
+    assert_int_equal(f->data[0], 0x60);
+    uint8_t s1[8] = {0x00, 1, 2, 3, 4, 5, 6, 7};
+    rx(0x600u + NODE, 8, s1);
+    f = sdo_rsp();
+    assert_int_equal(f->data[0], 0x20);
+    uint8_t s2[8] = {0x10 | (6u << 1) | 1u, 0x88, 0, 0, 0, 0, 0, 0};
+    rx(0x600u + NODE, 8, s2);
+    f = sdo_rsp();
+    assert_int_equal(f->data[0], 0x30);
+    assert_int_equal((uint64_t)CO.od.sdo_test_test_i64, 0x8807060504030201ull);
+    /* toggle error */
+    flush();
+    sdo_req(0x21u, 0x5F20u, 5u, 8u);
+    (void)sdo_rsp();
+    uint8_t bad[8] = {0x10, 1, 2, 3, 4, 5, 6, 7};
+    rx(0x600u + NODE, 8, bad);
+    f = sdo_rsp();
+    assert_int_equal(u32le(&f->data[4]), HD_CO_AB_TOGGLE);
+    /* time-out */
+    flush();
+    sdo_req(0x21u, 0x5F20u, 5u, 8u);
+    (void)sdo_rsp();
+    tick(HD_CO_SDO_TIMEOUT_MS * 10u + 20u);
+    f = sdo_rsp();
+    assert_non_null(f);
+    assert_int_equal(u32le(&f->data[4]), HD_CO_AB_TIMEOUT);
+    /* indicated size mismatch */
+    flush();
+    sdo_req(0x21u, 0x5F20u, 5u, 9u);
+    f = sdo_rsp();
+    assert_int_equal(u32le(&f->data[4]), HD_CO_AB_LEN_HIGH);
+}
+
+/* block download of n bytes (with CRC unless bad_crc) to 0x5F20:11; returns abort or 0 */
+static uint32_t block_download(const uint8_t *data, uint32_t n, bool bad_crc)
+{
+    flush();
+    sdo_req(0xC6u, 0x5F20u, 11u, n);
+    const hd_can_frame_t *f = sdo_rsp();
+    if (f->data[0] == 0x80u) {
+        return u32le(&f->data[4]);
+    }
+    assert_int_equal(f->data[0] & 0xE3, 0xA0);
+    uint32_t blk = f->data[4];
+    uint32_t off = 0, seq = 0;
+    uint16_t crc = hd_co_crc16(0, data, n);
+    uint32_t last_n = 0;
+    while (off < n) {
+        uint8_t d[8] = {0};
+        uint32_t k = n - off < 7u ? n - off : 7u;
+        memcpy(&d[1], &data[off], k);
+        off += k;
+        seq++;
+        d[0] = (uint8_t)(seq | (off >= n ? 0x80u : 0u));
+        rx(0x600u + NODE, 8, d);
+        last_n = k;
+        if (seq == blk || off >= n) {
+            f = sdo_rsp();
+            assert_non_null(f);
+            if (f->data[0] == 0x80u) {
+                return u32le(&f->data[4]);
+            }
+            assert_int_equal(f->data[0], 0xA2);
+            assert_int_equal(f->data[1], seq);
+            blk = f->data[2];
+            seq = 0;
+            flush();
+        }
+    }
+    if (bad_crc) {
+        crc ^= 1u;
+    }
+    uint8_t e[8] = {(uint8_t)(0xC1u | ((7u - last_n) << 2)), (uint8_t)crc, (uint8_t)(crc >> 8), 0, 0, 0, 0, 0};
+    rx(0x600u + NODE, 8, e);
+    f = sdo_rsp();
+    assert_non_null(f);
+    if (f->data[0] == 0x80u) {
+        return u32le(&f->data[4]);
+    }
+    assert_int_equal(f->data[0], 0xA1);
+    return 0u;
+}
+
+/* block upload of 0x5F20:11 into out; returns byte count */
+static uint32_t block_upload(uint8_t *out, uint32_t cap)
+{
+    flush();
+    uint8_t d[8] = {0xA4, 0x20, 0x5F, 11, 127, 0, 0, 0};
+    rx(0x600u + NODE, 8, d);
+    const hd_can_frame_t *f = sdo_rsp();
+    assert_int_equal(f->data[0], 0xC6);
+    uint32_t size = u32le(&f->data[4]);
+    assert_true(size <= cap);
+    flush();
+    uint8_t s[8] = {0xA3, 0, 0, 0, 0, 0, 0, 0};
+    rx(0x600u + NODE, 8, s);
+    uint32_t got = 0;
+    uint16_t crc = 0;
+    for (;;) {
+        tick(1);   /* lets the pump refill */
+        uint32_t seq = 0;
+        bool last = false;
+        while ((f = sdo_rsp()) != NULL) {
+            seq = f->data[0] & 0x7Fu;
+            last = (f->data[0] & 0x80u) != 0u;
+            uint32_t k = size - got < 7u ? size - got : 7u;
+            memcpy(&out[got], &f->data[1], k);
+            crc = hd_co_crc16(crc, &f->data[1], k);
+            got += k;
+            if (last || seq == 127u) {
+                break;
+            }
+        }
+        if (seq == 0u) {
+            continue;
+        }
+        flush();
+        uint8_t a[8] = {0xA2, (uint8_t)seq, 127, 0, 0, 0, 0, 0};
+        rx(0x600u + NODE, 8, a);
+        if (last) {
+            break;
+        }
+    }
+    f = sdo_rsp();
+    assert_non_null(f);
+    assert_int_equal(f->data[0] & 0xE3, 0xC1);
+    uint32_t n = (f->data[0] >> 2) & 7u;
+    assert_int_equal(n, (7u - size % 7u) % 7u);
+    assert_int_equal(f->data[1] | (f->data[2] << 8), crc);
+    uint8_t e[8] = {0xA1, 0, 0, 0, 0, 0, 0, 0};
+    rx(0x600u + NODE, 8, e);
+    return got;
+}
+
+static uint8_t BUF[DOM_CAP], BUF2[DOM_CAP];
+
+static void make_table(uint8_t *b, uint32_t n, uint32_t seed)
+{
+    for (uint32_t i = 0; i < n - 4u; i++) {
+        seed = seed * 1103515245u + 12345u;
+        b[i] = (uint8_t)(seed >> 16);
+    }
+    uint32_t c = hd_co_crc32(0u, b, n - 4u);
+    b[n - 4u] = (uint8_t)c;
+    b[n - 3u] = (uint8_t)(c >> 8);
+    b[n - 2u] = (uint8_t)(c >> 16);
+    b[n - 1u] = (uint8_t)(c >> 24);
+}
+
+static void test_sdo_block_domain(void **st)
+{
+    (void)st;
+    setup_dev();
+    const uint32_t n = 65536u;
+    make_table(BUF, n, 1u);
+    assert_int_equal(block_download(BUF, n, false), 0);
+    assert_int_equal(X.dom_len, n);
+    assert_memory_equal(X.dom, BUF, n);
+    memset(BUF2, 0, n);
+    assert_int_equal(block_upload(BUF2, sizeof BUF2), n);
+    assert_memory_equal(BUF2, BUF, n);
+    /* transfer CRC wrong: abort, old table stays */
+    uint8_t other[1003];
+    make_table(other, sizeof other, 7u);
+    assert_int_equal(block_download(other, sizeof other, true), HD_CO_AB_CRC);
+    assert_int_equal(X.dom_len, n);
+    /* table's own CRC-32 wrong: refused, old table stays */
+    other[10] ^= 0x55u;
+    assert_int_equal(block_download(other, sizeof other, false), HD_CO_AB_STORE);
+    assert_int_equal(X.dom_len, n);
+    assert_memory_equal(X.dom, BUF, n);
+    /* invalid sequence number 0 and invalid block size */
+    flush();
+    sdo_req(0xC6u, 0x5F20u, 11u, 100u);
+    (void)sdo_rsp();
+    uint8_t z[8] = {0x00, 1, 2, 3, 4, 5, 6, 7};
+    rx(0x600u + NODE, 8, z);
+    const hd_can_frame_t *f = sdo_rsp();
+    assert_int_equal(u32le(&f->data[4]), HD_CO_AB_SEQNO);
+    flush();
+    uint8_t d[8] = {0xA4, 0x20, 0x5F, 11, 0, 0, 0, 0};
+    rx(0x600u + NODE, 8, d);
+    f = sdo_rsp();
+    assert_int_equal(u32le(&f->data[4]), HD_CO_AB_BLKSIZE);
+    /* a small table (odd length) through segmented upload */
+    make_table(other, 20u, 3u);
+    assert_int_equal(block_download(other, 20u, false), 0);
+    assert_int_equal(block_upload(BUF2, sizeof BUF2), 20u);
+    assert_memory_equal(BUF2, other, 20u);
+}
+
+static uint16_t statusword(void) { return CO.od.statusword; }
+
+static void cw(uint16_t v)
+{
+    assert_int_equal(sdo_write(0x6040u, 0u, v, 2u), 0);
+    tick(1);
+}
+
+static void test_402_state_machine(void **st)
+{
+    (void)st;
+    setup_dev();
+    tick(1);
+    assert_int_equal(statusword() & 0x4F, 0x40);            /* switch on disabled */
+    assert_int_equal(sdo_write(0x6060u, 0u, 8u, 1u), 0);
+    cw(0x06);
+    assert_int_equal(statusword() & 0x6F, 0x21);
+    cw(0x07);
+    assert_int_equal(statusword() & 0x6F, 0x23);
+    assert_false(X.on);
+    cw(0x0F);
+    assert_int_equal(statusword() & 0x6F, 0x27);
+    assert_true(X.on);
+    assert_int_equal(X.mode, 8);
+    assert_int_equal(CO.od.modes_of_operation_display, 8);
+    assert_int_equal(sdo_write(0x607Au, 0u, 123456u, 4u), 0);
+    tick(1);
+    assert_int_equal(X.sp.target_position, 123456);
+    assert_int_equal(X.sp.mode, 8);
+    /* quick stop -> quick stop active -> (standstill) switch on disabled */
+    cw(0x02);
+    assert_int_equal(statusword() & 0x6F, 0x07);
+    tick(20);
+    assert_int_equal(statusword() & 0x4F, 0x40);
+    assert_false(X.on);
+    /* back to operation enabled, then an app fault */
+    cw(0x06);
+    cw(0x0F);
+    assert_int_equal(statusword() & 0x6F, 0x27);
+    flush();
+    X.app_fault = 4u;
+    tick(2);
+    assert_int_equal(statusword() & 0x4F, 0x08);
+    assert_false(X.on);
+    const hd_can_frame_t *f;
+    bool emcy = false;
+    for (uint32_t i = 0; i < X.ntx; i++) {
+        f = &X.tx[i];
+        if (f->id == 0x80u + NODE && f->data[0] == 0x11 && f->data[1] == 0x86) {
+            emcy = true;
+        }
+    }
+    assert_true(emcy);
+    uint32_t v = 0;
+    assert_int_equal(sdo_read(0x603Fu, 0u, &v), 0);
+    assert_int_equal(v, 0x8611u);
+    assert_int_equal(sdo_read(0x1003u, 0u, &v), 0);
+    assert_int_equal(v, 1u);
+    assert_int_equal(sdo_read(0x1003u, 1u, &v), 0);
+    assert_int_equal(v, 0x8611u);
+    /* fault reset (rising edge of bit 7) */
+    cw(0x00);
+    cw(0x80);
+    tick(1);
+    assert_int_equal(X.fault_resets, 1);
+    assert_int_equal(statusword() & 0x4F, 0x40);
+    assert_int_equal(CO.od.error_register, 0);
+    /* clear the history */
+    assert_int_equal(sdo_write(0x1003u, 0u, 0u, 1u), 0);
+    assert_int_equal(sdo_read(0x1003u, 0u, &v), 0);
+    assert_int_equal(v, 0u);
+}
+
+static void test_heartbeat_consumer(void **st)
+{
+    (void)st;
+    setup_dev();
+    tick(1);
+    assert_int_equal(sdo_write(0x1016u, 1u, (127u << 16) | 50u, 4u), 0);
+    assert_int_equal(sdo_write(0x6060u, 0u, 9u, 1u), 0);
+    cw(0x06);
+    cw(0x0F);
+    uint8_t hb[1] = {0x05};
+    for (int i = 0; i < 10; i++) {
+        rx(0x77Fu, 1, hb);
+        tick(300);                                  /* 30 ms < 50 ms */
+    }
+    assert_int_equal(statusword() & 0x6F, 0x27);
+    flush();
+    tick(600);                                      /* 60 ms of silence */
+    assert_int_equal(X.comm_faults, 1);
+    assert_int_equal(statusword() & 0x4F, 0x08);
+    bool emcy = false;
+    for (uint32_t i = 0; i < X.ntx; i++) {
+        if (X.tx[i].id == 0x80u + NODE && X.tx[i].data[0] == 0x30 && X.tx[i].data[1] == 0x81) {
+            emcy = true;
+            assert_true(X.tx[i].data[2] & HD_CO_ER_COMM);
+        }
+    }
+    assert_true(emcy);
+    cw(0x00);
+    cw(0x80);
+    tick(1);
+    assert_int_equal(statusword() & 0x4F, 0x40);
+}
+
+static void test_pdo_mapping_and_stream(void **st)
+{
+    (void)st;
+    setup_dev();
+    /* remap TPDO2: tick + load velocity, stream every 5 periods (2 kHz) */
+    assert_int_equal(sdo_write(0x1A01u, 1u, 0x5F000120u, 4u), HD_CO_AB_STATE);   /* sub0 != 0 */
+    assert_int_equal(sdo_write(0x1801u, 1u, 0x80000281u + NODE - 1u, 4u), 0);
+    assert_int_equal(sdo_write(0x1A01u, 0u, 0u, 1u), 0);
+    assert_int_equal(sdo_write(0x1A01u, 1u, 0x5F000420u, 4u), 0);
+    assert_int_equal(sdo_write(0x1A01u, 2u, 0x60400010u, 4u), HD_CO_AB_NO_MAP);   /* RPDO object */
+    assert_int_equal(sdo_write(0x1A01u, 2u, 0x5F000120u, 4u), 0);
+    assert_int_equal(sdo_write(0x1A01u, 3u, 0x5F000920u, 4u), HD_CO_AB_NO_MAP);   /* wrong length */
+    assert_int_equal(sdo_write(0x1A01u, 3u, 0x5F000940u, 4u), 0);
+    assert_int_equal(sdo_write(0x1A01u, 0u, 3u, 1u), HD_CO_AB_MAP_LEN);           /* 128 bits */
+    assert_int_equal(sdo_write(0x1A01u, 0u, 2u, 1u), 0);
+    assert_int_equal(sdo_write(0x1801u, 2u, 254u, 1u), 0);
+    assert_int_equal(sdo_write(0x1801u, 2u, 250u, 1u), HD_CO_AB_VALUE);
+    assert_int_equal(sdo_write(0x1801u, 1u, 0x281u + NODE - 1u, 4u), 0);
+    assert_int_equal(sdo_write(0x5F10u, 2u, 5u, 2u), 0);
+    uint8_t start[2] = {0x01, 0};
+    rx(0, 2, start);
+    flush();
+    tick(10000);                                    /* 1 s */
+    uint32_t n = 0, prev = 0;
+    for (uint32_t i = 0; i < X.ntx; i++) {
+        const hd_can_frame_t *f = &X.tx[i];
+        if (f->id != 0x280u + NODE) {
+            continue;
+        }
+        assert_int_equal(f->dlc, 8);
+        uint32_t t = u32le(&f->data[4]);
+        if (n > 0) {
+            assert_int_equal(t - prev, 5u);
+        }
+        prev = t;
+        n++;
+    }
+    assert_true(n >= 400u);
+    /* RPDO: controlword + mode through RPDO1 (type 255: immediate) */
+    uint8_t r1[3] = {0x06, 0x00, 10};
+    rx(0x200u + NODE, 3, r1);
+    tick(1);
+    assert_int_equal(CO.od.controlword, 6);
+    assert_int_equal(CO.od.modes_of_operation, 10);
+    assert_int_equal(statusword() & 0x6F, 0x21);
+    /* short RPDO: EMCY 0x8210, nothing applied */
+    flush();
+    uint8_t r2[1] = {0x0F};
+    rx(0x200u + NODE, 1, r2);
+    assert_int_equal(CO.od.controlword, 6);
+    const hd_can_frame_t *f = next_tx();
+    assert_non_null(f);
+    assert_int_equal(f->id, 0x80u + NODE);
+    assert_int_equal(f->data[0] | (f->data[1] << 8), 0x8210);
+    /* SYNC-triggered TPDO1 (type 2: every second SYNC) */
+    assert_int_equal(sdo_write(0x1800u, 2u, 2u, 1u), 0);
+    flush();
+    for (int i = 0; i < 6; i++) {
+        rx(0x80u, 0, NULL);
+    }
+    uint32_t s = 0;
+    for (uint32_t i = 0; i < X.ntx; i++) {
+        if (X.tx[i].id == 0x180u + NODE) {
+            s++;
+        }
+    }
+    assert_int_equal(s, 3);
+}
+
+/* checksum of everything a bus frame must not change by accident */
+static uint32_t param_checksum(void)
+{
+    uint32_t c = hd_co_crc32(0u, (const uint8_t *)X.param, sizeof X.param);
+    for (uint32_t i = 0; i < CO.count; i++) {
+        const hd_co_entry_t *e = &CO.table[i];
+        if (e->kind == HD_CO_K_VAR && ((e->flags & HD_CO_F_STORE) != 0u || e->access == HD_CO_A_CONST ||
+                                        e->index == 0x1018u)) {
+            uint8_t b[8];
+            uint32_t n = 0;
+            assert_int_equal(hd_co_read(&CO, i, b, sizeof b, &n), 0);
+            c = hd_co_crc32(c, b, n);
+        }
+    }
+    return c;
+}
+
+static void test_fuzz_random_frames(void **st)
+{
+    (void)st;
+    setup_dev();
+    uint32_t before = param_checksum();
+    uint32_t seed = 0x1234567u;
+    static const uint32_t ids[] = {0x000, 0x080, 0x600 + NODE, 0x200 + NODE, 0x300 + NODE, 0x400 + NODE,
+                                   0x77F, 0x700 + NODE, 0x580 + NODE};
+    for (uint32_t i = 0; i < 100000u; i++) {
+        hd_can_frame_t f;
+        memset(&f, 0, sizeof f);
+        seed = seed * 1664525u + 1013904223u;
+        uint32_t r = seed >> 8;
+        f.id = (r & 1u) ? ids[(r >> 1) % (sizeof ids / sizeof ids[0])] : (r >> 4) & 0x1FFFFFFFu;
+        seed = seed * 1664525u + 1013904223u;
+        f.dlc = (uint8_t)((seed >> 24) % 16u);     /* includes illegal DLC > 8 */
+        f.ext = (uint8_t)(((seed >> 20) & 7u) == 0u);
+        f.rtr = (uint8_t)(((seed >> 17) & 15u) == 0u);
+        for (uint32_t k = 0; k < 8u; k++) {
+            seed = seed * 1664525u + 1013904223u;
+            f.data[k] = (uint8_t)(seed >> 24);
+        }
+        /* never a genuine NMT reset-node from the fuzzer (that legitimately reloads defaults) */
+        if (f.id == 0u && f.dlc == 2u && f.data[0] == 0x81u) {
+            f.data[0] = 0x7Eu;
+        }
+        hd_co_process(&CO, &f);
+        if ((i & 15u) == 0u) {
+            X.tick++;
+            hd_co_tick(&CO, HD_CO_TICK_US);
+        }
+        if (X.ntx > TXQ - 64u) {
+            flush();
+        }
+    }
+    assert_int_equal(param_checksum(), before);
+    /* still answers SDO: pre-operational, let any half transfer time out */
+    uint8_t preop[2] = {0x80, 0};
+    rx(0, 2, preop);
+    tick(HD_CO_SDO_TIMEOUT_MS * 10u + 20u);
+    uint32_t v = 0;
+    assert_int_equal(sdo_read(0x1000u, 0u, &v), 0);
+    assert_int_equal(v, 0x00020192u);
+    assert_int_equal(sdo_write(0x5F20u, 8u, 777u, 4u), 0);
+    assert_int_equal(sdo_read(0x5F20u, 8u, &v), 0);
+    assert_int_equal(v, 777u);
+    assert_true(CO.stats.rx_ignored > 1000u);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_bootup_nmt_heartbeat),
+        cmocka_unit_test(test_sdo_expedited_and_aborts),
+        cmocka_unit_test(test_sdo_segmented),
+        cmocka_unit_test(test_sdo_block_domain),
+        cmocka_unit_test(test_402_state_machine),
+        cmocka_unit_test(test_heartbeat_consumer),
+        cmocka_unit_test(test_pdo_mapping_and_stream),
+        cmocka_unit_test(test_fuzz_random_frames),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
