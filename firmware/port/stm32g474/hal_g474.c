@@ -1,0 +1,274 @@
+/*
+ * hal_g474.c - hal.h on the STM32G474, the interrupt structure and main().
+ *
+ * Interrupts (4 priority bits; lower number = more urgent):
+ *   ADC1_2 (prio 0, 20 kHz)  injected conversion done at the PWM peak: phase
+ *       currents, DC link; motor encoder; FOC current loop step; new duties
+ *       (applied at the next PWM update).  Every 2nd period (10 kHz) it also
+ *       reads the output encoder (SPI, ~4.6 us), latches the sensor sample of
+ *       the control period and pends PendSV.
+ *   FDCAN1_IT0 (prio 1)      RX FIFO 0 -> software RX queue; TX FIFO empty ->
+ *       refill from the software TX queue.
+ *   PendSV (prio 15, 10 kHz) hd_app_step(): the control period; then the
+ *       watchdog is refreshed (only here: a stuck control step resets the MCU).
+ * main() initialises everything and sleeps (WFI).
+ *
+ * Static state: this file holds the port's driver state (the application
+ * struct, FOC state, encoder state, CAN queues, the NVM image, the latched
+ * sensor sample and the command).  Interrupt handlers take no arguments, so
+ * their state must be static; firmware/core stays free of globals.
+ * Sharing rules: the ADC ISR writes the sensor latch before pending PendSV
+ * and PendSV reads it first thing (100 us apart); the command goes from
+ * PendSV to the ADC ISR through a two-entry buffer with an index flip (one
+ * aligned word store, atomic); each CAN queue has a single producer and a
+ * single consumer with the index updates as the last store.
+ */
+#include <stdint.h>
+#include <stdbool.h>
+#include "g474_regs.h"
+#include "g474_config.h"
+#include "g474_port.h"
+#include "hal.h"
+#include "hd_app.h"
+#include "hd_foc.h"
+#include "hd_fixed.h"
+#include "hd_encoder.h"
+#include "hd_ssi.h"
+#include "hd_flashstore.h"
+
+/* ---- port state ------------------------------------------------------------------ */
+
+static hd_app_t app;                          /* the drive application (~RAM budget, see docs) */
+
+static hd_foc_t foc;
+static hd_foc_cfg_t foc_cfg;
+static hd_enc_t menc;
+static int32_t i_off[3];
+static int32_t cal_acc[3];
+static uint32_t cal_n;
+static uint32_t foc_phase;                    /* 0 .. HD_G474_FOC_PER_CTRL-1 */
+static volatile uint32_t tick;
+static volatile uint32_t app_ran;             /* set by PendSV, cleared when the ISR pends */
+
+static hd_hal_sensors_t sens_latch;
+static hd_hal_command_t cmd_buf[2];
+static volatile uint32_t cmd_idx;
+
+/* CAN queues */
+static hd_can_frame_t rxq[HD_G474_CAN_RXQ], txq[HD_G474_CAN_TXQ];
+static volatile uint32_t rx_head, rx_tail, tx_head, tx_tail;   /* head: producer, tail: consumer */
+static volatile uint32_t rx_dropped;
+
+/* NVM */
+static hd_vnvm_t vnvm;
+static int32_t fl_read(void *ctx, uint32_t a, void *b, uint32_t l) { (void)ctx; return hd_g474_flash_read(a, b, l); }
+static int32_t fl_prog(void *ctx, uint32_t a, const void *b, uint32_t l) { (void)ctx; return hd_g474_flash_prog(a, b, l); }
+static int32_t fl_erase(void *ctx, uint32_t p) { (void)ctx; return hd_g474_flash_erase_page(p); }
+static const hd_flash_if_t flash_if = {0, fl_read, fl_prog, fl_erase, HD_G474_NVM_PAGE, HD_G474_NVM_PAGES};
+static int32_t nvm_ok;
+
+/* ---- hal.h ------------------------------------------------------------------------ */
+
+uint32_t hd_hal_tick(void)
+{
+    return tick;
+}
+
+void hd_hal_read_sensors(hd_hal_sensors_t *s)
+{
+    *s = sens_latch;
+}
+
+void hd_hal_write_command(const hd_hal_command_t *c)
+{
+    const uint32_t next = cmd_idx ^ 1u;
+    cmd_buf[next] = *c;
+    __asm__ volatile("dmb" ::: "memory");
+    cmd_idx = next;                          /* the ADC ISR picks it up from here */
+}
+
+static void can_pump_tx(void)
+{
+    while (tx_tail != tx_head) {
+        if (!hd_g474_can_tx_hw(&txq[tx_tail % HD_G474_CAN_TXQ])) {
+            break;
+        }
+        tx_tail = tx_tail + 1u;
+    }
+}
+
+bool hd_hal_can_send(const hd_can_frame_t *f)
+{
+    if (tx_head - tx_tail >= HD_G474_CAN_TXQ) {
+        return false;
+    }
+    txq[tx_head % HD_G474_CAN_TXQ] = *f;
+    __asm__ volatile("dmb" ::: "memory");
+    tx_head = tx_head + 1u;
+    /* the pump runs in the FDCAN ISR; mask it while this context pumps too */
+    HD_REG(NVIC_ICER(IRQ_FDCAN1_IT0 >> 5)) = 1u << (IRQ_FDCAN1_IT0 & 31u);
+    can_pump_tx();
+    HD_REG(NVIC_ISER(IRQ_FDCAN1_IT0 >> 5)) = 1u << (IRQ_FDCAN1_IT0 & 31u);
+    return true;
+}
+
+bool hd_hal_can_recv(hd_can_frame_t *f)
+{
+    if (rx_tail == rx_head) {
+        return false;
+    }
+    *f = rxq[rx_tail % HD_G474_CAN_RXQ];
+    __asm__ volatile("dmb" ::: "memory");
+    rx_tail = rx_tail + 1u;
+    return true;
+}
+
+uint32_t hd_hal_nvm_size(void) { return (nvm_ok == 0) ? HD_G474_VNVM_SIZE : 0u; }
+uint32_t hd_hal_nvm_page_size(void) { return HD_G474_VNVM_PAGE; }
+int32_t hd_hal_nvm_read(uint32_t o, void *b, uint32_t l) { return (nvm_ok == 0) ? hd_vnvm_read(&vnvm, o, b, l) : -1; }
+int32_t hd_hal_nvm_write(uint32_t o, const void *b, uint32_t l) { return (nvm_ok == 0) ? hd_vnvm_write(&vnvm, o, b, l) : -1; }
+int32_t hd_hal_nvm_erase(uint32_t o, uint32_t l) { return (nvm_ok == 0) ? hd_vnvm_erase(&vnvm, o, l) : -1; }
+
+/* ---- interrupts --------------------------------------------------------------------- */
+
+void hd_g474_fdcan_irq(void)
+{
+    hd_can_frame_t f;
+    const uint32_t ir = HD_REG(FDCAN_IR);
+    HD_REG(FDCAN_IR) = ir;
+    while (hd_g474_can_rx_hw(&f)) {
+        if (rx_head - rx_tail < HD_G474_CAN_RXQ) {
+            rxq[rx_head % HD_G474_CAN_RXQ] = f;
+            __asm__ volatile("dmb" ::: "memory");
+            rx_head = rx_head + 1u;
+        } else {
+            rx_dropped = rx_dropped + 1u;
+        }
+    }
+    if ((ir & FDCAN_IR_RF0L) != 0u) {
+        rx_dropped = rx_dropped + 1u;
+    }
+    can_pump_tx();
+}
+
+static void latch_sensors(void)
+{
+    uint8_t raw[HD_G474_SSI_BYTES];
+    hd_ssi_reading_t r;
+    uint32_t valid = 0u;
+    sens_latch.motor_enc_raw = hd_enc_single_turn(&menc, HD_G474_MOTOR_ENC_BITS);
+    if (menc.ok != 0u) {
+        valid |= HD_HAL_VALID_MOTOR_ENC;
+    }
+    if (hd_g474_ssi_read(raw, HD_G474_SSI_BYTES) == 0 &&
+        hd_ssi_decode(raw, HD_G474_SSI_BYTES, 8u * HD_G474_SSI_BYTES, &r) == HD_SSI_OK && r.error == 0u) {
+        sens_latch.output_enc_raw = r.position;
+        valid |= HD_HAL_VALID_OUTPUT_ENC;
+    }
+    sens_latch.current = foc.iq;
+    if (cal_n >= HD_G474_I_CAL_N) {
+        valid |= HD_HAL_VALID_CURRENT;
+    }
+    sens_latch.gyro_rate = 0;                 /* no gyro interface on this board yet */
+    sens_latch.valid = valid;
+}
+
+void hd_g474_adc_irq(void)
+{
+    hd_foc_in_t in;
+    hd_foc_out_t out;
+    const int32_t ra = (int32_t)(HD_REG(ADC_JDR1(ADC1_BASE)) & 0xFFFu);
+    const int32_t rv = (int32_t)(HD_REG(ADC_JDR2(ADC1_BASE)) & 0xFFFu);
+    const int32_t rb = (int32_t)(HD_REG(ADC_JDR1(ADC2_BASE)) & 0xFFFu);
+    const int32_t rc = (int32_t)(HD_REG(ADC_JDR2(ADC2_BASE)) & 0xFFFu);
+    HD_REG(ADC_ISR(ADC1_BASE)) = ADC_ISR_JEOS;
+    (void)hd_enc_update(&menc, hd_g474_enc_raw());
+    if (cal_n < HD_G474_I_CAL_N) {            /* current offsets, power stage off */
+        cal_acc[0] += ra;
+        cal_acc[1] += rb;
+        cal_acc[2] += rc;
+        cal_n++;
+        if (cal_n == HD_G474_I_CAL_N) {
+            i_off[0] = hd_asr32_rnd(cal_acc[0], 8u);
+            i_off[1] = hd_asr32_rnd(cal_acc[1], 8u);
+            i_off[2] = hd_asr32_rnd(cal_acc[2], 8u);
+        }
+    }
+    const hd_hal_command_t *c = &cmd_buf[cmd_idx];
+    in.ia = hd_foc_adc_current(ra, i_off[0], HD_G474_I_GAIN_Q30);
+    in.ib = hd_foc_adc_current(rb, i_off[1], HD_G474_I_GAIN_Q30);
+    in.theta_e = hd_foc_elec_angle(hd_enc_single_turn(&menc, HD_G474_MOTOR_ENC_BITS), HD_G474_MOTOR_ENC_BITS,
+                                   HD_G474_POLE_PAIRS, HD_G474_ELEC_OFFSET);
+    in.id_ref = 0;
+    in.iq_ref = c->current;
+    in.vbus = rv * HD_G474_VBUS_Q16_PER_LSB;
+    if (c->enable != 0u && cal_n >= HD_G474_I_CAL_N) {
+        hd_foc_step(&foc, &foc_cfg, &in, &out);
+        hd_g474_pwm_set(out.duty);
+        hd_g474_pwm_enable(true);
+    } else {
+        static const int32_t half[3] = {32768, 32768, 32768};
+        hd_g474_pwm_enable(false);
+        hd_foc_reset(&foc);
+        hd_g474_pwm_set(half);
+    }
+    foc_phase++;
+    if (foc_phase >= HD_G474_FOC_PER_CTRL) {
+        foc_phase = 0u;
+        latch_sensors();
+        tick = tick + 1u;
+        if (app_ran == 0u && tick > 2u) {
+            /* the previous control step has not finished: overrun -> safe state */
+            hd_g474_pwm_kill();
+        }
+        app_ran = 0u;
+        HD_REG(SCB_ICSR) = SCB_ICSR_PENDSVSET;
+    }
+}
+
+void hd_g474_pendsv(void)
+{
+    hd_app_step(&app);
+    app_ran = 1u;
+    hd_g474_iwdg_kick();
+}
+
+/* ---- main ---------------------------------------------------------------------------- */
+
+int main(void)
+{
+    uint8_t raw[HD_G474_SSI_BYTES];
+    hd_ssi_reading_t r;
+    hd_g474_clock_init();
+    hd_g474_gpio_init();
+    hd_g474_pwm_init();                       /* outputs off (MOE = 0) */
+    hd_g474_enc_init();
+    hd_g474_spi_init();
+    nvm_ok = hd_vnvm_open(&vnvm, &flash_if, HD_G474_VNVM_SIZE, HD_G474_VNVM_PAGE);
+    (void)hd_foc_design(&foc_cfg, HD_G474_R_MOHM, HD_G474_L_NH, HD_G474_FOC_FC_HZ, (int32_t)HD_G474_PWM_HZ);
+    hd_foc_reset(&foc);
+    /* motor encoder start: the output encoder times N gives the motor's
+     * single-turn angle at power-up (mod one motor turn) */
+    {
+        int64_t c0 = 0;
+        if (hd_g474_ssi_read(raw, HD_G474_SSI_BYTES) == 0 &&
+            hd_ssi_decode(raw, HD_G474_SSI_BYTES, 8u * HD_G474_SSI_BYTES, &r) == HD_SSI_OK) {
+            /* motor turns = N * output turns: frac(N * pos / 2^24) in 2^17 counts */
+            const uint64_t m = ((uint64_t)r.position * HD_G474_GEAR_N) & 0xFFFFFFu;
+            c0 = (int64_t)(m >> (24u - HD_G474_MOTOR_ENC_BITS));
+        }
+        hd_enc_init(&menc, hd_g474_enc_raw(), c0, HD_G474_MOTOR_ENC_MAX_STEP);
+    }
+    cmd_buf[0].enable = 0u;
+    cmd_idx = 0u;
+    hd_app_init(&app);                        /* parameters from the flash store */
+    (void)hd_g474_can_init();
+    hd_g474_iwdg_init();
+    HD_REG(SCB_SHPR3) = (HD_REG(SCB_SHPR3) & ~(0xFFu << 16)) | (0xF0u << 16);   /* PendSV lowest */
+    hd_g474_nvic_enable(IRQ_FDCAN1_IT0, 1u);
+    hd_g474_nvic_enable(IRQ_ADC1_2, 0u);
+    hd_g474_adc_init();                       /* conversions (and the 20 kHz interrupt) start */
+    for (;;) {
+        __asm__ volatile("wfi");
+    }
+}

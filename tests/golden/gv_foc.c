@@ -1,0 +1,281 @@
+/*
+ * gv_foc.c - golden vectors and Cortex-M4 costs of the STM32G474 port's
+ * hardware-independent kernels (issue 11):
+ *   foc_step        one FOC current-loop period (stateful sequence)
+ *   foc_svm         space-vector modulation
+ *   ssi_decode      output-encoder frame decoding (CRC-6)
+ *   enc_update      16-bit quadrature counter unwrapping (stateful)
+ *   isr_worst_case  cost only (its vectors are the encoder sequence again):
+ *                   one 10 kHz control period of the drive with EVERY
+ *                   compensator of the app's compensator bank enabled
+ *                   (cb_enable = HD_CB_ALL) in PTP mode, plus the port work
+ *                   of that period: 2 FOC periods (20 kHz PWM: encoder update,
+ *                   electrical angle, 2 ADC conversions, hd_foc_step) and the
+ *                   output-encoder frame decode.  Register accesses, the SPI
+ *                   transfer and interrupt entry are NOT included (see
+ *                   tests/bench/50_isr_load.py for the allowance).
+ * The app step uses the stub hal of gv_app.c (linked into the same images).
+ */
+#include "gv.h"
+#include "hal.h"
+#include "hd_app.h"
+#include "hd_foc.h"
+#include "hd_encoder.h"
+#include "hd_ssi.h"
+#include "hd_fixed.h"
+
+/* ---- foc_step ------------------------------------------------------------------------ */
+
+static void foc_cfg(hd_foc_cfg_t *c)
+{
+    (void)hd_foc_design(c, 300, 300000, 900, 20000);
+}
+
+static void gen_foc(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    in[0] = hd_gv_rand_range(r, -30 * 65536, 30 * 65536);          /* ia */
+    in[1] = hd_gv_rand_range(r, -30 * 65536, 30 * 65536);          /* ib */
+    in[2] = hd_gv_u2s(hd_gv_rand32(r));                            /* theta */
+    in[3] = hd_gv_rand_range(r, -5 * 65536, 5 * 65536);            /* id_ref */
+    in[4] = hd_gv_rand_range(r, -25 * 65536, 25 * 65536);          /* iq_ref */
+    in[5] = (idx % 61u == 7u) ? 0 : hd_gv_rand_range(r, 10 * 65536, 60 * 65536);   /* vbus, sometimes 0 */
+    if (idx % 97u == 3u) {                                          /* edge values */
+        in[0] = hd_gv_rand_edge32(r);
+        in[1] = hd_gv_rand_edge32(r);
+        in[4] = hd_gv_rand_edge32(r);
+    }
+}
+
+static void run_foc(const int32_t *in, int32_t *out, uint32_t count)
+{
+    hd_foc_t s;
+    hd_foc_cfg_t c;
+    hd_foc_in_t x;
+    hd_foc_out_t y;
+    uint32_t k;
+    foc_cfg(&c);
+    hd_foc_reset(&s);
+    for (k = 0; k < count; k++) {
+        const int32_t *v = &in[6u * k];
+        int32_t *o = &out[7u * k];
+        x.ia = v[0];
+        x.ib = v[1];
+        x.theta_e = hd_gv_s2u(v[2]);
+        x.id_ref = v[3];
+        x.iq_ref = v[4];
+        x.vbus = v[5];
+        hd_foc_step(&s, &c, &x, &y);
+        o[0] = y.duty[0];
+        o[1] = y.duty[1];
+        o[2] = y.duty[2];
+        o[3] = s.vd;
+        o[4] = s.vq;
+        o[5] = s.id;
+        o[6] = s.iq;
+    }
+}
+
+static volatile int32_t vol_in[6];
+static volatile int32_t vol_out;
+
+static void cost_foc(void)
+{
+    hd_foc_t s;
+    hd_foc_cfg_t c;
+    hd_foc_in_t x;
+    hd_foc_out_t y;
+    foc_cfg(&c);
+    hd_foc_reset(&s);
+    vol_in[0] = 3 * 65536; vol_in[1] = -2 * 65536; vol_in[2] = 0x12345678; vol_in[3] = 0;
+    vol_in[4] = 5 * 65536; vol_in[5] = 48 * 65536;
+    x.ia = vol_in[0]; x.ib = vol_in[1]; x.theta_e = hd_gv_s2u(vol_in[2]);
+    x.id_ref = vol_in[3]; x.iq_ref = vol_in[4]; x.vbus = vol_in[5];
+    hd_gv_cost_mark();
+    hd_foc_step(&s, &c, &x, &y);
+    hd_gv_cost_mark();
+    vol_out = y.duty[0];
+}
+
+/* ---- foc_svm -------------------------------------------------------------------------- */
+
+static void gen_svm(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    in[0] = hd_gv_rand_range(r, -40 * 65536, 40 * 65536);
+    in[1] = hd_gv_rand_range(r, -40 * 65536, 40 * 65536);
+    in[2] = hd_gv_rand_range(r, -1 * 65536, 70 * 65536);
+    if (idx % 31u == 5u) {
+        in[0] = hd_gv_rand_edge32(r);
+        in[1] = hd_gv_rand_edge32(r);
+        in[2] = hd_gv_rand_edge32(r);
+    }
+}
+
+static void run_svm(const int32_t *in, int32_t *out, uint32_t count)
+{
+    uint32_t k;
+    for (k = 0; k < count; k++) {
+        hd_foc_svm(in[3u * k], in[3u * k + 1u], in[3u * k + 2u], &out[3u * k]);
+    }
+}
+
+static void cost_svm(void)
+{
+    int32_t d[3];
+    vol_in[0] = 10 * 65536; vol_in[1] = -7 * 65536; vol_in[2] = 48 * 65536;
+    const int32_t a = vol_in[0], b = vol_in[1], v = vol_in[2];
+    hd_gv_cost_mark();
+    hd_foc_svm(a, b, v, d);
+    hd_gv_cost_mark();
+    vol_out = d[0];
+}
+
+/* ---- ssi_decode ------------------------------------------------------------------------- */
+
+static void gen_ssi(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    const uint32_t d = hd_ssi_encode(hd_gv_rand32(r) & 0xFFFFFFu, (idx % 7u) == 0u, (idx % 5u) == 0u);
+    const uint32_t flip = ((idx % 3u) == 0u) ? (1u << (hd_gv_rand32(r) % 32u)) : 0u;
+    in[0] = hd_gv_u2s(d ^ flip);
+    in[1] = (int32_t)(hd_gv_rand32(r) % 8u);        /* latency bits */
+}
+
+static int32_t ssi_one(uint32_t data, uint32_t lat, int32_t *o)
+{
+    uint8_t buf[6] = {0xFFu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0xFFu};
+    hd_ssi_reading_t rd = {0u, 0u, 0u};
+    uint32_t pos = 1u + lat;            /* idle 1 bit, ack + lat zeros */
+    uint32_t i;
+    for (i = 1u; i <= pos; i++) {
+        buf[i >> 3] = (uint8_t)(buf[i >> 3] & ~(0x80u >> (i & 7u)));
+    }
+    pos++;                              /* start bit 1 */
+    buf[pos >> 3] = (uint8_t)(buf[pos >> 3] & ~(0x80u >> (pos & 7u)));   /* cds 0 */
+    pos++;
+    for (i = 0; i < 32u; i++, pos++) {
+        if (((data >> (31u - i)) & 1u) == 0u) {
+            buf[pos >> 3] = (uint8_t)(buf[pos >> 3] & ~(0x80u >> (pos & 7u)));
+        }
+    }
+    const int32_t rc = hd_ssi_decode(buf, 6u, 48u, &rd);
+    o[0] = rc;
+    o[1] = (int32_t)rd.position;
+    o[2] = (int32_t)rd.error;
+    o[3] = (int32_t)rd.warning;
+    return rc;
+}
+
+static void run_ssi(const int32_t *in, int32_t *out, uint32_t count)
+{
+    uint32_t k;
+    for (k = 0; k < count; k++) {
+        (void)ssi_one(hd_gv_s2u(in[2u * k]), (uint32_t)in[2u * k + 1u], &out[4u * k]);
+    }
+}
+
+static void cost_ssi(void)
+{
+    uint8_t buf[6] = {0xA0u, 0x00u, 0x00u, 0x00u, 0x00u, 0x3Fu};
+    hd_ssi_reading_t rd;
+    buf[1] = (uint8_t)vol_in[0];
+    hd_gv_cost_mark();
+    const int32_t rc = hd_ssi_decode(buf, 6u, 48u, &rd);
+    hd_gv_cost_mark();
+    vol_out = rc;
+}
+
+/* ---- enc_update -------------------------------------------------------------------------- */
+
+static void gen_enc(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    (void)idx;
+    in[0] = hd_gv_rand_range(r, -3000, 3000);       /* true step this period */
+}
+
+static void run_enc(const int32_t *in, int32_t *out, uint32_t count)
+{
+    hd_enc_t e;
+    uint32_t k, raw = 65000u;
+    hd_enc_init(&e, raw, -5, 2500u);
+    for (k = 0; k < count; k++) {
+        raw = (raw + hd_gv_s2u(in[k])) & 0xFFFFu;
+        out[3u * k] = hd_enc_update(&e, raw);
+        out[3u * k + 1u] = hd_gv_u2s(hd_enc_single_turn(&e, 17u));
+        out[3u * k + 2u] = (int32_t)e.ok;
+    }
+}
+
+static void cost_enc(void)
+{
+    hd_enc_t e;
+    hd_enc_init(&e, 100u, 0, 2500u);
+    const uint32_t raw = (uint32_t)vol_in[0] & 0xFFFFu;
+    hd_gv_cost_mark();
+    (void)hd_enc_update(&e, raw);
+    hd_gv_cost_mark();
+    vol_out = (int32_t)e.count;
+}
+
+/* ---- isr_worst_case --------------------------------------------------------------------- */
+
+static hd_app_t isr_app;
+
+static void isr_port_foc(hd_foc_t *s, const hd_foc_cfg_t *c, hd_enc_t *e, uint32_t raw, int32_t ra, int32_t rb,
+                         int32_t rv, int32_t iq_ref, int32_t duty[3])
+{
+    hd_foc_in_t x;
+    hd_foc_out_t y;
+    (void)hd_enc_update(e, raw);
+    x.ia = hd_foc_adc_current(ra, 2048, 13107200);
+    x.ib = hd_foc_adc_current(rb, 2048, 13107200);
+    x.theta_e = hd_foc_elec_angle(hd_enc_single_turn(e, 17u), 17u, 8u, 0u);
+    x.id_ref = 0;
+    x.iq_ref = iq_ref;
+    x.vbus = rv * 1056;
+    hd_foc_step(s, c, &x, &y);
+    duty[0] = y.duty[0];
+    duty[1] = y.duty[1];
+    duty[2] = y.duty[2];
+}
+
+static void cost_isr(void)
+{
+    hd_foc_t s;
+    hd_foc_cfg_t c;
+    hd_enc_t e;
+    hd_ssi_reading_t rd;
+    int32_t duty[3];
+    uint32_t k;
+    uint8_t buf[6] = {0xA0u, 0x12u, 0x34u, 0x56u, 0x78u, 0x3Fu};
+    foc_cfg(&c);
+    hd_foc_reset(&s);
+    hd_enc_init(&e, 0u, 0, 2500u);
+    /* the app as in gv_app.c's cost (stub hal sensors primed there), but with
+     * every compensator of the bank enabled */
+    hd_app_init(&isr_app);
+    (void)hd_app_param_set(&isr_app, HD_P_FAULT_ENABLE, 0);
+    (void)hd_app_param_set(&isr_app, HD_P_CB_ENABLE, (int32_t)HD_CB_ALL);
+    hd_app_step(&isr_app);
+    (void)hd_app_move_to(&isr_app, isr_app.pos_out + ((hd_angle_t)1 << 24));
+    (void)hd_app_set_mode(&isr_app, HD_MODE_PTP);
+    for (k = 0; k < 20u; k++) {
+        hd_app_step(&isr_app);
+    }
+    vol_in[0] = 2100; vol_in[1] = 1990; vol_in[2] = 3000; vol_in[3] = 5 * 65536;
+    const int32_t ra = vol_in[0], rb = vol_in[1], rv = vol_in[2], iq = vol_in[3];
+    hd_gv_cost_mark();
+    isr_port_foc(&s, &c, &e, 37u, ra, rb, rv, iq, duty);           /* FOC period 1 */
+    isr_port_foc(&s, &c, &e, 74u, ra, rb, rv, iq, duty);           /* FOC period 2 */
+    (void)hd_ssi_decode(buf, 6u, 48u, &rd);                         /* output encoder */
+    hd_app_step(&isr_app);                                          /* control period */
+    hd_gv_cost_mark();
+    vol_out = duty[0] + (int32_t)rd.position;
+}
+
+const hd_gv_kernel_t hd_gv_foc_kernels[] = {
+    {"foc_step", 6u, 7u, 384u, gen_foc, run_foc, cost_foc},
+    {"foc_svm", 3u, 3u, 256u, gen_svm, run_svm, cost_svm},
+    {"ssi_decode", 2u, 4u, 256u, gen_ssi, run_ssi, cost_ssi},
+    {"enc_update", 1u, 3u, 256u, gen_enc, run_enc, cost_enc},
+    {"isr_worst_case", 1u, 3u, 16u, gen_enc, run_enc, cost_isr},
+};
+const uint32_t hd_gv_foc_count = sizeof hd_gv_foc_kernels / sizeof hd_gv_foc_kernels[0];
