@@ -35,8 +35,15 @@ FORMAT_VERSION = 1
 #: ``_code``, ``_count`` or ``_flag``.
 UNIT_SUFFIXES: tuple[str, ...] = (
     "_Nm_s_per_rad", "_Nm_per_rad", "_rad_s2", "_rad_s", "_rad", "_Nm", "_A", "_V",
-    "_W", "_K", "_Hz", "_s", "_code", "_count", "_flag",
+    "_W", "_K", "_Hz",
+    # linear axes (e.g. the EMPS prismatic axis): metres, m/s, m/s^2, newtons
+    "_m_s2", "_m_s", "_m", "_N",
+    "_s", "_code", "_count", "_flag",
 )
+
+#: Suffixes of a linear axis; a known signal may carry them instead of its rotary unit
+#: (``setpoint_m`` on a prismatic axis, see ``column_roles`` in the EMPS sidecar).
+LINEAR_SUFFIXES: tuple[str, ...] = ("_m_s2", "_m_s", "_m", "_N")
 
 #: Signals whose unit is fixed: base name -> the only accepted suffix.
 KNOWN_SIGNALS: dict[str, str] = {
@@ -141,7 +148,8 @@ def check_column_name(column: str) -> str | None:
         return f"expected a column name of letters, digits and '_', found '{column}'"
     for base, suf in KNOWN_SIGNALS.items():
         rest = column[len(base):]
-        if column.startswith(base + "_") and rest != suf and (rest in _NON_SI or rest in UNIT_SUFFIXES):
+        if (column.startswith(base + "_") and rest != suf and rest not in LINEAR_SUFFIXES
+                and (rest in _NON_SI or rest in UNIT_SUFFIXES)):
             return f"expected '{base}{suf}' (SI unit suffix '{suf}'), found '{column}'"
     for bad in _NON_SI:
         if column.endswith(bad):

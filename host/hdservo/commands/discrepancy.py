@@ -1,0 +1,76 @@
+"""``hdservo discrepancy LOG.csv [--model MODEL.toml] --json OUT.json --plots DIR``.
+
+Fits the baseline axis model to a log (or takes its structure from MODEL.toml), then
+names the missing effects one at a time, most evident first, while they are
+significant (docs/discrepancy.md).  MODEL.toml::
+
+    [model]
+    structure = "two_mass"      # or "rigid"
+    offset = false              # constant torque offset in the baseline (default: rigid yes, two-mass no)
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from ..cli import UserError
+
+NAME = "discrepancy"
+HELP = "find and name the physics a baseline axis model lacks (model-discrepancy workflow)"
+
+
+def register(p: argparse.ArgumentParser) -> None:
+    p.add_argument("log", type=Path, help="log CSV (DESIGN.md section 7) with its JSON sidecar")
+    p.add_argument("--model", type=Path, help="baseline model TOML ([model] structure, offset)")
+    p.add_argument("--json", type=Path, required=True, metavar="OUT.json", help="result JSON to write")
+    p.add_argument("--plots", type=Path, metavar="DIR", help="directory for the PNG plots")
+
+
+def read_model(path: Path) -> dict[str, Any]:
+    """Read and check a baseline model TOML; one-line UserError on bad input."""
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except OSError as e:
+        raise UserError(f"{path}: cannot read: {e.strerror or e}") from None
+    except tomllib.TOMLDecodeError as e:
+        raise UserError(f"{path}: expected TOML: {e}") from None
+    m = data.get("model")
+    if not isinstance(m, dict):
+        raise UserError(f"{path}: expected a [model] table")
+    unknown = set(m) - {"structure", "offset"}
+    if unknown:
+        raise UserError(f"{path}: [model]: unknown key '{sorted(unknown)[0]}' (expected structure, offset)")
+    st = m.get("structure", "two_mass")
+    if st not in ("two_mass", "rigid"):
+        raise UserError(f"{path}: [model] structure: expected \"two_mass\" or \"rigid\", found {st!r}")
+    off = m.get("offset")
+    if off is not None and not isinstance(off, bool):
+        raise UserError(f"{path}: [model] offset: expected true or false, found {off!r}")
+    return {"structure": st, "offset": off}
+
+
+def run(args: argparse.Namespace) -> int:
+    from .. import logio
+    from ..discrepancy import signals, workflow
+    model = read_model(args.model) if args.model else {"structure": None, "offset": None}
+    log = logio.read_log(args.log)
+    sig = signals.from_log(log, model["structure"])
+    res = workflow.run(sig, offset=model["offset"])
+    out = res.to_json()
+    out["log"] = str(args.log)
+    out["structure"] = sig.kind
+    if args.plots:
+        from ..discrepancy.plots import write_plots
+        out["plots"] = [str(p) for p in write_plots(res, args.plots)]
+    logio._atomic_write(args.json, json.dumps(out, indent=2) + "\n")
+    u = sig.units["torque"]
+    print(f"{args.log}: {sig.kind} baseline, equation-error RMS {res.rms_history[0]:.4g} {u}")
+    for it in res.iterations:
+        print(f"  + {it['named_effect']}: {it['rms_before']:.4g} -> {it['rms_after']:.4g} {u} "
+              f"(delta BIC {it['evidence']['delta_bic']:.0f}, explained {100 * it['evidence']['explained_fraction']:.0f} %)")
+    if not res.iterations:
+        print("  no significant missing effect")
+    return 0

@@ -1,0 +1,219 @@
+"""Baseline axis model, its regression columns and the weighted least-squares fit.
+
+Two structures (docs/discrepancy.md):
+
+* ``two_mass`` -- motor inertia J_m and load inertia J_l joined by a linear spring K
+  with damping c (output side), viscous + Coulomb friction on each side.  Written as two
+  linear-in-the-parameters equations in the measured motor torque tau (N.m, motor side):
+
+  motor equation (M):  tau = J_m a_m + (K phi + c phi')/N + Fv_m w_m + Fc_m sgn w_m
+  rigid-body sum (R):  tau = J_m a_m + J_l a_l/N + Fv_m w_m + Fc_m sgn w_m + (Fv_l w_l + Fc_l sgn w_l)/N
+
+  with phi = theta_m/N - theta_l the measured twist.  R is the sum of the motor and load
+  equations; it holds whatever the spring does, M carries the spring.
+* ``rigid`` -- one mass on one coordinate: tau = J a + Fv w + Fc sgn w + offset (the
+  symmetric inverse model of EMPS).  With two encoders and a rigid baseline the
+  coordinate is the motor angle.
+
+Both are fitted by ordinary least squares on the parallel-filtered, decimated data
+(IDIM-LS), each equation weighted by the inverse of its residual scale, samples at
+standstill excluded (friction there is the unknown sticking force).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from .signals import Signals
+
+
+@dataclass
+class Column:
+    """One regressor: its series (log rate) in the motor equation M and in the rigid-body equation R.
+
+    ``scale`` converts the fitted coefficient into the physical parameter ``name``.
+    """
+
+    name: str
+    M: np.ndarray | None
+    R: np.ndarray | None
+    scale: float = 1.0
+    key: str = ""            # cache key of the filtered series (name + hyper-parameters)
+
+
+#: Width of the smoothed sign relative to the standstill threshold (samples below the
+#: threshold are not used, so the sign is effectively sharp where it matters).
+SIGN_SMOOTH = 0.1
+
+
+def smooth_sign(v: np.ndarray, eps: float) -> np.ndarray:
+    """tanh(v/eps): a sign function smoothed over +-eps (same unit as v)."""
+    return np.tanh(v / max(eps, 1e-300))
+
+
+@dataclass
+class Design:
+    """Data shared by every fit of one log.
+
+    Attributes
+    ----------
+    sig : Signals
+    v_eps : float
+        Velocity below which the axis counts as standing (output side), rad/s (m/s).
+    mask : numpy.ndarray of bool
+        Decimated samples used in the fit (moving, away from the ends).
+    equations : tuple of str
+        ``("M", "R")`` for two-mass, ``("R",)`` for rigid.
+    """
+
+    sig: Signals
+    v_eps: float
+    mask: np.ndarray
+    equations: tuple[str, ...]
+    _cache: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+
+    def dec(self, key: str, x: np.ndarray | None) -> np.ndarray:
+        """Parallel-filtered, decimated copy of ``x`` (zeros if None), cached under ``key``."""
+        if x is None:
+            return np.zeros(self.sig.n_dec())
+        if key not in self._cache:
+            self._cache[key] = self.sig.dec(x)
+        return self._cache[key]
+
+    def stack(self, col: Column) -> np.ndarray:
+        """The column's decimated values over the used samples of every equation."""
+        parts = [self.dec(f"{col.key or col.name}:{e}", getattr(col, e))[self.mask] for e in self.equations]
+        return np.concatenate(parts)
+
+    def lhs(self, tau: np.ndarray, key: str = "tau") -> np.ndarray:
+        """The measured torque stacked like :meth:`stack`."""
+        d = self.dec(key, tau)[self.mask]
+        return np.concatenate([d for _ in self.equations])
+
+    @property
+    def n_rows(self) -> int:
+        return int(self.mask.sum()) * len(self.equations)
+
+
+def make_design(sig: Signals) -> Design:
+    """Choose the standstill threshold and the used samples of a log."""
+    v = sig.v_out
+    hf = v - _smooth(v, max(3, int(round(1.0 / (sig.fc_Hz * sig.dt) / 2))))
+    noise = 1.4826 * float(np.median(np.abs(hf - np.median(hf))))
+    v_eps = max(4.0 * noise, 2e-3 * float(np.max(np.abs(v))), 1e-12)
+    vd = np.abs(sig.dec(v))
+    n = len(vd)
+    moving = vd > v_eps
+    # drop a few samples on each side of standstill and at the ends (filter transients)
+    k = 3
+    m = moving.copy()
+    for s in range(1, k + 1):
+        m[s:] &= moving[:-s]
+        m[:-s] &= moving[s:]
+    edge = max(10, n // 100)
+    m[:edge] = False
+    m[-edge:] = False
+    eq = ("M", "R") if sig.kind == "two_mass" else ("R",)
+    return Design(sig=sig, v_eps=v_eps, mask=m, equations=eq)
+
+
+def _smooth(x: np.ndarray, w: int) -> np.ndarray:
+    k = np.ones(w) / w
+    return np.convolve(x, k, mode="same")
+
+
+def baseline_columns(d: Design, offset: bool | None = None) -> list[Column]:
+    """Regressors of the baseline model (see the module docstring)."""
+    s = d.sig
+    N = s.ratio
+    eps = d.v_eps
+    if s.kind == "rigid":
+        one = np.ones_like(s.tau)
+        cols = [Column("J", None, s.a_m), Column("Fv", None, s.w_m),
+                Column("Fc", None, smooth_sign(s.w_m, SIGN_SMOOTH * eps * N))]
+        if offset is None or offset:
+            cols.append(Column("offset", None, one))
+        return cols
+    sm = smooth_sign(s.w_m, SIGN_SMOOTH * eps * N)
+    sl = smooth_sign(s.w_l, SIGN_SMOOTH * eps)
+    cols = [
+        Column("J_m_kgm2", s.a_m, s.a_m),
+        Column("J_l_kgm2", None, s.a_l / N),
+        Column("K_Nm_per_rad", s.phi / N, None),
+        Column("c_Nms_per_rad", s.dphi / N, None),
+        Column("Fv_motor_Nms_per_rad", s.w_m, s.w_m),
+        Column("Fc_motor_Nm", sm, sm),
+        Column("Fv_load_Nms_per_rad", None, s.w_l / N),
+        Column("Fc_load_Nm", None, sl / N),
+    ]
+    if offset:
+        cols.append(Column("offset_Nm", np.ones_like(s.tau), np.ones_like(s.tau)))
+    return cols
+
+
+@dataclass
+class Fit:
+    """A weighted least-squares fit.
+
+    Attributes
+    ----------
+    theta : numpy.ndarray
+        Coefficients, one per column.
+    names : list of str
+    resid : dict of str to numpy.ndarray
+        Unweighted residual (measured - model) per equation over the used decimated
+        samples, N.m at the motor.
+    rss_w : float
+        Weighted residual sum of squares.
+    n_params : int
+    """
+
+    theta: np.ndarray
+    names: list[str]
+    resid: dict[str, np.ndarray]
+    rss_w: float
+    n_params: int
+
+    @property
+    def rms(self) -> float:
+        """RMS of the unweighted residual over all equations, N.m (motor side)."""
+        allr = np.concatenate(list(self.resid.values()))
+        return float(np.sqrt(np.mean(allr ** 2)))
+
+    def params(self) -> dict[str, float]:
+        return {n: float(v) for n, v in zip(self.names, self.theta)}
+
+
+def solve(d: Design, cols: Sequence[Column], weights: dict[str, float],
+          tau: np.ndarray | None = None, tau_key: str = "tau") -> Fit:
+    """Weighted LS of the stacked equations (weights: 1/scale per equation)."""
+    X = np.column_stack([d.stack(c) for c in cols])
+    y = d.lhs(d.sig.tau if tau is None else tau, tau_key)
+    n = int(d.mask.sum())
+    w = np.concatenate([np.full(n, weights.get(e, 1.0)) for e in d.equations])
+    Xw = X * w[:, None]
+    yw = y * w
+    sc = np.sqrt(np.sum(Xw ** 2, axis=0))
+    sc[sc == 0] = 1.0
+    theta, *_ = np.linalg.lstsq(Xw / sc, yw, rcond=None)
+    theta = theta / sc
+    r = y - X @ theta
+    resid = {e: r[i * n:(i + 1) * n] for i, e in enumerate(d.equations)}
+    rss_w = float(np.sum((r * w) ** 2))
+    return Fit(theta=theta, names=[c.name for c in cols], resid=resid, rss_w=rss_w, n_params=len(cols))
+
+
+def equation_weights(fit: Fit) -> dict[str, float]:
+    """Inverse robust scale (1.4826 MAD) of each equation's residual."""
+    out = {}
+    for e, r in fit.resid.items():
+        s = 1.4826 * float(np.median(np.abs(r - np.median(r))))
+        out[e] = 1.0 / max(s, 1e-30)
+    return out
+
+
+def physical_params(fit: Fit, sig: Signals) -> dict[str, float]:
+    """Baseline parameters in SI units (two-mass: output-side K, c, load friction; motor-side J_m, motor friction)."""
+    return fit.params()

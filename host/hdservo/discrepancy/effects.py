@@ -1,0 +1,348 @@
+"""The candidate library: for each missing effect its signature, parametric form and fitter.
+
+Every candidate contributes extra regression columns to the baseline equations (or,
+for the current-loop lag, a filter on the measured torque) and has at most one
+nonlinear hyper-parameter searched on a grid (Stribeck velocity, stop thresholds,
+backlash half-gap, cogging order, lag time constant); the linear coefficients are
+re-fitted jointly with the baseline by :func:`hdservo.discrepancy.baseline.solve`.
+
+Signatures (research/harmonic-drive.md 10.5) are what the columns encode and what the
+plots show: the coordinate in :attr:`Effect.coordinate` reveals the effect.
+
+| name | equation | columns (per unit of the coefficient) | hyper |
+|---|---|---|---|
+| stribeck_friction | M,R / R | exp(-(v/vs)^2) sgn v, motor and load side | vs |
+| asymmetric_friction | M,R / R | 1 and abs(v), per side (direction-dependent Coulomb and viscous) | - |
+| transmission_error | M | cos/sin(k theta_m)/N, k = 1..4 per wave-generator revolution (coef = K*e_k) | - |
+| cogging_torque | M,R | cos/sin(p theta_m), cos/sin(2p theta_m) | order p >= 5 |
+| nonlinear_stiffness | M | phi abs(phi)/N, phi^3/N, or a knee sat_b(phi)/N with K_in/K >= 0.25 | form, b |
+| hysteresis | M | stop operators S_D[phi]/N at 4 thresholds (Maxwell-slip) | D scale |
+| backlash | M | sat_b(phi)/N with K_in/K < 0.25 (soft/lost-motion zone) | b |
+| gravity_unbalance | R | cos(theta_l)/N, sin(theta_l)/N | - |
+| unmodelled_compliance | R (rigid baseline) | (a_l - a_m/N)/N, coefficient J_l | - |
+| current_loop_lag | lhs | tau -> first-order lag of tau | T |
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Iterator
+
+import numpy as np
+import scipy.signal as sps
+
+from .baseline import Column, Design, Fit, smooth_sign
+
+
+@dataclass
+class Variant:
+    """One fully specified form of a candidate (hyper-parameters fixed)."""
+
+    hyper: dict[str, Any]
+    columns: list[Column]
+    tau: np.ndarray | None = None          # replacement of the measured torque (lag)
+    tau_key: str = "tau"
+    n_hyper: int = 0                       # nonlinear parameters searched (penalised too)
+
+
+class Effect:
+    """Base class of a candidate effect."""
+
+    name: str = ""
+    coordinate: str = ""                   # what reveals it (plots)
+    signature: str = ""
+
+    def applicable(self, d: Design) -> bool:
+        return True
+
+    def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
+        raise NotImplementedError
+
+    def valid(self, fit: Fit, v: Variant) -> bool:
+        return True
+
+    def params(self, fit: Fit, v: Variant) -> dict[str, Any]:
+        out: dict[str, Any] = {k: (float(x) if isinstance(x, (int, float, np.floating)) else x)
+                               for k, x in v.hyper.items()}
+        for c in v.columns:
+            out[c.name] = float(fit.theta[fit.names.index(c.name)]) * c.scale
+        return out
+
+
+def _idx(fit: Fit, name: str) -> float:
+    return float(fit.theta[fit.names.index(name)])
+
+
+class Stribeck(Effect):
+    name = "stribeck_friction"
+    coordinate = "velocity"
+    signature = "excess friction at low speed decaying with abs(v) (both directions alike)"
+
+    def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
+        s = d.sig
+        v = s.v_out
+        vmax = float(np.percentile(np.abs(v), 99))
+        for vs in np.geomspace(max(2 * d.v_eps, 1e-3 * vmax), 0.5 * vmax, 8):
+            cols = []
+            if s.kind == "rigid":
+                g = np.exp(-(s.w_m / (vs * s.ratio)) ** 2) * smooth_sign(s.w_m, 0.1 * d.v_eps * s.ratio)
+                cols.append(Column("dFs", None, g, key=f"dFs{vs:.6g}"))
+            else:
+                N = s.ratio
+                gm = np.exp(-(s.w_m / (vs * N)) ** 2) * smooth_sign(s.w_m, 0.1 * d.v_eps * N)
+                gl = np.exp(-(s.w_l / vs) ** 2) * smooth_sign(s.w_l, 0.1 * d.v_eps)
+                cols += [Column("dFs_motor_Nm", gm, gm, key=f"dFsm{vs:.6g}"),
+                         Column("dFs_load_Nm", None, gl / N, key=f"dFsl{vs:.6g}")]
+            yield Variant({"vs_out_rad_s": float(vs)}, cols, n_hyper=1)
+
+    def valid(self, fit: Fit, v: Variant) -> bool:
+        # a Stribeck hump raises friction at low speed: the summed excess must be positive
+        tot = sum(_idx(fit, c.name) * (1.0 if c.M is not None else 1.0 / max(1.0, 1.0)) for c in v.columns)
+        return tot > 0
+
+
+class Asymmetric(Effect):
+    name = "asymmetric_friction"
+    coordinate = "velocity"
+    signature = "friction differs between directions: offset and slope of the residual change sign with v"
+
+    def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
+        s = d.sig
+        one = np.ones_like(s.tau)
+        if s.kind == "rigid":
+            yield Variant({}, [Column("dFv_asym", None, np.abs(s.w_m)),
+                               Column("dFc_asym", None, one)] if "offset" not in _names(d) else
+                          [Column("dFv_asym", None, np.abs(s.w_m))])
+            return
+        N = s.ratio
+        yield Variant({}, [Column("dFc_motor_asym_Nm", one, one),
+                           Column("dFv_motor_asym_Nms_per_rad", np.abs(s.w_m), np.abs(s.w_m)),
+                           Column("dFc_load_asym_Nm", None, one / N),
+                           Column("dFv_load_asym_Nms_per_rad", None, np.abs(s.w_l) / N)])
+
+
+def _names(d: Design) -> set[str]:
+    return set(getattr(d, "_baseline_names", set()))
+
+
+class TransmissionError(Effect):
+    name = "transmission_error"
+    coordinate = "motor angle (wave-generator angle)"
+    signature = "lines at 1, 2, 4 per wave-generator revolution in the spring (motor) equation only"
+    orders = (1, 2, 3, 4)
+
+    def applicable(self, d: Design) -> bool:
+        return d.sig.kind == "two_mass"
+
+    def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
+        s = d.sig
+        N = s.ratio
+        th = s.raw_th_m
+        cols = []
+        for k in self.orders:
+            cols.append(Column(f"te_wg{k}_cos", np.cos(k * th) / N, None))
+            cols.append(Column(f"te_wg{k}_sin", np.sin(k * th) / N, None))
+        yield Variant({"orders_per_wg_rev": list(self.orders)}, cols)
+
+    def params(self, fit: Fit, v: Variant) -> dict[str, Any]:
+        K = _idx(fit, "K_Nm_per_rad")
+        out: dict[str, Any] = {}
+        for k in self.orders:
+            a, b = _idx(fit, f"te_wg{k}_cos"), _idx(fit, f"te_wg{k}_sin")
+            out[f"wg{k}_amp_rad"] = float(np.hypot(a, b) / K)
+            out[f"wg{k}_phase_rad"] = float(np.arctan2(a, b))
+        return out
+
+
+class Cogging(Effect):
+    name = "cogging_torque"
+    coordinate = "motor angle"
+    signature = "high-order lines (LCM of slots and poles) per motor revolution, in both equations"
+    min_order = 5
+    max_order = 200
+
+    def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
+        s = d.sig
+        from .residuals import order_spectrum
+        orders, amp = order_spectrum(d, resid, s.raw_th_m, self.max_order)
+        sel = orders >= self.min_order
+        if not np.any(sel):
+            return
+        top = orders[sel][np.argsort(amp[sel])[::-1][:3]]
+        eq_m = s.kind == "two_mass"
+        for p in top:
+            cols = []
+            for m in (int(p), 2 * int(p)):
+                c, sn = np.cos(m * s.raw_th_m), np.sin(m * s.raw_th_m)
+                cols.append(Column(f"cog{m}_cos_Nm", c if eq_m else None, c))
+                cols.append(Column(f"cog{m}_sin_Nm", sn if eq_m else None, sn))
+            # the order was chosen among max_order candidates: penalise the search
+            yield Variant({"order_per_motor_rev": int(p)}, cols, n_hyper=1)
+
+    def params(self, fit: Fit, v: Variant) -> dict[str, Any]:
+        p = v.hyper["order_per_motor_rev"]
+        out: dict[str, Any] = {"order_per_motor_rev": p}
+        for m in (p, 2 * p):
+            a, b = _idx(fit, f"cog{m}_cos_Nm"), _idx(fit, f"cog{m}_sin_Nm")
+            out[f"h{m}_amp_Nm"] = float(np.hypot(a, b))
+            out[f"h{m}_phase_rad"] = float(np.arctan2(a, b))
+        return out
+
+
+def sat(x: np.ndarray, b: float) -> np.ndarray:
+    """Saturation at +-b."""
+    return np.clip(x, -b, b)
+
+
+def _phi_grid(d: Design) -> np.ndarray:
+    a = np.abs(d.sig.phi)
+    hi = float(np.percentile(a, 99))
+    return np.geomspace(max(hi * 0.02, 1e-9), hi * 0.8, 8)
+
+
+class NonlinearStiffness(Effect):
+    name = "nonlinear_stiffness"
+    coordinate = "torsion"
+    signature = "odd, memoryless residual in the twist (stiffening: grows like phi^3 or kinks at T1)"
+
+    def applicable(self, d: Design) -> bool:
+        return d.sig.kind == "two_mass"
+
+    def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
+        s = d.sig
+        N = s.ratio
+        phi = s.phi
+        yield Variant({"form": "cubic"}, [Column("k2_Nm_per_rad2", phi * np.abs(phi) / N, None),
+                                          Column("k3_Nm_per_rad3", phi ** 3 / N, None)], n_hyper=1)
+        for b in _phi_grid(d):
+            yield Variant({"form": "knee", "knee_rad": float(b)},
+                          [Column("dk_knee_Nm_per_rad", sat(phi, b) / N, None, key=f"sat{b:.6g}")], n_hyper=2)
+
+    def valid(self, fit: Fit, v: Variant) -> bool:
+        if v.hyper["form"] != "knee":
+            return True
+        K = _idx(fit, "K_Nm_per_rad")
+        return K > 0 and (K + _idx(fit, "dk_knee_Nm_per_rad")) >= 0.25 * K
+
+
+class Backlash(Effect):
+    name = "backlash"
+    coordinate = "torsion"
+    signature = "near-zero stiffness (lost motion) in a band of twist around zero"
+
+    def applicable(self, d: Design) -> bool:
+        return d.sig.kind == "two_mass"
+
+    def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
+        phi = d.sig.phi
+        for b in _phi_grid(d):
+            yield Variant({"half_gap_rad": float(b)}, [Column("dk_gap_Nm_per_rad", sat(phi, b) / d.sig.ratio, None, key=f"sat{b:.6g}")],
+                          n_hyper=1)
+
+    def valid(self, fit: Fit, v: Variant) -> bool:
+        K = _idx(fit, "K_Nm_per_rad")
+        return K > 0 and (K + _idx(fit, "dk_gap_Nm_per_rad")) < 0.25 * K
+
+    def params(self, fit: Fit, v: Variant) -> dict[str, Any]:
+        K = _idx(fit, "K_Nm_per_rad")
+        a = _idx(fit, "dk_gap_Nm_per_rad")
+        return {"half_gap_rad": v.hyper["half_gap_rad"], "stiffness_in_gap_Nm_per_rad": float(K + a)}
+
+
+def stop_operator(x: np.ndarray, delta: float) -> np.ndarray:
+    """Stop (elastic-perfectly-plastic) operator output, clamp(x - xi, +-delta), xi relaxed at x[0]."""
+    out = np.empty_like(x)
+    xi = float(x[0])
+    for i, xv in enumerate(x.tolist()):
+        e = xv - xi
+        if e > delta:
+            xi = xv - delta
+            e = delta
+        elif e < -delta:
+            xi = xv + delta
+            e = -delta
+        out[i] = e
+    return out
+
+
+class Hysteresis(Effect):
+    name = "hysteresis"
+    coordinate = "torsion"
+    signature = "residual vs twist depends on the direction of twist change (loops, return-point memory)"
+    fractions = (0.03, 0.08, 0.2, 0.5)
+
+    def applicable(self, d: Design) -> bool:
+        return d.sig.kind == "two_mass"
+
+    def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
+        s = d.sig
+        phi = s.phi
+        span = float(np.percentile(np.abs(phi), 99))
+        cols = []
+        for i, f in enumerate(self.fractions):
+            D = f * span
+            cols.append(Column(f"maxwell{i + 1}_k_Nm_per_rad", stop_operator(phi, D) / s.ratio, None,
+                               key=f"stop{D:.6g}"))
+        yield Variant({"thresholds_rad": [f * span for f in self.fractions]}, cols)
+
+    def params(self, fit: Fit, v: Variant) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for i, (c, D) in enumerate(zip(v.columns, v.hyper["thresholds_rad"])):
+            k = _idx(fit, c.name)
+            out[f"e{i + 1}_k_Nm_per_rad"] = k
+            out[f"e{i + 1}_w_Nm"] = k * D
+        return out
+
+
+class Gravity(Effect):
+    name = "gravity_unbalance"
+    coordinate = "load angle"
+    signature = "torque on the load following cos/sin of the load angle (1 per output revolution)"
+
+    def applicable(self, d: Design) -> bool:
+        return d.sig.units.get("angle") == "rad"
+
+    def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
+        s = d.sig
+        th = s.th_l if s.th_l is not None else s.th_m / s.ratio
+        yield Variant({}, [Column("g_cos_Nm", None, np.cos(th) / s.ratio), Column("g_sin_Nm", None, np.sin(th) / s.ratio)])
+
+    def params(self, fit: Fit, v: Variant) -> dict[str, Any]:
+        a, b = _idx(fit, "g_cos_Nm"), _idx(fit, "g_sin_Nm")
+        # load torque needed = -T_g = mgl cos(th + off) = mgl cos off cos th - mgl sin off sin th
+        return {"mgl_Nm": float(np.hypot(a, b)), "offset_rad": float(np.arctan2(-b, a))}
+
+
+class Compliance(Effect):
+    name = "unmodelled_compliance"
+    coordinate = "twist acceleration / frequency (torsional mode)"
+    signature = "residual follows the twist acceleration; a spectral peak at the torsional mode"
+
+    def applicable(self, d: Design) -> bool:
+        return d.sig.kind == "rigid" and d.sig.has_load
+
+    def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
+        s = d.sig
+        yield Variant({}, [Column("J_l_kgm2", None, (s.a_l - s.a_m / s.ratio) / s.ratio)])
+
+
+class CurrentLag(Effect):
+    name = "current_loop_lag"
+    coordinate = "torque rate"
+    signature = "residual follows -T d(tau)/dt: the torque acting lags the logged command"
+
+    def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
+        s = d.sig
+        for T in np.geomspace(0.3 * s.dt, 0.3 / s.fc_Hz, 8):
+            a = np.exp(-s.dt / T)
+            tau = sps.lfilter([1 - a], [1, -a], s.tau, zi=[a * s.tau[0]])[0]
+            yield Variant({"time_constant_s": float(T)}, [], tau=tau, tau_key=f"tau_lag{T:.6g}", n_hyper=1)
+
+    def params(self, fit: Fit, v: Variant) -> dict[str, Any]:
+        T = v.hyper["time_constant_s"]
+        return {"time_constant_s": T, "bandwidth_Hz": float(1 / (2 * np.pi * T))}
+
+
+def library() -> list[Effect]:
+    """Every candidate, in the order of :data:`hdservo.discrepancy.EFFECT_NAMES`."""
+    return [Stribeck(), Asymmetric(), TransmissionError(), Cogging(), NonlinearStiffness(), Hysteresis(),
+            Backlash(), Gravity(), Compliance(), CurrentLag()]

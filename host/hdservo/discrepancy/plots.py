@@ -1,0 +1,141 @@
+"""Plots of the discrepancy workflow (PNG, units on every axis).
+
+* ``residual_time.png``      equation error before (baseline) and after (final model) vs time;
+* ``residual_<effect>.png``  per named effect, the residual before/after that iteration against
+  the coordinate that reveals it (velocity, motor/WG angle mod one revolution, twist, load angle,
+  twist acceleration, torque rate) and the order spectrum for angle-periodic effects;
+* ``gap.png``                RMS of the equation error after each iteration;
+* ``spectrum.png``           amplitude spectral density of the residual before/after.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from .workflow import Result
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+from .residuals import order_spectrum, spectrum  # noqa: E402
+
+
+def _save(fig: "plt.Figure", path: Path) -> None:
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    os.replace(tmp, path)
+
+
+def _coord(res: "Result", effect: str) -> tuple[np.ndarray, str, bool]:
+    """Coordinate (over the used decimated samples) that reveals an effect, its label, periodic?"""
+    d = res.state.design
+    s = d.sig
+    u = s.units
+    take = (lambda x: x[:: s.q][: len(d.mask)][d.mask]) if s.q > 1 else (lambda x: x[d.mask])
+    if effect in ("stribeck_friction", "asymmetric_friction"):
+        return take(s.v_out), f"output velocity ({u['velocity']})", False
+    if effect in ("transmission_error", "cogging_torque"):
+        return np.mod(take(s.raw_th_m), 2 * np.pi), "motor (wave-generator) angle mod 2π (rad)", True
+    if effect in ("nonlinear_stiffness", "hysteresis", "backlash"):
+        return take(s.phi), "twist θm/N − θl (rad)", False
+    if effect == "gravity_unbalance":
+        th = s.th_l if s.th_l is not None else s.th_m / s.ratio
+        return take(th), "load angle (rad)", False
+    if effect == "unmodelled_compliance":
+        return take(s.ddphi), "twist acceleration (rad/s²)", False
+    if effect == "current_loop_lag":
+        return take(np.gradient(s.tau, s.dt)), f"logged torque rate ({u['torque']}/s)", False
+    return take(s.t), "time (s)", False
+
+
+def write_plots(res: "Result", out_dir: str | Path) -> list[Path]:
+    """Write every plot of a result into ``out_dir`` (created); returns the paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    d = res.state.design
+    s = d.sig
+    tu = s.units["torque"]
+    t = (s.t[:: s.q][: len(d.mask)] if s.q > 1 else s.t)[d.mask]
+    eq0 = next(iter(res.base_fit.resid))
+    paths: list[Path] = []
+
+    fig, ax = plt.subplots(len(res.base_fit.resid), 1, figsize=(9, 3 + 2 * len(res.base_fit.resid)), squeeze=False)
+    for i, e in enumerate(res.base_fit.resid):
+        a = ax[i, 0]
+        a.plot(t, res.base_fit.resid[e], lw=0.6, label="baseline")
+        a.plot(t, res.snapshots[-1].resid[e], lw=0.6, label="final model")
+        a.set_xlabel("time (s)")
+        a.set_ylabel(f"residual, eq. {e} ({tu})")
+        a.legend(loc="upper right")
+        a.grid(alpha=0.3)
+    ax[0, 0].set_title("equation error of the measured motor torque")
+    fig.tight_layout()
+    p = out / "residual_time.png"
+    _save(fig, p)
+    paths.append(p)
+
+    for k, it in enumerate(res.iterations):
+        name = it["named_effect"]
+        x, label, periodic = _coord(res, name)
+        before, after = res.snapshots[k], res.snapshots[k + 1]
+        eqs = list(before.resid)
+        ncol = 2 if periodic else 1
+        fig, ax = plt.subplots(len(eqs), ncol, figsize=(6 * ncol, 3 + 2 * len(eqs)), squeeze=False)
+        for i, e in enumerate(eqs):
+            a = ax[i, 0]
+            a.plot(x, before.resid[e], ".", ms=1.5, alpha=0.5, label=f"before (iteration {k})")
+            a.plot(x, after.resid[e], ".", ms=1.5, alpha=0.5, label=f"after adding {name}")
+            a.set_xlabel(label)
+            a.set_ylabel(f"residual, eq. {e} ({tu})")
+            a.legend(loc="upper right", markerscale=6)
+            a.grid(alpha=0.3)
+            if periodic:
+                b = ax[i, 1]
+                for fit, lab in ((before, "before"), (after, "after")):
+                    o, amp = order_spectrum(d, fit.resid[e], s.raw_th_m, 120)
+                    b.semilogy(o, np.maximum(amp, 1e-12), lw=0.8, label=lab)
+                b.set_xlabel("order (cycles per motor revolution)")
+                b.set_ylabel(f"amplitude ({tu})")
+                b.legend()
+                b.grid(alpha=0.3)
+        ax[0, 0].set_title(f"iteration {k + 1}: {name}")
+        fig.tight_layout()
+        p = out / f"residual_{k + 1}_{name}.png"
+        _save(fig, p)
+        paths.append(p)
+
+    fig, ax = plt.subplots(figsize=(6, 4))
+    labels = ["baseline"] + [it["named_effect"] for it in res.iterations]
+    ax.semilogy(range(len(res.rms_history)), res.rms_history, "o-")
+    ax.set_xticks(range(len(labels)))
+    ax.set_xticklabels(labels, rotation=20, fontsize=8)
+    ax.set_xlabel("iteration (effect added)")
+    ax.set_ylabel(f"RMS equation error ({tu})")
+    ax.set_title("gap between model and measurement")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    p = out / "gap.png"
+    _save(fig, p)
+    paths.append(p)
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    fs = 1.0 / (s.dt * s.q)
+    for fit, lab in ((res.base_fit, "baseline"), (res.snapshots[-1], "final model")):
+        f, a = spectrum(fit.resid[eq0], fs)
+        ax.loglog(f[1:], a[1:], lw=0.8, label=lab)
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel(f"residual ASD, eq. {eq0} ({tu}/√Hz)")
+    ax.legend()
+    ax.grid(alpha=0.3, which="both")
+    fig.tight_layout()
+    p = out / "spectrum.png"
+    _save(fig, p)
+    paths.append(p)
+    return paths

@@ -1,0 +1,57 @@
+"""``hdservo discrepancy``: bad input gives one line and no output; JSON shape and plots."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from hdservo import cli
+from hdservo.discrepancy import EFFECT_NAMES, cases
+
+
+@pytest.fixture(scope="module")
+def cog_log(tmp_path_factory) -> Path:
+    d = tmp_path_factory.mktemp("dq")
+    return cases.make_log(cases.Case("cogging_torque", seed=1, size=1, duration_s=4.0), d / "cog.csv")
+
+
+def test_bad_model_file_one_line_no_output(tmp_path: Path, cog_log: Path, capsys) -> None:
+    m = tmp_path / "m.toml"
+    m.write_text('[model]\nstructure = "three_mass"\n')
+    out = tmp_path / "o.json"
+    assert cli.main(["discrepancy", str(cog_log), "--model", str(m), "--json", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "structure" in err[0] and str(m) in err[0]
+    assert not out.exists()
+
+
+def test_missing_torque_column(tmp_path: Path, capsys) -> None:
+    p = tmp_path / "l.csv"
+    p.write_text("t_s,motor_angle_rad\n" + "".join(f"{i * 1e-3},{i * 1e-3}\n" for i in range(500)))
+    p.with_suffix(".json").write_text(json.dumps({"format": "hdservo-log", "version": 1, "gear_ratio": 100.0,
+                                                  "sample_period_s": 1e-3}))
+    out = tmp_path / "o.json"
+    assert cli.main(["discrepancy", str(p), "--json", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "motor_torque_Nm" in err[0]
+    assert not out.exists()
+
+
+def test_cogging_case_json_and_plots(tmp_path: Path, cog_log: Path) -> None:
+    out = tmp_path / "o.json"
+    assert cli.main(["discrepancy", str(cog_log), "--json", str(out), "--plots", str(tmp_path / "p")]) == 0
+    res = json.loads(out.read_text())
+    assert set(res) >= {"baseline", "iterations", "named_effects", "final_model"}
+    assert res["named_effects"] and res["named_effects"][0] == "cogging_torque"
+    assert all(n in EFFECT_NAMES for n in res["named_effects"])
+    it = res["iterations"][0]
+    assert it["params"]["order_per_motor_rev"] in (36, 72)       # the plant's cogging orders
+    assert it["rms_before"] / it["rms_after"] >= 2.0
+    # final model (baseline re-fitted with the cogging term): the reference axis' load
+    # inertia and stiffness (the baseline alone is biased by the missing effect)
+    f = res["final_model"]["params"]
+    assert f["J_l_kgm2"] == pytest.approx(0.5, rel=0.1)
+    assert f["K_Nm_per_rad"] == pytest.approx(3.1e4, rel=0.1)
+    names = {p.name for p in (tmp_path / "p").iterdir()}
+    assert {"residual_time.png", "gap.png", "spectrum.png", "residual_1_cogging_torque.png"} <= names
