@@ -1,0 +1,556 @@
+"""Identification experiments: defined once, run on the simulator now and on a drive later.
+
+Every experiment is a small dataclass holding its design (speeds, torque
+levels, excitation) and produces an :class:`ExperimentData`: log columns
+with SI suffixes (DESIGN.md section 7) cut into *segments* (one per
+constant-velocity point, torque cycle, ...) plus metadata.  The same data
+can be written as a log (CSV + JSON sidecar, :mod:`hdservo.logio`) and read
+back for ``hdservo identify --data LOG.csv``.
+
+Runners execute the designs:
+
+* :class:`SimRunner` -- the simulator through :mod:`hdservo.sim`.  Closed-loop
+  experiments (velocity / torque modes) go through the firmware application
+  (scenario files written on the fly); locked-output experiments use the
+  plant alone with the output clamped (``load.jl_kgm2`` = 1e9 kg.m^2, i.e. a
+  fixture; base still) and a rig torque sensor between gear and clamp
+  (transmitted torque + white noise + ADC quantisation, emulated here).
+* a drive runner (over CAN, :mod:`hdservo.drive`) is the hook
+  :func:`drive_runner`; it raises until the CAN client exists.
+
+Bench conditions for every experiment: base motion off (the axis is on a
+still bench); everything else as the axis file says.
+"""
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping, Sequence
+
+import numpy as np
+
+from .. import logio
+from ..cli import UserError
+
+#: Firmware loop period, s.
+LOOP_S = 1e-4
+#: Clamp inertia used to lock the output in the simulator, kg.m^2.
+CLAMP_INERTIA_KGM2 = 1e9
+
+
+# ----------------------------------------------------------------- data
+
+
+@dataclass
+class ExperimentData:
+    """Recorded data of one experiment.
+
+    Attributes
+    ----------
+    kind : str
+        Experiment name (``friction_sweep``, ``gravity_sine``, ``te_rotation``,
+        ``locked_cycle``, ``forc``, ``minor_loops``, ``frf``).
+    columns : dict of str to numpy.ndarray
+        Log columns (SI suffix in every name), ``segment_code`` = segment index.
+    meta : dict
+        Gear ratio, sample period (s), the experiment design, per-segment
+        descriptions under ``segments`` (list of dicts).
+    """
+
+    kind: str
+    columns: dict[str, np.ndarray]
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self.columns[name]
+        except KeyError:
+            raise UserError(f"{self.kind} data: no column '{name}' (have: {', '.join(self.columns)})") from None
+
+    @property
+    def segments(self) -> list[dict[str, Any]]:
+        """Per-segment descriptions (``index`` = value of ``segment_code``)."""
+        return list(self.meta.get("segments", []))
+
+    def segment(self, i: int) -> dict[str, np.ndarray]:
+        """Columns restricted to segment ``i``."""
+        m = self.columns["segment_code"] == i
+        return {k: v[m] for k, v in self.columns.items()}
+
+    @property
+    def gear_ratio(self) -> float:
+        return float(self.meta["gear_ratio"])
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Write as an hdservo log (CSV + sidecar), atomically."""
+        cols = dict(self.columns)
+        # a log needs strictly increasing time: segments are concatenated with their own clocks
+        t = np.asarray(cols["t_s"], dtype=float)
+        if np.any(np.diff(t) <= 0):
+            dt = float(self.meta.get("sample_period_s", LOOP_S))
+            cols["t_s"] = np.arange(len(t)) * dt
+            cols["segment_time_s"] = t
+        cols = {"t_s": cols.pop("t_s"), **cols}
+        meta = {**self.meta, "experiment": self.kind, "source": self.meta.get("source", "hdservo identify")}
+        logio.write_log(path, cols, meta)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> "ExperimentData":
+        """Read a log written by :meth:`save` (or a drive capture in the same form)."""
+        log = logio.read_log(path)
+        kind = log.meta.get("experiment")
+        if not isinstance(kind, str):
+            raise UserError(f"{logio.sidecar_path(path)}: expected key \"experiment\" naming the "
+                            f"identification experiment (one of {', '.join(EXPERIMENTS)})")
+        if kind not in EXPERIMENTS:
+            raise UserError(f"{logio.sidecar_path(path)}: \"experiment\": expected one of "
+                            f"{', '.join(EXPERIMENTS)}, found '{kind}'")
+        cols = dict(log.columns)
+        if "segment_time_s" in cols:
+            cols["t_s"] = cols.pop("segment_time_s")
+        if "segment_code" not in cols:
+            cols["segment_code"] = np.zeros(len(cols["t_s"]))
+        return cls(kind=kind, columns=cols, meta=dict(log.meta))
+
+
+def concat(kind: str, parts: Sequence[tuple[dict[str, np.ndarray], dict[str, Any]]],
+           meta: Mapping[str, Any]) -> ExperimentData:
+    """Join segments (columns, description) into one :class:`ExperimentData`."""
+    names = list(parts[0][0])
+    cols: dict[str, list[np.ndarray]] = {k: [] for k in names}
+    segs = []
+    for i, (c, d) in enumerate(parts):
+        n = len(c["t_s"])
+        for k in names:
+            cols[k].append(np.asarray(c[k], dtype=float))
+        cols.setdefault("segment_code", []).append(np.full(n, float(i)))
+        segs.append({"index": i, **d})
+    out = {k: np.concatenate(v) for k, v in cols.items()}
+    return ExperimentData(kind=kind, columns=out, meta={**dict(meta), "segments": segs})
+
+
+# ----------------------------------------------------------------- designs
+
+
+@dataclass
+class FrictionSweep:
+    """Constant-velocity sweep, both directions, log-spaced speeds (velocity mode).
+
+    Each point: settle, then a steady-state window whose length is a whole
+    number of wave-generator half-revolutions when that is at most
+    ``max_window_s`` (removes the 2x-WG and cogging ripple), else
+    ``max_window_s``.  Torque = motor torque x N (output side); the mean
+    velocity of the window comes from the output encoder.
+    """
+
+    v_min_rad_s: float = 6e-4
+    v_max_rad_s: float = 0.6
+    points: int = 10
+    settle_s: float = 0.6
+    settle_angle_rad: float = 5e-4      # + the time to wind the gear up at this speed
+    min_window_s: float = 0.4
+    max_window_s: float = 2.5
+    kind: str = "friction_sweep"
+
+    def speeds(self) -> np.ndarray:
+        """Speeds, rad/s (output), descending (fast points first)."""
+        return np.geomspace(self.v_max_rad_s, self.v_min_rad_s, self.points)
+
+    def window_s(self, v: float, ratio: float) -> float:
+        half_rev = math.pi / ratio / abs(v)          # output angle of a WG half-revolution / speed
+        if half_rev <= self.max_window_s:
+            return max(1, math.ceil(self.min_window_s / half_rev)) * half_rev
+        return self.max_window_s
+
+    def plan(self, ratio: float) -> list[dict[str, Any]]:
+        out = []
+        for v in self.speeds():
+            for sgn in (1.0, -1.0):
+                settle = self.settle_s + self.settle_angle_rad / v
+                out.append({"mode": "velocity", "velocity_rad_s": sgn * v, "settle_s": settle,
+                            "window_s": self.window_s(v, ratio)})
+        return out
+
+
+@dataclass
+class GravitySine:
+    """Slow large position sines (position mode) at two frequencies.
+
+    Fits unbalance torque a.cos + b.sin, Coulomb, viscous and inertia: with one
+    sine the acceleration -w^2 theta is collinear with sin(theta); two
+    frequencies separate them.
+    """
+
+    amplitudes_rad: tuple[float, ...] = (1.5, 0.8)
+    frequencies_Hz: tuple[float, ...] = (0.05, 0.1)
+    kind: str = "gravity_sine"
+
+    def plan(self, ratio: float) -> list[dict[str, Any]]:
+        return [{"mode": "position", "amplitude_rad": a, "frequency_Hz": f, "duration_s": 1.0 / f}
+                for a, f in zip(self.amplitudes_rad, self.frequencies_Hz)]
+
+
+@dataclass
+class TERotation:
+    """Slow constant rotation, both directions, whole WG revolutions (velocity mode).
+
+    The speed keeps the 2x-WG line far below the anti-resonance (the load
+    follows the kinematic error through the spring without amplification).
+    """
+
+    velocity_rad_s: float = 0.05
+    wg_revs: int = 4
+    settle_s: float = 1.0
+    kind: str = "te_rotation"
+
+    def plan(self, ratio: float) -> list[dict[str, Any]]:
+        win = self.wg_revs * 2.0 * math.pi / ratio / self.velocity_rad_s
+        return [{"mode": "velocity", "velocity_rad_s": s * self.velocity_rad_s, "settle_s": self.settle_s,
+                 "window_s": win} for s in (1.0, -1.0)]
+
+
+@dataclass
+class LockedCycle:
+    """Locked output, quasi-static torque cycles 0 -> +T -> 0 -> -T -> 0 (catalogue test).
+
+    ``levels`` are fractions of ``torque_max_Nm`` cycled in turn (1.0 = the
+    hysteresis-loss cycle, 0.04 x rated = lost motion).  Output torque from
+    the rig torque sensor, twist from the motor encoder.
+    """
+
+    torque_max_Nm: float = 67.0
+    rated_torque_Nm: float | None = None
+    cycles: int = 3
+    rate_Nm_s: float = 60.0
+    lost_motion_fraction: float = 0.04
+    kind: str = "locked_cycle"
+
+    def plan(self, ratio: float) -> list[dict[str, Any]]:
+        rated = self.rated_torque_Nm or self.torque_max_Nm
+        return [{"mode": "locked", "torque_amplitude_Nm": self.torque_max_Nm, "cycles": self.cycles,
+                 "rate_Nm_s": self.rate_Nm_s, "purpose": "stiffness"},
+                {"mode": "locked", "torque_amplitude_Nm": self.lost_motion_fraction * rated, "cycles": self.cycles,
+                 "rate_Nm_s": self.rate_Nm_s / 10.0, "purpose": "lost_motion"}]
+
+
+@dataclass
+class ForcSet:
+    """First-order reversal curves, locked output: -Tf -> alpha_i -> -Tf for ``levels-1`` alphas.
+
+    The Everett grid has ``levels`` points over [-Tf, Tf] (firmware table L).
+    """
+
+    torque_range_Nm: float = 28.0
+    levels: int = 32
+    rate_Nm_s: float = 120.0
+    kind: str = "forc"
+
+    def alphas(self) -> np.ndarray:
+        return np.linspace(-self.torque_range_Nm, self.torque_range_Nm, self.levels)[1:]
+
+    def plan(self, ratio: float) -> list[dict[str, Any]]:
+        return [{"mode": "locked", "turning_points_Nm": [float(-self.torque_range_Nm)]
+                 + [v for a in self.alphas() for v in (float(a), float(-self.torque_range_Nm))],
+                 "rate_Nm_s": self.rate_Nm_s}]
+
+
+@dataclass
+class MinorLoops:
+    """Validation minor loops (not used in fitting): from negative saturation, nested reversals."""
+
+    torque_range_Nm: float = 28.0
+    rate_Nm_s: float = 120.0
+    kind: str = "minor_loops"
+
+    def turning_points(self) -> list[float]:
+        f = [-1.0, 0.62, -0.37, 0.41, -0.13, 0.23, -0.55, 0.81, 0.05, 0.33, -0.71]
+        return [x * self.torque_range_Nm for x in f]
+
+    def plan(self, ratio: float) -> list[dict[str, Any]]:
+        return [{"mode": "locked", "turning_points_Nm": self.turning_points(), "rate_Nm_s": self.rate_Nm_s}]
+
+
+@dataclass
+class FRFExcitation:
+    """Velocity-mode multisine on a constant bias speed (no velocity reversal: friction slides).
+
+    The closed-loop FRF is G = S_ry / S_ru (r reference, u motor torque,
+    y motor angle), unbiased by the feedback.  Run at each amplitude.
+    """
+
+    bias_rad_s: float = 0.08
+    amplitudes_rad_s: tuple[float, ...] = (0.02, 0.04)
+    f0_Hz: float = 1.0
+    f1_Hz: float = 200.0
+    lines: int = 200
+    periods: int = 8
+    kind: str = "frf"
+
+    def plan(self, ratio: float) -> list[dict[str, Any]]:
+        period = (self.lines - 1) / (self.f1_Hz - self.f0_Hz)
+        return [{"mode": "velocity_multisine", "bias_rad_s": self.bias_rad_s, "amplitude_rad_s": a,
+                 "f0_Hz": self.f0_Hz, "f1_Hz": self.f1_Hz, "lines": self.lines, "period_s": period,
+                 "settle_s": 1.0, "duration_s": 1.0 + self.periods * period} for a in self.amplitudes_rad_s]
+
+
+EXPERIMENTS: dict[str, type] = {c.kind: c for c in (FrictionSweep, GravitySine, TERotation, LockedCycle,  # type: ignore[attr-defined]
+                                                    ForcSet, MinorLoops, FRFExcitation)}
+
+
+def describe(design: Any) -> dict[str, Any]:
+    """JSON-friendly description of an experiment design."""
+    d = asdict(design)
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in d.items()}
+
+
+# ----------------------------------------------------------------- torque profiles
+
+
+def triangle_profile(turning_points: Sequence[float], rate: float, dt: float, start: float = 0.0,
+                     dwell_s: float = 0.0) -> np.ndarray:
+    """Piecewise-linear sequence through ``turning_points`` at ``rate`` (units/s), sampled every dt."""
+    pts = [start, *turning_points]
+    out = [np.array([start])]
+    for a, b in zip(pts[:-1], pts[1:]):
+        n = max(1, int(round(abs(b - a) / rate / dt)))
+        out.append(a + (b - a) * np.arange(1, n + 1) / n)
+        if dwell_s > 0:
+            out.append(np.full(int(round(dwell_s / dt)), b))
+    return np.concatenate(out)
+
+
+def cycle_points(amplitude: float, cycles: int) -> list[float]:
+    """0 -> +A -> 0 -> -A -> 0 repeated."""
+    return [v for _ in range(cycles) for v in (amplitude, 0.0, -amplitude, 0.0)]
+
+
+# ----------------------------------------------------------------- simulator runner
+
+
+def _block_mean(x: np.ndarray, k: int) -> np.ndarray:
+    n = (len(x) // k) * k
+    return x[:n].reshape(-1, k).mean(axis=1)
+
+
+@dataclass
+class SimRunner:
+    """Run experiment designs on the simulator.
+
+    Parameters
+    ----------
+    axis : str or path-like
+        "reference" or an axis TOML file.
+    seed : int
+        Noise seed (each segment gets seed + its index).
+    params, effects : mapping, optional
+        Extra plant overrides / effect switches (tests hide or reveal effects).
+    torque_sensor_noise_Nm, torque_sensor_lsb_Nm : float
+        Rig torque sensor of the locked-output fixture: white noise (std, N.m)
+        and quantisation step (N.m).
+    decimation : int
+        Loop periods per recorded sample (block mean of the locked-output
+        signals, every n-th row of closed-loop logs).
+    progress : callable, optional
+        ``progress(message)`` for each segment run.
+    gains : mapping, optional
+        Drive gain overrides for the closed-loop experiments, by parameter
+        name in its table unit (``vel_kp``, ``vel_ki``, ``pos_kp``, ...); the
+        drive must be tuned for the axis (the defaults suit the reference axis).
+    """
+
+    axis: str | os.PathLike[str] = "reference"
+    seed: int = 1
+    params: Mapping[str, float | bool] = field(default_factory=dict)
+    effects: Mapping[str, bool] = field(default_factory=dict)
+    torque_sensor_noise_Nm: float = 0.01
+    torque_sensor_lsb_Nm: float = 0.005
+    decimation: int = 10
+    progress: Callable[[str], None] | None = None
+    gains: Mapping[str, float] = field(default_factory=dict)
+
+    # -- helpers
+    def _axis_ref(self) -> str:
+        a = str(self.axis)
+        if a in ("reference", "minimal"):
+            return a
+        p = Path(a)
+        if not p.is_file():
+            raise UserError(f"{a}: axis file not found")
+        return str(p.resolve())
+
+    def ratio(self) -> float:
+        from .. import sim
+        return float(self.params.get("gear.ratio", sim.axis_param("gear.ratio", self._axis_ref())))
+
+    def _bench(self) -> dict[str, float | bool]:
+        return {"base.enabled": False, **dict(self.params)}
+
+    def _say(self, msg: str) -> None:
+        if self.progress:
+            self.progress(msg)
+
+    def _scenario(self, tmp: Path, name: str, mode: str, setpoint: Mapping[str, Any], duration: float,
+                  seed: int) -> Path:
+        lines = ["[scenario]", f'name = "{name}"', f'axis = "{self._axis_ref()}"', f"duration_s = {float(duration)!r}",
+                 f"seed = {seed}", f"log_decimation = {self.decimation}", "", "[controller]", f'mode = "{mode}"', ""]
+        if self.gains:
+            lines += ["[controller.gains]"] + [f"{k} = {float(v)!r}" for k, v in self.gains.items()] + [""]
+        lines += ["[setpoint]"]
+        for k, v in setpoint.items():
+            lines.append(f'{k} = "{v}"' if isinstance(v, str) else f"{k} = {float(v)!r}")
+        p = tmp / f"{name}.toml"
+        p.write_text("\n".join(lines) + "\n")
+        return p
+
+    def _closed(self, tmp: Path, name: str, mode: str, setpoint: Mapping[str, Any], duration: float,
+                seed: int) -> dict[str, np.ndarray]:
+        from .. import sim
+        scen = self._scenario(tmp, name, mode, setpoint, duration, seed)
+        r = sim.run_scenario(scen, params=self._bench(), effects=dict(self.effects))
+        if np.any(r["fault_code"] != 0):
+            k = int(np.argmax(r["fault_code"] != 0))
+            raise UserError(f"simulated experiment '{name}': drive fault {int(r['fault_code'][k])} at "
+                            f"t = {r['t_s'][k]:.3f} s")
+        keep = ["t_s", "motor_angle_rad", "load_angle_rad", "motor_torque_Nm", "torque_cmd_Nm"]
+        for extra in ("setpoint_velocity_rad_s", "setpoint_rad", "setpoint_torque_Nm"):
+            if extra in r.columns:
+                keep.append(extra)
+        return {k: r[k] for k in keep}
+
+    def _locked(self, torque_out_Nm: np.ndarray, seed: int) -> dict[str, np.ndarray]:
+        """Plant alone, output clamped; input = output-side torque command (N.m), converted to the motor."""
+        from .. import sim
+        ratio = self.ratio()
+        prm = {**self._bench(), "load.jl_kgm2": CLAMP_INERTIA_KGM2}
+        cmd = np.asarray(torque_out_Nm, dtype=float) / ratio
+        o = sim.simulate_open_loop(cmd, params=prm, effects=dict(self.effects), axis=self._axis_ref(),
+                                   dt_s=LOOP_S, seed=seed)
+        rng = np.random.default_rng(seed + 7919)
+        ts = o["transmitted_torque_Nm"] + rng.normal(0.0, self.torque_sensor_noise_Nm, len(cmd))
+        if self.torque_sensor_lsb_Nm > 0:
+            ts = np.round(ts / self.torque_sensor_lsb_Nm) * self.torque_sensor_lsb_Nm
+        k = self.decimation
+        cols = {"t_s": o["t_s"][k - 1::k][: len(cmd) // k],
+                "motor_angle_rad": _block_mean(o["motor_angle_rad"], k),
+                "load_angle_rad": _block_mean(o["load_angle_rad"], k),
+                "motor_torque_Nm": _block_mean(o["motor_torque_Nm"], k),
+                "torque_cmd_Nm": _block_mean(cmd, k),
+                "load_torque_Nm": _block_mean(ts, k)}
+        return cols
+
+    def _meta(self, design: Any) -> dict[str, Any]:
+        return {"gear_ratio": self.ratio(), "sample_period_s": LOOP_S * self.decimation,
+                "source": "simulator", "axis": str(self.axis), "seed": int(self.seed),
+                "design": describe(design)}
+
+    # -- experiments
+    def run(self, design: Any) -> ExperimentData:
+        """Run one design and return its data."""
+        ratio = self.ratio()
+        plan = design.plan(ratio)
+        parts: list[tuple[dict[str, np.ndarray], dict[str, Any]]] = []
+        with tempfile.TemporaryDirectory(prefix="hdservo-ident-") as td:
+            tmp = Path(td)
+            for i, seg in enumerate(plan):
+                seed = self.seed + i
+                self._say(f"{design.kind}: segment {i + 1}/{len(plan)} {_seg_label(seg)}")
+                mode = seg["mode"]
+                if mode == "velocity":
+                    dur = seg["settle_s"] + seg["window_s"]
+                    cols = self._closed(tmp, f"{design.kind}_{i}", "velocity",
+                                        {"type": "step", "initial_rad_s": 0.0,
+                                         "amplitude_rad_s": seg["velocity_rad_s"], "t0_s": 0.0}, dur, seed)
+                elif mode == "position":
+                    cols = self._closed(tmp, f"{design.kind}_{i}", "position",
+                                        {"type": "sine", "initial_rad": 0.0, "amplitude_rad": seg["amplitude_rad"],
+                                         "frequency_Hz": seg["frequency_Hz"], "phase_rad": 0.0, "t0_s": 0.0},
+                                        seg["duration_s"], seed)
+                elif mode == "velocity_multisine":
+                    cols = self._closed(tmp, f"{design.kind}_{i}", "velocity",
+                                        {"type": "multisine", "initial_rad_s": seg["bias_rad_s"],
+                                         "amplitude_rad_s": seg["amplitude_rad_s"], "f0_Hz": seg["f0_Hz"],
+                                         "f1_Hz": seg["f1_Hz"], "lines": seg["lines"], "t0_s": seg["settle_s"]},
+                                        seg["duration_s"], seed)
+                elif mode == "locked":
+                    if "turning_points_Nm" in seg:
+                        pts = seg["turning_points_Nm"]
+                    else:
+                        pts = cycle_points(seg["torque_amplitude_Nm"], seg["cycles"])
+                    pts = _compensate_friction(pts, self, seed)
+                    prof = triangle_profile(pts, seg["rate_Nm_s"], LOOP_S, dwell_s=0.05)
+                    cols = self._locked(prof, seed)
+                else:  # pragma: no cover - designs are ours
+                    raise ValueError(mode)
+                parts.append((cols, seg))
+        return concat(design.kind, parts, self._meta(design))
+
+
+def _seg_label(seg: Mapping[str, Any]) -> str:
+    if "velocity_rad_s" in seg:
+        return f"v = {seg['velocity_rad_s']:+.4g} rad/s"
+    if "amplitude_rad_s" in seg:
+        return f"amplitude {seg['amplitude_rad_s']:.3g} rad/s"
+    if "torque_amplitude_Nm" in seg:
+        return f"+-{seg['torque_amplitude_Nm']:.3g} N.m"
+    return ""
+
+
+def _compensate_friction(points: Sequence[float], runner: SimRunner, seed: int) -> list[float]:
+    """Shift the commanded turning points by the input friction so the gear torque reaches the targets.
+
+    With the output locked the gear sees T = N (tau - F_m): a maximum is
+    commanded higher, a minimum lower, by the input friction measured on a
+    short calibration cycle (the same rig sensor; no model knowledge).  The
+    command ramps through the friction band at the same rate, so every
+    reversal passes through presliding quasi-statically.  Only the reversal
+    levels matter; the fits use the measured torque.
+    """
+    key = ("friction", id(runner), str(runner.axis))
+    f = _CAL.get(key)
+    if f is None:
+        amp = max(max(abs(float(p)) for p in points), 1.0)
+        cal = triangle_profile([amp, -amp, amp], amp * 2.0, LOOP_S)
+        c = runner._locked(cal, seed + 104729)
+        r = runner.ratio()
+        d = c["torque_cmd_Nm"] * r - c["load_torque_Nm"]
+        slope = np.gradient(c["torque_cmd_Nm"])
+        up, dn = d[slope > 0], d[slope < 0]
+        f = (float(np.median(up)) if len(up) else 0.0, float(np.median(dn)) if len(dn) else 0.0)
+        _CAL[key] = f
+    out, prev = [], 0.0
+    for p in points:
+        out.append(float(p) + (f[0] if p > prev else f[1]))
+        prev = float(p)
+    return out
+
+
+_CAL: dict[tuple[Any, ...], tuple[float, float]] = {}
+
+
+def drive_runner(**can_settings: Any) -> Any:
+    """Runner for a real (or virtual) drive over CAN -- the hook for :mod:`hdservo.drive`.
+
+    Parameters
+    ----------
+    **can_settings
+        python-can settings (``interface``, ``channel``, ``bitrate``) and the
+        node id.
+
+    Raises
+    ------
+    UserError
+        Until the CAN client (host/hdservo/drive.py) provides the excitation
+        generator and capture upload; the designs above map one-to-one to its
+        excitation types (constant velocity, torque ramps/reversal curves,
+        multisine).
+    """
+    try:
+        from .. import drive  # noqa: F401  (provided by the CAN client work)
+    except ImportError:
+        raise UserError("--drive: the CAN drive client (hdservo.drive) is not available yet; "
+                        "use --sim AXIS.toml or --data LOG.csv") from None
+    raise UserError("--drive: running identification experiments over CAN is not wired yet "
+                    "(hdservo.drive exists; see docs/identification.md, 'Drive hook')")

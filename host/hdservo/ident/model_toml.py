@@ -1,0 +1,129 @@
+"""Identified axis/model TOML: SI units in every key, the plant's keys where they overlap.
+
+Sections written (only those identified):
+
+* ``[gear]`` ratio; ``[stiffness]`` k1/k2/k3_Nm_per_rad, t1_Nm, t2_Nm,
+  damping_Nms_per_rad (FRF); ``[stiffness_cubic]`` k1_Nm_per_rad, k3_Nm_per_rad3;
+* ``[hysteresis_maxwell]`` n_elements, eK_k_Nm_per_rad, eK_w_Nm;
+* ``[transmission_error]`` wgK_order/_amp_rad/_phase_rad, outK_...;
+* ``[load]`` jl_kgm2 and ``[motor]`` jm_kgm2 (FRF: J2, J1/N^2);
+  ``[gravity]`` mgl_Nm, offset_rad;
+* ``[friction_total]`` -- output-referred total friction of the axis
+  (motor side x N plus load side), keys as the plant's friction sections:
+  fc_pos_Nm, fc_neg_Nm, fs_pos_Nm, fs_neg_Nm, vs_rad_s, delta,
+  viscous_Nms_per_rad; ``[friction_motor]`` sigma0_Nm_per_rad (+ sigma1)
+  from the locked-output presliding (motor units);
+* ``[identified]`` hysteresis_loss_rad, lost_motion_rad,
+  f_antiresonance_Hz, f_resonance_Hz, preisach_table (file name),
+  preisach_offset_rad, preisach_crc.
+
+Written atomically (temp file + rename).
+"""
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Any, Mapping
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            raise ValueError(f"non-finite value {v}")
+        return repr(float(v))
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    raise TypeError(f"cannot write {type(v).__name__} to TOML")
+
+
+def format_toml(sections: Mapping[str, Mapping[str, Any]], header: str = "") -> str:
+    """TOML text of ``{section: {key: value}}`` (numbers, bools, strings)."""
+    out = [f"# {line}" for line in header.splitlines()]
+    for name, kv in sections.items():
+        if not kv:
+            continue
+        out.append("")
+        out.append(f"[{name}]")
+        for k, v in kv.items():
+            if v is None:
+                continue
+            out.append(f"{k} = {_fmt(v)}")
+    return "\n".join(out) + "\n"
+
+
+def write_toml(path: str | os.PathLike[str], sections: Mapping[str, Mapping[str, Any]], header: str = "") -> None:
+    """Write atomically."""
+    p = Path(path)
+    text = format_toml(sections, header)
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", dir=str(p.parent or Path(".")))
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, p)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def model_sections(results: Mapping[str, Any], ratio: float) -> dict[str, dict[str, Any]]:
+    """Map fit results (objects from the ident modules) to TOML sections."""
+    s: dict[str, dict[str, Any]] = {"gear": {"ratio": float(ratio)}}
+    ident: dict[str, Any] = {}
+    st = results.get("stiffness")
+    if st is not None:
+        s["stiffness"] = {"k1_Nm_per_rad": st.k1_Nm_per_rad, "k2_Nm_per_rad": st.k2_Nm_per_rad,
+                          "k3_Nm_per_rad": st.k3_Nm_per_rad, "t1_Nm": st.t1_Nm, "t2_Nm": st.t2_Nm}
+        s["stiffness_cubic"] = {"k1_Nm_per_rad": st.cubic_k1_Nm_per_rad, "k3_Nm_per_rad3": st.cubic_k3_Nm_per_rad3}
+        mw = st.maxwell
+        hm: dict[str, Any] = {"n_elements": len(mw.k_Nm_per_rad)}
+        for i, (k, w) in enumerate(zip(mw.k_Nm_per_rad, mw.w_Nm), start=1):
+            hm[f"e{i}_k_Nm_per_rad"] = k
+            hm[f"e{i}_w_Nm"] = w
+        s["hysteresis_maxwell"] = hm
+        ident["hysteresis_loss_rad"] = st.hysteresis_loss_rad
+        ident["lost_motion_rad"] = st.lost_motion_rad
+    te = results.get("te")
+    if te is not None:
+        t: dict[str, Any] = {}
+        for i, (n, a, p) in enumerate(zip(te.wg_orders, te.wg_amp_rad, te.wg_phase_rad), start=1):
+            t[f"wg{i}_order"], t[f"wg{i}_amp_rad"], t[f"wg{i}_phase_rad"] = int(n), a, p
+        for i, (n, a, p) in enumerate(zip(te.out_orders, te.out_amp_rad, te.out_phase_rad), start=1):
+            t[f"out{i}_order"], t[f"out{i}_amp_rad"], t[f"out{i}_phase_rad"] = int(n), a, p
+        s["transmission_error"] = t
+    fr = results.get("frf")
+    if fr:
+        f = fr[-1]
+        s.setdefault("stiffness", {})["damping_Nms_per_rad"] = f.c_Nms_per_rad
+        s["load"] = {"jl_kgm2": f.j2_kgm2}
+        s["motor"] = {"jm_kgm2": f.j1_kgm2 / ratio ** 2}
+        ident["f_antiresonance_Hz"] = f.f_antiresonance_Hz
+        ident["f_resonance_Hz"] = f.f_resonance_Hz
+        ident["frf_small_signal_k_Nm_per_rad"] = f.k_Nm_per_rad
+    g = results.get("gravity")
+    if g is not None:
+        s["gravity"] = {"mgl_Nm": g.mgl_Nm, "offset_rad": g.offset_rad}
+    sb = results.get("stribeck")
+    if sb is not None:
+        s["friction_total"] = {"fc_pos_Nm": sb.fc_pos_Nm, "fc_neg_Nm": sb.fc_neg_Nm, "fs_pos_Nm": sb.fs_pos_Nm,
+                               "fs_neg_Nm": sb.fs_neg_Nm, "vs_rad_s": sb.vs_rad_s, "delta": sb.delta,
+                               "viscous_Nms_per_rad": sb.viscous_Nms_per_rad}
+    ps = results.get("presliding")
+    if ps is not None:
+        s["friction_motor"] = {"sigma0_Nm_per_rad": ps.sigma0_Nm_per_rad, "sigma1_Nms_per_rad": ps.sigma1_Nms_per_rad}
+    pz = results.get("preisach")
+    if pz is not None:
+        ident["preisach_offset_rad"] = pz["everett"].offset_rad
+        ident["preisach_u0_Nm"] = pz["everett"].u0_Nm
+        ident["preisach_step_Nm"] = pz["everett"].step_Nm
+        ident["preisach_levels"] = pz["everett"].levels
+        ident["preisach_crc"] = int(pz["table"].crc)
+        if pz.get("file"):
+            ident["preisach_table"] = str(pz["file"])
+    s["identified"] = ident
+    return s

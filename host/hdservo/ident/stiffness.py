@@ -1,0 +1,225 @@
+"""Torsional stiffness (three-slope and cubic) and the catalogue hysteresis figures.
+
+Experiment: output locked (clamp), quasi-static torque cycles
+0 -> +T -> 0 -> -T -> 0 driven by the motor (:class:`.experiments.LockedCycle`).
+The gear torque comes from the rig torque sensor between gear and clamp,
+the twist from the motor encoder: ``phi = theta_m/N - theta_l + e(theta_m)``
+with the kinematic error ``e`` from the TE fit (:mod:`.te`).
+
+Why this isolates the gear: with the output locked the load-side friction
+does not act (the load does not move) and the torque sensor sits after the
+input friction, so neither the input-side LuGre presliding nor the output
+bearing presliding enters the torque-twist relation; what remains is the
+spring plus the gear's own hysteresis.
+
+Fits
+----
+* three-slope ``T_s = K3 phi + (K1-K2) sat_phi1 + (K2-K3) sat_phi2`` jointly
+  with Maxwell-slip elements on a threshold grid (linear in the slopes and
+  the element stiffnesses for fixed knots; NNLS-type bounded LS inside, the
+  knots phi1, phi2 by Nelder-Mead outside).  T1 = K1 phi1,
+  T2 = T1 + K2 (phi2 - phi1).
+* cubic ``T = k1 phi + k3 phi^3`` (+ the same Maxwell elements).
+* hysteresis loss (catalogue): twist difference at zero torque between the
+  descending and ascending branches of the +-T cycle (points B-B');
+  lost motion: twist between the +-4 % rated tips of the small cycle.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.optimize import lsq_linear, minimize, nnls
+
+from ..cli import UserError
+from .experiments import ExperimentData
+from .hysteresis import MaxwellSlip, maxwell_from_weights, split_reversals, stop_operators
+from .te import TEResult
+
+
+def twist_of(seg: dict[str, np.ndarray], ratio: float, te: TEResult | None) -> np.ndarray:
+    """Twist (rad) from the encoders, TE removed when known."""
+    phi = seg["motor_angle_rad"] / ratio - seg["load_angle_rad"]
+    if te is not None:
+        phi = phi + te.evaluate(seg["motor_angle_rad"])
+    return phi
+
+
+def sat(x: np.ndarray, d: float) -> np.ndarray:
+    return np.clip(x, -d, d)
+
+
+@dataclass
+class StiffnessResult:
+    """Three-slope and cubic stiffness, Maxwell-slip elements, catalogue figures."""
+
+    k1_Nm_per_rad: float
+    k2_Nm_per_rad: float
+    k3_Nm_per_rad: float
+    t1_Nm: float
+    t2_Nm: float
+    cubic_k1_Nm_per_rad: float
+    cubic_k3_Nm_per_rad3: float
+    hysteresis_loss_rad: float
+    lost_motion_rad: float | None
+    maxwell: MaxwellSlip
+    residual_rms_Nm: float
+    cubic_residual_rms_Nm: float
+    te_corrected: bool
+    plot_data: dict[str, Any] = field(default_factory=dict, repr=False)
+
+    def three_slope(self, phi: np.ndarray) -> np.ndarray:
+        p1 = self.t1_Nm / self.k1_Nm_per_rad
+        p2 = p1 + (self.t2_Nm - self.t1_Nm) / self.k2_Nm_per_rad
+        return (self.k3_Nm_per_rad * phi + (self.k1_Nm_per_rad - self.k2_Nm_per_rad) * sat(phi, p1)
+                + (self.k2_Nm_per_rad - self.k3_Nm_per_rad) * sat(phi, p2))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"k1_Nm_per_rad": self.k1_Nm_per_rad, "k2_Nm_per_rad": self.k2_Nm_per_rad,
+                "k3_Nm_per_rad": self.k3_Nm_per_rad, "t1_Nm": self.t1_Nm, "t2_Nm": self.t2_Nm,
+                "cubic_k1_Nm_per_rad": self.cubic_k1_Nm_per_rad, "cubic_k3_Nm_per_rad3": self.cubic_k3_Nm_per_rad3,
+                "hysteresis_loss_rad": self.hysteresis_loss_rad,
+                "hysteresis_loss_arcmin": self.hysteresis_loss_rad / (math.pi / 180 / 60),
+                "lost_motion_rad": self.lost_motion_rad,
+                "lost_motion_arcmin": None if self.lost_motion_rad is None
+                else self.lost_motion_rad / (math.pi / 180 / 60),
+                "maxwell": self.maxwell.to_dict(), "residual_rms_Nm": self.residual_rms_Nm,
+                "cubic_residual_rms_Nm": self.cubic_residual_rms_Nm, "te_corrected": self.te_corrected}
+
+
+def zero_crossing_twists(T: np.ndarray, phi: np.ndarray, cmd: np.ndarray, band: float) -> tuple[list[float], list[float]]:
+    """Twist at T = 0 on descending and ascending stretches (local linear fit within +-band N.m)."""
+    desc, asc = [], []
+    for a, b in split_reversals(cmd):
+        t, p = T[a:b + 1], phi[a:b + 1]
+        m = np.abs(t) <= band
+        if m.sum() < 5 or not (t.min() < -band / 2 and t.max() > band / 2):
+            continue
+        c = np.polyfit(t[m], p[m], 1)
+        (desc if cmd[b] < cmd[a] else asc).append(float(c[1]))
+    return desc, asc
+
+
+def hysteresis_loss(T: np.ndarray, phi: np.ndarray, cmd: np.ndarray, t_max: float) -> float:
+    """Catalogue hysteresis loss (rad): mean twist at T = 0 descending minus ascending (first stretch skipped)."""
+    st = split_reversals(cmd)
+    a0 = st[1][0] if len(st) > 1 else 0
+    desc, asc = zero_crossing_twists(T[a0:], phi[a0:], cmd[a0:], 0.03 * t_max)
+    if not desc or not asc:
+        raise UserError("stiffness: the torque cycle does not cross zero in both directions")
+    return float(np.mean(desc) - np.mean(asc))
+
+
+def lost_motion(T: np.ndarray, phi: np.ndarray, cmd: np.ndarray) -> float:
+    """Twist between the positive and negative tips of a small cycle (rad), first cycle skipped."""
+    st = split_reversals(cmd)
+    hi, lo = [], []
+    for a, b in st[2:]:
+        k = a + int(np.argmax(T[a:b + 1])) if cmd[b] < cmd[a] else a + int(np.argmin(T[a:b + 1]))
+        (hi if cmd[b] < cmd[a] else lo).append(float(np.mean(phi[max(k - 3, 0):k + 4])))
+    if not hi or not lo:
+        raise UserError("stiffness: the lost-motion cycle has no complete reversal")
+    return float(np.mean(hi) - np.mean(lo))
+
+
+def _design(phi: np.ndarray, knots: tuple[float, float], stops: np.ndarray) -> np.ndarray:
+    p1, p2 = knots
+    return np.column_stack([phi, sat(phi, p1), sat(phi, p2), np.ones_like(phi), stops])
+
+
+def fit_stiffness(data: ExperimentData, te: TEResult | None = None,
+                  thresholds_rad: np.ndarray | None = None, max_elements: int = 8) -> StiffnessResult:
+    """Three-slope + Maxwell-slip, cubic, hysteresis loss and lost motion from ``locked_cycle`` data.
+
+    Parameters
+    ----------
+    data : ExperimentData
+        Segment 0: the +-T cycles; segment 1 (optional): the +-4 % rated cycles.
+    te : TEResult, optional
+        Kinematic error to remove from the motor-encoder twist.
+    thresholds_rad : numpy.ndarray, optional
+        Maxwell-slip threshold grid (rad of twist); default log-spaced
+        2e-5 ... 1.5e-3 rad (16 values).
+    max_elements : int
+        Elements kept in the result (merged neighbours), the plant holds 8.
+    """
+    if data.kind != "locked_cycle":
+        raise UserError(f"stiffness: expected locked_cycle data, found '{data.kind}'")
+    N = data.gear_ratio
+    seg0 = data.segment(0)
+    T = seg0["load_torque_Nm"]
+    cmd = seg0["torque_cmd_Nm"]
+    phi = twist_of(seg0, N, te)
+    t_max = float(np.max(np.abs(T)))
+    loss = hysteresis_loss(T, phi, cmd, t_max)
+    lm = None
+    if len(data.segments) > 1:
+        s1 = data.segment(1)
+        lm = lost_motion(s1["load_torque_Nm"], twist_of(s1, N, te), s1["torque_cmd_Nm"])
+    # thin the samples for the fits (quasi-static: every 4th sample is plenty)
+    k = max(1, len(phi) // 2500)
+    st = split_reversals(cmd)
+    start = st[1][0] if len(st) > 1 else 0
+    # centre the twist: the encoder zero is arbitrary -> fitted constant; stops need the true path
+    span = float(np.max(np.abs(phi[start:])))
+    # elements must be able to slip on the cycle (threshold < half the twist amplitude), else they are
+    # indistinguishable from the linear spring
+    grid = thresholds_rad if thresholds_rad is not None else np.geomspace(2e-5, 0.45 * span, 14)
+    stops = stop_operators(phi, grid)[start::k]
+    ph, Tm = phi[start::k], T[start::k]
+    nK = 4
+
+    def solve(knots: tuple[float, float]) -> tuple[float, np.ndarray]:
+        A = _design(ph, knots, stops)
+        # free columns split into +/- parts so that plain NNLS handles the bounds (fast active set)
+        B = np.column_stack([A[:, :nK], -A[:, :nK], A[:, nK:]])
+        sc = np.linalg.norm(B, axis=0) + 1e-300
+        z, rn = nnls(B / sc, Tm, maxiter=20 * B.shape[1])
+        z = z / sc
+        x = np.r_[z[:nK] - z[nK:2 * nK], z[2 * nK:]]
+        return float(rn ** 2), x
+
+    # knots: coarse grid then Nelder-Mead (log space, ordered)
+    best = (math.inf, (0.0, 0.0))
+    for f1 in np.linspace(0.1, 0.6, 8):
+        for f2 in np.linspace(f1 + 0.1, 0.95, 6):
+            sse, _ = solve((f1 * span, f2 * span))
+            if sse < best[0]:
+                best = (sse, (f1 * span, f2 * span))
+
+    def obj(x: np.ndarray) -> float:
+        p1 = math.exp(x[0])
+        p2 = p1 + math.exp(x[1])
+        if p2 >= span:
+            return 1e30
+        return solve((p1, p2))[0]
+
+    x0 = np.array([math.log(best[1][0]), math.log(best[1][1] - best[1][0])])
+    opt = minimize(obj, x0, method="Nelder-Mead", options={"xatol": 1e-4, "fatol": 1e-9, "maxiter": 400})
+    p1 = math.exp(opt.x[0])
+    p2 = p1 + math.exp(opt.x[1])
+    sse, x = solve((p1, p2))
+    k3 = x[0]
+    k2 = k3 + x[2]
+    k1 = k2 + x[1]
+    t1 = k1 * p1
+    t2 = t1 + k2 * (p2 - p1)
+    mw = maxwell_from_weights(x[nK:], grid)
+    if len(mw.k_Nm_per_rad) > max_elements:
+        mw = mw.reduce(max_elements)
+    resid = Tm - _design(ph, (p1, p2), stops) @ x
+    # cubic + the same stop grid
+    Ac = np.column_stack([ph, ph ** 3, np.ones_like(ph), stops])
+    lo = np.r_[-np.inf, -np.inf, -np.inf, np.zeros(stops.shape[1])]
+    solc = lsq_linear(Ac, Tm, bounds=(lo, np.full(Ac.shape[1], np.inf)), method="bvls")
+    rc = Tm - Ac @ solc.x
+    r = StiffnessResult(k1_Nm_per_rad=float(k1), k2_Nm_per_rad=float(k2), k3_Nm_per_rad=float(k3), t1_Nm=float(t1),
+                        t2_Nm=float(t2), cubic_k1_Nm_per_rad=float(solc.x[0]), cubic_k3_Nm_per_rad3=float(solc.x[1]),
+                        hysteresis_loss_rad=loss, lost_motion_rad=lm, maxwell=mw,
+                        residual_rms_Nm=float(np.sqrt(np.mean(resid ** 2))),
+                        cubic_residual_rms_Nm=float(np.sqrt(np.mean(rc ** 2))), te_corrected=te is not None)
+    r.plot_data = {"phi_rad": ph, "T_Nm": Tm, "resid_Nm": resid, "offset_Nm": float(x[3]),
+                   "cubic_resid_Nm": rc}
+    return r

@@ -1,0 +1,51 @@
+"""`hdservo identify`: bad input gives one line and no output; --data round trip."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from hdservo import REPO_ROOT, logio
+from hdservo.cli import main
+
+import ident_cache as cache
+from hdservo.ident import experiments as ex
+
+
+def test_missing_log_is_one_line(tmp_path: Path, capsys) -> None:
+    out = tmp_path / "m.toml"
+    rc = main(["identify", "te", "--data", str(tmp_path / "nope.csv"), "-o", str(out), "-q"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "nope.csv" in err[0]
+    assert not out.exists()
+
+
+def test_log_without_experiment_key(tmp_path: Path, capsys) -> None:
+    p = tmp_path / "x.csv"
+    logio.write_log(p, {"t_s": np.arange(3) * 1e-3, "motor_angle_rad": np.zeros(3)},
+                    {"gear_ratio": 100.0, "sample_period_s": 1e-3})
+    rc = main(["identify", "te", "--data", str(p), "-q"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "experiment" in err[0] and "x.json" in err[0]
+
+
+def test_te_from_saved_log(tmp_path: Path, capsys) -> None:
+    d = cache.runner("reference").run(ex.TERotation(wg_revs=2))
+    log = tmp_path / "te.csv"
+    d.save(log)
+    out, js = tmp_path / "model.toml", tmp_path / "r.json"
+    rc = main(["identify", "te", "--data", str(log), "-o", str(out), "--json", str(js), "-q"])
+    assert rc == 0
+    text = out.read_text()
+    assert "[transmission_error]" in text and "wg2_amp_rad" in text
+    rep = json.loads(js.read_text())
+    assert rep["results"]["te"]["wg_orders"][1] == 2
+
+
+def test_drive_hook_refuses_cleanly(capsys) -> None:
+    rc = main(["identify", "te", "--drive", "-q"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "--drive" in err[0]
