@@ -15,8 +15,10 @@ G4_OUT    := $(B)/firmware
 G4_ELF    := $(G4_OUT)/hdservo-g474.elf
 G4_LD     := $(G4_DIR)/stm32g474.ld
 G4_ARCH   := -mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16
+# Capture buffer of the MCU image: 4096 words = 16 KiB (RAM budget; hd_capture.h).
+G4_CAPTURE_WORDS := 4096u
 G4_CFLAGS := $(G4_ARCH) $(FW_STD) $(FW_WARN) -O2 -g -ffunction-sections -fdata-sections -ffreestanding -fstack-usage \
-             $(FW_INC) -I$(G4_DIR)
+             -DHD_CAPTURE_WORDS=$(G4_CAPTURE_WORDS) $(FW_INC) -I$(G4_DIR)
 G4_SRC    := $(FW_SRC) $(wildcard $(G4_DIR)/*.c)
 G4_OBJ    := $(patsubst %.c,$(G4_OUT)/obj/%.o,$(G4_SRC))
 G4_FLASH_MAX := 131072

@@ -19,6 +19,7 @@ PKGS=(
   libcmocka-dev
   libsocketcan-dev can-utils
   python3 python3-venv python3-dev
+  clang libclang-rt-14-dev clang-tidy cppcheck
 )
 
 missing=()

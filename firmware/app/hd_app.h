@@ -58,6 +58,7 @@
 #include "hd_trajectory.h"
 #include "hd_excitation.h"
 #include "hd_capture.h"
+#include "hd_comp_bank.h"
 
 typedef enum {
     HD_MODE_OFF = 0,
@@ -85,7 +86,8 @@ typedef enum {
     HD_FAULT_FOLLOWING = 4,     /* |position error| > follow_err_max (position modes) */
     HD_FAULT_ENC_JUMP = 5,      /* output encoder step > enc_jump_max in one period */
     HD_FAULT_SENSOR = 6,        /* a needed sensor flagged invalid */
-    HD_FAULT_PARAM = 7          /* parameters inconsistent at apply (should not happen) */
+    HD_FAULT_PARAM = 7,         /* parameters inconsistent at apply (should not happen) */
+    HD_FAULT_COMM = 8           /* communication: host heartbeat lost (raised by the CANopen adapter) */
 } hd_fault_t;
 
 /* Fault-check enable bits (parameter fault_enable). */
@@ -184,6 +186,10 @@ typedef struct {
     uint32_t cap_sig[HD_CAPTURE_MAX_CH];
 
     hd_telemetry_t tel;
+
+    /* compensator bank (hd_comp_bank.h; parameters cb_*, str_*, lug_*, mx_*, pr_*, te_*, bs_*, dob_*) */
+    hd_comp_bank_cfg_t cb_cfg;
+    hd_comp_bank_t cb;
 } hd_app_t;
 
 /** Power-up: load parameters (NVM or defaults), reset everything, mode OFF. */
@@ -210,6 +216,10 @@ void hd_app_set_sine(hd_app_t *a, int32_t amp, int32_t f_q16);
 int32_t hd_app_set_excitation(hd_app_t *a, const hd_exc_cfg_t *c, int32_t inj);
 /** Clear a latched fault (mode becomes OFF). */
 void hd_app_fault_reset(hd_app_t *a);
+/** Raise (latch) a fault from outside the control step, e.g. HD_FAULT_COMM: the
+ *  power stage goes off at the next step; only hd_app_fault_reset() clears it.
+ *  The first fault is kept.  -1 for code <= HD_FAULT_NONE or unknown. */
+int32_t hd_app_fault_raise(hd_app_t *a, int32_t code);
 
 /** Set one parameter (raw); applied at once. 0 ok, -1 unknown id / out of range (old value kept). */
 int32_t hd_app_param_set(hd_app_t *a, uint32_t id, int32_t raw);
@@ -224,6 +234,10 @@ int32_t hd_app_apply_params(hd_app_t *a);
 int32_t hd_app_capture_arm(hd_app_t *a, const hd_capture_cfg_t *c, const uint32_t *sig);
 /** Command trigger for the capture. */
 void hd_app_capture_trigger(hd_app_t *a);
+
+/** Install a Preisach table image for the compensator bank (checked; the old one
+ *  stays on error). HD_PREISACH_OK (0) or an HD_PREISACH_E_* code. */
+int32_t hd_app_comp_table(hd_app_t *a, const hd_preisach_table_t *t);
 
 /** Latest telemetry (also available as a->tel). */
 const hd_telemetry_t *hd_app_telemetry(const hd_app_t *a);

@@ -3,6 +3,7 @@
  * Layout and rules: hd_param_store.h.
  */
 #include "hd_param_store.h"
+#include <stddef.h>
 #include "hal.h"
 
 #define HDR_WORDS 6u
@@ -120,7 +121,7 @@ int32_t hd_pstore_load(int32_t values[HD_PARAM_COUNT], uint32_t *seq)
     }
     const slot_res_t r0 = read_slot(0, v0, &s0);
     const slot_res_t r1 = read_slot(1, v1, &s1);
-    const int32_t *pick = 0;
+    const int32_t *pick = NULL;
     if (r0 == SLOT_OK && r1 == SLOT_OK) {
         /* serial-number arithmetic: s1 newer if 0 < s1 - s0 < 2^31 */
         const uint32_t d = s1 - s0;
@@ -138,7 +139,7 @@ int32_t hd_pstore_load(int32_t values[HD_PARAM_COUNT], uint32_t *seq)
         pick = v1;
         *seq = s1;
     }
-    if (pick) {
+    if (pick != NULL) {
         for (i = 0; i < HD_PARAM_COUNT; i++) {
             values[i] = pick[i];
         }
@@ -183,7 +184,18 @@ int32_t hd_pstore_save(const int32_t values[HD_PARAM_COUNT], uint32_t *seq)
     } else {
         target = 0u;
     }
-    const uint32_t nseq = *seq + 1u;
+    /* The new sequence must be newer than every valid slot, not only than the
+     * caller's *seq: after a boot that fell back to defaults (read error,
+     * seq 0) a valid newer slot may still be in NVM, and saving with *seq + 1
+     * would lose this save to it at the next boot (found by tests/fuzz/fuzz_pstore). */
+    uint32_t base = *seq;
+    if (r0 == SLOT_OK && (cur - base) - 1u < 0x7FFFFFFFu) {
+        base = cur;
+    }
+    if (r1 == SLOT_OK && (s1 - base) - 1u < 0x7FFFFFFFu) {
+        base = s1;
+    }
+    const uint32_t nseq = base + 1u;
     for (i = 0; i < REC_PADDED; i++) {
         rec[i] = 0xFFu;
     }

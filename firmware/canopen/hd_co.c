@@ -56,7 +56,7 @@ static int64_t decode_le(const uint8_t *p, uint32_t n, bool sgn)
     for (uint32_t i = 0u; i < n; i++) {
         u |= (uint64_t)p[i] << (8u * i);
     }
-    if (sgn && n < 8u && (u & ((uint64_t)1u << (8u * n - 1u))) != 0u) {
+    if (sgn && n > 0u && n < 8u && (u & ((uint64_t)1u << (8u * n - 1u))) != 0u) {
         u |= ~(uint64_t)0u << (8u * n);
     }
     /* two's complement reinterpretation without implementation-defined conversion */

@@ -230,7 +230,7 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x2820u, 10u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 66u, INT64_C(0), INT64_C(1), INT64_C(0), NULL},  /* lug_v_src */
     {0x2830u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(19), NULL},  /* highest_sub_index_supported */
     {0x2830u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 67u, INT64_C(0), INT64_C(8), INT64_C(4), NULL},  /* mx_n */
-    {0x2830u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 68u, INT64_C(256), INT64_C(2048000000), INT64_C(76001970), NULL},  /* mx_stiffness */
+    {0x2830u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 68u, INT64_C(33587200), INT64_C(2048000000), INT64_C(76001970), NULL},  /* mx_stiffness */
     {0x2830u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 69u, INT64_C(66), INT64_C(65536000), INT64_C(1966080), NULL},  /* mx_tau_max */
     {0x2830u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 70u, INT64_C(0), INT64_C(2048000000), INT64_C(11429961), NULL},  /* mx_k1 */
     {0x2830u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 71u, INT64_C(0), INT64_C(2048000000), INT64_C(14726749), NULL},  /* mx_k2 */

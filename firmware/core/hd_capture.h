@@ -2,11 +2,12 @@
  * hd_capture.h - capture buffer: chosen signals at loop rate or decimated,
  * pre-trigger, trigger on level / edge / command, upload afterwards.
  *
- * Memory budget on the STM32G474 (128 KiB SRAM): capture 32 KiB
- * (HD_CAPTURE_WORDS = 8192 int32 words), i.e. 8192 samples of one channel,
- * 1024 samples of 8 channels (0.1 s at 10 kHz, or longer with decimation).
- * The rest: control state + parameters < 8 KiB, CANopen stack and buffers
- * < 16 KiB, stacks 8 KiB, compensator tables (Preisach) <= 32 KiB, spare.
+ * Size: HD_CAPTURE_WORDS int32 words; 8192 (32 KiB) by default (simulator,
+ * host tests), i.e. 8192 samples of one channel, 1024 samples of 8 channels
+ * (0.1 s at 10 kHz, or longer with decimation).  The STM32G474 image (48 KiB
+ * RAM budget shared with the control state, the Preisach table, the CANopen
+ * stack and its table staging) builds with a smaller value, see
+ * docs/stm32g474.md.
  *
  * The caller chooses WHAT is captured (it passes n_ch int32 values per
  * period); this module only stores them.  Samples are frames of n_ch words
@@ -26,7 +27,12 @@
 
 #include <stdint.h>
 
+/* Capture size in int32 words; a port may build with a smaller buffer
+ * (-DHD_CAPTURE_WORDS=...; the STM32G474 image uses 4096 = 16 KiB, see
+ * docs/stm32g474.md).  Must be >= HD_CAPTURE_MAX_CH. */
+#ifndef HD_CAPTURE_WORDS
 #define HD_CAPTURE_WORDS 8192u
+#endif
 #define HD_CAPTURE_MAX_CH 8u
 
 typedef enum {

@@ -178,17 +178,32 @@ static int32_t forc_value(hd_exc_t *s, const hd_exc_cfg_t *c)
     return s->cur;
 }
 
+/* floor(num * 2^32 / den) for num < den (the result fits 32 bits).  den < 2^16:
+ * long division in two 16-bit digits, 32-bit UDIVs only (no __aeabi_uldivmod);
+ * exact, same result as the 64-bit division used otherwise. */
+static uint32_t frac32(uint32_t num, uint32_t den)
+{
+    if (den < 65536u) {
+        const uint32_t c1 = num << 16;                 /* num < den < 2^16 */
+        const uint32_t q1 = c1 / den;
+        const uint32_t c0 = (c1 - q1 * den) << 16;
+        return (q1 << 16) | (c0 / den);
+    }
+    return (uint32_t)(((uint64_t)num << 32) / den);
+}
+
 static int32_t multisine_value(hd_exc_t *s, const hd_exc_cfg_t *c)
 {
-    const uint64_t t = (uint64_t)(s->k % c->period);
+    const uint32_t t = s->k % c->period;
     int64_t sum = 0;
     uint32_t i;
     for (i = 1; i <= c->n; i++) {
-        /* phase in turns: i t / period - (i (i - 1)) / (2 n)  (Schroeder) */
-        const uint64_t num = ((uint64_t)i * t) % c->period;
-        const uint32_t ph = (uint32_t)((num << 32) / c->period);
-        const uint64_t sn = ((uint64_t)i * (i - 1u)) % (2u * c->n);
-        const uint32_t sch = (uint32_t)((sn << 32) / (2u * c->n));
+        /* phase in turns: i t / period - (i (i - 1)) / (2 n)  (Schroeder);
+         * i t < n period <= 2^31 and i (i - 1) < 2^12 (checked at start): 32-bit */
+        const uint32_t num = (i * t) % c->period;
+        const uint32_t ph = frac32(num, c->period);
+        const uint32_t sn = (i * (i - 1u)) % (2u * c->n);
+        const uint32_t sch = frac32(sn, 2u * c->n);
         int32_t sv, cv;
         hd_sincos_turn(ph - sch, &sv, &cv);   /* uint32 phase wraps, meant */
         sum = hd_add64_sat(sum, (int64_t)hd_mul_q(c->amp, sv, 30u));

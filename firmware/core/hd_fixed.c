@@ -52,6 +52,30 @@ static uint64_t hd__ushr_rnd(uint64_t m, uint32_t s)
     return (m >> s) + ((m >> (s - 1u)) & 1u);
 }
 
+/* floor(un / ud) and the remainder for ud < 2^16, by long division in base 2^16:
+ * each step divides (r * 2^16 + digit) < ud * 2^16 <= 2^32 in 32 bits, so the M4
+ * needs four UDIVs instead of the __aeabi_uldivmod loop.  Exact. */
+static uint32_t hd__udiv_digit(uint32_t *r, uint32_t digit, uint32_t ud)
+{
+    const uint32_t cur = (*r << 16) | digit;           /* < ud * 2^16 <= 2^32 */
+    const uint32_t qd = cur / ud;
+    *r = cur - qd * ud;
+    return qd;
+}
+
+static uint64_t hd__udiv64_small(uint64_t un, uint32_t ud, uint64_t *rem)
+{
+    const uint32_t hi = (uint32_t)(un >> 32);
+    const uint32_t lo = (uint32_t)un;
+    uint32_t r = 0u;
+    const uint32_t q3 = hd__udiv_digit(&r, hi >> 16, ud);
+    const uint32_t q2 = hd__udiv_digit(&r, hi & 0xFFFFu, ud);
+    const uint32_t q1 = hd__udiv_digit(&r, lo >> 16, ud);
+    const uint32_t q0 = hd__udiv_digit(&r, lo & 0xFFFFu, ud);
+    *rem = r;
+    return ((uint64_t)((q3 << 16) | q2) << 32) | ((q1 << 16) | q0);
+}
+
 /* ---- saturation ------------------------------------------------------ */
 
 int32_t hd_sat32(int64_t x)
@@ -248,6 +272,11 @@ int32_t hd_mul_q(int32_t a, int32_t b, uint32_t q)
 
 int64_t hd_mul64x32_q(int64_t a, int32_t b, uint32_t q)
 {
+    if (a >= (int64_t)INT32_MIN && a <= (int64_t)INT32_MAX) {
+        /* |a*b| <= 2^62: the 64-bit product is exact (one SMULL on the M4);
+         * hd_asr64_rnd rounds half away like the 96-bit path below */
+        return hd_asr64_rnd((int64_t)(int32_t)a * (int64_t)b, (q > 62u) ? 62u : q);
+    }
     const bool neg = (a < 0) != (b < 0);
     const uint64_t ua = hd__mag64(a);                 /* <= 2^63 */
     const uint32_t ub = (uint32_t)hd__mag64(b);       /* <= 2^31 */
@@ -303,8 +332,12 @@ int32_t hd_div_q(int32_t num, int32_t den, uint32_t q)
     }
     un = hd__mag64(num) << q;                          /* <= 2^62 */
     ud = hd__mag64(den);                               /* <= 2^31 */
-    quo = un / ud;
-    rem = un - quo * ud;
+    if (ud < 65536u) {
+        quo = hd__udiv64_small(un, (uint32_t)ud, &rem);
+    } else {
+        quo = un / ud;
+        rem = un - quo * ud;
+    }
     if (rem >= ud - rem) { /* HD_DIV_Q_ROUNDING: 2*rem >= ud, half away */
         quo += 1u;
     }
@@ -324,8 +357,12 @@ int64_t hd_div64_rnd(int64_t num, int64_t den)
     }
     un = hd__mag64(num);                               /* <= 2^63 */
     ud = hd__mag64(den);
-    quo = un / ud;
-    rem = un - quo * ud;
+    if (ud < 65536u) {
+        quo = hd__udiv64_small(un, (uint32_t)ud, &rem);
+    } else {
+        quo = un / ud;
+        rem = un - quo * ud;
+    }
     if (rem >= ud - rem) {
         quo += 1u;                                     /* quo <= 2^62 + 1 here */
     }

@@ -2,6 +2,7 @@
  * hd_flashstore.c - wear-levelled atomic record store and virtual NVM
  * (see hd_flashstore.h).
  */
+#include <stddef.h>
 #include "hd_flashstore.h"
 
 static const uint32_t crc_nib[16] = {
@@ -111,7 +112,7 @@ static int slot_blank(const hd_fstore_t *s, uint32_t slot)
 int32_t hd_fstore_open(hd_fstore_t *s, const hd_flash_if_t *fl, uint32_t len)
 {
     uint32_t k, sq;
-    if (fl == 0 || fl->n_pages < 2u || (fl->page_size % 8u) != 0u || (len % 8u) != 0u || len == 0u ||
+    if (fl == NULL || fl->n_pages < 2u || (fl->page_size % 8u) != 0u || (len % 8u) != 0u || len == 0u ||
         len > fl->page_size || HD_FS_HDR + HD_FS_TRL + len > fl->page_size) {
         return -1;
     }
@@ -228,7 +229,7 @@ int32_t hd_vnvm_open(hd_vnvm_t *v, const hd_flash_if_t *fl, uint32_t size, uint3
     uint32_t p, k, idx, sq;
     uint32_t have_seq = 0u;
     uint32_t best[HD_VNVM_MAX_VPAGES];
-    if (fl == 0 || page < 8u || (page & (page - 1u)) != 0u || size == 0u || (size % page) != 0u ||
+    if (fl == NULL || page < 8u || (page & (page - 1u)) != 0u || size == 0u || (size % page) != 0u ||
         size / page > HD_VNVM_MAX_VPAGES || HD_FS_HDR + page + HD_FS_TRL > fl->page_size ||
         (fl->page_size % 8u) != 0u || fl->n_pages < size / page + 1u) {
         return -1;

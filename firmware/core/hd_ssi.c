@@ -1,6 +1,7 @@
 /*
  * hd_ssi.c - BiSS-C style absolute encoder frame decoding (see hd_ssi.h).
  */
+#include <stddef.h>
 #include "hd_ssi.h"
 
 uint32_t hd_ssi_crc6(uint32_t data, uint32_t nbits)
@@ -49,7 +50,7 @@ int32_t hd_ssi_decode(const uint8_t *buf, uint32_t nbytes, uint32_t nbits, hd_ss
     uint32_t i = 0u;
     uint32_t k;
     uint32_t data = 0u;
-    if (buf == 0 || r == 0 || nbits > 8u * nbytes) {
+    if (buf == NULL || r == NULL || nbits > 8u * nbytes) {
         return HD_SSI_ERR_ARG;
     }
     while (i < nbits && bit_at(buf, i) != 0u) {       /* idle high */

@@ -50,4 +50,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    # `python -m hdservo.cli`: run the package module's main, so that the
+    # UserError the commands import (hdservo.cli.UserError) is the one caught
+    # here, not a second class of this __main__ copy (which would print a
+    # traceback instead of the one-line error).
+    from hdservo.cli import main as _main
+    sys.exit(_main())

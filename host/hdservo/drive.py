@@ -267,8 +267,15 @@ class Drive:
         except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
             raise DriveError(f"upload 0x{index:04X}:{sub}: {e}") from None
 
-    def capture(self, signals: list[int], samples: int, decimation: int = 1, timeout: float = 30.0) -> list[list[int]]:
-        """Arm the capture buffer, trigger it, wait until done and upload it (int32 per signal)."""
+    def download_group(self, sub: int, raw: dict[str, int], version: int = 1) -> None:
+        """Download a parameter-group table (0x5100:2 friction, 0x5100:3 TE): every parameter of
+        :data:`TABLE_GROUPS` ``[sub]`` as a raw value, applied by the drive all at once or not at all."""
+        self.download_table(sub, group_payload(sub, raw, version))
+
+    def capture(self, signals: list[int], samples: int, decimation: int = 1, timeout: float = 30.0,
+                pretrigger: int = 0) -> list[list[int]]:
+        """Arm the capture buffer, trigger it, wait until done and upload it (int32 per signal,
+        one list per frame, oldest first; ``pretrigger`` frames precede the trigger)."""
         if not 1 <= len(signals) <= 4:
             raise DriveError("capture takes 1 to 4 signals")
         packed = 0
@@ -277,6 +284,7 @@ class Drive:
         self.write(0x5000, 3, packed)
         self.write(0x5000, 4, samples)
         self.write(0x5000, 5, decimation)
+        self.write(0x5000, 6, pretrigger)
         self.write(0x5000, 1, 1)
         self.write(0x5000, 1, 2)
         end = time.monotonic() + timeout
@@ -312,6 +320,35 @@ class Drive:
                         yield m.arbitration_id, struct.unpack_from("<I", m.data, 0)[0], bytes(m.data)
         finally:
             self.network.notifier.remove_listener(listener)
+
+
+# ---- table domains 0x5100 (firmware/canopen/hd_app_co.h) --------------------------------
+#: capture signal ids (hd_sig_t in firmware/app/hd_app.h)
+SIGNALS = {"tick": 0, "pos_out_lo": 1, "pos_out_hi": 2, "pos_mot_lo": 3, "pos_mot_hi": 4, "vel_out": 5,
+           "vel_mot": 6, "pos_ref_lo": 7, "pos_ref_hi": 8, "vel_ref": 9, "acc_ref": 10, "torque_cmd": 11,
+           "current": 12, "gyro": 13, "exc": 14, "pos_err": 15, "fault": 16}
+
+#: parameter groups of 0x5100:2 (friction) and 0x5100:3 (TE), in the drive's order
+TABLE_GROUPS = {
+    2: (0x52464448, ["str_fc_pos", "str_fs_pos", "str_vs_pos", "str_fv_pos", "str_fc_neg", "str_fs_neg",
+                     "str_vs_neg", "str_fv_neg", "str_delta", "str_eps_v", "str_w_ref", "str_tau_max",
+                     "lug_fc", "lug_fs", "lug_vs", "lug_delta", "lug_sigma0", "lug_sigma1", "lug_sigma2",
+                     "lug_k_obs", "lug_tau_max", "lug_v_src"]),
+    3: (0x45544448, ["te_n", "te_k1", "te_tau_max", "te_order1", "te_amp1", "te_phase1", "te_order2",
+                     "te_amp2", "te_phase2", "te_order3", "te_amp3", "te_phase3", "te_order4", "te_amp4",
+                     "te_phase4"]),
+}
+
+
+def group_payload(sub: int, raw: dict[str, int], version: int = 1) -> bytes:
+    """Payload of a parameter-group table: magic, format 1, version (> 0), count, raw int32 values."""
+    if sub not in TABLE_GROUPS:
+        raise DriveError(f"0x5100:{sub} is not a parameter-group table")
+    magic, names = TABLE_GROUPS[sub]
+    missing = [n for n in names if n not in raw]
+    if missing:
+        raise DriveError(f"0x5100:{sub}: missing {', '.join(missing)}")
+    return struct.pack(f"<4I{len(names)}i", magic, 1, version, len(names), *(int(raw[n]) for n in names))
 
 
 class _Collector(can.Listener):
@@ -354,4 +391,4 @@ def write_csv_atomic(path: Path, header: list[str], rows: list[list[float]], met
 
 
 __all__ = ["Drive", "DriveError", "add_bus_arguments", "bus_kwargs", "unwrap_phase", "write_csv_atomic",
-           "EDS_PATH", "MODES", "od_gen"]
+           "EDS_PATH", "MODES", "SIGNALS", "TABLE_GROUPS", "group_payload", "od_gen"]

@@ -388,6 +388,27 @@ static int parse_faults(ctx_t *c, hd_scenario_t *sc)
     return 0;
 }
 
+static int file_exists(const char *p);
+
+/* A file given relative to the scenario's directory or one of its ancestors (or absolute). 0 found. */
+static int find_rel_file(const char *scenario_path, const char *given, char *out, size_t outlen)
+{
+    char dir[HD_SC_PATH_MAX];
+    char cand[2 * HD_SC_PATH_MAX + 2];
+    if (given[0] == '/') return (file_exists(given) && !copy_str(out, outlen, given)) ? 0 : -1;
+    if (copy_str(dir, sizeof dir, scenario_path)) return -1;
+    char *slash = strrchr(dir, '/');
+    if (slash) *slash = '\0';
+    else copy_str(dir, sizeof dir, ".");
+    for (int depth = 0; depth < 16; depth++) {
+        snprintf(cand, sizeof cand, "%s/%s", dir, given);
+        if (file_exists(cand)) return copy_str(out, outlen, cand) ? -1 : 0;
+        if (strlen(dir) + 4 >= sizeof dir) break;
+        strcat(dir, "/..");
+    }
+    return (file_exists(given) && !copy_str(out, outlen, given)) ? 0 : -1;
+}
+
 static int parse_controller(ctx_t *c, hd_scenario_t *sc)
 {
     int m = 0;
@@ -426,6 +447,40 @@ static int parse_controller(ctx_t *c, hd_scenario_t *sc)
             }
         }
         sc->n_comp = (cp->type == HD_TOML_STR_ARRAY) ? (int32_t)cp->n : 0;
+    }
+    /* controller.preisach_table = file (same as [compensators.preisach] table) */
+    hd_toml_entry_t *pt = hd_toml_find(c->doc, "controller.preisach_table");
+    if (pt) {
+        pt->used = 1;
+        if (pt->type != HD_TOML_STRING || find_rel_file(sc->path, pt->str, sc->comp_table, sizeof sc->comp_table)) {
+            hd_toml_entry_error(c->doc, pt, c->err, c->errlen,
+                                "expected a Preisach table file (relative to the scenario or the repository)");
+            return -1;
+        }
+    }
+    /* [compensators.<name>]: drive parameters (appended to the gains), preisach.table = file */
+    for (size_t i = 0; i < c->doc->n; i++) {
+        hd_toml_entry_t *e = &c->doc->e[i];
+        if (strncmp(e->key, "compensators.", 13) != 0) continue;
+        const char *dot = strchr(e->key + 13, '.');
+        e->used = 1;
+        if (!dot || dot == e->key + 13 || dot[1] == '\0') {
+            hd_toml_entry_error(c->doc, e, c->err, c->errlen, "expected [compensators.<name>] key = value");
+            return -1;
+        }
+        if (strcmp(e->key, "compensators.preisach.table") == 0) {
+            if (e->type != HD_TOML_STRING || find_rel_file(sc->path, e->str, sc->comp_table, sizeof sc->comp_table)) {
+                hd_toml_entry_error(c->doc, e, c->err, c->errlen,
+                                    "expected a Preisach table file (relative to the scenario or the repository)");
+                return -1;
+            }
+            continue;
+        }
+        if (e->type != HD_TOML_NUMBER) {
+            hd_toml_entry_error(c->doc, e, c->err, c->errlen, "expected a number (drive parameter, table unit)");
+            return -1;
+        }
+        if (add_override(c, sc->gains, &sc->n_gains, dot + 1, e, e->num)) return -1;
     }
     return 0;
 }

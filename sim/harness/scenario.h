@@ -6,6 +6,8 @@
  *   [controller]  mode ("position" | "velocity" | "torque" | "off"),
  *                 gains = "defaults" or a [controller.gains] table,
  *                 compensators = [ "name", ... ]
+ *   [compensators.<name>]  drive parameters by name (table units, like gains);
+ *                 [compensators.preisach] table = "file" (Preisach image, hdservo.compsetup)
  *   [setpoint]    type = constant | step | ramp | move | sine | chirp | multisine | prbs
  *                 values carry the unit of the mode: _rad (position),
  *                 _rad_s (velocity), _Nm (torque), rates _rad_s / _rad_s2 / _Nm_per_s
@@ -101,6 +103,7 @@ typedef struct {
     hd_sc_override_t gains[HD_SC_MAX_OVERRIDES];
     int32_t n_comp;
     char comp[HD_SC_MAX_COMP][HD_SC_KEY_MAX];
+    char comp_table[HD_SC_PATH_MAX];  /* [compensators.preisach] table = "file" (resolved), "" = none */
     hd_sc_setpoint_t sp;
     double load_torque_Nm;
     double load_step_Nm, load_step_t_s;

@@ -6,8 +6,23 @@
  *   hdservo-sim serve [--axis AXIS.toml|reference|minimal] [--node-id N]
  *       [--transport socketcand|socketcan] [--port P] [--channel can0]
  *       [--pacing realtime|fast|sync] [--sync-periods K] [--bitrate B]
- *       [--duration S] [--seed N] [-q]
+ *       [--duration S] [--seed N] [--set KEY=VALUE]... [--rig] [-q]
  *
+ * Test-rig features (not drive features; used by `hdservo test`, see
+ * docs/procedures.md): --set KEY=VALUE overrides a plant key of the axis at
+ * start-up (e.g. base.enabled=false, gravity.enabled=false); --rig reads rig
+ * commands from stdin, one per line, and answers each with one line
+ * "ok tick=N ..." (or "error ...") on stdout:
+ *   brake 0|1                  output lock (plant brake)
+ *   torque T_Nm [RATE_Nm_s]    external torque on the output, ramped at RATE (0 = step)
+ *   record PATH DECIM | record stop
+ *                              reference instruments (true gear torque, twist,
+ *                              true/inertial angles) as CSV every DECIM periods
+ *   status                     tick, applied torque, brake
+ *
+ * The CANopen <-> app adapter is the firmware's (firmware/canopen/hd_app_co.c, the
+ * same on the STM32); this file supplies the transport, SYNC pacing and the
+ * 64 KiB conformance-test domain.
  * One loop iteration = one control period (100 us of simulated time):
  *   frames from the transport -> hd_co_process (commands reach the app API
  *   and take effect at the next step), hd_sim_step (sensors, app, plant),
@@ -28,18 +43,21 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <poll.h>
+#include <unistd.h>
 
 #include "harness.h"
 #include "hd_app.h"
 #include "hd_co.h"
+#include "hd_app_co.h"
 #include "can_socketcand.h"
 #include "can_socketcan.h"
 #include "serve.h"
 
 #define BUSQ 64u
 #define TXQ 4096u
-#define DOM_N 5u
-#define DOM_CAP (HD_CAPTURE_WORDS * 4u + 65536u + 64u)
+#define DOM_TEST 4u          /* 0x5F20:11, the 64 KiB conformance-test domain */
+#define DOM_CAP (65536u + 64u)
 
 typedef struct {
     uint8_t *data;
@@ -52,6 +70,7 @@ typedef struct {
     hd_sim_t *sim;
     hd_app_t *app;
     hd_co_t co;
+    hd_app_co_t ac;      /* CANopen <-> app adapter (firmware/canopen/hd_app_co.h) */
     /* transport */
     int use_scan;
     hd_scd_t *scd;
@@ -64,13 +83,17 @@ typedef struct {
     uint32_t bitrate;
     double bus_credit_bits;
     uint64_t bus_bits_total, bus_frames, bus_dropped;
-    /* drive state */
-    int8_t mode;
-    int32_t cap_sig[4];
-    uint32_t cap_n;
-    dom_t dom[DOM_N];
+    dom_t test;
     uint32_t sync_credit;
     uint32_t sync_periods;
+    /* test rig (--rig): output lock, external output torque, reference instruments */
+    int rig;
+    char rig_line[1024];
+    size_t rig_len;
+    double rig_torque, rig_torque_target, rig_torque_rate;
+    FILE *rig_rec;
+    uint32_t rig_rec_decim;
+    int64_t rig_k;
 } srv_t;
 
 static volatile sig_atomic_t g_stop = 0;
@@ -122,7 +145,7 @@ int32_t hd_serve_frame_bits(const hd_can_frame_t *f)
     return n + stuffed + 1 /* CRC delimiter */ + 2 /* ACK */ + 7 /* EOF */ + 3 /* IFS */;
 }
 
-/* ---- adapter: hd_co_app_if_t over hd_app_t ---------------------------------- */
+/* ---- port side of the adapter (firmware/canopen/hd_app_co.h) ------------------------ */
 
 static bool a_send(void *c, const hd_can_frame_t *f)
 {
@@ -133,61 +156,47 @@ static bool a_send(void *c, const hd_can_frame_t *f)
     return true;
 }
 
-static int32_t a_pget(void *c, uint16_t id) { return hd_app_param_get(((srv_t *)c)->app, id); }
-static uint32_t a_pset(void *c, uint16_t id, int32_t raw)
+static void a_sync(void *c, uint8_t counter)
 {
-    return hd_app_param_set(((srv_t *)c)->app, id, raw) == 0 ? 0u : HD_CO_AB_VALUE;
+    srv_t *s = c;
+    (void)counter;
+    s->sync_credit += s->sync_periods;
 }
 
-/* domain 0: capture data (int32 LE, frame-major); 1..3 tables; 4 test domain */
+/* the virtual drive's own domain: 4 = 64 KiB test domain (payload + CRC-32 trailer) */
 static uint32_t a_dsize(void *c, uint16_t dom, uint32_t *size)
 {
     srv_t *s = c;
-    if (dom >= DOM_N) return HD_CO_AB_NO_OBJECT;
-    if (dom == 0) {
-        const hd_capture_t *cap = &s->app->cap;
-        *size = hd_capture_frames(cap) * cap->cfg.n_ch * 4u;
-        return 0;
-    }
-    *size = s->dom[dom].len;
+    if (dom != DOM_TEST) return HD_CO_AB_NO_OBJECT;
+    *size = s->test.len;
     return 0;
 }
 
 static uint32_t a_dread(void *c, uint16_t dom, uint32_t off, uint8_t *buf, uint32_t len)
 {
     srv_t *s = c;
-    if (dom >= DOM_N) return HD_CO_AB_NO_OBJECT;
-    if (dom == 0) {
-        const hd_capture_t *cap = &s->app->cap;
-        uint32_t nch = cap->cfg.n_ch ? cap->cfg.n_ch : 1u;
-        for (uint32_t i = 0; i < len; i++) {
-            uint32_t byte = off + i, word = byte / 4u;
-            uint32_t v = (uint32_t)hd_capture_read(cap, word / nch, word % nch);
-            buf[i] = (uint8_t)(v >> (8u * (byte % 4u)));
-        }
-        return 0;
-    }
-    if (off + len > s->dom[dom].len) return HD_CO_AB_GENERAL;
-    memcpy(buf, s->dom[dom].data + off, len);
+    if (dom != DOM_TEST) return HD_CO_AB_NO_OBJECT;
+    if (off + len > s->test.len) return HD_CO_AB_GENERAL;
+    memcpy(buf, s->test.data + off, len);
     return 0;
 }
 
 static uint32_t a_dbegin(void *c, uint16_t dom, uint32_t size)
 {
     srv_t *s = c;
-    if (dom == 0 || dom >= DOM_N) return HD_CO_AB_READONLY;
+    if (dom != DOM_TEST) return HD_CO_AB_NO_OBJECT;
     if (size > DOM_CAP) return HD_CO_AB_LEN_HIGH;
-    s->dom[dom].stage_len = 0;
+    s->test.stage_len = 0;
     return 0;
 }
 
 static uint32_t a_dwrite(void *c, uint16_t dom, uint32_t off, const uint8_t *buf, uint32_t len)
 {
     srv_t *s = c;
-    if (dom == 0 || dom >= DOM_N) return HD_CO_AB_READONLY;
+    if (dom != DOM_TEST) return HD_CO_AB_NO_OBJECT;
     if (off + len > DOM_CAP) return HD_CO_AB_LEN_HIGH;
-    memcpy(s->dom[dom].stage + off, buf, len);
-    s->dom[dom].stage_len = off + len;
+    memcpy(s->test.stage + off, buf, len);
+    s->test.stage_len = off + len;
     return 0;
 }
 
@@ -195,9 +204,9 @@ static uint32_t a_dwrite(void *c, uint16_t dom, uint32_t off, const uint8_t *buf
 static uint32_t a_dend(void *c, uint16_t dom, uint32_t total, bool complete)
 {
     srv_t *s = c;
-    if (dom == 0 || dom >= DOM_N) return HD_CO_AB_READONLY;
+    if (dom != DOM_TEST) return HD_CO_AB_NO_OBJECT;
     if (!complete) return 0;
-    dom_t *d = &s->dom[dom];
+    dom_t *d = &s->test;
     if (total < 4u || total != d->stage_len) return HD_CO_AB_STORE;
     uint32_t crc = hd_co_crc32(0, d->stage, total - 4u);
     const uint8_t *t = d->stage + total - 4u;
@@ -206,183 +215,6 @@ static uint32_t a_dend(void *c, uint16_t dom, uint32_t total, bool complete)
     memcpy(d->data, d->stage, total);
     d->len = total;
     return 0;
-}
-
-static uint32_t a_special_read(void *c, uint16_t index, uint8_t sub, int64_t *v)
-{
-    srv_t *s = c;
-    if (index == 0x5000 && sub == 0) { *v = 7; return 0; }
-    if (index == 0x5000 && sub == 1) { *v = 0; return 0; }
-    if (index == 0x5000 && sub == 2) { *v = (int64_t)s->app->cap.state; return 0; }
-    return HD_CO_AB_NO_OBJECT;
-}
-
-static uint32_t a_special_write(void *c, uint16_t index, uint8_t sub, int64_t v)
-{
-    srv_t *s = c;
-    if (index == 0x5000 && sub == 1) {
-        if (v == 1) {
-            hd_capture_cfg_t cfg;
-            memset(&cfg, 0, sizeof cfg);
-            uint32_t sig[HD_CAPTURE_MAX_CH];
-            uint32_t n = 0, packed = s->co.od.capture_signals;
-            for (uint32_t k = 0; k < 4 && k < HD_CAPTURE_MAX_CH; k++) {
-                uint32_t id = (packed >> (8 * k)) & 0xFFu;
-                if (id == 0xFFu) continue;
-                if (id >= HD_SIG_COUNT) return HD_CO_AB_VALUE;
-                sig[n++] = id;
-            }
-            if (n == 0) return HD_CO_AB_VALUE;
-            cfg.n_ch = n;
-            cfg.decim = s->co.od.capture_decimation;
-            cfg.frames = s->co.od.capture_length;
-            cfg.pretrig = s->co.od.capture_pretrigger;
-            cfg.trig_mode = 0;   /* command trigger */
-            return hd_app_capture_arm(s->app, &cfg, sig) == 0 ? 0u : HD_CO_AB_VALUE;
-        }
-        if (v == 2) {
-            hd_app_capture_trigger(s->app);
-            return 0;
-        }
-        return 0;
-    }
-    return HD_CO_AB_READONLY;
-}
-
-static uint32_t a_store(void *c)
-{
-    return hd_app_param_save(((srv_t *)c)->app) == 0 ? 0u : HD_CO_AB_STATE;
-}
-
-static uint32_t a_restore(void *c)
-{
-    srv_t *s = c;
-    for (uint32_t i = 0; i < HD_PARAM_COUNT; i++) (void)hd_app_param_set(s->app, i, hd_param_table[i].def);
-    return 0;
-}
-
-static void a_sync(void *c, uint8_t counter)
-{
-    srv_t *s = c;
-    (void)counter;
-    s->sync_credit += s->sync_periods;
-}
-
-static int32_t app_mode_for(int8_t m)
-{
-    switch (m) {
-    case HD_CO402_MODE_PP: return HD_MODE_PTP;
-    case HD_CO402_MODE_CSV: return HD_MODE_VELOCITY;
-    case HD_CO402_MODE_CST: return HD_MODE_TORQUE;
-    default: return HD_MODE_POSITION;   /* CSP, and "no mode" = hold position */
-    }
-}
-
-static uint32_t a_enable(void *c, int8_t mode, bool on)
-{
-    srv_t *s = c;
-    if (!on) {
-        (void)hd_app_set_mode(s->app, HD_MODE_OFF);
-        s->mode = 0;
-        return 0;
-    }
-    /* bumpless: the targets start at the actual values */
-    s->co.od.target_position = s->co.od.position_actual_value;
-    s->co.od.target_velocity = 0;
-    s->co.od.target_torque = 0;
-    hd_app_set_position(s->app, s->app->tel.pos_out);
-    hd_app_set_velocity(s->app, 0);
-    hd_app_set_torque(s->app, 0);
-    if (hd_app_set_mode(s->app, app_mode_for(mode)) != 0) return 1;
-    s->mode = mode;
-    return 0;
-}
-
-static void a_setpoint(void *c, const hd_co_setpoint_t *sp)
-{
-    srv_t *s = c;
-    if (sp->quick_stop) {
-        if (s->mode != -1) {
-            (void)hd_app_set_mode(s->app, HD_MODE_VELOCITY);
-            s->mode = -1;
-        }
-        hd_app_set_velocity(s->app, 0);
-        return;
-    }
-    hd_angle_t pos = (hd_angle_t)sp->target_position * 256;
-    switch (sp->mode) {
-    case HD_CO402_MODE_PP:
-        if (sp->pp_new) (void)hd_app_move_to(s->app, pos);
-        break;
-    case HD_CO402_MODE_CSV:
-        hd_app_set_velocity(s->app, sp->target_velocity);
-        hd_app_set_torque(s->app, sp->target_torque);
-        break;
-    case HD_CO402_MODE_CST:
-        hd_app_set_torque(s->app, sp->target_torque);
-        break;
-    case HD_CO402_MODE_CSP:
-        hd_app_set_position(s->app, pos);
-        hd_app_set_velocity(s->app, sp->velocity_offset);
-        hd_app_set_torque(s->app, sp->target_torque);
-        break;
-    default:
-        break;
-    }
-}
-
-static uint16_t emcy_for_fault(int32_t f)
-{
-    switch (f) {
-    case HD_FAULT_TORQUE_SAT: return 0x2310;   /* continuous over-current */
-    case HD_FAULT_OVERSPEED: return 0x8400;    /* velocity speed controller */
-    case HD_FAULT_TRAVEL: return 0x8612;       /* reference limit */
-    case HD_FAULT_FOLLOWING: return 0x8611;    /* following error */
-    case HD_FAULT_ENC_JUMP: return 0x7305;     /* incremental sensor 1 fault */
-    case HD_FAULT_SENSOR: return 0x7300;       /* sensor */
-    case HD_FAULT_PARAM: return 0x6320;        /* parameter error */
-    default: return 0x1000;
-    }
-}
-
-static void a_actual(void *c, hd_co_actual_t *a)
-{
-    srv_t *s = c;
-    const hd_telemetry_t *t = hd_app_telemetry(s->app);
-    a->tick = t->tick;
-    a->load_angle = t->pos_out;
-    a->motor_angle = t->pos_mot;
-    a->setpoint_angle = t->pos_ref;
-    a->load_velocity = t->vel_out;
-    a->motor_velocity = t->vel_mot;
-    a->output_torque = t->torque_cmd;
-    a->motor_torque = t->motor_torque;
-    a->motor_current = t->current;
-    a->fault_code = (uint16_t)t->fault;
-    a->fault_emcy = t->fault ? emcy_for_fault(t->fault) : 0;
-    a->power_enabled = t->mode != HD_MODE_OFF;
-    int32_t v = t->vel_out < 0 ? -t->vel_out : t->vel_out;
-    a->standstill = v < 4295 * 100;            /* 0.1 mturn/s ~ 0.036 deg/s */
-    int64_t e = t->pos_ref - t->pos_out;
-    if (e < 0) e = -e;
-    a->target_reached = e < ((int64_t)1 << 16);
-    a->internal_limit = 0;
-}
-
-static void a_fault_reset(void *c) { hd_app_fault_reset(((srv_t *)c)->app); }
-
-static void a_comm_fault(void *c, uint16_t code)
-{
-    srv_t *s = c;
-    (void)code;
-    /* the app's fault reaction for a lost host: power stage off at once */
-    (void)hd_app_set_mode(s->app, HD_MODE_OFF);
-}
-
-static void a_reset_node(void *c)
-{
-    srv_t *s = c;
-    (void)hd_app_set_mode(s->app, HD_MODE_OFF);
 }
 
 /* ---- transport ------------------------------------------------------------------ */
@@ -470,8 +302,10 @@ int hd_sim_serve_main(int argc, char **argv)
     const char *axis = "reference", *transport = "socketcand", *pacing = "realtime", *channel = "can0";
     unsigned long node = 1, port = 0, sync_periods = 10, bitrate = 0, seed = 1;
     double duration = 0.0;
-    int quiet = 0;
+    int quiet = 0, rig = 0;
     char msg[512];
+    static char plant_set[4096];
+    size_t plant_set_len = 0;
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
         const char *v = (i + 1 < argc) ? argv[i + 1] : NULL;
@@ -491,11 +325,30 @@ int hd_sim_serve_main(int argc, char **argv)
             duration = strtod(v, &end);
             if (*end || !(duration > 0.0) || duration > 1e7) return usage_fail("--duration must be a positive number of seconds");
         }
+        else if (strcmp(a, "--set") == 0) {
+            NEEDV();
+            const char *eq = strchr(v, '=');
+            size_t klen = eq ? (size_t)(eq - v) : 0u;
+            int ok = eq && klen > 0 && eq[1] != '\0' && strlen(v) < 200;
+            for (const char *c = v; ok && *c; c++)
+                if (!((*c >= 'a' && *c <= 'z') || (*c >= 'A' && *c <= 'Z') || (*c >= '0' && *c <= '9') ||
+                      strchr("_.+-=", *c))) ok = 0;
+            if (!ok) {
+                snprintf(msg, sizeof msg, "--set '%.100s': expected SECTION.KEY=VALUE (a plant key of docs/plant.md)", v);
+                return usage_fail(msg);
+            }
+            int w = snprintf(plant_set + plant_set_len, sizeof plant_set - plant_set_len, "%.*s = %s\n",
+                             (int)klen, v, eq + 1);
+            if (w < 0 || (size_t)w >= sizeof plant_set - plant_set_len) return usage_fail("too many --set options");
+            plant_set_len += (size_t)w;
+        }
+        else if (strcmp(a, "--rig") == 0) rig = 1;
         else if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) quiet = 1;
         else if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
             printf("usage: hdservo-sim serve [--axis AXIS.toml|reference|minimal] [--node-id N] "
                    "[--transport socketcand|socketcan] [--port P] [--channel can0] "
-                   "[--pacing realtime|fast|sync] [--sync-periods K] [--bitrate B] [--duration S] [--seed N] [-q]\n");
+                   "[--pacing realtime|fast|sync] [--sync-periods K] [--bitrate B] [--duration S] [--seed N] "
+                   "[--set KEY=VALUE]... [--rig] [-q]\n");
             return 0;
         } else {
             snprintf(msg, sizeof msg, "unknown option '%.100s'", a);
@@ -515,10 +368,10 @@ int hd_sim_serve_main(int argc, char **argv)
     hd_scenario_t *sc = calloc(1, sizeof *sc);
     srv_t *s = calloc(1, sizeof *s);
     if (!sc || !s) return usage_fail("out of memory");
-    char text[2048];
+    static char text[8192];
     snprintf(text, sizeof text,
              "[scenario]\nname = \"serve\"\naxis = \"%s\"\nduration_s = 3600\nseed = %lu\n"
-             "[controller]\nmode = \"off\"\n", axis, seed);
+             "[controller]\nmode = \"off\"\n%s%s", axis, seed, plant_set_len ? "[plant]\n" : "", plant_set);
     if (hd_scenario_parse(text, strlen(text), "serve", sc, msg, sizeof msg) != 0) {
         fprintf(stderr, "hdservo-sim serve: error: --axis %s: %s\n", axis, msg);
         return 1;
@@ -535,13 +388,12 @@ int hd_sim_serve_main(int argc, char **argv)
     }
     /* the harness owns the app; the CANopen layer drives it through its command API */
     s->app = (hd_app_t *)(uintptr_t)hd_sim_app(s->sim);
-    for (uint32_t d = 1; d < DOM_N; d++) {
-        s->dom[d].data = calloc(1, DOM_CAP);
-        s->dom[d].stage = calloc(1, DOM_CAP);
-        if (!s->dom[d].data || !s->dom[d].stage) return usage_fail("out of memory");
-    }
+    s->test.data = calloc(1, DOM_CAP);
+    s->test.stage = calloc(1, DOM_CAP);
+    if (!s->test.data || !s->test.stage) return usage_fail("out of memory");
     s->bitrate = (uint32_t)bitrate;
     s->sync_periods = (uint32_t)sync_periods;
+    s->rig = rig;
 
     if (strcmp(transport, "socketcan") == 0) {
         if (hd_scan_open(&s->scan, channel, (uint32_t)bitrate, 100u, msg, sizeof msg) != 0) {
@@ -560,29 +412,17 @@ int hd_sim_serve_main(int argc, char **argv)
     }
     fflush(stdout);
 
-    hd_co_app_if_t ifc;
-    memset(&ifc, 0, sizeof ifc);
-    ifc.ctx = s;
-    ifc.send = a_send;
-    ifc.param_get = a_pget;
-    ifc.param_set = a_pset;
-    ifc.domain_size = a_dsize;
-    ifc.domain_read = a_dread;
-    ifc.domain_write_begin = a_dbegin;
-    ifc.domain_write = a_dwrite;
-    ifc.domain_write_end = a_dend;
-    ifc.special_read = a_special_read;
-    ifc.special_write = a_special_write;
-    ifc.store = a_store;
-    ifc.restore = a_restore;
-    ifc.reset_node = a_reset_node;
-    ifc.on_sync = a_sync;
-    ifc.drive_enable = a_enable;
-    ifc.drive_setpoint = a_setpoint;
-    ifc.drive_actual = a_actual;
-    ifc.drive_fault_reset = a_fault_reset;
-    ifc.drive_comm_fault = a_comm_fault;
-    hd_co_init(&s->co, (uint8_t)node, &ifc);
+    hd_app_co_port_t pif;
+    memset(&pif, 0, sizeof pif);
+    pif.ctx = s;
+    pif.send = a_send;
+    pif.on_sync = a_sync;
+    pif.domain_size = a_dsize;
+    pif.domain_read = a_dread;
+    pif.domain_write_begin = a_dbegin;
+    pif.domain_write = a_dwrite;
+    pif.domain_write_end = a_dend;
+    hd_app_co_init(&s->ac, &s->co, s->app, (uint8_t)node, &pif);
 
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
@@ -596,6 +436,7 @@ int hd_sim_serve_main(int argc, char **argv)
     while (!g_stop && k < n_end) {
         /* wait for a client before time starts (the boot-up message must reach it) */
         if (!s->use_scan && !hd_scd_streaming(s->scd)) {
+            if (s->rig) rig_poll(s);
             receive(s, had_client ? 5 : 50);
             if (!hd_scd_streaming(s->scd)) continue;
             had_client = 1;
@@ -605,7 +446,8 @@ int hd_sim_serve_main(int argc, char **argv)
         }
         if (pace == 2) {
             while (!g_stop && s->sync_credit == 0) {
-                receive(s, 20);
+                if (s->rig) rig_poll(s);
+                receive(s, s->rig ? 2 : 20);
                 drain_tx(s);
                 if (!s->use_scan) hd_scd_flush(s->scd, true, 0);
             }
@@ -614,10 +456,12 @@ int hd_sim_serve_main(int argc, char **argv)
         } else {
             receive(s, 0);
         }
+        if (s->rig && k % 10 == 0) rig_poll(s);
         hd_sim_step(s->sim, NULL);
         hd_co_tick(&s->co, HD_CO_TICK_US);
         k++;
         s->t_us = (uint64_t)k * 100u;
+        if (s->rig) rig_period(s, dt);
         if (s->bitrate) {
             s->bus_credit_bits += (double)s->bitrate * dt;
             if (s->bus_credit_bits > 2.0 * s->bitrate * dt + 200.0) s->bus_credit_bits = 2.0 * s->bitrate * dt + 200.0;
@@ -634,6 +478,7 @@ int hd_sim_serve_main(int argc, char **argv)
         }
     }
     if (!s->use_scan) hd_scd_flush(s->scd, true, 0);
+    if (s->rig_rec) fclose(s->rig_rec);
     double wall = wall_s() - t0;
     fprintf(stderr,
             "{\"periods\": %lld, \"sim_s\": %.4f, \"wall_s\": %.4f, \"frames_to_bus\": %llu, "
@@ -647,10 +492,8 @@ int hd_sim_serve_main(int argc, char **argv)
     if (s->use_scan) hd_scan_close(&s->scan);
     else hd_scd_close(s->scd);
     hd_sim_free(s->sim);
-    for (uint32_t d = 1; d < DOM_N; d++) {
-        free(s->dom[d].data);
-        free(s->dom[d].stage);
-    }
+    free(s->test.data);
+    free(s->test.stage);
     free(s);
     free(sc);
     return 0;

@@ -52,10 +52,76 @@ static double rng_uniform(uint64_t s[4])   /* (0, 1) */
     return ((double)(rng_next(s) >> 11) + 0.5) * (1.0 / 9007199254740992.0);
 }
 
-static double rng_gauss(uint64_t s[4])
+/* Standard Gaussian by the ziggurat method (Marsaglia & Tsang 2000, 128 layers of
+ * equal area, in Doornik's floating-point form): exact in distribution, usually one
+ * uniform draw, a table look-up and a compare; exp/log only in the rare wedges and
+ * the tail (beyond R = 3.4426).  Tables are built once at init. */
+#define ZIG_C 128
+#define ZIG_R 3.442619855899
+#define ZIG_V 9.91256303526217e-3
+
+static void zig_init(double *x, double *r)
 {
-    double u1 = rng_uniform(s), u2 = rng_uniform(s);
-    return sqrt(-2.0 * log(u1)) * cos(TWO_PI * u2);
+    double f = exp(-0.5 * ZIG_R * ZIG_R);
+    int i;
+    x[0] = ZIG_V / f;
+    x[1] = ZIG_R;
+    x[ZIG_C] = 0.0;
+    for (i = 2; i < ZIG_C; i++) {
+        x[i] = sqrt(-2.0 * log(ZIG_V / x[i - 1] + f));
+        f = exp(-0.5 * x[i] * x[i]);
+    }
+    for (i = 0; i < ZIG_C; i++) r[i] = x[i + 1] / x[i];
+}
+
+static double rng_gauss(hd_plant *p)
+{
+    for (;;) {
+        uint64_t b = rng_next(p->rng);
+        int i = (int)(b & 0x7Fu);                                        /* layer: low 7 bits */
+        double u = 2.0 * (((double)(b >> 11) + 0.5) * (1.0 / 9007199254740992.0)) - 1.0; /* top 53 bits */
+        double xx, f0, f1;
+        if (fabs(u) < p->zig_r[i]) return u * p->zig_x[i];
+        if (i == 0) {                                                    /* tail beyond R */
+            double t, y;
+            do {
+                t = -log(rng_uniform(p->rng)) / ZIG_R;
+                y = -log(rng_uniform(p->rng));
+            } while (y + y < t * t);
+            return u < 0.0 ? -(ZIG_R + t) : ZIG_R + t;
+        }
+        xx = u * p->zig_x[i];                                            /* wedge */
+        f0 = exp(-0.5 * (p->zig_x[i] * p->zig_x[i] - xx * xx));
+        f1 = exp(-0.5 * (p->zig_x[i + 1] * p->zig_x[i + 1] - xx * xx));
+        if (f1 + rng_uniform(p->rng) * (f0 - f1) < 1.0) return xx;
+    }
+}
+
+/* cos/sin(x0 + d) from c0 = cos x0, s0 = sin x0: angle addition with a Taylor
+ * polynomial of cos/sin d for small |d| (truncation < 1e-22), libm otherwise. */
+static void rot_small(double c0, double s0, double x, double d, double *c, double *s)
+{
+    double ad = fabs(d);
+    if (ad < 2e-3) {
+        /* sin d = d - d^3/6 (error < d^5/120 < 3e-16), cos d - 1 = -d^2/2 + d^4/24 (< 1e-22) */
+        double d2 = d * d;
+        double sd = d * (1.0 - d2 * (1.0 / 6.0));
+        double cm1 = -0.5 * d2 * (1.0 - d2 * (1.0 / 12.0));
+        *c = c0 + (c0 * cm1 - s0 * sd);
+        *s = s0 + (s0 * cm1 + c0 * sd);
+    } else if (ad < 0.1) {
+        double d2 = d * d;
+        /* Taylor terms to d^11 / d^12 (Horner, reciprocal factorial ratios) */
+        double sd = d * (1.0 - d2 * (1.0 / 6.0) * (1.0 - d2 * (1.0 / 20.0) * (1.0 - d2 * (1.0 / 42.0)
+                    * (1.0 - d2 * (1.0 / 72.0) * (1.0 - d2 * (1.0 / 110.0))))));
+        double cm1 = -0.5 * d2 * (1.0 - d2 * (1.0 / 12.0) * (1.0 - d2 * (1.0 / 30.0) * (1.0 - d2 * (1.0 / 56.0)
+                     * (1.0 - d2 * (1.0 / 90.0) * (1.0 - d2 * (1.0 / 132.0))))));
+        *c = c0 + (c0 * cm1 - s0 * sd);
+        *s = s0 + (s0 * cm1 + c0 * sd);
+    } else {
+        *c = cos(x);
+        *s = sin(x);
+    }
 }
 
 /* ---- model pieces -------------------------------------------------------------- */
@@ -104,30 +170,86 @@ static void cis_pow(double c, double s, uint32_t n, double *cn, double *sn)
     *sn = rs;
 }
 
-/* sum_k a_k*sin(n_k*th + p_k) and its derivative d/dth, for harmonic list `list`
- * (0 cogging, 1 TE wave generator, 2 TE output); c1/s1 = cos/sin(th). */
-static double harm_sum(const hd_plant *p, int list, double th, double c1, double s1, double *dsum)
+/* Harmonic lists (0 cogging, 1 TE wave generator, 2 TE output), compacted at init to
+ * the active entries.  Integer orders are evaluated from one cos/sin of the angle:
+ * op 1 = the angle itself, 2 = square of entry i1, 3 = product of entries i1, i2,
+ * 4 = binary power (cis_pow); op 0 = non-integer order (libm sin/cos). */
+enum { H_SIN = 0, H_BASE = 1, H_SQ = 2, H_MUL = 3, H_POW = 4 };
+
+static void harm_plan(hd_plant *p)
 {
     const hd_plant_params *q = &p->prm;
-    const double *ord = list == 0 ? q->cog_order : (list == 1 ? q->te_wg_order : q->te_out_order);
-    const double *amp = list == 0 ? q->cog_amp_Nm : (list == 1 ? q->te_wg_amp_rad : q->te_out_amp_rad);
-    const double *ph = list == 0 ? q->cog_phase_rad : (list == 1 ? q->te_wg_phase_rad : q->te_out_phase_rad);
-    double sum = 0.0, d = 0.0;
-    int k;
-    for (k = 0; k < HD_PLANT_MAX_HARM; k++) {
-        double n = ord[k], a = amp[k], sn, cn;
-        if (n == 0.0 || a == 0.0) continue;
-        if (p->harm_int[list][k]) {
-            double cb, sb;
-            cis_pow(c1, s1, (uint32_t)n, &cb, &sb);
-            sn = sb * p->harm_cp[list][k] + cb * p->harm_sp[list][k];
-            cn = cb * p->harm_cp[list][k] - sb * p->harm_sp[list][k];
-        } else {
-            sn = sin(n * th + ph[k]);
-            cn = cos(n * th + ph[k]);
+    int l, k;
+    for (l = 0; l < 3; l++) {
+        const double *ord = l == 0 ? q->cog_order : (l == 1 ? q->te_wg_order : q->te_out_order);
+        const double *amp = l == 0 ? q->cog_amp_Nm : (l == 1 ? q->te_wg_amp_rad : q->te_out_amp_rad);
+        const double *ph = l == 0 ? q->cog_phase_rad : (l == 1 ? q->te_wg_phase_rad : q->te_out_phase_rad);
+        int n = 0;
+        for (k = 0; k < HD_PLANT_MAX_HARM; k++) {
+            int j, i2, op;
+            uint32_t o;
+            if (ord[k] == 0.0 || amp[k] == 0.0) continue;
+            p->hfo[l][n] = ord[k];
+            p->hamp[l][n] = amp[k];
+            p->hampn[l][n] = amp[k] * ord[k];
+            p->hcp[l][n] = p->harm_cp[l][k];
+            p->hsp[l][n] = p->harm_sp[l][k];
+            p->hph[l][n] = ph[k];
+            p->hi1[l][n] = p->hi2[l][n] = 0;
+            if (!p->harm_int[l][k]) {
+                op = H_SIN;
+                o = 0u;
+            } else {
+                o = (uint32_t)ord[k];
+                op = o == 1u ? H_BASE : (o == 2u ? H_SQ : H_POW);
+                if (op == H_SQ) p->hi1[l][n] = -1;                  /* square of the angle itself */
+                for (j = 0; j < n && op == H_POW; j++)
+                    if (p->hop[l][j] != H_SIN && 2u * p->hord[l][j] == o) { op = H_SQ; p->hi1[l][n] = j; }
+                for (j = 0; j < n && op == H_POW; j++)
+                    for (i2 = 0; i2 <= j && op == H_POW; i2++)
+                        if (p->hop[l][j] != H_SIN && p->hop[l][i2] != H_SIN && p->hord[l][j] + p->hord[l][i2] == o)
+                            { op = H_MUL; p->hi1[l][n] = j; p->hi2[l][n] = i2; }
+            }
+            p->hop[l][n] = op;
+            p->hord[l][n] = o;
+            n++;
         }
-        sum += a * sn;
-        d += a * n * cn;
+        p->hn[l] = n;
+    }
+}
+
+/* sum_k a_k*sin(n_k*th + p_k) and its derivative d/dth for list l; c1/s1 = cos/sin(th). */
+static double harm_sum(const hd_plant *p, int l, double th, double c1, double s1, double *dsum)
+{
+    double pc[HD_PLANT_MAX_HARM], ps[HD_PLANT_MAX_HARM];
+    double sum = 0.0, d = 0.0;
+    int k, n = p->hn[l];
+    for (k = 0; k < n; k++) {
+        double cb, sb, sn, cn;
+        switch (p->hop[l][k]) {
+        case H_BASE: cb = c1; sb = s1; break;
+        case H_SQ: {
+            double a = p->hi1[l][k] < 0 ? c1 : pc[p->hi1[l][k]], b = p->hi1[l][k] < 0 ? s1 : ps[p->hi1[l][k]];
+            cb = a * a - b * b; sb = 2.0 * a * b; break;
+        }
+        case H_MUL: {
+            double a = pc[p->hi1[l][k]], b = ps[p->hi1[l][k]], e = pc[p->hi2[l][k]], f = ps[p->hi2[l][k]];
+            cb = a * e - b * f; sb = a * f + b * e; break;
+        }
+        case H_POW: cis_pow(c1, s1, p->hord[l][k], &cb, &sb); break;
+        default:
+            sn = sin(p->hfo[l][k] * th + p->hph[l][k]);
+            cn = cos(p->hfo[l][k] * th + p->hph[l][k]);
+            pc[k] = ps[k] = 0.0;
+            sum += p->hamp[l][k] * sn;
+            d += p->hampn[l][k] * cn;
+            continue;
+        }
+        pc[k] = cb; ps[k] = sb;
+        sn = sb * p->hcp[l][k] + cb * p->hsp[l][k];
+        cn = cb * p->hcp[l][k] - sb * p->hsp[l][k];
+        sum += p->hamp[l][k] * sn;
+        d += p->hampn[l][k] * cn;
     }
     *dsum = d;
     return sum;
@@ -181,29 +303,40 @@ static double stribeck_g(const hd_plant_friction_params *f, double v)
     return fc + (fs - fc) * e;
 }
 
+/* g(v) of side 0 (motor) / 1 (load), memoised on the last velocity (the end-of-step
+ * evaluation and the next step's first stage share the velocity). */
+static double stribeck_m(hd_plant *p, int side, const hd_plant_friction_params *f, double v)
+{
+    if (v != p->fr_v[side]) {
+        p->fr_v[side] = v;
+        p->fr_g[side] = stribeck_g(f, v);
+    }
+    return p->fr_g[side];
+}
+
 /* LuGre: bristle state after time s at constant velocity v, from z0 (g = g(v)). */
 static double lugre_z(const hd_plant_friction_params *f, double z0, double v, double s, double g)
 {
     double x = -f->sigma0_Nm_per_rad * fabs(v) * s / g, em1;
     if (s == 0.0) return z0;
     if (fabs(x) < 1e-8) return z0 * (1.0 + x) + v * s * (1.0 + 0.5 * x);
-    em1 = x < -40.0 ? -1.0 : expm1(x);
+    em1 = x < -40.0 ? -1.0 : (x < -0.7 ? exp(x) - 1.0 : expm1(x));   /* exp(x) < 0.5: no cancellation */
     return z0 * (1.0 + em1) + v * s * (em1 / x);
 }
 
-static double lugre_force(const hd_plant_friction_params *f, double z0, double v, double s)
+static double lugre_force(hd_plant *p, int side, const hd_plant_friction_params *f, double z0, double v, double s)
 {
-    double g = stribeck_g(f, v);
+    double g = stribeck_m(p, side, f, v);
     double z = lugre_z(f, z0, v, s, g);
     double zd = v - f->sigma0_Nm_per_rad * fabs(v) * z / g;
     return f->sigma0_Nm_per_rad * z + f->sigma1_Nms_per_rad * zd + f->viscous_Nms_per_rad * v;
 }
 
 /* Friction of a moving (not stuck) side without LuGre. */
-static double static_friction(const hd_plant_friction_params *f, double v, double applied)
+static double static_friction(hd_plant *p, int side, const hd_plant_friction_params *f, double v, double applied)
 {
-    if (v > 0.0) return stribeck_g(f, v) + f->viscous_Nms_per_rad * v;
-    if (v < 0.0) return -stribeck_g(f, v) + f->viscous_Nms_per_rad * v;
+    if (v > 0.0) return stribeck_m(p, side, f, v) + f->viscous_Nms_per_rad * v;
+    if (v < 0.0) return -stribeck_m(p, side, f, v) + f->viscous_Nms_per_rad * v;
     /* exactly at rest: static friction holds up to the breakaway level */
     if (applied > f->fs_pos_Nm) return f->fs_pos_Nm;
     if (applied < -f->fs_neg_Nm) return -f->fs_neg_Nm;
@@ -231,52 +364,76 @@ typedef struct {           /* diagnostics of one evaluation */
     double phi, te, T, Th, Fm, Fl, Tcog, Tg, appl_m, appl_l, th_b, w_b;
 } eval_diag;
 
-static void base_motion(const hd_plant *p, const substep_ctx *c, double s, double *th, double *w, double *acc)
+typedef struct {           /* the velocity-independent part of one evaluation */
+    double phi, te, de_m, de_l, Tsh, Th, Tcog, cl, sl;
+} pos_part;
+
+/* base motion at s = 0, h/2, h of the sub-step: one sin/cos of the generator phase at
+ * s = 0, the later points by rotation with cos/sin(om h/2) (cached per h); gravity's
+ * cos/sin(base angle + offset) at s = 0 by libm, later points by a small rotation. */
+static void base_cache(hd_plant *p, substep_ctx *c)
 {
     const hd_plant_params *q = &p->prm;
-    double a = c->base_ext_accel, v = c->base_ext_rate, x = c->base_ext_angle0 + c->base_ext_rate * s;
-    if (q->base_enabled && q->base_amp_rad != 0.0) {
-        double om = TWO_PI * q->base_freq_Hz, arg = om * (c->t0 + s) + q->base_phase_rad;
-        double sn = sin(arg), cs = cos(arg);
-        x += q->base_amp_rad * sn;
-        v += q->base_amp_rad * om * cs;
-        a -= q->base_amp_rad * om * om * sn;
-    }
-    *th = x; *w = v; *acc = a;
-}
-
-/* base motion at s = 0, h/2, h of the sub-step */
-static void base_cache(const hd_plant *p, substep_ctx *c)
-{
     int k;
     for (k = 0; k < 3; k++) {
-        base_motion(p, c, 0.5 * c->h * (double)k, &c->bth[k], &c->bw[k], &c->ba[k]);
-        if (p->prm.gravity_enabled) {
-            c->gc[k] = cos(c->bth[k] + p->prm.gravity_offset_rad);
-            c->gs[k] = sin(c->bth[k] + p->prm.gravity_offset_rad);
+        c->bth[k] = c->base_ext_angle0 + c->base_ext_rate * (0.5 * c->h * (double)k);
+        c->bw[k] = c->base_ext_rate;
+        c->ba[k] = c->base_ext_accel;
+    }
+    if (q->base_enabled && q->base_amp_rad != 0.0) {
+        double om = TWO_PI * q->base_freq_Hz, arg = om * c->t0 + q->base_phase_rad;
+        double sn, cs, A = q->base_amp_rad;
+        if (p->trig_n != 0 && c->t0 == p->base_t && c->h == p->base_h) {
+            /* continues the last sub-step: rotate its phase by om h (one ulp per step,
+             * refreshed from libm with the angles every TRIG_SYNC sub-steps) */
+            sn = p->base_s * p->k_rot2_c + p->base_c * p->k_rot2_s;
+            cs = p->base_c * p->k_rot2_c - p->base_s * p->k_rot2_s;
         } else {
-            c->gc[k] = 1.0;
-            c->gs[k] = 0.0;
+            sn = sin(arg);
+            cs = cos(arg);
         }
+        p->base_t = c->t0 + c->h;         /* the next sub-step's start (p->t += h) */
+        p->base_h = c->h; p->base_c = cs; p->base_s = sn;
+        for (k = 0; k < 3; k++) {
+            double t;
+            c->bth[k] += A * sn;
+            c->bw[k] += A * om * cs;
+            c->ba[k] -= A * om * om * sn;
+            t = cs * p->k_rot_c - sn * p->k_rot_s;
+            sn = sn * p->k_rot_c + cs * p->k_rot_s;
+            cs = t;
+        }
+    }
+    if (q->gravity_enabled) {
+        double a0 = c->bth[0] + q->gravity_offset_rad;
+        if (p->trig_n != 0 && fabs(a0 - p->grav_a) < 0.1) {
+            rot_small(p->grav_c, p->grav_s, a0, a0 - p->grav_a, &c->gc[0], &c->gs[0]);
+        } else {
+            c->gc[0] = cos(a0);
+            c->gs[0] = sin(a0);
+        }
+        p->grav_a = a0; p->grav_c = c->gc[0]; p->grav_s = c->gs[0];
+        for (k = 1; k < 3; k++)
+            rot_small(c->gc[0], c->gs[0], c->bth[k] + q->gravity_offset_rad, c->bth[k] - c->bth[0], &c->gc[k], &c->gs[k]);
+    } else {
+        for (k = 0; k < 3; k++) { c->gc[k] = 1.0; c->gs[k] = 0.0; }
     }
 }
 
-static void deriv(const hd_plant *p, const substep_ctx *c, double s, const xstate *x, xstate *dx, eval_diag *dg)
+#define TRIG_SYNC 64
+
+static int need_trig_m(const hd_plant_params *q) { return q->te_enabled || q->cogging_enabled; }
+static int need_trig_l(const hd_plant *p) { return (p->prm.te_enabled && p->has_te_out) || p->prm.gravity_enabled; }
+
+/* Spring + hysteresis (from the committed memory) + TE + cogging at angles x with
+ * cos/sin of theta_m (cm, sm) and theta_l (cl, sl). */
+static void pos_eval(const hd_plant *p, const xstate *x, double cm, double sm, double cl, double sl, pos_part *pp)
 {
     const hd_plant_params *q = &p->prm;
-    double de_m, de_l, th_b, w_b, a_b, T, Th = 0.0, Fm = 0.0, Fl = 0.0, Tg = 0.0, Tcog, appl_m, appl_l, dphi;
-    double N = q->ratio;
-    double cm = 1.0, sm = 0.0, cl = 1.0, sl = 0.0, e;
-    if (q->te_enabled || q->cogging_enabled) { cm = cos(x->th_m); sm = sin(x->th_m); }
-    if ((q->te_enabled && p->has_te_out) || q->gravity_enabled) { cl = cos(x->th_l); sl = sin(x->th_l); }
-    e = te_eval(p, x->th_m, cm, sm, x->th_l, cl, sl, &de_m, &de_l);
-    double phi;
-    int bi = s <= 0.0 ? 0 : (s < c->h ? 1 : 2);
-    th_b = c->bth[bi]; w_b = c->bw[bi]; a_b = c->ba[bi];
-    phi = x->th_m / N + e - x->th_l;
-
-    dphi = x->w_m * (1.0 / N + de_m) + x->w_l * (de_l - 1.0);
-    T = spring_torque(p, phi);
+    double Th = 0.0, phi;
+    pp->te = te_eval(p, x->th_m, cm, sm, x->th_l, cl, sl, &pp->de_m, &pp->de_l);
+    phi = x->th_m / q->ratio + pp->te - x->th_l;
+    pp->phi = phi;
     if (q->maxwell_enabled) {
         int k;
         for (k = 0; k < q->maxwell_n; k++)
@@ -284,22 +441,35 @@ static void deriv(const hd_plant *p, const substep_ctx *c, double s, const xstat
     }
     if (q->preisach_enabled) /* k_P*sat(phi) - P[phi]: dissipative orientation, zero net torque at saturation */
         Th += p->preisach_kp * sat(phi, q->preisach_u_max_rad)
-              - hd_preisach_eval(&p->pz, p->everett, q->preisach_u_max_rad, phi, NULL);
-    T += Th;
-    if (q->stiffness_enabled || q->cubic_enabled) T += q->damping_Nms_per_rad * dphi;
+              - hd_plant_preisach_eval(&p->pz, p->everett, q->preisach_u_max_rad, phi, NULL);
+    pp->Th = Th;
+    pp->Tsh = spring_torque(p, phi) + Th;
+    pp->Tcog = cogging(p, x->th_m, cm, sm);
+    pp->cl = cl;
+    pp->sl = sl;
+}
 
-    Tcog = cogging(p, x->th_m, cm, sm);
+/* Accelerations from the position part, the velocities and the sub-step constants. */
+/* s: time into the sub-step (bristles), bi: base-motion point (0, h/2, h). */
+static void accel_eval(hd_plant *p, const substep_ctx *c, double s, int bi, const xstate *x, const pos_part *pp,
+                       xstate *dx, eval_diag *dg)
+{
+    const hd_plant_params *q = &p->prm;
+    double T = pp->Tsh, Fm = 0.0, Fl = 0.0, Tg = 0.0, appl_m, appl_l, a_b, invN = 1.0 / q->ratio;
+    a_b = c->ba[bi];
+    if (q->stiffness_enabled || q->cubic_enabled)
+        T += q->damping_Nms_per_rad * (x->w_m * (invN + pp->de_m) + x->w_l * (pp->de_l - 1.0));
     /* cos(theta_l + theta_b + offset) by angle addition with the cached cos/sin of theta_b + offset */
-    if (q->gravity_enabled) Tg = -q->mgl_Nm * (cl * c->gc[bi] - sl * c->gs[bi]);
+    if (q->gravity_enabled) Tg = -q->mgl_Nm * (pp->cl * c->gc[bi] - pp->sl * c->gs[bi]);
 
-    appl_m = c->tq_m + Tcog - T * (1.0 / N + de_m) - q->jm_kgm2 * a_b;
-    appl_l = T * (1.0 - de_l) + Tg + c->t_ext - q->jl_kgm2 * a_b;
+    appl_m = c->tq_m + pp->Tcog - T * (invN + pp->de_m) - q->jm_kgm2 * a_b;
+    appl_l = T * (1.0 - pp->de_l) + Tg + c->t_ext - q->jl_kgm2 * a_b;
 
     /* motor side */
     if (q->fric_m.enabled) {
-        if (q->fric_m.lugre_enabled) Fm = lugre_force(&q->fric_m, p->z_m, x->w_m, s);
+        if (q->fric_m.lugre_enabled) Fm = lugre_force(p, 0, &q->fric_m, p->z_m, x->w_m, s);
         else if (p->stuck_m) Fm = appl_m;
-        else Fm = static_friction(&q->fric_m, x->w_m, appl_m);
+        else Fm = static_friction(p, 0, &q->fric_m, x->w_m, appl_m);
     }
     if (q->fric_m.enabled && !q->fric_m.lugre_enabled && p->stuck_m) {
         dx->th_m = 0.0; dx->w_m = 0.0;
@@ -312,9 +482,9 @@ static void deriv(const hd_plant *p, const substep_ctx *c, double s, const xstat
         dx->th_l = 0.0; dx->w_l = 0.0;
     } else {
         if (q->fric_l.enabled) {
-            if (q->fric_l.lugre_enabled) Fl = lugre_force(&q->fric_l, p->z_l, x->w_l, s);
+            if (q->fric_l.lugre_enabled) Fl = lugre_force(p, 1, &q->fric_l, p->z_l, x->w_l, s);
             else if (p->stuck_l) Fl = appl_l;
-            else Fl = static_friction(&q->fric_l, x->w_l, appl_l);
+            else Fl = static_friction(p, 1, &q->fric_l, x->w_l, appl_l);
         }
         if (q->fric_l.enabled && !q->fric_l.lugre_enabled && p->stuck_l) {
             dx->th_l = 0.0; dx->w_l = 0.0;
@@ -324,9 +494,77 @@ static void deriv(const hd_plant *p, const substep_ctx *c, double s, const xstat
         }
     }
     if (dg != NULL) {
-        dg->phi = phi; dg->te = e; dg->T = T; dg->Th = Th; dg->Fm = Fm; dg->Fl = Fl;
-        dg->Tcog = Tcog; dg->Tg = Tg; dg->appl_m = appl_m; dg->appl_l = appl_l; dg->th_b = th_b; dg->w_b = w_b;
+        dg->phi = pp->phi; dg->te = pp->te; dg->T = T; dg->Th = pp->Th; dg->Fm = Fm; dg->Fl = Fl;
+        dg->Tcog = pp->Tcog; dg->Tg = Tg; dg->appl_m = appl_m; dg->appl_l = appl_l;
+        dg->th_b = c->bth[bi]; dg->w_b = c->bw[bi];
     }
+}
+
+/* One stage at xt, trig by a small rotation from the sub-step start x0 (cos/sin c0m.. there). */
+static void stage(hd_plant *p, const substep_ctx *c, double s, const xstate *x0, const xstate *xt,
+                  const double *t0, xstate *dx, eval_diag *dg)
+{
+    double cm = 1.0, sm = 0.0, cl = 1.0, sl = 0.0;
+    pos_part pp;
+    if (need_trig_m(&p->prm)) rot_small(t0[0], t0[1], xt->th_m, xt->th_m - x0->th_m, &cm, &sm);
+    if (need_trig_l(p)) rot_small(t0[2], t0[3], xt->th_l, xt->th_l - x0->th_l, &cl, &sl);
+    pos_eval(p, xt, cm, sm, cl, sl, &pp);
+    accel_eval(p, c, s, s < c->h ? 1 : 2, xt, &pp, dx, dg);
+}
+
+/* Evaluate the end-of-sub-step state (libm trig), commit the hysteresis memory with
+ * its twist, and cache the position part for diagnostics and the next first stage. */
+static void end_eval(hd_plant *p)
+{
+    const hd_plant_params *q = &p->prm;
+    xstate x = { p->th_m, p->w_m, p->th_l, p->w_l };
+    double cm = 1.0, sm = 0.0, cl = 1.0, sl = 0.0, de_m, de_l, te, phi, Th = 0.0;
+    int k;
+    /* cos/sin at the end of the sub-step: a small rotation from the start (the last end
+     * evaluation), refreshed from libm every TRIG_SYNC evaluations so that rounding
+     * cannot accumulate (each rotation is good to about one ulp) */
+    if (p->end_valid && p->trig_n < TRIG_SYNC) {
+        if (need_trig_m(q)) rot_small(p->end_cm, p->end_sm, x.th_m, x.th_m - p->end_th_m, &cm, &sm);
+        if (need_trig_l(p)) rot_small(p->end_cl, p->end_sl, x.th_l, x.th_l - p->end_th_l, &cl, &sl);
+        p->trig_n++;
+    } else {
+        if (need_trig_m(q)) { cm = cos(x.th_m); sm = sin(x.th_m); }
+        if (need_trig_l(p)) { cl = cos(x.th_l); sl = sin(x.th_l); }
+        p->trig_n = 0;
+    }
+    te = te_eval(p, x.th_m, cm, sm, x.th_l, cl, sl, &de_m, &de_l);
+    phi = x.th_m / q->ratio + te - x.th_l;
+    if (q->maxwell_enabled) {
+        for (k = 0; k < q->maxwell_n; k++) {
+            double kk = q->maxwell_k_Nm_per_rad[k], w = q->maxwell_w_Nm[k];
+            if (kk <= 0.0) continue;
+            if (kk * (phi - p->xi[k]) > w) p->xi[k] = phi - w / kk;
+            else if (kk * (phi - p->xi[k]) < -w) p->xi[k] = phi + w / kk;
+        }
+        for (k = 0; k < q->maxwell_n; k++)
+            Th += sat(q->maxwell_k_Nm_per_rad[k] * (phi - p->xi[k]), q->maxwell_w_Nm[k]);
+    }
+    if (q->preisach_enabled)
+        Th += p->preisach_kp * sat(phi, q->preisach_u_max_rad)
+              - hd_plant_preisach_eval(&p->pz, p->everett, q->preisach_u_max_rad, phi, &p->pz);
+    p->end_th_m = x.th_m; p->end_th_l = x.th_l;
+    p->end_phi = phi; p->end_te = te; p->end_de_m = de_m; p->end_de_l = de_l;
+    p->end_Th = Th;
+    p->end_Tsh = spring_torque(p, phi) + Th;
+    p->end_Tcog = cogging(p, x.th_m, cm, sm);
+    p->end_cm = cm; p->end_sm = sm; p->end_cl = cl; p->end_sl = sl;
+    p->end_valid = 1;
+}
+
+static int end_current(const hd_plant *p)
+{
+    return p->end_valid && p->end_th_m == p->th_m && p->end_th_l == p->th_l;
+}
+
+static void end_part(const hd_plant *p, pos_part *pp)
+{
+    pp->phi = p->end_phi; pp->te = p->end_te; pp->de_m = p->end_de_m; pp->de_l = p->end_de_l;
+    pp->Tsh = p->end_Tsh; pp->Th = p->end_Th; pp->Tcog = p->end_Tcog; pp->cl = p->end_cl; pp->sl = p->end_sl;
 }
 
 static void axpy(xstate *o, const xstate *x, double a, const xstate *d)
@@ -355,16 +593,19 @@ static void substep(hd_plant *p, const substep_ctx *c)
     const hd_plant_params *q = &p->prm;
     xstate x0 = { p->th_m, p->w_m, p->th_l, p->w_l }, k1, k2, k3, k4, xt;
     eval_diag dg;
-    double h = c->h, phi_end, de_m, de_l;
-    int k;
+    pos_part pp;
+    double h = c->h, t0[4];
 
-    deriv(p, c, 0.0, &x0, &k1, NULL);
+    if (!end_current(p)) end_eval(p);      /* first call, or the state was placed from outside */
+    end_part(p, &pp);
+    t0[0] = p->end_cm; t0[1] = p->end_sm; t0[2] = p->end_cl; t0[3] = p->end_sl;
+    accel_eval(p, c, 0.0, 0, &x0, &pp, &k1, NULL);
     axpy(&xt, &x0, 0.5 * h, &k1);
-    deriv(p, c, 0.5 * h, &xt, &k2, NULL);
+    stage(p, c, 0.5 * h, &x0, &xt, t0, &k2, NULL);
     axpy(&xt, &x0, 0.5 * h, &k2);
-    deriv(p, c, 0.5 * h, &xt, &k3, NULL);
+    stage(p, c, 0.5 * h, &x0, &xt, t0, &k3, NULL);
     axpy(&xt, &x0, h, &k3);
-    deriv(p, c, h, &xt, &k4, &dg);
+    stage(p, c, h, &x0, &xt, t0, &k4, &dg);
     p->th_m = x0.th_m + h / 6.0 * (k1.th_m + 2.0 * k2.th_m + 2.0 * k3.th_m + k4.th_m);
     p->w_m = x0.w_m + h / 6.0 * (k1.w_m + 2.0 * k2.w_m + 2.0 * k3.w_m + k4.w_m);
     p->th_l = x0.th_l + h / 6.0 * (k1.th_l + 2.0 * k2.th_l + 2.0 * k3.th_l + k4.th_l);
@@ -380,18 +621,8 @@ static void substep(hd_plant *p, const substep_ctx *c)
     stick_update(&q->fric_m, &p->stuck_m, x0.w_m, &p->w_m, dg.appl_m);
     if (!p->brake) stick_update(&q->fric_l, &p->stuck_l, x0.w_l, &p->w_l, dg.appl_l);
 
-    /* commit the hysteresis memory */
-    phi_end = p->th_m / q->ratio + te_eval1(p, p->th_m, p->th_l, &de_m, &de_l) - p->th_l;
-    if (q->maxwell_enabled) {
-        for (k = 0; k < q->maxwell_n; k++) {
-            double kk = q->maxwell_k_Nm_per_rad[k], w = q->maxwell_w_Nm[k];
-            if (kk <= 0.0) continue;
-            if (kk * (phi_end - p->xi[k]) > w) p->xi[k] = phi_end - w / kk;
-            else if (kk * (phi_end - p->xi[k]) < -w) p->xi[k] = phi_end + w / kk;
-        }
-    }
-    if (q->preisach_enabled)
-        (void)hd_preisach_eval(&p->pz, p->everett, q->preisach_u_max_rad, phi_end, &p->pz);
+    /* commit the hysteresis memory with the end-of-step twist, cache the end evaluation */
+    end_eval(p);
 }
 
 /* ---- public API ---------------------------------------------------------------------- */
@@ -420,15 +651,22 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
         }
         if (prm->te_out_order[k] != 0.0 && prm->te_out_amp_rad[k] != 0.0) p->has_te_out = 1;
     }
+    harm_plan(p);
     if (prm->preisach_enabled) {
-        hd_preisach_everett(p->everett, prm->preisach_u_max_rad, prm->preisach_t_sat_Nm,
+        hd_plant_preisach_everett(p->everett, prm->preisach_u_max_rad, prm->preisach_t_sat_Nm,
                             prm->preisach_r0_rad, prm->preisach_s_rad);
-        hd_preisach_reset(&p->pz, p->everett, prm->preisach_u_max_rad);
+        hd_plant_preisach_reset(&p->pz, p->everett, prm->preisach_u_max_rad);
         p->preisach_kp = prm->preisach_t_sat_Nm / prm->preisach_u_max_rad;
     }
     for (k = 0; k < 4; k++) p->rng[k] = splitmix64(&sm);
+    zig_init(p->zig_x, p->zig_r);
     p->faults.current_limit_A = -1.0;
     p->enc_last[0] = p->enc_last[1] = 0;
+    p->enc_scale[0] = ldexp(1.0, prm->enc_m_bits);
+    p->enc_scale[1] = ldexp(1.0, prm->enc_l_bits);
+    p->fr_v[0] = p->fr_v[1] = NAN;        /* no memoised friction level yet */
+    p->k_dt = 0.0;
+    p->end_valid = 0;
     return HD_PLANT_OK;
 }
 
@@ -441,6 +679,7 @@ void hd_plant_set_state(hd_plant *p, double th_m, double w_m, double th_l, doubl
     /* hysteresis memory: elements relaxed at the new twist */
     phi = th_m / p->prm.ratio + te_eval1(p, th_m, th_l, &de_m, &de_l) - th_l;
     for (k = 0; k < HD_PLANT_MAX_MAXWELL; k++) p->xi[k] = phi;
+    p->end_valid = 0;
 }
 
 double hd_plant_energy(const hd_plant *p)
@@ -466,9 +705,9 @@ static int64_t floor_i64(double x)
 static void encoder(hd_plant *p, int id, double angle_rad, int enabled, int bits, double noise, double offset,
                     uint32_t *raw, int64_t *count, int *valid)
 {
-    double x = (angle_rad / TWO_PI + offset) * ldexp(1.0, bits);
-    int64_t c, m = (int64_t)1 << bits;
-    if (enabled && noise > 0.0) x += noise * rng_gauss(p->rng);
+    double x = (angle_rad / TWO_PI + offset) * p->enc_scale[id];
+    int64_t c;
+    if (enabled && noise > 0.0) x += noise * rng_gauss(p);
     c = floor_i64(x);
     if (p->faults.glitch_counts[id] != 0) {
         c += p->faults.glitch_counts[id];
@@ -483,7 +722,24 @@ static void encoder(hd_plant *p, int id, double angle_rad, int enabled, int bits
         p->enc_last[id] = c;
     }
     *count = c;
-    *raw = (uint32_t)(((c % m) + m) % m);
+    *raw = (uint32_t)((uint64_t)c & (((uint64_t)1 << bits) - 1u));   /* c mod 2^bits */
+}
+
+/* constants that depend on the period only (recomputed when dt changes) */
+static void period_constants(hd_plant *p, double dt_s)
+{
+    const hd_plant_params *q = &p->prm;
+    double h = dt_s / (double)q->substeps;
+    p->k_dt = dt_s;
+    p->k_h = h;
+    p->k_E = q->current_loop_enabled ? exp(-h / p->tau_i) : 0.0;
+    p->k_Efac = (p->tau_i / h) * (1.0 - p->k_E);
+    p->k_gyro_a = -expm1(-dt_s * TWO_PI * q->gyro_bandwidth_Hz);
+    p->k_gyro_sd = q->gyro_noise_rad_s_per_rtHz / sqrt(dt_s);
+    p->k_rot_c = cos(TWO_PI * q->base_freq_Hz * 0.5 * h);
+    p->k_rot_s = sin(TWO_PI * q->base_freq_Hz * 0.5 * h);
+    p->k_rot2_c = cos(TWO_PI * q->base_freq_Hz * h);
+    p->k_rot2_s = sin(TWO_PI * q->base_freq_Hz * h);
 }
 
 const hd_plant_output *hd_plant_step(hd_plant *p, const hd_plant_input *in, double dt_s)
@@ -493,17 +749,19 @@ const hd_plant_output *hd_plant_step(hd_plant *p, const hd_plant_input *in, doub
     substep_ctx c;
     xstate x, dx;
     eval_diag dg;
-    double icmd, lim, h, E = 0.0, base_th, base_w, base_a;
+    pos_part pp;
+    double icmd, lim, h, E;
     int n = q->substeps, k;
 
     if (!(dt_s > 0.0)) return o;
-    h = dt_s / (double)n;
+    if (dt_s != p->k_dt) period_constants(p, dt_s);
+    h = p->k_h;
+    E = p->k_E;
     icmd = in->current_cmd_A + in->torque_cmd_Nm / q->kt_Nm_per_A;
     lim = q->current_peak_A;
     if (p->faults.current_limit_A >= 0.0 && p->faults.current_limit_A < lim) lim = p->faults.current_limit_A;
     o->current_saturated = fabs(icmd) > lim;
     icmd = sat(icmd, lim);
-    if (q->current_loop_enabled) E = exp(-h / p->tau_i);
 
     c.h = h;
     c.t_ext = in->load_torque_Nm + p->faults.load_step_Nm;
@@ -513,7 +771,7 @@ const hd_plant_output *hd_plant_step(hd_plant *p, const hd_plant_input *in, doub
         double iavg;
         if (q->current_loop_enabled) {
             double d = p->i - icmd;
-            iavg = icmd + d * (p->tau_i / h) * (1.0 - E);
+            iavg = icmd + d * p->k_Efac;
             p->i = icmd + d * E;
         } else {
             iavg = icmd;
@@ -528,23 +786,22 @@ const hd_plant_output *hd_plant_step(hd_plant *p, const hd_plant_input *in, doub
         p->t += h;
     }
 
-    /* diagnostics at the end of the period */
+    /* diagnostics at the end of the period: the cached end evaluation (base motion at
+     * the end of the last sub-step), motor torque from the end current */
     x.th_m = p->th_m; x.w_m = p->w_m; x.th_l = p->th_l; x.w_l = p->w_l;
-    c.t0 = p->t;
     c.tq_m = q->kt_Nm_per_A * p->i;
-    c.base_ext_angle0 = p->base_ext_angle;
-    base_cache(p, &c);
-    deriv(p, &c, 0.0, &x, &dx, &dg);
-    base_motion(p, &c, 0.0, &base_th, &base_w, &base_a);
+    if (!end_current(p)) end_eval(p);
+    end_part(p, &pp);
+    accel_eval(p, &c, 0.0, 2, &x, &pp, &dx, &dg);   /* bristles as committed; base at the end (point 2) */
 
     o->t_s = p->t;
     o->motor_angle_rad = p->th_m;
     o->motor_velocity_rad_s = p->w_m;
     o->load_angle_rad = p->th_l;
     o->load_velocity_rad_s = p->w_l;
-    o->base_angle_rad = base_th;
-    o->base_rate_rad_s = base_w;
-    o->load_inertial_rate_rad_s = p->w_l + base_w;
+    o->base_angle_rad = dg.th_b;
+    o->base_rate_rad_s = dg.w_b;
+    o->load_inertial_rate_rad_s = p->w_l + dg.w_b;
     o->current_A = p->i;
     o->motor_torque_Nm = q->kt_Nm_per_A * p->i;
     o->twist_rad = dg.phi;
@@ -563,12 +820,10 @@ const hd_plant_output *hd_plant_step(hd_plant *p, const hd_plant_input *in, doub
     encoder(p, 1, p->th_l, q->enc_l_enabled, q->enc_l_bits, q->enc_l_noise_counts, q->enc_l_offset_turn,
             &o->enc_load_raw, &o->enc_load_count, &o->enc_load_valid);
     o->current_meas_A = p->i;
-    if (q->isense_enabled) o->current_meas_A += q->isense_offset_A + q->isense_noise_A * rng_gauss(p->rng);
+    if (q->isense_enabled) o->current_meas_A += q->isense_offset_A + q->isense_noise_A * rng_gauss(p);
     if (q->gyro_enabled) {
-        double meas = o->load_inertial_rate_rad_s + q->gyro_bias_rad_s
-                      + q->gyro_noise_rad_s_per_rtHz / sqrt(dt_s) * rng_gauss(p->rng);
-        double a = -expm1(-dt_s * TWO_PI * q->gyro_bandwidth_Hz);
-        p->gyro_f += a * (meas - p->gyro_f);
+        double meas = o->load_inertial_rate_rad_s + q->gyro_bias_rad_s + p->k_gyro_sd * rng_gauss(p);
+        p->gyro_f += p->k_gyro_a * (meas - p->gyro_f);
         o->gyro_rad_s = p->gyro_f;
     } else {
         p->gyro_f = o->load_inertial_rate_rad_s;

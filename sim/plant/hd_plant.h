@@ -263,6 +263,21 @@ typedef struct {
     /* encoder hold values for dropouts */
     int64_t  enc_last[2];
     hd_plant_output out;
+    /* ---- internal caches of hd_plant.c (derived at init or memoised; no API) ---- */
+    double   zig_x[129], zig_r[128];  /* Gaussian ziggurat tables (128 layers) */
+    int32_t  hn[3];                   /* active harmonics per list (cogging, TE wg, TE out) */
+    int32_t  hop[3][HD_PLANT_MAX_HARM], hi1[3][HD_PLANT_MAX_HARM], hi2[3][HD_PLANT_MAX_HARM];
+    uint32_t hord[3][HD_PLANT_MAX_HARM];
+    double   hfo[3][HD_PLANT_MAX_HARM], hamp[3][HD_PLANT_MAX_HARM], hampn[3][HD_PLANT_MAX_HARM];
+    double   hcp[3][HD_PLANT_MAX_HARM], hsp[3][HD_PLANT_MAX_HARM], hph[3][HD_PLANT_MAX_HARM];
+    double   k_dt, k_h, k_E, k_Efac, k_gyro_a, k_gyro_sd, k_rot_c, k_rot_s, k_rot2_c, k_rot2_s; /* per-dt */
+    double   enc_scale[2];
+    double   fr_v[2], fr_g[2];        /* last Stribeck level g(v) per side */
+    int32_t  end_valid;               /* end-of-sub-step evaluation below is current */
+    double   end_th_m, end_th_l, end_phi, end_te, end_de_m, end_de_l, end_Tsh, end_Th, end_Tcog;
+    double   end_cm, end_sm, end_cl, end_sl;
+    int32_t  trig_n;                  /* end evaluations since cos/sin came from libm */
+    double   base_t, base_h, base_c, base_s, grav_a, grav_c, grav_s; /* base-generator / gravity phase */
 } hd_plant;
 
 /* Fill every field with the reference axis of DESIGN.md section 2 (all effects on). */

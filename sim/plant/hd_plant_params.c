@@ -272,7 +272,7 @@ void hd_plant_defaults_reference(hd_plant_params *prm)
     prm->isense_noise_A = 0.01;
     prm->isense_offset_A = 0.0;
 
-    prm->substeps = 2;
+    prm->substeps = 1;
 }
 
 void hd_plant_defaults_minimal(hd_plant_params *prm)

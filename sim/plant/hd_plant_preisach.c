@@ -15,7 +15,7 @@ static double density(double alpha, double beta, double r0, double s)
     return exp(-r / r0) * exp(-m * m / (2.0 * s * s));
 }
 
-void hd_preisach_everett(double *E, double u_max, double t_sat, double r0, double s)
+void hd_plant_preisach_everett(double *E, double u_max, double t_sat, double r0, double s)
 {
     double du = 2.0 * u_max / (double)L, scale;
     int i, j, a, b;
@@ -72,7 +72,7 @@ static void make_room(hd_plant_preisach_state *s)
     }
 }
 
-double hd_preisach_eval(const hd_plant_preisach_state *s, const double *E, double u_max, double u,
+double hd_plant_preisach_eval(const hd_plant_preisach_state *s, const double *E, double u_max, double u,
                         hd_plant_preisach_state *commit)
 {
     int32_t nmin = s->n_min, nmax = s->n_max, d, virt = 0; /* virt: +1 pending min, -1 pending max */
@@ -120,7 +120,7 @@ double hd_preisach_eval(const hd_plant_preisach_state *s, const double *E, doubl
     return y;
 }
 
-void hd_preisach_reset(hd_plant_preisach_state *s, const double *E, double u_max)
+void hd_plant_preisach_reset(hd_plant_preisach_state *s, const double *E, double u_max)
 {
     int k;
     const int cycles = 24;
@@ -136,8 +136,8 @@ void hd_preisach_reset(hd_plant_preisach_state *s, const double *E, double u_max
     s->y = -E[L * W + 0];
     for (k = 0; k < cycles; k++) {
         double a = u_max * (double)(cycles - k) / (double)cycles;
-        (void)hd_preisach_eval(s, E, u_max, a, s);
-        (void)hd_preisach_eval(s, E, u_max, -a * (1.0 - 0.5 / (double)cycles), s);
+        (void)hd_plant_preisach_eval(s, E, u_max, a, s);
+        (void)hd_plant_preisach_eval(s, E, u_max, -a * (1.0 - 0.5 / (double)cycles), s);
     }
-    (void)hd_preisach_eval(s, E, u_max, 0.0, s);
+    (void)hd_plant_preisach_eval(s, E, u_max, 0.0, s);
 }

@@ -11,17 +11,17 @@
 
 /* Fill E[(L+1)*(L+1)] (E[i*(L+1)+j], alpha index i, beta index j, zero for i <= j)
  * for the density mu ~ exp(-r/r0)*exp(-m^2/(2 s^2)), scaled so E(u_max, -u_max) = t_sat. */
-void hd_preisach_everett(double *E, double u_max, double t_sat, double r0, double s);
+void hd_plant_preisach_everett(double *E, double u_max, double t_sat, double r0, double s);
 
 /* Everett function at (alpha, beta), interpolated (bilinear; linear on diagonal cells so E(u,u) = 0). */
 double hd_preisach_E(const double *E, double u_max, double alpha, double beta);
 
 /* Demagnetised initial state at u = 0 (output ~0): decaying alternating sequence. */
-void hd_preisach_reset(hd_plant_preisach_state *s, const double *E, double u_max);
+void hd_plant_preisach_reset(hd_plant_preisach_state *s, const double *E, double u_max);
 
 /* Output for input u (clamped to +-u_max) from memory s.  With commit != NULL the
  * memory after the move is written there (commit may equal s); with NULL s is only read. */
-double hd_preisach_eval(const hd_plant_preisach_state *s, const double *E, double u_max, double u,
+double hd_plant_preisach_eval(const hd_plant_preisach_state *s, const double *E, double u_max, double u,
                         hd_plant_preisach_state *commit);
 
 #endif

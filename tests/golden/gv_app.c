@@ -16,6 +16,19 @@ static hd_hal_sensors_t stub_sens;
 static hd_hal_command_t stub_cmd;
 static uint32_t stub_tick;
 
+/* Shared with gv_comp_bank.c (one hal stub per image). */
+void gv_app_stub_sensors(uint32_t motor_raw, uint32_t output_raw);
+int32_t gv_app_stub_torque(void);
+void gv_app_stub_sensors(uint32_t motor_raw, uint32_t output_raw)
+{
+    stub_sens.current = 0;
+    stub_sens.gyro_rate = 0;
+    stub_sens.valid = HD_HAL_VALID_ALL;
+    stub_sens.motor_enc_raw = motor_raw;
+    stub_sens.output_enc_raw = output_raw;
+}
+int32_t gv_app_stub_torque(void) { return stub_cmd.torque; }
+
 uint32_t hd_hal_tick(void) { return stub_tick; }
 void hd_hal_read_sensors(hd_hal_sensors_t *s) { *s = stub_sens; }
 void hd_hal_write_command(const hd_hal_command_t *c) { stub_cmd = *c; stub_tick++; }

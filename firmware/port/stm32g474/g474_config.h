@@ -53,4 +53,9 @@
 #define HD_G474_CAN_RXQ     16u
 #define HD_G474_CAN_TXQ     16u
 
+/* CANopen node id (1..127): -DHD_G474_NODE_ID=n */
+#ifndef HD_G474_NODE_ID
+#define HD_G474_NODE_ID     1u
+#endif
+
 #endif

@@ -9,8 +9,11 @@
  *       the control period and pends PendSV.
  *   FDCAN1_IT0 (prio 1)      RX FIFO 0 -> software RX queue; TX FIFO empty ->
  *       refill from the software TX queue.
- *   PendSV (prio 15, 10 kHz) hd_app_step(): the control period; then the
- *       watchdog is refreshed (only here: a stuck control step resets the MCU).
+ *   PendSV (prio 15, 10 kHz) the control period: received CAN frames into
+ *       the CANopen device (hd_co_process: SDO, NMT, RPDO, SYNC, ... reach the
+ *       app through firmware/canopen/hd_app_co.c), hd_app_step(), hd_co_tick()
+ *       (heartbeat, TPDOs, CiA 402, time-outs); then the watchdog is
+ *       refreshed (only here: a stuck control step resets the MCU).
  * main() initialises everything and sleeps (WFI).
  *
  * Static state: this file holds the port's driver state (the application
@@ -30,6 +33,8 @@
 #include "g474_port.h"
 #include "hal.h"
 #include "hd_app.h"
+#include "hd_app_co.h"
+#include "hd_co.h"
 #include "hd_foc.h"
 #include "hd_fixed.h"
 #include "hd_encoder.h"
@@ -39,6 +44,8 @@
 /* ---- port state ------------------------------------------------------------------ */
 
 static hd_app_t app;                          /* the drive application (~RAM budget, see docs) */
+static hd_co_t co;                            /* the CANopen device */
+static hd_app_co_t app_co;                    /* CANopen <-> app adapter (+ table staging) */
 
 static hd_foc_t foc;
 static hd_foc_cfg_t foc_cfg;
@@ -226,9 +233,23 @@ void hd_g474_adc_irq(void)
     }
 }
 
+static bool co_send(void *ctx, const hd_can_frame_t *f)
+{
+    (void)ctx;
+    return hd_hal_can_send(f);
+}
+
 void hd_g474_pendsv(void)
 {
+    hd_can_frame_t f;
+    uint32_t n = 0u;
+    /* at most one queue's worth per period: the control step stays bounded */
+    while (n < HD_G474_CAN_RXQ && hd_hal_can_recv(&f)) {
+        hd_co_process(&co, &f);
+        n++;
+    }
     hd_app_step(&app);
+    hd_co_tick(&co, HD_CO_TICK_US);
     app_ran = 1u;
     hd_g474_iwdg_kick();
 }
@@ -266,6 +287,11 @@ int main(void)
     hd_g474_iwdg_init();
     HD_REG(SCB_SHPR3) = (HD_REG(SCB_SHPR3) & ~(0xFFu << 16)) | (0xF0u << 16);   /* PendSV lowest */
     hd_g474_nvic_enable(IRQ_FDCAN1_IT0, 1u);
+    {
+        /* CANopen: boot-up goes out now; the control period (PendSV) runs it */
+        static const hd_app_co_port_t co_port = {0, co_send, 0, 0, 0, 0, 0, 0};
+        hd_app_co_init(&app_co, &co, &app, (uint8_t)HD_G474_NODE_ID, &co_port);
+    }
     hd_g474_nvic_enable(IRQ_ADC1_2, 0u);
     hd_g474_adc_init();                       /* conversions (and the 20 kHz interrupt) start */
     for (;;) {

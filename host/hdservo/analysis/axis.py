@@ -113,6 +113,16 @@ def read_toml(path: Path) -> Dict[str, Any]:
         raise AxisFileError(f"{path}: cannot read: {e.strerror}") from None
 
 
+def _simulator_keys() -> set:
+    """Names of every simulator axis parameter (from libhdsim), or an empty set
+    when the simulator library is not available (then unknown keys pass)."""
+    try:
+        from .. import sim
+        return {p.name for p in sim.param_table()}
+    except Exception:  # noqa: BLE001 - the check is best effort without the library
+        return set()
+
+
 def load_axis(path: Path | None) -> Tuple[Dict[str, float], List[str]]:
     """Axis parameters: the reference axis overridden by an axis TOML file.
 
@@ -146,6 +156,11 @@ def load_axis(path: Path | None) -> Tuple[Dict[str, float], List[str]]:
         if key in params or key.startswith(("hysteresis_maxwell.e", "friction_")):
             params[key] = _number(path, key, v)
             used += 1
+    known = _simulator_keys()
+    for key in doc:
+        if known and key not in params and key not in known and not key.startswith("axis."):
+            raise AxisFileError(f"{path}: unknown key '{key}': expected a simulator axis parameter "
+                                "(docs/plant.md; misspelt, or a wrong unit suffix?)")
     notes.append(f"axis file {path}: {used} keys used, others from the reference axis")
     for key in ("gear.ratio", "motor.jm_kgm2", "load.jl_kgm2"):
         if params[key] <= 0:

@@ -97,17 +97,37 @@ class Design:
         return int(self.mask.sum()) * len(self.equations)
 
 
-def make_design(sig: Signals) -> Design:
-    """Choose the standstill threshold and the used samples of a log."""
-    v = sig.v_out
+def _noise_scale(v: np.ndarray, sig: Signals) -> float:
+    """Robust (1.4826 MAD) scale of the high-frequency part of a velocity, same unit."""
     hf = v - _smooth(v, max(3, int(round(1.0 / (sig.fc_Hz * sig.dt) / 2))))
-    noise = 1.4826 * float(np.median(np.abs(hf - np.median(hf))))
-    v_eps = max(4.0 * noise, 2e-3 * float(np.max(np.abs(v))), 1e-12)
-    vd = np.abs(sig.dec(v))
-    n = len(vd)
-    moving = vd > v_eps
-    # drop a few samples on each side of standstill and at the ends (filter transients)
-    k = 3
+    return 1.4826 * float(np.median(np.abs(hf - np.median(hf))))
+
+
+#: Standstill margin: decimated samples dropped on each side of a stop, in units of the
+#: angle low-pass' time scale 1/fc (its zero-phase impulse response has decayed to
+#: below 1 % after about 2/fc).
+STOP_MARGIN_FC = 2.5
+
+
+def make_design(sig: Signals) -> Design:
+    """Choose the standstill threshold and the used samples of a log.
+
+    A sample is used when *every* measured coordinate moves (the output side, and the
+    motor side if measured separately): a side that sticks carries an unknown static
+    friction force.  The threshold per side is the larger of 4x its velocity noise and
+    0.2 % of its peak speed; samples closer than ``STOP_MARGIN_FC / fc`` to a stop are
+    dropped as well, because the parallel filter spreads the stuck segment's unknown
+    force over that span.
+    """
+    v = sig.v_out
+    v_eps = max(4.0 * _noise_scale(v, sig), 2e-3 * float(np.max(np.abs(v))), 1e-12)
+    moving = np.abs(sig.dec(v)) > v_eps
+    if sig.has_load:
+        wm = sig.w_m / sig.ratio
+        eps_m = max(4.0 * _noise_scale(wm, sig), 2e-3 * float(np.max(np.abs(wm))), 1e-12)
+        moving &= np.abs(sig.dec(wm)) > eps_m
+    n = len(moving)
+    k = max(3, int(np.ceil(STOP_MARGIN_FC / (sig.fc_Hz * sig.dt * max(sig.q, 1)))))
     m = moving.copy()
     for s in range(1, k + 1):
         m[s:] &= moving[:-s]

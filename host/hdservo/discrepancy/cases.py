@@ -47,7 +47,7 @@ class Case:
     loop: str = "closed"
     seed: int = 1
     size: int = 0
-    duration_s: float = 4.0
+    duration_s: float = 10.0
 
     @property
     def structure(self) -> str:
@@ -129,8 +129,27 @@ def plant_overrides(case: Case, rng: np.random.Generator) -> tuple[dict[str, flo
     return p, e
 
 
+#: Peak output speed of the closed-loop chirp's end (rad/s) and the drive's velocity limit
+#: (rad/s): past the frequency where the chirp asks for more than the limit the axis
+#: follows a triangle wave with current-limited reversals (large torsion and torque rate).
+V_PEAK = 2.5
+V_LIM = 0.5
+
+#: Velocity-loop gains of the drive defaults (N.m.s/rad, N.m/rad at the output), tuned for
+#: the reference axis' total inertia; other axes get them scaled by their inertia (same
+#: bandwidth), else the smaller axis' loop limit-cycles at the current limit.
+_VEL_KP_REF, _VEL_KI_REF = 204.2, 8019.0
+
+
+def _total_inertia(case: Case) -> float:
+    N = _ax(case, "gear.ratio")
+    return _ax(case, "load.jl_kgm2") + N ** 2 * _ax(case, "motor.jm_kgm2")
+
+
 def _scenario_text(case: Case, amp: float, f0: float, f1: float) -> str:
     axis = case.axis if case.axis == "reference" else AXES[case.axis]
+    ref = Case(None)
+    g = _total_inertia(case) / _total_inertia(ref)
     return f"""[scenario]
 axis = "{axis}"
 duration_s = {case.duration_s}
@@ -140,7 +159,9 @@ mode = "position"
 [controller.gains]
 follow_err_max = 0.2
 vel_trip = 0.48
-pos_vlim = 0.45
+pos_vlim = {V_LIM / (2 * math.pi):.6g}
+vel_kp = {_VEL_KP_REF * g:.6g}
+vel_ki = {_VEL_KI_REF * g:.6g}
 [setpoint]
 type = "chirp"
 amplitude_rad = {amp}
@@ -151,23 +172,65 @@ t1_s = {case.duration_s}
 """
 
 
+
+
+def open_loop_torque(case: Case, rng: np.random.Generator, dt: float, n: int) -> np.ndarray:
+    """Designed open-loop motor torque of a case, N.m at the motor.
+
+    Sum of (1) the nominal rigid-body feed-forward (inertia, viscous and Coulomb friction
+    of the axis file) of a slow output sine -- amplitude 0.6-0.9 rad, peak speed
+    0.4-0.6 rad/s, so the axis travels over many motor revolutions and passes slowly
+    through low speeds in both directions -- and (2) a random-phase multisine, flat over
+    2-45 Hz, sized so that its transmitted torque reaches about 1.5x the first knee
+    torque T1 of the axis (torsion for stiffness/hysteresis, torque rate for the
+    current loop, the torsional mode for compliance).  No feedback: the axis drifts
+    a little, which is what an open-loop test does.
+    """
+    N = _ax(case, "gear.ratio")
+    jm, jl = _ax(case, "motor.jm_kgm2"), _ax(case, "load.jl_kgm2")
+    J = jm + jl / N ** 2
+    fv = _ax(case, "friction_motor.viscous_Nms_per_rad") + _ax(case, "friction_load.viscous_Nms_per_rad") / N ** 2
+    fc = _ax(case, "friction_motor.fc_pos_Nm") + _ax(case, "friction_load.fc_pos_Nm") / N
+    t = np.arange(n) * dt
+    A = float(rng.uniform(0.6, 0.9))
+    vpk = float(rng.uniform(0.4, 0.6))
+    w = vpk / A
+    ramp = np.minimum(1.0, t / 0.3)
+    v = vpk * np.sin(w * t) * ramp                     # output velocity, rad/s
+    a = np.gradient(v, dt)
+    u_ff = J * N * a + fv * N * v + fc * np.tanh(v / 0.01)
+    # multisine: transmitted torque ~ N*u*jl/(jl + N^2 jm) below the mode
+    T1 = _ax(case, "stiffness.t1_Nm")
+    share = jl / (jl + N ** 2 * jm)
+    lines = np.arange(2.0, 45.0, 0.5)
+    ph = rng.uniform(0, 2 * np.pi, len(lines))
+    ms = np.sin(2 * np.pi * lines[:, None] * t[None, :] + ph[:, None]).sum(axis=0)
+    ms /= np.max(np.abs(ms))
+    u_ms = 1.5 * T1 / (N * share) * ms * ramp
+    return u_ff + u_ms
+
+
 def make_log(case: Case, out_csv: str | Path) -> Path:
     """Simulate one case and write its log (CSV + sidecar) atomically.
 
+    Closed loop: the drive's position loop follows a slow chirp (0.04-0.07 Hz up to
+    a peak speed of about 1 rad/s, amplitude 0.5-0.7 rad): large travel, slow
+    reversals.  Open loop: the plant alone driven by :func:`open_loop_torque`.
     The log holds ``t_s``, ``motor_angle_rad``, ``load_angle_rad`` (encoder readings)
     and ``motor_torque_Nm`` = Kt x measured current (the torque command for
     ``current_loop_lag`` cases).  The sidecar records the case under ``"case"``.
     """
-    rng = np.random.default_rng(1000 * case.seed + 17 * case.size + hash(case.effect or "none") % 997)
+    import zlib
+    rng = np.random.default_rng(1000 * case.seed + 17 * case.size + zlib.crc32((case.effect or "none").encode()) % 997
+                                + 7 * (case.loop == "open") + 3 * (case.axis != "reference"))
     params, effects = plant_overrides(case, rng)
     kt = _ax(case, "motor.kt_Nm_per_A")
     N = _ax(case, "gear.ratio")
-    f0 = float(rng.uniform(0.05, 0.15))
-    f1 = float(rng.uniform(1.5, 2.5))
-    amp = min(float(rng.uniform(0.15, 0.3)), 2.6 / (2 * math.pi * f1))
-    freq = 0.5 * (f0 + f1)
     out_csv = Path(out_csv)
     if case.loop == "closed":
+        amp = float(rng.uniform(0.5, 0.7))
+        f0 = float(rng.uniform(0.03, 0.05))
+        f1 = float(rng.uniform(0.9, 1.1)) * V_PEAK / (2 * math.pi * amp)
         with tempfile.TemporaryDirectory() as td:
             sc = Path(td) / "case.toml"
             sc.write_text(_scenario_text(case, amp, f0, f1))
@@ -182,12 +245,7 @@ def make_log(case: Case, out_csv: str | Path) -> Path:
         dt = 1e-4
         n = int(case.duration_s / dt)
         t = np.arange(1, n + 1) * dt
-        jl = _ax(case, "load.jl_kgm2")
-        w = 2 * math.pi * freq
-        fric = _ax(case, "friction_load.fc_pos_Nm") + N * _ax(case, "friction_motor.fc_pos_Nm")
-        t0 = (jl * amp * w ** 2 + 1.3 * fric) / N
-        ph = float(rng.uniform(0, 2 * math.pi))
-        u = t0 * (np.sin(w * t) + 0.35 * np.sin(3.3 * w * t + ph)) * np.minimum(1.0, t / 0.2)
+        u = open_loop_torque(case, rng, dt, n)
         o = sim.simulate_open_loop(u, params=params, effects=effects, axis=AXES[case.axis], dt_s=dt,
                                    seed=case.seed)
         cols = o

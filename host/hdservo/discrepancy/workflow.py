@@ -146,11 +146,13 @@ class Result:
     ranking_last: list[dict[str, Any]]
     whiteness: dict[str, float]
     base_rel_pct: float = 0.0
+    ranking_first: list[dict[str, Any]] = field(default_factory=list)
 
     def to_json(self) -> dict[str, Any]:
         return {"baseline": self.baseline, "baseline_relative_error_pct": self.base_rel_pct, "iterations": self.iterations, "named_effects": self.named,
                 "final_model": self.final_model, "residual_unit": "N.m at the motor (N for a linear axis)",
-                "rms_history": self.rms_history, "last_ranking": self.ranking_last,
+                "rms_history": self.rms_history, "first_ranking": self.ranking_first,
+                "last_ranking": self.ranking_last,
                 "final_whiteness": self.whiteness}
 
 
@@ -191,9 +193,12 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
     snapshots = [base_fit]
     rms_hist = [base_fit.rms]
     last_rank: list[dict[str, Any]] = []
+    first_rank: list[dict[str, Any]] | None = None
     for _ in range(s.max_iter):
         ranked = rank(st_, lib)
         last_rank = [{"effect": c.effect.name, **c.evidence, "hyper": _jsonable(c.variant.hyper)} for c in ranked]
+        if first_rank is None:
+            first_rank = last_rank
         top = next((c for c in ranked), None)
         if top is None or not significant(top, s):
             break
@@ -221,7 +226,8 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
              "effects": {it["named_effect"]: it["params"] for it in iterations}}
     return Result(baseline=baseline, iterations=iterations, named=[i["named_effect"] for i in iterations],
                   final_model=final, rms_history=rms_hist, state=st_, base_fit=base_fit, snapshots=snapshots,
-                  ranking_last=last_rank, whiteness=white, base_rel_pct=base_rel)
+                  ranking_last=last_rank, whiteness=white, base_rel_pct=base_rel,
+                  ranking_first=first_rank or [])
 
 
 def relative_error_pct(state: State) -> float:

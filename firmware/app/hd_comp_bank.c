@@ -1,0 +1,329 @@
+/*
+ * hd_comp_bank.c - the compensators composed for the drive (contract: hd_comp_bank.h).
+ */
+#include "hd_comp_bank.h"
+#include "hd_fixed.h"
+
+#define CB_TWO_PI_Q28   1686629713      /* round(2 pi 2^28) */
+#define CB_4PI2_Q24     662337939       /* round(4 pi^2 2^24) */
+
+static int32_t prm(const int32_t *p, hd_param_id_t id)
+{
+    return p[id];
+}
+
+/* 1 - exp(-2 pi fc T) in Q30 from fc in Q16 Hz (at least 1 LSB) */
+static int32_t lpf_alpha(int32_t fc_q16)
+{
+    const int32_t x = hd_sat32(hd_div64_rnd(hd_mul64x32_q((int64_t)fc_q16, CB_TWO_PI_Q28, 28u), HD_LOOP_HZ));
+    const int32_t a = HD_Q30_ONE - hd_exp_neg_q16(x);
+    return (a < 1) ? 1 : a;
+}
+
+int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_COUNT])
+{
+    const int32_t *p = param;
+    uint32_t i;
+    c->enable = (uint32_t)prm(p, HD_P_CB_ENABLE) & HD_CB_ALL;
+    c->ramp_ticks = (uint32_t)prm(p, HD_P_CB_RAMP_TICKS);
+    c->pos_mode = (uint32_t)prm(p, HD_P_CB_POS_MODE);
+    c->dpos_alpha = lpf_alpha(prm(p, HD_P_CB_DPOS_FC));
+
+    /* Stribeck feed-forward */
+    c->str.pos.fc = prm(p, HD_P_STR_FC_POS);
+    c->str.pos.fs = prm(p, HD_P_STR_FS_POS);
+    c->str.pos.vs = prm(p, HD_P_STR_VS_POS);
+    c->str.pos.fv = prm(p, HD_P_STR_FV_POS);
+    c->str.neg.fc = prm(p, HD_P_STR_FC_NEG);
+    c->str.neg.fs = prm(p, HD_P_STR_FS_NEG);
+    c->str.neg.vs = prm(p, HD_P_STR_VS_NEG);
+    c->str.neg.fv = prm(p, HD_P_STR_FV_NEG);
+    c->str.delta = (uint32_t)prm(p, HD_P_STR_DELTA);
+    c->str.eps_v = prm(p, HD_P_STR_EPS_V);
+    c->str.w_ref = prm(p, HD_P_STR_W_REF);
+    c->str.tau_max = prm(p, HD_P_STR_TAU_MAX);
+
+    /* LuGre */
+    c->lug.g.fc = prm(p, HD_P_LUG_FC);
+    c->lug.g.fs = prm(p, HD_P_LUG_FS);
+    c->lug.g.vs = prm(p, HD_P_LUG_VS);
+    c->lug.g.fv = 0;
+    c->lug.delta = (uint32_t)prm(p, HD_P_LUG_DELTA);
+    c->lug.sigma0 = prm(p, HD_P_LUG_SIGMA0);
+    c->lug.sigma1 = prm(p, HD_P_LUG_SIGMA1);
+    c->lug.sigma2 = prm(p, HD_P_LUG_SIGMA2);
+    c->lug.k_obs = prm(p, HD_P_LUG_K_OBS);
+    c->lug.tau_max = prm(p, HD_P_LUG_TAU_MAX);
+    c->lug_v_src = (uint32_t)prm(p, HD_P_LUG_V_SRC);
+
+    /* Maxwell-slip: compliance 2^-48 turn/N.m = 2^56 / K[Q23.8 N.m/turn] */
+    {
+        static const hd_param_id_t K[8] = {HD_P_MX_K1, HD_P_MX_K2, HD_P_MX_K3, HD_P_MX_K4,
+                                           HD_P_MX_K5, HD_P_MX_K6, HD_P_MX_K7, HD_P_MX_K8};
+        static const hd_param_id_t D[8] = {HD_P_MX_D1, HD_P_MX_D2, HD_P_MX_D3, HD_P_MX_D4,
+                                           HD_P_MX_D5, HD_P_MX_D6, HD_P_MX_D7, HD_P_MX_D8};
+        const int32_t kst = prm(p, HD_P_MX_STIFFNESS);
+        const int64_t comp = hd_div64_rnd((int64_t)1 << 56, (kst > 0) ? kst : 1);
+        if (comp > INT32_MAX) {
+            return -1;
+        }
+        c->mx.n = (uint32_t)prm(p, HD_P_MX_N);
+        c->mx.compliance = (int32_t)comp;
+        c->mx.tau_max = prm(p, HD_P_MX_TAU_MAX);
+        for (i = 0; i < HD_MAXWELL_N_MAX; i++) {
+            c->mx.k[i] = (i < 8u) ? prm(p, K[i]) : 0;
+            c->mx.d[i] = (i < 8u) ? prm(p, D[i]) : 0;
+        }
+    }
+
+    /* Preisach inverse */
+    c->pr_deadband = (uint32_t)prm(p, HD_P_PR_DEADBAND);
+    c->pr_alpha = lpf_alpha(prm(p, HD_P_PR_FC));
+    c->pr_share = prm(p, HD_P_PR_MOTOR_SHARE);
+
+    /* transmission error */
+    {
+        static const hd_param_id_t O[4] = {HD_P_TE_ORDER1, HD_P_TE_ORDER2, HD_P_TE_ORDER3, HD_P_TE_ORDER4};
+        static const hd_param_id_t A[4] = {HD_P_TE_AMP1, HD_P_TE_AMP2, HD_P_TE_AMP3, HD_P_TE_AMP4};
+        static const hd_param_id_t F[4] = {HD_P_TE_PHASE1, HD_P_TE_PHASE2, HD_P_TE_PHASE3, HD_P_TE_PHASE4};
+        c->te.n = (uint32_t)prm(p, HD_P_TE_N);
+        c->te.k1 = prm(p, HD_P_TE_K1);
+        c->te.tau_max = prm(p, HD_P_TE_TAU_MAX);
+        for (i = 0; i < HD_TE_N_MAX; i++) {
+            c->te.order[i] = (i < 4u) ? (uint32_t)prm(p, O[i]) : 0u;
+            c->te.amp[i] = (i < 4u) ? prm(p, A[i]) : 0;
+            c->te.phase[i] = (i < 4u) ? (uint32_t)prm(p, F[i]) : 0u;   /* modulo 2^32: a turn fraction */
+        }
+    }
+
+    /* backstepping */
+    {
+        static const hd_param_id_t G[4] = {HD_P_BS_GAMMA1, HD_P_BS_GAMMA2, HD_P_BS_GAMMA3, HD_P_BS_GAMMA4};
+        static const hd_param_id_t LO[4] = {HD_P_BS_MIN1, HD_P_BS_MIN2, HD_P_BS_MIN3, HD_P_BS_MIN4};
+        static const hd_param_id_t HI[4] = {HD_P_BS_MAX1, HD_P_BS_MAX2, HD_P_BS_MAX3, HD_P_BS_MAX4};
+        static const hd_param_id_t T0[4] = {HD_P_BS_TH0_1, HD_P_BS_TH0_2, HD_P_BS_TH0_3, HD_P_BS_TH0_4};
+        c->bs.c1 = prm(p, HD_P_BS_C1);
+        c->bs.c2 = prm(p, HD_P_BS_C2);
+        c->bs.j = prm(p, HD_P_BS_J);
+        c->bs.ke = prm(p, HD_P_BS_KE);
+        c->bs.eps_w = prm(p, HD_P_BS_EPS_W);
+        c->bs.w_s = prm(p, HD_P_BS_W_S);
+        c->bs.e1_max = prm(p, HD_P_BS_E1_MAX);
+        c->bs.u_max = prm(p, HD_P_BS_U_MAX);
+        for (i = 0; i < HD_BS_NP; i++) {
+            c->bs.gamma_dt[i] = prm(p, G[i]);
+            c->bs.th_min[i] = prm(p, LO[i]);
+            c->bs.th_max[i] = prm(p, HI[i]);
+            c->bs_th0[i] = prm(p, T0[i]);
+            if (c->bs.th_min[i] > c->bs.th_max[i]) {
+                return -1;
+            }
+        }
+    }
+
+    /* disturbance observer: g T (Q30) and g J (Q15.16 N.m/(turn/s)) = 4 pi^2 fc J */
+    {
+        const int32_t fc = prm(p, HD_P_DOB_FC);
+        c->dob_g_t = hd_sat32(hd_div64_rnd(hd_mul64x32_q((int64_t)fc, CB_TWO_PI_Q28, 14u), HD_LOOP_HZ));
+        c->dob_gj = hd_sat32(hd_mul64x32_q(hd_mul64x32_q((int64_t)prm(p, HD_P_DOB_J), fc, 16u),
+                                           CB_4PI2_Q24, 24u));
+    }
+    return 0;
+}
+
+static void set_blend_ramps(hd_comp_bank_t *b, uint32_t ramp)
+{
+    b->str.blend.ramp_ticks = ramp;
+    b->lug.blend.ramp_ticks = ramp;
+    b->mx.blend.ramp_ticks = ramp;
+    b->pr.blend.ramp_ticks = ramp;
+    b->te.blend.ramp_ticks = ramp;
+    b->bs.blend.ramp_ticks = ramp;
+    b->dob_blend.ramp_ticks = ramp;
+}
+
+void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    const uint32_t en = c->enable;
+    const uint32_t r = c->ramp_ticks;
+    uint32_t i;
+    /* placeholder table: L = 2, all zero (valid), until one is installed */
+    b->table.version = 0u;
+    b->table.levels = 2u;
+    b->table.sub_bits = 0u;
+    b->table.in_shift = 0u;
+    b->table.u0 = 0;
+    b->table.unit = HD_PREISACH_UNIT_GENERIC;
+    for (i = 0; i < HD_PREISACH_N_MAX; i++) {
+        b->table.e[i] = 0;
+    }
+    hd_preisach_seal(&b->table);
+    b->table_ok = 0u;
+    hd_stribeck_init(&b->str, r, (en & HD_CB_STRIBECK) != 0u);
+    hd_lugre_init(&b->lug, r, (en & HD_CB_LUGRE) != 0u);
+    hd_maxwell_init(&b->mx, r, (en & HD_CB_MAXWELL) != 0u);
+    hd_preisach_inv_init(&b->pr, &b->table, c->pr_deadband, r, (en & HD_CB_PREISACH) != 0u);
+    hd_te_comp_init(&b->te, r, (en & HD_CB_TE) != 0u);
+    hd_backstep_init(&b->bs, &c->bs, c->bs_th0, r, (en & HD_CB_BACKSTEP) != 0u);
+    hd_blend_init(&b->dob_blend, r, (en & HD_CB_DOB) != 0u);
+    b->enabled = en;
+    b->bs_preload = ((en & HD_CB_BACKSTEP) != 0u) ? 1u : 0u;
+    b->dpos_f = 0;
+    b->dpos_primed = 0u;
+    b->pr_t = 0;
+    b->pr_dth = 0;
+    b->dob_x = 0;
+    b->dob_d = 0;
+    b->t_prev = 0;
+    b->out.dpos = 0;
+    b->out.dvel = 0;
+    b->out.tff = 0;
+    b->u_bs = 0;
+}
+
+void hd_comp_bank_apply(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    const uint32_t en = c->enable;
+    const uint32_t ch = en ^ b->enabled;
+    set_blend_ramps(b, c->ramp_ticks);
+    b->pr.fwd.deadband = c->pr_deadband;
+    if (ch & HD_CB_STRIBECK) hd_stribeck_set_enabled(&b->str, (en & HD_CB_STRIBECK) != 0u);
+    if (ch & HD_CB_LUGRE) hd_lugre_set_enabled(&b->lug, (en & HD_CB_LUGRE) != 0u);
+    if (ch & HD_CB_MAXWELL) hd_maxwell_set_enabled(&b->mx, (en & HD_CB_MAXWELL) != 0u);
+    if (ch & HD_CB_PREISACH) hd_preisach_inv_set_enabled(&b->pr, (en & HD_CB_PREISACH) != 0u);
+    if (ch & HD_CB_TE) hd_te_comp_set_enabled(&b->te, (en & HD_CB_TE) != 0u);
+    if (ch & HD_CB_DOB) hd_blend_set_enabled(&b->dob_blend, (en & HD_CB_DOB) != 0u);
+    if (ch & HD_CB_BACKSTEP) {
+        const bool on = (en & HD_CB_BACKSTEP) != 0u;
+        if (on && !hd_blend_active(&b->bs.blend)) {
+            b->bs_preload = 1u;       /* engage from the present effort */
+        }
+        hd_backstep_set_enabled(&b->bs, on);
+    }
+    b->enabled = en;
+}
+
+int32_t hd_comp_bank_install_table(hd_comp_bank_t *b, const hd_preisach_table_t *t)
+{
+    const int32_t rc = hd_preisach_install(&b->table, t);
+    if (rc == HD_PREISACH_OK) {
+        b->table_ok = 1u;
+    }
+    return rc;
+}
+
+/* A compensator is evaluated while enabled or while its weight is not 0 (ramping
+ * out); fully off it costs nothing and keeps its last state. */
+static bool running(const hd_comp_bank_t *b, uint32_t bit, const hd_blend_t *bl)
+{
+    return ((b->enabled & bit) != 0u) || hd_blend_active(bl);
+}
+
+void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in,
+                      hd_comp_bank_out_t *out)
+{
+    int32_t tff = 0;
+    int64_t dpos = 0;
+    const bool pr_on = running(b, HD_CB_PREISACH, &b->pr.blend);
+
+    /* friction: Stribeck map (also the Preisach torque estimate's model) and LuGre */
+    if (running(b, HD_CB_STRIBECK, &b->str.blend) || pr_on) {
+        tff = hd_add_sat(tff, hd_stribeck_step(&b->str, &c->str, in->vel_ref, in->vel_fb));
+    }
+    if (running(b, HD_CB_LUGRE, &b->lug.blend)) {
+        const hd_vel_out_t v = (c->lug_v_src != 0u) ? in->vel_fb : in->vel_ref;
+        tff = hd_add_sat(tff, hd_lugre_step(&b->lug, &c->lug, v, hd_sub64_sat(in->pos_out, in->pos_ref)));
+    }
+
+    /* disturbance observer: x' = g (T + g J w - x), d = x - g J w (states Q15.16 x 2^16) */
+    if (running(b, HD_CB_DOB, &b->dob_blend)) {
+        const int64_t gjw = hd_mul64x32_q((int64_t)c->dob_gj, in->vel_fb, 16u);      /* Q15.16 x 2^16 */
+        const int64_t drive = hd_add64_sat(hd_shl64_sat((int64_t)b->t_prev, 16u), gjw);
+        b->dob_x = hd_add64_sat(b->dob_x, hd_mul64x32_q(hd_sub64_sat(drive, b->dob_x), c->dob_g_t, 30u));
+        const int32_t d = hd_sat32(hd_asr64_rnd(hd_sub64_sat(b->dob_x, gjw), 16u));
+        (void)hd_blend_update(&b->dob_blend);
+        b->dob_d = hd_blend_apply(&b->dob_blend, d);
+        tff = hd_add_sat(tff, b->dob_d);
+    } else {
+        /* cold: restart from d = 0 at the next enable */
+        b->dob_x = hd_mul64x32_q((int64_t)c->dob_gj, in->vel_fb, 16u);
+        b->dob_d = 0;
+    }
+
+    /* position corrections (output-referred motor lead) */
+    if (running(b, HD_CB_MAXWELL, &b->mx.blend)) {
+        dpos = hd_add64_sat(dpos, hd_maxwell_step(&b->mx, &c->mx, in->pos_ref));
+    }
+    if (pr_on) {
+        /* transmitted torque estimate: LPF(t_prev - share * Stribeck model) */
+        const int32_t fr = hd_mul_q(b->str.tau_raw, c->pr_share, 30u);
+        const int64_t tg = hd_shl64_sat((int64_t)hd_sub_sat(b->t_prev, fr), 16u);
+        b->pr_t = hd_add64_sat(b->pr_t, hd_mul64x32_q(hd_sub64_sat(tg, b->pr_t), c->pr_alpha, 30u));
+        const int32_t yd = hd_sat32(hd_asr64_rnd(b->pr_t, 16u));
+        int32_t u = 0;
+        (void)hd_blend_update(&b->pr.blend);
+        if (b->table_ok != 0u) {
+            const int32_t pl = hd_preisach_inv_step_p(&b->pr, &b->table, (int64_t)yd);
+            u = hd_preisach_dequantise(&b->table, pl);
+        }
+        b->pr.u = u;
+        b->pr_dth = hd_blend_apply(&b->pr.blend, u);
+        b->pr.out = b->pr_dth;
+        dpos = hd_add64_sat(dpos, (int64_t)b->pr_dth);
+    }
+    if (running(b, HD_CB_TE, &b->te.blend)) {
+        dpos = hd_add64_sat(dpos, hd_te_comp_step(&b->te, &c->te, in->pos_mot));
+        tff = hd_add_sat(tff, b->te.tau);
+    }
+
+    out->tff = tff;
+    if (c->pos_mode != 0u) {
+        out->dpos = dpos;
+        out->dvel = 0;
+        b->dpos_f = hd_shl64_sat(dpos, 16u);
+    } else {
+        const int64_t target = hd_shl64_sat(dpos, 16u);       /* 2^-48 turn */
+        if (b->dpos_primed == 0u) {
+            b->dpos_f = target;
+            b->dpos_primed = 1u;
+        }
+        const int64_t step = hd_mul64x32_q(hd_sub64_sat(target, b->dpos_f), c->dpos_alpha, 30u);
+        b->dpos_f = hd_add64_sat(b->dpos_f, step);
+        out->dpos = 0;
+        out->dvel = hd_sat32(hd_asr64_rnd(hd_mul64x32_q(step, HD_LOOP_HZ, 0u), 16u));
+    }
+    b->out = *out;
+}
+
+int32_t hd_comp_bank_post(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in,
+                          int32_t u_pid)
+{
+    hd_backstep_in_t bi;
+    bi.theta = in->pos_out;
+    bi.theta_d = in->pos_ref;
+    bi.omega = in->vel_fb;
+    bi.omega_d = in->vel_ref;
+    bi.acc_d = in->acc_ref;
+    if (!running(b, HD_CB_BACKSTEP, &b->bs.blend)) {
+        b->u_bs = u_pid;
+        return u_pid;
+    }
+    if (b->bs_preload != 0u) {
+        hd_backstep_preload(&b->bs, &c->bs, &bi, u_pid);
+        b->bs_preload = 0u;
+    }
+    b->u_bs = hd_backstep_step(&b->bs, &c->bs, &bi, u_pid);
+    return b->u_bs;
+}
+
+void hd_comp_bank_end(hd_comp_bank_t *b, int32_t t_applied)
+{
+    b->t_prev = t_applied;
+}
+
+bool hd_comp_bank_active(const hd_comp_bank_t *b)
+{
+    return hd_blend_active(&b->str.blend) || hd_blend_active(&b->lug.blend) || hd_blend_active(&b->mx.blend) ||
+           hd_blend_active(&b->pr.blend) || hd_blend_active(&b->te.blend) || hd_blend_active(&b->bs.blend) ||
+           hd_blend_active(&b->dob_blend);
+}

@@ -1,0 +1,146 @@
+/*
+ * hd_comp_bank.h - every compensator of firmware/core composed for the drive
+ * application: configs from the parameter table, enable bits with bumpless
+ * ramps, and the two calls that hd_app_step() makes inside the cascade.
+ *
+ * Where each compensator acts (full-closed loop: position on the output
+ * encoder, velocity on the motor encoder / N; docs/compensators.md section 8):
+ *
+ *   pos_ref --(+ dpos if cb_pos_mode = 1)--> position PI --> vel_ref
+ *                              (+ dvel: d/dt of the position corrections if cb_pos_mode = 0)
+ *   vel_ref --> velocity PI --(+ tff: Stribeck / LuGre / DOB / TE torque)--> backstepping blend --> filters
+ *
+ *   Stribeck   torque FF, velocity = w_ref v_ref + (1 - w_ref) v_fb              -> tff
+ *   LuGre      torque FF/observer, v = v_ref or v_fb, e = pos_out - pos_ref      -> tff
+ *   Maxwell    x = pos_ref; lost-motion twist F / K                             -> position correction
+ *   Preisach   inverse of the gear twist -> torque hysteresis (table), input the
+ *              transmitted-torque estimate LPF(t_prev - share * Stribeck(v))    -> position correction
+ *   TE         -TE(motor angle)                                                 -> position correction
+ *              (+ optional torque FF -K1 TE -> tff)
+ *   backstep   replaces the PID's torque: u = u_pid + w (u_bs - u_pid); preloaded at engage
+ *   DOB        d = Q(t_prev - J s v_fb), Q = g/(s+g) first order; torque FF + d
+ *
+ * The position corrections sum to dpos (Q32.32 turns, output-referred
+ * motor-side lead).  With cb_pos_mode = 0 (default, output-encoder position
+ * loop) dpos is low-passed at cb_dpos_fc and its per-period difference is the
+ * velocity feed-forward dvel: the motor travels the lost motion / TE ahead of
+ * the output while the position loop keeps the OUTPUT on the reference.  With
+ * cb_pos_mode = 1 dpos is added to the position reference (for a position loop
+ * closed on the motor encoder).
+ *
+ * Switching: cb_enable bits (HD_CB_*).  A change of a bit calls the
+ * compensator's set_enabled(): its output weight ramps over cb_ramp_ticks
+ * periods (hd_blend).  A compensator is evaluated while enabled or ramping
+ * out; fully off it costs nothing and keeps its last state (LuGre bristles,
+ * Maxwell elements, Preisach memory re-converge within the presliding
+ * distance after an enable; the ramp covers it; the DOB restarts from 0).
+ * Backstepping is preloaded (hd_backstep_preload) with the PID output of the
+ * period it is switched on.  The bank acts in the position modes only.
+ *
+ * Formats: those of hd_units.h and of each core header; parameters are the
+ * raw words of hd_param_table.h (docs/parameters.md, index 0x2800-0x2870).
+ * The Preisach table (hd_preisach_table_t image, 8.3 KiB) is installed with
+ * hd_comp_bank_install_table(), which checks it and keeps the old one on error.
+ */
+#ifndef HD_COMP_BANK_H
+#define HD_COMP_BANK_H
+
+#include <stdint.h>
+#include <stdbool.h>
+#include "hd_units.h"
+#include "hd_param_table.h"
+#include "hd_stribeck.h"
+#include "hd_lugre.h"
+#include "hd_maxwell.h"
+#include "hd_preisach.h"
+#include "hd_te_comp.h"
+#include "hd_backstep.h"
+#include "hd_blend.h"
+
+#define HD_CB_STRIBECK  (1u << 0)
+#define HD_CB_LUGRE     (1u << 1)
+#define HD_CB_MAXWELL   (1u << 2)
+#define HD_CB_PREISACH  (1u << 3)
+#define HD_CB_TE        (1u << 4)
+#define HD_CB_BACKSTEP  (1u << 5)
+#define HD_CB_DOB       (1u << 6)
+#define HD_CB_ALL       0x7Fu
+
+typedef struct {
+    hd_stribeck_cfg_t str;
+    hd_lugre_cfg_t    lug;
+    hd_maxwell_cfg_t  mx;
+    hd_te_cfg_t       te;
+    hd_backstep_cfg_t bs;
+    int32_t  bs_th0[HD_BS_NP];   /* Q15.16 initial estimates */
+    uint32_t enable;             /* HD_CB_* */
+    uint32_t ramp_ticks;
+    uint32_t pos_mode;           /* 0 velocity FF, 1 position reference */
+    int32_t  dpos_alpha;         /* Q30, 1 - exp(-2 pi fc T) */
+    uint32_t pr_deadband;
+    int32_t  pr_alpha;           /* Q30 */
+    int32_t  pr_share;           /* Q30 */
+    uint32_t lug_v_src;          /* 0 reference, 1 estimate */
+    int32_t  dob_g_t;            /* Q30, g T (first-order Q filter, forward Euler) */
+    int32_t  dob_gj;             /* g J: N.m per (turn/s), Q15.16 */
+} hd_comp_bank_cfg_t;
+
+/* Signals of one period (inputs filled by the app). */
+typedef struct {
+    hd_angle_t   pos_ref;        /* output position reference, Q32.32 turns */
+    hd_angle_t   pos_out;        /* output position (output encoder) */
+    hd_angle_t   pos_mot;        /* motor angle, Q32.32 motor turns */
+    hd_vel_out_t vel_ref;        /* velocity feed-forward of the reference, 2^-32 turn/s */
+    hd_vel_out_t vel_fb;         /* velocity-loop feedback, 2^-32 turn/s */
+    hd_acc_t     acc_ref;        /* 2^-24 turn/s^2 */
+} hd_comp_bank_in_t;
+
+typedef struct {
+    hd_angle_t   dpos;           /* added to the position reference (cb_pos_mode 1), else 0 */
+    hd_vel_out_t dvel;           /* added to the velocity feed-forward (cb_pos_mode 0), else 0 */
+    hd_torque_t  tff;            /* torque feed-forward, Q15.16 N.m */
+} hd_comp_bank_out_t;
+
+typedef struct {
+    hd_stribeck_t     str;
+    hd_lugre_t        lug;
+    hd_maxwell_t      mx;
+    hd_preisach_inv_t pr;
+    hd_te_comp_t      te;
+    hd_backstep_t     bs;
+    hd_blend_t        dob_blend;
+    hd_preisach_table_t table;   /* installed Preisach table (checked) */
+    uint32_t table_ok;           /* 1 once a table passed the check */
+    uint32_t enabled;            /* last applied enable bits */
+    uint32_t bs_preload;         /* 1: preload backstepping at the next post() */
+    int64_t  dpos_f;             /* low-passed position correction, 2^-48 turn (int64) */
+    uint32_t dpos_primed;
+    int64_t  pr_t;               /* torque estimate state, Q15.16 x 2^16 */
+    int32_t  pr_dth;             /* weighted Preisach twist, 2^-32 turn */
+    int64_t  dob_x;              /* DOB state, Q15.16 x 2^16 */
+    int32_t  dob_d;              /* weighted DOB torque, Q15.16 */
+    int32_t  t_prev;             /* torque applied in the previous period, Q15.16 N.m */
+    hd_comp_bank_out_t out;      /* last outputs (telemetry) */
+    int32_t  u_bs;               /* last torque after the backstepping blend */
+} hd_comp_bank_t;
+
+/** Configs from raw parameters. 0 ok, -1 inconsistent (bounds, sizes). */
+int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_COUNT]);
+/** Power-up: states reset, enables as in c (no ramp at start), no table. */
+void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c);
+/** Apply new configs: enable-bit changes start the ramps (bumpless). */
+void hd_comp_bank_apply(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c);
+/** Check and install a Preisach table image; the old one stays on error. HD_PREISACH_* code. */
+int32_t hd_comp_bank_install_table(hd_comp_bank_t *b, const hd_preisach_table_t *t);
+/** Before the position loop: position/velocity corrections and torque feed-forward. */
+void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in,
+                      hd_comp_bank_out_t *out);
+/** After the velocity PID (u_pid, Q15.16 N.m): the backstepping blend; returns the torque. */
+int32_t hd_comp_bank_post(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in,
+                          int32_t u_pid);
+/** End of the period: the torque command actually applied (for the DOB / torque estimate). */
+void hd_comp_bank_end(hd_comp_bank_t *b, int32_t t_applied);
+/** True while any compensator output may be non-zero. */
+bool hd_comp_bank_active(const hd_comp_bank_t *b);
+
+#endif

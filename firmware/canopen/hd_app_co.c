@@ -1,0 +1,569 @@
+/*
+ * hd_app_co.c - CANopen <-> application adapter (contract: hd_app_co.h).
+ */
+#include <stddef.h>
+#include "hd_app_co.h"
+#include "hd_fixed.h"
+
+/* ---- parameter groups (0x5100:2 friction, 0x5100:3 TE) ------------------------------ */
+
+static const uint16_t k_fr_ids[] = {
+    HD_P_STR_FC_POS, HD_P_STR_FS_POS, HD_P_STR_VS_POS, HD_P_STR_FV_POS,
+    HD_P_STR_FC_NEG, HD_P_STR_FS_NEG, HD_P_STR_VS_NEG, HD_P_STR_FV_NEG,
+    HD_P_STR_DELTA, HD_P_STR_EPS_V, HD_P_STR_W_REF, HD_P_STR_TAU_MAX,
+    HD_P_LUG_FC, HD_P_LUG_FS, HD_P_LUG_VS, HD_P_LUG_DELTA, HD_P_LUG_SIGMA0,
+    HD_P_LUG_SIGMA1, HD_P_LUG_SIGMA2, HD_P_LUG_K_OBS, HD_P_LUG_TAU_MAX, HD_P_LUG_V_SRC
+};
+static const uint16_t k_te_ids[] = {
+    HD_P_TE_N, HD_P_TE_K1, HD_P_TE_TAU_MAX,
+    HD_P_TE_ORDER1, HD_P_TE_AMP1, HD_P_TE_PHASE1, HD_P_TE_ORDER2, HD_P_TE_AMP2, HD_P_TE_PHASE2,
+    HD_P_TE_ORDER3, HD_P_TE_AMP3, HD_P_TE_PHASE3, HD_P_TE_ORDER4, HD_P_TE_AMP4, HD_P_TE_PHASE4
+};
+
+uint32_t hd_app_co_group_ids(uint32_t dom, const uint16_t **ids)
+{
+    if (dom == HD_APP_CO_DOM_FRICTION) {
+        *ids = k_fr_ids;
+        return (uint32_t)(sizeof k_fr_ids / sizeof k_fr_ids[0]);
+    }
+    if (dom == HD_APP_CO_DOM_TE) {
+        *ids = k_te_ids;
+        return (uint32_t)(sizeof k_te_ids / sizeof k_te_ids[0]);
+    }
+    *ids = NULL;
+    return 0u;
+}
+
+static uint32_t group_magic(uint32_t dom)
+{
+    return (dom == HD_APP_CO_DOM_FRICTION) ? HD_APP_CO_MAGIC_FR : HD_APP_CO_MAGIC_TE;
+}
+
+/* ---- words of a Preisach table image ----------------------------------------------- */
+
+/* word w of the staged domain (NULL beyond the staging area) */
+static uint32_t *stage_word(hd_app_co_t *ac, uint32_t w)
+{
+    hd_preisach_table_t *t = &ac->stage;
+    switch (w) {
+    case 0u: return &t->magic;
+    case 1u: return &t->format;
+    case 2u: return &t->version;
+    case 3u: return &t->levels;
+    case 4u: return &t->sub_bits;
+    case 5u: return &t->in_shift;
+    case 6u: return (uint32_t *)(void *)&t->u0;        /* same-size signed/unsigned alias */
+    case 7u: return &t->unit;
+    case 8u: return &t->n_entries;
+    case 9u: return &t->crc;
+    default: break;
+    }
+    if (w - 10u < HD_PREISACH_N_MAX) {
+        return (uint32_t *)(void *)&t->e[w - 10u];
+    }
+    return (w == HD_APP_CO_STAGE_WORDS - 1u) ? &ac->stage_tail : NULL;
+}
+
+/* word w of an installed table image (w < 10 + n_entries) */
+static uint32_t table_word(const hd_preisach_table_t *t, uint32_t w)
+{
+    switch (w) {
+    case 0u: return t->magic;
+    case 1u: return t->format;
+    case 2u: return t->version;
+    case 3u: return t->levels;
+    case 4u: return t->sub_bits;
+    case 5u: return t->in_shift;
+    case 6u: return (uint32_t)t->u0;
+    case 7u: return t->unit;
+    case 8u: return t->n_entries;
+    case 9u: return t->crc;
+    default: break;
+    }
+    return (w - 10u < HD_PREISACH_N_MAX) ? (uint32_t)t->e[w - 10u] : 0u;
+}
+
+static uint32_t crc_word(uint32_t crc, uint32_t w)
+{
+    uint8_t b[4];
+    b[0] = (uint8_t)w;
+    b[1] = (uint8_t)(w >> 8);
+    b[2] = (uint8_t)(w >> 16);
+    b[3] = (uint8_t)(w >> 24);
+    return hd_co_crc32(crc, b, 4u);
+}
+
+/* ---- table domains: payload words in force ------------------------------------------ */
+
+/* number of payload words in force (0: none) */
+static uint32_t dom_words(const hd_app_co_t *ac, uint32_t dom)
+{
+    if (dom == HD_APP_CO_DOM_PREISACH) {
+        const hd_preisach_table_t *t = &ac->app->cb.table;
+        return (ac->app->cb.table_ok != 0u) ? 10u + t->n_entries : 0u;
+    }
+    {
+        const uint16_t *ids;
+        const uint32_t n = hd_app_co_group_ids(dom, &ids);
+        return (ac->group_version[dom - HD_APP_CO_DOM_FRICTION] != 0u) ? HD_APP_CO_GROUP_HDR + n : 0u;
+    }
+}
+
+static uint32_t dom_word(const hd_app_co_t *ac, uint32_t dom, uint32_t w)
+{
+    const uint16_t *ids;
+    uint32_t n;
+    if (dom == HD_APP_CO_DOM_PREISACH) {
+        return table_word(&ac->app->cb.table, w);
+    }
+    n = hd_app_co_group_ids(dom, &ids);
+    switch (w) {
+    case 0u: return group_magic(dom);
+    case 1u: return HD_APP_CO_GROUP_FORMAT;
+    case 2u: return ac->group_version[dom - HD_APP_CO_DOM_FRICTION];
+    case 3u: return n;
+    default: break;
+    }
+    return (w - HD_APP_CO_GROUP_HDR < n) ? (uint32_t)hd_app_param_get(ac->app, ids[w - HD_APP_CO_GROUP_HDR]) : 0u;
+}
+
+/* commit a staged parameter group: all values or none */
+static uint32_t group_commit(hd_app_co_t *ac, uint32_t dom, uint32_t words)
+{
+    const uint16_t *ids;
+    const uint32_t n = hd_app_co_group_ids(dom, &ids);
+    int32_t old[HD_APP_CO_GROUP_MAX];
+    uint32_t i;
+    if (words != HD_APP_CO_GROUP_HDR + n || n > HD_APP_CO_GROUP_MAX ||
+        *stage_word(ac, 0u) != group_magic(dom) || *stage_word(ac, 1u) != HD_APP_CO_GROUP_FORMAT ||
+        *stage_word(ac, 2u) == 0u || *stage_word(ac, 3u) != n) {
+        return HD_CO_AB_STORE;
+    }
+    for (i = 0u; i < n; i++) {
+        const int32_t raw = (int32_t)*stage_word(ac, HD_APP_CO_GROUP_HDR + i);
+        if (hd_params_check(ids[i], raw) != 0) {
+            return HD_CO_AB_STORE;
+        }
+        old[i] = hd_app_param_get(ac->app, ids[i]);
+    }
+    for (i = 0u; i < n; i++) {
+        if (hd_app_param_set(ac->app, ids[i], (int32_t)*stage_word(ac, HD_APP_CO_GROUP_HDR + i)) != 0) {
+            /* inconsistent combination: put the old set back */
+            uint32_t k;
+            for (k = n; k-- > 0u;) {
+                (void)hd_app_param_set(ac->app, ids[k], old[k]);
+            }
+            return HD_CO_AB_STORE;
+        }
+    }
+    ac->group_version[dom - HD_APP_CO_DOM_FRICTION] = *stage_word(ac, 2u);
+    return 0u;
+}
+
+/* ---- hd_co_app_if_t callbacks --------------------------------------------------------- */
+
+static bool a_send(void *c, const hd_can_frame_t *f)
+{
+    hd_app_co_t *ac = c;
+    return ac->port.send(ac->port.ctx, f);
+}
+
+static int32_t a_pget(void *c, uint16_t id)
+{
+    return hd_app_param_get(((hd_app_co_t *)c)->app, id);
+}
+
+static uint32_t a_pset(void *c, uint16_t id, int32_t raw)
+{
+    return hd_app_param_set(((hd_app_co_t *)c)->app, id, raw) == 0 ? 0u : HD_CO_AB_VALUE;
+}
+
+static uint32_t a_dsize(void *c, uint16_t dom, uint32_t *size)
+{
+    hd_app_co_t *ac = c;
+    if (dom == HD_APP_CO_DOM_CAPTURE) {
+        const hd_capture_t *cap = &ac->app->cap;
+        *size = hd_capture_frames(cap) * cap->cfg.n_ch * 4u;
+        return 0u;
+    }
+    if (dom < HD_APP_CO_DOM_PORT) {
+        const uint32_t n = dom_words(ac, dom);
+        uint32_t crc = 0u, w;
+        for (w = 0u; w < n; w++) {
+            crc = crc_word(crc, dom_word(ac, dom, w));
+        }
+        ac->rd_trailer = crc;
+        *size = (n != 0u) ? 4u * n + 4u : 0u;
+        return 0u;
+    }
+    return ac->port.domain_size != NULL ? ac->port.domain_size(ac->port.ctx, dom, size) : HD_CO_AB_NO_OBJECT;
+}
+
+static uint32_t a_dread(void *c, uint16_t dom, uint32_t off, uint8_t *buf, uint32_t len)
+{
+    hd_app_co_t *ac = c;
+    uint32_t i;
+    if (dom == HD_APP_CO_DOM_CAPTURE) {
+        const hd_capture_t *cap = &ac->app->cap;
+        const uint32_t nch = (cap->cfg.n_ch != 0u) ? cap->cfg.n_ch : 1u;
+        for (i = 0u; i < len; i++) {
+            const uint32_t byte = off + i, word = byte / 4u;
+            const uint32_t v = (uint32_t)hd_capture_read(cap, word / nch, word % nch);
+            buf[i] = (uint8_t)(v >> (8u * (byte % 4u)));
+        }
+        return 0u;
+    }
+    if (dom < HD_APP_CO_DOM_PORT) {
+        const uint32_t n = dom_words(ac, dom);
+        if (off + len > 4u * n + 4u || off + len < off) {
+            return HD_CO_AB_GENERAL;
+        }
+        for (i = 0u; i < len; i++) {
+            const uint32_t byte = off + i, word = byte / 4u;
+            const uint32_t v = (word < n) ? dom_word(ac, dom, word) : ac->rd_trailer;
+            buf[i] = (uint8_t)(v >> (8u * (byte % 4u)));
+        }
+        return 0u;
+    }
+    return ac->port.domain_read != NULL ? ac->port.domain_read(ac->port.ctx, dom, off, buf, len)
+                                     : HD_CO_AB_NO_OBJECT;
+}
+
+static uint32_t a_dbegin(void *c, uint16_t dom, uint32_t size)
+{
+    hd_app_co_t *ac = c;
+    if (dom == HD_APP_CO_DOM_CAPTURE) {
+        return HD_CO_AB_READONLY;
+    }
+    if (dom < HD_APP_CO_DOM_PORT) {
+        if (ac->app->tel.mode != HD_MODE_OFF || ac->app->mode != HD_MODE_OFF) {
+            return HD_CO_AB_STATE;             /* tables change with the power stage off */
+        }
+        if (size > 4u * HD_APP_CO_STAGE_WORDS) {
+            return HD_CO_AB_LEN_HIGH;
+        }
+        ac->stage_dom = (uint8_t)dom;
+        ac->stage_bad = 0u;
+        ac->stage_len = 0u;
+        ac->stage_crc = 0u;
+        return 0u;
+    }
+    return ac->port.domain_write_begin != NULL ? ac->port.domain_write_begin(ac->port.ctx, dom, size)
+                                            : HD_CO_AB_NO_OBJECT;
+}
+
+static uint32_t a_dwrite(void *c, uint16_t dom, uint32_t off, const uint8_t *buf, uint32_t len)
+{
+    hd_app_co_t *ac = c;
+    uint32_t i;
+    if (dom == HD_APP_CO_DOM_CAPTURE) {
+        return HD_CO_AB_READONLY;
+    }
+    if (dom < HD_APP_CO_DOM_PORT) {
+        if (dom != ac->stage_dom || off != ac->stage_len) {
+            ac->stage_bad = 1u;
+            return HD_CO_AB_GENERAL;
+        }
+        if (len > 4u * HD_APP_CO_STAGE_WORDS - off) {
+            ac->stage_bad = 1u;
+            return HD_CO_AB_LEN_HIGH;
+        }
+        for (i = 0u; i < len; i++) {
+            const uint32_t byte = off + i;
+            uint32_t *w = stage_word(ac, byte / 4u);
+            const uint32_t sh = 8u * (byte % 4u);
+            if (w == NULL) {
+                ac->stage_bad = 1u;
+                return HD_CO_AB_LEN_HIGH;
+            }
+            *w = (*w & ~(0xFFu << sh)) | ((uint32_t)buf[i] << sh);
+            /* CRC lags 4 bytes: at the end it covers everything but the trailer */
+            if (byte >= 4u) {
+                ac->stage_crc = hd_co_crc32(ac->stage_crc, &ac->stage_win[byte % 4u], 1u);
+            }
+            ac->stage_win[byte % 4u] = buf[i];
+        }
+        ac->stage_len = off + len;
+        return 0u;
+    }
+    return ac->port.domain_write != NULL ? ac->port.domain_write(ac->port.ctx, dom, off, buf, len)
+                                      : HD_CO_AB_NO_OBJECT;
+}
+
+static uint32_t a_dend(void *c, uint16_t dom, uint32_t total, bool complete)
+{
+    hd_app_co_t *ac = c;
+    if (dom == HD_APP_CO_DOM_CAPTURE) {
+        return HD_CO_AB_READONLY;
+    }
+    if (dom < HD_APP_CO_DOM_PORT) {
+        uint32_t words, trailer;
+        const uint8_t *t = ac->stage_win;
+        const uint32_t k = ac->stage_len;      /* the trailer is bytes k-4 .. k-1 */
+        const bool ours = (dom == ac->stage_dom) && ac->stage_bad == 0u;
+        ac->stage_dom = 0u;
+        if (!complete) {
+            return 0u;                          /* aborted: the table in force stays */
+        }
+        if (!ours || total != k || k < 8u || (k % 4u) != 0u) {
+            return HD_CO_AB_STORE;
+        }
+        trailer = (uint32_t)t[(k - 4u) % 4u] | ((uint32_t)t[(k - 3u) % 4u] << 8) |
+                  ((uint32_t)t[(k - 2u) % 4u] << 16) | ((uint32_t)t[(k - 1u) % 4u] << 24);
+        if (trailer != ac->stage_crc) {
+            return HD_CO_AB_STORE;
+        }
+        words = k / 4u - 1u;
+        if (dom == HD_APP_CO_DOM_PREISACH) {
+            if (words < 10u || ac->stage.n_entries != words - 10u) {
+                return HD_CO_AB_STORE;
+            }
+            return hd_app_comp_table(ac->app, &ac->stage) == HD_PREISACH_OK ? 0u : HD_CO_AB_STORE;
+        }
+        return group_commit(ac, dom, words);
+    }
+    return ac->port.domain_write_end != NULL ? ac->port.domain_write_end(ac->port.ctx, dom, total, complete)
+                                          : HD_CO_AB_NO_OBJECT;
+}
+
+static uint32_t a_special_read(void *c, uint16_t index, uint8_t sub, int64_t *v)
+{
+    hd_app_co_t *ac = c;
+    if (index == 0x5000u && sub == 0u) { *v = 7; return 0u; }
+    if (index == 0x5000u && sub == 1u) { *v = 0; return 0u; }
+    if (index == 0x5000u && sub == 2u) { *v = (int64_t)ac->app->cap.state; return 0u; }
+    return HD_CO_AB_NO_OBJECT;
+}
+
+static uint32_t a_special_write(void *c, uint16_t index, uint8_t sub, int64_t v)
+{
+    hd_app_co_t *ac = c;
+    if (index == 0x5000u && sub == 1u) {
+        if (v == 1) {
+            hd_capture_cfg_t cfg;
+            uint32_t sig[HD_CAPTURE_MAX_CH];
+            uint32_t n = 0u, k;
+            const uint32_t packed = ac->co->od.capture_signals;
+            for (k = 0u; k < 4u && k < HD_CAPTURE_MAX_CH; k++) {
+                const uint32_t id = (packed >> (8u * k)) & 0xFFu;
+                if (id == 0xFFu) {
+                    continue;
+                }
+                if (id >= (uint32_t)HD_SIG_COUNT) {
+                    return HD_CO_AB_VALUE;
+                }
+                sig[n++] = id;
+            }
+            if (n == 0u) {
+                return HD_CO_AB_VALUE;
+            }
+            cfg.n_ch = n;
+            cfg.decim = ac->co->od.capture_decimation;
+            cfg.frames = ac->co->od.capture_length;
+            cfg.pretrig = ac->co->od.capture_pretrigger;
+            cfg.trig_mode = HD_CAP_TRIG_COMMAND;   /* 0x5000:1 = 2 triggers */
+            cfg.trig_ch = 0u;
+            cfg.trig_level = 0;
+            return hd_app_capture_arm(ac->app, &cfg, sig) == 0 ? 0u : HD_CO_AB_VALUE;
+        }
+        if (v == 2) {
+            if (ac->app->cap.state != HD_CAP_ARMED) {
+                return HD_CO_AB_STATE;
+            }
+            hd_app_capture_trigger(ac->app);
+            return 0u;
+        }
+        return 0u;
+    }
+    return HD_CO_AB_READONLY;
+}
+
+static uint32_t a_store(void *c)
+{
+    return hd_app_param_save(((hd_app_co_t *)c)->app) == 0 ? 0u : HD_CO_AB_STATE;
+}
+
+static uint32_t a_restore(void *c)
+{
+    hd_app_co_t *ac = c;
+    uint32_t i;
+    for (i = 0u; i < HD_PARAM_COUNT; i++) {
+        (void)hd_app_param_set(ac->app, i, hd_param_table[i].def);
+    }
+    return 0u;
+}
+
+static void a_sync(void *c, uint8_t counter)
+{
+    hd_app_co_t *ac = c;
+    if (ac->port.on_sync != NULL) {
+        ac->port.on_sync(ac->port.ctx, counter);
+    }
+}
+
+static int32_t app_mode_for(int8_t m)
+{
+    switch (m) {
+    case HD_CO402_MODE_PP: return HD_MODE_PTP;
+    case HD_CO402_MODE_CSV: return HD_MODE_VELOCITY;
+    case HD_CO402_MODE_CST: return HD_MODE_TORQUE;
+    default: return HD_MODE_POSITION;   /* CSP, and "no mode" = hold position */
+    }
+}
+
+static uint32_t a_enable(void *c, int8_t mode, bool on)
+{
+    hd_app_co_t *ac = c;
+    if (!on) {
+        (void)hd_app_set_mode(ac->app, HD_MODE_OFF);
+        ac->mode = 0;
+        return 0u;
+    }
+    /* bumpless: the targets start at the actual values */
+    ac->co->od.target_position = ac->co->od.position_actual_value;
+    ac->co->od.target_velocity = 0;
+    ac->co->od.target_torque = 0;
+    hd_app_set_position(ac->app, ac->app->tel.pos_out);
+    hd_app_set_velocity(ac->app, 0);
+    hd_app_set_torque(ac->app, 0);
+    if (hd_app_set_mode(ac->app, app_mode_for(mode)) != 0) {
+        return 1u;
+    }
+    ac->mode = mode;
+    return 0u;
+}
+
+static void a_setpoint(void *c, const hd_co_setpoint_t *sp)
+{
+    hd_app_co_t *ac = c;
+    hd_angle_t pos;
+    if (sp->quick_stop != 0u) {
+        if (ac->mode != -1) {
+            (void)hd_app_set_mode(ac->app, HD_MODE_VELOCITY);
+            ac->mode = -1;
+        }
+        hd_app_set_velocity(ac->app, 0);
+        return;
+    }
+    pos = (hd_angle_t)sp->target_position * 256;    /* 2^-24 turn -> Q32.32 */
+    switch (sp->mode) {
+    case HD_CO402_MODE_PP:
+        if (sp->pp_new != 0u) {
+            (void)hd_app_move_to(ac->app, pos);
+        }
+        break;
+    case HD_CO402_MODE_CSV:
+        hd_app_set_velocity(ac->app, sp->target_velocity);
+        hd_app_set_torque(ac->app, sp->target_torque);
+        break;
+    case HD_CO402_MODE_CST:
+        hd_app_set_torque(ac->app, sp->target_torque);
+        break;
+    case HD_CO402_MODE_CSP:
+        hd_app_set_position(ac->app, pos);
+        hd_app_set_velocity(ac->app, sp->velocity_offset);
+        hd_app_set_torque(ac->app, sp->target_torque);
+        break;
+    default:
+        break;
+    }
+}
+
+uint16_t hd_app_co_emcy_for_fault(int32_t fault)
+{
+    switch (fault) {
+    case HD_FAULT_TORQUE_SAT: return 0x2310u;   /* continuous over-current */
+    case HD_FAULT_OVERSPEED: return 0x8400u;    /* velocity speed controller */
+    case HD_FAULT_TRAVEL: return 0x8612u;       /* reference limit */
+    case HD_FAULT_FOLLOWING: return 0x8611u;    /* following error */
+    case HD_FAULT_ENC_JUMP: return 0x7305u;     /* incremental sensor 1 fault */
+    case HD_FAULT_SENSOR: return 0x7300u;       /* sensor */
+    case HD_FAULT_PARAM: return 0x6320u;        /* parameter error */
+    case HD_FAULT_COMM: return HD_CO_EMCY_HB;   /* heartbeat / life guard */
+    default: return 0x1000u;
+    }
+}
+
+static void a_actual(void *c, hd_co_actual_t *a)
+{
+    hd_app_co_t *ac = c;
+    const hd_telemetry_t *t = hd_app_telemetry(ac->app);
+    const int32_t v = hd_abs_sat(t->vel_out);
+    const int64_t e = hd_abs64_sat(hd_sub64_sat(t->pos_ref, t->pos_out));
+    a->tick = t->tick;
+    a->load_angle = t->pos_out;
+    a->motor_angle = t->pos_mot;
+    a->setpoint_angle = t->pos_ref;
+    a->load_velocity = t->vel_out;
+    a->motor_velocity = t->vel_mot;
+    a->output_torque = t->torque_cmd;
+    a->motor_torque = t->motor_torque;
+    a->motor_current = t->current;
+    a->fault_code = (uint16_t)t->fault;
+    a->fault_emcy = (t->fault != 0) ? hd_app_co_emcy_for_fault(t->fault) : 0u;
+    a->power_enabled = (t->mode != HD_MODE_OFF) ? 1u : 0u;
+    a->standstill = (v < 4295 * 100) ? 1u : 0u;      /* 0.1 mturn/s ~ 0.036 deg/s */
+    a->target_reached = (e < ((int64_t)1 << 16)) ? 1u : 0u;
+    a->internal_limit = 0u;
+}
+
+static void a_fault_reset(void *c)
+{
+    hd_app_fault_reset(((hd_app_co_t *)c)->app);
+}
+
+static void a_comm_fault(void *c, uint16_t code)
+{
+    hd_app_co_t *ac = c;
+    (void)code;
+    /* a real app fault: latched, power stage off, cleared only by the fault reset */
+    (void)hd_app_fault_raise(ac->app, HD_FAULT_COMM);
+    (void)hd_app_set_mode(ac->app, HD_MODE_OFF);
+    ac->mode = 0;
+}
+
+static void a_reset_node(void *c)
+{
+    hd_app_co_t *ac = c;
+    (void)hd_app_set_mode(ac->app, HD_MODE_OFF);
+    ac->mode = 0;
+}
+
+void hd_app_co_init(hd_app_co_t *ac, hd_co_t *co, hd_app_t *app, uint8_t node_id,
+                    const hd_app_co_port_t *port)
+{
+    hd_co_app_if_t ifc;
+    ac->co = co;
+    ac->app = app;
+    ac->port = *port;
+    ac->mode = 0;
+    ac->stage_dom = 0u;
+    ac->stage_bad = 0u;
+    ac->pad = 0u;
+    ac->stage_len = 0u;
+    ac->stage_crc = 0u;
+    ac->rd_trailer = 0u;
+    ac->group_version[0] = 0u;
+    ac->group_version[1] = 0u;
+    ifc.ctx = ac;
+    ifc.send = a_send;
+    ifc.param_get = a_pget;
+    ifc.param_set = a_pset;
+    ifc.domain_size = a_dsize;
+    ifc.domain_read = a_dread;
+    ifc.domain_write_begin = a_dbegin;
+    ifc.domain_write = a_dwrite;
+    ifc.domain_write_end = a_dend;
+    ifc.special_read = a_special_read;
+    ifc.special_write = a_special_write;
+    ifc.store = a_store;
+    ifc.restore = a_restore;
+    ifc.reset_node = a_reset_node;
+    ifc.on_sync = a_sync;
+    ifc.drive_enable = a_enable;
+    ifc.drive_setpoint = a_setpoint;
+    ifc.drive_actual = a_actual;
+    ifc.drive_fault_reset = a_fault_reset;
+    ifc.drive_comm_fault = a_comm_fault;
+    hd_co_init(co, node_id, &ifc);
+}

@@ -1,0 +1,106 @@
+/*
+ * hd_app_co.h - the adapter between the CANopen device (firmware/canopen,
+ * hd_co_app_if_t) and the drive application (hd_app_t).  The STM32 image and
+ * the virtual drive (`hdservo-sim serve`) use this same code.
+ *
+ * Use (port):
+ *   hd_app_co_init(&ac, &co, &app, node_id, &port);   hd_co_init + boot-up
+ *   per received frame:   hd_co_process(&co, &frame);
+ *   per control period:   hd_app_step(&app); hd_co_tick(&co, HD_CO_TICK_US);
+ * all from the same context as hd_app_step() (never from an interrupt that can
+ * pre-empt a step): the adapter calls the app's command API directly.
+ *
+ * What it maps:
+ *   drive parameters 0x2000.. <-> hd_app_param_get/set (refused value: 0x06090030)
+ *   CiA 402 enable / setpoints / actual values / fault reset <-> app modes and
+ *     references (bumpless: targets start at the actual values)
+ *   host heartbeat lost -> hd_app_fault_raise(HD_FAULT_COMM): a latched app
+ *     fault (power stage off), cleared only by the 402 fault reset
+ *   0x1010 save -> hd_app_param_save (0x08000022 unless the power stage is off),
+ *   0x1011 restore -> defaults
+ *   0x5000 capture: arm (1) with the signals / length / decimation /
+ *     pre-trigger of 0x5000:3..6, command trigger (2), state, data (domain 0:
+ *     int32 LE, frame-major, frame 0 = oldest)
+ *   0x5100 tables (domains 1..3), each "payload + CRC-32 trailer" (CRC-32 IEEE
+ *     of the payload, LE).  Written only with the power stage off (else
+ *     0x08000022).  A payload that fails any check is refused with 0x08000020
+ *     and the table in force stays; read-back returns the table in force
+ *     (payload + trailer), empty before the first one.
+ *       1 Preisach/Everett table: the hd_preisach_table_t image of
+ *         hd_preisach.h (magic, format, levels, its own CRC-32, E[i][i] = 0)
+ *         -> hd_app_comp_table() (compensator bank).
+ *       2 friction (Stribeck + LuGre parameters) and 3 transmission-error
+ *         harmonics: parameter groups, payload = magic ("HDFR" / "HDTE"),
+ *         format 1, version, count, then `count` raw int32 in the order of
+ *         hd_app_co_group_ids(); every value range-checked, all applied or
+ *         none (old values restored).
+ *   other domains (>= HD_APP_CO_DOM_PORT) and SYNC go to the port's callbacks.
+ */
+#ifndef HD_APP_CO_H
+#define HD_APP_CO_H
+
+#include <stdint.h>
+#include <stdbool.h>
+#include "hal.h"
+#include "hd_app.h"
+#include "hd_co.h"
+
+#define HD_APP_CO_DOM_CAPTURE   0u
+#define HD_APP_CO_DOM_PREISACH  1u
+#define HD_APP_CO_DOM_FRICTION  2u
+#define HD_APP_CO_DOM_TE        3u
+#define HD_APP_CO_DOM_PORT      4u      /* first domain handled by the port */
+
+#define HD_APP_CO_MAGIC_FR      0x52464448u   /* "HDFR" little-endian */
+#define HD_APP_CO_MAGIC_TE      0x45544448u   /* "HDTE" little-endian */
+#define HD_APP_CO_GROUP_FORMAT  1u
+#define HD_APP_CO_GROUP_MAX     24u           /* parameters per group */
+#define HD_APP_CO_GROUP_HDR     4u            /* words before the values */
+
+/* words of a table domain: Preisach header + crc + entries + trailer */
+#define HD_APP_CO_STAGE_WORDS   (HD_PREISACH_HDR_WORDS + 1u + HD_PREISACH_N_MAX + 1u)
+
+/** What the port provides. */
+typedef struct {
+    void *ctx;
+    /* required: one frame to the bus; false = TX queue full */
+    bool (*send)(void *ctx, const hd_can_frame_t *f);
+    /* optional: SYNC received (pacing of the virtual drive) */
+    void (*on_sync)(void *ctx, uint8_t counter);
+    /* optional: domains >= HD_APP_CO_DOM_PORT (same contract as hd_co_app_if_t) */
+    uint32_t (*domain_size)(void *ctx, uint16_t dom, uint32_t *size);
+    uint32_t (*domain_read)(void *ctx, uint16_t dom, uint32_t off, uint8_t *buf, uint32_t len);
+    uint32_t (*domain_write_begin)(void *ctx, uint16_t dom, uint32_t size_or_0);
+    uint32_t (*domain_write)(void *ctx, uint16_t dom, uint32_t off, const uint8_t *buf, uint32_t len);
+    uint32_t (*domain_write_end)(void *ctx, uint16_t dom, uint32_t total, bool complete);
+} hd_app_co_port_t;
+
+typedef struct {
+    hd_co_t *co;
+    hd_app_t *app;
+    hd_app_co_port_t port;
+    int8_t   mode;                 /* 402 mode the app was enabled in (-1: quick stop) */
+    uint8_t  stage_dom;            /* domain being written (0 = none) */
+    uint8_t  stage_bad;            /* out-of-order or oversized data seen */
+    uint8_t  pad;
+    uint32_t stage_len;            /* bytes received */
+    uint32_t stage_crc;            /* running CRC-32 of the received bytes but the last 4 */
+    uint8_t  stage_win[4];         /* the last 4 bytes received (the trailer at the end) */
+    uint32_t rd_trailer;           /* trailer of the domain being uploaded */
+    uint32_t group_version[2];     /* version of the friction / TE group in force (0 = none) */
+    hd_preisach_table_t stage;     /* table being received: word w of the domain is field /
+                                    * entry w of the image (any domain is staged here) */
+    uint32_t stage_tail;           /* word HD_APP_CO_STAGE_WORDS - 1 (a full table's trailer) */
+} hd_app_co_t;
+
+/** Wire the device to the app and start it (hd_co_init: boot-up goes out). */
+void hd_app_co_init(hd_app_co_t *ac, hd_co_t *co, hd_app_t *app, uint8_t node_id,
+                    const hd_app_co_port_t *port);
+
+/** Parameter ids of a group domain (HD_APP_CO_DOM_FRICTION / _TE); returns the count (0: none). */
+uint32_t hd_app_co_group_ids(uint32_t dom, const uint16_t **ids);
+
+/** EMCY error code of an app fault code. */
+uint16_t hd_app_co_emcy_for_fault(int32_t fault);
+
+#endif

@@ -1,0 +1,157 @@
+"""``hdservo test PROCEDURE``: the standard test procedures against a drive (docs/procedures.md).
+
+Without bus options a virtual reference axis is started (``--axis`` to choose
+another axis file) and stopped afterwards; with ``-i/-c/-b`` (python-can
+settings) the procedures run on that drive and the rig steps are printed for
+the operator.  Every run prints a summary, ``--json PATH`` writes the figures,
+``--plots DIR`` the PNG plots (``--pdf`` adds PDFs).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+from pathlib import Path
+from typing import Any, Callable
+
+from ..cli import UserError
+from ..drive import DriveError, add_bus_arguments, bus_kwargs
+from ..procedures import closedloop as cl
+from ..procedures import frequency as fq
+from ..procedures import gear
+from ..procedures.results import Result, write_json
+from ..procedures.runner import Progress, RigSetup, Target, open_bench
+
+NAME = "test"
+HELP = "run the standard test procedures (gear catalogue tests, FRF, closed-loop figures) on a drive"
+
+#: name -> (set-up factory, lock-step, runner(bench, args, progress))
+Proc = tuple[Callable[[argparse.Namespace], RigSetup], bool, Callable[..., Result]]
+
+PROCEDURES: dict[str, Proc] = {
+    "stiffness": (lambda a: gear.GEAR_SETUP, False,
+                  lambda b, a, p: gear.stiffness(b, cycles=a.cycles or 1, progress=p)),
+    "hysteresis": (lambda a: gear.GEAR_SETUP, False,
+                   lambda b, a, p: gear.hysteresis(b, cycles=a.cycles or 3, progress=p)),
+    "lost-motion": (lambda a: gear.GEAR_SETUP, False,
+                    lambda b, a, p: gear.lost_motion(b, cycles=a.cycles or 3, progress=p)),
+    "starting-torque": (lambda a: gear.GEAR_SETUP, False, lambda b, a, p: gear.starting_torque(b, progress=p)),
+    "transmission": (lambda a: gear.GEAR_SETUP, False,
+                     lambda b, a, p: gear.transmission(b, rate_deg_s=a.te_rate, progress=p)),
+    "resonance": (lambda a: cl.AXIS_SETUP, True,
+                  lambda b, a, p: fq.resonance(b, rms_Nm=a.excitation_Nm, progress=p)),
+    "frf": (lambda a: cl.AXIS_SETUP, True, lambda b, a, p: fq.frf(b, rms_Nm=a.excitation_Nm, progress=p)),
+    "min-rate": (lambda a: cl.AXIS_SETUP, False,
+                 lambda b, a, p: cl.min_rate(b, rates_deg_s=a.rates, bound=a.bound, windows=a.windows,
+                                             settle_s=a.settle, progress=p)),
+    "stabilisation": (lambda a: cl.stab_setup(a.base_amplitude_deg, a.base_frequency_hz), False,
+                      lambda b, a, p: cl.stabilisation(b, duration_s=a.duration, progress=p)),
+    "positioning": (lambda a: cl.AXIS_SETUP, False,
+                    lambda b, a, p: cl.positioning(b, targets_deg=a.targets, runs=a.runs, progress=p)),
+    "peak-torque": (lambda a: cl.AXIS_SETUP, False,
+                    lambda b, a, p: cl.peak_torque(b, request_Nm=a.peak_request, progress=p)),
+    "bandwidth": (lambda a: cl.AXIS_SETUP, True,
+                  lambda b, a, p: cl.bandwidth(b, amplitude_arcsec=a.amplitude_arcsec, progress=p)),
+}
+
+
+def _floats(text: str) -> list[float]:
+    try:
+        v = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got '{text}'") from None
+    if not v or not all(math.isfinite(x) for x in v):
+        raise argparse.ArgumentTypeError(f"expected comma-separated finite numbers, got '{text}'")
+    return v
+
+
+def _positive(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got '{text}'") from None
+    if not (v > 0 and math.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"expected a positive number, got '{text}'")
+    return v
+
+
+def register(p: argparse.ArgumentParser) -> None:
+    """Options of ``hdservo test``."""
+    p.add_argument("procedure", choices=sorted(PROCEDURES) + ["all"], help="procedure to run ('all' = every one)")
+    add_bus_arguments(p)
+    p.add_argument("--axis", default="reference", help="virtual drive only: axis TOML, 'reference' or 'minimal'")
+    p.add_argument("--seed", type=int, default=1, help="virtual drive only: sensor-noise seed")
+    p.add_argument("--compensators", default=None,
+                   help="comma-separated compensators to enable (cb_enable), e.g. stribeck,lugre; '' = none")
+    p.add_argument("--json", type=Path, help="write the results as JSON")
+    p.add_argument("--plots", type=Path, help="write PNG plots into this directory")
+    p.add_argument("--pdf", action="store_true", help="also write PDF plots")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    g = p.add_argument_group("procedure options")
+    g.add_argument("--cycles", type=int, default=None, help="torque-loop cycles (stiffness 1, hysteresis 3, lost motion 3)")
+    g.add_argument("--te-rate", type=_positive, default=10.0, help="transmission test rate, deg/s (default 10)")
+    g.add_argument("--excitation-Nm", type=_positive, default=6.0, help="FRF torque excitation RMS, N.m (default 6)")
+    g.add_argument("--rates", type=_floats, default=[1.0, 0.1, 0.01, 0.001],
+                   help="min-rate decade ladder, deg/s (default 1,0.1,0.01,0.001)")
+    g.add_argument("--bound", type=_positive, default=0.1, help="min-rate bound on rate stability and accuracy (0.1)")
+    g.add_argument("--windows", type=int, default=10, help="min-rate fixed-angle windows per rung (10, 1 s each)")
+    g.add_argument("--settle", type=_positive, default=5.0, help="min-rate settling time per rung, s (5)")
+    g.add_argument("--base-amplitude-deg", type=_positive, default=0.5, help="stabilisation base rocking, deg (0.5)")
+    g.add_argument("--base-frequency-hz", type=_positive, default=1.0, help="stabilisation base rocking, Hz (1)")
+    g.add_argument("--duration", type=_positive, default=5.0, help="stabilisation record, s (5)")
+    g.add_argument("--targets", type=_floats, default=None, help="positioning targets, deg (12 over -55..55)")
+    g.add_argument("--runs", type=int, default=5, help="positioning bidirectional runs (5)")
+    g.add_argument("--peak-request", type=_positive, default=None, help="peak-torque request, N.m (torque_limit)")
+    g.add_argument("--amplitude-arcsec", type=_positive, default=1800.0,
+                   help="bandwidth multisine peak, arcsec (1800 = 0.5 deg)")
+
+
+def _check_out(path: Path | None, what: str) -> None:
+    if path is None:
+        return
+    parent = path.parent if what == "json" else path
+    probe = parent if parent.exists() else parent.parent
+    if path.exists() and what == "json" and path.is_dir():
+        raise UserError(f"--json {path}: is a directory")
+    if probe.exists() and not os.access(probe, os.W_OK):
+        raise UserError(f"--{what} {path}: not writable")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run one procedure (or all), print the summary, write JSON/plots."""
+    if args.runs < 2:
+        raise UserError("--runs must be >= 2 (ISO 230-2 needs a standard deviation)")
+    if args.windows < 2:
+        raise UserError("--windows must be >= 2")
+    if args.cycles is not None and args.cycles < 1:
+        raise UserError("--cycles must be >= 1")
+    _check_out(args.json, "json")
+    _check_out(args.plots, "plots")
+    comps = None if args.compensators is None else [c.strip() for c in args.compensators.split(",") if c.strip()]
+    kw = bus_kwargs(args)
+    target = Target(bus=kw or None, node_id=args.node_id, axis=args.axis, seed=args.seed, compensators=comps)
+    if target.virtual and args.axis not in ("reference", "minimal") and not Path(args.axis).is_file():
+        raise UserError(f"--axis {args.axis}: no such file")
+    names = sorted(PROCEDURES) if args.procedure == "all" else [args.procedure]
+    results: list[Result] = []
+    for name in names:
+        setup_f, lockstep, fn = PROCEDURES[name]
+        prog = Progress(name, enabled=not args.quiet)
+        try:
+            with open_bench(target, setup_f(args), lockstep=lockstep) as bench:
+                res = fn(bench, args, prog)
+        except (DriveError, RuntimeError, ValueError) as e:
+            raise UserError(f"{name}: {e}") from None
+        res.notes.extend(target.notes)
+        results.append(res)
+        print(res.summary())
+    meta: dict[str, Any] = {"target": "virtual drive (hdservo-sim serve)" if target.virtual else f"drive {kw}",
+                            "axis": args.axis if target.virtual else None, "seed": args.seed if target.virtual else None,
+                            "compensators": comps, "notes": target.notes}
+    if args.plots is not None:
+        for res in results:
+            if res.plot is not None:
+                res.plot(res, args.plots, "pdf" if args.pdf else "png")
+    if args.json is not None:
+        write_json(args.json, results, meta)
+    return 0

@@ -1,0 +1,324 @@
+"""Compensator parameters of an axis, in the firmware's parameter-table units.
+
+:func:`compensator_params` turns an axis model (for now the axis TOML's true
+values, read through :func:`hdservo.sim.axis_param`; later the identified
+model, which has the same keys) into the drive parameters of the compensator
+bank (``firmware/app/hd_comp_bank.h``, parameter table entries ``cb_*`` /
+``str_*`` / ``lug_*`` / ``mx_*`` / ``pr_*`` / ``te_*`` / ``bs_*`` in
+``firmware/params/params.toml``), each value in its table unit (the unit of
+``docs/parameters.md``; the harness and CANopen turn it into the raw word), and
+:func:`preisach_table` builds the quantised Everett table (``preisach_table.py``
+image) of the gear's twist -> torque hysteresis.
+
+Models (output-referred; docs/compensators.md section 8):
+
+* friction (Stribeck feed-forward, LuGre): the motor-side friction times N
+  (torque) and N^2 (viscous, sigma1, sigma0) plus the load-side friction, on
+  the output velocity; the Stribeck velocities of both sides agree on both
+  axis files (motor vs / N = load vs), otherwise the torque-weighted mean;
+* Maxwell-slip (lost motion at reversal): the load-side presliding friction
+  ``F(x) = Fs (1 - exp(-sigma0_l x / Fs))`` fitted by ``n`` stop elements,
+  turned into twist by the tangent stiffness of the gear (K1 + hysteresis
+  elements);
+* Preisach: the gear's static twist -> transmitted-torque operator (linear K1,
+  the Maxwell-slip elements of the plant and its Preisach part), its Everett
+  function evaluated in closed form / by density integration, quantised;
+* TE: the wave-generator harmonics (per motor revolution); output-side
+  harmonics are not functions of the motor angle and are left to the loop;
+* backstepping: the gains of docs/compensators.md section 6, scaled by J.
+"""
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+import numpy as np
+
+from . import preisach_table as pt
+from . import sim
+
+TWO_PI = 2.0 * math.pi
+#: Smallest Maxwell-slip stiffness the firmware format holds, N.m/turn (above 2^56 / 2^31 / 2^8 = 2^17).
+MX_STIFFNESS_MIN = 131200.0
+
+#: Bits of ``cb_enable`` (firmware HD_CB_*).
+ENABLE_BITS: dict[str, int] = {"stribeck": 1, "lugre": 2, "maxwell": 4, "preisach": 8, "te": 16, "backstep": 32,
+                               "dob": 64}
+
+
+def _reader(axis: str) -> Callable[[str], float]:
+    def get(key: str) -> float:
+        return float(sim.axis_param(key, axis))
+    return get
+
+
+def _maxwell_fit(fs: float, x0: float, n: int) -> tuple[list[float], list[float]]:
+    """Stop elements (k_i N.m/rad, d_i rad) fitting F(x) = fs (1 - exp(-x/x0)) on [0, 5 x0].
+
+    The breakpoints are geometric (x0/4 ... 4 x0); the element stiffnesses are the
+    slope drops of the piecewise-linear interpolant through the breakpoints.
+    """
+    xs = x0 * np.geomspace(0.25, 4.0, n)
+    fx = fs * (1.0 - np.exp(-xs / x0))
+    slopes = np.diff(np.concatenate([[0.0], fx])) / np.diff(np.concatenate([[0.0], xs]))
+    k = [float(slopes[i] - (slopes[i + 1] if i + 1 < n else 0.0)) for i in range(n)]
+    return k, [float(x) for x in xs]
+
+
+def gear_everett(get: Callable[[str], float], u_grid: np.ndarray) -> np.ndarray:
+    """Everett grid (N.m) of the gear's twist -> torque operator on ``u_grid`` (rad).
+
+    E(a, b) = (K1 + t_sat/u_max) (a - b)/2 + sum_i min(k_i (a - b), 2 w_i)/2 - E_P(a, b),
+    where E_P is the plant's Preisach part (density exp(-r/r0) exp(-m^2/(2 s^2)),
+    scaled to t_sat at saturation).
+    """
+    u = np.asarray(u_grid, dtype=float)
+    a, b = np.meshgrid(u, u, indexing="ij")
+    d = np.clip(a - b, 0.0, None)
+    k_lin = get("stiffness.k1_Nm_per_rad") if get("stiffness.enabled") else 0.0
+    e = np.zeros_like(d)
+    if get("hysteresis_preisach.enabled"):
+        umax, tsat = get("hysteresis_preisach.u_max_rad"), get("hysteresis_preisach.t_sat_Nm")
+        r0, s = get("hysteresis_preisach.r0_rad"), get("hysteresis_preisach.s_rad")
+
+        def mu(al: np.ndarray, be: np.ndarray) -> np.ndarray:
+            return np.exp(-(al - be) / 2 / r0) * np.exp(-((al + be) / 2) ** 2 / (2 * s * s))
+        full = pt.everett_from_density(mu, np.array([-umax, umax]), n_sub=200)[1, 0]
+        ug = np.clip(u, -umax, umax)
+        ep = pt.everett_from_density(mu, ug, n_sub=6) * (tsat / full)
+        e -= np.tril(ep)
+        k_lin += tsat / umax
+    e += k_lin * d / 2
+    if get("hysteresis_maxwell.enabled"):
+        for i in range(1, int(get("hysteresis_maxwell.n_elements")) + 1):
+            k, w = get(f"hysteresis_maxwell.e{i}_k_Nm_per_rad"), get(f"hysteresis_maxwell.e{i}_w_Nm")
+            e += np.minimum(k * d, 2 * w) / 2
+    return np.tril(e)
+
+
+def preisach_table(axis: str = "reference", levels: int = 48, sub_bits: int = 3,
+                   range_rad: float = 2.5e-4, version: int = 1) -> pt.PreisachTable:
+    """Quantised Everett table of the gear twist (input, 2^-32 turn) -> torque (Q15.16 N.m).
+
+    Parameters
+    ----------
+    axis : str
+        "reference", "minimal" or an axis TOML path.
+    levels : int
+        Grid levels L.
+    sub_bits : int
+        Lattice steps per grid cell = 2**sub_bits.
+    range_rad : float
+        Twist range +-range_rad (output rad) covered by the lattice.
+    version : int
+        Table version.
+
+    Returns
+    -------
+    PreisachTable
+        Unit HD_PREISACH_UNIT_GENERIC (twist -> torque), sealed.
+    """
+    get = _reader(axis)
+    lsb_turn = 2.0 ** -32
+    span = 2 * range_rad / TWO_PI / lsb_turn               # lattice span in 2^-32 turn
+    p_top = (levels - 1) << sub_bits
+    in_shift = max(0, math.ceil(math.log2(span / p_top)))
+    step = 2 ** in_shift
+    half = p_top * step // 2
+    u0 = -half
+    grid_turn = (u0 + np.arange(levels) * (step << sub_bits)) * lsb_turn
+    e = gear_everett(get, grid_turn * TWO_PI)
+    return pt.quantise_everett(e, 65536.0, sub_bits=sub_bits, in_shift=in_shift, u0=int(u0),
+                               unit=pt.UNIT_GENERIC, version=version)
+
+
+def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
+                       model: Mapping[str, float] | None = None) -> dict[str, float]:
+    """Compensator-bank parameters of an axis (table units; docs/parameters.md).
+
+    Parameters
+    ----------
+    axis : str
+        "reference", "minimal" or an axis TOML path (its true values are the model).
+    n_maxwell : int
+        Maxwell-slip elements (<= 8).
+    model : mapping, optional
+        ``{"section.key": value}`` overriding the axis values (an identified model).
+
+    Returns
+    -------
+    dict
+        Parameter name -> value in the table unit.  ``cb_enable`` is 0 (every
+        compensator off); the caller sets the bits of the ones it wants.
+    """
+    base = _reader(axis)
+
+    def get(key: str) -> float:
+        if model is not None and key in model:
+            return float(model[key])
+        return base(key)
+
+    n = get("gear.ratio")
+    out: dict[str, float] = {"cb_enable": 0, "cb_ramp_ticks": 2000, "cb_pos_mode": 0, "cb_dpos_fc": 50.0}
+    fm, fl = bool(get("friction_motor.enabled")), bool(get("friction_load.enabled"))
+
+    def side(sec: str, scale_t: float, scale_v: float, on: bool) -> dict[str, float]:
+        if not on:
+            return {"fcp": 0.0, "fcn": 0.0, "fsp": 0.0, "fsn": 0.0, "vs": 1.0, "fv": 0.0, "s0": 0.0, "s1": 0.0,
+                    "delta": 2.0}
+        return {"fcp": get(f"{sec}.fc_pos_Nm") * scale_t, "fcn": get(f"{sec}.fc_neg_Nm") * scale_t,
+                "fsp": get(f"{sec}.fs_pos_Nm") * scale_t, "fsn": get(f"{sec}.fs_neg_Nm") * scale_t,
+                "vs": get(f"{sec}.vs_rad_s") / scale_v, "fv": get(f"{sec}.viscous_Nms_per_rad") * scale_t * scale_v,
+                "s0": (get(f"{sec}.sigma0_Nm_per_rad") * scale_t * scale_v) if get(f"{sec}.lugre_enabled") else 0.0,
+                "s1": get(f"{sec}.sigma1_Nms_per_rad") * scale_t * scale_v, "delta": get(f"{sec}.delta")}
+    m = side("friction_motor", n, n, fm)
+    ld = side("friction_load", 1.0, 1.0, fl)
+    ws = (m["fsp"] - m["fcp"], ld["fsp"] - ld["fcp"])
+    vs = (m["vs"] * ws[0] + ld["vs"] * ws[1]) / max(ws[0] + ws[1], 1e-12)      # rad/s, output
+    vs_turn = vs / TWO_PI
+    fv = (m["fv"] + ld["fv"]) * TWO_PI                                            # N.m/(turn/s)
+    eps_rad = 1e-5                                                                # smooth-sign half width, rad/s
+    out.update({"str_fc_pos": m["fcp"] + ld["fcp"], "str_fs_pos": m["fsp"] + ld["fsp"], "str_vs_pos": vs_turn,
+                "str_fv_pos": fv, "str_fc_neg": m["fcn"] + ld["fcn"], "str_fs_neg": m["fsn"] + ld["fsn"],
+                "str_vs_neg": vs_turn, "str_fv_neg": fv, "str_delta": 2, "str_eps_v": eps_rad / TWO_PI,
+                "str_w_ref": 1.0, "str_tau_max": 30.0})
+    # LuGre: one bristle state for both sides (sigma0 from the torque-weighted presliding distance)
+    g_s = m["fsp"] + ld["fsp"]
+    z_m = m["fsp"] / m["s0"] if m["s0"] > 0 else 0.0
+    z_l = ld["fsp"] / ld["s0"] if ld["s0"] > 0 else 0.0
+    zbar = (m["fsp"] * z_m + ld["fsp"] * z_l) / max(g_s, 1e-12)
+    sigma0 = g_s / zbar if zbar > 0 else 1e6
+    out.update({"lug_fc": 0.5 * (m["fcp"] + m["fcn"] + ld["fcp"] + ld["fcn"]),
+                "lug_fs": 0.5 * (m["fsp"] + m["fsn"] + ld["fsp"] + ld["fsn"]), "lug_vs": vs_turn, "lug_delta": 2,
+                "lug_sigma0": min(sigma0 * TWO_PI, 8.0e6), "lug_sigma1": (m["s1"] + ld["s1"]) * TWO_PI,
+                "lug_sigma2": fv, "lug_k_obs": 0.0, "lug_tau_max": 30.0, "lug_v_src": 0})
+    # tangent stiffness of the gear after a reversal (K1 + hysteresis elements), N.m/rad
+    k_tan = get("stiffness.k1_Nm_per_rad")
+    if get("hysteresis_maxwell.enabled"):
+        k_tan += sum(get(f"hysteresis_maxwell.e{i}_k_Nm_per_rad")
+                     for i in range(1, int(get("hysteresis_maxwell.n_elements")) + 1))
+    if get("hysteresis_preisach.enabled"):
+        k_tan += get("hysteresis_preisach.t_sat_Nm") / get("hysteresis_preisach.u_max_rad")
+    out["mx_n"] = n_maxwell
+    # the firmware compliance (2^-48 turn/N.m, int32) needs K >= 2^17 N.m/turn (2.09e4 N.m/rad);
+    # a softer gear gets that floor (its lost motion is then under-predicted by the ratio)
+    out["mx_stiffness"] = max(k_tan * TWO_PI, MX_STIFFNESS_MIN)   # N.m/turn
+    out["mx_tau_max"] = 30.0
+    k_el, d_el = _maxwell_fit(ld["fsp"], z_l if z_l > 0 else 1e-5, n_maxwell) if fl else ([0.0] * n_maxwell,
+                                                                                         [0.0] * n_maxwell)
+    for i in range(8):
+        out[f"mx_k{i + 1}"] = k_el[i] * TWO_PI if i < n_maxwell else 0.0      # N.m/turn
+        out[f"mx_d{i + 1}"] = d_el[i] / TWO_PI if i < n_maxwell else 0.0      # turn
+    # Preisach: torque estimate = filtered torque command minus the motor-side friction share
+    out["pr_deadband"] = 1
+    out["pr_fc"] = 20.0
+    out["pr_motor_share"] = (m["fcp"] / max(m["fcp"] + ld["fcp"], 1e-12)) if fm else 0.0
+    # TE: wave-generator harmonics (plant: a sin(n theta_m + p), theta_m rad) -> amp turn, phase turn
+    te = []
+    if get("transmission_error.enabled"):
+        for i in range(1, 5):
+            o, a, p = (get(f"transmission_error.wg{i}_order"), get(f"transmission_error.wg{i}_amp_rad"),
+                       get(f"transmission_error.wg{i}_phase_rad"))
+            if o > 0 and a != 0.0:
+                te.append((o, a / TWO_PI, ((p / TWO_PI + 0.5) % 1.0) - 0.5))
+    out["te_n"] = len(te)
+    out["te_k1"] = 0.0
+    out["te_tau_max"] = 10.0
+    for i in range(4):
+        o, a, p = te[i] if i < len(te) else (0, 0.0, 0.0)
+        out[f"te_order{i + 1}"], out[f"te_amp{i + 1}"], out[f"te_phase{i + 1}"] = o, a, p
+    # backstepping (docs/compensators.md 6): c = 2 pi f_bs, f_bs = f_a / 5, ke = J c1 c2 / 4
+    jl, jm = get("load.jl_kgm2"), get("motor.jm_kgm2")
+    jt = jl + n * n * jm
+    f_a = math.sqrt(get("stiffness.k1_Nm_per_rad") / jl) / TWO_PI
+    c = TWO_PI * min(8.0, f_a / 5.0)
+    j_turn = TWO_PI * jt
+    scale = jt / 1.3
+    out.update({"bs_c1": c, "bs_c2": c, "bs_j": j_turn, "bs_ke": j_turn * c * c / 4, "bs_eps_w": eps_rad / TWO_PI,
+                "bs_w_s": vs_turn, "bs_e1_max": 0.01, "bs_u_max": 60.0})
+    gam = (0.5 * scale, 0.5 * scale, 0.25 * scale, 0.5 * scale)
+    fmax = max(out["str_fs_pos"], 1e-3)
+    lo = (0.0, 0.0, 0.0, -20.0 * min(1.0, fmax / 10.6))
+    hi = (3.0 * fmax, 3.0 * fmax, 15.0 * max(fv, 1.0), 20.0 * min(1.0, fmax / 10.6))
+    th0 = (out["str_fc_pos"], out["str_fs_pos"] - out["str_fc_pos"], fv, 0.0)
+    for i in range(4):
+        out[f"bs_gamma{i + 1}"] = gam[i]
+        out[f"bs_min{i + 1}"] = lo[i]
+        out[f"bs_max{i + 1}"] = hi[i]
+        out[f"bs_th0_{i + 1}"] = min(max(th0[i], lo[i]), hi[i])
+    # disturbance observer: Q-filter bandwidth (Hz) and nominal inertia
+    out["dob_fc"] = 10.0
+    out["dob_j"] = jt
+    return out
+
+
+def enable_mask(names: list[str] | tuple[str, ...]) -> int:
+    """``cb_enable`` bits of compensator names (``ENABLE_BITS``); ValueError for an unknown name."""
+    m = 0
+    for nm in names:
+        if nm not in ENABLE_BITS:
+            raise ValueError(f"unknown compensator {nm!r}; expected one of {sorted(ENABLE_BITS)}")
+        m |= ENABLE_BITS[nm]
+    return m
+
+
+def write_preisach_table(axis: str, path: "str | os.PathLike[str]") -> Path:
+    """Write the axis' Preisach table image (:func:`preisach_table`) to ``path``; returns the path."""
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    tmp = p.with_name(p.name + ".tmp")
+    tmp.write_bytes(preisach_table(axis).to_bytes())
+    os.replace(tmp, p)
+    return p
+
+
+def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[str, Any] | None = None,
+               table_dir: "str | os.PathLike[str] | None" = None,
+               extra_gains: Mapping[str, float] | None = None,
+               params: Mapping[str, float] | None = None) -> dict[str, Any]:
+    """A scenario ``[controller]`` table: the baseline of the axis plus compensators.
+
+    Parameters
+    ----------
+    axis : str
+        Axis spec (as :func:`hdservo.baseline.axis_controller` takes it).
+    names : sequence of str
+        Compensators to switch on (keys of :data:`ENABLE_BITS`).
+    base : mapping, optional
+        The baseline controller table (default ``baseline.axis_controller(axis)``).
+    table_dir : path-like, optional
+        Where the Preisach table file goes (needed when "preisach" is in names).
+    extra_gains : mapping, optional
+        Further drive parameters (retuned gains, compensator options), table units.
+    params : mapping, optional
+        Compensator parameters (default :func:`compensator_params` of the axis).
+
+    Returns
+    -------
+    dict
+        ``mode``, ``gains`` (the baseline's plus every compensator parameter),
+        ``compensators``, and ``preisach_table`` when needed.
+    """
+    from . import baseline as bl
+    ctl = dict(bl.axis_controller(axis) if base is None else base)
+    spec = bl._axis_spec(axis)
+    gains: dict[str, float] = {} if ctl.get("gains", "defaults") == "defaults" else dict(ctl["gains"])
+    cp = compensator_params(spec) if params is None else dict(params)
+    cp.pop("cb_enable", None)
+    gains.update(cp)
+    if extra_gains:
+        gains.update(extra_gains)
+    ctl["gains"] = gains
+    ctl["compensators"] = list(names)
+    if "preisach" in names:
+        if table_dir is None:
+            raise ValueError("controller(): the Preisach compensator needs table_dir for its table file")
+        tag = Path(spec).stem if spec not in ("reference", "minimal") else spec
+        ctl["preisach_table"] = str(write_preisach_table(spec, Path(table_dir) / f"preisach_{tag}.bin").resolve())
+    return ctl
+
+
+__all__ = ["ENABLE_BITS", "compensator_params", "controller", "enable_mask", "gear_everett", "preisach_table",
+           "write_preisach_table"]

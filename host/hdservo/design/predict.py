@@ -1,0 +1,377 @@
+"""Performance figures of a candidate axis, predicted offline in the simulator.
+
+Each figure is the simulator counterpart of a test procedure
+(:mod:`hdservo.procedures.closedloop`), run as closed-loop scenarios through
+:func:`hdservo.sim.run_scenario` (firmware + plant in lock-step, every plant
+effect on) and reduced with the procedures' own metric functions
+(:mod:`hdservo.procedures.metrics`), so that the numbers mean the same thing:
+
+========================  ===================================================================
+figure                    scenario(s)
+========================  ===================================================================
+min smooth rate           constant-rate ramp per ladder rung; fixed-angle timing of the output
+                          encoder (``rate_stability``), smooth = monotone, stability and
+                          accuracy <= 0.1 (``min_smooth_rate``)
+positioning (ISO 230-2)   per target and direction one move of ``overrun`` onto the target;
+                          the plant is shifted to the target angle (gravity offset, TE and
+                          cogging phases), so a short move reproduces the approach; runs =
+                          noise seeds; deviation = mean true output angle after the dwell
+stabilisation             base rocking; (a) the drive holds its position (what the procedure
+                          does today), (b) the position reference is the negative base angle
+                          (an ideal inertial reference: the stand-in for the gyro
+                          stabilisation loop the firmware does not have yet); figure = RMS of
+                          the integrated payload gyro, line removed (``inertial_angle_from_gyro``)
+peak torque               torque mode, output locked (load inertia 1e6 kg m^2), request 1.5 x
+                          the drive's torque limit; delivered = gear torque from the twist
+bandwidth                 60 arcsec multisine (1-60 Hz, 1 Hz lines) on the position reference;
+                          -3 dB of theta_L/theta_ref (``bandwidth_3db``)
+========================  ===================================================================
+
+Angles in the figures are in arcsec unless the key says otherwise.
+"""
+from __future__ import annotations
+
+import math
+import tempfile
+from pathlib import Path
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence
+
+import numpy as np
+
+from .. import sim
+from ..baseline import _toml_table
+from ..procedures import metrics as mt
+
+DEG = math.pi / 180.0
+ARCSEC = mt.ARCSEC
+LOOP_S = 1e-4
+
+
+def run(axis: str, controller: Mapping[str, Any], setpoint: Mapping[str, Any], duration_s: float, *,
+        decimation: int = 10, seed: int = 1, plant: Optional[Mapping[str, Any]] = None,
+        name: str = "design") -> sim.SimResult:
+    """Run one closed-loop scenario on an axis file.
+
+    Parameters
+    ----------
+    axis : str
+        Axis TOML path.
+    controller : mapping
+        Scenario ``[controller]`` table (``mode``, ``gains``, ``compensators``, ...).
+    setpoint : mapping
+        Scenario ``[setpoint]`` table (unit of the mode: rad, rad/s or N·m).
+    duration_s : float
+        Run length, s.
+    decimation : int
+        One log row every N loop periods (100 µs).
+    seed : int
+        Sensor-noise seed.
+    plant : mapping, optional
+        ``{"section.key": value}`` overrides (SI).
+
+    Returns
+    -------
+    hdservo.sim.SimResult
+    """
+    lines = _toml_table("scenario", {"name": name, "axis": str(Path(axis).resolve()),
+                                     "duration_s": float(duration_s), "seed": int(seed),
+                                     "log_decimation": int(decimation)})
+    lines += [""] + _toml_table("controller", dict(controller))
+    lines += [""] + _toml_table("setpoint", dict(setpoint))
+    with tempfile.TemporaryDirectory(prefix="hdservo-design-") as d:
+        path = Path(d) / "scenario.toml"
+        path.write_text("\n".join(lines) + "\n")
+        return sim.run_scenario(path, params=dict(plant or {}))
+
+
+def _mode(ctl: Mapping[str, Any], mode: str) -> Dict[str, Any]:
+    c = dict(ctl)
+    c["mode"] = mode
+    return c
+
+
+# ------------------------------------------------------------------ minimum smooth rate
+
+def min_smooth_rate(axis: str, ctl: Mapping[str, Any], rates_deg_s: Sequence[float], *, bound: float = 0.1,
+                    windows: int = 10, window_s: float = 1.0, settle_s: float = 5.0,
+                    progress: Optional[Callable[[str], None]] = None) -> Dict[str, Any]:
+    """Minimum smooth rate over a ladder of constant rates (fixed-angle timing).
+
+    Parameters
+    ----------
+    axis : str
+        Axis TOML path.
+    ctl : mapping
+        Controller table (position mode).
+    rates_deg_s : sequence of float
+        Ladder, deg/s.
+    bound : float
+        Stability/accuracy bound of a smooth rung (0.1 = 10 %).
+    windows : int
+        Fixed-angle windows timed per rung.
+    window_s : float
+        Nominal duration of one window, s (window angle = rate x window_s).
+    settle_s : float
+        Time at rate before timing starts, s (1 s for rates >= 0.5 deg/s).
+
+    Returns
+    -------
+    dict
+        ``min_smooth_rate_deg_s`` (None if the fastest rung fails), ``ladder``
+        (per rung: ``rate_deg_s``, ``stability``, ``accuracy``, ``monotone``, ...),
+        ``series`` (per rung window rates / commanded, for plots).
+    """
+    ladder: List[Dict[str, Any]] = []
+    series: Dict[str, List[float]] = {}
+    for rate in sorted(rates_deg_s, reverse=True):
+        if progress:
+            progress(f"min smooth rate: {rate:g} deg/s")
+        st = settle_s if rate < 0.5 else min(settle_s, 1.0)
+        t0 = 0.1
+        r = run(axis, _mode(ctl, "position"), {"type": "ramp", "initial_rad": 0.0, "rate_rad_s": rate * DEG,
+                                               "t0_s": t0}, t0 + st + windows * window_s, decimation=10)
+        t = np.asarray(r["t_s"])
+        m = t >= t0 + st
+        ang = np.asarray(r["load_angle_rad"])[m]
+        s = mt.rate_stability(t[m], ang, rate * DEG, rate * DEG * window_s)
+        w = mt.fixed_angle_rates(t[m], ang, rate * DEG * window_s)
+        series[f"{rate:g}"] = (w / (rate * DEG)).tolist()
+        ladder.append({"rate_deg_s": rate, **{k: (float(v) if not isinstance(v, bool) else v) for k, v in s.items()},
+                       "fault_code": int(np.max(r["fault_code"]))})
+    best = mt.min_smooth_rate(ladder, bound)
+    return {"min_smooth_rate_deg_s": best, "bound": bound, "ladder": ladder, "series": series}
+
+
+# ------------------------------------------------------------------ positioning
+
+def shifted_plant(axis: str, angle_rad: float) -> Dict[str, float]:
+    """Plant overrides that make an axis starting at 0 behave as if it started at ``angle_rad``.
+
+    Shifts the gravity offset, the output-side TE phases (order x angle) and the
+    wave-generator TE and cogging phases (order x N x angle).
+    """
+    n = sim.axis_param("gear.ratio", axis)
+    out: Dict[str, float] = {"gravity.offset_rad": sim.axis_param("gravity.offset_rad", axis) + angle_rad}
+    for i in range(1, 5):
+        for key, scale in ((f"transmission_error.out{i}", 1.0), (f"transmission_error.wg{i}", n),
+                           (f"cogging.h{i}", n)):
+            o = sim.axis_param(f"{key}_order", axis)
+            if o:
+                ph = sim.axis_param(f"{key}_phase_rad", axis) + o * scale * angle_rad
+                out[f"{key}_phase_rad"] = math.remainder(ph, 2 * math.pi)
+    return out
+
+
+def positioning(axis: str, ctl: Mapping[str, Any], targets_deg: Sequence[float], *, runs: int = 3,
+                overrun_deg: float = 1.0, dwell_s: float = 1.5, measure_s: float = 0.2,
+                vmax_deg_s: float = 60.0, amax_deg_s2: float = 100.0,
+                progress: Optional[Callable[[str], None]] = None) -> Dict[str, Any]:
+    """ISO 230-2 positioning accuracy A and repeatability R (arcsec).
+
+    Parameters
+    ----------
+    axis : str
+        Axis TOML path.
+    ctl : mapping
+        Controller table.
+    targets_deg : sequence of float
+        Target angles, deg.
+    runs : int
+        Runs per target and direction (noise seeds 1..runs), >= 2.
+    overrun_deg : float
+        Approach distance, deg (the move starts this far before the target).
+    dwell_s, measure_s : float
+        Wait after the move and averaging time, s.
+    vmax_deg_s, amax_deg_s2 : float
+        Move profile limits.
+
+    Returns
+    -------
+    dict
+        ``A_arcsec``, ``R_arcsec``, ``B_arcsec``, ``E_arcsec``, ``iso230_2`` (full
+        figures), ``up_arcsec``/``down_arcsec`` (deviations, runs x targets),
+        ``targets_deg``.
+    """
+    tg = np.asarray(targets_deg, float)
+    ov = overrun_deg * DEG
+    up = np.zeros((runs, tg.size))
+    dn = np.zeros((runs, tg.size))
+    vmax, amax = vmax_deg_s * DEG, amax_deg_s2 * DEG
+    t_move = ov / vmax + vmax / amax if ov > vmax ** 2 / amax else 2.0 * math.sqrt(ov / amax)
+    t0 = 0.1
+    dur = t0 + t_move + dwell_s + measure_s
+    for i, p in enumerate(tg):
+        if progress:
+            progress(f"positioning: target {p:+.1f} deg")
+        for sgn, arr in ((1.0, up), (-1.0, dn)):
+            plant = shifted_plant(axis, p * DEG - sgn * ov)
+            for j in range(runs):
+                r = run(axis, _mode(ctl, "position"),
+                        {"type": "move", "initial_rad": 0.0, "target_rad": sgn * ov, "max_velocity_rad_s": vmax,
+                         "max_accel_rad_s2": amax, "t0_s": t0}, dur, decimation=10, seed=j + 1, plant=plant)
+                t = np.asarray(r["t_s"])
+                y = np.asarray(r["load_angle_true_rad"])[t >= t[-1] - measure_s]
+                arr[j, i] = (float(np.mean(y)) - sgn * ov) / ARCSEC
+    iso = mt.iso230_2(np.zeros(tg.size), up, dn)
+    return {"A_arcsec": iso["A"], "R_arcsec": iso["R"], "B_arcsec": iso["B"], "E_arcsec": iso["E"],
+            "iso230_2": iso, "up_arcsec": up.tolist(), "down_arcsec": dn.tolist(), "targets_deg": tg.tolist(),
+            "runs": runs}
+
+
+# ------------------------------------------------------------------ stabilisation
+
+def gyro_noise_arcsec_rms(noise_rad_s_per_rtHz: float, window_s: float, f_hi_Hz: float) -> float:
+    """RMS angle error of a rate-gyro-referenced loop due to the gyro white noise.
+
+    The loop follows the integrated gyro noise between ``1/window_s`` (slower
+    drift is removed with the straight line) and the loop bandwidth ``f_hi_Hz``:
+    sigma = n / (2 pi) sqrt(1/f_lo - 1/f_hi), n the noise density in rad/s/sqrt(Hz).
+
+    Returns
+    -------
+    float
+        arcsec RMS.
+    """
+    f_lo = 1.0 / window_s
+    if f_hi_Hz <= f_lo:
+        return 0.0
+    return noise_rad_s_per_rtHz / (2 * math.pi) * math.sqrt(1.0 / f_lo - 1.0 / f_hi_Hz) / ARCSEC
+
+
+def stabilisation(axis: str, ctl: Mapping[str, Any], base_amp_deg: float, base_freq_Hz: float, *,
+                  duration_s: float = 5.0, settle_s: float = 1.0, loop_bw_Hz: float = 10.0,
+                  progress: Optional[Callable[[str], None]] = None) -> Dict[str, Any]:
+    """Stabilisation precision with the base rocking (arcsec RMS of the inertial angle).
+
+    Parameters
+    ----------
+    axis : str
+        Axis TOML path (its ``base.*`` keys are overridden).
+    ctl : mapping
+        Controller table.
+    base_amp_deg, base_freq_Hz : float
+        Base rocking.
+    duration_s, settle_s : float
+        Analysed window and the time before it, s.
+    loop_bw_Hz : float
+        Closed-loop bandwidth used for the gyro-noise term, Hz.
+
+    Returns
+    -------
+    dict
+        ``hold_rms_arcsec`` (drive holds its encoder position, as the procedure
+        does today), ``inertial_rms_arcsec`` (position reference = - base angle),
+        ``gyro_noise_rms_arcsec`` (analytic term of a gyro-referenced loop),
+        ``predicted_rms_arcsec`` (RSS of the last two: the design figure),
+        ``base_rms_arcsec``, ``*_peak_arcsec``, traces for plots.
+    """
+    plant = {"base.enabled": True, "base.amplitude_rad": base_amp_deg * DEG, "base.frequency_Hz": base_freq_Hz,
+             "base.phase_rad": 0.0}
+    out: Dict[str, Any] = {}
+    for tag, sp in (("hold", {"type": "constant", "initial_rad": 0.0}),
+                    ("inertial", {"type": "sine", "initial_rad": 0.0, "amplitude_rad": -base_amp_deg * DEG,
+                                  "frequency_Hz": base_freq_Hz, "phase_rad": 0.0, "t0_s": 0.0})):
+        if progress:
+            progress(f"stabilisation: {tag}")
+        r = run(axis, _mode(ctl, "position"), sp, settle_s + duration_s, decimation=10, plant=plant)
+        t = np.asarray(r["t_s"])
+        m = t >= settle_s
+        ang = mt.inertial_angle_from_gyro(t[m], np.asarray(r["gyro_rate_rad_s"])[m])
+        pe = mt.pointing_error(ang)
+        out[f"{tag}_rms_arcsec"] = pe["rms_arcsec"]
+        out[f"{tag}_peak_arcsec"] = pe["peak_arcsec"]
+        out[f"{tag}_trace"] = {"t_s": (t[m] - t[m][0]).tolist()[::5], "angle_arcsec": (ang / ARCSEC).tolist()[::5]}
+        out[f"{tag}_fault_code"] = int(np.max(r["fault_code"]))
+    n = sim.axis_param("gyro.noise_rad_s_per_rtHz", axis)
+    out["gyro_noise_rms_arcsec"] = gyro_noise_arcsec_rms(n, duration_s, loop_bw_Hz)
+    out["predicted_rms_arcsec"] = math.hypot(out["inertial_rms_arcsec"], out["gyro_noise_rms_arcsec"])
+    out["base_rms_arcsec"] = base_amp_deg * DEG / math.sqrt(2) / ARCSEC
+    return out
+
+
+# ------------------------------------------------------------------ peak torque
+
+def three_slope_torque(phi: np.ndarray, k1: float, k2: float, k3: float, t1: float, t2: float) -> np.ndarray:
+    """Three-slope spring torque (docs/plant.md) at twist ``phi`` (rad), N·m."""
+    p1 = t1 / k1
+    p2 = p1 + (t2 - t1) / k2
+    sat = lambda x, a: np.clip(x, -a, a)  # noqa: E731
+    return k3 * phi + (k1 - k2) * sat(phi, p1) + (k2 - k3) * sat(phi, p2)
+
+
+def peak_torque(axis: str, ctl: Mapping[str, Any], torque_limit_Nm: float, *,
+                hold_s: float = 0.2) -> Dict[str, Any]:
+    """Peak output torque against a locked output.
+
+    Parameters
+    ----------
+    axis : str
+        Axis TOML path.
+    ctl : mapping
+        Controller table (torque mode is used; its ``torque_limit`` applies).
+    torque_limit_Nm : float
+        The drive's torque limit; 1.5 x this is requested.
+    hold_s : float
+        Hold time, s (the last 40 % is averaged).
+
+    Returns
+    -------
+    dict
+        ``peak_torque_Nm`` (gear torque from the twist), ``drive_torque_Nm``
+        (N Kt i), ``requested_Nm``.
+    """
+    req = 1.5 * torque_limit_Nm
+    plant = {"load.jl_kgm2": 1e6, "base.enabled": False, "gravity.enabled": False}
+    r = run(axis, _mode(ctl, "torque"), {"type": "step", "initial_Nm": 0.0, "amplitude_Nm": req, "t0_s": 0.01},
+            0.01 + hold_s, decimation=10, plant=plant)
+    t = np.asarray(r["t_s"])
+    m = t >= t[-1] - 0.4 * hold_s
+    g = {k: sim.axis_param(f"stiffness.{k}", axis) for k in ("k1_Nm_per_rad", "k2_Nm_per_rad", "k3_Nm_per_rad",
+                                                             "t1_Nm", "t2_Nm")}
+    phi = np.asarray(r["torsion_rad"])[m]
+    tg = three_slope_torque(phi, g["k1_Nm_per_rad"], g["k2_Nm_per_rad"], g["k3_Nm_per_rad"], g["t1_Nm"], g["t2_Nm"])
+    n = sim.axis_param("gear.ratio", axis)
+    return {"peak_torque_Nm": float(np.mean(np.abs(tg))),
+            "drive_torque_Nm": float(n * np.mean(np.abs(np.asarray(r["motor_torque_Nm"])[m]))),
+            "requested_Nm": req, "fault_code": int(np.max(r["fault_code"]))}
+
+
+# ------------------------------------------------------------------ bandwidth
+
+def bandwidth(axis: str, ctl: Mapping[str, Any], *, amplitude_arcsec: float = 60.0, f0_Hz: float = 1.0,
+              f1_Hz: float = 60.0, periods: int = 2) -> Dict[str, Any]:
+    """Closed-loop position bandwidth from a multisine (1 Hz line spacing).
+
+    Returns
+    -------
+    dict
+        ``bandwidth_Hz`` (-3 dB; None if not reached below ``f1_Hz``), ``f_Hz``,
+        ``magnitude_dB``, ``phase_deg``.
+    """
+    n = int(round(f1_Hz - f0_Hz)) + 1
+    t0 = 0.1
+    period = 1.0 / ((f1_Hz - f0_Hz) / (n - 1))
+    dur = t0 + period * (periods + 1)
+    r = run(axis, _mode(ctl, "position"), {"type": "multisine", "initial_rad": 0.0,
+                                           "amplitude_rad": amplitude_arcsec * ARCSEC, "f0_Hz": f0_Hz,
+                                           "f1_Hz": f1_Hz, "lines": n, "t0_s": t0, "t1_s": dur + 1.0},
+            dur, decimation=2, plant={"base.enabled": False})
+    t = np.asarray(r["t_s"])
+    m = t >= t0 + period - 1e-9
+    ref = np.asarray(r["setpoint_rad"])[m]
+    y = np.asarray(r["load_angle_true_rad"])[m]
+    dt = float(t[1] - t[0])
+    k = int(round(period * periods / dt))
+    ref, y = ref[:k] - np.mean(ref[:k]), y[:k] - np.mean(y[:k])
+    fr, fy = np.fft.rfft(ref), np.fft.rfft(y)
+    f = np.fft.rfftfreq(k, dt)
+    lines = [int(round((f0_Hz + i * (f1_Hz - f0_Hz) / (n - 1)) * k * dt)) for i in range(n)]
+    h = fy[lines] / fr[lines]
+    fl = f[lines]
+    bw = mt.bandwidth_3db(fl, h)
+    return {"bandwidth_Hz": bw, "f_Hz": fl.tolist(), "magnitude_dB": (20 * np.log10(np.abs(h))).tolist(),
+            "phase_deg": np.degrees(np.unwrap(np.angle(h))).tolist(), "fault_code": int(np.max(r["fault_code"]))}
+
+
+__all__ = ["bandwidth", "gyro_noise_arcsec_rms", "min_smooth_rate", "peak_torque", "positioning", "run",
+           "shifted_plant", "stabilisation", "three_slope_torque"]

@@ -1,0 +1,433 @@
+"""Closed-loop figures of merit (harmonic-drive.md 9.3): minimum smooth rate, stabilisation
+precision, positioning accuracy/repeatability (ISO 230-2), peak output torque, bandwidth.
+
+Set-ups: :data:`AXIS_SETUP` (payload on, base still) for everything except the
+stabilisation test (:func:`stab_setup`: base rocking, default 0.5 deg at 1 Hz).
+Moves use the drive's own trajectory generator (CiA 402 profile position,
+``traj_vmax``/``traj_amax`` as the profile), so the host never has to stream
+set-points for them; the bandwidth test streams a position multisine in
+lock-step (one RPDO per SYNC).
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, Optional, Sequence
+
+import numpy as np
+
+from . import metrics as mt
+from .results import Result, figure, save_figure
+from .runner import DT, Bench, Progress, RigSetup
+
+AXIS_SETUP = RigSetup("axis", payload=True)
+TURN = 2 * math.pi
+
+
+def stab_setup(amp_deg: float = 0.5, freq_Hz: float = 1.0) -> RigSetup:
+    """Swing-table set-up of the stabilisation test."""
+    return RigSetup("stabilisation", payload=True, base_amp_rad=math.radians(amp_deg), base_freq_Hz=freq_Hz)
+
+
+# ---- profile-position helpers ----------------------------------------------------------
+
+def pp_move(bench: Bench, target_rad: float, timeout_s: float = 600.0) -> None:
+    """Profile-position move to ``target_rad`` (output); returns when the trajectory has arrived."""
+    d = bench.drive
+    want = (bench.target_position_raw(target_rad) << 8) & 0xFFFFFFFF
+    pp_move_start(bench, target_rad)
+    waited = 0.0
+    while int(d.read(0x5F00, 8)) != want:
+        bench.wait(0.05)
+        waited += 0.05
+        if waited > timeout_s:
+            raise RuntimeError(f"profile move to {math.degrees(target_rad):.4f} deg did not arrive")
+        if bench.fault():
+            raise RuntimeError(f"the drive faulted during a move (fault code {bench.fault()})")
+
+
+def pp_move_start(bench: Bench, target_rad: float, tries: int = 5) -> None:
+    """Start a profile move (new set-point edge) without waiting for its end.
+
+    The edge is repeated when the reference has not started moving within
+    20 ms of drive time (the virtual drive occasionally misses it right
+    after an earlier command; see the note in docs/procedures.md).
+    """
+    d = bench.drive
+    raw = bench.target_position_raw(target_rad)
+    want = (raw << 8) & 0xFFFFFFFF
+    d.write(0x607A, 0, raw)
+    for _ in range(tries):
+        before = int(d.read(0x5F00, 8))
+        if before == want:
+            return
+        d.write(0x6040, 0, 0x0F)
+        d.write(0x6040, 0, 0x1F)
+        d.write(0x6040, 0, 0x0F)
+        bench.wait(0.02)
+        if int(d.read(0x5F00, 8)) != before:
+            return
+    raise RuntimeError(f"the drive did not accept the profile move to {math.degrees(target_rad):.4f} deg")
+
+
+# ---- minimum smooth rate ------------------------------------------------------------------
+
+def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, settle_s: float) -> dict[str, Any]:
+    """One rung: constant rate through the profile generator; fixed-angle timing on the output encoder."""
+    rate = math.radians(rate_deg_s)
+    dur = windows * window_s
+    frames = 4000
+    decim = max(1, int(math.ceil(dur / frames / DT)))
+    frames = int(math.ceil(dur / (decim * DT)))
+    start = bench.load_angle_rad()
+    far = start + rate * (settle_s + dur) * 1.5 + math.radians(0.01)
+    with bench.params({"traj_vmax": max(1e-6, rate / TURN)}):
+        pp_move_start(bench, far)
+        bench.wait(settle_s)
+        cap = bench.capture(["pos_out_lo", "pos_out_hi"], frames, decim)
+        fault = bench.fault()
+    if fault:
+        raise RuntimeError(f"the drive faulted at {rate_deg_s} deg/s (fault code {fault})")
+    ang = Bench.unwrap_turns(cap["pos_out_lo"]) * TURN
+    t = np.arange(ang.size) * decim * DT
+    st = mt.rate_stability(t, ang, rate, rate * window_s)
+    return {"rate_deg_s": rate_deg_s, "window_arcsec": rate * window_s / mt.ARCSEC, **st, "t_s": t, "angle_rad": ang}
+
+
+def min_rate(bench: Bench, rates_deg_s: Sequence[float] = (1.0, 0.1, 0.01, 0.001), bound: float = 0.1,
+             windows: int = 10, window_s: float = 1.0, settle_s: float = 5.0,
+             progress: Optional[Progress] = None) -> Result:
+    """Minimum smooth rate over a decade ladder (fixed-angle timing).
+
+    Each rung moves at a constant commanded rate (profile position with
+    ``traj_vmax`` = rate), waits ``settle_s`` and times ``windows`` windows of
+    ``rate x window_s`` output angle.  A rung is smooth when the angle never
+    goes back, every window's rate has the commanded sign, and both the rate
+    stability sigma(omega_i)/mean and the rate accuracy |mean - cmd|/cmd are
+    <= ``bound``.  The minimum smooth rate is the slowest rung with every
+    faster rung smooth too.
+    """
+    ladder = []
+    bench.rig.brake(False)
+    bench.enable("PROFILED POSITION")
+    for k, rate in enumerate(sorted(rates_deg_s, reverse=True)):
+        rr = rate_run(bench, rate, windows, window_s, settle_s if rate < 0.5 else min(settle_s, 1.0))
+        ladder.append(rr)
+        # stop: hold where we are (new target = here)
+        pp_move_start(bench, bench.load_angle_rad())
+        bench.wait(0.2)
+        if progress:
+            progress((k + 1) / len(rates_deg_s), f"{rate:g} deg/s: stability {rr['stability']:.3g}")
+    bench.disable()
+    best = mt.min_smooth_rate(ladder, bound)
+    r = Result("min-rate", conditions={"ladder_deg_s": list(rates_deg_s), "bound": bound, "windows": windows,
+                                       "window_s": window_s, "settle_s": settle_s, "setup": AXIS_SETUP.name})
+    r.figures = {"ladder": [{k: v for k, v in x.items() if k not in ("t_s", "angle_rad")} for x in ladder]}
+    r.headline = {"min_smooth_rate_deg_s": best}
+    r.series = {"ladder": ladder}
+
+    def plot(res: Result, d: Path, fmt: str) -> list[Path]:
+        fig, ax = figure()
+        a = ax[0][0]
+        for x in res.series["ladder"]:
+            w = mt.fixed_angle_rates(x["t_s"], x["angle_rad"], math.radians(x["rate_deg_s"]) * window_s)
+            if w.size:
+                a.plot(np.arange(w.size) + 1, np.degrees(w) / x["rate_deg_s"], "o-", ms=3, label=f"{x['rate_deg_s']:g} deg/s")
+        a.axhspan(1 - bound, 1 + bound, color="0.9")
+        a.set_xlabel("fixed-angle window (-)")
+        a.set_ylabel("window rate / commanded rate (-)")
+        a.grid(True)
+        a.legend()
+        return save_figure(fig, d, res.name, fmt)
+    r.plot = plot
+    return r
+
+
+# ---- stabilisation ------------------------------------------------------------------------
+
+def stabilisation(bench: Bench, duration_s: float = 5.0, settle_s: float = 1.0,
+                  progress: Optional[Progress] = None) -> Result:
+    """Stabilisation precision: inertial pointing error while the base rocks.
+
+    The drive holds its position (CSP); the payload rate gyro (capture, 1 kHz)
+    is integrated to the inertial angle (bias and start angle removed by a
+    straight line); RMS and peak.  The virtual rig also records the true
+    inertial angle (reference instrument).
+    """
+    decim = 10
+    frames = int(round(duration_s / (decim * DT)))
+    if frames * 2 > 8192:
+        frames = 4096
+        decim = int(math.ceil(duration_s / (frames * DT)))
+    bench.rig.brake(False)
+    bench.enable("CYCLIC SYNCHRONOUS POSITION")
+    bench.wait(settle_s)
+    rec: dict[str, np.ndarray] = {}
+    if bench.rig.virtual:
+        with bench.rig.record(decim) as rec:
+            cap = bench.capture(["tick", "gyro"], frames, decim)
+    else:
+        cap = bench.capture(["tick", "gyro"], frames, decim)
+    fault = bench.fault()
+    bench.disable()
+    if fault:
+        raise RuntimeError(f"the drive faulted during the stabilisation test (fault code {fault})")
+    tick = cap["tick"].astype(float)
+    t = (tick - tick[0]) * DT
+    gyro = cap["gyro"].astype(float) / 2 ** 32 * TURN
+    ang = mt.inertial_angle_from_gyro(t, gyro)
+    pe = mt.pointing_error(ang)
+    setup = bench.rig.setup
+    base_rms = setup.base_amp_rad / math.sqrt(2) / mt.ARCSEC
+    r = Result("stabilisation", conditions={"duration_s": duration_s, "sample_period_s": decim * DT,
+                                            "base_amplitude_deg": math.degrees(setup.base_amp_rad),
+                                            "base_frequency_Hz": setup.base_freq_Hz, "setup": setup.name})
+    r.figures = {"gyro_rms_arcsec": pe["rms_arcsec"], "gyro_peak_arcsec": pe["peak_arcsec"],
+                 "base_rms_arcsec": base_rms,
+                 "isolation_dB": 20 * math.log10(pe["rms_arcsec"] / base_rms) if base_rms > 0 else None}
+    r.series = {"t_s": t, "gyro_angle_rad": ang}
+    if rec:
+        ti = np.interp(tick, rec["tick"], rec["inertial_angle_rad"])
+        ti = ti - np.polyval(np.polyfit(t, ti, 1), t)
+        tp = mt.pointing_error(ti)
+        r.figures.update({"true_rms_arcsec": tp["rms_arcsec"], "true_peak_arcsec": tp["peak_arcsec"]})
+        r.series["true_angle_rad"] = ti
+    r.headline = {"stabilisation_rms_arcsec": pe["rms_arcsec"], "stabilisation_peak_arcsec": pe["peak_arcsec"]}
+
+    def plot(res: Result, d: Path, fmt: str) -> list[Path]:
+        fig, ax = figure()
+        a = ax[0][0]
+        s = res.series
+        a.plot(s["t_s"], s["gyro_angle_rad"] / mt.ARCSEC, lw=0.8, label="gyro (integrated)")
+        if "true_angle_rad" in s:
+            a.plot(s["t_s"], s["true_angle_rad"] / mt.ARCSEC, lw=0.6, ls="--", label="true inertial (rig)")
+        a.set_xlabel("time (s)")
+        a.set_ylabel("inertial pointing error (arcsec)")
+        a.grid(True)
+        a.legend()
+        return save_figure(fig, d, res.name, fmt)
+    r.plot = plot
+    return r
+
+
+# ---- positioning (ISO 230-2) ------------------------------------------------------------------
+
+def positioning(bench: Bench, targets_deg: Optional[Sequence[float]] = None, runs: int = 5,
+                overrun_deg: float = 1.0, dwell_s: float = 1.5, measure_s: float = 0.2,
+                progress: Optional[Progress] = None) -> Result:
+    """Positioning accuracy and repeatability, ISO 230-2 style (5 bidirectional runs, 12 targets).
+
+    Each run approaches every target from below (ascending order) and then
+    from above (descending), with an ``overrun`` past the first/last target
+    so that every approach has the right direction; position measured after
+    ``dwell_s`` as the mean over ``measure_s``: by the reference instrument
+    (virtual rig: true output angle) or, on a real bench, the output encoder.
+    """
+    if targets_deg is None:
+        targets_deg = list(np.linspace(-55.0, 55.0, 12))
+    tg = np.radians(np.asarray(targets_deg, float))
+    m = tg.size
+    up = np.zeros((runs, m))
+    dn = np.zeros((runs, m))
+    up_enc = np.zeros((runs, m))
+    dn_enc = np.zeros((runs, m))
+    bench.rig.brake(False)
+    bench.enable("PROFILED POSITION")
+    ov = math.radians(overrun_deg)
+    total = runs * 2 * m
+    done = 0
+
+    def measure() -> tuple[float, float]:
+        bench.wait(dwell_s)
+        decim = 10
+        frames = max(2, int(round(measure_s / (decim * DT))))
+        if bench.rig.virtual:
+            with bench.rig.record(decim) as rec:
+                cap = bench.capture(["pos_out_lo", "pos_out_hi"], frames, decim)
+            ref = float(np.mean(rec["load_angle_true_rad"]))
+        else:
+            cap = bench.capture(["pos_out_lo", "pos_out_hi"], frames, decim)
+            ref = float("nan")
+        enc = float(np.mean((cap["pos_out_hi"] * 2.0 ** 32 + cap["pos_out_lo"]) / 2.0 ** 32 * TURN))
+        return (ref if math.isfinite(ref) else enc), enc
+
+    for j in range(runs):
+        pp_move(bench, tg[0] - ov)
+        for i in range(m):
+            pp_move(bench, tg[i])
+            up[j, i], up_enc[j, i] = measure()
+            done += 1
+            if progress:
+                progress(done / total, f"run {j + 1} up {math.degrees(tg[i]):+.1f} deg")
+        pp_move(bench, tg[-1] + ov)
+        for i in reversed(range(m)):
+            pp_move(bench, tg[i])
+            dn[j, i], dn_enc[j, i] = measure()
+            done += 1
+            if progress:
+                progress(done / total, f"run {j + 1} down {math.degrees(tg[i]):+.1f} deg")
+    bench.disable()
+    iso = mt.iso230_2(tg / mt.ARCSEC, up / mt.ARCSEC, dn / mt.ARCSEC)
+    iso_enc = mt.iso230_2(tg / mt.ARCSEC, up_enc / mt.ARCSEC, dn_enc / mt.ARCSEC)
+    r = Result("positioning", conditions={"targets_deg": list(map(float, targets_deg)), "runs": runs,
+                                          "overrun_deg": overrun_deg, "dwell_s": dwell_s, "measure_s": measure_s,
+                                          "reference": "rig (true output angle)" if bench.rig.virtual
+                                          else "output encoder", "setup": AXIS_SETUP.name})
+    r.figures = {"iso230_2_arcsec": iso, "output_encoder_iso230_2_arcsec": {k: iso_enc[k] for k in
+                                                                          ("A", "R", "B", "E", "M")}}
+    r.headline = {"positioning_accuracy_arcsec": iso["A"], "repeatability_arcsec": iso["R"],
+                  "reversal_arcsec": iso["B"], "systematic_deviation_arcsec": iso["E"]}
+    r.series = {"targets_deg": np.asarray(targets_deg, float), "up": (up - tg) / mt.ARCSEC, "down": (dn - tg) / mt.ARCSEC}
+
+    def plot(res: Result, d: Path, fmt: str) -> list[Path]:
+        fig, ax = figure()
+        a = ax[0][0]
+        s = res.series
+        for j in range(s["up"].shape[0]):
+            a.plot(s["targets_deg"], s["up"][j], "^-", color="C0", ms=3, lw=0.5, label="approach +" if j == 0 else None)
+            a.plot(s["targets_deg"], s["down"][j], "v-", color="C1", ms=3, lw=0.5, label="approach -" if j == 0 else None)
+        a.set_xlabel("target (deg)")
+        a.set_ylabel("positional deviation (arcsec)")
+        a.set_title(f"A = {res.headline['positioning_accuracy_arcsec']:.3g}\", R = {res.headline['repeatability_arcsec']:.3g}\"")
+        a.grid(True)
+        a.legend()
+        return save_figure(fig, d, res.name, fmt)
+    r.plot = plot
+    return r
+
+
+# ---- peak output torque ------------------------------------------------------------------------
+
+def peak_torque(bench: Bench, request_Nm: Optional[float] = None, steps: int = 6, hold_s: float = 0.2,
+                progress: Optional[Progress] = None) -> Result:
+    """Peak output torque: locked-output stall with torque steps up to ``request_Nm``.
+
+    Default request: the drive's ``torque_limit``.  The delivered torque is
+    the load cell on the locked output (virtual rig: the gear's transmitted
+    torque) or, on a real bench, N Kt i from the drive's current sensor
+    (motor friction included).  Each step is held ``hold_s`` (shorter than
+    the drive's saturation-time fault).
+    """
+    rated = bench.rated_torque_Nm()
+    req = float(bench.drive.get_param("torque_limit")) if request_Nm is None else request_Nm
+    bench.rig.brake(True)
+    levels = np.linspace(req / steps, req, steps)
+    delivered = []
+    from_current = []
+    with bench.params({"torque_limit": max(req, 1.0)}):
+        bench.enable("CYCLIC SYNCHRONOUS TORQUE")
+        for k, lev in enumerate(levels):
+            bench.drive.write(0x6071, 0, int(round(lev / rated * 1000)))
+            bench.wait(hold_s * 0.5)
+            frames = max(4, int(hold_s * 0.4 / (10 * DT)))
+            if bench.rig.virtual:
+                with bench.rig.record(10) as rec:
+                    cap = bench.capture(["current"], frames, 10)
+                delivered.append(float(np.mean(np.abs(rec["gear_torque_Nm"]))))
+            else:
+                cap = bench.capture(["current"], frames, 10)
+            i = float(np.mean(np.abs(cap["current"]))) / 2 ** 16
+            from_current.append(i * bench.kt * bench.ratio)
+            if not bench.rig.virtual:
+                delivered.append(from_current[-1])
+            if progress:
+                progress((k + 1) / steps, f"{lev:.3g} N.m commanded: {delivered[-1]:.3g} N.m delivered")
+            if bench.fault():
+                break
+        bench.drive.write(0x6071, 0, 0)
+        bench.wait(0.1)
+        fault = bench.fault()
+        bench.disable()
+    bench.rig.brake(False)
+    r = Result("peak-torque", conditions={"request_Nm": req, "steps": steps, "hold_s": hold_s,
+                                          "measured_by": "load cell (rig)" if bench.rig.virtual else "N Kt i",
+                                          "setup": "axis, output locked"})
+    n = len(delivered)
+    r.figures = {"commanded_Nm": levels[:n].tolist(), "delivered_Nm": delivered,
+                 "from_current_Nm": from_current, "fault_code": fault}
+    r.headline = {"peak_torque_Nm": float(max(delivered)) if delivered else None}
+    r.series = {"cmd": levels[:n], "delivered": np.array(delivered), "current": np.array(from_current)}
+
+    def plot(res: Result, d: Path, fmt: str) -> list[Path]:
+        fig, ax = figure()
+        a = ax[0][0]
+        s = res.series
+        a.plot(s["cmd"], s["delivered"], "o-", label="delivered (load cell)")
+        a.plot(s["cmd"], s["current"], "s--", label="N Kt i")
+        a.plot(s["cmd"], s["cmd"], "k:", label="commanded")
+        a.set_xlabel("commanded output torque (N.m)")
+        a.set_ylabel("output torque (N.m)")
+        a.grid(True)
+        a.legend()
+        return save_figure(fig, d, res.name, fmt)
+    r.plot = plot
+    return r
+
+
+# ---- closed-loop bandwidth ----------------------------------------------------------------------
+
+def bandwidth(bench: Bench, amplitude_arcsec: float = 60.0, period_samples: int = 2048,
+              lines: Optional[Sequence[int]] = None, periods: int = 2,
+              progress: Optional[Progress] = None) -> Result:
+    """Closed-loop bandwidth: -3 dB of the position response to a small multisine.
+
+    A Schroeder-phased multisine of peak ``amplitude_arcsec`` on the CSP
+    target, one set-point per SYNC (``sync_periods`` loop periods), periodic
+    over ``period_samples`` set-points; after ``periods - 1`` periods of
+    transient one exact period of the drive's own reference and output angle
+    is captured; H = Y/R at the excited lines.
+    """
+    k = bench.sync_periods
+    fs_sp = 1.0 / (k * DT)
+    if lines is None:
+        lines = sorted(set(int(round(x)) for x in np.geomspace(2, period_samples * 80.0 / fs_sp, 18)))
+    sig = mt.schroeder_multisine(period_samples, lines) * amplitude_arcsec * mt.ARCSEC
+    decim = k // 2 if k % 2 == 0 and k >= 2 else k
+    frames = period_samples * k // decim
+    if frames * 2 > 8192:
+        decim = k
+        frames = period_samples
+    bench.rig.brake(False)
+    bench.enable("CYCLIC SYNCHRONOUS POSITION")
+    hold = bench.load_angle_rad()
+    bench.wait(0.2)
+    send = lambda v: bench.rpdo_position(hold + v)   # noqa: E731
+    bench.stream(np.tile(sig, periods - 1), send)
+    cap = bench.capture(["pos_ref_lo", "pos_out_lo"], frames, decim,
+                        action=lambda: bench.stream(np.tile(sig, 2), send))
+    fault = bench.fault()
+    bench.disable()
+    if fault:
+        raise RuntimeError(f"the drive faulted during the bandwidth test (fault code {fault})")
+    ref = Bench.unwrap_turns(cap["pos_ref_lo"]) * TURN
+    out = Bench.unwrap_turns(cap["pos_out_lo"]) * TURN
+    n = frames
+    h = mt.line_response(ref[:n], out[:n], lines)
+    f = np.asarray(lines, float) / (period_samples * k * DT)
+    bw = mt.bandwidth_3db(f, h)
+    mag = 20 * np.log10(np.abs(h))
+    ph = np.degrees(np.unwrap(np.angle(h)))
+    r = Result("bandwidth", conditions={"amplitude_arcsec": amplitude_arcsec, "lines_Hz": f.tolist(),
+                                        "setpoint_rate_Hz": fs_sp, "setup": AXIS_SETUP.name})
+    r.figures = {"f_Hz": f.tolist(), "magnitude_dB": mag.tolist(), "phase_deg": ph.tolist()}
+    r.headline = {"bandwidth_hz": bw}
+    r.series = {"f": f, "mag": mag, "ph": ph}
+
+    def plot(res: Result, d: Path, fmt: str) -> list[Path]:
+        fig, ax = figure(2, 1, (8, 6))
+        s = res.series
+        ax[0][0].semilogx(s["f"], s["mag"], "o-")
+        ax[0][0].axhline(-3, color="k", ls=":")
+        ax[0][0].set_ylabel("|theta_L / theta_ref| (dB)")
+        ax[1][0].semilogx(s["f"], s["ph"], "o-")
+        ax[1][0].set_ylabel("phase (deg)")
+        ax[1][0].set_xlabel("frequency (Hz)")
+        for a in (ax[0][0], ax[1][0]):
+            a.grid(True, which="both")
+        return save_figure(fig, d, res.name, fmt)
+    r.plot = plot
+    return r
+
+
+__all__ = ["AXIS_SETUP", "bandwidth", "min_rate", "peak_torque", "positioning", "pp_move", "stab_setup",
+           "stabilisation"]

