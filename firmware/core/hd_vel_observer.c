@@ -10,29 +10,29 @@
  * few instructions on the Cortex-M4 instead of a call with variable 64-bit
  * shifts.  See docs/fixed-point.md for the contracts. */
 #define FX_INLINE static inline __attribute__((always_inline))
-FX_INLINE uint64_t fx_mag64(int64_t x)
+FX_INLINE uint64_t vobs_mag64(int64_t x)
 {
     return (x < 0) ? ((uint64_t)0 - (uint64_t)x) : (uint64_t)x;
 }
-FX_INLINE int64_t fx_neg_mag(uint64_t m)
+FX_INLINE int64_t vobs_neg_mag(uint64_t m)
 {
     return (m == 0u) ? 0 : (-(int64_t)(m - 1u) - 1);
 }
-FX_INLINE int64_t fx_signed_sat64(uint64_t m, bool neg)
+FX_INLINE int64_t vobs_signed_sat64(uint64_t m, bool neg)
 {
     if (neg) {
-        return (m >= ((uint64_t)1 << 63)) ? INT64_MIN : fx_neg_mag(m);
+        return (m >= ((uint64_t)1 << 63)) ? INT64_MIN : vobs_neg_mag(m);
     }
     return (m > (uint64_t)INT64_MAX) ? INT64_MAX : (int64_t)m;
 }
-FX_INLINE uint64_t fx_ushr_rnd(uint64_t m, uint32_t s)
+FX_INLINE uint64_t vobs_ushr_rnd(uint64_t m, uint32_t s)
 {
     if (s == 0u) {
         return m;
     }
     return (m >> s) + ((m >> (s - 1u)) & 1u);
 }
-FX_INLINE int32_t fx_sat32(int64_t x)
+FX_INLINE int32_t vobs_sat32(int64_t x)
 {
     if (x > (int64_t)INT32_MAX) {
         return INT32_MAX;
@@ -42,7 +42,7 @@ FX_INLINE int32_t fx_sat32(int64_t x)
     }
     return (int32_t)x;
 }
-FX_INLINE int64_t fx_add64_sat(int64_t a, int64_t b)
+FX_INLINE int64_t vobs_add64_sat(int64_t a, int64_t b)
 {
     if (b > 0 && a > INT64_MAX - b) {
         return INT64_MAX;
@@ -52,7 +52,7 @@ FX_INLINE int64_t fx_add64_sat(int64_t a, int64_t b)
     }
     return a + b;
 }
-FX_INLINE int64_t fx_sub64_sat(int64_t a, int64_t b)
+FX_INLINE int64_t vobs_sub64_sat(int64_t a, int64_t b)
 {
     if (b < 0 && a > INT64_MAX + b) {
         return INT64_MAX;
@@ -62,7 +62,7 @@ FX_INLINE int64_t fx_sub64_sat(int64_t a, int64_t b)
     }
     return a - b;
 }
-FX_INLINE int64_t fx_clamp64(int64_t x, int64_t lo, int64_t hi)
+FX_INLINE int64_t vobs_clamp64(int64_t x, int64_t lo, int64_t hi)
 {
     if (x < lo) {
         return lo;
@@ -72,7 +72,7 @@ FX_INLINE int64_t fx_clamp64(int64_t x, int64_t lo, int64_t hi)
     }
     return x;
 }
-FX_INLINE int64_t fx_asr64_floor(int64_t x, uint32_t s)
+FX_INLINE int64_t vobs_asr64_floor(int64_t x, uint32_t s)
 {
     if (s > 63u) {
         s = 63u;
@@ -82,7 +82,7 @@ FX_INLINE int64_t fx_asr64_floor(int64_t x, uint32_t s)
     }
     return -1 - (int64_t)((uint64_t)(-1 - x) >> s);
 }
-FX_INLINE int64_t fx_asr64_rnd(int64_t x, uint32_t s)
+FX_INLINE int64_t vobs_asr64_rnd(int64_t x, uint32_t s)
 {
     if (s > 63u) {
         s = 63u;
@@ -91,15 +91,15 @@ FX_INLINE int64_t fx_asr64_rnd(int64_t x, uint32_t s)
         return x;
     }
     if (x >= 0) {
-        return (int64_t)fx_ushr_rnd((uint64_t)x, s);
+        return (int64_t)vobs_ushr_rnd((uint64_t)x, s);
     }
-    return -(int64_t)fx_ushr_rnd(fx_mag64(x), s);
+    return -(int64_t)vobs_ushr_rnd(vobs_mag64(x), s);
 }
-FX_INLINE int32_t fx_asr32_rnd(int64_t x, uint32_t s)
+FX_INLINE int32_t vobs_asr32_rnd(int64_t x, uint32_t s)
 {
-    return fx_sat32(fx_asr64_rnd(x, s));
+    return vobs_sat32(vobs_asr64_rnd(x, s));
 }
-FX_INLINE int64_t fx_shl64_sat(int64_t x, uint32_t s)
+FX_INLINE int64_t vobs_shl64_sat(int64_t x, uint32_t s)
 {
     if (x == 0) {
         return 0;
@@ -118,23 +118,23 @@ FX_INLINE int64_t fx_shl64_sat(int64_t x, uint32_t s)
         return x * (int64_t)((uint64_t)1 << s);
     }
 }
-FX_INLINE int32_t fx_mul_q(int32_t a, int32_t b, uint32_t q)
+FX_INLINE int32_t vobs_mul_q(int32_t a, int32_t b, uint32_t q)
 {
     const int64_t p = (int64_t)a * (int64_t)b;
     if (q > 62u) {
         q = 62u;
     }
-    return fx_asr32_rnd(p, q);
+    return vobs_asr32_rnd(p, q);
 }
-FX_INLINE int64_t fx_mul64x32_q(int64_t a, int32_t b, uint32_t q)
+FX_INLINE int64_t vobs_mul64x32_q(int64_t a, int32_t b, uint32_t q)
 {
     if (a >= (int64_t)INT32_MIN && a <= (int64_t)INT32_MAX) {
         /* |a*b| <= 2^62: the 64-bit product is exact, round half away as below */
-        return fx_asr64_rnd((int64_t)(int32_t)a * (int64_t)b, (q > 62u) ? 62u : q);
+        return vobs_asr64_rnd((int64_t)(int32_t)a * (int64_t)b, (q > 62u) ? 62u : q);
     }
     const bool neg = (a < 0) != (b < 0);
-    const uint64_t ua = fx_mag64(a);
-    const uint32_t ub = (uint32_t)fx_mag64(b);
+    const uint64_t ua = vobs_mag64(a);
+    const uint32_t ub = (uint32_t)vobs_mag64(b);
     const uint64_t al = (uint64_t)(uint32_t)ua;
     const uint64_t ah = ua >> 32;
     const uint64_t plo = al * (uint64_t)ub;
@@ -158,11 +158,11 @@ FX_INLINE int64_t fx_mul64x32_q(int64_t a, int32_t b, uint32_t q)
     if (hi != 0u) {
         return neg ? INT64_MIN : INT64_MAX;
     }
-    return fx_signed_sat64(m, neg);
+    return vobs_signed_sat64(m, neg);
 }
-FX_INLINE int64_t fx_mac64(int64_t acc, int32_t a, int32_t b)
+FX_INLINE int64_t vobs_mac64(int64_t acc, int32_t a, int32_t b)
 {
-    return fx_add64_sat(acc, (int64_t)a * (int64_t)b);
+    return vobs_add64_sat(acc, (int64_t)a * (int64_t)b);
 }
 
 /* T = 1e-4 s in Q44: 2^44 / 10000 = 1759218604.4416 -> 1759218604 (rel. error 2.5e-10;
@@ -187,24 +187,24 @@ void hd_velobs_step(hd_velobs_t *s, const hd_velobs_cfg_t *c, hd_angle_t theta_m
         /* |angles| < 2^46 turn * 2^-32: nothing below saturates, the same value directly */
         e48 = (theta_meas - s->theta) * 65536 - (int64_t)s->frac;
     } else {
-        e48 = fx_sub64_sat(fx_sub64_sat(fx_shl64_sat(theta_meas, 16u), fx_shl64_sat(s->theta, 16u)),
+        e48 = vobs_sub64_sat(vobs_sub64_sat(vobs_shl64_sat(theta_meas, 16u), vobs_shl64_sat(s->theta, 16u)),
                            (int64_t)s->frac);
     }
-    s->err = fx_asr32_rnd(e48, 16u);
+    s->err = vobs_asr32_rnd(e48, 16u);
     /* vel [2^-48 turn/s] += (Ki T)[Q16 1/s] * e [2^-48 turn] / 2^16 */
-    s->vel = fx_add64_sat(s->vel, fx_mul64x32_q(e48, c->ki_dt, 16u));
+    s->vel = vobs_add64_sat(s->vel, vobs_mul64x32_q(e48, c->ki_dt, 16u));
     /* angle advance in 2^-48 turn: T * vel + (Kp T) * e */
-    int64_t adv = fx_mul64x32_q(s->vel, HD_VELOBS_T_Q44, HD_VELOBS_T_SHIFT);
-    adv = fx_add64_sat(adv, fx_mul64x32_q(e48, c->kp_dt, 16u));
-    adv = fx_add64_sat(adv, (int64_t)s->frac);
-    const int64_t whole = fx_asr64_floor(adv, 16u);
+    int64_t adv = vobs_mul64x32_q(s->vel, HD_VELOBS_T_Q44, HD_VELOBS_T_SHIFT);
+    adv = vobs_add64_sat(adv, vobs_mul64x32_q(e48, c->kp_dt, 16u));
+    adv = vobs_add64_sat(adv, (int64_t)s->frac);
+    const int64_t whole = vobs_asr64_floor(adv, 16u);
     s->frac = (int32_t)(adv - whole * 65536);
-    s->theta = fx_add64_sat(s->theta, whole);
+    s->theta = vobs_add64_sat(s->theta, whole);
 }
 
 hd_vel_out_t hd_velobs_vel_out(const hd_velobs_t *s)
 {
-    return fx_asr32_rnd(s->vel, 16u);
+    return vobs_asr32_rnd(s->vel, 16u);
 }
 
 int64_t hd_velobs_vel48(const hd_velobs_t *s)
