@@ -127,6 +127,18 @@ static void rot_small(double c0, double s0, double x, double d, double *c, doubl
 /* ---- model pieces -------------------------------------------------------------- */
 static double sat(double x, double d) { return x > d ? d : (x < -d ? -d : x); }
 
+/* Centre line of the Preisach operator's major loop, the mean of the ascending
+ * branch -E(M,-M) + 2E(u,-M) and the descending branch E(M,-M) - 2E(M,u):
+ * P_mean(u) = E(u,-M) - E(M,u), M = u_max.  The gear's hysteresis torque is
+ * P_mean(phi) - P[phi]: it has no single-valued (spring-like) part, so the
+ * stiffness seen by a torque-twist test is the stiffness model's alone, and it
+ * is dissipative (above the centre line on loading, below on unloading). */
+static double preisach_mean(const hd_plant *p, const hd_plant_params *q, double phi)
+{
+    const double M = q->preisach_u_max_rad, u = sat(phi, M);
+    return hd_preisach_E(p->everett, M, u, -M) - hd_preisach_E(p->everett, M, M, u);
+}
+
 static double sat_pot(double x, double d)   /* integral of sat_d from 0 to x */
 {
     double ax = fabs(x);
@@ -439,8 +451,8 @@ static void pos_eval(const hd_plant *p, const xstate *x, double cm, double sm, d
         for (k = 0; k < q->maxwell_n; k++)
             Th += sat(q->maxwell_k_Nm_per_rad[k] * (phi - p->xi[k]), q->maxwell_w_Nm[k]);
     }
-    if (q->preisach_enabled) /* k_P*sat(phi) - P[phi]: dissipative orientation, zero net torque at saturation */
-        Th += p->preisach_kp * sat(phi, q->preisach_u_max_rad)
+    if (q->preisach_enabled) /* P_mean(phi) - P[phi]: purely hysteretic, dissipative, zero net torque at saturation */
+        Th += preisach_mean(p, q, phi)
               - hd_plant_preisach_eval(&p->pz, p->everett, q->preisach_u_max_rad, phi, NULL);
     pp->Th = Th;
     pp->Tsh = spring_torque(p, phi) + Th;
@@ -545,7 +557,7 @@ static void end_eval(hd_plant *p)
             Th += sat(q->maxwell_k_Nm_per_rad[k] * (phi - p->xi[k]), q->maxwell_w_Nm[k]);
     }
     if (q->preisach_enabled)
-        Th += p->preisach_kp * sat(phi, q->preisach_u_max_rad)
+        Th += preisach_mean(p, q, phi)
               - hd_plant_preisach_eval(&p->pz, p->everett, q->preisach_u_max_rad, phi, &p->pz);
     p->end_th_m = x.th_m; p->end_th_l = x.th_l;
     p->end_phi = phi; p->end_te = te; p->end_de_m = de_m; p->end_de_l = de_l;

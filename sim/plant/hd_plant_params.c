@@ -233,7 +233,7 @@ void hd_plant_defaults_reference(hd_plant_params *prm)
     }
     prm->preisach_enabled = 1;
     prm->preisach_u_max_rad = 5e-4;
-    prm->preisach_t_sat_Nm = 5.32;                   /* calibrated: 0.50' of loss with this density (docs/plant.md) */
+    prm->preisach_t_sat_Nm = 7.15;                   /* calibrated: 0.50' of loss with this density (docs/plant.md) */
     prm->preisach_r0_rad = 1e-4;
     prm->preisach_s_rad = 2e-4;
 

@@ -236,11 +236,13 @@ static void test_hysteresis_loss_preisach(void **state)
     f->prm.preisach_s_rad = r.preisach_s_rad;
     init(f);
     umax = f->prm.preisach_u_max_rad;
-    /* descending branch from positive saturation: P = t_sat - 2 E(u_max, u), T_h = k_P*u - P;
-     * zero torque where (K1 + k_P)*phi = P(phi) */
+    /* descending branch from positive saturation: P = t_sat - 2 E(u_max, u),
+     * T_h = P_mean - P with P_mean = E(u, -u_max) - E(u_max, u), so
+     * T_h = E(u, -u_max) + E(u_max, u) - t_sat; zero torque where K1*phi + T_h(phi) = 0 */
     for (it = 0; it < 100; it++) {
-        y = f->prm.preisach_t_sat_Nm - 2.0 * hd_preisach_E(f->plant.everett, umax, umax, phi);
-        phi = y / (f->prm.k1_Nm_per_rad + f->prm.preisach_t_sat_Nm / umax);
+        y = f->prm.preisach_t_sat_Nm - hd_preisach_E(f->plant.everett, umax, phi, -umax)
+            - hd_preisach_E(f->plant.everett, umax, umax, phi);
+        phi = y / f->prm.k1_Nm_per_rad;
     }
     expect = 2.0 * phi;
     w = hysteresis_width(f);

@@ -96,9 +96,10 @@ def hysteresis_loss(a: dict, t_max: float, maxwell: bool = True, preisach: bool 
     def t_desc(p: float) -> float:
         t = three_slope(a, p) + sum(max(-w, w - k * (top - p)) for k, w in els)
         if pz is not None:
-            kp = hp["t_sat_Nm"] / hp["u_max_rad"]
+            # plant: T_h = P_mean(u) - P[u], P_mean(u) = E(u, -M) - E(M, u); descending
+            # branch from positive saturation P = t_sat - 2 E(M, u)
             u = max(-pz.u, min(pz.u, p))
-            t += kp * u - (hp["t_sat_Nm"] - 2.0 * pz(pz.u, u))
+            t += pz(u, -pz.u) - pz(pz.u, u) - (hp["t_sat_Nm"] - 2.0 * pz(pz.u, u))
         return t
 
     pb = brentq(t_desc, -top, top)
