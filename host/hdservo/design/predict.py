@@ -21,7 +21,7 @@ stabilisation             base rocking; (a) the drive holds its position (what t
                           (an ideal inertial reference: the stand-in for the gyro
                           stabilisation loop the firmware does not have yet); figure = RMS of
                           the integrated payload gyro, line removed (``inertial_angle_from_gyro``)
-peak torque               torque mode, output locked (load inertia 1e6 kg m^2), request 1.5 x
+peak torque               torque mode, output locked (load inertia 2e4 kg m^2), request 1.5 x
                           the drive's torque limit; delivered = gear torque from the twist
 bandwidth                 60 arcsec multisine (1-60 Hz, 1 Hz lines) on the position reference;
                           -3 dB of theta_L/theta_ref (``bandwidth_3db``)
@@ -321,7 +321,7 @@ def peak_torque(axis: str, ctl: Mapping[str, Any], torque_limit_Nm: float, *,
         (N Kt i), ``requested_Nm``.
     """
     req = 1.5 * torque_limit_Nm
-    plant = {"load.jl_kgm2": 1e6, "base.enabled": False, "gravity.enabled": False}
+    plant = {"load.jl_kgm2": 2e4, "base.enabled": False, "gravity.enabled": False}
     r = run(axis, _mode(ctl, "torque"), {"type": "step", "initial_Nm": 0.0, "amplitude_Nm": req, "t0_s": 0.01},
             0.01 + hold_s, decimation=10, plant=plant)
     t = np.asarray(r["t_s"])

@@ -1,0 +1,333 @@
+"""Design report of the flow: JSON document, Markdown page and PNG plots (units on every axis)."""
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any, Dict, List
+
+import numpy as np
+
+from .flow import Evaluated, FlowResult, headline, required_torques
+
+DPI = 80
+
+
+def _clean(x: Any) -> Any:
+    if isinstance(x, dict):
+        return {str(k): _clean(v) for k, v in x.items() if not str(k).endswith("_trace")}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    if isinstance(x, (np.floating, float)):
+        v = float(x)
+        return v if math.isfinite(v) else None
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, np.bool_):
+        return bool(x)
+    return x
+
+
+def candidate_doc(e: Evaluated) -> Dict[str, Any]:
+    """JSON-able record of one candidate (parts, checks, figures, margins, gains)."""
+    d: Dict[str, Any] = {"name": e.candidate.name, "parts": e.candidate.parts(), "cost_index": e.cost,
+                         "feasible": e.feasible,
+                         "checks": [{"name": c.name, "value": c.value, "limit": c.limit, "unit": c.unit,
+                                     "margin": c.margin, "hard": c.hard, "ok": c.ok} for c in e.checks]}
+    if e.sim:
+        d["predicted"] = headline(e.sim)
+        d["margins"] = e.margins
+        d["figures"] = e.sim
+        d["tuning"] = e.tuning
+        d["controller"] = e.controller
+        d["axis_file"] = Path(e.axis_path).name if e.axis_path else None
+    return _clean(d)
+
+
+def document(res: FlowResult) -> Dict[str, Any]:
+    """The JSON report of a flow run."""
+    spec = res.spec
+    feas = [e for e in res.all_candidates if e.feasible]
+    doc: Dict[str, Any] = {
+        "format": "hdservo-design", "version": 1,
+        "spec": spec.as_dict(),
+        "enumerated": len(res.all_candidates), "feasible": len(feas),
+        "rejected_by": _rejections(res.all_candidates),
+        "feasible_list": [{"name": e.candidate.name, "cost_index": e.cost, "min_margin": e.min_margin}
+                          for e in feas],
+        "simulated": [candidate_doc(e) for e in res.simulated],
+        "chosen": candidate_doc(res.chosen) if res.chosen else None,
+    }
+    if res.chosen:
+        doc["chosen"]["required_torques_Nm"] = required_torques(spec, res.chosen.candidate)
+    return _clean(doc)
+
+
+def _rejections(evals: List[Evaluated]) -> Dict[str, int]:
+    out: Dict[str, int] = {}
+    for e in evals:
+        for c in e.checks:
+            if c.hard and not c.ok:
+                out[c.name] = out.get(c.name, 0) + 1
+    return dict(sorted(out.items(), key=lambda kv: -kv[1]))
+
+
+# ------------------------------------------------------------------ plots
+
+def _plots(res: FlowResult, d: Path) -> List[str]:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    files: List[str] = []
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    feas = [e for e in res.all_candidates if e.feasible]
+    bad = [e for e in res.all_candidates if not e.feasible]
+    ax.scatter([e.cost for e in bad], [max(e.min_margin, -1.0) * 100 for e in bad], s=8, c="0.7",
+               label="rejected")
+    ax.scatter([e.cost for e in feas], [min(e.min_margin, 3.0) * 100 for e in feas], s=10, c="C0", label="feasible")
+    for i, e in enumerate(res.simulated):
+        ax.scatter([e.cost], [min(e.min_margin, 3.0) * 100], s=60, marker="*", c="C3" if i == 0 else "C1")
+        ax.annotate(e.candidate.gear.name + " / " + e.candidate.motor.name, (e.cost, min(e.min_margin, 3.0) * 100),
+                    fontsize=7, xytext=(4, 4 + 8 * i), textcoords="offset points")
+    ax.axhline(res.spec.options.margin * 100, color="k", ls=":", lw=0.8)
+    ax.set_xlabel("cost index (gear + motor mass, sensor grade) [kg-equivalent]")
+    ax.set_ylabel("smallest feasibility margin [%] (clipped)")
+    ax.set_title("gear x motor pairs (star: simulated, red: chosen)", fontsize=9)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(d / "feasibility.png", dpi=DPI)
+    plt.close(fig)
+    files.append("feasibility.png")
+
+    if res.simulated:
+        keys = list(res.simulated[0].margins)
+        fig, ax = plt.subplots(figsize=(7, 3.6))
+        w = 0.8 / len(res.simulated)
+        for i, e in enumerate(res.simulated):
+            ax.bar(np.arange(len(keys)) + i * w, [max(e.margins[k], -1.0) * 100 for k in keys], width=w,
+                   label=e.candidate.gear.name + " / " + e.candidate.motor.name)
+        ax.axhline(0, color="k", lw=0.8)
+        ax.set_xticks(np.arange(len(keys)) + 0.4 - w / 2)
+        ax.set_xticklabels([k.replace("_", "\n") for k in keys], fontsize=7)
+        ax.set_ylabel("margin vs requirement [%] (clipped at -100)")
+        ax.set_title("simulated margins (>= 0: requirement met)", fontsize=9)
+        ax.grid(True, axis="y", alpha=0.3)
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        fig.savefig(d / "margins.png", dpi=DPI)
+        plt.close(fig)
+        files.append("margins.png")
+
+    ch = res.chosen
+    if ch and ch.sim:
+        f = ch.sim
+        fig, axs = plt.subplots(2, 2, figsize=(9, 6.5))
+        a = axs[0, 0]
+        for rate, w in f["min_rate"]["series"].items():
+            if w:
+                a.plot(np.arange(len(w)) + 1, w, "o-", ms=3, label=f"{rate} deg/s")
+        a.axhspan(1 - f["min_rate"]["bound"], 1 + f["min_rate"]["bound"], color="0.9")
+        a.set_xlabel("fixed-angle window [-]")
+        a.set_ylabel("window rate / commanded rate [-]")
+        a.set_title("minimum smooth rate (band: +-10 %)", fontsize=9)
+        a.legend(fontsize=7)
+        a.grid(True, alpha=0.3)
+        a = axs[0, 1]
+        p = f["positioning"]
+        tg = np.asarray(p["targets_deg"])
+        for j, (u, dn) in enumerate(zip(p["up_arcsec"], p["down_arcsec"])):
+            a.plot(tg, u, "^-", color="C0", ms=3, lw=0.5, label="approach +" if j == 0 else None)
+            a.plot(tg, dn, "v-", color="C1", ms=3, lw=0.5, label="approach -" if j == 0 else None)
+        a.set_xlabel("target [deg]")
+        a.set_ylabel("positional deviation [arcsec]")
+        a.set_title(f"positioning: A = {p['A_arcsec']:.3g}\", R = {p['R_arcsec']:.3g}\" (encoder accuracy "
+                    "not included)", fontsize=9)
+        a.legend(fontsize=7)
+        a.grid(True, alpha=0.3)
+        a = axs[1, 0]
+        s = f["stabilisation"]
+        for tag, lab in (("inertial", "inertial reference"), ("hold", "encoder hold (/100)")):
+            tr = s.get(f"{tag}_trace")
+            if tr:
+                scale = 0.01 if tag == "hold" else 1.0
+                a.plot(tr["t_s"], np.asarray(tr["angle_arcsec"]) * scale, lw=0.7,
+                       label=f"{lab}: {s[f'{tag}_rms_arcsec']:.3g}\" RMS")
+        a.set_xlabel("time [s]")
+        a.set_ylabel("inertial pointing error [arcsec]")
+        a.set_title("stabilisation, base rocking (gyro integrated)", fontsize=9)
+        a.legend(fontsize=7)
+        a.grid(True, alpha=0.3)
+        a = axs[1, 1]
+        b = f["bandwidth"]
+        a.semilogx(b["f_Hz"], b["magnitude_dB"], "o-", ms=3)
+        a.axhline(-3, color="k", ls=":")
+        a.set_xlabel("frequency [Hz]")
+        a.set_ylabel("|theta_L / theta_ref| [dB]")
+        a.set_title(f"position response, 60\" multisine: -3 dB at {_f(b['bandwidth_Hz'], 'Hz')}", fontsize=9)
+        a.grid(True, which="both", alpha=0.3)
+        fig.suptitle(f"chosen: {ch.candidate.name}", fontsize=9)
+        fig.tight_layout()
+        fig.savefig(d / "chosen_figures.png", dpi=DPI)
+        plt.close(fig)
+        files.append("chosen_figures.png")
+    return files
+
+
+def _f(x: Any, unit: str = "", fmt: str = ".3g") -> str:
+    if x is None:
+        return "n/a"
+    return f"{x:{fmt}} {unit}".strip()
+
+
+# ------------------------------------------------------------------ markdown
+
+REQ_ROWS = [
+    ("min smooth rate", "min_smooth_rate_deg_s", "min_smooth_rate_deg_s", "deg/s", "<="),
+    ("positioning accuracy A (incl. encoder)", "positioning_arcsec", "positioning_accuracy_with_encoder_arcsec",
+     "arcsec", "<="),
+    ("repeatability R", "repeatability_arcsec", "repeatability_arcsec", "arcsec", "<="),
+    ("stabilisation (inertial ref. + gyro noise)", "stabilisation_arcsec_rms", "stabilisation_rms_arcsec",
+     "arcsec RMS", "<="),
+    ("peak output torque", "peak_torque_Nm", "peak_torque_Nm", "N·m", ">="),
+    ("first resonance (locked motor)", "min_resonance_Hz", "resonance_Hz", "Hz", ">="),
+]
+
+
+def markdown(res: FlowResult, doc: Dict[str, Any], plots: List[str]) -> str:
+    """The Markdown report."""
+    spec = res.spec
+    L: List[str] = [f"# Design report: {spec.name}", "",
+                    f"Generated by `hdservo design` from `{Path(spec.source).name}`. Figures are simulator "
+                    "predictions (firmware + plant, every effect on) unless marked analytic. "
+                    "Method: `docs/design-flow.md`.", ""]
+    L += ["## Requirements", "", "| requirement | value |", "|---|---|"]
+    s = spec.as_dict()
+    for k, v in s.items():
+        if k not in ("options", "source", "name"):
+            L.append(f"| {k} | {v:g} |")
+    L += ["", f"## Feasibility: {doc['feasible']} of {doc['enumerated']} gear x motor pairs pass", ""]
+    if doc["rejected_by"]:
+        L += ["| hard check | pairs rejected by it |", "|---|---|"]
+        L += [f"| {k} | {v} |" for k, v in doc["rejected_by"].items()]
+    if "feasibility.png" in plots:
+        L += ["", "![feasibility](feasibility.png)", ""]
+    L += ["## Simulated candidates (ranked)", "",
+          "| rank | candidate | cost index | " + " | ".join(r[0] for r in REQ_ROWS) + " |",
+          "|---|---|---|" + "---|" * len(REQ_ROWS)]
+    L.append("| | requirement | | " + " | ".join(f"{r[4]} {_f(s[r[1]])} {r[3]}" for r in REQ_ROWS) + " |")
+    for i, e in enumerate(res.simulated):
+        h = headline(e.sim)
+        cells = []
+        for r in REQ_ROWS:
+            m = e.margins.get({"min_smooth_rate_deg_s": "min_smooth_rate",
+                               "positioning_arcsec": "positioning_accuracy", "repeatability_arcsec": "repeatability",
+                               "stabilisation_arcsec_rms": "stabilisation", "peak_torque_Nm": "peak_torque",
+                               "min_resonance_Hz": "resonance"}[r[1]])
+            mark = "" if m is None else (" ok" if m >= 0 else " **FAIL**")
+            cells.append(f"{_f(h[r[2]])} ({_f(None if m is None else 100 * m, '%', '+.0f')}){mark}")
+        L.append(f"| {i + 1} | {e.candidate.name} | {e.cost:.2f} | " + " | ".join(cells) + " |")
+    L += ["", "Margins in brackets: relative to the requirement (min smooth rate: 1 - stability/0.1 at the "
+          "required rate).", ""]
+    if "margins.png" in plots:
+        L += ["![margins](margins.png)", ""]
+    ch = res.chosen
+    if ch:
+        f = ch.sim
+        t = ch.tuning
+        L += ["## Chosen design", "", f"**{ch.candidate.name}** — axis file `{Path(ch.axis_path or '').name}` "
+              "(serve it with `hdservo serve --axis` or `build/bin/hdservo-sim serve --axis`), drive parameters "
+              "in the JSON report (`chosen.controller.gains`).", ""]
+        tq = required_torques(spec, ch.candidate)
+        L += ["| quantity | value |", "|---|---|",
+              f"| output inertia J_L + N² J_in | {tq['j_total_kgm2']:.3g} kg·m² |",
+              f"| torque demand: acceleration / unbalance / friction / base | {tq['accel']:.3g} / "
+              f"{spec.unbalance_Nm:.3g} / {tq['friction']:.3g} / {tq['base']:.3g} N·m |",
+              f"| drive torque limit | {t['torque_limit_Nm']:.3g} N·m |",
+              f"| resonance: locked motor / coupled (two-mass, K1) | {f['resonance']['locked_motor_Hz']:.1f} / "
+              f"{f['resonance']['coupled_Hz']:.1f} Hz |",
+              f"| velocity PI: kp, ki | {t['vel_kp_Nms_per_rad']:.4g} N·m·s/rad, {t['vel_ki_Nm_per_rad']:.4g} N·m/rad "
+              f"(crossover {t['vel_crossover_hz']:.1f} Hz, PM {t['vel_phase_margin_deg']:.0f}°, "
+              f"GM {t['vel_gain_margin_db']:.1f} dB) |",
+              f"| position P: kp | {t['pos_kp_per_s']:.3g} 1/s (crossover {t['pos_crossover_hz']:.1f} Hz, PM "
+              f"{t['pos_phase_margin_deg']:.0f}°, GM {t['pos_gain_margin_db']:.1f} dB, analytic -3 dB "
+              f"{t['pos_bandwidth_hz']:.1f} Hz) |",
+              f"| notch | {t['notch_hz']:.1f} Hz |",
+              f"| compensators | {', '.join(t['compensators'])} (parameters: hdservo.compsetup) |",
+              f"| simulated position bandwidth (60\" multisine) | {_f(f['bandwidth']['bandwidth_Hz'], 'Hz')} |",
+              f"| stabilisation, drive holding its encoder position | {f['stabilisation']['hold_rms_arcsec']:.4g}\" RMS "
+              f"(base {f['stabilisation']['base_rms_arcsec']:.4g}\" RMS) |",
+              f"| stabilisation, inertial reference / gyro-noise term | {f['stabilisation']['inertial_rms_arcsec']:.3g}"
+              f" / {f['stabilisation']['gyro_noise_rms_arcsec']:.3g}\" RMS |",
+              f"| positioning A without / with encoder installed accuracy | {f['positioning']['A_arcsec']:.3g} / "
+              f"{f['positioning']['A_with_encoder_arcsec']:.3g}\" (reversal B {f['positioning']['B_arcsec']:.3g}\") |",
+              ""]
+        L += ["Feasibility checks of the chosen design:", "", "| check | value | limit | margin | hard |",
+              "|---|---|---|---|---|"]
+        L += [f"| {c.name} | {c.value:.4g} {c.unit} | {c.limit:.4g} {c.unit} | {100 * c.margin:+.0f} % | "
+              f"{'yes' if c.hard else 'no'} |" for c in ch.checks]
+        if "chosen_figures.png" in plots:
+            L += ["", "![chosen figures](chosen_figures.png)", ""]
+    L += ["## Caveats", "",
+          "* Stabilisation: the firmware has no gyro (inertial) stabilisation loop yet; holding the encoder position "
+          "the payload follows the base. The design figure uses the negative base angle as position reference "
+          "(ideal inertial reference) plus the analytic gyro-noise term.",
+          "* Encoder installed accuracy is not modelled by the simulator; it is added to A (2 x +-accuracy).",
+          "* Catalogue motors and sensors are representative classes; friction and hysteresis come from the "
+          "structure relations scaled from the reference axis (docs/design-structure.md).", ""]
+    return "\n".join(L)
+
+
+def write_report(res: FlowResult, json_path: "str | os.PathLike[str] | None",
+                 report_dir: "str | os.PathLike[str] | None", axis_files: Dict[str, Path]) -> Dict[str, Any]:
+    """Write the JSON report, the Markdown report with plots and the chosen axis TOML.
+
+    Everything is first written to a temporary directory beside the targets
+    and moved in place at the end, so a failure leaves no half-written output.
+
+    Parameters
+    ----------
+    res : FlowResult
+    json_path : path-like or None
+    report_dir : path-like or None
+        Receives ``report.md``, the PNG plots, ``axis_chosen.toml`` and the
+        simulated candidates' axis files.
+    axis_files : dict
+        Candidate slug -> axis TOML written by the flow (copied into the report).
+
+    Returns
+    -------
+    dict
+        The JSON document.
+    """
+    doc = document(res)
+    if report_dir is not None:
+        rd = Path(report_dir)
+        rd.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{rd.name}.", dir=rd.parent))
+        try:
+            plots = _plots(res, tmp)
+            (tmp / "report.md").write_text(markdown(res, doc, plots))
+            for slug, p in axis_files.items():
+                shutil.copy(p, tmp / Path(p).name)
+            if res.chosen and res.chosen.axis_path:
+                shutil.copy(res.chosen.axis_path, tmp / "axis_chosen.toml")
+                (tmp / "drive_params.json").write_text(json.dumps(_clean(res.chosen.controller), indent=1) + "\n")
+            rd.mkdir(exist_ok=True)
+            for p in tmp.iterdir():
+                os.replace(p, rd / p.name)
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+    if json_path is not None:
+        jp = Path(json_path)
+        t = jp.with_name(f".{jp.name}.tmp{os.getpid()}")
+        t.write_text(json.dumps(doc, indent=1) + "\n")
+        os.replace(t, jp)
+    return doc
+
+
+__all__ = ["candidate_doc", "document", "markdown", "write_report"]
