@@ -39,6 +39,7 @@
 #include <errno.h>
 #include <math.h>
 #include <signal.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -293,6 +294,119 @@ static int parse_u(const char *s, unsigned long lo, unsigned long hi, unsigned l
     if (errno || *end || s[0] == '-' || s[0] == '\0' || v < lo || v > hi) return -1;
     *out = v;
     return 0;
+}
+
+/* ---- test rig (--rig): commands on stdin, one answer line each on stdout ----------- */
+
+static hd_plant *rig_plant(srv_t *s)
+{
+    /* the harness owns the plant; the rig is the bench around it (PC-side only) */
+    return (hd_plant *)(uintptr_t)hd_sim_plant(s->sim);
+}
+
+static uint32_t rig_tick(const srv_t *s)
+{
+    return hd_app_telemetry(s->app)->tick;
+}
+
+static void rig_answer(const srv_t *s, const char *fmt_extra)
+{
+    printf("ok tick=%lu%s%s\n", (unsigned long)rig_tick(s), fmt_extra[0] ? " " : "", fmt_extra);
+    fflush(stdout);
+}
+
+static void rig_error(const char *what)
+{
+    printf("error %s\n", what);
+    fflush(stdout);
+}
+
+static void rig_command(srv_t *s, char *line)
+{
+    char *argv[4] = { 0 };
+    int argc = 0;
+    char extra[160];
+    for (char *tok = strtok(line, " \t\r"); tok && argc < 4; tok = strtok(NULL, " \t\r")) argv[argc++] = tok;
+    if (argc == 0) return;
+    if (strcmp(argv[0], "brake") == 0 && argc == 2 && (strcmp(argv[1], "0") == 0 || strcmp(argv[1], "1") == 0)) {
+        hd_plant_set_brake(rig_plant(s), argv[1][0] == '1');
+        snprintf(extra, sizeof extra, "brake=%c", argv[1][0]);
+        rig_answer(s, extra);
+    } else if (strcmp(argv[0], "torque") == 0 && (argc == 2 || argc == 3)) {
+        char *end = NULL;
+        double t = strtod(argv[1], &end), r = 0.0;
+        if (!end || *end || !isfinite(t)) { rig_error("torque: expected a number of N.m"); return; }
+        if (argc == 3) {
+            r = strtod(argv[2], &end);
+            if (!end || *end || !isfinite(r) || r < 0.0) { rig_error("torque: expected a rate >= 0 N.m/s"); return; }
+        }
+        s->rig_torque_target = t;
+        s->rig_torque_rate = r;
+        if (r == 0.0) s->rig_torque = t;
+        hd_plant_fault_load_step(rig_plant(s), s->rig_torque);
+        snprintf(extra, sizeof extra, "torque=%.9g target=%.9g", s->rig_torque, t);
+        rig_answer(s, extra);
+    } else if (strcmp(argv[0], "record") == 0 && argc == 2 && strcmp(argv[1], "stop") == 0) {
+        if (s->rig_rec) fclose(s->rig_rec);
+        s->rig_rec = NULL;
+        rig_answer(s, "record=stop");
+    } else if (strcmp(argv[0], "record") == 0 && argc == 3) {
+        unsigned long d;
+        if (parse_u(argv[2], 1, 1000000, &d) != 0) { rig_error("record: expected a decimation 1..1000000"); return; }
+        if (s->rig_rec) fclose(s->rig_rec);
+        s->rig_rec = fopen(argv[1], "w");
+        if (!s->rig_rec) { rig_error("record: cannot open the file for writing"); return; }
+        fputs("tick,t_s,gear_torque_Nm,applied_torque_Nm,torsion_rad,load_angle_true_rad,"
+              "inertial_angle_rad,motor_angle_true_rad,te_rad\n", s->rig_rec);
+        s->rig_rec_decim = (uint32_t)d;
+        s->rig_k = 0;
+        rig_answer(s, "record=start");
+    } else if (strcmp(argv[0], "status") == 0 && argc == 1) {
+        snprintf(extra, sizeof extra, "torque=%.9g brake=%d", s->rig_torque,
+                 hd_sim_plant(s->sim)->out.brake_engaged);
+        rig_answer(s, extra);
+    } else {
+        rig_error("unknown rig command (expected: brake 0|1, torque T [RATE], record PATH DECIM, record stop, status)");
+    }
+}
+
+/* Read whatever is waiting on stdin (never blocks) and run each complete line. */
+static void rig_poll(srv_t *s)
+{
+    for (;;) {
+        struct pollfd pfd = { 0, POLLIN, 0 };
+        if (poll(&pfd, 1, 0) <= 0 || !(pfd.revents & (POLLIN | POLLHUP))) return;
+        ssize_t n = read(0, s->rig_line + s->rig_len, sizeof s->rig_line - 1 - s->rig_len);
+        if (n <= 0) { s->rig = 0; return; }           /* stdin closed: no more rig commands */
+        s->rig_len += (size_t)n;
+        s->rig_line[s->rig_len] = '\0';
+        char *nl;
+        while ((nl = memchr(s->rig_line, '\n', s->rig_len)) != NULL) {
+            *nl = '\0';
+            size_t used = (size_t)(nl - s->rig_line) + 1;
+            rig_command(s, s->rig_line);
+            memmove(s->rig_line, s->rig_line + used, s->rig_len - used);
+            s->rig_len -= used;
+            s->rig_line[s->rig_len] = '\0';
+        }
+        if (s->rig_len >= sizeof s->rig_line - 1) { rig_error("rig command too long"); s->rig_len = 0; }
+    }
+}
+
+/* After each period: ramp the applied torque and write the reference instruments. */
+static void rig_period(srv_t *s, double dt)
+{
+    if (s->rig_torque != s->rig_torque_target) {
+        double step = s->rig_torque_rate * dt, d = s->rig_torque_target - s->rig_torque;
+        s->rig_torque = fabs(d) <= step ? s->rig_torque_target : s->rig_torque + (d > 0.0 ? step : -step);
+        hd_plant_fault_load_step(rig_plant(s), s->rig_torque);
+    }
+    if (s->rig_rec && (s->rig_k++ % s->rig_rec_decim) == 0) {
+        const hd_plant_output *o = &hd_sim_plant(s->sim)->out;
+        fprintf(s->rig_rec, "%lu,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n",
+                (unsigned long)rig_tick(s), o->t_s, o->transmitted_torque_Nm, s->rig_torque, o->twist_rad,
+                o->load_angle_rad, o->load_angle_rad + o->base_angle_rad, o->motor_angle_rad, o->te_rad);
+    }
 }
 
 static hd_scd_t g_scd_storage;   /* 1 MiB output buffer: static storage, PC-side process only */
