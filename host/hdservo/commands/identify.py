@@ -2,10 +2,14 @@
 
 Sources (one of):
 
-``--sim AXIS.toml``   run the experiments on the simulator (default: the reference axis)
+(none)                the DEFAULT: a virtual drive (``hdservo-sim serve``, reference axis or
+                      ``--axis``, lock-step pacing, test-rig interface) started on a loopback
+                      port and driven over CAN exactly like a real drive; always stopped
+``--drive``           a real drive over CAN: python-can settings ``-i/-c/-b`` (+ socketcand
+                      ``--host/--port``), else python-can's config file / ``CAN_*`` variables;
+                      any of ``-i/-c/-b/--host/--port`` implies ``--drive``
+``--sim AXIS.toml``   the simulator binding (no CAN)
 ``--data LOG.csv``    recorded experiment logs (repeatable; each sidecar names its experiment)
-``--drive``           a drive over CAN (python-can settings ``-i/-c/-b``, ``--node``): hook,
-                      wired when host/hdservo/drive.py is ready
 
 Outputs: ``-o MODEL.toml`` (axis/model, SI keys), ``--json REPORT.json``,
 ``--plots DIR`` (PNG per fit), ``--save-data DIR`` (experiment logs), the
@@ -27,16 +31,26 @@ def register(p: argparse.ArgumentParser) -> None:
     from ..ident.pipeline import TARGETS
     p.add_argument("target", choices=TARGETS, help="what to identify")
     src = p.add_mutually_exclusive_group()
-    src.add_argument("--sim", metavar="AXIS.toml", help="run the experiments on the simulator with this axis "
-                     "file (or 'reference'); the default source")
+    src.add_argument("--sim", metavar="AXIS.toml", help="run the experiments on the simulator binding (no CAN) "
+                     "with this axis file (or 'reference')")
     src.add_argument("--data", metavar="LOG.csv", action="append", type=Path,
                      help="recorded experiment log (repeatable)")
-    src.add_argument("--drive", action="store_true", help="run on a drive over CAN (hook; not wired yet)")
-    can = p.add_argument_group("drive (python-can settings)")
+    src.add_argument("--drive", action="store_true",
+                     help="run on a real drive over CAN (python-can options below, else python-can's config "
+                          "file / CAN_* variables). Without --drive, --sim, --data or bus options the DEFAULT is a "
+                          "virtual drive of --axis (hdservo-sim serve, lock-step) driven over CAN")
+    can = p.add_argument_group("drive (python-can settings; any of them implies --drive)")
     can.add_argument("-i", "--interface", help="python-can interface (e.g. socketcand, socketcan)")
     can.add_argument("-c", "--channel", help="python-can channel (e.g. vcan0)")
     can.add_argument("-b", "--bitrate", type=int, help="bit rate, bit/s")
+    can.add_argument("--host", help="socketcand server host (interface socketcand)")
+    can.add_argument("--port", type=int, help="socketcand server port (interface socketcand)")
     can.add_argument("--node", type=int, default=1, help="CANopen node id (default 1)")
+    can.add_argument("--axis", default="reference", metavar="AXIS.toml",
+                     help="axis of the default virtual drive ('reference', 'minimal' or a TOML file)")
+    can.add_argument("--no-rig", action="store_true",
+                     help="virtual drive: do not use its test-rig interface; the locked-output experiments then "
+                          "run on the simulator binding (said in the JSON report)")
     p.add_argument("--seed", type=int, default=1, help="simulator noise seed (default 1)")
     p.add_argument("--gain", action="append", default=[], metavar="NAME=VALUE",
                    help="drive gain override for the closed-loop experiments (repeatable), e.g. vel_kp=27.5")
@@ -51,8 +65,15 @@ def register(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..drive import DriveError
+    try:
+        return _run(args)
+    except DriveError as e:
+        raise UserError(f"drive: {e}") from None
+
+
+def _run(args: argparse.Namespace) -> int:
     from ..ident import experiments as ex
-    from ..ident import model_toml, pipeline, report
 
     def progress(msg: str) -> None:
         if not args.quiet:
@@ -63,29 +84,62 @@ def run(args: argparse.Namespace) -> int:
             raise UserError(f"{out}: directory {out.parent} does not exist")
     runner = None
     data: dict[str, ex.ExperimentData] = {}
-    if args.drive:
-        runner = ex.drive_runner(interface=args.interface, channel=args.channel, bitrate=args.bitrate,
-                                 node=args.node)
-    elif args.data:
+    gains = {}
+    for g in args.gain:
+        k, sep, v = g.partition("=")
+        try:
+            gains[k] = float(v)
+        except ValueError:
+            raise UserError(f"--gain {g}: expected NAME=NUMBER") from None
+        if not sep or not k:
+            raise UserError(f"--gain {g}: expected NAME=NUMBER")
+    bus_given = any(getattr(args, a) is not None for a in ("interface", "channel", "bitrate", "host", "port"))
+    if (args.sim or args.data) and bus_given:
+        raise UserError("bus options (-i/-c/-b/--host/--port) go with --drive, not with --sim/--data")
+    session = None
+    if args.data:
         for path in args.data:
             if not path.is_file():
                 raise UserError(f"{path}: log file not found")
             d = ex.ExperimentData.load(path)
             data[d.kind] = d
+        source = "data"
+    elif args.sim:
+        runner = ex.SimRunner(axis=args.sim, seed=args.seed, progress=progress, gains=gains)
+        source = f"simulator {args.sim}"
     else:
-        gains = {}
-        for g in args.gain:
-            k, sep, v = g.partition("=")
-            try:
-                gains[k] = float(v)
-            except ValueError:
-                raise UserError(f"--gain {g}: expected NAME=NUMBER") from None
-            if not sep or not k:
-                raise UserError(f"--gain {g}: expected NAME=NUMBER")
-        runner = ex.SimRunner(axis=args.sim or "reference", seed=args.seed, progress=progress, gains=gains)
+        from ..drive import bus_kwargs
+        if args.drive or bus_given:
+            ns = argparse.Namespace(interface=args.interface, channel=args.channel, bitrate=args.bitrate,
+                                    host=args.host, port=args.port)
+            bus = bus_kwargs(ns)
+            source = f"drive over CAN {bus or '(python-can config)'} node {args.node}"
+        else:
+            bus = None
+            source = f"virtual drive over CAN (axis {args.axis})"
+        session = ex.drive_runner(bus=bus, node_id=args.node, axis=args.axis, seed=args.seed, progress=progress,
+                                  rig=not args.no_rig, gains=gains)
+    if session is not None:
+        with session as runner:
+            pl = _run_pipeline(args, runner, data, progress)
+            notes = list(runner.notes)
+    else:
+        pl = _run_pipeline(args, runner, data, progress)
+        notes = []
+    _write_outputs(args, pl, source, notes)
+    return 0
+
+
+def _run_pipeline(args: argparse.Namespace, runner: object, data: dict, progress) -> object:
+    from ..ident import pipeline
     settings = pipeline.Settings(torque_max_Nm=args.torque_max, rated_torque_Nm=args.rated_torque)
     pl = pipeline.Pipeline(runner=runner, settings=settings, progress=progress, data=data)
     pl.run(args.target)
+    return pl
+
+
+def _write_outputs(args: argparse.Namespace, pl, source: str, notes: list[str]) -> None:
+    from ..ident import model_toml, pipeline, report
     summ = pipeline.summary(pl.results)
     ratio = next(iter(pl.data.values())).gear_ratio if pl.data else 0.0
     if args.save_data:
@@ -102,14 +156,16 @@ def run(args: argparse.Namespace) -> int:
             pz["file"] = binp.name
         model_toml.write_toml(args.output, model_toml.model_sections(pl.results, ratio),
                               header=f"Identified by hdservo identify {args.target} "
-                                     f"(source: {args.sim or ('data' if args.data else 'drive')}).\n"
+                                     f"(source: {source}).\n"
                                      "Units in the key names (SI). friction_total is output-referred.")
     plots = report.plot_all(pl.results, args.plots) if args.plots else []
     if args.json:
-        report.write_json(args.json, {"target": args.target, "results": summ, "timings_s": pl.timings,
-                                      "plots": plots})
+        report.write_json(args.json, {"target": args.target, "source": source, "notes": notes,
+                                      "experiment_sources": {k: d.meta.get("source") for k, d in pl.data.items()},
+                                      "results": summ, "timings_s": pl.timings, "plots": plots})
+    for n in notes:
+        print(f"note: {n}")
     _print_summary(summ)
-    return 0
 
 
 def _print_summary(s: dict) -> None:
@@ -138,6 +194,12 @@ def _print_summary(s: dict) -> None:
         for f in s["frf"]:
             print(f"FRF ({f['amplitude_rad_s']:g} rad/s): anti-resonance {f['f_antiresonance_Hz']:.3f} Hz, "
                   f"resonance {f['f_resonance_Hz']:.3f} Hz")
+    if "presliding" in s:
+        p = s["presliding"]
+        s1 = p["sigma1_Nms_per_rad"]
+        print(f"LuGre presliding (motor side): sigma0 {p['sigma0_Nm_per_rad']:.4g} N.m/rad, breakaway "
+              f"+{p['breakaway_pos_Nm']:.4g}/-{p['breakaway_neg_Nm']:.4g} N.m, sigma1 "
+              + (f"{s1:.3g} N.m.s/rad (rule)" if s1 is not None else "not identified"))
     if "preisach" in s:
         p = s["preisach"]
         print(f"Preisach: L = {p['levels']}, {p['forcs']} FORCs, held-out minor loops RMS "

@@ -71,6 +71,8 @@ class VirtualDrive:
         Loop periods (100 us each) per SYNC.
     sets : sequence of str
         ``SECTION.KEY=VALUE`` plant overrides (bench conditions: base motion off).
+    pacing : str
+        ``sync`` (lock-step, the identification runner) or ``realtime``/``fast``.
     rig : bool
         Ask for the test-rig interface (``--rig``: output brake, reference
         instruments on stdin/stdout).  If the program refuses it, the drive is
@@ -78,13 +80,14 @@ class VirtualDrive:
     """
 
     def __init__(self, axis: str = "reference", seed: int = 1, sync_periods: int = 10,
-                 sets: Sequence[str] = ("base.enabled=false",), rig: bool = True, node_id: int = 1) -> None:
+                 sets: Sequence[str] = ("base.enabled=false",), rig: bool = True, node_id: int = 1,
+                 pacing: str = "sync") -> None:
         from ..commands.serve import find_sim
         self.sim = find_sim()
         self.node_id = node_id
         self.sync_periods = sync_periods
         base = [str(self.sim), "serve", "--port", "0", "--node-id", str(node_id), "--axis", str(axis),
-                "--pacing", "sync", "--sync-periods", str(sync_periods), "--seed", str(seed), "-q"]
+                "--pacing", pacing, "--sync-periods", str(sync_periods), "--seed", str(seed), "-q"]
         for s in sets:
             base += ["--set", s]
         self.rig = False
@@ -565,11 +568,13 @@ class DriveRunner:
                 self._say(label)
                 pts = (seg["turning_points_Nm"] if "turning_points_Nm" in seg
                        else ex.cycle_points(seg["torque_amplitude_Nm"], seg["cycles"]))
-                f = self._calibrate_friction(max(max(abs(float(p)) for p in pts), 1.0), seed)
-                shifted, prev = [], 0.0
-                for p in pts:
-                    shifted.append(float(p) + (f[0] if p > prev else f[1]))
-                    prev = float(p)
+                shifted = [float(p) for p in pts]
+                if seg.get("friction_shift", True):
+                    f = self._calibrate_friction(max(max(abs(float(p)) for p in pts), 1.0), seed)
+                    shifted, prev = [], 0.0
+                    for p in pts:
+                        shifted.append(float(p) + (f[0] if p > prev else f[1]))
+                        prev = float(p)
                 every = self.setpoint_ticks_locked
                 prof = ex.triangle_profile(shifted, float(seg["rate_Nm_s"]), every * DT, dwell_s=0.05)
                 parts.append((self._locked_profile(prof, every, label, seed), seg))

@@ -15,8 +15,8 @@ Runners execute the designs:
   plant alone with the output clamped (``load.jl_kgm2`` = 1e9 kg.m^2, i.e. a
   fixture; base still) and a rig torque sensor between gear and clamp
   (transmitted torque + white noise + ADC quantisation, emulated here).
-* a drive runner (over CAN, :mod:`hdservo.drive`) is the hook
-  :func:`drive_runner`; it raises until the CAN client exists.
+* :class:`.drive_runner.DriveRunner` -- a drive over CAN (:mod:`hdservo.drive`),
+  the virtual drive by default (:func:`drive_runner`).
 
 Bench conditions for every experiment: base motion off (the axis is on a
 still bench); everything else as the axis file says.
@@ -274,6 +274,41 @@ class MinorLoops:
 
 
 @dataclass
+class PreslidingSteps:
+    """Locked output, small torque reversals below and beyond the input-side breakaway (LuGre presliding).
+
+    From ``+preload`` (motor sliding positive, bristles saturated) the command
+    reverses by ``d_i = fraction_i x breakaway_Nm`` and comes back, for each
+    fraction (the small ones stay in presliding, those > 2 reach sliding in
+    the other direction), then the same mirrored at ``-preload``.  Torques are
+    output-referred commands; the commanded turning points are *not* shifted
+    by the friction (the fit needs the motor-side friction itself).  With the
+    output locked the load-side friction does not act: what is identified is
+    the motor-side LuGre (sigma0, breakaway), from ``tau_m - T/N`` (rig torque
+    sensor T) against the motor encoder.
+    """
+
+    breakaway_Nm: float = 10.0
+    preload_Nm: float = 20.0
+    fractions: tuple[float, ...] = (0.3, 0.6, 1.0, 1.5, 2.5)
+    rate_Nm_s: float = 30.0
+    kind: str = "presliding"
+
+    def turning_points(self) -> list[float]:
+        out: list[float] = []
+        for sgn in (1.0, -1.0):
+            a = sgn * self.preload_Nm
+            out.append(a)
+            for f in self.fractions:
+                out += [a - sgn * f * self.breakaway_Nm, a]
+        return out
+
+    def plan(self, ratio: float) -> list[dict[str, Any]]:
+        return [{"mode": "locked", "turning_points_Nm": self.turning_points(), "rate_Nm_s": self.rate_Nm_s,
+                 "friction_shift": False}]
+
+
+@dataclass
 class FRFExcitation:
     """Velocity-mode multisine on a constant bias speed (no velocity reversal: friction slides).
 
@@ -297,7 +332,7 @@ class FRFExcitation:
 
 
 EXPERIMENTS: dict[str, type] = {c.kind: c for c in (FrictionSweep, GravitySine, TERotation, LockedCycle,  # type: ignore[attr-defined]
-                                                    ForcSet, MinorLoops, FRFExcitation)}
+                                                    ForcSet, MinorLoops, FRFExcitation, PreslidingSteps)}
 
 
 def describe(design: Any) -> dict[str, Any]:
@@ -479,7 +514,8 @@ class SimRunner:
                         pts = seg["turning_points_Nm"]
                     else:
                         pts = cycle_points(seg["torque_amplitude_Nm"], seg["cycles"])
-                    pts = _compensate_friction(pts, self, seed)
+                    if seg.get("friction_shift", True):
+                        pts = _compensate_friction(pts, self, seed)
                     prof = triangle_profile(pts, seg["rate_Nm_s"], LOOP_S, dwell_s=0.05)
                     cols = self._locked(prof, seed)
                 else:  # pragma: no cover - designs are ours
@@ -531,26 +567,14 @@ _CAL: dict[tuple[Any, ...], tuple[float, float]] = {}
 
 
 def drive_runner(**can_settings: Any) -> Any:
-    """Runner for a real (or virtual) drive over CAN -- the hook for :mod:`hdservo.drive`.
+    """A :class:`.drive_runner.DriveSession` (context manager yielding the runner) for a drive over CAN.
 
     Parameters
     ----------
     **can_settings
-        python-can settings (``interface``, ``channel``, ``bitrate``) and the
-        node id.
-
-    Raises
-    ------
-    UserError
-        Until the CAN client (host/hdservo/drive.py) provides the excitation
-        generator and capture upload; the designs above map one-to-one to its
-        excitation types (constant velocity, torque ramps/reversal curves,
-        multisine).
+        ``bus`` (python-can settings, None = start the virtual drive),
+        ``node_id``, ``axis``, ``seed``, ``progress``, ``rig``: see
+        :class:`.drive_runner.DriveSession`.
     """
-    try:
-        from .. import drive  # noqa: F401  (provided by the CAN client work)
-    except ImportError:
-        raise UserError("--drive: the CAN drive client (hdservo.drive) is not available yet; "
-                        "use --sim AXIS.toml or --data LOG.csv") from None
-    raise UserError("--drive: running identification experiments over CAN is not wired yet "
-                    "(hdservo.drive exists; see docs/identification.md, 'Drive hook')")
+    from .drive_runner import DriveSession
+    return DriveSession(**can_settings)

@@ -316,81 +316,164 @@ def fit_stribeck(points: SweepPoints, delta_free: bool = True) -> StribeckResult
 
 @dataclass
 class PreslidingResult:
-    """Input-side LuGre presliding (motor units: N.m, rad at the motor)."""
+    """Input-side (motor) LuGre presliding, motor units: N.m, rad at the motor.
+
+    Attributes
+    ----------
+    sigma0_Nm_per_rad : float
+        Bristle stiffness sigma0 (motor side), N.m/rad.
+    breakaway_pos_Nm, breakaway_neg_Nm : float
+        Friction level g reached in presliding (= Fs at these speeds), N.m (motor).
+    sigma1_Nms_per_rad : float or None
+        Bristle damping: not identified from the quasi-static test; when the
+        motor inertia is known (FRF) the critical-damping rule
+        sqrt(sigma0 J_m) is reported and flagged in ``sigma1_source``.
+    """
 
     sigma0_Nm_per_rad: float
-    breakaway_Nm: float
+    breakaway_pos_Nm: float
+    breakaway_neg_Nm: float
     sigma1_Nms_per_rad: float | None
     sigma1_source: str
     reversals: int
     residual_rms_Nm: float
+    offset_Nm: float = 0.0
     plot_data: dict[str, Any] = field(default_factory=dict, repr=False)
 
+    @property
+    def breakaway_Nm(self) -> float:
+        return 0.5 * (self.breakaway_pos_Nm + self.breakaway_neg_Nm)
+
     def to_dict(self) -> dict[str, Any]:
-        return {"sigma0_Nm_per_rad": self.sigma0_Nm_per_rad, "breakaway_Nm": self.breakaway_Nm,
-                "sigma1_Nms_per_rad": self.sigma1_Nms_per_rad, "sigma1_source": self.sigma1_source,
-                "reversals": self.reversals, "residual_rms_Nm": self.residual_rms_Nm,
+        return {"sigma0_Nm_per_rad": self.sigma0_Nm_per_rad, "breakaway_pos_Nm": self.breakaway_pos_Nm,
+                "breakaway_neg_Nm": self.breakaway_neg_Nm, "presliding_distance_rad":
+                self.breakaway_Nm / self.sigma0_Nm_per_rad, "sigma1_Nms_per_rad": self.sigma1_Nms_per_rad,
+                "sigma1_source": self.sigma1_source, "reversals": self.reversals,
+                "residual_rms_Nm": self.residual_rms_Nm, "offset_Nm": self.offset_Nm,
                 "side": "motor (input), motor units"}
 
 
-def fit_presliding(data: ExperimentData, jm_kgm2: float | None = None) -> PreslidingResult:
-    """sigma0 of the input-side friction from the locked-output cycles.
+def _legs(cmd: np.ndarray) -> list[tuple[int, int, int]]:
+    """(start, stop, direction) of the monotone stretches of a piecewise-linear command (dwells join the leg before)."""
+    d = np.sign(np.diff(cmd))
+    tol = 1e-9 * max(1.0, float(np.max(np.abs(cmd))))
+    d[np.abs(np.diff(cmd)) <= tol] = 0
+    legs: list[tuple[int, int, int]] = []
+    cur, start = 0, 0
+    for i, v in enumerate(d):
+        if v != 0 and v != cur:
+            if cur != 0:
+                legs.append((start, i, cur))
+            cur, start = int(v), i
+    if cur != 0:
+        legs.append((start, len(cmd), cur))
+    return legs
+
+
+def lugre_presliding(s_legs: list[np.ndarray], dirs: list[int], sigma0: float, g_pos: float, g_neg: float,
+                     z0: float) -> list[np.ndarray]:
+    """Bristle force sigma0 z along monotone legs (quasi-static LuGre, rate independent).
+
+    On a leg of direction d with travel s >= 0 since its reversal,
+    ``dz/ds = 1 - sigma0 z d / g_d`` gives
+    ``z(s) = d g_d/sigma0 + (z_start - d g_d/sigma0) exp(-sigma0 s / g_d)``;
+    each leg starts where the previous one ended.
+    """
+    out = []
+    z = z0
+    for s, d in zip(s_legs, dirs):
+        g = g_pos if d > 0 else g_neg
+        zi = d * g / sigma0 + (z - d * g / sigma0) * np.exp(-sigma0 * s / g)
+        out.append(sigma0 * zi)
+        z = float(zi[-1]) if len(zi) else z
+    return out
+
+
+def fit_presliding(data: ExperimentData, jm_kgm2: float | None = None, smooth_s: float = 0.01
+                   ) -> PreslidingResult:
+    """Motor-side LuGre sigma0 and breakaway from a locked-output ``presliding`` experiment.
+
+    The motor-side friction is ``F = tau_m - T/N`` (motor torque minus the rig
+    torque sensor over N; the motor inertia term is negligible at these rates)
+    against the motor angle.  Each monotone leg of the command is a motion
+    reversal: its travel ``s`` = running maximum of the (smoothed) motor angle
+    past the reversal point (encoder noise never counts as travel), and the
+    quasi-static LuGre solution (:func:`lugre_presliding`), chained across the
+    legs, is fitted for sigma0, g+, g-, the initial bristle state and a torque
+    offset (nonlinear least squares, 5 parameters).
 
     Parameters
     ----------
     data : ExperimentData
-        ``locked_cycle`` data with the rig torque sensor ``load_torque_Nm``.
+        ``presliding`` data (``motor_angle_rad``, ``motor_torque_Nm``,
+        ``load_torque_Nm``, ``torque_cmd_Nm``); the older locked-output data
+        (``locked_cycle``, ``forc``) works too.
     jm_kgm2 : float, optional
-        Motor-side inertia (kg.m^2, from the FRF) for the sigma1 rule.
+        Motor inertia, kg.m^2 (e.g. J1/N^2 of the FRF): sigma1 = sqrt(sigma0 J_m)
+        is then reported as a *rule*, not a measurement.
+    smooth_s : float
+        Moving-average length for the motor angle, s.
     """
-    if data.kind not in ("locked_cycle", "forc", "minor_loops"):
-        raise UserError(f"presliding: expected locked-output data, found '{data.kind}'")
+    if data.kind not in ("presliding", "locked_cycle", "forc", "minor_loops"):
+        raise UserError(f"presliding: expected presliding (locked-output) data, found '{data.kind}'")
     N = data.gear_ratio
-    xs, fs, ids = [], [], []
-    nrev = 0
+    dt = float(data.meta["sample_period_s"])
+    k = max(1, int(round(smooth_s / dt)))
+    s_legs, f_legs, dirs, x_legs = [], [], [], []
     for seg in data.segments:
         c = data.segment(seg["index"])
-        th = c["motor_angle_rad"]
         fm = c["motor_torque_Nm"] - c["load_torque_Nm"] / N
-        # motion reversals: extrema of the (smoothed) motor angle with enough travel on both sides
-        k = 15
-        ths = np.convolve(th, np.ones(k) / k, mode="same")
-        d = np.sign(np.diff(ths))
-        for i in range(1, len(d)):
-            if d[i] == 0:
-                d[i] = d[i - 1]
-        rev = np.where(d[1:] != d[:-1])[0] + 1
-        # keep well-separated reversals
-        keep = [r for j, r in enumerate(rev) if (j == 0 or r - rev[j - 1] > 200) and k < r < len(th) - 200]
-        for r in keep:
-            sgn = d[r] if r < len(d) else d[-1]
-            x = (th[r:] - th[r]) * sgn
-            f = fm[r:] * sgn
-            # until the sliding level: first 1.5 x (sliding extent) of the presliding transition
-            stop = np.argmax(x > 0.02) if np.any(x > 0.02) else len(x)
-            if stop < 30:
+        th = c["motor_angle_rad"]
+        if len(th) > 2 * k:
+            pad = np.concatenate([np.full(k // 2, th[0]), th, np.full(k - 1 - k // 2, th[-1])])
+            th = np.convolve(pad, np.ones(k) / k, mode="valid")
+        cmd = c["torque_cmd_Nm"]
+        for a, b, d in _legs(cmd):
+            if b - a < 5:
                 continue
-            xs.append(x[:stop])
-            fs.append(f[:stop])
-            ids.append(np.full(stop, nrev))
-            nrev += 1
-    if nrev == 0:
-        raise UserError("presliding: no motion reversals found in the locked-output data")
-    x = np.concatenate(xs)
-    f = np.concatenate(fs)
-    rid = np.concatenate(ids)
+            x = d * (th[a:b] - th[a])
+            # reversal point: the motion may run on for a few samples after the command turns
+            head = max(1, (b - a) // 5)
+            x = x - min(0.0, float(np.min(x[:head])))
+            s_legs.append(np.maximum.accumulate(np.maximum(x, 0.0)))
+            f_legs.append(fm[a:b])
+            x_legs.append(th[a:b])
+            dirs.append(d)
+    if len(dirs) < 3:
+        raise UserError("presliding: fewer than 3 torque reversals in the data")
+    f_all = np.concatenate(f_legs)
+    g0 = float(np.percentile(np.abs(f_all), 98))
+    # start for sigma0: initial slope 2 sigma0 of the longest reversal
+    j = int(np.argmax([float(np.ptp(f)) for f in f_legs]))
+    sj, fj = s_legs[j], f_legs[j]
+    m = (np.abs(fj - fj[0]) < 0.5 * g0) & (sj > 0)
+    slope = float(np.polyfit(sj[m], fj[m], 1)[0]) * dirs[j] if m.sum() > 3 else 0.0
+    sig0 = max(abs(slope) / 2.0, 1e-6 * g0 / max(float(np.max(sj)), 1e-12), 1e-9)
+    if not math.isfinite(sig0) or sig0 <= 0:
+        sig0 = 3 * g0 / max(float(np.max(sj)), 1e-9)
+
+    def model(p: np.ndarray) -> np.ndarray:
+        s0, gp, gn = math.exp(p[0]), math.exp(p[1]), math.exp(p[2])
+        z0 = math.tanh(p[3]) * max(gp, gn) / s0
+        return np.concatenate(lugre_presliding(s_legs, dirs, s0, gp, gn, z0)) + p[4]
 
     def resid(p: np.ndarray) -> np.ndarray:
-        g, s0 = p[0], math.exp(p[1])
-        off = p[2:][rid]
-        return g * (1 - 2 * np.exp(-s0 * np.maximum(x - off, 0) / g)) - f
+        return model(p) - f_all
 
-    g0 = float(np.median(f[x > 0.01])) if np.any(x > 0.01) else float(np.max(f))
-    p0 = np.concatenate([[g0, math.log(3 * g0 / 0.003)], np.zeros(nrev)])
-    sol = least_squares(resid, p0, x_scale="jac")
-    g, s0 = float(sol.x[0]), math.exp(float(sol.x[1]))
+    best = None
+    for z_start in (-2.0, 0.0, 2.0):
+        p0 = np.array([math.log(sig0), math.log(g0), math.log(g0), z_start, 0.0])
+        sol = least_squares(resid, p0, x_scale="jac", max_nfev=400)
+        if best is None or sol.cost < best.cost:
+            best = sol
+    assert best is not None
+    s0, gp, gn = (math.exp(float(v)) for v in best.x[:3])
     s1 = math.sqrt(s0 * jm_kgm2) if jm_kgm2 else None
-    return PreslidingResult(sigma0_Nm_per_rad=s0, breakaway_Nm=g, sigma1_Nms_per_rad=s1,
-                            sigma1_source="rule sqrt(sigma0*J_m), J_m from the FRF" if s1 else "not identified",
-                            reversals=nrev, residual_rms_Nm=float(np.sqrt(np.mean(sol.fun ** 2))),
-                            plot_data={"x_rad": x, "f_Nm": f, "fit_Nm": sol.fun + f})
+    src = ("rule sqrt(sigma0*J_m) (J_m from the FRF), not measured" if s1 else
+           "not identified: at the presliding resonance (~sqrt(sigma0/J_m)) the bristle damping shows only in a "
+           "few-count ring-down of the motor encoder")
+    return PreslidingResult(sigma0_Nm_per_rad=s0, breakaway_pos_Nm=gp, breakaway_neg_Nm=gn,
+                            sigma1_Nms_per_rad=s1, sigma1_source=src, reversals=len(dirs),
+                            residual_rms_Nm=float(np.sqrt(np.mean(best.fun ** 2))), offset_Nm=float(best.x[4]),
+                            plot_data={"theta_rad": np.concatenate(x_legs), "f_Nm": f_all,
+                                       "fit_Nm": best.fun + f_all})

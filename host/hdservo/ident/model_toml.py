@@ -115,7 +115,11 @@ def model_sections(results: Mapping[str, Any], ratio: float) -> dict[str, dict[s
                                "viscous_Nms_per_rad": sb.viscous_Nms_per_rad}
     ps = results.get("presliding")
     if ps is not None:
-        s["friction_motor"] = {"sigma0_Nm_per_rad": ps.sigma0_Nm_per_rad, "sigma1_Nms_per_rad": ps.sigma1_Nms_per_rad}
+        fm = {"sigma0_Nm_per_rad": ps.sigma0_Nm_per_rad, "presliding_breakaway_pos_Nm": ps.breakaway_pos_Nm,
+              "presliding_breakaway_neg_Nm": ps.breakaway_neg_Nm}
+        if ps.sigma1_Nms_per_rad is not None:
+            fm["sigma1_Nms_per_rad"] = ps.sigma1_Nms_per_rad     # rule sqrt(sigma0 J_m), see the report
+        s["friction_motor"] = fm
     pz = results.get("preisach")
     if pz is not None:
         ident["preisach_offset_rad"] = pz["everett"].offset_rad

@@ -2,7 +2,8 @@
 
 Order (each step uses what the earlier ones found, never the truth):
 te -> (frf) -> friction (gravity sine, sweep, Stribeck, online RLS) ->
-stiffness (locked cycles, TE removed) -> presliding -> hysteresis
+stiffness (locked cycles, TE removed) -> presliding (locked, small torque
+steps, motor-side LuGre sigma0/sigma1) -> hysteresis
 (FORCs on a grid chosen from the identified T1, Preisach table, held-out
 minor loops).
 """
@@ -22,7 +23,7 @@ from . import stiffness as stf
 from . import stribeck_online as so
 from . import te as tem
 
-TARGETS = ("friction", "stiffness", "hysteresis", "te", "frf", "all")
+TARGETS = ("friction", "stiffness", "hysteresis", "te", "frf", "presliding", "all")
 
 
 @dataclass
@@ -45,8 +46,14 @@ class Pipeline:
     results: dict[str, Any] = field(default_factory=dict)
     data: dict[str, ex.ExperimentData] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
+    #: experiment designs replacing the defaults, by kind (shorter runs in tests, other speeds)
+    designs: dict[str, Any] = field(default_factory=dict)
+
+    def _design(self, default: Any) -> Any:
+        return self.designs.get(default.kind, default)
 
     def _get(self, design: Any) -> ex.ExperimentData:
+        design = self._design(design)
         if design.kind in self.data:
             return self.data[design.kind]
         if self.runner is None:
@@ -103,9 +110,25 @@ class Pipeline:
             self.progress("fit: stiffness (three-slope + Maxwell-slip, cubic), hysteresis loss, lost motion")
             self.results["stiffness"] = self._timed(
                 "stiffness", lambda: stf.fit_stiffness(d, te, max_elements=st.maxwell_elements))
-            # LuGre presliding (fr.fit_presliding) is not run: its fit is not validated yet
-            # (docs/identification.md, "Missing").
         return self.results["stiffness"]
+
+    def presliding(self) -> fr.PreslidingResult:
+        """LuGre sigma0 (and sigma1 when the ring-down allows) of the motor-side friction, output locked."""
+        if "presliding" not in self.results:
+            sb = self.results.get("stribeck")
+            if sb is not None:      # reversal sizes from the identified breakaway (total, output-referred)
+                bk = 0.5 * (sb.fs_pos_Nm + sb.fs_neg_Nm)
+                design = ex.PreslidingSteps(breakaway_Nm=bk,
+                                            preload_Nm=max(2.0 * bk, 0.3 * self.settings.torque_max_Nm))
+            else:
+                design = ex.PreslidingSteps()
+            d = self._get(design)
+            jm = None
+            if self.results.get("frf"):
+                jm = self.results["frf"][-1].j1_kgm2 / d.gear_ratio ** 2
+            self.progress("fit: LuGre presliding (sigma0, sigma1)")
+            self.results["presliding"] = self._timed("presliding", lambda: fr.fit_presliding(d, jm_kgm2=jm))
+        return self.results["presliding"]
 
     def hysteresis(self) -> dict[str, Any]:
         if "preisach" not in self.results:
@@ -138,7 +161,9 @@ class Pipeline:
             raise UserError(f"identify: unknown target '{target}' (expected one of {', '.join(TARGETS)})")
         steps = {"te": [self.te], "frf": [self.frf], "friction": [self.friction],
                  "stiffness": [self.stiffness], "hysteresis": [self.stiffness, self.hysteresis],
-                 "all": [self.frf, self.te, self.friction, self.stiffness, self.hysteresis]}[target]
+                 "presliding": [self.presliding],
+                 "all": [self.frf, self.te, self.friction, self.stiffness, self.presliding,
+                         self.hysteresis]}[target]
         t0 = time.perf_counter()
         for s in steps:
             s()

@@ -137,12 +137,12 @@ def plot_all(results: dict[str, Any], outdir: str | os.PathLike[str]) -> list[st
         pr = results["presliding"]
         pd = pr.plot_data
         plt, fig, ax = _fig()
-        ax[0].plot(pd["x_rad"] * 1e3, pd["f_Nm"], ".", ms=1, label="measured τ_m − T/N")
-        ax[0].plot(pd["x_rad"] * 1e3, pd["fit_Nm"], ".", ms=1, label="LuGre presliding fit")
+        ax[0].plot(pd["theta_rad"] * 1e3, pd["f_Nm"], ".", ms=1, label="measured τ_m − T/N")
+        ax[0].plot(pd["theta_rad"] * 1e3, pd["fit_Nm"], ".", ms=1, label="LuGre presliding fit")
         ax[0].set_ylabel("input friction (N·m, motor)")
         ax[0].legend()
-        ax[1].plot(pd["x_rad"] * 1e3, pd["f_Nm"] - pd["fit_Nm"], ".", ms=1)
+        ax[1].plot(pd["theta_rad"] * 1e3, pd["f_Nm"] - pd["fit_Nm"], ".", ms=1)
         ax[1].set_ylabel("residual (N·m)")
-        ax[1].set_xlabel("motor displacement since reversal (mrad)")
+        ax[1].set_xlabel("motor angle (mrad)")
         files.append(_save(plt, fig, d / "presliding.png"))
     return files

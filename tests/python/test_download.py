@@ -1,0 +1,137 @@
+"""``hdservo download``: compensator parameters and tables from an identified model to the virtual drive,
+verified by read-back; a corrupted table is refused (locally and by the drive) and the old one stays."""
+from __future__ import annotations
+
+import os
+import struct
+import subprocess
+import zlib
+from pathlib import Path
+
+import pytest
+
+from hdservo import compsetup
+from hdservo.cli import UserError, main
+from hdservo.commands import download as dl
+from hdservo.drive import Drive
+from hdservo.params_gen import BY_NAME as PARAMS
+
+ROOT = Path(__file__).resolve().parents[2]
+SIM = Path(os.environ.get("HDSERVO_SIM", ROOT / "build" / "bin" / "hdservo-sim"))
+pytestmark = pytest.mark.skipif(not SIM.exists(), reason="hdservo-sim not built (make sim)")
+
+MODEL = """[gear]
+ratio = 100.0
+[friction_total]
+fc_pos_Nm = 7.4
+fc_neg_Nm = 7.0
+fs_pos_Nm = 10.5
+fs_neg_Nm = 10.0
+vs_rad_s = 0.02
+delta = 2.0
+viscous_Nms_per_rad = 5.3
+[friction_motor]
+sigma0_Nm_per_rad = 101.0
+[stiffness]
+k1_Nm_per_rad = 31000.0
+k2_Nm_per_rad = 50000.0
+k3_Nm_per_rad = 57000.0
+t1_Nm = 14.0
+t2_Nm = 48.0
+[hysteresis_maxwell]
+n_elements = 2
+e1_k_Nm_per_rad = 10000.0
+e1_w_Nm = 1.0
+e2_k_Nm_per_rad = 5000.0
+e2_w_Nm = 1.5
+[transmission_error]
+wg1_order = 1
+wg1_amp_rad = 1.45e-5
+wg1_phase_rad = -1.2
+wg2_order = 2
+wg2_amp_rad = 8.73e-5
+wg2_phase_rad = 0.4
+[identified]
+preisach_table = "model.preisach.bin"
+"""
+
+
+@pytest.fixture
+def server():
+    p = subprocess.Popen([str(SIM), "serve", "--port", "0", "--pacing", "realtime", "-q"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = p.stdout.readline() if p.stdout else ""
+        assert line.startswith("listening on 127.0.0.1:"), line
+        yield int(line.strip().rsplit(":", 1)[1])
+    finally:
+        p.terminate()
+        try:
+            p.wait(10)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.wait()
+
+
+def _model(tmp: Path, version: int = 1) -> tuple[Path, bytes]:
+    m = tmp / "model.toml"
+    m.write_text(MODEL)
+    t = compsetup.preisach_table("reference", levels=16, version=version).to_bytes()
+    (tmp / "model.preisach.bin").write_bytes(t)
+    return m, t
+
+
+def test_download_reads_back_and_corrupted_table_is_refused(tmp_path: Path, server: int, capsys) -> None:
+    model, table = _model(tmp_path)
+    # --skip-missing: the virtual drive binary may predate parameters just added to params.toml
+    bus = ["-i", "socketcand", "--host", "127.0.0.1", "--port", str(server), "-q", "--skip-missing"]
+    rc = main(["download", str(model), *bus, "--json", str(tmp_path / "d.json")])
+    assert rc == 0, capsys.readouterr().err
+    plan = dl.plan_download(model)
+    with Drive.connect(1, interface="socketcand", channel="can0", host="127.0.0.1", port=server) as d:
+        d.start()
+        # parameters by SDO
+        for name in ("mx_k1", "mx_d2", "mx_stiffness", "pr_motor_share", "bs_j"):
+            p = PARAMS[name]
+            assert d.read(p.index, p.sub) == dl.raw_of(name, plan["params"][name])
+        # tables in force = what the model gave (payload + CRC-32 trailer)
+        assert d.read_domain(0x5100, 1) == table + struct.pack("<I", zlib.crc32(table))
+        g2 = d.read_domain(0x5100, 2)
+        vals = struct.unpack_from(f"<{len(plan['groups'][2])}i", g2, 16)
+        assert list(vals) == list(plan["groups"][2].values())
+        # the identified friction, lumped: Stribeck Fs+ = 10.5 N.m, LuGre sigma0 = N^2 sigma0_m per turn
+        assert abs(vals[1] / 65536 - 10.5) < 1e-4
+        assert abs(plan["params"]["lug_sigma0"] - 101.0 * 100 ** 2 * 2 * 3.141592653589793) < 1.0
+        te = struct.unpack_from(f"<{len(plan['groups'][3])}i", d.read_domain(0x5100, 3), 16)
+        assert te[0] == 2 and te[3] == 2          # two harmonics, the larger (order 2) first
+
+        # a corrupted image: refused locally, one line, the drive untouched
+        bad = bytearray(table)
+        bad[60] ^= 0x40
+        (tmp_path / "bad.bin").write_bytes(bytes(bad))
+        capsys.readouterr()
+        rc = main(["download", str(model), *bus, "--preisach", str(tmp_path / "bad.bin")])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert rc == 2 and len(err) == 1 and "CRC" in err[0]
+        assert d.read_domain(0x5100, 1) == table + struct.pack("<I", zlib.crc32(table))
+        # ... and by the drive: a transfer whose CRC-32 trailer does not match is refused (abort
+        # 0x08000020) and the table in force stays
+        from hdservo.drive import DriveError
+        with pytest.raises(DriveError, match="0x08000020"):
+            d.write_domain(0x5100, 1, bytes(bad) + struct.pack("<I", zlib.crc32(table)))
+        assert d.read_domain(0x5100, 1) == table + struct.pack("<I", zlib.crc32(table))
+        # a refusal inside a download is one UserError naming the drive
+        forced = {**plan, "sdo": {"mx_k1": 8.3e6}, "groups": {}, "preisach": None}
+        with pytest.raises(UserError, match="refused by the drive"):
+            dl.write_verified(d, forced)
+
+
+def test_bad_model_is_one_line(tmp_path: Path, capsys) -> None:
+    p = tmp_path / "m.toml"
+    p.write_text("[gear]\nratio = 100.0\n[friction_total]\nfc_pos_Nm = 1.0\n")
+    rc = main(["download", str(p), "-q", "-i", "socketcand", "--port", "1"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "friction_total" in err[0]
+    rc = main(["download", str(tmp_path / "none.toml"), "-q"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "not found" in err[0]
