@@ -237,6 +237,13 @@ int32_t hd_app_apply_params(hd_app_t *a)
         a->filt_cfg.n = k;
     }
 
+    /* STAB: the position loop on the inertial-angle error, own gains */
+    a->stab_pos_cfg = a->pos_cfg;
+    a->stab_pos_cfg.kp = P(a, HD_P_STAB_KP);
+    a->stab_pos_cfg.ki_dt = hd_sat32(hd_div64_rnd(P(a, HD_P_STAB_KI), HD_LOOP_HZ));
+    hd_stab_design(&a->stab_cfg, P(a, HD_P_STAB_GYRO_BIAS), P(a, HD_P_STAB_BLEND_FC), P(a, HD_P_STAB_BLEND_FR),
+                   P(a, HD_P_STAB_BIAS_MAX), P(a, HD_P_STAB_BASE_BW), P(a, HD_P_OBS_ZETA), P(a, HD_P_STAB_FF_DB));
+
     a->traj_cfg.vmax = P(a, HD_P_TRAJ_VMAX);
     a->traj_cfg.amax = P(a, HD_P_TRAJ_AMAX);
     a->traj_cfg.jmax = P(a, HD_P_TRAJ_JMAX);
@@ -269,6 +276,8 @@ void hd_app_init(hd_app_t *a)
     hd_velobs_reset(&a->obs_mot, 0);
     hd_velobs_reset(&a->obs_out, 0);
     hd_comp_bank_init(&a->cb, &a->cb_cfg);
+    hd_stab_init(&a->stab);
+    a->stab_primed = 0;
     hd_traj_reset(&a->traj, 0);
     a->exc_cfg.kind = HD_EXC_NONE;
     a->exc_cfg.amp = 0;
@@ -428,6 +437,9 @@ static void enter_mode(hd_app_t *a, int32_t mode)
     case HD_MODE_EXCITATION:
         (void)hd_exc_start(&a->exc, &a->exc_cfg);
         break;
+    case HD_MODE_STAB:
+        a->stab_primed = 0;      /* estimator started with the next sample */
+        break;
     default:
         a->torque_cmd = 0;
         break;
@@ -437,7 +449,7 @@ static void enter_mode(hd_app_t *a, int32_t mode)
 
 int32_t hd_app_set_mode(hd_app_t *a, int32_t mode)
 {
-    if (mode < HD_MODE_OFF || mode > HD_MODE_EXCITATION) {
+    if (mode < HD_MODE_OFF || mode > HD_MODE_STAB) {
         return -1;
     }
     if (a->fault != HD_FAULT_NONE && mode != HD_MODE_OFF) {
@@ -689,6 +701,19 @@ void hd_app_step(hd_app_t *a)
             closed = 2;
         }
         break;
+    case HD_MODE_STAB:
+        if ((sn.valid & HD_HAL_VALID_GYRO) == 0u && (fen & HD_FCHK_SENSOR)) {
+            trip(a, HD_FAULT_SENSOR);
+        }
+        if (a->stab_primed == 0u) {
+            hd_stab_start(&a->stab, &a->stab_cfg, a->pos_out, sn.gyro_rate, v_out_enc);
+            a->stab_primed = 1u;
+        }
+        hd_stab_step(&a->stab, &a->stab_cfg, sn.gyro_rate, a->pos_out, a->vel_cmd);
+        pos_ref = app_add64_sat(a->pos_out, a->stab.err);   /* pos_err = inertial-angle error */
+        v_ff = a->stab.vff;
+        closed = 2;
+        break;
     default:
         break;
     }
@@ -700,7 +725,7 @@ void hd_app_step(hd_app_t *a)
         cbi.pos_ref = pos_ref;
         cbi.pos_out = a->pos_out;
         cbi.pos_mot = a->pos_mot;
-        cbi.vel_ref = v_ff;
+        cbi.vel_ref = (mode == HD_MODE_STAB) ? a->stab.vff_db : v_ff;   /* friction FF without gyro-noise chatter */
         cbi.vel_fb = v_fb;
         cbi.acc_ref = acc_ref;
         hd_comp_bank_pre(&a->cb, &a->cb_cfg, &cbi, &cbo);
@@ -712,7 +737,7 @@ void hd_app_step(hd_app_t *a)
     const int32_t pos_err = app_sat32(app_sub64_sat(pos_ref, a->pos_out));
     if (closed == 2) {
         const hd_vel_out_t vff = app_mul_q(v_ff, P(a, HD_P_VFF_GAIN), 30u);
-        vel_ref = hd_pid_step(&a->pos_pid, &a->pos_cfg, pos_err, 0, vff);
+        vel_ref = hd_pid_step(&a->pos_pid, (mode == HD_MODE_STAB) ? &a->stab_pos_cfg : &a->pos_cfg, pos_err, 0, vff);
     }
     if (closed != 0) {
         /* acceleration feed-forward: j_total [Q16 kg m^2] * acc [2^-24 turn/s^2] * 2 pi -> Q16 N.m */

@@ -41,6 +41,14 @@
  *   EXCITATION  the excitation generator injected at torque (open loop), at
  *               the velocity reference (velocity loop) or added to the held
  *               position reference (position loop)
+ *   STAB        inertial stabilisation (hd_stab.h): hold the payload's inertial
+ *               angle from the payload rate gyro.  The position loop (gains
+ *               stab_kp/stab_ki) runs on the inertial-angle error (reference -
+ *               integrated gyro), its velocity feed-forward is the commanded
+ *               inertial rate minus the base-rate estimate, so the velocity
+ *               loop (motor encoder) moves the payload relative to the base
+ *               against the base motion.  vel_cmd (hd_app_set_velocity) is the
+ *               commanded inertial rate; needs a valid gyro (else SENSOR fault)
  * A latched fault forces OFF behaviour until hd_app_fault_reset() and a new
  * set_mode(); set_mode() other than OFF is refused (-1) while faulted.
  */
@@ -59,6 +67,7 @@
 #include "hd_excitation.h"
 #include "hd_capture.h"
 #include "hd_comp_bank.h"
+#include "hd_stab.h"
 
 typedef enum {
     HD_MODE_OFF = 0,
@@ -68,7 +77,8 @@ typedef enum {
     HD_MODE_PTP = 4,
     HD_MODE_RATE = 5,
     HD_MODE_SINE = 6,
-    HD_MODE_EXCITATION = 7
+    HD_MODE_EXCITATION = 7,
+    HD_MODE_STAB = 8
 } hd_mode_t;
 
 typedef enum {
@@ -190,6 +200,12 @@ typedef struct {
     /* compensator bank (hd_comp_bank.h; parameters cb_*, str_*, lug_*, mx_*, pr_*, te_*, bs_*, dob_*) */
     hd_comp_bank_cfg_t cb_cfg;
     hd_comp_bank_t cb;
+
+    /* inertial stabilisation (mode STAB; parameters stab_*) */
+    hd_pid_cfg_t stab_pos_cfg;
+    hd_stab_cfg_t stab_cfg;
+    hd_stab_t stab;
+    uint32_t stab_primed;         /* 0: hd_stab_start() at the next STAB period */
 } hd_app_t;
 
 /** Power-up: load parameters (NVM or defaults), reset everything, mode OFF. */

@@ -56,14 +56,14 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
     c->lug.tau_max = prm(p, HD_P_LUG_TAU_MAX);
     c->lug_v_src = (uint32_t)prm(p, HD_P_LUG_V_SRC);
 
-    /* Maxwell-slip: compliance 2^-48 turn/N.m = 2^56 / K[Q23.8 N.m/turn] */
+    /* Maxwell-slip: compliance 2^-44 turn/N.m = 2^52 / K[Q23.8 N.m/turn] (K >= 2^13 N.m/turn) */
     {
         static const hd_param_id_t K[8] = {HD_P_MX_K1, HD_P_MX_K2, HD_P_MX_K3, HD_P_MX_K4,
                                            HD_P_MX_K5, HD_P_MX_K6, HD_P_MX_K7, HD_P_MX_K8};
         static const hd_param_id_t D[8] = {HD_P_MX_D1, HD_P_MX_D2, HD_P_MX_D3, HD_P_MX_D4,
                                            HD_P_MX_D5, HD_P_MX_D6, HD_P_MX_D7, HD_P_MX_D8};
         const int32_t kst = prm(p, HD_P_MX_STIFFNESS);
-        const int64_t comp = hd_div64_rnd((int64_t)1 << 56, (kst > 0) ? kst : 1);
+        const int64_t comp = hd_div64_rnd((int64_t)1 << 52, (kst > 0) ? kst : 1);
         if (comp > INT32_MAX) {
             return -1;
         }
@@ -80,6 +80,18 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
     c->pr_deadband = (uint32_t)prm(p, HD_P_PR_DEADBAND);
     c->pr_alpha = lpf_alpha(prm(p, HD_P_PR_FC));
     c->pr_share = prm(p, HD_P_PR_MOTOR_SHARE);
+    c->pr_t_src = (uint32_t)prm(p, HD_P_PR_T_SRC);
+    c->pr_jl = prm(p, HD_P_PR_JL);
+
+    /* scheduled position integral: leak T in Q30 from the leak rate in Q16 1/s */
+    c->pki = prm(p, HD_P_CB_PKI);
+    c->pki_vlo = prm(p, HD_P_CB_PKI_VLO);
+    c->pki_vhi = prm(p, HD_P_CB_PKI_VHI);
+    c->pki_leak_dt = hd_sat32(hd_div64_rnd(hd_shl64_sat((int64_t)prm(p, HD_P_CB_PKI_LEAK), 14u), HD_LOOP_HZ));
+    c->pki_max = prm(p, HD_P_CB_PKI_MAX);
+    if (c->pki_vlo > c->pki_vhi) {
+        return -1;
+    }
 
     /* transmission error */
     {
@@ -179,6 +191,9 @@ void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     b->out.dvel = 0;
     b->out.tff = 0;
     b->u_bs = 0;
+    b->pki_i = 0;
+    b->pki_w = 0;
+    b->pr_test = 0;
 }
 
 void hd_comp_bank_apply(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
@@ -219,12 +234,64 @@ static bool running(const hd_comp_bank_t *b, uint32_t bit, const hd_blend_t *bl)
     return ((b->enabled & bit) != 0u) || hd_blend_active(bl);
 }
 
+/* Schedule weight w(|v|) in Q30: 0 at |v| <= lo, 1 at |v| >= hi, C1 cubic between
+ * (hd_sign_smooth_q30 of |v| - mid over the half width; a step at lo if hi == lo). */
+static int32_t pki_weight(const hd_comp_bank_cfg_t *c, hd_vel_out_t v)
+{
+    const int64_t av = hd_abs64_sat((int64_t)v);
+    const int64_t mid = ((int64_t)c->pki_vlo + (int64_t)c->pki_vhi) / 2;
+    const int32_t hw = hd_sat32(((int64_t)c->pki_vhi - (int64_t)c->pki_vlo) / 2);
+    int32_t s;
+    if (av <= (int64_t)c->pki_vlo) {
+        return 0;
+    }
+    if (av >= (int64_t)c->pki_vhi) {
+        return HD_Q30_ONE;
+    }
+    s = hd_sign_smooth_q30(hd_sat32(av - mid), hw);
+    return (int32_t)(((int64_t)HD_Q30_ONE + (int64_t)s + 1) / 2);
+}
+
+/* Scheduled position integral (hd_comp_bank.h): returns its velocity term, 2^-32 turn/s. */
+static int32_t pki_step(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in)
+{
+    const int32_t w = (c->pki > 0) ? pki_weight(c, in->vel_ref) : 0;
+    const int64_t imax = hd_shl64_sat((int64_t)((c->pki_max > 0) ? c->pki_max : 0), 16u);
+    int64_t i = b->pki_i;
+    b->pki_w = w;
+    if (w == 0 && i == 0) {
+        return 0;
+    }
+    if (w > 0) {
+        /* w Ki T e: e [2^-32 turn] * Ki [Q16 1/s^2] = 2^-48 turn/s^2; x w (Q30); x T */
+        const int32_t e = hd_sat32(hd_sub64_sat(in->pos_ref, in->pos_out));
+        const int64_t ke = hd_mul64x32_q((int64_t)e * (int64_t)c->pki, w, 30u);
+        i = hd_add64_sat(i, hd_div64_rnd(ke, (int64_t)HD_LOOP_HZ));
+    }
+    if (w < HD_Q30_ONE && i != 0) {
+        /* leak (1 - w) leak T I; at least 1 LSB toward 0 so that it reaches 0 */
+        int64_t d = hd_mul64x32_q(hd_mul64x32_q(i, c->pki_leak_dt, 30u), HD_Q30_ONE - w, 30u);
+        if (d == 0 && c->pki_leak_dt > 0) {
+            d = (i > 0) ? 1 : -1;
+        }
+        i = hd_sub64_sat(i, d);
+    }
+    b->pki_i = hd_clamp64(i, hd_neg64_sat(imax), imax);
+    return hd_sat32(hd_asr64_rnd(b->pki_i, 16u));
+}
+
 void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in,
                       hd_comp_bank_out_t *out)
 {
     int32_t tff = 0;
     int64_t dpos = 0;
+    int32_t dv_i;
     const bool pr_on = running(b, HD_CB_PREISACH, &b->pr.blend);
+
+    if (b->dpos_primed == 0u) {
+        b->pki_i = 0;           /* the loops were reset (app) or first period */
+    }
+    dv_i = pki_step(b, c, in);
 
     /* friction: Stribeck map (also the Preisach torque estimate's model) and LuGre */
     if (running(b, HD_CB_STRIBECK, &b->str.blend) || pr_on) {
@@ -255,9 +322,19 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
         dpos = hd_add64_sat(dpos, hd_maxwell_step(&b->mx, &c->mx, in->pos_ref));
     }
     if (pr_on) {
-        /* transmitted torque estimate: LPF(t_prev - share * Stribeck model) */
-        const int32_t fr = hd_mul_q(b->str.tau_raw, c->pr_share, 30u);
-        const int64_t tg = hd_shl64_sat((int64_t)hd_sub_sat(b->t_prev, fr), 16u);
+        /* transmitted torque estimate, low-passed */
+        int32_t test;
+        if (c->pr_t_src != 0u) {
+            /* model: load-side friction (1 - share) F(v_ref) + J_L a_ref (2 pi J [Q16] acc [2^-24 turn/s^2]) */
+            const int32_t fl = hd_mul_q(b->str.tau_raw, hd_sub_sat(HD_Q30_ONE, c->pr_share), 30u);
+            const int64_t ja = hd_mul64x32_q(hd_mul64x32_q((int64_t)c->pr_jl, in->acc_ref, 24u), CB_TWO_PI_Q28, 28u);
+            test = hd_add_sat(fl, hd_sat32(ja));
+        } else {
+            /* command: t_prev - share F(v_ref) (includes the loop's reaction) */
+            test = hd_sub_sat(b->t_prev, hd_mul_q(b->str.tau_raw, c->pr_share, 30u));
+        }
+        b->pr_test = test;
+        const int64_t tg = hd_shl64_sat((int64_t)test, 16u);
         b->pr_t = hd_add64_sat(b->pr_t, hd_mul64x32_q(hd_sub64_sat(tg, b->pr_t), c->pr_alpha, 30u));
         const int32_t yd = hd_sat32(hd_asr64_rnd(b->pr_t, 16u));
         int32_t u = 0;
@@ -279,8 +356,9 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
     out->tff = tff;
     if (c->pos_mode != 0u) {
         out->dpos = dpos;
-        out->dvel = 0;
+        out->dvel = dv_i;
         b->dpos_f = hd_shl64_sat(dpos, 16u);
+        b->dpos_primed = 1u;
     } else {
         const int64_t target = hd_shl64_sat(dpos, 16u);       /* 2^-48 turn */
         if (b->dpos_primed == 0u) {
@@ -290,7 +368,7 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
         const int64_t step = hd_mul64x32_q(hd_sub64_sat(target, b->dpos_f), c->dpos_alpha, 30u);
         b->dpos_f = hd_add64_sat(b->dpos_f, step);
         out->dpos = 0;
-        out->dvel = hd_sat32(hd_asr64_rnd(hd_mul64x32_q(step, HD_LOOP_HZ, 0u), 16u));
+        out->dvel = hd_add_sat(hd_sat32(hd_asr64_rnd(hd_mul64x32_q(step, HD_LOOP_HZ, 0u), 16u)), dv_i);
     }
     b->out = *out;
 }

@@ -14,11 +14,26 @@
  *   LuGre      torque FF/observer, v = v_ref or v_fb, e = pos_out - pos_ref      -> tff
  *   Maxwell    x = pos_ref; lost-motion twist F / K                             -> position correction
  *   Preisach   inverse of the gear twist -> torque hysteresis (table), input the
- *              transmitted-torque estimate LPF(t_prev - share * Stribeck(v))    -> position correction
+ *              transmitted-torque estimate, low-passed at pr_fc:
+ *                pr_t_src 1 (model): (1 - share) Stribeck(v_ref) + J_L a_ref (load-side
+ *                           friction and load inertia: what the gear must transmit)
+ *                pr_t_src 0 (command): t_prev - share Stribeck(v_ref) (contains the
+ *                           loop's own reaction; kept for comparison)       -> position correction
  *   TE         -TE(motor angle)                                                 -> position correction
  *              (+ optional torque FF -K1 TE -> tff)
  *   backstep   replaces the PID's torque: u = u_pid + w (u_bs - u_pid); preloaded at engage
  *   DOB        d = Q(t_prev - J s v_fb), Q = g/(s+g) first order; torque FF + d
+ *   pos. I     scheduled position integral (cb_pki > 0): a second integrator of the
+ *              position error whose gain is weighted by a smooth (C1 cubic) schedule
+ *              w(|v_ref|), 0 below cb_pki_vlo, 1 above cb_pki_vhi:
+ *                I += w Ki T e - (1 - w) leak T I,  |I| <= cb_pki_max        -> dvel
+ *              It raises the loop's low-frequency gain during sliding motion and
+ *              hands back to the plain cascade near standstill and at very slow
+ *              rates, where the drive sits in presliding friction: there the
+ *              bristle stiffness closes a loop through three integrators (position I,
+ *              velocity I) with little phase margin and it hunts (stick-slip limit
+ *              cycle; docs/compensators.md section 8).  Reset with the loops (the app
+ *              clears dpos_primed).
  *
  * The position corrections sum to dpos (Q32.32 turns, output-referred
  * motor-side lead).  With cb_pos_mode = 0 (default, output-encoder position
@@ -83,6 +98,13 @@ typedef struct {
     uint32_t lug_v_src;          /* 0 reference, 1 estimate */
     int32_t  dob_g_t;            /* Q30, g T (first-order Q filter, forward Euler) */
     int32_t  dob_gj;             /* g J: N.m per (turn/s), Q15.16 */
+    uint32_t pr_t_src;           /* Preisach torque estimate: 0 command - share F, 1 model (1 - share) F + J_L a */
+    int32_t  pr_jl;              /* load inertia for pr_t_src 1, Q15.16 kg m^2 */
+    int32_t  pki;                /* scheduled position integral gain, Q15.16 1/s^2 (0 = off) */
+    int32_t  pki_vlo;            /* schedule: weight 0 at |v_ref| <= vlo, 2^-32 turn/s */
+    int32_t  pki_vhi;            /* schedule: weight 1 at |v_ref| >= vhi, 2^-32 turn/s */
+    int32_t  pki_leak_dt;        /* leak rate x T, Q30 (applied with weight 1 - w) */
+    int32_t  pki_max;            /* integral clamp, 2^-32 turn/s */
 } hd_comp_bank_cfg_t;
 
 /* Signals of one period (inputs filled by the app). */
@@ -122,6 +144,9 @@ typedef struct {
     int32_t  t_prev;             /* torque applied in the previous period, Q15.16 N.m */
     hd_comp_bank_out_t out;      /* last outputs (telemetry) */
     int32_t  u_bs;               /* last torque after the backstepping blend */
+    int64_t  pki_i;              /* scheduled position integral, 2^-48 turn/s */
+    int32_t  pki_w;              /* its last schedule weight, Q30 (telemetry) */
+    int32_t  pr_test;            /* last Preisach torque estimate, Q15.16 N.m (telemetry) */
 } hd_comp_bank_t;
 
 /** Configs from raw parameters. 0 ok, -1 inconsistent (bounds, sizes). */

@@ -407,6 +407,7 @@ static int32_t app_mode_for(int8_t m)
     case HD_CO402_MODE_PP: return HD_MODE_PTP;
     case HD_CO402_MODE_CSV: return HD_MODE_VELOCITY;
     case HD_CO402_MODE_CST: return HD_MODE_TORQUE;
+    case HD_CO402_MODE_STAB: return HD_MODE_STAB;   /* vendor mode -1 */
     default: return HD_MODE_POSITION;   /* CSP, and "no mode" = hold position */
     }
 }
@@ -438,9 +439,9 @@ static void a_setpoint(void *c, const hd_co_setpoint_t *sp)
     hd_app_co_t *ac = c;
     hd_angle_t pos;
     if (sp->quick_stop != 0u) {
-        if (ac->mode != -1) {
+        if (ac->mode != HD_APP_CO_MODE_QSTOP) {
             (void)hd_app_set_mode(ac->app, HD_MODE_VELOCITY);
-            ac->mode = -1;
+            ac->mode = HD_APP_CO_MODE_QSTOP;
         }
         hd_app_set_velocity(ac->app, 0);
         return;
@@ -457,6 +458,11 @@ static void a_setpoint(void *c, const hd_co_setpoint_t *sp)
         hd_app_set_torque(ac->app, sp->target_torque);
         break;
     case HD_CO402_MODE_CST:
+        hd_app_set_torque(ac->app, sp->target_torque);
+        break;
+    case HD_CO402_MODE_STAB:
+        /* target velocity (0x60FF) = commanded inertial rate; torque = feed-forward */
+        hd_app_set_velocity(ac->app, sp->target_velocity);
         hd_app_set_torque(ac->app, sp->target_torque);
         break;
     case HD_CO402_MODE_CSP:

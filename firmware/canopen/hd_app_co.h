@@ -61,6 +61,9 @@
 #define HD_APP_CO_STAGE_WORDS   (HD_PREISACH_HDR_WORDS + 1u + HD_PREISACH_N_MAX + 1u)
 
 /** What the port provides. */
+/* ac->mode while the quick stop runs (not a CiA 402 mode value; -1 is the vendor mode STAB) */
+#define HD_APP_CO_MODE_QSTOP ((int8_t)-128)
+
 typedef struct {
     void *ctx;
     /* required: one frame to the bus; false = TX queue full */
@@ -79,7 +82,7 @@ typedef struct {
     hd_co_t *co;
     hd_app_t *app;
     hd_app_co_port_t port;
-    int8_t   mode;                 /* 402 mode the app was enabled in (-1: quick stop) */
+    int8_t   mode;                 /* 402 mode the app was enabled in (HD_APP_CO_MODE_QSTOP: quick stop) */
     uint8_t  stage_dom;            /* domain being written (0 = none) */
     uint8_t  stage_bad;            /* out-of-order or oversized data seen */
     uint8_t  pad;

@@ -94,6 +94,7 @@
 #define HD_CO402_MODE_CSP   8
 #define HD_CO402_MODE_CSV   9
 #define HD_CO402_MODE_CST   10
+#define HD_CO402_MODE_STAB  (-1)   /* manufacturer-specific: inertial stabilisation (app mode STAB) */
 
 /** Setpoints handed to the app every period in OPERATION ENABLED / QUICK STOP. */
 typedef struct {

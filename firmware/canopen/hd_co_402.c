@@ -49,6 +49,7 @@ uint32_t hd_co402_check_mode(int64_t mode)
     case HD_CO402_MODE_CSP:
     case HD_CO402_MODE_CSV:
     case HD_CO402_MODE_CST:
+    case HD_CO402_MODE_STAB:
         return 0u;
     default:
         return HD_CO_AB_VALUE;

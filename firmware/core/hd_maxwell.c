@@ -42,7 +42,7 @@ hd_angle_t hd_maxwell_step(hd_maxwell_t *s, const hd_maxwell_cfg_t *c, hd_angle_
     s->tau_raw = hd_clamp32(hd_asr32_rnd(acc, 24u), -tmax, tmax);   /* Q40 -> Q16 */
     (void)hd_blend_update(&s->blend);
     s->tau = hd_blend_apply(&s->blend, s->tau_raw);
-    /* dth = F * compliance: Q16 * Q48 = Q64 -> Q32 */
-    s->dth = hd_mul64x32_q((int64_t)s->tau, c->compliance, 32u);
+    /* dth = F * compliance: Q16 * Q44 = Q60 -> Q32 */
+    s->dth = hd_mul64x32_q((int64_t)s->tau, c->compliance, 28u);
     return s->dth;
 }

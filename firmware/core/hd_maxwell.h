@@ -26,7 +26,9 @@
  *   d_i, s_i              2^-32 turn (int32, d_i >= 0: up to 0.5 turn)
  *   k_i                   Q23.8 N.m/turn (>= 0)
  *   F, tau_max            Q15.16 N.m  (F = round(sum k_i s_i / 2^24), summed exactly in int64)
- *   compliance            2^-48 turn per N.m (1/K; K = 3.1e4 N.m/rad -> 1.44e9)
+ *   compliance            2^-44 turn per N.m (1/K), int32: K from 1.3e3 N.m/rad (2^13 N.m/turn)
+ *                         up; 5e3 N.m/rad -> 5.6e8, K1 = 3.1e4 -> 9.0e7, 2e5 -> 1.4e7
+ *                         (relative resolution better than 1e-7 over that range)
  */
 #ifndef HD_MAXWELL_H
 #define HD_MAXWELL_H
@@ -42,7 +44,7 @@ typedef struct {
     uint32_t n;                          /* elements in use, <= HD_MAXWELL_N_MAX */
     int32_t  k[HD_MAXWELL_N_MAX];        /* Q23.8 N.m/turn */
     int32_t  d[HD_MAXWELL_N_MAX];        /* slip limit, 2^-32 turn, >= 0 */
-    int32_t  compliance;                 /* 2^-48 turn / N.m */
+    int32_t  compliance;                 /* 2^-44 turn / N.m */
     int32_t  tau_max;                    /* Q15.16 N.m, > 0 */
 } hd_maxwell_cfg_t;
 

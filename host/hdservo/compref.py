@@ -136,7 +136,7 @@ def maxwell_run(x: np.ndarray, k: Sequence[int], d: Sequence[int], compliance: i
     tau : numpy.ndarray
         Hysteresis torque, Q16 LSB (real).
     dth : numpy.ndarray
-        Lost-motion correction tau * compliance, 2^-32 turn (real, from the real tau).
+        Lost-motion correction tau * compliance (2^-44 turn/N.m), 2^-32 turn (real, from the real tau).
     """
     x = np.asarray(x, dtype=float)
     s = np.zeros(len(k))
@@ -150,7 +150,7 @@ def maxwell_run(x: np.ndarray, k: Sequence[int], d: Sequence[int], compliance: i
         xp = xi
         t = float(np.sum(kk * s / Q32)) * Q16
         tau[i] = float(np.clip(t, -tau_max, tau_max))
-        dth[i] = tau[i] / Q16 * compliance / Q48 * Q32
+        dth[i] = tau[i] / Q16 * compliance / 2.0**44 * Q32
     return tau, dth
 
 

@@ -40,10 +40,17 @@ from . import preisach_table as pt
 from . import sim
 
 TWO_PI = 2.0 * math.pi
-#: Smallest Maxwell-slip stiffness the firmware format holds, N.m/turn (above 2^56 / 2^31 / 2^8 = 2^17).
-MX_STIFFNESS_MIN = 131200.0
+#: Smallest Maxwell-slip stiffness the firmware format holds, N.m/turn (above 2^52 / 2^31 / 2^8 = 2^13,
+#: i.e. 1.3e3 N.m/rad: the compliance is 2^-44 turn/N.m in int32).
+MX_STIFFNESS_MIN = 8200.0
 
 #: Bits of ``cb_enable`` (firmware HD_CB_*).
+#: Reference-speed schedule of the scheduled position integral (cb_pki_vlo / cb_pki_vhi), deg/s.
+PKI_V_LO_DEG_S = 0.002
+PKI_V_HI_DEG_S = 0.005
+#: Backstepping: corner of the integral action of the T_load adaptation, Hz.
+BS_F_INT_HZ = 25.0
+
 ENABLE_BITS: dict[str, int] = {"stribeck": 1, "lugre": 2, "maxwell": 4, "preisach": 8, "te": 16, "backstep": 32,
                                "dob": 64}
 
@@ -162,6 +169,11 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
 
     n = get("gear.ratio")
     out: dict[str, float] = {"cb_enable": 0, "cb_ramp_ticks": 2000, "cb_pos_mode": 0, "cb_dpos_fc": 50.0}
+    # scheduled position integral (off here; the best combination sets cb_pki): full weight above
+    # 0.005 deg/s, none below 0.002 deg/s and at standstill, where the friction side of the gear
+    # is in presliding and an extra integrator makes the loop hunt (docs/compensators.md 8)
+    out.update({"cb_pki": 0.0, "cb_pki_vlo": PKI_V_LO_DEG_S / 360.0, "cb_pki_vhi": PKI_V_HI_DEG_S / 360.0,
+                "cb_pki_leak": 2.0, "cb_pki_max": 1.0 / 360.0})
     fm, fl = bool(get("friction_motor.enabled")), bool(get("friction_load.enabled"))
 
     def side(sec: str, scale_t: float, scale_v: float, on: bool) -> dict[str, float]:
@@ -202,8 +214,7 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     if get("hysteresis_preisach.enabled"):
         k_tan += get("hysteresis_preisach.t_sat_Nm") / get("hysteresis_preisach.u_max_rad")
     out["mx_n"] = n_maxwell
-    # the firmware compliance (2^-48 turn/N.m, int32) needs K >= 2^17 N.m/turn (2.09e4 N.m/rad);
-    # a softer gear gets that floor (its lost motion is then under-predicted by the ratio)
+    # the firmware compliance (2^-44 turn/N.m, int32) needs K > 2^13 N.m/turn (1.3e3 N.m/rad)
     out["mx_stiffness"] = max(k_tan * TWO_PI, MX_STIFFNESS_MIN)   # N.m/turn
     out["mx_tau_max"] = 30.0
     k_el, d_el = _maxwell_fit(ld["fsp"], z_l if z_l > 0 else 1e-5, n_maxwell) if fl else ([0.0] * n_maxwell,
@@ -211,10 +222,13 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     for i in range(8):
         out[f"mx_k{i + 1}"] = k_el[i] * TWO_PI if i < n_maxwell else 0.0      # N.m/turn
         out[f"mx_d{i + 1}"] = d_el[i] / TWO_PI if i < n_maxwell else 0.0      # turn
-    # Preisach: torque estimate = filtered torque command minus the motor-side friction share
+    # Preisach: torque estimate from the model (pr_t_src 1): the load-side share of the friction
+    # model on the reference velocity plus J_L a_ref, i.e. what the gear has to transmit
     out["pr_deadband"] = 1
     out["pr_fc"] = 20.0
     out["pr_motor_share"] = (m["fcp"] / max(m["fcp"] + ld["fcp"], 1e-12)) if fm else 0.0
+    out["pr_t_src"] = 1
+    out["pr_jl"] = get("load.jl_kgm2")
     # TE: wave-generator harmonics (plant: a sin(n theta_m + p), theta_m rad) -> amp turn, phase turn
     te = []
     if get("transmission_error.enabled"):
@@ -238,7 +252,11 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     scale = jt / 1.3
     out.update({"bs_c1": c, "bs_c2": c, "bs_j": j_turn, "bs_ke": j_turn * c * c / 4, "bs_eps_w": eps_rad / TWO_PI,
                 "bs_w_s": vs_turn, "bs_e1_max": 0.01, "bs_u_max": 60.0})
-    gam = (0.5 * scale, 0.5 * scale, 0.25 * scale, 0.5 * scale)
+    # T_load adaptation is the law's integral action on e2: Gamma_4 = J (2 pi f_i)^2 with f_i = 25 Hz,
+    # the velocity-loop bandwidth of the PID design (baseline.axis_controller); the slower
+    # friction adaptations keep the section 6 values.  Gamma T in Q7.24 (Gamma_4 T = 20.2 here).
+    g4 = j_turn * (TWO_PI * BS_F_INT_HZ) ** 2 / 10000.0
+    gam = (0.5 * scale, 0.5 * scale, 0.25 * scale, g4)
     fmax = max(out["str_fs_pos"], 1e-3)
     lo = (0.0, 0.0, 0.0, -20.0 * min(1.0, fmax / 10.6))
     hi = (3.0 * fmax, 3.0 * fmax, 15.0 * max(fv, 1.0), 20.0 * min(1.0, fmax / 10.6))

@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 OD_VERSION = 1
-PARAM_HASH = 0x99E3D929
+PARAM_HASH = 0xD5A2011E
 VENDOR_ID = 0x00000EDA
 PRODUCT_CODE = 0x00484453
 REVISION = 0x00010000
@@ -222,11 +222,25 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x2400, 1, 'traj_vmax', 'i32', 'rw', '', 'turn/s', 2.3283064365386963e-10),
     OdEntry(0x2400, 2, 'traj_amax', 'i32', 'rw', '', 'turn/s^2', 5.960464477539063e-08),
     OdEntry(0x2400, 3, 'traj_jmax', 'i32', 'rw', '', 'turn/s^3', 1.52587890625e-05),
+    OdEntry(0x2500, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
+    OdEntry(0x2500, 1, 'stab_kp', 'i32', 'rw', '', '1/s', 1.52587890625e-05),
+    OdEntry(0x2500, 2, 'stab_ki', 'i32', 'rw', '', '1/s^2', 1.52587890625e-05),
+    OdEntry(0x2500, 3, 'stab_gyro_bias', 'i32', 'rw', '', 'turn/s', 2.3283064365386963e-10),
+    OdEntry(0x2500, 4, 'stab_blend_fc', 'i32', 'rw', '', 'Hz', 1.52587890625e-05),
+    OdEntry(0x2500, 5, 'stab_blend_fr', 'i32', 'rw', '', 'Hz', 1.52587890625e-05),
+    OdEntry(0x2500, 6, 'stab_bias_max', 'i32', 'rw', '', 'turn/s', 2.3283064365386963e-10),
+    OdEntry(0x2500, 7, 'stab_base_bw', 'i32', 'rw', '', 'Hz', 1.52587890625e-05),
+    OdEntry(0x2500, 8, 'stab_ff_db', 'i32', 'rw', '', 'turn/s', 2.3283064365386963e-10),
     OdEntry(0x2800, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x2800, 1, 'cb_enable', 'u32', 'rw', '', 'bits', 1.0),
     OdEntry(0x2800, 2, 'cb_ramp_ticks', 'u32', 'rw', '', 'period', 1.0),
     OdEntry(0x2800, 3, 'cb_pos_mode', 'u32', 'rw', '', '1', 1.0),
     OdEntry(0x2800, 4, 'cb_dpos_fc', 'i32', 'rw', '', 'Hz', 1.52587890625e-05),
+    OdEntry(0x2800, 5, 'cb_pki', 'i32', 'rw', '', '1/s^2', 1.52587890625e-05),
+    OdEntry(0x2800, 6, 'cb_pki_vlo', 'i32', 'rw', '', 'turn/s', 2.3283064365386963e-10),
+    OdEntry(0x2800, 7, 'cb_pki_vhi', 'i32', 'rw', '', 'turn/s', 2.3283064365386963e-10),
+    OdEntry(0x2800, 8, 'cb_pki_leak', 'i32', 'rw', '', '1/s', 1.52587890625e-05),
+    OdEntry(0x2800, 9, 'cb_pki_max', 'i32', 'rw', '', 'turn/s', 2.3283064365386963e-10),
     OdEntry(0x2810, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x2810, 1, 'str_fc_pos', 'i32', 'rw', '', 'N.m', 1.52587890625e-05),
     OdEntry(0x2810, 2, 'str_fs_pos', 'i32', 'rw', '', 'N.m', 1.52587890625e-05),
@@ -275,6 +289,8 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x2840, 1, 'pr_deadband', 'u32', 'rw', '', 'step', 1.0),
     OdEntry(0x2840, 2, 'pr_fc', 'i32', 'rw', '', 'Hz', 1.52587890625e-05),
     OdEntry(0x2840, 3, 'pr_motor_share', 'i32', 'rw', '', '1', 9.313225746154785e-10),
+    OdEntry(0x2840, 4, 'pr_t_src', 'u32', 'rw', '', '1', 1.0),
+    OdEntry(0x2840, 5, 'pr_jl', 'i32', 'rw', '', 'kg.m^2', 1.52587890625e-05),
     OdEntry(0x2850, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x2850, 1, 'te_n', 'u32', 'rw', '', '1', 1.0),
     OdEntry(0x2850, 2, 'te_k1', 'i32', 'rw', '', 'N.m/turn', 0.00390625),

@@ -259,7 +259,7 @@ static int setup_app(hd_sim_t *s, char *err, size_t errlen)
         if (set_param_si(s, s->sc.gains[i].key, s->sc.gains[i].value, why, err, errlen)) return -1;
     }
     if (setup_comp(s, err, errlen)) return -1;
-    static const int32_t MODE_MAP[] = {HD_MODE_OFF, HD_MODE_TORQUE, HD_MODE_VELOCITY, HD_MODE_POSITION};
+    static const int32_t MODE_MAP[] = {HD_MODE_OFF, HD_MODE_TORQUE, HD_MODE_VELOCITY, HD_MODE_POSITION, HD_MODE_STAB};
     if (hd_app_set_mode(&s->app, MODE_MAP[s->sc.mode]) != 0) {
         set_err(err, errlen, "%s: the drive refused mode %s", s->sc.path, hd_scenario_mode_name(s->sc.mode));
         return -1;
@@ -329,13 +329,13 @@ static const char *const COLS[HD_SIM_NCOL] = {
     "t_s", "motor_angle_rad", "load_angle_rad", "motor_velocity_rad_s", "load_velocity_rad_s",
     "motor_torque_Nm", "motor_current_A", "setpoint_rad", "torque_cmd_Nm", "torsion_rad",
     "gyro_rate_rad_s", "motor_angle_true_rad", "load_angle_true_rad", "load_velocity_est_rad_s",
-    "load_disturbance_Nm", "sensor_valid_code", "fault_code"};
+    "load_disturbance_Nm", "sensor_valid_code", "fault_code", "base_angle_true_rad"};
 
 const char *hd_sim_column_name(int32_t col, int32_t mode)
 {
     if (col < 0 || col >= HD_SIM_NCOL) return NULL;
     if (col == HD_COL_SETPOINT) {
-        if (mode == HD_SC_MODE_VELOCITY) return "setpoint_velocity_rad_s";
+        if (mode == HD_SC_MODE_VELOCITY || mode == HD_SC_MODE_STABILISE) return "setpoint_velocity_rad_s";
         if (mode == HD_SC_MODE_TORQUE) return "setpoint_torque_Nm";
     }
     return COLS[col];
@@ -401,6 +401,7 @@ void hd_sim_step(hd_sim_t *s, double *row)
         }
         break;
     case HD_SC_MODE_VELOCITY:
+    case HD_SC_MODE_STABILISE:          /* commanded inertial rate */
         hd_app_set_velocity(&s->app, hd_bridge_rad_s_to_vel_out(r));
         break;
     case HD_SC_MODE_TORQUE:
@@ -438,6 +439,7 @@ void hd_sim_step(hd_sim_t *s, double *row)
         row[HD_COL_LOAD_VEL_EST] = hd_bridge_vel_out_to_rad_s(s->app.tel.vel_out);
         row[HD_COL_VALID] = (double)sens.valid;
         row[HD_COL_FAULT] = (double)s->app.tel.fault;
+        row[HD_COL_BASE_TRUE] = o->base_angle_rad;
     }
 
     /* 4. faults due now, 5. plant period */

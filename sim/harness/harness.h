@@ -45,6 +45,8 @@ enum {
     HD_COL_LOAD_DIST,        /* load_disturbance_Nm: external load torque */
     HD_COL_VALID,            /* sensor_valid_code: HD_HAL_VALID_* bits */
     HD_COL_FAULT,            /* fault_code: app fault */
+    HD_COL_BASE_TRUE,        /* base_angle_true_rad: base angle in inertial space (true);
+                                inertial payload angle = load_angle_true_rad + this */
     HD_SIM_NCOL
 };
 

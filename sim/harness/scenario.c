@@ -35,6 +35,7 @@ const char *hd_scenario_mode_name(hd_sc_mode_t m)
     case HD_SC_MODE_TORQUE: return "torque";
     case HD_SC_MODE_VELOCITY: return "velocity";
     case HD_SC_MODE_POSITION: return "position";
+    case HD_SC_MODE_STABILISE: return "stabilise";
     }
     return "?";
 }
@@ -140,7 +141,7 @@ static int copy_str(char *dst, size_t cap, const char *s)
 
 /* ---- sections -------------------------------------------------------------------- */
 
-static const char *const MODES[] = {"off", "torque", "velocity", "position"};
+static const char *const MODES[] = {"off", "torque", "velocity", "position", "stabilise"};
 static const char *const SPTYPES[] = {"constant", "step", "ramp", "move", "sine",
                                       "chirp", "multisine", "prbs"};
 static const char *const FAULTS[] = {"encoder_glitch", "encoder_dropout", "current_limit",
@@ -149,8 +150,8 @@ static const char *const ENCODERS[] = {"motor", "load"};
 
 static int parse_setpoint(ctx_t *c, hd_scenario_t *sc)
 {
-    static const char *const VU[] = {"", "_Nm", "_rad_s", "_rad"};
-    static const char *const RU[] = {"", "_Nm_per_s", "_rad_s2", "_rad_s"};
+    static const char *const VU[] = {"", "_Nm", "_rad_s", "_rad", "_rad_s"};
+    static const char *const RU[] = {"", "_Nm_per_s", "_rad_s2", "_rad_s", "_rad_s2"};
     hd_sc_setpoint_t *sp = &sc->sp;
     const char *vu = VU[sc->mode], *ru = RU[sc->mode];
     char k[96];
@@ -412,7 +413,7 @@ static int find_rel_file(const char *scenario_path, const char *given, char *out
 static int parse_controller(ctx_t *c, hd_scenario_t *sc)
 {
     int m = 0;
-    if (choice(c, "controller.mode", MODES, 4, -1, &m)) return -1;
+    if (choice(c, "controller.mode", MODES, 5, -1, &m)) return -1;
     sc->mode = (hd_sc_mode_t)m;
     hd_toml_entry_t *g = hd_toml_find(c->doc, "controller.gains");
     if (g && !(g->type == HD_TOML_STRING && strcmp(g->str, "defaults") == 0)) {

@@ -3,7 +3,7 @@
  *
  *   [scenario]    name, axis (file or "reference"/"minimal"), duration_s, seed,
  *                 log_decimation
- *   [controller]  mode ("position" | "velocity" | "torque" | "off"),
+ *   [controller]  mode ("position" | "velocity" | "torque" | "off" | "stabilise"),
  *                 gains = "defaults" or a [controller.gains] table,
  *                 compensators = [ "name", ... ]
  *   [compensators.<name>]  drive parameters by name (table units, like gains);
@@ -34,7 +34,8 @@ typedef enum {
     HD_SC_MODE_OFF = 0,
     HD_SC_MODE_TORQUE,
     HD_SC_MODE_VELOCITY,
-    HD_SC_MODE_POSITION
+    HD_SC_MODE_POSITION,
+    HD_SC_MODE_STABILISE    /* drive mode STAB: setpoint = commanded inertial rate, rad/s */
 } hd_sc_mode_t;
 
 typedef enum {

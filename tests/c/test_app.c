@@ -35,7 +35,12 @@ static struct {
     uint32_t tick;
     uint8_t nvm[NVM_SIZE];
     int fail_write;          /* simulate power loss: write does nothing, returns error */
+    double base_amp, base_f; /* base rocking: angle base_amp sin(2 pi base_f t) [turn] */
+    double t;                /* plant time, s */
 } P;
+
+static double base_angle(double t) { return P.base_amp * sin(2 * M_PI * P.base_f * t); }
+static double base_rate(double t) { return P.base_amp * 2 * M_PI * P.base_f * cos(2 * M_PI * P.base_f * t); }
 
 uint32_t hd_hal_tick(void) { return P.tick; }
 
@@ -45,7 +50,7 @@ void hd_hal_read_sensors(hd_hal_sensors_t *s)
     s->motor_enc_raw = (uint32_t)((int64_t)floor(mt * 131072.0) & 0x1FFFF);
     s->output_enc_raw = (uint32_t)(((int64_t)floor(P.th * 16777216.0) + P.out_jump) & 0xFFFFFF);
     s->current = P.cmd.current;
-    s->gyro_rate = (int32_t)lround(P.w * 4294967296.0);
+    s->gyro_rate = (int32_t)lround((P.w + base_rate(P.t)) * 4294967296.0);   /* inertial */
     s->valid = P.valid;
 }
 
@@ -55,9 +60,12 @@ void hd_hal_write_command(const hd_hal_command_t *c)
     /* advance the rigid plant one period (10 sub-steps) */
     double t_out = c->enable ? c->torque / 65536.0 * P.n : 0.0;
     for (int i = 0; i < 10; i++) {
-        double acc = (t_out + P.t_load) / P.j / (2 * M_PI);   /* turn/s^2 */
+        double acc = (t_out + P.t_load) / P.j / (2 * M_PI);   /* turn/s^2, inertial */
+        const double wb = 2 * M_PI * P.base_f;
+        acc += wb * wb * base_angle(P.t);                        /* relative = inertial - base */
         P.w += acc * 1e-5;
         P.th += P.w * 1e-5;
+        P.t += 1e-5;
     }
     P.tick++;
 }
@@ -106,6 +114,9 @@ static void plant_reset(double th0)
     P.out_jump = 0;
     P.tick = 0;
     P.fail_write = 0;
+    P.base_amp = 0;
+    P.base_f = 0;
+    P.t = 0;
     memset(&P.cmd, 0, sizeof P.cmd);
 }
 
@@ -323,6 +334,50 @@ static void test_app_faults(void **st)
     assert_int_equal(app.fault, HD_FAULT_OVERSPEED);
 }
 
+/* STAB on the rigid stub with the base rocking 0.5 deg at 1 Hz: the inertial angle
+ * (output angle + base angle) is held; an invalid gyro faults; the inertial rate
+ * command scans the payload at that rate in inertial space. */
+static void test_app_stabilise(void **st)
+{
+    (void)st;
+    P.base_amp = 0.5 / 360.0;
+    P.base_f = 1.0;
+    run(5);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_STAB), 0);
+    run(10);
+    const double i0 = P.th + base_angle(P.t);
+    run(10000);                                   /* 1 s settle */
+    double sum2 = 0, peak = 0;
+    const int n = 30000;
+    for (int k = 0; k < n; k++) {
+        hd_app_step(&app);
+        const double e = (P.th + base_angle(P.t) - i0) * 1296000.0;
+        sum2 += e * e;
+        peak = fabs(e) > peak ? fabs(e) : peak;
+    }
+    printf("# rigid stub, base 0.5 deg 1 Hz: inertial error rms %.3f, peak %.3f arcsec (base 1273 rms)\n",
+           sqrt(sum2 / n), peak);
+    assert_int_equal(app.fault, HD_FAULT_NONE);
+    assert_true(sqrt(sum2 / n) < 2.0);
+    assert_true(peak < 5.0);
+    /* the encoder angle moves against the base: the drive is not holding it */
+    assert_true(fabs((P.th - 0.01) + base_angle(P.t)) * 1296000.0 < 5.0);
+
+    /* inertial scan: 0.01 deg/s for 3 s -> 108 arcsec in inertial space */
+    hd_app_set_velocity(&app, (int32_t)llround(0.01 / 360.0 * 4294967296.0));
+    const double i1 = P.th + base_angle(P.t);
+    run(30000);
+    const double moved = (P.th + base_angle(P.t) - i1) * 1296000.0;
+    printf("# rigid stub, inertial scan 0.01 deg/s x 3 s: moved %.2f arcsec (108)\n", moved);
+    assert_true(fabs(moved - 108.0) < 3.0);
+
+    /* gyro invalid -> SENSOR fault */
+    P.valid = HD_HAL_VALID_MOTOR_ENC | HD_HAL_VALID_OUTPUT_ENC | HD_HAL_VALID_CURRENT;
+    run(1);
+    assert_int_equal(app.fault, HD_FAULT_SENSOR);
+    assert_int_equal(hd_app_set_mode(&app, 9), -1);        /* unknown mode */
+}
+
 static void test_app_excitation_capture(void **st)
 {
     (void)st;
@@ -362,6 +417,7 @@ int main(void)
         cmocka_unit_test_setup(test_app_rate_low_speed, setup),
         cmocka_unit_test_setup(test_app_faults, setup),
         cmocka_unit_test_setup(test_app_excitation_capture, setup),
+        cmocka_unit_test_setup(test_app_stabilise, setup),
     };
     return cmocka_run_group_tests_name("hd_app", tests, NULL, NULL);
 }

@@ -198,6 +198,99 @@ static void test_friction_ff_takes_over(void **st)
     assert_true(fabs(tq - ff) < 2.5);
 }
 
+/* Maxwell-slip compliance format (2^-44 turn/N.m): a soft gear (5e3 N.m/rad) and a
+ * stiff one (2e5 N.m/rad) both fit, within 1e-6 relative; below 2^13 N.m/turn refused. */
+static void test_maxwell_stiffness_range(void **st)
+{
+    (void)st;
+    int32_t p[HD_PARAM_COUNT];
+    hd_comp_bank_cfg_t c;
+    static const double k_rad[2] = {5e3, 2e5};
+    hd_params_defaults(p);
+    for (int i = 0; i < 2; i++) {
+        const double k_turn = k_rad[i] * 2.0 * TEST_PI;
+        p[HD_P_MX_STIFFNESS] = (int32_t)llround(k_turn * 256.0);
+        assert_int_equal(hd_comp_bank_config(&c, p), 0);
+        const double comp = (double)c.mx.compliance / 17592186044416.0;   /* 2^44 */
+        assert_true(fabs(comp * k_turn - 1.0) < 1e-6);
+    }
+    p[HD_P_MX_STIFFNESS] = 8000 * 256;                                   /* < 2^13 N.m/turn */
+    assert_int_equal(hd_comp_bank_config(&c, p), -1);
+}
+
+/* Scheduled position integral: weight 0 at and below cb_pki_vlo (the state leaks
+ * to 0), 1 at and above cb_pki_vhi, monotone and continuous between; in closed
+ * loop at 0.1 deg/s it integrates, and when the reference stops it hands back. */
+static void test_pki_schedule(void **st)
+{
+    (void)st;
+    int32_t p[HD_PARAM_COUNT];
+    hd_comp_bank_cfg_t c;
+    hd_comp_bank_t b;
+    hd_comp_bank_in_t in;
+    hd_comp_bank_out_t o;
+    hd_params_defaults(p);
+    p[HD_P_CB_PKI] = 900 << 16;
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    assert_true(c.pki_vlo > 0 && c.pki_vhi > c.pki_vlo);
+    hd_comp_bank_init(&b, &c);
+    memset(&in, 0, sizeof in);
+    in.pos_ref = (hd_angle_t)1 << 20;                    /* constant error 2^-12 turn */
+    int32_t wprev = -1;
+    for (int64_t v = 0; v <= 2 * (int64_t)c.pki_vhi; v += c.pki_vhi / 64) {
+        in.vel_ref = (hd_vel_out_t)-v;                   /* the schedule is on |v| */
+        hd_comp_bank_pre(&b, &c, &in, &o);
+        if (v <= c.pki_vlo) assert_int_equal(b.pki_w, 0);
+        if (v >= c.pki_vhi) assert_int_equal(b.pki_w, HD_Q30_ONE);
+        assert_true(b.pki_w >= wprev);
+        if (wprev >= 0) assert_true(b.pki_w - wprev < HD_Q30_ONE / 20);   /* no step */
+        wprev = b.pki_w;
+    }
+    assert_true(b.pki_i > 0 && o.dvel > 0);               /* positive error: positive velocity term */
+    const int32_t dv_on = o.dvel;
+    in.vel_ref = 0;                                      /* standstill: leak to 0 at cb_pki_leak (2 1/s) */
+    hd_comp_bank_pre(&b, &c, &in, &o);
+    assert_true(o.dvel > 0 && o.dvel <= dv_on);           /* continuous: no jump */
+    for (int k = 0; k < 100000; k++) hd_comp_bank_pre(&b, &c, &in, &o);
+    assert_true(b.pki_i == 0 && o.dvel == 0);
+    /* cb_pki = 0 (default): never integrates */
+    p[HD_P_CB_PKI] = 0;
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    in.vel_ref = 4 * c.pki_vhi;
+    for (int k = 0; k < 1000; k++) hd_comp_bank_pre(&b, &c, &in, &o);
+    assert_true(b.pki_i == 0 && o.dvel == 0);
+    /* inconsistent schedule refused */
+    p[HD_P_CB_PKI_VLO] = p[HD_P_CB_PKI_VHI] + 1;
+    assert_int_equal(hd_comp_bank_config(&c, p), -1);
+}
+
+/* Preisach torque estimate, model source (default): (1 - share) F(v_ref) + J_L a_ref,
+ * independent of the torque command (the loop's reaction). */
+static void test_preisach_model_torque(void **st)
+{
+    (void)st;
+    int32_t p[HD_PARAM_COUNT];
+    hd_comp_bank_cfg_t c;
+    hd_comp_bank_t b;
+    hd_comp_bank_in_t in;
+    hd_comp_bank_out_t o;
+    hd_params_defaults(p);
+    p[HD_P_CB_ENABLE] = (int32_t)HD_CB_PREISACH;
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    assert_int_equal(c.pr_t_src, 1u);
+    hd_comp_bank_init(&b, &c);
+    memset(&in, 0, sizeof in);
+    in.vel_ref = (hd_vel_out_t)llround(1.0 / 360.0 * 4294967296.0);      /* 1 deg/s */
+    in.acc_ref = (hd_acc_t)llround(10.0 / 360.0 * 16777216.0);           /* 10 deg/s^2 */
+    hd_comp_bank_end(&b, 50 << 16);                                      /* a large command: ignored */
+    hd_comp_bank_pre(&b, &c, &in, &o);
+    const double share = p[HD_P_PR_MOTOR_SHARE] / 1073741824.0;
+    const double jl = p[HD_P_PR_JL] / 65536.0;
+    const double expect = (1.0 - share) * b.str.tau_raw / 65536.0 + jl * 10.0 * TEST_PI / 180.0;
+    print_message("model torque %.4f N.m, expected %.4f\n", b.pr_test / 65536.0, expect);
+    assert_true(fabs(b.pr_test / 65536.0 - expect) < 1e-3);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -205,6 +298,9 @@ int main(void)
         cmocka_unit_test(test_table_install),
         cmocka_unit_test(test_bumpless_switching),
         cmocka_unit_test(test_friction_ff_takes_over),
+        cmocka_unit_test(test_maxwell_stiffness_range),
+        cmocka_unit_test(test_pki_schedule),
+        cmocka_unit_test(test_preisach_model_torque),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -103,7 +103,7 @@ static void test_maxwell_saturation(void **state)
         sum += (int64_t)c.k[i] * c.d[i];
     }
     assert_int_equal(s.tau, hd_asr32_rnd(sum, 24u));
-    assert_true(s.dth == hd_mul64x32_q(s.tau, c.compliance, 32u));
+    assert_true(s.dth == hd_mul64x32_q(s.tau, c.compliance, 28u));
     for (i = 0; i < 400u; i++) {
         x -= 10000;
         (void)hd_maxwell_step(&s, &c, x);

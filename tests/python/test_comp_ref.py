@@ -142,7 +142,7 @@ def test_maxwell_matches_reference_and_masing(lib: C.CDLL) -> None:
     arcsec = 2.0**32 / 1296000.0
     d = a32(np.round(np.linspace(2, 60, nel) * arcsec))
     k = a32(np.round(rng.uniform(0.5e4, 3e4, nel) * 256))
-    comp = int(1.0 / (3.1e4 * 2 * np.pi) * 2**48)   # 1/K1 in 2^-48 turn / N.m
+    comp = int(1.0 / (3.1e4 * 2 * np.pi) * 2**44)   # 1/K1 in 2^-44 turn / N.m
     x = a64(np.cumsum(np.round(rng.normal(0, 3 * arcsec, 5000))))
     tau = np.zeros(len(x), np.int32)
     dth = np.zeros(len(x), np.int64)

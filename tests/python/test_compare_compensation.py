@@ -3,7 +3,13 @@ of tests/results/25_compensation.py (docs/compensators.md section 8).
 
 * the best combination beats the PID baseline at 0.01 deg/s (RMS tracking error
   after the start transient) by a clear factor, on a shortened case;
+* at 0.001 deg/s it stays below the PID (no stick-slip limit cycle), because the
+  position integral is scheduled off there; the same integral unscheduled hunts;
 * the LuGre friction feed-forward cuts the peak error at a velocity reversal;
+* the Preisach inverse fed by the model torque estimate no longer makes the
+  reversal worse; backstepping (T_load adaptation as integral action) does not
+  fault and beats the PID at a reversal;
+* the Maxwell-slip stiffness of the soft CSF-17 gear is no longer floored;
 * the compensator parameters computed from the axis model reach the firmware
   (a bad compensator name / Preisach table is refused with one line);
 * the Preisach table image of the gear round-trips and its hysteresis loop is
@@ -24,7 +30,7 @@ from hdservo import preisach_table as pt
 from hdservo import sim
 
 BEST_NAMES = ["lugre"]
-BEST_GAINS = {"pos_kp": 60.0, "pos_ki": 900.0, "vel_ki": 12000.0}
+BEST_GAINS = {"pos_kp": 60.0, "cb_pki": 900.0, "vel_ki": 12000.0}
 
 
 def _case(name: str, **kw: float) -> bl.Case:
@@ -40,6 +46,41 @@ def test_best_beats_pid_at_0p01_deg_s(tmp_path: Path) -> None:
     rp, rb = pid["tracking"]["0.01"]["rms_arcsec"], best["tracking"]["0.01"]["rms_arcsec"]
     assert pid["faults"] == 0 and best["faults"] == 0
     assert rp / rb > 3.0, (rp, rb)
+
+
+def test_best_no_limit_cycle_at_0p001_deg_s(tmp_path: Path) -> None:
+    case = _case("tracking_0.001", duration_s=12.1, skip_s=4.0)
+    pid, _ = bl.run_cases(bl.axis_controller("reference"), "reference", cases=[case])
+    best, _ = bl.run_cases(cs.controller("reference", BEST_NAMES, table_dir=tmp_path, extra_gains=BEST_GAINS),
+                           "reference", cases=[case])
+    # the same position integral in the PID, not scheduled: hunts in presliding
+    unsched = dict(BEST_GAINS, cb_pki=0.0, pos_ki=900.0)
+    hunt, _ = bl.run_cases(cs.controller("reference", BEST_NAMES, table_dir=tmp_path, extra_gains=unsched),
+                           "reference", cases=[case])
+    rp, rb, rh = (f["tracking"]["0.001"]["rms_arcsec"] for f in (pid, best, hunt))
+    assert best["faults"] == 0
+    assert rb < rp, (rp, rb)
+    assert rh > 10.0 * rp, (rp, rh)
+
+
+def test_preisach_and_backstep_at_reversal(tmp_path: Path) -> None:
+    case = _case("reversal", duration_s=6.5)
+    pid, _ = bl.run_cases(bl.axis_controller("reference"), "reference", cases=[case])
+    pr, _ = bl.run_cases(cs.controller("reference", ["preisach"], table_dir=tmp_path), "reference", cases=[case])
+    bs, _ = bl.run_cases(cs.controller("reference", ["backstep"], table_dir=tmp_path), "reference", cases=[case])
+    pp = pid["reversal"]["peak_arcsec"]
+    assert pr["reversal"]["peak_arcsec"] < 1.05 * pp, (pp, pr["reversal"]["peak_arcsec"])
+    assert bs["faults"] == 0
+    assert bs["reversal"]["peak_arcsec"] < 0.6 * pp, (pp, bs["reversal"]["peak_arcsec"])
+
+
+def test_maxwell_stiffness_not_floored_on_soft_gear() -> None:
+    spec = bl._axis_spec("csf17_50")
+    p = cs.compensator_params(spec)
+    k_tan = sim.axis_param("stiffness.k1_Nm_per_rad", spec)
+    assert k_tan < 2.09e4                                       # below the old format's floor
+    assert p["mx_stiffness"] >= k_tan * 2 * math.pi            # K1 + hysteresis tangent, not a floor
+    assert p["mx_stiffness"] > cs.MX_STIFFNESS_MIN
 
 
 def test_lugre_cuts_reversal_peak(tmp_path: Path) -> None:

@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 from hdservo.analysis.friction import CoulombFriction, FrictionOnPosition, StribeckFriction
+from hdservo.analysis.catalogue import build
 from hdservo.analysis.hysteresis import LostMotion, MaxwellSlip, PreisachHysteresis
 from hdservo.analysis.preisach import (EverettTable, PreisachModel, everett_table_from_density,
-                                       preisach_exponential_gaussian_density)
+                                       everett_table_plant, preisach_exponential_gaussian_density)
 from hdservo.analysis.stiffness import CubicStiffness, ThreeSlopeStiffness
 
 
@@ -132,7 +133,7 @@ def test_preisach_of_jenkins_everett_equals_maxwell_slip(A):
     k, w = np.array([2.0, 4.0]), np.array([2.0, 2.0])
     d = w / k
     E = lambda x, y: float(sum(ki * min(x - y, 2 * di) / 2 for ki, di in zip(k, d))) if x > y else 0.0  # noqa: E731
-    p = PreisachHysteresis(PreisachModel(E, 5.0), num_points=4096)
+    p = PreisachHysteresis(PreisachModel(E, 5.0), num_points=4096, orientation="operator")
     assert p.describing_function(A) == pytest.approx(MaxwellSlip(k, w).describing_function(A), rel=1e-4, abs=1e-5)
 
 
@@ -142,8 +143,8 @@ def test_everett_table_converges_to_callable_and_loop_area():
     coarse = everett_table_from_density(mu, 1.0, 16, y_sat=1.0)
     assert fine(1.0, -1.0) == pytest.approx(1.0) and fine(0.2, 0.2) == 0.0
     for A in (0.3, 0.7):
-        nf = PreisachHysteresis(PreisachModel(fine, 1.0)).describing_function(A)
-        nc = PreisachHysteresis(PreisachModel(coarse, 1.0)).describing_function(A)
+        nf = PreisachHysteresis(PreisachModel(fine, 1.0), orientation="operator").describing_function(A)
+        nc = PreisachHysteresis(PreisachModel(coarse, 1.0), orientation="operator").describing_function(A)
         assert nc == pytest.approx(nf, rel=0.05)
         # |Im N| = W / (pi A^2): loop area from the steady cycle
         m = PreisachModel(fine, 1.0)
@@ -153,8 +154,57 @@ def test_everett_table_converges_to_callable_and_loop_area():
         h = slice(4000, 8001)
         area = float(np.sum(0.5 * (y[h][1:] + y[h][:-1]) * np.diff(x[h])))
         assert abs(nf.imag) == pytest.approx(abs(area) / (math.pi * A * A), rel=1e-2)
-        # relays with positive density lag: the loop is traversed against dissipation
-        assert nf.imag < 0
+        # relays with positive density lag: P alone is traversed against dissipation
+        assert nf.imag < 0 and area < 0
+        # the plant's torque P_mean - P: same loop, opposite orientation (dissipative), the
+        # single-valued P_mean only adds to the real part
+        npl = PreisachHysteresis(PreisachModel(fine, 1.0)).describing_function(A)
+        assert npl.imag == pytest.approx(-nf.imag, rel=1e-9)
+        assert npl.imag > 0
+
+
+def _plant_twist_and_hysteresis(n: int = 12000):
+    """C plant (Preisach only, output held by a huge load inertia): motor torque sine,
+    first beyond the Preisach range, then inside it; returns twist (rad), hysteresis torque (N m)."""
+    sim = pytest.importorskip("hdservo.sim")
+    t = np.arange(n) * 1e-4
+    amp = np.where(t < 0.6, 0.25, 0.09)  # N m at the motor: +-25 N m, then +-9 N m at the output
+    tau = amp * np.sin(2 * np.pi * 5.0 * t)
+    off = {e: False for e in ("friction_motor", "friction_load", "hysteresis_maxwell", "transmission_error",
+                              "cogging", "gravity", "base", "encoder_motor", "encoder_load", "gyro",
+                              "current_sensor")}
+    out = sim.simulate_open_loop(tau, effects=dict(off, hysteresis_preisach=True),
+                                 params={"load.jl_kgm2": 1e4})
+    return t, out["torsion_rad"], out["hysteresis_torque_Nm"]
+
+
+def test_preisach_torque_matches_the_simulated_plant():
+    """The DF module's Preisach torque is the plant's: same Everett table, P_mean - P,
+    the plant's demagnetised initial state; sample by sample on the plant's own twist."""
+    from hdservo.analysis.axis import load_axis
+    ax, _ = load_axis(None)
+    u = ax["hysteresis_preisach.u_max_rad"]
+    table = everett_table_plant(u, ax["hysteresis_preisach.t_sat_Nm"], ax["hysteresis_preisach.r0_rad"],
+                                ax["hysteresis_preisach.s_rad"])
+    t, phi, th = _plant_twist_and_hysteresis()
+    assert np.max(np.abs(phi)) > u  # the first part wipes the memory out
+    model = PreisachModel(table, u)
+    model.demagnetise()
+    el = PreisachHysteresis(model)
+    ours = np.array([el(float(x)) for x in phi])
+    assert np.max(np.abs(ours - th)) < 1e-6 * ax["hysteresis_preisach.t_sat_Nm"]
+    # dissipative: energy absorbed over the last (minor-loop) cycles, oint T dphi > 0
+    k = t >= 1.0
+    assert float(np.sum(0.5 * (th[k][1:] + th[k][:-1]) * np.diff(phi[k]))) > 0
+    # the catalogue element (K1 + Preisach) has Im N > 0 and its loop area matches
+    nl = build("preisach", ax).nl
+    A = 0.5 * u
+    N = nl.describing_function(A)
+    m = PreisachModel(table, u)
+    x = A * np.sin(np.linspace(0, 4 * np.pi, 8001))
+    y = np.array([m.mean(v) - m(v) for v in x])
+    area = float(np.sum(0.5 * (y[4000:][1:] + y[4000:][:-1]) * np.diff(x[4000:])))
+    assert area > 0 and N.imag == pytest.approx(area / (math.pi * A * A), rel=1e-2)
 
 
 def test_everett_table_rejects_bad_shape():

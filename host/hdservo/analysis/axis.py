@@ -11,7 +11,9 @@ Gains are the drive's parameter-table names (``firmware/params/params.toml``):
 output velocity error), ``vel_ki`` (N m/rad), ``vel_kd`` (N m s^2/rad),
 ``vel_d_fc`` (Hz), ``vel_fb_src`` (0 motor encoder / N, 1 output encoder),
 ``obs_mot_bw``/``obs_out_bw`` (Hz), ``obs_zeta``, the torque-filter biquads
-``f1_*``/``f2_*`` and ``filt_enable``.
+``f1_*``/``f2_*`` and ``filt_enable``; two model (not drive) entries:
+``loop_period_s`` (s) and ``delay_periods`` (command delay in loop periods, see
+:mod:`hdservo.analysis.loop`).
 """
 from __future__ import annotations
 
@@ -47,7 +49,7 @@ REFERENCE_AXIS: Dict[str, float] = {
     "hysteresis_maxwell.n_elements": 4.0,
     "hysteresis_preisach.enabled": 1.0,
     "hysteresis_preisach.u_max_rad": 5e-4,
-    "hysteresis_preisach.t_sat_Nm": 0.25 * ARCMIN_RAD * 3.1e4,
+    "hysteresis_preisach.t_sat_Nm": 7.15,
     "hysteresis_preisach.r0_rad": 1e-4,
     "hysteresis_preisach.s_rad": 2e-4,
     "load.jl_kgm2": 0.5,
@@ -71,7 +73,7 @@ REFERENCE_GAINS: Dict[str, float] = {
     "vel_d_fc": 500.0, "vel_fb_src": 0.0, "obs_mot_bw": 300.0, "obs_out_bw": 30.0, "obs_zeta": 1.0,
     "f1_b0": 0.988832, "f1_b1": -1.97421, "f1_b2": 0.986351, "f1_a1": -1.97421, "f1_a2": 0.975183,
     "f2_b0": 0.0674553, "f2_b1": 0.134911, "f2_b2": 0.0674553, "f2_a1": -1.14298, "f2_a2": 0.412802,
-    "filt_enable": 3.0, "loop_period_s": 1e-4,
+    "filt_enable": 3.0, "loop_period_s": 1e-4, "delay_periods": 1.5,
 }
 
 PARAMS_TOML = Path("firmware") / "params" / "params.toml"

@@ -12,7 +12,7 @@ stribeck_load       load_friction       as stribeck_motor                     ([
 three_slope         torsion             K1/K2/K3, T1/T2                       ([stiffness])
 cubic               torsion             k1, k3                                ([stiffness_cubic])
 maxwell_slip        torsion             K1 spring + Jenkins elements          ([hysteresis_maxwell])
-preisach            torsion             K1 spring + Preisach operator         ([hysteresis_preisach])
+preisach            torsion             K1 spring + P_mean - P (as the plant) ([hysteresis_preisach])
 lost_motion         position_feedback   play of total width b                 ([lost_motion] b_rad)
 ==================  ==================  ==========================================================
 """
@@ -26,7 +26,7 @@ import numpy as np
 from .dfbase import HdNonlinearity
 from .friction import CoulombFriction, StribeckFriction
 from .hysteresis import LostMotion, MaxwellSlip, PreisachHysteresis
-from .preisach import PreisachModel, everett_table_from_density, preisach_exponential_gaussian_density
+from .preisach import PreisachModel, everett_table_plant
 from .stiffness import CubicStiffness, ThreeSlopeStiffness
 
 NAMES = ("coulomb_motor", "stribeck_motor", "coulomb_load", "stribeck_load", "three_slope", "cubic",
@@ -103,10 +103,9 @@ def build(name: str, ax: Mapping[str, float], n_amp: int = 60) -> Entry:
         return Entry(name, nl, "torsion", np.logspace(np.log10(d) - 1.5, np.log10(d) + 1.5, n_amp))
     if name == "preisach":
         u = float(ax["hysteresis_preisach.u_max_rad"])
-        mu = preisach_exponential_gaussian_density(float(ax["hysteresis_preisach.r0_rad"]),
-                                                   float(ax["hysteresis_preisach.s_rad"]))
-        table = everett_table_from_density(mu, u, 32, y_sat=float(ax["hysteresis_preisach.t_sat_Nm"]))
-        nl = PreisachHysteresis(PreisachModel(table, u), k_parallel=k1, num_points=512)
+        table = everett_table_plant(u, float(ax["hysteresis_preisach.t_sat_Nm"]),
+                                    float(ax["hysteresis_preisach.r0_rad"]), float(ax["hysteresis_preisach.s_rad"]))
+        nl = PreisachHysteresis(PreisachModel(table, u), k_parallel=k1, num_points=512, orientation="plant")
         return Entry(name, nl, "torsion", np.logspace(np.log10(u) - 2, np.log10(u), max(12, n_amp // 3)))
     if name == "lost_motion":
         b = float(ax["lost_motion.b_rad"])

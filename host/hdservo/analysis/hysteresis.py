@@ -13,7 +13,12 @@
   (positive imaginary part: the loop area W(A) = pi A^2 Im N is dissipated).
 * Maxwell-slip: a parallel sum of Jenkins elements, ``N = sum_i N_J,i``.
 * Preisach: no closed form; first harmonic of the steady symmetric cycle of a
-  :class:`~hdservo.analysis.preisach.PreisachModel` (reset per amplitude).
+  :class:`~hdservo.analysis.preisach.PreisachModel` (reset per amplitude).  As in
+  the simulated plant (docs/plant.md) the torque is ``P_mean(phi) - P[phi]``:
+  a relay's output lags its input, so ``P`` alone (positive density) has
+  ``Im N < 0`` and, used as a torque, would deliver energy every cycle;
+  ``P_mean - P`` has ``Im N = -Im N_P > 0``, the dissipative orientation
+  (``oint T dphi = pi A^2 Im N > 0``, like the damper ``N = j c w``).
 """
 from __future__ import annotations
 
@@ -145,7 +150,12 @@ class MaxwellSlip(HdNonlinearity):
 
 
 class PreisachHysteresis(HdNonlinearity):
-    """Preisach hysteresis (optionally plus a parallel linear spring), numerical DF.
+    """Preisach hysteresis torque (optionally plus a parallel linear spring), numerical DF.
+
+    ``T = k_parallel phi + P_mean(phi) - P[phi]`` (``orientation="plant"``, the
+    simulated plant's torque, dissipative) or ``T = k_parallel phi + P[phi]``
+    (``orientation="operator"``, the raw operator, e.g. for an Everett function
+    that already describes a dissipative element such as a Jenkins stop).
 
     Parameters
     ----------
@@ -155,6 +165,8 @@ class PreisachHysteresis(HdNonlinearity):
         Linear spring in parallel (N m/rad, >= 0).
     num_points : int
         Samples per cycle of the numerical first harmonic.
+    orientation : str
+        ``"plant"`` (default) or ``"operator"``.
     """
 
     kind = "preisach"
@@ -163,8 +175,12 @@ class PreisachHysteresis(HdNonlinearity):
     output_name = "torque"
     output_unit = "N*m"
 
-    def __init__(self, model: PreisachModel, k_parallel: float = 0.0, num_points: int = 1024) -> None:
+    def __init__(self, model: PreisachModel, k_parallel: float = 0.0, num_points: int = 1024,
+                 orientation: str = "plant") -> None:
         super().__init__()
+        if orientation not in ("plant", "operator"):
+            raise ValueError(f"unknown Preisach orientation '{orientation}' (expected 'plant' or 'operator')")
+        self.orientation = orientation
         self.model = model
         self.k_parallel = float(k_parallel)
         self.num_points = int(num_points)
@@ -173,7 +189,11 @@ class PreisachHysteresis(HdNonlinearity):
         self.model.reset()
 
     def __call__(self, phi: float) -> float:
-        return self.model(phi) + self.k_parallel * phi
+        """Advance to twist ``phi`` (rad); torque (N m)."""
+        p = self.model(phi)
+        if self.orientation == "plant":
+            return self.model.mean(phi) - p + self.k_parallel * phi
+        return p + self.k_parallel * phi
 
     def describing_function(self, A: float) -> complex:
         """First harmonic of the steady symmetric cycle +-A (N m/rad)."""
@@ -187,5 +207,6 @@ class PreisachHysteresis(HdNonlinearity):
 
     def to_dict(self) -> Dict[str, Any]:
         d = super().to_dict()
-        d.update(u_max_rad=self.model.u_max, y_sat_Nm=self.model.y_sat, k_parallel_Nm_per_rad=self.k_parallel)
+        d.update(u_max_rad=self.model.u_max, y_sat_Nm=self.model.y_sat, k_parallel_Nm_per_rad=self.k_parallel,
+                 orientation=("P_mean - P (plant)" if self.orientation == "plant" else "P (operator)"))
         return d

@@ -6,8 +6,11 @@ Model (all output-referred, SI): two-mass axis::
     J_L  w_L' = K phi + c phi' + T_x - f_L - c_L w_L,     phi = theta_m/N - theta_L
 
 with ``J_m' = N^2 J_m``; actuator ``u_c -> torque filters (biquads f1, f2,
-mapped to continuous time by the inverse Tustin transform) -> computation
-delay 1.5 T (Pade 1/1) -> current loop 1/(s/w_i + 1) -> tau``; cascaded
+mapped to continuous time by the inverse Tustin transform) -> delay
+``delay_periods`` T (Pade 1/1; default 1.5 T = one period of computation + the
+zero-order hold's T/2 on the drive; 0.5 T in the lock-step simulator, where the
+sample taken at the start of a period drives the command held over it) ->
+current loop 1/(s/w_i + 1) -> tau``; cascaded
 PID: ``w_ref = (pos_kp + pos_ki/s)(r - theta_fb)``,
 ``u_c = (vel_kp + vel_ki/s)(w_ref - w_fb) - vel_kd s/(1 + s/w_d) w_fb``
 with ``w_fb`` the type-2 tracking observer ``(2 z w_o s + w_o^2)/(s^2 + 2 z w_o s + w_o^2)``
@@ -132,7 +135,7 @@ class LoopModel:
             sys = sys * _biquad_continuous((g["f1_b0"], g["f1_b1"], g["f1_b2"]), (g["f1_a1"], g["f1_a2"]), T)
         if fe & 2:
             sys = sys * _biquad_continuous((g["f2_b0"], g["f2_b1"], g["f2_b2"]), (g["f2_a1"], g["f2_a2"]), T)
-        num, den = ct.pade(1.5 * T, 1)
+        num, den = ct.pade(float(g.get("delay_periods", 1.5)) * T, 1)
         sys = sys * ct.tf(num, den)
         if float(self.axis.get("current_loop.enabled", 1.0)):
             wi = 2 * math.pi * float(self.axis["current_loop.bandwidth_Hz"])
@@ -193,6 +196,35 @@ class LoopModel:
         """Linear part seen by the nonlinearity, ``H = -P_zw`` (z units per w unit)."""
         cl = self.closed_system(insertion)
         return ct.ss(cl.A, cl.B[:, [1]], -cl.C[[0], :], -cl.D[[0]][:, [1]])
+
+    def cycle_amplitude(self, insertion: str, output: str, A: float, omega: float) -> float:
+        """Amplitude of a loop signal in a predicted limit cycle.
+
+        In the cycle the nonlinearity's input is ``z = A sin(w t)`` and every
+        other signal is the linear response to the first harmonic of its output
+        ``w``; so ``|y| = A |G_yw(jw) / G_zw(jw)|`` (closed loop, ``r`` constant).
+
+        Parameters
+        ----------
+        insertion : str
+            Insertion point of the nonlinearity.
+        output : str
+            ``"theta_L"`` (load angle, rad; also the position error for a
+            constant reference) or ``"z"``.
+        A : float
+            Cycle amplitude at the nonlinearity's input (its unit).
+        omega : float
+            Cycle angular frequency (rad/s).
+
+        Returns
+        -------
+        float
+            Amplitude of ``output`` (rad for ``theta_L``).
+        """
+        cl = self.closed_system(insertion)
+        G = freqresp(cl, np.array([float(omega)]))[:, 1, 0]  # column of input w
+        idx = {"z": 0, "theta_L": 1}[output]
+        return float(A * abs(G[idx] / G[0]))
 
     def linear_gain(self, insertion: str) -> complex:
         """The gain the linear model uses in place of the nonlinearity (for the nominal loop)."""

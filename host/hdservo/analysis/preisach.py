@@ -117,6 +117,47 @@ def everett_table_from_density(density: Callable[[np.ndarray, np.ndarray], np.nd
     return EverettTable(E, u_max)
 
 
+def everett_table_plant(u_max: float, t_sat: float, r0: float, s: float, levels: int = 32) -> EverettTable:
+    """The Everett table exactly as the simulated plant builds it (sim/plant/hd_plant_preisach.c).
+
+    Density :func:`preisach_exponential_gaussian_density`; cell masses by the
+    midpoint rule, a diagonal cell (half a cell) by its centroid
+    ``(u_a + 2 du/3, u_a + du/3)`` times ``du^2/2``; scaled so that
+    ``E(u_max, -u_max) = t_sat``.
+
+    Parameters
+    ----------
+    u_max : float
+        Input range half-width (rad, > 0).
+    t_sat : float
+        Output at saturation (N m, >= 0).
+    r0, s : float
+        Density parameters (rad, > 0).
+    levels : int
+        Grid intervals L (the plant uses 32).
+
+    Returns
+    -------
+    EverettTable
+    """
+    L = int(levels)
+    du = 2.0 * u_max / L
+    mu = preisach_exponential_gaussian_density(r0, s)
+    u = -u_max + du * np.arange(L)
+    E = np.zeros((L + 1, L + 1))
+    for j in range(L):
+        acc = 0.0
+        for a in range(j, L):
+            ub = u[j:a]
+            row = float(np.sum(mu(np.full(ub.shape, u[a] + 0.5 * du), ub + 0.5 * du))) * du * du
+            row += float(mu(np.array(u[a] + 2.0 * du / 3.0), np.array(u[a] + du / 3.0))) * 0.5 * du * du
+            acc += row
+            E[a + 1, j] = acc
+    if E[L, 0] > 0:
+        E *= t_sat / E[L, 0]
+    return EverettTable(E, u_max)
+
+
 class PreisachModel:
     """Classical Preisach operator evaluated with the recursive stack algorithm.
 
@@ -135,6 +176,24 @@ class PreisachModel:
         self.u_max = float(u_max)
         self.y_sat = float(everett(self.u_max, -self.u_max))
         self.reset()
+
+    def mean(self, u: float) -> float:
+        """Centre line of the major loop, ``P_mean(u) = E(u, -u_max) - E(u_max, u)`` (output units).
+
+        The mean of the ascending and descending major branches (input clamped
+        to +-u_max); single-valued.
+        """
+        u = min(max(float(u), -self.u_max), self.u_max)
+        return float(self.everett(u, -self.u_max) - self.everett(self.u_max, u))
+
+    def demagnetise(self, cycles: int = 24) -> None:
+        """The simulated plant's initial state: from negative saturation, a decaying
+        alternating sequence ``+a_k, -a_k (1 - 0.5/cycles)``, ``a_k = u_max (cycles - k)/cycles``."""
+        self.reset()
+        for k in range(cycles):
+            a = self.u_max * (cycles - k) / cycles
+            self(a)
+            self(-a * (1.0 - 0.5 / cycles))
 
     def reset(self) -> None:
         """Negative saturation: every relay at -1, output ``-E(u_max, -u_max)``."""

@@ -30,7 +30,7 @@ Proc = tuple[Callable[[argparse.Namespace], RigSetup], bool, Callable[..., Resul
 
 PROCEDURES: dict[str, Proc] = {
     "stiffness": (lambda a: gear.GEAR_SETUP, False,
-                  lambda b, a, p: gear.stiffness(b, cycles=a.cycles or 1, progress=p)),
+                  lambda b, a, p: gear.stiffness(b, cycles=a.cycles or 2, progress=p)),
     "hysteresis": (lambda a: gear.GEAR_SETUP, False,
                    lambda b, a, p: gear.hysteresis(b, cycles=a.cycles or 3, progress=p)),
     "lost-motion": (lambda a: gear.GEAR_SETUP, False,
@@ -88,7 +88,7 @@ def register(p: argparse.ArgumentParser) -> None:
     p.add_argument("--pdf", action="store_true", help="also write PDF plots")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     g = p.add_argument_group("procedure options")
-    g.add_argument("--cycles", type=int, default=None, help="torque-loop cycles (stiffness 1, hysteresis 3, lost motion 3)")
+    g.add_argument("--cycles", type=int, default=None, help="torque-loop cycles (stiffness 2, hysteresis 3, lost motion 3)")
     g.add_argument("--te-rate", type=_positive, default=10.0, help="transmission test rate, deg/s (default 10)")
     g.add_argument("--excitation-Nm", type=_positive, default=6.0, help="FRF torque excitation RMS, N.m (default 6)")
     g.add_argument("--rates", type=_floats, default=[1.0, 0.1, 0.01, 0.001],

@@ -217,7 +217,13 @@ def solve(d: Design, cols: Sequence[Column], weights: dict[str, float],
     yw = y * w
     sc = np.sqrt(np.sum(Xw ** 2, axis=0))
     sc[sc == 0] = 1.0
-    theta, *_ = np.linalg.lstsq(Xw / sc, yw, rcond=None)
+    Q, Rm = np.linalg.qr(Xw / sc)
+    try:
+        theta = np.linalg.solve(Rm, Q.T @ yw)
+        if not np.all(np.isfinite(theta)):
+            raise np.linalg.LinAlgError("singular")
+    except np.linalg.LinAlgError:
+        theta, *_ = np.linalg.lstsq(Xw / sc, yw, rcond=None)
     theta = theta / sc
     r = y - X @ theta
     resid = {e: r[i * n:(i + 1) * n] for i, e in enumerate(d.equations)}

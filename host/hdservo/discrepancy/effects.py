@@ -16,7 +16,7 @@ plots show: the coordinate in :attr:`Effect.coordinate` reveals the effect.
 | transmission_error | M | cos/sin(k theta_m)/N, k = 1..4 per wave-generator revolution (coef = K*e_k) | - |
 | cogging_torque | M,R | cos/sin(p theta_m), cos/sin(2p theta_m) | order p >= 5 |
 | nonlinear_stiffness | M | phi abs(phi)/N, phi^3/N, or a knee sat_b(phi)/N with K_in/K >= 0.25 | form, b |
-| hysteresis | M | stop operators S_D[phi]/N at 4 thresholds (Maxwell-slip) | D scale |
+| hysteresis | M | stop operators S_D[phi]/N at 6 thresholds, 2-64 % of the twist span (Maxwell-slip) | - |
 | backlash | M | sat_b(phi)/N with K_in/K < 0.25 (soft/lost-motion zone) | b |
 | gravity_unbalance | R | cos(theta_l)/N, sin(theta_l)/N | - |
 | unmodelled_compliance | R (rigid baseline) | (a_l - a_m/N)/N, coefficient J_l | - |
@@ -125,10 +125,24 @@ def _names(d: Design) -> set[str]:
 
 
 class TransmissionError(Effect):
+    """Kinematic transmission error e(theta_m, theta_l), rad at the output.
+
+    The measured twist theta_m/N - theta_l misses e, so the spring torque is
+    K (phi + e) and its reaction on the motor carries T de/dtheta_m (virtual work,
+    docs/plant.md).  Per harmonic e_k = a cos(k theta) + b sin(k theta) of the
+    wave-generator (= motor) angle the motor equation gains, with T ~ K phi,
+
+        K a (cos(k th)/N - k phi sin(k th)) + K b (sin(k th)/N + k phi cos(k th)),
+
+    linear in K a, K b.  Output-angle harmonics (FS run-out, 1-2 per output revolution)
+    enter as cos/sin(j theta_l)/N (their reaction term is negligible).
+    """
+
     name = "transmission_error"
     coordinate = "motor angle (wave-generator angle)"
     signature = "lines at 1, 2, 4 per wave-generator revolution in the spring (motor) equation only"
     orders = (1, 2, 3, 4)
+    out_orders = (1, 2)
 
     def applicable(self, d: Design) -> bool:
         return d.sig.kind == "two_mass"
@@ -137,19 +151,27 @@ class TransmissionError(Effect):
         s = d.sig
         N = s.ratio
         th = s.raw_th_m
+        phi = s.phi
         cols = []
         for k in self.orders:
-            cols.append(Column(f"te_wg{k}_cos", np.cos(k * th) / N, None))
-            cols.append(Column(f"te_wg{k}_sin", np.sin(k * th) / N, None))
-        yield Variant({"orders_per_wg_rev": list(self.orders)}, cols)
+            c, sn = np.cos(k * th), np.sin(k * th)
+            cols.append(Column(f"te_wg{k}_cos", c / N - k * phi * sn, None))
+            cols.append(Column(f"te_wg{k}_sin", sn / N + k * phi * c, None))
+        thl = s.raw_th_l if s.raw_th_l is not None else th / N
+        for j in self.out_orders:
+            cols.append(Column(f"te_out{j}_cos", np.cos(j * thl) / N, None))
+            cols.append(Column(f"te_out{j}_sin", np.sin(j * thl) / N, None))
+        yield Variant({"orders_per_wg_rev": list(self.orders), "orders_per_output_rev": list(self.out_orders)},
+                      cols)
 
     def params(self, fit: Fit, v: Variant) -> dict[str, Any]:
         K = _idx(fit, "K_Nm_per_rad")
         out: dict[str, Any] = {}
-        for k in self.orders:
-            a, b = _idx(fit, f"te_wg{k}_cos"), _idx(fit, f"te_wg{k}_sin")
-            out[f"wg{k}_amp_rad"] = float(np.hypot(a, b) / K)
-            out[f"wg{k}_phase_rad"] = float(np.arctan2(a, b))
+        for pre, ks in (("wg", self.orders), ("out", self.out_orders)):
+            for k in ks:
+                a, b = _idx(fit, f"te_{pre}{k}_cos"), _idx(fit, f"te_{pre}{k}_sin")
+                out[f"{pre}{k}_amp_rad"] = float(np.hypot(a, b) / K)
+                out[f"{pre}{k}_phase_rad"] = float(np.arctan2(a, b))
         return out
 
 
@@ -159,6 +181,7 @@ class Cogging(Effect):
     signature = "high-order lines (LCM of slots and poles) per motor revolution, in both equations"
     min_order = 5
     max_order = 200
+    alpha = 0.01          # false-alarm probability of the order search
 
     def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
         s = d.sig
@@ -167,7 +190,20 @@ class Cogging(Effect):
         sel = orders >= self.min_order
         if not np.any(sel):
             return
-        top = orders[sel][np.argsort(amp[sel])[::-1][:3]]
+        # Fisher-type periodicity test with a Bonferroni correction over the searched
+        # orders: the power of a line of a residual without periodic content is about
+        # exponential with the mean line power (estimated robustly, median / ln 2); the
+        # largest of M lines exceeds mean * ln(M / alpha) with probability alpha.  Only
+        # orders above that level are candidate cogging orders (else a line found among
+        # ~200 would fit whatever happens at a few reversal angles).
+        pw = amp[sel] ** 2
+        mean_pw = float(np.median(pw)) / np.log(2.0)
+        level = mean_pw * np.log(len(pw) / self.alpha)
+        ok = pw >= level
+        if not np.any(ok):
+            return
+        cand, cpw = orders[sel][ok], pw[ok]
+        top = cand[np.argsort(cpw)[::-1][:3]]
         eq_m = s.kind == "two_mass"
         for p in top:
             cols = []
@@ -193,10 +229,15 @@ def sat(x: np.ndarray, b: float) -> np.ndarray:
     return np.clip(x, -b, b)
 
 
+#: Knee / half-gap grid: geometric, 2 % to 80 % of the 99th percentile of the twist,
+#: about 25 % apart (a finer grid is not resolvable by the filtered twist).
+PHI_GRID_N = 17
+
+
 def _phi_grid(d: Design) -> np.ndarray:
     a = np.abs(d.sig.phi)
     hi = float(np.percentile(a, 99))
-    return np.geomspace(max(hi * 0.02, 1e-9), hi * 0.8, 8)
+    return np.geomspace(max(hi * 0.02, 1e-9), hi * 0.8, PHI_GRID_N)
 
 
 class NonlinearStiffness(Effect):
@@ -268,7 +309,7 @@ class Hysteresis(Effect):
     name = "hysteresis"
     coordinate = "torsion"
     signature = "residual vs twist depends on the direction of twist change (loops, return-point memory)"
-    fractions = (0.03, 0.08, 0.2, 0.5)
+    fractions = (0.02, 0.04, 0.08, 0.16, 0.32, 0.64)
 
     def applicable(self, d: Design) -> bool:
         return d.sig.kind == "two_mass"

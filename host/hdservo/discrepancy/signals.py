@@ -117,13 +117,17 @@ class Signals:
         return self.w_l if self.w_l is not None else self.w_m / self.ratio
 
     def dec(self, x: np.ndarray) -> np.ndarray:
-        """Parallel filter: the angles' zero-phase Butterworth low-pass, then zero-phase
-        decimation (Chebyshev I, order 8) by :attr:`q`.  Applied alike to the measured
-        torque and to every regression column."""
+        """Parallel filter: the angles' zero-phase Butterworth low-pass, then subsampling
+        by :attr:`q`.  Applied alike to the measured torque and to every regression column.
+
+        The decimated Nyquist rate is ``DEC_RATE_REL/2 = 2.5`` times the cutoff, where the
+        zero-phase 4th-order Butterworth already attenuates by about 2 x 64 dB, so no
+        separate anti-alias filter is needed.
+        """
         x = _lowpass(np.asarray(x, dtype=float), self.fc_Hz, 1.0 / self.dt)
         if self.q <= 1:
             return x
-        return sps.decimate(x, self.q, n=8, ftype="iir", zero_phase=True)
+        return np.ascontiguousarray(x[:: self.q])
 
     @property
     def t_dec(self) -> np.ndarray:
@@ -140,8 +144,8 @@ def _diff(x: np.ndarray, dt: float) -> np.ndarray:
 
 
 def _lowpass(x: np.ndarray, fc: float, fs: float) -> np.ndarray:
-    b, a = sps.butter(4, fc / (fs / 2.0))
-    return sps.filtfilt(b, a, x, padtype="odd", padlen=min(len(x) - 1, 300))
+    sos = sps.butter(4, fc / (fs / 2.0), output="sos")
+    return sps.sosfiltfilt(sos, x, padtype="odd", padlen=min(len(x) - 1, 300))
 
 
 def resolve_columns(log: logio.Log) -> dict[str, str]:

@@ -123,12 +123,13 @@ def _loop_plot(title: str) -> Any:
     return plot
 
 
-def stiffness(bench: Bench, peak_Nm: Optional[float] = None, cycles: int = 1, rate_Nm_s: float = 40.0,
+def stiffness(bench: Bench, peak_Nm: Optional[float] = None, cycles: int = 2, rate_Nm_s: float = 40.0,
               progress: Optional[Progress] = None) -> Result:
     """Torsional stiffness curve: K1/K2/K3, T1/T2 of the three-slope catalogue model.
 
-    A loop to +-peak (default the rated torque, 0x6076); the three-slope model
-    is fitted to the midline of the last cycle.
+    A loop to +-peak (default the rated torque, 0x6076), ``cycles`` >= 2 so that
+    the midline of the last cycle is made of established branches (not the
+    virgin curve); the three-slope model is fitted to that midline.
     """
     peak = bench.rated_torque_Nm() if peak_Nm is None else peak_Nm
     d = torque_loop(bench, peak, cycles, rate_Nm_s, progress)
@@ -168,17 +169,18 @@ def hysteresis(bench: Bench, peak_Nm: Optional[float] = None, cycles: int = 3, r
 
 def lost_motion(bench: Bench, fraction: float = 0.04, cycles: int = 3, rate_Nm_s: float = 4.0,
                 progress: Optional[Progress] = None) -> Result:
-    """Lost motion: twist between the loop midpoints at +-4 % of the rated torque."""
+    """Lost motion: twist between the loop tips at +-4 % of the rated torque, last cycle."""
     level = fraction * bench.rated_torque_Nm()
     d = torque_loop(bench, level, cycles, rate_Nm_s, progress)
-    lm = mt.lost_motion(d["torque_Nm"], d["twist_rad"], level, ref_Nm=d["applied_Nm"])
+    last = d["t_s"] >= d["t_s"][-1] * (cycles - 1) / cycles - 1e-9     # the established (last) cycle
+    lm = mt.lost_motion(d["torque_Nm"][last], d["twist_rad"][last], level, ref_Nm=d["applied_Nm"][last])
     h = mt.hysteresis_loss(d["torque_Nm"], d["twist_rad"], ref_Nm=d["applied_Nm"])
     r = Result("lost-motion", conditions={"level_Nm": level, "fraction_of_rated": fraction, "cycles": cycles,
                                           "rate_Nm_s": rate_Nm_s, "setup": GEAR_SETUP.name})
     r.figures = {**lm, "loop_width_at_zero_arcmin": h["loss_arcmin"]}
     if "twist_true_rad" in d:
-        r.figures["true_twist_lost_motion_arcmin"] = mt.lost_motion(d["torque_Nm"], d["twist_true_rad"], level,
-                                                                    ref_Nm=d["applied_Nm"])["lost_motion_arcmin"]
+        r.figures["true_twist_lost_motion_arcmin"] = mt.lost_motion(d["torque_Nm"][last], d["twist_true_rad"][last],
+                                                                    level, ref_Nm=d["applied_Nm"][last])["lost_motion_arcmin"]
     r.headline = {"lost_motion_arcmin": lm["lost_motion_arcmin"]}
     r.series = d
     r.plot = _loop_plot(f"lost motion loop +-{level:.3g} N.m")

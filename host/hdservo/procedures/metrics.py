@@ -274,16 +274,19 @@ def rate_stability(t_s: np.ndarray, angle_rad: np.ndarray, rate_cmd_rad_s: float
             "max_backlash_rad": back}
 
 
-def min_smooth_rate(ladder: Sequence[dict[str, Any]], bound: float) -> float | None:
+def min_smooth_rate(ladder: Sequence[dict[str, Any]], bound: float,
+                    accuracy_bound: Optional[float] = None) -> float | None:
     """Lowest rate of a decade ladder whose run is smooth, with every faster rung smooth too.
 
-    ``ladder``: dicts with ``rate_deg_s``, ``stability``, ``accuracy``, ``monotone``.
-    A rung is smooth when monotone, stability <= bound and accuracy <= bound.
+    ``ladder``: dicts with ``rate_deg_s``, ``stability``, ``monotone`` (and ``accuracy``).
+    A rung is smooth when monotone and its rate fluctuation (stability) <= bound; with
+    ``accuracy_bound`` the mean rate must also be within it of the command.
     Returns deg/s, or None when even the fastest rung fails.
     """
     best = None
     for r in sorted(ladder, key=lambda d: -d["rate_deg_s"]):
-        ok = r["monotone"] and r["stability"] <= bound and r["accuracy"] <= bound
+        ok = bool(r["monotone"]) and r["stability"] <= bound and (accuracy_bound is None or
+                                                                  r["accuracy"] <= accuracy_bound)
         if not ok:
             break
         best = float(r["rate_deg_s"])

@@ -1,0 +1,114 @@
+"""``hdservo compare``: the test procedures with the PID baseline, each compensator and the best combination.
+
+Without bus options every procedure runs on its own virtual reference axis
+(``--axis`` for another axis file), exactly as ``hdservo test`` does; with
+``-i/-c/-b`` on that drive.  ``--model MODEL.toml`` (``hdservo identify -o``)
+downloads the compensator parameters computed from the identified model
+(verified by read-back) before every compensated procedure.  Writes
+``OUT/compare.json``, per-controller ``hdservo-test`` JSON and plots, and one
+comparison chart per headline figure (layout: :mod:`hdservo.compare`); prints
+a table with the targets of DESIGN.md section 2 marked.  ``hdservo report
+OUT/compare.json`` turns it into one HTML file.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+from ..cli import UserError
+
+NAME = "compare"
+HELP = "run the test procedures with the PID baseline, each compensator and the best combination; compare"
+
+
+def register(p: argparse.ArgumentParser) -> None:
+    """Options of ``hdservo compare``."""
+    from .. import compare as cmp
+    from ..drive import add_bus_arguments
+    p.add_argument("-o", "--out", type=Path, default=Path("build") / "compare",
+                   help="output directory (default build/compare)")
+    p.add_argument("--controllers", default=",".join(cmp.default_controller_names()),
+                   help="comma-separated: pid, best, a compensator, or compensators joined by '+' "
+                        "(default: pid, each compensator, best)")
+    p.add_argument("--procedures", default=",".join(cmp.DEFAULT_PROCEDURES),
+                   help="comma-separated procedures of 'hdservo test' (default: the headline ones: "
+                        f"{','.join(cmp.DEFAULT_PROCEDURES)})")
+    p.add_argument("--model", type=Path, metavar="MODEL.toml",
+                   help="identified model: its compensator parameters are downloaded before each compensated run "
+                        "(default: the drive's own compensator parameters)")
+    p.add_argument("--quick", action="store_true",
+                   help=f"shortened procedures ({' '.join(cmp.QUICK_ARGS)})")
+    p.add_argument("--proc-args", default=None, metavar="'OPTIONS'",
+                   help="further 'hdservo test' procedure options for every procedure, e.g. '--runs 3'")
+    add_bus_arguments(p)
+    p.add_argument("--axis", default="reference", help="virtual drive only: axis TOML, 'reference' or 'minimal'")
+    p.add_argument("--seed", type=int, default=1, help="virtual drive only: sensor-noise seed")
+    p.add_argument("--json", type=Path, help="also write the comparison document here")
+    p.add_argument("--pdf", action="store_true", help="also write PDF plots")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
+
+
+def _check_dir(path: Path, what: str) -> None:
+    if path.exists() and not path.is_dir():
+        raise UserError(f"{what} {path}: not a directory")
+    probe = path
+    while not probe.exists():
+        probe = probe.parent
+    if not os.access(probe, os.W_OK):
+        raise UserError(f"{what} {path}: not writable")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Check the input, run the comparison, print the table."""
+    from .. import compare as cmp
+    from ..drive import bus_kwargs
+    bus = bus_kwargs(args) or None
+    if bus is None and args.axis not in ("reference", "minimal") and not Path(args.axis).is_file():
+        raise UserError(f"--axis {args.axis}: no such file")
+    if args.model is not None and not args.model.is_file():
+        raise UserError(f"--model {args.model}: no such file")
+    _check_dir(args.out, "--out")
+    if args.json is not None:
+        if args.json.is_dir():
+            raise UserError(f"--json {args.json}: is a directory")
+        _check_dir(args.json.parent, "--json")
+    try:
+        ctls = cmp.controllers_from_names(args.controllers.split(","), args.axis if bus is None else "reference")
+        procs = [x.strip() for x in args.procedures.split(",") if x.strip()]
+        if not procs:
+            raise ValueError("--procedures: none given")
+        extra = (list(cmp.QUICK_ARGS) if args.quick else []) + cmp.parse_proc_args(args.proc_args)
+        from ..commands import test as tc
+        bad = [x for x in procs if x not in tc.PROCEDURES]
+        if bad:
+            raise ValueError(f"--procedures: unknown '{bad[0]}'; expected some of {', '.join(sorted(tc.PROCEDURES))}")
+        for x in procs:
+            cmp.procedure_args(x, extra)
+    except ValueError as e:
+        raise UserError(str(e)) from None
+    if args.model is not None:              # a bad model is refused before anything runs
+        from .download import plan_download
+        plan_download(args.model, args.axis)
+    try:
+        doc = cmp.run_compare(args.out, ctls, procs, proc_extra=extra, bus=bus, node_id=args.node_id,
+                              axis=args.axis, seed=args.seed, model=args.model, progress=not args.quiet,
+                              pdf=args.pdf, echo=(lambda s: None) if args.quiet else print)
+    except ValueError as e:
+        raise UserError(str(e)) from None
+    if args.json is not None:
+        cmp._write_json_atomic(args.json, doc)
+    print(cmp.summary_table(doc))
+    v = doc["verdict"]
+    if v["targets_met"]:
+        met = [k for k, ok in v["targets_met"].items() if ok]
+        print(f"{v['controller']}: {len(met)} of {len(v['targets_met'])} targets met"
+              + (f" ({', '.join(met)})" if met else ""))
+    if v["better_than_reference"]:
+        print(f"{v['controller']} better than {v['reference']} on every figure: {v['better_everywhere']}")
+    fails = {c: d["failures"] for c, d in doc["controllers"].items() if d["failures"]}
+    for c, f in fails.items():
+        for proc, notes in f.items():
+            print(f"FAILED {c}/{proc}: {'; '.join(notes)}")
+    print(f"wrote {args.out / 'compare.json'} ({doc['run_time_s']:.0f} s)")
+    return 0
