@@ -83,6 +83,8 @@ class Figure:
         Requirement of DESIGN.md section 2 on the reference axis (None: no target).
     procedure : str
         The procedure that measures it.
+    short : str
+        Axis label (without the unit).
     """
 
     key: str
@@ -91,6 +93,7 @@ class Figure:
     lower_is_better: bool
     target: Optional[float]
     procedure: str
+    short: str = ""
 
     def target_text(self) -> str:
         """``<= 10 arcsec`` style text, or ``-``."""
@@ -123,13 +126,15 @@ class Figure:
 
 #: The headline figures of the comparison, summary and report (issue 8; DESIGN.md section 2).
 FIGURES: tuple[Figure, ...] = (
-    Figure("min_smooth_rate_deg_s", "minimum smooth rate", "deg/s", True, 0.001, "min-rate"),
-    Figure("positioning_accuracy_arcsec", "positioning accuracy (ISO 230-2 A)", "arcsec", True, 10.0, "positioning"),
-    Figure("repeatability_arcsec", "repeatability (ISO 230-2 R)", "arcsec", True, 2.0, "positioning"),
+    Figure("min_smooth_rate_deg_s", "minimum smooth rate", "deg/s", True, 0.001, "min-rate", "min. smooth rate"),
+    Figure("positioning_accuracy_arcsec", "positioning accuracy (ISO 230-2 A)", "arcsec", True, 10.0, "positioning",
+           "accuracy A"),
+    Figure("repeatability_arcsec", "repeatability (ISO 230-2 R)", "arcsec", True, 2.0, "positioning",
+           "repeatability R"),
     Figure("stabilisation_rms_arcsec", "stabilisation precision (RMS, base 0.5 deg at 1 Hz)", "arcsec", True, 20.0,
-           "stabilisation"),
-    Figure("bandwidth_hz", "closed-loop bandwidth (-3 dB)", "Hz", False, None, "bandwidth"),
-    Figure("peak_torque_Nm", "peak output torque", "N.m", False, 30.0, "peak-torque"),
+           "stabilisation", "inertial error RMS"),
+    Figure("bandwidth_hz", "closed-loop bandwidth (-3 dB)", "Hz", False, None, "bandwidth", "bandwidth"),
+    Figure("peak_torque_Nm", "peak output torque", "N.m", False, 30.0, "peak-torque", "peak torque"),
 )
 FIGURE_BY_KEY: dict[str, Figure] = {f.key: f for f in FIGURES}
 
@@ -468,7 +473,7 @@ def run_compare(out_dir: Path, controllers: Sequence[Controller], procedures: Se
         if f.procedure not in procedures:
             continue
         vals = {c: d["headline"].get(f.key) for c, d in doc_ctl.items()}
-        figs[f.key] = {"label": f.label, "unit": f.unit, "lower_is_better": f.lower_is_better, "target": f.target,
+        figs[f.key] = {"label": f.label, "short": f.short or f.label, "unit": f.unit, "lower_is_better": f.lower_is_better, "target": f.target,
                        "target_text": f.target_text(), "values": vals,
                        "meets_target": {c: f.meets(v) for c, v in vals.items()},
                        "vs_" + ref_name: {c: f.verdict(v, vals[ref_name]) for c, v in vals.items() if c != ref_name}}
@@ -521,7 +526,7 @@ def comparison_plots(doc: Mapping[str, Any], out_dir: Path) -> list[Path]:
         vals = [f["values"].get(n) for n in names]
         fig, ax = figure(size=(8.0, 4.2))
         a = ax[0][0]
-        have = [v for v in vals if v is not None and v > 0]
+        have = [v for v in vals if v is not None and v > 0] + ([f["target"]] if f["target"] else [])
         logy = bool(have) and max(have) / min(have) > 30.0
         bottom = (min(have) / 3.0 if logy else 0.0) if have else 0.0
         for i, (n, v) in enumerate(zip(names, vals)):
@@ -541,8 +546,8 @@ def comparison_plots(doc: Mapping[str, Any], out_dir: Path) -> list[Path]:
         a.set_xticks(range(len(names)))
         a.set_xticklabels(names, rotation=20)
         a.set_xlabel("controller (-)")
-        a.set_ylabel(f"{f['label']} ({f['unit']})")
-        a.set_title(f"{f['label']}: green = target met, red = not met")
+        a.set_ylabel(f"{f.get('short', f['label'])} ({f['unit']})")
+        a.set_title(f"{f['label']}\ngreen = target met, red = not met", fontsize=10)
         a.grid(True, axis="y", which="both", alpha=0.4)
         fig.tight_layout()
         paths += [p for p in save_figure(fig, out_dir, f"compare_{key}") if p.suffix == ".png"]
