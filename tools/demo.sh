@@ -1,15 +1,10 @@
 #!/usr/bin/env bash
-# `make demo`: the most complete end-to-end path that exists today.
-# Runs the unchanged drive firmware against the simulated reference axis
-# (every plant effect on) in lock-step, and summarises the logs.
+# `make demo`: the end-to-end demo on the virtual reference axis (docs/demo.md).
+# Starts the virtual drive, identifies the axis over CAN, downloads the compensator
+# parameters, runs the test procedures with the PID baseline and with compensation,
+# writes build/demo/report.html and build/demo/summary.json, prints a summary table
+# and the run time, and stops the virtual drive.  Options are passed to `hdservo demo`
+# (e.g. tools/demo.sh --quick, --controllers pid,best).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-out=build/demo
-mkdir -p "$out"
-t0=$(date +%s)
-for s in step slow_rate; do
-  echo "demo: hdservo-sim run sim/scenarios/$s.toml -> $out/$s.csv"
-  build/bin/hdservo-sim run "sim/scenarios/$s.toml" -o "$out/$s.csv"
-done
-.venv/bin/python tools/demo_summary.py "$out/step.csv" "$out/slow_rate.csv"
-echo "demo: done in $(( $(date +%s) - t0 )) s; logs and sidecars in $out/"
+exec .venv/bin/hdservo demo "$@"

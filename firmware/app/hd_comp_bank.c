@@ -15,7 +15,7 @@ static int32_t prm(const int32_t *p, hd_param_id_t id)
 /* 1 - exp(-2 pi fc T) in Q30 from fc in Q16 Hz (at least 1 LSB) */
 static int32_t lpf_alpha(int32_t fc_q16)
 {
-    const int32_t x = hd_sat32(hd_div64_rnd(hd_mul64x32_q((int64_t)fc_q16, CB_TWO_PI_Q28, 28u), HD_LOOP_HZ));
+    const int32_t x = hdf_sat32(hd_div64_rnd(hdf_mul64x32_q((int64_t)fc_q16, CB_TWO_PI_Q28, 28u), HD_LOOP_HZ));
     const int32_t a = HD_Q30_ONE - hd_exp_neg_q16(x);
     return (a < 1) ? 1 : a;
 }
@@ -87,7 +87,7 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
     c->pki = prm(p, HD_P_CB_PKI);
     c->pki_vlo = prm(p, HD_P_CB_PKI_VLO);
     c->pki_vhi = prm(p, HD_P_CB_PKI_VHI);
-    c->pki_leak_dt = hd_sat32(hd_div64_rnd(hd_shl64_sat((int64_t)prm(p, HD_P_CB_PKI_LEAK), 14u), HD_LOOP_HZ));
+    c->pki_leak_dt = hdf_sat32(hd_div64_rnd(hdf_shl64_sat((int64_t)prm(p, HD_P_CB_PKI_LEAK), 14u), HD_LOOP_HZ));
     c->pki_max = prm(p, HD_P_CB_PKI_MAX);
     if (c->pki_vlo > c->pki_vhi) {
         return -1;
@@ -136,8 +136,8 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
     /* disturbance observer: g T (Q30) and g J (Q15.16 N.m/(turn/s)) = 4 pi^2 fc J */
     {
         const int32_t fc = prm(p, HD_P_DOB_FC);
-        c->dob_g_t = hd_sat32(hd_div64_rnd(hd_mul64x32_q((int64_t)fc, CB_TWO_PI_Q28, 14u), HD_LOOP_HZ));
-        c->dob_gj = hd_sat32(hd_mul64x32_q(hd_mul64x32_q((int64_t)prm(p, HD_P_DOB_J), fc, 16u),
+        c->dob_g_t = hdf_sat32(hd_div64_rnd(hdf_mul64x32_q((int64_t)fc, CB_TWO_PI_Q28, 14u), HD_LOOP_HZ));
+        c->dob_gj = hdf_sat32(hdf_mul64x32_q(hdf_mul64x32_q((int64_t)prm(p, HD_P_DOB_J), fc, 16u),
                                            CB_4PI2_Q24, 24u));
     }
     return 0;
@@ -238,9 +238,9 @@ static bool running(const hd_comp_bank_t *b, uint32_t bit, const hd_blend_t *bl)
  * (hd_sign_smooth_q30 of |v| - mid over the half width; a step at lo if hi == lo). */
 static int32_t pki_weight(const hd_comp_bank_cfg_t *c, hd_vel_out_t v)
 {
-    const int64_t av = hd_abs64_sat((int64_t)v);
+    const int64_t av = hdf_abs64_sat((int64_t)v);
     const int64_t mid = ((int64_t)c->pki_vlo + (int64_t)c->pki_vhi) / 2;
-    const int32_t hw = hd_sat32(((int64_t)c->pki_vhi - (int64_t)c->pki_vlo) / 2);
+    const int32_t hw = hdf_sat32(((int64_t)c->pki_vhi - (int64_t)c->pki_vlo) / 2);
     int32_t s;
     if (av <= (int64_t)c->pki_vlo) {
         return 0;
@@ -248,7 +248,7 @@ static int32_t pki_weight(const hd_comp_bank_cfg_t *c, hd_vel_out_t v)
     if (av >= (int64_t)c->pki_vhi) {
         return HD_Q30_ONE;
     }
-    s = hd_sign_smooth_q30(hd_sat32(av - mid), hw);
+    s = hd_sign_smooth_q30(hdf_sat32(av - mid), hw);
     return (int32_t)(((int64_t)HD_Q30_ONE + (int64_t)s + 1) / 2);
 }
 
@@ -256,7 +256,7 @@ static int32_t pki_weight(const hd_comp_bank_cfg_t *c, hd_vel_out_t v)
 static int32_t pki_step(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in)
 {
     const int32_t w = (c->pki > 0) ? pki_weight(c, in->vel_ref) : 0;
-    const int64_t imax = hd_shl64_sat((int64_t)((c->pki_max > 0) ? c->pki_max : 0), 16u);
+    const int64_t imax = hdf_shl64_sat((int64_t)((c->pki_max > 0) ? c->pki_max : 0), 16u);
     int64_t i = b->pki_i;
     b->pki_w = w;
     if (w == 0 && i == 0) {
@@ -264,20 +264,20 @@ static int32_t pki_step(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd
     }
     if (w > 0) {
         /* w Ki T e: e [2^-32 turn] * Ki [Q16 1/s^2] = 2^-48 turn/s^2; x w (Q30); x T */
-        const int32_t e = hd_sat32(hd_sub64_sat(in->pos_ref, in->pos_out));
-        const int64_t ke = hd_mul64x32_q((int64_t)e * (int64_t)c->pki, w, 30u);
-        i = hd_add64_sat(i, hd_div64_rnd(ke, (int64_t)HD_LOOP_HZ));
+        const int32_t e = hdf_sat32(hdf_sub64_sat(in->pos_ref, in->pos_out));
+        const int64_t ke = hdf_mul64x32_q((int64_t)e * (int64_t)c->pki, w, 30u);
+        i = hdf_add64_sat(i, hd_div64_rnd(ke, (int64_t)HD_LOOP_HZ));
     }
     if (w < HD_Q30_ONE && i != 0) {
         /* leak (1 - w) leak T I; at least 1 LSB toward 0 so that it reaches 0 */
-        int64_t d = hd_mul64x32_q(hd_mul64x32_q(i, c->pki_leak_dt, 30u), HD_Q30_ONE - w, 30u);
+        int64_t d = hdf_mul64x32_q(hdf_mul64x32_q(i, c->pki_leak_dt, 30u), HD_Q30_ONE - w, 30u);
         if (d == 0 && c->pki_leak_dt > 0) {
             d = (i > 0) ? 1 : -1;
         }
-        i = hd_sub64_sat(i, d);
+        i = hdf_sub64_sat(i, d);
     }
-    b->pki_i = hd_clamp64(i, hd_neg64_sat(imax), imax);
-    return hd_sat32(hd_asr64_rnd(b->pki_i, 16u));
+    b->pki_i = hdf_clamp64(i, hdf_neg64_sat(imax), imax);
+    return hdf_sat32(hdf_asr64_rnd(b->pki_i, 16u));
 }
 
 void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in,
@@ -295,48 +295,48 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
 
     /* friction: Stribeck map (also the Preisach torque estimate's model) and LuGre */
     if (running(b, HD_CB_STRIBECK, &b->str.blend) || pr_on) {
-        tff = hd_add_sat(tff, hd_stribeck_step(&b->str, &c->str, in->vel_ref, in->vel_fb));
+        tff = hdf_add_sat(tff, hd_stribeck_step(&b->str, &c->str, in->vel_ref, in->vel_fb));
     }
     if (running(b, HD_CB_LUGRE, &b->lug.blend)) {
         const hd_vel_out_t v = (c->lug_v_src != 0u) ? in->vel_fb : in->vel_ref;
-        tff = hd_add_sat(tff, hd_lugre_step(&b->lug, &c->lug, v, hd_sub64_sat(in->pos_out, in->pos_ref)));
+        tff = hdf_add_sat(tff, hd_lugre_step(&b->lug, &c->lug, v, hdf_sub64_sat(in->pos_out, in->pos_ref)));
     }
 
     /* disturbance observer: x' = g (T + g J w - x), d = x - g J w (states Q15.16 x 2^16) */
     if (running(b, HD_CB_DOB, &b->dob_blend)) {
-        const int64_t gjw = hd_mul64x32_q((int64_t)c->dob_gj, in->vel_fb, 16u);      /* Q15.16 x 2^16 */
-        const int64_t drive = hd_add64_sat(hd_shl64_sat((int64_t)b->t_prev, 16u), gjw);
-        b->dob_x = hd_add64_sat(b->dob_x, hd_mul64x32_q(hd_sub64_sat(drive, b->dob_x), c->dob_g_t, 30u));
-        const int32_t d = hd_sat32(hd_asr64_rnd(hd_sub64_sat(b->dob_x, gjw), 16u));
+        const int64_t gjw = hdf_mul64x32_q((int64_t)c->dob_gj, in->vel_fb, 16u);      /* Q15.16 x 2^16 */
+        const int64_t drive = hdf_add64_sat(hdf_shl64_sat((int64_t)b->t_prev, 16u), gjw);
+        b->dob_x = hdf_add64_sat(b->dob_x, hdf_mul64x32_q(hdf_sub64_sat(drive, b->dob_x), c->dob_g_t, 30u));
+        const int32_t d = hdf_sat32(hdf_asr64_rnd(hdf_sub64_sat(b->dob_x, gjw), 16u));
         (void)hd_blend_update(&b->dob_blend);
         b->dob_d = hd_blend_apply(&b->dob_blend, d);
-        tff = hd_add_sat(tff, b->dob_d);
+        tff = hdf_add_sat(tff, b->dob_d);
     } else {
         /* cold: restart from d = 0 at the next enable */
-        b->dob_x = hd_mul64x32_q((int64_t)c->dob_gj, in->vel_fb, 16u);
+        b->dob_x = hdf_mul64x32_q((int64_t)c->dob_gj, in->vel_fb, 16u);
         b->dob_d = 0;
     }
 
     /* position corrections (output-referred motor lead) */
     if (running(b, HD_CB_MAXWELL, &b->mx.blend)) {
-        dpos = hd_add64_sat(dpos, hd_maxwell_step(&b->mx, &c->mx, in->pos_ref));
+        dpos = hdf_add64_sat(dpos, hd_maxwell_step(&b->mx, &c->mx, in->pos_ref));
     }
     if (pr_on) {
         /* transmitted torque estimate, low-passed */
         int32_t test;
         if (c->pr_t_src != 0u) {
             /* model: load-side friction (1 - share) F(v_ref) + J_L a_ref (2 pi J [Q16] acc [2^-24 turn/s^2]) */
-            const int32_t fl = hd_mul_q(b->str.tau_raw, hd_sub_sat(HD_Q30_ONE, c->pr_share), 30u);
-            const int64_t ja = hd_mul64x32_q(hd_mul64x32_q((int64_t)c->pr_jl, in->acc_ref, 24u), CB_TWO_PI_Q28, 28u);
-            test = hd_add_sat(fl, hd_sat32(ja));
+            const int32_t fl = hdf_mul_q(b->str.tau_raw, hdf_sub_sat(HD_Q30_ONE, c->pr_share), 30u);
+            const int64_t ja = hdf_mul64x32_q(hdf_mul64x32_q((int64_t)c->pr_jl, in->acc_ref, 24u), CB_TWO_PI_Q28, 28u);
+            test = hdf_add_sat(fl, hdf_sat32(ja));
         } else {
             /* command: t_prev - share F(v_ref) (includes the loop's reaction) */
-            test = hd_sub_sat(b->t_prev, hd_mul_q(b->str.tau_raw, c->pr_share, 30u));
+            test = hdf_sub_sat(b->t_prev, hdf_mul_q(b->str.tau_raw, c->pr_share, 30u));
         }
         b->pr_test = test;
-        const int64_t tg = hd_shl64_sat((int64_t)test, 16u);
-        b->pr_t = hd_add64_sat(b->pr_t, hd_mul64x32_q(hd_sub64_sat(tg, b->pr_t), c->pr_alpha, 30u));
-        const int32_t yd = hd_sat32(hd_asr64_rnd(b->pr_t, 16u));
+        const int64_t tg = hdf_shl64_sat((int64_t)test, 16u);
+        b->pr_t = hdf_add64_sat(b->pr_t, hdf_mul64x32_q(hdf_sub64_sat(tg, b->pr_t), c->pr_alpha, 30u));
+        const int32_t yd = hdf_sat32(hdf_asr64_rnd(b->pr_t, 16u));
         int32_t u = 0;
         (void)hd_blend_update(&b->pr.blend);
         if (b->table_ok != 0u) {
@@ -346,29 +346,29 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
         b->pr.u = u;
         b->pr_dth = hd_blend_apply(&b->pr.blend, u);
         b->pr.out = b->pr_dth;
-        dpos = hd_add64_sat(dpos, (int64_t)b->pr_dth);
+        dpos = hdf_add64_sat(dpos, (int64_t)b->pr_dth);
     }
     if (running(b, HD_CB_TE, &b->te.blend)) {
-        dpos = hd_add64_sat(dpos, hd_te_comp_step(&b->te, &c->te, in->pos_mot));
-        tff = hd_add_sat(tff, b->te.tau);
+        dpos = hdf_add64_sat(dpos, hd_te_comp_step(&b->te, &c->te, in->pos_mot));
+        tff = hdf_add_sat(tff, b->te.tau);
     }
 
     out->tff = tff;
     if (c->pos_mode != 0u) {
         out->dpos = dpos;
         out->dvel = dv_i;
-        b->dpos_f = hd_shl64_sat(dpos, 16u);
+        b->dpos_f = hdf_shl64_sat(dpos, 16u);
         b->dpos_primed = 1u;
     } else {
-        const int64_t target = hd_shl64_sat(dpos, 16u);       /* 2^-48 turn */
+        const int64_t target = hdf_shl64_sat(dpos, 16u);       /* 2^-48 turn */
         if (b->dpos_primed == 0u) {
             b->dpos_f = target;
             b->dpos_primed = 1u;
         }
-        const int64_t step = hd_mul64x32_q(hd_sub64_sat(target, b->dpos_f), c->dpos_alpha, 30u);
-        b->dpos_f = hd_add64_sat(b->dpos_f, step);
+        const int64_t step = hdf_mul64x32_q(hdf_sub64_sat(target, b->dpos_f), c->dpos_alpha, 30u);
+        b->dpos_f = hdf_add64_sat(b->dpos_f, step);
         out->dpos = 0;
-        out->dvel = hd_add_sat(hd_sat32(hd_asr64_rnd(hd_mul64x32_q(step, HD_LOOP_HZ, 0u), 16u)), dv_i);
+        out->dvel = hdf_add_sat(hdf_sat32(hdf_asr64_rnd(hdf_mul64x32_q(step, HD_LOOP_HZ, 0u), 16u)), dv_i);
     }
     b->out = *out;
 }

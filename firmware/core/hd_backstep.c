@@ -21,7 +21,7 @@ void hd_backstep_init(hd_backstep_t *s, const hd_backstep_cfg_t *c, const int32_
     uint32_t i;
     hd_blend_init(&s->blend, ramp_ticks, enabled);
     for (i = 0; i < HD_BS_NP; i++) {
-        s->th[i] = hd_clamp64((int64_t)th0[i] * ((int64_t)1 << 32), hd__th_lo(c, i), hd__th_hi(c, i));
+        s->th[i] = hdf_clamp64((int64_t)th0[i] * ((int64_t)1 << 32), hd__th_lo(c, i), hd__th_hi(c, i));
         s->phi[i] = 0;
     }
     s->e1 = 0;
@@ -41,23 +41,23 @@ static int64_t hd__law(int32_t *e1o, int32_t *e2o, int32_t phi[HD_BS_NP], const 
                        const hd_backstep_cfg_t *c, const hd_backstep_in_t *in)
 {
     const int64_t e1max = (c->e1_max > 0) ? (int64_t)c->e1_max : (int64_t)INT32_MAX;
-    const int32_t e1 = (int32_t)hd_clamp64(hd_sub64_sat(in->theta, in->theta_d), -e1max, e1max);
-    const int32_t alpha1 = hd_sub_sat(in->omega_d, hd_mul_q(c->c1, e1, 16u));
-    const int32_t e2 = hd_sub_sat(in->omega, alpha1);
-    const int32_t dalpha1 = hd_sub_sat(in->acc_d, hd_mul_q(c->c1, hd_sub_sat(in->omega, in->omega_d), 24u));
+    const int32_t e1 = (int32_t)hdf_clamp64(hdf_sub64_sat(in->theta, in->theta_d), -e1max, e1max);
+    const int32_t alpha1 = hdf_sub_sat(in->omega_d, hdf_mul_q(c->c1, e1, 16u));
+    const int32_t e2 = hdf_sub_sat(in->omega, alpha1);
+    const int32_t dalpha1 = hdf_sub_sat(in->acc_d, hdf_mul_q(c->c1, hdf_sub_sat(in->omega, in->omega_d), 24u));
     const int32_t sg = hd_sign_smooth_q30(in->omega, c->eps_w);
     int64_t u;
     uint32_t i;
 
     phi[0] = sg;
-    phi[1] = hd_mul_q(hd_stribeck_shape_q30(in->omega, c->w_s, 2u), sg, 30u);
-    phi[2] = hd_asr32_rnd((int64_t)in->omega, 2u);       /* 2^-32 turn/s -> Q30 turn/s */
+    phi[1] = hdf_mul_q(hd_stribeck_shape_q30(in->omega, c->w_s, 2u), sg, 30u);
+    phi[2] = hdf_asr32_rnd((int64_t)in->omega, 2u);       /* 2^-32 turn/s -> Q30 turn/s */
     phi[3] = HD_Q30_ONE;
     /* J (alpha1' - c2 e2) - ke e1 */
-    u = (int64_t)hd_mul_q(c->j, hd_sub_sat(dalpha1, hd_mul_q(c->c2, e2, 24u)), 24u);
-    u -= (int64_t)hd_asr32_rnd((int64_t)c->ke * (int64_t)e1, 24u);
+    u = (int64_t)hdf_mul_q(c->j, hdf_sub_sat(dalpha1, hdf_mul_q(c->c2, e2, 24u)), 24u);
+    u -= (int64_t)hdf_asr32_rnd((int64_t)c->ke * (int64_t)e1, 24u);
     for (i = 0; i < HD_BS_NP; i++) {
-        u = hd_add64_sat(u, hd_mul64x32_q(th[i], phi[i], 62u));   /* Q48 * Q30 -> Q16 */
+        u = hdf_add64_sat(u, hdf_mul64x32_q(th[i], phi[i], 62u));   /* Q48 * Q30 -> Q16 */
     }
     *e1o = e1;
     *e2o = e2;
@@ -69,16 +69,16 @@ int32_t hd_backstep_law(const hd_backstep_t *s, const hd_backstep_cfg_t *c, cons
     int32_t e1;
     int32_t e2;
     int32_t phi[HD_BS_NP];
-    return hd_sat32(hd__law(&e1, &e2, phi, s->th, c, in));
+    return hdf_sat32(hd__law(&e1, &e2, phi, s->th, c, in));
 }
 
 void hd_backstep_preload(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in,
                          int32_t u_now)
 {
     const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, c, in);
-    const int64_t du = hd_sub64_sat((int64_t)u_now, u);              /* Q16; phi_3 = 1 */
-    s->th[3] = hd_clamp64(hd_add64_sat(s->th[3], hd_shl64_sat(du, 32u)), hd__th_lo(c, 3u), hd__th_hi(c, 3u));
-    s->u_bs = hd_sat32(hd__law(&s->e1, &s->e2, s->phi, s->th, c, in));
+    const int64_t du = hdf_sub64_sat((int64_t)u_now, u);              /* Q16; phi_3 = 1 */
+    s->th[3] = hdf_clamp64(hdf_add64_sat(s->th[3], hdf_shl64_sat(du, 32u)), hd__th_lo(c, 3u), hd__th_hi(c, 3u));
+    s->u_bs = hdf_sat32(hd__law(&s->e1, &s->e2, s->phi, s->th, c, in));
     s->u = u_now;
 }
 
@@ -89,16 +89,16 @@ int32_t hd_backstep_step(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
     const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, c, in);
     uint32_t i;
 
-    s->u_bs = (int32_t)hd_clamp64(u, -(int64_t)umax, (int64_t)umax);
+    s->u_bs = (int32_t)hdf_clamp64(u, -(int64_t)umax, (int64_t)umax);
     s->saturated = ((int64_t)s->u_bs != u) ? 1u : 0u;
     (void)hd_blend_update(&s->blend);
     s->u = hd_blend_mix(&s->blend, u_base, s->u_bs);
     /* adaptation (for the next period): frozen while saturated or blended out */
     if (s->saturated == 0u && s->blend.w != 0) {
         for (i = 0; i < HD_BS_NP; i++) {
-            const int32_t pe = hd_mul_q(s->phi[i], s->e2, 30u);           /* 2^-32 turn/s */
-            const int64_t d = hd_asr64_rnd((int64_t)c->gamma_dt[i] * (int64_t)pe, 8u); /* Q48 */
-            s->th[i] = hd_clamp64(hd_sub64_sat(s->th[i], d), hd__th_lo(c, i), hd__th_hi(c, i));
+            const int32_t pe = hdf_mul_q(s->phi[i], s->e2, 30u);           /* 2^-32 turn/s */
+            const int64_t d = hdf_asr64_rnd((int64_t)c->gamma_dt[i] * (int64_t)pe, 8u); /* Q48 */
+            s->th[i] = hdf_clamp64(hdf_sub64_sat(s->th[i], d), hd__th_lo(c, i), hd__th_hi(c, i));
         }
     }
     return s->u;

@@ -38,7 +38,7 @@ int32_t hd_blend_apply(const hd_blend_t *b, int32_t x)
     if (b->w >= HD_Q30_ONE) {
         return x;
     }
-    return hd_mul_q(x, b->w, 30u);
+    return hdf_mul_q(x, b->w, 30u);
 }
 
 int32_t hd_blend_mix(const hd_blend_t *b, int32_t off, int32_t on)
@@ -47,7 +47,7 @@ int32_t hd_blend_mix(const hd_blend_t *b, int32_t off, int32_t on)
     if (b->w >= HD_Q30_ONE) {
         return on;
     }
-    return hd_sat32((int64_t)off + hd_mul64x32_q(diff, b->w, 30u));
+    return hdf_sat32((int64_t)off + hdf_mul64x32_q(diff, b->w, 30u));
 }
 
 int64_t hd_blend_mix64(const hd_blend_t *b, int64_t off, int64_t on)
@@ -55,7 +55,7 @@ int64_t hd_blend_mix64(const hd_blend_t *b, int64_t off, int64_t on)
     if (b->w >= HD_Q30_ONE) {
         return on;
     }
-    return hd_add64_sat(off, hd_mul64x32_q(hd_sub64_sat(on, off), b->w, 30u));
+    return hdf_add64_sat(off, hdf_mul64x32_q(hdf_sub64_sat(on, off), b->w, 30u));
 }
 
 bool hd_blend_active(const hd_blend_t *b)

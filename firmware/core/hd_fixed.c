@@ -430,8 +430,8 @@ void hd_sincos_turn(uint32_t angle, int32_t *sin_q30, int32_t *cos_q30)
     /* d in Q36 rad: l * 2*pi * 2^36 / 2^32 = l * pi * 2^5; pi in Q29. */
     const uint64_t d36 = hd__ushr_rnd(l * HD_PI_Q29, 24u);          /* < 2^29 */
     const uint64_t d2_36 = hd__ushr_rnd(d36 * d36, 36u);            /* d^2, < 2^22 */
-    const uint64_t d3_6 = hd__ushr_rnd(d2_36 * d36, 36u) / 6u;     /* d^3/6 */
-    const uint64_t d4_24 = hd__ushr_rnd(d2_36 * d2_36, 36u) / 24u; /* d^4/24 */
+    const uint64_t d3_6 = (uint32_t)hd__ushr_rnd(d2_36 * d36, 36u) / 6u;   /* d^3/6 (< 2^15: 32-bit divide) */
+    const uint64_t d4_24 = (uint32_t)hd__ushr_rnd(d2_36 * d2_36, 36u) / 24u; /* d^4/24 (< 2^8) */
     const uint64_t sd32 = hd__ushr_rnd(d36 - d3_6, 4u);             /* sin d, Q32 */
     const uint64_t cd32 = ((uint64_t)1 << 32)
                           - hd__ushr_rnd((d2_36 >> 1) - d4_24, 4u); /* cos d, Q32 */

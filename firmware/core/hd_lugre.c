@@ -80,7 +80,7 @@ static int64_t hd__mul_q46(int64_t x, int64_t m)
 {
     const int32_t hi = (int32_t)(m >> 23);               /* < 2^24 */
     const int32_t lo = (int32_t)(m & 0x7FFFFF);
-    return hd_add64_sat(hd_mul64x32_q(x, hi, 23u), hd_mul64x32_q(x, lo, 46u));
+    return hdf_add64_sat(hdf_mul64x32_q(x, hi, 23u), hdf_mul64x32_q(x, lo, 46u));
 }
 
 int32_t hd_lugre_step(hd_lugre_t *s, const hd_lugre_cfg_t *c, hd_vel_out_t v, hd_angle_t e)
@@ -96,28 +96,28 @@ int32_t hd_lugre_step(hd_lugre_t *s, const hd_lugre_cfg_t *c, hd_vel_out_t v, hd
     }
     if (v != 0) {
         /* z_ss = g / sigma0 in Q48: g_Q16 * 2^40 / sigma0_Q8 */
-        const int64_t zmag = hd_div64_rnd(hd_shl64_sat((int64_t)g, 40u), (int64_t)sigma0);
+        const int64_t zmag = hd_div64_rnd(hdf_shl64_sat((int64_t)g, 40u), (int64_t)sigma0);
         const int64_t zss = (v > 0) ? zmag : -zmag;
         /* a = sigma0 |v| T / g = sigma0_Q8 |v| / (g_Q16 f_s 2^24);
          * z' = z + (z_ss - z) (1 - exp(-a)) */
-        const uint64_t num = (uint64_t)sigma0 * (uint64_t)hd_abs_sat(v);  /* < 2^62 */
+        const uint64_t num = (uint64_t)sigma0 * (uint64_t)hdf_abs_sat(v);  /* < 2^62 */
         const uint64_t den = (uint64_t)g * (uint64_t)HD_LOOP_HZ;
         const int64_t em1 = hd__one_minus_exp_q46(num, den);
-        z1 = hd_add64_sat(s->z, hd__mul_q46(hd_sub64_sat(zss, s->z), em1));
+        z1 = hdf_add64_sat(s->z, hd__mul_q46(hdf_sub64_sat(zss, s->z), em1));
     }
     if (c->k_obs != 0 && e != 0) {
         /* k T e in Q48: k_Q16 * e_Q32 / f_s */
-        const int64_t ke = hd_mul64x32_q(e, c->k_obs, 0u);
-        z1 = hd_sub64_sat(z1, hd_div64_rnd(ke, (int64_t)HD_LOOP_HZ));
+        const int64_t ke = hdf_mul64x32_q(e, c->k_obs, 0u);
+        z1 = hdf_sub64_sat(z1, hd_div64_rnd(ke, (int64_t)HD_LOOP_HZ));
     }
-    s->dz = hd_sub64_sat(z1, s->z);
+    s->dz = hdf_sub64_sat(z1, s->z);
     s->z = z1;
 
     /* F = sigma0 z + sigma1 dz/T + sigma2 v, each rounded once to Q16 */
-    t = hd_mul64x32_q(z1, sigma0, 40u);                                    /* Q48*Q8 -> Q16 */
-    t = hd_add64_sat(t, hd_mul64x32_q(hd_mul64x32_q(s->dz, HD_LOOP_HZ, 0u), c->sigma1, 48u));
-    t = hd_add64_sat(t, (int64_t)hd_mul_q(c->sigma2, v, 32u));
-    s->tau_raw = hd_clamp32(hd_sat32(t), -tmax, tmax);
+    t = hdf_mul64x32_q(z1, sigma0, 40u);                                    /* Q48*Q8 -> Q16 */
+    t = hdf_add64_sat(t, hdf_mul64x32_q(hdf_mul64x32_q(s->dz, HD_LOOP_HZ, 0u), c->sigma1, 48u));
+    t = hdf_add64_sat(t, (int64_t)hdf_mul_q(c->sigma2, v, 32u));
+    s->tau_raw = hdf_clamp32(hdf_sat32(t), -tmax, tmax);
     (void)hd_blend_update(&s->blend);
     s->tau = hd_blend_apply(&s->blend, s->tau_raw);
     return s->tau;

@@ -26,23 +26,23 @@ hd_angle_t hd_maxwell_step(hd_maxwell_t *s, const hd_maxwell_cfg_t *c, hd_angle_
     const uint32_t n = (c->n < HD_MAXWELL_N_MAX) ? c->n : HD_MAXWELL_N_MAX;
     const int32_t tmax = (c->tau_max > 0) ? c->tau_max : INT32_MAX;
     /* input increment, saturated to +-0.5 turn per period (far beyond any rate) */
-    const int64_t dx = s->primed ? hd_clamp64(hd_sub64_sat(x, s->x_prev), INT32_MIN, INT32_MAX) : 0;
+    const int64_t dx = s->primed ? hdf_clamp64(hdf_sub64_sat(x, s->x_prev), INT32_MIN, INT32_MAX) : 0;
     int64_t acc = 0;
     uint32_t i;
 
     for (i = 0; i < n; i++) {
         const int64_t d = (c->d[i] > 0) ? (int64_t)c->d[i] : 0;
         /* s_i + dx, clamped to the slip limit: the anchor follows beyond it */
-        const int64_t si = hd_clamp64((int64_t)s->s[i] + dx, -d, d);
+        const int64_t si = hdf_clamp64((int64_t)s->s[i] + dx, -d, d);
         s->s[i] = (int32_t)si;
-        acc = hd_mac64(acc, c->k[i], s->s[i]);                     /* Q8 * Q32 = Q40 */
+        acc = hdf_mac64(acc, c->k[i], s->s[i]);                     /* Q8 * Q32 = Q40 */
     }
     s->x_prev = x;
     s->primed = 1u;
-    s->tau_raw = hd_clamp32(hd_asr32_rnd(acc, 24u), -tmax, tmax);   /* Q40 -> Q16 */
+    s->tau_raw = hdf_clamp32(hdf_asr32_rnd(acc, 24u), -tmax, tmax);   /* Q40 -> Q16 */
     (void)hd_blend_update(&s->blend);
     s->tau = hd_blend_apply(&s->blend, s->tau_raw);
     /* dth = F * compliance: Q16 * Q44 = Q60 -> Q32 */
-    s->dth = hd_mul64x32_q((int64_t)s->tau, c->compliance, 28u);
+    s->dth = hdf_mul64x32_q((int64_t)s->tau, c->compliance, 28u);
     return s->dth;
 }

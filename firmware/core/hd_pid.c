@@ -4,165 +4,51 @@
 #include "hd_pid.h"
 #include "hd_fixed.h"
 
-/* ---- inline copies of the hd_fixed.h helpers used per period ---------------
- * Same C code as firmware/core/hd_fixed.c (bit-identical results); inlined so
- * that the shift counts, which are constants at the call sites, fold into a
- * few instructions on the Cortex-M4 instead of a call with variable 64-bit
- * shifts.  See docs/fixed-point.md for the contracts. */
+/* ---- local names of the hd_fixed.h inline fast paths (hdf_*, bit-identical to hd_*) */
 #define FX_INLINE static inline __attribute__((always_inline))
-FX_INLINE uint64_t pid_mag64(int64_t x)
-{
-    return (x < 0) ? ((uint64_t)0 - (uint64_t)x) : (uint64_t)x;
-}
-FX_INLINE int64_t pid_neg_mag(uint64_t m)
-{
-    return (m == 0u) ? 0 : (-(int64_t)(m - 1u) - 1);
-}
-FX_INLINE int64_t pid_signed_sat64(uint64_t m, bool neg)
-{
-    if (neg) {
-        return (m >= ((uint64_t)1 << 63)) ? INT64_MIN : pid_neg_mag(m);
-    }
-    return (m > (uint64_t)INT64_MAX) ? INT64_MAX : (int64_t)m;
-}
-FX_INLINE uint64_t pid_ushr_rnd(uint64_t m, uint32_t s)
-{
-    if (s == 0u) {
-        return m;
-    }
-    return (m >> s) + ((m >> (s - 1u)) & 1u);
-}
 FX_INLINE int32_t pid_sat32(int64_t x)
 {
-    if (x > (int64_t)INT32_MAX) {
-        return INT32_MAX;
-    }
-    if (x < (int64_t)INT32_MIN) {
-        return INT32_MIN;
-    }
-    return (int32_t)x;
+    return hdf_sat32(x);
 }
 FX_INLINE int64_t pid_add64_sat(int64_t a, int64_t b)
 {
-    if (b > 0 && a > INT64_MAX - b) {
-        return INT64_MAX;
-    }
-    if (b < 0 && a < INT64_MIN - b) {
-        return INT64_MIN;
-    }
-    return a + b;
+    return hdf_add64_sat(a, b);
 }
 FX_INLINE int64_t pid_sub64_sat(int64_t a, int64_t b)
 {
-    if (b < 0 && a > INT64_MAX + b) {
-        return INT64_MAX;
-    }
-    if (b > 0 && a < INT64_MIN + b) {
-        return INT64_MIN;
-    }
-    return a - b;
+    return hdf_sub64_sat(a, b);
 }
 FX_INLINE int64_t pid_clamp64(int64_t x, int64_t lo, int64_t hi)
 {
-    if (x < lo) {
-        return lo;
-    }
-    if (x > hi) {
-        return hi;
-    }
-    return x;
+    return hdf_clamp64(x, lo, hi);
 }
 FX_INLINE int64_t pid_asr64_floor(int64_t x, uint32_t s)
 {
-    if (s > 63u) {
-        s = 63u;
-    }
-    if (x >= 0) {
-        return (int64_t)((uint64_t)x >> s);
-    }
-    return -1 - (int64_t)((uint64_t)(-1 - x) >> s);
+    return hdf_asr64_floor(x, s);
 }
 FX_INLINE int64_t pid_asr64_rnd(int64_t x, uint32_t s)
 {
-    if (s > 63u) {
-        s = 63u;
-    }
-    if (s == 0u) {
-        return x;
-    }
-    if (x >= 0) {
-        return (int64_t)pid_ushr_rnd((uint64_t)x, s);
-    }
-    return -(int64_t)pid_ushr_rnd(pid_mag64(x), s);
+    return hdf_asr64_rnd(x, s);
 }
 FX_INLINE int32_t pid_asr32_rnd(int64_t x, uint32_t s)
 {
-    return pid_sat32(pid_asr64_rnd(x, s));
+    return hdf_asr32_rnd(x, s);
 }
 FX_INLINE int64_t pid_shl64_sat(int64_t x, uint32_t s)
 {
-    if (x == 0) {
-        return 0;
-    }
-    if (s >= 63u) {
-        return (x > 0) ? INT64_MAX : INT64_MIN;
-    }
-    {
-        const int64_t lim = (int64_t)((uint64_t)INT64_MAX >> s);
-        if (x > lim) {
-            return INT64_MAX;
-        }
-        if (x < -lim - 1) {
-            return INT64_MIN;
-        }
-        return x * (int64_t)((uint64_t)1 << s);
-    }
+    return hdf_shl64_sat(x, s);
 }
 FX_INLINE int32_t pid_mul_q(int32_t a, int32_t b, uint32_t q)
 {
-    const int64_t p = (int64_t)a * (int64_t)b;
-    if (q > 62u) {
-        q = 62u;
-    }
-    return pid_asr32_rnd(p, q);
+    return hdf_mul_q(a, b, q);
 }
 FX_INLINE int64_t pid_mul64x32_q(int64_t a, int32_t b, uint32_t q)
 {
-    if (a >= (int64_t)INT32_MIN && a <= (int64_t)INT32_MAX) {
-        /* |a*b| <= 2^62: the 64-bit product is exact, round half away as below */
-        return pid_asr64_rnd((int64_t)(int32_t)a * (int64_t)b, (q > 62u) ? 62u : q);
-    }
-    const bool neg = (a < 0) != (b < 0);
-    const uint64_t ua = pid_mag64(a);
-    const uint32_t ub = (uint32_t)pid_mag64(b);
-    const uint64_t al = (uint64_t)(uint32_t)ua;
-    const uint64_t ah = ua >> 32;
-    const uint64_t plo = al * (uint64_t)ub;
-    const uint64_t pmid = ah * (uint64_t)ub;
-    uint64_t lo = plo + (pmid << 32);
-    uint64_t hi = (pmid >> 32) + ((lo < plo) ? 1u : 0u);
-    uint64_t m;
-    if (q > 62u) {
-        q = 62u;
-    }
-    if (q > 0u) {
-        const uint64_t half = (uint64_t)1 << (q - 1u);
-        const uint64_t lo2 = lo + half;
-        hi += (lo2 < lo) ? 1u : 0u;
-        lo = lo2;
-        m = (lo >> q) | (hi << (64u - q));
-        hi >>= q;
-    } else {
-        m = lo;
-    }
-    if (hi != 0u) {
-        return neg ? INT64_MIN : INT64_MAX;
-    }
-    return pid_signed_sat64(m, neg);
+    return hdf_mul64x32_q(a, b, q);
 }
 FX_INLINE int64_t pid_mac64(int64_t acc, int32_t a, int32_t b)
 {
-    return pid_add64_sat(acc, (int64_t)a * (int64_t)b);
+    return hdf_mac64(acc, a, b);
 }
 
 void hd_pid_reset(hd_pid_t *s)
@@ -180,7 +66,7 @@ void hd_pid_reset(hd_pid_t *s)
 
 void hd_pid_preload(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t out_i)
 {
-    int32_t v = hd_clamp32(out_i, c->out_min, c->out_max);
+    int32_t v = hdf_clamp32(out_i, c->out_min, c->out_max);
     s->integ = pid_shl64_sat((int64_t)v, c->shift);
     s->i = v;
 }
@@ -190,7 +76,7 @@ void hd_pid_preload(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t out_i)
 FX_INLINE int32_t pid_core(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t ref, int32_t meas, int32_t ff,
                            const uint32_t shift)
 {
-    const int32_t e = hd_sub_sat(ref, meas);
+    const int32_t e = hdf_sub_sat(ref, meas);
 
     /* derivative on measurement, first-order filtered, in in-LSB * 2^16 per period */
     int64_t dmeas = 0;
@@ -211,7 +97,7 @@ FX_INLINE int32_t pid_core(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t ref, int3
     const int32_t p = pid_mul_q(c->kp, e, shift);
     /* kd_fs == 0 (no D term): the product is exactly 0 */
     const int32_t d = (c->kd_fs == 0) ? 0
-                      : hd_neg_sat((int32_t)pid_sat32(pid_mul64x32_q(s->dfilt, c->kd_fs, shift + 16u)));
+                      : hdf_neg_sat((int32_t)pid_sat32(pid_mul64x32_q(s->dfilt, c->kd_fs, shift + 16u)));
 
     /* conditional integration: tentative update, kept unless it deepens saturation */
     const int64_t lim_hi = pid_shl64_sat((int64_t)c->out_max, shift);

@@ -110,14 +110,14 @@ int32_t hd_preisach_quantise(const hd_preisach_table_t *t, int32_t u)
 {
     const uint32_t sh = (t->in_shift > HD_PREISACH_SHIFT_MAX) ? HD_PREISACH_SHIFT_MAX : t->in_shift;
     const int64_t d = (int64_t)u - (int64_t)t->u0;
-    const int64_t p = hd_asr64_rnd(d, sh);
-    return (int32_t)hd_clamp64(p, 0, (int64_t)hd_preisach_p_top(t));
+    const int64_t p = hdf_asr64_rnd(d, sh);
+    return (int32_t)hdf_clamp64(p, 0, (int64_t)hd_preisach_p_top(t));
 }
 
 int32_t hd_preisach_dequantise(const hd_preisach_table_t *t, int32_t p)
 {
     const uint32_t sh = (t->in_shift > HD_PREISACH_SHIFT_MAX) ? HD_PREISACH_SHIFT_MAX : t->in_shift;
-    return hd_sat32(hd_add64_sat((int64_t)t->u0, hd_shl64_sat((int64_t)p, sh)));
+    return hdf_sat32(hdf_add64_sat((int64_t)t->u0, hdf_shl64_sat((int64_t)p, sh)));
 }
 
 /* Table entry E[i][j], 0 <= j <= i < L (callers guarantee the range). */
@@ -139,8 +139,8 @@ int32_t hd_preisach_everett(const hd_preisach_table_t *t, int32_t a, int32_t b)
     uint32_t n;
     int64_t acc;
 
-    a = hd_clamp32(a, 0, ptop);
-    b = hd_clamp32(b, 0, ptop);
+    a = hdf_clamp32(a, 0, ptop);
+    b = hdf_clamp32(b, 0, ptop);
     if (a <= b) {
         return 0;
     }
@@ -157,7 +157,7 @@ int32_t hd_preisach_everett(const hd_preisach_table_t *t, int32_t a, int32_t b)
     if (ia == ib) {
         /* diagonal cell: fa > fb, linear on the triangle, zero on the diagonal */
         acc = (int64_t)(fa - fb) * hd__e(t, ia + 1u, ia);
-        return hd_asr32_rnd(acc, sb);
+        return hdf_asr32_rnd(acc, sb);
     }
     /* off-diagonal cell (ia > ib): bilinear; a corner with weight 0 is not read */
     acc = (int64_t)((n - fa) * (n - fb)) * hd__e(t, ia, ib);
@@ -170,7 +170,7 @@ int32_t hd_preisach_everett(const hd_preisach_table_t *t, int32_t a, int32_t b)
     if (fb != 0u) {
         acc += (int64_t)((n - fa) * fb) * hd__e(t, ia, ib + 1u);
     }
-    return hd_asr32_rnd(acc, 2u * sb);
+    return hdf_asr32_rnd(acc, 2u * sb);
 }
 
 /* ---- online recursive model ------------------------------------------------- */
@@ -233,7 +233,7 @@ static bool hd__pz_locate(const hd_preisach_t *s, const hd_preisach_table_t *t, 
     d = (p > s->p_prev) ? 1 : -1;
     if (d != s->dir) {
         const int64_t step = (int64_t)p - (int64_t)s->p_prev;
-        if (hd_abs64_sat(step) <= (int64_t)s->deadband) {
+        if (hdf_abs64_sat(step) <= (int64_t)s->deadband) {
             return false;
         }
         push = d;                  /* going down pushes a max (-1), going up a min (+1) */
@@ -304,10 +304,10 @@ int64_t hd_preisach_step_p(hd_preisach_t *s, const hd_preisach_table_t *t, int32
     if (s->table_crc != t->crc || s->p_top != hd_preisach_p_top(t)) {
         hd__pz_reset(s, t);
     }
-    p = hd_clamp32(p, 0, s->p_top);
+    p = hdf_clamp32(p, 0, s->p_top);
     /* a reversal downwards pushes a max; make room first if the stack is full */
     if (p < s->p_prev && s->dir > 0 && s->n_max >= HD_PREISACH_DEPTH &&
-        (s->p_prev - p) > (int32_t)hd_clamp64((int64_t)s->deadband, 0, INT32_MAX) &&
+        (s->p_prev - p) > (int32_t)hdf_clamp64((int64_t)s->deadband, 0, INT32_MAX) &&
         s->n_min >= 2u) {
         hd__pz_merge_oldest(s);
     }
@@ -332,7 +332,7 @@ int64_t hd_preisach_step_p(hd_preisach_t *s, const hd_preisach_table_t *t, int32
 int64_t hd_preisach_peek_p(const hd_preisach_t *s, const hd_preisach_table_t *t, int32_t p)
 {
     hd__pz_loc_t r;
-    p = hd_clamp32(p, 0, s->p_top);
+    p = hdf_clamp32(p, 0, s->p_top);
     if (!hd__pz_locate(s, t, p, &r)) {
         return s->y;
     }
@@ -343,7 +343,7 @@ int32_t hd_preisach_step(hd_preisach_t *s, const hd_preisach_table_t *t, int32_t
 {
     const int64_t y = hd_preisach_step_p(s, t, hd_preisach_quantise(t, u));
     (void)hd_blend_update(&s->blend);
-    s->out = hd_blend_apply(&s->blend, hd_sat32(y));
+    s->out = hd_blend_apply(&s->blend, hdf_sat32(y));
     return s->out;
 }
 
@@ -373,12 +373,12 @@ int64_t hd_preisach_bf_step_p(hd_preisach_bf_t *s, const hd_preisach_table_t *t,
     uint32_t r = 0u;
     int64_t up = 0;
 
-    p = hd_clamp32(p, 0, s->p_top);
+    p = hdf_clamp32(p, 0, s->p_top);
     if (p == s->p_prev) {
         return s->y;
     }
     d = (p > s->p_prev) ? 1 : -1;
-    if (d != s->dir && hd_abs64_sat((int64_t)p - (int64_t)s->p_prev) <= (int64_t)s->deadband) {
+    if (d != s->dir && hdf_abs64_sat((int64_t)p - (int64_t)s->p_prev) <= (int64_t)s->deadband) {
         return s->y;
     }
     s->dir = d;
@@ -423,7 +423,7 @@ void hd_preisach_inv_set_enabled(hd_preisach_inv_t *s, bool enabled)
 
 static int64_t hd__dist(int64_t a, int64_t b)
 {
-    return hd_abs64_sat(hd_sub64_sat(a, b));
+    return hdf_abs64_sat(hdf_sub64_sat(a, b));
 }
 
 int32_t hd_preisach_inv_step_p(hd_preisach_inv_t *s, const hd_preisach_table_t *t, int64_t y_d)

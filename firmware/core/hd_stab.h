@@ -14,10 +14,12 @@
  *   (blend, fc > 0: r = 1e4 pos_out - ang; r_f += alpha (r - r_f);
  *                   ang += kp T r_f;  b_hat -= ki T r_f  with kp = 2 wc, ki = wc^2)
  *   th_b      = ang / 1e4 - pos_out                      base-angle estimate
- *   w_b       = tracking observer(th_b)                  base-rate estimate
+ *   w_b       = tracking observer(th_b): vel + Kp e       base-rate estimate (full rate of the
+ *                                                        observer: no first-order lag)
  *   err       = (ref - ang) / 1e4                        inertial angle error -> position loop
  *   vff       = rate_cmd - w_b                           relative velocity feed-forward
- *   vff_db    = vff shrunk toward 0 by ff_db (dead band)  velocity for friction feed-forward:
+ *   vff_db    = (rate_cmd - observer integrator state) shrunk toward 0 by ff_db (dead band):
+ *               velocity for the friction feed-forward (smoother than vff);
  *               with the base at rest w_b is gyro noise (~1e-5 rad/s at 100 Hz), and a
  *               friction model fed with it would chatter between +-Fc
  *
@@ -73,7 +75,7 @@ typedef struct {
     int32_t err;             /* ref - ang, 2^-32 turn (saturated) */
     int32_t base_rate;       /* base-rate estimate, 2^-32 turn/s */
     int32_t vff;             /* rate_cmd - base_rate, 2^-32 turn/s (saturated) */
-    int32_t vff_db;          /* vff with the dead band ff_db removed, 2^-32 turn/s */
+    int32_t vff_db;          /* friction-FF velocity (dead band ff_db removed), 2^-32 turn/s */
     int32_t rate;            /* corrected gyro rate g, 2^-32 turn/s */
 } hd_stab_t;
 

@@ -14,9 +14,9 @@ int64_t hd_te_model(const hd_te_cfg_t *c, hd_angle_t theta_m)
         int32_t sn;
         int32_t cs;
         hd_sincos_turn(ang, &sn, &cs);
-        acc = hd_mac64(acc, c->amp[h], sn);                             /* 2^-32 turn * Q30 */
+        acc = hdf_mac64(acc, c->amp[h], sn);                             /* 2^-32 turn * Q30 */
     }
-    return hd_asr64_rnd(acc, 30u);
+    return hdf_asr64_rnd(acc, 30u);
 }
 
 void hd_te_comp_init(hd_te_comp_t *s, uint32_t ramp_ticks, bool enabled)
@@ -39,9 +39,9 @@ hd_angle_t hd_te_comp_step(hd_te_comp_t *s, const hd_te_cfg_t *c, hd_angle_t the
 
     s->te = hd_te_model(c, theta_m);
     (void)hd_blend_update(&s->blend);
-    s->dth = hd_blend_mix64(&s->blend, 0, hd_neg64_sat(s->te));
+    s->dth = hd_blend_mix64(&s->blend, 0, hdf_neg64_sat(s->te));
     /* tau = -k1 * TE: Q8 * 2^-32 turn = Q40 -> Q16 */
-    tau = hd_clamp32(hd_sat32(hd_neg64_sat(hd_mul64x32_q(s->te, c->k1, 24u))), -tmax, tmax);
+    tau = hdf_clamp32(hdf_sat32(hdf_neg64_sat(hdf_mul64x32_q(s->te, c->k1, 24u))), -tmax, tmax);
     s->tau = hd_blend_apply(&s->blend, tau);
     return s->dth;
 }

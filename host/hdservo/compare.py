@@ -61,7 +61,7 @@ BEST_GAINS_DEFAULT: dict[str, float] = {"pos_kp": 60.0, "cb_pki": 900.0}
 BEST_VEL_KI_RATIO = 12000.0 / 8019.0
 
 #: Shortened procedure options (``--quick``): parsed by ``hdservo test``'s option parser.
-QUICK_ARGS: tuple[str, ...] = ("--runs", "3", "--targets", "-50,-20,10,40", "--windows", "5", "--settle", "3",
+QUICK_ARGS: tuple[str, ...] = ("--runs", "3", "--targets=-50,-20,10,40", "--windows", "5", "--settle", "3",
                                "--duration", "4")
 
 

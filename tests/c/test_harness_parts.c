@@ -205,7 +205,7 @@ static void test_scenario_errors(void **state)
         {"[scenario]\nduration_s = 1\n", "tests/c/s.toml: missing key 'controller.mode'"},
         {"[controller]\nmode = \"position\"\n", "tests/c/s.toml: missing key 'scenario.duration_s' (run length in s)"},
         {"[scenario]\nduration_s = 1\n[controller]\nmode = \"speed\"\n",
-         "tests/c/s.toml:4:8: controller.mode: expected one of \"off\" \"torque\" \"velocity\" \"position\", found \"speed\""},
+         "tests/c/s.toml:4:8: controller.mode: expected one of \"off\" \"torque\" \"velocity\" \"position\" \"stabilise\", found \"speed\""},
         {"[scenario]\nduration_s = 1\nduraton_s = 2\n[controller]\nmode = \"off\"\n",
          "tests/c/s.toml:3:13: scenario.duraton_s: unknown key for this scenario (mode \"off\", setpoint \"constant\"); see docs/sim.md"},
         {"[scenario]\nduration_s = 1\n[controller]\nmode = \"velocity\"\n[setpoint]\ntype = \"step\"\namplitude_rad = 1\n",

@@ -103,9 +103,17 @@ static void test_stab_base_rate(void **st)
     printf("# base rate 0.5 deg 1 Hz, 100 Hz observer: max error %.3g of %.3g turn/s (%.3g)\n",
            emax, A * w, emax / (A * w));
     assert_true(emax < 2e-3 * A * w);
-    /* the dead band: vff_db = vff shrunk by 1e-5 turn/s */
-    assert_true(llabs((int64_t)s.vff_db - ((int64_t)s.vff - (s.vff > 0 ? 1 : -1) * TPS(1e-5))) <= 1 ||
-                (llabs(s.vff) <= TPS(1e-5) && s.vff_db == 0));
+    /* the friction-FF velocity: the observer's integrator state, shrunk by the 1e-5 turn/s
+     * dead band (here at t = 3 s, near the peak base rate) */
+    {
+        const int32_t v = -hd_velobs_vel_out(&s.obs);
+        assert_true(llabs(v) > TPS(1e-5));
+        assert_int_equal(s.vff_db, v - (v > 0 ? 1 : -1) * TPS(1e-5));
+    }
+    hd_stab_start(&s, &c, 0, 1000, 0);              /* 2.3e-7 turn/s: inside the dead band */
+    hd_stab_step(&s, &c, 1000, 0, 0);
+    assert_int_equal(s.vff_db, 0);
+    assert_true(s.vff != 0);
 }
 
 /* blend: an unknown bias of 2 deg/h is estimated (PI blend at 0.01 Hz), the angle stays

@@ -181,7 +181,7 @@ def open_loop_torque(case: Case, rng: np.random.Generator, dt: float, n: int) ->
     of the axis file) of a slow output sine -- amplitude 0.6-0.9 rad, peak speed
     0.4-0.6 rad/s, so the axis travels over many motor revolutions and passes slowly
     through low speeds in both directions -- and (2) a random-phase multisine, flat over
-    2-45 Hz, sized so that its transmitted torque reaches about 1.5x the first knee
+    2-45 Hz, sized so that its transmitted torque reaches about 2.5x the first knee
     torque T1 of the axis (torsion for stiffness/hysteresis, torque rate for the
     current loop, the torsional mode for compliance).  No feedback: the axis drifts
     a little, which is what an open-loop test does.
@@ -206,7 +206,7 @@ def open_loop_torque(case: Case, rng: np.random.Generator, dt: float, n: int) ->
     ph = rng.uniform(0, 2 * np.pi, len(lines))
     ms = np.sin(2 * np.pi * lines[:, None] * t[None, :] + ph[:, None]).sum(axis=0)
     ms /= np.max(np.abs(ms))
-    u_ms = 1.5 * T1 / (N * share) * ms * ramp
+    u_ms = 2.5 * T1 / (N * share) * ms * ramp
     return u_ff + u_ms
 
 
@@ -214,8 +214,8 @@ def make_log(case: Case, out_csv: str | Path) -> Path:
     """Simulate one case and write its log (CSV + sidecar) atomically.
 
     Closed loop: the drive's position loop follows a slow chirp (0.04-0.07 Hz up to
-    a peak speed of about 1 rad/s, amplitude 0.5-0.7 rad): large travel, slow
-    reversals.  Open loop: the plant alone driven by :func:`open_loop_torque`.
+    2.5 rad/s, amplitude 0.8-1.1 rad) with the drive's velocity limit at 0.5 rad/s:
+    large travel, slow reversals first, then a triangle wave with current-limited reversals.  Open loop: the plant alone driven by :func:`open_loop_torque`.
     The log holds ``t_s``, ``motor_angle_rad``, ``load_angle_rad`` (encoder readings)
     and ``motor_torque_Nm`` = Kt x measured current (the torque command for
     ``current_loop_lag`` cases).  The sidecar records the case under ``"case"``.
@@ -228,7 +228,7 @@ def make_log(case: Case, out_csv: str | Path) -> Path:
     N = _ax(case, "gear.ratio")
     out_csv = Path(out_csv)
     if case.loop == "closed":
-        amp = float(rng.uniform(0.5, 0.7))
+        amp = float(rng.uniform(0.8, 1.1))
         f0 = float(rng.uniform(0.03, 0.05))
         f1 = float(rng.uniform(0.9, 1.1)) * V_PEAK / (2 * math.pi * amp)
         with tempfile.TemporaryDirectory() as td:

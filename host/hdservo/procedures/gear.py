@@ -41,7 +41,7 @@ def torque_loop(bench: Bench, peak_Nm: float, cycles: int, rate_Nm_s: float,
         instrument, virtual rig only), ``t_s``.
     """
     quarter = peak_Nm / rate_Nm_s
-    total = cycles * 4 * quarter + 0.3
+    total = cycles * 4 * quarter * 1.1 + 1.0     # margin: each rig command costs a little drive time
     frames = 2700
     decim = max(1, int(math.ceil(total / frames / 1e-4)))
     frames = int(math.ceil(total / (decim * 1e-4)))
@@ -172,15 +172,14 @@ def lost_motion(bench: Bench, fraction: float = 0.04, cycles: int = 3, rate_Nm_s
     """Lost motion: twist between the loop tips at +-4 % of the rated torque, last cycle."""
     level = fraction * bench.rated_torque_Nm()
     d = torque_loop(bench, level, cycles, rate_Nm_s, progress)
-    last = d["t_s"] >= d["t_s"][-1] * (cycles - 1) / cycles - 1e-9     # the established (last) cycle
-    lm = mt.lost_motion(d["torque_Nm"][last], d["twist_rad"][last], level, ref_Nm=d["applied_Nm"][last])
+    lm = mt.lost_motion(d["torque_Nm"], d["twist_rad"], level, ref_Nm=d["applied_Nm"])
     h = mt.hysteresis_loss(d["torque_Nm"], d["twist_rad"], ref_Nm=d["applied_Nm"])
     r = Result("lost-motion", conditions={"level_Nm": level, "fraction_of_rated": fraction, "cycles": cycles,
                                           "rate_Nm_s": rate_Nm_s, "setup": GEAR_SETUP.name})
     r.figures = {**lm, "loop_width_at_zero_arcmin": h["loss_arcmin"]}
     if "twist_true_rad" in d:
-        r.figures["true_twist_lost_motion_arcmin"] = mt.lost_motion(d["torque_Nm"][last], d["twist_true_rad"][last],
-                                                                    level, ref_Nm=d["applied_Nm"][last])["lost_motion_arcmin"]
+        r.figures["true_twist_lost_motion_arcmin"] = mt.lost_motion(d["torque_Nm"], d["twist_true_rad"], level,
+                                                                    ref_Nm=d["applied_Nm"])["lost_motion_arcmin"]
     r.headline = {"lost_motion_arcmin": lm["lost_motion_arcmin"]}
     r.series = d
     r.plot = _loop_plot(f"lost motion loop +-{level:.3g} N.m")

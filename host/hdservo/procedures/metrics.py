@@ -158,15 +158,22 @@ def lost_motion(torque_Nm: np.ndarray, twist_rad: np.ndarray, level_Nm: float,
     """Lost motion at +-level: twist between the loop tips at +level and -level.
 
     The tips are the samples where the commanded torque ``ref_Nm`` (default:
-    ``torque_Nm``) is within 2 % of +-level; their mean twists are
+    ``torque_Nm``) is within 2 % of +-level; the mean twists of the LAST
+    tip of each sign (the established loop, not the virgin one) are
     subtracted (HD definition at +-4 % of the rated torque, harmonic-drive.md 2.2).
     """
     t = np.asarray(torque_Nm if ref_Nm is None else ref_Nm, float)
     p = np.asarray(twist_rad, float)
-    hi = t >= 0.98 * level_Nm
-    lo = t <= -0.98 * level_Nm
-    if not hi.any() or not lo.any():
-        raise ValueError("lost_motion: the record does not reach +-level")
+
+    def last_group(mask: np.ndarray) -> np.ndarray:
+        ix = np.flatnonzero(mask)
+        if ix.size == 0:
+            raise ValueError("lost_motion: the record does not reach +-level")
+        brk = np.flatnonzero(np.diff(ix) > 1)
+        return ix[brk[-1] + 1:] if brk.size else ix
+
+    hi = last_group(t >= 0.98 * level_Nm)
+    lo = last_group(t <= -0.98 * level_Nm)
     lm = float(p[hi].mean() - p[lo].mean())
     return {"lost_motion_rad": lm, "lost_motion_arcmin": lm / ARCMIN}
 

@@ -472,7 +472,15 @@ class Bench:
                 time.sleep(min(0.05, total * DT * (0.05 if not self.realtime else 0.25)))
         else:  # pragma: no cover
             raise DriveError("capture did not finish")
-        raw = d.read_domain(0x5000, 7)
+        # the drive's SDO time-out is 1 s of DRIVE time: with fast pacing a busy host can miss it
+        # during a block upload; the buffer keeps its data, so the upload is simply repeated
+        for attempt in range(4):
+            try:
+                raw = d.read_domain(0x5000, 7)
+                break
+            except DriveError:
+                if attempt == 3:
+                    raise
         words = np.frombuffer(raw, dtype="<i4").astype(np.int64)
         n = len(signals)
         words = words[: (words.size // n) * n].reshape(-1, n)

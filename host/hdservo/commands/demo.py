@@ -1,0 +1,153 @@
+"""``hdservo demo`` (``make demo``): the whole flow on the virtual reference axis, end to end.
+
+1. start the virtual reference axis (``hdservo-sim serve --rig`` on an ephemeral loopback port);
+2. identify the axis over CAN (``hdservo identify all``; the identification starts its own
+   lock-step virtual drive with the test-rig channel it needs for the locked-output experiments);
+3. download the compensator parameters and tables computed from the identified model to the
+   running virtual drive, every item read back (``hdservo download``);
+4. run the test procedures with the PID baseline and with compensation (``hdservo compare
+   --model``: each procedure starts a virtual drive with its rig set-up -- payload, base
+   rocking, output lock -- and the identified parameters are downloaded to it again, since a
+   virtual drive keeps no parameters between processes);
+5. write the HTML report (``hdservo report``);
+6. print where it is and a summary table, write ``OUT/summary.json``
+   (``{figure: {"pid": .., "compensated": ..}}``), stop the virtual drive, print the run time.
+
+Outputs under ``OUT`` (default ``build/demo``): ``model.toml`` (+ ``model.preisach.bin``),
+``identify.json``, ``identify-plots/``, ``download.json``, ``compare/``, ``report.html``,
+``summary.json``.  Nothing is reused from an earlier run.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Sequence
+
+from ..cli import UserError
+
+NAME = "demo"
+HELP = "end-to-end demo on the virtual reference axis: identify, download, compare PID vs compensation, report"
+
+STEPS = 6
+
+
+def register(p: argparse.ArgumentParser) -> None:
+    """Options of ``hdservo demo``."""
+    from .. import compare as cmp
+    p.add_argument("-o", "--out", type=Path, default=Path("build") / "demo", help="output directory (build/demo)")
+    p.add_argument("--controllers", default=",".join(cmp.default_controller_names()),
+                   help="controllers compared (default: pid, each compensator, best)")
+    p.add_argument("--procedures", default=",".join(cmp.DEFAULT_PROCEDURES), help="procedures run per controller")
+    p.add_argument("--quick", action="store_true", help="shortened procedures (hdservo compare --quick)")
+    p.add_argument("--seed", type=int, default=1, help="sensor-noise seed of the virtual drives")
+
+
+def _say(step: int, text: str, t0: float) -> None:
+    bar = "#" * step + "." * (STEPS - step)
+    print(f"[demo] [{bar}] step {step}/{STEPS}: {text} ({time.monotonic() - t0:.0f} s)", file=sys.stderr, flush=True)
+
+
+def _hdservo(argv: Sequence[str], what: str, log: Path) -> None:
+    """Run ``hdservo ARGV`` (same interpreter); its progress goes to stderr, its stdout to the terminal and ``log``."""
+    cmd = [sys.executable, "-m", "hdservo.cli", *argv]
+    with open(log, "w") as f:
+        p = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True)
+        assert p.stdout is not None
+        for line in p.stdout:
+            f.write(line)
+            print(f"  {line}", end="", flush=True)
+        rc = p.wait()
+    if rc != 0:
+        raise UserError(f"{what} failed (exit {rc}; command: hdservo {' '.join(argv)})")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the six steps; returns 0 when everything ran (targets met or not)."""
+    from .. import compare as cmp
+    from ..procedures.runner import VirtualDriveProcess
+    from ..report import ReportError, build_report
+    t0 = time.monotonic()
+    out: Path = args.out
+    try:
+        ctls = cmp.controllers_from_names(args.controllers.split(","))
+    except ValueError as e:
+        raise UserError(str(e)) from None
+    procs = [x.strip() for x in args.procedures.split(",") if x.strip()]
+    extra = list(cmp.QUICK_ARGS) if args.quick else []
+    try:
+        for x in procs:
+            cmp.procedure_args(x, extra)
+    except ValueError as e:
+        raise UserError(str(e)) from None
+    from . import test as tc
+    bad = [x for x in procs if x not in tc.PROCEDURES]
+    if bad:
+        raise UserError(f"--procedures: unknown '{bad[0]}'")
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out {out}: not a directory")
+    if out.exists():
+        shutil.rmtree(out)                       # a fresh run: nothing stale in the report
+    out.mkdir(parents=True)
+    model = out / "model.toml"
+    print(f"hdservo demo: reference axis, {len(ctls)} controllers x {len(procs)} procedures, outputs in {out}/",
+          flush=True)
+
+    _say(1, "starting the virtual reference axis (hdservo-sim serve)", t0)
+    drive = VirtualDriveProcess("reference", pacing="fast", seed=args.seed)
+    try:
+        print(f"  virtual drive: CANopen node 1 on socketcand 127.0.0.1:{drive.port}", flush=True)
+
+        _say(2, "identifying the axis over CAN (hdservo identify all)", t0)
+        _hdservo(["identify", "all", "-o", str(model), "--json", str(out / "identify.json"),
+                  "--plots", str(out / "identify-plots"), "--seed", str(args.seed)], "identification",
+                 out / "identify.txt")
+
+        _say(3, f"downloading the compensator parameters to the virtual drive (port {drive.port})", t0)
+        _hdservo(["download", str(model), "-i", "socketcand", "-c", "can0", "--host", "127.0.0.1",
+                  "--port", str(drive.port), "--json", str(out / "download.json")], "download",
+                 out / "download.txt")
+
+        _say(4, "running the procedures with PID and with compensation (hdservo compare)", t0)
+        try:
+            doc = cmp.run_compare(out / "compare", ctls, procs, proc_extra=extra, seed=args.seed, model=model,
+                                  echo=lambda s: print(f"  {s}", flush=True))
+        except ValueError as e:
+            raise UserError(str(e)) from None
+
+        _say(5, "writing the report (hdservo report)", t0)
+        summ = cmp.summary_doc(doc)
+        cmp._write_json_atomic(out / "summary.json", summ)
+        try:
+            info = build_report(out / "report.html", compare=out / "compare" / "compare.json",
+                                identify=out / "identify.json", download=out / "download.json",
+                                title="hdservo demo: reference axis, PID baseline vs compensation",
+                                summary_lines=[f"hdservo demo on the virtual reference axis (seed {args.seed}); "
+                                               f"compensated = '{doc['best']}': "
+                                               f"{doc['controllers'][doc['best']]['description']}"])
+        except ReportError as e:
+            raise UserError(f"report: {e}") from None
+        _say(6, "stopping the virtual drive", t0)
+    finally:
+        drive.stop()
+    el = time.monotonic() - t0
+    print()
+    print(cmp.summary_table(doc, [c for c in (doc["reference"], doc["best"]) if c in doc["controllers"]]))
+    v = doc["verdict"]
+    met = [k for k, ok in v["targets_met"].items() if ok]
+    miss = [k for k, ok in v["targets_met"].items() if not ok]
+    print(f"compensated ({v['controller']}): {len(met)} of {len(v['targets_met'])} targets met"
+          + (f"; not met: {', '.join(miss)}" if miss else ""))
+    print(f"compensated better than PID on every figure: {'yes' if v['better_everywhere'] else 'no'} "
+          f"({', '.join(f'{k} {x}' for k, x in v['better_than_reference'].items())})")
+    for c, d in doc["controllers"].items():
+        for proc, notes in d["failures"].items():
+            print(f"FAILED {c}/{proc}: {'; '.join(notes)}")
+    print(f"report:  {out / 'report.html'} ({info['bytes'] / 1e6:.1f} MB, {len(info['plots'])} plots embedded)")
+    print(f"summary: {out / 'summary.json'}; all controllers: {out / 'compare' / 'compare.json'}")
+    print(f"demo: done in {el:.0f} s ({int(el // 60)} min {int(el % 60)} s); virtual drive stopped")
+    return 0
