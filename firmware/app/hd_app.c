@@ -247,6 +247,18 @@ int32_t hd_app_apply_params(hd_app_t *a)
     a->traj_cfg.vmax = P(a, HD_P_TRAJ_VMAX);
     a->traj_cfg.amax = P(a, HD_P_TRAJ_AMAX);
     a->traj_cfg.jmax = P(a, HD_P_TRAJ_JMAX);
+    /* one-direction final approach of PTP moves: cb_enable bit HD_CB_APPROACH */
+    if (((uint32_t)P(a, HD_P_CB_ENABLE) & HD_CB_APPROACH) != 0u) {
+        a->traj_cfg.appr_dir = P(a, HD_P_APPR_DIR);
+        a->traj_cfg.appr_dist = P(a, HD_P_APPR_DIST);
+        a->traj_cfg.appr_vmax = P(a, HD_P_APPR_VMAX);
+        a->traj_cfg.appr_dwell = (uint32_t)hd_div64_rnd((int64_t)P(a, HD_P_APPR_DWELL) * HD_LOOP_HZ, 65536);
+    } else {
+        a->traj_cfg.appr_dir = 0;
+        a->traj_cfg.appr_dist = 0;
+        a->traj_cfg.appr_vmax = 0;
+        a->traj_cfg.appr_dwell = 0u;
+    }
     if (hd_comp_bank_config(&a->cb_cfg, a->param) != 0) {
         return -1;
     }
@@ -728,7 +740,16 @@ void hd_app_step(hd_app_t *a)
         cbi.vel_ref = (mode == HD_MODE_STAB) ? a->stab.vff_db : v_ff;   /* friction FF without gyro-noise chatter */
         cbi.vel_fb = v_fb;
         cbi.acc_ref = acc_ref;
+        /* velocity-integrator hand-over: while a torque feed-forward ramps in or out, its
+         * per-period change is taken off the integrator, so switching does not move the output */
+        const bool ff_ramp = hd_blend_ramping(&a->cb.str.blend) || hd_blend_ramping(&a->cb.lug.blend) ||
+                             hd_blend_ramping(&a->cb.te.blend) || hd_blend_ramping(&a->cb.dob_blend);
+        const int32_t ff_prev = a->cb.out.tff;
         hd_comp_bank_pre(&a->cb, &a->cb_cfg, &cbi, &cbo);
+        if (ff_ramp) {
+            a->vel_pid.integ = app_sub64_sat(a->vel_pid.integ,
+                                             app_shl64_sat((int64_t)cbo.tff - (int64_t)ff_prev, a->vel_cfg.shift));
+        }
         pos_ref = app_add64_sat(pos_ref, cbo.dpos);
         v_ff = hd_add_sat(v_ff, cbo.dvel);
         t_ff = hd_add_sat(t_ff, cbo.tff);

@@ -80,6 +80,9 @@
 #define HD_CB_BACKSTEP  (1u << 5)
 #define HD_CB_DOB       (1u << 6)
 #define HD_CB_ALL       0x7Fu
+/* cb_enable bit 7 is not a bank compensator: the one-direction final approach of
+ * PTP moves (hd_trajectory.h, parameters appr_*), read by hd_app; the bank ignores it. */
+#define HD_CB_APPROACH  (1u << 7)
 
 typedef struct {
     hd_stribeck_cfg_t str;

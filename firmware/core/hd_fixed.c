@@ -426,21 +426,20 @@ void hd_sincos_turn(uint32_t angle, int32_t *sin_q30, int32_t *cos_q30)
     const uint32_t r = angle & 0x3FFFFFFFu;
     const uint32_t p = ((quad & 1u) != 0u) ? (0x40000000u - r) : r;
     const uint32_t k = p >> 22;                                     /* 0..256 */
-    const uint64_t l = p & 0x3FFFFFu;
-    /* d in Q36 rad: l * 2*pi * 2^36 / 2^32 = l * pi * 2^5; pi in Q29. */
-    const uint64_t d36 = hd__ushr_rnd(l * HD_PI_Q29, 24u);          /* < 2^29 */
-    const uint64_t d2_36 = hd__ushr_rnd(d36 * d36, 36u);            /* d^2, < 2^22 */
-    const uint64_t d3_6 = (uint32_t)hd__ushr_rnd(d2_36 * d36, 36u) / 6u;   /* d^3/6 (< 2^15: 32-bit divide) */
-    const uint64_t d4_24 = (uint32_t)hd__ushr_rnd(d2_36 * d2_36, 36u) / 24u; /* d^4/24 (< 2^8) */
-    const uint64_t sd32 = hd__ushr_rnd(d36 - d3_6, 4u);             /* sin d, Q32 */
-    const uint64_t cd32 = ((uint64_t)1 << 32)
-                          - hd__ushr_rnd((d2_36 >> 1) - d4_24, 4u); /* cos d, Q32 */
-    const uint64_t sk = hd_sin_tab_q31[k];
-    const uint64_t ck = hd_sin_tab_q31[256u - k];
-    /* Q31 * Q32 = Q63; sums < 2^63 + 2^56 fit uint64 */
-    const uint64_t s63 = sk * cd32 + ck * sd32;
-    const uint64_t c63p = ck * cd32;
-    const uint64_t c63n = sk * sd32;
+    const uint32_t l = p & 0x3FFFFFu;
+    /* every factor below fits 32 bits (one UMULL each on the M4); cos d = 2^32 - cm */
+    const uint32_t d36 = (uint32_t)hd__ushr_rnd((uint64_t)l * (uint32_t)HD_PI_Q29, 24u);        /* < 2^29 */
+    const uint32_t d2_36 = (uint32_t)hd__ushr_rnd((uint64_t)d36 * d36, 36u);                  /* d^2, < 2^22 */
+    const uint32_t d3_6 = (uint32_t)hd__ushr_rnd((uint64_t)d2_36 * d36, 36u) / 6u;            /* d^3/6 */
+    const uint32_t d4_24 = (uint32_t)hd__ushr_rnd((uint64_t)d2_36 * d2_36, 36u) / 24u;        /* d^4/24 */
+    const uint32_t sd32 = (uint32_t)hd__ushr_rnd((uint64_t)(d36 - d3_6), 4u);                 /* sin d, Q32 */
+    const uint32_t cm = (uint32_t)hd__ushr_rnd((uint64_t)((d2_36 >> 1) - d4_24), 4u);         /* 1 - cos d, Q32 */
+    const uint32_t sk = (uint32_t)hd_sin_tab_q31[k];
+    const uint32_t ck = (uint32_t)hd_sin_tab_q31[256u - k];
+    /* Q31 * Q32 = Q63; sums < 2^63 + 2^56 fit uint64 (x * (2^32 - cm) = x 2^32 - x cm, exact) */
+    const uint64_t s63 = ((uint64_t)sk << 32) - (uint64_t)sk * cm + (uint64_t)ck * sd32;
+    const uint64_t c63p = ((uint64_t)ck << 32) - (uint64_t)ck * cm;
+    const uint64_t c63n = (uint64_t)sk * sd32;
     uint64_t s30 = hd__ushr_rnd(s63, 33u);
     uint64_t c30 = (c63p > c63n) ? hd__ushr_rnd(c63p - c63n, 33u) : 0u;
     int32_t s;

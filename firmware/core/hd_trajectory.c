@@ -247,6 +247,9 @@ void hd_traj_reset(hd_traj_t *s, hd_angle_t pos)
     s->cruise_q = 0;
     s->cruise_r = 0;
     s->cruise_acc = 0;
+    s->goal48 = s->p48;
+    s->appr_leg = 0;
+    s->appr_wait = 0;
     s->rate_target = 0;
     s->rate_cur = 0;
     s->rate_dv = 1;
@@ -266,23 +269,18 @@ static uint32_t ptp_total(const hd_traj_t *s)
     return 4u * s->tj + 2u * s->ta + s->tv;
 }
 
-int32_t hd_traj_ptp(hd_traj_t *s, const hd_traj_cfg_t *c, hd_angle_t target)
+/* Plan one jerk-limited leg from rest at p48 to target48 with velocity limit
+ * vlim (2^-32 turn/s, > 0) and the acceleration / jerk limits of c. */
+static void plan(hd_traj_t *s, const hd_traj_cfg_t *c, hd_vel_out_t vlim, int64_t target48)
 {
-    if (c->vmax <= 0 || c->amax <= 0 || c->jmax <= 0) {
-        return -1;
-    }
-    if (s->mode != HD_TRAJ_HOLD && !hd_traj_done(s)) {
-        return -1;
-    }
     /* limits in per-period units of 2^-48 turn */
     int64_t rem;
-    const int64_t vmax = floordiv((int64_t)c->vmax * 65536, HD_LOOP_HZ, &rem);
+    const int64_t vmax = floordiv((int64_t)vlim * 65536, HD_LOOP_HZ, &rem);
     const int64_t amax = hd_div64_rnd((int64_t)c->amax * 16777216, 100000000);
     int64_t j = hd_div64_rnd(hd_shl64_sat((int64_t)c->jmax, 32u), 1000000000000LL);
     if (j < 1) {
         j = 1;
     }
-    const int64_t target48 = hd_shl64_sat(target, 16u);
     int64_t d = hd_sub64_sat(target48, s->p48);
     s->dir = (d < 0) ? -1 : 1;
     d = hd_abs64_sat(d);
@@ -361,6 +359,37 @@ int32_t hd_traj_ptp(hd_traj_t *s, const hd_traj_cfg_t *c, hd_angle_t target)
     s->v48 = 0;
     s->a48 = 0;
     s->mode = HD_TRAJ_PTP;
+}
+
+/* final-leg velocity limit: min(appr_vmax, vmax), appr_vmax <= 0 = vmax */
+static hd_vel_out_t appr_vlim(const hd_traj_cfg_t *c)
+{
+    return (c->appr_vmax > 0 && c->appr_vmax < c->vmax) ? c->appr_vmax : c->vmax;
+}
+
+int32_t hd_traj_ptp(hd_traj_t *s, const hd_traj_cfg_t *c, hd_angle_t target)
+{
+    if (c->vmax <= 0 || c->amax <= 0 || c->jmax <= 0) {
+        return -1;
+    }
+    if (s->mode != HD_TRAJ_HOLD && !hd_traj_done(s)) {
+        return -1;
+    }
+    const int64_t target48 = hd_shl64_sat(target, 16u);
+    const int64_t d = hd_sub64_sat(target48, s->p48);
+    s->goal48 = target48;
+    s->appr_leg = 0;
+    s->appr_wait = 0;
+    if ((c->appr_dir == 1 || c->appr_dir == -1) && c->appr_dist > 0 && d != 0 &&
+        ((d < 0) != (c->appr_dir < 0))) {
+        /* wrong side: first leg to target - dir * dist, the final leg follows */
+        const int64_t dist48 = hd_shl64_sat((int64_t)c->appr_dist, 16u);
+        s->appr_leg = 1;
+        plan(s, c, c->vmax,
+             (c->appr_dir > 0) ? hd_sub64_sat(target48, dist48) : hd_add64_sat(target48, dist48));
+        return 0;
+    }
+    plan(s, c, c->vmax, target48);
     return 0;
 }
 
@@ -372,6 +401,7 @@ void hd_traj_rate(hd_traj_t *s, const hd_traj_cfg_t *c, hd_vel_out_t v)
         s->rate_rem = 0;
     }
     s->rate_dv = (dv < 1) ? 1 : dv;
+    s->appr_leg = 0;
     s->rate_target = hd_clamp32(v, hd_neg_sat(c->vmax), c->vmax);
     s->mode = HD_TRAJ_RATE;
 }
@@ -402,6 +432,7 @@ int32_t hd_traj_sine(hd_traj_t *s, hd_angle_t center, int32_t amp, int32_t f_q16
     s->center = center;
     s->amp = amp;
     s->w_q16 = hd_mul_q(f_q16, TWO_PI_Q28, 28u);
+    s->appr_leg = 0;
     s->mode = HD_TRAJ_SINE;
     return 0;
 }
@@ -412,13 +443,18 @@ int32_t hd_traj_done(const hd_traj_t *s)
         return 1;
     }
     if (s->mode == HD_TRAJ_PTP) {
-        return (s->k >= ptp_total(s)) ? 1 : 0;
+        return (s->appr_leg != 1 && s->appr_wait == 0u && s->k >= ptp_total(s)) ? 1 : 0;
     }
     return 0;
 }
 
-static void step_ptp(hd_traj_t *s)
+static void step_ptp(hd_traj_t *s, const hd_traj_cfg_t *c)
 {
+    if (s->appr_wait > 0u) {          /* at rest between the legs */
+        s->appr_wait--;
+        outputs(s, 0);
+        return;
+    }
     const uint32_t tj = s->tj, ta = s->ta, tv = s->tv;
     const uint32_t k = s->k;
     const uint32_t total = ptp_total(s);
@@ -471,7 +507,14 @@ static void step_ptp(hd_traj_t *s)
     if (s->k >= total) {
         s->v48 = 0;
         s->a48 = 0;
-        s->mode = HD_TRAJ_HOLD;
+        if (s->appr_leg == 1) {
+            /* first leg done (exactly at goal - dir * dist): plan the final leg */
+            s->appr_leg = 2;
+            plan(s, c, appr_vlim(c), s->goal48);
+            s->appr_wait = c->appr_dwell;
+        } else {
+            s->mode = HD_TRAJ_HOLD;
+        }
     }
 }
 
@@ -528,10 +571,9 @@ static void step_sine(hd_traj_t *s)
 
 void hd_traj_step(hd_traj_t *s, const hd_traj_cfg_t *c)
 {
-    (void)c;
     switch (s->mode) {
     case HD_TRAJ_PTP:
-        step_ptp(s);
+        step_ptp(s, c);
         break;
     case HD_TRAJ_RATE:
         step_rate(s);

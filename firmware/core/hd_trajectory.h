@@ -25,6 +25,21 @@
  * Point-to-point and sinusoid start from rest (a new PTP while moving is
  * refused with -1); constant-rate ramps its velocity at amax from the current
  * trajectory velocity.  hd_traj_stop() ramps the velocity to 0 at amax.
+ *
+ * One-direction final approach (cfg appr_dir = +1 / -1, appr_dist > 0; off
+ * with appr_dir = 0 or appr_dist = 0): a PTP move whose direction is not
+ * appr_dir is split into two normal jerk-limited legs: first to
+ * target - appr_dir * appr_dist (full limits), then, after appr_dwell
+ * periods at rest, the final leg of appr_dist to the target in direction
+ * appr_dir with the velocity limit min(appr_vmax, vmax) (appr_vmax 0 =
+ * vmax; same amax, jmax).  A move in direction appr_dir (or of length 0) is
+ * planned as before, one leg.  Every move therefore ends with motion in
+ * direction appr_dir - the classic lost-motion take-up of precision
+ * positioners: the friction/backlash state at the stop is the same for every
+ * approach.  goal48 is the true target from hd_traj_ptp() on; target48 is the
+ * end of the current leg; hd_traj_done() is 1 only after the final leg, which
+ * lands EXACTLY on the target like any move.  The final leg is planned inside
+ * the hd_traj_step() call that ends the first leg (cfg read there).
  */
 #ifndef HD_TRAJECTORY_H
 #define HD_TRAJECTORY_H
@@ -43,6 +58,11 @@ typedef struct {
     hd_vel_out_t vmax;   /* 2^-32 turn/s, > 0 */
     hd_acc_t     amax;   /* 2^-24 turn/s^2, > 0 */
     int32_t      jmax;   /* 2^-16 turn/s^3, > 0 */
+    /* one-direction final approach (zero-initialised = off) */
+    int32_t      appr_dir;   /* +1 / -1: direction of the final motion; 0 = off */
+    int32_t      appr_dist;  /* final-leg length, 2^-32 turn (> 0 to be on) */
+    hd_vel_out_t appr_vmax;  /* final-leg velocity limit, 2^-32 turn/s (0 = vmax) */
+    uint32_t     appr_dwell; /* periods at rest between the legs */
 } hd_traj_cfg_t;
 
 typedef struct {
@@ -59,6 +79,10 @@ typedef struct {
     int64_t  cruise_q;    /* cruise step quotient, 2^-48 turn per period */
     int64_t  cruise_r;    /* cruise remainder numerator, [0, tv) */
     int64_t  cruise_acc;  /* remainder accumulator */
+    /* final approach */
+    int64_t  goal48;      /* true target of the move, 2^-48 turn */
+    int32_t  appr_leg;    /* 0 one leg; 1 first leg (final leg pending); 2 dwell / final leg */
+    uint32_t appr_wait;   /* dwell periods left before the final leg */
     /* RATE */
     int32_t  rate_target; /* 2^-32 turn/s */
     int32_t  rate_cur;    /* 2^-32 turn/s */
@@ -90,7 +114,7 @@ void hd_traj_stop(hd_traj_t *s, const hd_traj_cfg_t *c);
 int32_t hd_traj_sine(hd_traj_t *s, hd_angle_t center, int32_t amp, int32_t f_q16);
 /** Advance one period; updates pos/vel/acc. */
 void hd_traj_step(hd_traj_t *s, const hd_traj_cfg_t *c);
-/** 1 when a PTP move has finished (or in HOLD), else 0. */
+/** 1 when a PTP move has finished - final approach leg included - (or in HOLD), else 0. */
 int32_t hd_traj_done(const hd_traj_t *s);
 
 #endif

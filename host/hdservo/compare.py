@@ -476,7 +476,8 @@ def run_compare(out_dir: Path, controllers: Sequence[Controller], procedures: Se
         figs[f.key] = {"label": f.label, "short": f.short or f.label, "unit": f.unit, "lower_is_better": f.lower_is_better, "target": f.target,
                        "target_text": f.target_text(), "values": vals,
                        "meets_target": {c: f.meets(v) for c, v in vals.items()},
-                       "vs_" + ref_name: {c: f.verdict(v, vals[ref_name]) for c, v in vals.items() if c != ref_name}}
+                       "vs_" + ref_name: {c: f.verdict(v, vals[ref_name]) for c, v in vals.items() if c != ref_name},
+                       "best_measured": best_measured(f, vals)}
     doc: dict[str, Any] = {
         "format": FORMAT, "version": VERSION, "reference": ref_name, "best": best_name,
         "conditions": {"target": "virtual drive (hdservo-sim serve --rig)" if bus is None else f"drive {bus}",
@@ -492,6 +493,15 @@ def run_compare(out_dir: Path, controllers: Sequence[Controller], procedures: Se
     doc["run_time_s"] = round(time.monotonic() - t0, 1)
     _write_json_atomic(out_dir / "compare.json", doc)
     return doc
+
+
+def best_measured(f: Figure, values: Mapping[str, Optional[float]]) -> Optional[str]:
+    """The controller with the best value of figure ``f`` (None when no controller has a value)."""
+    have = {c: v for c, v in values.items() if v is not None}
+    if not have:
+        return None
+    top = have[(min if f.lower_is_better else max)(have, key=lambda c: have[c])]
+    return next(c for c, v in have.items() if f.verdict(v, top) in ("same", "better"))   # ties: the first listed
 
 
 def verdict(doc: Mapping[str, Any]) -> dict[str, Any]:
@@ -562,7 +572,8 @@ def summary_table(doc: Mapping[str, Any], columns: Optional[Sequence[str]] = Non
     head = f"{'figure':<30s}{'unit':>8s}{'target':>11s}" + "".join(f"{c:>{w}s}" for c in cols)
     show_vs = best != ref and best in cols
     if show_vs:
-        head += f"  {best} vs {ref}"
+        head += f"  {best + ' vs ' + ref:<14s}"
+    head += "  best measured"
     lines = [head, "-" * len(head)]
     for k, f in doc["figures"].items():
         tt = f["target_text"].split(" ")
@@ -574,7 +585,9 @@ def summary_table(doc: Mapping[str, Any], columns: Optional[Sequence[str]] = Non
             mark = "" if met is None else (" *" if met else "  ")
             row += f"{(_num(v) + mark):>{w}s}"
         if show_vs:
-            row += f"  {f['vs_' + ref].get(best, 'n/a')}"
+            row += f"  {f['vs_' + ref].get(best, 'n/a'):<14s}"
+        bm = f.get("best_measured")
+        row += f"  {bm} ({_num(f['values'].get(bm))})" if bm else "  -"
         lines.append(row)
     lines.append("(* = meets the target of DESIGN.md section 2; 'none' = no value, e.g. no smooth rung)")
     return "\n".join(lines)

@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 OD_VERSION = 1
-PARAM_HASH = 0xD5A2011E
+PARAM_HASH = 0x95334EAC
 VENDOR_ID = 0x00000EDA
 PRODUCT_CODE = 0x00484453
 REVISION = 0x00010000
@@ -222,6 +222,10 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x2400, 1, 'traj_vmax', 'i32', 'rw', '', 'turn/s', 2.3283064365386963e-10),
     OdEntry(0x2400, 2, 'traj_amax', 'i32', 'rw', '', 'turn/s^2', 5.960464477539063e-08),
     OdEntry(0x2400, 3, 'traj_jmax', 'i32', 'rw', '', 'turn/s^3', 1.52587890625e-05),
+    OdEntry(0x2400, 4, 'appr_dir', 'i32', 'rw', '', '1', 1.0),
+    OdEntry(0x2400, 5, 'appr_dist', 'i32', 'rw', '', 'turn', 2.3283064365386963e-10),
+    OdEntry(0x2400, 6, 'appr_vmax', 'i32', 'rw', '', 'turn/s', 2.3283064365386963e-10),
+    OdEntry(0x2400, 7, 'appr_dwell', 'u32', 'rw', '', 's', 1.52587890625e-05),
     OdEntry(0x2500, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x2500, 1, 'stab_kp', 'i32', 'rw', '', '1/s', 1.52587890625e-05),
     OdEntry(0x2500, 2, 'stab_ki', 'i32', 'rw', '', '1/s^2', 1.52587890625e-05),

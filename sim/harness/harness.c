@@ -39,6 +39,7 @@ struct hd_sim {
     double t_app_s, t_plant_s;
     int64_t timed;              /* periods actually timed (every 8th) */
     int64_t periods_run;        /* periods run with timing on */
+    int ptp_started;            /* setpoint "ptp": drive mode PTP entered */
 };
 
 static void set_err(char *err, size_t errlen, const char *fmt, ...)
@@ -189,14 +190,15 @@ static int set_param_si(hd_sim_t *s, const char *name, double v, const char *why
  * [compensators.preisach] table = file -> hd_app_comp_table(). */
 static int setup_comp(hd_sim_t *s, char *err, size_t errlen)
 {
-    static const char *const NAMES[] = {"stribeck", "lugre", "maxwell", "preisach", "te", "backstep", "dob"};
+    static const char *const NAMES[] = {"stribeck", "lugre", "maxwell", "preisach", "te", "backstep", "dob",
+                                        "approach"};
     uint32_t bits = 0;
     for (int32_t i = 0; i < s->sc.n_comp; i++) {
         uint32_t k = 0;
-        while (k < 7u && strcmp(s->sc.comp[i], NAMES[k]) != 0) k++;
-        if (k == 7u) {
+        while (k < 8u && strcmp(s->sc.comp[i], NAMES[k]) != 0) k++;
+        if (k == 8u) {
             set_err(err, errlen, "%s: controller.compensators: unknown '%s'; expected stribeck, lugre, maxwell, "
-                    "preisach, te, backstep or dob", s->sc.path, s->sc.comp[i]);
+                    "preisach, te, backstep, dob or approach", s->sc.path, s->sc.comp[i]);
             return -1;
         }
         bits |= 1u << k;
@@ -394,6 +396,17 @@ void hd_sim_step(hd_sim_t *s, double *row)
     double r = hd_scenario_setpoint(&sc->sp, tau, sc->seed);
     switch (sc->mode) {
     case HD_SC_MODE_POSITION:
+        if (sc->sp.type == HD_SP_PTP) {
+            /* drive trajectory: hold the initial position, then one PTP move at t0 */
+            if (tau < sc->sp.t0_s) {
+                hd_app_set_position(&s->app, hd_bridge_rad_to_q32_turns(sc->sp.initial));
+            } else if (!s->ptp_started) {
+                s->ptp_started = 1;
+                (void)hd_app_move_to(&s->app, hd_bridge_rad_to_q32_turns(sc->sp.target));
+                (void)hd_app_set_mode(&s->app, HD_MODE_PTP);
+            }
+            break;
+        }
         hd_app_set_position(&s->app, hd_bridge_rad_to_q32_turns(r));
         if (smooth_profile(sc->sp.type)) {
             double r1 = hd_scenario_setpoint(&sc->sp, tau + dt, sc->seed);
@@ -430,7 +443,9 @@ void hd_sim_step(hd_sim_t *s, double *row)
         row[HD_COL_LOAD_VEL] = o->load_velocity_rad_s;
         row[HD_COL_MOTOR_TORQUE] = o->motor_torque_Nm;
         row[HD_COL_MOTOR_CURRENT] = o->current_meas_A;
-        row[HD_COL_SETPOINT] = (sc->mode == HD_SC_MODE_OFF) ? 0.0 : r;
+        row[HD_COL_SETPOINT] = (sc->mode == HD_SC_MODE_OFF) ? 0.0
+                               : (sc->sp.type == HD_SP_PTP && s->ptp_started) ? hd_bridge_q32_turns_to_rad(s->app.tel.pos_ref)
+                               : r;
         row[HD_COL_TORQUE_CMD] = cmd->enable ? hd_bridge_from_q16(cmd->torque) : 0.0;
         row[HD_COL_TORSION] = o->twist_rad;
         row[HD_COL_GYRO] = o->gyro_rad_s;

@@ -143,7 +143,7 @@ static int copy_str(char *dst, size_t cap, const char *s)
 
 static const char *const MODES[] = {"off", "torque", "velocity", "position", "stabilise"};
 static const char *const SPTYPES[] = {"constant", "step", "ramp", "move", "sine",
-                                      "chirp", "multisine", "prbs"};
+                                      "chirp", "multisine", "prbs", "ptp"};
 static const char *const FAULTS[] = {"encoder_glitch", "encoder_dropout", "current_limit",
                                      "load_step"};
 static const char *const ENCODERS[] = {"motor", "load"};
@@ -158,7 +158,7 @@ static int parse_setpoint(ctx_t *c, hd_scenario_t *sc)
     int t = 0;
     const double BIG = 1e9;
     memset(sp, 0, sizeof *sp);
-    if (choice(c, "setpoint.type", SPTYPES, 8, 0, &t)) return -1;
+    if (choice(c, "setpoint.type", SPTYPES, 9, 0, &t)) return -1;
     sp->type = (hd_sp_type_t)t;
     if (sc->mode == HD_SC_MODE_OFF) {
         if (sp->type != HD_SP_CONSTANT) {
@@ -195,6 +195,16 @@ static int parse_setpoint(ctx_t *c, hd_scenario_t *sc)
                  "setpoint.max_velocity_rad_s", "> 0") ||
             need(c, num(c, "setpoint.max_accel_rad_s2", 1e-12, BIG, &sp->max_accel),
                  "setpoint.max_accel_rad_s2", "> 0"))
+            return -1;
+        break;
+    case HD_SP_PTP:
+        if (sc->mode != HD_SC_MODE_POSITION) {
+            hd_toml_entry_error(c->doc, hd_toml_find(c->doc, "setpoint.type"), c->err, c->errlen,
+                                "expected controller mode \"position\" for a \"ptp\"");
+            return -1;
+        }
+        if (need(c, num(c, "setpoint.target_rad", -BIG, BIG, &sp->target), "setpoint.target_rad",
+                 "end position"))
             return -1;
         break;
     case HD_SP_SINE:
@@ -659,6 +669,8 @@ double hd_scenario_setpoint(const hd_sc_setpoint_t *sp, double t, uint64_t seed)
         double te = (sp->t1_s > sp->t0_s && t > sp->t1_s) ? sp->t1_s - sp->t0_s : tau;
         return sp->initial + sp->rate * te;
     }
+    case HD_SP_PTP:
+        return sp->target;
     case HD_SP_MOVE:
         return sp->initial + move_pos(sp->target - sp->initial, sp->max_velocity, sp->max_accel, tau);
     case HD_SP_SINE:

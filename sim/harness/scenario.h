@@ -46,7 +46,8 @@ typedef enum {
     HD_SP_SINE,
     HD_SP_CHIRP,
     HD_SP_MULTISINE,
-    HD_SP_PRBS
+    HD_SP_PRBS,
+    HD_SP_PTP              /* drive point-to-point (mode PTP, hd_app_move_to) to target at t0 */
 } hd_sp_type_t;
 
 /* Setpoint profile, values in the unit of the mode (rad, rad/s or N.m at the motor). */

@@ -255,8 +255,9 @@ static void test_biquad_chain_extremes(void **st)
 static hd_traj_cfg_t tcfg_ref(void)
 {
     /* reference axis: 60 deg/s, 100 deg/s^2, 1000 deg/s^3 */
-    hd_traj_cfg_t c = {(int32_t)llround(60.0 / 360 * 4294967296.0), (int32_t)llround(100.0 / 360 * 16777216.0),
-                       (int32_t)llround(1000.0 / 360 * 65536.0)};
+    hd_traj_cfg_t c = {.vmax = (int32_t)llround(60.0 / 360 * 4294967296.0),
+                       .amax = (int32_t)llround(100.0 / 360 * 16777216.0),
+                       .jmax = (int32_t)llround(1000.0 / 360 * 65536.0)};
     return c;
 }
 
@@ -306,7 +307,7 @@ static void test_traj_ptp_exact(void **st)
     run_ptp(12345, 12345 + 1, &c, &k);               /* 1 LSB */
     run_ptp(0, -(T / 360 / 3600), &c, &k);           /* 1 arcsec */
     run_ptp(0, 7 * T + 987654321, &c, &k);           /* several turns */
-    hd_traj_cfg_t slow = {DEG_S_TO_VEL(0.01), 1000, 100};
+    hd_traj_cfg_t slow = {.vmax = DEG_S_TO_VEL(0.01), .amax = 1000, .jmax = 100};
     run_ptp(0, T / 36000, &slow, &k);                /* 0.01 deg at 0.01 deg/s */
 }
 
@@ -387,6 +388,172 @@ static void test_traj_sine(void **st)
     }
     unsigned __int128 ph = ((unsigned __int128)n * (uint64_t)f << 48) / 10000;
     assert_true(s.phase == (uint64_t)ph);
+}
+
+/* One-direction final approach: run a move to the end and check every leg. */
+typedef struct {
+    uint32_t periods;        /* until hd_traj_done */
+    uint32_t leg1_end;       /* period index at which the first leg ended (0: one leg) */
+    uint32_t final_periods;  /* periods of the final leg (motion after the dwell) */
+    hd_angle_t turn_pos;     /* position at the end of the first leg */
+    int32_t final_vmax;      /* max |vel| in the final leg */
+} appr_run_t;
+
+static appr_run_t run_appr(hd_angle_t start, hd_angle_t target, const hd_traj_cfg_t *c)
+{
+    appr_run_t r = {0};
+    hd_traj_t s;
+    hd_traj_reset(&s, start);
+    assert_int_equal(hd_traj_ptp(&s, c, target), 0);
+    assert_true(s.goal48 == target * 65536);       /* the true target from the start */
+    const int dir = c->appr_dir;
+    const int wrong = (c->appr_dir != 0 && c->appr_dist > 0 && target != start &&
+                       ((target < start) != (dir < 0)));
+    const hd_angle_t turn = target - (hd_angle_t)dir * c->appr_dist;
+    const double vmax = c->vmax * 1.0005 + 4, amax = c->amax * 1.001 + 2;
+    const int32_t vlim = (c->appr_vmax > 0 && c->appr_vmax < c->vmax) ? c->appr_vmax : c->vmax;
+    int leg = 1;
+    uint32_t still = 0;
+    hd_angle_t prev = start;
+    while (!hd_traj_done(&s)) {
+        hd_traj_step(&s, c);
+        r.periods++;
+        assert_true(fabs((double)s.vel) <= vmax);
+        assert_true(fabs((double)s.acc) <= amax);
+        if (!wrong) {                                 /* one leg, monotone, no overshoot */
+            assert_int_equal(s.appr_leg, 0);
+            if (target >= start) {
+                assert_true(s.pos >= prev - 1 && s.pos <= target);
+            } else {
+                assert_true(s.pos <= prev + 1 && s.pos >= target);
+            }
+        } else if (leg == 1) {
+            /* first leg: monotone towards the turning point, never beyond it */
+            if (turn >= start) {
+                assert_true(s.pos >= prev - 1 && s.pos <= turn);
+            } else {
+                assert_true(s.pos <= prev + 1 && s.pos >= turn);
+            }
+            assert_false(hd_traj_done(&s) && s.pos != target);
+            if (s.appr_leg == 2) {                    /* first leg ended this period */
+                leg = 2;
+                r.leg1_end = r.periods;
+                r.turn_pos = s.pos;
+                assert_true(s.p48 == turn * 65536);    /* exactly at target - dir * dist */
+                assert_int_equal(hd_traj_ptp(&s, c, start), -1);   /* busy: refused */
+            }
+        } else {
+            /* dwell, then the final leg in direction dir: monotone, no overshoot */
+            if (s.vel == 0 && r.final_periods == 0u) {
+                still++;
+                assert_true(s.pos == r.turn_pos);
+            } else {
+                r.final_periods++;
+            }
+            if (dir > 0) {
+                assert_true(s.pos >= prev && s.pos <= target);
+            } else {
+                assert_true(s.pos <= prev && s.pos >= target);
+            }
+            assert_true((double)s.vel * dir >= 0.0);
+            assert_true(fabs((double)s.vel) <= vlim * 1.0005 + 4);
+            if (abs(s.vel) > r.final_vmax) {
+                r.final_vmax = abs(s.vel);
+            }
+        }
+        prev = s.pos;
+        assert_true(r.periods < 50000000u);
+    }
+    if (wrong) {
+        assert_int_equal(leg, 2);
+        assert_true(still >= c->appr_dwell);           /* the dwell (+ the first periods of jerk) */
+    }
+    assert_true(s.p48 == target * 65536);               /* exact landing on the true target */
+    assert_true(s.pos == target);
+    hd_traj_step(&s, c);
+    assert_true(s.pos == target && s.vel == 0 && s.acc == 0 && s.mode == HD_TRAJ_HOLD);
+    return r;
+}
+
+static void test_traj_final_approach(void **st)
+{
+    (void)st;
+    const int64_t T = 4294967296LL;
+    const int32_t as45 = (int32_t)llround(45.0 / 1296000.0 * 4294967296.0);
+    hd_traj_cfg_t c = tcfg_ref();
+    c.appr_dir = 1;
+    c.appr_dist = as45;
+    c.appr_vmax = DEG_S_TO_VEL(0.1);
+    c.appr_dwell = 50;
+
+    /* wrong side (negative move, approach +): first leg to target - 45", final leg + */
+    appr_run_t r = run_appr(0, -T / 36, &c);            /* -10 deg */
+    assert_true(r.leg1_end > 0u && r.turn_pos == -T / 36 - as45);
+    /* the final leg is slow: 45" at <= 0.1 deg/s takes >= 0.125 s */
+    assert_true(r.final_periods >= 1250u);
+    assert_true(r.final_vmax > DEG_S_TO_VEL(0.09));     /* and it does cruise near appr_vmax */
+    printf("# approach +, -10 deg: %u periods, first leg %u, final leg %u, peak %.4f deg/s\n", r.periods,
+           r.leg1_end, r.final_periods, r.final_vmax * TURN_DEG / 4294967296.0);
+
+    /* right side: one leg, bit-identical to the move without the approach */
+    {
+        hd_traj_cfg_t off = tcfg_ref();
+        hd_traj_t a, b;
+        hd_traj_reset(&a, 1000);
+        hd_traj_reset(&b, 1000);
+        assert_int_equal(hd_traj_ptp(&a, &c, T / 36), 0);
+        assert_int_equal(hd_traj_ptp(&b, &off, T / 36), 0);
+        while (!hd_traj_done(&b)) {
+            hd_traj_step(&a, &c);
+            hd_traj_step(&b, &off);
+            assert_true(a.pos == b.pos && a.vel == b.vel && a.acc == b.acc && a.mode == b.mode);
+        }
+        assert_true(hd_traj_done(&a));
+        r = run_appr(1000, T / 36, &c);
+        assert_int_equal(r.leg1_end, 0u);
+    }
+
+    /* a wrong-side move shorter than the approach distance passes the target first */
+    r = run_appr(0, -(T / 1296000) * 10, &c);             /* -10" */
+    assert_true(r.turn_pos == -(T / 1296000) * 10 - as45);
+    /* zero-length move: nothing to do, no extra leg */
+    r = run_appr(777, 777, &c);
+    assert_int_equal(r.leg1_end, 0u);
+
+    /* approach -: mirrored; no dwell; appr_vmax 0 = the full vmax */
+    c.appr_dir = -1;
+    c.appr_dwell = 0;
+    c.appr_vmax = 0;
+    r = run_appr(-12345, T / 8, &c);
+    assert_true(r.leg1_end > 0u && r.turn_pos == T / 8 + as45);
+    r = run_appr(T / 8, -T / 8, &c);                      /* right side now */
+    assert_int_equal(r.leg1_end, 0u);
+
+    /* off: appr_dir 0 or appr_dist 0 */
+    c.appr_dir = 0;
+    r = run_appr(0, T / 100, &c);
+    assert_int_equal(r.leg1_end, 0u);
+    c.appr_dir = 1;
+    c.appr_dist = 0;
+    r = run_appr(0, -T / 100, &c);
+    assert_int_equal(r.leg1_end, 0u);
+
+    /* a stop (rate mode) during the first leg cancels the pending final leg */
+    {
+        hd_traj_t s;
+        c.appr_dist = as45;
+        hd_traj_reset(&s, 0);
+        assert_int_equal(hd_traj_ptp(&s, &c, -T / 36), 0);
+        for (int k = 0; k < 2000; k++) {
+            hd_traj_step(&s, &c);
+        }
+        hd_traj_stop(&s, &c);
+        assert_int_equal(s.appr_leg, 0);
+        while (s.mode != HD_TRAJ_HOLD) {
+            hd_traj_step(&s, &c);
+        }
+        assert_true(hd_traj_done(&s));
+    }
 }
 
 /* -------------------------------------------------------- excitation ----- */
@@ -630,6 +797,7 @@ int main(void)
         cmocka_unit_test(test_traj_ptp_exact),
         cmocka_unit_test(test_traj_rate_exact),
         cmocka_unit_test(test_traj_sine),
+        cmocka_unit_test(test_traj_final_approach),
         cmocka_unit_test(test_exc_vsteps),
         cmocka_unit_test(test_exc_prbs),
         cmocka_unit_test(test_exc_multisine_chirp),

@@ -134,7 +134,7 @@ static void cost_bq(void)
 
 /* ---- trajectory: commands every 128 periods (fast limits so moves finish) -- */
 
-static const hd_traj_cfg_t tr_cfg = {1 << 28, 1 << 26, 1 << 28};
+static const hd_traj_cfg_t tr_cfg = {.vmax = 1 << 28, .amax = 1 << 26, .jmax = 1 << 28};
 
 static void gen_traj(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
 {
@@ -177,6 +177,46 @@ static void cost_traj(void)
     hd_traj_step(&s, &tr_cfg);
     hd_gv_cost_mark();
     sink32 = s.vel;
+}
+
+/* ---- trajectory with the one-direction final approach: a PTP every 160 periods
+ * (refused while a move is under way), approach + or - by the command, so both
+ * the split (wrong side: first leg, dwell, slow final leg) and the one-leg case
+ * and the final-leg planning inside hd_traj_step() run on both targets. */
+
+static const hd_traj_cfg_t tra_cfg_p = {.vmax = 1 << 28, .amax = 1 << 26, .jmax = 1 << 28,
+                                        .appr_dir = 1, .appr_dist = 1 << 18, .appr_vmax = 1 << 26,
+                                        .appr_dwell = 5u};
+static const hd_traj_cfg_t tra_cfg_m = {.vmax = 1 << 28, .amax = 1 << 26, .jmax = 1 << 28,
+                                        .appr_dir = -1, .appr_dist = 3 << 17, .appr_vmax = 0,
+                                        .appr_dwell = 0u};
+
+static void gen_traj_appr(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    in[0] = ((idx % 160u) == 0u) ? (int32_t)((idx / 160u) % 2u) : -1;
+    in[1] = hd_gv_rand_range(r, -(1 << 20), 1 << 20);
+}
+
+static void run_traj_appr(const int32_t *in, int32_t *out, uint32_t count)
+{
+    hd_traj_t s;
+    uint32_t k;
+    const hd_traj_cfg_t *c = &tra_cfg_p;
+    hd_traj_reset(&s, 0);
+    for (k = 0; k < count; k++) {
+        const int32_t cmd = in[2u * k], v = in[2u * k + 1u];
+        if (cmd == 0 || cmd == 1) {
+            const hd_traj_cfg_t *nc = (cmd == 0) ? &tra_cfg_p : &tra_cfg_m;
+            if (hd_traj_ptp(&s, nc, s.pos + v) == 0) {
+                c = nc;
+            }
+        }
+        hd_traj_step(&s, c);
+        hd_gv_put64(&out[5u * k], s.pos);
+        out[5u * k + 2u] = s.vel;
+        out[5u * k + 3u] = s.acc;
+        out[5u * k + 4u] = s.mode | (s.appr_leg << 4) | (hd_traj_done(&s) << 8);
+    }
 }
 
 /* ---- excitation: each kind for 96 periods -------------------------------------- */
@@ -278,6 +318,7 @@ const hd_gv_kernel_t hd_gv_control_kernels[] = {
     {"velobs_step", 2u, 3u, GV_N, gen_obs, run_obs, cost_obs},
     {"biquad_chain_step", 1u, 1u, GV_N, gen_bq, run_bq, cost_bq},
     {"traj_step", 2u, 5u, GV_N, gen_traj, run_traj, cost_traj},
+    {"traj_approach", 2u, 5u, 1280u, gen_traj_appr, run_traj_appr, NULL},
     {"exc_step", 1u, 2u, 576u, gen_exc, run_exc, cost_exc},
     {"capture_step", 2u, 2u, 256u, gen_cap, run_cap, cost_cap},
 };

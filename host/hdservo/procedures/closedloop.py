@@ -39,7 +39,7 @@ def pp_move(bench: Bench, target_rad: float, timeout_s: float = 600.0) -> None:
     waited = 0.0
     last, still = -1, 0.0
     while True:
-        now = int(d.read(0x5F00, 8))
+        now = int(bench.read(0x5F00, 8))
         if now == want:
             return
         still = still + 0.05 if now == last else 0.0
@@ -67,14 +67,14 @@ def pp_move_start(bench: Bench, target_rad: float, tries: int = 5) -> None:
     want = (raw << 8) & 0xFFFFFFFF
     d.write(0x607A, 0, raw)
     for _ in range(tries):
-        before = int(d.read(0x5F00, 8))
+        before = int(bench.read(0x5F00, 8))
         if before == want:
             return
         d.write(0x6040, 0, 0x0F)
         d.write(0x6040, 0, 0x1F)
         d.write(0x6040, 0, 0x0F)
         bench.wait(0.02)
-        if int(d.read(0x5F00, 8)) != before:
+        if int(bench.read(0x5F00, 8)) != before:
             return
     raise RuntimeError(f"the drive did not accept the profile move to {math.degrees(target_rad):.4f} deg")
 

@@ -204,7 +204,7 @@ def starting_torque(bench: Bench, step_permille: int = 1, step_s: float = 0.01, 
     for k, sgn in enumerate((1, -1)):
         bench.enable("CYCLIC SYNCHRONOUS TORQUE")
         bench.wait(0.05)
-        m0 = int(bench.drive.read(0x5F00, 3))
+        m0 = int(bench.read(0x5F00, 3))
         n = 0
         found = float("nan")
         tq: list[float] = []
@@ -213,7 +213,7 @@ def starting_torque(bench: Bench, step_permille: int = 1, step_s: float = 0.01, 
             n += 1
             bench.drive.write(0x6071, 0, sgn * n * step_permille)
             bench.wait(step_s)
-            m = int(bench.drive.read(0x5F00, 3))
+            m = int(bench.read(0x5F00, 3))
             d = ((m - m0 + 2 ** 31) % 2 ** 32 - 2 ** 31) / 2 ** 32 * 2 * math.pi
             tq.append(n * step_permille * rated / 1000.0)
             mv.append(abs(d))

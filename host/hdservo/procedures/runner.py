@@ -336,9 +336,23 @@ class Bench:
         if self.lockstep and not self._ev.wait(5.0):
             raise DriveError("no answer to SYNC (is the drive in --pacing sync?)")
 
+    def read(self, index: int, sub: int = 0) -> Any:
+        """SDO read, repeated (up to 3 times) after a failed transfer.
+
+        With fast pacing the drive's 1 s SDO time-out is drive time; after an
+        aborted block upload a stale frame can answer the next request.
+        """
+        for attempt in range(3):
+            try:
+                return self.drive.read(index, sub)
+            except DriveError:
+                if attempt == 2:
+                    raise
+                time.sleep(0.05)
+
     def ticks(self) -> int:
         """Loop periods since power-up (0x5F00:11)."""
-        return int(self.drive.read(0x5F00, 11))
+        return int(self.read(0x5F00, 11))
 
     def wait(self, seconds: float) -> None:
         """Let ``seconds`` of drive time pass."""
@@ -383,7 +397,7 @@ class Bench:
 
     def fault(self) -> int:
         """Application fault code (0x5F00:10), 0 = none."""
-        return int(self.drive.read(0x5F00, 10))
+        return int(self.read(0x5F00, 10))
 
     @contextlib.contextmanager
     def params(self, values: Mapping[str, float]) -> Iterator[None]:
@@ -463,7 +477,7 @@ class Bench:
             action()
         total = frames * decimation
         for _ in range(100000):
-            if d.read(0x5000, 2) == 3:
+            if self.read(0x5000, 2) == 3:
                 break
             if self.lockstep:
                 for _ in range(max(1, min(200, total // self.sync_periods // 4))):
@@ -501,11 +515,11 @@ class Bench:
 
     def load_angle_rad(self) -> float:
         """Output angle by SDO (0x5F00:9, Q32.32 turns), rad."""
-        return float(self.drive.read(0x5F00, 9)) / 2.0 ** 32 * TURN
+        return float(self.read(0x5F00, 9)) / 2.0 ** 32 * TURN
 
     def rated_torque_Nm(self) -> float:
         """0x6076 in N.m (stored in mN.m)."""
-        return float(self.drive.read(0x6076)) / 1000.0
+        return float(self.read(0x6076)) / 1000.0
 
 
 # ---- opening a bench ---------------------------------------------------------------------------

@@ -183,7 +183,8 @@ class Images:
 def _headline_section(cmp: Mapping[str, Any]) -> str:
     ref, best = cmp["reference"], cmp["best"]
     names = list(cmp["controllers"])
-    header = ["figure", "unit", "target"] + names + ([f"{best} vs {ref}"] if best != ref else [])
+    header = (["figure", "unit", "target"] + names + ([f"{best} vs {ref}"] if best != ref else [])
+              + ["best measured"])
     rows, cls = [], []
     for key, f in cmp["figures"].items():
         row: list[Any] = [Raw(f"{esc(f['label'])}<br><code>{esc(key)}</code>"), f["unit"], f["target_text"]]
@@ -197,13 +198,16 @@ def _headline_section(cmp: Mapping[str, Any]) -> str:
             vd = f["vs_" + ref].get(best, "n/a")
             row.append(Raw(f'<span class="{esc(vd)}">{esc(vd)}</span>'))
             c.append("")
+        row.append(f.get("best_measured") or "-")
+        c.append("")
         rows.append(row)
         cls.append(c)
     v = cmp.get("verdict", {})
     lines = ["<h2>Headline figures</h2>",
              "<p>Targets from DESIGN.md section 2 (reference axis). Green &#10003; = target met, red &#10007; = not met; "
              "&lsquo;none&rsquo; = no value (e.g. no rung of the rate ladder was smooth, or the procedure failed). "
-             f"The last column compares <b>{esc(best)}</b> (the compensated axis) with <b>{esc(ref)}</b>.</p>",
+             f"The verdict column compares <b>{esc(best)}</b> (the compensated axis) with <b>{esc(ref)}</b>; "
+             "&lsquo;best measured&rsquo; names the controller with the best value of each figure.</p>",
              table(header, rows, cls)]
     if v.get("targets_met"):
         met = [k for k, ok in v["targets_met"].items() if ok]
@@ -264,8 +268,9 @@ def _identify_section(ident: Mapping[str, Any], ident_path: Path, imgs: Images) 
     for p in ident.get("plots", []):
         pp = Path(p)
         path = pp if pp.is_absolute() or pp.exists() else ident_path.parent / pp
-        if not path.exists() and (ident_path.parent / pp.name).exists():
-            path = ident_path.parent / pp.name
+        for alt in (ident_path.parent / pp.parent.name / pp.name, ident_path.parent / pp.name):
+            if not path.exists() and alt.exists():
+                path = alt
         out.append(imgs.figure(path, f"identification: {pp.stem}", str(p)))
     return "\n".join(out)
 
