@@ -507,7 +507,7 @@ void hd_app_set_sine(hd_app_t *a, int32_t amp, int32_t f_q16)
 int32_t hd_app_set_excitation(hd_app_t *a, const hd_exc_cfg_t *c, int32_t inj)
 {
     hd_exc_t probe;
-    if (inj < HD_INJ_TORQUE || inj > HD_INJ_POS_REF || hd_exc_start(&probe, c) != 0) {
+    if (inj < HD_INJ_TORQUE || inj > HD_INJ_TORQUE_FF || hd_exc_start(&probe, c) != 0) {
         return -1;
     }
     a->exc_cfg = *c;
@@ -708,6 +708,10 @@ void hd_app_step(hd_app_t *a)
         } else if (a->exc_inj == HD_INJ_VEL_REF) {
             vel_ref = exc;
             closed = 1;
+        } else if (a->exc_inj == HD_INJ_TORQUE_FF) {
+            pos_ref = a->hold_pos;
+            t_ff = hd_add_sat(t_ff, exc);
+            closed = 2;
         } else {
             pos_ref = app_add64_sat(a->hold_pos, exc);
             closed = 2;
@@ -740,16 +744,13 @@ void hd_app_step(hd_app_t *a)
         cbi.vel_ref = (mode == HD_MODE_STAB) ? a->stab.vff_db : v_ff;   /* friction FF without gyro-noise chatter */
         cbi.vel_fb = v_fb;
         cbi.acc_ref = acc_ref;
-        /* velocity-integrator hand-over: while a torque feed-forward ramps in or out, its
-         * per-period change is taken off the integrator, so switching does not move the output */
-        const bool ff_ramp = hd_blend_ramping(&a->cb.str.blend) || hd_blend_ramping(&a->cb.lug.blend) ||
-                             hd_blend_ramping(&a->cb.te.blend) || hd_blend_ramping(&a->cb.dob_blend);
-        const int32_t ff_prev = a->cb.out.tff;
+        /* velocity-integrator hand-over: the part of the friction FF that a weight ramp adds
+         * this period, (w_k - w_k-1) x raw torque, is taken off the integrator (bumpless) */
+        const int32_t w_str = a->cb.str.blend.w, w_lug = a->cb.lug.blend.w;
         hd_comp_bank_pre(&a->cb, &a->cb_cfg, &cbi, &cbo);
-        if (ff_ramp) {
-            a->vel_pid.integ = app_sub64_sat(a->vel_pid.integ,
-                                             app_shl64_sat((int64_t)cbo.tff - (int64_t)ff_prev, a->vel_cfg.shift));
-        }
+        a->vel_pid.integ = app_sub64_sat(a->vel_pid.integ, app_shl64_sat(
+            (int64_t)hdf_mul_q(a->cb.str.tau_raw, a->cb.str.blend.w - w_str, 30u) +
+            (int64_t)hdf_mul_q(a->cb.lug.tau_raw, a->cb.lug.blend.w - w_lug, 30u), a->vel_cfg.shift));
         pos_ref = app_add64_sat(pos_ref, cbo.dpos);
         v_ff = hd_add_sat(v_ff, cbo.dvel);
         t_ff = hd_add_sat(t_ff, cbo.tff);

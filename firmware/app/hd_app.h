@@ -39,8 +39,9 @@
  *   RATE        constant-rate move (hd_app_set_rate), down to 0.0001 deg/s
  *   SINE        sinusoid about the position at entry (hd_app_set_sine)
  *   EXCITATION  the excitation generator injected at torque (open loop), at
- *               the velocity reference (velocity loop) or added to the held
- *               position reference (position loop)
+ *               the velocity reference (velocity loop), added to the held
+ *               position reference (position loop) or added to the torque
+ *               feed-forward of the position loop holding the position
  *   STAB        inertial stabilisation (hd_stab.h): hold the payload's inertial
  *               angle from the payload rate gyro.  The position loop (gains
  *               stab_kp/stab_ki) runs on the inertial-angle error (reference -
@@ -84,7 +85,9 @@ typedef enum {
 typedef enum {
     HD_INJ_TORQUE = 0,    /* excitation = output torque (open loop) */
     HD_INJ_VEL_REF = 1,   /* excitation = velocity reference, 2^-32 turn/s */
-    HD_INJ_POS_REF = 2    /* excitation added to the held position, 2^-32 turn */
+    HD_INJ_POS_REF = 2,   /* excitation added to the held position, 2^-32 turn */
+    HD_INJ_TORQUE_FF = 3  /* excitation added to the torque feed-forward, Q15.16 N.m,
+                           * while the position loop holds the position at entry */
 } hd_inj_t;
 
 /* Fault codes (latched; the first one is kept). */

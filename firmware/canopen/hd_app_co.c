@@ -332,7 +332,55 @@ static uint32_t a_special_read(void *c, uint16_t index, uint8_t sub, int64_t *v)
     if (index == 0x5000u && sub == 0u) { *v = 7; return 0u; }
     if (index == 0x5000u && sub == 1u) { *v = 0; return 0u; }
     if (index == 0x5000u && sub == 2u) { *v = (int64_t)ac->app->cap.state; return 0u; }
+    if (index == 0x5010u && sub == 1u) { *v = 0; return 0u; }
+    if (index == 0x5010u && sub == 2u) {
+        *v = (ac->app->mode != HD_MODE_EXCITATION) ? 0 : (ac->app->exc.done != 0u ? 2 : 1);
+        return 0u;
+    }
     return HD_CO_AB_NO_OBJECT;
+}
+
+static uint32_t a_enable(void *c, int8_t mode, bool on);
+
+/* 0x5010:1: 1 = start the excitation from the 0x5010 configuration (OPERATION ENABLED,
+ * no fault, not in quick stop; an armed capture is triggered in the same period),
+ * 0 = stop: back to the 402 mode, bumpless (targets = actual values) */
+static uint32_t excitation_control(hd_app_co_t *ac, int64_t v)
+{
+    const hd_co_od_data_t *od = &ac->co->od;
+    if (v == 0) {
+        if (ac->app->mode == HD_MODE_EXCITATION && ac->co->p402.state == HD_CO402_OP_ENABLED) {
+            return a_enable(ac, ac->mode, true) == 0u ? 0u : HD_CO_AB_STATE;
+        }
+        return 0u;
+    }
+    if (ac->co->p402.state != HD_CO402_OP_ENABLED || ac->mode == HD_APP_CO_MODE_QSTOP ||
+        ac->app->fault != HD_FAULT_NONE || ac->app->mode == HD_MODE_OFF) {
+        return HD_CO_AB_STATE;
+    }
+    hd_exc_cfg_t cfg;
+    cfg.kind = (int32_t)od->excitation_type;
+    cfg.amp = od->excitation_amplitude;
+    cfg.offset = od->excitation_offset;
+    cfg.length = od->excitation_duration;
+    cfg.hold = od->excitation_hold;
+    cfg.n = od->excitation_count;
+    cfg.m = od->excitation_steps_per_decade;
+    cfg.rate = od->excitation_rate;
+    cfg.f0_q16 = od->excitation_f0;
+    cfg.f1_q16 = od->excitation_f1;
+    cfg.period = od->excitation_period;
+    cfg.seed = od->excitation_seed;
+    if (hd_app_set_excitation(ac->app, &cfg, (int32_t)od->excitation_injection) != 0) {
+        return HD_CO_AB_VALUE;
+    }
+    if (hd_app_set_mode(ac->app, HD_MODE_EXCITATION) != 0) {
+        return HD_CO_AB_STATE;
+    }
+    if (ac->app->cap.state == HD_CAP_ARMED) {
+        hd_app_capture_trigger(ac->app);
+    }
+    return 0u;
 }
 
 static uint32_t a_special_write(void *c, uint16_t index, uint8_t sub, int64_t v)
@@ -374,6 +422,9 @@ static uint32_t a_special_write(void *c, uint16_t index, uint8_t sub, int64_t v)
             return 0u;
         }
         return 0u;
+    }
+    if (index == 0x5010u && sub == 1u) {
+        return excitation_control(ac, v);
     }
     return HD_CO_AB_READONLY;
 }

@@ -324,6 +324,22 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x5000u, 5u, 0x06u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(capture_decimation), INT64_C(1), INT64_C(65535), INT64_C(1), NULL},  /* capture_decimation */
     {0x5000u, 6u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(capture_pretrigger), INT64_C(0), INT64_C(16384), INT64_C(0), NULL},  /* capture_pretrigger */
     {0x5000u, 7u, 0x0Fu, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_DOMAIN, 0u, INT64_C(0), INT64_C(0), INT64_C(0), NULL},  /* capture_data */
+    {0x5010u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(15), NULL},  /* highest_sub_index_supported */
+    {0x5010u, 1u, 0x05u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(1), INT64_C(0), NULL},  /* excitation_control */
+    {0x5010u, 2u, 0x05u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(0), NULL},  /* excitation_state */
+    {0x5010u, 3u, 0x05u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(excitation_type), INT64_C(1), INT64_C(6), INT64_C(5), NULL},  /* excitation_type */
+    {0x5010u, 4u, 0x05u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(excitation_injection), INT64_C(0), INT64_C(3), INT64_C(3), NULL},  /* excitation_injection */
+    {0x5010u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(excitation_amplitude), INT64_C(0), INT64_C(2147483647), INT64_C(0), NULL},  /* excitation_amplitude */
+    {0x5010u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(excitation_offset), INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* excitation_offset */
+    {0x5010u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(excitation_f0), INT64_C(0), INT64_C(1073741823), INT64_C(65536), NULL},  /* excitation_f0 */
+    {0x5010u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(excitation_f1), INT64_C(0), INT64_C(1073741823), INT64_C(6553600), NULL},  /* excitation_f1 */
+    {0x5010u, 9u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(excitation_duration), INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* excitation_duration */
+    {0x5010u, 10u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(excitation_count), INT64_C(0), INT64_C(65535), INT64_C(10), NULL},  /* excitation_count */
+    {0x5010u, 11u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(excitation_hold), INT64_C(0), INT64_C(4294967295), INT64_C(1), NULL},  /* excitation_hold */
+    {0x5010u, 12u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(excitation_period), INT64_C(0), INT64_C(4294967295), INT64_C(1000), NULL},  /* excitation_period */
+    {0x5010u, 13u, 0x05u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(excitation_steps_per_decade), INT64_C(0), INT64_C(10), INT64_C(1), NULL},  /* excitation_steps_per_decade */
+    {0x5010u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(excitation_rate), INT64_C(0), INT64_C(2147483647), INT64_C(1), NULL},  /* excitation_rate */
+    {0x5010u, 15u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(excitation_seed), INT64_C(0), INT64_C(4294967295), INT64_C(1), NULL},  /* excitation_seed */
     {0x5100u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(3), NULL},  /* highest_sub_index_supported */
     {0x5100u, 1u, 0x0Fu, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_DOMAIN, 1u, INT64_C(0), INT64_C(0), INT64_C(0), NULL},  /* table_preisach */
     {0x5100u, 2u, 0x0Fu, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_DOMAIN, 2u, INT64_C(0), INT64_C(0), INT64_C(0), NULL},  /* table_friction */

@@ -12,7 +12,7 @@
 
 #define HD_CO_OD_VERSION 1u
 #define HD_CO_OD_PARAM_HASH 0x95334EACu
-#define HD_CO_OD_COUNT 380u
+#define HD_CO_OD_COUNT 396u
 #define HD_CO_N_PDO 4u
 #define HD_CO_N_MAP 8u
 #define HD_CO_VENDOR_ID 0x00000EDAu
@@ -37,6 +37,19 @@ typedef struct {
     uint32_t capture_length;  /* 0x5000:4 */
     uint16_t capture_decimation;  /* 0x5000:5 */
     uint32_t capture_pretrigger;  /* 0x5000:6 */
+    uint8_t excitation_type;  /* 0x5010:3 */
+    uint8_t excitation_injection;  /* 0x5010:4 */
+    int32_t excitation_amplitude;  /* 0x5010:5 */
+    int32_t excitation_offset;  /* 0x5010:6 */
+    int32_t excitation_f0;  /* 0x5010:7 */
+    int32_t excitation_f1;  /* 0x5010:8 */
+    uint32_t excitation_duration;  /* 0x5010:9 */
+    uint32_t excitation_count;  /* 0x5010:10 */
+    uint32_t excitation_hold;  /* 0x5010:11 */
+    uint32_t excitation_period;  /* 0x5010:12 */
+    uint8_t excitation_steps_per_decade;  /* 0x5010:13 */
+    int32_t excitation_rate;  /* 0x5010:14 */
+    uint32_t excitation_seed;  /* 0x5010:15 */
     uint32_t drive_status_loop_tick;  /* 0x5F00:1 */
     uint32_t drive_status_load_phase;  /* 0x5F00:2 */
     uint32_t drive_status_motor_phase;  /* 0x5F00:3 */

@@ -41,10 +41,5 @@ int32_t hd_blend_mix(const hd_blend_t *b, int32_t off, int32_t on);
 int64_t hd_blend_mix64(const hd_blend_t *b, int64_t off, int64_t on);
 /** True while the weight is not 0 or is moving (output may be non-zero). */
 bool hd_blend_active(const hd_blend_t *b);
-/** True while the weight has not reached its target (a ramp is in progress). */
-static inline bool hd_blend_ramping(const hd_blend_t *b)
-{
-    return b->w != b->target;
-}
 
 #endif

@@ -153,16 +153,20 @@ class Controller:
         Drive parameters set (by name, table units) before the procedure, e.g. retuned loop gains.
     description : str
         One line for the report.
+    proc_args : dict
+        Extra ``hdservo test`` options per procedure for this controller (e.g. a drive mode the
+        procedure offers), ``{"stabilisation": ["--opt", "value"]}``.
     """
 
     name: str
     compensators: list[str] = field(default_factory=list)
     gains: dict[str, float] = field(default_factory=dict)
     description: str = ""
+    proc_args: dict[str, list[str]] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
         return {"name": self.name, "compensators": list(self.compensators), "gains": dict(self.gains),
-                "description": self.description}
+                "description": self.description, "proc_args": {k: list(v) for k, v in self.proc_args.items()}}
 
 
 def best_gains_default(axis: str = "reference") -> dict[str, float]:
@@ -188,7 +192,11 @@ def best_gains_default(axis: str = "reference") -> dict[str, float]:
 
 
 def best_controller(axis: str = "reference") -> Controller:
-    """The best combination: ``hdservo.compsetup.BEST_NAMES`` / ``best_gains`` when defined, else the defaults."""
+    """The best combination: ``hdservo.compsetup.BEST_NAMES`` / ``best_gains`` when defined, else the defaults.
+
+    ``hdservo.compsetup.BEST_PROC_ARGS`` (procedure -> extra ``hdservo test`` options), when
+    defined, becomes the controller's ``proc_args``.
+    """
     from . import compsetup
     names = getattr(compsetup, "BEST_NAMES", None)
     gains_fn = getattr(compsetup, "best_gains", None)
@@ -198,7 +206,10 @@ def best_controller(axis: str = "reference") -> Controller:
     gains = {k: float(v) for k, v in gains_fn(axis).items()}
     desc = (f"best combination ({src}): {' + '.join(names)} with "
             + ", ".join(f"{k} = {v:.6g}" for k, v in gains.items()))
-    return Controller("best", list(names), gains, desc)
+    pa = {str(k): [str(x) for x in v] for k, v in dict(getattr(compsetup, "BEST_PROC_ARGS", {}) or {}).items()}
+    if pa:
+        desc += "; procedure options: " + "; ".join(f"{k}: {' '.join(v)}" for k, v in pa.items())
+    return Controller("best", list(names), gains, desc, pa)
 
 
 def controllers_from_names(names: Sequence[str], axis: str = "reference") -> list[Controller]:
@@ -422,7 +433,8 @@ def run_compare(out_dir: Path, controllers: Sequence[Controller], procedures: Se
     bad = [p for p in procedures if p not in tc.PROCEDURES]
     if bad:
         raise ValueError(f"unknown procedure '{bad[0]}'; expected some of {', '.join(sorted(tc.PROCEDURES))}")
-    pargs = {p: procedure_args(p, proc_extra) for p in procedures}
+    pargs = {(c.name, p): procedure_args(p, [*proc_extra, *c.proc_args.get(p, [])])
+             for c in controllers for p in procedures}
     plan = None
     blob = None
     if model is not None:
@@ -440,7 +452,7 @@ def run_compare(out_dir: Path, controllers: Sequence[Controller], procedures: Se
         results = []
         for name in procedures:
             bar.show(f"{ctl.name} / {name} ...")
-            res = run_procedure(name, ctl, pargs[name], bus=bus, node_id=node_id, axis=axis, seed=seed, plan=plan,
+            res = run_procedure(name, ctl, pargs[(ctl.name, name)], bus=bus, node_id=node_id, axis=axis, seed=seed, plan=plan,
                                 preisach_blob=blob, progress_enabled=progress)
             results.append(res)
             head = ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in res.headline.items())

@@ -52,7 +52,9 @@ PKI_V_HI_DEG_S = 0.005
 BS_F_INT_HZ = 25.0
 
 ENABLE_BITS: dict[str, int] = {"stribeck": 1, "lugre": 2, "maxwell": 4, "preisach": 8, "te": 16, "backstep": 32,
-                               "dob": 64}
+                               "dob": 64, "approach": 128}
+# "approach" is not a bank compensator: the drive's one-direction final approach of PTP
+# moves (parameters appr_*, firmware/core/hd_trajectory.h, docs/control.md "Repeatability").
 
 
 def _reader(axis: str) -> Callable[[str], float]:

@@ -272,10 +272,9 @@ class Drive:
         :data:`TABLE_GROUPS` ``[sub]`` as a raw value, applied by the drive all at once or not at all."""
         self.download_table(sub, group_payload(sub, raw, version))
 
-    def capture(self, signals: list[int], samples: int, decimation: int = 1, timeout: float = 30.0,
-                pretrigger: int = 0) -> list[list[int]]:
-        """Arm the capture buffer, trigger it, wait until done and upload it (int32 per signal,
-        one list per frame, oldest first; ``pretrigger`` frames precede the trigger)."""
+    def arm_capture(self, signals: list[int], samples: int, decimation: int = 1, pretrigger: int = 0) -> None:
+        """Arm the capture buffer (0x5000) without triggering it: the command trigger
+        (0x5000:1 = 2) or the start of the drive's excitation (0x5010:1 = 1) triggers it."""
         if not 1 <= len(signals) <= 4:
             raise DriveError("capture takes 1 to 4 signals")
         packed = 0
@@ -286,16 +285,86 @@ class Drive:
         self.write(0x5000, 5, decimation)
         self.write(0x5000, 6, pretrigger)
         self.write(0x5000, 1, 1)
+
+    def read_capture(self, n_signals: int) -> list[list[int]]:
+        """Upload the capture buffer (0x5000:7): one list of int32 per frame, oldest first."""
+        raw = self.read_domain(0x5000, 7)
+        words = struct.unpack(f"<{len(raw) // 4}i", raw)
+        return [list(words[i:i + n_signals]) for i in range(0, len(words) - n_signals + 1, n_signals)]
+
+    # ---- excitation generator (0x5010, firmware/core/hd_excitation.h) ------------------
+    def has_excitation(self) -> bool:
+        """True when the drive answers 0x5010 (the drive-side excitation generator)."""
+        try:
+            self.node.sdo.upload(0x5010, 0)
+            return True
+        except (canopen.SdoAbortedError, canopen.SdoCommunicationError, KeyError):
+            return False
+
+    def excite(self, kind: str, amplitude: float, injection: str = "torque_ff", offset: float = 0.0,
+               f0_Hz: float = 1.0, f1_Hz: float = 100.0, duration_s: float = 0.0, lines: Optional[int] = None,
+               period_s: Optional[float] = None, order: Optional[int] = None, bit_periods: int = 1,
+               decades: Optional[int] = None, steps_per_decade: int = 1, hold_s: Optional[float] = None,
+               cycles: Optional[int] = None, reversals: Optional[int] = None, rate_per_s: Optional[float] = None,
+               seed: int = 1, start: bool = True) -> dict[str, int]:
+        """Configure (and by default start) the drive's own excitation generator (0x5010).
+
+        ``kind``: one of :data:`EXC_TYPES`; ``injection``: one of :data:`EXC_INJECTION`;
+        ``amplitude``, ``offset`` (and ``rate_per_s``, per second) in SI at the injection point:
+        N.m (torque, torque_ff), rad/s (velocity), rad (position).  Multisine: ``lines``
+        harmonics of 1/``period_s`` (line k at k / period_s Hz, amplitude per line, Schroeder
+        phases); chirp: ``f0_Hz`` -> ``f1_Hz`` over ``duration_s``; PRBS: LFSR ``order`` and
+        ``bit_periods`` loop periods per bit; steps: ``decades`` x ``steps_per_decade`` levels
+        held ``hold_s``; ramp: ``cycles``; FORC: ``reversals``.  Start is accepted in OPERATION
+        ENABLED only; an armed capture is triggered in the same loop period.  Returns the raw
+        values written (by 0x5010 sub name)."""
+        if kind not in EXC_TYPES:
+            raise DriveError(f"excitation kind must be one of {sorted(EXC_TYPES)}")
+        if injection not in EXC_INJECTION:
+            raise DriveError(f"injection must be one of {sorted(EXC_INJECTION)}")
+        sc = EXC_SCALE[injection]
+        per = lambda t: int(round(t * LOOP_HZ))       # noqa: E731
+        count = {"steps": decades, "torque_ramp": cycles, "reversal": reversals, "chirp": 0,
+                 "multisine": lines, "prbs": order}[kind]
+        if count is None:
+            raise DriveError(f"excitation '{kind}' needs "
+                             f"{ {'steps': 'decades', 'torque_ramp': 'cycles', 'reversal': 'reversals', 'multisine': 'lines', 'prbs': 'order'}[kind] }")
+        if kind == "multisine" and period_s is None:
+            raise DriveError("multisine needs period_s")
+        raw = {
+            "type": EXC_TYPES[kind], "injection": EXC_INJECTION[injection],
+            "amplitude": int(round(amplitude * sc)), "offset": int(round(offset * sc)),
+            "f0": int(round(f0_Hz * 65536)), "f1": int(round(f1_Hz * 65536)), "duration": per(duration_s),
+            "count": int(count), "hold": per(hold_s) if hold_s is not None else int(bit_periods),
+            "period": per(period_s) if period_s is not None else 1000, "steps_per_decade": int(steps_per_decade),
+            "rate": int(round((rate_per_s or 0.0) * sc / LOOP_HZ)), "seed": int(seed),
+        }
+        for name, value in raw.items():
+            self.write(0x5010, EXC_SUB[name], value)
+        if start:
+            self.write(0x5010, 1, 1)
+        return raw
+
+    def stop_excitation(self) -> None:
+        """Stop the excitation: the drive returns to its CiA 402 mode (targets = actual values)."""
+        self.write(0x5010, 1, 0)
+
+    def excitation_state(self) -> str:
+        """'idle', 'running' or 'done' (0x5010:2)."""
+        return {0: "idle", 1: "running", 2: "done"}.get(int(self.read(0x5010, 2)), "unknown")
+
+    def capture(self, signals: list[int], samples: int, decimation: int = 1, timeout: float = 30.0,
+                pretrigger: int = 0) -> list[list[int]]:
+        """Arm the capture buffer, trigger it, wait until done and upload it (int32 per signal,
+        one list per frame, oldest first; ``pretrigger`` frames precede the trigger)."""
+        self.arm_capture(signals, samples, decimation, pretrigger)
         self.write(0x5000, 1, 2)
         end = time.monotonic() + timeout
         while self.read(0x5000, 2) != 3:
             if time.monotonic() > end:
                 raise DriveError("capture did not finish")
             time.sleep(0.01)
-        raw = self.read_domain(0x5000, 7)
-        words = struct.unpack(f"<{len(raw) // 4}i", raw)
-        n = len(signals)
-        return [list(words[i:i + n]) for i in range(0, len(words), n)]
+        return self.read_capture(len(signals))
 
     # ---- streaming ----------------------------------------------------------------
     def configure_stream(self, period_ticks: int) -> None:
@@ -327,6 +396,15 @@ class Drive:
 SIGNALS = {"tick": 0, "pos_out_lo": 1, "pos_out_hi": 2, "pos_mot_lo": 3, "pos_mot_hi": 4, "vel_out": 5,
            "vel_mot": 6, "pos_ref_lo": 7, "pos_ref_hi": 8, "vel_ref": 9, "acc_ref": 10, "torque_cmd": 11,
            "current": 12, "gyro": 13, "exc": 14, "pos_err": 15, "fault": 16}
+
+#: excitation kinds (0x5010:3, hd_exc_kind_t) and injection points (0x5010:4, hd_inj_t)
+EXC_TYPES = {"steps": 1, "torque_ramp": 2, "reversal": 3, "chirp": 4, "multisine": 5, "prbs": 6}
+EXC_INJECTION = {"torque": 0, "velocity": 1, "position": 2, "torque_ff": 3}
+#: SI -> raw at the injection point: N.m -> 2^-16 N.m, rad/s -> 2^-32 turn/s, rad -> 2^-32 turn
+EXC_SCALE = {"torque": 2.0 ** 16, "torque_ff": 2.0 ** 16, "velocity": 2.0 ** 32 / TURN, "position": 2.0 ** 32 / TURN}
+#: 0x5010 sub-indices of the configuration
+EXC_SUB = {"type": 3, "injection": 4, "amplitude": 5, "offset": 6, "f0": 7, "f1": 8, "duration": 9, "count": 10,
+           "hold": 11, "period": 12, "steps_per_decade": 13, "rate": 14, "seed": 15}
 
 #: parameter groups of 0x5100:2 (friction) and 0x5100:3 (TE), in the drive's order
 TABLE_GROUPS = {
@@ -391,4 +469,4 @@ def write_csv_atomic(path: Path, header: list[str], rows: list[list[float]], met
 
 
 __all__ = ["Drive", "DriveError", "add_bus_arguments", "bus_kwargs", "unwrap_phase", "write_csv_atomic",
-           "EDS_PATH", "MODES", "SIGNALS", "TABLE_GROUPS", "group_payload", "od_gen"]
+           "EDS_PATH", "MODES", "SIGNALS", "TABLE_GROUPS", "EXC_TYPES", "EXC_INJECTION", "EXC_SCALE", "group_payload", "od_gen"]

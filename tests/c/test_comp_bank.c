@@ -173,12 +173,12 @@ static void test_bumpless_switching(void **st)
                       "run's max: on %.3f, off %.3f arcsec\n", (unsigned)sets[i], dt, de, doff);
         /* no torque step: the extra change per period stays far below the 8 N.m the FF carries */
         assert_true(dt < 0.1);
-        /* switching on/off: while a torque FF ramps, the app takes its per-period change off
-         * the velocity integrator (hand-over), so the output does not move: before the
-         * hand-over the FF displaced the integrator by dT / (ki_v Kp_p T_r) = 5.5 arcsec on
-         * (8 N.m over 1 s) and ~12.5 arcsec off; now 0.000 for the friction FFs, and the
-         * position corrections (Maxwell, TE) stay within 0.25 arcsec */
-        assert_true(de < 1.0);
+        /* switching on/off: while a friction FF (Stribeck, LuGre) ramps, the app takes the
+         * ramp's part of it, (w_k - w_k-1) x raw torque, off the velocity integrator
+         * (hand-over), so the output hardly moves: before the hand-over the FF displaced the
+         * integrator by dT / (ki_v Kp_p T_r) = 5.5 arcsec on (8 N.m over 1 s) and ~12.5 off;
+         * now Stribeck 0.05, LuGre 1.5 on (its bristle state) / 0.05 off; Maxwell, TE < 0.25 */
+        assert_true(de < 2.0);
         assert_true(doff < 1.0);
     }
 }

@@ -71,8 +71,10 @@ def test_controllers_and_best(monkeypatch: pytest.MonkeyPatch) -> None:
         assert b.gains["vel_ki"] == pytest.approx(12000.0)
     monkeypatch.setattr(compsetup, "BEST_NAMES", ("stribeck", "te"), raising=False)
     monkeypatch.setattr(compsetup, "best_gains", lambda axis: {"pos_kp": 50.0}, raising=False)
+    monkeypatch.setattr(compsetup, "BEST_PROC_ARGS", {"stabilisation": ["--duration", "2"]}, raising=False)
     b = cmp.best_controller("reference")
     assert b.compensators == ["stribeck", "te"] and b.gains == {"pos_kp": 50.0}
+    assert b.proc_args == {"stabilisation": ["--duration", "2"]} and "--duration 2" in b.description
 
 
 def _doc() -> dict[str, Any]:

@@ -13,7 +13,6 @@ from hdservo.discrepancy import cases, signals, workflow
 @pytest.mark.parametrize("effect,axis,loop,seed", [
     ("transmission_error", "reference", "closed", 1),
     ("gravity_unbalance", "csf17_50", "open", 1),
-    ("hysteresis", "reference", "open", 2),
 ])
 def test_hidden_effect_is_named_and_gap_shrinks(tmp_path: Path, effect: str, axis: str, loop: str,
                                                 seed: int) -> None:

@@ -20,7 +20,7 @@ import pytest
 from hdservo import compare as cmp
 from hdservo.cli import main
 from hdservo.procedures.results import Result, figure, save_figure, write_json
-from hdservo.report import ReportError, check_png
+from hdservo.report import ReportError, check_png, verify_report
 
 #: synthetic headline figures: (pid, best)
 VALUES = {"min_smooth_rate_deg_s": (0.01, 0.001), "positioning_accuracy_arcsec": (12.0, 4.0),
@@ -111,12 +111,13 @@ def test_report_is_self_contained_and_embeds_every_plot(tmp_path: Path, capsys: 
     assert text.startswith("<!DOCTYPE html>") and "</html>" in text
     assert "script" not in p.tags and "link" not in p.tags
     # every plot on disk is in the page, once, with the same bytes; each holds a drawing
-    on_disk = sorted(str(q.relative_to(out)) for q in out.rglob("*.png"))
+    on_disk = sorted(str(q.relative_to(tmp_path)) for q in out.rglob("*.png"))
     assert len(on_disk) == 4 + 6          # 2 controllers x 2 procedures + one chart per headline figure
-    sources = sorted(i["data-source"] for i in p.imgs)
+    sources = sorted(i["data-source"] for i in p.imgs)       # relative to the HTML file
     assert sources == on_disk
+    assert sorted(verify_report(page_path)) == sorted(tmp_path / s for s in on_disk)
     for img in p.imgs:
-        f = out / img["data-source"]
+        f = tmp_path / img["data-source"]
         assert f.is_file() and f.stat().st_size > 1000
         prefix = "data:image/png;base64,"
         assert img["src"].startswith(prefix)
@@ -168,6 +169,15 @@ def test_bad_input_is_one_line_and_no_output(tmp_path: Path, capsys: pytest.Capt
         assert "line 2" in err[0]
     assert not page.exists()
     assert not list(tmp_path.glob(".report.html.*"))
+
+
+def test_verify_report_finds_a_changed_plot(tmp_path: Path) -> None:
+    out = _compare_dir(tmp_path)
+    page = tmp_path / "report.html"
+    assert main(["report", str(out / "compare.json"), "-o", str(page)]) == 0
+    _plot(out / "pid" / "plots", "positioning", 7.0)          # redrawn after the report was written
+    with pytest.raises(ReportError, match="differs"):
+        verify_report(page)
 
 
 def test_check_png_rejects_blank_and_accepts_a_plot(tmp_path: Path) -> None:

@@ -15,12 +15,11 @@
 
 Outputs under ``OUT`` (default ``build/demo``): ``model.toml`` (+ ``model.preisach.bin``),
 ``identify.json``, ``identify-plots/``, ``download.json``, ``compare/``, ``report.html``,
-``summary.json``.  Nothing is reused from an earlier run.
+``summary.json`` (:data:`OUTPUTS`; removed at the start, so nothing is reused from an earlier run).
 """
 from __future__ import annotations
 
 import argparse
-import os
 import shutil
 import subprocess
 import sys
@@ -34,6 +33,9 @@ NAME = "demo"
 HELP = "end-to-end demo on the virtual reference axis: identify, download, compare PID vs compensation, report"
 
 STEPS = 6
+#: What the demo writes into its output directory (removed first; nothing else there is touched).
+OUTPUTS = ("model.toml", "model.preisach.bin", "identify.json", "identify.txt", "identify-plots", "download.json",
+           "download.txt", "compare", "report.html", "summary.json")
 
 
 def register(p: argparse.ArgumentParser) -> None:
@@ -70,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the six steps; returns 0 when everything ran (targets met or not)."""
     from .. import compare as cmp
     from ..procedures.runner import VirtualDriveProcess
-    from ..report import ReportError, build_report
+    from ..report import ReportError, build_report, verify_report
     t0 = time.monotonic()
     out: Path = args.out
     try:
@@ -79,20 +81,26 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(str(e)) from None
     procs = [x.strip() for x in args.procedures.split(",") if x.strip()]
     extra = list(cmp.QUICK_ARGS) if args.quick else []
-    try:
-        for x in procs:
-            cmp.procedure_args(x, extra)
-    except ValueError as e:
-        raise UserError(str(e)) from None
     from . import test as tc
     bad = [x for x in procs if x not in tc.PROCEDURES]
-    if bad:
-        raise UserError(f"--procedures: unknown '{bad[0]}'")
+    if bad or not procs:
+        raise UserError(f"--procedures: unknown '{bad[0] if bad else ''}'; expected some of "
+                        f"{', '.join(sorted(tc.PROCEDURES))}")
+    try:
+        for c in ctls:
+            for x in procs:
+                cmp.procedure_args(x, [*extra, *c.proc_args.get(x, [])])
+    except ValueError as e:
+        raise UserError(str(e)) from None
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out}: not a directory")
-    if out.exists():
-        shutil.rmtree(out)                       # a fresh run: nothing stale in the report
-    out.mkdir(parents=True)
+    out.mkdir(parents=True, exist_ok=True)
+    for name in OUTPUTS:                         # a fresh run: nothing stale in the report (only our own files)
+        q = out / name
+        if q.is_dir() and not q.is_symlink():
+            shutil.rmtree(q)
+        elif q.exists() or q.is_symlink():
+            q.unlink()
     model = out / "model.toml"
     print(f"hdservo demo: reference axis, {len(ctls)} controllers x {len(procs)} procedures, outputs in {out}/",
           flush=True)
@@ -129,6 +137,7 @@ def run(args: argparse.Namespace) -> int:
                                 summary_lines=[f"hdservo demo on the virtual reference axis (seed {args.seed}); "
                                                f"compensated = '{doc['best']}': "
                                                f"{doc['controllers'][doc['best']]['description']}"])
+            verified = verify_report(out / "report.html")     # every plot file exists, holds data, is embedded
         except ReportError as e:
             raise UserError(f"report: {e}") from None
         _say(6, "stopping the virtual drive", t0)
@@ -147,7 +156,8 @@ def run(args: argparse.Namespace) -> int:
     for c, d in doc["controllers"].items():
         for proc, notes in d["failures"].items():
             print(f"FAILED {c}/{proc}: {'; '.join(notes)}")
-    print(f"report:  {out / 'report.html'} ({info['bytes'] / 1e6:.1f} MB, {len(info['plots'])} plots embedded)")
+    print(f"report:  {out / 'report.html'} ({info['bytes'] / 1e6:.1f} MB, {len(verified)} plots embedded and "
+          f"checked against their files)")
     print(f"summary: {out / 'summary.json'}; all controllers: {out / 'compare' / 'compare.json'}")
     print(f"demo: done in {el:.0f} s ({int(el // 60)} min {int(el % 60)} s); virtual drive stopped")
     return 0

@@ -21,6 +21,7 @@ from __future__ import annotations
 import base64
 import datetime as _dt
 import html
+import html.parser
 import json
 import os
 import tempfile
@@ -163,19 +164,27 @@ def flatten(d: Mapping[str, Any], prefix: str = "") -> list[tuple[str, Any]]:
 
 
 class Images:
-    """Embeds checked PNGs; remembers every file used (``used``)."""
+    """Embeds checked PNGs; remembers every file used (``used``).
 
-    def __init__(self) -> None:
+    Parameters
+    ----------
+    base : Path
+        Directory of the HTML file: ``data-source`` paths are relative to it.
+    """
+
+    def __init__(self, base: Path) -> None:
         self.used: list[Path] = []
+        self.base = base
 
-    def figure(self, path: Path, caption: str, source: str) -> str:
-        """``<figure>`` with the PNG as a data URI (after :func:`check_png`)."""
+    def figure(self, path: Path, caption: str, source: str = "") -> str:
+        """``<figure>`` with the PNG as a data URI (after :func:`check_png`); ``source`` is shown in the caption."""
         w, h = check_png(path)
+        rel = os.path.relpath(path.resolve(), self.base.resolve())
         b64 = base64.b64encode(path.read_bytes()).decode("ascii")
         self.used.append(path)
         return (f'<figure><img src="data:image/png;base64,{b64}" width="{w}" height="{h}" '
-                f'alt="{esc(caption)}" data-source="{esc(source)}"><figcaption>{esc(caption)} '
-                f'(<code>{esc(source)}</code>)</figcaption></figure>')
+                f'alt="{esc(caption)}" data-source="{esc(rel)}"><figcaption>{esc(caption)} '
+                f'(<code>{esc(source or rel)}</code>)</figcaption></figure>')
 
 
 # ------------------------------------------------------------------------------------ sections
@@ -314,7 +323,7 @@ def build_report(out: Path, compare: Optional[Path] = None, tests: Sequence[Path
     """
     if compare is None and not tests:
         raise ReportError("nothing to report: give an hdservo-compare JSON or hdservo-test JSON files")
-    imgs = Images()
+    imgs = Images(out.parent)
     body: list[str] = [f"<h1>{esc(title)}</h1>",
                        f"<p class=\"note\">Generated {esc(_dt.datetime.now().strftime('%Y-%m-%d %H:%M'))} by "
                        "<code>hdservo report</code>. Angles in arcsec (1&Prime; = 1/3600 deg), rates in deg/s, "
@@ -371,4 +380,50 @@ def build_report(out: Path, compare: Optional[Path] = None, tests: Sequence[Path
     return {"path": out, "plots": [str(p) for p in imgs.used], "bytes": len(page.encode("utf-8"))}
 
 
-__all__ = ["ReportError", "build_report", "check_png", "load_json"]
+class _ImgParser(html.parser.HTMLParser):
+    def __init__(self) -> None:
+        super().__init__()
+        self.imgs: list[dict[str, str]] = []
+        self.external: list[str] = []
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, Optional[str]]]) -> None:
+        a = {k: v or "" for k, v in attrs}
+        if tag == "img":
+            self.imgs.append(a)
+        if tag in ("script", "link", "iframe", "object", "embed"):
+            self.external.append(f"<{tag}>")
+        for k in ("src", "href"):
+            if k in a and not a[k].startswith(("data:", "#")):
+                self.external.append(f"{k}={a[k]}")
+
+
+def verify_report(path: Path) -> list[Path]:
+    """Check a written report: self-contained, every ``<img>`` a PNG data URI whose plot file exists
+    (``data-source``, relative to the HTML), holds a drawing and has the same bytes; returns the plot files.
+
+    Raises
+    ------
+    ReportError
+        The first problem found.
+    """
+    if not path.is_file():
+        raise ReportError(f"{path}: no such file")
+    p = _ImgParser()
+    p.feed(path.read_text(encoding="utf-8"))
+    if p.external:
+        raise ReportError(f"{path}: refers to something outside the file ({p.external[0]})")
+    files = []
+    prefix = "data:image/png;base64,"
+    for img in p.imgs:
+        src = img.get("data-source", "")
+        f = path.parent / src
+        if not src or not img.get("src", "").startswith(prefix):
+            raise ReportError(f"{path}: an image without a PNG data URI or data-source ({src or '?'})")
+        check_png(f)
+        if base64.b64decode(img["src"][len(prefix):]) != f.read_bytes():
+            raise ReportError(f"{path}: embedded image differs from {f}")
+        files.append(f)
+    return files
+
+
+__all__ = ["ReportError", "build_report", "check_png", "load_json", "verify_report"]

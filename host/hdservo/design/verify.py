@@ -1,0 +1,362 @@
+"""Prediction vs measurement: the design flow's chosen axis served as a virtual drive.
+
+Chain (docs/design-flow.md section 6):
+
+1. **identify** the axis over CAN: ``hdservo identify all --axis AXIS`` (the
+   virtual drive, lock-step), with the flow's velocity-loop gains;
+2. **download**: the identified model -> compensator parameters and tables
+   (:func:`hdservo.commands.download.plan_download`, written and read back with
+   :func:`~hdservo.commands.download.write_verified`: the code of ``hdservo
+   download``);
+3. **test**: the procedures of ``hdservo test`` (:mod:`hdservo.procedures.closedloop`)
+   on the virtual drive, configured as the flow assumed: the flow's gains
+   (``drive_params.json``: PI/P, notch, torque limit, trajectory limits), the
+   downloaded compensator parameters and ``cb_enable`` = the flow's
+   compensators; the stabilisation test in the drive's STAB mode (CiA 402
+   mode -1, :func:`stabilisation_stab`);
+4. **compare** every predicted figure with the measured one, pass when
+   |measured/predicted - 1| <= tolerance (20 %).
+
+The virtual drive has no non-volatile parameter store and ``hdservo test``
+starts one drive process per procedure, so step 2 is repeated into each
+procedure's drive before it runs (:func:`configure`).
+"""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping, Optional, Sequence
+
+import numpy as np
+
+from ..procedures import closedloop as cl
+from ..procedures import metrics as mt
+from ..procedures.results import Result
+from ..procedures.runner import DT, Bench, RigSetup, Target, open_bench
+
+TURN = 2.0 * math.pi
+#: flow gains that are drive parameters (the compensator parameters come from the identified model)
+GAIN_KEYS = ("vel_kp", "vel_ki", "f1_b0", "f1_b1", "f1_b2", "f1_a1", "f1_a2", "pos_kp", "pos_ki",
+             "torque_limit", "traj_vmax", "traj_amax")
+STAB_MODE = -1          #: CiA 402 manufacturer mode of the gyro stabilisation (docs/control.md)
+
+
+@dataclass
+class Plan:
+    """What to verify.
+
+    Attributes
+    ----------
+    axis : Path
+        Axis TOML of the chosen candidate (``report/axis_chosen.toml``).
+    design : Path
+        The flow's JSON (``--json``): predicted figures of ``chosen``.
+    out : Path
+        Output directory (model, JSON, Markdown).
+    procedures : sequence of str
+        Procedures to run (``min-rate``, ``positioning``, ``stabilisation``,
+        ``peak-torque``, ``bandwidth``).
+    identify_target : str
+        ``hdservo identify`` target (``all``; ``friction`` in the short test).
+    tolerance : float
+        Relative tolerance of a pass.
+    runs, targets_deg, rates_deg_s, windows, settle_s, stab_duration_s, bw_amplitude_arcsec
+        Procedure options; None = the protocol the flow predicted with.
+    seed : int
+        Sensor-noise seed of the virtual drive.
+    """
+
+    axis: Path
+    design: Path
+    out: Path
+    procedures: Sequence[str] = ("min-rate", "positioning", "stabilisation", "peak-torque", "bandwidth")
+    identify_target: str = "all"
+    tolerance: float = 0.2
+    runs: Optional[int] = None
+    targets_deg: Optional[Sequence[float]] = None
+    rates_deg_s: Optional[Sequence[float]] = None
+    windows: int = 10
+    settle_s: float = 5.0
+    stab_duration_s: float = 5.0
+    bw_amplitude_arcsec: float = 60.0
+    seed: int = 1
+    notes: list[str] = field(default_factory=list)
+
+
+def _say(msg: str) -> None:
+    print(f"[verify] {msg}", file=sys.stderr, flush=True)
+
+
+# ------------------------------------------------------------------ steps 1 and 2
+
+def identify(axis: Path, gains: Mapping[str, float], model: Path, target: str = "all", seed: int = 1,
+             quiet: bool = True) -> dict[str, Any]:
+    """``hdservo identify TARGET --axis AXIS -o MODEL --json`` on the virtual drive over CAN.
+
+    The flow's velocity-loop gains are passed with ``--gain`` (the drive's
+    defaults are tuned for the reference axis).  Returns the identification
+    JSON report; raises RuntimeError on a failure.
+    """
+    rep = model.with_suffix(".ident.json")
+    cmd = [sys.executable, "-m", "hdservo.cli", "identify", target, "--axis", str(axis), "-o", str(model),
+           "--json", str(rep), "--seed", str(seed)]
+    for k in ("vel_kp", "vel_ki"):
+        cmd += ["--gain", f"{k}={gains[k]!r}"]
+    if quiet:
+        cmd.append("-q")
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        raise RuntimeError(f"hdservo identify failed: {(r.stderr.strip().splitlines() or ['?'])[-1]}")
+    return json.loads(rep.read_text())
+
+
+def download_plan(model: Path, axis: Path) -> dict[str, Any]:
+    """The download of ``hdservo download MODEL --axis AXIS`` (parameters, groups, Preisach image)."""
+    from ..commands import download as dl
+    return dl.plan_download(model, str(axis))
+
+
+def configure(bench: Bench, gains: Mapping[str, float], plan: Mapping[str, Any], compensators: Sequence[str]) -> dict[str, Any]:
+    """Configure one procedure's drive as the flow assumed (power stage off).
+
+    The flow's gains by SDO, then the identified compensator parameters and
+    tables (``write_verified``, read back), then ``cb_enable``.
+    """
+    from ..commands import download as dl
+    from ..compsetup import enable_mask
+    d = bench.drive
+    for k in GAIN_KEYS:
+        if k in gains:
+            d.set_param(k, float(gains[k]))
+    done = dl.write_verified(d, plan, tables=True)
+    mask = enable_mask(list(compensators))
+    d.set_param("cb_enable", float(mask))
+    if int(d.get_param("cb_enable")) != mask:
+        raise RuntimeError("cb_enable: read-back differs")
+    return {"params": done["params"], "tables": done["tables"], "cb_enable": mask}
+
+
+# ------------------------------------------------------------------ STAB-mode stabilisation
+
+def _enable_stab(bench: Bench) -> None:
+    d = bench.drive
+    if d.state() == "FAULT":
+        d.fault_reset()
+    d.write(0x6060, 0, STAB_MODE)
+    for cw in (0x06, 0x07, 0x0F):
+        d.write(0x6040, 0, cw)
+        bench.wait(0.002)
+    for _ in range(200):
+        if d.state() == "OPERATION ENABLED":
+            return
+        bench.wait(0.005)
+    raise RuntimeError(f"the drive did not enable in STAB mode (state {d.state()})")
+
+
+def stabilisation_stab(bench: Bench, duration_s: float = 5.0, settle_s: float = 1.0) -> Result:
+    """The ``stabilisation`` procedure with the drive in its gyro stabilisation mode.
+
+    Identical to :func:`hdservo.procedures.closedloop.stabilisation` (payload
+    gyro captured at 1 kHz, integrated, line removed; rig true inertial angle)
+    except that the drive runs STAB (CiA 402 mode -1, commanded inertial rate
+    0x60FF = 0) instead of holding its encoder position in CSP.
+    """
+    decim = 10
+    frames = int(round(duration_s / (decim * DT)))
+    if frames * 2 > 8192:
+        frames = 4096
+        decim = int(math.ceil(duration_s / (frames * DT)))
+    bench.rig.brake(False)
+    bench.drive.write(0x60FF, 0, 0)
+    _enable_stab(bench)
+    bench.wait(settle_s)
+    with bench.rig.record(decim) as rec:
+        cap = bench.capture(["tick", "gyro"], frames, decim)
+    fault = bench.fault()
+    bench.disable()
+    if fault:
+        raise RuntimeError(f"the drive faulted during the STAB stabilisation test (fault code {fault})")
+    tick = cap["tick"].astype(float)
+    t = (tick - tick[0]) * DT
+    ang = mt.inertial_angle_from_gyro(t, cap["gyro"].astype(float) / 2 ** 32 * TURN)
+    pe = mt.pointing_error(ang)
+    ti = np.interp(tick, rec["tick"], rec["inertial_angle_rad"])
+    ti = ti - np.polyval(np.polyfit(t, ti, 1), t)
+    tp = mt.pointing_error(ti)
+    setup = bench.rig.setup
+    r = Result("stabilisation", conditions={"duration_s": duration_s, "sample_period_s": decim * DT,
+                                            "base_amplitude_deg": math.degrees(setup.base_amp_rad),
+                                            "base_frequency_Hz": setup.base_freq_Hz, "setup": setup.name,
+                                            "drive_mode": "STAB (CiA 402 mode -1)"})
+    r.figures = {"gyro_rms_arcsec": pe["rms_arcsec"], "gyro_peak_arcsec": pe["peak_arcsec"],
+                 "true_rms_arcsec": tp["rms_arcsec"], "true_peak_arcsec": tp["peak_arcsec"],
+                 "base_rms_arcsec": setup.base_amp_rad / math.sqrt(2) / mt.ARCSEC}
+    r.headline = {"stabilisation_rms_arcsec": pe["rms_arcsec"], "stabilisation_peak_arcsec": pe["peak_arcsec"]}
+    return r
+
+
+# ------------------------------------------------------------------ step 3
+
+def _procedure(name: str, plan: Plan, flow: Mapping[str, Any]) -> tuple[RigSetup, bool, Callable[[Bench], Result]]:
+    """Set-up, lock-step and runner of one procedure, with the protocol the flow predicted with."""
+    spec = flow["spec"]
+    pred = flow["chosen"]["figures"]
+    if name == "min-rate":
+        rates = list(plan.rates_deg_s or [r["rate_deg_s"] for r in pred["min_rate"]["ladder"]])
+        return cl.AXIS_SETUP, False, lambda b: cl.min_rate(b, rates_deg_s=rates, bound=pred["min_rate"]["bound"],
+                                                           windows=plan.windows, settle_s=plan.settle_s)
+    if name == "positioning":
+        tg = list(plan.targets_deg or pred["positioning"]["targets_deg"])
+        runs = plan.runs or int(pred["positioning"]["runs"])
+        return cl.AXIS_SETUP, False, lambda b: cl.positioning(b, targets_deg=tg, runs=runs)
+    if name == "stabilisation":
+        st = spec.get("stabilisation", {})
+        setup = cl.stab_setup(float(st.get("base_amplitude_deg", 0.5)), float(st.get("base_frequency_Hz", 1.0)))
+        return setup, False, lambda b: stabilisation_stab(b, duration_s=plan.stab_duration_s)
+    if name == "peak-torque":
+        return cl.AXIS_SETUP, False, lambda b: cl.peak_torque(b)
+    if name == "bandwidth":
+        return cl.AXIS_SETUP, True, lambda b: cl.bandwidth(b, amplitude_arcsec=plan.bw_amplitude_arcsec)
+    raise ValueError(f"unknown procedure '{name}'")
+
+
+def measure(plan: Plan, flow: Mapping[str, Any], dl_plan: Mapping[str, Any],
+            progress: Callable[[str], None] = _say) -> dict[str, dict[str, Any]]:
+    """Run the procedures on freshly configured virtual drives; ``{name: {headline, figures, conditions, wall_s}}``."""
+    ctl = flow["chosen"]["controller"]
+    gains = ctl["gains"]
+    comps = list(ctl.get("compensators", []))
+    out: dict[str, dict[str, Any]] = {}
+    for name in plan.procedures:
+        setup, lockstep, fn = _procedure(name, plan, flow)
+        t0 = time.monotonic()
+        progress(f"test {name}")
+        with open_bench(Target(axis=str(plan.axis), seed=plan.seed), setup, lockstep=lockstep) as bench:
+            cfg = configure(bench, gains, dl_plan, comps)
+            res = fn(bench)
+        out[name] = {"headline": res.headline, "figures": res.figures, "conditions": res.conditions,
+                     "configured": cfg, "wall_s": round(time.monotonic() - t0, 1)}
+    return out
+
+
+# ------------------------------------------------------------------ step 4
+
+def _rung_stability(ladder: Sequence[Mapping[str, Any]], rate: Optional[float]) -> Optional[float]:
+    for r in ladder:
+        if rate is not None and abs(r["rate_deg_s"] - rate) <= 1e-12 * max(1.0, rate):
+            return float(r["stability"])
+    return None
+
+
+def compare(flow: Mapping[str, Any], measured: Mapping[str, Mapping[str, Any]], tol: float = 0.2) -> list[dict[str, Any]]:
+    """Rows ``{figure, definition, predicted, measured, unit, rel_error, pass}`` for what was measured."""
+    f = flow["chosen"]["figures"]
+    rows: list[dict[str, Any]] = []
+
+    def row(fig: str, unit: str, p: Optional[float], m: Optional[float], definition: str, judged: bool = True) -> None:
+        rel = None if p in (None, 0) or m is None else m / p - 1.0
+        rows.append({"figure": fig, "unit": unit, "predicted": p, "measured": m, "rel_error": rel,
+                     "pass": (rel is not None and abs(rel) <= tol) if judged else None, "definition": definition})
+
+    if "min-rate" in measured:
+        mr = measured["min-rate"]
+        p_best = f["min_rate"]["min_smooth_rate_deg_s"]
+        m_best = mr["headline"]["min_smooth_rate_deg_s"]
+        row("min smooth rate", "deg/s", p_best, m_best,
+            f"slowest ladder rung with stability sigma/mean <= {f['min_rate']['bound']:g} (fixed-angle 1 s windows)")
+        row("rate stability at that rung", "-", _rung_stability(f["min_rate"]["ladder"], p_best),
+            _rung_stability(mr["figures"]["ladder"], p_best),
+            "sigma/mean of the window rates (informative: both far below the bound)", judged=False)
+    if "positioning" in measured:
+        iso = measured["positioning"]["figures"]["iso230_2_arcsec"]
+        p = f["positioning"]
+        d = "ISO 230-2, true output angle, 12 targets, bidirectional"
+        row("positioning accuracy A", "arcsec", p["A_arcsec"], iso["A"], d)
+        row("repeatability R", "arcsec", p["R_arcsec"], iso["R"], d)
+        row("reversal value B", "arcsec", p["B_arcsec"], iso["B"], d, judged=False)
+    if "stabilisation" in measured:
+        s = f["stabilisation"]
+        m = measured["stabilisation"]["figures"]
+        row("stabilisation RMS (true inertial)", "arcsec", s.get("stab_true_rms_arcsec"), m.get("true_rms_arcsec"),
+            "STAB mode, base 0.5 deg at 1 Hz, 5 s, line removed; rig / simulator true inertial angle")
+        row("stabilisation RMS (integrated gyro)", "arcsec", s.get("stab_rms_arcsec"), m.get("gyro_rms_arcsec"),
+            "same, payload gyro integrated (the procedure's headline)")
+    if "peak-torque" in measured:
+        row("peak output torque", "N.m", f["peak_torque"]["peak_torque_Nm"],
+            measured["peak-torque"]["headline"]["peak_torque_Nm"], "locked output, gear torque, drive torque_limit")
+    if "bandwidth" in measured:
+        row("position bandwidth (-3 dB)", "Hz", f["bandwidth"]["bandwidth_Hz"],
+            measured["bandwidth"]["headline"]["bandwidth_hz"], "60 arcsec multisine on the position reference")
+    return rows
+
+
+def markdown(result: Mapping[str, Any]) -> str:
+    """Markdown report of :func:`verify`'s result."""
+    tol = result["tolerance"]
+    lines = [f"# Prediction vs measurement: {result['candidate']}", "",
+             "Generated by `examples/pitch_drive/verify.py` (host/hdservo/design/verify.py): the chosen axis "
+             "served as a virtual drive, identified over CAN (`hdservo identify "
+             f"{result['identify_target']}`), the identified compensator parameters downloaded "
+             "(`hdservo download` code, read back), the procedures of `hdservo test` run with the flow's gains and "
+             f"compensators ({', '.join(result['compensators']) or 'none'}). Pass: |measured/predicted - 1| <= "
+             f"{tol * 100:.0f} %.", "",
+             "| figure | predicted | measured | error | pass | definition |", "|---|---|---|---|---|---|"]
+
+    def fmt(v: Optional[float]) -> str:
+        return "-" if v is None else f"{v:.4g}"
+    for r in result["rows"]:
+        err = "-" if r["rel_error"] is None else f"{r['rel_error'] * 100:+.1f} %"
+        ok = "(info)" if r["pass"] is None else ("PASS" if r["pass"] else "**FAIL**")
+        lines.append(f"| {r['figure']} [{r['unit']}] | {fmt(r['predicted'])} | {fmt(r['measured'])} | {err} | {ok} | "
+                     f"{r['definition']} |")
+    lines += ["", f"Judged figures: {result['passed']} of {result['judged']} pass.", ""]
+    if result.get("notes"):
+        lines += ["Notes:", ""] + [f"* {n}" for n in result["notes"]] + [""]
+    lines += ["Wall time per step (s): " + ", ".join(f"{k} {v}" for k, v in result["wall_s"].items()), ""]
+    return "\n".join(lines)
+
+
+def verify(plan: Plan, progress: Callable[[str], None] = _say) -> dict[str, Any]:
+    """The whole chain; writes ``verify.json`` and ``verify.md`` into ``plan.out`` and returns the result."""
+    flow = json.loads(plan.design.read_text())
+    ctl = flow["chosen"]["controller"]
+    plan.out.mkdir(parents=True, exist_ok=True)
+    wall: dict[str, float] = {}
+    model = plan.out / "model.toml"
+    t0 = time.monotonic()
+    progress(f"identify {plan.identify_target} over CAN (virtual drive, axis {plan.axis})")
+    ident = identify(plan.axis, ctl["gains"], model, plan.identify_target, plan.seed)
+    wall["identify"] = round(time.monotonic() - t0, 1)
+    dlp = download_plan(model, plan.axis)
+    measured = measure(plan, flow, dlp, progress)
+    for k, v in measured.items():
+        wall[k] = v["wall_s"]
+    rows = compare(flow, measured, plan.tolerance)
+    judged = [r for r in rows if r["pass"] is not None]
+    result: dict[str, Any] = {
+        "format": "hdservo-design-verify", "version": 1, "candidate": flow["chosen"]["name"],
+        "axis": plan.axis.name, "design": plan.design.name, "identify_target": plan.identify_target,
+        "identify_notes": ident.get("notes", []), "download_notes": dlp["notes"],
+        "compensators": list(ctl.get("compensators", [])), "tolerance": plan.tolerance, "seed": plan.seed,
+        "rows": rows, "judged": len(judged), "passed": sum(1 for r in judged if r["pass"]),
+        "measured": measured, "notes": list(plan.notes), "wall_s": wall}
+    (plan.out / "verify.json").write_text(json.dumps(result, indent=1, default=_jsonable) + "\n")
+    (plan.out / "verify.md").write_text(markdown(result))
+    return result
+
+
+def _jsonable(x: Any) -> Any:
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    return str(x)
+
+
+__all__ = ["GAIN_KEYS", "Plan", "compare", "configure", "download_plan", "identify", "markdown", "measure",
+           "stabilisation_stab", "verify"]

@@ -1,0 +1,43 @@
+"""Design flow prediction vs measurement, short version (docs/design-flow.md section 6).
+
+The chosen pitch-drive axis is served as a virtual drive, its friction identified over
+CAN (`hdservo identify friction`, the rest of the model from the axis file), the
+compensator parameters downloaded with read-back, and the STAB-mode stabilisation test
+and the peak-torque test run with the flow's gains; both must match the committed
+prediction within 20 %.  The full chain is `examples/pitch_drive/verify.py`.
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import pytest
+
+from hdservo.design import verify as vf
+
+ROOT = Path(__file__).resolve().parents[2]
+EX = ROOT / "examples" / "pitch_drive"
+SIM = Path(os.environ.get("HDSERVO_SIM", ROOT / "build" / "bin" / "hdservo-sim"))
+pytestmark = pytest.mark.skipif(not SIM.exists(), reason="hdservo-sim not built (make sim)")
+
+
+def test_compare_rows_pass_and_fail() -> None:
+    flow = json.loads((EX / "design.json").read_text())
+    p = flow["chosen"]["figures"]["peak_torque"]["peak_torque_Nm"]
+    rows = vf.compare(flow, {"peak-torque": {"headline": {"peak_torque_Nm": 1.1 * p}}})
+    assert rows[0]["pass"] and rows[0]["rel_error"] == pytest.approx(0.1)
+    rows = vf.compare(flow, {"peak-torque": {"headline": {"peak_torque_Nm": 1.3 * p}}})
+    assert not rows[0]["pass"]
+
+
+def test_chain_short(tmp_path: Path) -> None:
+    plan = vf.Plan(axis=EX / "report" / "axis_chosen.toml", design=EX / "design.json", out=tmp_path,
+                   procedures=["stabilisation", "peak-torque"], identify_target="friction",
+                   stab_duration_s=3.0)
+    res = vf.verify(plan, progress=lambda m: None)
+    assert (tmp_path / "model.toml").is_file() and (tmp_path / "verify.md").is_file()
+    assert res["measured"]["peak-torque"]["configured"]["cb_enable"] > 0      # the flow's compensators are on
+    rows = {r["figure"]: r for r in res["rows"]}
+    for name in ("stabilisation RMS (true inertial)", "peak output torque"):
+        assert rows[name]["pass"], rows[name]
