@@ -181,6 +181,10 @@ def test_emps_bad_import(tmp_path: Path, case: str) -> None:
     d.mkdir()
     if (src / "EMPS_constants.csv").exists():
         (d / "EMPS_constants.csv").write_text((src / "EMPS_constants.csv").read_text())
+    else:   # shared data absent: a valid constants file, so only the record under test is bad
+        (d / "EMPS_constants.csv").write_text(
+            "name,value,unit,meaning\ngtau,35.15,N/V,g\nkp,160.18,1/s,p\nkv,243.45,V/(m/s),v\n"
+            "Ts,0.001,s,t\nvir_saturation,10,V,s\n")
     (d / "DATA_EMPS.csv").write_text(EMPS[case])
     out = tmp_path / "emps.csv"
     p = _cli(["emps", "export", "--data", str(d), "--format", "csv", "--out", str(out)], tmp_path)

@@ -33,8 +33,8 @@ current_loop_lag       current_loop.bandwidth_Hz = 150 / 300 and the log's motor
 from __future__ import annotations
 
 import math
-import zlib
 import tempfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
