@@ -46,7 +46,7 @@ const hd_param_desc_t hd_param_table[HD_PARAM_COUNT] = {
     {"appr_dir", 0x2400u, 4u, HD_PTYPE_I32, 0u, -1, 1, 1, "1"},
     {"appr_dist", 0x2400u, 5u, HD_PTYPE_I32, 32u, 0, 42949673, 149131, "turn"},
     {"appr_vmax", 0x2400u, 6u, HD_PTYPE_I32, 32u, 4295, 2104533975, 1193046, "turn/s"},
-    {"appr_dwell", 0x2400u, 7u, HD_PTYPE_U32, 16u, 0, 655360, 0, "s"},
+    {"appr_dwell", 0x2400u, 7u, HD_PTYPE_U32, 16u, 0, 26214, 0, "s"},
     {"stab_kp", 0x2500u, 1u, HD_PTYPE_I32, 16u, 0, 655360000, 2470707, "1/s"},
     {"stab_ki", 0x2500u, 2u, HD_PTYPE_I32, 16u, 0, 1966080000, 0, "1/s^2"},
     {"stab_gyro_bias", 0x2500u, 3u, HD_PTYPE_I32, 32u, -42949673, 42949673, 0, "turn/s"},

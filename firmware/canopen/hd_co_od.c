@@ -202,7 +202,7 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x2400u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 41u, INT64_C(-1), INT64_C(1), INT64_C(1), NULL},  /* appr_dir */
     {0x2400u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 42u, INT64_C(0), INT64_C(42949673), INT64_C(149131), NULL},  /* appr_dist */
     {0x2400u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 43u, INT64_C(4295), INT64_C(2104533975), INT64_C(1193046), NULL},  /* appr_vmax */
-    {0x2400u, 7u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 44u, INT64_C(0), INT64_C(655360), INT64_C(0), NULL},  /* appr_dwell */
+    {0x2400u, 7u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 44u, INT64_C(0), INT64_C(26214), INT64_C(0), NULL},  /* appr_dwell */
     {0x2500u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(8), NULL},  /* highest_sub_index_supported */
     {0x2500u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 45u, INT64_C(0), INT64_C(655360000), INT64_C(2470707), NULL},  /* stab_kp */
     {0x2500u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 46u, INT64_C(0), INT64_C(1966080000), INT64_C(0), NULL},  /* stab_ki */

@@ -76,6 +76,59 @@ static uint64_t hd__udiv64_small(uint64_t un, uint32_t ud, uint64_t *rem)
     return ((uint64_t)((q3 << 16) | q2) << 32) | ((q1 << 16) | q0);
 }
 
+/* floor((u1 * 2^32 + u0) / v) and the remainder, u1 < v, v >= 2^16 (Hacker's
+ * Delight divlu, base 2^16): v is normalised so its top bit is set, each of the
+ * two 16-bit quotient digits is estimated with one 32-bit UDIV by the top half
+ * of v and corrected at most twice.  Every intermediate fits 32 bits (the
+ * products q * vn0 are formed only when q < 2^16, rhat * 2^16 only when
+ * rhat < 2^16).  Exact: the same quotient and remainder as the 64-bit '/'. */
+static uint32_t hd__divlu(uint32_t u1, uint32_t u0, uint32_t v0, uint32_t *r)
+{
+    const uint32_t b = 65536u;
+    const uint32_t s = (uint32_t)__builtin_clz(v0);          /* v0 != 0; s <= 15 */
+    const uint32_t v = v0 << s;
+    const uint32_t vn1 = v >> 16;
+    const uint32_t vn0 = v & 0xFFFFu;
+    const uint32_t un32 = (s == 0u) ? u1 : ((u1 << s) | (u0 >> (32u - s)));
+    const uint32_t un10 = u0 << s;
+    const uint32_t un1 = un10 >> 16;
+    const uint32_t un0 = un10 & 0xFFFFu;
+    uint32_t q1 = un32 / vn1;
+    uint32_t rhat = un32 - (q1 * vn1);
+    uint32_t k;
+    for (k = 0u; (k < 2u) && (rhat < b) && ((q1 >= b) || ((q1 * vn0) > ((b * rhat) + un1))); k++) {
+        q1--;
+        rhat += vn1;
+    }
+    {
+        const uint32_t un21 = ((un32 * b) + un1) - (q1 * v);   /* < v, modular arithmetic exact */
+        uint32_t q0 = un21 / vn1;
+        rhat = un21 - (q0 * vn1);
+        for (k = 0u; (k < 2u) && (rhat < b) && ((q0 >= b) || ((q0 * vn0) > ((b * rhat) + un0))); k++) {
+            q0--;
+            rhat += vn1;
+        }
+        *r = (((un21 * b) + un0) - (q0 * v)) >> s;
+        return (q1 << 16) + q0;
+    }
+}
+
+/* floor(un / ud) and the remainder for ud < 2^32 without __aeabi_uldivmod. Exact. */
+static uint64_t hd__udiv64_32(uint64_t un, uint32_t ud, uint64_t *rem)
+{
+    if (ud < 65536u) {
+        return hd__udiv64_small(un, ud, rem);
+    }
+    {
+        const uint32_t hi = (uint32_t)(un >> 32);
+        const uint32_t qh = hi / ud;
+        uint32_t r;
+        const uint32_t ql = hd__divlu(hi - (qh * ud), (uint32_t)un, ud, &r);
+        *rem = r;
+        return ((uint64_t)qh << 32) | ql;
+    }
+}
+
 /* ---- saturation ------------------------------------------------------ */
 
 int32_t hd_sat32(int64_t x)
@@ -332,8 +385,8 @@ int32_t hd_div_q(int32_t num, int32_t den, uint32_t q)
     }
     un = hd__mag64(num) << q;                          /* <= 2^62 */
     ud = hd__mag64(den);                               /* <= 2^31 */
-    if (ud < 65536u) {
-        quo = hd__udiv64_small(un, (uint32_t)ud, &rem);
+    if (ud <= 0xFFFFFFFFu) {
+        quo = hd__udiv64_32(un, (uint32_t)ud, &rem);
     } else {
         quo = un / ud;
         rem = un - quo * ud;
@@ -357,8 +410,8 @@ int64_t hd_div64_rnd(int64_t num, int64_t den)
     }
     un = hd__mag64(num);                               /* <= 2^63 */
     ud = hd__mag64(den);
-    if (ud < 65536u) {
-        quo = hd__udiv64_small(un, (uint32_t)ud, &rem);
+    if (ud <= 0xFFFFFFFFu) {
+        quo = hd__udiv64_32(un, (uint32_t)ud, &rem);
     } else {
         quo = un / ud;
         rem = un - quo * ud;

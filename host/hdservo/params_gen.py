@@ -74,7 +74,7 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef(41, 'appr_dir', 0x2400, 4, 'i32', '1', 0, -1.0, 1.0, 1.0, -1, 1, 1, 'Final approach direction: +1 every PTP move ends moving positive, -1 negative, 0 off'),
     ParamDef(42, 'appr_dist', 0x2400, 5, 'i32', 'turn', 32, 0.0, 0.01, 3.4722222e-05, 0, 42949673, 149131, 'Final approach leg length (45 arcsec)'),
     ParamDef(43, 'appr_vmax', 0x2400, 6, 'i32', 'turn/s', 32, 1e-06, 0.49, 0.00027777778, 4295, 2104533975, 1193046, 'Final approach leg velocity limit (0.1 deg/s)'),
-    ParamDef(44, 'appr_dwell', 0x2400, 7, 'u32', 's', 16, 0.0, 10.0, 0.0, 0, 655360, 0, 'Final approach: standstill between the first leg and the final leg'),
+    ParamDef(44, 'appr_dwell', 0x2400, 7, 'u32', 's', 16, 0.0, 0.4, 0.0, 0, 26214, 0, 'Final approach: standstill between the first leg and the final leg (< 0.5 s: host pp_move re-sends a set-point that stands still 0.5 s)'),
     ParamDef(45, 'stab_kp', 0x2500, 1, 'i32', '1/s', 16, 0.0, 10000.0, 37.7, 0, 655360000, 2470707, 'Stabilisation: inertial-angle loop proportional gain (inertial rate per integrated-gyro angle error)'),
     ParamDef(46, 'stab_ki', 0x2500, 2, 'i32', '1/s^2', 16, 0.0, 30000.0, 0.0, 0, 1966080000, 0, 'Stabilisation: inertial-angle loop integral gain'),
     ParamDef(47, 'stab_gyro_bias', 0x2500, 3, 'i32', 'turn/s', 32, -0.01, 0.01, 0.0, -42949673, 42949673, 0, 'Stabilisation: constant gyro bias subtracted from the payload gyro (calibrate with the base at rest)'),

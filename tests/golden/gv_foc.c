@@ -11,9 +11,20 @@
  *                   (cb_enable = HD_CB_ALL) in PTP mode, plus the port work
  *                   of that period: 2 FOC periods (20 kHz PWM: encoder update,
  *                   electrical angle, 2 ADC conversions, hd_foc_step) and the
- *                   output-encoder frame decode.  Register accesses, the SPI
- *                   transfer and interrupt entry are NOT included (see
- *                   tests/bench/50_isr_load.py for the allowance).
+ *                   output-encoder frame decode.  The app is set up exactly as
+ *                   control_step_full (gv_comp_bank.c): the same Preisach table
+ *                   installed (the inverse runs), LuGre observer gain 30,
+ *                   TE gain 2^20, ramps of 4 periods (every weight fully on),
+ *                   16 periods of moving encoders before the measured one.
+ *                   Backstepping is ON: in this firmware the backstepping law
+ *                   runs AFTER the position/velocity PID (the PID output is the
+ *                   blend base and keeps the cascade warm for a bumpless
+ *                   switch-off), so "every compensator on" is the superset and
+ *                   the more expensive of the two alternatives; the PID-only
+ *                   alternative is kernel isr_worst_case_pid.
+ *                   Register accesses, the SPI transfer and interrupt entry
+ *                   are NOT included (see tests/bench/50_isr_load.py).
+ *   isr_worst_case_pid  the same without backstepping (cost only).
  * The app step uses the stub hal of gv_app.c (linked into the same images).
  */
 #include "gv.h"
@@ -218,6 +229,36 @@ static void cost_enc(void)
 /* ---- isr_worst_case --------------------------------------------------------------------- */
 
 static hd_app_t isr_app;
+static hd_preisach_table_t isr_tab;
+
+void gv_app_stub_sensors(uint32_t motor_raw, uint32_t output_raw);
+
+/* the table of gv_comp_bank.c (same numbers: twist -> torque, L = 16) */
+static void isr_make_table(void)
+{
+    uint32_t i, j;
+    isr_tab.version = 1u;
+    isr_tab.levels = 16u;
+    isr_tab.sub_bits = 1u;
+    isr_tab.in_shift = 10u;
+    isr_tab.u0 = -(int32_t)(15u << 10);
+    isr_tab.unit = HD_PREISACH_UNIT_GENERIC;
+    for (i = 0; i < 16u; i++) {
+        for (j = 0; j <= i; j++) {
+            const int32_t d = (int32_t)(i - j);
+            isr_tab.e[i * (i + 1u) / 2u + j] = d * 65536 + ((d < 4) ? d * d * 4096 : 65536);
+        }
+    }
+    hd_preisach_seal(&isr_tab);
+}
+
+/* encoder inputs of period idx as in gv_comp_bank.c's gen_full */
+static void isr_sensors(uint32_t idx, hd_gv_rng_t *r, uint32_t extra)
+{
+    const uint32_t out_cnt = 1000u + idx / 2u + (hd_gv_rand32(r) & 1u);
+    const uint32_t mot_cnt = (idx * 781u + (hd_gv_rand32(r) & 7u)) & 0x1FFFFu;
+    gv_app_stub_sensors((mot_cnt + 5u * extra) & 0x1FFFFu, (out_cnt + extra) & 0xFFFFFFu);
+}
 
 static void isr_port_foc(hd_foc_t *s, const hd_foc_cfg_t *c, hd_enc_t *e, uint32_t raw, int32_t ra, int32_t rb,
                          int32_t rv, int32_t iq_ref, int32_t duty[3])
@@ -237,29 +278,38 @@ static void isr_port_foc(hd_foc_t *s, const hd_foc_cfg_t *c, hd_enc_t *e, uint32
     duty[2] = y.duty[2];
 }
 
-static void cost_isr(void)
+static void cost_isr_en(uint32_t cb_enable)
 {
     hd_foc_t s;
     hd_foc_cfg_t c;
     hd_enc_t e;
     hd_ssi_reading_t rd;
+    hd_gv_rng_t r;
     int32_t duty[3];
     uint32_t k;
     uint8_t buf[6] = {0xA0u, 0x12u, 0x34u, 0x56u, 0x78u, 0x3Fu};
     foc_cfg(&c);
     hd_foc_reset(&s);
     hd_enc_init(&e, 0u, 0, 2500u);
-    /* the app as in gv_app.c's cost (stub hal sensors primed there), but with
-     * every compensator of the bank enabled */
+    /* the app exactly as gv_comp_bank.c's control_step_full (stub hal of gv_app.c) */
+    r.s = 4242u;
+    isr_sensors(0u, &r, 0u);
     hd_app_init(&isr_app);
     (void)hd_app_param_set(&isr_app, HD_P_FAULT_ENABLE, 0);
-    (void)hd_app_param_set(&isr_app, HD_P_CB_ENABLE, (int32_t)HD_CB_ALL);
+    (void)hd_app_param_set(&isr_app, HD_P_LUG_K_OBS, 30 << 16);
+    (void)hd_app_param_set(&isr_app, HD_P_TE_K1, 1 << 20);
+    (void)hd_app_param_set(&isr_app, HD_P_CB_RAMP_TICKS, 4);
+    isr_make_table();
+    (void)hd_app_comp_table(&isr_app, &isr_tab);
     hd_app_step(&isr_app);
     (void)hd_app_move_to(&isr_app, isr_app.pos_out + ((hd_angle_t)1 << 24));
     (void)hd_app_set_mode(&isr_app, HD_MODE_PTP);
-    for (k = 0; k < 20u; k++) {
+    (void)hd_app_param_set(&isr_app, HD_P_CB_ENABLE, (int32_t)cb_enable);
+    for (k = 0; k < 16u; k++) {                  /* PTP moving, every weight fully on (ramp 4) */
+        isr_sensors(k, &r, 0u);
         hd_app_step(&isr_app);
     }
+    isr_sensors(16u, &r, 1u);
     vol_in[0] = 2100; vol_in[1] = 1990; vol_in[2] = 3000; vol_in[3] = 5 * 65536;
     const int32_t ra = vol_in[0], rb = vol_in[1], rv = vol_in[2], iq = vol_in[3];
     hd_gv_cost_mark();
@@ -271,11 +321,22 @@ static void cost_isr(void)
     vol_out = duty[0] + (int32_t)rd.position;
 }
 
+static void cost_isr(void)
+{
+    cost_isr_en((uint32_t)HD_CB_ALL);
+}
+
+static void cost_isr_pid(void)
+{
+    cost_isr_en((uint32_t)HD_CB_ALL & ~(uint32_t)HD_CB_BACKSTEP);
+}
+
 const hd_gv_kernel_t hd_gv_foc_kernels[] = {
     {"foc_step", 6u, 7u, 384u, gen_foc, run_foc, cost_foc},
     {"foc_svm", 3u, 3u, 256u, gen_svm, run_svm, cost_svm},
     {"ssi_decode", 2u, 4u, 256u, gen_ssi, run_ssi, cost_ssi},
     {"enc_update", 1u, 3u, 256u, gen_enc, run_enc, cost_enc},
     {"isr_worst_case", 1u, 3u, 16u, gen_enc, run_enc, cost_isr},
+    {"isr_worst_case_pid", 1u, 3u, 16u, gen_enc, run_enc, cost_isr_pid},
 };
 const uint32_t hd_gv_foc_count = sizeof hd_gv_foc_kernels / sizeof hd_gv_foc_kernels[0];

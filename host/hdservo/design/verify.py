@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import subprocess
 import sys
 import time
@@ -103,13 +104,16 @@ def identify(axis: Path, gains: Mapping[str, float], model: Path, target: str = 
     JSON report; raises RuntimeError on a failure.
     """
     rep = model.with_suffix(".ident.json")
-    cmd = [sys.executable, "-m", "hdservo.cli", "identify", target, "--axis", str(axis), "-o", str(model),
-           "--json", str(rep), "--seed", str(seed)]
+    # run beside the model with a relative axis path: the model's header names the axis, no absolute path
+    cwd = model.resolve().parent
+    ax = os.path.relpath(Path(axis).resolve(), cwd)
+    cmd = [sys.executable, "-m", "hdservo.cli", "identify", target, "--axis", ax, "-o", model.name,
+           "--json", rep.name, "--seed", str(seed)]
     for k in ("vel_kp", "vel_ki"):
         cmd += ["--gain", f"{k}={gains[k]!r}"]
     if quiet:
         cmd.append("-q")
-    r = subprocess.run(cmd, capture_output=True, text=True)
+    r = subprocess.run(cmd, capture_output=True, text=True, cwd=cwd)
     if r.returncode != 0:
         raise RuntimeError(f"hdservo identify failed: {(r.stderr.strip().splitlines() or ['?'])[-1]}")
     return json.loads(rep.read_text())
@@ -329,7 +333,7 @@ def verify(plan: Plan, progress: Callable[[str], None] = _say) -> dict[str, Any]
     wall: dict[str, float] = {}
     model = plan.out / "model.toml"
     t0 = time.monotonic()
-    progress(f"identify {plan.identify_target} over CAN (virtual drive, axis {plan.axis})")
+    progress(f"identify {plan.identify_target} over CAN (virtual drive, axis {plan.axis.name})")
     ident = identify(plan.axis, ctl["gains"], model, plan.identify_target, plan.seed)
     wall["identify"] = round(time.monotonic() - t0, 1)
     dlp = download_plan(model, plan.axis)
