@@ -19,7 +19,8 @@ int32_t hd_blend_update(hd_blend_t *b)
     int32_t step;
     int32_t tgt = (b->target > 0) ? HD_Q30_ONE : 0;
 
-    if (b->ramp_ticks == 0u) {
+    if ((b->ramp_ticks == 0u) || (b->w == tgt)) {
+        /* no ramp, or the ramp is done (the steady state): no step, no divide */
         b->w = tgt;
         return b->w;
     }

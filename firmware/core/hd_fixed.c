@@ -385,12 +385,7 @@ int32_t hd_div_q(int32_t num, int32_t den, uint32_t q)
     }
     un = hd__mag64(num) << q;                          /* <= 2^62 */
     ud = hd__mag64(den);                               /* <= 2^31 */
-    if (ud <= 0xFFFFFFFFu) {
-        quo = hd__udiv64_32(un, (uint32_t)ud, &rem);
-    } else {
-        quo = un / ud;
-        rem = un - quo * ud;
-    }
+    quo = hd__udiv64_32(un, (uint32_t)ud, &rem);
     if (rem >= ud - rem) { /* HD_DIV_Q_ROUNDING: 2*rem >= ud, half away */
         quo += 1u;
     }

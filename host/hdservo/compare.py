@@ -335,7 +335,7 @@ def _write_json_atomic(path: Path, doc: Mapping[str, Any]) -> None:
 
 def _configure(drive: Any, ctl: Controller, plan: Optional[Mapping[str, Any]],
                preisach_blob: Optional[bytes]) -> list[str]:
-    """Write model parameters/tables, gains and ``cb_enable`` for ``ctl``; returns notes."""
+    """Write the model's parameters/tables (compensated controllers) and ``cb_enable`` for ``ctl``; returns notes."""
     from .commands.download import write_verified
     from .procedures.runner import apply_compensators
     notes: list[str] = []
@@ -347,13 +347,6 @@ def _configure(drive: Any, ctl: Controller, plan: Optional[Mapping[str, Any]],
         elif preisach_blob is not None and "preisach" in ctl.compensators:
             drive.download_table(1, preisach_blob)
             notes.append("Preisach table of the axis model downloaded (0x5100:1)")
-        for k, v in ctl.gains.items():
-            drive.set_param(k, float(v))
-            back = float(drive.get_param(k))
-            if not math.isclose(back, float(v), rel_tol=1e-3, abs_tol=1e-6):
-                raise RuntimeError(f"gain {k}: read back {back:.6g}, wrote {v:.6g}")
-        if ctl.gains:
-            notes.append("gains: " + ", ".join(f"{k} = {v:.6g}" for k, v in ctl.gains.items()))
     note = apply_compensators(drive, list(ctl.compensators))
     if note:
         notes.append(note)
@@ -378,7 +371,14 @@ def run_procedure(name: str, ctl: Controller, args: argparse.Namespace, *, bus: 
     try:
         with open_bench(target, setup_f(args), lockstep=lockstep) as bench:
             notes = _configure(bench.drive, ctl, plan, preisach_blob)
-            res = fn(bench, args, prog)
+            with bench.params(ctl.gains):        # restored afterwards (a real drive keeps its own gains)
+                for k, v in ctl.gains.items():
+                    back = float(bench.drive.get_param(k))
+                    if not math.isclose(back, float(v), rel_tol=1e-3, abs_tol=1e-6):
+                        raise RuntimeError(f"gain {k}: read back {back:.6g}, wrote {v:.6g}")
+                if ctl.gains:
+                    notes.append("gains (read back): " + ", ".join(f"{k} = {v:.6g}" for k, v in ctl.gains.items()))
+                res = fn(bench, args, prog)
     except (DriveError, RuntimeError, ValueError) as e:
         res = Result(name, notes=[f"failed: {e}"])
         res.conditions = {"controller": ctl.name}

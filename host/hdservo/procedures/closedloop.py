@@ -156,22 +156,87 @@ def min_rate(bench: Bench, rates_deg_s: Sequence[float] = (1.0, 0.1, 0.01, 0.001
 
 # ---- stabilisation ------------------------------------------------------------------------
 
+#: CiA 402 manufacturer mode of the drive's gyro stabilisation (STAB, app mode 8; docs/control.md)
+STAB_MODE = -1
+#: 0x6502 (supported drive modes) bit of manufacturer mode -1
+STAB_MODE_BIT = 1 << 16
+#: ``mode`` values of :func:`stabilisation`
+STAB_MODES = ("hold", "stab", "auto")
+
+
+def drive_has_stab(bench: Bench) -> bool:
+    """True when the drive advertises manufacturer mode -1 (STAB) in 0x6502 (bit 16)."""
+    try:
+        return bool(int(bench.read(0x6502)) & STAB_MODE_BIT)
+    except Exception:      # noqa: BLE001 - no 0x6502 (or an SDO abort): no STAB mode
+        return False
+
+
+def enable_stab(bench: Bench, rate_rad_s: float = 0.0) -> None:
+    """Enable the drive in STAB (0x6060 = -1) with the commanded inertial rate ``rate_rad_s`` (0x60FF).
+
+    0x60FF is in 2^-32 turn/s units here as for the CSV target (the payload
+    gyro's scale).  Raises RuntimeError when the drive does not reach
+    OPERATION ENABLED.
+    """
+    d = bench.drive
+    if d.state() == "FAULT":
+        d.fault_reset()
+    d.write(0x60FF, 0, int(round(rate_rad_s / TURN * 2 ** 32)) if rate_rad_s else 0)
+    d.write(0x6060, 0, STAB_MODE)
+    for cw in (0x06, 0x07, 0x0F):
+        d.write(0x6040, 0, cw)
+        bench.wait(0.002)
+    for _ in range(200):
+        if d.state() == "OPERATION ENABLED":
+            return
+        bench.wait(0.005)
+    raise RuntimeError(f"the drive did not enable in STAB mode (state {d.state()})")
+
+
 def stabilisation(bench: Bench, duration_s: float = 5.0, settle_s: float = 1.0,
-                  progress: Optional[Progress] = None) -> Result:
+                  progress: Optional[Progress] = None, mode: str = "hold") -> Result:
     """Stabilisation precision: inertial pointing error while the base rocks.
 
-    The drive holds its position (CSP); the payload rate gyro (capture, 1 kHz)
-    is integrated to the inertial angle (bias and start angle removed by a
-    straight line); RMS and peak.  The virtual rig also records the true
-    inertial angle (reference instrument).
+    The payload rate gyro (capture, 1 kHz) is integrated to the inertial
+    angle (bias and start angle removed by a straight line); RMS and peak.
+    The virtual rig also records the true inertial angle (reference
+    instrument).
+
+    Parameters
+    ----------
+    bench : Bench
+        The drive and rig (set-up :func:`stab_setup`).
+    duration_s, settle_s : float
+        Analysed record and the time before it, s.
+    progress : Progress, optional
+        Progress indicator.
+    mode : {"hold", "stab", "auto"}
+        ``hold``: the drive holds its encoder position in CSP (the PID
+        baseline: the payload rocks with the base); ``stab``: the drive's gyro
+        stabilisation mode (STAB, CiA 402 manufacturer mode -1, commanded
+        inertial rate 0x60FF = 0, the drive's compensators); ``auto``: ``stab``
+        when the drive advertises mode -1 in 0x6502 (bit 16), else ``hold``.
+
+    Returns
+    -------
+    Result
+        Headline ``stabilisation_rms_arcsec``, ``stabilisation_peak_arcsec``;
+        ``conditions["drive_mode"]`` says which mode ran.
     """
+    if mode not in STAB_MODES:
+        raise ValueError(f"stabilisation mode '{mode}': expected one of {', '.join(STAB_MODES)}")
+    stab = mode == "stab" or (mode == "auto" and drive_has_stab(bench))
     decim = 10
     frames = int(round(duration_s / (decim * DT)))
     if frames * 2 > 8192:
         frames = 4096
         decim = int(math.ceil(duration_s / (frames * DT)))
     bench.rig.brake(False)
-    bench.enable("CYCLIC SYNCHRONOUS POSITION")
+    if stab:
+        enable_stab(bench)
+    else:
+        bench.enable("CYCLIC SYNCHRONOUS POSITION")
     bench.wait(settle_s)
     rec: dict[str, np.ndarray] = {}
     if bench.rig.virtual:
@@ -182,7 +247,8 @@ def stabilisation(bench: Bench, duration_s: float = 5.0, settle_s: float = 1.0,
     fault = bench.fault()
     bench.disable()
     if fault:
-        raise RuntimeError(f"the drive faulted during the stabilisation test (fault code {fault})")
+        raise RuntimeError(f"the drive faulted during the {'STAB ' if stab else ''}stabilisation test "
+                           f"(fault code {fault})")
     tick = cap["tick"].astype(float)
     t = (tick - tick[0]) * DT
     gyro = cap["gyro"].astype(float) / 2 ** 32 * TURN
@@ -192,7 +258,8 @@ def stabilisation(bench: Bench, duration_s: float = 5.0, settle_s: float = 1.0,
     base_rms = setup.base_amp_rad / math.sqrt(2) / mt.ARCSEC
     r = Result("stabilisation", conditions={"duration_s": duration_s, "sample_period_s": decim * DT,
                                             "base_amplitude_deg": math.degrees(setup.base_amp_rad),
-                                            "base_frequency_Hz": setup.base_freq_Hz, "setup": setup.name})
+                                            "base_frequency_Hz": setup.base_freq_Hz, "setup": setup.name,
+                                            "drive_mode": "STAB (CiA 402 mode -1)" if stab else "CSP hold"})
     r.figures = {"gyro_rms_arcsec": pe["rms_arcsec"], "gyro_peak_arcsec": pe["peak_arcsec"],
                  "base_rms_arcsec": base_rms,
                  "isolation_dB": 20 * math.log10(pe["rms_arcsec"] / base_rms) if base_rms > 0 else None}

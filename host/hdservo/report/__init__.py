@@ -245,6 +245,7 @@ def _test_doc_section(doc: Mapping[str, Any], base: Path, plots: Sequence[str], 
     """Every procedure of an ``hdservo-test`` document: headline, figures, conditions, notes, plots."""
     out = [f"<h2>{esc(title)}</h2>"]
     by_stem = {Path(p).stem: p for p in plots}
+    shown: set[str] = set()
     for name, r in doc.get("results", {}).items():
         out.append(f"<h3>{esc(title.split(':')[0])} &mdash; {esc(name)}</h3>")
         if r.get("headline"):
@@ -262,6 +263,11 @@ def _test_doc_section(doc: Mapping[str, Any], base: Path, plots: Sequence[str], 
         for stem, rel in sorted(by_stem.items()):
             if stem == name or stem.startswith(name + "_"):
                 out.append(imgs.figure(base / rel, f"{title.split(':')[0]}: {stem}", rel))
+                shown.add(stem)
+    rest = [s for s in sorted(by_stem) if s not in shown]
+    if rest:                                      # plots not named after a procedure: still every plot
+        out.append(f"<h3>{esc(title.split(':')[0])} &mdash; further plots</h3>")
+        out += [imgs.figure(base / by_stem[s], f"{title.split(':')[0]}: {s}", by_stem[s]) for s in rest]
     return "\n".join(out)
 
 
