@@ -193,7 +193,7 @@ HD_FX_INLINE int64_t hdf_abs64_sat(int64_t x)
 }
 HD_FX_INLINE int64_t hdf_asr64_floor(int64_t x, uint32_t s)
 {
-    return hdf__floor_shr((uint64_t)x, (uint64_t)0 - (uint64_t)(x < 0), (s > 63u) ? 63u : s);
+    return hdf__floor_shr((uint64_t)x, (x < 0) ? UINT64_MAX : (uint64_t)0, (s > 63u) ? 63u : s);
 }
 HD_FX_INLINE int64_t hdf_asr64_rnd(int64_t x, uint32_t s)
 {
@@ -206,7 +206,7 @@ HD_FX_INLINE int64_t hdf_asr64_rnd(int64_t x, uint32_t s)
     {
         /* y = x + 2^(s-1) - [x < 0]: exact as a bit pattern (x >= 0: y < 2^64 unsigned;
          * x < 0: y is in the int64 range); negative only if x is */
-        const uint64_t neg = (uint64_t)0 - (uint64_t)(x < 0);
+        const uint64_t neg = (x < 0) ? UINT64_MAX : (uint64_t)0;
         const uint64_t y = (uint64_t)x + ((uint64_t)1 << (s - 1u)) + neg;
         return hdf__floor_shr(y, (uint64_t)0 - ((y & neg) >> 63), s);
     }

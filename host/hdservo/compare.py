@@ -513,7 +513,7 @@ def best_measured(f: Figure, values: Mapping[str, Optional[float]]) -> Optional[
     if not have:
         return None
     top = have[(min if f.lower_is_better else max)(have, key=lambda c: have[c])]
-    return next(c for c, v in have.items() if f.verdict(v, top) in ("same", "better"))   # ties: the first listed
+    return next(c for c, v in have.items() if f.verdict(v, top, tol=1e-6) in ("same", "better"))   # ties: first listed
 
 
 def verdict(doc: Mapping[str, Any]) -> dict[str, Any]:

@@ -5,8 +5,11 @@ Reads build/bench/cm4_cost.json (written by 10_cm4_cost.sh: QEMU Cortex-M4
 instruction counts per kernel) and writes build/bench/isr_load.json.
 
 Worst-case control period = kernel ``isr_worst_case`` (tests/golden/gv_foc.c):
-hd_app_step with every compensator of the bank enabled (PTP mode) + 2 FOC
-periods (20 kHz PWM) + the output-encoder frame decode.  Added as allowances
+hd_app_step with every compensator of the bank enabled and set up as
+control_step_full (Preisach table installed, LuGre observer and TE gains on,
+weights fully on, encoders moving; PTP mode; backstepping on top of the PID is
+the more expensive of the two alternatives, isr_worst_case_pid the other)
++ 2 FOC periods (20 kHz PWM) + the output-encoder frame decode.  Added as allowances
 (they are register/peripheral work the emulated image cannot run):
   - interrupt entry/exit with FPU lazy stacking: 3 interrupts x 30 cycles
   - port register access in the ISRs (ADC reads, CCR writes, encoder count): 2 x 60 cycles
@@ -46,7 +49,8 @@ def main() -> int:
         print(f"{SRC.relative_to(ROOT)}: no kernel 'isr_worst_case'")
         return 1
     insn = k["isr_worst_case"]["instructions"]
-    parts = {n: k[n]["instructions"] for n in ("control_step_baseline", "foc_step", "ssi_decode", "enc_update")
+    parts = {n: k[n]["instructions"] for n in ("isr_worst_case_pid", "control_step_full", "control_step_baseline",
+                                               "foc_step", "ssi_decode", "enc_update")
              if n in k}
     cycles = insn * CPI + sum(ALLOW_CYCLES.values())
     budget = F_CPU_HZ / F_CTRL_HZ

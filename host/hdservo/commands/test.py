@@ -5,6 +5,18 @@ another axis file) and stopped afterwards; with ``-i/-c/-b`` (python-can
 settings) the procedures run on that drive and the rig steps are printed for
 the operator.  Every run prints a summary, ``--json PATH`` writes the figures,
 ``--plots DIR`` the PNG plots (``--pdf`` adds PDFs).
+
+``--model MODEL.toml`` downloads the compensator parameters and tables of an
+identified model (the code of ``hdservo download``: ``plan_download`` +
+``write_verified``, every item read back) into the drive before each
+procedure (the virtual drive is a new process per procedure and keeps no
+parameters), ``--params KEY=VALUE`` writes drive parameters by name after it,
+``--compensators`` sets ``cb_enable`` last, so that
+``serve -> identify -> download -> test`` is a plain CLI chain.
+``--stab-mode`` chooses how the stabilisation test drives the axis: ``hold``
+(CSP hold, the PID baseline; default), ``stab`` (the drive's gyro
+stabilisation mode, CiA 402 mode -1) or ``auto`` (``stab`` when 0x6502
+advertises mode -1).
 """
 from __future__ import annotations
 
@@ -45,7 +57,8 @@ PROCEDURES: dict[str, Proc] = {
                  lambda b, a, p: cl.min_rate(b, rates_deg_s=a.rates, bound=a.bound, windows=a.windows,
                                              settle_s=a.settle, progress=p)),
     "stabilisation": (lambda a: cl.stab_setup(a.base_amplitude_deg, a.base_frequency_hz), False,
-                      lambda b, a, p: cl.stabilisation(b, duration_s=a.duration, progress=p)),
+                      lambda b, a, p: cl.stabilisation(b, duration_s=a.duration, progress=p,
+                                                       mode=getattr(a, "stab_mode", "hold"))),
     "positioning": (lambda a: cl.AXIS_SETUP, False,
                     lambda b, a, p: cl.positioning(b, targets_deg=a.targets, runs=a.runs, progress=p)),
     "peak-torque": (lambda a: cl.AXIS_SETUP, False,
@@ -63,6 +76,18 @@ def _floats(text: str) -> list[float]:
     if not v or not all(math.isfinite(x) for x in v):
         raise argparse.ArgumentTypeError(f"expected comma-separated finite numbers, got '{text}'")
     return v
+
+
+def _param(text: str) -> tuple[str, float]:
+    """``KEY=VALUE`` of ``--params`` (a drive parameter name and a finite number)."""
+    key, sep, val = text.partition("=")
+    try:
+        v = float(val)
+    except ValueError:
+        v = float("nan")
+    if not sep or not key.strip() or not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE with a finite number, got '{text}'")
+    return key.strip(), v
 
 
 def _positive(text: str) -> float:
@@ -83,6 +108,12 @@ def register(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=1, help="virtual drive only: sensor-noise seed")
     p.add_argument("--compensators", default=None,
                    help="comma-separated compensators to enable (cb_enable), e.g. stribeck,lugre; '' = none")
+    p.add_argument("--model", type=Path, metavar="MODEL.toml",
+                   help="identified model (hdservo identify -o): download its compensator parameters and tables "
+                        "into the drive before each procedure, read back (keys it lacks from --axis)")
+    p.add_argument("--params", type=_param, action="append", default=[], metavar="KEY=VALUE",
+                   help="drive parameter by name, written (and read back) before each procedure after --model; "
+                        "repeatable, e.g. --params vel_kp=200 --params torque_limit=90")
     p.add_argument("--json", type=Path, help="write the results as JSON")
     p.add_argument("--plots", type=Path, help="write PNG plots into this directory")
     p.add_argument("--pdf", action="store_true", help="also write PDF plots")
@@ -99,11 +130,28 @@ def register(p: argparse.ArgumentParser) -> None:
     g.add_argument("--base-amplitude-deg", type=_positive, default=0.5, help="stabilisation base rocking, deg (0.5)")
     g.add_argument("--base-frequency-hz", type=_positive, default=1.0, help="stabilisation base rocking, Hz (1)")
     g.add_argument("--duration", type=_positive, default=5.0, help="stabilisation record, s (5)")
+    g.add_argument("--stab-mode", choices=list(cl.STAB_MODES), default="hold",
+                   help="stabilisation: 'hold' = CSP hold (PID baseline, default), 'stab' = the drive's gyro "
+                        "stabilisation mode (CiA 402 mode -1), 'auto' = stab when 0x6502 advertises mode -1")
     g.add_argument("--targets", type=_floats, default=None, help="positioning targets, deg (12 over -55..55)")
     g.add_argument("--runs", type=int, default=5, help="positioning bidirectional runs (5)")
     g.add_argument("--peak-request", type=_positive, default=None, help="peak-torque request, N.m (torque_limit)")
     g.add_argument("--amplitude-arcsec", type=_positive, default=1800.0,
                    help="bandwidth multisine peak, arcsec (1800 = 0.5 deg)")
+
+
+def _check_params(pairs: list[tuple[str, float]]) -> dict[str, float]:
+    """``--params`` pairs -> {name: value}; unknown names and out-of-range values are errors."""
+    from ..params_gen import BY_NAME as PARAMS
+    out: dict[str, float] = {}
+    for k, v in pairs:
+        p = PARAMS.get(k)
+        if p is None:
+            raise UserError(f"--params {k}: not a drive parameter (docs/parameters.md)")
+        if not p.min <= v <= p.max:
+            raise UserError(f"--params {k}={v:g}: outside [{p.min:g}, {p.max:g}] {p.unit}")
+        out[k] = v
+    return out
 
 
 def _check_out(path: Path | None, what: str) -> None:
@@ -129,9 +177,19 @@ def run(args: argparse.Namespace) -> int:
     _check_out(args.plots, "plots")
     comps = None if args.compensators is None else [c.strip() for c in args.compensators.split(",") if c.strip()]
     kw = bus_kwargs(args)
-    target = Target(bus=kw or None, node_id=args.node_id, axis=args.axis, seed=args.seed, compensators=comps)
-    if target.virtual and args.axis not in ("reference", "minimal") and not Path(args.axis).is_file():
+    if args.axis not in ("reference", "minimal") and not Path(args.axis).is_file() and (not kw or args.model):
         raise UserError(f"--axis {args.axis}: no such file")
+    params = _check_params(getattr(args, "params", []) or [])
+    plan = None
+    model = getattr(args, "model", None)
+    if model is not None:
+        if not model.is_file():
+            raise UserError(f"--model {model}: no such file")
+        from .download import plan_download
+        plan = dict(plan_download(model, args.axis))
+        plan["model_file"] = model.name
+    target = Target(bus=kw or None, node_id=args.node_id, axis=args.axis, seed=args.seed, compensators=comps,
+                    download=plan, params=params)
     names = sorted(PROCEDURES) if args.procedure == "all" else [args.procedure]
     results: list[Result] = []
     for name in names:
@@ -147,7 +205,8 @@ def run(args: argparse.Namespace) -> int:
         print(res.summary())
     meta: dict[str, Any] = {"target": "virtual drive (hdservo-sim serve)" if target.virtual else f"drive {kw}",
                             "axis": args.axis if target.virtual else None, "seed": args.seed if target.virtual else None,
-                            "compensators": comps, "notes": target.notes}
+                            "compensators": comps, "model": str(model) if model is not None else None,
+                            "params": params or None, "notes": target.notes}
     if args.plots is not None:
         for res in results:
             if res.plot is not None:

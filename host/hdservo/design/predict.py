@@ -23,9 +23,15 @@ stabilisation             base rocking; (a) the drive holds its position, (b) th
                           angle; also the RMS of the integrated payload gyro, line removed
                           (``inertial_angle_from_gyro``: the procedure's headline)
 peak torque               torque mode, output locked (load inertia 2e4 kg m^2), request 1.5 x
-                          the drive's torque limit; delivered = gear torque from the twist
-bandwidth                 60 arcsec multisine (1-60 Hz, 1 Hz lines) on the position reference;
-                          -3 dB of theta_L/theta_ref (``bandwidth_3db``)
+                          the drive's torque limit (the procedure's saturated last step);
+                          delivered = mean |transmitted gear torque| over 0.5-0.9 of the 0.2 s
+                          hold (the plant replayed open loop with the drive's torque command:
+                          the virtual rig's load cell, hysteresis torque included)
+bandwidth                 the procedure itself (``closedloop.bandwidth``: Schroeder multisine
+                          ``metrics.schroeder_multisine``, 17 log-spaced lines 1-80 Hz, 60 arcsec
+                          peak, 1 kHz set-points, output encoder over the drive's reference) on
+                          the simulator served as a virtual drive with the controller's
+                          parameters; -3 dB (``bandwidth_3db``)
 ========================  ===================================================================
 
 Angles in the figures are in arcsec unless the key says otherwise.
@@ -317,8 +323,19 @@ def three_slope_torque(phi: np.ndarray, k1: float, k2: float, k3: float, t1: flo
 
 
 def peak_torque(axis: str, ctl: Mapping[str, Any], torque_limit_Nm: float, *,
-                hold_s: float = 0.2) -> Dict[str, Any]:
-    """Peak output torque against a locked output.
+                hold_s: float = 0.2, overdrive: Optional[float] = None) -> Dict[str, Any]:
+    """Peak output torque against a locked output (the procedure's definition).
+
+    Definition (shared with :func:`hdservo.procedures.closedloop.peak_torque`):
+    the output torque delivered with the drive's ``torque_limit`` in force,
+    requesting ``overdrive`` (1.5) x the limit; mean |output torque| over
+    ``PEAK_WINDOW`` (0.5 .. 0.9) of the ``hold_s`` step.  The output torque is
+    the plant's transmitted gear torque (spring + hysteresis elements: what
+    the virtual rig's load cell records): the closed-loop run's torque
+    command is replayed through the plant alone (:func:`hdservo.sim.simulate_open_loop`;
+    in torque mode the command does not depend on the sensors, so the replay
+    is the same trajectory).  The procedure steps up to the limit first; the
+    output is locked, so only the saturated step is simulated.
 
     Parameters
     ----------
@@ -327,44 +344,126 @@ def peak_torque(axis: str, ctl: Mapping[str, Any], torque_limit_Nm: float, *,
     ctl : mapping
         Controller table (torque mode is used; its ``torque_limit`` applies).
     torque_limit_Nm : float
-        The drive's torque limit; 1.5 x this is requested.
+        The drive's torque limit.
     hold_s : float
-        Hold time, s (the last 40 % is averaged).
+        Hold time of the step, s.
+    overdrive : float, optional
+        Request / torque limit (default :data:`closedloop.PEAK_OVERDRIVE` = 1.5).
 
     Returns
     -------
     dict
-        ``peak_torque_Nm`` (gear torque from the twist), ``drive_torque_Nm``
-        (N Kt i), ``requested_Nm``.
+        ``peak_torque_Nm`` (transmitted gear torque), ``spring_torque_Nm`` (three-slope
+        spring torque of the twist alone: the figure before the definitions were aligned),
+        ``drive_torque_Nm`` (N Kt i), ``requested_Nm``, ``window``, ``fault_code``.
     """
-    req = 1.5 * torque_limit_Nm
+    from ..procedures import closedloop as cl
+    req = (cl.PEAK_OVERDRIVE if overdrive is None else float(overdrive)) * torque_limit_Nm
     plant = {"load.jl_kgm2": 2e4, "base.enabled": False, "gravity.enabled": False}
-    r = run(axis, _mode(ctl, "torque"), {"type": "step", "initial_Nm": 0.0, "amplitude_Nm": req, "t0_s": 0.01},
-            0.01 + hold_s, decimation=10, plant=plant)
+    t0 = 0.01
+    r = run(axis, _mode(ctl, "torque"), {"type": "step", "initial_Nm": 0.0, "amplitude_Nm": req, "t0_s": t0},
+            t0 + hold_s, decimation=1, plant=plant)
     t = np.asarray(r["t_s"])
-    m = t >= t[-1] - 0.4 * hold_s
+    w0, w1 = cl.PEAK_WINDOW
+    m = (t >= t0 + w0 * hold_s) & (t < t0 + w1 * hold_s)
     g = {k: sim.axis_param(f"stiffness.{k}", axis) for k in ("k1_Nm_per_rad", "k2_Nm_per_rad", "k3_Nm_per_rad",
                                                              "t1_Nm", "t2_Nm")}
     phi = np.asarray(r["torsion_rad"])[m]
-    tg = three_slope_torque(phi, g["k1_Nm_per_rad"], g["k2_Nm_per_rad"], g["k3_Nm_per_rad"], g["t1_Nm"], g["t2_Nm"])
+    spring = three_slope_torque(phi, g["k1_Nm_per_rad"], g["k2_Nm_per_rad"], g["k3_Nm_per_rad"], g["t1_Nm"],
+                                g["t2_Nm"])
+    ax = axis if axis in ("reference", "minimal") else str(Path(axis).resolve())
+    ol = sim.simulate_open_loop(np.asarray(r["torque_cmd_Nm"]), params=plant, axis=ax, dt_s=float(t[1] - t[0]))
+    tr = np.abs(np.asarray(ol["transmitted_torque_Nm"]))[m]
     n = sim.axis_param("gear.ratio", axis)
-    return {"peak_torque_Nm": float(np.mean(np.abs(tg))),
+    return {"peak_torque_Nm": float(np.mean(tr)), "spring_torque_Nm": float(np.mean(np.abs(spring))),
             "drive_torque_Nm": float(n * np.mean(np.abs(np.asarray(r["motor_torque_Nm"])[m]))),
-            "requested_Nm": req, "fault_code": int(np.max(r["fault_code"]))}
+            "requested_Nm": req, "window": [w0 * hold_s, w1 * hold_s], "fault_code": int(np.max(r["fault_code"]))}
 
 
 # ------------------------------------------------------------------ bandwidth
 
+def configure_drive(drive: Any, ctl: Mapping[str, Any]) -> Dict[str, Any]:
+    """Write a controller table into a drive (power stage off): its gains by name, then ``cb_enable``.
+
+    Gains that are not drive parameters are skipped (listed in ``skipped``).
+    Returns ``{"params": count, "skipped": [...], "cb_enable": mask}``.
+    """
+    from ..compsetup import enable_mask
+    from ..params_gen import BY_NAME as PARAMS
+    done, skipped = 0, []
+    for k, v in dict(ctl.get("gains", {})).items():
+        if k in PARAMS:
+            drive.set_param(k, float(v))
+            done += 1
+        else:
+            skipped.append(k)
+    mask = enable_mask(list(ctl.get("compensators", [])))
+    drive.set_param("cb_enable", float(mask))
+    return {"params": done, "skipped": skipped, "cb_enable": mask}
+
+
 def bandwidth(axis: str, ctl: Mapping[str, Any], *, amplitude_arcsec: float = 60.0, f0_Hz: float = 1.0,
-              f1_Hz: float = 60.0, periods: int = 2) -> Dict[str, Any]:
-    """Closed-loop position bandwidth from a multisine (1 Hz line spacing).
+              f1_Hz: float = 60.0, periods: int = 2, excitation: str = "procedure", seed: int = 1,
+              lines: Optional[Sequence[int]] = None) -> Dict[str, Any]:
+    """Closed-loop position bandwidth (-3 dB of theta_L / theta_ref).
+
+    Parameters
+    ----------
+    axis : str
+        Axis TOML path.
+    ctl : mapping
+        Controller table (``gains`` by drive-parameter name, ``compensators``).
+    amplitude_arcsec : float
+        Multisine peak (``procedure``) or per-scenario amplitude (``scenario``), arcsec.
+    f0_Hz, f1_Hz : float
+        ``scenario`` only: band of the simulator's evenly spaced multisine (1 Hz lines).
+    periods : int
+        Excitation periods (the last one is analysed).
+    excitation : {"procedure", "scenario"}
+        ``procedure`` (default): the bandwidth test procedure itself
+        (:func:`hdservo.procedures.closedloop.bandwidth`: Schroeder multisine of
+        ``closedloop.bandwidth_lines`` = 17 log-spaced lines 1-80 Hz, peak
+        ``amplitude_arcsec``, 1 kHz set-points streamed in lock-step, output encoder
+        over the drive's own reference) on the simulator served as a virtual drive
+        (``hdservo-sim serve``, same firmware and plant) configured with ``ctl``
+        (:func:`configure_drive`): the same definition as the measurement.  The
+        in-process scenario runner has no arbitrary-waveform set-point, hence the
+        served simulator.  ``scenario``: the older in-process run (the simulator's
+        multisine, 1 Hz lines ``f0_Hz``..``f1_Hz``, true output angle).
+    seed : int
+        Sensor-noise seed (``procedure``).
+    lines : sequence of int, optional
+        ``procedure`` only: DFT lines (default ``closedloop.bandwidth_lines()``).
 
     Returns
     -------
     dict
-        ``bandwidth_Hz`` (-3 dB; None if not reached below ``f1_Hz``), ``f_Hz``,
-        ``magnitude_dB``, ``phase_deg``.
+        ``bandwidth_Hz`` (-3 dB; None if not reached), ``f_Hz``, ``magnitude_dB``,
+        ``phase_deg``, ``fault_code``, ``excitation`` (description).
     """
+    if excitation == "scenario":
+        return _bandwidth_scenario(axis, ctl, amplitude_arcsec=amplitude_arcsec, f0_Hz=f0_Hz, f1_Hz=f1_Hz,
+                                   periods=periods)
+    if excitation != "procedure":
+        raise ValueError(f"bandwidth excitation '{excitation}': expected 'procedure' or 'scenario'")
+    from ..procedures import closedloop as cl
+    from ..procedures.runner import Target, open_bench
+    ax = axis if axis in ("reference", "minimal") else str(Path(axis).resolve())
+    with open_bench(Target(axis=ax, seed=seed), cl.AXIS_SETUP, lockstep=True) as bench:
+        cfg = configure_drive(bench.drive, ctl)
+        res = cl.bandwidth(bench, amplitude_arcsec=amplitude_arcsec, lines=lines, periods=max(1, int(periods)))
+    fig = res.figures
+    return {"bandwidth_Hz": res.headline["bandwidth_hz"], "f_Hz": list(fig["f_Hz"]),
+            "magnitude_dB": list(fig["magnitude_dB"]), "phase_deg": list(fig["phase_deg"]), "fault_code": 0,
+            "excitation": {"kind": "procedure", "signal": "metrics.schroeder_multisine",
+                           "lines": len(fig["f_Hz"]), "amplitude_arcsec": amplitude_arcsec,
+                           "setpoint_rate_Hz": res.conditions["setpoint_rate_Hz"], "periods": periods,
+                           "configured_params": cfg["params"], "cb_enable": cfg["cb_enable"]}}
+
+
+def _bandwidth_scenario(axis: str, ctl: Mapping[str, Any], *, amplitude_arcsec: float = 60.0, f0_Hz: float = 1.0,
+                        f1_Hz: float = 60.0, periods: int = 2) -> Dict[str, Any]:
+    """The in-process multisine bandwidth (1 Hz lines, true output angle): ``excitation="scenario"``."""
     n = int(round(f1_Hz - f0_Hz)) + 1
     t0 = 0.1
     period = 1.0 / ((f1_Hz - f0_Hz) / (n - 1))
@@ -387,8 +486,10 @@ def bandwidth(axis: str, ctl: Mapping[str, Any], *, amplitude_arcsec: float = 60
     fl = f[lines]
     bw = mt.bandwidth_3db(fl, h)
     return {"bandwidth_Hz": bw, "f_Hz": fl.tolist(), "magnitude_dB": (20 * np.log10(np.abs(h))).tolist(),
-            "phase_deg": np.degrees(np.unwrap(np.angle(h))).tolist(), "fault_code": int(np.max(r["fault_code"]))}
+            "phase_deg": np.degrees(np.unwrap(np.angle(h))).tolist(), "fault_code": int(np.max(r["fault_code"])),
+            "excitation": {"kind": "scenario", "lines": n, "f0_Hz": f0_Hz, "f1_Hz": f1_Hz,
+                           "amplitude_arcsec": amplitude_arcsec, "periods": periods}}
 
 
-__all__ = ["bandwidth", "gyro_noise_arcsec_rms", "min_smooth_rate", "peak_torque", "positioning", "run",
+__all__ = ["bandwidth", "configure_drive", "gyro_noise_arcsec_rms", "min_smooth_rate", "peak_torque", "positioning", "run",
            "shifted_plant", "stabilisation", "three_slope_torque"]

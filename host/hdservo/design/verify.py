@@ -87,6 +87,10 @@ class Plan:
     bw_amplitude_arcsec: float = 60.0
     seed: int = 1
     notes: list[str] = field(default_factory=list)
+    #: predicted figures recomputed with the current :mod:`hdservo.design.predict` before comparing
+    #: (``bandwidth``, ``peak_torque``: their definitions were aligned with the procedures after
+    #: the flow's JSON was written); () = compare with the JSON as it is
+    repredict: Sequence[str] = ("bandwidth", "peak_torque")
 
 
 def _say(msg: str) -> None:
@@ -148,60 +152,17 @@ def configure(bench: Bench, gains: Mapping[str, float], plan: Mapping[str, Any],
 # ------------------------------------------------------------------ STAB-mode stabilisation
 
 def _enable_stab(bench: Bench) -> None:
-    d = bench.drive
-    if d.state() == "FAULT":
-        d.fault_reset()
-    d.write(0x6060, 0, STAB_MODE)
-    for cw in (0x06, 0x07, 0x0F):
-        d.write(0x6040, 0, cw)
-        bench.wait(0.002)
-    for _ in range(200):
-        if d.state() == "OPERATION ENABLED":
-            return
-        bench.wait(0.005)
-    raise RuntimeError(f"the drive did not enable in STAB mode (state {d.state()})")
+    cl.enable_stab(bench)
 
 
 def stabilisation_stab(bench: Bench, duration_s: float = 5.0, settle_s: float = 1.0) -> Result:
     """The ``stabilisation`` procedure with the drive in its gyro stabilisation mode.
 
-    Identical to :func:`hdservo.procedures.closedloop.stabilisation` (payload
-    gyro captured at 1 kHz, integrated, line removed; rig true inertial angle)
-    except that the drive runs STAB (CiA 402 mode -1, commanded inertial rate
-    0x60FF = 0) instead of holding its encoder position in CSP.
+    Now :func:`hdservo.procedures.closedloop.stabilisation` with ``mode="stab"``
+    (``hdservo test stabilisation --stab-mode stab``): STAB (CiA 402 mode -1,
+    commanded inertial rate 0x60FF = 0) instead of the CSP hold.
     """
-    decim = 10
-    frames = int(round(duration_s / (decim * DT)))
-    if frames * 2 > 8192:
-        frames = 4096
-        decim = int(math.ceil(duration_s / (frames * DT)))
-    bench.rig.brake(False)
-    bench.drive.write(0x60FF, 0, 0)
-    _enable_stab(bench)
-    bench.wait(settle_s)
-    with bench.rig.record(decim) as rec:
-        cap = bench.capture(["tick", "gyro"], frames, decim)
-    fault = bench.fault()
-    bench.disable()
-    if fault:
-        raise RuntimeError(f"the drive faulted during the STAB stabilisation test (fault code {fault})")
-    tick = cap["tick"].astype(float)
-    t = (tick - tick[0]) * DT
-    ang = mt.inertial_angle_from_gyro(t, cap["gyro"].astype(float) / 2 ** 32 * TURN)
-    pe = mt.pointing_error(ang)
-    ti = np.interp(tick, rec["tick"], rec["inertial_angle_rad"])
-    ti = ti - np.polyval(np.polyfit(t, ti, 1), t)
-    tp = mt.pointing_error(ti)
-    setup = bench.rig.setup
-    r = Result("stabilisation", conditions={"duration_s": duration_s, "sample_period_s": decim * DT,
-                                            "base_amplitude_deg": math.degrees(setup.base_amp_rad),
-                                            "base_frequency_Hz": setup.base_freq_Hz, "setup": setup.name,
-                                            "drive_mode": "STAB (CiA 402 mode -1)"})
-    r.figures = {"gyro_rms_arcsec": pe["rms_arcsec"], "gyro_peak_arcsec": pe["peak_arcsec"],
-                 "true_rms_arcsec": tp["rms_arcsec"], "true_peak_arcsec": tp["peak_arcsec"],
-                 "base_rms_arcsec": setup.base_amp_rad / math.sqrt(2) / mt.ARCSEC}
-    r.headline = {"stabilisation_rms_arcsec": pe["rms_arcsec"], "stabilisation_peak_arcsec": pe["peak_arcsec"]}
-    return r
+    return cl.stabilisation(bench, duration_s=duration_s, settle_s=settle_s, mode="stab")
 
 
 # ------------------------------------------------------------------ step 3
@@ -250,6 +211,31 @@ def measure(plan: Plan, flow: Mapping[str, Any], dl_plan: Mapping[str, Any],
 
 # ------------------------------------------------------------------ step 4
 
+def repredict(flow: dict[str, Any], axis: Path, figures: Sequence[str],
+              progress: Callable[[str], None] = _say) -> dict[str, Any]:
+    """Recompute predicted figures of the chosen candidate in place (``flow["chosen"]["figures"]``).
+
+    ``figures``: ``bandwidth`` (:func:`predict.bandwidth`, the procedure's excitation) and/or
+    ``peak_torque`` (:func:`predict.peak_torque`, the procedure's definition).  Returns the old
+    values ``{figure: headline}`` for the record.
+    """
+    from . import predict as pr
+    ctl = flow["chosen"]["controller"]
+    f = flow["chosen"]["figures"]
+    old: dict[str, Any] = {}
+    for name in figures:
+        progress(f"re-predict {name} for the chosen axis")
+        if name == "bandwidth":
+            old[name] = f.get("bandwidth", {}).get("bandwidth_Hz")
+            f["bandwidth"] = pr.bandwidth(str(axis), ctl)
+        elif name == "peak_torque":
+            old[name] = f.get("peak_torque", {}).get("peak_torque_Nm")
+            f["peak_torque"] = pr.peak_torque(str(axis), ctl, float(ctl["gains"]["torque_limit"]))
+        else:
+            raise ValueError(f"repredict: unknown figure '{name}'")
+    return old
+
+
 def _rung_stability(ladder: Sequence[Mapping[str, Any]], rate: Optional[float]) -> Optional[float]:
     for r in ladder:
         if rate is not None and abs(r["rate_deg_s"] - rate) <= 1e-12 * max(1.0, rate):
@@ -292,10 +278,14 @@ def compare(flow: Mapping[str, Any], measured: Mapping[str, Mapping[str, Any]], 
             "same, payload gyro integrated (the procedure's headline)")
     if "peak-torque" in measured:
         row("peak output torque", "N.m", f["peak_torque"]["peak_torque_Nm"],
-            measured["peak-torque"]["headline"]["peak_torque_Nm"], "locked output, gear torque, drive torque_limit")
+            measured["peak-torque"]["headline"]["peak_torque_Nm"],
+            "locked output, drive torque_limit in force, 1.5 x limit requested; mean |gear torque| 0.5-0.9 of "
+            "the 0.2 s hold (load cell / transmitted torque)")
     if "bandwidth" in measured:
         row("position bandwidth (-3 dB)", "Hz", f["bandwidth"]["bandwidth_Hz"],
-            measured["bandwidth"]["headline"]["bandwidth_hz"], "60 arcsec multisine on the position reference")
+            measured["bandwidth"]["headline"]["bandwidth_hz"],
+            "60 arcsec peak Schroeder multisine, 17 log-spaced lines 1-80 Hz on the CSP target; output encoder "
+            "over the drive's reference; -3 dB re the lowest line")
     return rows
 
 
@@ -319,6 +309,10 @@ def markdown(result: Mapping[str, Any]) -> str:
         lines.append(f"| {r['figure']} [{r['unit']}] | {fmt(r['predicted'])} | {fmt(r['measured'])} | {err} | {ok} | "
                      f"{r['definition']} |")
     lines += ["", f"Judged figures: {result['passed']} of {result['judged']} pass.", ""]
+    if result.get("repredicted"):
+        lines += ["Re-predicted with the current `hdservo.design.predict` (definitions aligned with the "
+                  "procedures; design.json value -> now): " + ", ".join(
+                      f"{k} {fmt(v['design_json'])} -> {fmt(v['now'])}" for k, v in result["repredicted"].items()), ""]
     if result.get("notes"):
         lines += ["Notes:", ""] + [f"* {n}" for n in result["notes"]] + [""]
     lines += ["Wall time per step (s): " + ", ".join(f"{k} {v}" for k, v in result["wall_s"].items()), ""]
@@ -331,6 +325,12 @@ def verify(plan: Plan, progress: Callable[[str], None] = _say) -> dict[str, Any]
     ctl = flow["chosen"]["controller"]
     plan.out.mkdir(parents=True, exist_ok=True)
     wall: dict[str, float] = {}
+    repredicted: dict[str, Any] = {}
+    want = [x for x in plan.repredict if {"bandwidth": "bandwidth", "peak_torque": "peak-torque"}[x] in plan.procedures]
+    if want:
+        t0 = time.monotonic()
+        repredicted = repredict(flow, plan.axis, want, progress)
+        wall["repredict"] = round(time.monotonic() - t0, 1)
     model = plan.out / "model.toml"
     t0 = time.monotonic()
     progress(f"identify {plan.identify_target} over CAN (virtual drive, axis {plan.axis.name})")
@@ -348,10 +348,17 @@ def verify(plan: Plan, progress: Callable[[str], None] = _say) -> dict[str, Any]
         "identify_notes": ident.get("notes", []), "download_notes": dlp["notes"],
         "compensators": list(ctl.get("compensators", [])), "tolerance": plan.tolerance, "seed": plan.seed,
         "rows": rows, "judged": len(judged), "passed": sum(1 for r in judged if r["pass"]),
-        "measured": measured, "notes": list(plan.notes), "wall_s": wall}
+        "measured": measured, "notes": list(plan.notes), "wall_s": wall,
+        "repredicted": {k: {"design_json": v, "now": rows_pred(rows, k)} for k, v in repredicted.items()}}
     (plan.out / "verify.json").write_text(json.dumps(result, indent=1, default=_jsonable) + "\n")
     (plan.out / "verify.md").write_text(markdown(result))
     return result
+
+
+def rows_pred(rows: Sequence[Mapping[str, Any]], figure: str) -> Optional[float]:
+    """The predicted value of a re-predicted figure in the comparison rows."""
+    key = {"bandwidth": "position bandwidth (-3 dB)", "peak_torque": "peak output torque"}[figure]
+    return next((r["predicted"] for r in rows if r["figure"] == key), None)
 
 
 def _jsonable(x: Any) -> Any:
@@ -363,4 +370,4 @@ def _jsonable(x: Any) -> Any:
 
 
 __all__ = ["GAIN_KEYS", "Plan", "compare", "configure", "download_plan", "identify", "markdown", "measure",
-           "stabilisation_stab", "verify"]
+           "repredict", "stabilisation_stab", "verify"]

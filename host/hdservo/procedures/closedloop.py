@@ -376,54 +376,94 @@ def positioning(bench: Bench, targets_deg: Optional[Sequence[float]] = None, run
 
 # ---- peak output torque ------------------------------------------------------------------------
 
-def peak_torque(bench: Bench, request_Nm: Optional[float] = None, steps: int = 6, hold_s: float = 0.2,
-                progress: Optional[Progress] = None) -> Result:
-    """Peak output torque: locked-output stall with torque steps up to ``request_Nm``.
+#: peak torque: request of the saturated last step, x the drive's torque_limit (default definition)
+PEAK_OVERDRIVE = 1.5
+#: peak torque: averaging window within each step, fractions of the hold time (the prediction uses it too)
+PEAK_WINDOW = (0.5, 0.9)
 
-    Default request: the drive's ``torque_limit``.  The delivered torque is
-    the load cell on the locked output (virtual rig: the gear's transmitted
-    torque) or, on a real bench, N Kt i from the drive's current sensor
-    (motor friction included).  Each step is held ``hold_s`` (shorter than
-    the drive's saturation-time fault).
+
+def peak_torque(bench: Bench, request_Nm: Optional[float] = None, steps: int = 6, hold_s: float = 0.2,
+                progress: Optional[Progress] = None, overdrive: float = PEAK_OVERDRIVE) -> Result:
+    """Peak output torque: locked-output stall with a staircase of torque steps.
+
+    Definition (shared with :func:`hdservo.design.predict.peak_torque`, docs/procedures.md):
+    the output torque the axis delivers into a locked output **with the
+    drive's own ``torque_limit`` in force**: CST steps at ``k/steps`` x
+    torque_limit (k = 1 .. steps-1), then a last step requesting ``overdrive``
+    x torque_limit (the drive saturates at its limit); each step is held
+    ``hold_s`` (shorter than the saturation-time fault ``torque_sat_time``)
+    and the delivered torque is the mean |output torque| over
+    ``PEAK_WINDOW`` = 0.5 .. 0.9 of the hold.  The headline is the delivered
+    torque of the saturated last step.  The saturation-time fault is widened
+    to 5 s for the test (the capture upload adds drive time to the saturated
+    step in fast pacing) and the command is zeroed right after that capture.  Output torque = the load cell on the
+    locked output (virtual rig: the gear's transmitted torque) or, on a real
+    bench, N Kt i from the drive's current sensor (motor friction included).
+
+    With an explicit ``request_Nm`` the older test runs instead: steps up to
+    the request with ``torque_limit`` raised to 1.1 x the request for the
+    test (what the axis delivers when asked for that torque); the headline is
+    then the largest delivered step.
     """
     rated = bench.rated_torque_Nm()
-    req = float(bench.drive.get_param("torque_limit")) if request_Nm is None else request_Nm
+    limit = float(bench.drive.get_param("torque_limit"))
+    if request_Nm is None:
+        definition = "limit"
+        req = overdrive * limit
+        levels = np.append(np.linspace(limit / steps, limit, steps)[:-1], req)
+        # the saturated step lasts hold_s of drive time plus the capture upload (drive time runs on in fast
+        # pacing): the saturation-time fault is widened to 5 s for the test, the command zeroed right after
+        params: dict[str, float] = {"torque_sat_time": max(float(bench.drive.get_param("torque_sat_time")), 50000.0)}
+    else:
+        definition = "request"
+        req = float(request_Nm)
+        levels = np.linspace(req / steps, req, steps)
+        params = {"torque_limit": max(1.1 * req, 1.0)}
     bench.rig.brake(True)
-    levels = np.linspace(req / steps, req, steps)
     delivered = []
     from_current = []
-    with bench.params({"torque_limit": max(1.1 * req, 1.0)}):
+    w0, w1 = PEAK_WINDOW
+    with bench.params(params):
         bench.enable("CYCLIC SYNCHRONOUS TORQUE")
         for k, lev in enumerate(levels):
             bench.drive.write(0x6071, 0, int(round(lev / rated * 1000)))
-            bench.wait(hold_s * 0.5)
-            frames = max(4, int(hold_s * 0.4 / (10 * DT)))
+            bench.wait(hold_s * w0)
+            frames = max(4, int(hold_s * (w1 - w0) / (10 * DT)))
             if bench.rig.virtual:
                 with bench.rig.record(10) as rec:
                     cap = bench.capture(["current"], frames, 10)
                 delivered.append(float(np.mean(np.abs(rec["gear_torque_Nm"]))))
             else:
                 cap = bench.capture(["current"], frames, 10)
+            if k + 1 == len(levels):
+                bench.drive.write(0x6071, 0, 0)          # leave the saturated (last) step at once
             i = float(np.mean(np.abs(cap["current"]))) / 2 ** 16
             from_current.append(i * bench.kt * bench.ratio)
             if not bench.rig.virtual:
                 delivered.append(from_current[-1])
             if progress:
-                progress((k + 1) / steps, f"{lev:.3g} N.m commanded: {delivered[-1]:.3g} N.m delivered")
+                progress((k + 1) / len(levels), f"{lev:.3g} N.m commanded: {delivered[-1]:.3g} N.m delivered")
             if bench.fault():
                 break
+            if k + 1 < len(levels):
+                bench.wait(hold_s * (1.0 - w1))
         bench.drive.write(0x6071, 0, 0)
         bench.wait(0.1)
         fault = bench.fault()
         bench.disable()
     bench.rig.brake(False)
-    r = Result("peak-torque", conditions={"request_Nm": req, "steps": steps, "hold_s": hold_s,
+    n = len(delivered)
+    if definition == "limit" and n == len(levels) and not fault:
+        peak = float(delivered[-1])
+    else:
+        peak = float(max(delivered)) if delivered else None
+    r = Result("peak-torque", conditions={"request_Nm": req, "torque_limit_Nm": limit, "steps": len(levels),
+                                          "hold_s": hold_s, "window": list(PEAK_WINDOW), "definition": definition,
                                           "measured_by": "load cell (rig)" if bench.rig.virtual else "N Kt i",
                                           "setup": "axis, output locked"})
-    n = len(delivered)
     r.figures = {"commanded_Nm": levels[:n].tolist(), "delivered_Nm": delivered,
                  "from_current_Nm": from_current, "fault_code": fault}
-    r.headline = {"peak_torque_Nm": float(max(delivered)) if delivered else None}
+    r.headline = {"peak_torque_Nm": peak}
     r.series = {"cmd": levels[:n], "delivered": np.array(delivered), "current": np.array(from_current)}
 
     def plot(res: Result, d: Path, fmt: str) -> list[Path]:
@@ -444,6 +484,34 @@ def peak_torque(bench: Bench, request_Nm: Optional[float] = None, steps: int = 6
 
 # ---- closed-loop bandwidth ----------------------------------------------------------------------
 
+#: bandwidth multisine: set-points per period, lines, lowest line index, highest line frequency
+BW_PERIOD_SAMPLES = 2048
+BW_LINES = 18
+BW_FIRST_LINE = 2
+BW_F_HI_HZ = 80.0
+
+
+def bandwidth_lines(period_samples: int = BW_PERIOD_SAMPLES, setpoint_rate_Hz: float = 1000.0,
+                    count: int = BW_LINES, f_hi_Hz: float = BW_F_HI_HZ) -> list[int]:
+    """DFT lines of the bandwidth multisine: ``count`` log-spaced from line 2 to ``f_hi_Hz`` (deduplicated).
+
+    With the defaults (2048 set-points at 1 kHz: 0.488 Hz spacing) 18 lines 0.98 .. 79.6 Hz.
+    """
+    return sorted(set(int(round(x)) for x in np.geomspace(BW_FIRST_LINE, period_samples * f_hi_Hz / setpoint_rate_Hz,
+                                                          count)))
+
+
+def bandwidth_signal(amplitude_arcsec: float, period_samples: int = BW_PERIOD_SAMPLES,
+                     lines: Optional[Sequence[int]] = None, setpoint_rate_Hz: float = 1000.0) -> np.ndarray:
+    """One period of the bandwidth excitation, rad: Schroeder multisine of peak ``amplitude_arcsec``.
+
+    :func:`bandwidth` streams it (one set-point per SYNC); the design
+    prediction (:func:`hdservo.design.predict.bandwidth`) uses the same signal.
+    """
+    ln = bandwidth_lines(period_samples, setpoint_rate_Hz) if lines is None else list(lines)
+    return mt.schroeder_multisine(period_samples, ln) * amplitude_arcsec * mt.ARCSEC
+
+
 def bandwidth(bench: Bench, amplitude_arcsec: float = 60.0, period_samples: int = 2048,
               lines: Optional[Sequence[int]] = None, periods: int = 2,
               progress: Optional[Progress] = None) -> Result:
@@ -458,8 +526,8 @@ def bandwidth(bench: Bench, amplitude_arcsec: float = 60.0, period_samples: int 
     k = bench.sync_periods
     fs_sp = 1.0 / (k * DT)
     if lines is None:
-        lines = sorted(set(int(round(x)) for x in np.geomspace(2, period_samples * 80.0 / fs_sp, 18)))
-    sig = mt.schroeder_multisine(period_samples, lines) * amplitude_arcsec * mt.ARCSEC
+        lines = bandwidth_lines(period_samples, fs_sp)
+    sig = bandwidth_signal(amplitude_arcsec, period_samples, lines, fs_sp)
     decim = k // 2 if k % 2 == 0 and k >= 2 else k
     frames = period_samples * k // decim
     if frames * 2 > 8192:
@@ -507,5 +575,6 @@ def bandwidth(bench: Bench, amplitude_arcsec: float = 60.0, period_samples: int 
     return r
 
 
-__all__ = ["AXIS_SETUP", "bandwidth", "min_rate", "peak_torque", "positioning", "pp_move", "stab_setup",
-           "stabilisation"]
+__all__ = ["AXIS_SETUP", "PEAK_OVERDRIVE", "PEAK_WINDOW", "STAB_MODE", "STAB_MODES", "bandwidth", "bandwidth_lines",
+           "bandwidth_signal", "drive_has_stab", "enable_stab", "min_rate", "peak_torque", "positioning", "pp_move",
+           "stab_setup", "stabilisation"]

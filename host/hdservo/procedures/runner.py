@@ -536,6 +536,11 @@ class Target:
     plant: dict[str, float] = field(default_factory=dict)   #: virtual only: extra plant overrides
     interactive: Optional[bool] = None
     notes: list[str] = field(default_factory=list)
+    #: compensator download (:func:`hdservo.commands.download.plan_download`), written and read back
+    #: into the drive before each procedure (the virtual drive keeps no parameters)
+    download: Optional[Mapping[str, Any]] = None
+    #: drive parameters by name (``--params KEY=VALUE``), written after the download, read back
+    params: dict[str, float] = field(default_factory=dict)
 
     @property
     def virtual(self) -> bool:
@@ -560,6 +565,52 @@ def apply_compensators(drive: Drive, names: Optional[list[str]]) -> str:
     if "preisach" in names:
         note += "; the Preisach inverse needs its table downloaded (hdservo download)"
     return note
+
+
+def configure_drive(drive: Drive, target: Target) -> list[str]:
+    """Write the target's download plan and parameters into the drive (power stage off), read back.
+
+    Order: the compensator download (``download.write_verified``: SDO
+    parameters and tables, each read back), then ``target.params`` by name
+    (read back within one raw step), then ``cb_enable`` (:func:`apply_compensators`).
+
+    Returns
+    -------
+    list of str
+        One-line notes (what was written).
+
+    Raises
+    ------
+    UserError
+        A refused write or a read-back mismatch.
+    """
+    notes: list[str] = []
+    if target.download is not None:
+        from ..commands.download import write_verified
+        done = write_verified(drive, target.download, tables=True)
+        tabs = ", ".join(f"0x5100:{t}" for t in done["tables"]) or "none"
+        src = target.download.get("model_file")
+        notes.append(f"model{' ' + str(src) if src else ''}: {done['params']} compensator parameters and tables "
+                     f"{tabs} downloaded, read back")
+    if target.params:
+        for name, v in target.params.items():
+            p = PARAMS.get(name)
+            if p is None:
+                raise UserError(f"--params: unknown drive parameter '{name}'")
+            if not p.min <= float(v) <= p.max:
+                raise UserError(f"--params: {name} = {v:g} outside [{p.min:g}, {p.max:g}] {p.unit}")
+            try:
+                drive.set_param(name, float(v))
+                back = float(drive.get_param(name))
+            except DriveError as e:
+                raise UserError(f"--params: {name}: {e}") from None
+            if abs(back - float(v)) > 2.0 ** -p.frac * 1.01 + 1e-12 * abs(float(v)):
+                raise UserError(f"--params: {name}: read back {back:g}, wrote {float(v):g}")
+        notes.append("params: " + ", ".join(f"{k}={v:g}" for k, v in target.params.items()))
+    note = apply_compensators(drive, target.compensators)
+    if note:
+        notes.append(note)
+    return notes
 
 
 def _start(drive: Drive, lockstep: bool) -> None:
@@ -599,9 +650,9 @@ def open_bench(target: Target, setup: RigSetup, lockstep: bool = False,
                                   port=proc.port)
             _start(drive, lockstep)
             b = Bench(drive, rig, lockstep=lockstep, sync_periods=sync_periods)
-            note = apply_compensators(drive, target.compensators)
-            if note and note not in target.notes:
-                target.notes.append(note)
+            for note in configure_drive(drive, target):
+                if note not in target.notes:
+                    target.notes.append(note)
             yield b
         finally:
             try:
@@ -620,9 +671,9 @@ def open_bench(target: Target, setup: RigSetup, lockstep: bool = False,
             drive.start()
             rig = ManualRig(setup, target.interactive)
             b = Bench(drive, rig, lockstep=False, sync_periods=sync_periods, realtime=True)
-            note = apply_compensators(drive, target.compensators)
-            if note and note not in target.notes:
-                target.notes.append(note)
+            for note in configure_drive(drive, target):
+                if note not in target.notes:
+                    target.notes.append(note)
             yield b
         finally:
             try:
@@ -633,4 +684,4 @@ def open_bench(target: Target, setup: RigSetup, lockstep: bool = False,
 
 
 __all__ = ["Bench", "ManualRig", "Progress", "Rig", "RigError", "RigSetup", "SIG", "Target", "VirtualDriveProcess",
-           "VirtualRig", "apply_compensators", "open_bench"]
+           "VirtualRig", "apply_compensators", "configure_drive", "open_bench"]
