@@ -40,14 +40,18 @@ class BqState(C.Structure):
 
 
 class TrajCfg(C.Structure):
-    _fields_ = [("vmax", C.c_int32), ("amax", C.c_int32), ("jmax", C.c_int32)]
+    _fields_ = [("vmax", C.c_int32), ("amax", C.c_int32), ("jmax", C.c_int32),
+                ("appr_dir", C.c_int32), ("appr_dist", C.c_int32), ("appr_vmax", C.c_int32),
+                ("appr_dwell", C.c_uint32)]
 
 
 class Traj(C.Structure):
     _fields_ = [("mode", C.c_int32), ("p48", C.c_int64), ("v48", C.c_int64), ("a48", C.c_int64),
                 ("j48", C.c_int64), ("target48", C.c_int64), ("dir", C.c_int32), ("k", C.c_uint32),
                 ("tj", C.c_uint32), ("ta", C.c_uint32), ("tv", C.c_uint32), ("cruise_q", C.c_int64),
-                ("cruise_r", C.c_int64), ("cruise_acc", C.c_int64), ("rate_target", C.c_int32),
+                ("cruise_r", C.c_int64), ("cruise_acc", C.c_int64),
+                ("goal48", C.c_int64), ("appr_leg", C.c_int32), ("appr_wait", C.c_uint32),
+                ("rate_target", C.c_int32),
                 ("rate_cur", C.c_int32), ("rate_dv", C.c_int32), ("rate_rem", C.c_int32),
                 ("center", C.c_int64), ("amp", C.c_int32), ("w_q16", C.c_int32), ("phase", C.c_uint64),
                 ("inc_q", C.c_uint64), ("inc_r", C.c_uint32), ("inc_acc", C.c_uint32),
