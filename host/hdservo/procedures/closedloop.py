@@ -120,6 +120,10 @@ def min_rate(bench: Bench, rates_deg_s: Sequence[float] = (1.0, 0.1, 0.01, 0.001
     ladder = []
     bench.rig.brake(False)
     bench.enable("PROFILED POSITION")
+    # let the just-enabled hold settle (compensator ramp cb_ramp_ticks, 0.2 s) before the first
+    # set-point: while the hold reference still moves, pp_move_start takes that motion for the
+    # start of the move, the set-point edge is lost and the first rung never moves
+    bench.wait(0.5)
     for k, rate in enumerate(sorted(rates_deg_s, reverse=True)):
         rr = rate_run(bench, rate, windows, window_s, settle_s if rate < 0.5 else min(settle_s, 1.0))
         ladder.append(rr)
