@@ -74,11 +74,16 @@ def test_hysteresis_loss_and_stiffness_from_one_loop() -> None:
     k_true = mt.linear_stiffness(mt2, mp2, 2.0, 12.0)
     assert k_enc == pytest.approx(k_true, rel=0.03)
     # K1 region of the reference gear (3.1e4 N.m/rad) and the catalogue three-slope fit; the loop
-    # midline below T1 also carries the hysteresis elements' stiffness (Maxwell-slip, Preisach), so
-    # the tolerance is wider than the encoder-vs-true-twist check above
-    assert k_enc == pytest.approx(3.1e4, rel=0.12)
+    # midline below T1 also carries the hysteresis elements' stiffness (Maxwell-slip, Preisach:
+    # since the plant's Preisach torque is purely hysteretic, P_mean - P, its steep slope after a
+    # reversal is no longer offset by a negative spring term, and the midline of the +-67 N.m loop
+    # measures ~+15 % above the spring's K1), so the tolerance is wider than the
+    # encoder-vs-true-twist check above; the spring's own K1 is identified separately (locked-output
+    # FORC fit, docs/identification.md)
+    assert k_enc == pytest.approx(3.1e4, rel=0.20)
+    assert k_enc >= 3.1e4 * 0.97                    # never softer than the spring alone
     fit = mt.three_slope_fit(mt_, mp)
-    assert fit["k1_Nm_per_rad"] == pytest.approx(3.1e4, rel=0.12)
+    assert fit["k1_Nm_per_rad"] == pytest.approx(3.1e4, rel=0.20)
     assert fit["t1_Nm"] == pytest.approx(14.0, abs=4.0)
     assert fit["t2_Nm"] == pytest.approx(48.0, abs=5.0)
     # K3 region: stiffer than K1 (three-slope stiffening)
