@@ -57,6 +57,24 @@ ENABLE_BITS: dict[str, int] = {"stribeck": 1, "lugre": 2, "maxwell": 4, "preisac
 # moves (parameters appr_*, firmware/core/hd_trajectory.h, docs/control.md "Repeatability").
 
 
+#: The best combination of the comparison (``hdservo compare`` / ``make demo``; docs/demo.md): one drive
+#: configuration for every procedure.  Stribeck friction feed-forward on the *measured* velocity
+#: (``str_w_ref`` 0: with the reference velocity the feed-forward differs between the fast and the
+#: slow final arrivals, ISO R 3.7 arcsec), the one-direction final approach of PTP moves, position
+#: P 60 1/s.  No scheduled position integral (``cb_pki`` 0): it turns the 0.01 deg/s rung into a
+#: stick-slip limit cycle.  The stabilisation procedure runs in the drive's gyro stabilisation mode.
+BEST_NAMES: tuple[str, ...] = ("stribeck", "approach")
+#: Procedure options of the best combination: the stabilisation test in the drive's STAB mode (gyro).
+BEST_PROC_ARGS: dict[str, list[str]] = {"stabilisation": ["--stab-mode", "stab"]}
+#: Retuned drive parameters of the best combination (table units), on top of the model's compensator parameters.
+BEST_GAINS: dict[str, float] = {"pos_kp": 60.0, "str_w_ref": 0.0}
+
+
+def best_gains(axis: str = "reference") -> dict[str, float]:
+    """Drive parameters the best combination sets after the model download (table units; same for every axis)."""
+    return dict(BEST_GAINS)
+
+
 def _reader(axis: str) -> Callable[[str], float]:
     def get(key: str) -> float:
         return float(sim.axis_param(key, axis))
@@ -340,5 +358,5 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
     return ctl
 
 
-__all__ = ["ENABLE_BITS", "compensator_params", "controller", "enable_mask", "gear_everett", "preisach_table",
+__all__ = ["BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "ENABLE_BITS", "best_gains", "compensator_params", "controller", "enable_mask", "gear_everett", "preisach_table",
            "write_preisach_table"]
