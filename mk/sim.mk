@@ -24,21 +24,28 @@ HARNESS_HOST_LIB := $(B)/host/libhdharness.a
 
 SIM_FW_INC := $(FW_INC) -Ifirmware/port/host
 
+# libsocketcan (bitrate, restart-ms, controller state of the SocketCAN transport)
+# when pkg-config finds it (libsocketcan-dev, tools/setup.sh); without it the
+# transport still opens raw CAN sockets, it only cannot configure the controller.
+SOCKETCAN_LIBS   := $(shell pkg-config --libs libsocketcan 2>/dev/null)
+SOCKETCAN_CFLAGS := $(if $(SOCKETCAN_LIBS),-DHD_HAVE_LIBSOCKETCAN $(shell pkg-config --cflags libsocketcan 2>/dev/null))
+PORT_LIBS        := $(SOCKETCAN_LIBS) -lm
+
 # The harness (sim side, double precision) sees the firmware headers it drives.
 $(HARNESS_HOST_OBJ): HOST_SIM_CFLAGS += $(SIM_FW_INC)
 $(HARNESS_OPT_OBJ) $(HARNESS_MAIN_OBJ): OPT_SIM_CFLAGS += $(SIM_FW_INC)
 # The host port is firmware/ (integer only, -Werror -Wconversion, nofloat) but
 # uses stdio for the NVM file, so it gets POSIX declarations.
-$(PORT_HOST_OBJ): HOST_FW_CFLAGS += -D_POSIX_C_SOURCE=200809L
-$(PORT_OPT_OBJ): OPT_FW_CFLAGS += -D_POSIX_C_SOURCE=200809L
+$(PORT_HOST_OBJ): HOST_FW_CFLAGS += -D_POSIX_C_SOURCE=200809L $(SOCKETCAN_CFLAGS)
+$(PORT_OPT_OBJ): OPT_FW_CFLAGS += -D_POSIX_C_SOURCE=200809L $(SOCKETCAN_CFLAGS)
 
 $(HDSIM_BIN): $(HARNESS_MAIN_OBJ) $(HARNESS_OPT_OBJ) $(PORT_OPT_OBJ) $(B)/opt/libhdfw.a $(B)/opt/libhdplant.a
 	@mkdir -p $(@D)
-	$(HOST_CC) -O2 -o $@ $(HARNESS_MAIN_OBJ) $(HARNESS_OPT_OBJ) $(PORT_OPT_OBJ) $(B)/opt/libhdfw.a $(B)/opt/libhdplant.a -lm
+	$(HOST_CC) -O2 -o $@ $(HARNESS_MAIN_OBJ) $(HARNESS_OPT_OBJ) $(PORT_OPT_OBJ) $(B)/opt/libhdfw.a $(B)/opt/libhdplant.a $(PORT_LIBS)
 
 $(HDSIM_SO): $(HARNESS_OPT_OBJ) $(PORT_OPT_OBJ) $(B)/opt/libhdfw.a $(B)/opt/libhdplant.a
 	@mkdir -p $(@D)
-	$(HOST_CC) -shared -O2 -o $@ $(HARNESS_OPT_OBJ) $(PORT_OPT_OBJ) $(B)/opt/libhdfw.a $(B)/opt/libhdplant.a -lm
+	$(HOST_CC) -shared -O2 -o $@ $(HARNESS_OPT_OBJ) $(PORT_OPT_OBJ) $(B)/opt/libhdfw.a $(B)/opt/libhdplant.a $(PORT_LIBS)
 
 $(HARNESS_HOST_LIB): $(HARNESS_HOST_OBJ) $(PORT_HOST_OBJ)
 	@mkdir -p $(@D); rm -f $@; ar rcs $@ $^
@@ -49,7 +56,7 @@ HARNESS_TESTS := $(patsubst tests/c/%.c,$(B)/host/tests/%,$(wildcard tests/c/tes
 $(HARNESS_TESTS): $(B)/host/tests/%: tests/c/%.c $(CTEST_HELPERS) $(HARNESS_HOST_LIB) $(B)/host/libhdfw.a $(B)/host/libhdplant.a
 	@mkdir -p $(@D)
 	$(HOST_CC) -std=c99 -D_POSIX_C_SOURCE=200809L -Wall -Wextra -Werror -O1 -g $(SAN) $(SIM_FW_INC) $(SIM_INC) -Itests/c \
-	  -o $@ $< $(CTEST_HELPERS) $(HARNESS_HOST_LIB) $(B)/host/libhdfw.a $(B)/host/libhdplant.a -lcmocka -lm
+	  -o $@ $< $(CTEST_HELPERS) $(HARNESS_HOST_LIB) $(B)/host/libhdfw.a $(B)/host/libhdplant.a -lcmocka $(PORT_LIBS)
 
 .PHONY: sim
 sim: $(HDSIM_BIN) $(HDSIM_SO)

@@ -12,7 +12,7 @@ SOAK_HARNESS_OBJ = $(filter-out %/serve.o %/simlib.o,$(HARNESS_OPT_OBJ))
 $(SOAK_BIN): tests/soak/soak.c $(SOAK_HARNESS_OBJ) $(PORT_OPT_OBJ) $(B)/opt/libhdfw.a $(B)/opt/libhdplant.a
 	@mkdir -p $(@D)
 	$(HOST_CC) -std=gnu99 -D_POSIX_C_SOURCE=200809L -Wall -Wextra -Werror -O2 -g $(SIM_FW_INC) $(SIM_INC) \
-	  -o $@ $< $(SOAK_HARNESS_OBJ) $(PORT_OPT_OBJ) $(B)/opt/libhdfw.a $(B)/opt/libhdplant.a -lm
+	  -o $@ $< $(SOAK_HARNESS_OBJ) $(PORT_OPT_OBJ) $(B)/opt/libhdfw.a $(B)/opt/libhdplant.a $(PORT_LIBS)
 
 .PHONY: soak
 soak: $(SOAK_BIN)
@@ -26,5 +26,5 @@ FAULTS_BIN := $(B)/bin/hdservo-faults
 $(FAULTS_BIN): tests/soak/faults.c $(SOAK_HARNESS_OBJ) $(PORT_OPT_OBJ) $(B)/opt/libhdfw.a $(B)/opt/libhdplant.a
 	@mkdir -p $(@D)
 	$(HOST_CC) -std=gnu99 -D_POSIX_C_SOURCE=200809L -Wall -Wextra -Werror -O2 -g $(SIM_FW_INC) $(SIM_INC) \
-	  -o $@ $< $(SOAK_HARNESS_OBJ) $(PORT_OPT_OBJ) $(B)/opt/libhdfw.a $(B)/opt/libhdplant.a -lm
+	  -o $@ $< $(SOAK_HARNESS_OBJ) $(PORT_OPT_OBJ) $(B)/opt/libhdfw.a $(B)/opt/libhdplant.a $(PORT_LIBS)
 BUILD_TESTS_EXTRA += $(FAULTS_BIN)

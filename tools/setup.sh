@@ -18,6 +18,7 @@ PKGS=(
   qemu-system-arm
   libcmocka-dev
   libsocketcan-dev can-utils
+  qemu-system-x86 busybox-static kmod cpio
   python3 python3-venv python3-dev
   clang libclang-rt-14-dev clang-tidy cppcheck
 )

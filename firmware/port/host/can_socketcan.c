@@ -37,6 +37,10 @@ int32_t hd_scan_open(hd_scan_t *s, const char *channel, uint32_t bitrate, uint32
     snprintf(s->ifname, sizeof s->ifname, "%s", channel);
 #ifdef HD_HAVE_LIBSOCKETCAN
     if (bitrate != 0u) {
+        /* libsocketcan's netlink errors do not say "no such interface": check first */
+        if (if_nametoindex(s->ifname) == 0u) {
+            return fail(err, errlen, channel, "interface", errno);
+        }
         (void)can_do_stop(s->ifname);
         if (can_set_bitrate(s->ifname, bitrate) != 0) {
             return fail(err, errlen, channel, "set bitrate", errno);
@@ -131,7 +135,23 @@ const char *hd_scan_state(const hd_scan_t *s)
 {
 #ifdef HD_HAVE_LIBSOCKETCAN
     int st = -1;
-    if (can_get_state(s->ifname, &st) == 0) {
+    /* libsocketcan prints "no link data found" on stderr for interfaces without a
+       CAN controller (vcan): keep stderr for the program's own messages */
+    int saved = dup(2), null = open("/dev/null", O_WRONLY);
+    if (saved >= 0 && null >= 0) {
+        (void)dup2(null, 2);
+    }
+    int r = can_get_state(s->ifname, &st);
+    if (saved >= 0 && null >= 0) {
+        (void)dup2(saved, 2);
+    }
+    if (saved >= 0) {
+        close(saved);
+    }
+    if (null >= 0) {
+        close(null);
+    }
+    if (r == 0) {
         switch (st) {
         case CAN_STATE_ERROR_ACTIVE: return "ERROR-ACTIVE";
         case CAN_STATE_ERROR_WARNING: return "ERROR-WARNING";
