@@ -19,36 +19,15 @@ import can
 import canopen
 import pytest
 
+from vdrive import NODE, SIM, Server  # tests/python/vdrive.py
+
 ROOT = Path(__file__).resolve().parents[2]
-SIM = ROOT / "build" / "bin" / "hdservo-sim"
 EDS = ROOT / "host" / "hdservo" / "data" / "hdservo.eds"
-NODE = 1
 
 logging.getLogger("can.interfaces.socketcand").setLevel(logging.ERROR)
 pytestmark = pytest.mark.skipif(not SIM.exists(), reason="build/bin/hdservo-sim not built (make sim)")
 
 
-class Server:
-    """A running virtual drive."""
-
-    def __init__(self, *extra: str) -> None:
-        self.p = subprocess.Popen([str(SIM), "serve", "--port", "0", "--node-id", str(NODE), *extra],
-                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        line = self.p.stdout.readline() if self.p.stdout else ""
-        if not line.startswith("listening on 127.0.0.1:"):
-            self.stop()
-            raise RuntimeError(f"hdservo-sim serve did not start: {line!r}")
-        self.port = int(line.strip().rsplit(":", 1)[1])
-
-    def stop(self) -> str:
-        if self.p.poll() is None:
-            self.p.terminate()
-            try:
-                self.p.wait(10)
-            except subprocess.TimeoutExpired:
-                self.p.kill()
-                self.p.wait()
-        return self.p.stderr.read() if self.p.stderr else ""
 
 
 def _connect(srv: Server) -> tuple[canopen.Network, canopen.BaseNode402]:

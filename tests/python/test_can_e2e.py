@@ -24,37 +24,16 @@ import canopen
 import numpy as np
 import pytest
 
+from vdrive import NODE, SIM, Server  # tests/python/vdrive.py
+
 from hdservo.drive import SIGNALS, TABLE_GROUPS, Drive, DriveError, group_payload
 from hdservo.params_gen import BY_NAME as PARAMS
 from hdservo.preisach_table import PreisachTable
 
 ROOT = Path(__file__).resolve().parents[2]
-SIM = Path(os.environ.get("HDSERVO_SIM", ROOT / "build" / "bin" / "hdservo-sim"))
-NODE = 1
 pytestmark = pytest.mark.skipif(not SIM.exists(), reason="hdservo-sim not built (make sim)")
 
 
-class Server:
-    """A running virtual drive (always stopped by the fixture)."""
-
-    def __init__(self, *extra: str) -> None:
-        self.p = subprocess.Popen([str(SIM), "serve", "--port", "0", "--node-id", str(NODE), *extra],
-                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        line = self.p.stdout.readline() if self.p.stdout else ""
-        if not line.startswith("listening on 127.0.0.1:"):
-            self.stop()
-            raise RuntimeError(f"hdservo-sim serve did not start: {line!r}")
-        self.port = int(line.strip().rsplit(":", 1)[1])
-
-    def stop(self) -> str:
-        if self.p.poll() is None:
-            self.p.terminate()
-            try:
-                self.p.wait(10)
-            except subprocess.TimeoutExpired:
-                self.p.kill()
-                self.p.wait()
-        return self.p.stderr.read() if self.p.stderr else ""
 
 
 @contextlib.contextmanager
