@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import contextlib
 import math
-import os
 import queue
 import struct
 import subprocess
@@ -30,7 +29,6 @@ from hdservo.drive import SIGNALS, TABLE_GROUPS, Drive, DriveError, group_payloa
 from hdservo.params_gen import BY_NAME as PARAMS
 from hdservo.preisach_table import PreisachTable
 
-ROOT = Path(__file__).resolve().parents[2]
 pytestmark = pytest.mark.skipif(not SIM.exists(), reason="hdservo-sim not built (make sim)")
 
 
