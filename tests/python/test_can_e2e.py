@@ -15,7 +15,6 @@ import struct
 import subprocess
 import time
 import zlib
-from pathlib import Path
 from typing import Iterator
 
 import can
