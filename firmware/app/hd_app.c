@@ -16,165 +16,11 @@
 
 #define TWO_PI_Q28 1686629713   /* round(2 pi 2^28) */
 
-/* ---- inline copies of the hd_fixed.h helpers used per period ---------------
- * Same C code as firmware/core/hd_fixed.c (bit-identical results); inlined so
- * that the shift counts, which are constants at the call sites, fold into a
- * few instructions on the Cortex-M4 instead of a call with variable 64-bit
- * shifts.  See docs/fixed-point.md for the contracts. */
-#define FX_INLINE static inline __attribute__((always_inline))
-FX_INLINE uint64_t app_mag64(int64_t x)
+/* Per-period fixed-point helpers: the inline hdf_* forms of hd_fixed.h
+ * (bit-identical to hd_fixed.c, shifts folded at the call sites). */
+static inline uint64_t mag64(int64_t x)   /* |x| without overflow */
 {
     return (x < 0) ? ((uint64_t)0 - (uint64_t)x) : (uint64_t)x;
-}
-FX_INLINE int64_t app_neg_mag(uint64_t m)
-{
-    return (m == 0u) ? 0 : (-(int64_t)(m - 1u) - 1);
-}
-FX_INLINE int64_t app_signed_sat64(uint64_t m, bool neg)
-{
-    if (neg) {
-        return (m >= ((uint64_t)1 << 63)) ? INT64_MIN : app_neg_mag(m);
-    }
-    return (m > (uint64_t)INT64_MAX) ? INT64_MAX : (int64_t)m;
-}
-FX_INLINE uint64_t app_ushr_rnd(uint64_t m, uint32_t s)
-{
-    if (s == 0u) {
-        return m;
-    }
-    return (m >> s) + ((m >> (s - 1u)) & 1u);
-}
-FX_INLINE int32_t app_sat32(int64_t x)
-{
-    if (x > (int64_t)INT32_MAX) {
-        return INT32_MAX;
-    }
-    if (x < (int64_t)INT32_MIN) {
-        return INT32_MIN;
-    }
-    return (int32_t)x;
-}
-FX_INLINE int64_t app_add64_sat(int64_t a, int64_t b)
-{
-    if (b > 0 && a > INT64_MAX - b) {
-        return INT64_MAX;
-    }
-    if (b < 0 && a < INT64_MIN - b) {
-        return INT64_MIN;
-    }
-    return a + b;
-}
-FX_INLINE int64_t app_sub64_sat(int64_t a, int64_t b)
-{
-    if (b < 0 && a > INT64_MAX + b) {
-        return INT64_MAX;
-    }
-    if (b > 0 && a < INT64_MIN + b) {
-        return INT64_MIN;
-    }
-    return a - b;
-}
-FX_INLINE int64_t app_clamp64(int64_t x, int64_t lo, int64_t hi)
-{
-    if (x < lo) {
-        return lo;
-    }
-    if (x > hi) {
-        return hi;
-    }
-    return x;
-}
-FX_INLINE int64_t app_asr64_floor(int64_t x, uint32_t s)
-{
-    if (s > 63u) {
-        s = 63u;
-    }
-    if (x >= 0) {
-        return (int64_t)((uint64_t)x >> s);
-    }
-    return -1 - (int64_t)((uint64_t)(-1 - x) >> s);
-}
-FX_INLINE int64_t app_asr64_rnd(int64_t x, uint32_t s)
-{
-    if (s > 63u) {
-        s = 63u;
-    }
-    if (s == 0u) {
-        return x;
-    }
-    if (x >= 0) {
-        return (int64_t)app_ushr_rnd((uint64_t)x, s);
-    }
-    return -(int64_t)app_ushr_rnd(app_mag64(x), s);
-}
-FX_INLINE int32_t app_asr32_rnd(int64_t x, uint32_t s)
-{
-    return app_sat32(app_asr64_rnd(x, s));
-}
-FX_INLINE int64_t app_shl64_sat(int64_t x, uint32_t s)
-{
-    if (x == 0) {
-        return 0;
-    }
-    if (s >= 63u) {
-        return (x > 0) ? INT64_MAX : INT64_MIN;
-    }
-    {
-        const int64_t lim = (int64_t)((uint64_t)INT64_MAX >> s);
-        if (x > lim) {
-            return INT64_MAX;
-        }
-        if (x < -lim - 1) {
-            return INT64_MIN;
-        }
-        return x * (int64_t)((uint64_t)1 << s);
-    }
-}
-FX_INLINE int32_t app_mul_q(int32_t a, int32_t b, uint32_t q)
-{
-    const int64_t p = (int64_t)a * (int64_t)b;
-    if (q > 62u) {
-        q = 62u;
-    }
-    return app_asr32_rnd(p, q);
-}
-FX_INLINE int64_t app_mul64x32_q(int64_t a, int32_t b, uint32_t q)
-{
-    if (a >= (int64_t)INT32_MIN && a <= (int64_t)INT32_MAX) {
-        /* |a*b| <= 2^62: the 64-bit product is exact, round half away as below */
-        return app_asr64_rnd((int64_t)(int32_t)a * (int64_t)b, (q > 62u) ? 62u : q);
-    }
-    const bool neg = (a < 0) != (b < 0);
-    const uint64_t ua = app_mag64(a);
-    const uint32_t ub = (uint32_t)app_mag64(b);
-    const uint64_t al = (uint64_t)(uint32_t)ua;
-    const uint64_t ah = ua >> 32;
-    const uint64_t plo = al * (uint64_t)ub;
-    const uint64_t pmid = ah * (uint64_t)ub;
-    uint64_t lo = plo + (pmid << 32);
-    uint64_t hi = (pmid >> 32) + ((lo < plo) ? 1u : 0u);
-    uint64_t m;
-    if (q > 62u) {
-        q = 62u;
-    }
-    if (q > 0u) {
-        const uint64_t half = (uint64_t)1 << (q - 1u);
-        const uint64_t lo2 = lo + half;
-        hi += (lo2 < lo) ? 1u : 0u;
-        lo = lo2;
-        m = (lo >> q) | (hi << (64u - q));
-        hi >>= q;
-    } else {
-        m = lo;
-    }
-    if (hi != 0u) {
-        return neg ? INT64_MIN : INT64_MAX;
-    }
-    return app_signed_sat64(m, neg);
-}
-FX_INLINE int64_t app_mac64(int64_t acc, int32_t a, int32_t b)
-{
-    return app_add64_sat(acc, (int64_t)a * (int64_t)b);
 }
 
 static int32_t P(const hd_app_t *a, hd_param_id_t id)
@@ -346,14 +192,14 @@ static int64_t wrap_delta(uint32_t now, uint32_t prev, uint32_t bits)
  * arithmetic (one UDIV on the M4 instead of __aeabi_ldivmod); same result. */
 static int32_t div32_rnd(int32_t num, int32_t den)
 {
-    const uint32_t un = (uint32_t)app_mag64(num);      /* <= 2^31 */
+    const uint32_t un = (uint32_t)mag64(num);      /* <= 2^31 */
     const uint32_t ud = (uint32_t)den;
     uint32_t quo = un / ud;
     const uint32_t rem = un - quo * ud;
     if (rem >= ud - rem) {
         quo += 1u;
     }
-    return app_sat32((num < 0) ? -(int64_t)quo : (int64_t)quo);
+    return hdf_sat32((num < 0) ? -(int64_t)quo : (int64_t)quo);
 }
 
 /* hd_sat32(hd_div64_rnd(x, n * 65536)) for 1 <= n < 65536: floor(|x| / (n 2^16)) =
@@ -362,9 +208,9 @@ static int32_t div32_rnd(int32_t num, int32_t den)
 static int32_t div_n_q16_rnd(int64_t x, int32_t n)
 {
     if (n < 1 || n > 65535) {
-        return app_sat32(hd_div64_rnd(x, (int64_t)n * 65536));
+        return hdf_sat32(hd_div64_rnd(x, (int64_t)n * 65536));
     }
-    const uint64_t m = app_mag64(x);
+    const uint64_t m = mag64(x);
     const uint64_t xs = m >> 16;                       /* < 2^48 */
     const uint32_t un = (uint32_t)n;
     const uint32_t xh = (uint32_t)(xs >> 16);          /* < 2^32 */
@@ -379,7 +225,7 @@ static int32_t div_n_q16_rnd(int64_t x, int32_t n)
     if (rem >= d - rem) {
         quo += 1u;
     }
-    return app_sat32((x < 0) ? -(int64_t)quo : (int64_t)quo);
+    return hdf_sat32((x < 0) ? -(int64_t)quo : (int64_t)quo);
 }
 
 /* returns 0 or a fault code */
@@ -400,9 +246,9 @@ static int32_t read_sensors(hd_app_t *a, hd_hal_sensors_t *sn)
         /* output: signed single turn in [-0.5, 0.5) */
         const int64_t half = (int64_t)1 << (ob - 1u);
         const int64_t so = ((int64_t)oraw >= half) ? (int64_t)oraw - 2 * half : (int64_t)oraw;
-        a->pos_out = app_shl64_sat(so, 32u - ob);
+        a->pos_out = hdf_shl64_sat(so, 32u - ob);
         /* motor: N * output angle, adjusted to the encoder's own fraction */
-        const int64_t base = app_mul64x32_q(a->pos_out, P(a, HD_P_GEAR_RATIO), 0u);
+        const int64_t base = hdf_mul64x32_q(a->pos_out, P(a, HD_P_GEAR_RATIO), 0u);
         const uint32_t mfrac = mraw << (32u - mb);
         const uint32_t d = mfrac - (uint32_t)(uint64_t)base;
         a->pos_mot = base + ((d >= 0x80000000u) ? (int64_t)d - 4294967296LL : (int64_t)d);
@@ -413,9 +259,9 @@ static int32_t read_sensors(hd_app_t *a, hd_hal_sensors_t *sn)
     } else {
         const int64_t dm = wrap_delta(mraw, a->mot_raw_prev, mb);
         const int64_t dout = wrap_delta(oraw, a->out_raw_prev, ob);
-        a->pos_mot = app_add64_sat(a->pos_mot, app_shl64_sat(dm, 32u - mb));
-        const int64_t dq = app_shl64_sat(dout, 32u - ob);
-        a->pos_out = app_add64_sat(a->pos_out, dq);
+        a->pos_mot = hdf_add64_sat(a->pos_mot, hdf_shl64_sat(dm, 32u - mb));
+        const int64_t dq = hdf_shl64_sat(dout, 32u - ob);
+        a->pos_out = hdf_add64_sat(a->pos_out, dq);
         if (hd_abs64_sat(dq) > (int64_t)P(a, HD_P_ENC_JUMP_MAX)) {
             fault = HD_FAULT_ENC_JUMP;
         }
@@ -713,7 +559,7 @@ void hd_app_step(hd_app_t *a)
             t_ff = hd_add_sat(t_ff, exc);
             closed = 2;
         } else {
-            pos_ref = app_add64_sat(a->hold_pos, exc);
+            pos_ref = hdf_add64_sat(a->hold_pos, exc);
             closed = 2;
         }
         break;
@@ -726,7 +572,7 @@ void hd_app_step(hd_app_t *a)
             a->stab_primed = 1u;
         }
         hd_stab_step(&a->stab, &a->stab_cfg, sn.gyro_rate, a->pos_out, a->vel_cmd);
-        pos_ref = app_add64_sat(a->pos_out, a->stab.err);   /* pos_err = inertial-angle error */
+        pos_ref = hdf_add64_sat(a->pos_out, a->stab.err);   /* pos_err = inertial-angle error */
         v_ff = a->stab.vff;
         closed = 2;
         break;
@@ -748,25 +594,25 @@ void hd_app_step(hd_app_t *a)
          * this period, (w_k - w_k-1) x raw torque, is taken off the integrator (bumpless) */
         const int32_t w_str = a->cb.str.blend.w, w_lug = a->cb.lug.blend.w;
         hd_comp_bank_pre(&a->cb, &a->cb_cfg, &cbi, &cbo);
-        a->vel_pid.integ = app_sub64_sat(a->vel_pid.integ, app_shl64_sat(
+        a->vel_pid.integ = hdf_sub64_sat(a->vel_pid.integ, hdf_shl64_sat(
             (int64_t)hdf_mul_q(a->cb.str.tau_raw, a->cb.str.blend.w - w_str, 30u) +
             (int64_t)hdf_mul_q(a->cb.lug.tau_raw, a->cb.lug.blend.w - w_lug, 30u), a->vel_cfg.shift));
-        pos_ref = app_add64_sat(pos_ref, cbo.dpos);
+        pos_ref = hdf_add64_sat(pos_ref, cbo.dpos);
         v_ff = hd_add_sat(v_ff, cbo.dvel);
         t_ff = hd_add_sat(t_ff, cbo.tff);
     }
 
-    const int32_t pos_err = app_sat32(app_sub64_sat(pos_ref, a->pos_out));
+    const int32_t pos_err = hdf_sat32(hdf_sub64_sat(pos_ref, a->pos_out));
     if (closed == 2) {
-        const hd_vel_out_t vff = app_mul_q(v_ff, P(a, HD_P_VFF_GAIN), 30u);
+        const hd_vel_out_t vff = hdf_mul_q(v_ff, P(a, HD_P_VFF_GAIN), 30u);
         vel_ref = hd_pid_step(&a->pos_pid, (mode == HD_MODE_STAB) ? &a->stab_pos_cfg : &a->pos_cfg, pos_err, 0, vff);
     }
     if (closed != 0) {
         /* acceleration feed-forward: j_total [Q16 kg m^2] * acc [2^-24 turn/s^2] * 2 pi -> Q16 N.m */
         if (acc_ref != 0 && P(a, HD_P_AFF_GAIN) != 0) {    /* else the product is exactly 0 */
-            const int64_t ja = app_mul64x32_q((int64_t)P(a, HD_P_J_TOTAL), acc_ref, 24u);
-            const int64_t jaw = app_mul64x32_q(ja, TWO_PI_Q28, 28u);
-            const int32_t aff = app_mul_q(app_sat32(jaw), P(a, HD_P_AFF_GAIN), 30u);
+            const int64_t ja = hdf_mul64x32_q((int64_t)P(a, HD_P_J_TOTAL), acc_ref, 24u);
+            const int64_t jaw = hdf_mul64x32_q(ja, TWO_PI_Q28, 28u);
+            const int32_t aff = hdf_mul_q(hdf_sat32(jaw), P(a, HD_P_AFF_GAIN), 30u);
             t_ff = hd_add_sat(t_ff, aff);
         }
         int32_t t = hd_pid_step(&a->vel_pid, &a->vel_cfg, vel_ref, v_fb, t_ff);
@@ -776,7 +622,7 @@ void hd_app_step(hd_app_t *a)
         t_out = hd_biquad_chain_step(&a->filt, &a->filt_cfg, t);
     }
     const int32_t tlim = P(a, HD_P_TORQUE_LIMIT);
-    const int32_t t_cmd = hd_clamp32(app_sat32(t_out), hd_neg_sat(tlim), tlim);
+    const int32_t t_cmd = hd_clamp32(hdf_sat32(t_out), hd_neg_sat(tlim), tlim);
 
     /* limits and faults (latched) */
     if (mode != HD_MODE_OFF) {
@@ -793,8 +639,8 @@ void hd_app_step(hd_app_t *a)
             trip(a, HD_FAULT_OVERSPEED);
         }
         if ((fen & HD_FCHK_TRAVEL) &&
-            (a->pos_out < app_shl64_sat(P(a, HD_P_TRAVEL_MIN), 8u) ||
-             a->pos_out > app_shl64_sat(P(a, HD_P_TRAVEL_MAX), 8u))) {
+            (a->pos_out < hdf_shl64_sat(P(a, HD_P_TRAVEL_MIN), 8u) ||
+             a->pos_out > hdf_shl64_sat(P(a, HD_P_TRAVEL_MAX), 8u))) {
             trip(a, HD_FAULT_TRAVEL);
         }
         if ((fen & HD_FCHK_FOLLOWING) && closed == 2 && hd_abs_sat(pos_err) > P(a, HD_P_FOLLOW_ERR_MAX)) {
@@ -829,7 +675,7 @@ void hd_app_step(hd_app_t *a)
     t->pos_mot = a->pos_mot;
     t->vel_out = v_fb;
     t->vel_out_enc = v_out_enc;
-    t->vel_mot = app_asr32_rnd(hd_velobs_vel48(&a->obs_mot), 24u);
+    t->vel_mot = hdf_asr32_rnd(hd_velobs_vel48(&a->obs_mot), 24u);
     t->pos_ref = pos_ref;
     t->vel_ref = vel_ref;
     t->acc_ref = acc_ref;

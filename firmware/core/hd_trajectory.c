@@ -18,166 +18,8 @@
 #define TA_CAP 2097152u         /* constant-accel phase cap, periods (210 s) */
 #define TWO_PI_Q28 1686629713   /* round(2 pi 2^28) */
 
-/* ---- inline copies of the hd_fixed.h helpers used per period ---------------
- * Same C code as firmware/core/hd_fixed.c (bit-identical results); inlined so
- * that the shift counts, which are constants at the call sites, fold into a
- * few instructions on the Cortex-M4 instead of a call with variable 64-bit
- * shifts.  See docs/fixed-point.md for the contracts. */
-#define FX_INLINE static inline __attribute__((always_inline))
-FX_INLINE uint64_t traj_mag64(int64_t x)
-{
-    return (x < 0) ? ((uint64_t)0 - (uint64_t)x) : (uint64_t)x;
-}
-FX_INLINE int64_t traj_neg_mag(uint64_t m)
-{
-    return (m == 0u) ? 0 : (-(int64_t)(m - 1u) - 1);
-}
-FX_INLINE int64_t traj_signed_sat64(uint64_t m, bool neg)
-{
-    if (neg) {
-        return (m >= ((uint64_t)1 << 63)) ? INT64_MIN : traj_neg_mag(m);
-    }
-    return (m > (uint64_t)INT64_MAX) ? INT64_MAX : (int64_t)m;
-}
-FX_INLINE uint64_t traj_ushr_rnd(uint64_t m, uint32_t s)
-{
-    if (s == 0u) {
-        return m;
-    }
-    return (m >> s) + ((m >> (s - 1u)) & 1u);
-}
-FX_INLINE int32_t traj_sat32(int64_t x)
-{
-    if (x > (int64_t)INT32_MAX) {
-        return INT32_MAX;
-    }
-    if (x < (int64_t)INT32_MIN) {
-        return INT32_MIN;
-    }
-    return (int32_t)x;
-}
-FX_INLINE int64_t traj_add64_sat(int64_t a, int64_t b)
-{
-    if (b > 0 && a > INT64_MAX - b) {
-        return INT64_MAX;
-    }
-    if (b < 0 && a < INT64_MIN - b) {
-        return INT64_MIN;
-    }
-    return a + b;
-}
-FX_INLINE int64_t traj_sub64_sat(int64_t a, int64_t b)
-{
-    if (b < 0 && a > INT64_MAX + b) {
-        return INT64_MAX;
-    }
-    if (b > 0 && a < INT64_MIN + b) {
-        return INT64_MIN;
-    }
-    return a - b;
-}
-FX_INLINE int64_t traj_clamp64(int64_t x, int64_t lo, int64_t hi)
-{
-    if (x < lo) {
-        return lo;
-    }
-    if (x > hi) {
-        return hi;
-    }
-    return x;
-}
-FX_INLINE int64_t traj_asr64_floor(int64_t x, uint32_t s)
-{
-    if (s > 63u) {
-        s = 63u;
-    }
-    if (x >= 0) {
-        return (int64_t)((uint64_t)x >> s);
-    }
-    return -1 - (int64_t)((uint64_t)(-1 - x) >> s);
-}
-FX_INLINE int64_t traj_asr64_rnd(int64_t x, uint32_t s)
-{
-    if (s > 63u) {
-        s = 63u;
-    }
-    if (s == 0u) {
-        return x;
-    }
-    if (x >= 0) {
-        return (int64_t)traj_ushr_rnd((uint64_t)x, s);
-    }
-    return -(int64_t)traj_ushr_rnd(traj_mag64(x), s);
-}
-FX_INLINE int32_t traj_asr32_rnd(int64_t x, uint32_t s)
-{
-    return traj_sat32(traj_asr64_rnd(x, s));
-}
-FX_INLINE int64_t traj_shl64_sat(int64_t x, uint32_t s)
-{
-    if (x == 0) {
-        return 0;
-    }
-    if (s >= 63u) {
-        return (x > 0) ? INT64_MAX : INT64_MIN;
-    }
-    {
-        const int64_t lim = (int64_t)((uint64_t)INT64_MAX >> s);
-        if (x > lim) {
-            return INT64_MAX;
-        }
-        if (x < -lim - 1) {
-            return INT64_MIN;
-        }
-        return x * (int64_t)((uint64_t)1 << s);
-    }
-}
-FX_INLINE int32_t traj_mul_q(int32_t a, int32_t b, uint32_t q)
-{
-    const int64_t p = (int64_t)a * (int64_t)b;
-    if (q > 62u) {
-        q = 62u;
-    }
-    return traj_asr32_rnd(p, q);
-}
-FX_INLINE int64_t traj_mul64x32_q(int64_t a, int32_t b, uint32_t q)
-{
-    if (a >= (int64_t)INT32_MIN && a <= (int64_t)INT32_MAX) {
-        /* |a*b| <= 2^62: the 64-bit product is exact, round half away as below */
-        return traj_asr64_rnd((int64_t)(int32_t)a * (int64_t)b, (q > 62u) ? 62u : q);
-    }
-    const bool neg = (a < 0) != (b < 0);
-    const uint64_t ua = traj_mag64(a);
-    const uint32_t ub = (uint32_t)traj_mag64(b);
-    const uint64_t al = (uint64_t)(uint32_t)ua;
-    const uint64_t ah = ua >> 32;
-    const uint64_t plo = al * (uint64_t)ub;
-    const uint64_t pmid = ah * (uint64_t)ub;
-    uint64_t lo = plo + (pmid << 32);
-    uint64_t hi = (pmid >> 32) + ((lo < plo) ? 1u : 0u);
-    uint64_t m;
-    if (q > 62u) {
-        q = 62u;
-    }
-    if (q > 0u) {
-        const uint64_t half = (uint64_t)1 << (q - 1u);
-        const uint64_t lo2 = lo + half;
-        hi += (lo2 < lo) ? 1u : 0u;
-        lo = lo2;
-        m = (lo >> q) | (hi << (64u - q));
-        hi >>= q;
-    } else {
-        m = lo;
-    }
-    if (hi != 0u) {
-        return neg ? INT64_MIN : INT64_MAX;
-    }
-    return traj_signed_sat64(m, neg);
-}
-FX_INLINE int64_t traj_mac64(int64_t acc, int32_t a, int32_t b)
-{
-    return traj_add64_sat(acc, (int64_t)a * (int64_t)b);
-}
+/* Per-period fixed-point helpers: the inline hdf_* forms of hd_fixed.h
+ * (bit-identical to hd_fixed.c, shifts folded at the call sites). */
 
 /* floor division by a positive int64 with non-negative remainder */
 static int64_t floordiv(int64_t num, int64_t den, int64_t *rem)
@@ -226,9 +68,9 @@ static int32_t fits(uint32_t tj, uint32_t ta, int64_t j, int64_t d)
 
 static void outputs(hd_traj_t *s, int64_t step48)
 {
-    s->pos = traj_asr64_rnd(s->p48, 16u);
-    s->vel = traj_sat32(traj_mul64x32_q(step48, HD_LOOP_HZ, 16u));
-    s->acc = traj_sat32(traj_mul64x32_q(s->a48, 100000000, 24u));
+    s->pos = hdf_asr64_rnd(s->p48, 16u);
+    s->vel = hdf_sat32(hdf_mul64x32_q(step48, HD_LOOP_HZ, 16u));
+    s->acc = hdf_sat32(hdf_mul64x32_q(s->a48, 100000000, 24u));
 }
 
 void hd_traj_reset(hd_traj_t *s, hd_angle_t pos)
@@ -494,7 +336,7 @@ static void step_ptp(hd_traj_t *s, const hd_traj_cfg_t *c)
     }
     s->cruise_acc -= extra * (int64_t)total;
     const int64_t step = s->v48 + extra;
-    s->p48 = traj_add64_sat(s->p48, (s->dir < 0) ? -step : step);
+    s->p48 = hdf_add64_sat(s->p48, (s->dir < 0) ? -step : step);
     s->k = k + 1u;
     {
         const int64_t a_keep = s->a48;
@@ -534,13 +376,13 @@ static void step_rate(hd_traj_t *s)
     const int64_t num = (int64_t)s->rate_cur * 65536 + (int64_t)s->rate_rem;
     const int64_t step = floordiv(num, HD_LOOP_HZ, &rem);
     s->rate_rem = (int32_t)rem;
-    s->p48 = traj_add64_sat(s->p48, step);
+    s->p48 = hdf_add64_sat(s->p48, step);
     s->v48 = step;
     s->a48 = 0;
-    s->pos = traj_asr64_rnd(s->p48, 16u);
+    s->pos = hdf_asr64_rnd(s->p48, 16u);
     s->vel = s->rate_cur;
     /* acceleration feed-forward: the ramp slope, 2^-24 turn/s^2 */
-    s->acc = (acc == 0) ? 0 : traj_sat32(hd_div64_rnd((int64_t)acc * s->rate_dv * HD_LOOP_HZ, 256));
+    s->acc = (acc == 0) ? 0 : hdf_sat32(hd_div64_rnd((int64_t)acc * s->rate_dv * HD_LOOP_HZ, 256));
     if (s->rate_cur == 0 && s->rate_target == 0) {
         s->mode = HD_TRAJ_HOLD;
         s->v48 = 0;
@@ -559,12 +401,12 @@ static void step_sine(hd_traj_t *s)
     s->phase += s->inc_q + carry;   /* uint64: wraps once per cycle, meant */
     int32_t sn, cs;
     hd_sincos_turn((uint32_t)(s->phase >> 32), &sn, &cs);
-    s->pos = traj_add64_sat(s->center, (int64_t)traj_mul_q(s->amp, sn, 30u));
-    s->p48 = traj_shl64_sat(s->pos, 16u);
-    const int64_t aw = traj_mul64x32_q((int64_t)s->amp, s->w_q16, 16u);        /* 2^-32 turn/s */
-    s->vel = traj_mul_q(traj_sat32(aw), cs, 30u);
-    const int64_t aww = traj_mul64x32_q(aw, s->w_q16, 24u);                      /* 2^-24 turn/s^2 */
-    s->acc = hd_neg_sat(traj_mul_q(traj_sat32(aww), sn, 30u));
+    s->pos = hdf_add64_sat(s->center, (int64_t)hdf_mul_q(s->amp, sn, 30u));
+    s->p48 = hdf_shl64_sat(s->pos, 16u);
+    const int64_t aw = hdf_mul64x32_q((int64_t)s->amp, s->w_q16, 16u);        /* 2^-32 turn/s */
+    s->vel = hdf_mul_q(hdf_sat32(aw), cs, 30u);
+    const int64_t aww = hdf_mul64x32_q(aw, s->w_q16, 24u);                      /* 2^-24 turn/s^2 */
+    s->acc = hd_neg_sat(hdf_mul_q(hdf_sat32(aww), sn, 30u));
     s->v48 = 0;
     s->a48 = 0;
 }
