@@ -1011,7 +1011,10 @@ static void sdo_download_segment(hd_co_t *co, const uint8_t *d)
     co_send(co, sdo_tx_id(co), 8u, reply);
 }
 
-static void sdo_initiate_upload(hd_co_t *co, uint16_t index, uint8_t sub)
+/* Start an upload of index:sub (expedited/segmented or block): look the object up,
+ * check read access, reset the SDO state and get the size.  On any refusal the
+ * transfer is aborted with the code and false is returned. */
+static bool upload_open(hd_co_t *co, uint16_t index, uint8_t sub, uint32_t *size)
 {
     hd_co_sdo_t *s = &co->sdo;
     uint32_t ent;
@@ -1020,19 +1023,29 @@ static void sdo_initiate_upload(hd_co_t *co, uint16_t index, uint8_t sub)
         ab = check_access(co, ent, false);
     }
     sdo_reset(co, false);
-    uint32_t size = 0u;
+    *size = 0u;
     if (ab == 0u) {
         s->ent = (uint16_t)ent;
-        ab = ul_size(co, ent, &size);
+        ab = ul_size(co, ent, size);
     }
     if (ab != 0u) {
         sdo_reset(co, false);
         sdo_abort(co, index, sub, ab);
+        return false;
+    }
+    return true;
+}
+
+static void sdo_initiate_upload(hd_co_t *co, uint16_t index, uint8_t sub)
+{
+    hd_co_sdo_t *s = &co->sdo;
+    uint32_t size;
+    if (!upload_open(co, index, sub, &size)) {
         return;
     }
     if (size <= 4u && size > 0u) {
         uint8_t v[4] = {0};
-        ab = ul_source(co, 0u, v, size);
+        const uint32_t ab = ul_source(co, 0u, v, size);
         if (ab != 0u) {
             sdo_reset(co, false);
             sdo_abort(co, index, sub, ab);
@@ -1215,20 +1228,8 @@ static void sdo_block_upload_init(hd_co_t *co, const uint8_t *d, uint16_t index,
         sdo_abort(co, index, sub, HD_CO_AB_BLKSIZE);
         return;
     }
-    uint32_t ent;
-    uint32_t ab = lookup(co, index, sub, &ent);
-    if (ab == 0u) {
-        ab = check_access(co, ent, false);
-    }
-    sdo_reset(co, false);
-    uint32_t size = 0u;
-    if (ab == 0u) {
-        s->ent = (uint16_t)ent;
-        ab = ul_size(co, ent, &size);
-    }
-    if (ab != 0u) {
-        sdo_reset(co, false);
-        sdo_abort(co, index, sub, ab);
+    uint32_t size;
+    if (!upload_open(co, index, sub, &size)) {
         return;
     }
     s->state = SDO_BLK_UL_INIT;
