@@ -297,6 +297,32 @@ static void hd__pz_merge_oldest(hd_preisach_t *s)
     s->merges++;
 }
 
+/* Apply a located sample (the result of hd__pz_locate for p) to the memory. */
+static void hd__pz_commit(hd_preisach_t *s, int32_t p, const hd__pz_loc_t *r)
+{
+    if (r->push < 0) {
+        s->maxs[s->n_max].p = s->p_prev;
+        s->maxs[s->n_max].y = s->y;
+    } else if (r->push > 0) {
+        s->mins[s->n_min].p = s->p_prev;
+        s->mins[s->n_min].y = s->y;
+    }
+    s->n_max = r->n_max;
+    s->n_min = r->n_min;
+    s->dir = r->dir;
+    s->p_prev = p;
+    s->y = r->y;
+}
+
+/* True if hd_preisach_step_p(s, t, p) (p already clamped) would first drop the
+ * oldest max/min pair to make room for a pushed max. */
+static bool hd__pz_needs_merge(const hd_preisach_t *s, int32_t p)
+{
+    return p < s->p_prev && s->dir > 0 && s->n_max >= HD_PREISACH_DEPTH &&
+           (s->p_prev - p) > (int32_t)hdf_clamp64((int64_t)s->deadband, 0, INT32_MAX) &&
+           s->n_min >= 2u;
+}
+
 int64_t hd_preisach_step_p(hd_preisach_t *s, const hd_preisach_table_t *t, int32_t p)
 {
     hd__pz_loc_t r;
@@ -306,26 +332,13 @@ int64_t hd_preisach_step_p(hd_preisach_t *s, const hd_preisach_table_t *t, int32
     }
     p = hdf_clamp32(p, 0, s->p_top);
     /* a reversal downwards pushes a max; make room first if the stack is full */
-    if (p < s->p_prev && s->dir > 0 && s->n_max >= HD_PREISACH_DEPTH &&
-        (s->p_prev - p) > (int32_t)hdf_clamp64((int64_t)s->deadband, 0, INT32_MAX) &&
-        s->n_min >= 2u) {
+    if (hd__pz_needs_merge(s, p)) {
         hd__pz_merge_oldest(s);
     }
     if (!hd__pz_locate(s, t, p, &r)) {
         return s->y;
     }
-    if (r.push < 0) {
-        s->maxs[s->n_max].p = s->p_prev;
-        s->maxs[s->n_max].y = s->y;
-    } else if (r.push > 0) {
-        s->mins[s->n_min].p = s->p_prev;
-        s->mins[s->n_min].y = s->y;
-    }
-    s->n_max = r.n_max;
-    s->n_min = r.n_min;
-    s->dir = r.dir;
-    s->p_prev = p;
-    s->y = r.y;
+    hd__pz_commit(s, p, &r);
     return s->y;
 }
 
@@ -426,12 +439,38 @@ static int64_t hd__dist(int64_t a, int64_t b)
     return hdf_abs64_sat(hdf_sub64_sat(a, b));
 }
 
+/* A trial point of the inverse search: hd_preisach_peek_p(f, t, p) with the
+ * located memory change kept (ok = 0: the sample changes nothing, y = f->y). */
+typedef struct {
+    int32_t p;
+    bool ok;
+    hd__pz_loc_t r;
+} hd__pz_try_t;
+
+static int64_t hd__try(const hd_preisach_t *f, const hd_preisach_table_t *t, int32_t p, hd__pz_try_t *x)
+{
+    x->p = p;
+    x->ok = hd__pz_locate(f, t, p, &x->r);
+    if (!x->ok) {
+        x->r.y = f->y;
+    }
+    return x->r.y;
+}
+
+/*
+ * Bisection for the lattice point whose output is closest to y_d on the
+ * monotone branch from p_prev.  Every trial point is located once: its output
+ * and memory change are kept, so the end comparison and the final step reuse
+ * them instead of evaluating the Everett function again (same result as
+ * peek at every point, then hd_preisach_step_p at the chosen one).
+ */
 int32_t hd_preisach_inv_step_p(hd_preisach_inv_t *s, const hd_preisach_table_t *t, int64_t y_d)
 {
     hd_preisach_t *f = &s->fwd;
-    int32_t lo;
-    int32_t hi;
-    int32_t p;
+    hd__pz_try_t lo;
+    hd__pz_try_t hi;
+    hd__pz_try_t mid;
+    const hd__pz_try_t *sel;
 
     if (f->table_crc != t->crc || f->p_top != hd_preisach_p_top(t)) {
         hd__pz_reset(f, t);
@@ -441,42 +480,40 @@ int32_t hd_preisach_inv_step_p(hd_preisach_inv_t *s, const hd_preisach_table_t *
     }
     if (y_d > f->y) {
         /* y(p) non-decreasing on [p_prev, P]; y(lo) < y_d */
-        lo = f->p_prev;
-        hi = f->p_top;
-        if (hi == lo || hd_preisach_peek_p(f, t, hi) < y_d) {
-            p = hi;
+        (void)hd__try(f, t, f->p_prev, &lo);
+        if (f->p_top == f->p_prev || hd__try(f, t, f->p_top, &hi) < y_d) {
+            sel = (f->p_top == f->p_prev) ? &lo : &hi;
         } else {
-            while (hi - lo > 1) {
-                const int32_t mid = lo + (hi - lo) / 2;
-                if (hd_preisach_peek_p(f, t, mid) >= y_d) {
+            while (hi.p - lo.p > 1) {
+                if (hd__try(f, t, lo.p + (hi.p - lo.p) / 2, &mid) >= y_d) {
                     hi = mid;
                 } else {
                     lo = mid;
                 }
             }
-            p = (hd__dist(hd_preisach_peek_p(f, t, hi), y_d) <
-                 hd__dist(hd_preisach_peek_p(f, t, lo), y_d)) ? hi : lo;
+            sel = (hd__dist(hi.r.y, y_d) < hd__dist(lo.r.y, y_d)) ? &hi : &lo;
         }
     } else {
         /* y(p) non-decreasing on [0, p_prev]; y(hi) > y_d */
-        lo = 0;
-        hi = f->p_prev;
-        if (hi == lo || hd_preisach_peek_p(f, t, lo) > y_d) {
-            p = lo;
+        (void)hd__try(f, t, f->p_prev, &hi);
+        if (f->p_prev == 0 || hd__try(f, t, 0, &lo) > y_d) {
+            sel = (f->p_prev == 0) ? &hi : &lo;
         } else {
-            while (hi - lo > 1) {
-                const int32_t mid = lo + (hi - lo) / 2;
-                if (hd_preisach_peek_p(f, t, mid) <= y_d) {
+            while (hi.p - lo.p > 1) {
+                if (hd__try(f, t, lo.p + (hi.p - lo.p) / 2, &mid) <= y_d) {
                     lo = mid;
                 } else {
                     hi = mid;
                 }
             }
-            p = (hd__dist(hd_preisach_peek_p(f, t, lo), y_d) <
-                 hd__dist(hd_preisach_peek_p(f, t, hi), y_d)) ? lo : hi;
+            sel = (hd__dist(lo.r.y, y_d) < hd__dist(hi.r.y, y_d)) ? &lo : &hi;
         }
     }
-    (void)hd_preisach_step_p(f, t, p);
+    if (hd__pz_needs_merge(f, sel->p)) {
+        (void)hd_preisach_step_p(f, t, sel->p);     /* the memory changes first: locate again */
+    } else if (sel->ok) {
+        hd__pz_commit(f, sel->p, &sel->r);
+    }
     return f->p_prev;
 }
 

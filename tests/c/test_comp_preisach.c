@@ -4,7 +4,8 @@
  * Properties: online == brute-force relay sum EXACTLY on random histories
  * (L = 8/32/64, sub_bits 0..2, dead-band 0 and 2), wiping-out, congruency of
  * minor loops, inverse round trip within half a lattice step, refusal of a bad
- * table (previous stays in force), stack overflow safety net.
+ * table (previous stays in force), stack overflow safety net; the inverse's
+ * memoised bisection equals the peek-at-every-point bisection it replaced.
  */
 #include <stdarg.h>
 #include <stddef.h>
@@ -230,6 +231,99 @@ static void test_inverse_round_trip(void **state)
     }
 }
 
+/* The inverse as it was before the trial points were memoised: bisection with
+ * hd_preisach_peek_p at every point (and again at the two ends), then
+ * hd_preisach_step_p at the chosen point.  The firmware must give the same p
+ * and the same memory, period by period. */
+static int32_t ref_inv_step_p(hd_preisach_inv_t *s, const hd_preisach_table_t *t, int64_t y_d)
+{
+    hd_preisach_t *f = &s->fwd;
+    int32_t lo, hi, p;
+    if (f->table_crc != t->crc || f->p_top != hd_preisach_p_top(t)) {
+        (void)hd_preisach_step_p(f, t, f->p_prev);    /* resets the memory */
+    }
+    if (y_d == f->y) {
+        return f->p_prev;
+    }
+    if (y_d > f->y) {
+        lo = f->p_prev;
+        hi = f->p_top;
+        if (hi == lo || hd_preisach_peek_p(f, t, hi) < y_d) {
+            p = hi;
+        } else {
+            while (hi - lo > 1) {
+                const int32_t mid = lo + (hi - lo) / 2;
+                if (hd_preisach_peek_p(f, t, mid) >= y_d) {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            p = (llabs(hd_preisach_peek_p(f, t, hi) - y_d) < llabs(hd_preisach_peek_p(f, t, lo) - y_d)) ? hi : lo;
+        }
+    } else {
+        lo = 0;
+        hi = f->p_prev;
+        if (hi == lo || hd_preisach_peek_p(f, t, lo) > y_d) {
+            p = lo;
+        } else {
+            while (hi - lo > 1) {
+                const int32_t mid = lo + (hi - lo) / 2;
+                if (hd_preisach_peek_p(f, t, mid) <= y_d) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            p = (llabs(hd_preisach_peek_p(f, t, lo) - y_d) < llabs(hd_preisach_peek_p(f, t, hi) - y_d)) ? lo : hi;
+        }
+    }
+    (void)hd_preisach_step_p(f, t, p);
+    return f->p_prev;
+}
+
+/* memoised inverse == peek-everywhere bisection, on random and deeply nested
+ * (stack-merging) targets, several lattices and dead-bands */
+static void test_inverse_equals_peek_bisection(void **state)
+{
+    fx_t *f = *state;
+    static hd_preisach_inv_t ref;
+    static const uint32_t cfg[5][3] = {{8u, 0u, 0u}, {16u, 1u, 0u}, {32u, 2u, 2u}, {64u, 0u, 0u}, {64u, 3u, 1u}};
+    uint32_t c, k;
+    uint32_t merged = 0u;
+    for (c = 0; c < 5u; c++) {
+        int64_t ysat;
+        int64_t yd = 0;
+        build(f, cfg[c][0], cfg[c][1], 1u);
+        hd_preisach_inv_init(&f->inv, &f->t, cfg[c][2], 0u, true);
+        hd_preisach_inv_init(&ref, &f->t, cfg[c][2], 0u, true);
+        ysat = -f->inv.fwd.y;
+        for (k = 0; k < 4000u; k++) {
+            int32_t p1, p2;
+            if (k < 2000u) {
+                /* random walk with jumps, beyond saturation now and then */
+                yd += (int64_t)(int32_t)(rnd(f) % 4001u) - 2000;
+                yd += ((rnd(f) & 63u) == 0u) ? (int64_t)(rnd(f) % 3u - 1u) * ysat / 2 : 0;
+                yd = (yd > ysat + 5000) ? ysat + 5000 : ((yd < -ysat - 5000) ? -ysat - 5000 : yd);
+            } else {
+                /* shrinking oscillation: nests deeper than the stack */
+                const int64_t amp = ysat - (int64_t)(k - 2000u) * ysat / 2000;
+                yd = ((k & 1u) != 0u) ? amp : -amp;
+            }
+            p1 = hd_preisach_inv_step_p(&f->inv, &f->t, yd);
+            p2 = ref_inv_step_p(&ref, &f->t, yd);
+            if (p1 != p2 || f->inv.fwd.y != ref.fwd.y || f->inv.fwd.n_max != ref.fwd.n_max ||
+                f->inv.fwd.n_min != ref.fwd.n_min || f->inv.fwd.merges != ref.fwd.merges ||
+                f->inv.fwd.dir != ref.fwd.dir) {
+                fail_msg("L %u sub %u db %u step %u: p %d vs %d, y %lld vs %lld", cfg[c][0], cfg[c][1], cfg[c][2],
+                         k, p1, p2, (long long)f->inv.fwd.y, (long long)ref.fwd.y);
+            }
+        }
+        merged += f->inv.fwd.merges;
+    }
+    assert_true(merged > 0u);                            /* the merge path was exercised */
+}
+
 static void test_bad_table_refused(void **state)
 {
     fx_t *f = *state;
@@ -283,6 +377,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_saturation_and_wiping_out, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_congruency, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_inverse_round_trip, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_inverse_equals_peek_bisection, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_bad_table_refused, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_stack_overflow_merges, setUp, tearDown),
     };
