@@ -298,6 +298,71 @@ int32_t hd_g474_ssi_read(uint8_t *buf, uint32_t n)
     return 0;
 }
 
+/* ---- SPI1 + DMA1: the output-encoder frame without a CPU busy-wait ------------------
+ * DMA1 channel 1 (DMAMUX 0) takes SPI1_RX into the frame buffer, channel 2
+ * (DMAMUX 1) feeds SPI1_TX with 0xFF bytes (the master only clocks while it
+ * transmits; MOSI has no pin).  Full duplex, 8-bit frames (FRXTH = 1), both
+ * channels byte-wide; RX has the higher channel priority so the RX FIFO never
+ * overruns.  The RX transfer-complete interrupt (DMA1_CH1) ends the read; the
+ * last byte received means the 48 clocks are done.  (RM0440 SPI "communication
+ * using DMA": RXDMAEN first, then the channels, then TXDMAEN.) */
+
+#define SSI_DMA_RX 1u
+#define SSI_DMA_TX 2u
+#define SSI_DMA_MAX 16u
+
+static const uint8_t ssi_dummy_tx[SSI_DMA_MAX] = {
+    0xFFu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0xFFu, 0xFFu};
+
+void hd_g474_ssi_dma_init(void)
+{
+    HD_REG(RCC_AHB1ENR) |= (1u << 0) | (1u << 2);              /* DMA1, DMAMUX1 */
+    (void)HD_REG(RCC_AHB1ENR);
+    HD_REG(DMAMUX_CCR(SSI_DMA_RX - 1u)) = DMAREQ_SPI1_RX;
+    HD_REG(DMAMUX_CCR(SSI_DMA_TX - 1u)) = DMAREQ_SPI1_TX;
+    HD_REG(DMA_CCR(SSI_DMA_RX)) = 0u;
+    HD_REG(DMA_CCR(SSI_DMA_TX)) = 0u;
+    HD_REG(DMA_CPAR(SSI_DMA_RX)) = SPI_DR(SPI1_BASE);
+    HD_REG(DMA_CPAR(SSI_DMA_TX)) = SPI_DR(SPI1_BASE);
+    HD_REG(DMA_IFCR) = 0xFFu;                                   /* channels 1 and 2: every flag */
+}
+
+void hd_g474_ssi_dma_start(uint8_t *buf, uint32_t n)
+{
+    const uint32_t b = SPI1_BASE;
+    const uint32_t cnt = (n > SSI_DMA_MAX) ? SSI_DMA_MAX : n;
+    volatile uint8_t *dr8 = (volatile uint8_t *)(uintptr_t)SPI_DR(b);
+    uint32_t k;
+    for (k = 0u; (HD_REG(SPI_SR(b)) & 1u) != 0u && k < 4u; k++) {
+        (void)*dr8;                                             /* stale bytes out of the RX FIFO */
+    }
+    HD_REG(DMA_IFCR) = 0xFFu;
+    HD_REG(DMA_CMAR(SSI_DMA_RX)) = (uint32_t)(uintptr_t)buf;
+    HD_REG(DMA_CNDTR(SSI_DMA_RX)) = cnt;
+    HD_REG(DMA_CMAR(SSI_DMA_TX)) = (uint32_t)(uintptr_t)ssi_dummy_tx;
+    HD_REG(DMA_CNDTR(SSI_DMA_TX)) = cnt;
+    HD_REG(SPI_CR2(b)) |= SPI_CR2_RXDMAEN;
+    HD_REG(DMA_CCR(SSI_DMA_RX)) = DMA_CCR_MINC | DMA_CCR_TCIE | DMA_CCR_TEIE | DMA_CCR_PL_HIGH | DMA_CCR_EN;
+    HD_REG(DMA_CCR(SSI_DMA_TX)) = DMA_CCR_MINC | DMA_CCR_DIR | DMA_CCR_EN;
+    HD_REG(SPI_CR2(b)) |= SPI_CR2_TXDMAEN;                      /* the clocks start */
+}
+
+void hd_g474_ssi_dma_abort(void)
+{
+    HD_REG(DMA_CCR(SSI_DMA_TX)) = 0u;
+    HD_REG(DMA_CCR(SSI_DMA_RX)) = 0u;
+    HD_REG(SPI_CR2(SPI1_BASE)) &= ~(SPI_CR2_RXDMAEN | SPI_CR2_TXDMAEN);
+    HD_REG(DMA_IFCR) = 0xFFu;
+}
+
+int32_t hd_g474_ssi_dma_finish(void)
+{
+    const uint32_t isr = HD_REG(DMA_ISR);
+    const bool ok = ((isr & (1u << 1)) != 0u) && ((isr & ((1u << 3) | (1u << 7))) == 0u);  /* TCIF1, no TEIF1/2 */
+    hd_g474_ssi_dma_abort();                                    /* channels off, flags cleared */
+    return ok ? 0 : -1;
+}
+
 /* ---- IWDG: 10 ms ------------------------------------------------------------------ */
 
 void hd_g474_iwdg_init(void)

@@ -28,7 +28,11 @@ void hd_g474_adc_init(void);
 void hd_g474_enc_init(void);
 uint32_t hd_g474_enc_raw(void);
 void hd_g474_spi_init(void);
-int32_t hd_g474_ssi_read(uint8_t *buf, uint32_t n);
+int32_t hd_g474_ssi_read(uint8_t *buf, uint32_t n);          /* polled (start-up only) */
+void hd_g474_ssi_dma_init(void);
+void hd_g474_ssi_dma_start(uint8_t *buf, uint32_t n);        /* buf in SRAM1/2, n <= 16 */
+int32_t hd_g474_ssi_dma_finish(void);                         /* in the DMA ISR: 0 ok, -1 error */
+void hd_g474_ssi_dma_abort(void);
 void hd_g474_iwdg_init(void);
 void hd_g474_iwdg_kick(void);
 int32_t hd_g474_flash_read(uint32_t off, void *buf, uint32_t len);
@@ -40,5 +44,6 @@ void hd_g474_nvic_enable(uint32_t irq, uint32_t prio);
 void hd_g474_adc_irq(void);
 void hd_g474_fdcan_irq(void);
 void hd_g474_pendsv(void);
+void hd_g474_ssi_dma_irq(void);
 
 #endif

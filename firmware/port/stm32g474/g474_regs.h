@@ -26,6 +26,7 @@
 #define SCB_CPACR       0xE000ED88u           /* CP10/CP11 full access: 0xF << 20 */
 
 /* ---- IRQ numbers used (RM0440 table 97) ------------------------------------ */
+#define IRQ_DMA1_CH1    11u
 #define IRQ_ADC1_2      18u
 #define IRQ_FDCAN1_IT0  21u
 #define IRQ_COUNT       102u
@@ -39,6 +40,7 @@
 #define   RCC_CR_PLLRDY   (1u << 25)
 #define RCC_CFGR        (RCC_BASE + 0x08u)    /* SW [1:0], SWS [3:2], HPRE [7:4], PPRE1 [10:8], PPRE2 [13:11] */
 #define RCC_PLLCFGR     (RCC_BASE + 0x0Cu)    /* PLLSRC [1:0], PLLM [7:4], PLLN [14:8], PLLREN 24, PLLR [26:25] */
+#define RCC_AHB1ENR     (RCC_BASE + 0x48u)    /* DMA1 0, DMAMUX1 2 */
 #define RCC_AHB2ENR     (RCC_BASE + 0x4Cu)    /* GPIOA 0, GPIOB 1, GPIOC 2, ADC12 13 */
 #define RCC_APB1ENR1    (RCC_BASE + 0x58u)    /* TIM3 1, FDCAN 25, PWR 28 */
 #define RCC_APB2ENR     (RCC_BASE + 0x60u)    /* SYSCFG 0, TIM1 11, SPI1 12 */
@@ -98,9 +100,30 @@
 /* ---- SPI1 (0x40013000) ------------------------------------------------------ */
 #define SPI1_BASE       0x40013000u
 #define SPI_CR1(b)      ((b) + 0x00u)         /* CPHA 0, CPOL 1, MSTR 2, BR [5:3], SPE 6, SSI 8, SSM 9 */
-#define SPI_CR2(b)      ((b) + 0x04u)         /* DS [11:8], FRXTH 12 */
+#define SPI_CR2(b)      ((b) + 0x04u)         /* RXDMAEN 0, TXDMAEN 1, DS [11:8], FRXTH 12 */
+#define   SPI_CR2_RXDMAEN (1u << 0)
+#define   SPI_CR2_TXDMAEN (1u << 1)
 #define SPI_SR(b)       ((b) + 0x08u)         /* RXNE 0, TXE 1, OVR 6, BSY 7 */
 #define SPI_DR(b)       ((b) + 0x0Cu)
+
+/* ---- DMA1 (0x40020000) and DMAMUX1 (0x40020800) ---------------------------- */
+#define DMA1_BASE       0x40020000u
+#define DMA_ISR         (DMA1_BASE + 0x00u)   /* channel x (1..8): GIF 4(x-1), TCIF +1, HTIF +2, TEIF +3 */
+#define DMA_IFCR        (DMA1_BASE + 0x04u)   /* same bit positions, write 1 to clear */
+#define DMA_CCR(x)      (DMA1_BASE + 0x08u + 0x14u * ((x) - 1u))  /* EN 0, TCIE 1, TEIE 3, DIR 4, MINC 7, PL [13:12] */
+#define DMA_CNDTR(x)    (DMA1_BASE + 0x0Cu + 0x14u * ((x) - 1u))
+#define DMA_CPAR(x)     (DMA1_BASE + 0x10u + 0x14u * ((x) - 1u))
+#define DMA_CMAR(x)     (DMA1_BASE + 0x14u + 0x14u * ((x) - 1u))
+#define   DMA_CCR_EN      (1u << 0)
+#define   DMA_CCR_TCIE    (1u << 1)
+#define   DMA_CCR_TEIE    (1u << 3)
+#define   DMA_CCR_DIR     (1u << 4)           /* 1: memory -> peripheral */
+#define   DMA_CCR_MINC    (1u << 7)
+#define   DMA_CCR_PL_HIGH (2u << 12)
+#define DMAMUX1_BASE    0x40020800u
+#define DMAMUX_CCR(c)   (DMAMUX1_BASE + 4u * (c))   /* DMAMUX channel c = DMA1 channel c+1; DMAREQ_ID [6:0] */
+#define DMAREQ_SPI1_RX  10u                   /* RM0440 table 91 */
+#define DMAREQ_SPI1_TX  11u
 
 /* ---- ADC1/ADC2 (0x50000000 / 0x50000100, common 0x50000300) ------------------ */
 #define ADC1_BASE       0x50000000u

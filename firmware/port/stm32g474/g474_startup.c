@@ -94,10 +94,12 @@ static const hd_vector_t hd_g474_vectors[16u + IRQ_COUNT] = {
     [12] = default_handler,         /* DebugMonitor */
     [14] = hd_g474_pendsv,          /* PendSV: the 10 kHz control step */
     [15] = default_handler,         /* SysTick (not enabled: used as a delay counter) */
+    [16u + IRQ_DMA1_CH1] = hd_g474_ssi_dma_irq,  /* output-encoder frame received */
     [16u + IRQ_ADC1_2] = hd_g474_adc_irq,        /* 20 kHz FOC */
     [16u + IRQ_FDCAN1_IT0] = hd_g474_fdcan_irq,  /* CAN RX / TX-empty */
     [16u + 0u] = default_handler,   /* WWDG (and, below, every other IRQ) */
-    [16u + 1u ... 16u + IRQ_ADC1_2 - 1u] = default_handler,
+    [16u + 1u ... 16u + IRQ_DMA1_CH1 - 1u] = default_handler,
+    [16u + IRQ_DMA1_CH1 + 1u ... 16u + IRQ_ADC1_2 - 1u] = default_handler,
     [16u + IRQ_ADC1_2 + 1u ... 16u + IRQ_FDCAN1_IT0 - 1u] = default_handler,
     [16u + IRQ_FDCAN1_IT0 + 1u ... 16u + IRQ_COUNT - 1u] = default_handler,
 };
