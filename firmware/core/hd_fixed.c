@@ -506,6 +506,38 @@ void hd_sincos_turn(uint32_t angle, int32_t *sin_q30, int32_t *cos_q30)
     *cos_q30 = (quad == 1u || quad == 2u) ? -c : c;
 }
 
+/*
+ * Cheaper sin/cos for the current loop: the same quarter-wave table, then the
+ * second-order expansion around the table point (d = offset in rad < pi/512):
+ *   sin(a + d) = s (1 - d^2/2) + c d,  cos(a + d) = c (1 - d^2/2) - s d,
+ * error < d^3/6 < 4e-8 (~43 LSB of Q30) plus truncation; five 32x32->64
+ * products, no 64-bit shifts.
+ */
+void hd_sincos_turn_fast(uint32_t angle, int32_t *sin_q30, int32_t *cos_q30)
+{
+    const uint32_t quad = angle >> 30;
+    const uint32_t r = angle & 0x3FFFFFFFu;
+    const uint32_t p = ((quad & 1u) != 0u) ? (0x40000000u - r) : r;
+    const uint32_t k = p >> 22;                                     /* 0..256 */
+    const uint32_t l = p & 0x3FFFFFu;
+    /* d = l 2^-22 pi / 512 rad = l pi 2^-31; in Q32 = l * pi 2^29 / 2^28, < 2^25 */
+    const uint32_t d32 = (uint32_t)(((uint64_t)l * (uint32_t)HD_PI_Q29) >> 28);
+    const uint32_t h32 = (uint32_t)(((uint64_t)d32 * d32) >> 33);   /* d^2 / 2, Q32 */
+    const uint32_t sk = hd_sin_tab_q31[k];
+    const uint32_t ck = hd_sin_tab_q31[256u - k];
+    /* s (1 - d^2/2) >= 0 and c (1 - d^2/2) >= 0; the sums stay below 2^32 */
+    const uint32_t s_a = sk - (uint32_t)(((uint64_t)sk * h32) >> 32) + (uint32_t)(((uint64_t)ck * d32) >> 32);
+    const uint32_t c_a = ck - (uint32_t)(((uint64_t)ck * h32) >> 32);
+    const uint32_t c_b = (uint32_t)(((uint64_t)sk * d32) >> 32);
+    const uint32_t s31 = (s_a > 0x80000000u) ? 0x80000000u : s_a;
+    const uint32_t c31 = (c_a > c_b) ? ((c_a - c_b > 0x80000000u) ? 0x80000000u : c_a - c_b) : 0u;
+    const int32_t s = (int32_t)((s31 + 1u) >> 1);
+    const int32_t c = (int32_t)((c31 + 1u) >> 1);
+    /* q0: (s, c)  q1: (s, -c)  q2: (-s, -c)  q3: (-s, c) */
+    *sin_q30 = (quad >= 2u) ? -s : s;
+    *cos_q30 = (quad == 1u || quad == 2u) ? -c : c;
+}
+
 int32_t hd_sign_smooth_q30(int32_t x, int32_t eps)
 {
     uint64_t ux;

@@ -100,6 +100,10 @@ int32_t hd_exp_neg_q16(int32_t x_q16);
  *  so the uint32 wraps exactly once per turn (meant to wrap).  Results in Q30.
  *  Accuracy and cost: see docs/fixed-point.md. */
 void hd_sincos_turn(uint32_t angle, int32_t *sin_q30, int32_t *cos_q30);
+/** The same with ~24-bit accuracy (error <= 64 LSB of Q30, ~6e-8) at about a
+ *  third of the cost: for the 20 kHz current loop (hd_foc), whose sensors
+ *  have 12 bits.  Results in [-2^30, 2^30]. */
+void hd_sincos_turn_fast(uint32_t angle, int32_t *sin_q30, int32_t *cos_q30);
 
 /** Smooth sign: with t = x / eps (eps > 0, same units as x), returns in Q30
  *  s(t) = t*(3 - t^2)/2 for |t| <= 1 and sign(t) otherwise: C1-continuous,

@@ -5,39 +5,97 @@
 #include "hd_fixed.h"
 
 #define HD_INV_SQRT3_Q30  619925131     /* 1/sqrt(3) in Q30 */
-#define HD_SQRT3_2_Q30    929887697     /* sqrt(3)/2 in Q30 */
+#define HD_SQRT3_Q30      1859775393    /* sqrt(3) in Q30 */
 #define HD_TWO_PI_Q16     411775        /* 2 pi in Q16 */
+
+/* The transforms, inlined into hd_foc_step (the public functions below are
+ * the same arithmetic). */
+static inline int32_t foc_clarke_beta(int32_t ia, int32_t ib)
+{
+    const int64_t s = (int64_t)ia + 2 * (int64_t)ib;     /* |s| < 2^33 */
+    return hdf_sat32(hdf_mul64x32_q(s, HD_INV_SQRT3_Q30, 30u));
+}
+
+/* round(x / 2^q) (half up), saturated to int32, for |x| < 2^62 and 1 <= q <= 30:
+ * biased by 2^62 so that the shift acts on a non-negative number (modulo-2^64
+ * sum, no overflow: x + 2^62 + 2^(q-1) < 2^63 + 2^29). */
+static inline int32_t foc_rnd_sat(int64_t x, uint32_t q)
+{
+    const uint64_t u = ((uint64_t)x + ((uint64_t)1 << 62) + ((uint64_t)1 << (q - 1u))) >> q;
+    const int64_t r = (int64_t)u - ((int64_t)1 << (62u - q));
+    return (r > (int64_t)INT32_MAX) ? INT32_MAX : ((r < (int64_t)INT32_MIN) ? INT32_MIN : (int32_t)r);
+}
+
+static inline void foc_rot(int32_t a, int32_t b, int32_t sn, int32_t cs, int32_t *x, int32_t *y)
+{
+    /* (x, y) = (a cos - b sin, a sin + b cos): |sin|, |cos| <= 2^30 (hd_sincos_turn*),
+     * so each product <= 2^61 and the sums < 2^62 */
+    *x = foc_rnd_sat((int64_t)a * cs - (int64_t)b * sn, 30u);
+    *y = foc_rnd_sat((int64_t)a * sn + (int64_t)b * cs, 30u);
+}
 
 void hd_foc_clarke(int32_t ia, int32_t ib, int32_t *i_alpha, int32_t *i_beta)
 {
-    const int64_t s = (int64_t)ia + 2 * (int64_t)ib;     /* |s| < 2^33 */
     *i_alpha = ia;
-    *i_beta = hdf_sat32(hdf_mul64x32_q(s, HD_INV_SQRT3_Q30, 30u));
+    *i_beta = foc_clarke_beta(ia, ib);
 }
 
 void hd_foc_park(int32_t a, int32_t b, int32_t sin_q30, int32_t cos_q30, int32_t *d, int32_t *q)
 {
-    /* each product < 2^61 in magnitude, the sums < 2^62: no overflow */
-    const int64_t dd = (int64_t)a * cos_q30 + (int64_t)b * sin_q30;
-    const int64_t qq = (int64_t)b * cos_q30 - (int64_t)a * sin_q30;
-    *d = hdf_asr32_rnd(dd, 30u);
-    *q = hdf_asr32_rnd(qq, 30u);
+    /* d = a cos + b sin, q = b cos - a sin: the rotation by -theta */
+    foc_rot(a, b, hdf_neg_sat(sin_q30), cos_q30, d, q);
 }
 
 void hd_foc_ipark(int32_t d, int32_t q, int32_t sin_q30, int32_t cos_q30, int32_t *a, int32_t *b)
 {
-    const int64_t aa = (int64_t)d * cos_q30 - (int64_t)q * sin_q30;
-    const int64_t bb = (int64_t)d * sin_q30 + (int64_t)q * cos_q30;
-    *a = hdf_asr32_rnd(aa, 30u);
-    *b = hdf_asr32_rnd(bb, 30u);
+    foc_rot(d, q, sin_q30, cos_q30, a, b);
 }
 
-static int32_t duty_of(int64_t v_q46, int32_t inv_vbus_q30)
+/* round(p / 2^18) for p in Q46, saturated to +-2^29 (+-2.0 in Q28); the bias
+ * makes the shift act on a non-negative number (round half up). */
+static inline int32_t foc_ratio_q28(int64_t p)
 {
-    /* v in Q46 V (Q16 V x Q30) -> Q16 V, then times 1/vbus (Q30 1/V) -> Q16 ratio */
-    const int32_t v = hdf_asr32_rnd(v_q46, 30u);
-    const int32_t r = hdf_mul_q(v, inv_vbus_q30, 30u);
-    return hdf_clamp32(hdf_add_sat(HD_FOC_DUTY_ONE / 2, r), 0, HD_FOC_DUTY_ONE);
+    const int64_t lim = (int64_t)1 << 47;
+    const int64_t c = (p > lim) ? lim : ((p < -lim) ? -lim : p);
+    return (int32_t)((uint32_t)((uint64_t)(c + lim + ((int64_t)1 << 17)) >> 18) - ((uint32_t)1 << 29));
+}
+
+/*
+ * SVM with 1/vbus given (Q30 per V), in 32-bit: the voltage components as
+ * modulation ratios m = v / vbus in Q28, saturated to +-2 (the duties saturate
+ * long before: the linear range is |m| <= 1/sqrt(3)); twice the phase ratios
+ * (Q28, so that m_alpha / 2 is exact) pa = 2 m_alpha, pb, pc = -m_alpha +-
+ * sqrt(3) m_beta (|.| < 2^31; they sum to 0, so |max + min| < 2^31);
+ * zero sequence v0 = -(max + min) / 2; duty = 1/2 + phase ratio + v0 in Q16,
+ * rounded, within [0, 1].
+ */
+static void foc_svm_inv(int32_t v_alpha, int32_t v_beta, int32_t inv_q30, int32_t duty[3])
+{
+    const int32_t ma = foc_ratio_q28((int64_t)v_alpha * inv_q30);
+    const int32_t mb = foc_ratio_q28((int64_t)v_beta * inv_q30);
+    /* sqrt(3) m_beta in Q28, rounded (biased to a non-negative shift: |product| < 2^60) */
+    const int32_t sb = (int32_t)((uint32_t)((uint64_t)((int64_t)mb * HD_SQRT3_Q30 + ((int64_t)1 << 60) +
+                                                       ((int64_t)1 << 29)) >> 30) - ((uint32_t)1 << 30));
+    int32_t p[3];
+    int32_t mx;
+    int32_t mn;
+    uint32_t k;
+    p[0] = 2 * ma;
+    p[1] = sb - ma;
+    p[2] = -sb - ma;
+    mx = (p[1] > p[0]) ? p[1] : p[0];
+    mx = (p[2] > mx) ? p[2] : mx;
+    mn = (p[1] < p[0]) ? p[1] : p[0];
+    mn = (p[2] < mn) ? p[2] : mn;
+    {
+        /* phase ratio + v0 in Q30 = 2 p - (max + min); duty Q16 = (2^29 + that) / 2^14, rounded */
+        const int32_t s = mx + mn;
+        for (k = 0; k < 3u; k++) {
+            const int64_t q30 = 2 * (int64_t)p[k] - (int64_t)s + ((int64_t)1 << 29) + ((int64_t)1 << 13);
+            const int64_t d = (q30 <= 0) ? 0 : (int64_t)((uint64_t)q30 >> 14);
+            duty[k] = (d > HD_FOC_DUTY_ONE) ? HD_FOC_DUTY_ONE : (int32_t)d;
+        }
+    }
 }
 
 void hd_foc_svm(int32_t v_alpha, int32_t v_beta, int32_t vbus, int32_t duty[3])
@@ -48,23 +106,7 @@ void hd_foc_svm(int32_t v_alpha, int32_t v_beta, int32_t vbus, int32_t duty[3])
         duty[2] = HD_FOC_DUTY_ONE / 2;
         return;
     }
-    /* phase voltages in Q46 V: |terms| < 2^61, sums < 2^62 */
-    const int64_t va = (int64_t)v_alpha * HD_Q30_ONE;
-    const int64_t half_a = (int64_t)v_alpha * (HD_Q30_ONE / 2);
-    const int64_t sb = (int64_t)v_beta * HD_SQRT3_2_Q30;
-    const int64_t vb = sb - half_a;
-    const int64_t vc = -sb - half_a;
-    int64_t mx = va, mn = va;
-    if (vb > mx) { mx = vb; }
-    if (vc > mx) { mx = vc; }
-    if (vb < mn) { mn = vb; }
-    if (vc < mn) { mn = vc; }
-    /* zero sequence v0 = -(max + min) / 2, rounded (|max + min| < 2^63) */
-    const int64_t v0 = -hdf_asr64_rnd(mx + mn, 1u);
-    const int32_t inv = hd_div_q(HD_Q16_ONE, vbus, 30u);    /* 1/vbus, Q30 per V */
-    duty[0] = duty_of(va + v0, inv);
-    duty[1] = duty_of(vb + v0, inv);
-    duty[2] = duty_of(vc + v0, inv);
+    foc_svm_inv(v_alpha, v_beta, hd_div_q(HD_Q16_ONE, vbus, 30u), duty);
 }
 
 void hd_foc_reset(hd_foc_t *s)
@@ -84,11 +126,13 @@ void hd_foc_reset(hd_foc_t *s)
  * returns the output limited to +-lim (lim >= 0); *lim_hit = 1 if clamped. */
 static int32_t pi_axis(int64_t *integ, const hd_foc_cfg_t *c, int32_t e, int32_t lim, uint32_t *lim_hit)
 {
-    const int64_t ilim = (int64_t)lim * HD_Q16_ONE;          /* Q32 V */
-    const int32_t p = hdf_mul_q(c->kp, e, 16u);
-    const int64_t in = hdf_clamp64(hdf_mac64(*integ, c->ki_ts, e), -ilim, ilim);
+    const int64_t ilim = (int64_t)lim * HD_Q16_ONE;          /* Q32 V, <= 2^47 */
+    const int64_t ib = (int64_t)1 << 48;                     /* |*integ| <= 2^47: every step clamps */
+    const int64_t i0 = hdf_clamp64(*integ, -ib, ib);          /* (so this never acts; keeps the sum in range) */
+    const int32_t p = foc_rnd_sat((int64_t)c->kp * e, 16u);  /* |product| < 2^62 */
+    const int64_t in = hdf_clamp64(i0 + (int64_t)c->ki_ts * e, -ilim, ilim);   /* |sum| < 2^62 + 2^48 */
     *integ = in;
-    const int32_t v = hdf_add_sat(p, hdf_asr32_rnd(in, 16u));
+    const int32_t v = hdf_add_sat(p, foc_rnd_sat(in, 16u));
     if (v > lim || v < -lim) {
         *lim_hit = 1u;
     }
@@ -99,16 +143,19 @@ void hd_foc_step(hd_foc_t *s, const hd_foc_cfg_t *c, const hd_foc_in_t *in, hd_f
 {
     int32_t sn, cs, ial, ibe, id, iq, val, vbe;
     uint32_t hit = 0u;
-    hd_sincos_turn(in->theta_e, &sn, &cs);
-    hd_foc_clarke(in->ia, in->ib, &ial, &ibe);
-    hd_foc_park(ial, ibe, sn, cs, &id, &iq);
+    hd_sincos_turn_fast(in->theta_e, &sn, &cs);
+    ial = in->ia;
+    ibe = foc_clarke_beta(in->ia, in->ib);
+    foc_rot(ial, ibe, -sn, cs, &id, &iq);                     /* Park; |sn| <= 2^30 */
     s->id = id;
     s->iq = iq;
     if (in->vbus <= 0) {
         s->vd = 0;
         s->vq = 0;
         s->limited = 1u;
-        hd_foc_svm(0, 0, 0, out->duty);
+        out->duty[0] = HD_FOC_DUTY_ONE / 2;
+        out->duty[1] = HD_FOC_DUTY_ONE / 2;
+        out->duty[2] = HD_FOC_DUTY_ONE / 2;
         return;
     }
     /* usable phase-voltage amplitude of linear SVM */
@@ -130,8 +177,8 @@ void hd_foc_step(hd_foc_t *s, const hd_foc_cfg_t *c, const hd_foc_in_t *in, hd_f
     s->vd = vd;
     s->vq = vq;
     s->limited = hit;
-    hd_foc_ipark(vd, vq, sn, cs, &val, &vbe);
-    hd_foc_svm(val, vbe, in->vbus, out->duty);
+    foc_rot(vd, vq, sn, cs, &val, &vbe);                      /* inverse Park */
+    foc_svm_inv(val, vbe, hd_div_q(HD_Q16_ONE, in->vbus, 30u), out->duty);
 }
 
 int32_t hd_foc_design(hd_foc_cfg_t *c, int32_t r_mohm, int32_t l_nh, int32_t fc_hz, int32_t fs_hz)

@@ -8,7 +8,7 @@
  *   phase / dq current      Q15.16 A        (int32, hd_current_t)
  *   voltage                 Q15.16 V        (int32)
  *   electrical angle        uint32, 2^32 == one electrical turn (wraps, meant)
- *   sin / cos               Q30             (hd_sincos_turn)
+ *   sin / cos               Q30             (hd_sincos_turn_fast: ~4e-8, for a 12-bit loop)
  *   kp                      Q15.16 V/A
  *   ki_ts = Ki * Ts         Q15.16 V/(A period)
  *   integrator              int64, 2^-32 V  (16 more fractional bits than the output)
@@ -26,8 +26,11 @@
  *      axis needs (e.g. the back-EMF): recovery from saturation takes a few
  *      periods (test_foc.c: < 1 ms at 3000 rpm).
  *   4. inverse Park, inverse Clarke to va, vb, vc, zero-sequence injection
- *      v0 = -(max + min) / 2 (equivalent to SVM), duty = 1/2 + (vx + v0) / vbus.
- * Every narrowing rounds to nearest (hd_fixed) and saturates.
+ *      v0 = -(max + min) / 2 (equivalent to SVM), duty = 1/2 + (vx + v0) / vbus,
+ *      computed in 32-bit on modulation ratios (v / vbus in Q28, one 1/vbus
+ *      per step; ratios saturated to +-2, far outside the linear range).
+ * Every narrowing rounds to nearest (half up in the transforms and the SVM)
+ * and saturates.
  *
  * The controller computes in period k the duties applied in period k + 1
  * (the PWM preload), so the loop sees one period of transport delay plus the
