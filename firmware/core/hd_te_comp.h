@@ -22,7 +22,7 @@
  *   phase_h           uint32 turn fraction (2^32 = 1 turn)
  *   k1                Q23.8 N.m/turn (K1 = 3.1e4 N.m/rad -> 1.95e5 N.m/turn)
  *   dth               int64 Q32.32 turns;  tau, tau_max Q15.16 N.m
- * sin by hd_sincos_turn (Q30); the sum of amp*sin is accumulated exactly in
+ * sin by hd_sincos_turn_fast (Q30, ~4e-8); the sum of amp*sin is accumulated exactly in
  * int64 and rounded once.
  */
 #ifndef HD_TE_COMP_H
