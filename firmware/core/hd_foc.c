@@ -10,11 +10,6 @@
 
 /* The transforms, inlined into hd_foc_step (the public functions below are
  * the same arithmetic). */
-static inline int32_t foc_clarke_beta(int32_t ia, int32_t ib)
-{
-    const int64_t s = (int64_t)ia + 2 * (int64_t)ib;     /* |s| < 2^33 */
-    return hdf_sat32(hdf_mul64x32_q(s, HD_INV_SQRT3_Q30, 30u));
-}
 
 /* round(x / 2^q) (half up), saturated to int32, for |x| < 2^62 and 1 <= q <= 30:
  * biased by 2^62 so that the shift acts on a non-negative number (modulo-2^64
@@ -24,6 +19,12 @@ static inline int32_t foc_rnd_sat(int64_t x, uint32_t q)
     const uint64_t u = ((uint64_t)x + ((uint64_t)1 << 62) + ((uint64_t)1 << (q - 1u))) >> q;
     const int64_t r = (int64_t)u - ((int64_t)1 << (62u - q));
     return (r > (int64_t)INT32_MAX) ? INT32_MAX : ((r < (int64_t)INT32_MIN) ? INT32_MIN : (int32_t)r);
+}
+
+static inline int32_t foc_clarke_beta(int32_t ia, int32_t ib)
+{
+    /* |ia + 2 ib| <= 3 2^31 < 2^32.6, times 1/sqrt(3) (< 2^29.3): < 2^62 */
+    return foc_rnd_sat(((int64_t)ia + 2 * (int64_t)ib) * HD_INV_SQRT3_Q30, 30u);
 }
 
 static inline void foc_rot(int32_t a, int32_t b, int32_t sn, int32_t cs, int32_t *x, int32_t *y)
@@ -51,31 +52,32 @@ void hd_foc_ipark(int32_t d, int32_t q, int32_t sin_q30, int32_t cos_q30, int32_
     foc_rot(d, q, sin_q30, cos_q30, a, b);
 }
 
-/* round(p / 2^18) for p in Q46, saturated to +-2^29 (+-2.0 in Q28); the bias
+/* round(p / 2^18) for p in Q46, saturated to +-2^28 (+-1.0 in Q28); the bias
  * makes the shift act on a non-negative number (round half up). */
 static inline int32_t foc_ratio_q28(int64_t p)
 {
-    const int64_t lim = (int64_t)1 << 47;
+    const int64_t lim = (int64_t)1 << 46;
     const int64_t c = (p > lim) ? lim : ((p < -lim) ? -lim : p);
-    return (int32_t)((uint32_t)((uint64_t)(c + lim + ((int64_t)1 << 17)) >> 18) - ((uint32_t)1 << 29));
+    return (int32_t)((uint32_t)((uint64_t)(c + lim + ((int64_t)1 << 17)) >> 18) - ((uint32_t)1 << 28));
 }
 
 /*
  * SVM with 1/vbus given (Q30 per V), in 32-bit: the voltage components as
- * modulation ratios m = v / vbus in Q28, saturated to +-2 (the duties saturate
- * long before: the linear range is |m| <= 1/sqrt(3)); twice the phase ratios
- * (Q28, so that m_alpha / 2 is exact) pa = 2 m_alpha, pb, pc = -m_alpha +-
- * sqrt(3) m_beta (|.| < 2^31; they sum to 0, so |max + min| < 2^31);
+ * modulation ratios m = v / vbus in Q28, each saturated to +-1 (the duties
+ * saturate long before: the linear range is |m| <= 1/sqrt(3)); twice the phase
+ * ratios (Q28, so that m_alpha / 2 is exact) pa = 2 m_alpha, pb, pc = -m_alpha
+ * +- sqrt(3) m_beta (|.| < 2^30; they sum to 0, so |max + min| < 2^30);
  * zero sequence v0 = -(max + min) / 2; duty = 1/2 + phase ratio + v0 in Q16,
- * rounded, within [0, 1].
+ * rounded, within [0, 1].  2 p - (max + min) is a phase-to-phase difference,
+ * |.| <= 2 sqrt(3) sqrt(2) 2^28 < 2^31 - 2^29: all in 32 bits.
  */
 static void foc_svm_inv(int32_t v_alpha, int32_t v_beta, int32_t inv_q30, int32_t duty[3])
 {
     const int32_t ma = foc_ratio_q28((int64_t)v_alpha * inv_q30);
     const int32_t mb = foc_ratio_q28((int64_t)v_beta * inv_q30);
-    /* sqrt(3) m_beta in Q28, rounded (biased to a non-negative shift: |product| < 2^60) */
-    const int32_t sb = (int32_t)((uint32_t)((uint64_t)((int64_t)mb * HD_SQRT3_Q30 + ((int64_t)1 << 60) +
-                                                       ((int64_t)1 << 29)) >> 30) - ((uint32_t)1 << 30));
+    /* sqrt(3) m_beta in Q28, rounded (biased to a non-negative shift: |product| < 2^59) */
+    const int32_t sb = (int32_t)((uint32_t)((uint64_t)((int64_t)mb * HD_SQRT3_Q30 + ((int64_t)1 << 59) +
+                                                       ((int64_t)1 << 29)) >> 30) - ((uint32_t)1 << 29));
     int32_t p[3];
     int32_t mx;
     int32_t mn;
@@ -91,9 +93,9 @@ static void foc_svm_inv(int32_t v_alpha, int32_t v_beta, int32_t inv_q30, int32_
         /* phase ratio + v0 in Q30 = 2 p - (max + min); duty Q16 = (2^29 + that) / 2^14, rounded */
         const int32_t s = mx + mn;
         for (k = 0; k < 3u; k++) {
-            const int64_t q30 = 2 * (int64_t)p[k] - (int64_t)s + ((int64_t)1 << 29) + ((int64_t)1 << 13);
-            const int64_t d = (q30 <= 0) ? 0 : (int64_t)((uint64_t)q30 >> 14);
-            duty[k] = (d > HD_FOC_DUTY_ONE) ? HD_FOC_DUTY_ONE : (int32_t)d;
+            const int32_t q30 = 2 * p[k] - s + (1 << 29) + (1 << 13);
+            const int32_t d = (q30 <= 0) ? 0 : (int32_t)((uint32_t)q30 >> 14);
+            duty[k] = (d > HD_FOC_DUTY_ONE) ? HD_FOC_DUTY_ONE : d;
         }
     }
 }
@@ -159,7 +161,8 @@ void hd_foc_step(hd_foc_t *s, const hd_foc_cfg_t *c, const hd_foc_in_t *in, hd_f
         return;
     }
     /* usable phase-voltage amplitude of linear SVM */
-    const int32_t vmax = hdf_mul_q(hdf_mul_q(in->vbus, c->m_max, 30u), HD_INV_SQRT3_Q30, 30u);
+    const int32_t mm = hdf_clamp32(c->m_max, 0, HD_Q30_ONE);
+    const int32_t vmax = foc_rnd_sat((int64_t)foc_rnd_sat((int64_t)in->vbus * mm, 30u) * HD_INV_SQRT3_Q30, 30u);
     const int32_t vd = pi_axis(&s->integ_d, c, hdf_sub_sat(in->id_ref, id), vmax, &hit);
     /* q axis: output and integrator clamped to the rest of the circle,
      * sqrt(vmax^2 - vd^2) - computed only when the vector would leave the circle */
