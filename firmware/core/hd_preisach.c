@@ -126,10 +126,15 @@ static int64_t hd__e(const hd_preisach_table_t *t, uint32_t i, uint32_t j)
     return (int64_t)t->e[hd__tri(i) + j];
 }
 
-int32_t hd_preisach_everett(const hd_preisach_table_t *t, int32_t a, int32_t b)
+static uint32_t hd__sub_bits(const hd_preisach_table_t *t)
 {
-    const int32_t ptop = hd_preisach_p_top(t);
-    const uint32_t sb = (t->sub_bits > HD_PREISACH_SUB_MAX) ? HD_PREISACH_SUB_MAX : t->sub_bits;
+    return (t->sub_bits > HD_PREISACH_SUB_MAX) ? HD_PREISACH_SUB_MAX : t->sub_bits;
+}
+
+/* hd_preisach_everett with ptop = hd_preisach_p_top(t) and sb = hd__sub_bits(t)
+ * given (the inverse computes them once per period instead of per evaluation). */
+static int32_t hd__everett_k(const hd_preisach_table_t *t, int32_t a, int32_t b, int32_t ptop, uint32_t sb)
+{
     uint32_t ua;
     uint32_t ub;
     uint32_t ia;
@@ -171,6 +176,11 @@ int32_t hd_preisach_everett(const hd_preisach_table_t *t, int32_t a, int32_t b)
         acc += (int64_t)((n - fa) * fb) * hd__e(t, ia, ib + 1u);
     }
     return hdf_asr32_rnd(acc, 2u * sb);
+}
+
+int32_t hd_preisach_everett(const hd_preisach_table_t *t, int32_t a, int32_t b)
+{
+    return hd__everett_k(t, a, b, hd_preisach_p_top(t), hd__sub_bits(t));
 }
 
 /* ---- online recursive model ------------------------------------------------- */
@@ -218,8 +228,8 @@ typedef struct {
     int32_t dir;
 } hd__pz_loc_t;
 
-static bool hd__pz_locate(const hd_preisach_t *s, const hd_preisach_table_t *t, int32_t p,
-                          hd__pz_loc_t *r)
+static bool hd__pz_locate_k(const hd_preisach_t *s, const hd_preisach_table_t *t, int32_t p,
+                            hd__pz_loc_t *r, int32_t ptop, uint32_t sb)
 {
     const hd_preisach_ext_t virt = { s->p_prev, s->y };
     int32_t d;
@@ -257,7 +267,7 @@ static bool hd__pz_locate(const hd_preisach_t *s, const hd_preisach_table_t *t, 
         {
             const hd_preisach_ext_t *m = (push > 0 && nmin - 1u == s->n_min) ? &virt
                                          : &s->mins[nmin - 1u];
-            r->y = m->y + 2 * (int64_t)hd_preisach_everett(t, p, m->p);
+            r->y = m->y + 2 * (int64_t)hd__everett_k(t, p, m->p, ptop, sb);
         }
     } else {
         for (;;) {
@@ -272,7 +282,7 @@ static bool hd__pz_locate(const hd_preisach_t *s, const hd_preisach_table_t *t, 
         {
             const hd_preisach_ext_t *m = (push < 0 && nmax - 1u == s->n_max) ? &virt
                                          : &s->maxs[nmax - 1u];
-            r->y = m->y - 2 * (int64_t)hd_preisach_everett(t, m->p, p);
+            r->y = m->y - 2 * (int64_t)hd__everett_k(t, m->p, p, ptop, sb);
         }
     }
     r->n_max = nmax;
@@ -280,6 +290,12 @@ static bool hd__pz_locate(const hd_preisach_t *s, const hd_preisach_table_t *t, 
     r->push = push;
     r->dir = d;
     return true;
+}
+
+static bool hd__pz_locate(const hd_preisach_t *s, const hd_preisach_table_t *t, int32_t p,
+                          hd__pz_loc_t *r)
+{
+    return hd__pz_locate_k(s, t, p, r, hd_preisach_p_top(t), hd__sub_bits(t));
 }
 
 /* Safety net: drop the oldest max/min pair (indices 1) of both stacks. */
@@ -447,10 +463,17 @@ typedef struct {
     hd__pz_loc_t r;
 } hd__pz_try_t;
 
-static int64_t hd__try(const hd_preisach_t *f, const hd_preisach_table_t *t, int32_t p, hd__pz_try_t *x)
+/* the table's P and sub-bits, computed once per inverse step */
+typedef struct {
+    int32_t ptop;
+    uint32_t sb;
+} hd__pz_k_t;
+
+static int64_t hd__try(const hd_preisach_t *f, const hd_preisach_table_t *t, const hd__pz_k_t *k, int32_t p,
+                       hd__pz_try_t *x)
 {
     x->p = p;
-    x->ok = hd__pz_locate(f, t, p, &x->r);
+    x->ok = hd__pz_locate_k(f, t, p, &x->r, k->ptop, k->sb);
     if (!x->ok) {
         x->r.y = f->y;
     }
@@ -471,8 +494,11 @@ int32_t hd_preisach_inv_step_p(hd_preisach_inv_t *s, const hd_preisach_table_t *
     hd__pz_try_t hi;
     hd__pz_try_t mid;
     const hd__pz_try_t *sel;
+    hd__pz_k_t k;
 
-    if (f->table_crc != t->crc || f->p_top != hd_preisach_p_top(t)) {
+    k.ptop = hd_preisach_p_top(t);
+    k.sb = hd__sub_bits(t);
+    if (f->table_crc != t->crc || f->p_top != k.ptop) {
         hd__pz_reset(f, t);
     }
     if (y_d == f->y) {
@@ -480,12 +506,12 @@ int32_t hd_preisach_inv_step_p(hd_preisach_inv_t *s, const hd_preisach_table_t *
     }
     if (y_d > f->y) {
         /* y(p) non-decreasing on [p_prev, P]; y(lo) < y_d */
-        (void)hd__try(f, t, f->p_prev, &lo);
-        if (f->p_top == f->p_prev || hd__try(f, t, f->p_top, &hi) < y_d) {
+        (void)hd__try(f, t, &k, f->p_prev, &lo);
+        if (f->p_top == f->p_prev || hd__try(f, t, &k, f->p_top, &hi) < y_d) {
             sel = (f->p_top == f->p_prev) ? &lo : &hi;
         } else {
             while (hi.p - lo.p > 1) {
-                if (hd__try(f, t, lo.p + (hi.p - lo.p) / 2, &mid) >= y_d) {
+                if (hd__try(f, t, &k, lo.p + (hi.p - lo.p) / 2, &mid) >= y_d) {
                     hi = mid;
                 } else {
                     lo = mid;
@@ -495,12 +521,12 @@ int32_t hd_preisach_inv_step_p(hd_preisach_inv_t *s, const hd_preisach_table_t *
         }
     } else {
         /* y(p) non-decreasing on [0, p_prev]; y(hi) > y_d */
-        (void)hd__try(f, t, f->p_prev, &hi);
-        if (f->p_prev == 0 || hd__try(f, t, 0, &lo) > y_d) {
+        (void)hd__try(f, t, &k, f->p_prev, &hi);
+        if (f->p_prev == 0 || hd__try(f, t, &k, 0, &lo) > y_d) {
             sel = (f->p_prev == 0) ? &hi : &lo;
         } else {
             while (hi.p - lo.p > 1) {
-                if (hd__try(f, t, lo.p + (hi.p - lo.p) / 2, &mid) <= y_d) {
+                if (hd__try(f, t, &k, lo.p + (hi.p - lo.p) / 2, &mid) <= y_d) {
                     lo = mid;
                 } else {
                     hi = mid;
