@@ -417,13 +417,13 @@ def case_frame_loss(root: Path) -> dict[str, Any]:
         obs = {"sdo_ok": ok, "sdo_failed": failed, "errors": sorted(errors), "worst_op_s": round(worst, 2),
                "values_read_back_wrong": wrong_values, "final_value": final, "last_confirmed": last_ok,
                "frames_lost": {"rx": int(st["lost_rx"]), "tx": int(st["lost_tx"])},
-               "state": _state(d), "app_fault": d.read(0x5F00, 10), "motion_rad": abs(_pos_rad(d) - x0),
-               }
+               "state": _state(d), "app_fault": d.read(0x5F00, 10), "motion_rad": abs(_pos_rad(d) - x0)}
         d.disable()
         obs["parameters_unchanged"] = _params(d) == p_before
     obs["cli_record"] = cli = [_cli_under_loss(root, 0.2, 7), _cli_under_loss(root, 0.6, 3)]
     checks = {"frames were lost": obs["frames_lost"]["rx"] > 0 and obs["frames_lost"]["tx"] > 0,
-              "SDO fails only with a clear error, never hangs (each op < 2 s)": obs["worst_op_s"] < 2.0,
+              "SDO fails only with a clear error, never hangs (write + read-back < 3 s: 2 x 3 x 0.3 s + margin)":
+              obs["worst_op_s"] < 3.0,
               "confirmed writes read back exactly": obs["values_read_back_wrong"] == 0,
               "final value is one that was written": obs["final_value"] in attempted,
               "drive stays OPERATION ENABLED, no fault": obs["state"] == "OPERATION ENABLED" and obs["app_fault"] == 0,
