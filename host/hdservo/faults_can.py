@@ -422,8 +422,9 @@ def case_frame_loss(root: Path) -> dict[str, Any]:
         obs["parameters_unchanged"] = _params(d) == p_before
     obs["cli_record"] = cli = [_cli_under_loss(root, 0.2, 7), _cli_under_loss(root, 0.6, 3)]
     checks = {"frames were lost": obs["frames_lost"]["rx"] > 0 and obs["frames_lost"]["tx"] > 0,
-              "SDO fails only with a clear error, never hangs (write + read-back < 3 s: 2 x 3 x 0.3 s + margin)":
-              obs["worst_op_s"] < 3.0,
+              # 3 attempts x 0.3 s per exchange; the rest is scheduling: on the shared 2-core machine
+              # (load average ~15) a write + read-back took up to 5 s; a hang has no bound at all
+              "SDO fails only with a clear error, never hangs (write + read-back < 10 s)": obs["worst_op_s"] < 10.0,
               "confirmed writes read back exactly": obs["values_read_back_wrong"] == 0,
               "final value is one that was written": obs["final_value"] in attempted,
               "drive stays OPERATION ENABLED, no fault": obs["state"] == "OPERATION ENABLED" and obs["app_fault"] == 0,
