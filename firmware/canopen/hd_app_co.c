@@ -579,6 +579,19 @@ static void a_comm_fault(void *c, uint16_t code)
     ac->mode = 0;
 }
 
+/* the CAN controller through hal.h (FDCAN on the drive, the host port's model in the simulator) */
+static void a_can_status(void *c, hd_hal_can_status_t *st)
+{
+    (void)c;
+    hd_hal_can_status(st);
+}
+
+static void a_can_recover(void *c)
+{
+    (void)c;
+    hd_hal_can_recover();
+}
+
 static void a_reset_node(void *c)
 {
     hd_app_co_t *ac = c;
@@ -622,5 +635,7 @@ void hd_app_co_init(hd_app_co_t *ac, hd_co_t *co, hd_app_t *app, uint8_t node_id
     ifc.drive_actual = a_actual;
     ifc.drive_fault_reset = a_fault_reset;
     ifc.drive_comm_fault = a_comm_fault;
+    ifc.can_status = a_can_status;
+    ifc.can_recover = a_can_recover;
     hd_co_init(co, node_id, &ifc);
 }

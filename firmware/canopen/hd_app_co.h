@@ -14,8 +14,10 @@
  *   drive parameters 0x2000.. <-> hd_app_param_get/set (refused value: 0x06090030)
  *   CiA 402 enable / setpoints / actual values / fault reset <-> app modes and
  *     references (bumpless: targets start at the actual values)
- *   host heartbeat lost -> hd_app_fault_raise(HD_FAULT_COMM): a latched app
- *     fault (power stage off), cleared only by the 402 fault reset
+ *   host heartbeat lost or bus-off with 0x6007 = 1 -> hd_app_fault_raise(HD_FAULT_COMM):
+ *     a latched app fault (power stage off), cleared only by the 402 fault reset
+ *   CAN controller state <- hd_hal_can_status() every period; bus-off recovery
+ *     -> hd_hal_can_recover() (hd_co.h hd_co_can_state)
  *   0x1010 save -> hd_app_param_save (0x08000022 unless the power stage is off),
  *   0x1011 restore -> defaults
  *   0x5000 capture: arm (1) with the signals / length / decimation /

@@ -142,6 +142,10 @@ static void co_send(hd_co_t *co, uint32_t id, uint8_t dlc, const uint8_t *data)
     if (dlc > 0u) {
         hd_co_copy(f.data, data, dlc);
     }
+    if (co->can_state == HD_HAL_CAN_BUS_OFF) {
+        co->stats.tx_dropped++;          /* the controller is off the bus */
+        return;
+    }
     if (co->app.send != NULL && co->app.send(co->app.ctx, &f)) {
         co->stats.tx_frames++;
     } else {
@@ -156,7 +160,7 @@ static bool co_try_send(hd_co_t *co, uint32_t id, uint8_t dlc, const uint8_t *da
     f.id = id;
     f.dlc = dlc;
     hd_co_copy(f.data, data, dlc);
-    if (co->app.send != NULL && co->app.send(co->app.ctx, &f)) {
+    if (co->can_state != HD_HAL_CAN_BUS_OFF && co->app.send != NULL && co->app.send(co->app.ctx, &f)) {
         co->stats.tx_frames++;
         return true;
     }
@@ -723,7 +727,8 @@ static void emcy_send(hd_co_t *co, const uint8_t d[8])
     if ((cob & 0x80000000u) != 0u || co->nmt == HD_CO_NMT_STOPPED || co->nmt == HD_CO_NMT_INIT) {
         return;
     }
-    if (co->now_us < co->emcy_inhibit_until_us) {
+    if (co->now_us < co->emcy_inhibit_until_us || co->can_state == HD_HAL_CAN_BUS_OFF) {
+        /* inhibit time running, or off the bus: the newest one goes out when possible */
         hd_co_copy(co->emcy_pending_data, d, 8u);
         co->emcy_pending = 1u;
         return;
@@ -764,6 +769,60 @@ void hd_co_emcy_clear(hd_co_t *co, uint8_t reg_bits)
     if (before != 0u && r == 0u) {
         uint8_t d[8] = {0};
         emcy_send(co, d);
+    }
+}
+
+/* ---- communication errors (CiA 301 0x1029, CiA 402 0x6007) ------------------ */
+
+static void sdo_reset(hd_co_t *co, bool domain_discard);
+
+/* heartbeat lost or bus-off: EMCY (held back while off the bus), NMT and drive reactions */
+static void comm_error(hd_co_t *co, uint16_t code, const uint8_t mfr[5])
+{
+    hd_co_emcy(co, code, HD_CO_ER_COMM, mfr);
+    switch (co->od.error_behavior_communication_error) {
+    case 0u:
+        if (co->nmt == HD_CO_NMT_OP) {
+            co->nmt = HD_CO_NMT_PREOP;
+        }
+        break;
+    case 2u:
+        co->nmt = HD_CO_NMT_STOPPED;
+        sdo_reset(co, true);
+        break;
+    default:
+        break;                            /* 1: no NMT state change */
+    }
+    hd_co402_abort_connection(co, code);
+}
+
+void hd_co_can_state(hd_co_t *co, uint8_t state)
+{
+    const uint8_t old = co->can_state;
+    if (state > HD_HAL_CAN_BUS_OFF || state == old) {
+        return;
+    }
+    co->can_state = state;
+    if (state == HD_HAL_CAN_BUS_OFF) {
+        co->stats.can_bus_off++;
+        co->can_recover_us = co->now_us + (uint64_t)HD_CO_BUSOFF_RESTART_MS * 1000u;
+        comm_error(co, HD_CO_EMCY_BUS_OFF, NULL);      /* the EMCY waits for the bus */
+        return;
+    }
+    if (old == HD_HAL_CAN_BUS_OFF) {
+        co->stats.can_recovered++;
+        co->hbc_last_us = co->now_us;                  /* the consumer's time restarts on the bus */
+        if (co->emcy_pending && co->now_us >= co->emcy_inhibit_until_us) {
+            co->emcy_pending = 0u;
+            emcy_send(co, co->emcy_pending_data);      /* the 0x8140 held back at bus-off */
+        }
+    }
+    if (state == HD_HAL_CAN_ERROR_PASSIVE) {
+        co->stats.can_passive++;
+        hd_co_emcy(co, HD_CO_EMCY_CAN_PASSIVE, HD_CO_ER_COMM, NULL);
+    } else if (co->p402.state != HD_CO402_FAULT && co->p402.state != HD_CO402_FAULT_REACTION &&
+               !co->hbc_lost && !co->emcy_pending) {
+        hd_co_emcy_clear(co, HD_CO_ER_COMM);            /* error active, nothing else pending */
     }
 }
 
@@ -1564,21 +1623,30 @@ void hd_co_tick(hd_co_t *co, uint32_t dt_us)
         co_send(co, 0x700u + co->node_id, 1u, &st);
         co->hb_next_us = co->now_us + (uint64_t)co->od.producer_heartbeat_time * 1000u;
     }
-    /* heartbeat consumer */
+    /* CAN controller state; bus-off: request the recovery every HD_CO_BUSOFF_RESTART_MS */
+    if (co->app.can_status != NULL) {
+        hd_hal_can_status_t cs;
+        hd_co_fill(&cs, 0u, sizeof cs);
+        co->app.can_status(co->app.ctx, &cs);
+        hd_co_can_state(co, cs.state);
+    }
+    if (co->can_state == HD_HAL_CAN_BUS_OFF && co->now_us >= co->can_recover_us) {
+        co->can_recover_us = co->now_us + (uint64_t)HD_CO_BUSOFF_RESTART_MS * 1000u;
+        if (co->app.can_recover != NULL) {
+            co->app.can_recover(co->app.ctx);
+        }
+    }
+    /* heartbeat consumer (suspended while off the bus: bus-off is its own error) */
     uint32_t c = co->od.consumer_heartbeat_time_1;
-    if (co->hbc_active && (c & 0xFFFFu) != 0u &&
+    if (co->hbc_active && (c & 0xFFFFu) != 0u && co->can_state != HD_HAL_CAN_BUS_OFF &&
         co->now_us - co->hbc_last_us > (uint64_t)(c & 0xFFFFu) * 1000u) {
         co->hbc_active = 0u;
         co->hbc_lost = 1u;
         uint8_t mfr[5] = {(uint8_t)((c >> 16) & 0x7Fu), 0u, 0u, 0u, 0u};
-        hd_co_emcy(co, HD_CO_EMCY_HB, HD_CO_ER_COMM, mfr);
-        hd_co402_comm_fault(co, HD_CO_EMCY_HB);
-        if (co->app.drive_comm_fault != NULL) {
-            co->app.drive_comm_fault(co->app.ctx, HD_CO_EMCY_HB);
-        }
+        comm_error(co, HD_CO_EMCY_HB, mfr);
     }
-    /* pending EMCY (inhibit time) */
-    if (co->emcy_pending && co->now_us >= co->emcy_inhibit_until_us) {
+    /* pending EMCY (inhibit time, bus-off) */
+    if (co->emcy_pending && co->now_us >= co->emcy_inhibit_until_us && co->can_state != HD_HAL_CAN_BUS_OFF) {
         co->emcy_pending = 0u;
         emcy_send(co, co->emcy_pending_data);
     }

@@ -36,6 +36,7 @@
 #define HD_CO_SDO_BUF          64u      /* largest non-domain value */
 #define HD_CO_BLKSIZE          127u     /* block size the server asks for */
 #define HD_CO_ERR_HIST         8u       /* 0x1003 depth */
+#define HD_CO_BUSOFF_RESTART_MS 100u    /* bus-off: time before the recovery is started (and repeated) */
 
 /* NMT states (heartbeat encoding). */
 #define HD_CO_NMT_INIT      0x00u
@@ -75,7 +76,9 @@
 
 /* EMCY codes used by the stack. */
 #define HD_CO_EMCY_RESET        0x0000u
-#define HD_CO_EMCY_HB           0x8130u
+#define HD_CO_EMCY_HB           0x8130u  /* life guard / heartbeat error */
+#define HD_CO_EMCY_CAN_PASSIVE  0x8120u  /* CAN in error passive mode */
+#define HD_CO_EMCY_BUS_OFF      0x8140u  /* recovered from bus off */
 #define HD_CO_EMCY_PDO_LEN      0x8210u
 #define HD_CO_EMCY_CAN_OVERRUN  0x8110u
 
@@ -160,8 +163,13 @@ typedef struct {
     void     (*drive_setpoint)(void *ctx, const hd_co_setpoint_t *sp);
     void     (*drive_actual)(void *ctx, hd_co_actual_t *a);
     void     (*drive_fault_reset)(void *ctx);
-    /* stack-detected fault (host heartbeat lost): the app's fault reaction */
+    /* stack-detected fault (host heartbeat lost, bus-off) with 0x6007 = 1: the app's fault reaction */
     void     (*drive_comm_fault)(void *ctx, uint16_t emcy_code);
+    /* optional: CAN controller state (hal.h hd_hal_can_status), polled every tick;
+     * NULL = always error active */
+    void     (*can_status)(void *ctx, hd_hal_can_status_t *st);
+    /* optional: start the controller's bus-off recovery (hal.h hd_hal_can_recover) */
+    void     (*can_recover)(void *ctx);
 } hd_co_app_if_t;
 
 typedef struct {
@@ -216,6 +224,7 @@ typedef struct {
 typedef struct {
     uint32_t rx_frames, rx_ignored, tx_frames, tx_dropped;
     uint32_t sdo_aborts_sent, emcy_sent, pdo_len_errors;
+    uint32_t can_passive, can_bus_off, can_recovered;   /* controller state changes seen */
 } hd_co_stats_t;
 
 typedef struct {
@@ -229,6 +238,8 @@ typedef struct {
     uint8_t  hbc_active, hbc_lost;
     uint8_t  n_err;
     uint8_t  emcy_pending;
+    uint8_t  can_state;       /* HD_HAL_CAN_* as last polled */
+    uint64_t can_recover_us;  /* bus-off: when the (next) recovery request is due */
     uint64_t now_us;
     uint64_t hb_next_us;
     uint64_t hbc_last_us;
@@ -251,6 +262,15 @@ void hd_co_init(hd_co_t *co, uint8_t node_id, const hd_co_app_if_t *app);
 void hd_co_process(hd_co_t *co, const hd_can_frame_t *f);
 /** Advance time by dt_us: timers, heartbeat, PDOs, SDO time-out, CiA 402. */
 void hd_co_tick(hd_co_t *co, uint32_t dt_us);
+
+/** The CAN controller's state (HD_HAL_CAN_*), polled by hd_co_tick through app.can_status
+ *  or given by the port.  Entering error passive: EMCY 0x8120.  Entering bus-off: nothing
+ *  is sent until the controller is back; the communication-error reactions run at once
+ *  (0x1029:1 NMT, 0x6007 drive), 0x8140 goes into 0x1003 and the error register, and the
+ *  recovery is requested every HD_CO_BUSOFF_RESTART_MS.  Back on the bus: EMCY 0x8140
+ *  (error passive again: also 0x8120); back to error active with no other communication
+ *  error and no 402 fault: the communication bit is cleared (EMCY 0x0000 if none is left). */
+void hd_co_can_state(hd_co_t *co, uint8_t state);
 
 /** Raise an error: error register bits, 0x1003 history, EMCY frame. */
 void hd_co_emcy(hd_co_t *co, uint16_t code, uint8_t reg_bits, const uint8_t mfr[5]);
@@ -277,6 +297,8 @@ void hd_co402_init(hd_co_t *co);
 void hd_co402_controlword(hd_co_t *co);
 void hd_co402_tick(hd_co_t *co);
 void hd_co402_comm_fault(hd_co_t *co, uint16_t emcy_code);
+/** CiA 402 0x6007 reaction to a communication error (heartbeat lost, bus-off). */
+void hd_co402_abort_connection(hd_co_t *co, uint16_t emcy_code);
 uint32_t hd_co402_check_mode(int64_t mode);
 
 #endif /* HD_CO_H */

@@ -9,6 +9,10 @@
  *      --quick stop 0x02--> QUICK STOP ACTIVE --(standstill)--> SOD
  *   any state --fault--> FAULT REACTION ACTIVE --(power off)--> FAULT
  *   FAULT --rising edge of bit 7, cause gone--> SOD
+ *   communication error (host heartbeat lost, bus-off), 0x6007 abort connection
+ *   option code: 0 nothing, 1 (default) fault (as an app fault, EMCY 0x8130 /
+ *   0x8140), 2 disable voltage (-> SOD), 3 quick stop (-> QUICK STOP ACTIVE,
+ *   then SOD at standstill); 2 and 3 need a new enable sequence, 1 a fault reset.
  * Power is on only in OPERATION ENABLED and QUICK STOP ACTIVE.  In OPERATION
  * ENABLED the targets (0x607A, 0x60FF, 0x6071, offsets, profile) go to the app
  * every period; the actual values come back every period into the OD.
@@ -107,6 +111,36 @@ void hd_co402_comm_fault(hd_co_t *co, uint16_t emcy_code)
 {
     co->p402.comm_fault = 1u;
     fault(co, emcy_code);
+}
+
+void hd_co402_abort_connection(hd_co_t *co, uint16_t emcy_code)
+{
+    hd_co402_t *p = &co->p402;
+    switch (co->od.abort_connection_option_code) {
+    case 1:                                   /* fault signal: fault reaction, app fault COMM */
+        hd_co402_comm_fault(co, emcy_code);
+        if (co->app.drive_comm_fault != NULL) {
+            co->app.drive_comm_fault(co->app.ctx, emcy_code);
+        }
+        break;
+    case 2:                                   /* disable voltage command */
+        if (p->state == HD_CO402_READY || p->state == HD_CO402_SWITCHED_ON ||
+            p->state == HD_CO402_OP_ENABLED || p->state == HD_CO402_QUICK_STOP) {
+            enter(co, HD_CO402_SO_DISABLED);
+        }
+        break;
+    case 3:                                   /* quick stop command */
+        if (p->state == HD_CO402_OP_ENABLED) {
+            enter(co, co->od.quick_stop_option_code == 0 ? HD_CO402_SO_DISABLED : HD_CO402_QUICK_STOP);
+        } else if (p->state == HD_CO402_READY || p->state == HD_CO402_SWITCHED_ON) {
+            enter(co, HD_CO402_SO_DISABLED);
+        } else {
+            /* already stopping, disabled or in fault */
+        }
+        break;
+    default:                                  /* 0: no action */
+        break;
+    }
 }
 
 void hd_co402_init(hd_co_t *co)

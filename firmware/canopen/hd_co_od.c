@@ -34,6 +34,8 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x1018u, 2u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_VAR, OFF(identity_object_product_code), INT64_C(0), INT64_C(4294967295), INT64_C(4736083), NULL},  /* product_code */
     {0x1018u, 3u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_VAR, OFF(identity_object_revision_number), INT64_C(0), INT64_C(4294967295), INT64_C(65536), NULL},  /* revision_number */
     {0x1018u, 4u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_VAR, OFF(identity_object_serial_number), INT64_C(0), INT64_C(4294967295), INT64_C(1), NULL},  /* serial_number */
+    {0x1029u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(1), NULL},  /* highest_sub_index_supported */
+    {0x1029u, 1u, 0x05u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_VAR, OFF(error_behavior_communication_error), INT64_C(0), INT64_C(2), INT64_C(1), NULL},  /* communication_error */
     {0x1200u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(2), NULL},  /* highest_sub_index_supported */
     {0x1200u, 1u, 0x07u, HD_CO_A_RO, (uint8_t)(HD_CO_F_NODEID), HD_CO_K_VAR, OFF(sdo_server_parameter_cob_id_client_to_server), INT64_C(0), INT64_C(4294967295), INT64_C(1536), NULL},  /* cob_id_client_to_server */
     {0x1200u, 2u, 0x07u, HD_CO_A_RO, (uint8_t)(HD_CO_F_NODEID), HD_CO_K_VAR, OFF(sdo_server_parameter_cob_id_server_to_client), INT64_C(0), INT64_C(4294967295), INT64_C(1408), NULL},  /* cob_id_server_to_client */
@@ -374,6 +376,7 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x5F20u, 9u, 0x1Bu, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(sdo_test_test_u64), INT64_C(0), INT64_C(9223372036854775807), INT64_C(0), NULL},  /* test_u64 */
     {0x5F20u, 10u, 0x07u, HD_CO_A_WO, (uint8_t)(0), HD_CO_K_VAR, OFF(sdo_test_test_wo), INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* test_wo */
     {0x5F20u, 11u, 0x0Fu, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_DOMAIN, 4u, INT64_C(0), INT64_C(0), INT64_C(0), NULL},  /* test_domain */
+    {0x6007u, 0u, 0x03u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_VAR, OFF(abort_connection_option_code), INT64_C(0), INT64_C(3), INT64_C(1), NULL},  /* abort_connection_option_code */
     {0x603Fu, 0u, 0x06u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO), HD_CO_K_VAR, OFF(error_code), INT64_C(0), INT64_C(65535), INT64_C(0), NULL},  /* error_code */
     {0x6040u, 0u, 0x06u, HD_CO_A_RW, (uint8_t)(HD_CO_F_RPDO), HD_CO_K_VAR, OFF(controlword), INT64_C(0), INT64_C(65535), INT64_C(0), NULL},  /* controlword */
     {0x6041u, 0u, 0x06u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO|HD_CO_F_COS), HD_CO_K_VAR, OFF(statusword), INT64_C(0), INT64_C(65535), INT64_C(0), NULL},  /* statusword */

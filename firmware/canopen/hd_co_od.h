@@ -12,7 +12,7 @@
 
 #define HD_CO_OD_VERSION 1u
 #define HD_CO_OD_PARAM_HASH 0x95334EACu
-#define HD_CO_OD_COUNT 396u
+#define HD_CO_OD_COUNT 399u
 #define HD_CO_N_PDO 4u
 #define HD_CO_N_MAP 8u
 #define HD_CO_VENDOR_ID 0x00000EDAu
@@ -31,6 +31,7 @@ typedef struct {
     uint32_t identity_object_product_code;  /* 0x1018:2 */
     uint32_t identity_object_revision_number;  /* 0x1018:3 */
     uint32_t identity_object_serial_number;  /* 0x1018:4 */
+    uint8_t error_behavior_communication_error;  /* 0x1029:1 */
     uint32_t sdo_server_parameter_cob_id_client_to_server;  /* 0x1200:1 */
     uint32_t sdo_server_parameter_cob_id_server_to_client;  /* 0x1200:2 */
     uint32_t capture_signals;  /* 0x5000:3 */
@@ -76,6 +77,7 @@ typedef struct {
     uint32_t sdo_test_test_u32;  /* 0x5F20:8 */
     uint64_t sdo_test_test_u64;  /* 0x5F20:9 */
     uint32_t sdo_test_test_wo;  /* 0x5F20:10 */
+    int16_t abort_connection_option_code;  /* 0x6007:0 */
     uint16_t error_code;  /* 0x603F:0 */
     uint16_t controlword;  /* 0x6040:0 */
     uint16_t statusword;  /* 0x6041:0 */

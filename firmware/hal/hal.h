@@ -40,6 +40,13 @@
  * CAN: classic CAN frames (no FD).  send() queues one frame and returns false
  * if the TX queue is full (the frame is dropped, the caller may retry).
  * recv() pops one frame and returns false if none is waiting.
+ * can_status() reports the controller's fault-confinement state (ISO 11898-1)
+ * as the STM32 FDCAN gives it (FDCAN_PSR BO/EP/EW, FDCAN_ECR TEC/REC): error
+ * active (both counters <= 127), error passive (TEC or REC > 127: the node
+ * still sends, with passive error flags), bus-off (TEC > 255: the controller
+ * has left the bus, nothing is sent or received).  A controller leaves bus-off
+ * only after can_recover() and 128 occurrences of 11 recessive bits on the
+ * bus (FDCAN: clearing CCCR.INIT); it is then error active with TEC = REC = 0.
  *
  * NVM: a byte-addressed region of hd_hal_nvm_size() bytes reserved for the
  * parameter store, erased in pages of hd_hal_nvm_page_size() bytes (erased
@@ -90,6 +97,17 @@ typedef struct {
     uint8_t  data[8];  /* payload; bytes >= dlc are don't-care */
 } hd_can_frame_t;
 
+#define HD_HAL_CAN_ERROR_ACTIVE   0u   /* TEC <= 127 and REC <= 127 */
+#define HD_HAL_CAN_ERROR_PASSIVE  1u   /* TEC > 127 or REC > 127 */
+#define HD_HAL_CAN_BUS_OFF        2u   /* TEC > 255: off the bus until recovered */
+
+typedef struct {
+    uint8_t  state;    /* HD_HAL_CAN_* */
+    uint8_t  warning;  /* 1: a counter >= 96 (FDCAN_PSR.EW) */
+    uint8_t  tec;      /* transmit error counter (saturated at 255) */
+    uint8_t  rec;      /* receive error counter (127 + 1 when above 127: FDCAN_ECR.RP) */
+} hd_hal_can_status_t;
+
 /* ---- prototypes (one implementation per port) --------------------------- */
 
 /** Control periods elapsed since power-up (wraps, meant). */
@@ -105,6 +123,10 @@ void hd_hal_write_command(const hd_hal_command_t *c);
 bool hd_hal_can_send(const hd_can_frame_t *f);
 /** Pop one received CAN frame into *f; false if none is waiting. */
 bool hd_hal_can_recv(hd_can_frame_t *f);
+/** The CAN controller's error state and counters. */
+void hd_hal_can_status(hd_hal_can_status_t *st);
+/** Start the bus-off recovery sequence (no effect unless bus-off). */
+void hd_hal_can_recover(void);
 
 /** Size of the NVM region for the parameter store, bytes. */
 uint32_t hd_hal_nvm_size(void);

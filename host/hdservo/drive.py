@@ -37,10 +37,17 @@ from .params_gen import BY_NAME as PARAMS
 
 # python-can's socketcand client logs every partial TCP read at WARNING level
 logging.getLogger("can.interfaces.socketcand").setLevel(logging.ERROR)
+# canopen's SDO client logs each time-out / client abort besides raising it; the raised
+# error becomes the one DriveError line, so its log lines would only duplicate it
+logging.getLogger("canopen.sdo.client").setLevel(logging.CRITICAL)
 
 EDS_PATH = Path(str(resources.files("hdservo") / "data" / "hdservo.eds"))
 LOOP_HZ = 10000
 TURN = 2.0 * math.pi
+
+#: attempts per SDO request/response exchange (python canopen's MAX_RETRIES; its default 1
+#: means no retry): a frame lost on the bus costs one response time-out (0.3 s), not the transfer
+SDO_ATTEMPTS = 3
 
 MODES = {
     "PROFILED POSITION": 1,
@@ -105,6 +112,7 @@ class Drive:
     def __init__(self, network: canopen.Network, node_id: int = 1) -> None:
         self.network = network
         self.node = canopen.BaseNode402(node_id, str(EDS_PATH))
+        self.node.sdo.MAX_RETRIES = SDO_ATTEMPTS
         network.add_node(self.node)
         self.node_id = node_id
         self._own_network = False
@@ -178,9 +186,12 @@ class Drive:
     # ---- NMT and CiA 402 --------------------------------------------------------
     def start(self) -> None:
         """Load the PDO configuration from the drive, then NMT start (OPERATIONAL)."""
-        self.node.tpdo.read()
-        self.node.rpdo.read()
-        self.node.setup_402_state_machine(read_pdos=False)
+        try:
+            self.node.tpdo.read()
+            self.node.rpdo.read()
+            self.node.setup_402_state_machine(read_pdos=False)
+        except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
+            raise DriveError(f"start: reading the PDO configuration: {e}") from None
         self.node.nmt.state = "OPERATIONAL"
         self.node.tpdo[1].wait_for_reception(2.0)
 

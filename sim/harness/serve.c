@@ -19,6 +19,20 @@
  *                              reference instruments (true gear torque, twist,
  *                              true/inertial angles) as CSV every DECIM periods
  *   status                     tick, applied torque, brake
+ *   can drop P [SEED]          CAN fault injection: lose each frame (both directions)
+ *                              with probability P in [0, 1] (xorshift64 from SEED)
+ *   can errors TX RX           error burst: TX transmit errors (TEC + 8 each) and
+ *                              RX receive errors (REC + 1 each) in the drive's controller
+ *   can busoff                 force the controller bus-off (TEC 256)
+ *   can status                 controller state, TEC, REC, bus-off and recovery counts,
+ *                              frames lost by injection and while bus-off
+ * The same injection from the start: --can-drop P [--can-seed N].  The drive's CAN
+ * controller is the host port's model (hal_host.h hd_host_can_ctrl_t): bus-off means no
+ * frame in or out until the stack's recovery request (hd_co.c, every 100 ms) and
+ * 128 x 11 bit times at --bitrate (1 Mbit/s without a bus model) have passed.
+ * --nvm PATH backs the drive's NVM with a file (flash semantics, hal_host.h): a drive
+ * restarted on the same file boots with the parameters saved there (0x1010), like a
+ * drive after a power cycle; a blank file keeps the axis commissioning of the harness.
  *
  * The CANopen <-> app adapter is the firmware's (firmware/canopen/hd_app_co.c, the
  * same on the STM32); this file supplies the transport, SYNC pacing and the
@@ -53,6 +67,8 @@
 #include "hd_app_co.h"
 #include "can_socketcand.h"
 #include "can_socketcan.h"
+#include "hal_host.h"
+#include "hd_param_store.h"
 #include "serve.h"
 
 #define BUSQ 64u
@@ -95,6 +111,11 @@ typedef struct {
     FILE *rig_rec;
     uint32_t rig_rec_decim;
     int64_t rig_k;
+    /* CAN fault injection (rig "can ...", --can-drop/--can-seed) */
+    hd_host_port_t *port;
+    double can_drop;
+    uint64_t can_rng;
+    uint64_t can_lost_rx, can_lost_tx, can_busoff_rx, can_busoff_tx;
 } srv_t;
 
 static volatile sig_atomic_t g_stop = 0;
@@ -218,10 +239,32 @@ static uint32_t a_dend(void *c, uint16_t dom, uint32_t total, bool complete)
     return 0;
 }
 
+/* ---- CAN fault injection ---------------------------------------------------------- */
+
+static void can_seed(srv_t *s, uint64_t seed)
+{
+    s->can_rng = seed * 0x9E3779B97F4A7C15ull + 0x2545F4914F6CDD1Dull;
+    if (s->can_rng == 0) s->can_rng = 1;
+}
+
+/* true: this frame is lost (probability can_drop) */
+static int can_lost(srv_t *s)
+{
+    if (s->can_drop <= 0.0) return 0;
+    uint64_t x = s->can_rng;
+    x ^= x << 13;
+    x ^= x >> 7;
+    x ^= x << 17;
+    s->can_rng = x;
+    return (double)(x >> 11) * (1.0 / 9007199254740992.0) < s->can_drop;
+}
+
 /* ---- transport ------------------------------------------------------------------ */
 
 static void deliver(srv_t *s, const hd_can_frame_t *f)
 {
+    if (!hd_host_can_tx_done(s->port)) { s->can_busoff_tx++; return; }   /* controller off the bus */
+    if (can_lost(s)) { s->can_lost_tx++; return; }
     if (s->use_scan) hd_scan_send(&s->scan, f);
     else hd_scd_send(s->scd, f, s->t_us);
 }
@@ -268,6 +311,8 @@ static int receive(srv_t *s, int32_t timeout_ms)
             s->bus_credit_bits -= b;              /* host frames share the bus */
             s->bus_bits_total += (uint64_t)b;
         }
+        if (!hd_host_can_rx_done(s->port)) { s->can_busoff_rx++; continue; }
+        if (can_lost(s)) { s->can_lost_rx++; continue; }
         hd_co_process(&s->co, &rx[i]);
     }
     return r;
@@ -321,6 +366,20 @@ static void rig_error(const char *what)
     fflush(stdout);
 }
 
+static void rig_command_can_status(srv_t *s)
+{
+    static const char *const names[] = {"active", "passive", "bus-off"};
+    const hd_host_can_ctrl_t *c = &s->port->can_ctrl;
+    char extra[256];
+    snprintf(extra, sizeof extra,
+             "can=%s tec=%u rec=%u bus_off=%lu recoveries=%lu lost_rx=%llu lost_tx=%llu busoff_rx=%llu busoff_tx=%llu",
+             names[c->state <= 2u ? c->state : 0u], (unsigned)c->tec, (unsigned)c->rec,
+             (unsigned long)c->bus_off_count, (unsigned long)c->recoveries,
+             (unsigned long long)s->can_lost_rx, (unsigned long long)s->can_lost_tx,
+             (unsigned long long)s->can_busoff_rx, (unsigned long long)s->can_busoff_tx);
+    rig_answer(s, extra);
+}
+
 static void rig_command(srv_t *s, char *line)
 {
     char *argv[4] = { 0 };
@@ -361,12 +420,39 @@ static void rig_command(srv_t *s, char *line)
         s->rig_rec_decim = (uint32_t)d;
         s->rig_k = 0;
         rig_answer(s, "record=start");
+    } else if (strcmp(argv[0], "can") == 0 && argc >= 2) {
+        char *end = NULL;
+        if (strcmp(argv[1], "drop") == 0 && (argc == 3 || argc == 4)) {
+            double p = strtod(argv[2], &end);
+            unsigned long sd = 1;
+            if (!end || *end || !(p >= 0.0 && p <= 1.0)) { rig_error("can drop: expected a probability 0..1"); return; }
+            if (argc == 4 && parse_u(argv[3], 0, 0xFFFFFFFFul, &sd) != 0) { rig_error("can drop: expected a seed 0..2^32-1"); return; }
+            s->can_drop = p;
+            if (argc == 4) can_seed(s, (uint64_t)sd);
+            snprintf(extra, sizeof extra, "can_drop=%.9g", p);
+            rig_answer(s, extra);
+        } else if (strcmp(argv[1], "errors") == 0 && argc == 4) {
+            unsigned long tx, rxe;
+            if (parse_u(argv[2], 0, 1000, &tx) || parse_u(argv[3], 0, 1000, &rxe)) {
+                rig_error("can errors: expected TX RX error counts 0..1000"); return;
+            }
+            hd_host_can_errors(s->port, (uint32_t)tx, (uint32_t)rxe);
+            rig_command_can_status(s);
+        } else if (strcmp(argv[1], "busoff") == 0 && argc == 2) {
+            hd_host_can_bus_off(s->port);
+            rig_command_can_status(s);
+        } else if (strcmp(argv[1], "status") == 0 && argc == 2) {
+            rig_command_can_status(s);
+        } else {
+            rig_error("can: expected drop P [SEED], errors TX RX, busoff or status");
+        }
     } else if (strcmp(argv[0], "status") == 0 && argc == 1) {
         snprintf(extra, sizeof extra, "torque=%.9g brake=%d", s->rig_torque,
                  hd_sim_plant(s->sim)->out.brake_engaged);
         rig_answer(s, extra);
     } else {
-        rig_error("unknown rig command (expected: brake 0|1, torque T [RATE], record PATH DECIM, record stop, status)");
+        rig_error("unknown rig command (expected: brake 0|1, torque T [RATE], record PATH DECIM, record stop, status, "
+                  "can drop P [SEED], can errors TX RX, can busoff, can status)");
     }
 }
 
@@ -415,7 +501,9 @@ int hd_sim_serve_main(int argc, char **argv)
 {
     const char *axis = "reference", *transport = "socketcand", *pacing = "realtime", *channel = "can0";
     unsigned long node = 1, port = 0, sync_periods = 10, bitrate = 0, seed = 1;
-    double duration = 0.0;
+    double duration = 0.0, can_drop = 0.0;
+    unsigned long can_seed_v = 1;
+    const char *nvm_path = NULL;
     int quiet = 0, rig = 0;
     char msg[512];
     static char plant_set[4096];
@@ -456,13 +544,21 @@ int hd_sim_serve_main(int argc, char **argv)
             if (w < 0 || (size_t)w >= sizeof plant_set - plant_set_len) return usage_fail("too many --set options");
             plant_set_len += (size_t)w;
         }
+        else if (strcmp(a, "--can-drop") == 0) {
+            NEEDV();
+            char *end;
+            can_drop = strtod(v, &end);
+            if (*end || !(can_drop >= 0.0 && can_drop <= 1.0)) return usage_fail("--can-drop must be a probability 0..1");
+        }
+        else if (strcmp(a, "--can-seed") == 0) { NEEDV(); if (parse_u(v, 0, 0xFFFFFFFFul, &can_seed_v)) return usage_fail("--can-seed must be an integer 0..2^32-1"); }
+        else if (strcmp(a, "--nvm") == 0) { NEEDV(); nvm_path = v; }
         else if (strcmp(a, "--rig") == 0) rig = 1;
         else if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) quiet = 1;
         else if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
             printf("usage: hdservo-sim serve [--axis AXIS.toml|reference|minimal] [--node-id N] "
                    "[--transport socketcand|socketcan] [--port P] [--channel can0] "
                    "[--pacing realtime|fast|sync] [--sync-periods K] [--bitrate B] [--duration S] [--seed N] "
-                   "[--set KEY=VALUE]... [--rig] [-q]\n");
+                   "[--set KEY=VALUE]... [--rig] [--can-drop P] [--can-seed N] [--nvm PATH] [-q]\n");
             return 0;
         } else {
             snprintf(msg, sizeof msg, "unknown option '%.100s'", a);
@@ -508,6 +604,22 @@ int hd_sim_serve_main(int argc, char **argv)
     s->bitrate = (uint32_t)bitrate;
     s->sync_periods = (uint32_t)sync_periods;
     s->rig = rig;
+    s->port = hd_host_port_bound();             /* the harness's host port (bound by hd_sim_new) */
+    s->port->can_ctrl.bitrate = (uint32_t)bitrate;
+    s->can_drop = can_drop;
+    can_seed(s, (uint64_t)can_seed_v);
+    if (nvm_path) {
+        /* power-up on this NVM: a valid saved set replaces the harness's commissioning */
+        int32_t rc = hd_host_nvm_attach_file(s->port, nvm_path);
+        if (rc != 0) {
+            fprintf(stderr, "hdservo-sim serve: error: --nvm %s: %s\n", nvm_path,
+                    rc == -1 ? "expected a file of exactly 16384 bytes (or none yet)" : "cannot read the file");
+            return 1;
+        }
+        static int32_t vals[HD_PARAM_COUNT];
+        uint32_t seq = 0;
+        if (hd_pstore_load(vals, &seq) == HD_PSTORE_OK) hd_app_init(s->app);
+    }
 
     if (strcmp(transport, "socketcan") == 0) {
         if (hd_scan_open(&s->scan, channel, (uint32_t)bitrate, 100u, msg, sizeof msg) != 0) {
@@ -597,12 +709,16 @@ int hd_sim_serve_main(int argc, char **argv)
     fprintf(stderr,
             "{\"periods\": %lld, \"sim_s\": %.4f, \"wall_s\": %.4f, \"frames_to_bus\": %llu, "
             "\"bus_dropped\": %llu, \"bus_load\": %.4f, \"stack_tx_dropped\": %u, \"rx_frames\": %u, "
-            "\"rx_ignored\": %u, \"transport_dropped\": %u}\n",
+            "\"rx_ignored\": %u, \"transport_dropped\": %u, \"can_lost_rx\": %llu, \"can_lost_tx\": %llu, "
+            "\"can_busoff_rx\": %llu, \"can_busoff_tx\": %llu, \"can_bus_off\": %lu, \"can_recoveries\": %lu}\n",
             (long long)k, (double)k * dt, wall, (unsigned long long)s->bus_frames,
             (unsigned long long)s->bus_dropped,
             s->bitrate && k ? (double)s->bus_bits_total / ((double)s->bitrate * (double)k * dt) : 0.0,
             s->co.stats.tx_dropped, s->co.stats.rx_frames, s->co.stats.rx_ignored,
-            s->use_scan ? s->scan.tx_dropped : s->scd->tx_dropped);
+            s->use_scan ? s->scan.tx_dropped : s->scd->tx_dropped,
+            (unsigned long long)s->can_lost_rx, (unsigned long long)s->can_lost_tx,
+            (unsigned long long)s->can_busoff_rx, (unsigned long long)s->can_busoff_tx,
+            (unsigned long)s->port->can_ctrl.bus_off_count, (unsigned long)s->port->can_ctrl.recoveries);
     if (s->use_scan) hd_scan_close(&s->scan);
     else hd_scd_close(s->scd);
     hd_sim_free(s->sim);

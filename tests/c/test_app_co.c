@@ -23,6 +23,10 @@ void hd_hal_read_sensors(hd_hal_sensors_t *s)
 void hd_hal_write_command(const hd_hal_command_t *c) { (void)c; }
 bool hd_hal_can_send(const hd_can_frame_t *f) { (void)f; return true; }
 bool hd_hal_can_recv(hd_can_frame_t *f) { (void)f; return false; }
+static hd_hal_can_status_t can_st;   /* controller state the tests set */
+static uint32_t n_recover;
+void hd_hal_can_status(hd_hal_can_status_t *st) { *st = can_st; }
+void hd_hal_can_recover(void) { n_recover++; }
 uint32_t hd_hal_nvm_size(void) { return 0u; }
 uint32_t hd_hal_nvm_page_size(void) { return 1024u; }
 int32_t hd_hal_nvm_read(uint32_t o, void *b, uint32_t l) { (void)o; (void)b; (void)l; return -1; }

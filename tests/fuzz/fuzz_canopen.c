@@ -9,13 +9,17 @@
  *              3  advance time by (id lo + 1) control periods (time-outs, heartbeat,
  *                 PDOs, CiA 402)
  *   kind bit 4: the TX queue is full for this record (send() returns false)
+ *   kind bits 6-7 of a time record: CAN controller state reported to the stack from
+ *              now on (0 unchanged, 1 error passive, 2 bus-off, 3 error active); a
+ *              recovery request of the stack brings a bus-off controller back
  * The fake application range-checks PARAM writes with the firmware's own
  * hd_params_check and commits DOMAIN downloads only through the Preisach
  * table loader (hd_preisach_check), like the drive.
  *
  * Invariants: every frame sent is well formed (dlc <= 8, 11-bit id); every
  * SDO response is 8 bytes from 0x580 + node; parameters never leave their
- * range; the committed table is always one that passed hd_preisach_check.
+ * range; the committed table is always one that passed hd_preisach_check;
+ * nothing is sent while the stack knows the controller is bus-off.
  */
 #include <string.h>
 #include "fuzz_common.h"
@@ -39,6 +43,7 @@ typedef struct {
     hd_preisach_table_t cand;
     int on;
     uint16_t fault;
+    uint8_t can;                    /* HD_HAL_CAN_* reported to the stack */
 } ctx_t;
 
 static ctx_t X;
@@ -54,6 +59,7 @@ int32_t hd_hal_nvm_erase(uint32_t off, uint32_t len) { (void)off; (void)len; ret
 static bool f_send(void *c, const hd_can_frame_t *f)
 {
     ctx_t *x = c;
+    FUZZ_ASSERT(CO.can_state != HD_HAL_CAN_BUS_OFF);
     FUZZ_ASSERT(f->dlc <= 8u);
     FUZZ_ASSERT(f->ext || f->id <= 0x7FFu);
     if ((f->id & 0x780u) == 0x580u && f->id == 0x580u + NODE) {
@@ -168,6 +174,12 @@ static void f_actual(void *c, hd_co_actual_t *a)
 }
 static void f_fault_reset(void *c) { ((ctx_t *)c)->fault = 0u; }
 static void f_comm_fault(void *c, uint16_t code) { (void)code; ((ctx_t *)c)->on = 0; }
+static void f_can_status(void *c, hd_hal_can_status_t *st)
+{
+    memset(st, 0, sizeof *st);
+    st->state = ((ctx_t *)c)->can;
+}
+static void f_can_recover(void *c) { ((ctx_t *)c)->can = HD_HAL_CAN_ERROR_ACTIVE; }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
@@ -197,6 +209,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     ifc.drive_actual = f_actual;
     ifc.drive_fault_reset = f_fault_reset;
     ifc.drive_comm_fault = f_comm_fault;
+    ifc.can_status = f_can_status;
+    ifc.can_recover = f_can_recover;
     hd_co_init(&CO, NODE, &ifc);
 
     for (uint32_t k = 0; k < 1024u && fz_left(&s) >= 4u; k++) {
@@ -226,6 +240,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             hd_co_process(&CO, &f);
             break;
         default:
+            if ((kind >> 6) != 0u) {
+                static const uint8_t st[4] = {0u, HD_HAL_CAN_ERROR_PASSIVE, HD_HAL_CAN_BUS_OFF,
+                                              HD_HAL_CAN_ERROR_ACTIVE};
+                X.can = st[kind >> 6];
+            }
             for (uint32_t i = 0; i <= (id & 0xFFu); i++) {
                 hd_co_tick(&CO, HD_CO_TICK_US);
             }

@@ -29,8 +29,71 @@ void hd_host_port_latch(hd_host_port_t *p, const hd_hal_sensors_t *s)
 
 const hd_hal_command_t *hd_host_port_command(const hd_host_port_t *p) { return &p->command; }
 
+static void can_ctrl_update(hd_host_can_ctrl_t *c)
+{
+    if (c->state == HD_HAL_CAN_BUS_OFF) return;          /* only the recovery leaves it */
+    if (c->tec > 255u) {
+        c->tec = 256u;
+        c->state = HD_HAL_CAN_BUS_OFF;
+        c->recovering = 0u;
+        if (c->bus_off_count < UINT32_MAX) c->bus_off_count++;
+    } else if (c->tec > 127u || c->rec > 127u) {
+        c->state = HD_HAL_CAN_ERROR_PASSIVE;
+    } else {
+        c->state = HD_HAL_CAN_ERROR_ACTIVE;
+    }
+}
+
+void hd_host_can_errors(hd_host_port_t *p, uint32_t tx_errors, uint32_t rx_errors)
+{
+    hd_host_can_ctrl_t *c = &p->can_ctrl;
+    if (c->state == HD_HAL_CAN_BUS_OFF) return;
+    uint32_t t = (uint32_t)c->tec + (tx_errors > 64u ? 512u : 8u * tx_errors);
+    uint32_t r = (uint32_t)c->rec + (rx_errors > 255u ? 255u : rx_errors);
+    c->tec = (uint16_t)(t > 256u ? 256u : t);
+    c->rec = (uint16_t)(r > 255u ? 255u : r);
+    can_ctrl_update(c);
+}
+
+void hd_host_can_bus_off(hd_host_port_t *p)
+{
+    if (p->can_ctrl.state == HD_HAL_CAN_BUS_OFF) return;
+    p->can_ctrl.tec = 256u;
+    can_ctrl_update(&p->can_ctrl);
+}
+
+bool hd_host_can_tx_done(hd_host_port_t *p)
+{
+    hd_host_can_ctrl_t *c = &p->can_ctrl;
+    if (c->state == HD_HAL_CAN_BUS_OFF) return false;
+    if (c->tec > 0u) c->tec--;
+    can_ctrl_update(c);
+    return true;
+}
+
+bool hd_host_can_rx_done(hd_host_port_t *p)
+{
+    hd_host_can_ctrl_t *c = &p->can_ctrl;
+    if (c->state == HD_HAL_CAN_BUS_OFF) return false;
+    if (c->rec > 127u) c->rec = 127u;
+    else if (c->rec > 0u) c->rec--;
+    can_ctrl_update(c);
+    return true;
+}
+
 void hd_host_port_end_period(hd_host_port_t *p)
 {
+    hd_host_can_ctrl_t *c = &p->can_ctrl;
+    if (c->state == HD_HAL_CAN_BUS_OFF && c->recovering) {
+        if (c->recover_left > 0u) c->recover_left--;
+        if (c->recover_left == 0u) {
+            c->tec = 0u;
+            c->rec = 0u;
+            c->recovering = 0u;
+            c->state = HD_HAL_CAN_ERROR_ACTIVE;
+            if (c->recoveries < UINT32_MAX) c->recoveries++;
+        }
+    }
     if (p->reads == 0u) p->violations |= HD_HOST_VIOL_NO_READ;
     if (p->reads > 1u) p->violations |= HD_HOST_VIOL_MULTI_READ;
     if (p->writes == 0u) p->violations |= HD_HOST_VIOL_NO_WRITE;
@@ -104,6 +167,29 @@ bool hd_host_can_push_rx(const hd_can_frame_t *f)
 bool hd_host_can_pop_tx(hd_can_frame_t *f)
 {
     return g_port ? hd_host_ring_pop(&g_port->can_tx, f) : false;
+}
+
+void hd_hal_can_status(hd_hal_can_status_t *st)
+{
+    memset(st, 0, sizeof *st);
+    if (!g_port) return;
+    const hd_host_can_ctrl_t *c = &g_port->can_ctrl;
+    st->state = c->state;
+    st->tec = (uint8_t)(c->tec > 255u ? 255u : c->tec);
+    st->rec = (uint8_t)(c->rec > 127u ? 128u : c->rec);
+    st->warning = (c->tec >= 96u || c->rec >= 96u) ? 1u : 0u;
+}
+
+void hd_hal_can_recover(void)
+{
+    if (!g_port) return;
+    hd_host_can_ctrl_t *c = &g_port->can_ctrl;
+    if (c->state != HD_HAL_CAN_BUS_OFF || c->recovering) return;
+    /* 128 x 11 recessive bits, whole periods (100 us) rounded up */
+    const uint32_t br = c->bitrate ? c->bitrate : 1000000u;
+    c->recover_left = (uint32_t)(((uint64_t)128u * 11u * HD_LOOP_HZ + br - 1u) / br);
+    if (c->recover_left == 0u) c->recover_left = 1u;
+    c->recovering = 1u;
 }
 
 /* ---- NVM ----------------------------------------------------------------------- */

@@ -11,7 +11,8 @@
  *   1. hd_host_port_latch(p, &sensors)    sensors sampled at the period start
  *   2. hd_app_step(...)                   app reads sensors, writes command
  *   3. hd_host_port_command(p)            the command to apply to the plant
- *   4. hd_host_port_end_period(p)         tick++ and per-period contract checks
+ *   4. hd_host_port_end_period(p)         tick++, per-period contract checks, CAN
+ *                                         bus-off recovery time
  *
  * CAN: two rings of HD_HOST_CAN_RING frames.  A transport (socketcand server,
  * SocketCAN, a Python test) pushes received frames with hd_host_can_push_rx()
@@ -52,6 +53,24 @@ typedef struct {
     uint32_t dropped;   /* frames refused because the ring was full */
 } hd_host_can_ring_t;
 
+/* CAN controller fault confinement (ISO 11898-1), what hd_hal_can_status() reports:
+ * a transmit error adds 8 to TEC, a receive error 1 to REC, every frame sent or
+ * received without error takes 1 off (REC above 127 goes back to 127).  TEC or REC
+ * > 127: error passive; TEC > 255: bus-off (nothing sent or received).  Recovery:
+ * hd_hal_can_recover() starts the wait for 128 x 11 recessive bits at `bitrate`
+ * (1 Mbit/s if 0), counted in whole periods at the end of each period; then error
+ * active with TEC = REC = 0.  The transport calls hd_host_can_tx_done / _rx_done
+ * per frame and the injection helpers below (virtual drive fault tests). */
+typedef struct {
+    uint16_t tec, rec;              /* error counters (tec 256 = bus-off) */
+    uint8_t  state;                 /* HD_HAL_CAN_* */
+    uint8_t  recovering;            /* 1: recovery requested, waiting */
+    uint16_t pad;
+    uint32_t recover_left;          /* periods of the recovery sequence still to wait */
+    uint32_t bitrate;               /* bit/s for the recovery time (0 = 1 Mbit/s) */
+    uint32_t bus_off_count, recoveries;
+} hd_host_can_ctrl_t;
+
 typedef struct {
     uint32_t tick;                  /* periods since power-up */
     hd_hal_sensors_t sensors;       /* latched for the current period */
@@ -60,6 +79,7 @@ typedef struct {
     uint32_t violations;            /* HD_HOST_VIOL_* bits seen so far */
     hd_host_can_ring_t can_rx;      /* bus -> drive */
     hd_host_can_ring_t can_tx;      /* drive -> bus */
+    hd_host_can_ctrl_t can_ctrl;    /* controller error state */
     uint8_t  nvm[HD_HOST_NVM_SIZE];
     char     nvm_path[HD_HOST_PATH_MAX];  /* "" = memory only */
     int32_t  nvm_file_error;        /* last file write-back error (0 = none) */
@@ -87,6 +107,15 @@ int32_t hd_host_nvm_attach_file(hd_host_port_t *p, const char *path);
  * full or nothing is bound; pop_tx: false if nothing is waiting. */
 bool hd_host_can_push_rx(const hd_can_frame_t *f);
 bool hd_host_can_pop_tx(hd_can_frame_t *f);
+
+/* CAN controller model (see hd_host_can_ctrl_t).  errors: tx_errors transmit and
+ * rx_errors receive errors (an error burst); bus_off: TEC to 256 at once.
+ * tx_done / rx_done: one frame sent / received without error; false (and no
+ * change) while bus-off, when the frame cannot be sent or received. */
+void hd_host_can_errors(hd_host_port_t *p, uint32_t tx_errors, uint32_t rx_errors);
+void hd_host_can_bus_off(hd_host_port_t *p);
+bool hd_host_can_tx_done(hd_host_port_t *p);
+bool hd_host_can_rx_done(hd_host_port_t *p);
 
 /* Ring helpers on an explicit port (used by the two above and by tests). */
 bool hd_host_ring_push(hd_host_can_ring_t *r, const hd_can_frame_t *f);

@@ -149,7 +149,8 @@
 #define FDCAN1_BASE     0x40006400u
 #define FDCAN_CCCR      (FDCAN1_BASE + 0x18u) /* INIT 0, CCE 1, DAR 6, FDOE 8, BRSE 9 */
 #define FDCAN_NBTP      (FDCAN1_BASE + 0x1Cu)
-#define FDCAN_PSR       (FDCAN1_BASE + 0x44u) /* BO 7 */
+#define FDCAN_ECR       (FDCAN1_BASE + 0x40u) /* TEC [7:0], REC [14:8], RP 15 */
+#define FDCAN_PSR       (FDCAN1_BASE + 0x44u) /* EP 5, EW 6, BO 7 */
 #define FDCAN_IR        (FDCAN1_BASE + 0x50u) /* RF0N 0, RF0L 2, TFE 9, BO 19 */
 #define FDCAN_IE        (FDCAN1_BASE + 0x54u)
 #define FDCAN_ILS       (FDCAN1_BASE + 0x58u)

@@ -138,6 +138,31 @@ bool hd_hal_can_recv(hd_can_frame_t *f)
     return true;
 }
 
+/* FDCAN fault confinement: PSR.BO / PSR.EP / PSR.EW and the counters of ECR */
+void hd_hal_can_status(hd_hal_can_status_t *st)
+{
+    const uint32_t psr = HD_REG(FDCAN_PSR);
+    const uint32_t ecr = HD_REG(FDCAN_ECR);
+    if ((psr & (1u << 7)) != 0u) {
+        st->state = HD_HAL_CAN_BUS_OFF;
+    } else if ((psr & (1u << 5)) != 0u) {
+        st->state = HD_HAL_CAN_ERROR_PASSIVE;
+    } else {
+        st->state = HD_HAL_CAN_ERROR_ACTIVE;
+    }
+    st->warning = (uint8_t)((psr >> 6) & 1u);
+    st->tec = (uint8_t)(ecr & 0xFFu);
+    st->rec = (uint8_t)(((ecr & (1u << 15)) != 0u) ? 128u : ((ecr >> 8) & 0x7Fu));
+}
+
+/* Bus-off sets CCCR.INIT; clearing it starts the recovery (128 x 11 recessive bits, RM0440 44.3.2) */
+void hd_hal_can_recover(void)
+{
+    if ((HD_REG(FDCAN_PSR) & (1u << 7)) != 0u && (HD_REG(FDCAN_CCCR) & 1u) != 0u) {
+        HD_REG(FDCAN_CCCR) &= ~1u;
+    }
+}
+
 uint32_t hd_hal_nvm_size(void) { return (nvm_ok == 0) ? HD_G474_VNVM_SIZE : 0u; }
 uint32_t hd_hal_nvm_page_size(void) { return HD_G474_VNVM_PAGE; }
 int32_t hd_hal_nvm_read(uint32_t o, void *b, uint32_t l) { return (nvm_ok == 0) ? hd_vnvm_read(&vnvm, o, b, l) : -1; }
