@@ -41,3 +41,23 @@ def test_chain_short(tmp_path: Path) -> None:
     rows = {r["figure"]: r for r in res["rows"]}
     for name in ("stabilisation RMS (true inertial)", "peak output torque"):
         assert rows[name]["pass"], rows[name]
+
+
+def test_select_option_swaps_the_verified_controller() -> None:
+    """verify.py --option: the other controller option of the chosen candidate (its own controller,
+    tuning and predicted figures from the flow JSON) becomes the one verified; bad names are refused."""
+    flow = json.loads((EX / "design.json").read_text())
+    ch = flow["chosen"]
+    assert set(ch["options"]) == {"flow", "best"} and ch["option"] in ch["options"]
+    other = next(n for n in ch["options"] if n != ch["option"])
+    vf.select_option(flow, other)
+    assert flow["chosen"]["option"] == other
+    assert flow["chosen"]["controller"] == ch["options"][other]["controller"]
+    assert flow["chosen"]["figures"] == ch["options"][other]["figures"]
+    assert vf.option_of(flow)["name"] == other
+    assert vf.option_of(flow)["extra_gains"] == ch["options"][other]["option"]["extra_gains"]
+    best = json.loads((EX / "design.json").read_text())
+    vf.select_option(best, "best")
+    assert "approach" in best["chosen"]["controller"]["compensators"] and vf.stab_mode_of(best) == "stab"
+    with pytest.raises(ValueError, match="not a controller option"):
+        vf.select_option(flow, "nonesuch")
