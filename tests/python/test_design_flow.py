@@ -6,6 +6,7 @@ import math
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -186,6 +187,17 @@ def test_final_approach_removes_the_reversal_in_the_prediction(spec: sp.Spec, tm
     assert p1["B_arcsec"] < 0.3 * p0["B_arcsec"] and p1["R_arcsec"] < 0.5 * p0["R_arcsec"]
     with pytest.raises(ValueError, match="trajectory"):
         pr.positioning(path, ctl1, [10.0], runs=2, trajectory="spline")
+    # the flow's method: the test procedure's sweep on the served simulator, the approach on too.
+    # Every downward move ends with the final leg from below and sticks just past the target
+    # (+1.5..1.6"); the fast upward arrivals of the sweep stop short instead (-0.6..-1.4"), so
+    # on this axis the approach alone does not remove B in the procedure (the best combination's
+    # feed-forward on the measured velocity does: examples/pitch_drive/verify_best)
+    p2 = pr.positioning(path, ctl1, [-5.0, 5.0], runs=2, method="procedure")
+    assert p2["method"] == "procedure" and p2["cb_enable"] == 128 and p2["final_approach"] == fa
+    dn = np.asarray(p2["down_arcsec"])
+    assert dn.shape == (2, 2) and dn.min() > 0.5 and np.ptp(dn) < 0.5
+    with pytest.raises(ValueError, match="method"):
+        pr.positioning(path, ctl1, [10.0], runs=2, method="guess")
 
 
 def test_committed_example_is_consistent() -> None:

@@ -61,3 +61,15 @@ def test_select_option_swaps_the_verified_controller() -> None:
     assert "approach" in best["chosen"]["controller"]["compensators"] and vf.stab_mode_of(best) == "stab"
     with pytest.raises(ValueError, match="not a controller option"):
         vf.select_option(flow, "nonesuch")
+
+
+def test_annotate_renders_notes_without_measuring(tmp_path: Path) -> None:
+    res = {"candidate": "X", "identify_target": "all", "compensators": ["lugre"], "option": "flow",
+           "option_gains": {}, "tolerance": 0.2, "rows": [], "judged": 0, "passed": 0, "notes": [],
+           "wall_s": {}, "repredicted": {}}
+    (tmp_path / "verify.json").write_text(json.dumps(res))
+    out = vf.annotate(tmp_path, ["positioning: the measurement scatters between runs"])
+    assert out["notes"] == ["positioning: the measurement scatters between runs"]
+    md = (tmp_path / "verify.md").read_text()
+    assert "Notes:" in md and "* positioning: the measurement scatters between runs" in md
+    assert json.loads((tmp_path / "verify.json").read_text())["notes"] == out["notes"]

@@ -51,6 +51,10 @@ MIN_COUNTS_PER_S_OUTPUT = 10.0
 MIN_COUNTS_PER_S_MOTOR = 10.0
 #: lost motion above this multiple of the positioning accuracy is flagged (soft)
 LOST_MOTION_FACTOR = 10.0
+#: how the positioning figures are simulated (:func:`hdservo.design.predict.positioning`): the test
+#: procedure's continuous sweep on the served simulator; the per-target in-process runs ("scenario")
+#: start every move from a fresh plant and gave twice the sub-arcsecond A / R of the final approach
+POSITIONING_METHOD = "procedure"
 #: compensators of the flow's own controller option ("flow"; the other option is the demo's best
 #: combination, :func:`controller_options`)
 COMPENSATORS: Tuple[str, ...] = ("lugre",)
@@ -405,7 +409,7 @@ def evaluate_option(spec: Spec, c: Candidate, axis_path: str, option: Optional[C
     targets = [-half, half] if quick else list(np.linspace(-half, half, 12))
     f["positioning"] = pr.positioning(axis_path, ctl, targets, runs=2 if quick else 3,
                                       vmax_deg_s=spec.max_rate_deg_s, amax_deg_s2=spec.max_accel_deg_s2,
-                                      progress=progress)
+                                      method=POSITIONING_METHOD, progress=progress)
     f["stabilisation"] = pr.stabilisation(axis_path, ctl, spec.base_amplitude_deg, spec.base_frequency_Hz,
                                           duration_s=2.0 if quick else STAB_WINDOW_S,
                                           loop_bw_Hz=tuning["pos_bandwidth_hz"], progress=progress,

@@ -405,6 +405,19 @@ def verify(plan: Plan, progress: Callable[[str], None] = _say) -> dict[str, Any]
     return result
 
 
+def annotate(out: Path, notes: Sequence[str]) -> dict[str, Any]:
+    """Set the notes of a finished verification (``out/verify.json``) and render ``verify.md`` again.
+
+    For the explanation of a figure that does not match, written after looking at the run;
+    nothing is measured again.  Returns the result.
+    """
+    res = json.loads((out / "verify.json").read_text())
+    res["notes"] = [str(n) for n in notes]
+    (out / "verify.json").write_text(json.dumps(res, indent=1, default=_jsonable) + "\n")
+    (out / "verify.md").write_text(markdown(res))
+    return res
+
+
 def rows_pred(rows: Sequence[Mapping[str, Any]], figure: str) -> Optional[float]:
     """The predicted value of a re-predicted figure in the comparison rows."""
     key = {"bandwidth": "position bandwidth (-3 dB)", "peak_torque": "peak output torque"}[figure]
@@ -419,5 +432,5 @@ def _jsonable(x: Any) -> Any:
     return str(x)
 
 
-__all__ = ["GAIN_KEYS", "Plan", "compare", "configure", "download_plan", "identify", "markdown", "measure",
+__all__ = ["GAIN_KEYS", "Plan", "annotate", "compare", "configure", "download_plan", "identify", "markdown", "measure",
            "option_of", "repredict", "select_option", "stab_mode_of", "stabilisation_stab", "verify"]
