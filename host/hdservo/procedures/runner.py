@@ -493,13 +493,14 @@ class Bench:
             raise DriveError("capture did not finish")
         # the drive's SDO time-out is 1 s of DRIVE time: with fast pacing a busy host can miss it
         # during a block upload; the buffer keeps its data, so the upload is simply repeated
-        for attempt in range(4):
+        for attempt in range(self.READ_ATTEMPTS):
             try:
                 raw = d.read_domain(0x5000, 7)
                 break
             except DriveError:
-                if attempt == 3:
+                if attempt == self.READ_ATTEMPTS - 1:
                     raise
+                time.sleep(0.05 * 2 ** attempt)     # a loaded host: give the drive process time
         words = np.frombuffer(raw, dtype="<i4").astype(np.int64)
         n = len(signals)
         words = words[: (words.size // n) * n].reshape(-1, n)
