@@ -378,7 +378,9 @@ def tune(spec: Spec, c: Candidate, axis_path: str,
               "traj_amax": spec.max_accel_deg_s2 / 360.0})
     base["gains"] = g
     overridden = {k: {"flow": g[k], "option": float(v)} for k, v in opt.extra_gains.items() if k in g}
-    ctl = compsetup.controller(axis_path, list(opt.compensators), base=base, extra_gains=opt.extra_gains)
+    # a Preisach compensator needs its table file: beside the candidate's axis file
+    ctl = compsetup.controller(axis_path, list(opt.compensators), base=base, extra_gains=opt.extra_gains,
+                               table_dir=Path(axis_path).parent)
     tuning = asdict(d)
     tuning.update({"f_v_target_Hz": f_v, "f_p_target_Hz": f_p, "pos_ki_per_s2": 0.0,
                    "torque_limit_Nm": torque_limit(c), "compensators": list(opt.compensators),
