@@ -10,10 +10,13 @@ the drive's STAB mode) and compares every predicted figure with the measured one
 
     .venv/bin/python examples/pitch_drive/verify.py            # about 5 min on 2 loaded cores
     .venv/bin/python examples/pitch_drive/verify.py --procedures peak-torque,stabilisation
+    .venv/bin/python examples/pitch_drive/verify.py --option best   # the other controller option -> verify_best/
+    .venv/bin/python examples/pitch_drive/verify.py --annotate --note "..."   # explain a finished run's figures
 """
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
@@ -27,13 +30,33 @@ def main() -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--procedures", default="min-rate,positioning,stabilisation,peak-torque,bandwidth")
     p.add_argument("--identify", default="all", help="hdservo identify target (default all)")
-    p.add_argument("--out", type=Path, default=HERE / "verify")
+    p.add_argument("--option", default=None,
+                   help="controller option of the chosen design to verify (flow, best; default: the one the flow kept)")
+    p.add_argument("--out", type=Path, default=None, help="output directory (default verify/, or verify_OPTION/)")
+    p.add_argument("--note", action="append", default=None,
+                   help="with --annotate: a note for verify.md (repeatable)")
+    p.add_argument("--annotate", action="store_true",
+                   help="measure nothing: set the notes (--note) of the finished run in the output directory "
+                        "and render its verify.md again")
     p.add_argument("--tolerance", type=float, default=0.2)
     p.add_argument("--seed", type=int, default=1)
     a = p.parse_args()
-    plan = vf.Plan(axis=HERE / "report" / "axis_chosen.toml", design=HERE / "design.json", out=a.out,
+    out = a.out or (HERE / ("verify" if a.option is None else f"verify_{a.option}"))
+    if a.annotate:
+        if not (out / "verify.json").is_file():
+            print(f"verify.py: --annotate: no finished run in {out} (verify.json missing)", file=sys.stderr)
+            return 2
+        res = vf.annotate(out, a.note or [])
+        print(vf.markdown(res))
+        return 0
+    plan = vf.Plan(axis=HERE / "report" / "axis_chosen.toml", design=HERE / "design.json", out=out,
                    procedures=[x for x in a.procedures.split(",") if x], identify_target=a.identify,
-                   tolerance=a.tolerance, seed=a.seed)
+                   tolerance=a.tolerance, seed=a.seed, option=a.option)
+    try:
+        vf.select_option(json.loads(plan.design.read_text()), a.option)
+    except ValueError as e:
+        print(f"verify.py: --option {e}", file=sys.stderr)
+        return 2
     res = vf.verify(plan)
     print(vf.markdown(res))
     return 0 if res["passed"] == res["judged"] else 1

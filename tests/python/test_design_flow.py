@@ -6,6 +6,7 @@ import math
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -142,6 +143,61 @@ def test_one_candidate_short_simulation(spec: sp.Spec, tmp_path: Path) -> None:
     assert set(e.margins) == {"min_smooth_rate", "positioning_accuracy", "repeatability", "stabilisation",
                               "peak_torque", "resonance"}
     assert e.margins["resonance"] == pytest.approx((39.63 - 35.0) / 35.0, abs=0.01)
+    # both controller options were simulated; the candidate keeps the one with the better margins
+    assert set(e.options) == {"flow", "best"} and e.option in e.options
+    assert e.margins == e.options[e.option]["margins"]
+    assert all(fl.option_key(e.margins) <= fl.option_key(o["margins"]) for o in e.options.values())
+    assert e.tuning["option"]["name"] == e.option and e.controller["compensators"] == e.tuning["compensators"]
+
+
+def test_controller_options_follow_compsetup(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The best combination is read from hdservo.compsetup when the flow runs (not a copy)."""
+    from hdservo import compsetup
+    opts = {o.name: o for o in fl.controller_options()}
+    assert opts["flow"].compensators == fl.COMPENSATORS
+    assert opts["best"].compensators == tuple(compsetup.BEST_NAMES)
+    assert opts["best"].extra_gains == {k: float(v) for k, v in compsetup.best_gains().items()}
+    assert opts["best"].proc_args == {k: list(v) for k, v in compsetup.BEST_PROC_ARGS.items()}
+    monkeypatch.setattr(compsetup, "BEST_NAMES", ("lugre", "approach"))
+    monkeypatch.setattr(compsetup, "BEST_GAINS", {"pos_kp": 42.0})
+    monkeypatch.setattr(compsetup, "BEST_PROC_ARGS", {"stabilisation": ["--stab-mode", "hold"]})
+    best = {o.name: o for o in fl.controller_options()}["best"]
+    assert best.compensators == ("lugre", "approach") and best.extra_gains == {"pos_kp": 42.0}
+    assert fl.stab_mode(best) == "hold" and fl.stab_mode(opts["flow"]) == "stab"
+
+
+def test_final_approach_removes_the_reversal_in_the_prediction(spec: sp.Spec, tmp_path: Path) -> None:
+    """predict.positioning with the drive's PTP trajectory: with "approach" every move ends in the
+    approach direction, so the reversal value B (and with it the bidirectional R) collapses."""
+    from hdservo.design import predict as pr
+    c = _cand("CSF-25-100", "fl-070-class")
+    path = str(ab.write_axis(c, spec, tmp_path / "axis.toml"))
+    plain = fl.ControllerOption("pid", ())
+    appr = fl.ControllerOption("approach", ("approach",))
+    ctl0, _ = fl.tune(spec, c, path, plain)
+    ctl1, t1 = fl.tune(spec, c, path, appr)
+    assert pr.final_approach(ctl0) is None
+    fa = pr.final_approach(ctl1)
+    assert fa is not None and fa["dir"] == 1 and fa["dist_arcsec"] == pytest.approx(45.0, rel=1e-3)
+    p0 = pr.positioning(path, ctl0, [10.0], runs=2)
+    p1 = pr.positioning(path, ctl1, [10.0], runs=2)
+    assert p0["trajectory"] == p1["trajectory"] == "drive"
+    # without the approach the two directions stop on opposite sides of the target (friction)
+    assert p0["B_arcsec"] > 1.0
+    assert p1["B_arcsec"] < 0.3 * p0["B_arcsec"] and p1["R_arcsec"] < 0.5 * p0["R_arcsec"]
+    with pytest.raises(ValueError, match="trajectory"):
+        pr.positioning(path, ctl1, [10.0], runs=2, trajectory="spline")
+    # the flow's method: the test procedure's sweep on the served simulator, the approach on too.
+    # Every downward move ends with the final leg from below and sticks just past the target
+    # (+1.5..1.6"); the fast upward arrivals of the sweep stop short instead (-0.6..-1.4"), so
+    # on this axis the approach alone does not remove B in the procedure (the best combination's
+    # feed-forward on the measured velocity does: examples/pitch_drive/verify_best)
+    p2 = pr.positioning(path, ctl1, [-5.0, 5.0], runs=2, method="procedure")
+    assert p2["method"] == "procedure" and p2["cb_enable"] == 128 and p2["final_approach"] == fa
+    dn = np.asarray(p2["down_arcsec"])
+    assert dn.shape == (2, 2) and dn.min() > 0.5 and np.ptp(dn) < 0.5
+    with pytest.raises(ValueError, match="method"):
+        pr.positioning(path, ctl1, [10.0], runs=2, method="guess")
 
 
 def test_committed_example_is_consistent() -> None:

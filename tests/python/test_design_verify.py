@@ -41,3 +41,35 @@ def test_chain_short(tmp_path: Path) -> None:
     rows = {r["figure"]: r for r in res["rows"]}
     for name in ("stabilisation RMS (true inertial)", "peak output torque"):
         assert rows[name]["pass"], rows[name]
+
+
+def test_select_option_swaps_the_verified_controller() -> None:
+    """verify.py --option: the other controller option of the chosen candidate (its own controller,
+    tuning and predicted figures from the flow JSON) becomes the one verified; bad names are refused."""
+    flow = json.loads((EX / "design.json").read_text())
+    ch = flow["chosen"]
+    assert set(ch["options"]) == {"flow", "best"} and ch["option"] in ch["options"]
+    other = next(n for n in ch["options"] if n != ch["option"])
+    vf.select_option(flow, other)
+    assert flow["chosen"]["option"] == other
+    assert flow["chosen"]["controller"] == ch["options"][other]["controller"]
+    assert flow["chosen"]["figures"] == ch["options"][other]["figures"]
+    assert vf.option_of(flow)["name"] == other
+    assert vf.option_of(flow)["extra_gains"] == ch["options"][other]["option"]["extra_gains"]
+    best = json.loads((EX / "design.json").read_text())
+    vf.select_option(best, "best")
+    assert "approach" in best["chosen"]["controller"]["compensators"] and vf.stab_mode_of(best) == "stab"
+    with pytest.raises(ValueError, match="not a controller option"):
+        vf.select_option(flow, "nonesuch")
+
+
+def test_annotate_renders_notes_without_measuring(tmp_path: Path) -> None:
+    res = {"candidate": "X", "identify_target": "all", "compensators": ["lugre"], "option": "flow",
+           "option_gains": {}, "tolerance": 0.2, "rows": [], "judged": 0, "passed": 0, "notes": [],
+           "wall_s": {}, "repredicted": {}}
+    (tmp_path / "verify.json").write_text(json.dumps(res))
+    out = vf.annotate(tmp_path, ["positioning: the measurement scatters between runs"])
+    assert out["notes"] == ["positioning: the measurement scatters between runs"]
+    md = (tmp_path / "verify.md").read_text()
+    assert "Notes:" in md and "* positioning: the measurement scatters between runs" in md
+    assert json.loads((tmp_path / "verify.json").read_text())["notes"] == out["notes"]

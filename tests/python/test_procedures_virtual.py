@@ -140,6 +140,39 @@ def test_positioning_and_min_rate_short() -> None:
     assert m.headline["min_smooth_rate_deg_s"] is not None and m.headline["min_smooth_rate_deg_s"] <= 0.1
 
 
+def test_reference_moved_throughout_flags_a_stopped_reference() -> None:
+    moving = (np.arange(50, dtype=np.int64) * 12345 + 2 ** 32 - 300000) % 2 ** 32      # wraps, still forward
+    assert cl.reference_moved_throughout(moving)
+    stopped = np.concatenate([moving[:30], np.full(20, moving[29])])
+    assert not cl.reference_moved_throughout(stopped)
+
+
+def test_min_rate_rung_survives_a_host_stall(monkeypatch: pytest.MonkeyPatch) -> None:
+    """With fast pacing the drive's time runs on while the host stalls (a loaded machine): the
+    stall is reproduced as extra drive time before the first record.  The rung's move then
+    arrived before the record (the committed pitch-drive verify lost its 1 deg/s rung this way:
+    0 windows, no minimum smooth rate); the rung must be recorded again, and the ladder's stop
+    must not send the axis backwards."""
+    from hdservo.procedures import runner
+    real_wait = runner.Bench.wait
+    stalls: list[float] = []
+
+    def wait(self: runner.Bench, seconds: float) -> None:
+        if seconds == 1.0 and not stalls:            # the 1 deg/s rung's settling: stall 30 s of drive time
+            stalls.append(seconds)
+            seconds += 30.0
+        real_wait(self, seconds)
+    monkeypatch.setattr(runner.Bench, "wait", wait)
+    with open_bench(Target(), cl.AXIS_SETUP) as b:
+        m = cl.min_rate(b, rates_deg_s=(1.0, 0.1), windows=4, window_s=1.0, settle_s=1.0)
+    lad = {x["rate_deg_s"]: x for x in m.figures["ladder"]}
+    assert stalls, "the stall was not injected"
+    assert lad[1.0]["attempts"] == 2 and lad[1.0]["reference_moved_throughout"]
+    assert lad[1.0]["windows"] >= 3 and lad[1.0]["monotone"] and lad[1.0]["stability"] < 0.1
+    assert lad[0.1]["attempts"] == 1 and lad[0.1]["monotone"]
+    assert m.headline["min_smooth_rate_deg_s"] == 0.1
+
+
 def test_cli_json_and_bad_input(tmp_path: Path) -> None:
     env_py = [sys.executable, "-m", "hdservo.cli", "test"]
     env = {"PYTHONPATH": str(ROOT / "host"), "PATH": "/usr/bin:/bin"}

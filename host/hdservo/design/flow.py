@@ -12,9 +12,12 @@ Steps (``docs/design-flow.md``):
    mass, CSG x 1.2, plus a sensor grade), one per gear size, the best
    ``options.candidates`` of them;
 3. per candidate: :func:`hdservo.design.axis_builder.build_axis` (axis TOML),
-   :func:`tune` (cascade gains from :mod:`hdservo.gains`, compensators from
-   :mod:`hdservo.compsetup`), :func:`evaluate` (simulated figures,
-   :mod:`hdservo.design.predict`) and the margin against each requirement;
+   then for each controller option (:func:`controller_options`: the flow's own
+   compensators and the demo's best combination of :mod:`hdservo.compsetup`)
+   :func:`tune` (cascade gains from :mod:`hdservo.gains`, compensators and
+   their parameters from :mod:`hdservo.compsetup`), :func:`evaluate` (simulated
+   figures, :mod:`hdservo.design.predict`) and the margin against each
+   requirement; the candidate keeps its best option (:func:`option_key`);
 4. :func:`rank`: by the smallest simulated margin (all requirements met first),
    then by cost.
 """
@@ -48,8 +51,66 @@ MIN_COUNTS_PER_S_OUTPUT = 10.0
 MIN_COUNTS_PER_S_MOTOR = 10.0
 #: lost motion above this multiple of the positioning accuracy is flagged (soft)
 LOST_MOTION_FACTOR = 10.0
-#: compensators switched on in the designed controller
+#: how the positioning figures are simulated (:func:`hdservo.design.predict.positioning`): the test
+#: procedure's continuous sweep on the served simulator; the per-target in-process runs ("scenario")
+#: start every move from a fresh plant and gave twice the sub-arcsecond A / R of the final approach
+POSITIONING_METHOD = "procedure"
+#: compensators of the flow's own controller option ("flow"; the other option is the demo's best
+#: combination, :func:`controller_options`)
 COMPENSATORS: Tuple[str, ...] = ("lugre",)
+
+
+@dataclass
+class ControllerOption:
+    """One controller configuration the flow evaluates on every candidate.
+
+    Attributes
+    ----------
+    name : str
+        ``flow`` (:data:`COMPENSATORS` on the flow's gains) or ``best`` (the demo's best combination).
+    compensators : tuple of str
+        ``cb_enable`` names (:data:`hdservo.compsetup.ENABLE_BITS`; ``approach`` = the drive's
+        one-direction final approach of PTP moves).
+    extra_gains : dict
+        Drive parameters (table units) set on top of the flow's tuning (e.g. ``pos_kp``).
+    proc_args : dict
+        Extra ``hdservo test`` options per procedure (e.g. ``{"stabilisation": ["--stab-mode", "stab"]}``).
+    source : str
+        Where the option comes from (one line).
+    """
+
+    name: str
+    compensators: Tuple[str, ...]
+    extra_gains: Dict[str, float] = field(default_factory=dict)
+    proc_args: Dict[str, List[str]] = field(default_factory=dict)
+    source: str = ""
+
+    def to_json(self) -> Dict[str, Any]:
+        return {"name": self.name, "compensators": list(self.compensators), "extra_gains": dict(self.extra_gains),
+                "proc_args": {k: list(v) for k, v in self.proc_args.items()}, "source": self.source}
+
+
+def controller_options(axis: str = "reference") -> List[ControllerOption]:
+    """The controller options of the flow: its own (:data:`COMPENSATORS`) and the demo's best combination.
+
+    The best combination is read when called, through :func:`hdservo.compare.best_controller`
+    (``hdservo.compsetup.BEST_NAMES``, ``best_gains(axis)``, ``BEST_PROC_ARGS``: the same
+    definition ``hdservo compare`` and ``make demo`` use), so a change there reaches the flow.
+    """
+    from .. import compare
+    best = compare.best_controller(axis)
+    return [ControllerOption("flow", tuple(COMPENSATORS), {}, {}, "hdservo.design.flow.COMPENSATORS"),
+            ControllerOption("best", tuple(best.compensators), {k: float(v) for k, v in best.gains.items()},
+                             {k: list(v) for k, v in best.proc_args.items()}, best.description)]
+
+
+def stab_mode(option: Optional[ControllerOption]) -> str:
+    """Drive mode of the stabilisation procedure for an option: ``stab`` unless its proc_args say otherwise."""
+    if option is None or "stabilisation" not in option.proc_args:
+        return "stab"
+    from .. import compare
+    return str(getattr(compare.procedure_args("stabilisation", option.proc_args["stabilisation"]), "stab_mode",
+                       "stab"))
 
 
 @dataclass
@@ -187,6 +248,9 @@ class Evaluated:
     controller: Dict[str, Any] = field(default_factory=dict)
     tuning: Dict[str, Any] = field(default_factory=dict)
     axis_path: Optional[str] = None
+    #: the controller option kept (:func:`evaluate`) and every option's margins and headline figures
+    option: Optional[str] = None
+    options: Dict[str, Any] = field(default_factory=dict)
 
     @property
     def feasible(self) -> bool:
@@ -275,7 +339,8 @@ def shortlist(evals: Sequence[Evaluated], k: int) -> List[Evaluated]:
 
 # ------------------------------------------------------------------ controller
 
-def tune(spec: Spec, c: Candidate, axis_path: str) -> Tuple[Dict[str, Any], Dict[str, Any]]:
+def tune(spec: Spec, c: Candidate, axis_path: str,
+         option: Optional[ControllerOption] = None) -> Tuple[Dict[str, Any], Dict[str, Any]]:
     """Cascade gains and compensators of a candidate axis.
 
     Velocity PI at f_v = min(25 Hz, f_r / 2) and position P at 0.38 f_v
@@ -284,19 +349,21 @@ def tune(spec: Spec, c: Candidate, axis_path: str) -> Tuple[Dict[str, Any], Dict
     gives the margins); notch at the coupled resonance
     (:func:`hdservo.baseline.axis_controller`); torque limit
     :func:`torque_limit`; trajectory limits = spec max rate / accel;
-    compensators :data:`COMPENSATORS` with parameters from
-    :func:`hdservo.compsetup.compensator_params` of the axis.
+    compensators of ``option`` (default the flow's own, :data:`COMPENSATORS`) with parameters from
+    :func:`hdservo.compsetup.compensator_params` of the axis, then the option's ``extra_gains``.
 
     Returns
     -------
     controller : dict
         Scenario ``[controller]`` table.
     tuning : dict
-        Targets and achieved crossovers/margins (:class:`hdservo.gains.Design`).
+        Targets and achieved crossovers/margins (:class:`hdservo.gains.Design`), the option,
+        and ``overridden`` (flow gain -> the option's value).
     """
     from dataclasses import asdict
 
     from .. import baseline, compsetup, gains
+    opt = option or ControllerOption("flow", tuple(COMPENSATORS))
     fa, fr = resonance(spec, c)
     f_v = min(25.0, 0.5 * fr)
     f_p = 0.38 * f_v
@@ -310,37 +377,31 @@ def tune(spec: Spec, c: Candidate, axis_path: str) -> Tuple[Dict[str, Any], Dict
               "torque_limit": torque_limit(c), "traj_vmax": spec.max_rate_deg_s / 360.0,
               "traj_amax": spec.max_accel_deg_s2 / 360.0})
     base["gains"] = g
-    ctl = compsetup.controller(axis_path, list(COMPENSATORS), base=base)
+    overridden = {k: {"flow": g[k], "option": float(v)} for k, v in opt.extra_gains.items() if k in g}
+    # a Preisach compensator needs its table file: beside the candidate's axis file
+    ctl = compsetup.controller(axis_path, list(opt.compensators), base=base, extra_gains=opt.extra_gains,
+                               table_dir=Path(axis_path).parent)
     tuning = asdict(d)
     tuning.update({"f_v_target_Hz": f_v, "f_p_target_Hz": f_p, "pos_ki_per_s2": 0.0,
-                   "torque_limit_Nm": torque_limit(c), "compensators": list(COMPENSATORS)})
+                   "torque_limit_Nm": torque_limit(c), "compensators": list(opt.compensators),
+                   "option": opt.to_json(), "overridden": overridden,
+                   "pos_kp_applied_per_s": float(ctl["gains"]["pos_kp"])})
     return ctl, tuning
 
 
 # ------------------------------------------------------------------ evaluation
 
-def evaluate(spec: Spec, e: Evaluated, axis_path: str, *, quick: bool = False,
-             progress: Optional[Callable[[str], None]] = None) -> Dict[str, Any]:
-    """Simulated figures of one candidate (fills ``e.sim``, ``e.margins``, ``e.controller``).
-
-    Parameters
-    ----------
-    spec : Spec
-    e : Evaluated
-    axis_path : str
-        Where the candidate's axis TOML is (written before).
-    quick : bool
-        Short runs (tests): 2 ladder rungs, 2 targets, 2 runs, 2 s stabilisation.
+def evaluate_option(spec: Spec, c: Candidate, axis_path: str, option: Optional[ControllerOption] = None, *,
+                    quick: bool = False, progress: Optional[Callable[[str], None]] = None) -> Dict[str, Any]:
+    """Simulated figures and margins of one candidate with one controller option.
 
     Returns
     -------
     dict
-        The figures (also stored in ``e.sim``).
+        ``option`` (name), ``controller``, ``tuning``, ``figures``, ``margins``.
     """
     from . import predict as pr
-    c = e.candidate
-    ctl, tuning = tune(spec, c, axis_path)
-    e.controller, e.tuning = ctl, tuning
+    ctl, tuning = tune(spec, c, axis_path, option)
     rates = sorted({spec.min_smooth_rate_deg_s, 10 * spec.min_smooth_rate_deg_s}
                    | (set() if quick else {100 * spec.min_smooth_rate_deg_s, 1000 * spec.min_smooth_rate_deg_s}))
     f: Dict[str, Any] = {}
@@ -350,10 +411,11 @@ def evaluate(spec: Spec, e: Evaluated, axis_path: str, *, quick: bool = False,
     targets = [-half, half] if quick else list(np.linspace(-half, half, 12))
     f["positioning"] = pr.positioning(axis_path, ctl, targets, runs=2 if quick else 3,
                                       vmax_deg_s=spec.max_rate_deg_s, amax_deg_s2=spec.max_accel_deg_s2,
-                                      progress=progress)
+                                      method=POSITIONING_METHOD, progress=progress)
     f["stabilisation"] = pr.stabilisation(axis_path, ctl, spec.base_amplitude_deg, spec.base_frequency_Hz,
                                           duration_s=2.0 if quick else STAB_WINDOW_S,
-                                          loop_bw_Hz=tuning["pos_bandwidth_hz"], progress=progress)
+                                          loop_bw_Hz=tuning["pos_bandwidth_hz"], progress=progress,
+                                          design_mode=stab_mode(option))
     if progress:
         progress("peak torque, bandwidth")
     f["peak_torque"] = pr.peak_torque(axis_path, ctl, torque_limit(c))
@@ -362,9 +424,54 @@ def evaluate(spec: Spec, e: Evaluated, axis_path: str, *, quick: bool = False,
     f["resonance"] = {"locked_motor_Hz": fa, "coupled_Hz": fr, "source": "two-mass model, catalogue K1"}
     enc_acc = 2.0 * float(c.output_encoder.accuracy_arcsec or 0.0)
     f["positioning"]["A_with_encoder_arcsec"] = f["positioning"]["A_arcsec"] + enc_acc
-    e.sim = f
-    e.margins = margins(spec, f)
-    return f
+    return {"option": (option.name if option else "flow"), "controller": ctl, "tuning": tuning, "figures": f,
+            "margins": margins(spec, f)}
+
+
+def option_key(m: Dict[str, float]) -> Tuple[bool, float, float]:
+    """Order of margin sets: every requirement met first, then the larger smallest margin (capped at
+    50 %, 1 % steps), then the larger sum of the negative margins (less shortfall)."""
+    mm = min(m.values()) if m else -math.inf
+    short = sum(min(v, 0.0) for v in m.values())
+    return (mm < 0.0, -round(min(mm, 0.5), 2), -short)
+
+
+def evaluate(spec: Spec, e: Evaluated, axis_path: str, *, quick: bool = False,
+             progress: Optional[Callable[[str], None]] = None,
+             options: Optional[Sequence[ControllerOption]] = None) -> Dict[str, Any]:
+    """Simulated figures of one candidate (fills ``e.sim``, ``e.margins``, ``e.controller``, ``e.options``).
+
+    Every controller option (default :func:`controller_options`) is simulated; the candidate
+    keeps the option with the best margins (:func:`option_key`).
+
+    Parameters
+    ----------
+    spec : Spec
+    e : Evaluated
+    axis_path : str
+        Where the candidate's axis TOML is (written before).
+    quick : bool
+        Short runs (tests): 2 ladder rungs, 2 targets, 2 runs, 2 s stabilisation.
+    options : sequence of ControllerOption, optional
+        Controller options to compare (default :func:`controller_options`).
+
+    Returns
+    -------
+    dict
+        The figures of the kept option (also stored in ``e.sim``).
+    """
+    opts = list(options) if options is not None else controller_options(axis_path)
+    results = []
+    for o in opts:
+        sub = (lambda s, o=o: progress(f"[{o.name}] {s}")) if progress else None
+        results.append(evaluate_option(spec, e.candidate, axis_path, o, quick=quick, progress=sub))
+    best = min(results, key=lambda r: option_key(r["margins"]))
+    e.controller, e.tuning, e.sim, e.margins = best["controller"], best["tuning"], best["figures"], best["margins"]
+    e.option = best["option"]
+    e.options = {r["option"]: {"margins": r["margins"], "predicted": headline(r["figures"]),
+                               "option": r["tuning"]["option"], "controller": r["controller"],
+                               "tuning": r["tuning"], "figures": r["figures"]} for r in results}
+    return e.sim
 
 
 def headline(f: Dict[str, Any]) -> Dict[str, Optional[float]]:
@@ -465,6 +572,7 @@ def run_flow(spec: Spec, workdir: "str | Path", *, quick: bool = False, candidat
     return FlowResult(spec, evals, ranked, ranked[0] if ranked else None)
 
 
-__all__ = ["COMPENSATORS", "Check", "Evaluated", "FlowResult", "cost_index", "enumerate_candidates", "evaluate",
-           "feasibility", "headline", "margins", "rank", "required_torques", "resonance", "run_flow",
-           "sensor_checks", "shortlist", "torque_limit", "tune"]
+__all__ = ["COMPENSATORS", "Check", "ControllerOption", "Evaluated", "FlowResult", "controller_options", "cost_index",
+           "enumerate_candidates", "evaluate", "evaluate_option", "feasibility", "headline", "margins", "option_key",
+           "rank", "required_torques", "resonance", "run_flow", "sensor_checks", "shortlist", "stab_mode",
+           "torque_limit", "tune"]

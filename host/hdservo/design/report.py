@@ -43,6 +43,8 @@ def candidate_doc(e: Evaluated) -> Dict[str, Any]:
         d["figures"] = e.sim
         d["tuning"] = e.tuning
         d["controller"] = e.controller
+        d["option"] = e.option
+        d["options"] = e.options
         d["axis_file"] = Path(e.axis_path).name if e.axis_path else None
     return _clean(d)
 
@@ -231,8 +233,26 @@ def markdown(res: FlowResult, doc: Dict[str, Any], plots: List[str]) -> str:
             mark = "" if m is None else (" ok" if m >= 0 else " **FAIL**")
             cells.append(f"{_f(h[r[2]])} ({_f(None if m is None else 100 * m, '%', '+.0f')}){mark}")
         L.append(f"| {i + 1} | {e.candidate.name} | {e.cost:.2f} | " + " | ".join(cells) + " |")
-    L += ["", "Margins in brackets: relative to the requirement (min smooth rate: 1 - stability/0.1 at the "
-          "required rate).", ""]
+    L += ["", "Margins in brackets: relative to the requirement (min smooth rate: 1 - max(stability, accuracy)/0.1 "
+          "at the required rate, -100 % when that rung goes back or stops).", ""]
+    if any(e.options for e in res.simulated):
+        L += ["### Controller options per candidate", "",
+              "Every candidate is simulated with each controller option (`flow.controller_options`: the flow's own "
+              "compensators and the demo's best combination read from `hdservo.compsetup`); it keeps the option "
+              "with the better margins (all met first, then the larger smallest margin).", "",
+              "| candidate | option | compensators | extra drive parameters | smallest margin | A / R | "
+              "min rate | stabilisation | kept |", "|---|---|---|---|---|---|---|---|---|"]
+        for e in res.simulated:
+            for name, o in e.options.items():
+                m = o["margins"]
+                k = min(m, key=lambda x: m[x])
+                h = o["predicted"]
+                extra = ", ".join(f"{a} = {b:g}" for a, b in o["option"].get("extra_gains", {}).items()) or "-"
+                L.append(f"| {e.candidate.gear.name} | {name} | {', '.join(o['option']['compensators']) or '-'} | "
+                         f"{extra} | {100 * m[k]:+.0f} % ({k}) | {_f(h['positioning_accuracy_arcsec'])} / "
+                         f"{_f(h['repeatability_arcsec'])}\" | {_f(h['min_smooth_rate_deg_s'], 'deg/s')} | "
+                         f"{_f(h['stabilisation_rms_arcsec'])}\" | {'**yes**' if name == e.option else ''} |")
+        L += [""]
     if "margins.png" in plots:
         L += ["![margins](margins.png)", ""]
     ch = res.chosen
@@ -257,7 +277,11 @@ def markdown(res: FlowResult, doc: Dict[str, Any], plots: List[str]) -> str:
               f"{t['pos_phase_margin_deg']:.0f}°, GM {t['pos_gain_margin_db']:.1f} dB, analytic -3 dB "
               f"{t['pos_bandwidth_hz']:.1f} Hz) |",
               f"| notch | {t['notch_hz']:.1f} Hz |",
-              f"| compensators | {', '.join(t['compensators'])} (parameters: hdservo.compsetup) |",
+              f"| controller option | {ch.option or 'flow'} ({t.get('option', {}).get('source', '')}) |",
+              f"| compensators | {', '.join(t['compensators'])} (parameters: hdservo.compsetup"
+              + (("; then " + ", ".join(f"{k} = {v:g}" for k, v in t['option']['extra_gains'].items()))
+                 if t.get("option", {}).get("extra_gains") else "") + ") |",
+              f"| position P applied | {t.get('pos_kp_applied_per_s', t['pos_kp_per_s']):.3g} 1/s |",
               f"| simulated position bandwidth (60\" multisine) | {_f(f['bandwidth']['bandwidth_Hz'], 'Hz')} |",
               f"| stabilisation, drive holding its encoder position | {f['stabilisation']['hold_rms_arcsec']:.4g}\" RMS "
               f"(base {f['stabilisation']['base_rms_arcsec']:.4g}\" RMS) |",
@@ -277,8 +301,13 @@ def markdown(res: FlowResult, doc: Dict[str, Any], plots: List[str]) -> str:
             L += ["", "![chosen figures](chosen_figures.png)", ""]
     L += ["## Caveats", "",
           "* Stabilisation: the design figure is the drive's gyro stabilisation mode (STAB, CiA 402 mode -1, "
-          "default stab_* gains) with the flow's compensators, true inertial angle (line removed); holding the "
+          "default stab_* gains) with the option's compensators, true inertial angle (line removed); holding the "
           "encoder position the payload follows the base.",
+          "* Positioning moves are the drive's own PTP trajectory; with `approach` the drive's one-direction final "
+          "approach ends every move (appr_* parameters, table defaults).",
+          "* Min smooth rate: the prediction ramps through the simulator's set-point (exact rate); the test "
+          "procedure uses the drive's profile generator, whose cruise rate is quantised 2-19 % slow at "
+          "0.1-0.001 deg/s (docs/procedures.md): the measured rate accuracy is worse than predicted.",
           "* Encoder installed accuracy is not modelled by the simulator; it is added to A (2 x +-accuracy).",
           "* Catalogue motors and sensors are representative classes; friction and hysteresis come from the "
           "structure relations scaled from the reference axis (docs/design-structure.md).", ""]

@@ -87,6 +87,8 @@ class Plan:
     bw_amplitude_arcsec: float = 60.0
     seed: int = 1
     notes: list[str] = field(default_factory=list)
+    #: controller option of the chosen candidate to verify (``flow``, ``best``; None = the one the flow kept)
+    option: Optional[str] = None
     #: predicted figures recomputed with the current :mod:`hdservo.design.predict` before comparing
     #: (``bandwidth``, ``peak_torque``: their definitions were aligned with the procedures after
     #: the flow's JSON was written); () = compare with the JSON as it is
@@ -129,11 +131,14 @@ def download_plan(model: Path, axis: Path) -> dict[str, Any]:
     return dl.plan_download(model, str(axis))
 
 
-def configure(bench: Bench, gains: Mapping[str, float], plan: Mapping[str, Any], compensators: Sequence[str]) -> dict[str, Any]:
+def configure(bench: Bench, gains: Mapping[str, float], plan: Mapping[str, Any], compensators: Sequence[str],
+              extra: Optional[Mapping[str, float]] = None) -> dict[str, Any]:
     """Configure one procedure's drive as the flow assumed (power stage off).
 
     The flow's gains by SDO, then the identified compensator parameters and
-    tables (``write_verified``, read back), then ``cb_enable``.
+    tables (``write_verified``, read back), then the controller option's own
+    drive parameters (``extra``, e.g. the best combination's ``pos_kp`` and
+    ``str_w_ref``: set after the model as ``hdservo compare`` does), then ``cb_enable``.
     """
     from ..commands import download as dl
     from ..compsetup import enable_mask
@@ -142,11 +147,13 @@ def configure(bench: Bench, gains: Mapping[str, float], plan: Mapping[str, Any],
         if k in gains:
             d.set_param(k, float(gains[k]))
     done = dl.write_verified(d, plan, tables=True)
+    for k, v in dict(extra or {}).items():
+        d.set_param(k, float(v))
     mask = enable_mask(list(compensators))
     d.set_param("cb_enable", float(mask))
     if int(d.get_param("cb_enable")) != mask:
         raise RuntimeError("cb_enable: read-back differs")
-    return {"params": done["params"], "tables": done["tables"], "cb_enable": mask}
+    return {"params": done["params"], "tables": done["tables"], "extra": dict(extra or {}), "cb_enable": mask}
 
 
 # ------------------------------------------------------------------ STAB-mode stabilisation
@@ -182,12 +189,49 @@ def _procedure(name: str, plan: Plan, flow: Mapping[str, Any]) -> tuple[RigSetup
     if name == "stabilisation":
         st = spec.get("stabilisation", {})
         setup = cl.stab_setup(float(st.get("base_amplitude_deg", 0.5)), float(st.get("base_frequency_Hz", 1.0)))
-        return setup, False, lambda b: stabilisation_stab(b, duration_s=plan.stab_duration_s)
+        mode = stab_mode_of(flow)
+        return setup, False, lambda b: cl.stabilisation(b, duration_s=plan.stab_duration_s, mode=mode)
     if name == "peak-torque":
         return cl.AXIS_SETUP, False, lambda b: cl.peak_torque(b)
     if name == "bandwidth":
         return cl.AXIS_SETUP, True, lambda b: cl.bandwidth(b, amplitude_arcsec=plan.bw_amplitude_arcsec)
     raise ValueError(f"unknown procedure '{name}'")
+
+
+def select_option(flow: dict[str, Any], name: Optional[str]) -> dict[str, Any]:
+    """Make controller option ``name`` of the chosen candidate the one verified (in place).
+
+    The flow simulates every option on every candidate and keeps the best; ``chosen.options``
+    holds each option's controller, tuning and figures.  ``name`` None (or the kept one)
+    leaves ``flow`` as it is.  Raises ValueError for an option the JSON does not hold.
+    """
+    ch = flow["chosen"]
+    if name is None or name == ch.get("option"):
+        return flow
+    opts = ch.get("options") or {}
+    if name not in opts or "controller" not in opts[name]:
+        raise ValueError(f"{name!r}: not a controller option of the chosen design in the flow JSON; expected one "
+                         f"of {', '.join(sorted(opts)) or '(none stored)'}")
+    o = opts[name]
+    ch.update({"option": name, "controller": o["controller"], "tuning": o["tuning"], "figures": o["figures"],
+               "margins": o["margins"], "predicted": o["predicted"]})
+    return flow
+
+
+def option_of(flow: Mapping[str, Any]) -> dict[str, Any]:
+    """The controller option of the flow's chosen design (``tuning.option``; older JSON: the flow's own)."""
+    opt = dict(flow["chosen"].get("tuning", {}).get("option") or {})
+    opt.setdefault("name", "flow")
+    opt.setdefault("extra_gains", {})
+    opt.setdefault("proc_args", {})
+    return opt
+
+
+def stab_mode_of(flow: Mapping[str, Any]) -> str:
+    """Drive mode of the stabilisation test for the chosen option (``stab`` unless its proc_args say otherwise)."""
+    from ..compare import procedure_args
+    pa = option_of(flow)["proc_args"].get("stabilisation")
+    return "stab" if not pa else str(getattr(procedure_args("stabilisation", pa), "stab_mode", "stab"))
 
 
 def measure(plan: Plan, flow: Mapping[str, Any], dl_plan: Mapping[str, Any],
@@ -202,7 +246,7 @@ def measure(plan: Plan, flow: Mapping[str, Any], dl_plan: Mapping[str, Any],
         t0 = time.monotonic()
         progress(f"test {name}")
         with open_bench(Target(axis=str(plan.axis), seed=plan.seed), setup, lockstep=lockstep) as bench:
-            cfg = configure(bench, gains, dl_plan, comps)
+            cfg = configure(bench, gains, dl_plan, comps, option_of(flow)["extra_gains"])
             res = fn(bench)
         out[name] = {"headline": res.headline, "figures": res.figures, "conditions": res.conditions,
                      "configured": cfg, "wall_s": round(time.monotonic() - t0, 1)}
@@ -272,9 +316,11 @@ def compare(flow: Mapping[str, Any], measured: Mapping[str, Mapping[str, Any]], 
     if "stabilisation" in measured:
         s = f["stabilisation"]
         m = measured["stabilisation"]["figures"]
-        row("stabilisation RMS (true inertial)", "arcsec", s.get("stab_true_rms_arcsec"), m.get("true_rms_arcsec"),
-            "STAB mode, base 0.5 deg at 1 Hz, 5 s, line removed; rig / simulator true inertial angle")
-        row("stabilisation RMS (integrated gyro)", "arcsec", s.get("stab_rms_arcsec"), m.get("gyro_rms_arcsec"),
+        tag = "hold" if s.get("design_mode") == "hold" else "stab"
+        row("stabilisation RMS (true inertial)", "arcsec", s.get(f"{tag}_true_rms_arcsec"), m.get("true_rms_arcsec"),
+            f"{'STAB mode' if tag == 'stab' else 'CSP hold'}, base 0.5 deg at 1 Hz, 5 s, line removed; rig / "
+            "simulator true inertial angle")
+        row("stabilisation RMS (integrated gyro)", "arcsec", s.get(f"{tag}_rms_arcsec"), m.get("gyro_rms_arcsec"),
             "same, payload gyro integrated (the procedure's headline)")
     if "peak-torque" in measured:
         row("peak output torque", "N.m", f["peak_torque"]["peak_torque_Nm"],
@@ -297,7 +343,10 @@ def markdown(result: Mapping[str, Any]) -> str:
              "served as a virtual drive, identified over CAN (`hdservo identify "
              f"{result['identify_target']}`), the identified compensator parameters downloaded "
              "(`hdservo download` code, read back), the procedures of `hdservo test` run with the flow's gains and "
-             f"compensators ({', '.join(result['compensators']) or 'none'}). Pass: |measured/predicted - 1| <= "
+             f"controller option `{result.get('option', 'flow')}` (compensators "
+             f"{', '.join(result['compensators']) or 'none'}"
+             + ("; after the model: " + ", ".join(f"{k} = {v:g}" for k, v in result.get("option_gains", {}).items())
+                if result.get("option_gains") else "") + "). Pass: |measured/predicted - 1| <= "
              f"{tol * 100:.0f} %.", "",
              "| figure | predicted | measured | error | pass | definition |", "|---|---|---|---|---|---|"]
 
@@ -321,7 +370,7 @@ def markdown(result: Mapping[str, Any]) -> str:
 
 def verify(plan: Plan, progress: Callable[[str], None] = _say) -> dict[str, Any]:
     """The whole chain; writes ``verify.json`` and ``verify.md`` into ``plan.out`` and returns the result."""
-    flow = json.loads(plan.design.read_text())
+    flow = select_option(json.loads(plan.design.read_text()), plan.option)
     ctl = flow["chosen"]["controller"]
     plan.out.mkdir(parents=True, exist_ok=True)
     wall: dict[str, float] = {}
@@ -346,13 +395,27 @@ def verify(plan: Plan, progress: Callable[[str], None] = _say) -> dict[str, Any]
         "format": "hdservo-design-verify", "version": 1, "candidate": flow["chosen"]["name"],
         "axis": plan.axis.name, "design": plan.design.name, "identify_target": plan.identify_target,
         "identify_notes": ident.get("notes", []), "download_notes": dlp["notes"],
-        "compensators": list(ctl.get("compensators", [])), "tolerance": plan.tolerance, "seed": plan.seed,
+        "compensators": list(ctl.get("compensators", [])), "option": option_of(flow)["name"],
+        "option_gains": option_of(flow)["extra_gains"], "tolerance": plan.tolerance, "seed": plan.seed,
         "rows": rows, "judged": len(judged), "passed": sum(1 for r in judged if r["pass"]),
         "measured": measured, "notes": list(plan.notes), "wall_s": wall,
         "repredicted": {k: {"design_json": v, "now": rows_pred(rows, k)} for k, v in repredicted.items()}}
     (plan.out / "verify.json").write_text(json.dumps(result, indent=1, default=_jsonable) + "\n")
     (plan.out / "verify.md").write_text(markdown(result))
     return result
+
+
+def annotate(out: Path, notes: Sequence[str]) -> dict[str, Any]:
+    """Set the notes of a finished verification (``out/verify.json``) and render ``verify.md`` again.
+
+    For the explanation of a figure that does not match, written after looking at the run;
+    nothing is measured again.  Returns the result.
+    """
+    res = json.loads((out / "verify.json").read_text())
+    res["notes"] = [str(n) for n in notes]
+    (out / "verify.json").write_text(json.dumps(res, indent=1, default=_jsonable) + "\n")
+    (out / "verify.md").write_text(markdown(res))
+    return res
 
 
 def rows_pred(rows: Sequence[Mapping[str, Any]], figure: str) -> Optional[float]:
@@ -369,5 +432,5 @@ def _jsonable(x: Any) -> Any:
     return str(x)
 
 
-__all__ = ["GAIN_KEYS", "Plan", "compare", "configure", "download_plan", "identify", "markdown", "measure",
-           "repredict", "stabilisation_stab", "verify"]
+__all__ = ["GAIN_KEYS", "Plan", "annotate", "compare", "configure", "download_plan", "identify", "markdown", "measure",
+           "option_of", "repredict", "select_option", "stab_mode_of", "stabilisation_stab", "verify"]

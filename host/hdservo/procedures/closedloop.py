@@ -22,6 +22,8 @@ from .runner import DT, Bench, Progress, RigSetup
 
 AXIS_SETUP = RigSetup("axis", payload=True)
 TURN = 2 * math.pi
+#: capture frames of a three-signal record (8192-word buffer)
+CAPTURE_FRAMES_3 = 2700
 
 
 def stab_setup(amp_deg: float = 0.5, freq_Hz: float = 1.0) -> RigSetup:
@@ -81,26 +83,71 @@ def pp_move_start(bench: Bench, target_rad: float, tries: int = 5) -> None:
 
 # ---- minimum smooth rate ------------------------------------------------------------------
 
+#: how far ahead of the rung's start the rung's profile move aims, in multiples of the rung's own
+#: travel (settle + record): the slack the move has before it arrives and stops
+RATE_REACH = 3.0
+#: records of one rung taken again when the reference stopped (arrived) within the record
+RATE_ATTEMPTS = 3
+
+
+def reference_angle_rad(bench: Bench) -> float:
+    """The drive's position reference (output), rad: output angle + wrapped (set-point phase - load phase)."""
+    load = bench.load_angle_rad()
+    sp = int(bench.read(0x5F00, 8))
+    ph = int(bench.read(0x5F00, 2))
+    d = ((sp - ph + 2 ** 31) % 2 ** 32) - 2 ** 31
+    return load + d / 2.0 ** 32 * TURN
+
+
+def reference_moved_throughout(ref_lo: np.ndarray) -> bool:
+    """True when a captured reference (wrapped 2^-32-turn words) advanced between every two samples.
+
+    A reference that stood still for a sample (the profile move had arrived at its target)
+    means the record is not a constant-rate run.
+    """
+    r = Bench.unwrap_turns(ref_lo)
+    d = np.diff(r)
+    return bool(d.size > 0 and (np.all(d > 0) or np.all(d < 0)))
+
+
 def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, settle_s: float) -> dict[str, Any]:
-    """One rung: constant rate through the profile generator; fixed-angle timing on the output encoder."""
+    """One rung: constant rate through the profile generator; fixed-angle timing on the output encoder.
+
+    The rung is a profile move at ``traj_vmax`` = rate towards a target :data:`RATE_REACH` x the
+    rung's travel ahead; the record (output encoder and the drive's reference) starts after
+    ``settle_s``.  With fast pacing the drive's time runs on (~20x real time) while the host is
+    busy, so a host stall between the settling and the record (a loaded machine) can let the
+    move arrive before or during the record: then the reference stood still in the record, which
+    is taken again (:data:`RATE_ATTEMPTS`; ``attempts`` in the result).  The rung ends with a stop
+    just ahead of the moving reference, still at the rung's ``traj_vmax`` (restoring the fast
+    limit first would let the reference run on to the far target and the stop would reverse).
+    """
     rate = math.radians(rate_deg_s)
     dur = windows * window_s
-    frames = 4000
+    frames = CAPTURE_FRAMES_3
     decim = max(1, int(math.ceil(dur / frames / DT)))
     frames = int(math.ceil(dur / (decim * DT)))
-    start = bench.load_angle_rad()
-    far = start + rate * (settle_s + dur) * 1.5 + math.radians(0.01)
+    attempts = 0
     with bench.params({"traj_vmax": max(1e-6, rate / TURN)}):
-        pp_move_start(bench, far)
-        bench.wait(settle_s)
-        cap = bench.capture(["pos_out_lo", "pos_out_hi"], frames, decim)
-        fault = bench.fault()
-    if fault:
-        raise RuntimeError(f"the drive faulted at {rate_deg_s} deg/s (fault code {fault})")
+        while True:
+            attempts += 1
+            far = bench.load_angle_rad() + rate * (settle_s + dur) * RATE_REACH + math.radians(0.01)
+            pp_move_start(bench, far)
+            bench.wait(settle_s)
+            cap = bench.capture(["pos_out_lo", "pos_out_hi", "pos_ref_lo"], frames, decim)
+            fault = bench.fault()
+            if fault:
+                raise RuntimeError(f"the drive faulted at {rate_deg_s} deg/s (fault code {fault})")
+            valid = reference_moved_throughout(cap["pos_ref_lo"])
+            if valid or attempts >= RATE_ATTEMPTS:
+                break
+        # stop: a target just ahead of the moving reference, at the rung's rate; wait for the arrival
+        pp_move(bench, reference_angle_rad(bench) + rate * 0.5)
     ang = Bench.unwrap_turns(cap["pos_out_lo"]) * TURN
     t = np.arange(ang.size) * decim * DT
     st = mt.rate_stability(t, ang, rate, rate * window_s)
-    return {"rate_deg_s": rate_deg_s, "window_arcsec": rate * window_s / mt.ARCSEC, **st, "t_s": t, "angle_rad": ang}
+    return {"rate_deg_s": rate_deg_s, "window_arcsec": rate * window_s / mt.ARCSEC, **st, "attempts": attempts,
+            "reference_moved_throughout": valid, "t_s": t, "angle_rad": ang}
 
 
 def min_rate(bench: Bench, rates_deg_s: Sequence[float] = (1.0, 0.1, 0.01, 0.001), bound: float = 0.1,
@@ -127,9 +174,6 @@ def min_rate(bench: Bench, rates_deg_s: Sequence[float] = (1.0, 0.1, 0.01, 0.001
     for k, rate in enumerate(sorted(rates_deg_s, reverse=True)):
         rr = rate_run(bench, rate, windows, window_s, settle_s if rate < 0.5 else min(settle_s, 1.0))
         ladder.append(rr)
-        # stop: a target just ahead of the moving reference, and wait until the trajectory has arrived
-        with bench.params({"traj_vmax": max(1e-6, math.radians(rate) / TURN)}):
-            pp_move(bench, bench.load_angle_rad() + math.radians(rate) * 0.2)
         bench.wait(0.2)
         if progress:
             progress((k + 1) / len(rates_deg_s), f"{rate:g} deg/s: stability {rr['stability']:.3g}")

@@ -336,19 +336,24 @@ class Bench:
         if self.lockstep and not self._ev.wait(5.0):
             raise DriveError("no answer to SYNC (is the drive in --pacing sync?)")
 
+    #: attempts of :meth:`read`; the waits between them double from 0.05 s (3.15 s in all)
+    READ_ATTEMPTS = 7
+
     def read(self, index: int, sub: int = 0) -> Any:
-        """SDO read, repeated (up to 3 times) after a failed transfer.
+        """SDO read, repeated (up to :data:`READ_ATTEMPTS` times, doubling waits) after a failed transfer.
 
         With fast pacing the drive's 1 s SDO time-out is drive time; after an
-        aborted block upload a stale frame can answer the next request.
+        aborted block upload a stale frame can answer the next request.  On a
+        loaded host (load average 8-9 on 2 cores) three reads 50 ms apart have
+        all gone unanswered ("No SDO response received"), hence the backoff.
         """
-        for attempt in range(3):
+        for attempt in range(self.READ_ATTEMPTS):
             try:
                 return self.drive.read(index, sub)
             except DriveError:
-                if attempt == 2:
+                if attempt == self.READ_ATTEMPTS - 1:
                     raise
-                time.sleep(0.05)
+                time.sleep(0.05 * 2 ** attempt)
 
     def ticks(self) -> int:
         """Loop periods since power-up (0x5F00:11)."""
@@ -488,13 +493,14 @@ class Bench:
             raise DriveError("capture did not finish")
         # the drive's SDO time-out is 1 s of DRIVE time: with fast pacing a busy host can miss it
         # during a block upload; the buffer keeps its data, so the upload is simply repeated
-        for attempt in range(4):
+        for attempt in range(self.READ_ATTEMPTS):
             try:
                 raw = d.read_domain(0x5000, 7)
                 break
             except DriveError:
-                if attempt == 3:
+                if attempt == self.READ_ATTEMPTS - 1:
                     raise
+                time.sleep(0.05 * 2 ** attempt)     # a loaded host: give the drive process time
         words = np.frombuffer(raw, dtype="<i4").astype(np.int64)
         n = len(signals)
         words = words[: (words.size // n) * n].reshape(-1, n)
