@@ -54,4 +54,9 @@ def test_cogging_case_json_and_plots(tmp_path: Path, cog_log: Path) -> None:
     assert f["J_l_kgm2"] == pytest.approx(0.5, rel=0.1)
     assert f["K_Nm_per_rad"] == pytest.approx(3.1e4, rel=0.1)
     names = {p.name for p in (tmp_path / "p").iterdir()}
-    assert {"residual_time.png", "gap.png", "spectrum.png", "residual_1_cogging_torque.png"} <= names
+    assert {"residual_time.png", "gap.png", "spectrum.png", "simulation_time.png",
+            "residual_1_cogging_torque.png"} <= names
+    # the simulation error is reported and used as evidence
+    assert len(res["sim_rms_history_rad"]) == len(res["rms_history"])
+    assert it["sim_rms_after_rad"] < it["sim_rms_before_rad"]
+    assert {"sim_delta_bic", "sim_explained_fraction", "total_delta_bic"} <= set(it["evidence"])

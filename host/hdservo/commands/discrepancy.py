@@ -67,10 +67,16 @@ def run(args: argparse.Namespace) -> int:
         out["plots"] = [str(p) for p in write_plots(res, args.plots)]
     logio._atomic_write(args.json, json.dumps(out, indent=2) + "\n")
     u = sig.units["torque"]
-    print(f"{args.log}: {sig.kind} baseline, equation-error RMS {res.rms_history[0]:.4g} {u}")
+    au = sig.units["angle"]
+    print(f"{args.log}: {sig.kind} baseline, equation-error RMS {res.rms_history[0]:.4g} {u}, "
+          f"simulation-error RMS {res.sim_rms_history[0]:.4g} {au}")
     for it in res.iterations:
-        print(f"  + {it['named_effect']}: {it['rms_before']:.4g} -> {it['rms_after']:.4g} {u} "
-              f"(delta BIC {it['evidence']['delta_bic']:.0f}, explained {100 * it['evidence']['explained_fraction']:.0f} %)")
+        ev = it["evidence"]
+        sf = ev.get("sim_explained_fraction")
+        print(f"  + {it['named_effect']}: {it['rms_before']:.4g} -> {it['rms_after']:.4g} {u}, simulation "
+              f"{it['sim_rms_before_rad']:.4g} -> {it['sim_rms_after_rad']:.4g} {au} "
+              f"(delta BIC {ev['delta_bic']:.0f} + {ev.get('sim_delta_bic') or 0:.0f}, explained "
+              f"{100 * ev['explained_fraction']:.0f} % / {100 * (sf or 0):.0f} %)")
     if not res.iterations:
         print("  no significant missing effect")
     return 0

@@ -41,6 +41,16 @@ class Column:
     R: np.ndarray | None
     scale: float = 1.0
     key: str = ""            # cache key of the filtered series (name + hyper-parameters)
+    #: The column as a function of the state, for the simulation error
+    #: (:mod:`hdservo.discrepancy.simerr`): ``fn(th_m, w_m, th_l, w_l) -> (M, R)`` (None
+    #: where the column is absent from an equation; signs are sharp there).  None: the
+    #: column is taken along the measured trajectory (memory operators, accelerations).
+    fn: Callable[..., tuple[Any, Any]] | None = field(default=None, repr=False)
+    #: Friction column of the motor side ("m") or load side ("l"): replaced by the
+    #: static (sticking) force when that side stands still in the simulation.
+    fric: str = ""
+    #: Inertia column ("Jm", "Jl", or "J" for the rigid model): the simulated dynamics.
+    role: str = ""
 
 
 #: Width of the smoothed sign relative to the standstill threshold (samples below the
@@ -151,25 +161,28 @@ def baseline_columns(d: Design, offset: bool | None = None) -> list[Column]:
     eps = d.v_eps
     if s.kind == "rigid":
         one = np.ones_like(s.tau)
-        cols = [Column("J", None, s.a_m), Column("Fv", None, s.w_m),
-                Column("Fc", None, smooth_sign(s.w_m, SIGN_SMOOTH * eps * N))]
+        cols = [Column("J", None, s.a_m, role="J"),
+                Column("Fv", None, s.w_m, fn=lambda tm, wm, tl, wl: (None, wm), fric="m"),
+                Column("Fc", None, smooth_sign(s.w_m, SIGN_SMOOTH * eps * N),
+                       fn=lambda tm, wm, tl, wl: (None, np.sign(wm)), fric="m")]
         if offset is None or offset:
-            cols.append(Column("offset", None, one))
+            cols.append(Column("offset", None, one, fn=lambda tm, wm, tl, wl: (None, np.ones_like(wm))))
         return cols
     sm = smooth_sign(s.w_m, SIGN_SMOOTH * eps * N)
     sl = smooth_sign(s.w_l, SIGN_SMOOTH * eps)
     cols = [
-        Column("J_m_kgm2", s.a_m, s.a_m),
-        Column("J_l_kgm2", None, s.a_l / N),
-        Column("K_Nm_per_rad", s.phi / N, None),
-        Column("c_Nms_per_rad", s.dphi / N, None),
-        Column("Fv_motor_Nms_per_rad", s.w_m, s.w_m),
-        Column("Fc_motor_Nm", sm, sm),
-        Column("Fv_load_Nms_per_rad", None, s.w_l / N),
-        Column("Fc_load_Nm", None, sl / N),
+        Column("J_m_kgm2", s.a_m, s.a_m, role="Jm"),
+        Column("J_l_kgm2", None, s.a_l / N, role="Jl"),
+        Column("K_Nm_per_rad", s.phi / N, None, fn=lambda tm, wm, tl, wl: ((tm / N - tl) / N, None)),
+        Column("c_Nms_per_rad", s.dphi / N, None, fn=lambda tm, wm, tl, wl: ((wm / N - wl) / N, None)),
+        Column("Fv_motor_Nms_per_rad", s.w_m, s.w_m, fn=lambda tm, wm, tl, wl: (wm, wm), fric="m"),
+        Column("Fc_motor_Nm", sm, sm, fn=lambda tm, wm, tl, wl: (np.sign(wm), np.sign(wm)), fric="m"),
+        Column("Fv_load_Nms_per_rad", None, s.w_l / N, fn=lambda tm, wm, tl, wl: (None, wl / N), fric="l"),
+        Column("Fc_load_Nm", None, sl / N, fn=lambda tm, wm, tl, wl: (None, np.sign(wl) / N), fric="l"),
     ]
     if offset:
-        cols.append(Column("offset_Nm", np.ones_like(s.tau), np.ones_like(s.tau)))
+        cols.append(Column("offset_Nm", np.ones_like(s.tau), np.ones_like(s.tau),
+                           fn=lambda tm, wm, tl, wl: (np.ones_like(wm), np.ones_like(wm))))
     return cols
 
 
@@ -207,28 +220,44 @@ class Fit:
 
 
 def solve(d: Design, cols: Sequence[Column], weights: dict[str, float],
-          tau: np.ndarray | None = None, tau_key: str = "tau") -> Fit:
-    """Weighted LS of the stacked equations (weights: 1/scale per equation)."""
+          tau: np.ndarray | None = None, tau_key: str = "tau",
+          fixed: Sequence[tuple[Column, float]] = ()) -> Fit:
+    """Weighted LS of the stacked equations (weights: 1/scale per equation).
+
+    ``fixed`` columns keep the given coefficient (estimated elsewhere, e.g. on the
+    simulation error); their contribution is subtracted from the measured torque and
+    they are appended to the fit's coefficients (and counted in ``n_params``).
+    """
+    cols = [c for c in cols if c.name not in {f.name for f, _ in fixed}]
     X = np.column_stack([d.stack(c) for c in cols])
     y = d.lhs(d.sig.tau if tau is None else tau, tau_key)
+    for c, a in fixed:
+        y = y - a * d.stack(c)
     n = int(d.mask.sum())
     w = np.concatenate([np.full(n, weights.get(e, 1.0)) for e in d.equations])
     Xw = X * w[:, None]
     yw = y * w
     sc = np.sqrt(np.sum(Xw ** 2, axis=0))
     sc[sc == 0] = 1.0
-    Q, Rm = np.linalg.qr(Xw / sc)
+    Xs = Xw / sc
+    # normal equations of the unit-norm columns (a few columns, thousands of rows: ~10x
+    # cheaper than a QR); an ill-conditioned Gram matrix falls back to SVD least squares
+    G = Xs.T @ Xs
     try:
-        theta = np.linalg.solve(Rm, Q.T @ yw)
+        if np.linalg.cond(G) > 1e10:
+            raise np.linalg.LinAlgError("ill-conditioned")
+        theta = np.linalg.solve(G, Xs.T @ yw)
         if not np.all(np.isfinite(theta)):
             raise np.linalg.LinAlgError("singular")
     except np.linalg.LinAlgError:
-        theta, *_ = np.linalg.lstsq(Xw / sc, yw, rcond=None)
+        theta, *_ = np.linalg.lstsq(Xs, yw, rcond=None)
     theta = theta / sc
     r = y - X @ theta
     resid = {e: r[i * n:(i + 1) * n] for i, e in enumerate(d.equations)}
     rss_w = float(np.sum((r * w) ** 2))
-    return Fit(theta=theta, names=[c.name for c in cols], resid=resid, rss_w=rss_w, n_params=len(cols))
+    theta = np.concatenate([theta, [float(a) for _, a in fixed]])
+    names = [c.name for c in cols] + [c.name for c, _ in fixed]
+    return Fit(theta=theta, names=names, resid=resid, rss_w=rss_w, n_params=len(names))
 
 
 def equation_weights(fit: Fit) -> dict[str, float]:

@@ -42,6 +42,12 @@ class Variant:
     tau: np.ndarray | None = None          # replacement of the measured torque (lag)
     tau_key: str = "tau"
     n_hyper: int = 0                       # nonlinear parameters searched (penalised too)
+    #: Coefficients fitted on the simulation error (column name -> value), kept fixed
+    #: in the least-squares fits; None: all columns fitted by least squares.
+    fixed: dict[str, float] | None = None
+    #: Levels (in units of the side's fitted Coulomb friction) tried for each column by
+    #: the output-error fitter; None: no output-error fit.
+    oe_levels: tuple[float, ...] | None = None
 
 
 class Effect:
@@ -85,19 +91,28 @@ class Stribeck(Effect):
             cols = []
             if s.kind == "rigid":
                 g = np.exp(-(s.w_m / (vs * s.ratio)) ** 2) * smooth_sign(s.w_m, 0.1 * d.v_eps * s.ratio)
-                cols.append(Column("dFs", None, g, key=f"dFs{vs:.6g}"))
+                vm = vs * s.ratio
+                cols.append(Column("dFs", None, g, key=f"dFs{vs:.6g}", fric="m",
+                                   fn=lambda tm, wm, tl, wl, vm=vm: (None, np.exp(-(wm / vm) ** 2) * np.sign(wm))))
             else:
                 N = s.ratio
                 gm = np.exp(-(s.w_m / (vs * N)) ** 2) * smooth_sign(s.w_m, 0.1 * d.v_eps * N)
                 gl = np.exp(-(s.w_l / vs) ** 2) * smooth_sign(s.w_l, 0.1 * d.v_eps)
-                cols += [Column("dFs_motor_Nm", gm, gm, key=f"dFsm{vs:.6g}"),
-                         Column("dFs_load_Nm", None, gl / N, key=f"dFsl{vs:.6g}")]
-            yield Variant({"vs_out_rad_s": float(vs)}, cols, n_hyper=1)
+                def fm(tm, wm, tl, wl, vm=vs * N):
+                    g = np.exp(-(wm / vm) ** 2) * np.sign(wm)
+                    return g, g
+                cols += [Column("dFs_motor_Nm", gm, gm, key=f"dFsm{vs:.6g}", fn=fm, fric="m"),
+                         Column("dFs_load_Nm", None, gl / N, key=f"dFsl{vs:.6g}", fric="l",
+                                fn=lambda tm, wm, tl, wl, vl=vs, N=N: (None, np.exp(-(wl / vl) ** 2) * np.sign(wl) / N))]
+            yield Variant({"vs_out_rad_s": float(vs)}, cols, n_hyper=1, oe_levels=self.levels)
+
+    #: Stribeck excess Fs - Fc tried per side by the output-error fitter, in units of that
+    #: side's Coulomb friction (Fs/Fc from 1.25 to 3).
+    levels = (0.25, 0.5, 1.0, 2.0)
 
     def valid(self, fit: Fit, v: Variant) -> bool:
-        # a Stribeck hump raises friction at low speed: the summed excess must be positive
-        tot = sum(_idx(fit, c.name) * (1.0 if c.M is not None else 1.0 / max(1.0, 1.0)) for c in v.columns)
-        return tot > 0
+        # a Stribeck hump raises friction at low speed: no side's excess may be negative
+        return all(_idx(fit, c.name) >= 0 for c in v.columns) and sum(_idx(fit, c.name) for c in v.columns) > 0
 
 
 class Asymmetric(Effect):
@@ -109,15 +124,20 @@ class Asymmetric(Effect):
         s = d.sig
         one = np.ones_like(s.tau)
         if s.kind == "rigid":
-            yield Variant({}, [Column("dFv_asym", None, np.abs(s.w_m)),
-                               Column("dFc_asym", None, one)] if "offset" not in _names(d) else
-                          [Column("dFv_asym", None, np.abs(s.w_m))])
+            fv = Column("dFv_asym", None, np.abs(s.w_m), fn=lambda tm, wm, tl, wl: (None, np.abs(wm)), fric="m")
+            fc = Column("dFc_asym", None, one, fn=lambda tm, wm, tl, wl: (None, np.ones_like(wm)), fric="m")
+            yield Variant({}, [fv, fc] if "offset" not in _names(d) else [fv])
             return
         N = s.ratio
-        yield Variant({}, [Column("dFc_motor_asym_Nm", one, one),
-                           Column("dFv_motor_asym_Nms_per_rad", np.abs(s.w_m), np.abs(s.w_m)),
-                           Column("dFc_load_asym_Nm", None, one / N),
-                           Column("dFv_load_asym_Nms_per_rad", None, np.abs(s.w_l) / N)])
+        aw = np.abs(s.w_m)
+        yield Variant({}, [
+            Column("dFc_motor_asym_Nm", one, one, fric="m",
+                   fn=lambda tm, wm, tl, wl: (np.ones_like(wm), np.ones_like(wm))),
+            Column("dFv_motor_asym_Nms_per_rad", aw, aw, fric="m",
+                   fn=lambda tm, wm, tl, wl: (np.abs(wm), np.abs(wm))),
+            Column("dFc_load_asym_Nm", None, one / N, fric="l", fn=lambda tm, wm, tl, wl: (None, np.ones_like(wl) / N)),
+            Column("dFv_load_asym_Nms_per_rad", None, np.abs(s.w_l) / N, fric="l",
+                   fn=lambda tm, wm, tl, wl: (None, np.abs(wl) / N))])
 
 
 def _names(d: Design) -> set[str]:
@@ -155,12 +175,16 @@ class TransmissionError(Effect):
         cols = []
         for k in self.orders:
             c, sn = np.cos(k * th), np.sin(k * th)
-            cols.append(Column(f"te_wg{k}_cos", c / N - k * phi * sn, None))
-            cols.append(Column(f"te_wg{k}_sin", sn / N + k * phi * c, None))
+            cols.append(Column(f"te_wg{k}_cos", c / N - k * phi * sn, None,
+                               fn=lambda tm, wm, tl, wl, k=k: (np.cos(k * tm) / N - k * (tm / N - tl) * np.sin(k * tm), None)))
+            cols.append(Column(f"te_wg{k}_sin", sn / N + k * phi * c, None,
+                               fn=lambda tm, wm, tl, wl, k=k: (np.sin(k * tm) / N + k * (tm / N - tl) * np.cos(k * tm), None)))
         thl = s.raw_th_l if s.raw_th_l is not None else th / N
         for j in self.out_orders:
-            cols.append(Column(f"te_out{j}_cos", np.cos(j * thl) / N, None))
-            cols.append(Column(f"te_out{j}_sin", np.sin(j * thl) / N, None))
+            cols.append(Column(f"te_out{j}_cos", np.cos(j * thl) / N, None,
+                               fn=lambda tm, wm, tl, wl, j=j: (np.cos(j * tl) / N, None)))
+            cols.append(Column(f"te_out{j}_sin", np.sin(j * thl) / N, None,
+                               fn=lambda tm, wm, tl, wl, j=j: (np.sin(j * tl) / N, None)))
         yield Variant({"orders_per_wg_rev": list(self.orders), "orders_per_output_rev": list(self.out_orders)},
                       cols)
 
@@ -209,8 +233,10 @@ class Cogging(Effect):
             cols = []
             for m in (int(p), 2 * int(p)):
                 c, sn = np.cos(m * s.raw_th_m), np.sin(m * s.raw_th_m)
-                cols.append(Column(f"cog{m}_cos_Nm", c if eq_m else None, c))
-                cols.append(Column(f"cog{m}_sin_Nm", sn if eq_m else None, sn))
+                cols.append(Column(f"cog{m}_cos_Nm", c if eq_m else None, c,
+                                   fn=lambda tm, wm, tl, wl, m=m, e=eq_m: (np.cos(m * tm) if e else None, np.cos(m * tm))))
+                cols.append(Column(f"cog{m}_sin_Nm", sn if eq_m else None, sn,
+                                   fn=lambda tm, wm, tl, wl, m=m, e=eq_m: (np.sin(m * tm) if e else None, np.sin(m * tm))))
             # the order was chosen among max_order candidates: penalise the search
             yield Variant({"order_per_motor_rev": int(p)}, cols, n_hyper=1)
 
@@ -240,6 +266,13 @@ def _phi_grid(d: Design) -> np.ndarray:
     return np.geomspace(max(hi * 0.02, 1e-9), hi * 0.8, PHI_GRID_N)
 
 
+def _sat_fn(b: float, N: float):
+    """State function of the column sat_b(phi)/N (phi = th_m/N - th_l)."""
+    def f(tm: np.ndarray, wm: np.ndarray, tl: np.ndarray, wl: np.ndarray) -> tuple[np.ndarray, None]:
+        return np.clip(tm / N - tl, -b, b) / N, None
+    return f
+
+
 class NonlinearStiffness(Effect):
     name = "nonlinear_stiffness"
     coordinate = "torsion"
@@ -252,11 +285,18 @@ class NonlinearStiffness(Effect):
         s = d.sig
         N = s.ratio
         phi = s.phi
-        yield Variant({"form": "cubic"}, [Column("k2_Nm_per_rad2", phi * np.abs(phi) / N, None),
-                                          Column("k3_Nm_per_rad3", phi ** 3 / N, None)], n_hyper=1)
+        def f2(tm, wm, tl, wl):
+            p = tm / N - tl
+            return p * np.abs(p) / N, None
+
+        def f3(tm, wm, tl, wl):
+            return (tm / N - tl) ** 3 / N, None
+        yield Variant({"form": "cubic"}, [Column("k2_Nm_per_rad2", phi * np.abs(phi) / N, None, fn=f2),
+                                          Column("k3_Nm_per_rad3", phi ** 3 / N, None, fn=f3)], n_hyper=1)
         for b in _phi_grid(d):
             yield Variant({"form": "knee", "knee_rad": float(b)},
-                          [Column("dk_knee_Nm_per_rad", sat(phi, b) / N, None, key=f"sat{b:.6g}")], n_hyper=2)
+                          [Column("dk_knee_Nm_per_rad", sat(phi, b) / N, None, key=f"sat{b:.6g}", fn=_sat_fn(b, N))],
+                          n_hyper=2)
 
     def valid(self, fit: Fit, v: Variant) -> bool:
         if v.hyper["form"] != "knee":
@@ -276,7 +316,8 @@ class Backlash(Effect):
     def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
         phi = d.sig.phi
         for b in _phi_grid(d):
-            yield Variant({"half_gap_rad": float(b)}, [Column("dk_gap_Nm_per_rad", sat(phi, b) / d.sig.ratio, None, key=f"sat{b:.6g}")],
+            yield Variant({"half_gap_rad": float(b)}, [Column("dk_gap_Nm_per_rad", sat(phi, b) / d.sig.ratio, None,
+                                                              key=f"sat{b:.6g}", fn=_sat_fn(b, d.sig.ratio))],
                           n_hyper=1)
 
     def valid(self, fit: Fit, v: Variant) -> bool:
@@ -349,7 +390,15 @@ class Gravity(Effect):
     def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
         s = d.sig
         th = s.th_l if s.th_l is not None else s.th_m / s.ratio
-        yield Variant({}, [Column("g_cos_Nm", None, np.cos(th) / s.ratio), Column("g_sin_Nm", None, np.sin(th) / s.ratio)])
+        N = s.ratio
+        if s.th_l is not None:
+            def out(tm: np.ndarray, tl: np.ndarray) -> np.ndarray:
+                return tl
+        else:
+            def out(tm: np.ndarray, tl: np.ndarray) -> np.ndarray:
+                return tm / N
+        yield Variant({}, [Column("g_cos_Nm", None, np.cos(th) / N, fn=lambda tm, wm, tl, wl: (None, np.cos(out(tm, tl)) / N)),
+                           Column("g_sin_Nm", None, np.sin(th) / N, fn=lambda tm, wm, tl, wl: (None, np.sin(out(tm, tl)) / N))])
 
     def params(self, fit: Fit, v: Variant) -> dict[str, Any]:
         a, b = _idx(fit, "g_cos_Nm"), _idx(fit, "g_sin_Nm")

@@ -120,10 +120,28 @@ def write_plots(res: "Result", out_dir: str | Path) -> list[Path]:
     ax.set_ylabel(f"RMS equation error ({tu})")
     ax.set_title("gap between model and measurement")
     ax.grid(alpha=0.3)
+    if res.sim_rms_history:
+        ax2 = ax.twinx()
+        ax2.semilogy(range(len(res.sim_rms_history)), res.sim_rms_history, "s--", color="C1")
+        ax2.set_ylabel(f"RMS simulation error ({s.units['angle']} at the output)", color="C1")
     fig.tight_layout()
     p = out / "gap.png"
     _save(fig, p)
     paths.append(p)
+
+    if len(res.sims) >= 1:
+        fig, ax = plt.subplots(figsize=(9, 4))
+        for e, lab in ((res.sims[0], "baseline"), (res.sims[-1], "final model")):
+            ax.plot(np.arange(len(e)) * s.dt * max(s.q, 1), e, lw=0.6, label=lab)
+        ax.set_xlabel("time (s; two-mass: motor side, then load side)")
+        ax.set_ylabel(f"simulated - measured ({s.units['angle']} at the output)")
+        ax.set_title("simulation error over 50 ms windows from the measured state")
+        ax.legend(loc="upper right")
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        p = out / "simulation_time.png"
+        _save(fig, p)
+        paths.append(p)
 
     fig, ax = plt.subplots(figsize=(7, 4))
     fs = 1.0 / (s.dt * s.q)

@@ -1,14 +1,10 @@
-"""Residual analysis: equation error, short-horizon simulation error, spectra, order analysis, whiteness.
+"""Residual analysis: spectra, order analysis, whiteness (the simulation error is in simerr).
 
 * Equation error: measured motor torque minus the model's torque computed from the
   measured (filtered) states, per equation (M, R), N.m at the motor
   (:func:`hdservo.discrepancy.baseline.solve`).  Valid for open- and closed-loop data
   alike: it never integrates, so it cannot drift under feedback.
-* Simulation error (:func:`short_horizon_error`): the fitted model driven by the
-  measured torque from the measured state at the start of each window of
-  ``horizon_s``; the load angle it reaches is compared with the measured one.  Short
-  windows keep the closed-loop drift (an open-loop simulation of a controlled axis
-  with friction wanders off) out of the figure.
+* Simulation error: :mod:`hdservo.discrepancy.simerr`.
 * Spectra (Welch), order spectrum of a residual against an angle (bin means over one
   revolution, FFT -> amplitude per order), Ljung-Box whiteness test, effective sample
   count of a coloured residual.
@@ -94,40 +90,3 @@ def spectrum(x: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
     """Welch amplitude spectral density of a residual (unit/sqrt(Hz)) at rate fs (Hz)."""
     f, p = sps.welch(x - np.mean(x), fs=fs, nperseg=min(len(x), 1024))
     return f, np.sqrt(p)
-
-
-def short_horizon_error(d: "Design", accel_fn, horizon_s: float = 0.05) -> np.ndarray:
-    """Short-horizon simulation error of the load (or single) coordinate, rad.
-
-    The model's accelerations ``accel_fn(th_m, w_m, th_l, w_l, k) -> (a_m, a_l)`` are
-    integrated (semi-implicit Euler at the log rate) from the measured filtered state at
-    the start of each window of ``horizon_s``; all windows run side by side.
-
-    Returns
-    -------
-    numpy.ndarray
-        Simulated minus measured output coordinate at every log sample (rad; m for a
-        linear axis), NaN where no window covers.
-    """
-    s = d.sig
-    n = len(s.t)
-    H = max(2, int(round(horizon_s / s.dt)))
-    starts = np.arange(0, n - H, H)
-    thm, wm = s.th_m[starts].copy(), s.w_m[starts].copy()
-    two = s.th_l is not None and s.kind == "two_mass"
-    thl = s.th_l[starts].copy() if two else thm / s.ratio
-    wl = s.w_l[starts].copy() if two else wm / s.ratio
-    err = np.full(n, np.nan)
-    for j in range(H):
-        k = starts + j
-        am, al = accel_fn(thm, wm, thl, wl, k)
-        wm = wm + am * s.dt
-        thm = thm + wm * s.dt
-        if two:
-            wl = wl + al * s.dt
-            thl = thl + wl * s.dt
-        else:
-            thl = thm / s.ratio
-        ref = s.th_l[k + 1] if two else s.th_m[k + 1] / s.ratio
-        err[k + 1] = thl - ref
-    return err

@@ -1,19 +1,26 @@
 """The discrepancy loop: fit the baseline, rank candidate effects by evidence, name one
-only if significant, add it, re-fit, repeat.
+only if significant, add it, re-fit, re-simulate, repeat.
 
 Evidence of a candidate (its columns added to the current model and everything re-fitted
-jointly): the drop of the weighted residual sum of squares, judged with the effective
-sample count n_eff of the (coloured) residual:
+jointly) is taken from two residuals:
 
-* Delta BIC = n_eff ln(RSS_0/RSS_1) - (p + h) ln(n_eff)  (p linear, h searched parameters);
-* F = ((RSS_0 - RSS_1)/p) / (RSS_1/(n_eff - k)), its p-value;
-* the explained fraction 1 - RSS_1/RSS_0.
+* the **equation error** (measured torque minus the model's torque from the measured
+  states): the drop of the weighted residual sum of squares, judged with the effective
+  sample count n_eff of the coloured residual -- Delta BIC = n_eff ln(RSS_0/RSS_1) -
+  (p + h) ln(n_eff) (p linear, h searched parameters), the F-test p-value, the explained
+  fraction 1 - RSS_1/RSS_0;
+* the **simulation error** (:mod:`hdservo.discrepancy.simerr`: the fitted model driven
+  by the measured torque over 50 ms windows from the measured state): the same three
+  figures on its sum of squares.
 
-The best-ranked valid candidate is named when Delta BIC > ``bic_min``, p < ``p_max`` and
-the explained fraction >= ``frac_min`` (a candidate that removes less than that is not
-the missing physics but a fit to noise or to a neighbour of it).  The loop stops when no
-candidate qualifies, after ``max_iter`` additions, or when the residual of the motor
-equation passes the Ljung-Box whiteness test.
+Every variant of a candidate is scored on the equation error, its best ``sim_variants``
+are simulated, and the variant with the largest total Delta BIC represents the
+candidate.  Candidates whose friction parameters the equation error cannot see
+(Stribeck: the low-speed band is crossed next to the stops the fit must leave out) are
+fitted on the simulation error instead (:func:`oe_fit`) and their coefficients kept fixed.
+Candidates are ranked by the total Delta BIC; the best-ranked one that passes
+:func:`significant` is named.  The loop stops when none passes, after ``max_iter``
+additions, or when the residual of the motor equation passes the Ljung-Box test.
 """
 from __future__ import annotations
 
@@ -26,6 +33,7 @@ import scipy.stats as st
 from . import baseline as bl
 from . import effects as fx
 from .residuals import effective_n, ljung_box
+from .simerr import side_error, simulation_error
 from .signals import Signals
 
 
@@ -38,6 +46,8 @@ class Settings:
     frac_min: float = 0.30
     max_iter: int = 3
     whiteness_p: float = 0.01
+    #: Variants per candidate (best by equation-error evidence) that are also simulated.
+    sim_variants: int = 3
 
 
 @dataclass
@@ -57,6 +67,22 @@ class State:
     added: list[tuple[fx.Effect, fx.Variant]] = field(default_factory=list)
     weights: dict[str, float] = field(default_factory=dict)
     fit: bl.Fit | None = None
+    sim: np.ndarray | None = None
+
+    def fixed(self, extra: fx.Variant | None = None) -> list[tuple[bl.Column, float]]:
+        """Columns whose coefficient was fitted on the simulation error, with that value."""
+        out = []
+        for v in [x for _, x in self.added] + ([extra] if extra is not None else []):
+            if v.fixed:
+                out += [(c, v.fixed[c.name]) for c in v.columns if c.name in v.fixed]
+        return out
+
+    def simulate(self, fit: bl.Fit, extra: fx.Variant | None = None) -> np.ndarray:
+        """Simulation error of a fit of the current model (+ ``extra``), rad at the output."""
+        tau, key = self.tau(extra)
+        cols = self.columns(extra)
+        coef = dict(zip(fit.names, fit.theta))
+        return simulation_error(self.design, cols, np.array([coef.get(c.name, 0.0) for c in cols]), tau, key)
 
     def columns(self, extra: fx.Variant | None = None) -> list[bl.Column]:
         cols = list(self.base_cols)
@@ -74,7 +100,7 @@ class State:
 
     def solve(self, extra: fx.Variant | None = None) -> bl.Fit:
         tau, key = self.tau(extra)
-        return bl.solve(self.design, self.columns(extra), self.weights, tau, key)
+        return bl.solve(self.design, self.columns(extra), self.weights, tau, key, self.fixed(extra))
 
 
 def _weighted(fit: bl.Fit, w: dict[str, float]) -> np.ndarray:
@@ -98,37 +124,135 @@ def evidence(cur: bl.Fit, new: bl.Fit, p: int, h: int, n_eff: float) -> dict[str
             "added_params": int(p + h)}
 
 
-def rank(state: State, lib: list[fx.Effect]) -> list[Candidate]:
-    """Best variant of every applicable, not yet added candidate, sorted by Delta BIC."""
-    assert state.fit is not None
+def sim_evidence(sse0: float, e1: np.ndarray, p: int, n_eff: float) -> dict[str, float]:
+    """Evidence of a candidate in the simulation error: Delta BIC, F-test p-value, explained fraction."""
+    sse1 = float(np.sum(e1 ** 2)) if np.all(np.isfinite(e1)) else np.inf
+    if not np.isfinite(sse1) or sse1 <= 0:
+        return {"sim_delta_bic": -np.inf if not np.isfinite(sse1) else np.inf, "sim_p_value": 1.0,
+                "sim_explained_fraction": -np.inf if not np.isfinite(sse1) else 1.0, "sim_n_eff": n_eff}
+    pp = max(p, 1)
+    F = ((sse0 - sse1) / pp) / (sse1 / max(n_eff - pp, 1.0))
+    pval = float(st.f.sf(F, pp, max(n_eff - pp, 1.0))) if F > 0 else 1.0
+    return {"sim_delta_bic": float(n_eff * np.log(sse0 / sse1) - p * np.log(n_eff)), "sim_p_value": pval,
+            "sim_explained_fraction": float(1 - sse1 / sse0), "sim_n_eff": float(n_eff)}
+
+
+def _fc_of(fit: bl.Fit, side: str) -> float:
+    """The fitted Coulomb friction of a side (column units), for the output-error levels."""
+    name = {"m": ("Fc_motor_Nm", "Fc"), "l": ("Fc_load_Nm",)}[side]
+    for n in name:
+        if n in fit.names:
+            return abs(float(fit.theta[fit.names.index(n)]))
+    return 0.0
+
+
+def oe_fit(state: State, v: fx.Variant) -> fx.Variant | None:
+    """Fit a variant's friction coefficients on the simulation error (output-error fitter).
+
+    Each column acts on one side (:attr:`Column.fric`); its coefficient is chosen among
+    ``v.oe_levels`` x the side's fitted Coulomb friction (0.5 and 1 first, then 2 or
+    0.25 in the better direction) by the SSE of that side's simulation, the rest of the
+    model at its current fit.  Returns the variant with these coefficients fixed, or
+    None if no level improves either side.
+    """
+    assert state.fit is not None and v.oe_levels
+    d = state.design
+    tau, key = state.tau(v)
+    base_cols = state.columns()
+    coef = dict(zip(state.fit.names, state.fit.theta))
+    cols = base_cols + v.columns
+    theta0 = np.array([coef.get(c.name, 0.0) for c in base_cols] + [0.0] * len(v.columns))
+    fixed: dict[str, float] = {}
+    sse_side: dict[str, float] = {}
+    for j, c in enumerate(v.columns):
+        side = c.fric or "m"
+        fc = _fc_of(state.fit, side)
+        if fc <= 0:
+            fixed[c.name] = 0.0
+            continue
+        if side not in sse_side:
+            sse_side[side] = float(np.sum(side_error(d, base_cols, theta0[: len(base_cols)], side, tau, key) ** 2))
+
+        def sse(g: float) -> float:
+            th = theta0.copy()
+            th[len(base_cols) + j] = g * fc
+            e = side_error(d, cols, th, side, tau, key)
+            return float(np.sum(e ** 2)) if np.all(np.isfinite(e)) else np.inf
+        lv = sorted(v.oe_levels)
+        tried = {g: sse(g) for g in (0.5, 1.0) if g in lv}
+        if tried:
+            up = tried.get(1.0, np.inf) < tried.get(0.5, np.inf)
+            nxt = [g for g in lv if (g > 1.0 if up else g < 0.5)]
+            if nxt:
+                g2 = min(nxt) if up else max(nxt)
+                tried[g2] = sse(g2)
+        g_best = min(tried, key=lambda g: tried[g]) if tried else 0.0
+        fixed[c.name] = g_best * fc if tried and tried[g_best] < sse_side[side] else 0.0
+    if not any(fixed.values()):
+        return None
+    return fx.Variant(dict(v.hyper), v.columns, v.tau, v.tau_key, v.n_hyper, fixed=fixed)
+
+
+def rank(state: State, lib: list[fx.Effect], s: Settings | None = None) -> list[Candidate]:
+    """Best variant of every applicable, not yet added candidate, sorted by the total evidence.
+
+    Every variant is scored on the equation error; the ``s.sim_variants`` best of each
+    candidate are also simulated (:mod:`hdservo.discrepancy.simerr`) and the variant with
+    the largest sum of both Delta BICs is kept.  Candidates are sorted by that sum.
+    """
+    assert state.fit is not None and state.sim is not None
+    s = s or Settings()
     named = {e.name for e, _ in state.added}
     d = state.design
     n_eff = _neff(state.fit, state.weights)
+    sse0 = float(np.sum(state.sim ** 2))
+    n_sim = effective_n(state.sim)
     first = next(iter(state.fit.resid.values()))
     out: list[Candidate] = []
     for eff in lib:
         if eff.name in named or not eff.applicable(d):
             continue
-        best: Candidate | None = None
+        cands: list[Candidate] = []
         for v in eff.variants(d, first):
+            if v.oe_levels:
+                v = oe_fit(state, v)
+                if v is None:
+                    continue
             try:
                 f = state.solve(v)
             except np.linalg.LinAlgError:
                 continue
             if not eff.valid(f, v):
                 continue
-            ev = evidence(state.fit, f, len(v.columns), v.n_hyper, n_eff)
-            if best is None or ev["delta_bic"] > best.evidence["delta_bic"]:
-                best = Candidate(eff, v, f, ev)
+            cands.append(Candidate(eff, v, f, evidence(state.fit, f, len(v.columns), v.n_hyper, n_eff)))
+        cands.sort(key=lambda c: -c.evidence["delta_bic"])
+        best: Candidate | None = None
+        for c in cands[: s.sim_variants]:
+            c.evidence.update(sim_evidence(sse0, state.simulate(c.fit, c.variant),
+                                           len(c.variant.columns) + c.variant.n_hyper, n_sim))
+            c.evidence["total_delta_bic"] = c.evidence["delta_bic"] + c.evidence["sim_delta_bic"]
+            if best is None or c.evidence["total_delta_bic"] > best.evidence["total_delta_bic"]:
+                best = c
         if best is not None:
             out.append(best)
-    out.sort(key=lambda c: -c.evidence["delta_bic"])
+    out.sort(key=lambda c: -c.evidence["total_delta_bic"])
     return out
 
 
 def significant(c: Candidate, s: Settings) -> bool:
+    """Named only if (1) significant in the equation error or in the simulation error
+    (Delta BIC > ``bic_min`` and F-test p < ``p_max`` in that residual), (2) the total
+    Delta BIC exceeds ``bic_min``, (3) neither residual gets worse (explained fraction
+    >= 0), and (4) large: it removes >= ``frac_min`` of the variance of the equation
+    error or of the simulation error."""
     e = c.evidence
-    return e["delta_bic"] > s.bic_min and e["p_value"] < s.p_max and e["explained_fraction"] >= s.frac_min
+    sim_dbic = e.get("sim_delta_bic", -np.inf)
+    sim_frac = e.get("sim_explained_fraction", -np.inf)
+    eq_sig = e["delta_bic"] > s.bic_min and e["p_value"] < s.p_max
+    sim_sig = sim_dbic > s.bic_min and e.get("sim_p_value", 1.0) < s.p_max
+    return ((eq_sig or sim_sig) and e.get("total_delta_bic", -np.inf) > s.bic_min
+            and e["explained_fraction"] >= 0 and sim_frac >= 0
+            and max(e["explained_fraction"], sim_frac) >= s.frac_min)
 
 
 @dataclass
@@ -147,11 +271,14 @@ class Result:
     whiteness: dict[str, float]
     base_rel_pct: float = 0.0
     ranking_first: list[dict[str, Any]] = field(default_factory=list)
+    sim_rms_history: list[float] = field(default_factory=list)
+    sims: list[np.ndarray] = field(default_factory=list)
 
     def to_json(self) -> dict[str, Any]:
         return {"baseline": self.baseline, "baseline_relative_error_pct": self.base_rel_pct, "iterations": self.iterations, "named_effects": self.named,
                 "final_model": self.final_model, "residual_unit": "N.m at the motor (N for a linear axis)",
-                "rms_history": self.rms_history, "first_ranking": self.ranking_first,
+                "rms_history": self.rms_history, "sim_rms_history_rad": self.sim_rms_history,
+                "sim_signal": SIM_TEXT, "first_ranking": self.ranking_first,
                 "last_ranking": self.ranking_last,
                 "final_whiteness": self.whiteness}
 
@@ -186,37 +313,52 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
     f0 = bl.solve(d, cols, {})
     st_.weights = bl.equation_weights(f0)
     st_.fit = st_.solve()
+    st_.sim = st_.simulate(st_.fit)
     base_fit = st_.fit
     baseline = base_fit.params()
     base_rel = relative_error_pct(st_)
     iterations: list[dict[str, Any]] = []
     snapshots = [base_fit]
     rms_hist = [base_fit.rms]
+    sim_hist = [_rms(st_.sim)]
+    sims = [st_.sim]
     last_rank: list[dict[str, Any]] = []
     first_rank: list[dict[str, Any]] | None = None
     for _ in range(s.max_iter):
-        ranked = rank(st_, lib)
-        last_rank = [{"effect": c.effect.name, **c.evidence, "hyper": _jsonable(c.variant.hyper)} for c in ranked]
+        ranked = rank(st_, lib, s)
+        last_rank = [_jsonable({"effect": c.effect.name, **c.evidence, "hyper": c.variant.hyper,
+                                "significant": significant(c, s)}) for c in ranked]
         if first_rank is None:
             first_rank = last_rank
-        top = next((c for c in ranked), None)
-        if top is None or not significant(top, s):
+        # the best-ranked candidate that passes the significance and size rules
+        top = next((c for c in ranked if significant(c, s)), None)
+        if top is None:
             break
+        runner = next((c for c in ranked if c is not top), None)
         rms_before = st_.fit.rms
         rel_before = relative_error_pct(st_)
+        sim_before = _rms(st_.sim)
+        eq_before = _eq_rms(st_.fit, top.variant)
         st_.added.append((top.effect, top.variant))
         st_.fit = st_.solve()
+        st_.sim = st_.simulate(st_.fit)
         iterations.append({
             "named_effect": top.effect.name,
-            "evidence": {**top.evidence, "runner_up": ranked[1].effect.name if len(ranked) > 1 else None,
-                         "runner_up_delta_bic": ranked[1].evidence["delta_bic"] if len(ranked) > 1 else None},
+            "evidence": {**_jsonable(top.evidence), "runner_up": runner.effect.name if runner else None,
+                         "runner_up_delta_bic": runner.evidence["delta_bic"] if runner else None,
+                         "runner_up_total_delta_bic": _jsonable(runner.evidence.get("total_delta_bic")) if runner else None},
             "rms_before": rms_before, "rms_after": st_.fit.rms, "signal": SIGNAL_TEXT,
+            "acting_equations": _acting(top.variant, st_.design),
+            "rms_acting_before": eq_before, "rms_acting_after": _eq_rms(st_.fit, top.variant),
+            "sim_rms_before_rad": sim_before, "sim_rms_after_rad": _rms(st_.sim),
             "relative_error_pct_before": rel_before, "relative_error_pct_after": relative_error_pct(st_),
             "params": _jsonable(top.effect.params(st_.fit, top.variant)),
             "signature": top.effect.signature, "coordinate": top.effect.coordinate,
         })
         snapshots.append(st_.fit)
         rms_hist.append(st_.fit.rms)
+        sim_hist.append(_rms(st_.sim))
+        sims.append(st_.sim)
         wm = ljung_box(next(iter(st_.fit.resid.values())))
         if wm["p_value"] > s.whiteness_p:
             break
@@ -227,7 +369,30 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
     return Result(baseline=baseline, iterations=iterations, named=[i["named_effect"] for i in iterations],
                   final_model=final, rms_history=rms_hist, state=st_, base_fit=base_fit, snapshots=snapshots,
                   ranking_last=last_rank, whiteness=white, base_rel_pct=base_rel,
-                  ranking_first=first_rank or [])
+                  ranking_first=first_rank or [], sim_rms_history=sim_hist, sims=sims)
+
+
+SIM_TEXT = ("simulation error: the model driven by the measured torque from the measured state over 50 ms "
+            "windows, each side of a two-mass model with the other side's measured angle; RMS of the "
+            "simulated minus measured angle, rad at the output (m for a linear axis)")
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(x ** 2))) if len(x) else float("nan")
+
+
+def _acting(v: fx.Variant, d: bl.Design) -> list[str]:
+    """Equations the variant's columns occupy (all of them for a torque replacement)."""
+    if v.tau is not None or not v.columns:
+        return list(d.equations)
+    return [e for e in d.equations if any(getattr(c, e) is not None for c in v.columns)]
+
+
+def _eq_rms(fit: bl.Fit, v: fx.Variant) -> float:
+    """RMS of the equation error over the equations where an effect acts, N.m at the motor."""
+    eqs = [e for e in fit.resid if e in {"M", "R"}]
+    cols_eq = [e for e in eqs if v.tau is not None or not v.columns or any(getattr(c, e) is not None for c in v.columns)]
+    return _rms(np.concatenate([fit.resid[e] for e in (cols_eq or eqs)]))
 
 
 def relative_error_pct(state: State) -> float:
@@ -245,5 +410,7 @@ def _jsonable(x: Any) -> Any:
     if isinstance(x, (list, tuple)):
         return [_jsonable(v) for v in x]
     if isinstance(x, (np.floating, np.integer)):
-        return x.item()
+        x = x.item()
+    if isinstance(x, float) and not np.isfinite(x):
+        return None
     return x

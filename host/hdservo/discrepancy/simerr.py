@@ -1,0 +1,194 @@
+"""Simulation error: the fitted model simulated with the measured inputs, compared with the log.
+
+The equation error (:mod:`hdservo.discrepancy.baseline`) judges the model on measured,
+twice-differentiated states; the simulation error judges what the model *does* when it
+is driven by the measured input: it integrates the accelerations, so it weighs slow
+disagreements (a friction force that holds the axis longer, a softer spring that lets
+it twist further) far above the differentiated encoder noise, and it sees the
+sticking phases the equation error has to leave out (Karnopp stiction below).
+
+Closed loop without knowing the controller: every simulation starts from the measured
+(filtered) state and runs over a short window (``horizon_s``, 50 ms by default; all
+windows side by side), so a free integrator cannot drift far.  With two encoders each
+side is simulated on its own, driven by what acts on it:
+
+* motor side: J_m a_m = tau - (the motor-equation terms), with the *measured* load angle
+  (the spring anchors it: a wrong model gives a bounded error, not a drift);
+* load side: J_l a_l / N = -(R - M terms), with the *measured* motor angle.
+
+A rigid model (one coordinate) is simulated as one mass.  Every term is evaluated on the
+simulated state through :attr:`Column.fn`; terms without a state function (the stop
+operators of the hysteresis candidate, accelerations of the compliance candidate) are
+taken along the measured trajectory.  Friction columns (:attr:`Column.fric`) are
+switched to the static force when the simulated side stands still (Karnopp): it stays
+put while the other forces stay inside the friction the model has at zero speed, which
+is where a Stribeck hump (static above Coulomb friction) shows.
+
+Units: error in rad at the output (motor side divided by N; m for a linear axis).
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from .baseline import Column, Design
+
+#: Simulation window, s.
+HORIZON_S = 0.05
+
+
+def _state(d: Design) -> dict[str, np.ndarray]:
+    s = d.sig
+    out = {"thm": d.dec("state:thm", s.th_m), "wm": d.dec("state:wm", s.w_m)}
+    if s.th_l is not None:
+        out["thl"] = d.dec("state:thl", s.th_l)
+        out["wl"] = d.dec("state:wl", s.w_l)
+    else:
+        out["thl"] = out["thm"] / s.ratio
+        out["wl"] = out["wm"] / s.ratio
+    return out
+
+
+def _side_sim(d: Design, cols: Sequence[Column], theta: np.ndarray, force: np.ndarray, side: str,
+              horizon_s: float) -> np.ndarray:
+    """Simulate one side over windows; returns simulated-minus-measured angle at the dec rate (own unit)."""
+    s = d.sig
+    x = _state(d)
+    n = len(x["thm"])
+    dt = s.dt * max(s.q, 1)
+    H = max(2, int(round(horizon_s / dt)))
+    starts = np.arange(0, n - H - 1, H)
+    err = np.full(n, np.nan)
+    if side == "m":
+        th, w, eps = x["thm"][starts].copy(), x["wm"][starts].copy(), d.v_eps * s.ratio
+        role = "J" if s.kind == "rigid" else "Jm"
+    else:
+        th, w, eps = x["thl"][starts].copy(), x["wl"][starts].copy(), d.v_eps
+        role = "Jl"
+    names = [c.role for c in cols]
+    if role not in names:
+        return err
+    J = float(theta[names.index(role)])
+    if side == "l":
+        J = J / s.ratio
+    if not J > 0:
+        return np.full(n, np.inf)
+    rigid = s.kind == "rigid"
+    # per column: coefficient, evaluator(th, w, k) -> contribution in this side's equation
+    terms = []
+    for c, a in zip(cols, theta):
+        # skip what cannot act on this side: no motor-equation part (motor side), the
+        # same series in both equations (load side: R - M = 0), no R part (rigid)
+        if c.role or a == 0.0:
+            continue
+        if rigid and c.R is None:
+            continue
+        if not rigid and side == "m" and c.M is None:
+            continue
+        if not rigid and side == "l" and c.M is c.R:
+            continue
+        terms.append((c, float(a)))
+
+    def value(c: Column, th_: np.ndarray, w_: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """The column's value in this side's equation (motor: M, rigid: R, load: R - M)."""
+        if c.fn is not None:
+            if side == "m":
+                m, r = c.fn(th_, w_, x["thl"][k], x["wl"][k])
+            else:
+                m, r = c.fn(x["thm"][k], x["wm"][k], th_, w_)
+            if rigid:
+                return np.zeros_like(th_) if r is None else np.asarray(r, dtype=float) * np.ones_like(th_)
+            if side == "m":
+                return np.zeros_like(th_) if m is None else np.asarray(m, dtype=float) * np.ones_like(th_)
+            rr = 0.0 if r is None else r
+            mm = 0.0 if m is None else m
+            return (rr - mm) * np.ones_like(th_)
+        mm = d.dec(f"{c.key or c.name}:M", c.M)[k] if c.M is not None else 0.0
+        rr = d.dec(f"{c.key or c.name}:R", c.R)[k] if c.R is not None else 0.0
+        if rigid:
+            return rr * np.ones_like(th_)
+        return (mm if side == "m" else rr - mm) * np.ones_like(th_)
+
+    fr = "m" if side == "m" else "l"
+    for j in range(H):
+        k = starts + j
+        ext = force[k] * (1.0 if side == "m" else 0.0)
+        fric = np.zeros_like(th)
+        for c, a in terms:
+            v = value(c, th, w, k)
+            if c.fric == fr:
+                fric = fric + a * v
+            else:
+                ext = ext - a * v
+        # Karnopp: below eps the side sticks while the other forces stay inside the
+        # static friction (the friction terms evaluated just above zero speed)
+        slow = np.abs(w) < eps
+        if np.any(slow):
+            tiny = 1e-3 * eps * np.ones_like(th)
+            fp = sum((a * value(c, th, tiny, k) for c, a in terms if c.fric == fr), np.zeros_like(th))
+            fn_ = sum((a * value(c, th, -tiny, k) for c, a in terms if c.fric == fr), np.zeros_like(th))
+            stuck = slow & (ext <= fp) & (ext >= fn_)
+            brk = slow & ~stuck
+            fric = np.where(brk, np.where(ext > fp, fp, fn_), fric)
+        else:
+            stuck = slow
+        acc = (ext - fric) / J
+        w_new = w + acc * dt
+        # a velocity sign change inside a step ends at zero (the next step decides)
+        w_new = np.where((np.sign(w_new) * np.sign(w) < 0), 0.0, w_new)
+        w_new = np.where(stuck, 0.0, w_new)
+        w = w_new
+        th = th + w * dt
+        meas = x["thm"] if side == "m" else x["thl"]
+        err[k + 1] = th - meas[k + 1]
+    return err
+
+
+def side_error(d: Design, cols: Sequence[Column], theta: np.ndarray, side: str, tau: np.ndarray | None = None,
+               tau_key: str = "tau", horizon_s: float = HORIZON_S) -> np.ndarray:
+    """Simulation error of one side (``"m"``: motor or rigid, ``"l"``: load), rad at the output."""
+    s = d.sig
+    force = d.dec(tau_key, s.tau if tau is None else tau)
+    with np.errstate(over="ignore", invalid="ignore"):      # a diverging candidate gives inf, judged later
+        e = _side_sim(d, cols, theta, force, side, horizon_s)
+    if side == "m":
+        e = e / s.ratio
+    return e[~np.isnan(e)]
+
+
+def simulation_error(d: Design, cols: Sequence[Column], theta: np.ndarray, tau: np.ndarray | None = None,
+                     tau_key: str = "tau", horizon_s: float = HORIZON_S) -> np.ndarray:
+    """Simulation error of a fitted model over windows of ``horizon_s``, rad at the output.
+
+    Each side obeys J acc = F - sum(coef * column value) with F the measured torque
+    (motor side, rigid) or 0 (load side; its column values are R - M).
+
+    Parameters
+    ----------
+    d : Design
+    cols : sequence of Column
+        The model's columns (baseline + added effects), in the order of ``theta``.
+    theta : numpy.ndarray
+        Their fitted coefficients.
+    tau : numpy.ndarray, optional
+        The input torque at the log rate, N.m at the motor (default: the measured one).
+    tau_key : str
+    horizon_s : float
+        Window length, s.
+
+    Returns
+    -------
+    numpy.ndarray
+        Simulated minus measured angle at the decimated rate, rad at the output (m for a
+        linear axis): the motor side's divided by N, then (two-mass) the load side's,
+        concatenated; NaN-free (window starts and the tail are left out).
+    """
+    s = d.sig
+    force = d.dec(tau_key, s.tau if tau is None else tau)
+    with np.errstate(over="ignore", invalid="ignore"):      # a diverging candidate gives inf, judged later
+        parts = [_side_sim(d, cols, theta, force, "m", horizon_s) / s.ratio]
+        if s.kind == "two_mass":
+            parts.append(_side_sim(d, cols, theta, force, "l", horizon_s))
+    e = np.concatenate(parts)
+    return e[np.isfinite(e) | np.isinf(e)]
