@@ -5,14 +5,11 @@ from functools import lru_cache
 
 from hdservo.ident import experiments as ex
 from hdservo.ident import friction as fr
+from hdservo.ident import stiffness as stf
 from hdservo.ident import te as tem
 
 import ident_truth as truth
 
-#: Effects hidden in the stiffness test: the plant's Preisach term k*u - P[u] has a reversible
-#: (mean-branch) part inside +-u_max that no torque-twist experiment can tell from the spring
-#: (docs/identification.md, "Identifiability").
-HIDE_FOR_STIFFNESS = {"hysteresis_preisach": False}
 #: Effects hidden in the FRF test: sticking hysteresis elements add their stiffness to K1 at small
 #: amplitude, so the small-signal resonance is not the K1 two-mass value.
 HIDE_FOR_FRF = {"hysteresis_preisach": False, "hysteresis_maxwell": False}
@@ -45,6 +42,12 @@ def friction(name: str):
 
 
 @lru_cache(maxsize=None)
-def locked(name: str, hide: bool):
-    r = runner(name, effects=HIDE_FOR_STIFFNESS if hide else None)
-    return r.run(ex.LockedCycle(torque_max_Nm=truth.TORQUE_MAX[name]))
+def locked(name: str):
+    """Locked-output torque cycles, every effect on (Preisach, Maxwell-slip, TE, noise, quantisation)."""
+    return runner(name).run(ex.LockedCycle(torque_max_Nm=truth.TORQUE_MAX[name]))
+
+
+@lru_cache(maxsize=None)
+def stiffness(name: str) -> stf.StiffnessResult:
+    """Stiffness fit of :func:`locked` with the identified TE removed."""
+    return stf.fit_stiffness(locked(name), te(name))
