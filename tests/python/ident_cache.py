@@ -10,9 +10,6 @@ from hdservo.ident import te as tem
 
 import ident_truth as truth
 
-#: Effects hidden in the FRF test: sticking hysteresis elements add their stiffness to K1 at small
-#: amplitude, so the small-signal resonance is not the K1 two-mass value.
-HIDE_FOR_FRF = {"hysteresis_preisach": False, "hysteresis_maxwell": False}
 
 
 def gains(name: str) -> dict[str, float]:
