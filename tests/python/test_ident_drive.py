@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 import os
-from functools import lru_cache
 from pathlib import Path
 
 import pytest
@@ -19,7 +18,6 @@ import pytest
 from hdservo.ident import drive_runner as dr
 from hdservo.ident import experiments as ex
 from hdservo.ident import friction as fr
-from hdservo.ident import pipeline as pl
 
 import ident_cache as cache
 import ident_truth as truth
@@ -28,33 +26,7 @@ ROOT = Path(__file__).resolve().parents[2]
 SIM = Path(os.environ.get("HDSERVO_SIM", ROOT / "build" / "bin" / "hdservo-sim"))
 needs_sim = pytest.mark.skipif(not SIM.exists(), reason="hdservo-sim not built (make sim)")
 
-SHORT = {
-    "te_rotation": ex.TERotation(wg_revs=2, settle_s=0.5),
-    "gravity_sine": ex.GravitySine(amplitudes_rad=(0.8, 0.4), frequencies_Hz=(0.2, 0.4)),
-    "friction_sweep": ex.FrictionSweep(v_min_rad_s=1e-3, v_max_rad_s=0.3, points=8, settle_s=0.3,
-                                       min_window_s=0.2, max_window_s=1.0),
-}
-#: csf17_50: the gravity sine at half the frequency (the short one trips the drive's overspeed on the
-#: light load) and the full friction sweep (the short one misses its Stribeck knee: Fs -8.7 %)
-DESIGNS = {"reference": SHORT,
-           "csf17_50": {"te_rotation": SHORT["te_rotation"],
-                        "gravity_sine": ex.GravitySine(amplitudes_rad=(0.8, 0.4), frequencies_Hz=(0.1, 0.2))}}
-SEEDS = {"reference": 11, "csf17_50": 3}
-
-
-@lru_cache(maxsize=None)
-def over_can(name: str) -> pl.Pipeline:
-    """TE, friction and the locked-output stiffness cycles over CAN on one virtual drive session of the
-    axis (the locked output through the virtual rig); every effect on, the fitter given only data."""
-    axis = "reference" if name == "reference" else str(truth.AXES[name])
-    with dr.DriveSession(axis=axis, seed=SEEDS[name], gains=cache.gains(name)) as runner:
-        p = pl.Pipeline(runner=runner, designs=DESIGNS[name],
-                        settings=pl.Settings(torque_max_Nm=truth.TORQUE_MAX[name]))
-        p.run("te")
-        p.run("friction")
-        p.run("stiffness")
-        assert runner.notes == []
-    return p
+over_can = cache.over_can
 
 
 @needs_sim
