@@ -67,6 +67,22 @@ def test_stiffness_and_hysteresis_loss_over_can(name: str) -> None:
 
 
 @needs_sim
+@pytest.mark.parametrize("name", ["reference", "csf17_50"])
+def test_frf_resonances_over_can(name: str) -> None:
+    """Host multisine over CAN, every effect on: at 0.005 rad/s the resonances of the linearised gear
+    (K1 + sticking Maxwell-slip k + Preisach small-signal slope) within 2 %; at 0.04 rad/s lower
+    (elements begin to slip) but above the K1 two-mass values."""
+    a = truth.axis(name)
+    small, big = over_can(name).results["frf"]
+    fa, fr_ = truth.frf_small_signal_truth(a)
+    assert small.f_antiresonance_Hz == pytest.approx(fa, rel=0.02)
+    assert small.f_resonance_Hz == pytest.approx(fr_, rel=0.02)
+    fa1, fr1 = truth.frf_truth(a)
+    assert fa1 < big.f_antiresonance_Hz < small.f_antiresonance_Hz
+    assert fr1 < big.f_resonance_Hz < small.f_resonance_Hz
+
+
+@needs_sim
 def test_locked_output_over_the_virtual_rig_and_fallback() -> None:
     design = ex.PreslidingSteps(fractions=(0.5, 2.5), rate_Nm_s=60.0)
     sigma0 = truth.axis("reference")["friction_motor"]["sigma0_Nm_per_rad"]

@@ -124,7 +124,11 @@ def one_axis(name: str) -> dict:
         pc = cache.over_can(name)
         out["over_can"] = {"source": "virtual drive over CAN", "friction": friction_errors(a, pc.results["stribeck"]),
                            "stiffness": stiffness_errors(a, pc.results["stiffness"], name),
-                           "te": te_errors(a, pc.results["te"]), "timings_s": pc.timings}
+                           "te": te_errors(a, pc.results["te"]), "timings_s": pc.timings,
+                           "frf": [{"amplitude_rad_s": f.amplitude_rad_s, "f_a_rel": rel(f.f_antiresonance_Hz, fa),
+                                    "f_r_rel": rel(f.f_resonance_Hz, fr),
+                                    "f_a_rel_to_k1_value": rel(f.f_antiresonance_Hz, fa1),
+                                    "f_r_rel_to_k1_value": rel(f.f_resonance_Hz, fr1)} for f in pc.results["frf"]]}
     return out
 
 
