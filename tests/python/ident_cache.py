@@ -83,10 +83,10 @@ def over_can(name: str) -> pl.Pipeline:
     with dr.DriveSession(axis=axis, seed=CAN_SEEDS[name], gains=gains(name)) as runner:
         p = pl.Pipeline(runner=runner, designs=CAN_DESIGNS[name],
                         settings=pl.Settings(torque_max_Nm=truth.TORQUE_MAX[name]))
+        p.run("frf")            # first, as in `identify all` (fresh gear state; the TE fit uses its f_a)
         p.run("te")
         p.run("friction")
         p.run("stiffness")
-        p.run("frf")            # after the TE fit: that one then does not use the FRF's f_a
         if runner.notes:
             raise RuntimeError(f"over CAN ({name}): {runner.notes}")
     return p
