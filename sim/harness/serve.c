@@ -14,7 +14,11 @@
  * commands from stdin, one per line, and answers each with one line
  * "ok tick=N ..." (or "error ...") on stdout:
  *   brake 0|1                  output lock (plant brake)
- *   torque T_Nm [RATE_Nm_s]    external torque on the output, ramped at RATE (0 = step)
+ *   torque T_Nm [RATE_Nm_s]    external torque on the output, ramped at RATE (0 = step);
+ *                              clears the queue below
+ *   then T_Nm RATE_Nm_s        queue a ramp that starts when the applied torque has reached
+ *                              the current target (up to 64): a whole torque profile runs in
+ *                              DRIVE time, whatever the host's latency (fast pacing)
  *   record PATH DECIM | record stop
  *                              reference instruments (true gear torque, twist,
  *                              true/inertial angles) as CSV every DECIM periods
@@ -83,6 +87,8 @@ typedef struct {
     uint32_t stage_len;
 } dom_t;
 
+#define RIG_QUEUE 64   /* queued rig torque ramps */
+
 typedef struct {
     hd_sim_t *sim;
     hd_app_t *app;
@@ -108,6 +114,8 @@ typedef struct {
     char rig_line[1024];
     size_t rig_len;
     double rig_torque, rig_torque_target, rig_torque_rate;
+    double rig_q_target[RIG_QUEUE], rig_q_rate[RIG_QUEUE];   /* queued ramps ("then") */
+    int rig_q_head, rig_q_n;
     FILE *rig_rec;
     uint32_t rig_rec_decim;
     int64_t rig_k;
@@ -401,9 +409,23 @@ static void rig_command(srv_t *s, char *line)
         }
         s->rig_torque_target = t;
         s->rig_torque_rate = r;
+        s->rig_q_n = 0;
         if (r == 0.0) s->rig_torque = t;
         hd_plant_fault_load_step(rig_plant(s), s->rig_torque);
         snprintf(extra, sizeof extra, "torque=%.9g target=%.9g", s->rig_torque, t);
+        rig_answer(s, extra);
+    } else if (strcmp(argv[0], "then") == 0 && argc == 3) {
+        char *end = NULL;
+        double t = strtod(argv[1], &end), r;
+        if (!end || *end || !isfinite(t)) { rig_error("then: expected a number of N.m"); return; }
+        r = strtod(argv[2], &end);
+        if (!end || *end || !isfinite(r) || r <= 0.0) { rig_error("then: expected a rate > 0 N.m/s"); return; }
+        if (s->rig_q_n >= RIG_QUEUE) { rig_error("then: queue full (64 ramps)"); return; }
+        int q = (s->rig_q_head + s->rig_q_n) % RIG_QUEUE;
+        s->rig_q_target[q] = t;
+        s->rig_q_rate[q] = r;
+        s->rig_q_n++;
+        snprintf(extra, sizeof extra, "queued=%d", s->rig_q_n);
         rig_answer(s, extra);
     } else if (strcmp(argv[0], "record") == 0 && argc == 2 && strcmp(argv[1], "stop") == 0) {
         if (s->rig_rec) fclose(s->rig_rec);
@@ -447,12 +469,12 @@ static void rig_command(srv_t *s, char *line)
             rig_error("can: expected drop P [SEED], errors TX RX, busoff or status");
         }
     } else if (strcmp(argv[0], "status") == 0 && argc == 1) {
-        snprintf(extra, sizeof extra, "torque=%.9g brake=%d", s->rig_torque,
-                 hd_sim_plant(s->sim)->out.brake_engaged);
+        snprintf(extra, sizeof extra, "torque=%.9g brake=%d queued=%d", s->rig_torque,
+                 hd_sim_plant(s->sim)->out.brake_engaged, s->rig_q_n);
         rig_answer(s, extra);
     } else {
-        rig_error("unknown rig command (expected: brake 0|1, torque T [RATE], record PATH DECIM, record stop, status, "
-                  "can drop P [SEED], can errors TX RX, can busoff, can status)");
+        rig_error("unknown rig command (expected: brake 0|1, torque T [RATE], then T RATE, record PATH DECIM, "
+                  "record stop, status, can drop P [SEED], can errors TX RX, can busoff, can status)");
     }
 }
 
@@ -479,9 +501,16 @@ static void rig_poll(srv_t *s)
     }
 }
 
-/* After each period: ramp the applied torque and write the reference instruments. */
+/* After each period: ramp the applied torque (then the next queued ramp) and write the
+ * reference instruments. */
 static void rig_period(srv_t *s, double dt)
 {
+    if (s->rig_torque == s->rig_torque_target && s->rig_q_n > 0) {   /* next queued ramp */
+        s->rig_torque_target = s->rig_q_target[s->rig_q_head];
+        s->rig_torque_rate = s->rig_q_rate[s->rig_q_head];
+        s->rig_q_head = (s->rig_q_head + 1) % RIG_QUEUE;
+        s->rig_q_n--;
+    }
     if (s->rig_torque != s->rig_torque_target) {
         double step = s->rig_torque_rate * dt, d = s->rig_torque_target - s->rig_torque;
         s->rig_torque = fabs(d) <= step ? s->rig_torque_target : s->rig_torque + (d > 0.0 ? step : -step);

@@ -11,7 +11,6 @@ from hdservo.ident import hysteresis as hy
 from hdservo.ident import stiffness as stf
 
 AXES = ["reference", "csf17_50"]
-T1_GUESS = {"reference": 14.0, "csf17_50": 3.9}     # catalogue T1 sets the FORC range (design input)
 
 
 @pytest.mark.parametrize("name", AXES)
@@ -19,7 +18,8 @@ def test_preisach_predicts_held_out_minor_loops(name: str) -> None:
     r = cache.runner(name)
     te = cache.te(name)
     L = 32
-    u0, step = hy.grid_for(2 * T1_GUESS[name], L)
+    # the FORC range comes from the identified T1 (the stiffness fit, every effect on)
+    u0, step = hy.grid_for(2 * cache.stiffness(name).t1_Nm, L)
     d = r.run(ex.ForcSet(torque_range_Nm=-u0, levels=L))
     s = d.segment(0)
     ev, info = hy.everett_from_forcs(s["load_torque_Nm"], stf.twist_of(s, d.gear_ratio, te), s["torque_cmd_Nm"],

@@ -102,6 +102,20 @@ def test_hysteresis_loss_and_lost_motion_of_a_parallelogram() -> None:
     assert lm["lost_motion_rad"] == pytest.approx(2 * top / k, rel=0.01)
 
 
+def test_hysteresis_loss_ignores_the_virgin_branch() -> None:
+    """A short record (virgin 0 -> +T, one unloading branch each way): the virgin curve crosses zero
+    torque in the middle of the loop and must not be paired (it would give half the loss)."""
+    k, h, top = 3.1e4, 2.9e-4, 67.0
+    seg = np.linspace(0, 1, 200)
+    t = np.concatenate([-0.01 + (top + 0.01) * seg, top - 2 * top * seg[1:], -top + 2 * top * seg[1:]])
+    d = np.sign(np.gradient(t))
+    p = t / k + 0.5 * h * -d
+    p[:200] = t[:200] / k                     # virgin branch through the loop's centre
+    hl = mt.hysteresis_loss(t, p, ref_Nm=t)
+    assert hl["loss_rad"] == pytest.approx(h, rel=1e-6)
+    assert len(hl["per_cycle_rad"]) == 1
+
+
 def test_transmission_accuracy_recovers_lines() -> None:
     n = 100.0
     lo = np.linspace(0, 2 * math.pi, 20001)

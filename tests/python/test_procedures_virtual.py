@@ -58,17 +58,16 @@ def test_transmission_recovers_configured_te() -> None:
     assert r.headline["transmission_accuracy_arcmin"] == pytest.approx(np.ptp(e) / mt.ARCMIN, rel=0.05)
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "known flake found in final integration: on a loaded machine the fast-paced torque loop "
-    "sometimes measures ~0.45' instead of ~0.95' hysteresis loss (same binary and code, timing "
-    "dependent); open in issue 8, see the session note"))
 def test_hysteresis_loss_and_stiffness_from_one_loop() -> None:
     with open_bench(Target(), gear.GEAR_SETUP) as b:
         d = gear.torque_loop(b, 67.0, 2, 60.0)
     # hysteresis loss: configured 0.5' Maxwell-slip + 0.5' Preisach = 1.0' (docs/plant.md); the loop
-    # at 60 N.m/s with the servo-held input measures 0.9-1.0'
+    # at 60 N.m/s with the servo-held input measures 0.90' (0.898-0.903' in 8 runs beside two CPU hogs:
+    # the rig runs the whole torque profile in drive time; before, host-timed ramps overran the capture
+    # on a loaded machine and the loss came out as half a loop, ~0.45')
     h = mt.hysteresis_loss(d["torque_Nm"], d["twist_rad"], ref_Nm=d["applied_Nm"])
-    assert h["loss_arcmin"] == pytest.approx(1.0, rel=0.15)
+    assert h["loss_arcmin"] == pytest.approx(0.92, rel=0.05)
+    assert len(h["per_cycle_rad"]) == 2
     # the encoder twist (theta_M/N - theta_L) agrees with the rig's true twist: TE of the turning WG only
     ht = mt.hysteresis_loss(d["torque_Nm"], d["twist_true_rad"], ref_Nm=d["applied_Nm"])
     assert h["loss_arcmin"] == pytest.approx(ht["loss_arcmin"], rel=0.05)

@@ -19,7 +19,12 @@ Fits
   the element stiffnesses for fixed knots; NNLS-type bounded LS inside, the
   knots phi1, phi2 by Nelder-Mead outside).  T1 = K1 phi1,
   T2 = T1 + K2 (phi2 - phi1).
-* cubic ``T = k1 phi + k3 phi^3`` (+ the same Maxwell elements).
+* a direction-odd band ``d(t) g(phi)`` (free hat functions in ``|phi| < b``, ``d`` = branch
+  direction) in both fits: on the branches of the major loop a closing (Preisach-type)
+  hysteresis with no reversible part is exactly this, so inside the band the spring is fitted
+  on the loop's centre line and the hysteresis does not bend it.  ``b`` is chosen from
+  :data:`ODD_FRACTIONS` by the residual.
+* cubic ``T = k1 phi + k3 phi^3`` (+ the same Maxwell elements and odd band).
 * hysteresis loss (catalogue): twist difference at zero torque between the
   descending and ascending branches of the +-T cycle (points B-B');
   lost motion: twist between the +-4 % rated tips of the small cycle.
@@ -37,6 +42,12 @@ from ..cli import UserError
 from .experiments import ExperimentData
 from .hysteresis import MaxwellSlip, maxwell_from_weights, split_reversals, stop_operators
 from .te import TEResult
+
+#: Half-widths of the direction-odd band tried by :func:`fit_stiffness` (fractions of the twist
+#: amplitude).  At most 0.45: at least half of each branch stays outside the band, where the only
+#: direction-odd torque is the Maxwell elements' sliding force, so that force is fixed by the data;
+#: wider bands trade it against the band and the K2 region (over CAN: K2 -3.2 %, T2 -4 % at 0.65).
+ODD_FRACTIONS = (0.25, 0.3, 0.35, 0.4, 0.45)
 
 
 def twist_of(seg: dict[str, np.ndarray], ratio: float, te: TEResult | None) -> np.ndarray:
@@ -68,6 +79,7 @@ class StiffnessResult:
     residual_rms_Nm: float
     cubic_residual_rms_Nm: float
     te_corrected: bool
+    odd_band_rad: float = 0.0
     plot_data: dict[str, Any] = field(default_factory=dict, repr=False)
 
     def three_slope(self, phi: np.ndarray) -> np.ndarray:
@@ -86,7 +98,8 @@ class StiffnessResult:
                 "lost_motion_arcmin": None if self.lost_motion_rad is None
                 else self.lost_motion_rad / (math.pi / 180 / 60),
                 "maxwell": self.maxwell.to_dict(), "residual_rms_Nm": self.residual_rms_Nm,
-                "cubic_residual_rms_Nm": self.cubic_residual_rms_Nm, "te_corrected": self.te_corrected}
+                "cubic_residual_rms_Nm": self.cubic_residual_rms_Nm, "te_corrected": self.te_corrected,
+                "odd_band_rad": self.odd_band_rad}
 
 
 def zero_crossing_twists(T: np.ndarray, phi: np.ndarray, cmd: np.ndarray, band: float) -> tuple[list[float], list[float]]:
@@ -129,8 +142,30 @@ def _design(phi: np.ndarray, knots: tuple[float, float], stops: np.ndarray) -> n
     return np.column_stack([phi, sat(phi, p1), sat(phi, p2), np.ones_like(phi), stops])
 
 
+def branch_direction(cmd: np.ndarray) -> np.ndarray:
+    """+1 on rising, -1 on falling stretches of the command (per sample)."""
+    d = np.zeros(len(cmd))
+    for a, b in split_reversals(cmd):
+        d[a:b + 1] = 1.0 if cmd[b] > cmd[a] else -1.0
+    return d
+
+
+def odd_hats(phi: np.ndarray, direction: np.ndarray, half_width: float, n: int) -> np.ndarray:
+    """Direction-odd basis ``direction * hat_j(phi)``: n hat functions on (-half_width, half_width).
+
+    On the branches of a major loop a Preisach-type hysteresis that closes (no reversible part,
+    zero outside its input range) is exactly ``direction * g(phi)``; these free columns absorb it
+    so that the spring is fitted on the centre line of the loop there.
+    """
+    nodes = np.linspace(-half_width, half_width, n + 2)
+    h = nodes[1] - nodes[0]
+    cols = [np.clip(1.0 - np.abs(phi - c) / h, 0.0, None) for c in nodes[1:-1]]
+    return direction[:, None] * np.column_stack(cols)
+
+
 def fit_stiffness(data: ExperimentData, te: TEResult | None = None,
-                  thresholds_rad: np.ndarray | None = None, max_elements: int = 8) -> StiffnessResult:
+                  thresholds_rad: np.ndarray | None = None, max_elements: int = 8,
+                  odd_fractions: tuple[float, ...] = ODD_FRACTIONS, odd_count: int = 16) -> StiffnessResult:
     """Three-slope + Maxwell-slip, cubic, hysteresis loss and lost motion from ``locked_cycle`` data.
 
     Parameters
@@ -144,6 +179,12 @@ def fit_stiffness(data: ExperimentData, te: TEResult | None = None,
         2e-5 ... 1.5e-3 rad (16 values).
     max_elements : int
         Elements kept in the result (merged neighbours), the plant holds 8.
+    odd_fractions : tuple of float
+        Half-widths (fractions of the twist amplitude) tried for the direction-odd band
+        (:func:`odd_hats`); the one with the smallest residual is kept.  Empty: no odd band
+        (spring + Maxwell-slip only).
+    odd_count : int
+        Hat functions in the odd band.
     """
     if data.kind != "locked_cycle":
         raise UserError(f"stiffness: expected locked_cycle data, found '{data.kind}'")
@@ -171,55 +212,70 @@ def fit_stiffness(data: ExperimentData, te: TEResult | None = None,
     ph, Tm = phi[start::k], T[start::k]
     nK = 4
 
-    def solve(knots: tuple[float, float]) -> tuple[float, np.ndarray]:
-        A = _design(ph, knots, stops)
-        # free columns split into +/- parts so that plain NNLS handles the bounds (fast active set)
-        B = np.column_stack([A[:, :nK], -A[:, :nK], A[:, nK:]])
-        sc = np.linalg.norm(B, axis=0) + 1e-300
-        z, rn = nnls(B / sc, Tm, maxiter=20 * B.shape[1])
-        z = z / sc
-        x = np.r_[z[:nK] - z[nK:2 * nK], z[2 * nK:]]
-        return float(rn ** 2), x
+    direction = branch_direction(cmd)[start::k]
 
-    # knots: coarse grid then Nelder-Mead (log space, ordered)
-    best = (math.inf, (0.0, 0.0))
-    for f1 in np.linspace(0.1, 0.6, 8):
-        for f2 in np.linspace(f1 + 0.1, 0.95, 6):
-            sse, _ = solve((f1 * span, f2 * span))
-            if sse < best[0]:
-                best = (sse, (f1 * span, f2 * span))
+    def fit_band(odd: np.ndarray) -> tuple[float, float, float, np.ndarray]:
+        def solve(knots: tuple[float, float]) -> tuple[float, np.ndarray]:
+            A = np.column_stack([_design(ph, knots, stops)[:, :nK], odd])
+            # free columns split into +/- parts so that plain NNLS handles the bounds (fast active set)
+            B = np.column_stack([A, -A, stops])
+            nf = A.shape[1]
+            sc = np.linalg.norm(B, axis=0) + 1e-300
+            z, rn = nnls(B / sc, Tm, maxiter=20 * B.shape[1])
+            z = z / sc
+            x = np.r_[z[:nK] - z[nf:nf + nK], z[2 * nf:]]
+            xo = z[nK:nf] - z[nf + nK:2 * nf]
+            return float(rn ** 2), np.r_[x, xo]
 
-    def obj(x: np.ndarray) -> float:
-        p1 = math.exp(x[0])
-        p2 = p1 + math.exp(x[1])
-        if p2 >= span:
-            return 1e30
-        return solve((p1, p2))[0]
+        # knots: coarse grid then Nelder-Mead (log space, ordered)
+        best = (math.inf, (0.0, 0.0))
+        for f1 in np.linspace(0.1, 0.6, 8):
+            for f2 in np.linspace(f1 + 0.1, 0.95, 6):
+                sse, _ = solve((f1 * span, f2 * span))
+                if sse < best[0]:
+                    best = (sse, (f1 * span, f2 * span))
 
-    x0 = np.array([math.log(best[1][0]), math.log(best[1][1] - best[1][0])])
-    opt = minimize(obj, x0, method="Nelder-Mead", options={"xatol": 1e-4, "fatol": 1e-9, "maxiter": 400})
-    p1 = math.exp(opt.x[0])
-    p2 = p1 + math.exp(opt.x[1])
-    sse, x = solve((p1, p2))
+        def obj(x: np.ndarray) -> float:
+            p1 = math.exp(x[0])
+            p2 = p1 + math.exp(x[1])
+            if p2 >= span:
+                return 1e30
+            return solve((p1, p2))[0]
+
+        x0 = np.array([math.log(best[1][0]), math.log(best[1][1] - best[1][0])])
+        opt = minimize(obj, x0, method="Nelder-Mead", options={"xatol": 1e-4, "fatol": 1e-9, "maxiter": 400})
+        p1 = math.exp(opt.x[0])
+        p2 = p1 + math.exp(opt.x[1])
+        sse, x = solve((p1, p2))
+        return sse, p1, p2, x
+
+    fits = []
+    for fo in (odd_fractions or (0.0,)):
+        odd = odd_hats(ph, direction, fo * span, odd_count) if fo > 0 else np.zeros((len(ph), 0))
+        fits.append((fit_band(odd), odd, fo))
+    (sse, p1, p2, x), odd, odd_frac = min(fits, key=lambda f: f[0][0])
     k3 = x[0]
     k2 = k3 + x[2]
     k1 = k2 + x[1]
     t1 = k1 * p1
     t2 = t1 + k2 * (p2 - p1)
+    x_odd = x[nK + len(grid):]
+    x = x[:nK + len(grid)]
     mw = maxwell_from_weights(x[nK:], grid)
     if len(mw.k_Nm_per_rad) > max_elements:
         mw = mw.reduce(max_elements)
-    resid = Tm - _design(ph, (p1, p2), stops) @ x
+    resid = Tm - _design(ph, (p1, p2), stops) @ x - odd @ x_odd
     # cubic + the same stop grid
-    Ac = np.column_stack([ph, ph ** 3, np.ones_like(ph), stops])
-    lo = np.r_[-np.inf, -np.inf, -np.inf, np.zeros(stops.shape[1])]
+    Ac = np.column_stack([ph, ph ** 3, np.ones_like(ph), odd, stops])
+    lo = np.r_[-np.inf, -np.inf, -np.inf, np.full(odd.shape[1], -np.inf), np.zeros(stops.shape[1])]
     solc = lsq_linear(Ac, Tm, bounds=(lo, np.full(Ac.shape[1], np.inf)), method="bvls")
     rc = Tm - Ac @ solc.x
     r = StiffnessResult(k1_Nm_per_rad=float(k1), k2_Nm_per_rad=float(k2), k3_Nm_per_rad=float(k3), t1_Nm=float(t1),
                         t2_Nm=float(t2), cubic_k1_Nm_per_rad=float(solc.x[0]), cubic_k3_Nm_per_rad3=float(solc.x[1]),
                         hysteresis_loss_rad=loss, lost_motion_rad=lm, maxwell=mw,
                         residual_rms_Nm=float(np.sqrt(np.mean(resid ** 2))),
-                        cubic_residual_rms_Nm=float(np.sqrt(np.mean(rc ** 2))), te_corrected=te is not None)
+                        cubic_residual_rms_Nm=float(np.sqrt(np.mean(rc ** 2))), te_corrected=te is not None,
+                        odd_band_rad=float(odd_frac * span))
     r.plot_data = {"phi_rad": ph, "T_Nm": Tm, "resid_Nm": resid, "offset_Nm": float(x[3]),
                    "cubic_resid_Nm": rc}
     return r

@@ -41,24 +41,23 @@ def torque_loop(bench: Bench, peak_Nm: float, cycles: int, rate_Nm_s: float,
         instrument, virtual rig only), ``t_s``.
     """
     quarter = peak_Nm / rate_Nm_s
-    total = cycles * 4 * quarter * 1.1 + 1.0     # margin: each rig command costs a little drive time
+    # the rig runs the whole profile in drive time (queued ramps), so the record length does not
+    # depend on the host's latency; margin for the start (capture trigger -> rig command)
+    total = cycles * 4 * quarter * 1.1 + 1.0
     frames = 2700
     decim = max(1, int(math.ceil(total / frames / 1e-4)))
     frames = int(math.ceil(total / (decim * 1e-4)))
+    targets = [t for _ in range(cycles) for t in (peak_Nm, 0.0, -peak_Nm, 0.0)]
     bench.rig.brake(False)
     with bench.params({"torque_limit": max(60.0, 1.3 * peak_Nm), "follow_err_max": 0.01}):
         bench.enable("CYCLIC SYNCHRONOUS POSITION")
         bench.wait(0.2)
 
         def run() -> None:
-            n = 0
-            for c in range(cycles):
-                for target in (peak_Nm, 0.0, -peak_Nm, 0.0):
-                    bench.rig.load_torque(-target, rate_Nm_s)   # external torque opposite to the gear torque
-                    bench.wait(quarter)
-                    n += 1
-                    if progress:
-                        progress(n / (4 * cycles), f"torque {target:+.3g} N.m")
+            # external torque opposite to the gear torque
+            bench.rig.load_torque_profile([(-t, rate_Nm_s) for t in targets])
+            if progress:
+                progress(0.0, f"torque loop +-{peak_Nm:.3g} N.m x {cycles} queued on the rig")
 
         with bench.rig.record(decim) as rec:
             cap = bench.capture(["tick", "pos_mot_lo", "pos_out_lo"], frames, decim, action=run)
@@ -78,6 +77,13 @@ def torque_loop(bench: Bench, peak_Nm: float, cycles: int, rate_Nm_s: float,
         res["applied_Nm"] = -np.interp(tick, rt, rec["applied_torque_Nm"])
         tt = np.interp(tick, rt, rec["torsion_rad"])
         res["twist_true_rad"] = tt - tt[0]
+        # the loop must be complete inside the capture (every reversal and the final return to 0)
+        ap = res["applied_Nm"]
+        tol = 0.01 * peak_Nm
+        nb = len(mt.branches(ap)[0])
+        if ap.max() < peak_Nm - tol or ap.min() > -peak_Nm + tol or abs(ap[-1]) > tol or nb != 2 * cycles + 1:
+            raise RuntimeError(f"the torque loop is not complete in the capture ({nb} "
+                               f"branches, expected {2 * cycles + 1}; applied torque at the end {ap[-1]:+.3g} N.m)")
     else:  # pragma: no cover - real bench without a recorded load cell
         raise RuntimeError("no load-cell record")
     return res

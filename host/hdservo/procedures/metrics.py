@@ -127,9 +127,11 @@ def hysteresis_loss(torque_Nm: np.ndarray, twist_rad: np.ndarray, level_Nm: floa
     """Hysteresis loss: twist difference of the unloading branches at zero torque (points B-B').
 
     The record is a cycle 0 -> +T -> 0 -> -T -> 0 (repeated).  The
-    decreasing branches (from +T) and increasing branches (from -T) are each
-    interpolated at ``level_Nm``; the loss is the mean difference
-    (decreasing minus increasing), rad.
+    decreasing branches from a +T tip and increasing branches from a -T tip
+    (within 10 % of the record's extremes; the branch from the start is not
+    one) are each interpolated at ``level_Nm``; the loss is the mean
+    difference (decreasing minus increasing) over the pairs after the first,
+    rad.
 
     ``ref_Nm`` (optional): the commanded torque, used to find the branches.
 
@@ -138,11 +140,17 @@ def hysteresis_loss(torque_Nm: np.ndarray, twist_rad: np.ndarray, level_Nm: floa
     dict
         ``loss_rad``, ``loss_arcmin``, ``per_cycle_rad`` (list).
     """
-    idx, dirs = branches(torque_Nm if ref_Nm is None else ref_Nm)
+    ref = np.asarray(torque_Nm if ref_Nm is None else ref_Nm, float)
+    idx, dirs = branches(ref)
     t = np.asarray(torque_Nm, float)
     p = np.asarray(twist_rad, float)
-    down = [twist_at_torque(t[i], p[i], level_Nm) for i, d in zip(idx, dirs) if d < 0 and t[i].max() > level_Nm]
-    up = [twist_at_torque(t[i], p[i], level_Nm) for i, d in zip(idx, dirs) if d > 0 and t[i].min() < level_Nm]
+    # unloading branches only: from a +T tip down, from a -T tip up (the branch from the start,
+    # e.g. the virgin 0 -> +T, has its zero crossing wherever the record began)
+    hi, lo = 0.9 * ref.max(), 0.9 * ref.min()
+    down = [twist_at_torque(t[i], p[i], level_Nm) for i, d in zip(idx, dirs)
+            if d < 0 and ref[i[0]] >= hi and t[i].max() > level_Nm]
+    up = [twist_at_torque(t[i], p[i], level_Nm) for i, d in zip(idx, dirs)
+          if d > 0 and ref[i[0]] <= lo and t[i].min() < level_Nm]
     down = [v for v in down if math.isfinite(v)]
     up = [v for v in up if math.isfinite(v)]
     n = min(len(down), len(up))

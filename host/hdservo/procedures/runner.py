@@ -183,6 +183,25 @@ class VirtualDriveProcess:
             raise RigError(f"virtual rig: '{line}': {ans or 'no answer'}")
         return dict(kv.split("=", 1) for kv in ans.split()[1:] if "=" in kv)
 
+    def rig_many(self, lines: Sequence[str], timeout: float = 30.0) -> list[dict[str, str]]:
+        """Send several rig commands in one write (the drive reads them in the same poll, i.e. within
+        the same loop period); returns the fields of each ``ok`` answer."""
+        with self.lock:
+            if self.p.poll() is not None or self.p.stdin is None:
+                raise RigError("the virtual drive has exited")
+            self.p.stdin.write("".join(line + "\n" for line in lines))
+            self.p.stdin.flush()
+            # the answers arrive together: after the first, the rest may already sit in the
+            # reader's buffer, where select() on the descriptor would not see them
+            assert self.p.stdout is not None
+            answers = [self._readline(timeout).strip()] + [self.p.stdout.readline().strip() for _ in lines[1:]]
+        out = []
+        for line, ans in zip(lines, answers):
+            if not ans.startswith("ok"):
+                raise RigError(f"virtual rig: '{line}': {ans or 'no answer'}")
+            out.append(dict(kv.split("=", 1) for kv in ans.split()[1:] if "=" in kv))
+        return out
+
     def stop(self) -> str:
         """Terminate the process (SIGTERM, then SIGKILL); returns its stderr."""
         if self.p.poll() is None:
@@ -217,6 +236,12 @@ class Rig:
 
     def load_torque(self, torque_Nm: float, rate_Nm_s: float = 0.0) -> None:
         """Apply an external torque on the output, ramped at ``rate_Nm_s`` (0 = step)."""
+        raise RigError("this procedure needs a torque-loading rig with a load cell on the output; "
+                       "the manual bench has none (run it on the virtual drive, or add a rig driver)")
+
+    def load_torque_profile(self, ramps: Sequence[tuple[float, float]]) -> None:
+        """Apply a sequence of ramps ``(torque_Nm, rate_Nm_s)``, each starting when the previous
+        target is reached, timed by the rig itself (drive time), not by the host."""
         raise RigError("this procedure needs a torque-loading rig with a load cell on the output; "
                        "the manual bench has none (run it on the virtual drive, or add a rig driver)")
 
@@ -259,6 +284,13 @@ class VirtualRig(Rig):
 
     def load_torque(self, torque_Nm: float, rate_Nm_s: float = 0.0) -> None:
         self.proc.rig(f"torque {torque_Nm!r} {rate_Nm_s!r}")
+
+    def load_torque_profile(self, ramps: Sequence[tuple[float, float]]) -> None:
+        if not ramps or any(r <= 0 for _, r in ramps):
+            raise ValueError("load_torque_profile: expected ramps with rates > 0")
+        # rig command `then`: a ramp that starts when the applied torque is at its current target;
+        # all lines in one write, so the drive queues them in the same loop period
+        self.proc.rig_many([f"then {t!r} {r!r}" for t, r in ramps])
 
     @contextlib.contextmanager
     def record(self, decimation: int) -> Iterator[dict[str, np.ndarray]]:
