@@ -81,16 +81,35 @@ def pp_move_start(bench: Bench, target_rad: float, tries: int = 5) -> None:
 
 # ---- minimum smooth rate ------------------------------------------------------------------
 
-def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, settle_s: float) -> dict[str, Any]:
-    """One rung: constant rate through the profile generator; fixed-angle timing on the output encoder."""
+#: Default min-rate ladder, deg/s: the decades down to the 0.001 deg/s requirement and three rungs below it,
+#: so that the figure can tell two drives apart that both meet the requirement (docs/procedures.md).
+RATE_LADDER_DEG_S: tuple[float, ...] = (1.0, 0.1, 0.01, 0.001, 0.0005, 0.0002, 0.0001)
+#: Smallest fixed-angle window, arcsec: the 0.001 deg/s rung's 1 s window (47 counts of a 24-bit output
+#: encoder).  Slower rungs keep this angle (longer windows) instead of shrinking it into the encoder noise.
+MIN_WINDOW_ARCSEC = 3.6
+
+
+def rate_window_rad(rate_deg_s: float, window_s: float = 1.0, min_window_arcsec: float = MIN_WINDOW_ARCSEC) -> float:
+    """Fixed-angle window of a rung, rad: ``rate x window_s``, at least ``min_window_arcsec``."""
+    return max(math.radians(abs(rate_deg_s)) * window_s, min_window_arcsec * mt.ARCSEC)
+
+
+def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, settle_s: float,
+             min_window_arcsec: float = MIN_WINDOW_ARCSEC) -> dict[str, Any]:
+    """One rung: constant rate through the profile generator; fixed-angle timing on the output encoder.
+
+    The window angle is :func:`rate_window_rad` (``rate x window_s``, at least
+    ``min_window_arcsec``); the record covers ``windows`` windows at the commanded rate.
+    """
     rate = math.radians(rate_deg_s)
-    dur = windows * window_s
+    win = rate_window_rad(rate_deg_s, window_s, min_window_arcsec)
+    dur = windows * win / rate
     frames = 4000
     decim = max(1, int(math.ceil(dur / frames / DT)))
     frames = int(math.ceil(dur / (decim * DT)))
     start = bench.load_angle_rad()
     far = start + rate * (settle_s + dur) * 1.5 + math.radians(0.01)
-    with bench.params({"traj_vmax": max(1e-6, rate / TURN)}):
+    with bench.params({"traj_vmax": rate / TURN}):
         pp_move_start(bench, far)
         bench.wait(settle_s)
         cap = bench.capture(["pos_out_lo", "pos_out_hi"], frames, decim)
@@ -99,24 +118,45 @@ def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, set
         raise RuntimeError(f"the drive faulted at {rate_deg_s} deg/s (fault code {fault})")
     ang = Bench.unwrap_turns(cap["pos_out_lo"]) * TURN
     t = np.arange(ang.size) * decim * DT
-    st = mt.rate_stability(t, ang, rate, rate * window_s)
-    return {"rate_deg_s": rate_deg_s, "window_arcsec": rate * window_s / mt.ARCSEC, **st, "t_s": t, "angle_rad": ang}
+    st = mt.rate_stability(t, ang, rate, win)
+    return {"rate_deg_s": rate_deg_s, "window_arcsec": win / mt.ARCSEC, "window_s": win / rate, **st,
+            "t_s": t, "angle_rad": ang}
 
 
-def min_rate(bench: Bench, rates_deg_s: Sequence[float] = (1.0, 0.1, 0.01, 0.001), bound: float = 0.1,
+def min_rate(bench: Bench, rates_deg_s: Sequence[float] = RATE_LADDER_DEG_S, bound: float = 0.1,
              windows: int = 10, window_s: float = 1.0, settle_s: float = 5.0,
-             accuracy_bound: Optional[float] = None, progress: Optional[Progress] = None) -> Result:
-    """Minimum smooth rate over a decade ladder (fixed-angle timing).
+             accuracy_bound: Optional[float] = None, progress: Optional[Progress] = None,
+             min_window_arcsec: float = MIN_WINDOW_ARCSEC) -> Result:
+    """Minimum smooth rate over a rate ladder (fixed-angle timing).
 
     Each rung moves at a constant commanded rate (profile position with
     ``traj_vmax`` = rate), waits ``settle_s`` and times ``windows`` windows of
-    ``rate x window_s`` output angle.  A rung is smooth when the angle never
-    goes back, every window's rate has the commanded sign, and the rate
-    fluctuation (stability sigma(omega_i)/mean) is <= ``bound``; the rate
-    accuracy |mean - cmd|/cmd is reported (and also judged when
+    ``rate x window_s`` output angle, at least ``min_window_arcsec`` (the
+    rungs below 0.001 deg/s keep 3.6 arcsec: 1.8 s windows at 0.0005 deg/s,
+    3.6 s at 0.0002, 10 s at 0.0001 deg/s).  A rung is smooth when the angle
+    never goes back by a window, every window's rate has the commanded sign,
+    and the rate fluctuation (stability sigma(omega_i)/mean) is <= ``bound``;
+    the rate accuracy |mean - cmd|/cmd is reported (and also judged when
     ``accuracy_bound`` is given).  The minimum smooth rate is the slowest rung
-    with every faster rung smooth too.
+    with every faster rung smooth too (:func:`metrics.min_smooth_rate`).
+
+    Parameters
+    ----------
+    rates_deg_s : sequence of float
+        Ladder, deg/s (> 0; run fastest first).
+    bound : float
+        Bound on the rate stability (-).
+    windows : int
+        Fixed-angle windows per rung.
+    window_s : float
+        Nominal window duration, s (window angle = rate x window_s).
+    settle_s : float
+        Drive time at the rate before the record, s (at most 1 s above 0.5 deg/s).
+    min_window_arcsec : float
+        Smallest window angle, arcsec.
     """
+    if not rates_deg_s or min(rates_deg_s) <= 0:
+        raise ValueError(f"min-rate: the ladder needs rates > 0 deg/s, got {list(rates_deg_s)}")
     ladder = []
     bench.rig.brake(False)
     bench.enable("PROFILED POSITION")
@@ -125,10 +165,11 @@ def min_rate(bench: Bench, rates_deg_s: Sequence[float] = (1.0, 0.1, 0.01, 0.001
     # start of the move, the set-point edge is lost and the first rung never moves
     bench.wait(0.5)
     for k, rate in enumerate(sorted(rates_deg_s, reverse=True)):
-        rr = rate_run(bench, rate, windows, window_s, settle_s if rate < 0.5 else min(settle_s, 1.0))
+        rr = rate_run(bench, rate, windows, window_s, settle_s if rate < 0.5 else min(settle_s, 1.0),
+                      min_window_arcsec)
         ladder.append(rr)
         # stop: a target just ahead of the moving reference, and wait until the trajectory has arrived
-        with bench.params({"traj_vmax": max(1e-6, math.radians(rate) / TURN)}):
+        with bench.params({"traj_vmax": math.radians(rate) / TURN}):
             pp_move(bench, bench.load_angle_rad() + math.radians(rate) * 0.2)
         bench.wait(0.2)
         if progress:
@@ -136,7 +177,8 @@ def min_rate(bench: Bench, rates_deg_s: Sequence[float] = (1.0, 0.1, 0.01, 0.001
     bench.disable()
     best = mt.min_smooth_rate(ladder, bound, accuracy_bound)
     r = Result("min-rate", conditions={"ladder_deg_s": list(rates_deg_s), "bound": bound, "accuracy_bound": accuracy_bound, "windows": windows,
-                                       "window_s": window_s, "settle_s": settle_s, "setup": AXIS_SETUP.name})
+                                       "window_s": window_s, "min_window_arcsec": min_window_arcsec,
+                                       "settle_s": settle_s, "setup": AXIS_SETUP.name})
     r.figures = {"ladder": [{k: v for k, v in x.items() if k not in ("t_s", "angle_rad")} for x in ladder]}
     r.headline = {"min_smooth_rate_deg_s": best}
     r.series = {"ladder": ladder}
@@ -145,7 +187,7 @@ def min_rate(bench: Bench, rates_deg_s: Sequence[float] = (1.0, 0.1, 0.01, 0.001
         fig, ax = figure()
         a = ax[0][0]
         for x in res.series["ladder"]:
-            w = mt.fixed_angle_rates(x["t_s"], x["angle_rad"], math.radians(x["rate_deg_s"]) * window_s)
+            w = mt.fixed_angle_rates(x["t_s"], x["angle_rad"], x["window_arcsec"] * mt.ARCSEC)
             if w.size:
                 a.plot(np.arange(w.size) + 1, np.degrees(w) / x["rate_deg_s"], "o-", ms=3, label=f"{x['rate_deg_s']:g} deg/s")
         a.axhspan(1 - bound, 1 + bound, color="0.9")
@@ -579,6 +621,6 @@ def bandwidth(bench: Bench, amplitude_arcsec: float = 60.0, period_samples: int 
     return r
 
 
-__all__ = ["AXIS_SETUP", "PEAK_OVERDRIVE", "PEAK_WINDOW", "STAB_MODE", "STAB_MODES", "bandwidth", "bandwidth_lines",
+__all__ = ["AXIS_SETUP", "MIN_WINDOW_ARCSEC", "PEAK_OVERDRIVE", "RATE_LADDER_DEG_S", "PEAK_WINDOW", "STAB_MODE", "STAB_MODES", "bandwidth", "bandwidth_lines",
            "bandwidth_signal", "drive_has_stab", "enable_stab", "min_rate", "peak_torque", "positioning", "pp_move",
-           "stab_setup", "stabilisation"]
+           "rate_window_rad", "stab_setup", "stabilisation"]
