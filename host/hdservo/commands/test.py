@@ -55,7 +55,8 @@ PROCEDURES: dict[str, Proc] = {
     "frf": (lambda a: cl.AXIS_SETUP, True, lambda b, a, p: fq.frf(b, rms_Nm=a.excitation_Nm, progress=p)),
     "min-rate": (lambda a: cl.AXIS_SETUP, False,
                  lambda b, a, p: cl.min_rate(b, rates_deg_s=a.rates, bound=a.bound, windows=a.windows,
-                                             settle_s=a.settle, progress=p)),
+                                             settle_s=a.settle, progress=p,
+                                             stop_at_failure=not a.full_ladder)),
     "stabilisation": (lambda a: cl.stab_setup(a.base_amplitude_deg, a.base_frequency_hz), False,
                       lambda b, a, p: cl.stabilisation(b, duration_s=a.duration, progress=p,
                                                        mode=getattr(a, "stab_mode", "hold"))),
@@ -128,6 +129,8 @@ def register(p: argparse.ArgumentParser) -> None:
     g.add_argument("--bound", type=_positive, default=0.1, help="min-rate bound on the rate stability sigma/mean (0.1)")
     g.add_argument("--windows", type=int, default=10, help="min-rate fixed-angle windows per rung (10, 1 s each)")
     g.add_argument("--settle", type=_positive, default=5.0, help="min-rate settling time per rung, s (5)")
+    g.add_argument("--full-ladder", action="store_true",
+                   help="min-rate: run every rung (default: stop after the first rung that is not smooth)")
     g.add_argument("--base-amplitude-deg", type=_positive, default=0.5, help="stabilisation base rocking, deg (0.5)")
     g.add_argument("--base-frequency-hz", type=_positive, default=1.0, help="stabilisation base rocking, Hz (1)")
     g.add_argument("--duration", type=_positive, default=5.0, help="stabilisation record, s (5)")

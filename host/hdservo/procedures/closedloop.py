@@ -126,7 +126,7 @@ def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, set
 def min_rate(bench: Bench, rates_deg_s: Sequence[float] = RATE_LADDER_DEG_S, bound: float = 0.1,
              windows: int = 10, window_s: float = 1.0, settle_s: float = 5.0,
              accuracy_bound: Optional[float] = None, progress: Optional[Progress] = None,
-             min_window_arcsec: float = MIN_WINDOW_ARCSEC) -> Result:
+             min_window_arcsec: float = MIN_WINDOW_ARCSEC, stop_at_failure: bool = True) -> Result:
     """Minimum smooth rate over a rate ladder (fixed-angle timing).
 
     Each rung moves at a constant commanded rate (profile position with
@@ -154,6 +154,9 @@ def min_rate(bench: Bench, rates_deg_s: Sequence[float] = RATE_LADDER_DEG_S, bou
         Drive time at the rate before the record, s (at most 1 s above 0.5 deg/s).
     min_window_arcsec : float
         Smallest window angle, arcsec.
+    stop_at_failure : bool
+        Skip the rungs slower than the first one that is not smooth (they cannot change the
+        figure; listed in ``figures["skipped_deg_s"]`` and a note).
     """
     if not rates_deg_s or min(rates_deg_s) <= 0:
         raise ValueError(f"min-rate: the ladder needs rates > 0 deg/s, got {list(rates_deg_s)}")
@@ -164,7 +167,9 @@ def min_rate(bench: Bench, rates_deg_s: Sequence[float] = RATE_LADDER_DEG_S, bou
     # set-point: while the hold reference still moves, pp_move_start takes that motion for the
     # start of the move, the set-point edge is lost and the first rung never moves
     bench.wait(0.5)
-    for k, rate in enumerate(sorted(rates_deg_s, reverse=True)):
+    order = sorted(rates_deg_s, reverse=True)
+    skipped: list[float] = []
+    for k, rate in enumerate(order):
         rr = rate_run(bench, rate, windows, window_s, settle_s if rate < 0.5 else min(settle_s, 1.0),
                       min_window_arcsec)
         ladder.append(rr)
@@ -174,12 +179,20 @@ def min_rate(bench: Bench, rates_deg_s: Sequence[float] = RATE_LADDER_DEG_S, bou
         bench.wait(0.2)
         if progress:
             progress((k + 1) / len(rates_deg_s), f"{rate:g} deg/s: stability {rr['stability']:.3g}")
+        if stop_at_failure and mt.min_smooth_rate([rr], bound, accuracy_bound) is None:
+            skipped = [float(x) for x in order[k + 1:]]     # slower rungs cannot change the figure
+            break
     bench.disable()
     best = mt.min_smooth_rate(ladder, bound, accuracy_bound)
     r = Result("min-rate", conditions={"ladder_deg_s": list(rates_deg_s), "bound": bound, "accuracy_bound": accuracy_bound, "windows": windows,
                                        "window_s": window_s, "min_window_arcsec": min_window_arcsec,
-                                       "settle_s": settle_s, "setup": AXIS_SETUP.name})
-    r.figures = {"ladder": [{k: v for k, v in x.items() if k not in ("t_s", "angle_rad")} for x in ladder]}
+                                       "settle_s": settle_s, "stop_at_failure": stop_at_failure,
+                                       "setup": AXIS_SETUP.name})
+    r.figures = {"ladder": [{k: v for k, v in x.items() if k not in ("t_s", "angle_rad")} for x in ladder],
+                 "skipped_deg_s": skipped}
+    if skipped:
+        r.notes.append(f"rungs {', '.join(f'{x:g}' for x in skipped)} deg/s not run: the "
+                       f"{ladder[-1]['rate_deg_s']:g} deg/s rung was not smooth")
     r.headline = {"min_smooth_rate_deg_s": best}
     r.series = {"ladder": ladder}
 
