@@ -132,8 +132,8 @@ def min_rate(bench: Bench, rates_deg_s: Sequence[float] = RATE_LADDER_DEG_S, bou
     Each rung moves at a constant commanded rate (profile position with
     ``traj_vmax`` = rate), waits ``settle_s`` and times ``windows`` windows of
     ``rate x window_s`` output angle, at least ``min_window_arcsec`` (the
-    rungs below 0.001 deg/s keep 3.6 arcsec: 1.8 s windows at 0.0005 deg/s,
-    3.6 s at 0.0002, 10 s at 0.0001 deg/s).  A rung is smooth when the angle
+    rungs below 0.001 deg/s keep 3.6 arcsec: 2 s windows at 0.0005 deg/s,
+    5 s at 0.0002, 10 s at 0.0001 deg/s).  A rung is smooth when the angle
     never goes back by a window, every window's rate has the commanded sign,
     and the rate fluctuation (stability sigma(omega_i)/mean) is <= ``bound``;
     the rate accuracy |mean - cmd|/cmd is reported (and also judged when
