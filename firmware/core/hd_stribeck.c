@@ -56,14 +56,14 @@ int32_t hd_stribeck_shape_recip_q30(int32_t v, const hd_stribeck_recip_t *r, uin
     return shape_from_r24((prod > (uint64_t)INT32_MAX) ? INT32_MAX : (int32_t)prod, delta);
 }
 
-/* the map with the reciprocals of both directions */
+/* the map with the reciprocals of both directions and smooth-sign width eps (0 = hard sign) */
 static int32_t map_recip(const hd_stribeck_cfg_t *c, const hd_stribeck_recip_t *rp,
-                         const hd_stribeck_recip_t *rn, int32_t v)
+                         const hd_stribeck_recip_t *rn, int32_t v, int32_t eps)
 {
     const hd_stribeck_dir_t *p = (v >= 0) ? &c->pos : &c->neg;
     const int32_t e = hd_stribeck_shape_recip_q30(v, (v >= 0) ? rp : rn, c->delta);
     const int32_t g = hdf_add_sat(p->fc, hdf_mul_q(hdf_sub_sat(p->fs, p->fc), e, 30u));
-    const int32_t sg = hd_sign_smooth_q30(v, c->eps_v);
+    const int32_t sg = hd_sign_smooth_q30(v, eps);
     const int32_t coul = hdf_mul_q(sg, g, 30u);
     const int32_t visc = hdf_mul_q(p->fv, v, 32u);    /* Q16 * 2^-32 turn/s -> Q16 */
     return hdf_add_sat(coul, visc);
@@ -73,7 +73,7 @@ int32_t hd_stribeck_map(const hd_stribeck_cfg_t *c, int32_t v)
 {
     hd_stribeck_recip_t r;
     hd_stribeck_recip(&r, (v >= 0) ? c->pos.vs : c->neg.vs);
-    return map_recip(c, &r, &r, v);
+    return map_recip(c, &r, &r, v, c->eps_v);
 }
 
 void hd_stribeck_init(hd_stribeck_t *s, uint32_t ramp_ticks, bool enabled)
@@ -130,7 +130,8 @@ int32_t hd_stribeck_step(hd_stribeck_t *s, const hd_stribeck_cfg_t *c,
         hd_stribeck_recip(&s->rn, c->neg.vs);
     }
     s->v = hdf_sat32((int64_t)v_est + hdf_mul64x32_q(dv, w, 30u));
-    s->tau_raw = hdf_clamp32(map_recip(c, &s->rp, &s->rn, s->v), -tmax, tmax);
+    /* in a cruise v = v_ref keeps its sign: full sign (no smooth-sign reduction at slow rates) */
+    s->tau_raw = hdf_clamp32(map_recip(c, &s->rp, &s->rn, s->v, (s->cruise != 0u) ? 0 : c->eps_v), -tmax, tmax);
     (void)hd_blend_update(&s->blend);
     s->tau = hd_blend_apply(&s->blend, s->tau_raw);
     return s->tau;

@@ -8,6 +8,7 @@
  *            tau is continuous through zero even with fs_pos != fs_neg).
  *   v      = w * v_ref + (1 - w) * v_est          (configurable source)
  *   w      = 1 while the reference cruises (below), else w_ref
+ *   (in a cruise s(v) is the hard sign, eps_v = 0)
  *
  * Velocity source.  On the reference velocity (w_ref = 1) the feed-forward is
  * smooth at any constant rate, but at the end of a move it drops to 0 with the
@@ -21,8 +22,10 @@
  * kept its sign and value (|v_ref(k) - v_ref(k-1)| <= HD_STRIBECK_CRUISE_DV) for
  * cruise_ticks consecutive periods - the constant-rate phase of a move or a
  * constant-rate command, when the friction state is known to be sliding in the
- * direction of v_ref - and then w = 1 (reference velocity); at rest, while
- * accelerating or braking and in the final arrival/hold, w = w_ref.  Sinusoidal
+ * direction of v_ref - and then w = 1 (reference velocity) and the sign is the
+ * hard sign of v_ref (no zero crossing in a cruise, so no smooth-sign reduction of
+ * the friction level at rates below eps_v); at rest, while accelerating or
+ * braking and in the final arrival/hold, w = w_ref and s(v) as above.  Sinusoidal
  * or gyro-driven references (STAB) never stay constant that long.  The switch is
  * immediate (no ramp): at the start and end of a cruise v_est ~ v_ref.
  * cruise_ticks = 0: w = w_ref always (no cruise detection).

@@ -108,6 +108,13 @@ static void test_stribeck_cruise_and_vs_change(void **state)
     assert_true(hd_stribeck_step(&s, &c, DEGS / 100 + 1000, -DEGS) < 0);  /* a step: not constant */
     assert_int_equal(s.cruise_n, 0u);
     assert_true(hd_stribeck_step(&s, &c, 0, -DEGS) < 0);                   /* rest */
+    /* a cruise below eps_v: the full static level (hard sign), not the smooth sign's fraction */
+    for (k = 0; k < 11u; k++) {
+        t = hd_stribeck_step(&s, &c, DEGS / 10000, 0);
+    }
+    assert_int_equal(s.cruise, 1u);
+    assert_true(abs(t - NM(8)) < NM(0.01));
+    assert_true(hd_stribeck_map(&c, DEGS / 10000) < NM(2));     /* smooth sign: 0.15 of the level */
     /* vs change: the step's map follows (same result as a fresh map) */
     c.cruise_ticks = 0u;
     c.pos.vs = DEGS / 7;

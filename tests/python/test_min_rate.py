@@ -3,7 +3,7 @@ slowest required rung on the virtual reference axis.
 
 * the minimum smooth rate is the slowest rung of the ladder with every faster rung smooth
   (monotone and rate stability <= bound), whatever order the rungs were run or listed in;
-  the windows of the rungs below 0.001 deg/s keep 3.6 arcsec;
+  the windows of the rungs below 0.001 deg/s keep 3.6 arcsec, their settling at least 4 windows;
 * the comparison tells a drive that is smooth down to 0.0001 deg/s from one that is
   smooth down to 0.0005 deg/s, and calls two drives smooth on the whole ladder "same";
 * on the virtual drive, the best combination (Stribeck feed-forward on the measured
@@ -42,6 +42,9 @@ def test_ladder_extends_below_the_requirement_with_fixed_angle_windows() -> None
     for r in (0.0005, 0.0002, 0.0001):
         assert cl.rate_window_rad(r) / mt.ARCSEC == pytest.approx(3.6)
         assert cl.rate_window_rad(r) / math.radians(r) == pytest.approx(0.001 / r)
+    # settling: 5 s, at least 4 windows below 0.5 deg/s (the start transient is an angle), 1 s above
+    assert cl.rung_settle_s(1.0) == 1.0 and cl.rung_settle_s(0.01) == 5.0 and cl.rung_settle_s(0.001) == 5.0
+    assert [cl.rung_settle_s(r) for r in (0.0005, 0.0002, 0.0001)] == pytest.approx([8.0, 20.0, 40.0])
 
 
 def test_min_smooth_rate_from_the_extended_ladder() -> None:
@@ -76,7 +79,7 @@ def test_best_combination_smooth_at_0p001_deg_s(cruise_ticks: int | None, smooth
         # without the cruise switch the 0.001 rung fails and the slower one is skipped (not run)
         r = cl.min_rate(b, rates_deg_s=(0.001,) if smooth else (0.0005, 0.001), windows=3, settle_s=5.0)
     rung = r.figures["ladder"][0]
-    assert rung["window_arcsec"] == pytest.approx(3.6)
+    assert rung["window_arcsec"] == pytest.approx(3.6) and rung["settle_s"] == 5.0
     assert rung["windows"] >= 2
     if smooth:
         assert rung["monotone"] and rung["stability"] <= 0.1, rung

@@ -87,11 +87,25 @@ RATE_LADDER_DEG_S: tuple[float, ...] = (1.0, 0.1, 0.01, 0.001, 0.0005, 0.0002, 0
 #: Smallest fixed-angle window, arcsec: the 0.001 deg/s rung's 1 s window (47 counts of a 24-bit output
 #: encoder).  Slower rungs keep this angle (longer windows) instead of shrinking it into the encoder noise.
 MIN_WINDOW_ARCSEC = 3.6
+#: Settling of a rung below 0.5 deg/s: at least this many windows.  The start transient (the loop taking
+#: up the gear's presliding compliance) is an angle, ~10 s at 0.0002 deg/s on the reference axis; with a
+#: fixed 5 s both the PID and the compensated drive fail the slow rungs on it, not on stick-slip.
+SETTLE_WINDOWS = 4.0
 
 
 def rate_window_rad(rate_deg_s: float, window_s: float = 1.0, min_window_arcsec: float = MIN_WINDOW_ARCSEC) -> float:
     """Fixed-angle window of a rung, rad: ``rate x window_s``, at least ``min_window_arcsec``."""
     return max(math.radians(abs(rate_deg_s)) * window_s, min_window_arcsec * mt.ARCSEC)
+
+
+def rung_settle_s(rate_deg_s: float, settle_s: float = 5.0, window_s: float = 1.0,
+                  min_window_arcsec: float = MIN_WINDOW_ARCSEC, settle_windows: float = SETTLE_WINDOWS) -> float:
+    """Settling time of a rung, s: ``settle_s`` but at least ``settle_windows`` windows below 0.5 deg/s
+    (the start transient is an angle: the loop takes up the gear's presliding compliance), at most 1 s above."""
+    if rate_deg_s >= 0.5:
+        return min(settle_s, 1.0)
+    return max(settle_s, settle_windows * rate_window_rad(rate_deg_s, window_s, min_window_arcsec)
+               / math.radians(rate_deg_s))
 
 
 def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, settle_s: float,
@@ -126,7 +140,8 @@ def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, set
 def min_rate(bench: Bench, rates_deg_s: Sequence[float] = RATE_LADDER_DEG_S, bound: float = 0.1,
              windows: int = 10, window_s: float = 1.0, settle_s: float = 5.0,
              accuracy_bound: Optional[float] = None, progress: Optional[Progress] = None,
-             min_window_arcsec: float = MIN_WINDOW_ARCSEC, stop_at_failure: bool = True) -> Result:
+             min_window_arcsec: float = MIN_WINDOW_ARCSEC, stop_at_failure: bool = True,
+             settle_windows: float = SETTLE_WINDOWS) -> Result:
     """Minimum smooth rate over a rate ladder (fixed-angle timing).
 
     Each rung moves at a constant commanded rate (profile position with
@@ -152,6 +167,9 @@ def min_rate(bench: Bench, rates_deg_s: Sequence[float] = RATE_LADDER_DEG_S, bou
         Nominal window duration, s (window angle = rate x window_s).
     settle_s : float
         Drive time at the rate before the record, s (at most 1 s above 0.5 deg/s).
+    settle_windows : float
+        Below 0.5 deg/s the settling lasts at least this many windows (4: 5 s at 0.001 deg/s,
+        8 / 20 / 40 s at 0.0005 / 0.0002 / 0.0001 deg/s).
     min_window_arcsec : float
         Smallest window angle, arcsec.
     stop_at_failure : bool
@@ -170,8 +188,9 @@ def min_rate(bench: Bench, rates_deg_s: Sequence[float] = RATE_LADDER_DEG_S, bou
     order = sorted(rates_deg_s, reverse=True)
     skipped: list[float] = []
     for k, rate in enumerate(order):
-        rr = rate_run(bench, rate, windows, window_s, settle_s if rate < 0.5 else min(settle_s, 1.0),
-                      min_window_arcsec)
+        settle = rung_settle_s(rate, settle_s, window_s, min_window_arcsec, settle_windows)
+        rr = rate_run(bench, rate, windows, window_s, settle, min_window_arcsec)
+        rr["settle_s"] = settle
         ladder.append(rr)
         # stop: a target just ahead of the moving reference, and wait until the trajectory has arrived
         with bench.params({"traj_vmax": math.radians(rate) / TURN}):
@@ -186,7 +205,8 @@ def min_rate(bench: Bench, rates_deg_s: Sequence[float] = RATE_LADDER_DEG_S, bou
     best = mt.min_smooth_rate(ladder, bound, accuracy_bound)
     r = Result("min-rate", conditions={"ladder_deg_s": list(rates_deg_s), "bound": bound, "accuracy_bound": accuracy_bound, "windows": windows,
                                        "window_s": window_s, "min_window_arcsec": min_window_arcsec,
-                                       "settle_s": settle_s, "stop_at_failure": stop_at_failure,
+                                       "settle_s": settle_s, "settle_windows": settle_windows,
+                                       "stop_at_failure": stop_at_failure,
                                        "setup": AXIS_SETUP.name})
     r.figures = {"ladder": [{k: v for k, v in x.items() if k not in ("t_s", "angle_rad")} for x in ladder],
                  "skipped_deg_s": skipped}
@@ -634,6 +654,6 @@ def bandwidth(bench: Bench, amplitude_arcsec: float = 60.0, period_samples: int 
     return r
 
 
-__all__ = ["AXIS_SETUP", "MIN_WINDOW_ARCSEC", "PEAK_OVERDRIVE", "RATE_LADDER_DEG_S", "PEAK_WINDOW", "STAB_MODE", "STAB_MODES", "bandwidth", "bandwidth_lines",
+__all__ = ["AXIS_SETUP", "MIN_WINDOW_ARCSEC", "PEAK_OVERDRIVE", "RATE_LADDER_DEG_S", "SETTLE_WINDOWS", "PEAK_WINDOW", "STAB_MODE", "STAB_MODES", "bandwidth", "bandwidth_lines",
            "bandwidth_signal", "drive_has_stab", "enable_stab", "min_rate", "peak_torque", "positioning", "pp_move",
-           "rate_window_rad", "stab_setup", "stabilisation"]
+           "rate_window_rad", "rung_settle_s", "stab_setup", "stabilisation"]
