@@ -55,6 +55,15 @@ def pp_move(bench: Bench, target_rad: float, timeout_s: float = 600.0) -> None:
             raise RuntimeError(f"the drive faulted during a move (fault code {bench.fault()})")
 
 
+def reference_angle_rad(bench: Bench) -> float:
+    """Position reference of the drive, rad: the output angle (0x5F00:9, Q32.32 turns) plus the
+    wrapped difference of the low words of reference (0x5F00:8) and output."""
+    load = int(bench.read(0x5F00, 9))
+    d = (int(bench.read(0x5F00, 8)) - load) & 0xFFFFFFFF
+    d = d - (1 << 32) if d >= 1 << 31 else d
+    return (load + d) / 2.0 ** 32 * TURN
+
+
 def pp_move_start(bench: Bench, target_rad: float, tries: int = 5) -> None:
     """Start a profile move (new set-point edge) without waiting for its end.
 
@@ -192,9 +201,11 @@ def min_rate(bench: Bench, rates_deg_s: Sequence[float] = RATE_LADDER_DEG_S, bou
         rr = rate_run(bench, rate, windows, window_s, settle, min_window_arcsec)
         rr["settle_s"] = settle
         ladder.append(rr)
-        # stop: a target just ahead of the moving reference, and wait until the trajectory has arrived
+        # stop: a target just ahead of the moving reference (not of the lagging output: at the slow rungs
+        # the output lags by several arcsec and a target behind the reference is a reversal at the rung's
+        # rate), and wait until the trajectory has arrived
         with bench.params({"traj_vmax": math.radians(rate) / TURN}):
-            pp_move(bench, bench.load_angle_rad() + math.radians(rate) * 0.2)
+            pp_move(bench, max(reference_angle_rad(bench), bench.load_angle_rad()) + math.radians(rate) * 0.2)
         bench.wait(0.2)
         if progress:
             progress((k + 1) / len(rates_deg_s), f"{rate:g} deg/s: stability {rr['stability']:.3g}")
@@ -656,4 +667,4 @@ def bandwidth(bench: Bench, amplitude_arcsec: float = 60.0, period_samples: int 
 
 __all__ = ["AXIS_SETUP", "MIN_WINDOW_ARCSEC", "PEAK_OVERDRIVE", "RATE_LADDER_DEG_S", "SETTLE_WINDOWS", "PEAK_WINDOW", "STAB_MODE", "STAB_MODES", "bandwidth", "bandwidth_lines",
            "bandwidth_signal", "drive_has_stab", "enable_stab", "min_rate", "peak_torque", "positioning", "pp_move",
-           "rate_window_rad", "rung_settle_s", "stab_setup", "stabilisation"]
+           "rate_window_rad", "reference_angle_rad", "rung_settle_s", "stab_setup", "stabilisation"]
