@@ -69,7 +69,7 @@ def test_min_smooth_rate_from_the_extended_ladder() -> None:
 @pytest.mark.skipif(not SIM.exists(), reason="build/bin/hdservo-sim not built (make sim)")
 @pytest.mark.parametrize("cruise_ticks, smooth", [(None, True), (0, False)])
 def test_best_combination_smooth_at_0p001_deg_s(cruise_ticks: int | None, smooth: bool) -> None:
-    """One rung, 3 windows of 3.6 arcsec after 5 s (the start transient): the best combination is smooth, without the cruise switch not."""
+    """One rung, 5 windows of 3.6 arcsec after 10 s (past the start transient): the best combination is smooth, without the cruise switch not."""
     params = {k: v for k, v in cs.compensator_params("reference").items() if k.startswith("str_")}
     params.update(cs.best_gains("reference"))
     if cruise_ticks is not None:
@@ -77,10 +77,10 @@ def test_best_combination_smooth_at_0p001_deg_s(cruise_ticks: int | None, smooth
     t = Target(compensators=list(cs.BEST_NAMES), params=params)
     with open_bench(t, cl.AXIS_SETUP) as b:
         # without the cruise switch the 0.001 rung fails and the slower one is skipped (not run)
-        r = cl.min_rate(b, rates_deg_s=(0.001,) if smooth else (0.0005, 0.001), windows=3, settle_s=5.0)
+        r = cl.min_rate(b, rates_deg_s=(0.001,) if smooth else (0.0005, 0.001), windows=5, settle_s=10.0)
     rung = r.figures["ladder"][0]
-    assert rung["window_arcsec"] == pytest.approx(3.6) and rung["settle_s"] == 5.0
-    assert rung["windows"] >= 2
+    assert rung["window_arcsec"] == pytest.approx(3.6) and rung["settle_s"] == 10.0
+    assert rung["windows"] >= 4
     if smooth:
         assert rung["monotone"] and rung["stability"] <= 0.1, rung
         assert r.headline["min_smooth_rate_deg_s"] == 0.001
