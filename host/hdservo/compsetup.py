@@ -60,14 +60,17 @@ ENABLE_BITS: dict[str, int] = {"stribeck": 1, "lugre": 2, "maxwell": 4, "preisac
 #: The best combination of the comparison (``hdservo compare`` / ``make demo``; docs/demo.md): one drive
 #: configuration for every procedure.  Stribeck friction feed-forward on the *measured* velocity
 #: (``str_w_ref`` 0: with the reference velocity the feed-forward differs between the fast and the
-#: slow final arrivals, ISO R 3.7 arcsec), the one-direction final approach of PTP moves, position
-#: P 60 1/s.  No scheduled position integral (``cb_pki`` 0): it turns the 0.01 deg/s rung into a
-#: stick-slip limit cycle.  The stabilisation procedure runs in the drive's gyro stabilisation mode.
+#: slow final arrivals, ISO R 3.7 arcsec) except while the reference cruises at a constant rate
+#: (``str_cruise_ticks`` 200 = 20 ms of constant reference velocity: then the reference velocity; on
+#: the measured velocity the map is a relay in the velocity loop, a ~95 Hz +-12 N.m limit cycle that
+#: makes 0.001 deg/s jerky; docs/compensators.md), the one-direction final approach of PTP moves,
+#: position P 60 1/s.  No scheduled position integral (``cb_pki`` 0): it turns the 0.01 deg/s rung into a
+#: stick-slip limit cycle.  The stabilisation procedure runs in the drive's STAB mode (gyro).
 BEST_NAMES: tuple[str, ...] = ("stribeck", "approach")
 #: Procedure options of the best combination: the stabilisation test in the drive's STAB mode (gyro).
 BEST_PROC_ARGS: dict[str, list[str]] = {"stabilisation": ["--stab-mode", "stab"]}
 #: Retuned drive parameters of the best combination (table units), on top of the model's compensator parameters.
-BEST_GAINS: dict[str, float] = {"pos_kp": 60.0, "str_w_ref": 0.0}
+BEST_GAINS: dict[str, float] = {"pos_kp": 60.0, "str_w_ref": 0.0, "str_cruise_ticks": 200.0}
 
 
 def best_gains(axis: str = "reference") -> dict[str, float]:

@@ -25,7 +25,7 @@ static int tearDown(void **state) { (void)state; return 0; }
 static void test_blend_ramp_is_bumpless(void **state)
 {
     hd_stribeck_cfg_t c = { { NM(5), NM(8), DEGS, NM(100) }, { NM(5), NM(8), DEGS, NM(100) },
-                            2u, DEGS / 1000, 1 << 30, NM(100) };
+                            2u, DEGS / 1000, 1 << 30, NM(100), 0u };
     hd_stribeck_t s;
     int32_t prev = 0;
     uint32_t k;
@@ -49,7 +49,7 @@ static void test_blend_ramp_is_bumpless(void **state)
 static void test_stribeck_odd_and_breakaway(void **state)
 {
     hd_stribeck_cfg_t c = { { NM(5), NM(8), DEGS, NM(100) }, { NM(5), NM(8), DEGS, NM(100) },
-                            2u, DEGS / 1000, 1 << 30, NM(100) };
+                            2u, DEGS / 1000, 1 << 30, NM(100), 0u };
     int32_t v;
     (void)state;
     for (v = -3 * DEGS; v <= 3 * DEGS; v += DEGS / 7) {
@@ -59,6 +59,69 @@ static void test_stribeck_odd_and_breakaway(void **state)
     assert_true(abs(hd_stribeck_map(&c, DEGS / 1000) - NM(8)) < NM(0.01));   /* at eps: full static level */
     c.delta = 1u;
     assert_true(abs(hd_stribeck_g(&c.pos, 1u, DEGS) - (NM(5) + (int32_t)(NM(3) * 0.36787944117))) <= 2);
+}
+
+/* the reciprocal form of |v|/vs (hd_stribeck_step/map) against the division form (shape_q30):
+ * within 2 LSB (Q30) of exp() over every vs scale, both exponents, the whole velocity range */
+static void test_stribeck_recip_matches_division(void **state)
+{
+    static const int32_t vs_list[] = { 1, 2, 3, 7, 1000, 65535, 65536, 65537, DEGS / 1000, DEGS, 3 * DEGS + 1,
+                                       0x40000000, INT32_MAX };
+    static const int32_t v_list[] = { 0, 1, -1, 2, 1000, -12345, DEGS / 1000, DEGS / 3, DEGS, -DEGS, 5 * DEGS,
+                                      0x3FFFFFFF, INT32_MAX, INT32_MIN, -INT32_MAX };
+    uint32_t i, j, d;
+    hd_stribeck_recip_t r;
+    (void)state;
+    for (i = 0; i < sizeof vs_list / sizeof vs_list[0]; i++) {
+        hd_stribeck_recip(&r, vs_list[i]);
+        assert_true(r.m > (1u << 30) && r.m <= (1u << 31));
+        for (j = 0; j < sizeof v_list / sizeof v_list[0]; j++) {
+            for (d = 1u; d <= 2u; d++) {
+                const int32_t a = hd_stribeck_shape_recip_q30(v_list[j], &r, d);
+                const int32_t b = hd_stribeck_shape_q30(v_list[j], vs_list[i], d);
+                assert_true(abs(a - b) <= 2);
+            }
+        }
+    }
+    hd_stribeck_recip(&r, 0);
+    assert_int_equal(hd_stribeck_shape_recip_q30(DEGS, &r, 2u), 0);
+}
+
+/* cruise detection: the reference velocity after cruise_ticks constant periods, the estimate
+ * otherwise; the vs reciprocal follows a parameter change at once */
+static void test_stribeck_cruise_and_vs_change(void **state)
+{
+    hd_stribeck_cfg_t c = { { NM(5), NM(8), DEGS, NM(100) }, { NM(5), NM(8), DEGS, NM(100) },
+                            2u, DEGS / 1000, 0, NM(100), 10u };
+    hd_stribeck_t s;
+    uint32_t k;
+    int32_t t;
+    (void)state;
+    hd_stribeck_init(&s, 0u, true);
+    for (k = 0; k < 10u; k++) {                      /* first period after rest + 9 constant: estimate */
+        assert_true(hd_stribeck_step(&s, &c, DEGS / 100, -DEGS) < 0);
+        assert_int_equal(s.cruise, 0u);
+    }
+    assert_true(hd_stribeck_step(&s, &c, DEGS / 100 + 1, -DEGS) > 0);   /* 10th constant period: cruise */
+    assert_int_equal(s.cruise, 1u);
+    assert_int_equal(s.v, DEGS / 100 + 1);
+    assert_true(hd_stribeck_step(&s, &c, DEGS / 100 + 1000, -DEGS) < 0);  /* a step: not constant */
+    assert_int_equal(s.cruise_n, 0u);
+    assert_true(hd_stribeck_step(&s, &c, 0, -DEGS) < 0);                   /* rest */
+    /* a cruise below eps_v: the full static level (hard sign), not the smooth sign's fraction */
+    for (k = 0; k < 11u; k++) {
+        t = hd_stribeck_step(&s, &c, DEGS / 10000, 0);
+    }
+    assert_int_equal(s.cruise, 1u);
+    assert_true(abs(t - NM(8)) < NM(0.01));
+    assert_true(hd_stribeck_map(&c, DEGS / 10000) < NM(2));     /* smooth sign: 0.15 of the level */
+    /* vs change: the step's map follows (same result as a fresh map) */
+    c.cruise_ticks = 0u;
+    c.pos.vs = DEGS / 7;
+    c.neg.vs = DEGS / 7;
+    t = hd_stribeck_step(&s, &c, 0, DEGS / 5);
+    assert_int_equal(t, hd_stribeck_map(&c, DEGS / 5));
+    assert_int_equal(s.rp.vs, DEGS / 7);
 }
 
 static void test_lugre_steady_state_and_hold(void **state)
@@ -186,6 +249,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_blend_ramp_is_bumpless, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_stribeck_odd_and_breakaway, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_stribeck_recip_matches_division, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_stribeck_cruise_and_vs_change, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_lugre_steady_state_and_hold, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_maxwell_saturation, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_te_single_harmonic, setUp, tearDown),

@@ -29,7 +29,14 @@ static volatile int32_t sink32;
 static const hd_stribeck_cfg_t st_cfg = {
     { 655360, 1048576, 11930465, 6553600 },    /* fc 10, fs 16 N.m, vs 1 deg/s, fv 100 N.m/(turn/s) */
     { 720896, 1179648, 8947849, 7864320 },     /* asymmetric negative side */
-    2u, 11930, 1 << 29, 100 << 16
+    2u, 11930, 1 << 29, 100 << 16, 0u
+};
+
+/* the same with cruise detection (str_cruise_ticks 8) and the estimate outside a cruise */
+static const hd_stribeck_cfg_t st_cruise_cfg = {
+    { 655360, 1048576, 11930465, 6553600 },
+    { 720896, 1179648, 8947849, 7864320 },
+    2u, 11930, 0, 100 << 16, 8u
 };
 
 static void gen_two_vel(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
@@ -38,7 +45,7 @@ static void gen_two_vel(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
     in[1] = hd_gv_rand_range(r, -5 * DEGS, 5 * DEGS);
 }
 
-static void run_stribeck(const int32_t *in, int32_t *out, uint32_t count)
+static void run_stribeck_cfg(const hd_stribeck_cfg_t *c, const int32_t *in, int32_t *out, uint32_t count)
 {
     hd_stribeck_t s;
     uint32_t k;
@@ -47,15 +54,40 @@ static void run_stribeck(const int32_t *in, int32_t *out, uint32_t count)
         if (k == 16u) {
             hd_stribeck_set_enabled(&s, true);
         }
-        out[2u * k] = hd_stribeck_step(&s, &st_cfg, in[2u * k], in[2u * k + 1u]);
+        out[2u * k] = hd_stribeck_step(&s, c, in[2u * k], in[2u * k + 1u]);
         out[2u * k + 1u] = s.v;
     }
+}
+
+static void run_stribeck(const int32_t *in, int32_t *out, uint32_t count)
+{
+    run_stribeck_cfg(&st_cfg, in, out, count);
+}
+
+static void run_stribeck_cruise(const int32_t *in, int32_t *out, uint32_t count)
+{
+    run_stribeck_cfg(&st_cruise_cfg, in, out, count);
+}
+
+/* v_ref constant over runs of 16 vectors (odd runs with +-1 LSB jitter, every 4th run 0 or a ramp),
+ * v_est random: the cruise counter starts, completes and resets */
+static void gen_cruise_vel(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    const uint32_t run = idx >> 4;
+    const int32_t level = (int32_t)((run * 2654435761u) % (uint32_t)(10 * DEGS)) - 5 * DEGS;
+    if ((run & 3u) == 3u) {
+        in[0] = ((run & 4u) != 0u) ? 0 : level + (int32_t)(idx & 15u) * 1000;
+    } else {
+        in[0] = level + (((run & 1u) != 0u) ? (int32_t)(idx & 1u) : 0);
+    }
+    in[1] = hd_gv_rand_range(r, -5 * DEGS, 5 * DEGS);
 }
 
 static void cost_stribeck(void)
 {
     hd_stribeck_t s;
     hd_stribeck_init(&s, 0u, true);
+    (void)hd_stribeck_step(&s, &st_cfg, cv_v, cv_w);     /* reciprocals of vs computed here, once */
     hd_gv_cost_mark();
     sink32 = hd_stribeck_step(&s, &st_cfg, cv_v, cv_w);
     hd_gv_cost_mark();
@@ -388,6 +420,7 @@ static void cost_pz_inv32(void)
 
 const hd_gv_kernel_t hd_gv_comp_kernels[] = {
     { "comp_stribeck_step", 2u, 2u, 256u, gen_two_vel, run_stribeck, cost_stribeck },
+    { "comp_stribeck_cruise", 2u, 2u, 256u, gen_cruise_vel, run_stribeck_cruise, NULL },
     { "comp_lugre_step", 3u, 3u, 256u, gen_lugre, run_lugre, cost_lugre },
     { "comp_maxwell_step_n8", 1u, 3u, 256u, gen_step, run_maxwell, cost_maxwell },
     { "comp_te_step_h4", 2u, 3u, 256u, gen_angle, run_te, cost_te },

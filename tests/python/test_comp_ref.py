@@ -72,7 +72,7 @@ def test_stribeck_matches_reference(lib: C.CDLL, delta: int) -> None:
         v = np.concatenate([rng.uniform(-60, 60, 500), rng.uniform(-2, 2, 500),
                             rng.uniform(-0.02, 0.02, 200)]) * DEG_S
         v = a32(np.round(v))
-        cfg = a32(pos + neg + [delta, eps, 1 << 30, tmax])
+        cfg = a32(pos + neg + [delta, eps, 1 << 30, tmax, 0])
         out = np.zeros(len(v), np.int32)
         lib.comp_stribeck_run(cfg, v, a32(np.zeros(len(v))), out, len(v))
         ref = compref.stribeck_map(v, pos, neg, delta, eps, tmax)
@@ -89,19 +89,43 @@ def test_stribeck_zero_crossing_and_source(lib: C.CDLL) -> None:
     neg = [int(6 * NM), int(10 * NM), int(DEG_S), int(120 * NM)]
     eps = int(0.001 * DEG_S)
     v = a32(np.arange(-100, 101) * (eps // 50))
-    cfg = a32(pos + neg + [2, eps, 1 << 30, int(100 * NM)])
+    cfg = a32(pos + neg + [2, eps, 1 << 30, int(100 * NM), 0])
     out = np.zeros(len(v), np.int32)
     lib.comp_stribeck_run(cfg, v, a32(np.zeros(len(v))), out, len(v))
     assert out[v == 0][0] == 0
     assert np.all(np.diff(out) >= 0)                      # monotone through zero
     assert np.max(np.abs(np.diff(out))) < 0.05 * 10 * NM  # no jump (C1 smooth sign)
     # source selection: w_ref = 0 uses the estimate only
-    cfg0 = a32(pos + neg + [2, eps, 0, int(100 * NM)])
+    cfg0 = a32(pos + neg + [2, eps, 0, int(100 * NM), 0])
     vr = a32(np.full(10, 5 * DEG_S))
     ve = a32(np.full(10, -5 * DEG_S))
     o1 = np.zeros(10, np.int32)
     lib.comp_stribeck_run(cfg0, vr, ve, o1, 10)
     assert np.all(o1 < 0)
+
+
+def test_stribeck_cruise_source(lib: C.CDLL) -> None:
+    """str_cruise_ticks: the reference velocity once v_ref has been constant that long, else w_ref."""
+    pos = [int(5 * NM), int(8 * NM), int(DEG_S), int(100 * NM)]
+    eps = int(0.001 * DEG_S)
+    cfg = a32(pos + pos + [2, eps, 0, int(100 * NM), 5])       # w_ref 0 (estimate), cruise after 5 periods
+    # v_ref: 0 (rest), then +0.001 deg/s (+-1 LSB jitter: still cruising), then a ramp, then 0
+    slow = int(0.001 * DEG_S)
+    vr = a32([0] * 4 + [slow, slow + 1, slow, slow - 1, slow, slow, slow, slow] + [slow + 1000 * k for k in range(1, 7)]
+             + [0] * 4)
+    ve = a32(np.full(len(vr), -5 * DEG_S))                     # estimate of the opposite sign
+    out = np.zeros(len(vr), np.int32)
+    lib.comp_stribeck_run(cfg, vr, ve, out, len(vr))
+    src_ref = out > 0
+    # rest: estimate; constant v_ref: the estimate for the first 5 periods of the run (the first
+    # constant period is the one after the step from 0), then the reference; ramp and rest: estimate
+    assert list(src_ref[:4]) == [False] * 4
+    assert list(src_ref[4:12]) == [False] * 5 + [True] * 3
+    assert not src_ref[12:].any()
+    # off (cruise_ticks 0): the estimate throughout
+    cfg[12] = 0
+    lib.comp_stribeck_run(cfg, vr, ve, out, len(vr))
+    assert np.all(out < 0)
 
 
 def test_lugre_matches_reference(lib: C.CDLL) -> None:

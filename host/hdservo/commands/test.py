@@ -55,7 +55,8 @@ PROCEDURES: dict[str, Proc] = {
     "frf": (lambda a: cl.AXIS_SETUP, True, lambda b, a, p: fq.frf(b, rms_Nm=a.excitation_Nm, progress=p)),
     "min-rate": (lambda a: cl.AXIS_SETUP, False,
                  lambda b, a, p: cl.min_rate(b, rates_deg_s=a.rates, bound=a.bound, windows=a.windows,
-                                             settle_s=a.settle, progress=p)),
+                                             settle_s=a.settle, progress=p,
+                                             stop_at_failure=not a.full_ladder)),
     "stabilisation": (lambda a: cl.stab_setup(a.base_amplitude_deg, a.base_frequency_hz), False,
                       lambda b, a, p: cl.stabilisation(b, duration_s=a.duration, progress=p,
                                                        mode=getattr(a, "stab_mode", "hold"))),
@@ -122,11 +123,14 @@ def register(p: argparse.ArgumentParser) -> None:
     g.add_argument("--cycles", type=int, default=None, help="torque-loop cycles (stiffness 2, hysteresis 3, lost motion 3)")
     g.add_argument("--te-rate", type=_positive, default=10.0, help="transmission test rate, deg/s (default 10)")
     g.add_argument("--excitation-Nm", type=_positive, default=6.0, help="FRF torque excitation RMS, N.m (default 6)")
-    g.add_argument("--rates", type=_floats, default=[1.0, 0.1, 0.01, 0.001],
-                   help="min-rate decade ladder, deg/s (default 1,0.1,0.01,0.001)")
-    g.add_argument("--bound", type=_positive, default=0.1, help="min-rate bound on rate stability and accuracy (0.1)")
+    g.add_argument("--rates", type=_floats, default=list(cl.RATE_LADDER_DEG_S),
+                   help="min-rate ladder, deg/s (default " + ",".join(f"{r:g}" for r in cl.RATE_LADDER_DEG_S)
+                        + f"; windows of rate x 1 s, at least {cl.MIN_WINDOW_ARCSEC:g} arcsec)")
+    g.add_argument("--bound", type=_positive, default=0.1, help="min-rate bound on the rate stability sigma/mean (0.1)")
     g.add_argument("--windows", type=int, default=10, help="min-rate fixed-angle windows per rung (10, 1 s each)")
     g.add_argument("--settle", type=_positive, default=5.0, help="min-rate settling time per rung, s (5)")
+    g.add_argument("--full-ladder", action="store_true",
+                   help="min-rate: run every rung (default: stop after the first rung that is not smooth)")
     g.add_argument("--base-amplitude-deg", type=_positive, default=0.5, help="stabilisation base rocking, deg (0.5)")
     g.add_argument("--base-frequency-hz", type=_positive, default=1.0, help="stabilisation base rocking, Hz (1)")
     g.add_argument("--duration", type=_positive, default=5.0, help="stabilisation record, s (5)")
@@ -171,6 +175,8 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--runs must be >= 2 (ISO 230-2 needs a standard deviation)")
     if args.windows < 2:
         raise UserError("--windows must be >= 2")
+    if min(args.rates) <= 0:
+        raise UserError(f"--rates {','.join(f'{r:g}' for r in args.rates)}: every rate must be > 0 deg/s")
     if args.cycles is not None and args.cycles < 1:
         raise UserError("--cycles must be >= 1")
     _check_out(args.json, "json")

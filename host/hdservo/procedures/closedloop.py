@@ -57,6 +57,15 @@ def pp_move(bench: Bench, target_rad: float, timeout_s: float = 600.0) -> None:
             raise RuntimeError(f"the drive faulted during a move (fault code {bench.fault()})")
 
 
+def reference_angle_rad(bench: Bench) -> float:
+    """Position reference of the drive, rad: the output angle (0x5F00:9, Q32.32 turns) plus the
+    wrapped difference of the low words of reference (0x5F00:8) and output."""
+    load = int(bench.read(0x5F00, 9))
+    d = (int(bench.read(0x5F00, 8)) - load) & 0xFFFFFFFF
+    d = d - (1 << 32) if d >= 1 << 31 else d
+    return (load + d) / 2.0 ** 32 * TURN
+
+
 def pp_move_start(bench: Bench, target_rad: float, tries: int = 5) -> None:
     """Start a profile move (new set-point edge) without waiting for its end.
 
@@ -90,15 +99,6 @@ RATE_REACH = 3.0
 RATE_ATTEMPTS = 3
 
 
-def reference_angle_rad(bench: Bench) -> float:
-    """The drive's position reference (output), rad: output angle + wrapped (set-point phase - load phase)."""
-    load = bench.load_angle_rad()
-    sp = int(bench.read(0x5F00, 8))
-    ph = int(bench.read(0x5F00, 2))
-    d = ((sp - ph + 2 ** 31) % 2 ** 32) - 2 ** 31
-    return load + d / 2.0 ** 32 * TURN
-
-
 def reference_moved_throughout(ref_lo: np.ndarray) -> bool:
     """True when a captured reference (wrapped 2^-32-turn words) advanced between every two samples.
 
@@ -110,25 +110,58 @@ def reference_moved_throughout(ref_lo: np.ndarray) -> bool:
     return bool(d.size > 0 and (np.all(d > 0) or np.all(d < 0)))
 
 
-def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, settle_s: float) -> dict[str, Any]:
+#: Default min-rate ladder, deg/s: the decades down to the 0.001 deg/s requirement and three rungs below it,
+#: so that the figure can tell two drives apart that both meet the requirement (docs/procedures.md).
+RATE_LADDER_DEG_S: tuple[float, ...] = (1.0, 0.1, 0.01, 0.001, 0.0005, 0.0002, 0.0001)
+#: Smallest fixed-angle window, arcsec: the 0.001 deg/s rung's 1 s window (47 counts of a 24-bit output
+#: encoder).  Slower rungs keep this angle (longer windows) instead of shrinking it into the encoder noise.
+MIN_WINDOW_ARCSEC = 3.6
+#: Settling of a rung below 0.5 deg/s: at least this many windows.  The start transient (the loop taking
+#: up the gear's presliding compliance) is an angle, ~10 s at 0.0002 deg/s on the reference axis; with a
+#: fixed 5 s both the PID and the compensated drive fail the slow rungs on it, not on stick-slip.
+SETTLE_WINDOWS = 4.0
+
+
+def rate_window_rad(rate_deg_s: float, window_s: float = 1.0, min_window_arcsec: float = MIN_WINDOW_ARCSEC) -> float:
+    """Fixed-angle window of a rung, rad: ``rate x window_s``, at least ``min_window_arcsec``."""
+    return max(math.radians(abs(rate_deg_s)) * window_s, min_window_arcsec * mt.ARCSEC)
+
+
+def rung_settle_s(rate_deg_s: float, settle_s: float = 5.0, window_s: float = 1.0,
+                  min_window_arcsec: float = MIN_WINDOW_ARCSEC, settle_windows: float = SETTLE_WINDOWS) -> float:
+    """Settling time of a rung, s: ``settle_s`` but at least ``settle_windows`` windows below 0.5 deg/s
+    (the start transient is an angle: the loop takes up the gear's presliding compliance), at most 1 s above."""
+    if rate_deg_s >= 0.5:
+        return min(settle_s, 1.0)
+    return max(settle_s, settle_windows * rate_window_rad(rate_deg_s, window_s, min_window_arcsec)
+               / math.radians(rate_deg_s))
+
+
+def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, settle_s: float,
+             min_window_arcsec: float = MIN_WINDOW_ARCSEC) -> dict[str, Any]:
     """One rung: constant rate through the profile generator; fixed-angle timing on the output encoder.
 
+    The window angle is :func:`rate_window_rad` (``rate x window_s``, at least
+    ``min_window_arcsec``); the record covers ``windows`` windows at the commanded rate.
     The rung is a profile move at ``traj_vmax`` = rate towards a target :data:`RATE_REACH` x the
     rung's travel ahead; the record (output encoder and the drive's reference) starts after
     ``settle_s``.  With fast pacing the drive's time runs on (~20x real time) while the host is
     busy, so a host stall between the settling and the record (a loaded machine) can let the
     move arrive before or during the record: then the reference stood still in the record, which
     is taken again (:data:`RATE_ATTEMPTS`; ``attempts`` in the result).  The rung ends with a stop
-    just ahead of the moving reference, still at the rung's ``traj_vmax`` (restoring the fast
-    limit first would let the reference run on to the far target and the stop would reverse).
+    just ahead of the moving reference (not of the lagging output: at the slow rungs the output
+    lags by several arcsec and a target behind the reference is a reversal), still at the rung's
+    ``traj_vmax`` (restoring the fast limit first would let the reference run on to the far target
+    and the stop would reverse).
     """
     rate = math.radians(rate_deg_s)
-    dur = windows * window_s
+    win = rate_window_rad(rate_deg_s, window_s, min_window_arcsec)
+    dur = windows * win / rate
     frames = CAPTURE_FRAMES_3
     decim = max(1, int(math.ceil(dur / frames / DT)))
     frames = int(math.ceil(dur / (decim * DT)))
     attempts = 0
-    with bench.params({"traj_vmax": max(1e-6, rate / TURN)}):
+    with bench.params({"traj_vmax": rate / TURN}):
         while True:
             attempts += 1
             far = bench.load_angle_rad() + rate * (settle_s + dur) * RATE_REACH + math.radians(0.01)
@@ -142,28 +175,55 @@ def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, set
             if valid or attempts >= RATE_ATTEMPTS:
                 break
         # stop: a target just ahead of the moving reference, at the rung's rate; wait for the arrival
-        pp_move(bench, reference_angle_rad(bench) + rate * 0.5)
+        pp_move(bench, max(reference_angle_rad(bench), bench.load_angle_rad()) + rate * 0.5)
     ang = Bench.unwrap_turns(cap["pos_out_lo"]) * TURN
     t = np.arange(ang.size) * decim * DT
-    st = mt.rate_stability(t, ang, rate, rate * window_s)
-    return {"rate_deg_s": rate_deg_s, "window_arcsec": rate * window_s / mt.ARCSEC, **st, "attempts": attempts,
-            "reference_moved_throughout": valid, "t_s": t, "angle_rad": ang}
+    st = mt.rate_stability(t, ang, rate, win)
+    return {"rate_deg_s": rate_deg_s, "window_arcsec": win / mt.ARCSEC, "window_s": win / rate, **st,
+            "attempts": attempts, "reference_moved_throughout": valid, "t_s": t, "angle_rad": ang}
 
 
-def min_rate(bench: Bench, rates_deg_s: Sequence[float] = (1.0, 0.1, 0.01, 0.001), bound: float = 0.1,
+def min_rate(bench: Bench, rates_deg_s: Sequence[float] = RATE_LADDER_DEG_S, bound: float = 0.1,
              windows: int = 10, window_s: float = 1.0, settle_s: float = 5.0,
-             accuracy_bound: Optional[float] = None, progress: Optional[Progress] = None) -> Result:
-    """Minimum smooth rate over a decade ladder (fixed-angle timing).
+             accuracy_bound: Optional[float] = None, progress: Optional[Progress] = None,
+             min_window_arcsec: float = MIN_WINDOW_ARCSEC, stop_at_failure: bool = True,
+             settle_windows: float = SETTLE_WINDOWS) -> Result:
+    """Minimum smooth rate over a rate ladder (fixed-angle timing).
 
     Each rung moves at a constant commanded rate (profile position with
     ``traj_vmax`` = rate), waits ``settle_s`` and times ``windows`` windows of
-    ``rate x window_s`` output angle.  A rung is smooth when the angle never
-    goes back, every window's rate has the commanded sign, and the rate
-    fluctuation (stability sigma(omega_i)/mean) is <= ``bound``; the rate
-    accuracy |mean - cmd|/cmd is reported (and also judged when
+    ``rate x window_s`` output angle, at least ``min_window_arcsec`` (the
+    rungs below 0.001 deg/s keep 3.6 arcsec: 2 s windows at 0.0005 deg/s,
+    5 s at 0.0002, 10 s at 0.0001 deg/s).  A rung is smooth when the angle
+    never goes back by a window, every window's rate has the commanded sign,
+    and the rate fluctuation (stability sigma(omega_i)/mean) is <= ``bound``;
+    the rate accuracy |mean - cmd|/cmd is reported (and also judged when
     ``accuracy_bound`` is given).  The minimum smooth rate is the slowest rung
-    with every faster rung smooth too.
+    with every faster rung smooth too (:func:`metrics.min_smooth_rate`).
+
+    Parameters
+    ----------
+    rates_deg_s : sequence of float
+        Ladder, deg/s (> 0; run fastest first).
+    bound : float
+        Bound on the rate stability (-).
+    windows : int
+        Fixed-angle windows per rung.
+    window_s : float
+        Nominal window duration, s (window angle = rate x window_s).
+    settle_s : float
+        Drive time at the rate before the record, s (at most 1 s above 0.5 deg/s).
+    settle_windows : float
+        Below 0.5 deg/s the settling lasts at least this many windows (4: 5 s at 0.001 deg/s,
+        8 / 20 / 40 s at 0.0005 / 0.0002 / 0.0001 deg/s).
+    min_window_arcsec : float
+        Smallest window angle, arcsec.
+    stop_at_failure : bool
+        Skip the rungs slower than the first one that is not smooth (they cannot change the
+        figure; listed in ``figures["skipped_deg_s"]`` and a note).
     """
+    if not rates_deg_s or min(rates_deg_s) <= 0:
+        raise ValueError(f"min-rate: the ladder needs rates > 0 deg/s, got {list(rates_deg_s)}")
     ladder = []
     bench.rig.brake(False)
     bench.enable("PROFILED POSITION")
@@ -171,17 +231,31 @@ def min_rate(bench: Bench, rates_deg_s: Sequence[float] = (1.0, 0.1, 0.01, 0.001
     # set-point: while the hold reference still moves, pp_move_start takes that motion for the
     # start of the move, the set-point edge is lost and the first rung never moves
     bench.wait(0.5)
-    for k, rate in enumerate(sorted(rates_deg_s, reverse=True)):
-        rr = rate_run(bench, rate, windows, window_s, settle_s if rate < 0.5 else min(settle_s, 1.0))
+    order = sorted(rates_deg_s, reverse=True)
+    skipped: list[float] = []
+    for k, rate in enumerate(order):
+        settle = rung_settle_s(rate, settle_s, window_s, min_window_arcsec, settle_windows)
+        rr = rate_run(bench, rate, windows, window_s, settle, min_window_arcsec)
+        rr["settle_s"] = settle
         ladder.append(rr)
         bench.wait(0.2)
         if progress:
             progress((k + 1) / len(rates_deg_s), f"{rate:g} deg/s: stability {rr['stability']:.3g}")
+        if stop_at_failure and mt.min_smooth_rate([rr], bound, accuracy_bound) is None:
+            skipped = [float(x) for x in order[k + 1:]]     # slower rungs cannot change the figure
+            break
     bench.disable()
     best = mt.min_smooth_rate(ladder, bound, accuracy_bound)
     r = Result("min-rate", conditions={"ladder_deg_s": list(rates_deg_s), "bound": bound, "accuracy_bound": accuracy_bound, "windows": windows,
-                                       "window_s": window_s, "settle_s": settle_s, "setup": AXIS_SETUP.name})
-    r.figures = {"ladder": [{k: v for k, v in x.items() if k not in ("t_s", "angle_rad")} for x in ladder]}
+                                       "window_s": window_s, "min_window_arcsec": min_window_arcsec,
+                                       "settle_s": settle_s, "settle_windows": settle_windows,
+                                       "stop_at_failure": stop_at_failure,
+                                       "setup": AXIS_SETUP.name})
+    r.figures = {"ladder": [{k: v for k, v in x.items() if k not in ("t_s", "angle_rad")} for x in ladder],
+                 "skipped_deg_s": skipped}
+    if skipped:
+        r.notes.append(f"rungs {', '.join(f'{x:g}' for x in skipped)} deg/s not run: the "
+                       f"{ladder[-1]['rate_deg_s']:g} deg/s rung was not smooth")
     r.headline = {"min_smooth_rate_deg_s": best}
     r.series = {"ladder": ladder}
 
@@ -189,7 +263,7 @@ def min_rate(bench: Bench, rates_deg_s: Sequence[float] = (1.0, 0.1, 0.01, 0.001
         fig, ax = figure()
         a = ax[0][0]
         for x in res.series["ladder"]:
-            w = mt.fixed_angle_rates(x["t_s"], x["angle_rad"], math.radians(x["rate_deg_s"]) * window_s)
+            w = mt.fixed_angle_rates(x["t_s"], x["angle_rad"], x["window_arcsec"] * mt.ARCSEC)
             if w.size:
                 a.plot(np.arange(w.size) + 1, np.degrees(w) / x["rate_deg_s"], "o-", ms=3, label=f"{x['rate_deg_s']:g} deg/s")
         a.axhspan(1 - bound, 1 + bound, color="0.9")
@@ -623,6 +697,6 @@ def bandwidth(bench: Bench, amplitude_arcsec: float = 60.0, period_samples: int 
     return r
 
 
-__all__ = ["AXIS_SETUP", "PEAK_OVERDRIVE", "PEAK_WINDOW", "STAB_MODE", "STAB_MODES", "bandwidth", "bandwidth_lines",
+__all__ = ["AXIS_SETUP", "MIN_WINDOW_ARCSEC", "PEAK_OVERDRIVE", "RATE_LADDER_DEG_S", "SETTLE_WINDOWS", "PEAK_WINDOW", "STAB_MODE", "STAB_MODES", "bandwidth", "bandwidth_lines",
            "bandwidth_signal", "drive_has_stab", "enable_stab", "min_rate", "peak_torque", "positioning", "pp_move",
-           "stab_setup", "stabilisation"]
+           "rate_window_rad", "reference_angle_rad", "rung_settle_s", "stab_setup", "stabilisation"]

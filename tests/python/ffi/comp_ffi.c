@@ -40,7 +40,7 @@ int32_t comp_ffi_version(void)
     return 1;
 }
 
-/* cfg: pos.fc pos.fs pos.vs pos.fv neg.fc neg.fs neg.vs neg.fv delta eps_v w_ref tau_max */
+/* cfg: pos.fc pos.fs pos.vs pos.fv neg.fc neg.fs neg.vs neg.fv delta eps_v w_ref tau_max cruise_ticks */
 void comp_stribeck_run(const int32_t *cfg, const int32_t *v_ref, const int32_t *v_est,
                        int32_t *tau, uint32_t n)
 {
@@ -50,6 +50,7 @@ void comp_stribeck_run(const int32_t *cfg, const int32_t *v_ref, const int32_t *
     c.pos.fc = cfg[0]; c.pos.fs = cfg[1]; c.pos.vs = cfg[2]; c.pos.fv = cfg[3];
     c.neg.fc = cfg[4]; c.neg.fs = cfg[5]; c.neg.vs = cfg[6]; c.neg.fv = cfg[7];
     c.delta = (uint32_t)cfg[8]; c.eps_v = cfg[9]; c.w_ref = cfg[10]; c.tau_max = cfg[11];
+    c.cruise_ticks = (uint32_t)cfg[12];
     hd_stribeck_init(&s, 0u, true);
     for (i = 0; i < n; i++) {
         tau[i] = hd_stribeck_step(&s, &c, v_ref[i], v_est[i]);
