@@ -147,19 +147,44 @@ class Drive:
         obj = self.node.sdo[index]
         return obj[sub] if isinstance(obj, (canopen.sdo.base.SdoRecord, canopen.sdo.base.SdoArray)) else obj
 
+    def _stale_retry(self, e: Exception, attempt: int) -> bool:
+        """True (after letting stragglers arrive) when ``e`` is a stale SDO response worth one more try.
+
+        python canopen retries a request after a response time-out (``MAX_RETRIES``), so on a
+        slow link both the late answer to the first request and the answer to the repeat
+        arrive; the second one can then be taken for the answer of the *next* request
+        ("Node returned a value for ... instead" / "Unexpected response").  Expedited reads
+        and writes are idempotent, so the exchange is repeated once the queue is quiet.
+        """
+        msg = str(e)
+        if attempt + 1 >= SDO_ATTEMPTS or not isinstance(e, canopen.SdoCommunicationError):
+            return False
+        if "instead" not in msg and "Unexpected response" not in msg:
+            return False
+        time.sleep(self.node.sdo.RESPONSE_TIMEOUT)   # late answers land; request_response drops them
+        return True
+
     def read(self, index: int, sub: int = 0) -> Any:
-        """Raw value of (index, sub) by SDO."""
-        try:
-            return self._var(index, sub).raw
-        except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
-            raise DriveError(f"read 0x{index:04X}:{sub}: {e}") from None
+        """Raw value of (index, sub) by SDO (a stale response is retried, see :meth:`_stale_retry`)."""
+        for attempt in range(SDO_ATTEMPTS):
+            try:
+                return self._var(index, sub).raw
+            except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
+                if self._stale_retry(e, attempt):
+                    continue
+                raise DriveError(f"read 0x{index:04X}:{sub}: {e}") from None
+        raise AssertionError("unreachable")
 
     def write(self, index: int, sub: int, value: Any) -> None:
-        """Write a raw value by SDO."""
-        try:
-            self._var(index, sub).raw = value
-        except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
-            raise DriveError(f"write 0x{index:04X}:{sub} = {value!r}: {e}") from None
+        """Write a raw value by SDO (a stale response is retried, see :meth:`_stale_retry`)."""
+        for attempt in range(SDO_ATTEMPTS):
+            try:
+                self._var(index, sub).raw = value
+                return
+            except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
+                if self._stale_retry(e, attempt):
+                    continue
+                raise DriveError(f"write 0x{index:04X}:{sub} = {value!r}: {e}") from None
 
     # ---- parameters by name ----------------------------------------------------
     def get_param(self, name: str) -> float:
