@@ -10,7 +10,8 @@ the drive's STAB mode) and compares every predicted figure with the measured one
 
     .venv/bin/python examples/pitch_drive/verify.py            # about 5 min on 2 loaded cores
     .venv/bin/python examples/pitch_drive/verify.py --procedures peak-torque,stabilisation
-    .venv/bin/python examples/pitch_drive/verify.py --option best   # the other controller option -> verify_best/
+    .venv/bin/python examples/pitch_drive/verify.py --option flow   # the other controller option -> verify_flow/
+    .venv/bin/python examples/pitch_drive/verify.py --scatter-seeds 2,3   # positioning per seed, A/R on the seed band
     .venv/bin/python examples/pitch_drive/verify.py --annotate --note "..."   # explain a finished run's figures
 """
 from __future__ import annotations
@@ -40,6 +41,9 @@ def main() -> int:
                         "and render its verify.md again")
     p.add_argument("--tolerance", type=float, default=0.2)
     p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--scatter-seeds", default="",
+                   help="further sensor-noise seeds for the positioning, e.g. 2,3: predicted and measured per seed, "
+                        "A and R judged on the predicted seed band widened by the tolerance")
     a = p.parse_args()
     out = a.out or (HERE / ("verify" if a.option is None else f"verify_{a.option}"))
     if a.annotate:
@@ -49,9 +53,18 @@ def main() -> int:
         res = vf.annotate(out, a.note or [])
         print(vf.markdown(res))
         return 0
+    try:
+        seeds = [int(x) for x in a.scatter_seeds.split(",") if x.strip()]
+    except ValueError:
+        print(f"verify.py: --scatter-seeds: expected comma-separated integers, got '{a.scatter_seeds}'",
+              file=sys.stderr)
+        return 2
+    if a.seed in seeds:
+        print(f"verify.py: --scatter-seeds: seed {a.seed} is the base run (--seed); give the others", file=sys.stderr)
+        return 2
     plan = vf.Plan(axis=HERE / "report" / "axis_chosen.toml", design=HERE / "design.json", out=out,
                    procedures=[x for x in a.procedures.split(",") if x], identify_target=a.identify,
-                   tolerance=a.tolerance, seed=a.seed, option=a.option)
+                   tolerance=a.tolerance, seed=a.seed, option=a.option, scatter_seeds=seeds)
     try:
         vf.select_option(json.loads(plan.design.read_text()), a.option)
     except ValueError as e:

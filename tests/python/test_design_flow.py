@@ -191,7 +191,7 @@ def test_final_approach_removes_the_reversal_in_the_prediction(spec: sp.Spec, tm
     # Every downward move ends with the final leg from below and sticks just past the target
     # (+1.5..1.6"); the fast upward arrivals of the sweep stop short instead (-0.6..-1.4"), so
     # on this axis the approach alone does not remove B in the procedure (the best combination's
-    # feed-forward on the measured velocity does: examples/pitch_drive/verify_best)
+    # feed-forward on the measured velocity does: examples/pitch_drive/verify, option best)
     p2 = pr.positioning(path, ctl1, [-5.0, 5.0], runs=2, method="procedure")
     assert p2["method"] == "procedure" and p2["cb_enable"] == 128 and p2["final_approach"] == fa
     dn = np.asarray(p2["down_arcsec"])
