@@ -139,6 +139,25 @@ class Signals:
         return len(self.t[:: self.q]) if self.q > 1 else len(self.t)
 
 
+def states_of(x: np.ndarray, fc: float, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Filtered angle, velocity, acceleration of a raw angle (the pipeline of :func:`from_log`)."""
+    xf = _lowpass(x, fc, 1.0 / dt)
+    v = _diff(xf, dt)
+    return xf, v, _diff(v, dt)
+
+
+def hf_noise_std(x: np.ndarray, fc: float, fs: float) -> float:
+    """Standard deviation of a sensor's white noise from the signal's content above ``fc``.
+
+    The motion (and the torque that moves the axis) has no content above the angle
+    cutoff; a white noise of variance s^2 puts the fraction 1 - fc/(fs/2) of it there.
+    Same unit as ``x``.
+    """
+    hp = np.asarray(x, dtype=float) - _lowpass(np.asarray(x, dtype=float), fc, fs)
+    frac = max(1.0 - fc / (fs / 2.0), 0.1)
+    return float(np.sqrt(np.mean(hp ** 2) / frac))
+
+
 def _diff(x: np.ndarray, dt: float) -> np.ndarray:
     return np.gradient(x, dt)
 
@@ -211,9 +230,7 @@ def from_log(log: logio.Log, structure: str | None = None, fc_Hz: float | None =
         raise UserError(f"{where}: a two-mass model needs both 'motor_angle_rad' and 'load_angle_rad'")
 
     def states(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        xf = _lowpass(x, fc, fs)
-        v = _diff(xf, dt)
-        return xf, v, _diff(v, dt)
+        return states_of(x, fc, dt)
 
     if "motor_angle_rad" in cols:
         raw_m = log[cols["motor_angle_rad"]]

@@ -14,11 +14,11 @@ jointly) is taken from two residuals:
   figures on its sum of squares.
 
 Every variant of a candidate is scored on the equation error, its best ``sim_variants``
-are simulated, and the variant with the largest total Delta BIC represents the
-candidate.  Candidates whose friction parameters the equation error cannot see
+are simulated, and the variant with the largest :func:`score` (Delta BIC per effective
+sample, summed over the two residuals) represents the candidate.  Candidates whose friction parameters the equation error cannot see
 (Stribeck: the low-speed band is crossed next to the stops the fit must leave out) are
 fitted on the simulation error instead (:func:`oe_fit`) and their coefficients kept fixed.
-Candidates are ranked by the total Delta BIC; the best-ranked one that passes
+Candidates are ranked by :func:`score`; the best-ranked one that passes
 :func:`significant` is named.  The loop stops when none passes, after ``max_iter``
 additions, or when the residual of the motor equation passes the Ljung-Box test.
 """
@@ -231,28 +231,66 @@ def rank(state: State, lib: list[fx.Effect], s: Settings | None = None) -> list[
             c.evidence.update(sim_evidence(sse0, state.simulate(c.fit, c.variant),
                                            len(c.variant.columns) + c.variant.n_hyper, n_sim))
             c.evidence["total_delta_bic"] = c.evidence["delta_bic"] + c.evidence["sim_delta_bic"]
-            if best is None or c.evidence["total_delta_bic"] > best.evidence["total_delta_bic"]:
+            c.evidence["score"] = score(c.evidence)
+            # the candidate's representative: its best admissible variant (neither
+            # residual significantly worse), else its best variant
+            if best is None or ((admissible(c.evidence, s), c.evidence["score"])
+                                > (admissible(best.evidence, s), best.evidence["score"])):
                 best = c
         if best is not None:
             out.append(best)
-    out.sort(key=lambda c: -c.evidence["total_delta_bic"])
+    out.sort(key=lambda c: -c.evidence["score"])
     return out
+
+
+def score(e: dict[str, float]) -> float:
+    """Ranking key: the Delta BIC of each residual per effective sample, summed.
+
+    Delta BIC / n_eff = ln(RSS_0/RSS_1) - k ln(n_eff)/n_eff is the mean log-likelihood
+    gain per independent sample (less the BIC penalty per sample).  The two residuals are
+    two views of the *same* samples, not independent data, so their Delta BICs are not
+    additive evidence: summed, the view with the whiter residual (larger n_eff, here the
+    equation error with its differentiated noise) outweighs the other by its sample count
+    alone.  Per effective sample both views count alike.
+    """
+    eq = e["delta_bic"] / max(e["n_eff"], 1.0)
+    sim_n = e.get("sim_n_eff", np.nan)
+    sim = e.get("sim_delta_bic", -np.inf) / max(sim_n, 1.0) if np.isfinite(sim_n) else -np.inf
+    return float(eq + sim) if np.isfinite(eq + sim) else -np.inf
+
+
+def worse(delta_bic_no_penalty: float, s: Settings) -> bool:
+    """A residual is significantly worse when the current model beats the candidate's fit
+    on it by more than ``bic_min`` in log-likelihood units (n_eff ln(RSS_1/RSS_0)), the
+    same evidence threshold a candidate needs to be significant."""
+    return -delta_bic_no_penalty > s.bic_min
 
 
 def significant(c: Candidate, s: Settings) -> bool:
     """Named only if (1) significant in the equation error or in the simulation error
     (Delta BIC > ``bic_min`` and F-test p < ``p_max`` in that residual), (2) the total
-    Delta BIC exceeds ``bic_min``, (3) neither residual gets worse (explained fraction
-    >= 0), and (4) large: it removes >= ``frac_min`` of the variance of the equation
-    error or of the simulation error."""
+    Delta BIC exceeds ``bic_min``, (3) neither residual gets *significantly* worse
+    (:func:`worse`: n_eff ln(RSS_1/RSS_0) > ``bic_min``; a coefficient fitted on one
+    residual is not the least-squares optimum of the other, so an insignificant loss
+    there is expected), and (4) large: it removes >= ``frac_min`` of the variance of the
+    equation error or of the simulation error."""
     e = c.evidence
     sim_dbic = e.get("sim_delta_bic", -np.inf)
     sim_frac = e.get("sim_explained_fraction", -np.inf)
     eq_sig = e["delta_bic"] > s.bic_min and e["p_value"] < s.p_max
     sim_sig = sim_dbic > s.bic_min and e.get("sim_p_value", 1.0) < s.p_max
-    return ((eq_sig or sim_sig) and e.get("total_delta_bic", -np.inf) > s.bic_min
-            and e["explained_fraction"] >= 0 and sim_frac >= 0
-            and max(e["explained_fraction"], sim_frac) >= s.frac_min)
+    return bool((eq_sig or sim_sig) and e.get("total_delta_bic", -np.inf) > s.bic_min
+                and admissible(e, s) and max(e["explained_fraction"], sim_frac) >= s.frac_min)
+
+
+def admissible(e: dict[str, float], s: Settings) -> bool:
+    """Neither residual gets significantly worse (:func:`worse`) with the candidate."""
+    sim_frac = e.get("sim_explained_fraction", -np.inf)
+    sim_n = e.get("sim_n_eff", np.nan)
+    eq_ll = e["n_eff"] * np.log(1.0 / max(1.0 - e["explained_fraction"], 1e-300))
+    sim_ll = (sim_n * np.log(1.0 / max(1.0 - sim_frac, 1e-300))
+              if np.isfinite(sim_frac) and np.isfinite(sim_n) else -np.inf)
+    return not worse(eq_ll, s) and not worse(sim_ll, s)
 
 
 @dataclass
@@ -273,6 +311,8 @@ class Result:
     ranking_first: list[dict[str, Any]] = field(default_factory=list)
     sim_rms_history: list[float] = field(default_factory=list)
     sims: list[np.ndarray] = field(default_factory=list)
+    #: Sensor-noise floor of the equation error per equation, N.m (:func:`noise_floor`).
+    floor: dict[str, float] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
         return {"baseline": self.baseline, "baseline_relative_error_pct": self.base_rel_pct, "iterations": self.iterations, "named_effects": self.named,
@@ -280,7 +320,7 @@ class Result:
                 "rms_history": self.rms_history, "sim_rms_history_rad": self.sim_rms_history,
                 "sim_signal": SIM_TEXT, "first_ranking": self.ranking_first,
                 "last_ranking": self.ranking_last,
-                "final_whiteness": self.whiteness}
+                "final_whiteness": self.whiteness, "noise_floor": self.floor}
 
 
 SIGNAL_TEXT = ("equation error of the measured motor torque (motor and rigid-body equations stacked), "
@@ -346,7 +386,8 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
             "named_effect": top.effect.name,
             "evidence": {**_jsonable(top.evidence), "runner_up": runner.effect.name if runner else None,
                          "runner_up_delta_bic": runner.evidence["delta_bic"] if runner else None,
-                         "runner_up_total_delta_bic": _jsonable(runner.evidence.get("total_delta_bic")) if runner else None},
+                         "runner_up_total_delta_bic": _jsonable(runner.evidence.get("total_delta_bic")) if runner else None,
+                         "runner_up_score": _jsonable(runner.evidence.get("score")) if runner else None},
             "rms_before": rms_before, "rms_after": st_.fit.rms, "signal": SIGNAL_TEXT,
             "acting_equations": _acting(top.variant, st_.design),
             "rms_acting_before": eq_before, "rms_acting_after": _eq_rms(st_.fit, top.variant),
@@ -363,13 +404,20 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
         if wm["p_value"] > s.whiteness_p:
             break
     white = ljung_box(next(iter(st_.fit.resid.values())))
+    floor = noise_floor(st_, base_fit)
+    for it in iterations:
+        eqs = [e for e in it["acting_equations"] if e in floor] or list(floor)
+        fl = float(np.sqrt(np.mean([floor[e] ** 2 for e in eqs])))
+        it["noise_floor_acting"] = fl
+        it["gap_acting_before"] = systematic_gap(it["rms_acting_before"], fl)
+        it["gap_acting_after"] = systematic_gap(it["rms_acting_after"], fl)
     final = {"structure": sig.kind, "params": st_.fit.params(),
              "relative_error_pct": relative_error_pct(st_),
              "effects": {it["named_effect"]: it["params"] for it in iterations}}
     return Result(baseline=baseline, iterations=iterations, named=[i["named_effect"] for i in iterations],
                   final_model=final, rms_history=rms_hist, state=st_, base_fit=base_fit, snapshots=snapshots,
                   ranking_last=last_rank, whiteness=white, base_rel_pct=base_rel,
-                  ranking_first=first_rank or [], sim_rms_history=sim_hist, sims=sims)
+                  ranking_first=first_rank or [], sim_rms_history=sim_hist, sims=sims, floor=floor)
 
 
 SIM_TEXT = ("simulation error: the model driven by the measured torque from the measured state over 50 ms "
@@ -393,6 +441,63 @@ def _eq_rms(fit: bl.Fit, v: fx.Variant) -> float:
     eqs = [e for e in fit.resid if e in {"M", "R"}]
     cols_eq = [e for e in eqs if v.tau is not None or not v.columns or any(getattr(c, e) is not None for c in v.columns)]
     return _rms(np.concatenate([fit.resid[e] for e in (cols_eq or eqs)]))
+
+
+def noise_floor(state: State, fit: bl.Fit, seed: int = 0) -> dict[str, float]:
+    """RMS of the equation error that the sensor noise alone causes, per equation, N.m.
+
+    Noise injection: each raw sensor signal (motor and load angle, torque) gets white
+    noise of its own high-frequency level (:func:`hdservo.discrepancy.signals.hf_noise_std`:
+    above the angle cutoff the motion has no content), the states and the model's
+    columns are rebuilt through the same filter/differentiation/decimation, and the
+    equation error of ``fit``'s coefficients changes by the noise's image.  For a
+    pipeline that is linear in the noise (the inertia, spring, damping, viscous and
+    torque terms; the sign columns are smoothed over the noise band), the RMS of that
+    change equals the RMS the log's own noise adds to the residual.  The noise is
+    independent of the model mismatch, so the mismatch's part of the residual (the
+    "systematic gap") has RMS sqrt(RMS^2 - floor^2).
+
+    Only the baseline columns are rebuilt (with the fit's coefficients for them): the
+    floor is set by the inertia, spring and torque terms every model shares.
+    """
+    d = state.design
+    sig = d.sig
+    rng = np.random.default_rng(seed)
+    noisy = sig_noisy(sig, rng)
+    dn = bl.Design(sig=noisy, v_eps=d.v_eps, mask=d.mask, equations=d.equations)
+    coef = dict(zip(fit.names, fit.theta))
+    base = bl.baseline_columns(dn, any(c.name.startswith("offset") for c in state.base_cols))
+    base0 = state.base_cols
+    out: dict[str, float] = {}
+    n = int(d.mask.sum())
+    y0, yn = d.lhs(sig.tau), dn.lhs(noisy.tau)
+    diff = yn - y0
+    for c0, cn in zip(base0, base):
+        a = coef.get(c0.name, 0.0)
+        diff = diff - a * (dn.stack(cn) - d.stack(c0))
+    for i, e in enumerate(d.equations):
+        out[e] = _rms(diff[i * n:(i + 1) * n])
+    return out
+
+
+def sig_noisy(sig: "Signals", rng: np.random.Generator) -> "Signals":
+    """A copy of the signals rebuilt from the raw logs plus white noise of each sensor's level."""
+    from dataclasses import replace
+    from .signals import hf_noise_std, states_of
+    fs = 1.0 / sig.dt
+
+    def add(x: np.ndarray) -> np.ndarray:
+        return x + hf_noise_std(x, sig.fc_Hz, fs) * rng.standard_normal(len(x))
+    th_m, w_m, a_m = states_of(add(sig.raw_th_m), sig.fc_Hz, sig.dt)
+    kw: dict[str, Any] = {"th_m": th_m, "w_m": w_m, "a_m": a_m, "tau": add(sig.tau)}
+    if sig.raw_th_l is not None and sig.th_l is not None:
+        kw["th_l"], kw["w_l"], kw["a_l"] = states_of(add(sig.raw_th_l), sig.fc_Hz, sig.dt)
+    return replace(sig, **kw)
+
+
+def systematic_gap(rms: float, floor: float) -> float:
+    """RMS of the residual's systematic part: sqrt(max(rms^2 - floor^2, 0)), same unit."""
+    return float(np.sqrt(max(rms * rms - floor * floor, 0.0)))
 
 
 def relative_error_pct(state: State) -> float:
