@@ -294,6 +294,7 @@ class DriveRunner:
         self._ratio: Optional[float] = None
         self._rated: Optional[float] = None
         self._cal: Optional[tuple[float, float]] = None
+        self._last_torque = 0.0   # the last locked torque set-point sent (N.m, output side)
 
     # -- lifecycle ----------------------------------------------------------
     def open(self) -> None:
@@ -529,10 +530,25 @@ class DriveRunner:
         finally:
             self.virtual.rig_cmd("record stop")
         raw = self._stream.stop()
+        self._last_torque = float(rows[-1, 2]) if len(rows) else self._last_torque
         cols = self._columns(raw, start)
         cols["torque_cmd_Nm"] = self._hold(rows, raw["tick"], 2)
         cols["load_torque_Nm"] = self._rig_torque(rec, raw["tick"].astype(float), seed)
         return cols
+
+    def _ramp_to_zero(self, rate: float) -> None:
+        """Ramp the torque set-point from the last profile's end to 0 at ``rate`` (N.m/s), not recorded.
+
+        Every locked profile starts at 0 N.m, as on the simulator binding (a fresh plant per
+        segment); without this the friction calibration (ending at +amplitude) or a FORC set
+        (ending at -Tf) would be followed by a set-point step of tens of N.m.
+        """
+        if abs(self._last_torque) < 1e-9:
+            return
+        every = self.setpoint_ticks_locked
+        prof = ex.triangle_profile([0.0], rate, every * DT, start=self._last_torque, dwell_s=0.05)[1:]
+        self._profile(prof, every, lambda x: self._rpdo3(torque_Nm=x), "locked: back to 0 N.m")
+        self._last_torque = 0.0
 
     def _calibrate_friction(self, amp: float, seed: int) -> tuple[float, float]:
         """Input friction on rising/falling stretches of a locked triangle (as experiments._compensate_friction)."""
@@ -576,12 +592,15 @@ class DriveRunner:
                         shifted.append(float(p) + (f[0] if p > prev else f[1]))
                         prev = float(p)
                 every = self.setpoint_ticks_locked
+                self._ramp_to_zero(float(seg["rate_Nm_s"]))
                 prof = ex.triangle_profile(shifted, float(seg["rate_Nm_s"]), every * DT, dwell_s=0.05)
                 parts.append((self._locked_profile(prof, every, label, seed), seg))
                 self._check_fault(design.kind)
+            self._ramp_to_zero(float(plan[-1]["rate_Nm_s"]))
             self._rpdo3(torque_Nm=0.0)
             self._advance(200)
         finally:
+            self._last_torque = 0.0
             try:
                 self._disable()
                 for k, v in old.items():

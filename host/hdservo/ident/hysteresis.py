@@ -205,8 +205,13 @@ class Everett:
 
 
 def split_reversals(cmd: np.ndarray) -> list[tuple[int, int]]:
-    """Index ranges of monotone stretches of a piecewise-linear command (dwells belong to the previous one)."""
+    """Index ranges of monotone stretches of a piecewise-linear command (dwells belong to the previous one,
+    a leading dwell to the first)."""
     d = np.sign(np.diff(cmd))
+    nz = np.flatnonzero(d)
+    if len(nz):
+        # a dwell before the first change (a held set-point over CAN) belongs to the first stretch
+        d[:nz[0]] = d[nz[0]]
     for i in range(1, len(d)):
         if d[i] == 0:
             d[i] = d[i - 1]

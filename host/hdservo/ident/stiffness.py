@@ -165,7 +165,8 @@ def odd_hats(phi: np.ndarray, direction: np.ndarray, half_width: float, n: int) 
 
 def fit_stiffness(data: ExperimentData, te: TEResult | None = None,
                   thresholds_rad: np.ndarray | None = None, max_elements: int = 8,
-                  odd_fractions: tuple[float, ...] = ODD_FRACTIONS, odd_count: int = 16) -> StiffnessResult:
+                  odd_fractions: tuple[float, ...] = ODD_FRACTIONS, odd_count: int = 16,
+                  centre: bool = True) -> StiffnessResult:
     """Three-slope + Maxwell-slip, cubic, hysteresis loss and lost motion from ``locked_cycle`` data.
 
     Parameters
@@ -185,6 +186,9 @@ def fit_stiffness(data: ExperimentData, te: TEResult | None = None,
         (spring + Maxwell-slip only).
     odd_count : int
         Hat functions in the odd band.
+    centre : bool
+        Shift the twist so that the loop's centre line crosses T = 0 at zero twist (rad); the
+        encoder zero is arbitrary.  False: the twist as measured (TE removed).
     """
     if data.kind != "locked_cycle":
         raise UserError(f"stiffness: expected locked_cycle data, found '{data.kind}'")
@@ -195,6 +199,14 @@ def fit_stiffness(data: ExperimentData, te: TEResult | None = None,
     phi = twist_of(seg0, N, te)
     t_max = float(np.max(np.abs(T)))
     loss = hysteresis_loss(T, phi, cmd, t_max)
+    if centre:
+        # the encoders' zero is arbitrary: centre the twist on the loop's centre line at T = 0 (mean of
+        # the descending and ascending zero crossings), where the odd-symmetric three-slope spring
+        # has its origin; an offset of a few % of phi1 moves the knots (T1) asymmetrically
+        st0 = split_reversals(cmd)
+        a0 = st0[1][0] if len(st0) > 1 else 0
+        desc, asc = zero_crossing_twists(T[a0:], phi[a0:], cmd[a0:], 0.03 * t_max)
+        phi = phi - 0.5 * (float(np.mean(desc)) + float(np.mean(asc)))
     lm = None
     if len(data.segments) > 1:
         s1 = data.segment(1)
