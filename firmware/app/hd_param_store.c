@@ -184,16 +184,17 @@ int32_t hd_pstore_save(const int32_t values[HD_PARAM_COUNT], uint32_t *seq)
     } else {
         target = 0u;
     }
-    /* The new sequence must be newer than every valid slot, not only than the
-     * caller's *seq: after a boot that fell back to defaults (read error,
-     * seq 0) a valid newer slot may still be in NVM, and saving with *seq + 1
-     * would lose this save to it at the next boot (found by tests/fuzz/fuzz_pstore). */
+    /* The new sequence must be newer, in the serial arithmetic hd_pstore_load
+     * uses, than the slot that survives this save (the target is overwritten),
+     * not only than the caller's *seq: after a boot that fell back to defaults
+     * (read error, seq 0) the surviving slot may hold any sequence, and a save
+     * with *seq + 1 would lose to it at the next boot (both cases found by
+     * tests/fuzz/fuzz_pstore; the second with the two slots 2^31 apart). */
     uint32_t base = *seq;
-    if (r0 == SLOT_OK && (cur - base) - 1u < 0x7FFFFFFFu) {
-        base = cur;
-    }
-    if (r1 == SLOT_OK && (s1 - base) - 1u < 0x7FFFFFFFu) {
-        base = s1;
+    const slot_res_t rk = (target == 0u) ? r1 : r0;
+    const uint32_t sk = (target == 0u) ? s1 : cur;
+    if (rk == SLOT_OK && ((base + 1u) - sk) - 1u >= 0x7FFFFFFFu) {
+        base = sk;
     }
     const uint32_t nseq = base + 1u;
     for (i = 0; i < REC_PADDED; i++) {
