@@ -22,7 +22,6 @@ from __future__ import annotations
 import contextlib
 import math
 import os
-import signal
 import struct
 import subprocess
 import sys
@@ -41,46 +40,18 @@ MAX_MOTION_RAD = math.radians(0.5)    # output motion allowed while a reaction h
 
 
 class _VDrive:
-    """The virtual drive as a subprocess with a rig channel on stdin/stdout."""
+    """The virtual drive as a subprocess with a rig channel on stdin/stdout (real-time pacing)."""
 
     def __init__(self, root: Path, *extra: str) -> None:
+        from .serve_proc import ServeProcess
         sim = Path(os.environ.get("HDSERVO_SIM", root / "build" / "bin" / "hdservo-sim"))
         if not sim.exists():
             raise FileNotFoundError(f"{sim}: not built (make sim)")
-        self.p = subprocess.Popen([str(sim), "serve", "--port", "0", "--node-id", str(NODE), "--pacing", "realtime",
-                                   "--rig", *extra], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                  stderr=subprocess.PIPE, text=True, bufsize=1)
-        line = self.p.stdout.readline() if self.p.stdout else ""
-        if not line.startswith("listening on 127.0.0.1:"):
-            self.stop()
-            raise RuntimeError(f"hdservo-sim serve did not start: {line!r}")
-        self.port = int(line.strip().rsplit(":", 1)[1])
-
-    def rig(self, cmd: str) -> dict[str, str]:
-        """One rig command; its ``ok`` answer as a dict (``key=value`` fields)."""
-        assert self.p.stdin and self.p.stdout
-        self.p.stdin.write(cmd + "\n")
-        self.p.stdin.flush()
-        ans = self.p.stdout.readline().strip()
-        if not ans.startswith("ok "):
-            raise RuntimeError(f"rig command {cmd!r}: {ans!r}")
-        return dict(kv.split("=", 1) for kv in ans.split()[1:] if "=" in kv)
-
-    def power_loss(self) -> None:
-        """SIGKILL: no exit handler, no flush, like pulling the supply."""
-        if self.p.poll() is None:
-            self.p.send_signal(signal.SIGKILL)
-            self.p.wait()
-
-    def stop(self) -> str:
-        if self.p.poll() is None:
-            self.p.terminate()
-            try:
-                self.p.wait(10)
-            except subprocess.TimeoutExpired:
-                self.p.kill()
-                self.p.wait()
-        return self.p.stderr.read() if self.p.stderr else ""
+        self.proc = ServeProcess(sim, ["--node-id", str(NODE), "--pacing", "realtime", "--rig", *extra])
+        self.port = self.proc.port
+        self.rig = self.proc.rig
+        self.power_loss = self.proc.power_loss
+        self.stop = self.proc.stop
 
 
 @contextlib.contextmanager

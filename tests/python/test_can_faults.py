@@ -13,6 +13,7 @@ import pytest
 
 from hdservo import faults_can
 from hdservo.drive import Drive, DriveError
+from hdservo.serve_proc import ServeError
 from vdrive import SIM
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -40,7 +41,7 @@ def test_rig_can_commands_and_bad_input() -> None:
         assert v.rig("can errors 16 0")["can"] == "passive"
         assert v.rig("can busoff")["can"] == "bus-off"
         for bad in ("can drop 1.5", "can drop x", "can errors 1", "can errors -1 0", "can frob"):
-            with pytest.raises(RuntimeError, match="error can"):
+            with pytest.raises(ServeError, match="error can"):
                 v.rig(bad)
     finally:
         v.stop()

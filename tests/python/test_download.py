@@ -2,9 +2,7 @@
 verified by read-back; a corrupted table is refused (locally and by the drive) and the old one stays."""
 from __future__ import annotations
 
-import os
 import struct
-import subprocess
 import zlib
 from pathlib import Path
 
@@ -16,8 +14,8 @@ from hdservo.commands import download as dl
 from hdservo.drive import Drive
 from hdservo.params_gen import BY_NAME as PARAMS
 
-ROOT = Path(__file__).resolve().parents[2]
-SIM = Path(os.environ.get("HDSERVO_SIM", ROOT / "build" / "bin" / "hdservo-sim"))
+from vdrive import SIM, Server  # tests/python/vdrive.py
+
 pytestmark = pytest.mark.skipif(not SIM.exists(), reason="hdservo-sim not built (make sim)")
 
 MODEL = """[gear]
@@ -58,19 +56,11 @@ preisach_table = "model.preisach.bin"
 
 @pytest.fixture
 def server():
-    p = subprocess.Popen([str(SIM), "serve", "--port", "0", "--pacing", "realtime", "-q"],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    srv = Server("--pacing", "realtime", "-q")
     try:
-        line = p.stdout.readline() if p.stdout else ""
-        assert line.startswith("listening on 127.0.0.1:"), line
-        yield int(line.strip().rsplit(":", 1)[1])
+        yield srv.port
     finally:
-        p.terminate()
-        try:
-            p.wait(10)
-        except subprocess.TimeoutExpired:
-            p.kill()
-            p.wait()
+        srv.stop()
 
 
 def _model(tmp: Path, version: int = 1) -> tuple[Path, bytes]:

@@ -35,9 +35,7 @@ from __future__ import annotations
 
 import math
 import os
-import select
 import struct
-import subprocess
 import tempfile
 import threading
 import time
@@ -83,79 +81,48 @@ class VirtualDrive:
                  sets: Sequence[str] = ("base.enabled=false",), rig: bool = True, node_id: int = 1,
                  pacing: str = "sync") -> None:
         from ..commands.serve import find_sim
+        from ..serve_proc import ServeError, ServeProcess
         self.sim = find_sim()
         self.node_id = node_id
         self.sync_periods = sync_periods
-        base = [str(self.sim), "serve", "--port", "0", "--node-id", str(node_id), "--axis", str(axis),
-                "--pacing", pacing, "--sync-periods", str(sync_periods), "--seed", str(seed), "-q"]
+        base = ["--node-id", str(node_id), "--axis", str(axis), "--pacing", pacing,
+                "--sync-periods", str(sync_periods), "--seed", str(seed), "-q"]
         for s in sets:
             base += ["--set", s]
         self.rig = False
-        self.p: Optional[subprocess.Popen[str]] = None
-        err = ""
+        self.proc: Optional[ServeProcess] = None
+        err: Optional[ServeError] = None
         for with_rig in ((True, False) if rig else (False,)):
-            cmd = base + (["--rig"] if with_rig else [])
-            self.p = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                      text=True, bufsize=1)
-            line = self._readline(20.0)
-            if line.startswith("listening on 127.0.0.1:"):
-                self.port = int(line.strip().rsplit(":", 1)[1])
-                self.rig = with_rig
-                break
-            err = (self.stop().strip().splitlines() or [line.strip() or "no output"])[-1]
+            try:
+                self.proc = ServeProcess(self.sim, base + (["--rig"] if with_rig else []))
+            except ServeError as e:
+                err = e
+                continue
+            self.port = self.proc.port
+            self.rig = with_rig
+            break
         else:
-            raise UserError(f"the virtual drive did not start: {err}")
-        self._lock = threading.Lock()
-        self._tmp = tempfile.TemporaryDirectory(prefix="hdservo-ident-rig-")
-
-    def _readline(self, timeout: float) -> str:
-        assert self.p is not None and self.p.stdout is not None
-        r, _, _ = select.select([self.p.stdout], [], [], timeout)
-        return self.p.stdout.readline() if r else ""
+            assert err is not None
+            raise UserError(str(err))
+        self._tmp: Optional[tempfile.TemporaryDirectory[str]] = tempfile.TemporaryDirectory(
+            prefix="hdservo-ident-rig-")
 
     def rig_cmd(self, line: str, timeout: float = 30.0) -> dict[str, str]:
         """One rig command (serve.c ``--rig``); the fields of its ``ok`` answer."""
-        if not self.rig:
+        if not self.rig or self.proc is None:
             raise UserError("the virtual drive has no rig interface")
-        with self._lock:
-            assert self.p is not None and self.p.stdin is not None
-            if self.p.poll() is not None:
-                raise UserError("the virtual drive has exited")
-            self.p.stdin.write(line + "\n")
-            self.p.stdin.flush()
-            ans = self._readline(timeout).strip()
-        if not ans.startswith("ok"):
-            raise UserError(f"virtual rig: '{line}': {ans or 'no answer'}")
-        return dict(kv.split("=", 1) for kv in ans.split()[1:] if "=" in kv)
+        return self.proc.rig(line, timeout)
 
     def record_path(self) -> Path:
+        assert self._tmp is not None
         return Path(self._tmp.name) / "rig.csv"
 
     def stop(self) -> str:
         """Terminate the process (SIGTERM, then SIGKILL); returns its stderr."""
-        p = self.p
-        if p is None:
-            return ""
-        if p.poll() is None:
-            try:
-                if p.stdin:
-                    p.stdin.close()
-            except OSError:
-                pass
-            p.terminate()
-            try:
-                p.wait(10)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
-        try:
-            out = p.stderr.read() if p.stderr else ""
-        except (OSError, ValueError):
-            out = ""
-        tmp = getattr(self, "_tmp", None)
-        if tmp is not None:
-            tmp.cleanup()
-            self._tmp = None  # type: ignore[assignment]
+        out = self.proc.stop() if self.proc is not None else ""
+        if self._tmp is not None:
+            self._tmp.cleanup()
+            self._tmp = None
         return out
 
 

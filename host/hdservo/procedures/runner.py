@@ -20,9 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import math
-import select
 import struct
-import subprocess
 import sys
 import tempfile
 import threading
@@ -35,6 +33,7 @@ import can
 import numpy as np
 
 from ..cli import UserError
+from ..serve_proc import ServeProcess
 from ..drive import Drive, DriveError
 from ..params_gen import BY_NAME as PARAMS
 
@@ -131,7 +130,7 @@ def find_sim() -> Path:
     return fs()
 
 
-class VirtualDriveProcess:
+class VirtualDriveProcess(ServeProcess):
     """``hdservo-sim serve --rig`` on an ephemeral port; :meth:`stop` always ends it.
 
     Parameters
@@ -150,76 +149,11 @@ class VirtualDriveProcess:
 
     def __init__(self, axis: str = "reference", pacing: str = "fast", sets: Sequence[str] = (),
                  sync_periods: int = 10, seed: int = 1, node_id: int = 1) -> None:
-        cmd = [str(find_sim()), "serve", "--port", "0", "--node-id", str(node_id), "--axis", axis,
-               "--pacing", pacing, "--sync-periods", str(sync_periods), "--seed", str(seed), "--rig"]
+        args = ["--node-id", str(node_id), "--axis", axis, "--pacing", pacing,
+                "--sync-periods", str(sync_periods), "--seed", str(seed), "--rig"]
         for s in sets:
-            cmd += ["--set", s]
-        self.p = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                  text=True, bufsize=1)
-        line = self._readline(20.0)
-        if not line.startswith("listening on 127.0.0.1:"):
-            err = self.stop()
-            msg = (err.strip().splitlines() or [line.strip() or "no output"])[-1]
-            raise UserError(f"the virtual drive did not start: {msg}")
-        self.port = int(line.strip().rsplit(":", 1)[1])
-        self.lock = threading.Lock()
-
-    def _readline(self, timeout: float) -> str:
-        assert self.p.stdout is not None
-        r, _, _ = select.select([self.p.stdout], [], [], timeout)
-        if not r:
-            return ""
-        return self.p.stdout.readline()
-
-    def rig(self, line: str, timeout: float = 30.0) -> dict[str, str]:
-        """Send one rig command; returns the fields of its ``ok`` answer."""
-        with self.lock:
-            if self.p.poll() is not None or self.p.stdin is None:
-                raise RigError("the virtual drive has exited")
-            self.p.stdin.write(line + "\n")
-            self.p.stdin.flush()
-            ans = self._readline(timeout).strip()
-        if not ans.startswith("ok"):
-            raise RigError(f"virtual rig: '{line}': {ans or 'no answer'}")
-        return dict(kv.split("=", 1) for kv in ans.split()[1:] if "=" in kv)
-
-    def rig_many(self, lines: Sequence[str], timeout: float = 30.0) -> list[dict[str, str]]:
-        """Send several rig commands in one write (the drive reads them in the same poll, i.e. within
-        the same loop period); returns the fields of each ``ok`` answer."""
-        with self.lock:
-            if self.p.poll() is not None or self.p.stdin is None:
-                raise RigError("the virtual drive has exited")
-            self.p.stdin.write("".join(line + "\n" for line in lines))
-            self.p.stdin.flush()
-            # the answers arrive together: after the first, the rest may already sit in the
-            # reader's buffer, where select() on the descriptor would not see them
-            assert self.p.stdout is not None
-            answers = [self._readline(timeout).strip()] + [self.p.stdout.readline().strip() for _ in lines[1:]]
-        out = []
-        for line, ans in zip(lines, answers):
-            if not ans.startswith("ok"):
-                raise RigError(f"virtual rig: '{line}': {ans or 'no answer'}")
-            out.append(dict(kv.split("=", 1) for kv in ans.split()[1:] if "=" in kv))
-        return out
-
-    def stop(self) -> str:
-        """Terminate the process (SIGTERM, then SIGKILL); returns its stderr."""
-        if self.p.poll() is None:
-            try:
-                if self.p.stdin:
-                    self.p.stdin.close()
-            except OSError:
-                pass
-            self.p.terminate()
-            try:
-                self.p.wait(10)
-            except subprocess.TimeoutExpired:
-                self.p.kill()
-                self.p.wait()
-        try:
-            return self.p.stderr.read() if self.p.stderr else ""
-        except (OSError, ValueError):
-            return ""
+            args += ["--set", s]
+        super().__init__(find_sim(), args, error=RigError)
 
 
 # ---- rigs --------------------------------------------------------------------------------
