@@ -216,7 +216,10 @@ typedef struct {
     uint8_t  mode_active;    /* 0x6061 (int8 stored unsigned) */
     uint8_t  comm_fault;     /* latched stack-side fault */
     uint8_t  fault_pending_reset;
-    uint16_t cw_prev;
+    uint16_t cw_prev;        /* last controlword written (edges of bits 4 and 7) */
+    uint8_t  sp_pending;     /* a new-set-point edge written in OPERATION ENABLED, not yet handed
+                              * to the app (latched at the write: several controlword writes
+                              * can arrive within one control period) */
     uint16_t fault_code;     /* EMCY code of the active fault */
     uint32_t standstill_ticks;
 } hd_co402_t;

@@ -156,7 +156,8 @@ void hd_co402_controlword(hd_co_t *co)
     hd_co402_t *p = &co->p402;
     uint16_t cw = co->od.controlword;
     bool fr_edge = (cw & CW_FR) != 0u && (p->cw_prev & CW_FR) == 0u;
-    p->cw_prev = (uint16_t)((cw & 0x7FFFu) | (p->cw_prev & 0x8000u));
+    bool sp_edge = (cw & CW_NEW_SP) != 0u && (p->cw_prev & CW_NEW_SP) == 0u;
+    p->cw_prev = cw;
     uint16_t c = (uint16_t)(cw & 0x008Fu);
     bool disable_voltage = (cw & CW_EV) == 0u;
     bool quick_stop = (cw & (CW_EV | CW_QS)) == CW_EV;
@@ -220,6 +221,15 @@ void hd_co402_controlword(hd_co_t *co)
     default:
         break;
     }
+    /* The new-set-point edge is latched here, at the write, not sampled by the tick: a host
+     * (or two RPDOs) can set and clear bit 4 within one control period, and a sampled edge
+     * would then be lost.  Only in OPERATION ENABLED (also when this write enabled it), so
+     * an edge written while disabled never starts a move later. */
+    if (sp_edge && p->state == HD_CO402_OP_ENABLED) {
+        p->sp_pending = 1u;
+    } else if (p->state != HD_CO402_OP_ENABLED) {
+        p->sp_pending = 0u;
+    }
 }
 
 static int32_t torque_permille_to_q16(int32_t permille, uint32_t rated_mNm)
@@ -266,8 +276,8 @@ static uint16_t statusword(const hd_co_t *co)
         int8_t m = co->od.modes_of_operation_display;
         if (m == HD_CO402_MODE_CSP || m == HD_CO402_MODE_CSV || m == HD_CO402_MODE_CST) {
             sw |= SW_OMS1;               /* drive follows the command value */
-        } else if (m == HD_CO402_MODE_PP && (co->od.controlword & CW_NEW_SP) != 0u) {
-            sw |= SW_OMS1;               /* set-point acknowledge */
+        } else if (m == HD_CO402_MODE_PP && (co->od.controlword & CW_NEW_SP) != 0u && p->sp_pending == 0u) {
+            sw |= SW_OMS1;               /* set-point acknowledge: handed over, bit 4 still set */
         }
     }
     return sw;
@@ -338,7 +348,8 @@ void hd_co402_tick(hd_co_t *co)
         sp.mode = co->od.modes_of_operation_display;
         sp.quick_stop = p->state == HD_CO402_QUICK_STOP ? 1u : 0u;
         sp.halt = (co->od.controlword & CW_HALT) != 0u ? 1u : 0u;
-        sp.pp_new = ((co->od.controlword & CW_NEW_SP) != 0u && (p->cw_prev & 0x8000u) == 0u) ? 1u : 0u;
+        sp.pp_new = p->sp_pending;
+        p->sp_pending = 0u;
         sp.target_position = co->od.target_position;
         sp.target_velocity = co->od.target_velocity;
         sp.velocity_offset = co->od.velocity_offset;
@@ -347,12 +358,6 @@ void hd_co402_tick(hd_co_t *co)
         sp.profile_velocity = co->od.profile_velocity;
         sp.profile_acceleration = co->od.profile_acceleration;
         sp.quick_stop_decel = co->od.quick_stop_deceleration;
-        /* bit 15 of cw_prev remembers that this new-set-point edge was handed over */
-        if ((co->od.controlword & CW_NEW_SP) != 0u) {
-            p->cw_prev = (uint16_t)(p->cw_prev | 0x8000u);
-        } else {
-            p->cw_prev = (uint16_t)(p->cw_prev & 0x7FFFu);
-        }
         if (co->app.drive_setpoint != NULL) {
             co->app.drive_setpoint(co->app.ctx, &sp);
         }
@@ -362,6 +367,8 @@ void hd_co402_tick(hd_co_t *co)
                 enter(co, HD_CO402_SO_DISABLED);
             }
         }
+    } else {
+        p->sp_pending = 0u;              /* left OPERATION ENABLED (fault): the edge is void */
     }
     co->od.statusword = statusword(co);
 }

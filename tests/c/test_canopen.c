@@ -30,6 +30,7 @@ typedef struct {
     int8_t mode;
     bool on;
     hd_co_setpoint_t sp;
+    uint32_t pp_news;            /* set-points handed over with pp_new */
     uint16_t app_fault;
     uint32_t tick;
 } ctx_t;
@@ -117,7 +118,12 @@ static uint32_t t_enable(void *c, int8_t mode, bool on)
     x->on = on;
     return 0u;
 }
-static void t_setpoint(void *c, const hd_co_setpoint_t *sp) { ((ctx_t *)c)->sp = *sp; }
+static void t_setpoint(void *c, const hd_co_setpoint_t *sp)
+{
+    ctx_t *x = c;
+    x->sp = *sp;
+    x->pp_news += sp->pp_new;
+}
 static void t_actual(void *c, hd_co_actual_t *a)
 {
     ctx_t *x = c;
@@ -630,6 +636,60 @@ static void test_402_state_machine(void **st)
     assert_int_equal(v, 0u);
 }
 
+/* CiA 402 profile position: the new-set-point edge (controlword bit 4) is taken once per
+ * rising edge, even when the host sets and clears the bit within one control period
+ * (the virtual drive's fast pacing, or two RPDOs in a row); an edge written while the
+ * drive is not in OPERATION ENABLED never starts a move later. */
+static void test_402_new_setpoint_edge_latched_at_write(void **st)
+{
+    (void)st;
+    setup_dev();
+    tick(1);
+    assert_int_equal(sdo_write(0x6060u, 0u, 1u, 1u), 0);       /* profile position */
+    cw(0x06);
+    cw(0x0F);
+    assert_int_equal(statusword() & 0x6F, 0x27);
+    assert_int_equal(X.pp_news, 0u);
+    /* set and clear within one period: one set-point, no acknowledge left standing */
+    assert_int_equal(sdo_write(0x6040u, 0u, 0x1Fu, 2u), 0);
+    assert_int_equal(sdo_write(0x6040u, 0u, 0x0Fu, 2u), 0);
+    tick(1);
+    assert_int_equal(X.pp_news, 1u);
+    assert_int_equal(statusword() & 0x1000u, 0u);
+    tick(5);
+    assert_int_equal(X.pp_news, 1u);
+    /* the usual handshake: acknowledge while bit 4 stays set, one set-point only */
+    cw(0x1F);
+    assert_int_equal(X.pp_news, 2u);
+    assert_int_equal(statusword() & 0x1000u, 0x1000u);
+    cw(0x1F);                                                  /* no edge: no new set-point */
+    tick(3);
+    assert_int_equal(X.pp_news, 2u);
+    cw(0x0F);
+    assert_int_equal(statusword() & 0x1000u, 0u);
+    /* an edge written while only READY TO SWITCH ON is void */
+    cw(0x06);
+    cw(0x16);
+    cw(0x0F);
+    assert_int_equal(statusword() & 0x6F, 0x27);
+    tick(3);
+    assert_int_equal(X.pp_news, 2u);
+    /* an edge pending when the drive faults does not start a move after the reset */
+    assert_int_equal(sdo_write(0x6040u, 0u, 0x1Fu, 2u), 0);
+    X.app_fault = 4u;
+    tick(2);
+    assert_int_equal(statusword() & 0x4F, 0x08);
+    uint32_t after_fault = X.pp_news;
+    cw(0x00);
+    cw(0x80);
+    tick(1);
+    cw(0x06);
+    cw(0x0F);
+    assert_int_equal(statusword() & 0x6F, 0x27);
+    tick(3);
+    assert_int_equal(X.pp_news, after_fault);
+}
+
 static void test_heartbeat_consumer(void **st)
 {
     (void)st;
@@ -806,6 +866,7 @@ int main(void)
         cmocka_unit_test(test_sdo_segmented),
         cmocka_unit_test(test_sdo_block_domain),
         cmocka_unit_test(test_402_state_machine),
+        cmocka_unit_test(test_402_new_setpoint_edge_latched_at_write),
         cmocka_unit_test(test_heartbeat_consumer),
         cmocka_unit_test(test_pdo_mapping_and_stream),
         cmocka_unit_test(test_fuzz_random_frames),
