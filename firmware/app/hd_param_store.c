@@ -26,19 +26,6 @@ int32_t hd_params_check(uint32_t id, int32_t raw)
     return (raw < hd_param_table[id].min || raw > hd_param_table[id].max) ? -1 : 0;
 }
 
-uint32_t hd_crc32(uint32_t crc, const uint8_t *p, uint32_t len)
-{
-    uint32_t i, b;
-    crc = ~crc;
-    for (i = 0; i < len; i++) {
-        crc ^= p[i];
-        for (b = 0; b < 8u; b++) {
-            crc = (crc & 1u) ? (crc >> 1) ^ 0xEDB88320u : (crc >> 1);
-        }
-    }
-    return ~crc;
-}
-
 static void put32(uint8_t *p, uint32_t v)
 {
     p[0] = (uint8_t)(v & 0xFFu);

@@ -23,6 +23,7 @@
 
 #include <stdint.h>
 #include "hd_param_table.h"
+#include "hd_crc32.h"          /* the records' CRC */
 
 typedef enum {
     HD_PSTORE_OK = 0,             /* loaded from NVM */
@@ -39,8 +40,6 @@ typedef enum {
 void hd_params_defaults(int32_t values[HD_PARAM_COUNT]);
 /** Range check one raw value. 0 ok, -1 unknown id or out of range. */
 int32_t hd_params_check(uint32_t id, int32_t raw);
-/** CRC-32 (IEEE, reflected, init/xorout 0xFFFFFFFF) of len bytes, continuing from crc (start with 0). */
-uint32_t hd_crc32(uint32_t crc, const uint8_t *p, uint32_t len);
 
 /** Load from NVM into values (defaults on any failure); *seq gets the slot sequence (0 if none). */
 int32_t hd_pstore_load(int32_t values[HD_PARAM_COUNT], uint32_t *seq);

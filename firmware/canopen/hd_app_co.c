@@ -90,7 +90,7 @@ static uint32_t crc_word(uint32_t crc, uint32_t w)
     b[1] = (uint8_t)(w >> 8);
     b[2] = (uint8_t)(w >> 16);
     b[3] = (uint8_t)(w >> 24);
-    return hd_co_crc32(crc, b, 4u);
+    return hd_crc32(crc, b, 4u);
 }
 
 /* ---- table domains: payload words in force ------------------------------------------ */
@@ -279,7 +279,7 @@ static uint32_t a_dwrite(void *c, uint16_t dom, uint32_t off, const uint8_t *buf
             *w = (*w & ~(0xFFu << sh)) | ((uint32_t)buf[i] << sh);
             /* CRC lags 4 bytes: at the end it covers everything but the trailer */
             if (byte >= 4u) {
-                ac->stage_crc = hd_co_crc32(ac->stage_crc, &ac->stage_win[byte % 4u], 1u);
+                ac->stage_crc = hd_crc32(ac->stage_crc, &ac->stage_win[byte % 4u], 1u);
             }
             ac->stage_win[byte % 4u] = buf[i];
         }

@@ -121,18 +121,6 @@ uint16_t hd_co_crc16(uint16_t crc, const uint8_t *p, uint32_t len)
     return (uint16_t)c;
 }
 
-uint32_t hd_co_crc32(uint32_t crc, const uint8_t *p, uint32_t len)
-{
-    uint32_t c = ~crc;
-    for (uint32_t i = 0u; i < len; i++) {
-        c ^= p[i];
-        for (uint32_t k = 0u; k < 8u; k++) {
-            c = (c & 1u) != 0u ? ((c >> 1) ^ 0xEDB88320u) : (c >> 1);
-        }
-    }
-    return ~c;
-}
-
 static void co_send(hd_co_t *co, uint32_t id, uint8_t dlc, const uint8_t *data)
 {
     hd_can_frame_t f;

@@ -30,6 +30,7 @@
 #include "hal.h"
 #include "hd_co_types.h"
 #include "hd_co_od.h"
+#include "hd_crc32.h"          /* the table container's CRC */
 
 #define HD_CO_TICK_US          100u     /* one control period */
 #define HD_CO_SDO_TIMEOUT_MS   1000u    /* server-side SDO transfer time-out */
@@ -292,8 +293,6 @@ uint32_t hd_co_set_i64(hd_co_t *co, uint16_t index, uint8_t sub, int64_t v);
 
 /** CRC-16/XMODEM (SDO block transfer): poly 0x1021, init as given (0). */
 uint16_t hd_co_crc16(uint16_t crc, const uint8_t *p, uint32_t len);
-/** CRC-32 (IEEE 802.3, reflected) used by the table container. */
-uint32_t hd_co_crc32(uint32_t crc, const uint8_t *p, uint32_t len);
 
 /* CiA 402 (hd_co_402.c), called by hd_co.c. */
 void hd_co402_init(hd_co_t *co);

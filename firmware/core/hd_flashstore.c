@@ -5,24 +5,6 @@
 #include <stddef.h>
 #include "hd_flashstore.h"
 
-static const uint32_t crc_nib[16] = {
-    0x00000000u, 0x1DB71064u, 0x3B6E20C8u, 0x26D930ACu, 0x76DC4190u, 0x6B6B51F4u,
-    0x4DB26158u, 0x5005713Cu, 0xEDB88320u, 0xF00F9344u, 0xD6D6A3E8u, 0xCB61B38Cu,
-    0x9B64C2B0u, 0x86D3D2D4u, 0xA00AE278u, 0xBDBDF21Cu,
-};
-
-uint32_t hd_fstore_crc32(uint32_t crc, const uint8_t *p, uint32_t len)
-{
-    uint32_t c = ~crc;
-    uint32_t i;
-    for (i = 0u; i < len; i++) {
-        c ^= p[i];
-        c = (c >> 4) ^ crc_nib[c & 0xFu];
-        c = (c >> 4) ^ crc_nib[c & 0xFu];
-    }
-    return ~c;
-}
-
 static void put32(uint8_t *p, uint32_t v)
 {
     p[0] = (uint8_t)(v & 0xFFu);
@@ -58,7 +40,7 @@ static int32_t payload_crc(const hd_fstore_t *s, uint32_t addr, uint32_t crc, ui
         if (s->fl->read(s->fl->ctx, addr + done, buf, n) != 0) {
             return -1;
         }
-        crc = hd_fstore_crc32(crc, buf, n);
+        crc = hd_crc32(crc, buf, n);
         done += n;
     }
     *out = crc;
@@ -81,7 +63,7 @@ static int slot_valid(const hd_fstore_t *s, uint32_t slot, uint32_t *seq)
         get32(&t[4]) != ~sq) {
         return 0;
     }
-    if (payload_crc(s, a + HD_FS_HDR, hd_fstore_crc32(0u, h, 12u), &crc) != 0 || crc != get32(&h[12])) {
+    if (payload_crc(s, a + HD_FS_HDR, hd_crc32(0u, h, 12u), &crc) != 0 || crc != get32(&h[12])) {
         return 0;
     }
     *seq = sq;
@@ -154,7 +136,7 @@ int32_t hd_fstore_save(hd_fstore_t *s, const void *payload)
     put32(&h[0], HD_FS_MAGIC);
     put32(&h[4], seq);
     put32(&h[8], s->len);
-    put32(&h[12], hd_fstore_crc32(hd_fstore_crc32(0u, h, 12u), (const uint8_t *)payload, s->len));
+    put32(&h[12], hd_crc32(hd_crc32(0u, h, 12u), (const uint8_t *)payload, s->len));
     put32(&t[0], HD_FS_COMMIT);
     put32(&t[4], ~seq);
     for (tries = 0u; tries < s->n_slots; tries++, target = (target + 1u) % s->n_slots) {
@@ -207,13 +189,13 @@ static int vn_valid(const hd_vnvm_t *v, uint32_t p, uint32_t *idx, uint32_t *seq
         get32(&t[4]) != HD_FS_COMMIT) {
         return 0;
     }
-    uint32_t crc = hd_fstore_crc32(0u, h, HD_FS_HDR);
+    uint32_t crc = hd_crc32(0u, h, HD_FS_HDR);
     while (done < v->vpage) {
         const uint32_t n = (v->vpage - done < 64u) ? (v->vpage - done) : 64u;
         if (v->fl->read(v->fl->ctx, a + HD_FS_HDR + done, buf, n) != 0) {
             return 0;
         }
-        crc = hd_fstore_crc32(crc, buf, n);
+        crc = hd_crc32(crc, buf, n);
         done += n;
     }
     if (crc != get32(&t[0])) {
@@ -336,7 +318,7 @@ static int32_t vn_commit(hd_vnvm_t *v, uint32_t vp, uint32_t in, const uint8_t *
         if (v->fl->prog(v->fl->ctx, a, h, HD_FS_HDR) != 0) {
             continue;
         }
-        crc = hd_fstore_crc32(0u, h, HD_FS_HDR);
+        crc = hd_crc32(0u, h, HD_FS_HDR);
         while (done < v->vpage && ok) {
             const uint32_t m = (v->vpage - done < 64u) ? (v->vpage - done) : 64u;
             uint32_t i;
@@ -348,7 +330,7 @@ static int32_t vn_commit(hd_vnvm_t *v, uint32_t vp, uint32_t in, const uint8_t *
                     buf[i] = data[done + i - in];
                 }
             }
-            crc = hd_fstore_crc32(crc, buf, m);
+            crc = hd_crc32(crc, buf, m);
             ok = (v->fl->prog(v->fl->ctx, a + HD_FS_HDR + done, buf, m) == 0);
             done += m;
         }

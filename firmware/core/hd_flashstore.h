@@ -47,6 +47,7 @@
 #define HD_FLASHSTORE_H
 
 #include <stdint.h>
+#include "hd_crc32.h"
 
 #define HD_FS_MAGIC   0x53464448u   /* "HDFS" */
 #define HD_FS_COMMIT  0x54494D43u   /* "CMIT" */
@@ -77,8 +78,6 @@ typedef struct {
     uint32_t erases;     /* pages erased by this instance (statistics) */
 } hd_fstore_t;
 
-/** CRC-32 (IEEE, reflected, init and xorout 0xFFFFFFFF) continued from crc (start with 0). */
-uint32_t hd_fstore_crc32(uint32_t crc, const uint8_t *p, uint32_t len);
 
 /** Scan the flash for the newest valid record of len payload bytes.
  *  0 ok (s->have says whether one was found), -1 bad geometry. */

@@ -5,6 +5,7 @@
  * only through hd_app.h and the host port (hal_host.h).
  */
 #include "harness.h"
+#include "sim_err.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -42,14 +43,6 @@ struct hd_sim {
     int ptp_started;            /* setpoint "ptp": drive mode PTP entered */
 };
 
-static void set_err(char *err, size_t errlen, const char *fmt, ...)
-{
-    va_list ap;
-    if (!err || errlen == 0) return;
-    va_start(ap, fmt);
-    vsnprintf(err, errlen, fmt, ap);
-    va_end(ap);
-}
 
 /* ---- bridge ---------------------------------------------------------------------- */
 
@@ -151,7 +144,7 @@ int hd_sim_scenario_params(const hd_scenario_t *sc, hd_plant_params *prm, char *
     for (int32_t i = 0; i < sc->n_over; i++) {
         int rc = hd_plant_param_set(prm, sc->over[i].key, sc->over[i].value);
         if (rc != HD_PLANT_OK) {
-            set_err(err, errlen, "%s:%ld: plant.%s: %s", sc->path, (long)sc->over[i].line, sc->over[i].key,
+            sim_set_err(err, errlen, "%s:%ld: plant.%s: %s", sc->path, (long)sc->over[i].line, sc->over[i].key,
                     hd_plant_strerror(rc));
             return -1;
         }
@@ -172,14 +165,14 @@ static int set_param_si(hd_sim_t *s, const char *name, double v, const char *why
 {
     int32_t id = param_id(name);
     if (id < 0) {
-        set_err(err, errlen, "%s: %s: unknown drive parameter '%s'", s->sc.path, why, name);
+        sim_set_err(err, errlen, "%s: %s: unknown drive parameter '%s'", s->sc.path, why, name);
         return -1;
     }
     double raw = v * ldexp(1.0, hd_param_table[id].frac);
     int32_t r = sat_i32(raw);
     if (hd_app_param_set(&s->app, (uint32_t)id, r) != 0) {
         const hd_param_desc_t *d = &hd_param_table[id];
-        set_err(err, errlen, "%s: %s: drive parameter %s = %.17g refused: expected [%.9g, %.9g] %s", s->sc.path,
+        sim_set_err(err, errlen, "%s: %s: drive parameter %s = %.17g refused: expected [%.9g, %.9g] %s", s->sc.path,
                 why, name, v, ldexp((double)d->min, -d->frac), ldexp((double)d->max, -d->frac), d->unit);
         return -1;
     }
@@ -197,7 +190,7 @@ static int setup_comp(hd_sim_t *s, char *err, size_t errlen)
         uint32_t k = 0;
         while (k < 8u && strcmp(s->sc.comp[i], NAMES[k]) != 0) k++;
         if (k == 8u) {
-            set_err(err, errlen, "%s: controller.compensators: unknown '%s'; expected stribeck, lugre, maxwell, "
+            sim_set_err(err, errlen, "%s: controller.compensators: unknown '%s'; expected stribeck, lugre, maxwell, "
                     "preisach, te, backstep, dob or approach", s->sc.path, s->sc.comp[i]);
             return -1;
         }
@@ -231,7 +224,7 @@ static int setup_comp(hd_sim_t *s, char *err, size_t errlen)
         free(t);
         free(buf);
         if (rc != 0) {
-            set_err(err, errlen, "%s: compensators.preisach.table: %s: expected a valid Preisach table image "
+            sim_set_err(err, errlen, "%s: compensators.preisach.table: %s: expected a valid Preisach table image "
                     "(hdservo.compsetup / preisach_table.py), refused (%d)", s->sc.path, s->sc.comp_table, rc);
             return -1;
         }
@@ -246,7 +239,7 @@ static int setup_app(hd_sim_t *s, char *err, size_t errlen)
 {
     const hd_plant_params *q = &s->prm;
     if (q->ratio != floor(q->ratio)) {
-        set_err(err, errlen, "%s: gear ratio %.17g: the drive needs an integer ratio", s->sc.axis, q->ratio);
+        sim_set_err(err, errlen, "%s: gear ratio %.17g: the drive needs an integer ratio", s->sc.axis, q->ratio);
         return -1;
     }
     if (set_param_si(s, "gear_ratio", q->ratio, "axis", err, errlen) ||
@@ -263,7 +256,7 @@ static int setup_app(hd_sim_t *s, char *err, size_t errlen)
     if (setup_comp(s, err, errlen)) return -1;
     static const int32_t MODE_MAP[] = {HD_MODE_OFF, HD_MODE_TORQUE, HD_MODE_VELOCITY, HD_MODE_POSITION, HD_MODE_STAB};
     if (hd_app_set_mode(&s->app, MODE_MAP[s->sc.mode]) != 0) {
-        set_err(err, errlen, "%s: the drive refused mode %s", s->sc.path, hd_scenario_mode_name(s->sc.mode));
+        sim_set_err(err, errlen, "%s: the drive refused mode %s", s->sc.path, hd_scenario_mode_name(s->sc.mode));
         return -1;
     }
     return 0;
@@ -272,12 +265,12 @@ static int setup_app(hd_sim_t *s, char *err, size_t errlen)
 hd_sim_t *hd_sim_new(const hd_scenario_t *sc, const hd_plant_params *prm, char *err, size_t errlen)
 {
     hd_sim_t *s = calloc(1, sizeof *s);
-    if (!s) { set_err(err, errlen, "out of memory"); return NULL; }
+    if (!s) { sim_set_err(err, errlen, "out of memory"); return NULL; }
     s->sc = *sc;
     s->prm = *prm;
     char msg[256];
     if (hd_plant_init(&s->plant, &s->prm, sc->seed, msg, sizeof msg) != HD_PLANT_OK) {
-        set_err(err, errlen, "%s: %s", sc->axis, msg);
+        sim_set_err(err, errlen, "%s: %s", sc->axis, msg);
         free(s);
         return NULL;
     }
@@ -489,7 +482,7 @@ int hd_sim_run(hd_sim_t *s, double *rows, char *err, size_t errlen)
             const double *r = rows + j * HD_SIM_NCOL;
             for (int32_t c = 0; c < HD_SIM_NCOL; c++) {
                 if (!isfinite(r[c])) {
-                    set_err(err, errlen, "%s: the simulation diverged at t = %.6g s (%s is not finite)",
+                    sim_set_err(err, errlen, "%s: the simulation diverged at t = %.6g s (%s is not finite)",
                             s->sc.path, r[HD_COL_T], hd_sim_column_name(c, (int32_t)s->sc.mode));
                     return -1;
                 }
@@ -561,7 +554,7 @@ int hd_sim_write_log(const hd_sim_t *s, const double *rows, int64_t n_rows, cons
     for (int32_t c = 0; c < HD_SIM_NCOL; c++) names[c] = hd_sim_column_name(c, (int32_t)s->sc.mode);
     size_t cap = 64 * 1024;
     char *meta = malloc(cap);
-    if (!meta) { set_err(err, errlen, "out of memory"); return -1; }
+    if (!meta) { sim_set_err(err, errlen, "out of memory"); return -1; }
     hd_sim_meta_json(s, meta, cap);
     int rc = hd_log_write(csv_path, names, HD_SIM_NCOL, rows, n_rows, meta, err, errlen);
     free(meta);

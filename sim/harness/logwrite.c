@@ -2,6 +2,7 @@
  * logwrite.c - CSV + JSON sidecar writer (see logwrite.h).
  */
 #include "logwrite.h"
+#include "sim_err.h"
 
 #include <errno.h>
 #include <math.h>
@@ -11,14 +12,6 @@
 #include <string.h>
 #include <unistd.h>
 
-static void set_err(char *err, size_t errlen, const char *fmt, ...)
-{
-    va_list ap;
-    if (!err || errlen == 0) return;
-    va_start(ap, fmt);
-    vsnprintf(err, errlen, fmt, ap);
-    va_end(ap);
-}
 
 void hd_json_add(char *buf, size_t cap, size_t *len, const char *fmt, ...)
 {
@@ -94,19 +87,19 @@ int hd_log_write(const char *csv_path, const char *const *names, int32_t n_cols,
     char side[4096], tcsv[4200], tside[4200];
     if (hd_log_sidecar_path(csv_path, side, sizeof side) || tmp_name(csv_path, tcsv, sizeof tcsv) ||
         tmp_name(side, tside, sizeof tside)) {
-        set_err(err, errlen, "%s: path too long", csv_path);
+        sim_set_err(err, errlen, "%s: path too long", csv_path);
         return -1;
     }
     for (int64_t i = 0; i < n_rows * (int64_t)n_cols; i++) {
         if (!isfinite(rows[i])) {
-            set_err(err, errlen, "%s: refusing to write a non-finite value (row %lld, column %s): the simulation diverged",
+            sim_set_err(err, errlen, "%s: refusing to write a non-finite value (row %lld, column %s): the simulation diverged",
                     csv_path, (long long)(i / n_cols), names[i % n_cols]);
             return -1;
         }
     }
     FILE *f = fopen(tcsv, "w");
     if (!f) {
-        set_err(err, errlen, "%s: cannot write: %s", csv_path, strerror(errno));
+        sim_set_err(err, errlen, "%s: cannot write: %s", csv_path, strerror(errno));
         return -1;
     }
     /* big buffer: the CSV is written in one pass */
@@ -115,13 +108,13 @@ int hd_log_write(const char *csv_path, const char *const *names, int32_t n_cols,
     if (fclose(f) != 0) bad = -1;
     if (bad) {
         remove(tcsv);
-        set_err(err, errlen, "%s: write failed: %s", csv_path, strerror(errno));
+        sim_set_err(err, errlen, "%s: write failed: %s", csv_path, strerror(errno));
         return -1;
     }
     f = fopen(tside, "w");
     if (!f) {
         remove(tcsv);
-        set_err(err, errlen, "%s: cannot write: %s", side, strerror(errno));
+        sim_set_err(err, errlen, "%s: cannot write: %s", side, strerror(errno));
         return -1;
     }
     size_t sl = strlen(sidecar_json);
@@ -130,21 +123,21 @@ int hd_log_write(const char *csv_path, const char *const *names, int32_t n_cols,
     if (bad) {
         remove(tcsv);
         remove(tside);
-        set_err(err, errlen, "%s: write failed", side);
+        sim_set_err(err, errlen, "%s: write failed", side);
         return -1;
     }
     if (rename(tcsv, csv_path) != 0) {
         int e = errno;
         remove(tcsv);
         remove(tside);
-        set_err(err, errlen, "%s: cannot write: %s", csv_path, strerror(e));
+        sim_set_err(err, errlen, "%s: cannot write: %s", csv_path, strerror(e));
         return -1;
     }
     if (rename(tside, side) != 0) {
         int e = errno;
         remove(tside);
         remove(csv_path);
-        set_err(err, errlen, "%s: cannot write: %s", side, strerror(e));
+        sim_set_err(err, errlen, "%s: cannot write: %s", side, strerror(e));
         return -1;
     }
     return 0;

@@ -3,6 +3,7 @@
  * the setpoint profile.
  */
 #include "scenario.h"
+#include "sim_err.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -19,14 +20,6 @@
 #define M_PI 3.14159265358979323846
 #endif
 
-static void set_err(char *err, size_t errlen, const char *fmt, ...)
-{
-    va_list ap;
-    if (!err || errlen == 0) return;
-    va_start(ap, fmt);
-    vsnprintf(err, errlen, fmt, ap);
-    va_end(ap);
-}
 
 const char *hd_scenario_mode_name(hd_sc_mode_t m)
 {
@@ -95,7 +88,7 @@ static int integer(ctx_t *c, const char *key, double lo, double hi, int64_t *out
 static int need(ctx_t *c, int rc, const char *key, const char *what)
 {
     if (rc == 0) {
-        set_err(c->err, c->errlen, "%s: missing key '%s' (%s)", c->doc->file, key, what);
+        sim_set_err(c->err, c->errlen, "%s: missing key '%s' (%s)", c->doc->file, key, what);
         return -1;
     }
     return rc < 0 ? -1 : 0;
@@ -114,7 +107,7 @@ static int choice(ctx_t *c, const char *key, const char *const *names, int n, in
     if (rc < 0) return -1;
     if (rc == 0) {
         if (dflt < 0) {
-            set_err(c->err, c->errlen, "%s: missing key '%s'", c->doc->file, key);
+            sim_set_err(c->err, c->errlen, "%s: missing key '%s'", c->doc->file, key);
             return -1;
         }
         *out = dflt;
@@ -243,7 +236,7 @@ static int parse_setpoint(ctx_t *c, hd_scenario_t *sc)
         sp->t1_s <= 0.0)
         sp->t1_s = sc->duration_s;
     if ((sp->type == HD_SP_CHIRP || sp->type == HD_SP_MULTISINE) && sp->t1_s <= sp->t0_s) {
-        set_err(c->err, c->errlen, "%s: setpoint: expected t1_s > t0_s", c->doc->file);
+        sim_set_err(c->err, c->errlen, "%s: setpoint: expected t1_s > t0_s", c->doc->file);
         return -1;
     }
     return 0;
@@ -311,7 +304,7 @@ static int parse_disturbance(ctx_t *c, hd_scenario_t *sc)
     int b = num(c, "disturbance.load_step_t_s", 0.0, HD_SC_MAX_DURATION_S, &sc->load_step_t_s);
     if (a < 0 || b < 0) return -1;
     if (a != b) {
-        set_err(c->err, c->errlen, "%s: disturbance: expected load_step_Nm and load_step_t_s together",
+        sim_set_err(c->err, c->errlen, "%s: disturbance: expected load_step_Nm and load_step_t_s together",
                 c->doc->file);
         return -1;
     }
@@ -321,7 +314,7 @@ static int parse_disturbance(ctx_t *c, hd_scenario_t *sc)
     int p = num(c, "disturbance.base_phase_rad", -BIG, BIG, &ph);
     if (a < 0 || b < 0 || p < 0) return -1;
     if (a != b) {
-        set_err(c->err, c->errlen, "%s: disturbance: expected base_amp_rad and base_freq_Hz together",
+        sim_set_err(c->err, c->errlen, "%s: disturbance: expected base_amp_rad and base_freq_Hz together",
                 c->doc->file);
         return -1;
     }
@@ -341,7 +334,7 @@ static int parse_faults(ctx_t *c, hd_scenario_t *sc)
 {
     size_t n = hd_toml_table_count(c->doc, "fault");
     if (n > HD_SC_MAX_FAULTS) {
-        set_err(c->err, c->errlen, "%s: too many [[fault]] tables (at most %d)", c->doc->file,
+        sim_set_err(c->err, c->errlen, "%s: too many [[fault]] tables (at most %d)", c->doc->file,
                 HD_SC_MAX_FAULTS);
         return -1;
     }
@@ -546,7 +539,7 @@ static int parse_doc(hd_toml_doc_t *doc, hd_scenario_t *sc, char *err, size_t er
     rc = str(&c, "scenario.name", &s);
     if (rc < 0) return -1;
     if (rc == 1 && copy_str(sc->name, sizeof sc->name, s)) {
-        set_err(err, errlen, "%s: scenario.name too long", doc->file);
+        sim_set_err(err, errlen, "%s: scenario.name too long", doc->file);
         return -1;
     }
     if (rc == 0) {
@@ -595,7 +588,7 @@ int hd_scenario_parse(const char *text, size_t len, const char *fname, hd_scenar
     memset(sc, 0, sizeof *sc);
     if (!fname) fname = "<scenario>";
     if (copy_str(sc->path, sizeof sc->path, fname)) {
-        set_err(err, errlen, "%s: path too long", fname);
+        sim_set_err(err, errlen, "%s: path too long", fname);
         return -1;
     }
     if (hd_toml_parse(text, len, fname, &doc, err, errlen)) return -1;
@@ -609,7 +602,7 @@ int hd_scenario_load(const char *path, hd_scenario_t *sc, char *err, size_t errl
     hd_toml_doc_t doc;
     memset(sc, 0, sizeof *sc);
     if (copy_str(sc->path, sizeof sc->path, path)) {
-        set_err(err, errlen, "%s: path too long", path);
+        sim_set_err(err, errlen, "%s: path too long", path);
         return -1;
     }
     if (hd_toml_load(path, &doc, err, errlen)) return -1;

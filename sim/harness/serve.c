@@ -238,7 +238,7 @@ static uint32_t a_dend(void *c, uint16_t dom, uint32_t total, bool complete)
     if (!complete) return 0;
     dom_t *d = &s->test;
     if (total < 4u || total != d->stage_len) return HD_CO_AB_STORE;
-    uint32_t crc = hd_co_crc32(0, d->stage, total - 4u);
+    uint32_t crc = hd_crc32(0, d->stage, total - 4u);
     const uint8_t *t = d->stage + total - 4u;
     uint32_t got = (uint32_t)t[0] | ((uint32_t)t[1] << 8) | ((uint32_t)t[2] << 16) | ((uint32_t)t[3] << 24);
     if (crc != got) return HD_CO_AB_STORE;

@@ -2,6 +2,7 @@
  * simlib.c - the ctypes-facing API of libhdsim.so (see simlib.h).
  */
 #include "simlib.h"
+#include "sim_err.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -21,19 +22,11 @@ struct hd_simlib {
     char meta[65536];
 };
 
-static void set_err(char *err, size_t errlen, const char *fmt, ...)
-{
-    va_list ap;
-    if (!err || errlen == 0) return;
-    va_start(ap, fmt);
-    vsnprintf(err, errlen, fmt, ap);
-    va_end(ap);
-}
 
 hd_simlib_t *hd_simlib_open(const char *scenario_path, char *err, size_t errlen)
 {
     hd_simlib_t *h = calloc(1, sizeof *h);
-    if (!h) { set_err(err, errlen, "out of memory"); return NULL; }
+    if (!h) { sim_set_err(err, errlen, "out of memory"); return NULL; }
     if (hd_scenario_load(scenario_path, &h->sc, err, errlen)) {
         free(h);
         return NULL;
@@ -47,11 +40,11 @@ int32_t hd_simlib_set_param(hd_simlib_t *h, const char *key, double value, char 
     hd_plant_defaults_reference(&scratch);
     int rc = hd_plant_param_set(&scratch, key, value);
     if (rc != HD_PLANT_OK) {
-        set_err(err, errlen, "plant parameter '%s' = %.17g: %s", key, value, hd_plant_strerror(rc));
+        sim_set_err(err, errlen, "plant parameter '%s' = %.17g: %s", key, value, hd_plant_strerror(rc));
         return -1;
     }
     if (h->n_set >= HD_SC_MAX_OVERRIDES || strlen(key) >= HD_SC_KEY_MAX) {
-        set_err(err, errlen, "too many overrides or key too long: %s", key);
+        sim_set_err(err, errlen, "too many overrides or key too long: %s", key);
         return -1;
     }
     memcpy(h->set[h->n_set].key, key, strlen(key) + 1);
@@ -65,7 +58,7 @@ void hd_simlib_set_seed(hd_simlib_t *h, uint64_t seed) { h->sc.seed = seed; }
 int32_t hd_simlib_set_duration(hd_simlib_t *h, double duration_s, char *err, size_t errlen)
 {
     if (!(duration_s >= h->sc.dt_s && duration_s <= HD_SC_MAX_DURATION_S)) {
-        set_err(err, errlen, "duration %.17g s: expected [%g, %g] s", duration_s, h->sc.dt_s, HD_SC_MAX_DURATION_S);
+        sim_set_err(err, errlen, "duration %.17g s: expected [%g, %g] s", duration_s, h->sc.dt_s, HD_SC_MAX_DURATION_S);
         return -1;
     }
     h->sc.duration_s = duration_s;
@@ -80,7 +73,7 @@ int64_t hd_simlib_prepare(hd_simlib_t *h, char *err, size_t errlen)
     for (int32_t i = 0; i < h->n_set; i++) {
         int rc = hd_plant_param_set(&prm, h->set[i].key, h->set[i].value);
         if (rc != HD_PLANT_OK) {
-            set_err(err, errlen, "plant parameter '%s': %s", h->set[i].key, hd_plant_strerror(rc));
+            sim_set_err(err, errlen, "plant parameter '%s': %s", h->set[i].key, hd_plant_strerror(rc));
             return -1;
         }
     }
@@ -100,7 +93,7 @@ const char *hd_simlib_column(const hd_simlib_t *h, int32_t col)
 
 int32_t hd_simlib_run(hd_simlib_t *h, double *rows, char *err, size_t errlen)
 {
-    if (!h->sim) { set_err(err, errlen, "hd_simlib_run before hd_simlib_prepare"); return -1; }
+    if (!h->sim) { sim_set_err(err, errlen, "hd_simlib_run before hd_simlib_prepare"); return -1; }
     return hd_sim_run(h->sim, rows, err, errlen) ? -1 : 0;
 }
 
@@ -109,7 +102,7 @@ const char *hd_simlib_meta(hd_simlib_t *h) { return h->meta; }
 int32_t hd_simlib_write_log(hd_simlib_t *h, const double *rows, int64_t n_rows, const char *csv_path,
                             char *err, size_t errlen)
 {
-    if (!h->sim) { set_err(err, errlen, "hd_simlib_write_log before hd_simlib_prepare"); return -1; }
+    if (!h->sim) { sim_set_err(err, errlen, "hd_simlib_write_log before hd_simlib_prepare"); return -1; }
     return hd_sim_write_log(h->sim, rows, n_rows, csv_path, err, errlen) ? -1 : 0;
 }
 
@@ -144,7 +137,7 @@ int32_t hd_simlib_open_loop(const char *axis, const char *const *keys, const dou
 {
     hd_plant_params prm;
     if (!(dt_s > 0.0 && dt_s <= 1.0) || n < 0) {
-        set_err(err, errlen, "open loop: expected 0 < dt_s <= 1 and n >= 0 (got dt_s = %g, n = %lld)", dt_s,
+        sim_set_err(err, errlen, "open loop: expected 0 < dt_s <= 1 and n >= 0 (got dt_s = %g, n = %lld)", dt_s,
                 (long long)n);
         return -1;
     }
@@ -152,15 +145,15 @@ int32_t hd_simlib_open_loop(const char *axis, const char *const *keys, const dou
     for (int32_t i = 0; i < n_over; i++) {
         int rc = hd_plant_param_set(&prm, keys[i], values[i]);
         if (rc != HD_PLANT_OK) {
-            set_err(err, errlen, "plant parameter '%s' = %.17g: %s", keys[i], values[i], hd_plant_strerror(rc));
+            sim_set_err(err, errlen, "plant parameter '%s' = %.17g: %s", keys[i], values[i], hd_plant_strerror(rc));
             return -1;
         }
     }
     hd_plant *p = malloc(sizeof *p);
-    if (!p) { set_err(err, errlen, "out of memory"); return -1; }
+    if (!p) { sim_set_err(err, errlen, "out of memory"); return -1; }
     char msg[256];
     if (hd_plant_init(p, &prm, seed, msg, sizeof msg) != HD_PLANT_OK) {
-        set_err(err, errlen, "%s", msg);
+        sim_set_err(err, errlen, "%s", msg);
         free(p);
         return -1;
     }
@@ -221,7 +214,7 @@ int32_t hd_simlib_axis_param(const char *axis, const char *name, double *value, 
     hd_plant_params prm;
     if (hd_sim_axis_params(axis ? axis : "reference", &prm, err, errlen)) return -1;
     if (hd_plant_param_get(&prm, name, value) != HD_PLANT_OK) {
-        set_err(err, errlen, "unknown plant parameter '%s'", name);
+        sim_set_err(err, errlen, "unknown plant parameter '%s'", name);
         return -1;
     }
     return 0;

@@ -5,6 +5,7 @@
  * every copy against its destination, every allocation checked; no recursion.
  */
 #include "toml_lite.h"
+#include "sim_err.h"
 
 #include <errno.h>
 #include <math.h>
@@ -24,14 +25,6 @@ typedef struct {
     char table[HD_TOML_MAX_KEY + 1];
 } parser_t;
 
-static void set_err(char *err, size_t errlen, const char *fmt, ...)
-{
-    va_list ap;
-    if (!err || errlen == 0) return;
-    va_start(ap, fmt);
-    vsnprintf(err, errlen, fmt, ap);
-    va_end(ap);
-}
 
 static int peekc(const parser_t *p)
 {
@@ -72,14 +65,14 @@ static const char *found_desc(const parser_t *p, char *buf, size_t n)
 static int perr(parser_t *p, const char *what)
 {
     char b[16];
-    set_err(p->err, p->errlen, "%s:%ld:%ld: expected %s, found %s", p->fname,
+    sim_set_err(p->err, p->errlen, "%s:%ld:%ld: expected %s, found %s", p->fname,
             (long)p->line, (long)p->col, what, found_desc(p, b, sizeof b));
     return -1;
 }
 
 static int perr_at(parser_t *p, int32_t line, int32_t col, const char *msg)
 {
-    set_err(p->err, p->errlen, "%s:%ld:%ld: %s", p->fname, (long)line, (long)col, msg);
+    sim_set_err(p->err, p->errlen, "%s:%ld:%ld: %s", p->fname, (long)line, (long)col, msg);
     return -1;
 }
 
@@ -542,11 +535,11 @@ int hd_toml_parse(const char *text, size_t len, const char *fname,
     p.doc = doc;
     if (err && errlen) err[0] = '\0';
     if (len > HD_TOML_MAX_FILE) {
-        set_err(err, errlen, "%s: file too large (more than %u bytes)", p.fname, HD_TOML_MAX_FILE);
+        sim_set_err(err, errlen, "%s: file too large (more than %u bytes)", p.fname, HD_TOML_MAX_FILE);
         return -1;
     }
     doc->file = dupstr(p.fname);
-    if (!doc->file) { set_err(err, errlen, "%s: out of memory", p.fname); return -1; }
+    if (!doc->file) { sim_set_err(err, errlen, "%s: out of memory", p.fname); return -1; }
     /* UTF-8 BOM */
     if (len >= 3 && (unsigned char)text[0] == 0xef && (unsigned char)text[1] == 0xbb &&
         (unsigned char)text[2] == 0xbf)
@@ -569,21 +562,21 @@ int hd_toml_load(const char *path, hd_toml_doc_t *doc, char *err, size_t errlen)
     memset(doc, 0, sizeof *doc);
     FILE *f = fopen(path, "rb");
     if (!f) {
-        set_err(err, errlen, "%s: cannot read: %s", path, strerror(errno));
+        sim_set_err(err, errlen, "%s: cannot read: %s", path, strerror(errno));
         return -1;
     }
     size_t cap = 4096, n = 0;
     char *buf = malloc(cap);
-    if (!buf) { fclose(f); set_err(err, errlen, "%s: out of memory", path); return -1; }
+    if (!buf) { fclose(f); sim_set_err(err, errlen, "%s: out of memory", path); return -1; }
     for (;;) {
         if (n == cap) {
             if (cap > HD_TOML_MAX_FILE) {
                 free(buf); fclose(f);
-                set_err(err, errlen, "%s: file too large (more than %u bytes)", path, HD_TOML_MAX_FILE);
+                sim_set_err(err, errlen, "%s: file too large (more than %u bytes)", path, HD_TOML_MAX_FILE);
                 return -1;
             }
             char *nb = realloc(buf, cap * 2);
-            if (!nb) { free(buf); fclose(f); set_err(err, errlen, "%s: out of memory", path); return -1; }
+            if (!nb) { free(buf); fclose(f); sim_set_err(err, errlen, "%s: out of memory", path); return -1; }
             buf = nb;
             cap *= 2;
         }
@@ -593,7 +586,7 @@ int hd_toml_load(const char *path, hd_toml_doc_t *doc, char *err, size_t errlen)
     }
     int bad = ferror(f);
     fclose(f);
-    if (bad) { free(buf); set_err(err, errlen, "%s: read error", path); return -1; }
+    if (bad) { free(buf); sim_set_err(err, errlen, "%s: read error", path); return -1; }
     int rc = hd_toml_parse(buf, n, path, doc, err, errlen);
     free(buf);
     return rc;
@@ -632,7 +625,7 @@ static const char *type_name(hd_toml_type_t t)
 void hd_toml_entry_error(const hd_toml_doc_t *doc, const hd_toml_entry_t *e,
                          char *err, size_t errlen, const char *msg)
 {
-    set_err(err, errlen, "%s:%ld:%ld: %s: %s", doc->file ? doc->file : "<toml>",
+    sim_set_err(err, errlen, "%s:%ld:%ld: %s: %s", doc->file ? doc->file : "<toml>",
             (long)e->line, (long)e->col, e->key, msg);
 }
 

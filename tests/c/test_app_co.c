@@ -84,13 +84,13 @@ static uint32_t make_table(uint32_t levels, uint32_t version, int32_t scale)
         put32(img + 40u + 4u * i, (uint32_t)t.e[i]);
     }
     n = 40u + 4u * t.n_entries;
-    put32(img + n, hd_co_crc32(0u, img, n));
+    put32(img + n, hd_crc32(0u, img, n));
     return n + 4u;
 }
 
 static void reseal_trailer(uint32_t len)
 {
-    put32(img + len - 4u, hd_co_crc32(0u, img, len - 4u));
+    put32(img + len - 4u, hd_crc32(0u, img, len - 4u));
 }
 
 /* download through the registered callbacks in 7-byte segments */
@@ -194,7 +194,7 @@ static void test_group_and_interlock(void **st)
         put32(p + 16u + 4u * i, (uint32_t)hd_app_param_get(&app, ids[i]));
     }
     put32(p + 16u + 4u * 4u, 12345u);                     /* te_amp1 */
-    put32(p + len - 4u, hd_co_crc32(0u, p, len - 4u));
+    put32(p + len - 4u, hd_crc32(0u, p, len - 4u));
     assert_int_equal(download(HD_APP_CO_DOM_TE, p, len), 0);
     assert_int_equal(hd_app_param_get(&app, HD_P_TE_AMP1), 12345);
     assert_int_equal(upload(HD_APP_CO_DOM_TE, back, sizeof back), len);
@@ -203,7 +203,7 @@ static void test_group_and_interlock(void **st)
     old_amp = hd_app_param_get(&app, HD_P_TE_AMP1);
     put32(p + 16u + 4u * 4u, 777u);
     put32(p + 16u + 4u * 1u, 0xFFFFFFFFu);                /* te_k1 = -1: below its minimum */
-    put32(p + len - 4u, hd_co_crc32(0u, p, len - 4u));
+    put32(p + len - 4u, hd_crc32(0u, p, len - 4u));
     assert_int_equal(download(HD_APP_CO_DOM_TE, p, len), HD_CO_AB_STORE);
     assert_int_equal(hd_app_param_get(&app, HD_P_TE_AMP1), old_amp);
 

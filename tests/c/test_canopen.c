@@ -96,7 +96,7 @@ static uint32_t t_dend(void *c, uint16_t dom, uint32_t total, bool complete)
     if (total < 4u) {
         return HD_CO_AB_STORE;
     }
-    uint32_t crc = hd_co_crc32(0u, x->stage, total - 4u);
+    uint32_t crc = hd_crc32(0u, x->stage, total - 4u);
     uint32_t got = (uint32_t)x->stage[total - 4u] | ((uint32_t)x->stage[total - 3u] << 8) |
                    ((uint32_t)x->stage[total - 2u] << 16) | ((uint32_t)x->stage[total - 1u] << 24);
     if (crc != got) {
@@ -514,7 +514,7 @@ static void make_table(uint8_t *b, uint32_t n, uint32_t seed)
         seed = seed * 1103515245u + 12345u;
         b[i] = (uint8_t)(seed >> 16);
     }
-    uint32_t c = hd_co_crc32(0u, b, n - 4u);
+    uint32_t c = hd_crc32(0u, b, n - 4u);
     b[n - 4u] = (uint8_t)c;
     b[n - 3u] = (uint8_t)(c >> 8);
     b[n - 2u] = (uint8_t)(c >> 16);
@@ -795,7 +795,7 @@ static void test_pdo_mapping_and_stream(void **st)
 /* checksum of everything a bus frame must not change by accident */
 static uint32_t param_checksum(void)
 {
-    uint32_t c = hd_co_crc32(0u, (const uint8_t *)X.param, sizeof X.param);
+    uint32_t c = hd_crc32(0u, (const uint8_t *)X.param, sizeof X.param);
     for (uint32_t i = 0; i < CO.count; i++) {
         const hd_co_entry_t *e = &CO.table[i];
         if (e->kind == HD_CO_K_VAR && ((e->flags & HD_CO_F_STORE) != 0u || e->access == HD_CO_A_CONST ||
@@ -803,7 +803,7 @@ static uint32_t param_checksum(void)
             uint8_t b[8];
             uint32_t n = 0;
             assert_int_equal(hd_co_read(&CO, i, b, sizeof b, &n), 0);
-            c = hd_co_crc32(c, b, n);
+            c = hd_crc32(c, b, n);
         }
     }
     return c;

@@ -149,10 +149,10 @@ static simflash_t F;   /* big: static */
 static void test_crc32_check_value(void **st)
 {
     (void)st;
-    assert_int_equal(hd_fstore_crc32(0u, (const uint8_t *)"123456789", 9u), 0xCBF43926u);
+    assert_int_equal(hd_crc32(0u, (const uint8_t *)"123456789", 9u), 0xCBF43926u);
     /* continuation */
-    const uint32_t a = hd_fstore_crc32(0u, (const uint8_t *)"1234", 4u);
-    assert_int_equal(hd_fstore_crc32(a, (const uint8_t *)"56789", 5u), 0xCBF43926u);
+    const uint32_t a = hd_crc32(0u, (const uint8_t *)"1234", 4u);
+    assert_int_equal(hd_crc32(a, (const uint8_t *)"56789", 5u), 0xCBF43926u);
 }
 
 static void test_basic_and_geometry(void **st)
