@@ -48,6 +48,11 @@ TURN = 2.0 * math.pi
 #: attempts per SDO request/response exchange (python canopen's MAX_RETRIES; its default 1
 #: means no retry): a frame lost on the bus costs one response time-out (0.3 s), not the transfer
 SDO_ATTEMPTS = 3
+#: attempts of a whole domain block transfer that ended on a response time-out
+DOMAIN_ATTEMPTS = 2
+#: the drive's SDO server time-out (firmware/canopen/hd_co.c): a transfer silent this long is
+#: discarded, so a repeat after it starts clean
+DRIVE_SDO_TIMEOUT_S = 1.0
 
 MODES = {
     "PROFILED POSITION": 1,
@@ -288,20 +293,41 @@ class Drive:
             raise DriveError(f"table 0x5100:{sub}: read-back differs from what was written")
 
     def write_domain(self, index: int, sub: int, blob: bytes) -> None:
-        """Block download of a domain (CRC-checked transfer)."""
-        try:
-            with self._var(index, sub).open("wb", size=len(blob), block_transfer=True) as f:
-                f.write(blob)
-        except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
-            raise DriveError(f"download 0x{index:04X}:{sub}: {e}") from None
+        """Block download of a domain (CRC-checked transfer).
+
+        A transfer that dies on a response time-out is repeated whole (up to
+        :data:`DOMAIN_ATTEMPTS`) after the drive's own SDO time-out has discarded the part it
+        received: the drive installs a domain only when the complete transfer and its CRC check
+        out, so a repeat cannot leave a mix.  An abort from the drive (refused table) is final.
+        """
+        for attempt in range(DOMAIN_ATTEMPTS):
+            try:
+                with self._var(index, sub).open("wb", size=len(blob), block_transfer=True) as f:
+                    f.write(blob)
+                return
+            except canopen.SdoCommunicationError as e:
+                if attempt + 1 < DOMAIN_ATTEMPTS:
+                    time.sleep(DRIVE_SDO_TIMEOUT_S + self.node.sdo.RESPONSE_TIMEOUT)
+                    continue
+                raise DriveError(f"download 0x{index:04X}:{sub}: {e}") from None
+            except canopen.SdoAbortedError as e:
+                raise DriveError(f"download 0x{index:04X}:{sub}: {e}") from None
 
     def read_domain(self, index: int, sub: int) -> bytes:
-        """Block upload of a domain (CRC-checked transfer)."""
-        try:
-            with self._var(index, sub).open("rb", block_transfer=True) as f:
-                return bytes(f.read())
-        except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
-            raise DriveError(f"upload 0x{index:04X}:{sub}: {e}") from None
+        """Block upload of a domain (CRC-checked transfer; repeated whole after a time-out, as
+        :meth:`write_domain`)."""
+        for attempt in range(DOMAIN_ATTEMPTS):
+            try:
+                with self._var(index, sub).open("rb", block_transfer=True) as f:
+                    return bytes(f.read())
+            except canopen.SdoCommunicationError as e:
+                if attempt + 1 < DOMAIN_ATTEMPTS:
+                    time.sleep(DRIVE_SDO_TIMEOUT_S + self.node.sdo.RESPONSE_TIMEOUT)
+                    continue
+                raise DriveError(f"upload 0x{index:04X}:{sub}: {e}") from None
+            except canopen.SdoAbortedError as e:
+                raise DriveError(f"upload 0x{index:04X}:{sub}: {e}") from None
+        raise AssertionError("unreachable")
 
     def download_group(self, sub: int, raw: dict[str, int], version: int = 1) -> None:
         """Download a parameter-group table (0x5100:2 friction, 0x5100:3 TE): every parameter of

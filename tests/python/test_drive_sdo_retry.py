@@ -65,3 +65,58 @@ def test_aborts_and_timeouts_are_not_repeated_here(err: Exception, monkeypatch: 
     with pytest.raises(dv.DriveError):
         _drive(v, monkeypatch).read(0x2800, 1)
     assert v.calls == 1
+
+
+class _DomainVar:
+    """Stands in for a canopen domain variable whose first ``fails`` block transfers die with ``err``."""
+
+    def __init__(self, fails: int, err: Exception) -> None:
+        self.fails, self.err, self.opens, self.stored = fails, err, 0, b""
+
+    def open(self, mode: str, size: int = 0, block_transfer: bool = False) -> Any:
+        assert block_transfer
+        self.opens += 1
+        outer = self
+
+        class _F:
+            def __enter__(self) -> "_F":
+                if outer.opens <= outer.fails:
+                    raise outer.err
+                return self
+
+            def __exit__(self, *exc: object) -> None:
+                return None
+
+            def write(self, b: bytes) -> None:
+                outer.stored = bytes(b)
+
+            def read(self) -> bytes:
+                return outer.stored
+
+        return _F()
+
+
+def test_domain_transfer_repeated_whole_after_a_time_out(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(dv, "DRIVE_SDO_TIMEOUT_S", 0.0)
+    v = _DomainVar(1, canopen.SdoCommunicationError("No SDO response received"))
+    d = dv.Drive(canopen.Network(), 1)
+    monkeypatch.setattr(d, "_var", lambda index, sub=0: v)
+    d.node.sdo.RESPONSE_TIMEOUT = 0.001
+    d.write_domain(0x5100, 1, b"table")
+    assert v.opens == 2 and v.stored == b"table"
+    assert d.read_domain(0x5100, 1) == b"table"
+
+
+@pytest.mark.parametrize("fails, err, match", [
+    (dv.DOMAIN_ATTEMPTS, canopen.SdoCommunicationError("No SDO response received"), "No SDO response"),
+    (1, canopen.SdoAbortedError(0x08000020), "Code 0x08000020")])
+def test_domain_transfer_gives_up_or_takes_an_abort_as_final(fails: int, err: Exception, match: str,
+                                                             monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(dv, "DRIVE_SDO_TIMEOUT_S", 0.0)
+    v = _DomainVar(fails, err)
+    d = dv.Drive(canopen.Network(), 1)
+    monkeypatch.setattr(d, "_var", lambda index, sub=0: v)
+    d.node.sdo.RESPONSE_TIMEOUT = 0.001
+    with pytest.raises(dv.DriveError, match=rf"download 0x5100:1: .*{match}"):
+        d.write_domain(0x5100, 1, b"table")
+    assert v.opens == fails and v.stored == b""
