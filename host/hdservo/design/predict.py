@@ -12,7 +12,9 @@ figure                    scenario(s)
 min smooth rate           constant-rate ramp per ladder rung; fixed-angle timing of the output
                           encoder (``rate_stability``), smooth = monotone, stability and
                           accuracy <= 0.1 (``min_smooth_rate``)
-positioning (ISO 230-2)   per target and direction one move of ``overrun`` onto the target
+positioning (ISO 230-2)   ``method="procedure"`` (the flow's): the test procedure on the
+                          served simulator in lock-step (repeats bit for bit); ``scenario``:
+                          per target and direction one move of ``overrun`` onto the target
                           (the drive's PTP trajectory, with its one-direction final approach
                           when "approach" is on); the plant is shifted to the target angle
                           (gravity offset, TE and cogging phases), so a short move reproduces
@@ -23,7 +25,9 @@ stabilisation             base rocking; (a) the drive holds its position, (b) th
                           (c) the drive's gyro stabilisation mode (STAB, CiA 402 mode -1) with the
                           controller's compensators: the design figure is (c), true inertial
                           angle; also the RMS of the integrated payload gyro, line removed
-                          (``inertial_angle_from_gyro``: the procedure's headline)
+                          (``inertial_angle_from_gyro``: the procedure's headline);
+                          :func:`stabilisation_procedure`: the procedure itself in lock-step
+                          on the served simulator (the verification's prediction)
 peak torque               torque mode, output locked (load inertia 2e4 kg m^2), request 1.5 x
                           the drive's torque limit (the procedure's saturated last step);
                           delivered = mean |transmitted gear torque| over 0.5-0.9 of the 0.2 s
