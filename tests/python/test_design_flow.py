@@ -196,6 +196,9 @@ def test_final_approach_removes_the_reversal_in_the_prediction(spec: sp.Spec, tm
     assert p2["method"] == "procedure" and p2["cb_enable"] == 128 and p2["final_approach"] == fa
     dn = np.asarray(p2["down_arcsec"])
     assert dn.shape == (2, 2) and dn.min() > 0.5 and np.ptp(dn) < 0.5
+    # lock-step (the default): the same seed repeats bit for bit (issue 10: fast pacing did not)
+    p3 = pr.positioning(path, ctl1, [-5.0, 5.0], runs=2, method="procedure")
+    assert p2["lockstep"] and p3["up_arcsec"] == p2["up_arcsec"] and p3["down_arcsec"] == p2["down_arcsec"]
     with pytest.raises(ValueError, match="method"):
         pr.positioning(path, ctl1, [10.0], runs=2, method="guess")
 
