@@ -6,12 +6,14 @@ over CAN (`hdservo identify all --axis ...`), downloads the identified compensat
 parameters (the `hdservo download` code, read back) into each procedure's drive together
 with the flow's gains, runs the test procedures (`hdservo test` code; stabilisation in
 the drive's STAB mode) and compares every predicted figure with the measured one
-(pass at 20 %).  Writes verify/{model.toml, verify.json, verify.md} beside this file.
+(pass at 20 %; the positioning and the stabilisation predicted and measured by the same
+procedure in lock-step with the same sensor seed).  Writes verify/{model.toml, verify.json,
+verify.md} beside this file.
 
     .venv/bin/python examples/pitch_drive/verify.py            # about 5 min on 2 loaded cores
     .venv/bin/python examples/pitch_drive/verify.py --procedures peak-torque,stabilisation
     .venv/bin/python examples/pitch_drive/verify.py --option flow   # the other controller option -> verify_flow/
-    .venv/bin/python examples/pitch_drive/verify.py --scatter-seeds 2,3   # positioning per seed, A/R on the seed band
+    .venv/bin/python examples/pitch_drive/verify.py --scatter-seeds 2,3   # positioning per seed, A/R on the median
     .venv/bin/python examples/pitch_drive/verify.py --annotate --note "..."   # explain a finished run's figures
 """
 from __future__ import annotations
@@ -42,8 +44,8 @@ def main() -> int:
     p.add_argument("--tolerance", type=float, default=0.2)
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--scatter-seeds", default="",
-                   help="further sensor-noise seeds for the positioning, e.g. 2,3: predicted and measured per seed, "
-                        "A and R judged on the predicted seed band widened by the tolerance")
+                   help="further sensor-noise seeds for the positioning, e.g. 2,3: predicted and measured per seed "
+                        "(lock-step), A and R judged on the median over the seeds; the seed band is reported")
     a = p.parse_args()
     out = a.out or (HERE / ("verify" if a.option is None else f"verify_{a.option}"))
     if a.annotate:

@@ -214,8 +214,12 @@ class Drive:
         self.write(0x1010, 1, 0x65766173)
 
     # ---- NMT and CiA 402 --------------------------------------------------------
-    def start(self) -> None:
-        """Load the PDO configuration from the drive, then NMT start (OPERATIONAL)."""
+    def start(self, wait_tpdo: bool = True) -> None:
+        """Load the PDO configuration from the drive, then NMT start (OPERATIONAL).
+
+        ``wait_tpdo``: wait (2 s) for the first TPDO1 as a sign of life.  A virtual drive in
+        lock-step (``--pacing sync``) sends none until it gets SYNCs: pass False there.
+        """
         try:
             self.node.tpdo.read()
             self.node.rpdo.read()
@@ -223,7 +227,8 @@ class Drive:
         except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
             raise DriveError(f"start: reading the PDO configuration: {e}") from None
         self.node.nmt.state = "OPERATIONAL"
-        self.node.tpdo[1].wait_for_reception(2.0)
+        if wait_tpdo:
+            self.node.tpdo[1].wait_for_reception(2.0)
 
     def enable(self, mode: str = "CYCLIC SYNCHRONOUS POSITION") -> None:
         """Select a mode and walk the 402 state machine to OPERATION ENABLED."""

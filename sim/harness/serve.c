@@ -48,7 +48,8 @@
  *   transport (through the optional bus model).
  * Pacing: realtime = one period per 100 us of wall-clock; fast = as fast as
  * the client reads (the TCP output blocks when its buffer is full, so no
- * frame is lost); sync = K periods per SYNC received (lock-step with the host).
+ * frame is lost); sync = K periods per SYNC received (lock-step with the host); frames
+ * and rig commands are then read only between SYNC credits, so a run repeats exactly.
  * Bus model (--bitrate B > 0): every frame costs its bit-stuffed length at B;
  * frames wait in a 64-frame controller queue and are dropped (counted) when
  * it is full.  On exit (SIGINT/SIGTERM or --duration) one JSON line of
@@ -711,7 +712,9 @@ int hd_sim_serve_main(int argc, char **argv)
         } else {
             receive(s, 0);
         }
-        if (s->rig && k % 10 == 0) rig_poll(s);
+        /* rig commands: in sync pacing only between SYNC credits (the wait above), so a command
+         * takes effect at the same tick whatever the host's timing (lock-step is exact) */
+        if (s->rig && pace != 2 && k % 10 == 0) rig_poll(s);
         hd_sim_step(s->sim, NULL);
         hd_co_tick(&s->co, HD_CO_TICK_US);
         k++;

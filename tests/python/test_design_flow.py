@@ -196,6 +196,9 @@ def test_final_approach_removes_the_reversal_in_the_prediction(spec: sp.Spec, tm
     assert p2["method"] == "procedure" and p2["cb_enable"] == 128 and p2["final_approach"] == fa
     dn = np.asarray(p2["down_arcsec"])
     assert dn.shape == (2, 2) and dn.min() > 0.5 and np.ptp(dn) < 0.5
+    # lock-step (the default): the same seed repeats bit for bit (issue 10: fast pacing did not)
+    p3 = pr.positioning(path, ctl1, [-5.0, 5.0], runs=2, method="procedure")
+    assert p2["lockstep"] and p3["up_arcsec"] == p2["up_arcsec"] and p3["down_arcsec"] == p2["down_arcsec"]
     with pytest.raises(ValueError, match="method"):
         pr.positioning(path, ctl1, [10.0], runs=2, method="guess")
 
@@ -211,3 +214,27 @@ def test_committed_example_is_consistent() -> None:
     assert sim.axis_param("gear.ratio", str(axis)) == cat.find_gear(
         *[int(x) for x in ch["parts"]["gear"].split("-")[1:]], ch["parts"]["gear"].split("-")[0]).ratio
     assert doc["simulated"][0]["name"] == ch["name"]
+
+
+def test_rank_tie_breaks() -> None:
+    """Ranking (docs/design-flow.md, "Ranking"): all met first, the smallest margin capped at 50 %, then cost,
+    then the uncapped smallest margin; a full tie keeps the shortlist order (stable), whatever the other margins."""
+    c = _cand("CSF-25-100", "fl-070-class")
+
+    def ev(name: str, margins: dict[str, float], cost: float) -> fl.Evaluated:
+        e = fl.Evaluated(c, [], cost)
+        e.margins, e.option = margins, name
+        return e
+    a = ev("a", {"x": 0.80, "y": 0.60}, 2.0)       # above the cap, dearer
+    b = ev("b", {"x": 0.55, "y": 0.90}, 1.5)       # above the cap, cheaper
+    e = ev("e", {"x": 0.70, "y": 0.75}, 1.5)       # as cheap as b, safer without the cap
+    s = ev("s", {"x": 0.20}, 1.0)                  # cheapest, but a smaller margin below the cap
+    f = ev("f", {"x": -0.10}, 0.5)                 # misses a requirement
+    assert [x.option for x in fl.rank([f, s, a, b, e])] == ["e", "b", "a", "s", "f"]
+    # the committed example: three candidates with the same resonance margin (+13.2 %) and cost index;
+    # the second-smallest margins differ by sub-arcsecond positioning noise and do not reorder them
+    t1 = ev("CSF-25-80", {"resonance": 0.132, "positioning_accuracy": 0.359}, 1.94)
+    t2 = ev("CSF-25-100", {"resonance": 0.132, "positioning_accuracy": 0.365}, 1.94)
+    t3 = ev("CSF-25-120", {"resonance": 0.132, "positioning_accuracy": 0.374}, 1.94)
+    assert [x.option for x in fl.rank([t1, t2, t3])] == ["CSF-25-80", "CSF-25-100", "CSF-25-120"]
+    assert [x.option for x in fl.rank([t3, t1, t2])] == ["CSF-25-120", "CSF-25-80", "CSF-25-100"]

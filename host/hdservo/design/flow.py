@@ -517,11 +517,26 @@ def margins(spec: Spec, f: Dict[str, Any]) -> Dict[str, float]:
     return {k: float(v) for k, v in out.items()}
 
 
+#: smallest margin above which candidates count as equally safe in :func:`rank` (cost decides then)
+RANK_MARGIN_CAP = 0.5
+
+
 def rank(evals: Sequence[Evaluated]) -> List[Evaluated]:
-    """Simulated candidates: all requirements met first, then by smallest margin (larger first), then cost."""
-    def key(e: Evaluated) -> Tuple[bool, float, float]:
+    """Order simulated candidates (docs/design-flow.md section 3, "Ranking").
+
+    1. every requirement met first;
+    2. the larger smallest margin, capped at :data:`RANK_MARGIN_CAP` (50 %) and rounded to 1 %:
+       beyond the cap more margin buys nothing;
+    3. the lower cost index (rounded to 0.01);
+    4. the larger smallest margin without the cap (1 %): between equally cheap candidates
+       above the cap, the safer one;
+    5. the shortlist order (cost index, then catalogue order), so that a remaining tie does not
+       hang on sub-percent differences of simulated figures (sorting is stable).
+    """
+    def key(e: Evaluated) -> Tuple[bool, float, float, float]:
         mm = min(e.margins.values()) if e.margins else -math.inf
-        return (mm < 0.0, -round(min(mm, 0.5), 2), e.cost)
+        capped = round(min(mm, RANK_MARGIN_CAP), 2) if math.isfinite(mm) else -math.inf
+        return (mm < 0.0, -capped, round(e.cost, 2), -round(mm, 2) if math.isfinite(mm) else math.inf)
     return sorted(evals, key=key)
 
 

@@ -12,7 +12,9 @@ figure                    scenario(s)
 min smooth rate           constant-rate ramp per ladder rung; fixed-angle timing of the output
                           encoder (``rate_stability``), smooth = monotone, stability and
                           accuracy <= 0.1 (``min_smooth_rate``)
-positioning (ISO 230-2)   per target and direction one move of ``overrun`` onto the target
+positioning (ISO 230-2)   ``method="procedure"`` (the flow's): the test procedure on the
+                          served simulator in lock-step (repeats bit for bit); ``scenario``:
+                          per target and direction one move of ``overrun`` onto the target
                           (the drive's PTP trajectory, with its one-direction final approach
                           when "approach" is on); the plant is shifted to the target angle
                           (gravity offset, TE and cogging phases), so a short move reproduces
@@ -23,7 +25,9 @@ stabilisation             base rocking; (a) the drive holds its position, (b) th
                           (c) the drive's gyro stabilisation mode (STAB, CiA 402 mode -1) with the
                           controller's compensators: the design figure is (c), true inertial
                           angle; also the RMS of the integrated payload gyro, line removed
-                          (``inertial_angle_from_gyro``: the procedure's headline)
+                          (``inertial_angle_from_gyro``: the procedure's headline);
+                          :func:`stabilisation_procedure`: the procedure itself in lock-step
+                          on the served simulator (the verification's prediction)
 peak torque               torque mode, output locked (load inertia 2e4 kg m^2), request 1.5 x
                           the drive's torque limit (the procedure's saturated last step);
                           delivered = mean |transmitted gear torque| over 0.5-0.9 of the 0.2 s
@@ -203,7 +207,7 @@ def final_approach(ctl: Mapping[str, Any]) -> Optional[Dict[str, float]]:
 def positioning(axis: str, ctl: Mapping[str, Any], targets_deg: Sequence[float], *, runs: int = 3,
                 overrun_deg: float = 1.0, dwell_s: float = 1.5, measure_s: float = 0.2,
                 vmax_deg_s: float = 60.0, amax_deg_s2: float = 100.0, trajectory: str = "drive",
-                method: str = "scenario", seed: int = 1,
+                method: str = "scenario", seed: int = 1, lockstep: bool = True,
                 progress: Optional[Callable[[str], None]] = None) -> Dict[str, Any]:
     """ISO 230-2 positioning accuracy A and repeatability R (arcsec).
 
@@ -242,6 +246,12 @@ def positioning(axis: str, ctl: Mapping[str, Any], targets_deg: Sequence[float],
         (:func:`configure_drive`): the plant keeps its history from move to move, which
         decides sub-arcsecond residuals (with the final approach the scenario runs give
         about twice the procedure's A and R).  ``trajectory`` is then always the drive's.
+    lockstep : bool
+        ``procedure`` only: run the virtual drive in lock-step (``--pacing sync``: its time
+        advances only on the host's SYNCs), so that the run repeats bit for bit for a
+        given ``seed`` (default).  False: fast pacing, where the drive's time runs on during
+        the host's SDO round trips and the dwell before each measurement depends on the
+        host's timing (the same seed gave A 0.41" and 0.50", 1.93" and 0.31").
 
     Returns
     -------
@@ -254,7 +264,7 @@ def positioning(axis: str, ctl: Mapping[str, Any], targets_deg: Sequence[float],
         raise ValueError(f"positioning trajectory '{trajectory}': expected one of {', '.join(TRAJECTORIES)}")
     if method == "procedure":
         return _positioning_procedure(axis, ctl, targets_deg, runs=runs, overrun_deg=overrun_deg, dwell_s=dwell_s,
-                                      measure_s=measure_s, seed=seed, progress=progress)
+                                      measure_s=measure_s, seed=seed, lockstep=lockstep, progress=progress)
     if method != "scenario":
         raise ValueError(f"positioning method '{method}': expected 'scenario' or 'procedure'")
     tg = np.asarray(targets_deg, float)
@@ -294,7 +304,7 @@ def positioning(axis: str, ctl: Mapping[str, Any], targets_deg: Sequence[float],
 
 
 def _positioning_procedure(axis: str, ctl: Mapping[str, Any], targets_deg: Sequence[float], *, runs: int,
-                           overrun_deg: float, dwell_s: float, measure_s: float, seed: int,
+                           overrun_deg: float, dwell_s: float, measure_s: float, seed: int, lockstep: bool = True,
                            progress: Optional[Callable[[str], None]] = None) -> Dict[str, Any]:
     """:func:`positioning` with ``method="procedure"`` (the test procedure on the served simulator)."""
     from ..drive import DriveError
@@ -305,7 +315,7 @@ def _positioning_procedure(axis: str, ctl: Mapping[str, Any], targets_deg: Seque
         progress(f"positioning: procedure on the served simulator, {len(targets_deg)} targets x {runs} runs")
     for attempt in range(PROCEDURE_ATTEMPTS):   # again after lost SDO answers on a heavily loaded host
         try:
-            with open_bench(Target(axis=ax, seed=seed), cl.AXIS_SETUP) as bench:
+            with open_bench(Target(axis=ax, seed=seed), cl.AXIS_SETUP, lockstep=lockstep) as bench:
                 cfg = configure_drive(bench.drive, ctl)
                 res = cl.positioning(bench, targets_deg=list(targets_deg), runs=runs, overrun_deg=overrun_deg,
                                      dwell_s=dwell_s, measure_s=measure_s)
@@ -318,7 +328,7 @@ def _positioning_procedure(axis: str, ctl: Mapping[str, Any], targets_deg: Seque
             "iso230_2": iso, "up_arcsec": np.asarray(res.series["up"]).tolist(),
             "down_arcsec": np.asarray(res.series["down"]).tolist(), "targets_deg": [float(x) for x in targets_deg],
             "runs": runs, "trajectory": "drive", "final_approach": final_approach(ctl), "method": "procedure",
-            "seed": seed, "cb_enable": cfg["cb_enable"]}
+            "seed": seed, "lockstep": bool(lockstep), "cb_enable": cfg["cb_enable"]}
 
 
 # ------------------------------------------------------------------ stabilisation
@@ -413,6 +423,44 @@ def stabilisation(axis: str, ctl: Mapping[str, Any], base_amp_deg: float, base_f
     out["ideal_reference_rms_arcsec"] = math.hypot(out["inertial_rms_arcsec"], out["gyro_noise_rms_arcsec"])
     out["base_rms_arcsec"] = base_amp_deg * DEG / math.sqrt(2) / ARCSEC
     return out
+
+
+def stabilisation_procedure(axis: str, ctl: Mapping[str, Any], base_amp_deg: float, base_freq_Hz: float, *,
+                            duration_s: float = 5.0, settle_s: float = 1.0, seed: int = 1,
+                            mode: str = "stab") -> Dict[str, Any]:
+    """Stabilisation precision by the test procedure itself on the served simulator, in lock-step.
+
+    :func:`hdservo.procedures.closedloop.stabilisation` (``mode``: ``stab`` = the drive's
+    gyro stabilisation mode, ``hold`` = CSP hold) on the simulator served as a virtual
+    drive (``hdservo-sim serve --pacing sync``, sensor seed ``seed``, swing table
+    ``stab_setup``) configured with ``ctl`` (:func:`configure_drive`).  The run repeats
+    bit for bit, and a measurement on a drive started with the same seed and protocol
+    sees the same gyro-noise samples at the same ticks.  That matters: the true inertial
+    figure is dominated by the integrated gyro noise the loop follows, whose 5 s RMS
+    scatters 5.3-7.9" over seeds on the pitch-drive axis; the in-process run
+    (:func:`stabilisation`) draws the same seed's noise at other ticks.
+
+    Returns
+    -------
+    dict
+        ``{tag}_rms_arcsec``, ``{tag}_peak_arcsec`` (integrated payload gyro, line removed),
+        ``{tag}_true_rms_arcsec`` (rig true inertial angle, line removed) with ``tag`` =
+        ``stab`` or ``hold``; ``design_mode``, ``predicted_rms_arcsec`` (the true inertial
+        RMS), ``method`` = ``procedure``, ``seed``, ``duration_s``.
+    """
+    from ..procedures import closedloop as cl
+    from ..procedures.runner import Target, open_bench
+    if mode not in ("stab", "hold"):
+        raise ValueError(f"stabilisation_procedure mode '{mode}': expected stab or hold")
+    ax = axis if axis in ("reference", "minimal") else str(Path(axis).resolve())
+    with open_bench(Target(axis=ax, seed=seed), cl.stab_setup(base_amp_deg, base_freq_Hz), lockstep=True) as bench:
+        configure_drive(bench.drive, ctl)
+        res = cl.stabilisation(bench, duration_s=duration_s, settle_s=settle_s, mode=mode)
+    f = res.figures
+    return {f"{mode}_rms_arcsec": f["gyro_rms_arcsec"], f"{mode}_peak_arcsec": f["gyro_peak_arcsec"],
+            f"{mode}_true_rms_arcsec": f["true_rms_arcsec"], "design_mode": mode,
+            "predicted_rms_arcsec": f["true_rms_arcsec"], "method": "procedure", "seed": seed,
+            "duration_s": duration_s, "base_rms_arcsec": f["base_rms_arcsec"]}
 
 
 # ------------------------------------------------------------------ peak torque
@@ -595,4 +643,4 @@ def _bandwidth_scenario(axis: str, ctl: Mapping[str, Any], *, amplitude_arcsec: 
 
 
 __all__ = ["TRAJECTORIES", "bandwidth", "configure_drive", "final_approach", "gyro_noise_arcsec_rms", "min_smooth_rate", "peak_torque", "positioning", "run",
-           "shifted_plant", "stabilisation", "three_slope_torque"]
+           "shifted_plant", "stabilisation", "stabilisation_procedure", "three_slope_torque"]

@@ -15,12 +15,14 @@ Chain (docs/design-flow.md section 6):
    compensators; the stabilisation test in the drive's STAB mode (CiA 402
    mode -1, :func:`stabilisation_stab`);
 4. **compare** every predicted figure with the measured one, pass when
-   |measured/predicted - 1| <= tolerance (20 %).  Positioning A and R can be
-   judged on a scatter band instead (``Plan.scatter_seeds``): the prediction and
-   the measurement are repeated with other sensor-noise seeds, and the figure
-   passes when the mean measured value lies in the predicted seed band widened
-   by the tolerance, [(1 - tol) min, (1 + tol) max] (:func:`band_pass`): at
-   sub-arcsecond level the run-to-run scatter exceeds 20 % of the figure.
+   |measured/predicted - 1| <= tolerance (20 %).  The positioning and the
+   stabilisation are predicted by the procedure itself on the served simulator
+   with the true model and measured by the same procedure, both in lock-step
+   (``--pacing sync``) with the same sensor seed: the runs repeat bit for bit and
+   see the same sensor-noise samples, so the only difference is the model
+   (identified vs true).  With further seeds (``Plan.scatter_seeds``) A and R are
+   judged on the median over the seeds, prediction and measurement seed by seed;
+   the per-seed values and the seed band (:func:`band_pass`) are reported.
 
 The virtual drive has no non-volatile parameter store and ``hdservo test``
 starts one drive process per procedure, so step 2 is repeated into each
@@ -76,10 +78,11 @@ class Plan:
     seed : int
         Sensor-noise seed of the virtual drive.
     scatter_seeds : sequence of int
-        Further sensor-noise seeds for the positioning: predicted (the flow's
-        procedure on the served simulator) and measured (the identified model's
-        drive) once per seed; A and R are then judged on the seed band
-        (:func:`band_pass`).  () = one seed, the plain 20 % rule.
+        Further sensor-noise seeds for the positioning: predicted (the procedure on
+        the served simulator, true model) and measured (the identified model's drive)
+        once per seed, both in lock-step; A and R are then judged on the median over
+        ``seed`` and these seeds (plain rule), the seed band (:func:`band_pass`) is
+        reported.  () = the one seed.
     """
 
     axis: Path
@@ -101,8 +104,9 @@ class Plan:
     option: Optional[str] = None
     #: predicted figures recomputed with the current :mod:`hdservo.design.predict` before comparing
     #: (``bandwidth``, ``peak_torque``: their definitions were aligned with the procedures after
-    #: the flow's JSON was written); () = compare with the JSON as it is
-    repredict: Sequence[str] = ("bandwidth", "peak_torque")
+    #: the flow's JSON was written; ``positioning``, ``stabilisation``: the procedure in lock-step on
+    #: the served simulator with the plan's seed, the measurement's protocol); () = the JSON as it is
+    repredict: Sequence[str] = ("bandwidth", "peak_torque", "positioning", "stabilisation")
     scatter_seeds: Sequence[int] = ()
 
 
@@ -196,12 +200,13 @@ def _procedure(name: str, plan: Plan, flow: Mapping[str, Any]) -> tuple[RigSetup
     if name == "positioning":
         tg = list(plan.targets_deg or pred["positioning"]["targets_deg"])
         runs = plan.runs or int(pred["positioning"]["runs"])
-        return cl.AXIS_SETUP, False, lambda b: cl.positioning(b, targets_deg=tg, runs=runs)
+        # lock-step: the measurement repeats bit for bit, as the prediction (predict.positioning)
+        return cl.AXIS_SETUP, True, lambda b: cl.positioning(b, targets_deg=tg, runs=runs)
     if name == "stabilisation":
         st = spec.get("stabilisation", {})
         setup = cl.stab_setup(float(st.get("base_amplitude_deg", 0.5)), float(st.get("base_frequency_Hz", 1.0)))
         mode = stab_mode_of(flow)
-        return setup, False, lambda b: cl.stabilisation(b, duration_s=plan.stab_duration_s, mode=mode)
+        return setup, True, lambda b: cl.stabilisation(b, duration_s=plan.stab_duration_s, mode=mode)
     if name == "peak-torque":
         return cl.AXIS_SETUP, False, lambda b: cl.peak_torque(b)
     if name == "bandwidth":
@@ -281,9 +286,10 @@ def predict_scatter(flow: dict[str, Any], axis: Path, seeds: Sequence[int], base
                     progress: Callable[[str], None] = _say) -> list[dict[str, Any]]:
     """Predicted positioning A/R/B (arcsec) per sensor-noise seed, stored in ``chosen.figures.positioning.scatter``.
 
-    The design JSON's prediction is the run with ``base_seed`` (the flow's seed, 1); the other
-    ``seeds`` run the same procedure on the served simulator (:func:`predict.positioning`,
-    ``method="procedure"``) with the chosen controller.
+    The first row is the figure in the JSON (``base_seed``; re-predicted in lock-step by
+    :func:`repredict`); the other ``seeds`` run the same procedure on the served simulator
+    in lock-step (:func:`predict.positioning`, ``method="procedure"``) with the chosen
+    controller.
     """
     from . import predict as pr
     ctl = flow["chosen"]["controller"]
@@ -292,7 +298,8 @@ def predict_scatter(flow: dict[str, Any], axis: Path, seeds: Sequence[int], base
              "B_arcsec": float(p["B_arcsec"])}]
     for s in seeds:
         progress(f"predict positioning, sensor seed {s}")
-        q = pr.positioning(str(axis), ctl, p["targets_deg"], runs=int(p["runs"]), method="procedure", seed=int(s))
+        q = pr.positioning(str(axis), ctl, p["targets_deg"], runs=int(p["runs"]), method="procedure", seed=int(s),
+                           lockstep=True)
         rows.append({"seed": int(s), "A_arcsec": float(q["A_arcsec"]), "R_arcsec": float(q["R_arcsec"]),
                      "B_arcsec": float(q["B_arcsec"])})
     p["scatter"] = rows
@@ -329,17 +336,21 @@ def band_pass(predicted: Sequence[float], measured: Sequence[float], tol: float)
 
 # ------------------------------------------------------------------ step 4
 
-def repredict(flow: dict[str, Any], axis: Path, figures: Sequence[str],
-              progress: Callable[[str], None] = _say) -> dict[str, Any]:
+def repredict(flow: dict[str, Any], axis: Path, figures: Sequence[str], seed: int = 1,
+              progress: Callable[[str], None] = _say, stab_duration_s: float = 5.0) -> dict[str, Any]:
     """Recompute predicted figures of the chosen candidate in place (``flow["chosen"]["figures"]``).
 
-    ``figures``: ``bandwidth`` (:func:`predict.bandwidth`, the procedure's excitation) and/or
-    ``peak_torque`` (:func:`predict.peak_torque`, the procedure's definition).  Returns the old
-    values ``{figure: headline}`` for the record.
+    ``figures``: ``bandwidth`` (:func:`predict.bandwidth`, the procedure's excitation),
+    ``peak_torque`` (:func:`predict.peak_torque`, the procedure's definition), ``positioning``
+    (:func:`predict.positioning`, the procedure in lock-step, sensor seed ``seed``) and
+    ``stabilisation`` (:func:`predict.stabilisation_procedure`, the procedure in lock-step in
+    the option's drive mode, seed ``seed``, ``stab_duration_s``).  Returns the old headline
+    values ``{figure: value}`` for the record.
     """
     from . import predict as pr
     ctl = flow["chosen"]["controller"]
     f = flow["chosen"]["figures"]
+    spec = flow.get("spec", {})
     old: dict[str, Any] = {}
     for name in figures:
         progress(f"re-predict {name} for the chosen axis")
@@ -349,6 +360,23 @@ def repredict(flow: dict[str, Any], axis: Path, figures: Sequence[str],
         elif name == "peak_torque":
             old[name] = f.get("peak_torque", {}).get("peak_torque_Nm")
             f["peak_torque"] = pr.peak_torque(str(axis), ctl, float(ctl["gains"]["torque_limit"]))
+        elif name == "positioning":
+            p = f["positioning"]
+            old[name] = p.get("A_arcsec")
+            q = pr.positioning(str(axis), ctl, p["targets_deg"], runs=int(p["runs"]), method="procedure",
+                               seed=int(seed), lockstep=True)
+            q["A_with_encoder_arcsec"] = q["A_arcsec"] + (p.get("A_with_encoder_arcsec", p["A_arcsec"]) - p["A_arcsec"])
+            f["positioning"] = q
+        elif name == "stabilisation":
+            s = f["stabilisation"]
+            mode = "hold" if s.get("design_mode") == "hold" else "stab"
+            old[name] = s.get(f"{mode}_true_rms_arcsec")
+            st = spec.get("stabilisation", {})
+            q = pr.stabilisation_procedure(str(axis), ctl, float(st.get("base_amplitude_deg", 0.5)),
+                                           float(st.get("base_frequency_Hz", 1.0)), duration_s=stab_duration_s,
+                                           seed=int(seed), mode=mode)
+            q["design_json"] = {k: s.get(k) for k in (f"{mode}_true_rms_arcsec", f"{mode}_rms_arcsec")}
+            f["stabilisation"] = q
         else:
             raise ValueError(f"repredict: unknown figure '{name}'")
     return old
@@ -371,13 +399,20 @@ def compare(flow: Mapping[str, Any], measured: Mapping[str, Mapping[str, Any]], 
         rows.append({"figure": fig, "unit": unit, "predicted": p, "measured": m, "rel_error": rel,
                      "pass": (rel is not None and abs(rel) <= tol) if judged else None, "definition": definition})
 
-    def band_row(fig: str, key: str, pred: Sequence[Mapping[str, Any]], meas: Sequence[Mapping[str, Any]],
-                 definition: str) -> None:
-        b = band_pass([r[key] for r in pred], [r[key] for r in meas], tol)
-        rows.append({"figure": fig, "unit": "arcsec", "predicted": b["predicted_mean"], "measured": b["measured_mean"],
-                     "rel_error": b["rel_error"], "pass": b["pass"], "band": b,
-                     "seeds": {"predicted": [int(r["seed"]) for r in pred], "measured": [int(r["seed"]) for r in meas]},
-                     "definition": definition})
+    def median_row(fig: str, key: str, pred: Sequence[Mapping[str, Any]], meas: Sequence[Mapping[str, Any]],
+                   definition: str) -> None:
+        ps, ms = [int(r["seed"]) for r in pred], [int(r["seed"]) for r in meas]
+        if sorted(ps) != sorted(ms):
+            raise ValueError(f"compare: {fig}: predicted seeds {ps} and measured seeds {ms} differ")
+        pv = {int(r["seed"]): float(r[key]) for r in pred}
+        mv = {int(r["seed"]): float(r[key]) for r in meas}
+        b = band_pass([pv[k] for k in ms], [mv[k] for k in ms], tol)
+        p_med, m_med = float(np.median([pv[k] for k in ms])), float(np.median([mv[k] for k in ms]))
+        rel = m_med / p_med - 1.0 if p_med > 0 else None
+        b["per_seed_rel_error"] = [mv[k] / pv[k] - 1.0 if pv[k] > 0 else None for k in ms]
+        rows.append({"figure": fig, "unit": "arcsec", "predicted": p_med, "measured": m_med, "rel_error": rel,
+                     "pass": rel is not None and abs(rel) <= tol, "band": b, "statistic": "median",
+                     "seeds": {"predicted": ms, "measured": ms}, "definition": definition})
 
     if "min-rate" in measured:
         mr = measured["min-rate"]
@@ -394,10 +429,11 @@ def compare(flow: Mapping[str, Any], measured: Mapping[str, Mapping[str, Any]], 
         d = "ISO 230-2, true output angle, 12 targets, bidirectional"
         ps, ms = p.get("scatter"), measured["positioning"].get("scatter")
         if ps and ms:
-            db = (f"{d}; mean over sensor seeds, judged on the predicted seed band: pass when the measured mean "
-                  f"is in [{1 - tol:g} x min, {1 + tol:g} x max] of the predicted seeds")
-            band_row("positioning accuracy A (seed band)", "A_arcsec", ps, ms, db)
-            band_row("repeatability R (seed band)", "R_arcsec", ps, ms, db)
+            seeds = ", ".join(str(int(r["seed"])) for r in ms)
+            db = (f"{d}; median over sensor seeds {seeds} (prediction and measurement with the same seeds, "
+                  "lock-step); per-seed values and the seed band below")
+            median_row("positioning accuracy A (median of seeds)", "A_arcsec", ps, ms, db)
+            median_row("repeatability R (median of seeds)", "R_arcsec", ps, ms, db)
             s0 = int(ms[0]["seed"])
             row(f"positioning accuracy A, seed {s0}", "arcsec", p["A_arcsec"], iso["A"], d + " (single run)",
                 judged=False)
@@ -454,20 +490,27 @@ def markdown(result: Mapping[str, Any]) -> str:
               "reported, not judged).", ""]
     banded = [r for r in result["rows"] if r.get("band")]
     if banded:
-        lines += ["Seed bands (positioning repeated with other sensor-noise seeds; prediction = the procedure on the "
-                  "served simulator with the true model, measurement = the identified model's drive):", "",
-                  "| figure | seeds | predicted per seed | measured per seed | predicted band | measured band | "
-                  "scatter (max-min)/mean pred / meas |", "|---|---|---|---|---|---|---|"]
+        lines += ["Per seed (positioning with each sensor-noise seed, prediction = the procedure on the served "
+                  "simulator with the true model, measurement = the identified model's drive, both in lock-step; "
+                  "information: the band rule passes when the measured mean lies in "
+                  f"[{1 - tol:g} x min, {1 + tol:g} x max] of the predicted seeds):", "",
+                  "| figure | seeds | predicted per seed | measured per seed | error per seed | predicted band | "
+                  "measured band | scatter (max-min)/mean pred / meas | band rule |", "|---|---|---|---|---|---|---|---|---|"]
         for r in banded:
             b = r["band"]
             key = "A_arcsec" if r["figure"].startswith("positioning") else "R_arcsec"
-            pv = ", ".join(fmt(x[key]) for x in result["scatter"]["predicted"])
-            mv = ", ".join(fmt(x[key]) for x in result["scatter"]["measured"])
+            order = r["seeds"]["measured"]
+            pd = {int(x["seed"]): x[key] for x in result["scatter"]["predicted"]}
+            md = {int(x["seed"]): x[key] for x in result["scatter"]["measured"]}
+            pv = ", ".join(fmt(pd.get(k)) for k in order)
+            mv = ", ".join(fmt(md.get(k)) for k in order)
+            ev = ", ".join("-" if e is None else f"{e * 100:+.0f} %" for e in b.get("per_seed_rel_error", []))
             sc = b["scatter"]
-            lines.append(f"| {r['figure']} | {', '.join(str(x) for x in r['seeds']['measured'])} | {pv} | {mv} | "
+            lines.append(f"| {r['figure']} | {', '.join(str(x) for x in order)} | {pv} | {mv} | {ev or '-'} | "
                          f"{fmt(b['predicted_band'][0])}-{fmt(b['predicted_band'][1])} | "
                          f"{fmt(b['measured_band'][0])}-{fmt(b['measured_band'][1])} | "
-                         f"{sc['predicted'] * 100:.0f} % / {(sc['measured'] or 0) * 100:.0f} % |")
+                         f"{sc['predicted'] * 100:.0f} % / {(sc['measured'] or 0) * 100:.0f} % | "
+                         f"{'pass' if b['pass'] else 'fail'} |")
         lines.append("")
     if result.get("repredicted"):
         lines += ["Re-predicted with the current `hdservo.design.predict` (definitions aligned with the "
@@ -486,10 +529,12 @@ def verify(plan: Plan, progress: Callable[[str], None] = _say) -> dict[str, Any]
     plan.out.mkdir(parents=True, exist_ok=True)
     wall: dict[str, float] = {}
     repredicted: dict[str, Any] = {}
-    want = [x for x in plan.repredict if {"bandwidth": "bandwidth", "peak_torque": "peak-torque"}[x] in plan.procedures]
+    want = [x for x in plan.repredict if {"bandwidth": "bandwidth", "peak_torque": "peak-torque",
+                                          "positioning": "positioning", "stabilisation": "stabilisation"}[x]
+            in plan.procedures]
     if want:
         t0 = time.monotonic()
-        repredicted = repredict(flow, plan.axis, want, progress)
+        repredicted = repredict(flow, plan.axis, want, plan.seed, progress, plan.stab_duration_s)
         wall["repredict"] = round(time.monotonic() - t0, 1)
     if plan.scatter_seeds and "positioning" in plan.procedures:
         t0 = time.monotonic()
@@ -517,7 +562,7 @@ def verify(plan: Plan, progress: Callable[[str], None] = _say) -> dict[str, Any]
         "scatter": ({"predicted": flow["chosen"]["figures"]["positioning"]["scatter"],
                      "measured": measured["positioning"]["scatter"]}
                     if "scatter" in measured.get("positioning", {}) else None),
-        "repredicted": {k: {"design_json": v, "now": rows_pred(rows, k)} for k, v in repredicted.items()}}
+        "repredicted": {k: {"design_json": v, "now": predicted_headline(flow, k)} for k, v in repredicted.items()}}
     (plan.out / "verify.json").write_text(json.dumps(result, indent=1, default=_jsonable) + "\n")
     (plan.out / "verify.md").write_text(markdown(result))
     return result
@@ -536,10 +581,21 @@ def annotate(out: Path, notes: Sequence[str]) -> dict[str, Any]:
     return res
 
 
-def rows_pred(rows: Sequence[Mapping[str, Any]], figure: str) -> Optional[float]:
-    """The predicted value of a re-predicted figure in the comparison rows."""
-    key = {"bandwidth": "position bandwidth (-3 dB)", "peak_torque": "peak output torque"}[figure]
-    return next((r["predicted"] for r in rows if r["figure"] == key), None)
+def predicted_headline(flow: Mapping[str, Any], figure: str) -> Optional[float]:
+    """The headline of a (re-)predicted figure of the chosen candidate: ``bandwidth`` Hz,
+    ``peak_torque`` N.m, ``positioning`` A arcsec (the plan's seed), ``stabilisation`` true
+    inertial RMS arcsec (the design mode)."""
+    f = flow["chosen"]["figures"]
+    if figure == "bandwidth":
+        return f["bandwidth"].get("bandwidth_Hz")
+    if figure == "peak_torque":
+        return f["peak_torque"].get("peak_torque_Nm")
+    if figure == "positioning":
+        return f["positioning"].get("A_arcsec")
+    if figure == "stabilisation":
+        s = f["stabilisation"]
+        return s.get(f"{'hold' if s.get('design_mode') == 'hold' else 'stab'}_true_rms_arcsec")
+    raise ValueError(f"predicted_headline: unknown figure '{figure}'")
 
 
 def _jsonable(x: Any) -> Any:
@@ -551,4 +607,5 @@ def _jsonable(x: Any) -> Any:
 
 
 __all__ = ["GAIN_KEYS", "Plan", "annotate", "band_pass", "compare", "configure", "download_plan", "identify", "markdown", "measure",
-           "option_of", "predict_scatter", "repredict", "select_option", "stab_mode_of", "stabilisation_stab", "verify"]
+           "option_of", "predict_scatter", "predicted_headline", "repredict", "select_option", "stab_mode_of",
+           "stabilisation_stab", "verify"]

@@ -265,26 +265,19 @@ class DriveRunner:
 
     # -- lifecycle ----------------------------------------------------------
     def open(self) -> None:
-        """NMT start (SYNCs pumped meanwhile in lock-step), stream configured, TPDO1 synchronous."""
-        d = self.drive
-        if self.lockstep:
-            stop = threading.Event()
+        """NMT start, stream configured, TPDO1 synchronous.
 
-            def pump() -> None:
-                while not stop.is_set():
-                    d.network.send_message(0x80, b"")
-                    time.sleep(0.01)
-            th = threading.Thread(target=pump, daemon=True)
-            th.start()
-            try:
-                d.start()
-            finally:
-                stop.set()
-                th.join()
-        else:
-            d.start()
+        In lock-step the start costs no drive time (no TPDO is awaited), and then a fixed 3
+        SYNCs let the 402 state machine leave NOT READY TO SWITCH ON, so the experiments start
+        at the same tick whatever the host's timing (a thread that pumped SYNCs until the
+        first TPDO used to let a random number of periods pass).
+        """
+        d = self.drive
+        d.start(wait_tpdo=not self.lockstep)
         d.configure_stream(self.stream_ticks)
         self._tick = int(d.read(0x5F00, 11))
+        if self.lockstep:
+            self._advance(3 * self.sync_periods)
         self._ratio = float(d.get_param("gear_ratio"))
         self._rated = float(d.read(0x6076)) / 1000.0
 

@@ -81,9 +81,10 @@ def pp_move_start(bench: Bench, target_rad: float, tries: int = 5) -> None:
         before = int(bench.read(0x5F00, 8))
         if before == want:
             return
-        d.write(0x6040, 0, 0x0F)
-        d.write(0x6040, 0, 0x1F)
-        d.write(0x6040, 0, 0x0F)
+        for cw in (0x0F, 0x1F, 0x0F):
+            d.write(0x6040, 0, cw)
+            if bench.lockstep:      # the drive samples the controlword once per loop period: let it see each
+                bench.sync()
         bench.wait(0.02)
         if int(bench.read(0x5F00, 8)) != before:
             return

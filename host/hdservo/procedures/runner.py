@@ -270,6 +270,8 @@ class Bench:
         self.sync_periods = sync_periods
         self.node_id = drive.node_id
         self._ev = threading.Event()
+        self._cv = threading.Condition()
+        self._answers = 0           # synchronous TPDO1 answers received (lock-step: one per SYNC)
         self._tick = 0
         self._listener: Optional[can.Listener] = None
         self.ratio = float(drive.get_param("gear_ratio"))
@@ -283,24 +285,43 @@ class Bench:
     def _attach_sync(self) -> None:
         cob = 0x180 + self.node_id
         ev = self._ev
+        cv = self._cv
         bench = self
 
         class L(can.Listener):
             def on_message_received(self, m: can.Message) -> None:
                 if m.arbitration_id == cob and len(m.data) >= 8:
-                    bench._tick = struct.unpack_from("<I", m.data, 4)[0]
+                    with cv:
+                        bench._tick = struct.unpack_from("<I", m.data, 4)[0]
+                        bench._answers += 1
+                        cv.notify_all()
                     ev.set()
 
         self._listener = L()
         self.drive.network.notifier.add_listener(self._listener)
         self.drive.write(0x1800, 2, 1)   # TPDO1 synchronous: one answer per SYNC
 
-    def sync(self) -> None:
-        """One SYNC: lock-step: wait until the drive has taken it (K periods follow)."""
+    #: SYNCs sent at once by :meth:`wait` and :meth:`capture` in lock-step (the drive queues the
+    #: credit; the host waits for every answer before its next request, so drive time stays exact)
+    SYNC_BURST = 40
+
+    def sync(self, n: int = 1) -> None:
+        """``n`` SYNCs; lock-step: wait until the drive has answered every one (K periods follow each).
+
+        A burst (``n`` > 1) gives the same drive time as ``n`` single SYNCs: the virtual
+        drive adds K periods of credit per SYNC and reads no other frame while it has
+        credit, and the host sends nothing else until all ``n`` answers are in.
+        """
+        with self._cv:
+            want = self._answers + n
         self._ev.clear()
-        self.drive.network.send_message(0x80, b"")
-        if self.lockstep and not self._ev.wait(5.0):
-            raise DriveError("no answer to SYNC (is the drive in --pacing sync?)")
+        for _ in range(n):
+            self.drive.network.send_message(0x80, b"")
+        if not self.lockstep:
+            return
+        with self._cv:
+            if not self._cv.wait_for(lambda: self._answers >= want, 5.0 + 0.01 * n):
+                raise DriveError("no answer to SYNC (is the drive in --pacing sync?)")
 
     #: attempts of :meth:`read`; the waits between them double from 0.05 s (3.15 s in all)
     READ_ATTEMPTS = 7
@@ -331,8 +352,10 @@ class Bench:
         if n <= 0:
             return
         if self.lockstep:
-            for _ in range(-(-n // self.sync_periods)):
-                self.sync()
+            k = -(-n // self.sync_periods)
+            while k > 0:
+                self.sync(min(k, self.SYNC_BURST))
+                k -= self.SYNC_BURST
             return
         end = self.ticks() + n
         while True:
@@ -451,8 +474,10 @@ class Bench:
             if self.read(0x5000, 2) == 3:
                 break
             if self.lockstep:
-                for _ in range(max(1, min(200, total // self.sync_periods // 4))):
-                    self.sync()
+                k = max(1, min(200, total // self.sync_periods // 4))
+                while k > 0:
+                    self.sync(min(k, self.SYNC_BURST))
+                    k -= self.SYNC_BURST
             else:
                 time.sleep(min(0.05, total * DT * (0.05 if not self.realtime else 0.25)))
         else:  # pragma: no cover
@@ -586,24 +611,14 @@ def configure_drive(drive: Drive, target: Target) -> list[str]:
 
 
 def _start(drive: Drive, lockstep: bool) -> None:
-    """NMT start; in lock-step a helper thread sends SYNCs so that the drive's time runs meanwhile."""
-    if not lockstep:
-        drive.start()
-        return
-    stop = threading.Event()
+    """NMT start.
 
-    def pump() -> None:
-        while not stop.is_set():
-            drive.network.send_message(0x80, b"")
-            time.sleep(0.01)
-
-    th = threading.Thread(target=pump, daemon=True)
-    th.start()
-    try:
-        drive.start()
-    finally:
-        stop.set()
-        th.join()
+    In lock-step the drive's time does not run until the :class:`Bench` sends its first
+    SYNCs: the start costs no drive time, so every lock-step procedure starts at tick 0
+    and repeats bit for bit (a helper thread that pumped SYNCs until the first TPDO
+    arrived used to let a host-timing-dependent number of periods pass here).
+    """
+    drive.start(wait_tpdo=not lockstep)
 
 
 @contextlib.contextmanager
