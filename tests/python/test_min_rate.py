@@ -80,11 +80,16 @@ def test_best_combination_smooth_at_0p001_deg_s(cruise_ticks: int | None, smooth
         r = cl.min_rate(b, rates_deg_s=(0.001,) if smooth else (0.0005, 0.001), windows=5, settle_s=10.0)
     rung = r.figures["ladder"][0]
     assert rung["window_arcsec"] == pytest.approx(3.6) and rung["settle_s"] == 10.0
-    assert rung["windows"] >= 4
+    # the drive's reference runs at the commanded rate (the profile generator used to run it 19 % slow
+    # here, and the record then held 4.05 of its 5 windows: 3 or 4 timed windows by chance)
+    assert rung["reference_accuracy"] < 1e-3, rung
     if smooth:
+        assert rung["windows"] == 5, rung
         assert rung["monotone"] and rung["stability"] <= 0.1, rung
+        assert rung["accuracy"] < 0.05, rung
         assert r.headline["min_smooth_rate_deg_s"] == 0.001
     else:
+        assert rung["windows"] >= 4, rung
         assert not (rung["monotone"] and rung["stability"] <= 0.1), rung
         assert r.headline["min_smooth_rate_deg_s"] is None
         assert len(r.figures["ladder"]) == 1 and r.figures["skipped_deg_s"] == [0.0005]
