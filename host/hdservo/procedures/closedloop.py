@@ -156,11 +156,11 @@ def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, set
     ``settle_s``.  With fast pacing the drive's time runs on (~20x real time) while the host is
     busy, so a host stall between the settling and the record (a loaded machine) can let the
     move arrive before or during the record: then the reference stood still in the record, which
-    is taken again (:data:`RATE_ATTEMPTS`; ``attempts`` in the result).  The rung ends with a stop
-    just ahead of the moving reference (not of the lagging output: at the slow rungs the output
-    lags by several arcsec and a target behind the reference is a reversal), still at the rung's
-    ``traj_vmax`` (restoring the fast limit first would let the reference run on to the far target
-    and the stop would reverse).
+    is taken again (:data:`RATE_ATTEMPTS`; ``attempts`` in the result).  The rung ends when its
+    move arrives at its own target, forward and still at the rung's ``traj_vmax``: the drive
+    refuses a new profile set-point while a move runs (CiA 402 single set-point), so an earlier
+    "stop just ahead of the reference" was never taken and the repeated edge after the arrival
+    sent the axis back to it at the rung's rate.
     """
     rate = math.radians(rate_deg_s)
     win = rate_window_rad(rate_deg_s, window_s, min_window_arcsec)
@@ -182,8 +182,10 @@ def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, set
             valid = reference_moved_throughout(cap["pos_ref_lo"])
             if valid or attempts >= RATE_ATTEMPTS:
                 break
-        # stop: a target just ahead of the moving reference, at the rung's rate; wait for the arrival
-        pp_move(bench, max(reference_angle_rad(bench), bench.load_angle_rad()) + rate * 0.5)
+        # end of the rung: the move runs on to its own target, forward at the rung's rate (a new
+        # profile set-point is refused while a move runs: a "stop" target just ahead of the reference
+        # was not taken, the reference ran on to `far` and the repeated edge then sent the axis back)
+        pp_move(bench, far, timeout_s=abs(far - bench.load_angle_rad()) / rate + 60.0)
     ang = Bench.unwrap_turns(cap["pos_out_lo"]) * TURN
     t = np.arange(ang.size) * decim * DT
     st = mt.rate_stability(t, ang, rate, win)
