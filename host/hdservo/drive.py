@@ -48,6 +48,10 @@ TURN = 2.0 * math.pi
 #: attempts per SDO request/response exchange (python canopen's MAX_RETRIES; its default 1
 #: means no retry): a frame lost on the bus costs one response time-out (0.3 s), not the transfer
 SDO_ATTEMPTS = 3
+#: SDO transfer failures of the protocol, not of the content, after which a table download is
+#: repeated: time-out (0x05040000), unknown command specifier (0x05040001: a stale frame),
+#: block CRC / sequence errors (0x05040004 / 0x05040003), and no response at all
+BLOCK_RETRY_CODES = ("0x05040000", "0x05040001", "0x05040003", "0x05040004", "No SDO response")
 
 MODES = {
     "PROFILED POSITION": 1,
@@ -280,9 +284,23 @@ class Drive:
 
     # ---- tables and capture --------------------------------------------------------
     def download_table(self, sub: int, payload: bytes) -> None:
-        """Download a table domain (0x5100:sub) with its CRC-32 trailer and verify by read-back."""
+        """Download a table domain (0x5100:sub) with its CRC-32 trailer and verify by read-back.
+
+        A block transfer broken at the protocol level (:data:`BLOCK_RETRY_CODES`, no response) is
+        repeated, up to :data:`SDO_ATTEMPTS` times: the drive applies a table all at once or not at
+        all (CRC), so a repeat is safe.  With fast pacing the drive's 1 s SDO time-out is drive time
+        (~50 ms wall), which a loaded host can miss between two blocks ("Unknown SDO command" from a
+        stale frame ended a `make demo` at load average 13).  A refusal of the content is not repeated.
+        """
         blob = payload + struct.pack("<I", zlib.crc32(payload))
-        self.write_domain(0x5100, sub, blob)
+        for attempt in range(SDO_ATTEMPTS):
+            try:
+                self.write_domain(0x5100, sub, blob)
+                break
+            except DriveError as e:
+                if attempt + 1 >= SDO_ATTEMPTS or not any(c in str(e) for c in BLOCK_RETRY_CODES):
+                    raise
+                time.sleep(0.1 * 2 ** attempt)
         back = self.read_domain(0x5100, sub)
         if back != blob:
             raise DriveError(f"table 0x5100:{sub}: read-back differs from what was written")

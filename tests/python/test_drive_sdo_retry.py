@@ -65,3 +65,27 @@ def test_aborts_and_timeouts_are_not_repeated_here(err: Exception, monkeypatch: 
     with pytest.raises(dv.DriveError):
         _drive(v, monkeypatch).read(0x2800, 1)
     assert v.calls == 1
+
+
+@pytest.mark.parametrize("err, calls", [(canopen.SdoAbortedError(0x05040001), 2),
+                                        (canopen.SdoCommunicationError("No SDO response received"), 2),
+                                        (canopen.SdoAbortedError(0x06090030), 1)])
+def test_table_download_repeats_a_broken_transfer_only(err: Exception, calls: int,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A table block download broken at the protocol level (a loaded host missed the drive's SDO
+    time-out) is repeated; a refusal of the content (value range 0x06090030) is not."""
+    d = dv.Drive(canopen.Network(), 1)
+    sent: list[bytes] = []
+
+    def write_domain(index: int, sub: int, blob: bytes) -> None:
+        sent.append(blob)
+        if len(sent) == 1:
+            raise dv.DriveError(f"download 0x{index:04X}:{sub}: {err}")
+    monkeypatch.setattr(d, "write_domain", write_domain)
+    monkeypatch.setattr(d, "read_domain", lambda index, sub: sent[-1])
+    if calls == 1:
+        with pytest.raises(dv.DriveError, match="0x06090030"):
+            d.download_table(2, b"abcd")
+    else:
+        d.download_table(2, b"abcd")
+    assert len(sent) == calls and all(b == sent[0] for b in sent)
