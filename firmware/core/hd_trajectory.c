@@ -1,15 +1,23 @@
 /*
  * hd_trajectory.c - exact integer reference generator (formats: hd_trajectory.h).
  *
- * PTP plan (per-period units, all exact integers):
- *   phases  +j (tj) | 0 (ta) | -j (tj) | cruise (tv) | -j (tj) | 0 (ta) | +j (tj)
- *   a += jerk; v += a; p += v (+ a residual share, below) each period.
- * With unit jerk the accel/decel phases cover dist1(tj, ta) and the peak velocity
- * is V1 = tj (tj + ta).  tj, ta are the largest with j * dist1 <= D and the
- * velocity / acceleration limits; tv = floor((D - j dist1) / (j V1)); the
- * residual R = D - j (dist1 + tv V1) < j V1 is spread over all K periods of
- * the move with a Bresenham carry, so the move ends exactly on the target and
- * the velocity reference deviates from the jerk-limited profile by < V / K.
+ * PTP plan (per-period units of 2^-48 turn, all exact integers):
+ *   accel (na periods) | cruise (tv) | decel (na periods, the accel levels negated)
+ *   a = level(k); v += a; p += v (+ cruise fraction carry, + residual share) each period.
+ * The accel levels are the jerk-limited ramp  j, 2j, .. tj j | tj j (ta) | (tj-1) j .. 0
+ * (peak V0 = j tj (tj + ta)) with ONE extra period of level D = vmax - V0 inserted
+ * between the levels m j and (m + 1) j, m = floor(D / j) (0 <= D < j tj): the jerk
+ * next to it is D - m j and (m + 1) j - D, both in [0, j], its level D < tj j <= amax,
+ * and the cruise velocity is V = V0 + D = vmax EXACTLY (whole periods alone quantise
+ * V0 below vmax: 19 % at 0.001 deg/s with the default limits).  The fraction of the
+ * commanded rate below one unit per period (vlim 2^16 mod HD_LOOP_HZ) is added in the
+ * cruise with a remainder carry, so the cruise advances exactly vlim 2^16 t / HD_LOOP_HZ.
+ * Because the decel levels are the accel levels negated in the same order, the decel
+ * velocities are V - v_i and the two ramps together cover exactly na V.
+ * tv = the largest with tv V + floor(tv frac / HD_LOOP_HZ) <= D_move - na V; the
+ * residual R (< V + 1) is spread over all K periods of the move with a Bresenham
+ * carry, so the move ends exactly on the target.  A move too short for na V takes the
+ * largest whole-period ramp that fits (no inserted level, peak below vmax).
  */
 #include "hd_trajectory.h"
 #include "hd_fixed.h"
@@ -86,7 +94,11 @@ void hd_traj_reset(hd_traj_t *s, hd_angle_t pos)
     s->tj = 0;
     s->ta = 0;
     s->tv = 0;
-    s->cruise_q = 0;
+    s->tn = 0;
+    s->ins_k = 0;
+    s->ins_a = 0;
+    s->vfrac = 0;
+    s->vfrac_acc = 0;
     s->cruise_r = 0;
     s->cruise_acc = 0;
     s->goal48 = s->p48;
@@ -106,16 +118,49 @@ void hd_traj_reset(hd_traj_t *s, hd_angle_t pos)
     outputs(s, 0);
 }
 
+/* accel-phase periods: ramp up, plateau, ramp down, inserted level */
+static uint32_t ptp_ramp(const hd_traj_t *s)
+{
+    return 2u * s->tj + s->ta + s->tn;
+}
+
 static uint32_t ptp_total(const hd_traj_t *s)
 {
-    return 4u * s->tj + 2u * s->ta + s->tv;
+    return 2u * ptp_ramp(s) + s->tv;
+}
+
+/* accel-phase level i (0 <= i < na): the ramp, with the inserted level at ins_k */
+static int64_t ramp_level(const hd_traj_t *s, uint32_t i)
+{
+    const uint32_t tj = s->tj, ta = s->ta;
+    if (s->tn != 0u) {
+        if (i == s->ins_k) {
+            return s->ins_a;
+        }
+        if (i > s->ins_k) {
+            i--;
+        }
+    }
+    if (i < tj) {
+        return (int64_t)(i + 1u) * s->j48;
+    }
+    if (i < tj + ta) {
+        return (int64_t)tj * s->j48;
+    }
+    return (int64_t)(2u * tj + ta - 1u - i) * s->j48;
+}
+
+/* cruise distance of t periods at V + frac / HD_LOOP_HZ */
+static int64_t cruise_dist(int64_t t, int64_t v, uint32_t frac)
+{
+    return hd_add64_sat(hd_mul64x32_q(v, hd_sat32(t), 0), t * (int64_t)frac / HD_LOOP_HZ);
 }
 
 /* Plan one jerk-limited leg from rest at p48 to target48 with velocity limit
  * vlim (2^-32 turn/s, > 0) and the acceleration / jerk limits of c. */
 static void plan(hd_traj_t *s, const hd_traj_cfg_t *c, hd_vel_out_t vlim, int64_t target48)
 {
-    /* limits in per-period units of 2^-48 turn */
+    /* limits in per-period units of 2^-48 turn; vmax + frac / HD_LOOP_HZ = vlim 2^16 / HD_LOOP_HZ */
     int64_t rem;
     const int64_t vmax = floordiv((int64_t)vlim * 65536, HD_LOOP_HZ, &rem);
     const int64_t amax = hd_div64_rnd((int64_t)c->amax * 16777216, 100000000);
@@ -127,7 +172,9 @@ static void plan(hd_traj_t *s, const hd_traj_cfg_t *c, hd_vel_out_t vlim, int64_
     s->dir = (d < 0) ? -1 : 1;
     d = hd_abs64_sat(d);
 
-    uint32_t tj, ta;
+    uint32_t tj, ta, tn = 0u;
+    int64_t ins = 0;
+    uint32_t frac = 0u;
     if (j >= amax) {                 /* acceleration limit reached within one period */
         j = (amax > 0) ? amax : 1;
         tj = 1;
@@ -135,67 +182,99 @@ static void plan(hd_traj_t *s, const hd_traj_cfg_t *c, hd_vel_out_t vlim, int64_
         int64_t q = amax / j;
         tj = (q > (int64_t)TJ_CAP) ? TJ_CAP : (uint32_t)q;
     }
-    /* velocity limit: V = j tj (tj + ta) <= vmax */
+    if (j > vmax && vmax > 0) {      /* one period of jerk would pass vmax: ramp in one period */
+        j = vmax;
+        tj = 1;
+    }
+    /* velocity limit: V0 = j tj (tj + ta) <= vmax, tj as large as the limits allow */
     if (hd_mul64x32_q((int64_t)tj * (int64_t)tj, hd_sat32(j), 0) > vmax) {
         int64_t q = vmax / j;
         uint32_t r = hd_isqrt64((uint64_t)(q > 0 ? q : 0));
         tj = (r < 1u) ? 1u : r;
-        ta = 0;
-    } else {
+    }
+    {
         int64_t q = vmax / hd_mul64x32_q(j, (int32_t)tj, 0) - (int64_t)tj;
         ta = (q <= 0) ? 0u : (q > (int64_t)TA_CAP ? TA_CAP : (uint32_t)q);
     }
-    /* distance: shrink ta, then tj, to the largest that fits */
-    if (!fits(tj, ta, j, d)) {
-        if (!fits(tj, 0, j, d)) {
-            uint32_t lo = 1, hi = tj;
-            ta = 0;
-            if (!fits(1, 0, j, d)) {
-                tj = 1;
-                j = d / dist1(1, 0);  /* tiny move: reduce jerk (may be 0) */
+    int64_t vpk = hd_mul64x32_q((int64_t)tj * (int64_t)(tj + ta), hd_sat32(j), 0);
+    {
+        /* the inserted level lands the cruise exactly on vmax (0 <= D < j tj unless ta was capped) */
+        const int64_t dv = vmax - vpk;
+        if (dv >= 0 && dv < hd_mul64x32_q(j, (int32_t)tj, 0)) {
+            tn = (dv > 0) ? 1u : 0u;
+            ins = dv;
+            vpk = vmax;
+            frac = (uint32_t)rem;
+        }
+    }
+    int64_t covered = hd_mul64x32_q(vpk, (int32_t)(2u * tj + ta + tn), 0);
+    if (covered > d) {
+        /* distance: no inserted level; shrink ta, then tj, to the largest that fits */
+        tn = 0u;
+        ins = 0;
+        frac = 0u;
+        if (!fits(tj, ta, j, d)) {
+            if (!fits(tj, 0, j, d)) {
+                uint32_t lo = 1, hi = tj;
+                ta = 0;
+                if (!fits(1, 0, j, d)) {
+                    tj = 1;
+                    j = d / dist1(1, 0);  /* tiny move: reduce jerk (may be 0) */
+                } else {
+                    while (lo < hi) {   /* largest tj in [1, hi] that fits */
+                        uint32_t mid = lo + (hi - lo + 1u) / 2u;
+                        if (fits(mid, 0, j, d)) {
+                            lo = mid;
+                        } else {
+                            hi = mid - 1u;
+                        }
+                    }
+                    tj = lo;
+                }
             } else {
-                while (lo < hi) {   /* largest tj in [1, hi] that fits */
+                uint32_t lo = 0, hi = ta;
+                while (lo < hi) {
                     uint32_t mid = lo + (hi - lo + 1u) / 2u;
-                    if (fits(mid, 0, j, d)) {
+                    if (fits(tj, mid, j, d)) {
                         lo = mid;
                     } else {
                         hi = mid - 1u;
                     }
                 }
-                tj = lo;
+                ta = lo;
             }
-        } else {
-            uint32_t lo = 0, hi = ta;
-            while (lo < hi) {
-                uint32_t mid = lo + (hi - lo + 1u) / 2u;
-                if (fits(tj, mid, j, d)) {
-                    lo = mid;
-                } else {
-                    hi = mid - 1u;
-                }
-            }
-            ta = lo;
         }
+        vpk = hd_mul64x32_q((int64_t)tj * (int64_t)(tj + ta), hd_sat32(j), 0);
+        covered = hd_mul64x32_q(dist1(tj, ta), hd_sat32(j), 0);
     }
-    const int64_t v1 = (int64_t)tj * (int64_t)(tj + ta);
-    const int64_t vpk = hd_mul64x32_q(v1, hd_sat32(j), 0);
-    const int64_t covered = hd_mul64x32_q(dist1(tj, ta), hd_sat32(j), 0);
     int64_t left = d - covered;
     int64_t tv = (vpk > 0) ? left / vpk : 0;
     if (tv > (int64_t)INT32_MAX / 2) {
         tv = INT32_MAX / 2;
     }
-    left -= tv * vpk;                 /* residual, spread over the whole move */
+    while (tv > 0 && cruise_dist(tv, vpk, frac) > left) {
+        /* the cruise fraction adds < 1 unit per period: step back by the excess */
+        const int64_t over = cruise_dist(tv, vpk, frac) - left;
+        tv -= (over + vpk - 1) / vpk;
+        if (tv < 0) {
+            tv = 0;
+        }
+    }
+    left -= cruise_dist(tv, vpk, frac);   /* residual, spread over the whole move */
     s->j48 = j;
     s->tj = tj;
     s->ta = ta;
+    s->tn = tn;
+    s->ins_a = ins;
+    s->ins_k = (tn != 0u) ? (uint32_t)(ins / j) : 0u;
+    s->vfrac = frac;
+    s->vfrac_acc = 0u;
     s->tv = (uint32_t)tv;
     if (ptp_total(s) == 0u) {
         s->tv = 1u;                   /* zero-jerk tiny move: one period */
     }
     s->cruise_r = left;
     s->cruise_acc = 0;
-    s->cruise_q = 0;
     s->target48 = target48;
     s->k = 0;
     s->v48 = 0;
@@ -297,10 +376,10 @@ static void step_ptp(hd_traj_t *s, const hd_traj_cfg_t *c)
         outputs(s, 0);
         return;
     }
-    const uint32_t tj = s->tj, ta = s->ta, tv = s->tv;
+    const uint32_t na = ptp_ramp(s), tv = s->tv;
     const uint32_t k = s->k;
     const uint32_t total = ptp_total(s);
-    int64_t jerk = 0;
+    int64_t cruise_carry = 0;
     if (k >= total) {
         s->v48 = 0;
         s->a48 = 0;
@@ -308,22 +387,18 @@ static void step_ptp(hd_traj_t *s, const hd_traj_cfg_t *c)
         outputs(s, 0);
         return;
     }
-    if (k < tj) {
-        jerk = s->j48;
-    } else if (k < tj + ta) {
-        jerk = 0;
-    } else if (k < 2u * tj + ta) {
-        jerk = -s->j48;
-    } else if (k < 2u * tj + ta + tv) {
-        jerk = 0;
-    } else if (k < 3u * tj + ta + tv) {
-        jerk = -s->j48;
-    } else if (k < 3u * tj + 2u * ta + tv) {
-        jerk = 0;
+    if (k < na) {
+        s->a48 = ramp_level(s, k);
+    } else if (k < na + tv) {
+        s->a48 = 0;
+        s->vfrac_acc += s->vfrac;    /* cruise fraction, den HD_LOOP_HZ */
+        if (s->vfrac_acc >= (uint32_t)HD_LOOP_HZ) {
+            s->vfrac_acc -= (uint32_t)HD_LOOP_HZ;
+            cruise_carry = 1;
+        }
     } else {
-        jerk = s->j48;
+        s->a48 = -ramp_level(s, k - na - tv);
     }
-    s->a48 += jerk;
     s->v48 += s->a48;
     /* residual share: floor(R (k+1) / K) - floor(R k / K) */
     s->cruise_acc += s->cruise_r;
@@ -335,7 +410,7 @@ static void step_ptp(hd_traj_t *s, const hd_traj_cfg_t *c)
         extra = s->cruise_acc / (int64_t)total;
     }
     s->cruise_acc -= extra * (int64_t)total;
-    const int64_t step = s->v48 + extra;
+    const int64_t step = s->v48 + extra + cruise_carry;
     s->p48 = hdf_add64_sat(s->p48, (s->dir < 0) ? -step : step);
     s->k = k + 1u;
     {

@@ -10,9 +10,15 @@
  * periods exactly floor(k * v * 2^16 / HD_LOOP_HZ) units: no drift over any
  * run length.  A point-to-point move is planned in integer per-period units
  * (jerk 2^-48 turn/T^3, accel 2^-48 turn/T^2, velocity 2^-48 turn/T) and ends
- * EXACTLY on the target; the distance the jerk phases do not cover is spread
- * over the cruise phase with a remainder carry (cruise speed deviates from the
- * planned peak by at most peak/Tv, Tv = cruise periods).
+ * EXACTLY on the target.  A move long enough to reach the velocity limit cruises
+ * at EXACTLY the limit: V = floor(vmax 2^16 / HD_LOOP_HZ) per period from the
+ * ramps (one inserted acceleration period tops the whole-period jerk ramp up to
+ * V, within the jerk and acceleration limits; hd_trajectory.c) plus the fraction
+ * (vmax 2^16 mod HD_LOOP_HZ) / HD_LOOP_HZ with a remainder carry, so the cruise
+ * position advances like the constant-rate mode.  The distance the plan does not
+ * cover in whole periods (R < V + 1) is spread over the whole move with a
+ * remainder carry (the velocity deviates from the plan by at most R/K + 1 unit,
+ * K = periods of the move).
  *
  * Outputs (refreshed by every step):
  *   pos  hd_angle_t   Q32.32 turns (rounded from the 2^-48 state)
@@ -75,9 +81,13 @@ typedef struct {
     int64_t  target48;    /* 2^-48 turn */
     int32_t  dir;         /* +1 / -1 */
     uint32_t k;           /* periods since start of the move */
-    uint32_t tj, ta, tv;  /* phase lengths, periods */
-    int64_t  cruise_q;    /* cruise step quotient, 2^-48 turn per period */
-    int64_t  cruise_r;    /* cruise remainder numerator, [0, tv) */
+    uint32_t tj, ta, tv;  /* phase lengths, periods: jerk ramp, constant accel, cruise */
+    uint32_t tn;          /* 1: one inserted accel period (level ins_a) lands the cruise on vmax; 0: none */
+    uint32_t ins_k;       /* accel-phase index of the inserted period */
+    int64_t  ins_a;       /* inserted accel level D, 2^-48 turn per period^2, 0 <= D < tj j48 */
+    uint32_t vfrac;       /* cruise velocity fraction, numerator of 2^-48 turn per period / HD_LOOP_HZ */
+    uint32_t vfrac_acc;   /* its accumulator, [0, HD_LOOP_HZ) */
+    int64_t  cruise_r;    /* residual distance R (2^-48 turn), spread over the move */
     int64_t  cruise_acc;  /* remainder accumulator */
     /* final approach */
     int64_t  goal48;      /* true target of the move, 2^-48 turn */

@@ -27,7 +27,7 @@ import zlib
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any, Iterator, Optional
+from typing import Any, Callable, Iterator, Optional
 
 import can
 import canopen
@@ -48,10 +48,15 @@ TURN = 2.0 * math.pi
 #: attempts per SDO request/response exchange (python canopen's MAX_RETRIES; its default 1
 #: means no retry): a frame lost on the bus costs one response time-out (0.3 s), not the transfer
 SDO_ATTEMPTS = 3
-#: attempts of a whole domain block transfer that ended on a response time-out
-DOMAIN_ATTEMPTS = 2
-#: the drive's SDO server time-out (firmware/canopen/hd_co.c): a transfer silent this long is
-#: discarded, so a repeat after it starts clean
+#: attempts of a whole domain block transfer broken at the protocol level (below)
+DOMAIN_ATTEMPTS = 3
+#: SDO aborts of the protocol, not of the content, after which a domain transfer is repeated:
+#: time-out (0x05040000), unknown command specifier (0x05040001: a stale frame), block
+#: sequence / CRC errors (0x05040003 / 0x05040004); no response at all is repeated too
+PROTOCOL_ABORTS = (0x05040000, 0x05040001, 0x05040003, 0x05040004)
+#: the drive's SDO server time-out (firmware/canopen/hd_co.h HD_CO_SDO_TIMEOUT_MS): a transfer
+#: silent this long is discarded, so a repeat after it starts clean even if the client's abort
+#: frame was lost
 DRIVE_SDO_TIMEOUT_S = 1.0
 
 MODES = {
@@ -297,42 +302,42 @@ class Drive:
         if back != blob:
             raise DriveError(f"table 0x5100:{sub}: read-back differs from what was written")
 
-    def write_domain(self, index: int, sub: int, blob: bytes) -> None:
-        """Block download of a domain (CRC-checked transfer).
+    def _domain_transfer(self, what: str, fn: Callable[[], Any]) -> Any:
+        """Run one block transfer ``fn``, repeated whole when it broke at the protocol level.
 
-        A transfer that dies on a response time-out is repeated whole (up to
-        :data:`DOMAIN_ATTEMPTS`) after the drive's own SDO time-out has discarded the part it
-        received: the drive installs a domain only when the complete transfer and its CRC check
-        out, so a repeat cannot leave a mix.  An abort from the drive (refused table) is final.
+        A response time-out or a protocol abort (:data:`PROTOCOL_ABORTS`) repeats the transfer,
+        up to :data:`DOMAIN_ATTEMPTS`, after the drive's own SDO time-out has discarded the part
+        it received: the drive installs a domain only when the complete transfer and its CRC
+        check out, so a repeat cannot leave a mix.  With fast pacing that time-out is drive time
+        (~50 ms wall), which a loaded host can miss between two blocks (a stale frame then ends
+        the transfer with 0x05040001: seen in `make demo` at load average 13).  A refusal of the
+        content (any other abort) is final.
         """
         for attempt in range(DOMAIN_ATTEMPTS):
             try:
-                with self._var(index, sub).open("wb", size=len(blob), block_transfer=True) as f:
-                    f.write(blob)
-                return
-            except canopen.SdoCommunicationError as e:
-                if attempt + 1 < DOMAIN_ATTEMPTS:
+                return fn()
+            except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
+                protocol = not isinstance(e, canopen.SdoAbortedError) or e.code in PROTOCOL_ABORTS
+                if protocol and attempt + 1 < DOMAIN_ATTEMPTS:
                     time.sleep(DRIVE_SDO_TIMEOUT_S + self.node.sdo.RESPONSE_TIMEOUT)
                     continue
-                raise DriveError(f"download 0x{index:04X}:{sub}: {e}") from None
-            except canopen.SdoAbortedError as e:
-                raise DriveError(f"download 0x{index:04X}:{sub}: {e}") from None
+                raise DriveError(f"{what}: {e}") from None
+        raise AssertionError("unreachable")
+
+    def write_domain(self, index: int, sub: int, blob: bytes) -> None:
+        """Block download of a domain (CRC-checked; see :meth:`_domain_transfer` for repeats)."""
+        def go() -> None:
+            with self._var(index, sub).open("wb", size=len(blob), block_transfer=True) as f:
+                f.write(blob)
+        self._domain_transfer(f"download 0x{index:04X}:{sub}", go)
 
     def read_domain(self, index: int, sub: int) -> bytes:
-        """Block upload of a domain (CRC-checked transfer; repeated whole after a time-out, as
-        :meth:`write_domain`)."""
-        for attempt in range(DOMAIN_ATTEMPTS):
-            try:
-                with self._var(index, sub).open("rb", block_transfer=True) as f:
-                    return bytes(f.read())
-            except canopen.SdoCommunicationError as e:
-                if attempt + 1 < DOMAIN_ATTEMPTS:
-                    time.sleep(DRIVE_SDO_TIMEOUT_S + self.node.sdo.RESPONSE_TIMEOUT)
-                    continue
-                raise DriveError(f"upload 0x{index:04X}:{sub}: {e}") from None
-            except canopen.SdoAbortedError as e:
-                raise DriveError(f"upload 0x{index:04X}:{sub}: {e}") from None
-        raise AssertionError("unreachable")
+        """Block upload of a domain (CRC-checked; see :meth:`_domain_transfer` for repeats)."""
+        def go() -> bytes:
+            with self._var(index, sub).open("rb", block_transfer=True) as f:
+                return bytes(f.read())
+        out: bytes = self._domain_transfer(f"upload 0x{index:04X}:{sub}", go)
+        return out
 
     def download_group(self, sub: int, raw: dict[str, int], version: int = 1) -> None:
         """Download a parameter-group table (0x5100:2 friction, 0x5100:3 TE): every parameter of

@@ -311,6 +311,79 @@ static void test_traj_ptp_exact(void **st)
     run_ptp(0, T / 36000, &slow, &k);                /* 0.01 deg at 0.01 deg/s */
 }
 
+/* Cruise of a PTP move at the velocity limit: the cruise velocity is EXACTLY the
+ * limit (whole-period ramps used to quantise it below: 19 % slow at 0.001 deg/s,
+ * 50 % at 2e-5 deg/s with the reference-axis limits), and no period exceeds the
+ * per-period jerk, acceleration or velocity limit. */
+static void cruise_check(double rate_deg_s, const hd_traj_cfg_t *c0, double travel_s, int32_t dir)
+{
+    hd_traj_cfg_t c = *c0;
+    c.vmax = DEG_S_TO_VEL(rate_deg_s);
+    /* limits in the planner's per-period units (2^-48 turn per T, T^2, T^3) */
+    const int64_t vnum = (int64_t)c.vmax * 65536;                 /* / HD_LOOP_HZ */
+    const int64_t vper = vnum / HD_LOOP_HZ;
+    const int64_t aper = hd_div64_rnd((int64_t)c.amax * 16777216, 100000000);
+    int64_t jper = hd_div64_rnd((int64_t)c.jmax << 32, 1000000000000LL);
+    jper = (jper < 1) ? 1 : jper;
+    const int64_t travel = (int64_t)llround((double)c.vmax * travel_s) + 4321;   /* Q32.32, odd LSBs */
+    const hd_angle_t start = 987654321, target = start + dir * travel;
+    hd_traj_t s;
+    hd_traj_reset(&s, start);
+    assert_int_equal(hd_traj_ptp(&s, &c, target), 0);
+    int64_t a_prev = 0, p_c0 = 0, p_c1 = 0;
+    uint32_t k = 0, n_cruise = 0;
+    const uint32_t total = 4u * s.tj + 2u * s.ta + 2u * s.tn + s.tv;
+    const uint32_t na = 2u * s.tj + s.ta + s.tn;
+    assert_true(s.tv > 10000u);                                   /* the move cruises */
+    while (!hd_traj_done(&s)) {
+        const int64_t p_before = s.p48;
+        hd_traj_step(&s, &c);
+        const int64_t a = s.a48 * dir, v = s.v48;                 /* a48 is the magnitude's sign-restored copy */
+        assert_true(llabs(a) <= aper);
+        assert_true(llabs(a - a_prev) <= jper);
+        assert_true(v >= 0 && v <= vper);
+        a_prev = a;
+        if (k >= na && k < na + s.tv) {                           /* cruise */
+            assert_true(v == vper);                               /* exactly the limit, every period */
+            if (n_cruise == 0u) {
+                p_c0 = p_before;
+            }
+            p_c1 = s.p48;
+            n_cruise++;
+        }
+        k++;
+        assert_true(k <= total);
+    }
+    assert_true(s.p48 == target * 65536 && s.pos == target);     /* exact landing */
+    /* cruise advance = n vmax 2^16 / HD_LOOP_HZ + the residual share (<= n R / K + 1) */
+    const double want = (double)n_cruise * (double)vnum / HD_LOOP_HZ;
+    const double got = (double)((p_c1 - p_c0) * dir);
+    const double slack = (double)n_cruise * (double)s.cruise_r / (double)total + 2.0;
+    printf("# PTP at %g deg/s: cruise %u periods at %lld (limit %.3f) /period, tj %u ta %u inserted %u (level %lld), "
+           "cruise rate error %.2e\n", rate_deg_s, n_cruise, (long long)vper, (double)vnum / HD_LOOP_HZ, s.tj, s.ta,
+           s.tn, (long long)s.ins_a, got / want - 1.0);
+    assert_true(n_cruise == s.tv);
+    assert_true(got >= want - 2.0 && got <= want + slack);
+}
+
+static void test_traj_cruise_at_vmax_exactly(void **st)
+{
+    (void)st;
+    const hd_traj_cfg_t ref = tcfg_ref();
+    /* the min-rate ladder (and below), a few fast rates, both directions */
+    const double rates[] = {60.0, 10.0, 1.0, 0.1, 0.01, 0.001, 0.0005, 0.0002, 0.0001, 5e-5, 2e-5, 1e-5, 3.6e-6};
+    for (size_t i = 0; i < sizeof rates / sizeof rates[0]; i++) {
+        cruise_check(rates[i], &ref, rates[i] >= 1.0 ? 4.0 : 12.0, (i % 2u) ? -1 : 1);
+    }
+    /* jerk above the acceleration limit (one-period ramps), and a slow jerk (long ramps) */
+    const hd_traj_cfg_t stiff = {.vmax = 0, .amax = ref.amax, .jmax = 30000 * 65536};
+    cruise_check(0.001, &stiff, 12.0, 1);
+    cruise_check(7.3, &stiff, 4.0, -1);
+    const hd_traj_cfg_t soft = {.vmax = 0, .amax = ref.amax, .jmax = 66};           /* 0.001 turn/s^3 */
+    cruise_check(0.3, &soft, 60.0, 1);
+    cruise_check(0.0001, &soft, 12.0, -1);
+}
+
 static void test_traj_rate_exact(void **st)
 {
     (void)st;
@@ -795,6 +868,7 @@ int main(void)
         cmocka_unit_test(test_biquad_notch_depth),
         cmocka_unit_test(test_biquad_chain_extremes),
         cmocka_unit_test(test_traj_ptp_exact),
+        cmocka_unit_test(test_traj_cruise_at_vmax_exactly),
         cmocka_unit_test(test_traj_rate_exact),
         cmocka_unit_test(test_traj_sine),
         cmocka_unit_test(test_traj_final_approach),

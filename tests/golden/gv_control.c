@@ -219,6 +219,38 @@ static void run_traj_appr(const int32_t *in, int32_t *out, uint32_t count)
     }
 }
 
+/* ---- trajectory at slow velocity limits (reference-axis acceleration and jerk, the
+ * min-rate ladder's rates and below): a PTP every 128 periods with its own vmax, so
+ * the inserted-level ramps (cruise exactly at vmax), the one-period ramp (jerk above
+ * vmax) and the cruise fraction carry run on both targets; v48 and a48 are output. */
+
+static void gen_traj_slow(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    /* vmax 40 .. 81920 (2^-32 turn/s, log-spread: 3.4e-6 .. 6.9e-3 deg/s); travel 0 .. 8 ms of it */
+    in[0] = ((idx & 127u) == 0u) ? (hd_gv_rand_range(r, 40, 80) << hd_gv_rand_range(r, 0, 10)) : -1;
+    in[1] = hd_gv_rand_range(r, -8, 8);
+}
+
+static void run_traj_slow(const int32_t *in, int32_t *out, uint32_t count)
+{
+    hd_traj_t s;
+    hd_traj_cfg_t c = {.vmax = 11930, .amax = 4660338, .jmax = 182044};
+    uint32_t k;
+    hd_traj_reset(&s, 0);
+    for (k = 0; k < count; k++) {
+        if (in[2u * k] > 0 && hd_traj_done(&s)) {
+            c.vmax = in[2u * k];
+            (void)hd_traj_ptp(&s, &c, s.pos + (hd_angle_t)c.vmax * in[2u * k + 1u] / 1000);
+        }
+        hd_traj_step(&s, &c);
+        hd_gv_put64(&out[6u * k], s.pos);
+        out[6u * k + 2u] = s.vel;
+        out[6u * k + 3u] = hd_sat32(s.v48);
+        out[6u * k + 4u] = hd_sat32(s.a48);
+        out[6u * k + 5u] = s.mode | (int32_t)(s.tn << 4);
+    }
+}
+
 /* ---- excitation: each kind for 96 periods -------------------------------------- */
 
 static void exc_cfg_for(uint32_t kind, int32_t amp, hd_exc_cfg_t *c)
@@ -319,6 +351,7 @@ const hd_gv_kernel_t hd_gv_control_kernels[] = {
     {"biquad_chain_step", 1u, 1u, GV_N, gen_bq, run_bq, cost_bq},
     {"traj_step", 2u, 5u, GV_N, gen_traj, run_traj, cost_traj},
     {"traj_approach", 2u, 5u, 1280u, gen_traj_appr, run_traj_appr, NULL},
+    {"traj_slow", 2u, 6u, 1024u, gen_traj_slow, run_traj_slow, NULL},
     {"exc_step", 1u, 2u, 576u, gen_exc, run_exc, cost_exc},
     {"capture_step", 2u, 2u, 256u, gen_cap, run_cap, cost_cap},
 };

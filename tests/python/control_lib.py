@@ -48,7 +48,8 @@ class TrajCfg(C.Structure):
 class Traj(C.Structure):
     _fields_ = [("mode", C.c_int32), ("p48", C.c_int64), ("v48", C.c_int64), ("a48", C.c_int64),
                 ("j48", C.c_int64), ("target48", C.c_int64), ("dir", C.c_int32), ("k", C.c_uint32),
-                ("tj", C.c_uint32), ("ta", C.c_uint32), ("tv", C.c_uint32), ("cruise_q", C.c_int64),
+                ("tj", C.c_uint32), ("ta", C.c_uint32), ("tv", C.c_uint32), ("tn", C.c_uint32),
+                ("ins_k", C.c_uint32), ("ins_a", C.c_int64), ("vfrac", C.c_uint32), ("vfrac_acc", C.c_uint32),
                 ("cruise_r", C.c_int64), ("cruise_acc", C.c_int64),
                 ("goal48", C.c_int64), ("appr_leg", C.c_int32), ("appr_wait", C.c_uint32),
                 ("rate_target", C.c_int32),

@@ -96,20 +96,29 @@ class _DomainVar:
         return _F()
 
 
-def test_domain_transfer_repeated_whole_after_a_time_out(monkeypatch: pytest.MonkeyPatch) -> None:
+@pytest.mark.parametrize("err", [canopen.SdoCommunicationError("No SDO response received"),
+                                 canopen.SdoAbortedError(0x05040001), canopen.SdoAbortedError(0x05040004)])
+def test_domain_transfer_repeated_whole_after_a_protocol_failure(err: Exception,
+                                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    """A time-out or a protocol abort (a loaded host missed the drive's SDO time-out) repeats the
+    whole transfer; the table download then reads back what it wrote."""
     monkeypatch.setattr(dv, "DRIVE_SDO_TIMEOUT_S", 0.0)
-    v = _DomainVar(1, canopen.SdoCommunicationError("No SDO response received"))
+    v = _DomainVar(1, err)
     d = dv.Drive(canopen.Network(), 1)
     monkeypatch.setattr(d, "_var", lambda index, sub=0: v)
     d.node.sdo.RESPONSE_TIMEOUT = 0.001
     d.write_domain(0x5100, 1, b"table")
     assert v.opens == 2 and v.stored == b"table"
     assert d.read_domain(0x5100, 1) == b"table"
+    d.download_table(2, b"abcd")
+    assert v.stored[:4] == b"abcd" and len(v.stored) == 8
 
 
 @pytest.mark.parametrize("fails, err, match", [
     (dv.DOMAIN_ATTEMPTS, canopen.SdoCommunicationError("No SDO response received"), "No SDO response"),
-    (1, canopen.SdoAbortedError(0x08000020), "Code 0x08000020")])
+    (dv.DOMAIN_ATTEMPTS, canopen.SdoAbortedError(0x05040001), "Code 0x05040001"),
+    (1, canopen.SdoAbortedError(0x08000020), "Code 0x08000020"),
+    (1, canopen.SdoAbortedError(0x06090030), "Code 0x06090030")])
 def test_domain_transfer_gives_up_or_takes_an_abort_as_final(fails: int, err: Exception, match: str,
                                                              monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(dv, "DRIVE_SDO_TIMEOUT_S", 0.0)

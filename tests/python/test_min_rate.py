@@ -21,6 +21,7 @@ import pytest
 
 from hdservo import compare as cmp
 from hdservo import compsetup as cs
+from hdservo.drive import DriveError
 from hdservo.procedures import closedloop as cl
 from hdservo.procedures import metrics as mt
 from hdservo.procedures.runner import Target, open_bench
@@ -74,17 +75,31 @@ def test_best_combination_smooth_at_0p001_deg_s(cruise_ticks: int | None, smooth
     params.update(cs.best_gains("reference"))
     if cruise_ticks is not None:
         params["str_cruise_ticks"] = cruise_ticks
-    t = Target(compensators=list(cs.BEST_NAMES), params=params)
-    with open_bench(t, cl.AXIS_SETUP) as b:
-        # without the cruise switch the 0.001 rung fails and the slower one is skipped (not run)
-        r = cl.min_rate(b, rates_deg_s=(0.001,) if smooth else (0.0005, 0.001), windows=5, settle_s=10.0)
+    # The rung runs in drive time (settling, record), so host load cannot shorten it; what a loaded
+    # machine can do is time out an SDO exchange (wall-clock, 3 x 0.3 s): the run is then repeated
+    # once on a new virtual drive.  Any result that is measured is judged as it is.
+    for attempt in range(2):
+        t = Target(compensators=list(cs.BEST_NAMES), params=params)
+        try:
+            with open_bench(t, cl.AXIS_SETUP) as b:
+                # without the cruise switch the 0.001 rung fails and the slower one is skipped (not run)
+                r = cl.min_rate(b, rates_deg_s=(0.001,) if smooth else (0.0005, 0.001), windows=5, settle_s=10.0)
+            break
+        except DriveError as e:
+            if attempt == 1 or "No SDO response" not in str(e):
+                raise
     rung = r.figures["ladder"][0]
     assert rung["window_arcsec"] == pytest.approx(3.6) and rung["settle_s"] == 10.0
-    assert rung["windows"] >= 4
+    # the drive's reference runs at the commanded rate (the profile generator used to run it 19 % slow
+    # here, and the record then held 4.05 of its 5 windows: 3 or 4 timed windows by chance)
+    assert rung["reference_accuracy"] < 1e-3, rung
     if smooth:
+        assert rung["windows"] == 5, rung
         assert rung["monotone"] and rung["stability"] <= 0.1, rung
+        assert rung["accuracy"] < 0.05, rung
         assert r.headline["min_smooth_rate_deg_s"] == 0.001
     else:
+        assert rung["windows"] >= 4, rung
         assert not (rung["monotone"] and rung["stability"] <= 0.1), rung
         assert r.headline["min_smooth_rate_deg_s"] is None
         assert len(r.figures["ladder"]) == 1 and r.figures["skipped_deg_s"] == [0.0005]

@@ -117,6 +117,11 @@ RATE_LADDER_DEG_S: tuple[float, ...] = (1.0, 0.1, 0.01, 0.001, 0.0005, 0.0002, 0
 #: Smallest fixed-angle window, arcsec: the 0.001 deg/s rung's 1 s window (47 counts of a 24-bit output
 #: encoder).  Slower rungs keep this angle (longer windows) instead of shrinking it into the encoder noise.
 MIN_WINDOW_ARCSEC = 3.6
+#: Extra record length of a rung, in windows: the record covers ``windows + RECORD_MARGIN_WINDOWS`` windows
+#: at the commanded rate, so that ``windows`` whole windows are timed even when the output lags the
+#: reference by a fraction of a window at the end of the record (an exact ``windows`` record gave
+#: ``windows - 1`` or ``windows`` by chance; with the reference 19 % slow it gave 4 of 5).
+RECORD_MARGIN_WINDOWS = 0.5
 #: Settling of a rung below 0.5 deg/s: at least this many windows.  The start transient (the loop taking
 #: up the gear's presliding compliance) is an angle, ~10 s at 0.0002 deg/s on the reference axis; with a
 #: fixed 5 s both the PID and the compensated drive fail the slow rungs on it, not on stick-slip.
@@ -143,21 +148,24 @@ def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, set
     """One rung: constant rate through the profile generator; fixed-angle timing on the output encoder.
 
     The window angle is :func:`rate_window_rad` (``rate x window_s``, at least
-    ``min_window_arcsec``); the record covers ``windows`` windows at the commanded rate.
+    ``min_window_arcsec``); the record covers ``windows`` + :data:`RECORD_MARGIN_WINDOWS` windows
+    at the commanded rate (so ``windows`` windows are timed).  ``reference_accuracy`` is
+    |reference rate - cmd| / cmd of the drive's own reference over the record (least-squares
+    slope): the profile generator's share of the rate error.
     The rung is a profile move at ``traj_vmax`` = rate towards a target :data:`RATE_REACH` x the
     rung's travel ahead; the record (output encoder and the drive's reference) starts after
     ``settle_s``.  With fast pacing the drive's time runs on (~20x real time) while the host is
     busy, so a host stall between the settling and the record (a loaded machine) can let the
     move arrive before or during the record: then the reference stood still in the record, which
-    is taken again (:data:`RATE_ATTEMPTS`; ``attempts`` in the result).  The rung ends with a stop
-    just ahead of the moving reference (not of the lagging output: at the slow rungs the output
-    lags by several arcsec and a target behind the reference is a reversal), still at the rung's
-    ``traj_vmax`` (restoring the fast limit first would let the reference run on to the far target
-    and the stop would reverse).
+    is taken again (:data:`RATE_ATTEMPTS`; ``attempts`` in the result).  The rung ends when its
+    move arrives at its own target, forward and still at the rung's ``traj_vmax``: the drive
+    refuses a new profile set-point while a move runs (CiA 402 single set-point), so an earlier
+    "stop just ahead of the reference" was never taken and the repeated edge after the arrival
+    sent the axis back to it at the rung's rate.
     """
     rate = math.radians(rate_deg_s)
     win = rate_window_rad(rate_deg_s, window_s, min_window_arcsec)
-    dur = windows * win / rate
+    dur = (windows + RECORD_MARGIN_WINDOWS) * win / rate
     frames = CAPTURE_FRAMES_3
     decim = max(1, int(math.ceil(dur / frames / DT)))
     frames = int(math.ceil(dur / (decim * DT)))
@@ -175,12 +183,18 @@ def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, set
             valid = reference_moved_throughout(cap["pos_ref_lo"])
             if valid or attempts >= RATE_ATTEMPTS:
                 break
-        # stop: a target just ahead of the moving reference, at the rung's rate; wait for the arrival
-        pp_move(bench, max(reference_angle_rad(bench), bench.load_angle_rad()) + rate * 0.5)
+        # end of the rung: the move runs on to its own target, forward at the rung's rate (a new
+        # profile set-point is refused while a move runs: a "stop" target just ahead of the reference
+        # was not taken, the reference ran on to `far` and the repeated edge then sent the axis back)
+        pp_move(bench, far, timeout_s=abs(far - bench.load_angle_rad()) / rate + 60.0)
     ang = Bench.unwrap_turns(cap["pos_out_lo"]) * TURN
     t = np.arange(ang.size) * decim * DT
     st = mt.rate_stability(t, ang, rate, win)
+    # the drive's own reference over the record: its rate error is the profile generator's, not the axis'
+    ref = Bench.unwrap_turns(cap["pos_ref_lo"]) * TURN
+    ref_rate = float(np.polyfit(t, ref, 1)[0]) if ref.size > 1 else float("nan")
     return {"rate_deg_s": rate_deg_s, "window_arcsec": win / mt.ARCSEC, "window_s": win / rate, **st,
+            "reference_accuracy": abs(ref_rate - rate) / rate,
             "attempts": attempts, "reference_moved_throughout": valid, "t_s": t, "angle_rad": ang}
 
 
