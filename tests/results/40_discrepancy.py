@@ -2,7 +2,8 @@
 """Confusion table of the model-discrepancy workflow on simulator logs -> build/results/discrepancy.json.
 
 For every effect name (and "none"), both axis files, closed and open loop, seeds 1..5
-(``HDSERVO_DISC_SEEDS`` overrides the count; seed parity selects the parameter size, the
+(``HDSERVO_DISC_SEEDS`` overrides the count, ``HDSERVO_DISC_SEED_OFFSET`` shifts them
+for an unseen set, written to ``discrepancy_seeds<a>-<b>.json``; seed parity selects the parameter size, the
 seed sets the experiment and the noise): 20 logs per row.  Each log is simulated with
 exactly that effect hidden (hdservo.discrepancy.cases) -- cached under
 build/cache/discrepancy/ keyed by the case and a hash of cases.py and the simulator --
@@ -36,7 +37,11 @@ from hdservo import emps, logio  # noqa: E402
 from hdservo.cli import UserError  # noqa: E402
 from hdservo.discrepancy import EFFECT_NAMES, cases, realdata, signals, workflow  # noqa: E402
 
-SEEDS = tuple(range(1, int(os.environ.get("HDSERVO_DISC_SEEDS", "5")) + 1))
+#: Seeds 1..HDSERVO_DISC_SEEDS, shifted by HDSERVO_DISC_SEED_OFFSET (an unseen seed set:
+#: offset 5 -> seeds 6..10, written to discrepancy_seeds6-10.json instead).
+SEED_OFFSET = int(os.environ.get("HDSERVO_DISC_SEED_OFFSET", "0"))
+SEEDS = tuple(range(1 + SEED_OFFSET, int(os.environ.get("HDSERVO_DISC_SEEDS", "5")) + 1 + SEED_OFFSET))
+OUT_NAME = "discrepancy.json" if SEED_OFFSET == 0 else f"discrepancy_seeds{SEEDS[0]}-{SEEDS[-1]}.json"
 CACHE = REPO / "build" / "cache" / "discrepancy"
 
 
@@ -156,7 +161,7 @@ def main() -> int:
         print(f"EMPS: named {r.named}, IDIM relative error {chk['relative_error_pct']:.3f} %")
     except UserError as e:
         result["emps"] = {"skipped": str(e)}
-    logio._atomic_write(out_dir / "discrepancy.json", json.dumps(result, indent=2) + "\n")
+    logio._atomic_write(out_dir / OUT_NAME, json.dumps(result, indent=2) + "\n")
     for eff, s in summary.items():
         print(f"{eff:24s} {s['correct']}/{s['cases']} named correctly; min shrink all/acting/sim/gap "
               f"{s['min_shrink_when_named']} / {s['min_shrink_acting_when_named']} / {s['min_shrink_sim_when_named']}"
