@@ -44,6 +44,25 @@ def test_wrong_stiffness_and_stiction_show_in_the_simulation(null_design) -> Non
     assert np.sqrt(np.mean(simerr.simulation_error(d, cols, th) ** 2)) > 10 * e0
 
 
+def test_region_mask_is_aligned_and_causal(null_design) -> None:
+    d, cols, fit = null_design
+    e = simerr.simulation_error(d, cols, fit.theta)
+    n_m = len(simerr.side_error(d, cols, fit.theta, "m"))
+    assert simerr.region_mask(d, None).all() and len(simerr.region_mask(d, None)) == len(e)
+    # a side without a band is never in the region, an infinite band selects all of it
+    m = simerr.region_mask(d, {"l": np.inf})
+    assert len(m) == len(e) and not m[:n_m].any() and m[n_m:].all()
+    assert not simerr.region_mask(d, {"m": 0.0, "l": 0.0}).any()
+    # a finite band: within a window, once the measured speed entered the band the rest
+    # of the window stays in the region (the simulation error is causal)
+    wl = np.abs(d.dec("state:wl", d.sig.w_l))
+    m = simerr.region_mask(d, {"l": float(np.percentile(wl, 5))})[n_m:]
+    H = int(round(simerr.HORIZON_S / (d.sig.dt * d.sig.q)))
+    w = m[: len(m) // H * H].reshape(-1, H)
+    assert 0.0 < w.mean() < 0.5
+    assert np.all(np.diff(w.astype(int), axis=1) >= 0)
+
+
 def test_stribeck_named_by_its_output_error_fit(tmp_path: Path) -> None:
     c = cases.Case("stribeck_friction", axis="reference", loop="open", seed=1, size=1)
     p = cases.make_log(c, tmp_path / "l.csv")
@@ -55,3 +74,9 @@ def test_stribeck_named_by_its_output_error_fit(tmp_path: Path) -> None:
     # factor 2 apart, so within a factor 2
     assert 0.042 <= it["params"]["dFs_motor_Nm"] <= 0.17
     assert 0.005 <= it["params"]["vs_out_rad_s"] <= 0.08
+    # localised: the effect acts around stops and reversals, a minority of the record,
+    # and the simulation error over that region shrinks more than over the whole record
+    assert 0.0 < it["region"]["simulation_share"] < 0.5
+    loc = it["sim_rms_region_before_rad"] / it["sim_rms_region_after_rad"]
+    assert loc > it["sim_rms_before_rad"] / it["sim_rms_after_rad"] > 1.0
+    assert it["evidence"]["sim_explained_fraction_local"] >= it["evidence"]["sim_explained_fraction"]

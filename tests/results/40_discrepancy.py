@@ -2,7 +2,8 @@
 """Confusion table of the model-discrepancy workflow on simulator logs -> build/results/discrepancy.json.
 
 For every effect name (and "none"), both axis files, closed and open loop, seeds 1..5
-(``HDSERVO_DISC_SEEDS`` overrides the count; seed parity selects the parameter size, the
+(``HDSERVO_DISC_SEEDS`` overrides the count, ``HDSERVO_DISC_SEED_OFFSET`` shifts them
+for an unseen set, written to ``discrepancy_seeds<a>-<b>.json``; seed parity selects the parameter size, the
 seed sets the experiment and the noise): 20 logs per row.  Each log is simulated with
 exactly that effect hidden (hdservo.discrepancy.cases) -- cached under
 build/cache/discrepancy/ keyed by the case and a hash of cases.py and the simulator --
@@ -34,9 +35,13 @@ sys.path.insert(0, str(REPO / "host"))
 
 from hdservo import emps, logio  # noqa: E402
 from hdservo.cli import UserError  # noqa: E402
-from hdservo.discrepancy import EFFECT_NAMES, cases, realdata, signals, workflow  # noqa: E402
+from hdservo.discrepancy import EFFECT_NAMES, cases, realdata, signals, simerr, workflow  # noqa: E402
 
-SEEDS = tuple(range(1, int(os.environ.get("HDSERVO_DISC_SEEDS", "5")) + 1))
+#: Seeds 1..HDSERVO_DISC_SEEDS, shifted by HDSERVO_DISC_SEED_OFFSET (an unseen seed set:
+#: offset 5 -> seeds 6..10, written to discrepancy_seeds6-10.json instead).
+SEED_OFFSET = int(os.environ.get("HDSERVO_DISC_SEED_OFFSET", "0"))
+SEEDS = tuple(range(1 + SEED_OFFSET, int(os.environ.get("HDSERVO_DISC_SEEDS", "5")) + 1 + SEED_OFFSET))
+OUT_NAME = "discrepancy.json" if SEED_OFFSET == 0 else f"discrepancy_seeds{SEEDS[0]}-{SEEDS[-1]}.json"
 CACHE = REPO / "build" / "cache" / "discrepancy"
 
 
@@ -92,10 +97,28 @@ def _one(args: tuple[str, str, str, int, str]) -> dict:
         eqs = [e for e in act if e in r.floor] or list(r.floor)
         fl = (sum(r.floor[e] ** 2 for e in eqs) / len(eqs)) ** 0.5
         gb, ga = workflow.systematic_gap(ab, fl), workflow.systematic_gap(aa, fl)
+        # over the region where the first named effect acts (its own signature band,
+        # whole record for effects that act everywhere): first model -> last model
+        lb = la = lsb = lsa = nan
+        reg = None
+        if r.iterations:
+            it0 = r.iterations[0]
+            top = r.state.added[0]
+            bands = top[0].region_bands(r.state.design, top[1])
+            rows = workflow._eq_region_rows(r.state.design, top[1], bands)
+            rs = simerr.region_mask(r.state.design, bands)
+            lb = workflow._region_rms(r.state.design, r.base_fit, top[1], rows)
+            la = workflow._region_rms(r.state.design, r.state.fit, top[1], rows)
+            lsb, lsa = workflow._masked_rms(r.sims[0], rs), workflow._masked_rms(r.sims[-1], rs)
+            reg = it0["region"]
+        strib = next((x for x in r.ranking_first if x["effect"] == "stribeck_friction"), None)
     except UserError as e:
         got, all_named, rb, ra, sb, sa, ab, aa, act, first = f"error: {e}", [], nan, nan, nan, nan, nan, nan, [], []
-        fl = gb = ga = nan
-    keys = ("effect", "score", "delta_bic", "explained_fraction", "sim_delta_bic", "sim_explained_fraction")
+        fl = gb = ga = lb = la = lsb = lsa = nan
+        reg = strib = None
+    keys = ("effect", "score", "delta_bic", "explained_fraction", "sim_delta_bic", "sim_explained_fraction",
+            "explained_fraction_local", "sim_explained_fraction_local", "region_share", "sim_region_share",
+            "significant")
     return {"case": c.label, "hidden": eff, "named": got, "all_named": all_named,
             "rms_before_Nm": rb, "rms_after_Nm": ra, "shrink": rb / ra if ra and ra == ra else None,
             "acting_equations": act, "rms_acting_before_Nm": ab, "rms_acting_after_Nm": aa,
@@ -105,7 +128,14 @@ def _one(args: tuple[str, str, str, int, str]) -> dict:
             # shrink is None when the final model's residual is at or below the floor
             "shrink_gap": gb / ga if ga and ga == ga else None, "gap_closed": bool(ga == 0.0 and gb > 0.0),
             "sim_rms_before_rad": sb, "sim_rms_after_rad": sa, "shrink_sim": sb / sa if sa and sa == sa else None,
+            "region": reg, "rms_region_before_Nm": lb, "rms_region_after_Nm": la,
+            "shrink_region": lb / la if la and la == la else None,
+            "sim_rms_region_before_rad": lsb, "sim_rms_region_after_rad": lsa,
+            "shrink_region_sim": lsb / lsa if lsa and lsa == lsa else None,
             "first_ranking": [{k: workflow._jsonable(x.get(k)) for k in keys} for x in first],
+            # the Stribeck candidate against the baseline, wherever it ranks (false-alarm check
+            # of the localised size rule on logs without Stribeck friction)
+            "stribeck_first": {k: workflow._jsonable(strib.get(k)) for k in keys} if strib else None,
             "wall_s": time.monotonic() - t0}
 
 
@@ -130,7 +160,7 @@ def main() -> int:
         tot = sum(confusion[eff].values())
         ok = confusion[eff].get(eff, 0)
         summary[eff] = {"cases": tot, "correct": ok, "rate": ok / tot if tot else None}
-        for k in ("shrink", "shrink_acting", "shrink_sim", "shrink_gap"):
+        for k in ("shrink", "shrink_acting", "shrink_sim", "shrink_gap", "shrink_region", "shrink_region_sim"):
             good = [r for r in rows if r["hidden"] == eff and r["named"] == eff]
             # a closed gap (final residual at the noise floor) counts as an infinite shrink
             sh = sorted(float("inf") if k == "shrink_gap" and r["gap_closed"] else r[k] for r in good
@@ -156,7 +186,7 @@ def main() -> int:
         print(f"EMPS: named {r.named}, IDIM relative error {chk['relative_error_pct']:.3f} %")
     except UserError as e:
         result["emps"] = {"skipped": str(e)}
-    logio._atomic_write(out_dir / "discrepancy.json", json.dumps(result, indent=2) + "\n")
+    logio._atomic_write(out_dir / OUT_NAME, json.dumps(result, indent=2) + "\n")
     for eff, s in summary.items():
         print(f"{eff:24s} {s['correct']}/{s['cases']} named correctly; min shrink all/acting/sim/gap "
               f"{s['min_shrink_when_named']} / {s['min_shrink_acting_when_named']} / {s['min_shrink_sim_when_named']}"

@@ -48,6 +48,9 @@ class Variant:
     #: Levels (in units of the side's fitted Coulomb friction) tried for each column by
     #: the output-error fitter; None: no output-error fit.
     oe_levels: tuple[float, ...] | None = None
+    #: Set by the output-error fitter: drop of the simulation error's SSE it achieved, as
+    #: a fraction of that SSE (ranks the variants instead of the equation-error evidence).
+    oe_gain: float | None = None
 
 
 class Effect:
@@ -65,6 +68,17 @@ class Effect:
 
     def valid(self, fit: Fit, v: Variant) -> bool:
         return True
+
+    def region_bands(self, d: Design, v: Variant) -> dict[str, float] | None:
+        """Where the effect can act, from the data and the variant (never from the truth).
+
+        Returns the speed band per side (``"m"``: motor or rigid coordinate, in its own
+        unit/s; ``"l"``: output rad/s) below which the effect acts, or None when it acts
+        over the whole record (periodic, spring, gravity, lag terms).  Used to report the
+        gap and to judge the effect size where the effect acts
+        (:func:`hdservo.discrepancy.simerr.region_mask`).
+        """
+        return None
 
     def params(self, fit: Fit, v: Variant) -> dict[str, Any]:
         out: dict[str, Any] = {k: (float(x) if isinstance(x, (int, float, np.floating)) else x)
@@ -109,6 +123,17 @@ class Stribeck(Effect):
     #: Stribeck excess Fs - Fc tried per side by the output-error fitter, in units of that
     #: side's Coulomb friction (Fs/Fc from 1.25 to 3).
     levels = (0.25, 0.5, 1.0, 2.0)
+
+    #: The Stribeck term exp(-(v/vs)^2) is below 1e-4 of its peak beyond 3 vs.
+    band_vs = 3.0
+
+    def region_bands(self, d: Design, v: Variant) -> dict[str, float] | None:
+        """Speeds below ``band_vs`` x the variant's vs on each side (motor side in motor rad/s)."""
+        vs = float(v.hyper["vs_out_rad_s"])
+        b = {"m": self.band_vs * vs * d.sig.ratio}
+        if d.sig.kind != "rigid":
+            b["l"] = self.band_vs * vs
+        return b
 
     def valid(self, fit: Fit, v: Variant) -> bool:
         # a Stribeck hump raises friction at low speed: no side's excess may be negative

@@ -192,3 +192,53 @@ def simulation_error(d: Design, cols: Sequence[Column], theta: np.ndarray, tau: 
             parts.append(_side_sim(d, cols, theta, force, "l", horizon_s))
     e = np.concatenate(parts)
     return e[np.isfinite(e) | np.isinf(e)]
+
+
+def region_mask(d: Design, bands: dict[str, float] | None, horizon_s: float = HORIZON_S) -> np.ndarray:
+    """Samples of :func:`simulation_error` where an effect acting below a speed band can show.
+
+    The simulation error is causal within a window: an effect that acts only while a side
+    is slower than ``bands[side]`` (e.g. Stribeck friction around stops and reversals)
+    cannot have changed the simulated angle before that side's *measured* speed first
+    entered the band in the window (the simulated state starts at the measured one).  A
+    sample is in the region if its window's measured speed on that side has been below
+    the band at or before the previous step; the region is the same for the model
+    before and after the effect is added.
+
+    Parameters
+    ----------
+    d : Design
+    bands : dict of str to float, or None
+        Speed band per side (``"m"`` motor/rigid rad/s at the motor, ``"l"`` output
+        rad/s); None selects the whole record.
+    horizon_s : float
+        Window length, s (as in :func:`simulation_error`).
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        Aligned with the output of :func:`simulation_error`.
+    """
+    s = d.sig
+    x = _state(d)
+    n = len(x["thm"])
+    dt = s.dt * max(s.q, 1)
+    H = max(2, int(round(horizon_s / dt)))
+    starts = np.arange(0, n - H - 1, H)
+    sides = ["m"] + (["l"] if s.kind == "two_mass" else [])
+    parts = []
+    for side in sides:
+        valid = np.zeros(n, dtype=bool)
+        sel = np.zeros(n, dtype=bool)
+        w = x["wm"] if side == "m" else x["wl"]
+        band = None if bands is None else bands.get(side)
+        slow = np.ones(n, dtype=bool) if bands is None else (
+            np.abs(w) < band if band is not None else np.zeros(n, dtype=bool))
+        hit = np.zeros(len(starts), dtype=bool)
+        for j in range(H):
+            k = starts + j
+            hit |= slow[k]
+            valid[k + 1] = True
+            sel[k + 1] = hit
+        parts.append(sel[valid])
+    return np.concatenate(parts)

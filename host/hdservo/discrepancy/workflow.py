@@ -33,7 +33,7 @@ import scipy.stats as st
 from . import baseline as bl
 from . import effects as fx
 from .residuals import effective_n, ljung_box
-from .simerr import side_error, simulation_error
+from .simerr import region_mask, side_error, simulation_error
 from .signals import Signals
 
 
@@ -151,8 +151,10 @@ def oe_fit(state: State, v: fx.Variant) -> fx.Variant | None:
 
     Each column acts on one side (:attr:`Column.fric`); its coefficient is chosen among
     ``v.oe_levels`` x the side's fitted Coulomb friction (0.5 and 1 first, then 2 or
-    0.25 in the better direction) by the SSE of that side's simulation, the rest of the
-    model at its current fit.  Returns the variant with these coefficients fixed, or
+    0.25 in the better direction, then the geometric midpoints either side of the best
+    level) by the SSE of that side's simulation, the rest of the model at its current
+    fit.  Returns the variant with these coefficients fixed and ``oe_gain`` (the drop
+    of the sides' simulation SSE, as a fraction of it: what ranks the variants), or
     None if no level improves either side.
     """
     assert state.fit is not None and v.oe_levels
@@ -164,6 +166,7 @@ def oe_fit(state: State, v: fx.Variant) -> fx.Variant | None:
     theta0 = np.array([coef.get(c.name, 0.0) for c in base_cols] + [0.0] * len(v.columns))
     fixed: dict[str, float] = {}
     sse_side: dict[str, float] = {}
+    gain: dict[str, float] = {}
     for j, c in enumerate(v.columns):
         side = c.fric or "m"
         fc = _fc_of(state.fit, side)
@@ -187,10 +190,19 @@ def oe_fit(state: State, v: fx.Variant) -> fx.Variant | None:
                 g2 = min(nxt) if up else max(nxt)
                 tried[g2] = sse(g2)
         g_best = min(tried, key=lambda g: tried[g]) if tried else 0.0
-        fixed[c.name] = g_best * fc if tried and tried[g_best] < sse_side[side] else 0.0
+        if tried and tried[g_best] < sse_side[side]:
+            # refine between the factor-2 levels: the geometric midpoints either side
+            for g in (g_best / np.sqrt(2.0), g_best * np.sqrt(2.0)):
+                tried[g] = sse(g)
+            g_best = min(tried, key=lambda g: tried[g])
+        ok = bool(tried) and tried[g_best] < sse_side[side]
+        fixed[c.name] = g_best * fc if ok else 0.0
+        gain[side] = min(gain.get(side, 0.0), tried[g_best] - sse_side[side]) if ok else gain.get(side, 0.0)
     if not any(fixed.values()):
         return None
-    return fx.Variant(dict(v.hyper), v.columns, v.tau, v.tau_key, v.n_hyper, fixed=fixed)
+    total = sum(sse_side.values())
+    return fx.Variant(dict(v.hyper), v.columns, v.tau, v.tau_key, v.n_hyper, fixed=fixed,
+                      oe_gain=float(-sum(gain.values()) / total) if total > 0 else 0.0)
 
 
 def rank(state: State, lib: list[fx.Effect], s: Settings | None = None) -> list[Candidate]:
@@ -225,11 +237,14 @@ def rank(state: State, lib: list[fx.Effect], s: Settings | None = None) -> list[
             if not eff.valid(f, v):
                 continue
             cands.append(Candidate(eff, v, f, evidence(state.fit, f, len(v.columns), v.n_hyper, n_eff)))
-        cands.sort(key=lambda c: -c.evidence["delta_bic"])
+        # variants fitted on the simulation error are ranked on it (the equation error
+        # cannot see them: oe_fit); the others by their equation-error evidence
+        cands.sort(key=lambda c: -(c.variant.oe_gain if c.variant.oe_gain is not None else c.evidence["delta_bic"]))
         best: Candidate | None = None
         for c in cands[: s.sim_variants]:
-            c.evidence.update(sim_evidence(sse0, state.simulate(c.fit, c.variant),
-                                           len(c.variant.columns) + c.variant.n_hyper, n_sim))
+            e1 = state.simulate(c.fit, c.variant)
+            c.evidence.update(sim_evidence(sse0, e1, len(c.variant.columns) + c.variant.n_hyper, n_sim))
+            c.evidence.update(local_evidence(state, c, e1))
             c.evidence["total_delta_bic"] = c.evidence["delta_bic"] + c.evidence["sim_delta_bic"]
             c.evidence["score"] = score(c.evidence)
             # the candidate's representative: its best admissible variant (neither
@@ -240,6 +255,58 @@ def rank(state: State, lib: list[fx.Effect], s: Settings | None = None) -> list[
         if best is not None:
             out.append(best)
     out.sort(key=lambda c: -c.evidence["score"])
+    return out
+
+
+def eq_region(d: bl.Design, bands: dict[str, float] | None) -> np.ndarray:
+    """Rows of the stacked equation error (every equation alike) where a side's measured
+    speed is below its band (:meth:`Effect.region_bands`); all rows for None."""
+    n = int(d.mask.sum())
+    if bands is None:
+        return np.ones(n * len(d.equations), dtype=bool)
+    s = d.sig
+    sel = np.zeros(n, dtype=bool)
+    if "m" in bands:
+        sel |= np.abs(d.dec("state:wm", s.w_m)[d.mask]) < bands["m"]
+    if "l" in bands and s.w_l is not None:
+        sel |= np.abs(d.dec("state:wl", s.w_l)[d.mask]) < bands["l"]
+    return np.concatenate([sel for _ in d.equations])
+
+
+def local_evidence(state: State, c: Candidate, e1: np.ndarray) -> dict[str, float]:
+    """Explained fractions of a candidate over the region where it acts.
+
+    The region comes from the data and the candidate's own fitted variant
+    (:meth:`Effect.region_bands`, e.g. Stribeck: the speeds below 3 vs), identically for
+    the current model and the candidate: in the simulation error the windows from the
+    first sample where a side's measured speed is in the band
+    (:func:`hdservo.discrepancy.simerr.region_mask`), in the equation error the used
+    samples in the band.  An effect that acts over the whole record gets the whole
+    record (the local figures equal the global ones).  ``region_share`` / ``sim_region_share``:
+    the part of the samples in the region.
+    """
+    assert state.fit is not None and state.sim is not None
+    d = state.design
+    bands = c.effect.region_bands(d, c.variant)
+    rs = region_mask(d, bands)
+    out: dict[str, float] = {}
+    if len(rs) == len(state.sim) == len(e1) and rs.any():
+        s0 = float(np.sum(state.sim[rs] ** 2))
+        s1 = float(np.sum(e1[rs] ** 2)) if np.all(np.isfinite(e1[rs])) else np.inf
+        out["sim_explained_fraction_local"] = float(1 - s1 / s0) if s0 > 0 else np.nan
+        out["sim_region_share"] = float(rs.mean())
+    else:
+        out["sim_explained_fraction_local"] = np.nan
+        out["sim_region_share"] = 0.0
+    rq = eq_region(d, bands)
+    w = state.weights
+    r0, r1 = _weighted(state.fit, w), _weighted(c.fit, w)
+    if rq.any():
+        q0 = float(np.sum(r0[rq] ** 2))
+        out["explained_fraction_local"] = float(1 - np.sum(r1[rq] ** 2) / q0) if q0 > 0 else np.nan
+    else:
+        out["explained_fraction_local"] = np.nan
+    out["region_share"] = float(rq.mean())
     return out
 
 
@@ -273,14 +340,26 @@ def significant(c: Candidate, s: Settings) -> bool:
     (:func:`worse`: n_eff ln(RSS_1/RSS_0) > ``bic_min``; a coefficient fitted on one
     residual is not the least-squares optimum of the other, so an insignificant loss
     there is expected), and (4) large: it removes >= ``frac_min`` of the variance of the
-    equation error or of the simulation error."""
+    equation error or of the simulation error, judged over the region where the
+    candidate acts (:func:`local_evidence`; the whole record for effects that act
+    everywhere): an effect confined to the stops and reversals (Stribeck) is not diluted
+    by the long stretches where it cannot act."""
     e = c.evidence
     sim_dbic = e.get("sim_delta_bic", -np.inf)
     sim_frac = e.get("sim_explained_fraction", -np.inf)
     eq_sig = e["delta_bic"] > s.bic_min and e["p_value"] < s.p_max
     sim_sig = sim_dbic > s.bic_min and e.get("sim_p_value", 1.0) < s.p_max
     return bool((eq_sig or sim_sig) and e.get("total_delta_bic", -np.inf) > s.bic_min
-                and admissible(e, s) and max(e["explained_fraction"], sim_frac) >= s.frac_min)
+                and admissible(e, s) and size(e) >= s.frac_min)
+
+
+def size(e: dict[str, float]) -> float:
+    """Effect size: the largest explained fraction, whole record or the candidate's region,
+    of the equation error and of the simulation error (NaN entries ignored)."""
+    xs = [e.get(k, np.nan) for k in ("explained_fraction", "sim_explained_fraction",
+                                      "explained_fraction_local", "sim_explained_fraction_local")]
+    xs = [x for x in xs if x is not None and np.isfinite(x)]
+    return float(max(xs)) if xs else -np.inf
 
 
 def admissible(e: dict[str, float], s: Settings) -> bool:
@@ -379,9 +458,14 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
         rel_before = relative_error_pct(st_)
         sim_before = _rms(st_.sim)
         eq_before = _eq_rms(st_.fit, top.variant)
+        bands = top.effect.region_bands(st_.design, top.variant)
+        reg_eq = _eq_region_rows(st_.design, top.variant, bands)
+        reg_sim = region_mask(st_.design, bands)
+        loc_before = (_region_rms(st_.design, st_.fit, top.variant, reg_eq), _masked_rms(st_.sim, reg_sim))
         st_.added.append((top.effect, top.variant))
         st_.fit = st_.solve()
         st_.sim = st_.simulate(st_.fit)
+        loc_after = (_region_rms(st_.design, st_.fit, top.variant, reg_eq), _masked_rms(st_.sim, reg_sim))
         iterations.append({
             "named_effect": top.effect.name,
             "evidence": {**_jsonable(top.evidence), "runner_up": runner.effect.name if runner else None,
@@ -392,6 +476,11 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
             "acting_equations": _acting(top.variant, st_.design),
             "rms_acting_before": eq_before, "rms_acting_after": _eq_rms(st_.fit, top.variant),
             "sim_rms_before_rad": sim_before, "sim_rms_after_rad": _rms(st_.sim),
+            # the same figures over the region where the effect acts (local_evidence)
+            "region": {"speed_bands": bands, "equation_share": float(reg_eq.mean()) if len(reg_eq) else 0.0,
+                       "simulation_share": float(reg_sim.mean()) if len(reg_sim) else 0.0},
+            "rms_region_before": loc_before[0], "rms_region_after": loc_after[0],
+            "sim_rms_region_before_rad": loc_before[1], "sim_rms_region_after_rad": loc_after[1],
             "relative_error_pct_before": rel_before, "relative_error_pct_after": relative_error_pct(st_),
             "params": _jsonable(top.effect.params(st_.fit, top.variant)),
             "signature": top.effect.signature, "coordinate": top.effect.coordinate,
@@ -434,6 +523,25 @@ def _acting(v: fx.Variant, d: bl.Design) -> list[str]:
     if v.tau is not None or not v.columns:
         return list(d.equations)
     return [e for e in d.equations if any(getattr(c, e) is not None for c in v.columns)]
+
+
+def _eq_region_rows(d: bl.Design, v: fx.Variant, bands: dict[str, float] | None) -> np.ndarray:
+    """Region rows (:func:`eq_region`) of the equations the variant acts in, stacked."""
+    n = int(d.mask.sum())
+    rows = eq_region(d, bands)
+    acting = set(_acting(v, d))
+    return np.concatenate([rows[i * n:(i + 1) * n] for i, e in enumerate(d.equations) if e in acting])
+
+
+def _region_rms(d: bl.Design, fit: bl.Fit, v: fx.Variant, rows: np.ndarray) -> float:
+    """RMS of the equation error over the acting equations' region rows, N.m at the motor."""
+    acting = set(_acting(v, d))
+    r = np.concatenate([fit.resid[e] for e in d.equations if e in acting])
+    return _masked_rms(r, rows)
+
+
+def _masked_rms(x: np.ndarray, m: np.ndarray) -> float:
+    return _rms(x[m]) if len(m) == len(x) and m.any() else float("nan")
 
 
 def _eq_rms(fit: bl.Fit, v: fx.Variant) -> float:
