@@ -85,9 +85,6 @@ void hd_stribeck_init(hd_stribeck_t *s, uint32_t ramp_ticks, bool enabled)
     s->v_ref_prev = 0;
     s->cruise_n = 0u;
     s->cruise = 0u;
-    s->hold_n = 0u;
-    s->hold = 0u;
-    s->tau_mean = 0;
     hd_stribeck_recip(&s->rp, 0);
     hd_stribeck_recip(&s->rn, 0);
 }
@@ -116,25 +113,14 @@ int32_t hd_stribeck_step(hd_stribeck_t *s, const hd_stribeck_cfg_t *c,
         } else {
             s->cruise_n = 0u;
         }
-        /* hold: v_ref exactly 0 for cruise_ticks periods (standstill commanded) */
-        if (v_ref == 0) {
-            if (s->hold_n < c->cruise_ticks) {
-                s->hold_n++;
-            }
-        } else {
-            s->hold_n = 0u;
-        }
         s->v_ref_prev = v_ref;
         s->cruise = (s->cruise_n >= c->cruise_ticks) ? 1u : 0u;
-        s->hold = (s->hold_n >= c->cruise_ticks) ? 1u : 0u;
         if (s->cruise != 0u) {
             w = HD_Q30_ONE;
         }
     } else {
         s->cruise_n = 0u;
         s->cruise = 0u;
-        s->hold_n = 0u;
-        s->hold = 0u;
     }
     /* reciprocals of vs: recomputed only when the parameter changed */
     if (s->rp.vs != c->pos.vs) {
@@ -145,18 +131,7 @@ int32_t hd_stribeck_step(hd_stribeck_t *s, const hd_stribeck_cfg_t *c,
     }
     s->v = hdf_sat32((int64_t)v_est + hdf_mul64x32_q(dv, w, 30u));
     /* in a cruise v = v_ref keeps its sign: full sign (no smooth-sign reduction at slow rates) */
-    if (s->hold != 0u) {
-        /* hold: the map as a dither of half amplitude about the mean torque:
-         * tau = tau_mean + (map(v) - tau_mean) / 2^HD_STRIBECK_HOLD_DITHER_SH */
-        const int32_t m = hdf_clamp32(map_recip(c, &s->rp, &s->rn, s->v, c->eps_v), -tmax, tmax);
-        s->tau_raw = hdf_add_sat(s->tau_mean,
-                                 hdf_asr32_rnd((int64_t)m - (int64_t)s->tau_mean, HD_STRIBECK_HOLD_DITHER_SH));
-    } else {
-        s->tau_raw = hdf_clamp32(map_recip(c, &s->rp, &s->rn, s->v, (s->cruise != 0u) ? 0 : c->eps_v), -tmax, tmax);
-    }
-    /* tau_mean += (tau_raw - tau_mean) / 2^HD_STRIBECK_HOLD_LP_SH, rounded (|.| <= tmax: no overflow) */
-    s->tau_mean = hdf_add_sat(s->tau_mean,
-                              hdf_asr32_rnd((int64_t)s->tau_raw - (int64_t)s->tau_mean, HD_STRIBECK_HOLD_LP_SH));
+    s->tau_raw = hdf_clamp32(map_recip(c, &s->rp, &s->rn, s->v, (s->cruise != 0u) ? 0 : c->eps_v), -tmax, tmax);
     (void)hd_blend_update(&s->blend);
     s->tau = hd_blend_apply(&s->blend, s->tau_raw);
     return s->tau;

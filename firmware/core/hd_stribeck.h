@@ -7,7 +7,7 @@
  *            exactly +-1 beyond +-eps_v, 0 at v = 0 (no chatter at reversal;
  *            tau is continuous through zero even with fs_pos != fs_neg).
  *   v      = w * v_ref + (1 - w) * v_est          (configurable source)
- *   w      = 1 while the reference cruises (below), else w_ref; hold: below
+ *   w      = 1 while the reference cruises (below), else w_ref
  *   (in a cruise s(v) is the hard sign, eps_v = 0)
  *
  * Velocity source.  On the reference velocity (w_ref = 1) the feed-forward is
@@ -28,19 +28,7 @@
  * braking and in the final arrival/hold, w = w_ref and s(v) as above.  Sinusoidal
  * or gyro-driven references (STAB) never stay constant that long.  The switch is
  * immediate (no ramp): at the start and end of a cruise v_est ~ v_ref.
- * Hold: when v_ref has been exactly 0 for cruise_ticks consecutive periods
- * (position hold after a move, the final approach's dwell, a zero rate command)
- * the map of v (w_ref as outside a cruise) is kept, but as a dither of half
- * amplitude about tau_mean, a low-pass (2^-HD_STRIBECK_HOLD_LP_SH per period) of
- * the feed-forward: tau = tau_mean + (map(v) - tau_mean) / 2.  At standstill the
- * sign of v_est is the encoder noise, so the full map is a relay of +-fs in the
- * velocity loop (the 107 Hz, 1.07 arcsec RMS chatter of the pitch-drive axis);
- * without any dither the friction sticks and the loop's integrator hunts
- * (stick-slip, +-4 arcsec at ~0.1 Hz), and a dither below the stiction step
- * fs - fc hunts too.  Half amplitude keeps the dither above fs - fc for the
- * identified models (fs / fc <= 1.5) at a quarter of the chatter
- * (docs/compensators.md section 1).  The first non-zero v_ref ends the hold.
- * cruise_ticks = 0: w = w_ref always (no cruise or hold detection).
+ * cruise_ticks = 0: w = w_ref always (no cruise detection).
  *
  * Formats (all parameters plain int32, output-referred):
  *   v_ref, v_est, v, vs, eps_v : output velocity, 2^-32 turn/s (hd_units.h)
@@ -74,18 +62,6 @@
  *  cruise velocity moves by at most 1 LSB). */
 #define HD_STRIBECK_CRUISE_DV 64
 
-/** Hold: the relay of the measured velocity is scaled by 2^-SH about tau_mean (SH 1: half
- *  amplitude).  Measured on the pitch-drive axis (docs/compensators.md section 1): SH 0 (the
- *  full relay) chatters 1.07 arcsec RMS above 10 Hz, SH 1 0.29, SH 2 (+-2.5 N.m, below the
- *  stiction step fs - fc = 3.1 N.m) lets the friction stick and the loop hunts (1.5 arcsec RMS
- *  at ~1 Hz); no dither at all (tau 0 or tau_mean frozen) hunts +-4 arcsec at ~0.1 Hz. */
-#define HD_STRIBECK_HOLD_DITHER_SH 1u
-
-/** Low-pass of the feed-forward: tau_mean += (tau_raw - tau_mean) 2^-SH per
- *  period (SH 7: time constant 128 periods = 12.8 ms at 10 kHz; a 107 Hz relay of +-fs
- *  leaves a ripple of about +-0.12 fs in it). */
-#define HD_STRIBECK_HOLD_LP_SH 7u
-
 typedef struct {
     int32_t fc;   /* Coulomb torque, Q15.16 N.m, >= 0 */
     int32_t fs;   /* static (breakaway) torque, Q15.16 N.m, >= 0 */
@@ -118,9 +94,6 @@ typedef struct {
     int32_t v_ref_prev;     /* v_ref of the previous period, 2^-32 turn/s */
     uint32_t cruise_n;      /* consecutive cruising periods (saturates at cruise_ticks) */
     uint32_t cruise;        /* 1 = this period used the reference velocity (cruise) */
-    uint32_t hold_n;        /* consecutive periods with v_ref = 0 (saturates at cruise_ticks) */
-    uint32_t hold;          /* 1 = this period is a hold (half-amplitude dither about tau_mean) */
-    int32_t tau_mean;       /* low-pass of tau_raw, Q15.16 N.m (HD_STRIBECK_HOLD_LP_SH) */
     hd_stribeck_recip_t rp; /* reciprocal of cfg pos.vs (refreshed when it changes) */
     hd_stribeck_recip_t rn; /* reciprocal of cfg neg.vs */
 } hd_stribeck_t;

@@ -89,42 +89,6 @@ static void test_stribeck_recip_matches_division(void **state)
 
 /* cruise detection: the reference velocity after cruise_ticks constant periods, the estimate
  * otherwise; the vs reciprocal follows a parameter change at once */
-/* hold: v_ref 0 for cruise_ticks periods -> the map of the measured velocity (here noise of
- * alternating sign: a relay of +-fs) becomes a dither of half amplitude about its mean;
- * a non-zero v_ref ends it; cruise_ticks 0: no hold detection */
-static void test_stribeck_hold_halves_the_relay(void **state)
-{
-    hd_stribeck_cfg_t c = { { NM(5), NM(8), DEGS, NM(100) }, { NM(5), NM(8), DEGS, NM(100) },
-                            2u, DEGS / 1000, 0, NM(100), 10u };
-    hd_stribeck_t s;
-    uint32_t k;
-    (void)state;
-    hd_stribeck_init(&s, 0u, true);
-    for (k = 0; k < 400u; k++) {
-        const int32_t noise = ((k & 1u) != 0u) ? DEGS / 100 : -DEGS / 100;   /* +-10 eps_v */
-        const int32_t t = hd_stribeck_step(&s, &c, 0, noise);
-        assert_int_equal(s.v, noise);
-        assert_true(abs(s.tau_mean) < NM(1));                /* the relay's mean is ~0 */
-        if (k < 9u) {                  /* arrival: the full relay */
-            assert_int_equal(s.hold, 0u);
-            assert_true((noise > 0) ? (t > NM(7.9)) : (t < -NM(7.9)));
-        } else {                       /* holding: half of it, same sign */
-            assert_int_equal(s.hold, 1u);
-            assert_true((noise > 0) ? (t > NM(3.4) && t < NM(4.6)) : (t < -NM(3.4) && t > -NM(4.6)));
-        }
-    }
-    /* a move starts: the full map again at once */
-    assert_true(hd_stribeck_step(&s, &c, DEGS, -DEGS / 100) < -NM(7.9));
-    assert_int_equal(s.hold, 0u);
-    /* cruise_ticks 0: no hold detection, the full relay stays */
-    c.cruise_ticks = 0u;
-    for (k = 0; k < 40u; k++) {
-        (void)hd_stribeck_step(&s, &c, 0, DEGS / 100);
-        assert_int_equal(s.hold, 0u);
-    }
-    assert_true(s.tau > NM(7.9));
-}
-
 static void test_stribeck_cruise_and_vs_change(void **state)
 {
     hd_stribeck_cfg_t c = { { NM(5), NM(8), DEGS, NM(100) }, { NM(5), NM(8), DEGS, NM(100) },
@@ -287,7 +251,6 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_stribeck_odd_and_breakaway, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_stribeck_recip_matches_division, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_stribeck_cruise_and_vs_change, setUp, tearDown),
-        cmocka_unit_test_setup_teardown(test_stribeck_hold_halves_the_relay, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_lugre_steady_state_and_hold, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_maxwell_saturation, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_te_single_harmonic, setUp, tearDown),
