@@ -1,7 +1,7 @@
 """Hold vibration and positioning of the pitch-drive axis with a controller option (in-process).
 
 Measures what the Stribeck feed-forward does at standstill (docs/compensators.md section 1,
-"Hold"): per sensor seed and direction, one drive PTP move of 1 deg onto +25 deg (the plant
+"Standstill relay"): per sensor seed and direction, one drive PTP move of 1 deg onto +25 deg (the plant
 shifted there: gravity, TE and cogging phases), then the hold; over 4-6 s the true output
 angle gives the hold RMS about its mean, the RMS above 10 Hz (the relay chatter), the
 peak-to-peak of its 0.1 s means (hunting), the dominant frequency and the mean deviation
@@ -80,7 +80,12 @@ def main() -> int:
         ctl["compensators"] = [c for c in ctl["compensators"] if c != "stribeck"]
     axis = str(HERE / "report" / "axis_csf-25-80_fl-050.toml")
     rows = []
-    for seed in (int(s) for s in a.seeds.split(",")):
+    try:
+        seeds = [int(s) for s in a.seeds.split(",")]
+    except ValueError:
+        print(f"--seeds {a.seeds!r}: expected comma-separated integers, e.g. 1,2,3", file=sys.stderr)
+        return 2
+    for seed in seeds:
         for move in (1.0, -1.0):
             h = hold_figures(axis, ctl, seed, move)
             rows.append(h)
