@@ -336,6 +336,14 @@ int32_t hd_app_move_to(hd_app_t *a, hd_angle_t target)
     return 0;
 }
 
+void hd_app_halt(hd_app_t *a)
+{
+    if ((a->mode == HD_MODE_PTP || a->mode == HD_MODE_RATE) && a->started &&
+        a->traj.mode != HD_TRAJ_HOLD) {
+        hd_traj_stop(&a->traj, &a->traj_cfg);
+    }
+}
+
 void hd_app_set_rate(hd_app_t *a, hd_vel_out_t v)
 {
     a->rate_cmd = v;

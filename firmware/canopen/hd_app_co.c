@@ -478,11 +478,31 @@ static uint32_t a_enable(void *c, int8_t mode, bool on)
     hd_app_set_position(ac->app, ac->app->tel.pos_out);
     hd_app_set_velocity(ac->app, 0);
     hd_app_set_torque(ac->app, 0);
+    /* PP: the entry move goes to where the axis is, not to the previous session's target
+     * (a move nobody commanded; while it ran - 20 ms for 0.001 turn - set-points were refused) */
+    (void)hd_app_move_to(ac->app, ac->app->tel.pos_out);
     if (hd_app_set_mode(ac->app, app_mode_for(mode)) != 0) {
         return 1u;
     }
     ac->mode = mode;
     return 0u;
+}
+
+/* One period of the CSV halt ramp: v (2^-32 turn/s) towards 0 by amax / HD_LOOP_HZ
+ * (amax 2^-24 turn/s^2: dv = amax 2^8 / HD_LOOP_HZ, at least 1), never past 0. */
+static hd_vel_out_t halt_ramp(hd_vel_out_t v, hd_acc_t amax)
+{
+    int32_t dv = hd_sat32(hd_div64_rnd((int64_t)amax * 256, HD_LOOP_HZ));
+    if (dv < 1) {
+        dv = 1;
+    }
+    if (v > 0) {
+        return (v > dv) ? v - dv : 0;
+    }
+    if (v < 0) {
+        return (v < -dv) ? v + dv : 0;
+    }
+    return 0;
 }
 
 static void a_setpoint(void *c, const hd_co_setpoint_t *sp)
@@ -495,17 +515,31 @@ static void a_setpoint(void *c, const hd_co_setpoint_t *sp)
             ac->mode = HD_APP_CO_MODE_QSTOP;
         }
         hd_app_set_velocity(ac->app, 0);
+        ac->halt = sp->halt;
         return;
     }
     pos = (hd_angle_t)sp->target_position * 256;    /* 2^-24 turn -> Q32.32 */
     switch (sp->mode) {
     case HD_CO402_MODE_PP:
-        if (sp->pp_new != 0u) {
+        /* halt (controlword bit 8): its rising edge ramps the running move to rest at the
+         * profile acceleration (hd_app_halt); while it is set, new set-points are
+         * acknowledged but not executed; after it is cleared the axis stays at rest until
+         * the next new set-point (docs/can.md, halt) */
+        if (sp->halt != 0u) {
+            if (ac->halt == 0u) {
+                hd_app_halt(ac->app);
+            }
+        } else if (sp->pp_new != 0u) {
             (void)hd_app_move_to(ac->app, pos);
         }
         break;
     case HD_CO402_MODE_CSV:
-        hd_app_set_velocity(ac->app, sp->target_velocity);
+        if (sp->halt != 0u) {
+            /* halt: the velocity command ramps to 0 at the profile acceleration (traj amax) */
+            hd_app_set_velocity(ac->app, halt_ramp(ac->app->vel_cmd, ac->app->traj_cfg.amax));
+        } else {
+            hd_app_set_velocity(ac->app, sp->target_velocity);
+        }
         hd_app_set_torque(ac->app, sp->target_torque);
         break;
     case HD_CO402_MODE_CST:
@@ -517,6 +551,7 @@ static void a_setpoint(void *c, const hd_co_setpoint_t *sp)
         hd_app_set_torque(ac->app, sp->target_torque);
         break;
     case HD_CO402_MODE_CSP:
+        /* CSP / CST / STAB: halt is ignored - the host owns the cyclic set-point (docs/can.md) */
         hd_app_set_position(ac->app, pos);
         hd_app_set_velocity(ac->app, sp->velocity_offset);
         hd_app_set_torque(ac->app, sp->target_torque);
@@ -524,6 +559,7 @@ static void a_setpoint(void *c, const hd_co_setpoint_t *sp)
     default:
         break;
     }
+    ac->halt = sp->halt;
 }
 
 uint16_t hd_app_co_emcy_for_fault(int32_t fault)
@@ -560,7 +596,10 @@ static void a_actual(void *c, hd_co_actual_t *a)
     a->fault_emcy = (t->fault != 0) ? hd_app_co_emcy_for_fault(t->fault) : 0u;
     a->power_enabled = (t->mode != HD_MODE_OFF) ? 1u : 0u;
     a->standstill = (v < 4295 * 100) ? 1u : 0u;      /* 0.1 mturn/s ~ 0.036 deg/s */
-    a->target_reached = (e < ((int64_t)1 << 16)) ? 1u : 0u;
+    /* target reached: reference and output within 2^-16 turn; in PP also the profile
+     * generator at rest (move finished, or halted: CiA 402 bit 10 with halt = 1) */
+    a->target_reached = (e < ((int64_t)1 << 16) &&
+                         (ac->mode != HD_CO402_MODE_PP || hd_traj_done(&ac->app->traj) != 0)) ? 1u : 0u;
     a->internal_limit = 0u;
 }
 
@@ -609,7 +648,7 @@ void hd_app_co_init(hd_app_co_t *ac, hd_co_t *co, hd_app_t *app, uint8_t node_id
     ac->mode = 0;
     ac->stage_dom = 0u;
     ac->stage_bad = 0u;
-    ac->pad = 0u;
+    ac->halt = 0u;
     ac->stage_len = 0u;
     ac->stage_crc = 0u;
     ac->rd_trailer = 0u;

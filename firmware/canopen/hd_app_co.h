@@ -87,7 +87,7 @@ typedef struct {
     int8_t   mode;                 /* 402 mode the app was enabled in (HD_APP_CO_MODE_QSTOP: quick stop) */
     uint8_t  stage_dom;            /* domain being written (0 = none) */
     uint8_t  stage_bad;            /* out-of-order or oversized data seen */
-    uint8_t  pad;
+    uint8_t  halt;                 /* controlword bit 8 (halt) seen last period: its rising edge stops a PP move */
     uint32_t stage_len;            /* bytes received */
     uint32_t stage_crc;            /* running CRC-32 of the received bytes but the last 4 */
     uint8_t  stage_win[4];         /* the last 4 bytes received (the trailer at the end) */

@@ -293,6 +293,24 @@ class Drive:
         rated = self.read(0x6076) / 1000.0
         self.write(0x6071, 0, int(round(nm / rated * 1000.0)))
 
+    def halt(self, on: bool) -> None:
+        """Set (``on``) or clear controlword bit 8, halt; the other controlword bits are kept.
+
+        Profile position: setting it ramps the running move to rest at the drive's
+        ``traj_amax`` (statusword bit 10 once at rest); clearing it leaves the axis at rest
+        until the next set-point (the move is not resumed).  Cyclic synchronous velocity: the
+        velocity command ramps to 0 while it is set.  CSP / CST: no effect (docs/can.md).
+        A controlword written afterwards without bit 8 (e.g. a new set-point handshake with
+        0x0F / 0x1F) clears it.
+
+        Parameters
+        ----------
+        on
+            True: halt; False: release.
+        """
+        cw = int(self.read(0x6040))
+        self.write(0x6040, 0, (cw | 0x0100) if on else (cw & ~0x0100 & 0xFFFF))
+
     # ---- tables and capture --------------------------------------------------------
     def download_table(self, sub: int, payload: bytes) -> None:
         """Download a table domain (0x5100:sub) with its CRC-32 trailer and verify by read-back."""

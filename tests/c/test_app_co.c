@@ -15,10 +15,20 @@
 #include "hd_app_co.h"
 
 uint32_t hd_hal_tick(void) { return 0u; }
+/* track = 1: the encoders read trk_pos (Q32.32 output turns; the test sets it to the
+ * position reference after every period: an axis that follows its reference one period
+ * late, so a stopped reference is an axis at rest); 0: at rest at 0 */
+static int32_t track;
+static int64_t trk_pos;
 void hd_hal_read_sensors(hd_hal_sensors_t *s)
 {
     memset(s, 0, sizeof *s);
     s->valid = HD_HAL_VALID_MOTOR_ENC | HD_HAL_VALID_OUTPUT_ENC | HD_HAL_VALID_CURRENT;
+    if (track != 0) {
+        /* default encoders: output 24 bit per output turn, motor 17 bit per motor turn, N = 100 */
+        s->output_enc_raw = (uint32_t)((uint64_t)(trk_pos + 128) >> 8) & 0xFFFFFFu;
+        s->motor_enc_raw = (uint32_t)((uint64_t)(trk_pos * 100 + 16384) >> 15) & 0x1FFFFu;
+    }
 }
 void hd_hal_write_command(const hd_hal_command_t *c) { (void)c; }
 bool hd_hal_can_send(const hd_can_frame_t *f) { (void)f; return true; }
@@ -45,6 +55,8 @@ static int setup(void **st)
 {
     (void)st;
     hd_app_co_port_t port;
+    track = 0;
+    trk_pos = 0;
     memset(&port, 0, sizeof port);
     port.send = p_send;
     hd_app_init(&app);
@@ -236,11 +248,163 @@ static void test_group_and_interlock(void **st)
     assert_true(n_sent >= 1u);                            /* boot-up */
 }
 
+/* ---- CiA 402 halt (controlword bit 8) ------------------------------------------ */
+
+#define CW_ENABLE 0x000Fu
+#define CW_NEWSP  0x0010u
+#define CW_HALT   0x0100u
+#define SW_TR     0x0400u
+
+/* one control period: app step, CANopen tick, the tracking axis follows the reference */
+static void period(void)
+{
+    hd_app_step(&app);
+    hd_co_tick(&co, HD_CO_TICK_US);
+    trk_pos = hd_app_telemetry(&app)->pos_ref;
+}
+
+static void cw_write(uint16_t v)
+{
+    co.od.controlword = v;
+    hd_co402_controlword(&co);
+}
+
+/* tracking axis, fault checks off (the stub power stage moves nothing), OPERATION ENABLED in mode */
+static void enable_402(int8_t mode)
+{
+    track = 1;
+    trk_pos = 0;
+    assert_int_equal(hd_app_param_set(&app, HD_P_FAULT_ENABLE, 0), 0);
+    co.od.modes_of_operation = mode;
+    period();
+    cw_write(0x06u);
+    cw_write(CW_ENABLE);
+    period();
+    assert_int_equal(co.p402.state, HD_CO402_OP_ENABLED);
+    assert_int_equal(ac.mode, mode);
+}
+
+/* PP new set-point (bit 4 edge) to target (2^-24 turn), other bits as in extra */
+static void pp_setpoint(int32_t target, uint16_t extra)
+{
+    co.od.target_position = target;
+    cw_write((uint16_t)(CW_ENABLE | extra));
+    cw_write((uint16_t)(CW_ENABLE | CW_NEWSP | extra));
+    period();
+    cw_write((uint16_t)(CW_ENABLE | extra));
+}
+
+static void test_pp_halt(void **st)
+{
+    const int32_t target = 1 << 22;                       /* 0.25 turn (90 deg), 2^-24 turn */
+    const int64_t amax = app.traj_cfg.amax;               /* 2^-24 turn/s^2 */
+    const int64_t dv = (amax * 256 + HD_LOOP_HZ / 2) / HD_LOOP_HZ;   /* 2^-32 turn/s per period */
+    int64_t p0, prev, v0, stop, lim;
+    int32_t vprev;
+    uint32_t i;
+    (void)st;
+    enable_402(HD_CO402_MODE_PP);
+    for (i = 0u; i < 8u; i++) {
+        period();                                         /* the entry move (length 0) ends */
+    }
+    assert_true((co.od.statusword & SW_TR) != 0u);        /* at rest, no move: reached */
+    pp_setpoint(target, 0u);
+    /* 1 s into the move (accelerated to the 60 deg/s limit, cruising): bit 10 stays 0 */
+    prev = app.tel.pos_ref;
+    for (i = 0u; i < 10000u; i++) {
+        period();
+        assert_true(app.tel.pos_ref >= prev);
+        assert_true((co.od.statusword & SW_TR) == 0u);
+        prev = app.tel.pos_ref;
+    }
+    v0 = app.traj.vel;
+    p0 = app.tel.pos_ref;
+    assert_true(v0 > app.traj_cfg.vmax / 2);
+    assert_true(p0 < (int64_t)target * 256 / 2);          /* mid-way */
+
+    /* halt: decelerates at amax to standstill, never reverses, bit 10 once at rest */
+    cw_write(CW_ENABLE | CW_HALT);
+    vprev = (int32_t)v0;
+    for (i = 0u; i < 20000u; i++) {
+        period();
+        assert_true(app.tel.pos_ref >= prev);             /* never reverses */
+        assert_true(app.traj.vel >= 0);
+        assert_true((int64_t)vprev - app.traj.vel <= dv); /* decelerates within amax */
+        vprev = app.traj.vel;
+        prev = app.tel.pos_ref;
+    }
+    stop = app.tel.pos_ref - p0;                          /* Q32.32 turn */
+    /* v0^2 / (2 amax): (2^-32 turn/s)^2 / (2^-24 turn/s^2) = 2^-40 turn = 2^-8 Q32.32 units;
+     * allowance 2 periods at v0 (the ramp's first step and the rounding of dv) */
+    lim = v0 * v0 / (2 * amax) / 256;
+    assert_true(stop <= lim + 2 * v0 / HD_LOOP_HZ);
+    assert_true(stop >= lim - 2 * v0 / HD_LOOP_HZ);       /* a ramp at amax, not a jump to 0 */
+    assert_int_equal(app.traj.vel, 0);
+    assert_int_equal(hd_traj_done(&app.traj), 1);
+    assert_true((co.od.statusword & SW_TR) != 0u);
+
+    /* a set-point while halt is set: acknowledged, not executed */
+    p0 = app.tel.pos_ref;
+    pp_setpoint(target, CW_HALT);
+    for (i = 0u; i < 1000u; i++) {
+        period();
+    }
+    assert_true(app.tel.pos_ref == p0);
+    /* halt released: the axis stays at rest until a new set-point */
+    cw_write(CW_ENABLE);
+    for (i = 0u; i < 1000u; i++) {
+        period();
+    }
+    assert_true(app.tel.pos_ref == p0);
+    assert_true((co.od.statusword & SW_TR) != 0u);
+    /* the next set-point is accepted and ends exactly on its target (back to 0.1 turn) */
+    pp_setpoint(target * 2 / 5, 0u);
+    for (i = 0u; i < 100u; i++) {
+        period();
+    }
+    assert_true(app.tel.pos_ref < p0);
+    assert_true((co.od.statusword & SW_TR) == 0u);
+    for (i = 0u; i < 50000u && hd_traj_done(&app.traj) == 0; i++) {
+        period();
+    }
+    period();
+    period();
+    assert_true(app.tel.pos_ref == (int64_t)(target * 2 / 5) * 256);
+    assert_true((co.od.statusword & SW_TR) != 0u);
+}
+
+static void test_csv_halt(void **st)
+{
+    const int32_t v = 429496730;                          /* 0.1 turn/s, 2^-32 turn/s */
+    const int32_t dv = (int32_t)(((int64_t)app.traj_cfg.amax * 256 + HD_LOOP_HZ / 2) / HD_LOOP_HZ);
+    int32_t prev;
+    uint32_t i;
+    (void)st;
+    enable_402(HD_CO402_MODE_CSV);
+    co.od.target_velocity = v;
+    period();
+    assert_int_equal(app.vel_cmd, v);
+    cw_write(CW_ENABLE | CW_HALT);
+    prev = v;
+    for (i = 0u; i < 10000u; i++) {
+        period();
+        assert_true(app.vel_cmd >= 0);
+        assert_true(prev - app.vel_cmd <= dv);            /* ramps at the profile acceleration */
+        prev = app.vel_cmd;
+    }
+    assert_int_equal(app.vel_cmd, 0);                     /* at rest, target velocity still set */
+    cw_write(CW_ENABLE);
+    period();
+    assert_int_equal(app.vel_cmd, v);                     /* CSV: the host's set-point again */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_preisach_table, setup),
         cmocka_unit_test_setup(test_group_and_interlock, setup),
+        cmocka_unit_test_setup(test_pp_halt, setup),
+        cmocka_unit_test_setup(test_csv_halt, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

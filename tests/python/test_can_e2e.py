@@ -252,6 +252,69 @@ def test_capture_upload_matches_stream_under_sync_pacing() -> None:
         assert '"transport_dropped": 0' in stats, stats
 
 
+def test_pp_halt_stops_the_move_and_waits_for_a_new_set_point() -> None:
+    """CiA 402 halt in profile position through ``Drive.halt``: the move stops short at
+    traj_amax (the reference never passes v^2/(2a) beyond where the halt was seen), bit 10
+    at rest, no resume when released, the next set-point lands exactly (10 periods / SYNC)."""
+    with _drive("--pacing", "sync", "--sync-periods", "10") as (_, d):
+        net = d.network
+
+        def syncs(n: int) -> None:
+            """n SYNCs, then wait until the drive has run their periods (the loop tick stands:
+            it answers SDOs between periods, so a read right after the SYNCs is early)."""
+            for _ in range(n):
+                net.sync.transmit()
+            t = int(d.read(0x5F00, 1))
+            while True:
+                time.sleep(0.05)
+                t2 = int(d.read(0x5F00, 1))
+                if t2 == t:
+                    return
+                t = t2
+
+        def ref() -> int:                                         # set-point phase, 2^-32 turn
+            return int(d.read(0x5F00, 8))
+
+        d.node.nmt.state = "OPERATIONAL"
+        d.write(0x6060, 0, 1)                                     # PP
+        _sync_until(d, lambda: d.read(0x6041) & 0x4F == 0x40)
+        for cw in (0x06, 0x07, 0x0F):
+            d.write(0x6040, 0, cw)
+            syncs(1)
+        _sync_until(d, lambda: d.read(0x6041) & 0x6F == 0x27)
+        syncs(20)
+        d.set_position(math.pi / 2)                               # 90 deg
+        for cw in (0x0F, 0x1F, 0x0F):
+            d.write(0x6040, 0, cw)
+            syncs(1)
+        syncs(1000)                                               # 1 s: cruising at 60 deg/s
+        p0 = ref()
+        assert d.read(0x6041) & 0x0400 == 0                       # moving: not reached
+        d.halt(True)
+        assert d.read(0x6040) & 0x0100
+        syncs(2000)
+        p1 = ref()
+        v = PARAMS["traj_vmax"].default                           # turn/s
+        a = PARAMS["traj_amax"].default                           # turn/s^2
+        travel = ((p1 - p0) % 2 ** 32) / 2 ** 32                  # turn after the halt
+        assert travel <= v * v / (2 * a) + 0.001, travel          # 0.05 turn + 3.6 deg (host latency)
+        assert (2 ** 30 - p1) % 2 ** 32 > 2 ** 27                 # > 11 deg short of the 90 deg target
+        syncs(50)
+        assert ref() == p1                                        # at rest
+        assert d.read(0x6041) & 0x0400                            # target reached (halted)
+        d.halt(False)
+        syncs(200)
+        assert ref() == p1                                        # not resumed
+        d.set_position(0.2 * math.pi)                             # back to 36 deg
+        for cw in (0x0F, 0x1F, 0x0F):
+            d.write(0x6040, 0, cw)
+            syncs(1)
+        _sync_until(d, lambda: ref() == round(0.1 * 2 ** 24) * 256, 2000)   # exactly on 0.1 turn
+        syncs(50)
+        assert d.read(0x6041) & 0x0400
+        d.write(0x6040, 0, 0x00)
+
+
 @pytest.mark.parametrize("k", [1, 7])
 def test_sync_pacing_exact_periods_per_sync(k: int) -> None:
     with _drive("--pacing", "sync", "--sync-periods", str(k)) as (srv, d):

@@ -57,6 +57,25 @@ def pp_move(bench: Bench, target_rad: float, timeout_s: float = 600.0) -> None:
             raise RuntimeError(f"the drive faulted during a move (fault code {bench.fault()})")
 
 
+def pp_halt(bench: Bench, settle_s: float = 0.1) -> None:
+    """Stop a running profile move where it is (CiA 402 halt, controlword bit 8) and release the halt.
+
+    The drive ramps the move to rest at ``traj_amax`` (at most 1 deg/s / 100 deg/s^2 = 10 ms
+    for the min-rate rungs) without reversing; ``settle_s`` of drive time later the halt is
+    released and the axis stays at rest until the next set-point.  Raises RuntimeError when the
+    reference still moves (a drive without halt).
+    """
+    d = bench.drive
+    d.halt(True)
+    bench.wait(settle_s)
+    before = int(bench.read(0x5F00, 8))
+    bench.wait(0.05)
+    stopped = int(bench.read(0x5F00, 8)) == before
+    d.halt(False)
+    if not stopped:
+        raise RuntimeError("the drive did not halt the profile move (controlword bit 8)")
+
+
 def reference_angle_rad(bench: Bench) -> float:
     """Position reference of the drive, rad: the output angle (0x5F00:9, Q32.32 turns) plus the
     wrapped difference of the low words of reference (0x5F00:8) and output."""
@@ -157,11 +176,10 @@ def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, set
     ``settle_s``.  With fast pacing the drive's time runs on (~20x real time) while the host is
     busy, so a host stall between the settling and the record (a loaded machine) can let the
     move arrive before or during the record: then the reference stood still in the record, which
-    is taken again (:data:`RATE_ATTEMPTS`; ``attempts`` in the result).  The rung ends when its
-    move arrives at its own target, forward and still at the rung's ``traj_vmax``: the drive
-    refuses a new profile set-point while a move runs (CiA 402 single set-point), so an earlier
-    "stop just ahead of the reference" was never taken and the repeated edge after the arrival
-    sent the axis back to it at the rung's rate.
+    is taken again (:data:`RATE_ATTEMPTS`; ``attempts`` in the result).  The rung ends with a
+    halt (:func:`pp_halt`): the move stops where it is, forward, instead of running on to its far
+    target (the drive refuses a new profile set-point while a move runs, so an earlier "stop just
+    ahead of the reference" was never taken and sent the axis back after the arrival).
     """
     rate = math.radians(rate_deg_s)
     win = rate_window_rad(rate_deg_s, window_s, min_window_arcsec)
@@ -183,10 +201,9 @@ def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, set
             valid = reference_moved_throughout(cap["pos_ref_lo"])
             if valid or attempts >= RATE_ATTEMPTS:
                 break
-        # end of the rung: the move runs on to its own target, forward at the rung's rate (a new
-        # profile set-point is refused while a move runs: a "stop" target just ahead of the reference
-        # was not taken, the reference ran on to `far` and the repeated edge then sent the axis back)
-        pp_move(bench, far, timeout_s=abs(far - bench.load_angle_rad()) / rate + 60.0)
+        # end of the rung: halt (controlword bit 8) stops the move where it is, at traj_amax (the
+        # reference never reverses; a new profile set-point would be refused while the move runs)
+        pp_halt(bench)
     ang = Bench.unwrap_turns(cap["pos_out_lo"]) * TURN
     t = np.arange(ang.size) * decim * DT
     st = mt.rate_stability(t, ang, rate, win)
