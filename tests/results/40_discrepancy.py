@@ -41,7 +41,11 @@ from hdservo.discrepancy import EFFECT_NAMES, cases, realdata, signals, simerr, 
 #: offset 5 -> seeds 6..10, written to discrepancy_seeds6-10.json instead).
 SEED_OFFSET = int(os.environ.get("HDSERVO_DISC_SEED_OFFSET", "0"))
 SEEDS = tuple(range(1 + SEED_OFFSET, int(os.environ.get("HDSERVO_DISC_SEEDS", "5")) + 1 + SEED_OFFSET))
-OUT_NAME = "discrepancy.json" if SEED_OFFSET == 0 else f"discrepancy_seeds{SEEDS[0]}-{SEEDS[-1]}.json"
+#: HDSERVO_DISC_ROWS: comma-separated hidden-effect names ("none" for the null row) to run
+#: only those rows (written to ..._rows.json so the full table is not overwritten).
+ROWS = tuple(r for r in os.environ.get("HDSERVO_DISC_ROWS", "").split(",") if r)
+OUT_NAME = ("discrepancy" + ("" if SEED_OFFSET == 0 else f"_seeds{SEEDS[0]}-{SEEDS[-1]}")
+            + ("_rows" if ROWS else "") + ".json")
 CACHE = REPO / "build" / "cache" / "discrepancy"
 
 
@@ -143,6 +147,12 @@ def main() -> int:
     out_dir = REPO / "build" / "results"
     out_dir.mkdir(parents=True, exist_ok=True)
     names = ["none", *EFFECT_NAMES]
+    bad = [r for r in ROWS if r not in names]
+    if bad:
+        print(f"HDSERVO_DISC_ROWS: unknown row {bad[0]!r}; expected names from {', '.join(names)}", file=sys.stderr)
+        return 2
+    if ROWS:
+        names = [n for n in names if n in ROWS]
     confusion: dict[str, dict[str, int]] = {a: {} for a in names}
     t0 = time.monotonic()
     tag = _source_hash()
