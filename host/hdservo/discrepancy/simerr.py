@@ -60,15 +60,34 @@ def _state(d: Design) -> dict[str, np.ndarray]:
     return out
 
 
+def _windows(d: Design, horizon_s: float) -> tuple[dict[str, np.ndarray], int, float, int, np.ndarray]:
+    """The decimated state and the window geometry every simulation-error function shares.
+
+    Returns
+    -------
+    x : dict
+        :func:`_state` (angles rad, velocities rad/s, decimated).
+    n : int
+        Decimated samples.
+    dt : float
+        Decimated sample period, s.
+    H : int
+        Samples per window (at least 2).
+    starts : numpy.ndarray
+        First sample of each window.
+    """
+    x = _state(d)
+    n = len(x["thm"])
+    dt = d.sig.dt * max(d.sig.q, 1)
+    H = max(2, int(round(horizon_s / dt)))
+    return x, n, dt, H, np.arange(0, n - H - 1, H)
+
+
 def _side_sim(d: Design, cols: Sequence[Column], theta: np.ndarray, force: np.ndarray, side: str,
               horizon_s: float, substeps: int | None = None) -> np.ndarray:
     """Simulate one side over windows; returns simulated-minus-measured angle at the dec rate (own unit)."""
     s = d.sig
-    x = _state(d)
-    n = len(x["thm"])
-    dt = s.dt * max(s.q, 1)
-    H = max(2, int(round(horizon_s / dt)))
-    starts = np.arange(0, n - H - 1, H)
+    x, n, dt, H, starts = _windows(d, horizon_s)
     err = np.full(n, np.nan)
     if side == "m":
         th, w, eps = x["thm"][starts].copy(), x["wm"][starts].copy(), d.v_eps * s.ratio
@@ -246,11 +265,7 @@ def region_mask(d: Design, bands: dict[str, float] | None, horizon_s: float = HO
         Aligned with the output of :func:`simulation_error`.
     """
     s = d.sig
-    x = _state(d)
-    n = len(x["thm"])
-    dt = s.dt * max(s.q, 1)
-    H = max(2, int(round(horizon_s / dt)))
-    starts = np.arange(0, n - H - 1, H)
+    x, n, _, H, starts = _windows(d, horizon_s)
     sides = ["m"] + (["l"] if s.kind == "two_mass" else [])
     parts = []
     for side in sides:
