@@ -54,18 +54,9 @@ class _VDrive:
         self.stop = self.proc.stop
 
 
-@contextlib.contextmanager
-def _session(root: Path, *extra: str) -> Iterator[tuple[_VDrive, Any]]:
-    from .drive import Drive
-    v = _VDrive(root, *extra)
-    d = None
-    try:
-        d = Drive.connect(NODE, interface="socketcand", host="127.0.0.1", port=v.port, channel="can0")
-        yield v, d
-    finally:
-        if d is not None:
-            d.close()
-        v.stop()
+def _session(root: Path, *extra: str) -> contextlib.AbstractContextManager[tuple[_VDrive, Any]]:
+    from .serve_proc import connected
+    return connected(_VDrive(root, *extra), NODE)
 
 
 # ---- observation helpers ------------------------------------------------------------------

@@ -8,12 +8,13 @@ SIGTERM then SIGKILL.  This module is that one piece; the callers only choose th
 """
 from __future__ import annotations
 
+import contextlib
 import select
 import signal
 import subprocess
 import threading
 from pathlib import Path
-from typing import Optional, Sequence
+from typing import Any, Iterator, Optional, Protocol, Sequence, TypeVar
 
 from .cli import UserError
 
@@ -120,3 +121,30 @@ class ServeProcess:
             return p.stderr.read() if p.stderr else ""
         except (OSError, ValueError):
             return ""
+
+
+class _Stoppable(Protocol):
+    port: int
+
+    def stop(self) -> str: ...
+
+
+P = TypeVar("P", bound=_Stoppable)
+
+
+@contextlib.contextmanager
+def connected(proc: P, node_id: int) -> Iterator[tuple[P, Any]]:
+    """Connect the CAN client (:class:`hdservo.drive.Drive`, socketcand) to a started virtual drive.
+
+    Yields ``(proc, drive)``; at the end the client is closed and the drive process stopped,
+    also when the connection fails.
+    """
+    from .drive import Drive
+    d = None
+    try:
+        d = Drive.connect(node_id, interface="socketcand", host="127.0.0.1", port=proc.port, channel="can0")
+        yield proc, d
+    finally:
+        if d is not None:
+            d.close()
+        proc.stop()

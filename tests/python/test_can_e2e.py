@@ -27,23 +27,15 @@ from vdrive import NODE, SIM, Server  # tests/python/vdrive.py
 from hdservo.drive import SIGNALS, TABLE_GROUPS, Drive, DriveError, group_payload
 from hdservo.params_gen import BY_NAME as PARAMS
 from hdservo.preisach_table import PreisachTable
+from hdservo.serve_proc import connected
 
 pytestmark = pytest.mark.skipif(not SIM.exists(), reason="hdservo-sim not built (make sim)")
 
 
 
 
-@contextlib.contextmanager
-def _drive(*extra: str) -> Iterator[tuple[Server, Drive]]:
-    srv = Server(*extra)
-    d = None
-    try:
-        d = Drive.connect(NODE, interface="socketcand", host="127.0.0.1", port=srv.port, channel="can0")
-        yield srv, d
-    finally:
-        if d is not None:
-            d.close()
-        srv.stop()
+def _drive(*extra: str) -> contextlib.AbstractContextManager[tuple[Server, Drive]]:
+    return connected(Server(*extra), NODE)
 
 
 @pytest.fixture
