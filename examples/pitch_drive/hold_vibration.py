@@ -69,6 +69,8 @@ def main() -> int:
     p.add_argument("--no-stribeck", action="store_true", help="the option without its Stribeck feed-forward")
     p.add_argument("--seeds", default="1,2,3", help="sensor-noise seeds (default 1,2,3)")
     p.add_argument("--positioning", action="store_true", help="also the positioning scenarios (A/R)")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="a drive parameter on top of the option's gains (table unit), e.g. hold_ticks=0; repeatable")
     a = p.parse_args()
     design = json.loads((HERE / "design.json").read_text())
     opts = design["chosen"]["options"]
@@ -76,6 +78,18 @@ def main() -> int:
         print(f"--option {a.option}: not an option of design.json; expected one of {', '.join(opts)}", file=sys.stderr)
         return 2
     ctl = dict(opts[a.option]["controller"])
+    gains = dict(ctl.get("gains", {}))
+    from hdservo.params_gen import BY_NAME as PARAMS
+    for item in a.set:
+        name, _, val = item.partition("=")
+        try:
+            if name not in PARAMS:
+                raise ValueError
+            gains[name] = float(val)
+        except ValueError:
+            print(f"--set {item!r}: expected NAME=VALUE with NAME a drive parameter and VALUE a number", file=sys.stderr)
+            return 2
+    ctl["gains"] = gains
     if a.no_stribeck:
         ctl["compensators"] = [c for c in ctl["compensators"] if c != "stribeck"]
     axis = str(HERE / "report" / "axis_csf-25-80_fl-050.toml")

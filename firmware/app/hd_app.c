@@ -10,6 +10,19 @@
  *   t_f     = biquad chain (notch, low-pass)(t), clamped to torque_limit
  *   motor torque = t_f / N ; current = motor torque / Kt
  * vel_fb = motor-encoder observer / N (vel_fb_src 0) or output-encoder observer (1).
+ *
+ * Standstill hunt breaker (hold_ticks > 0; position modes except STAB; issue 10):
+ * the reference is "at rest" when pos_ref (before the bank's corrections) equals last
+ * period's and v_ff is 0; inpos_n counts such periods (a CSP stream moves pos_ref at
+ * every SYNC, so a CSP multisine is never at rest).  The Stribeck feed-forward on the
+ * measured velocity is a relay at rest: it dithers the axis onto its target (a ~107 Hz
+ * cycle of +-1-3") but can also fall into a ~13 Hz cycle of +-10-20" (the load on the
+ * friction's pre-sliding compliance, driven by the relay).  When |pos_err| > hold_hunt_win
+ * after hold_ticks periods at rest, the Stribeck FF fades linearly to its running mean
+ * (one-pole low-pass, 2^-HD_INPOS_TAU_SHIFT per period, updated only at full weight) over
+ * hold_fade_ticks periods and then back to full at the same rate; the axis stops in
+ * between and the relay restarts from rest into the small cycle.  Re-armed hold_ticks
+ * after the fade back; a moving reference restores the full FF at once.
  */
 #include "hd_app.h"
 #include "hd_fixed.h"
@@ -48,6 +61,10 @@ int32_t hd_app_apply_params(hd_app_t *a)
     a->pos_cfg.d_alpha = HD_Q30_ONE;
     a->pos_cfg.out_max = P(a, HD_P_POS_VLIM);
     a->pos_cfg.out_min = hd_neg_sat(a->pos_cfg.out_max);
+
+    /* hunt breaker: per-period step of the Stribeck FF weight (Q30), fade over hold_fade_ticks */
+    a->inpos_dw = (P(a, HD_P_HOLD_FADE_TICKS) > 0) ?
+        hd_sat32(hd_div64_rnd((int64_t)HD_Q30_ONE, P(a, HD_P_HOLD_FADE_TICKS))) : HD_Q30_ONE;
 
     /* velocity loop: in 2^-32 turn/s, out Q15.16 N.m, gains Q16 N.m/(turn/s) with shift 32 */
     a->vel_cfg.shift = 32u;
@@ -119,6 +136,11 @@ static void reset_loops(hd_app_t *a)
     a->sat_count = 0;
     a->cb.bs_preload = 1u;       /* backstepping re-engages from the PID effort */
     a->cb.dpos_primed = 0u;
+    a->inpos_n = 0u;
+    a->inpos_on = 0u;
+    a->inpos_tau = 0;
+    a->inpos_w = HD_Q30_ONE;
+    a->inpos_ref_prev = a->pos_out;
 }
 
 void hd_app_init(hd_app_t *a)
@@ -588,6 +610,10 @@ void hd_app_step(hd_app_t *a)
         break;
     }
 
+    /* reference before the bank's corrections (hunt breaker: "at rest") */
+    const hd_angle_t ref_plain = pos_ref;
+    const hd_vel_out_t vff_plain = v_ff;
+
     /* compensator bank (position modes): corrections and torque feed-forward */
     hd_comp_bank_in_t cbi;
     if (closed == 2) {
@@ -611,6 +637,45 @@ void hd_app_step(hd_app_t *a)
     }
 
     const int32_t pos_err = hdf_sat32(hdf_sub64_sat(pos_ref, a->pos_out));
+    const uint32_t hold_ticks = (uint32_t)P(a, HD_P_HOLD_TICKS);
+    if (closed == 2 && hold_ticks > 0u && mode != HD_MODE_STAB) {
+        /* standstill hunt breaker (header comment) */
+        if (ref_plain != a->inpos_ref_prev || vff_plain != 0) {
+            a->inpos_n = 0u;                    /* the reference moves: full FF at once */
+            a->inpos_on = 0u;
+            a->inpos_w = HD_Q30_ONE;
+        } else if (a->inpos_n < hold_ticks) {
+            a->inpos_n++;
+        }
+        a->inpos_ref_prev = ref_plain;
+        if (a->inpos_on != 0u) {
+            /* breaking a hunt: fade to the mean, then back */
+            if (a->inpos_w > a->inpos_dw) {
+                a->inpos_w -= a->inpos_dw;
+            } else {
+                a->inpos_w = 0;
+                a->inpos_on = 0u;
+                a->inpos_n = 0u;                /* re-armed hold_ticks after the fade back */
+            }
+        } else if (a->inpos_w < HD_Q30_ONE) {
+            a->inpos_w = (a->inpos_w < HD_Q30_ONE - a->inpos_dw) ? a->inpos_w + a->inpos_dw : HD_Q30_ONE;
+        } else if (a->inpos_n >= hold_ticks && hd_abs_sat(pos_err) > P(a, HD_P_HOLD_HUNT_WIN)) {
+            a->inpos_on = 1u;                   /* hunting at rest */
+        }
+        if (a->inpos_w < HD_Q30_ONE) {
+            /* the Stribeck FF (already in t_ff) -> mean + w (FF - mean) */
+            const int32_t mean = hdf_sat32(hdf_asr64_rnd(a->inpos_tau, 16u));
+            t_ff = hd_sub_sat(t_ff, hdf_mul_q(hd_sub_sat(a->cb.str.tau, mean), HD_Q30_ONE - a->inpos_w, 30u));
+        } else {
+            const int64_t d = hdf_sub64_sat(hdf_shl64_sat((int64_t)a->cb.str.tau, 16u), a->inpos_tau);
+            a->inpos_tau = hdf_add64_sat(a->inpos_tau, hdf_asr64_rnd(d, HD_INPOS_TAU_SHIFT));
+        }
+    } else {
+        a->inpos_n = 0u;
+        a->inpos_on = 0u;
+        a->inpos_w = HD_Q30_ONE;
+        a->inpos_ref_prev = ref_plain;
+    }
     if (closed == 2) {
         const hd_vel_out_t vff = hdf_mul_q(v_ff, P(a, HD_P_VFF_GAIN), 30u);
         vel_ref = hd_pid_step(&a->pos_pid, (mode == HD_MODE_STAB) ? &a->stab_pos_cfg : &a->pos_cfg, pos_err, 0, vff);

@@ -133,6 +133,10 @@ typedef enum {
     HD_SIG_COUNT = 17
 } hd_sig_t;
 
+/* Standstill hunt breaker: running mean of the Stribeck FF, a one-pole low-pass of
+ * 2^-HD_INPOS_TAU_SHIFT per period (2^-9: 51 ms at 10 kHz). */
+#define HD_INPOS_TAU_SHIFT 9u
+
 typedef struct {
     uint32_t     tick;        /* periods since hd_app_init */
     int32_t      mode;        /* hd_mode_t */
@@ -189,6 +193,14 @@ typedef struct {
     hd_vel_out_t rate_cmd;
     int32_t      sine_amp, sine_f_q16;
     hd_angle_t   hold_pos;        /* excitation: held position */
+
+    /* standstill hunt breaker (params hold_*; hd_app.c header comment) */
+    hd_angle_t   inpos_ref_prev;  /* position reference (before the bank) of the last period */
+    uint32_t     inpos_n;         /* periods at rest (saturates at hold_ticks) */
+    uint32_t     inpos_on;        /* 1 = breaking a hunt: the Stribeck FF fading to its mean */
+    int64_t      inpos_tau;       /* running mean of the Stribeck FF, Q15.16 N.m x 2^16 */
+    int32_t      inpos_w;         /* weight of the Stribeck FF about its mean, Q30 (1 = full FF) */
+    int32_t      inpos_dw;        /* its step per period, Q30 (= 2^30 / hold_fade_ticks) */
 
     /* faults */
     int32_t  fault;

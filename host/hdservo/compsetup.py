@@ -65,12 +65,15 @@ ENABLE_BITS: dict[str, int] = {"stribeck": 1, "lugre": 2, "maxwell": 4, "preisac
 #: the measured velocity the map is a relay in the velocity loop, a ~95 Hz +-12 N.m limit cycle that
 #: makes 0.001 deg/s jerky; docs/compensators.md), the one-direction final approach of PTP moves,
 #: position P 60 1/s.  No scheduled position integral (``cb_pki`` 0): it turns the 0.01 deg/s rung into a
-#: stick-slip limit cycle.  The stabilisation procedure runs in the drive's STAB mode (gyro).
+#: stick-slip limit cycle.  The drive's standstill hunt breaker (``hold_ticks`` 2000 = 0.2 s at rest, then an
+#: error above ``hold_hunt_win`` 6" fades the Stribeck feed-forward to its mean over ``hold_fade_ticks`` 300
+#: and back): the relay at rest sometimes falls into a ~13 Hz +-10-20" cycle instead of its ~107 Hz dither
+#: (issue 10, docs/compensators.md).  The stabilisation procedure runs in the drive's STAB mode (gyro).
 BEST_NAMES: tuple[str, ...] = ("stribeck", "approach")
 #: Procedure options of the best combination: the stabilisation test in the drive's STAB mode (gyro).
 BEST_PROC_ARGS: dict[str, list[str]] = {"stabilisation": ["--stab-mode", "stab"]}
 #: Retuned drive parameters of the best combination (table units), on top of the model's compensator parameters.
-BEST_GAINS: dict[str, float] = {"pos_kp": 60.0, "str_w_ref": 0.0, "str_cruise_ticks": 200.0}
+BEST_GAINS: dict[str, float] = {"pos_kp": 60.0, "str_w_ref": 0.0, "str_cruise_ticks": 200.0, "hold_ticks": 2000.0}
 
 
 def best_gains(axis: str = "reference") -> dict[str, float]:

@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 OD_VERSION = 1
-PARAM_HASH = 0x7CB53EDD
+PARAM_HASH = 0x2600222D
 VENDOR_ID = 0x00000EDA
 PRODUCT_CODE = 0x00484453
 REVISION = 0x00010000
@@ -199,6 +199,9 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x2100, 11, 'obs_mot_bw', 'i32', 'rw', '', 'Hz', 1.52587890625e-05),
     OdEntry(0x2100, 12, 'obs_out_bw', 'i32', 'rw', '', 'Hz', 1.52587890625e-05),
     OdEntry(0x2100, 13, 'obs_zeta', 'i32', 'rw', '', '1', 1.52587890625e-05),
+    OdEntry(0x2100, 14, 'hold_ticks', 'u32', 'rw', '', 'period', 1.0),
+    OdEntry(0x2100, 15, 'hold_hunt_win', 'i32', 'rw', '', 'turn', 2.3283064365386963e-10),
+    OdEntry(0x2100, 16, 'hold_fade_ticks', 'u32', 'rw', '', 'period', 1.0),
     OdEntry(0x2200, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x2200, 1, 'f1_b0', 'i32', 'rw', '', '1', 9.313225746154785e-10),
     OdEntry(0x2200, 2, 'f1_b1', 'i32', 'rw', '', '1', 9.313225746154785e-10),

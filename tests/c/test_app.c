@@ -15,6 +15,7 @@
 #include <cmocka.h>
 
 #include "hd_app.h"
+#include "hd_fixed.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -31,6 +32,7 @@ static struct {
     double t_load;           /* external torque at the output, N.m */
     uint32_t valid;
     uint32_t out_jump;       /* counts added to the output encoder */
+    uint32_t mot_dither;     /* counts added to the motor encoder every other period (noise) */
     hd_hal_command_t cmd;
     uint32_t tick;
     uint8_t nvm[NVM_SIZE];
@@ -47,7 +49,7 @@ uint32_t hd_hal_tick(void) { return P.tick; }
 void hd_hal_read_sensors(hd_hal_sensors_t *s)
 {
     double mt = P.th * P.n;
-    s->motor_enc_raw = (uint32_t)((int64_t)floor(mt * 131072.0) & 0x1FFFF);
+    s->motor_enc_raw = (uint32_t)(((int64_t)floor(mt * 131072.0) + ((P.tick & 1u) ? P.mot_dither : 0u)) & 0x1FFFF);
     s->output_enc_raw = (uint32_t)(((int64_t)floor(P.th * 16777216.0) + P.out_jump) & 0xFFFFFF);
     s->current = P.cmd.current;
     s->gyro_rate = (int32_t)lround((P.w + base_rate(P.t)) * 4294967296.0);   /* inertial */
@@ -112,6 +114,7 @@ static void plant_reset(double th0)
     P.t_load = 0;
     P.valid = HD_HAL_VALID_ALL;
     P.out_jump = 0;
+    P.mot_dither = 0;
     P.tick = 0;
     P.fail_write = 0;
     P.base_amp = 0;
@@ -377,6 +380,123 @@ static void test_app_stabilise(void **st)
     assert_int_equal(hd_app_set_mode(&app, 9), -1);        /* unknown mode */
 }
 
+/* ---- standstill hunt breaker (hold_*, issue 10) --------------------------------
+ * No friction in the stub, so the Stribeck feed-forward on the measured velocity
+ * (str_w_ref 0, hard sign) is a pure relay: the axis hunts +-40" about the target,
+ * a stand-in for the relay's hunting on a real axis (the physics is tested in
+ * tests/python/test_hunt_breaker.py).  Checked here: the breaker is off by default;
+ * armed only after hold_ticks periods at rest; a hunt fades the feed-forward to its
+ * running mean in hold_fade_ticks periods (the torque command then no longer
+ * follows the relay) and back in as many; re-armed hold_ticks later; a moving
+ * (CSP-like) reference never arms it. */
+
+static void push(double torque, uint32_t n)
+{
+    P.t_load = torque;
+    run(n);
+    P.t_load = 0;
+}
+
+static void test_app_hunt_breaker(void **st)
+{
+    (void)st;
+    const int32_t fc = 2 << 16;                       /* 2 N.m relay */
+    assert_int_equal(hd_app_param_set(&app, HD_P_STR_FC_POS, fc), 0);
+    assert_int_equal(hd_app_param_set(&app, HD_P_STR_FS_POS, fc), 0);
+    assert_int_equal(hd_app_param_set(&app, HD_P_STR_FC_NEG, fc), 0);
+    assert_int_equal(hd_app_param_set(&app, HD_P_STR_FS_NEG, fc), 0);
+    assert_int_equal(hd_app_param_set(&app, HD_P_STR_FV_POS, 0), 0);
+    assert_int_equal(hd_app_param_set(&app, HD_P_STR_FV_NEG, 0), 0);
+    assert_int_equal(hd_app_param_set(&app, HD_P_STR_W_REF, 0), 0);
+    assert_int_equal(hd_app_param_set(&app, HD_P_STR_EPS_V, 0), 0);    /* hard sign */
+    assert_int_equal(hd_app_param_set(&app, HD_P_CB_RAMP_TICKS, 10), 0);
+    assert_int_equal(hd_app_param_set(&app, HD_P_CB_ENABLE, (int32_t)HD_CB_STRIBECK), 0);
+    assert_int_equal(hd_app_param_set(&app, HD_P_FILT_ENABLE, 0), 0);  /* relay steps seen unfiltered */
+    run(5);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_POSITION), 0);
+    P.mot_dither = 20;                                  /* motor-encoder noise: the relay flips often */
+    run(1000);
+    push(0.5, 10);                                     /* start the relay */
+    run(10000);
+
+    /* off by default: the relay hunts, nothing fades */
+    assert_int_equal(hd_app_param_get(&app, HD_P_HOLD_TICKS), 0);
+    uint32_t beyond = 0;
+    for (int k = 0; k < 20000; k++) {
+        hd_app_step(&app);
+        beyond += (fabs(arcsec(app.tel.pos_err)) > 6.0) ? 1u : 0u;
+        assert_int_equal(app.inpos_w, HD_Q30_ONE);
+    }
+    printf("# relay on the frictionless stub: |e| > 6\" in %.0f %% of 2 s\n", beyond / 200.0);
+    assert_true(beyond > 10000u);
+
+    /* on: hold_ticks 2000 (armed after 0.2 s at rest), hold_hunt_win 6", hold_fade_ticks 300 */
+    assert_int_equal(hd_app_param_get(&app, HD_P_HOLD_FADE_TICKS), 300);
+    assert_int_equal(hd_app_param_set(&app, HD_P_HOLD_TICKS, 2000), 0);
+    int k_down = -1, k_zero = -1, k_up = -1, k_next = -1;
+    double flip_full = 0, flip_faded = 0;     /* largest torque-command step at a relay flip */
+    int n_faded = 0;                          /* relay flips while faded below 1/20 */
+    int32_t tau_prev = app.cb.str.tau, cmd_prev = app.tel.torque_cmd;
+    for (int k = 0; k < 8000; k++) {
+        const int32_t w_prev = app.inpos_w;
+        hd_app_step(&app);
+        const int32_t w = app.inpos_w;
+        if (k < 1999) {
+            assert_int_equal(w, HD_Q30_ONE);           /* not armed yet */
+        }
+        if (k_down < 0 && w < HD_Q30_ONE) {
+            k_down = k;
+            assert_true(fabs(arcsec(app.tel.pos_err)) > 6.0);
+        }
+        if (k_down >= 0 && k_zero < 0 && w == 0) {
+            k_zero = k;
+        }
+        if (k_zero >= 0 && k_up < 0 && w == HD_Q30_ONE) {
+            k_up = k;
+        }
+        if (k_up >= 0 && k_next < 0 && w < w_prev) {
+            k_next = k;
+        }
+        if ((app.cb.str.tau > 0) != (tau_prev > 0)) {
+            const double step = fabs((double)(app.tel.torque_cmd - cmd_prev)) / 65536.0;
+            if (w == HD_Q30_ONE && w_prev == HD_Q30_ONE && step > flip_full) {
+                flip_full = step;
+            }
+            if (w < HD_Q30_ONE / 20) {
+                n_faded++;
+                flip_faded = step > flip_faded ? step : flip_faded;
+            }
+        }
+        tau_prev = app.cb.str.tau;
+        cmd_prev = app.tel.torque_cmd;
+    }
+    printf("# breaker: fade at %d, mean at %d, full at %d, next fade at %d; torque step at a relay "
+           "flip %.2f N.m (full), %.3f N.m (%d flips faded)\n", k_down, k_zero, k_up, k_next, flip_full, flip_faded, n_faded);
+    assert_true(k_down >= 1999);
+    assert_true(k_zero - k_down >= 298 && k_zero - k_down <= 300);
+    assert_true(k_up - k_zero >= 298 && k_up - k_zero <= 301);
+    assert_true(k_next < 0 || k_next - k_zero >= 2000); /* re-armed hold_ticks after reaching the mean */
+    assert_true(flip_full > 3.0);                        /* the relay: ~2 x 2 N.m per flip */
+    assert_true(n_faded > 0 && flip_faded < 0.25 * flip_full);   /* faded (w < 1/20) */
+    assert_int_equal(app.fault, HD_FAULT_NONE);
+
+    /* a moving reference (a new set-point every 10 periods, as a CSP stream) never arms it */
+    hd_angle_t ref = app.pos_out;
+    uint32_t n_max = 0;
+    for (int k = 0; k < 6000; k++) {
+        if (k % 10 == 0) {
+            ref += 4295;                               /* 1e-6 turn per set-point: 0.036 deg/s */
+            hd_app_set_position(&app, ref);
+        }
+        hd_app_step(&app);
+        n_max = app.inpos_n > n_max ? app.inpos_n : n_max;
+        if (k > 300) {
+            assert_int_equal(app.inpos_w, HD_Q30_ONE);
+        }
+    }
+    assert_true(n_max < 10u);
+}
+
 static void test_app_excitation_capture(void **st)
 {
     (void)st;
@@ -417,6 +537,7 @@ int main(void)
         cmocka_unit_test_setup(test_app_faults, setup),
         cmocka_unit_test_setup(test_app_excitation_capture, setup),
         cmocka_unit_test_setup(test_app_stabilise, setup),
+        cmocka_unit_test_setup(test_app_hunt_breaker, setup),
     };
     return cmocka_run_group_tests_name("hd_app", tests, NULL, NULL);
 }

@@ -1,7 +1,10 @@
 /*
  * gv_app.c - golden vectors of one full control period (hd_app_step: encoder
  * unwrapping, observers, trajectory, position/velocity PID, torque filters,
- * limits) and its Cortex-M4 cost, kernel `control_step_baseline`.
+ * limits) and its Cortex-M4 cost, kernel `control_step_baseline`; kernel
+ * `control_step_hold`: the same at standstill with the Stribeck feed-forward on
+ * the measured velocity and the standstill hunt breaker armed (hold_*: short
+ * times so that the 1024 periods fade it out and back several times).
  *
  * The golden images have no hal.h port, so this file provides a stub hal:
  * sensors come from the current input vector, the command is recorded, NVM
@@ -10,6 +13,7 @@
 #include "gv.h"
 #include "hal.h"
 #include "hd_app.h"
+#include "hd_fixed.h"
 
 static hd_app_t gv_app;
 static hd_hal_sensors_t stub_sens;
@@ -110,7 +114,75 @@ static void cost_step(void)
     hd_gv_cost_mark();
 }
 
+/* control_step_hold inputs: the output encoder at rest (count 5000, +-1 noise) except
+ * for excursions of 6..13 counts (beyond hold_hunt_win = 3 counts) in periods 100..119
+ * of every 256; the motor encoder N = 100 times the output with 3 bits of noise. */
+static void gen_hold(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    uint32_t out_cnt = 5000u + (hd_gv_rand32(r) & 1u);
+    if ((idx & 255u) >= 100u && (idx & 255u) < 120u) {
+        out_cnt += 6u + (hd_gv_rand32(r) & 7u);
+    }
+    in[0] = (int32_t)((out_cnt * 100u / 128u + (hd_gv_rand32(r) & 7u)) & 0x1FFFFu);   /* 2^24 / 2^17 = 128 */
+    in[1] = (int32_t)(out_cnt & 0xFFFFFFu);
+}
+
+static void hold_setup(const int32_t *in)
+{
+    stub_tick = 0;
+    stub_sens.current = 0;
+    stub_sens.gyro_rate = 0;
+    stub_sens.valid = HD_HAL_VALID_ALL;
+    stub_sens.motor_enc_raw = (uint32_t)in[0];
+    stub_sens.output_enc_raw = (uint32_t)in[1];
+    hd_app_init(&gv_app);
+    (void)hd_app_param_set(&gv_app, HD_P_FAULT_ENABLE, 0);
+    (void)hd_app_param_set(&gv_app, HD_P_STR_W_REF, 0);            /* relay on the measured velocity */
+    (void)hd_app_param_set(&gv_app, HD_P_CB_RAMP_TICKS, 4);
+    (void)hd_app_param_set(&gv_app, HD_P_CB_ENABLE, (int32_t)HD_CB_STRIBECK);
+    (void)hd_app_param_set(&gv_app, HD_P_HOLD_TICKS, 16);
+    (void)hd_app_param_set(&gv_app, HD_P_HOLD_FADE_TICKS, 7);      /* 2^30 / 7: a rounded step */
+    (void)hd_app_param_set(&gv_app, HD_P_HOLD_HUNT_WIN, 3 * 256);  /* 3 output counts */
+    hd_app_step(&gv_app);
+    (void)hd_app_set_mode(&gv_app, HD_MODE_POSITION);
+}
+
+static void run_hold(const int32_t *in, int32_t *out, uint32_t count)
+{
+    uint32_t k;
+    hold_setup(in);
+    for (k = 0; k < count; k++) {
+        stub_sens.motor_enc_raw = (uint32_t)in[2u * k];
+        stub_sens.output_enc_raw = (uint32_t)in[2u * k + 1u];
+        hd_app_step(&gv_app);
+        out[4u * k] = stub_cmd.torque;
+        out[4u * k + 1u] = gv_app.inpos_w;
+        out[4u * k + 2u] = (int32_t)gv_app.inpos_n;
+        out[4u * k + 3u] = hdf_sat32(hdf_asr64_rnd(gv_app.inpos_tau, 16u));
+    }
+}
+
+static void cost_hold(void)
+{
+    int32_t in[2 * 128];
+    int32_t out[4 * 128];
+    hd_gv_rng_t r;
+    uint32_t i;
+    r.s = 12345u;
+    for (i = 0; i < 128u; i++) {
+        gen_hold(i + 64u, &r, &in[2u * i]);     /* periods 64..191: at rest, then the excursion */
+    }
+    run_hold(in, out, 40u);                     /* armed (16 periods at rest) */
+    stub_sens.output_enc_raw = 5012u;           /* beyond the window: the breaker fades */
+    hd_app_step(&gv_app);
+    hd_app_step(&gv_app);
+    hd_gv_cost_mark();
+    hd_app_step(&gv_app);                       /* a fading period (the most work) */
+    hd_gv_cost_mark();
+}
+
 const hd_gv_kernel_t hd_gv_app_kernels[] = {
     {"control_step_baseline", 2u, 4u, 512u, gen_step, run_step, cost_step},
+    {"control_step_hold", 2u, 4u, 1024u, gen_hold, run_hold, cost_hold},
 };
 const uint32_t hd_gv_app_count = sizeof hd_gv_app_kernels / sizeof hd_gv_app_kernels[0];

@@ -72,7 +72,8 @@ def test_controllers_and_best(monkeypatch: pytest.MonkeyPatch) -> None:
     else:   # the coherent drive configuration of docs/demo.md: the STAB mode for the stabilisation procedure
         b = cmp.best_controller("reference")
         assert b.compensators == ["stribeck", "approach"] and b.gains == {"pos_kp": 60.0, "str_w_ref": 0.0,
-                                                                          "str_cruise_ticks": 200.0}
+                                                                          "str_cruise_ticks": 200.0,
+                                                                          "hold_ticks": 2000.0}
         assert b.proc_args == {"stabilisation": ["--stab-mode", "stab"]}
         assert "cb_pki" not in b.gains and not set(b.proc_args) - {"stabilisation"}
         assert cmp.procedure_args("stabilisation", b.proc_args["stabilisation"]).stab_mode == "stab"
