@@ -21,8 +21,9 @@
  * after hold_ticks periods at rest, the Stribeck FF fades linearly to its running mean
  * (one-pole low-pass, 2^-HD_INPOS_TAU_SHIFT per period, updated only at full weight) over
  * hold_fade_ticks periods and then back to full at the same rate; the axis stops in
- * between and the relay restarts from rest into the small cycle.  Re-armed hold_ticks
- * after the fade back; a moving reference restores the full FF at once.
+ * between and the relay restarts from rest, normally into the small cycle.  Re-armed
+ * hold_ticks periods after the mean was reached; a moving reference restores the full
+ * FF at once.
  */
 #include "hd_app.h"
 #include "hd_fixed.h"
