@@ -6,12 +6,13 @@ shifted there: gravity, TE and cogging phases), then the hold; over 4-6 s the tr
 angle gives the hold RMS about its mean, the RMS above 10 Hz (the relay chatter), the
 peak-to-peak of its 0.1 s means (hunting), the dominant frequency and the mean deviation
 from the target.  ``--positioning`` adds ``predict.positioning`` (scenario method, targets
--25/0/+25 deg, 2 runs).  Uses ``build/lib/libhdsim.so`` (``$HDSERVO_SIMLIB`` overrides it, so
+-25/0/+25 deg, 2 runs).  ``--set NAME=VALUE`` overrides a drive parameter of the option (e.g.
+``hold_ticks=0``: the best option without its standstill hunt breaker).  Uses ``build/lib/libhdsim.so`` (``$HDSERVO_SIMLIB`` overrides it, so
 two firmware builds can be compared).
 
 Usage (from the repository root)::
 
-    .venv/bin/python examples/pitch_drive/hold_vibration.py [--option best] [--no-stribeck] [--positioning]
+    .venv/bin/python examples/pitch_drive/hold_vibration.py [--option best] [--no-stribeck] [--positioning] [--set NAME=VALUE ...]
 """
 from __future__ import annotations
 
