@@ -23,3 +23,28 @@ def test_hidden_effect_is_named_and_gap_shrinks(tmp_path: Path, effect: str, axi
     assert r.rms_history[0] / r.rms_history[-1] >= 3.0
     ev = r.iterations[0]["evidence"]
     assert ev["delta_bic"] > 10 and ev["p_value"] < 1e-3
+    # the RMS gap of the 3x rule (workflow.rms_gap): systematic gap over the region where
+    # the effect acts (here the whole record), in one of the two residuals
+    it = r.iterations[0]
+    g = it["rms_gap"]
+    assert g["residual"] in ("equation", "simulation")
+    assert g["closed"] or g["shrink"] >= 3.0
+    fl = it["noise_floor_eq_region"] if g["residual"] == "equation" else it["noise_floor_sim_region_rad"]
+    assert 0.0 < fl < g["before"]
+
+
+def test_noise_level_ignores_the_loops_content_below_fs_over_4() -> None:
+    """The sensor's white-noise level comes from the upper half of the spectrum: real
+    current that a closed loop makes between the angle cutoff and ~1 kHz does not count
+    as noise (the round-4 estimate above the cutoff alone counted it)."""
+    import numpy as np
+    import scipy.signal as sps
+
+    from hdservo.discrepancy.signals import hf_noise_std
+    fs, n = 1e4, 100_000
+    rng = np.random.default_rng(3)
+    white = 0.01 * rng.standard_normal(n)
+    loop = sps.sosfiltfilt(sps.butter(4, [300, 900], btype="band", fs=fs, output="sos"), rng.standard_normal(n))
+    x = white + 0.05 * loop / np.std(loop)
+    assert hf_noise_std(white, 200.0, fs) == pytest.approx(0.01, rel=0.03)
+    assert hf_noise_std(x, 200.0, fs) == pytest.approx(0.01, rel=0.05)

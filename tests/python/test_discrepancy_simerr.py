@@ -80,6 +80,11 @@ def test_stribeck_named_by_its_output_error_fit(tmp_path: Path) -> None:
     loc = it["sim_rms_region_before_rad"] / it["sim_rms_region_after_rad"]
     assert loc > it["sim_rms_before_rad"] / it["sim_rms_after_rad"] > 1.0
     assert it["evidence"]["sim_explained_fraction_local"] >= it["evidence"]["sim_explained_fraction"]
+    # the levels are fitted on both residuals: the equation error is not significantly
+    # worse (n_eff ln(RSS_1/RSS_0) <= bic_min), the same rule the ranking applies
+    ev = it["evidence"]
+    assert ev["n_eff"] * np.log(1.0 / (1.0 - ev["explained_fraction"])) >= -workflow.Settings().bic_min
+    assert it["rms_gap"]["shrink"] > 1.0
 
 
 def test_substeps_bring_the_null_simulation_closer_to_the_log(null_design) -> None:

@@ -74,6 +74,10 @@ def _log_for(c: "cases.Case", tag: str) -> Path:
     return p
 
 
+def _nan_none(x: float) -> float | None:
+    return x if x == x else None
+
+
 def _rms_eqs(fit, eqs: list[str]) -> float:
     import numpy as np
     return float(np.sqrt(np.mean(np.concatenate([fit.resid[e] for e in eqs]) ** 2)))
@@ -105,6 +109,8 @@ def _one(args: tuple[str, str, str, int, str]) -> dict:
         # whole record for effects that act everywhere): first model -> last model
         lb = la = lsb = lsa = nan
         reg = None
+        gap1: dict = {}
+        sfl = {k: _nan_none(v) for k, v in r.sim_floor.items()}
         if r.iterations:
             it0 = r.iterations[0]
             top = r.state.added[0]
@@ -115,11 +121,15 @@ def _one(args: tuple[str, str, str, int, str]) -> dict:
             la = workflow._region_rms(r.state.design, r.state.fit, top[1], rows)
             lsb, lsa = workflow._masked_rms(r.sims[0], rs), workflow._masked_rms(r.sims[-1], rs)
             reg = it0["region"]
+            # the RMS gap of the first named effect (workflow.rms_gap: systematic gap over
+            # its region, in the residual where it stands highest above the noise floor)
+            gap1 = it0["rms_gap"]
         strib = next((x for x in r.ranking_first if x["effect"] == "stribeck_friction"), None)
     except UserError as e:
         got, all_named, rb, ra, sb, sa, ab, aa, act, first = f"error: {e}", [], nan, nan, nan, nan, nan, nan, [], []
         fl = gb = ga = lb = la = lsb = lsa = nan
         reg = strib = None
+        gap1, sfl = {}, None
     keys = ("effect", "score", "delta_bic", "explained_fraction", "sim_delta_bic", "sim_explained_fraction",
             "explained_fraction_local", "sim_explained_fraction_local", "region_share", "sim_region_share",
             "significant")
@@ -136,6 +146,8 @@ def _one(args: tuple[str, str, str, int, str]) -> dict:
             "shrink_region": lb / la if la and la == la else None,
             "sim_rms_region_before_rad": lsb, "sim_rms_region_after_rad": lsa,
             "shrink_region_sim": lsb / lsa if lsa and lsa == lsa else None,
+            "rms_gap": gap1, "shrink_rms_gap": gap1.get("shrink"), "rms_gap_closed": bool(gap1.get("closed")),
+            "shrink_rms_gap_raw": gap1.get("raw_shrink"), "sim_floor_rad": sfl,
             "first_ranking": [{k: workflow._jsonable(x.get(k)) for k in keys} for x in first],
             # the Stribeck candidate against the baseline, wherever it ranks (false-alarm check
             # of the localised size rule on logs without Stribeck friction)
@@ -170,17 +182,22 @@ def main() -> int:
         tot = sum(confusion[eff].values())
         ok = confusion[eff].get(eff, 0)
         summary[eff] = {"cases": tot, "correct": ok, "rate": ok / tot if tot else None}
-        for k in ("shrink", "shrink_acting", "shrink_sim", "shrink_gap", "shrink_region", "shrink_region_sim"):
+        for k in ("shrink", "shrink_acting", "shrink_sim", "shrink_gap", "shrink_region", "shrink_region_sim",
+                  "shrink_rms_gap", "shrink_rms_gap_raw"):
             good = [r for r in rows if r["hidden"] == eff and r["named"] == eff]
+            closed = {"shrink_gap": "gap_closed", "shrink_rms_gap": "rms_gap_closed"}.get(k)
             # a closed gap (final residual at the noise floor) counts as an infinite shrink
-            sh = sorted(float("inf") if k == "shrink_gap" and r["gap_closed"] else r[k] for r in good
-                        if r[k] or (k == "shrink_gap" and r["gap_closed"]))
+            sh = sorted(float("inf") if closed and r[closed] else r[k] for r in good
+                        if r[k] or (closed and r[closed]))
             summary[eff][f"min_{k}_when_named"] = (sh[0] if sh[0] != float("inf") else "closed") if sh else None
             med = sh[len(sh) // 2] if sh else None
             summary[eff][f"median_{k}_when_named"] = (float(med) if med != float("inf") else "closed") if sh else None
             summary[eff][f"cases_{k}_ge_3"] = sum(1 for x in sh if x >= 3.0)
         summary[eff]["cases_gap_closed"] = sum(1 for r in rows if r["hidden"] == eff and r["named"] == eff
                                                and r["gap_closed"])
+        summary[eff]["rms_gap_residual"] = {v: sum(1 for r in rows if r["hidden"] == eff and r["named"] == eff
+                                                   and r["rms_gap"].get("residual") == v)
+                                            for v in ("equation", "simulation")}
     result = {"confusion": confusion, "summary": summary, "cases": rows, "wall_s": time.monotonic() - t0,
               "rms_unit": workflow.SIGNAL_TEXT}
     try:
@@ -200,7 +217,8 @@ def main() -> int:
     for eff, s in summary.items():
         print(f"{eff:24s} {s['correct']}/{s['cases']} named correctly; min shrink all/acting/sim/gap "
               f"{s['min_shrink_when_named']} / {s['min_shrink_acting_when_named']} / {s['min_shrink_sim_when_named']}"
-              f" / {s['min_shrink_gap_when_named']}")
+              f" / {s['min_shrink_gap_when_named']}; RMS gap shrink >= 3x in {s['cases_shrink_rms_gap_ge_3']}/{s['correct']}"
+              f" (raw {s['cases_shrink_rms_gap_raw_ge_3']}/{s['correct']})")
     return 0
 
 

@@ -77,6 +77,13 @@ def run(args: argparse.Namespace) -> int:
               f"{it['sim_rms_before_rad']:.4g} -> {it['sim_rms_after_rad']:.4g} {au} "
               f"(delta BIC {ev['delta_bic']:.0f} + {ev.get('sim_delta_bic') or 0:.0f}, explained "
               f"{100 * ev['explained_fraction']:.0f} % / {100 * (sf or 0):.0f} %)")
+        g = it.get("rms_gap") or {}
+        if g.get("residual") and g.get("before") is not None and g.get("after") is not None:
+            gu = u if g["residual"] == "equation" else au
+            sh = ("closed (at the noise floor)" if g.get("closed")
+                  else f"shrink {g['shrink']:.2f}x" if g.get("shrink") is not None else "no gap above the floor")
+            print(f"    RMS gap ({g['residual']} error over where it acts, above its floor): "
+                  f"{g['before']:.4g} -> {g['after']:.4g} {gu}, {sh}")
     if not res.iterations:
         print("  no significant missing effect")
     return 0

@@ -147,14 +147,24 @@ def states_of(x: np.ndarray, fc: float, dt: float) -> tuple[np.ndarray, np.ndarr
 
 
 def hf_noise_std(x: np.ndarray, fc: float, fs: float) -> float:
-    """Standard deviation of a sensor's white noise from the signal's content above ``fc``.
+    """Standard deviation of a sensor's white noise from the signal's content above
+    f_lo = max(``fc``, fs/4).
 
     The motion (and the torque that moves the axis) has no content above the angle
-    cutoff; a white noise of variance s^2 puts the fraction 1 - fc/(fs/2) of it there.
-    Same unit as ``x``.
+    cutoff fc; a white noise of variance s^2 puts the fraction 1 - f_lo/(fs/2) of it
+    above f_lo.  In closed loop the measured current also carries real current up to
+    the current loop's bandwidth (the loops feed the encoder noise back): between fc
+    and ~1 kHz the torque's spectrum of a closed-loop simulator log is up to 4x its
+    white level, flat above (docs/discrepancy.md, round 5).  So the level is taken from
+    the upper half of the spectrum, above fs/4 (above any current-loop bandwidth of a
+    drive sampled at fs), where only the sensor's noise is left.  Same unit as ``x``.
     """
-    hp = np.asarray(x, dtype=float) - _lowpass(np.asarray(x, dtype=float), fc, fs)
-    frac = max(1.0 - fc / (fs / 2.0), 0.1)
+    x = np.asarray(x, dtype=float)
+    f_lo = max(fc, fs / 4.0)
+    hp = x - _lowpass(x, f_lo, fs)
+    # the part of a white noise's variance the zero-phase high-pass (1 - |H|^2) passes
+    _, h = sps.sosfreqz(sps.butter(4, f_lo / (fs / 2.0), output="sos"), worN=4096)
+    frac = max(float(np.mean((1.0 - np.abs(h) ** 2) ** 2)), 0.1)
     return float(np.sqrt(np.mean(hp ** 2) / frac))
 
 
