@@ -355,13 +355,24 @@ def local_evidence(state: State, c: Candidate, e1: np.ndarray) -> dict[str, floa
     rq = eq_region(d, bands)
     w = state.weights
     r0, r1 = _weighted(state.fit, w), _weighted(c.fit, w)
-    if rq.any():
-        q0 = float(np.sum(r0[rq] ** 2))
-        out["explained_fraction_local"] = float(1 - np.sum(r1[rq] ** 2) / q0) if q0 > 0 else np.nan
-    else:
-        out["explained_fraction_local"] = np.nan
+    out["explained_fraction_local"] = _explained(r0, r1, rq)
+    # the same over the equations the candidate acts in only (rms_gap's choice of
+    # residual; the size rule keeps the figure over every equation above)
+    acting = set(_acting(c.variant, d))
+    n = int(d.mask.sum())
+    rows_act = np.concatenate([np.full(n, e in acting) for e in state.fit.resid])
+    out["explained_fraction_local_acting"] = (_explained(r0, r1, rq & rows_act)
+                                              if len(rows_act) == len(rq) else np.nan)
     out["region_share"] = float(rq.mean())
     return out
+
+
+def _explained(r0: np.ndarray, r1: np.ndarray, rows: np.ndarray) -> float:
+    """1 - sum(r1^2) / sum(r0^2) over the selected rows (NaN when none or r0 is 0)."""
+    if not rows.any():
+        return float("nan")
+    q0 = float(np.sum(r0[rows] ** 2))
+    return float(1 - np.sum(r1[rows] ** 2) / q0) if q0 > 0 else float("nan")
 
 
 def score(e: dict[str, float]) -> float:
@@ -719,8 +730,10 @@ def rms_gap(it: dict[str, Any]) -> dict[str, Any]:
     the effect acts (its own speed band for Stribeck friction, the whole record
     otherwise) and, in the equation error, the equations it acts in.  Both residuals
     see the same mismatch; the gap is measured in the one the effect was named for:
-    the one of which it explains the larger part over its region (the size rule's
-    figure, :func:`size`; Stribeck friction: the simulation error, which sees the stops;
+    the one of which it explains the larger part over its region (in the equation error
+    over the equations it acts in, ``explained_fraction_local_acting``: a spring effect
+    acts in the motor equation only, and the rigid-body equation would dilute it;
+    Stribeck friction: the simulation error, which sees the stops;
     a stiffness nonlinearity: usually the equation error).  Reads the iteration's
     ``evidence`` and ``gap_eq_*`` / ``gap_sim_*`` fields.
 
@@ -732,7 +745,7 @@ def rms_gap(it: dict[str, Any]) -> dict[str, Any]:
         after-gap is at the floor, then ``closed`` is true), ``raw_shrink`` (the RMS
         before/after in that view).
     """
-    views = {"equation": ("explained_fraction_local", "gap_eq_before", "gap_eq_after", "noise_floor_eq_region",
+    views = {"equation": ("explained_fraction_local_acting", "gap_eq_before", "gap_eq_after", "noise_floor_eq_region",
                           "rms_region_before", "rms_region_after"),
              "simulation": ("sim_explained_fraction_local", "gap_sim_before", "gap_sim_after",
                             "noise_floor_sim_region_rad", "sim_rms_region_before_rad", "sim_rms_region_after_rad")}
