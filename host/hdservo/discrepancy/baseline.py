@@ -119,6 +119,40 @@ def _noise_scale(v: np.ndarray, sig: Signals) -> float:
 STOP_MARGIN_FC = 2.5
 
 
+def stop_margin(sig: Signals) -> int:
+    """Decimated samples dropped on each side of a stop (``STOP_MARGIN_FC / fc``, >= 3)."""
+    return max(3, int(np.ceil(STOP_MARGIN_FC / (sig.fc_Hz * sig.dt * max(sig.q, 1)))))
+
+
+def _erode(ok: np.ndarray, k: int) -> np.ndarray:
+    """``ok`` with every sample within ``k`` samples of a False one set False."""
+    m = ok.copy()
+    for s in range(1, k + 1):
+        m[s:] &= ok[:-s]
+        m[:-s] &= ok[s:]
+    return m
+
+
+def away_from_reversals(d: Design) -> np.ndarray:
+    """Used samples farther than the stop margin from a velocity reversal of either side.
+
+    A fast reversal crosses zero between two decimated samples, so :func:`make_design`
+    keeps the samples around it; there the static friction model's unknown force (the
+    side sticks for an instant) and its sign jump, spread by the parallel filter, leave a
+    spike in the equation error that no candidate of the library models and that is the
+    same before and after any effect is added.  Aligned with the used samples
+    (``d.mask``); every sample when there are no reversals.
+    """
+    sig = d.sig
+    sides = [sig.dec(sig.v_out)] + ([sig.dec(sig.w_m)] if sig.has_load else [])
+    ok = np.ones(len(d.mask), dtype=bool)
+    for v in sides:
+        flip = np.signbit(v[1:]) != np.signbit(v[:-1])
+        ok[1:] &= ~flip
+        ok[:-1] &= ~flip
+    return _erode(ok, stop_margin(sig))[d.mask]
+
+
 def make_design(sig: Signals) -> Design:
     """Choose the standstill threshold and the used samples of a log.
 
@@ -137,11 +171,7 @@ def make_design(sig: Signals) -> Design:
         eps_m = max(4.0 * _noise_scale(wm, sig), 2e-3 * float(np.max(np.abs(wm))), 1e-12)
         moving &= np.abs(sig.dec(wm)) > eps_m
     n = len(moving)
-    k = max(3, int(np.ceil(STOP_MARGIN_FC / (sig.fc_Hz * sig.dt * max(sig.q, 1)))))
-    m = moving.copy()
-    for s in range(1, k + 1):
-        m[s:] &= moving[:-s]
-        m[:-s] &= moving[s:]
+    m = _erode(moving, stop_margin(sig))
     edge = max(10, n // 100)
     m[:edge] = False
     m[-edge:] = False
