@@ -98,3 +98,22 @@ def test_substeps_bring_the_null_simulation_closer_to_the_log(null_design) -> No
     assert simerr.SUBSTEPS > 1
     assert rms[simerr.SUBSTEPS] < 0.5 * rms[1]
     assert rms[8] <= rms[simerr.SUBSTEPS]
+
+
+def test_gap_region_leaves_out_every_reversal(null_design) -> None:
+    """baseline.away_from_reversals: the used samples within the stop margin of a velocity
+    sign change of either side are out (a fast reversal has no sample below v_eps, so the
+    design mask keeps them), the others are in."""
+    d, cols, fit = null_design
+    away = bl.away_from_reversals(d)
+    assert away.dtype == bool and len(away) == int(d.mask.sum())
+    k = bl.stop_margin(d.sig)
+    idx = np.flatnonzero(d.mask)
+    near = np.zeros(len(d.mask), dtype=bool)
+    for v in (d.sig.dec(d.sig.v_out), d.sig.dec(d.sig.w_m)):
+        for i in np.flatnonzero(np.signbit(v[1:]) != np.signbit(v[:-1])):
+            near[max(0, i - k):i + k + 2] = True
+    assert np.array_equal(away, ~near[idx])
+    # the closed-loop null log reverses (slow chirp, then a triangle wave), and most of
+    # its used samples are far from any reversal
+    assert (~away).any() and away.mean() > 0.9
