@@ -80,6 +80,11 @@ class Effect:
         """
         return None
 
+    def refine_hyper(self, d: Design, v: Variant, frac: float) -> list[Variant]:
+        """Variants ``frac`` of the ranking grid's step either side of ``v``, tried when the
+        effect is added (:func:`hdservo.discrepancy.workflow.refit_named`); none by default."""
+        return []
+
     def params(self, fit: Fit, v: Variant) -> dict[str, Any]:
         out: dict[str, Any] = {k: (float(x) if isinstance(x, (int, float, np.floating)) else x)
                                for k, x in v.hyper.items()}
@@ -97,28 +102,46 @@ class Stribeck(Effect):
     coordinate = "velocity"
     signature = "excess friction at low speed decaying with abs(v) (both directions alike)"
 
+    #: Stribeck velocities tried when ranking: geometric from max(2 v_eps, 1e-3 vmax) to
+    #: 0.5 vmax (vmax: 99th percentile of the output speed).
+    n_vs = 8
+
+    def vs_grid(self, d: Design) -> np.ndarray:
+        """The Stribeck velocities of :meth:`variants`, output rad/s (m/s)."""
+        vmax = float(np.percentile(np.abs(d.sig.v_out), 99))
+        return np.geomspace(max(2 * d.v_eps, 1e-3 * vmax), 0.5 * vmax, self.n_vs)
+
     def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
+        for vs in self.vs_grid(d):
+            yield self.variant_at(d, float(vs))
+
+    def variant_at(self, d: Design, vs: float) -> Variant:
+        """The variant with Stribeck velocity ``vs`` (output rad/s), any value."""
         s = d.sig
-        v = s.v_out
-        vmax = float(np.percentile(np.abs(v), 99))
-        for vs in np.geomspace(max(2 * d.v_eps, 1e-3 * vmax), 0.5 * vmax, 8):
-            cols = []
-            if s.kind == "rigid":
-                g = np.exp(-(s.w_m / (vs * s.ratio)) ** 2) * smooth_sign(s.w_m, 0.1 * d.v_eps * s.ratio)
-                vm = vs * s.ratio
-                cols.append(Column("dFs", None, g, key=f"dFs{vs:.6g}", fric="m",
-                                   fn=lambda tm, wm, tl, wl, vm=vm: (None, np.exp(-(wm / vm) ** 2) * np.sign(wm))))
-            else:
-                N = s.ratio
-                gm = np.exp(-(s.w_m / (vs * N)) ** 2) * smooth_sign(s.w_m, 0.1 * d.v_eps * N)
-                gl = np.exp(-(s.w_l / vs) ** 2) * smooth_sign(s.w_l, 0.1 * d.v_eps)
-                def fm(tm, wm, tl, wl, vm=vs * N):
-                    g = np.exp(-(wm / vm) ** 2) * np.sign(wm)
-                    return g, g
-                cols += [Column("dFs_motor_Nm", gm, gm, key=f"dFsm{vs:.6g}", fn=fm, fric="m"),
-                         Column("dFs_load_Nm", None, gl / N, key=f"dFsl{vs:.6g}", fric="l",
-                                fn=lambda tm, wm, tl, wl, vl=vs, N=N: (None, np.exp(-(wl / vl) ** 2) * np.sign(wl) / N))]
-            yield Variant({"vs_out_rad_s": float(vs)}, cols, n_hyper=1, oe_levels=self.levels)
+        cols = []
+        if s.kind == "rigid":
+            g = np.exp(-(s.w_m / (vs * s.ratio)) ** 2) * smooth_sign(s.w_m, 0.1 * d.v_eps * s.ratio)
+            vm = vs * s.ratio
+            cols.append(Column("dFs", None, g, key=f"dFs{vs:.6g}", fric="m",
+                               fn=lambda tm, wm, tl, wl, vm=vm: (None, np.exp(-(wm / vm) ** 2) * np.sign(wm))))
+        else:
+            N = s.ratio
+            gm = np.exp(-(s.w_m / (vs * N)) ** 2) * smooth_sign(s.w_m, 0.1 * d.v_eps * N)
+            gl = np.exp(-(s.w_l / vs) ** 2) * smooth_sign(s.w_l, 0.1 * d.v_eps)
+            def fm(tm, wm, tl, wl, vm=vs * N):
+                g = np.exp(-(wm / vm) ** 2) * np.sign(wm)
+                return g, g
+            cols += [Column("dFs_motor_Nm", gm, gm, key=f"dFsm{vs:.6g}", fn=fm, fric="m"),
+                     Column("dFs_load_Nm", None, gl / N, key=f"dFsl{vs:.6g}", fric="l",
+                            fn=lambda tm, wm, tl, wl, vl=vs, N=N: (None, np.exp(-(wl / vl) ** 2) * np.sign(wl) / N))]
+        return Variant({"vs_out_rad_s": float(vs)}, cols, n_hyper=1, oe_levels=self.levels)
+
+    def refine_hyper(self, d: Design, v: Variant, frac: float) -> list[Variant]:
+        """Variants ``frac`` of :meth:`vs_grid`'s step either side of ``v``'s vs."""
+        g = self.vs_grid(d)
+        r = float(g[1] / g[0]) if len(g) > 1 else 2.0
+        vs = float(v.hyper["vs_out_rad_s"])
+        return [self.variant_at(d, vs * r ** e) for e in (-frac, frac)]
 
     #: Stribeck excess Fs - Fc tried per side by the output-error fitter, in units of that
     #: side's Coulomb friction (Fs/Fc from 1.25 to 3).

@@ -152,7 +152,8 @@ def _fc_of(fit: bl.Fit, side: str) -> float:
     return 0.0
 
 
-def oe_fit(state: State, v: fx.Variant, s: Settings | None = None) -> fx.Variant | None:
+def oe_fit(state: State, v: fx.Variant, s: Settings | None = None, refine: int = 0,
+           by_sim: bool = False) -> fx.Variant | None:
     """Fit a variant's friction coefficients on both residuals jointly (output-error fitter).
 
     Each column acts on one side (:attr:`Column.fric`); its coefficient is a level g x
@@ -166,7 +167,11 @@ def oe_fit(state: State, v: fx.Variant, s: Settings | None = None) -> fx.Variant
     0.5 and 1, then 2 or 0.25 in the better direction, the geometric midpoints either
     side of the best; when the best-scoring level is not admissible, up to
     ``OE_BISECT`` log-bisections between it and the best admissible one (the largest
-    admissible level towards it).  Returns the variant with these coefficients fixed and
+    admissible level towards it); then ``refine`` halvings of the log step around the best
+    (2^(1/4), 2^(1/8), ...: used when the effect is added, :func:`refit_named`), and with
+    ``by_sim`` the level kept is the admissible one with the lowest simulation error
+    instead of the best joint score.  Returns
+    the variant with these coefficients fixed and
     ``oe_gain`` (the joint score of the chosen levels: what ranks the variants), or None
     if no admissible level lowers the simulation error.
     """
@@ -248,6 +253,16 @@ def oe_fit(state: State, v: fx.Variant, s: Settings | None = None) -> fx.Variant
                 else:
                     hi = mid
             g_best = max(tried, key=key_)
+        def key_sim(g: float) -> tuple[bool, float]:
+            return tried[g][0], -tried[g][2]
+        kf = key_sim if by_sim else key_
+        g_best = max(tried, key=kf)
+        for r in range(refine):
+            step = 2.0 ** (0.5 ** (r + 2))
+            for g in (g_best / step, g_best * step):
+                if g not in tried:
+                    tried[g] = judge(g)
+            g_best = max(tried, key=kf)
         ok, sc, sse = tried[g_best]
         if ok:
             fixed[c.name] = g_best * fc
@@ -256,7 +271,7 @@ def oe_fit(state: State, v: fx.Variant, s: Settings | None = None) -> fx.Variant
     if not any(fixed.values()):
         return None
     return fx.Variant(dict(v.hyper), v.columns, v.tau, v.tau_key, v.n_hyper, fixed=fixed,
-                      oe_gain=float(best_score))
+                      oe_levels=v.oe_levels, oe_gain=float(best_score))
 
 
 def rank(state: State, lib: list[fx.Effect], s: Settings | None = None) -> list[Candidate]:
@@ -310,6 +325,51 @@ def rank(state: State, lib: list[fx.Effect], s: Settings | None = None) -> list[
             out.append(best)
     out.sort(key=lambda c: -c.evidence["score"])
     return out
+
+
+#: Halvings of the output-error level step when a named effect is re-fitted (2^(1/4),
+#: 2^(1/8), 2^(1/16): levels to about 4 %).
+REFIT_LEVEL_STEPS = 3
+
+
+def refit_named(state: State, c: Candidate, s: Settings | None = None) -> Candidate:
+    """The named candidate re-fitted more finely before it is added ("add it, re-fit").
+
+    Ranking searches an output-error variant's levels on a sqrt(2) grid and its
+    hyper-parameter on a coarse grid (Stribeck: vs about 2.4x apart), enough to judge
+    evidence, not to fit: a level between two grid points leaves a gap the effect's own
+    form would close.  Here the levels are refined to about 4 % (``REFIT_LEVEL_STEPS``)
+    and the hyper-parameter half and quarter grid steps either side
+    (:meth:`Effect.refine_hyper`) is tried, each variant ranked by its joint score
+    (``oe_gain``).  Evidence and naming are not changed; a variant the refinement
+    cannot fit (or one the effect finds invalid) leaves the candidate as it was.
+    """
+    if not c.variant.oe_levels:
+        return c
+    d = state.design
+
+    def fit_of(v: fx.Variant) -> tuple[fx.Variant, bl.Fit, float] | None:
+        w = oe_fit(state, v, s, refine=REFIT_LEVEL_STEPS, by_sim=True)
+        if w is None or w.oe_gain is None:
+            return None
+        try:
+            f = state.solve(w)
+        except np.linalg.LinAlgError:
+            return None
+        if not c.effect.valid(f, w):
+            return None
+        e = state.simulate(f, w)
+        return (w, f, float(np.sum(e ** 2))) if np.all(np.isfinite(e)) else None
+
+    best = fit_of(c.variant)
+    if best is None:
+        return c
+    for frac in (0.5, 0.25):                 # half grid steps, then quarter steps
+        for v in c.effect.refine_hyper(d, best[0], frac):
+            got = fit_of(v)
+            if got is not None and got[2] < best[2]:
+                best = got
+    return Candidate(c.effect, best[0], best[1], c.evidence)
 
 
 def eq_region(d: bl.Design, bands: dict[str, float] | None) -> np.ndarray:
@@ -524,6 +584,7 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
         if top is None:
             break
         runner = next((c for c in ranked if c is not top), None)
+        top = refit_named(st_, top, s)
         rms_before = st_.fit.rms
         rel_before = relative_error_pct(st_)
         sim_before = _rms(st_.sim)
