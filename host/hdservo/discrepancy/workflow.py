@@ -678,16 +678,20 @@ def _acting(v: fx.Variant, d: bl.Design) -> list[str]:
 
 
 def _eq_region_rows(d: bl.Design, v: fx.Variant, bands: dict[str, float] | None) -> np.ndarray:
-    """Rows of the equations the variant acts in, stacked, where the gap is measured: the
-    region (:func:`eq_region`) away from velocity reversals
-    (:func:`hdservo.discrepancy.baseline.away_from_reversals`: the friction's stick
-    transient there is outside the library and would be counted as a gap no effect can
-    close).  Falls back to the whole region when it has no sample away from reversals."""
+    """Rows of the equations the variant acts in, stacked, where the gap is measured.
+
+    An effect with a speed band (Stribeck friction) is measured in its band
+    (:func:`eq_region`), stops and reversals included: that is where it acts.  An effect
+    that acts over the whole record is measured away from velocity reversals
+    (:func:`hdservo.discrepancy.baseline.away_from_reversals`): the static friction's
+    stick transient there is outside the library and would be counted as a gap no such
+    effect can close (all rows if none is away from a reversal)."""
     n = int(d.mask.sum())
     rows = eq_region(d, bands)
-    away = np.concatenate([bl.away_from_reversals(d) for _ in d.equations])
-    if (rows & away).any():
-        rows = rows & away
+    if bands is None:
+        away = np.concatenate([bl.away_from_reversals(d) for _ in d.equations])
+        if away.any():
+            rows = away
     acting = set(_acting(v, d))
     return np.concatenate([rows[i * n:(i + 1) * n] for i, e in enumerate(d.equations) if e in acting])
 
