@@ -800,7 +800,8 @@ def rms_gap(it: dict[str, Any]) -> dict[str, Any]:
     removes -- the sensor noise's image (:func:`noise_images`) and, in the simulation
     error, the integration error (:func:`integration_image`) -- over the region where
     the effect acts (its own speed band for Stribeck friction, the whole record
-    otherwise) and, in the equation error, the equations it acts in.  Both residuals
+    otherwise -- in the equation error away from velocity reversals,
+    :func:`_eq_region_rows`) and, in the equation error, the equations it acts in.  Both residuals
     see the same mismatch; the gap is measured in the one the effect was named for:
     the one of which it explains the larger part over its region (in the equation error
     over the equations it acts in, ``explained_fraction_local_acting``: a spring effect
