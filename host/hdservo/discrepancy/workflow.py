@@ -687,11 +687,8 @@ def _eq_region_rows(d: bl.Design, v: fx.Variant, bands: dict[str, float] | None)
     stick transient there is outside the library and would be counted as a gap no such
     effect can close (all rows if none is away from a reversal)."""
     n = int(d.mask.sum())
-    rows = eq_region(d, bands)
-    if bands is None:
-        away = np.concatenate([bl.away_from_reversals(d) for _ in d.equations])
-        if away.any():
-            rows = away
+    away = bl.away_from_reversals(d) if bands is None else None
+    rows = np.tile(away, len(d.equations)) if away is not None and away.any() else eq_region(d, bands)
     acting = set(_acting(v, d))
     return np.concatenate([rows[i * n:(i + 1) * n] for i, e in enumerate(d.equations) if e in acting])
 
