@@ -131,7 +131,8 @@ def _int(v: object, where: str, what: str) -> int:
     return v
 
 
-def _parse_var(e: dict, meta: dict, where: str, index: int, sub: int, name: str) -> Var:
+def _parse_var(e: dict, meta: dict, where: str, index: int, sub: int, name: str,
+               params: dict[str, tuple[int, "gen_params.Param"]] | None = None) -> Var:
     typ = e.get("type")
     if typ not in TYPES:
         raise OdError(f"{where}: type must be one of {sorted(TYPES)}")
@@ -148,8 +149,22 @@ def _parse_var(e: dict, meta: dict, where: str, index: int, sub: int, name: str)
         except ValueError:
             raise OdError(f"{where}: kind domain:N needs an integer N") from None
         kind = "domain"
+    elif kind.startswith("param:"):
+        # a standard object that *is* a drive parameter (e.g. 0x6081 = traj_vmax): one
+        # value, reached under two indexes; limits and default are the parameter's
+        pname = kind.split(":", 1)[1]
+        if params is None or pname not in params:
+            raise OdError(f"{where}: kind param:NAME names no parameter of params.toml ({pname!r})")
+        arg, prm = params[pname]
+        tmin_, tmax_ = TYPES[typ][3], TYPES[typ][4]
+        if "default" in e or "min" in e or "max" in e:
+            raise OdError(f"{where}: kind param:NAME takes default/min/max from the parameter; remove them")
+        if not (tmin_ <= prm.raw_min and prm.raw_max <= tmax_):
+            raise OdError(f"{where}: parameter {pname} range [{prm.raw_min}, {prm.raw_max}] does not fit type {typ}")
+        e = {**e, "default": prm.raw_default, "min": prm.raw_min, "max": prm.raw_max}
+        kind = "param"
     elif kind not in ("var", "special"):
-        raise OdError(f"{where}: kind must be var, special or domain:N")
+        raise OdError(f"{where}: kind must be var, special, domain:N or param:NAME")
     if typ == "domain" and kind != "domain":
         raise OdError(f"{where}: type domain needs kind domain:N")
     pdo = e.get("pdo", "")
@@ -248,6 +263,7 @@ def load(params_path: Path, canopen_path: Path) -> Od:
     for k in ("od_version", "vendor_id", "product_code", "revision", "device_name", "n_pdo", "n_map"):
         if k not in meta:
             raise OdError(f"{fname}: [meta] misses '{k}'")
+    pmap = {p.name: (i, p) for i, p in enumerate(params)}
     objects: list[Obj] = []
     for n, e in enumerate(data.get("object", []), 1):
         name = e.get("name", "?")
@@ -260,7 +276,7 @@ def load(params_path: Path, canopen_path: Path) -> Od:
         objtype = e.get("objtype", "var")
         desc = str(e.get("desc", ""))
         if objtype == "var":
-            v = _parse_var(e, meta, where, index, 0, name)
+            v = _parse_var(e, meta, where, index, 0, name, pmap)
             v.desc = desc
             objects.append(Obj(index, name, "var", desc, [v]))
             continue
@@ -276,7 +292,7 @@ def load(params_path: Path, canopen_path: Path) -> Od:
                 raise OdError(f"{sw}: name must be lower_snake")
             for c in range(count):
                 nm = sname if count == 1 else f"{sname}_{c + 1}"
-                subs.append(_parse_var(s, meta, sw, index, sub + c, nm))
+                subs.append(_parse_var(s, meta, sw, index, sub + c, nm, pmap))
         if not subs:
             raise OdError(f"{where}: a {objtype} needs [[object.sub]] entries")
         if subs[0].sub != 0:

@@ -110,8 +110,8 @@ typedef struct {
     int32_t  target_velocity; /* 2^-32 turn/s */
     int32_t  velocity_offset; /* 2^-32 turn/s */
     int32_t  target_torque;   /* Q15.16 N.m, output (from 1/1000 rated, + offset) */
-    uint32_t profile_velocity;     /* 2^-32 turn/s */
-    uint32_t profile_acceleration; /* 2^-24 turn/s^2 */
+    /* the PP profile (0x6081/0x6083) is not here: those objects are the drive
+     * parameters traj_vmax/traj_amax themselves (OD kind param) */
     uint32_t quick_stop_decel;     /* 2^-24 turn/s^2 */
 } hd_co_setpoint_t;
 

@@ -355,8 +355,6 @@ void hd_co402_tick(hd_co_t *co)
         sp.velocity_offset = co->od.velocity_offset;
         sp.target_torque = hd_add_sat(torque_permille_to_q16(co->od.target_torque, co->od.motor_rated_torque),
                                       torque_permille_to_q16(co->od.torque_offset, co->od.motor_rated_torque));
-        sp.profile_velocity = co->od.profile_velocity;
-        sp.profile_acceleration = co->od.profile_acceleration;
         sp.quick_stop_decel = co->od.quick_stop_deceleration;
         if (co->app.drive_setpoint != NULL) {
             co->app.drive_setpoint(co->app.ctx, &sp);

@@ -400,8 +400,8 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x607Du, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(software_position_limit_min_position_limit), INT64_C(-2147483648), INT64_C(2147483647), INT64_C(-2147483648), NULL},  /* min_position_limit */
     {0x607Du, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(software_position_limit_max_position_limit), INT64_C(-2147483648), INT64_C(2147483647), INT64_C(2147483647), NULL},  /* max_position_limit */
     {0x6080u, 0u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(max_motor_speed), INT64_C(0), INT64_C(4294967295), INT64_C(6000), NULL},  /* max_motor_speed */
-    {0x6081u, 0u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(profile_velocity), INT64_C(0), INT64_C(2147483647), INT64_C(715827883), NULL},  /* profile_velocity */
-    {0x6083u, 0u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(profile_acceleration), INT64_C(0), INT64_C(2147483647), INT64_C(4660338), NULL},  /* profile_acceleration */
+    {0x6081u, 0u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_PARAM, 41u, INT64_C(43), INT64_C(2104533975), INT64_C(715827897), NULL},  /* profile_velocity */
+    {0x6083u, 0u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_PARAM, 42u, INT64_C(17), INT64_C(1677721600), INT64_C(4660338), NULL},  /* profile_acceleration */
     {0x6085u, 0u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(quick_stop_deceleration), INT64_C(1), INT64_C(2147483647), INT64_C(9320676), NULL},  /* quick_stop_deceleration */
     {0x60B1u, 0u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_RPDO), HD_CO_K_VAR, OFF(velocity_offset), INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* velocity_offset */
     {0x60B2u, 0u, 0x03u, HD_CO_A_RW, (uint8_t)(HD_CO_F_RPDO), HD_CO_K_VAR, OFF(torque_offset), INT64_C(-32768), INT64_C(32767), INT64_C(0), NULL},  /* torque_offset */

@@ -96,8 +96,6 @@ typedef struct {
     int32_t software_position_limit_min_position_limit;  /* 0x607D:1 */
     int32_t software_position_limit_max_position_limit;  /* 0x607D:2 */
     uint32_t max_motor_speed;  /* 0x6080:0 */
-    uint32_t profile_velocity;  /* 0x6081:0 */
-    uint32_t profile_acceleration;  /* 0x6083:0 */
     uint32_t quick_stop_deceleration;  /* 0x6085:0 */
     int32_t velocity_offset;  /* 0x60B1:0 */
     int16_t torque_offset;  /* 0x60B2:0 */

@@ -398,6 +398,58 @@ static void test_csv_halt(void **st)
     assert_int_equal(app.vel_cmd, v);                     /* CSV: the host's set-point again */
 }
 
+/* 0x6081 / 0x6083 are traj_vmax / traj_amax: one value under two indexes, the parameter's
+ * limits (a bad write is refused and the old value stays), and a PP move runs at them */
+static void test_pp_profile_objects(void **st)
+{
+    const int32_t target = 1 << 22;                       /* 0.25 turn, 2^-24 turn */
+    const int64_t vprof = 107374182;                      /* 0.025 turn/s (9 deg/s), 2^-32 turn/s */
+    const int64_t aprof = 838861;                         /* 0.05 turn/s^2, 2^-24 turn/s^2 */
+    int64_t v, old;
+    int64_t vpk = 0;
+    uint32_t i;
+    (void)st;
+    /* defaults: the parameters' */
+    assert_int_equal(hd_co_get_i64(&co, 0x6081u, 0u, &v), 0u);
+    assert_int_equal(v, hd_app_param_get(&app, HD_P_TRAJ_VMAX));
+    assert_int_equal(hd_co_get_i64(&co, 0x6083u, 0u, &v), 0u);
+    assert_int_equal(v, hd_app_param_get(&app, HD_P_TRAJ_AMAX));
+    /* written under the CiA 402 index, read back under the parameter's (0x2400) */
+    assert_int_equal(hd_co_set_i64(&co, 0x6081u, 0u, vprof), 0u);
+    assert_int_equal(hd_co_set_i64(&co, 0x6083u, 0u, aprof), 0u);
+    assert_int_equal(hd_co_get_i64(&co, 0x2400u, 1u, &v), 0u);
+    assert_int_equal(v, vprof);
+    assert_int_equal(hd_co_get_i64(&co, 0x2400u, 2u, &v), 0u);
+    assert_int_equal(v, aprof);
+    assert_int_equal(app.traj_cfg.vmax, vprof);
+    assert_int_equal(app.traj_cfg.amax, aprof);
+    /* out of the parameter's range: refused, old value kept */
+    old = vprof;
+    assert_int_equal(hd_co_set_i64(&co, 0x6081u, 0u, 0), HD_CO_AB_VALUE_LOW);
+    assert_int_equal(hd_co_set_i64(&co, 0x6081u, 0u, 0x7FFFFFFF), HD_CO_AB_VALUE_HIGH);
+    assert_int_equal(hd_co_get_i64(&co, 0x6081u, 0u, &v), 0u);
+    assert_int_equal(v, old);
+    /* a PP move cruises at the profile velocity, reached after vprof / aprof s */
+    enable_402(HD_CO402_MODE_PP);
+    for (i = 0u; i < 8u; i++) {
+        period();
+    }
+    pp_setpoint(target, 0u);
+    for (i = 0u; i < 20000u; i++) {                       /* 2 s: 0.5 s ramp, then cruise */
+        period();
+        /* vel is the generator's 2^-48 state rounded to 2^-32 turn/s: 1 LSB of rounding */
+        assert_true(app.traj.vel <= vprof + 1);
+        if (app.traj.vel > vpk) {
+            vpk = app.traj.vel;
+        }
+        if (i == 2000u) {                                 /* 0.2 s: still ramping at aprof */
+            assert_true(app.traj.vel < vprof / 2);
+        }
+    }
+    assert_true(vpk >= vprof - 1 && vpk <= vprof + 1);
+    assert_true((co.od.statusword & SW_TR) == 0u);        /* 0.05 turn of 0.25: still moving */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -405,6 +457,7 @@ int main(void)
         cmocka_unit_test_setup(test_group_and_interlock, setup),
         cmocka_unit_test_setup(test_pp_halt, setup),
         cmocka_unit_test_setup(test_csv_halt, setup),
+        cmocka_unit_test_setup(test_pp_profile_objects, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

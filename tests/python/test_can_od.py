@@ -82,3 +82,35 @@ def test_serve_bad_options() -> None:
         r = subprocess.run([str(SIM), "serve", *args], capture_output=True, text=True, timeout=20)
         assert r.returncode != 0, args
         assert len(r.stderr.strip().splitlines()) == 1, (args, r.stderr)
+
+
+@pytest.mark.parametrize("change, words", [
+    ('kind = "param:traj_vmax"', 'kind = "param:no_such_param"'),
+    ('kind = "param:traj_vmax"', 'kind = "param:traj_vmax"\ndefault = 5'),
+    ('name = "profile_velocity"\ntype = "u32"', 'name = "profile_velocity"\ntype = "u8"'),
+])
+def test_generator_param_alias_bad_input(tmp_path: Path, change: str, words: str) -> None:
+    """An object that is a drive parameter (kind param:NAME) must name one, take its limits
+    and default from it, and have a type that holds its range: else one error line."""
+    text = (ROOT / "firmware" / "params" / "canopen.toml").read_text()
+    assert change in text
+    bad = tmp_path / "canopen.toml"
+    bad.write_text(text.replace(change, words, 1))
+    out = tmp_path / "out"
+    r = subprocess.run([sys.executable, str(ROOT / "tools" / "gen_od.py"), "--canopen", str(bad),
+                        "--out-dir", str(out)], capture_output=True, text=True)
+    assert r.returncode == 1
+    assert len(r.stderr.strip().splitlines()) == 1
+    assert "profile_velocity" in r.stderr
+    assert not out.exists()
+
+
+def test_profile_objects_are_the_trajectory_parameters() -> None:
+    """0x6081/0x6083 carry traj_vmax/traj_amax's default and limits (EDS and constants)."""
+    import canopen
+    from hdservo import params_gen
+    od = canopen.import_od(str(ROOT / "host" / "hdservo" / "data" / "hdservo.eds"))
+    for index, name in ((0x6081, "traj_vmax"), (0x6083, "traj_amax")):
+        p = next(q for q in params_gen.PARAMS if q.name == name)
+        v = od[index]
+        assert (v.default, v.min, v.max) == (p.raw_default, p.raw_min, p.raw_max)
