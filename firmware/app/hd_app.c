@@ -359,11 +359,14 @@ int32_t hd_app_move_to(hd_app_t *a, hd_angle_t target)
     return 0;
 }
 
-void hd_app_halt(hd_app_t *a)
+void hd_app_halt(hd_app_t *a, hd_acc_t amax)
 {
     if ((a->mode == HD_MODE_PTP || a->mode == HD_MODE_RATE) && a->started &&
         a->traj.mode != HD_TRAJ_HOLD) {
-        hd_traj_stop(&a->traj, &a->traj_cfg);
+        /* the ramp's step is taken from the cfg once, at the stop (hd_traj_rate) */
+        hd_traj_cfg_t c = a->traj_cfg;
+        c.amax = (amax > 0) ? amax : a->traj_cfg.amax;
+        hd_traj_stop(&a->traj, &c);
     }
 }
 

@@ -240,11 +240,12 @@ void hd_app_set_position(hd_app_t *a, hd_angle_t p);
 /** PTP target (used on entry to PTP, or immediately if already in PTP and at rest). 0 ok, -1 moving. */
 int32_t hd_app_move_to(hd_app_t *a, hd_angle_t target);
 /** Halt (CiA 402 controlword bit 8 in profile position): in PTP / RATE the running
- *  trajectory ramps its velocity to 0 at traj amax (hd_traj_stop) and ends in HOLD at
+ *  trajectory ramps its velocity to 0 at amax (2^-24 turn/s^2, > 0: the caller's
+ *  choice, traj amax or a quick-stop deceleration; hd_traj_stop) and ends in HOLD at
  *  the position where it came to rest; a pending final-approach leg is dropped.  The
  *  axis stays there until the next hd_app_move_to().  No effect in the other modes or
  *  when the trajectory is already at rest. */
-void hd_app_halt(hd_app_t *a);
+void hd_app_halt(hd_app_t *a, hd_acc_t amax);
 /** RATE: constant output rate, 2^-32 turn/s (takes effect at once in RATE mode). */
 void hd_app_set_rate(hd_app_t *a, hd_vel_out_t v);
 /** SINE: amplitude 2^-32 turn, frequency Q16.16 Hz (used on entry to SINE). */

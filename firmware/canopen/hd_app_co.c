@@ -505,16 +505,35 @@ static hd_vel_out_t halt_ramp(hd_vel_out_t v, hd_acc_t amax)
     return 0;
 }
 
+/* The deceleration a stop option selects (0x605A quick stop, 0x605D halt): 2 the
+ * quick-stop deceleration 0x6085, otherwise the profile deceleration traj_amax (= 0x6083). */
+static hd_acc_t stop_decel(const hd_app_co_t *ac, int16_t option, uint32_t qs_decel)
+{
+    if (option == 2 && qs_decel > 0u) {
+        return (hd_acc_t)hd_sat32((int64_t)qs_decel);
+    }
+    return ac->app->traj_cfg.amax;
+}
+
 static void a_setpoint(void *c, const hd_co_setpoint_t *sp)
 {
     hd_app_co_t *ac = c;
     hd_angle_t pos;
+    const hd_acc_t halt_decel = stop_decel(ac, sp->halt_option, sp->quick_stop_decel);
     if (sp->quick_stop != 0u) {
+        /* QUICK STOP ACTIVE: velocity control, the command ramping to 0 at the 0x605A
+         * deceleration from where the velocity loop was (its reference: bumpless), or from
+         * the measured output speed after torque control; the state machine goes on to
+         * SWITCH ON DISABLED at standstill */
         if (ac->mode != HD_APP_CO_MODE_QSTOP) {
+            const hd_telemetry_t *t = hd_app_telemetry(ac->app);
+            const hd_vel_out_t v0 = (ac->mode == HD_CO402_MODE_CST) ? t->vel_out : t->vel_ref;
             (void)hd_app_set_mode(ac->app, HD_MODE_VELOCITY);
             ac->mode = HD_APP_CO_MODE_QSTOP;
+            hd_app_set_velocity(ac->app, v0);
         }
-        hd_app_set_velocity(ac->app, 0);
+        hd_app_set_velocity(ac->app, halt_ramp(ac->app->vel_cmd,
+                                               stop_decel(ac, sp->quick_stop_option, sp->quick_stop_decel)));
         ac->halt = sp->halt;
         return;
     }
@@ -522,12 +541,12 @@ static void a_setpoint(void *c, const hd_co_setpoint_t *sp)
     switch (sp->mode) {
     case HD_CO402_MODE_PP:
         /* halt (controlword bit 8): its rising edge ramps the running move to rest at the
-         * profile acceleration (hd_app_halt); while it is set, new set-points are
+         * 0x605D deceleration (hd_app_halt); while it is set, new set-points are
          * acknowledged but not executed; after it is cleared the axis stays at rest until
          * the next new set-point (docs/can.md, halt) */
         if (sp->halt != 0u) {
             if (ac->halt == 0u) {
-                hd_app_halt(ac->app);
+                hd_app_halt(ac->app, halt_decel);
             }
         } else if (sp->pp_new != 0u) {
             (void)hd_app_move_to(ac->app, pos);
@@ -535,8 +554,8 @@ static void a_setpoint(void *c, const hd_co_setpoint_t *sp)
         break;
     case HD_CO402_MODE_CSV:
         if (sp->halt != 0u) {
-            /* halt: the velocity command ramps to 0 at the profile acceleration (traj amax) */
-            hd_app_set_velocity(ac->app, halt_ramp(ac->app->vel_cmd, ac->app->traj_cfg.amax));
+            /* halt: the velocity command ramps to 0 at the 0x605D deceleration */
+            hd_app_set_velocity(ac->app, halt_ramp(ac->app->vel_cmd, halt_decel));
         } else {
             hd_app_set_velocity(ac->app, sp->target_velocity);
         }
@@ -595,7 +614,9 @@ static void a_actual(void *c, hd_co_actual_t *a)
     a->fault_code = (uint16_t)t->fault;
     a->fault_emcy = (t->fault != 0) ? hd_app_co_emcy_for_fault(t->fault) : 0u;
     a->power_enabled = (t->mode != HD_MODE_OFF) ? 1u : 0u;
-    a->standstill = (v < 4295 * 100) ? 1u : 0u;      /* 0.1 mturn/s ~ 0.036 deg/s */
+    /* 0.1 mturn/s ~ 0.036 deg/s; during a quick stop also the ramp at its end (an axis
+     * that lags its ramp, or a standstill before the ramp is down, does not end it) */
+    a->standstill = (v < 4295 * 100 && (ac->mode != HD_APP_CO_MODE_QSTOP || ac->app->vel_cmd == 0)) ? 1u : 0u;
     /* target reached: reference and output within 2^-16 turn; in PP also the profile
      * generator at rest (move finished, or halted: CiA 402 bit 10 with halt = 1) */
     a->target_reached = (e < ((int64_t)1 << 16) &&

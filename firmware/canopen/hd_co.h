@@ -112,7 +112,9 @@ typedef struct {
     int32_t  target_torque;   /* Q15.16 N.m, output (from 1/1000 rated, + offset) */
     /* the PP profile (0x6081/0x6083) is not here: those objects are the drive
      * parameters traj_vmax/traj_amax themselves (OD kind param) */
-    uint32_t quick_stop_decel;     /* 2^-24 turn/s^2 */
+    uint32_t quick_stop_decel;     /* 2^-24 turn/s^2 (0x6085) */
+    int16_t  quick_stop_option;    /* 0x605A: 1 stop at the profile deceleration, 2 at quick_stop_decel */
+    int16_t  halt_option;          /* 0x605D: 1 stop at the profile deceleration, 2 at quick_stop_decel */
 } hd_co_setpoint_t;
 
 /** What the app reports every period. */

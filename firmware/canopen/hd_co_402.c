@@ -356,6 +356,8 @@ void hd_co402_tick(hd_co_t *co)
         sp.target_torque = hd_add_sat(torque_permille_to_q16(co->od.target_torque, co->od.motor_rated_torque),
                                       torque_permille_to_q16(co->od.torque_offset, co->od.motor_rated_torque));
         sp.quick_stop_decel = co->od.quick_stop_deceleration;
+        sp.quick_stop_option = co->od.quick_stop_option_code;
+        sp.halt_option = co->od.halt_option_code;
         if (co->app.drive_setpoint != NULL) {
             co->app.drive_setpoint(co->app.ctx, &sp);
         }

@@ -385,6 +385,7 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x6040u, 0u, 0x06u, HD_CO_A_RW, (uint8_t)(HD_CO_F_RPDO), HD_CO_K_VAR, OFF(controlword), INT64_C(0), INT64_C(65535), INT64_C(0), NULL},  /* controlword */
     {0x6041u, 0u, 0x06u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO|HD_CO_F_COS), HD_CO_K_VAR, OFF(statusword), INT64_C(0), INT64_C(65535), INT64_C(0), NULL},  /* statusword */
     {0x605Au, 0u, 0x03u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_VAR, OFF(quick_stop_option_code), INT64_C(0), INT64_C(2), INT64_C(2), NULL},  /* quick_stop_option_code */
+    {0x605Du, 0u, 0x03u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_VAR, OFF(halt_option_code), INT64_C(1), INT64_C(2), INT64_C(1), NULL},  /* halt_option_code */
     {0x6060u, 0u, 0x02u, HD_CO_A_RW, (uint8_t)(HD_CO_F_RPDO), HD_CO_K_VAR, OFF(modes_of_operation), INT64_C(-128), INT64_C(127), INT64_C(0), NULL},  /* modes_of_operation */
     {0x6061u, 0u, 0x02u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO|HD_CO_F_COS), HD_CO_K_VAR, OFF(modes_of_operation_display), INT64_C(-128), INT64_C(127), INT64_C(0), NULL},  /* modes_of_operation_display */
     {0x6064u, 0u, 0x04u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO), HD_CO_K_VAR, OFF(position_actual_value), INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* position_actual_value */

@@ -12,7 +12,7 @@
 
 #define HD_CO_OD_VERSION 1u
 #define HD_CO_OD_PARAM_HASH 0x2600222Du
-#define HD_CO_OD_COUNT 403u
+#define HD_CO_OD_COUNT 404u
 #define HD_CO_N_PDO 4u
 #define HD_CO_N_MAP 8u
 #define HD_CO_VENDOR_ID 0x00000EDAu
@@ -82,6 +82,7 @@ typedef struct {
     uint16_t controlword;  /* 0x6040:0 */
     uint16_t statusword;  /* 0x6041:0 */
     int16_t quick_stop_option_code;  /* 0x605A:0 */
+    int16_t halt_option_code;  /* 0x605D:0 */
     int8_t modes_of_operation;  /* 0x6060:0 */
     int8_t modes_of_operation_display;  /* 0x6061:0 */
     int32_t position_actual_value;  /* 0x6064:0 */

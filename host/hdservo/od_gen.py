@@ -408,6 +408,7 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x6040, 0, 'controlword', 'u16', 'rw', 'r', '', 1.0),
     OdEntry(0x6041, 0, 'statusword', 'u16', 'ro', 't', '', 1.0),
     OdEntry(0x605A, 0, 'quick_stop_option_code', 'i16', 'rw', '', '', 1.0),
+    OdEntry(0x605D, 0, 'halt_option_code', 'i16', 'rw', '', '', 1.0),
     OdEntry(0x6060, 0, 'modes_of_operation', 'i8', 'rw', 'r', '', 1.0),
     OdEntry(0x6061, 0, 'modes_of_operation_display', 'i8', 'ro', 't', '', 1.0),
     OdEntry(0x6064, 0, 'position_actual_value', 'i32', 'ro', 't', '2^-24 turn', 1.0),

@@ -450,6 +450,73 @@ static void test_pp_profile_objects(void **st)
     assert_true((co.od.statusword & SW_TR) == 0u);        /* 0.05 turn of 0.25: still moving */
 }
 
+/* 0x605D halt option 2 and 0x605A quick stop: the stops ramp at the quick-stop deceleration
+ * 0x6085 (option 1: the profile deceleration traj_amax); 0x605D 3/4 are refused */
+static void test_stop_options(void **st)
+{
+    const int32_t v = 429496730;                          /* 0.1 turn/s, 2^-32 turn/s */
+    int64_t qs = 0, opt = 0;
+    int32_t dq, da, prev;
+    uint32_t i, n_ramp = 0u;
+    (void)st;
+    assert_int_equal(hd_co_get_i64(&co, 0x605Du, 0u, &opt), 0u);
+    assert_int_equal(opt, 1);                             /* default: profile deceleration */
+    assert_int_equal(hd_co_set_i64(&co, 0x605Du, 0u, 3), HD_CO_AB_VALUE_HIGH);
+    assert_int_equal(hd_co_set_i64(&co, 0x605Du, 0u, 0), HD_CO_AB_VALUE_LOW);
+    assert_int_equal(hd_co_get_i64(&co, 0x605Du, 0u, &opt), 0u);
+    assert_int_equal(opt, 1);                             /* kept */
+    assert_int_equal(hd_co_get_i64(&co, 0x6085u, 0u, &qs), 0u);
+    dq = (int32_t)((qs * 256 + HD_LOOP_HZ / 2) / HD_LOOP_HZ);
+    da = (int32_t)(((int64_t)app.traj_cfg.amax * 256 + HD_LOOP_HZ / 2) / HD_LOOP_HZ);
+    assert_true(dq > da);                                 /* the default 0x6085 is the steeper one */
+
+    /* CSV halt with option 2: ramps at 0x6085, i.e. faster than the profile would */
+    assert_int_equal(hd_co_set_i64(&co, 0x605Du, 0u, 2), 0u);
+    enable_402(HD_CO402_MODE_CSV);
+    co.od.target_velocity = v;
+    period();
+    assert_int_equal(app.vel_cmd, v);
+    cw_write(CW_ENABLE | CW_HALT);
+    prev = v;
+    for (i = 0u; i < 5000u; i++) {
+        period();
+        assert_true(app.vel_cmd >= 0);
+        assert_true(prev - app.vel_cmd <= dq);
+        if (prev - app.vel_cmd > da) {
+            n_ramp++;                                     /* steps steeper than traj_amax allows */
+        }
+        prev = app.vel_cmd;
+    }
+    assert_int_equal(app.vel_cmd, 0);
+    assert_true(n_ramp > 10u);
+    assert_true((uint32_t)((v + dq - 1) / dq) <= 5000u);
+
+    /* quick stop (controlword bit 2 = 0) from CSV at v: the command ramps from the measured
+     * speed at 0x6085 (0x605A default 2), never reverses */
+    cw_write(CW_ENABLE);
+    for (i = 0u; i < 2000u; i++) {
+        period();
+    }
+    assert_int_equal(app.vel_cmd, v);
+    cw_write(0x000Bu);                                    /* enable operation, quick stop bit clear */
+    period();
+    assert_int_equal(co.p402.state, HD_CO402_QUICK_STOP);
+    prev = app.vel_cmd;
+    assert_true(prev > 0);                                /* a ramp, not a step to 0 */
+    for (i = 0u; i < 5000u && app.vel_cmd > 0; i++) {
+        period();
+        assert_true(app.vel_cmd >= 0);
+        assert_true(prev - app.vel_cmd <= dq);
+        prev = app.vel_cmd;
+    }
+    assert_int_equal(app.vel_cmd, 0);
+    assert_true(i + 1u >= (uint32_t)(v / dq));             /* as long as the ramp takes */
+    for (i = 0u; i < 20u; i++) {
+        period();
+    }
+    assert_int_equal(co.p402.state, HD_CO402_SO_DISABLED); /* then switch-on disabled */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -458,6 +525,7 @@ int main(void)
         cmocka_unit_test_setup(test_pp_halt, setup),
         cmocka_unit_test_setup(test_csv_halt, setup),
         cmocka_unit_test_setup(test_pp_profile_objects, setup),
+        cmocka_unit_test_setup(test_stop_options, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
