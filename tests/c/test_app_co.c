@@ -517,6 +517,50 @@ static void test_stop_options(void **st)
     assert_int_equal(co.p402.state, HD_CO402_SO_DISABLED); /* then switch-on disabled */
 }
 
+/* PP halt with 0x605D = 2: the move ramps to rest at 0x6085, stopping in v0^2 / (2 qs) */
+static void test_pp_halt_quick_stop_decel(void **st)
+{
+    const int32_t target = 1 << 22;                       /* 0.25 turn, 2^-24 turn */
+    int64_t qs = 0, v0, p0, prev, stop, lim;
+    int32_t dq, da, vprev;
+    uint32_t i, n_steep = 0u;
+    (void)st;
+    assert_int_equal(hd_co_set_i64(&co, 0x605Du, 0u, 2), 0u);
+    assert_int_equal(hd_co_get_i64(&co, 0x6085u, 0u, &qs), 0u);
+    dq = (int32_t)((qs * 256 + HD_LOOP_HZ / 2) / HD_LOOP_HZ);
+    da = (int32_t)(((int64_t)app.traj_cfg.amax * 256 + HD_LOOP_HZ / 2) / HD_LOOP_HZ);
+    enable_402(HD_CO402_MODE_PP);
+    for (i = 0u; i < 8u; i++) {
+        period();
+    }
+    pp_setpoint(target, 0u);
+    for (i = 0u; i < 10000u; i++) {                       /* 1 s: cruising at traj_vmax */
+        period();
+    }
+    v0 = app.traj.vel;
+    p0 = app.tel.pos_ref;
+    prev = p0;
+    assert_true(v0 > app.traj_cfg.vmax / 2);
+    cw_write(CW_ENABLE | CW_HALT);
+    vprev = (int32_t)v0;
+    for (i = 0u; i < 20000u; i++) {
+        period();
+        assert_true(app.tel.pos_ref >= prev);
+        assert_true((int64_t)vprev - app.traj.vel <= dq);
+        if ((int64_t)vprev - app.traj.vel > da) {
+            n_steep++;
+        }
+        vprev = app.traj.vel;
+        prev = app.tel.pos_ref;
+    }
+    assert_int_equal(app.traj.vel, 0);
+    assert_true(n_steep > 100u);                          /* at 0x6085, not at traj_amax */
+    stop = app.tel.pos_ref - p0;
+    lim = v0 * v0 / (2 * qs) / 256;
+    assert_true(stop <= lim + 2 * v0 / HD_LOOP_HZ);
+    assert_true(stop >= lim - 2 * v0 / HD_LOOP_HZ);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -526,6 +570,7 @@ int main(void)
         cmocka_unit_test_setup(test_csv_halt, setup),
         cmocka_unit_test_setup(test_pp_profile_objects, setup),
         cmocka_unit_test_setup(test_stop_options, setup),
+        cmocka_unit_test_setup(test_pp_halt_quick_stop_decel, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
