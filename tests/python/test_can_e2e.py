@@ -194,6 +194,63 @@ def _sync_until(d: Drive, pred, n_max: int = 200) -> None:
     assert pred()
 
 
+def test_pp_profile_velocity_and_quick_stop_ramp_on_the_simulated_axis() -> None:
+    """Over CAN on the simulated axis (10 periods per SYNC): a PP move cruises at the
+    0x6081 the master wrote (= traj_vmax, read back at 0x2400:1), and a quick stop
+    (controlword bit 2 = 0) ramps the axis to rest at 0x6085 -- QUICK STOP ACTIVE, then
+    SWITCH ON DISABLED -- travelling v^2 / (2 qs) plus the velocity loop's lag, not the
+    step-to-zero of before."""
+    with _drive("--pacing", "sync", "--sync-periods", "10") as (_, d):
+        net = d.network
+
+        def syncs(n: int) -> None:
+            for _ in range(n):
+                net.sync.transmit()
+            t = int(d.read(0x5F00, 1))
+            while True:
+                time.sleep(0.05)
+                t2 = int(d.read(0x5F00, 1))
+                if t2 == t:
+                    return
+                t = t2
+
+        def ref() -> int:                                         # set-point phase, 2^-32 turn
+            return int(d.read(0x5F00, 8))
+
+        v = 30.0 / 360.0                                          # turn/s (30 deg/s)
+        d.write(0x6081, 0, round(v * 2 ** 32))
+        assert int(d.read(0x2400, 1)) == round(v * 2 ** 32)      # the same parameter
+        qs = int(d.read(0x6085)) / 2 ** 24                        # turn/s^2 (default 200 deg/s^2)
+        d.node.nmt.state = "OPERATIONAL"
+        d.write(0x6060, 0, 1)                                     # PP
+        _sync_until(d, lambda: d.read(0x6041) & 0x4F == 0x40)
+        for cw in (0x06, 0x07, 0x0F):
+            d.write(0x6040, 0, cw)
+            syncs(1)
+        _sync_until(d, lambda: d.read(0x6041) & 0x6F == 0x27)
+        syncs(20)
+        d.set_position(math.pi)                                   # 180 deg: 6 s at 30 deg/s
+        for cw in (0x0F, 0x1F, 0x0F):
+            d.write(0x6040, 0, cw)
+            syncs(1)
+        syncs(500)                                                # 0.5 s: past the ramp (0.3 s)
+        r0 = ref()
+        syncs(1000)                                               # 1 s of cruise
+        cruise = ((ref() - r0) % 2 ** 32) / 2 ** 32               # turn in 1 s
+        # the plan spreads its sub-period remainder over the move: within 1e-4 of v
+        assert abs(cruise - v) < 1e-4 * v, cruise
+        x0 = int(d.read(0x6064))                                  # 2^-24 turn
+        d.write(0x6040, 0, 0x0B)                                  # quick stop
+        syncs(1)
+        assert d.read(0x6041) & 0x6F == 0x07                      # QUICK STOP ACTIVE
+        _sync_until(d, lambda: d.read(0x6041) & 0x4F == 0x40, 400)   # then SWITCH ON DISABLED
+        syncs(50)
+        travel = (int(d.read(0x6064)) - x0) / 2 ** 24             # turn
+        ramp = v * v / (2 * qs)                                   # 2.25 deg
+        assert 0.8 * ramp <= travel <= ramp + v * 0.02, (travel, ramp)   # + 20 ms of lag
+        d.write(0x6040, 0, 0x00)
+
+
 def test_capture_upload_matches_stream_under_sync_pacing() -> None:
     with _drive("--pacing", "sync", "--sync-periods", "10") as (srv, d):
         net = d.network
