@@ -294,11 +294,42 @@ static void pp_setpoint(int32_t target, uint16_t extra)
     cw_write((uint16_t)(CW_ENABLE | extra));
 }
 
+/* velocity step per period of a ramp at acc (2^-24 turn/s^2), 2^-32 turn/s, rounded */
+static int32_t dv_of(int64_t acc)
+{
+    return (int32_t)((acc * 256 + HD_LOOP_HZ / 2) / HD_LOOP_HZ);
+}
+
+/* CSV at v, then halt for n periods: the command never goes negative and never drops by
+ * more than dmax per period, and is 0 at the end; returns the periods it dropped by more
+ * than dsteep */
+static uint32_t csv_halt_ramp(int32_t v, int32_t dmax, int32_t dsteep, uint32_t n)
+{
+    int32_t prev = v;
+    uint32_t i, n_steep = 0u;
+    enable_402(HD_CO402_MODE_CSV);
+    co.od.target_velocity = v;
+    period();
+    assert_int_equal(app.vel_cmd, v);
+    cw_write(CW_ENABLE | CW_HALT);
+    for (i = 0u; i < n; i++) {
+        period();
+        assert_true(app.vel_cmd >= 0);
+        assert_true(prev - app.vel_cmd <= dmax);
+        if (prev - app.vel_cmd > dsteep) {
+            n_steep++;
+        }
+        prev = app.vel_cmd;
+    }
+    assert_int_equal(app.vel_cmd, 0);
+    return n_steep;
+}
+
 static void test_pp_halt(void **st)
 {
     const int32_t target = 1 << 22;                       /* 0.25 turn (90 deg), 2^-24 turn */
     const int64_t amax = app.traj_cfg.amax;               /* 2^-24 turn/s^2 */
-    const int64_t dv = (amax * 256 + HD_LOOP_HZ / 2) / HD_LOOP_HZ;   /* 2^-32 turn/s per period */
+    const int64_t dv = dv_of(amax);                       /* 2^-32 turn/s per period */
     int64_t p0, prev, v0, stop, lim;
     int32_t vprev;
     uint32_t i;
@@ -376,23 +407,10 @@ static void test_pp_halt(void **st)
 static void test_csv_halt(void **st)
 {
     const int32_t v = 429496730;                          /* 0.1 turn/s, 2^-32 turn/s */
-    const int32_t dv = (int32_t)(((int64_t)app.traj_cfg.amax * 256 + HD_LOOP_HZ / 2) / HD_LOOP_HZ);
-    int32_t prev;
-    uint32_t i;
+    const int32_t dv = dv_of(app.traj_cfg.amax);
     (void)st;
-    enable_402(HD_CO402_MODE_CSV);
-    co.od.target_velocity = v;
-    period();
-    assert_int_equal(app.vel_cmd, v);
-    cw_write(CW_ENABLE | CW_HALT);
-    prev = v;
-    for (i = 0u; i < 10000u; i++) {
-        period();
-        assert_true(app.vel_cmd >= 0);
-        assert_true(prev - app.vel_cmd <= dv);            /* ramps at the profile acceleration */
-        prev = app.vel_cmd;
-    }
-    assert_int_equal(app.vel_cmd, 0);                     /* at rest, target velocity still set */
+    /* ramps at the profile acceleration to rest, the target velocity still set */
+    (void)csv_halt_ramp(v, dv, dv, 10000u);
     cw_write(CW_ENABLE);
     period();
     assert_int_equal(app.vel_cmd, v);                     /* CSV: the host's set-point again */
@@ -466,28 +484,13 @@ static void test_stop_options(void **st)
     assert_int_equal(hd_co_get_i64(&co, 0x605Du, 0u, &opt), 0u);
     assert_int_equal(opt, 1);                             /* kept */
     assert_int_equal(hd_co_get_i64(&co, 0x6085u, 0u, &qs), 0u);
-    dq = (int32_t)((qs * 256 + HD_LOOP_HZ / 2) / HD_LOOP_HZ);
-    da = (int32_t)(((int64_t)app.traj_cfg.amax * 256 + HD_LOOP_HZ / 2) / HD_LOOP_HZ);
+    dq = dv_of(qs);
+    da = dv_of(app.traj_cfg.amax);
     assert_true(dq > da);                                 /* the default 0x6085 is the steeper one */
 
     /* CSV halt with option 2: ramps at 0x6085, i.e. faster than the profile would */
     assert_int_equal(hd_co_set_i64(&co, 0x605Du, 0u, 2), 0u);
-    enable_402(HD_CO402_MODE_CSV);
-    co.od.target_velocity = v;
-    period();
-    assert_int_equal(app.vel_cmd, v);
-    cw_write(CW_ENABLE | CW_HALT);
-    prev = v;
-    for (i = 0u; i < 5000u; i++) {
-        period();
-        assert_true(app.vel_cmd >= 0);
-        assert_true(prev - app.vel_cmd <= dq);
-        if (prev - app.vel_cmd > da) {
-            n_ramp++;                                     /* steps steeper than traj_amax allows */
-        }
-        prev = app.vel_cmd;
-    }
-    assert_int_equal(app.vel_cmd, 0);
+    n_ramp = csv_halt_ramp(v, dq, da, 5000u);             /* steps steeper than traj_amax allows */
     assert_true(n_ramp > 10u);
     assert_true((uint32_t)((v + dq - 1) / dq) <= 5000u);
 
@@ -527,8 +530,8 @@ static void test_pp_halt_quick_stop_decel(void **st)
     (void)st;
     assert_int_equal(hd_co_set_i64(&co, 0x605Du, 0u, 2), 0u);
     assert_int_equal(hd_co_get_i64(&co, 0x6085u, 0u, &qs), 0u);
-    dq = (int32_t)((qs * 256 + HD_LOOP_HZ / 2) / HD_LOOP_HZ);
-    da = (int32_t)(((int64_t)app.traj_cfg.amax * 256 + HD_LOOP_HZ / 2) / HD_LOOP_HZ);
+    dq = dv_of(qs);
+    da = dv_of(app.traj_cfg.amax);
     enable_402(HD_CO402_MODE_PP);
     for (i = 0u; i < 8u; i++) {
         period();

@@ -201,21 +201,12 @@ def test_pp_profile_velocity_and_quick_stop_ramp_on_the_simulated_axis() -> None
     SWITCH ON DISABLED -- travelling v^2 / (2 qs) plus the velocity loop's lag, not the
     step-to-zero of before."""
     with _drive("--pacing", "sync", "--sync-periods", "10") as (_, d):
-        net = d.network
 
         def syncs(n: int) -> None:
-            for _ in range(n):
-                net.sync.transmit()
-            t = int(d.read(0x5F00, 1))
-            while True:
-                time.sleep(0.05)
-                t2 = int(d.read(0x5F00, 1))
-                if t2 == t:
-                    return
-                t = t2
+            _syncs(d, n)
 
-        def ref() -> int:                                         # set-point phase, 2^-32 turn
-            return int(d.read(0x5F00, 8))
+        def ref() -> int:
+            return _setpoint_phase(d)
 
         v = 30.0 / 360.0                                          # turn/s (30 deg/s)
         d.write(0x6081, 0, round(v * 2 ** 32))
@@ -249,6 +240,25 @@ def test_pp_profile_velocity_and_quick_stop_ramp_on_the_simulated_axis() -> None
         ramp = v * v / (2 * qs)                                   # 2.25 deg
         assert 0.8 * ramp <= travel <= ramp + v * 0.02, (travel, ramp)   # + 20 ms of lag
         d.write(0x6040, 0, 0x00)
+
+
+def _syncs(d: Drive, n: int) -> None:
+    """n SYNCs, then wait until the drive has run their periods (the loop tick stands: it
+    answers SDOs between periods, so a read right after the SYNCs is early)."""
+    for _ in range(n):
+        d.network.sync.transmit()
+    t = int(d.read(0x5F00, 1))
+    while True:
+        time.sleep(0.05)
+        t2 = int(d.read(0x5F00, 1))
+        if t2 == t:
+            return
+        t = t2
+
+
+def _setpoint_phase(d: Drive) -> int:
+    """The set-point phase (0x5F00:8), 2^-32 turn (wraps)."""
+    return int(d.read(0x5F00, 8))
 
 
 def test_capture_upload_matches_stream_under_sync_pacing() -> None:
@@ -306,23 +316,12 @@ def test_pp_halt_stops_the_move_and_waits_for_a_new_set_point() -> None:
     traj_amax (the reference never passes v^2/(2a) beyond where the halt was seen), bit 10
     at rest, no resume when released, the next set-point lands exactly (10 periods / SYNC)."""
     with _drive("--pacing", "sync", "--sync-periods", "10") as (_, d):
-        net = d.network
 
         def syncs(n: int) -> None:
-            """n SYNCs, then wait until the drive has run their periods (the loop tick stands:
-            it answers SDOs between periods, so a read right after the SYNCs is early)."""
-            for _ in range(n):
-                net.sync.transmit()
-            t = int(d.read(0x5F00, 1))
-            while True:
-                time.sleep(0.05)
-                t2 = int(d.read(0x5F00, 1))
-                if t2 == t:
-                    return
-                t = t2
+            _syncs(d, n)
 
-        def ref() -> int:                                         # set-point phase, 2^-32 turn
-            return int(d.read(0x5F00, 8))
+        def ref() -> int:
+            return _setpoint_phase(d)
 
         d.node.nmt.state = "OPERATIONAL"
         d.write(0x6060, 0, 1)                                     # PP
