@@ -212,18 +212,8 @@ def test_pp_profile_velocity_and_quick_stop_ramp_on_the_simulated_axis() -> None
         d.write(0x6081, 0, round(v * 2 ** 32))
         assert int(d.read(0x2400, 1)) == round(v * 2 ** 32)      # the same parameter
         qs = int(d.read(0x6085)) / 2 ** 24                        # turn/s^2 (default 200 deg/s^2)
-        d.node.nmt.state = "OPERATIONAL"
-        d.write(0x6060, 0, 1)                                     # PP
-        _sync_until(d, lambda: d.read(0x6041) & 0x4F == 0x40)
-        for cw in (0x06, 0x07, 0x0F):
-            d.write(0x6040, 0, cw)
-            syncs(1)
-        _sync_until(d, lambda: d.read(0x6041) & 0x6F == 0x27)
-        syncs(20)
-        d.set_position(math.pi)                                   # 180 deg: 6 s at 30 deg/s
-        for cw in (0x0F, 0x1F, 0x0F):
-            d.write(0x6040, 0, cw)
-            syncs(1)
+        _enable_pp(d)
+        _pp_setpoint(d, math.pi)                                   # 180 deg: 6 s at 30 deg/s
         syncs(500)                                                # 0.5 s: past the ramp (0.3 s)
         r0 = ref()
         syncs(1000)                                               # 1 s of cruise
@@ -259,6 +249,27 @@ def _syncs(d: Drive, n: int) -> None:
 def _setpoint_phase(d: Drive) -> int:
     """The set-point phase (0x5F00:8), 2^-32 turn (wraps)."""
     return int(d.read(0x5F00, 8))
+
+
+def _enable_pp(d: Drive) -> None:
+    """NMT operational, profile position, the enable sequence (0x06, 0x07, 0x0F) to
+    OPERATION ENABLED, then 20 SYNCs at rest (SYNC pacing)."""
+    d.node.nmt.state = "OPERATIONAL"
+    d.write(0x6060, 0, 1)
+    _sync_until(d, lambda: d.read(0x6041) & 0x4F == 0x40)
+    for cw in (0x06, 0x07, 0x0F):
+        d.write(0x6040, 0, cw)
+        _syncs(d, 1)
+    _sync_until(d, lambda: d.read(0x6041) & 0x6F == 0x27)
+    _syncs(d, 20)
+
+
+def _pp_setpoint(d: Drive, rad: float) -> None:
+    """A new PP set-point (0x607A, controlword bit 4 edge), one SYNC per controlword write."""
+    d.set_position(rad)
+    for cw in (0x0F, 0x1F, 0x0F):
+        d.write(0x6040, 0, cw)
+        _syncs(d, 1)
 
 
 def test_capture_upload_matches_stream_under_sync_pacing() -> None:
@@ -323,18 +334,8 @@ def test_pp_halt_stops_the_move_and_waits_for_a_new_set_point() -> None:
         def ref() -> int:
             return _setpoint_phase(d)
 
-        d.node.nmt.state = "OPERATIONAL"
-        d.write(0x6060, 0, 1)                                     # PP
-        _sync_until(d, lambda: d.read(0x6041) & 0x4F == 0x40)
-        for cw in (0x06, 0x07, 0x0F):
-            d.write(0x6040, 0, cw)
-            syncs(1)
-        _sync_until(d, lambda: d.read(0x6041) & 0x6F == 0x27)
-        syncs(20)
-        d.set_position(math.pi / 2)                               # 90 deg
-        for cw in (0x0F, 0x1F, 0x0F):
-            d.write(0x6040, 0, cw)
-            syncs(1)
+        _enable_pp(d)
+        _pp_setpoint(d, math.pi / 2)                               # 90 deg
         syncs(1000)                                               # 1 s: cruising at 60 deg/s
         p0 = ref()
         assert d.read(0x6041) & 0x0400 == 0                       # moving: not reached
@@ -353,10 +354,7 @@ def test_pp_halt_stops_the_move_and_waits_for_a_new_set_point() -> None:
         d.halt(False)
         syncs(200)
         assert ref() == p1                                        # not resumed
-        d.set_position(0.2 * math.pi)                             # back to 36 deg
-        for cw in (0x0F, 0x1F, 0x0F):
-            d.write(0x6040, 0, cw)
-            syncs(1)
+        _pp_setpoint(d, 0.2 * math.pi)                             # back to 36 deg
         _sync_until(d, lambda: ref() == round(0.1 * 2 ** 24) * 256, 2000)   # exactly on 0.1 turn
         syncs(50)
         assert d.read(0x6041) & 0x0400
