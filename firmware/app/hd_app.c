@@ -157,6 +157,13 @@ void hd_app_init(hd_app_t *a)
     hd_velobs_reset(&a->obs_mot, 0);
     hd_velobs_reset(&a->obs_out, 0);
     hd_comp_bank_init(&a->cb, &a->cb_cfg);
+    /* the saved Preisach table, read straight into the bank (no second image in RAM) */
+    a->tstore_status = hd_tstore_load(&a->cb.table, &a->tstore_seq);
+    if (a->tstore_status == HD_TSTORE_OK && hd_comp_bank_adopt_table(&a->cb) != HD_PREISACH_OK) {
+        a->tstore_status = HD_TSTORE_CORRUPT;
+    }
+    a->tstore_sync = (a->tstore_status == HD_TSTORE_OK || a->tstore_status == HD_TSTORE_NONE ||
+                      a->tstore_status == HD_TSTORE_BLANK) ? 1u : 0u;
     hd_stab_init(&a->stab);
     a->stab_primed = 0;
     hd_traj_reset(&a->traj, 0);
@@ -434,7 +441,19 @@ int32_t hd_app_param_set(hd_app_t *a, uint32_t id, int32_t raw)
 
 int32_t hd_app_comp_table(hd_app_t *a, const hd_preisach_table_t *t)
 {
-    return hd_comp_bank_install_table(&a->cb, t);
+    const int32_t rc = hd_comp_bank_install_table(&a->cb, t);
+    if (rc == HD_PREISACH_OK) {
+        a->tstore_sync = 0u;
+    }
+    return rc;
+}
+
+void hd_app_comp_table_clear(hd_app_t *a)
+{
+    if (a->cb.table_ok != 0u) {
+        a->tstore_sync = 0u;
+    }
+    hd_comp_bank_clear_table(&a->cb);
 }
 
 int32_t hd_app_param_get(const hd_app_t *a, uint32_t id)
@@ -448,6 +467,21 @@ int32_t hd_app_param_save(hd_app_t *a)
         return -1;
     }
     return hd_pstore_save(a->param, &a->pstore_seq);
+}
+
+int32_t hd_app_store_all(hd_app_t *a)
+{
+    if (hd_app_param_save(a) != 0) {
+        return -1;
+    }
+    /* an unchanged table is not written again (8 KiB of flash wear per save) */
+    if (a->tstore_sync == 0u) {
+        if (hd_tstore_save((a->cb.table_ok != 0u) ? &a->cb.table : NULL, &a->tstore_seq) != 0) {
+            return -1;
+        }
+        a->tstore_sync = 1u;
+    }
+    return 0;
 }
 
 int32_t hd_app_capture_arm(hd_app_t *a, const hd_capture_cfg_t *c, const uint32_t *sig)

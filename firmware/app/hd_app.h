@@ -61,6 +61,7 @@
 #include "hal.h"
 #include "hd_param_table.h"
 #include "hd_param_store.h"
+#include "hd_table_store.h"
 #include "hd_pid.h"
 #include "hd_vel_observer.h"
 #include "hd_biquad.h"
@@ -162,6 +163,10 @@ typedef struct {
     int32_t  param[HD_PARAM_COUNT];
     uint32_t pstore_seq;
     int32_t  pstore_status;       /* hd_pstore_status_t of the last load */
+    /* the Preisach table's store (hd_table_store.h) */
+    uint32_t tstore_seq;
+    int32_t  tstore_status;       /* hd_tstore_status_t of the boot load */
+    uint32_t tstore_sync;         /* 1 if the NVM holds the table in force (or "none" and none) */
 
     /* derived controller configs (from param by hd_app_apply_params) */
     hd_pid_cfg_t pos_cfg, vel_cfg;
@@ -274,8 +279,15 @@ int32_t hd_app_capture_arm(hd_app_t *a, const hd_capture_cfg_t *c, const uint32_
 void hd_app_capture_trigger(hd_app_t *a);
 
 /** Install a Preisach table image for the compensator bank (checked; the old one
- *  stays on error). HD_PREISACH_OK (0) or an HD_PREISACH_E_* code. */
+ *  stays on error). HD_PREISACH_OK (0) or an HD_PREISACH_E_* code.  The table is in
+ *  RAM until hd_app_store_all(). */
 int32_t hd_app_comp_table(hd_app_t *a, const hd_preisach_table_t *t);
+/** Drop the Preisach table in force (restore of the defaults: no table). */
+void hd_app_comp_table_clear(hd_app_t *a);
+/** Save the parameters and, if it changed since the last load or save, the Preisach
+ *  table in force (or "no table") to NVM; only with the power stage off.  0 ok, -1
+ *  refused or failed (what was not written keeps its old NVM content). */
+int32_t hd_app_store_all(hd_app_t *a);
 
 /** Latest telemetry (also available as a->tel). */
 const hd_telemetry_t *hd_app_telemetry(const hd_app_t *a);

@@ -228,6 +228,18 @@ int32_t hd_comp_bank_install_table(hd_comp_bank_t *b, const hd_preisach_table_t 
     return rc;
 }
 
+int32_t hd_comp_bank_adopt_table(hd_comp_bank_t *b)
+{
+    const int32_t rc = hd_preisach_check(&b->table);
+    b->table_ok = (rc == HD_PREISACH_OK) ? 1u : 0u;
+    return rc;
+}
+
+void hd_comp_bank_clear_table(hd_comp_bank_t *b)
+{
+    b->table_ok = 0u;
+}
+
 /* A compensator is evaluated while enabled or while its weight is not 0 (ramping
  * out); fully off it costs nothing and keeps its last state. */
 static bool running(const hd_comp_bank_t *b, uint32_t bit, const hd_blend_t *bl)

@@ -160,6 +160,11 @@ void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c);
 void hd_comp_bank_apply(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c);
 /** Check and install a Preisach table image; the old one stays on error. HD_PREISACH_* code. */
 int32_t hd_comp_bank_install_table(hd_comp_bank_t *b, const hd_preisach_table_t *t);
+/** Check the image already written into b->table (loaded from NVM) and put it in force
+ *  if it passes. HD_PREISACH_* code. */
+int32_t hd_comp_bank_adopt_table(hd_comp_bank_t *b);
+/** No table in force (the Preisach compensator then outputs 0). */
+void hd_comp_bank_clear_table(hd_comp_bank_t *b);
 /** Before the position loop: position/velocity corrections and torque feed-forward. */
 void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in,
                       hd_comp_bank_out_t *out);

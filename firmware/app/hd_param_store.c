@@ -5,6 +5,7 @@
 #include "hd_param_store.h"
 #include <stddef.h>
 #include "hal.h"
+#include "hd_le32.h"
 
 #define HDR_WORDS 6u
 #define REC_BYTES ((HDR_WORDS + HD_PARAM_COUNT + 1u) * 4u)
@@ -24,19 +25,6 @@ int32_t hd_params_check(uint32_t id, int32_t raw)
         return -1;
     }
     return (raw < hd_param_table[id].min || raw > hd_param_table[id].max) ? -1 : 0;
-}
-
-static void put32(uint8_t *p, uint32_t v)
-{
-    p[0] = (uint8_t)(v & 0xFFu);
-    p[1] = (uint8_t)((v >> 8) & 0xFFu);
-    p[2] = (uint8_t)((v >> 16) & 0xFFu);
-    p[3] = (uint8_t)((v >> 24) & 0xFFu);
-}
-
-static uint32_t get32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
 }
 
 /* int32 <-> uint32 bit pattern without implementation-defined conversions */
@@ -78,23 +66,28 @@ static slot_res_t read_slot(uint32_t s, int32_t values[HD_PARAM_COUNT], uint32_t
     if (blank) {
         return SLOT_EMPTY;
     }
-    const uint32_t crc = get32(&rec[REC_BYTES - 4u]);
-    if (get32(&rec[0]) != HD_PSTORE_MAGIC || hd_crc32(0, rec, REC_BYTES - 4u) != crc) {
+    const uint32_t crc = hd_get_le32(&rec[REC_BYTES - 4u]);
+    if (hd_get_le32(&rec[0]) != HD_PSTORE_MAGIC || hd_crc32(0, rec, REC_BYTES - 4u) != crc) {
         return SLOT_BAD;
     }
-    if (get32(&rec[4]) != HD_PSTORE_FORMAT || get32(&rec[8]) != HD_PARAM_VERSION ||
-        get32(&rec[12]) != HD_PARAM_TABLE_HASH || get32(&rec[20]) != HD_PARAM_COUNT) {
+    if (hd_get_le32(&rec[4]) != HD_PSTORE_FORMAT || hd_get_le32(&rec[8]) != HD_PARAM_VERSION ||
+        hd_get_le32(&rec[12]) != HD_PARAM_TABLE_HASH || hd_get_le32(&rec[20]) != HD_PARAM_COUNT) {
         return SLOT_OTHER;
     }
     for (i = 0; i < HD_PARAM_COUNT; i++) {
-        const int32_t v = u2i(get32(&rec[(HDR_WORDS + i) * 4u]));
+        const int32_t v = u2i(hd_get_le32(&rec[(HDR_WORDS + i) * 4u]));
         if (hd_params_check(i, v) != 0) {
             return SLOT_BAD;
         }
         values[i] = v;
     }
-    *seq = get32(&rec[16]);
+    *seq = hd_get_le32(&rec[16]);
     return SLOT_OK;
+}
+
+uint32_t hd_pstore_region(void)
+{
+    return 2u * slot_size();
 }
 
 int32_t hd_pstore_load(int32_t values[HD_PARAM_COUNT], uint32_t *seq)
@@ -110,9 +103,7 @@ int32_t hd_pstore_load(int32_t values[HD_PARAM_COUNT], uint32_t *seq)
     const slot_res_t r1 = read_slot(1, v1, &s1);
     const int32_t *pick = NULL;
     if (r0 == SLOT_OK && r1 == SLOT_OK) {
-        /* serial-number arithmetic: s1 newer if 0 < s1 - s0 < 2^31 */
-        const uint32_t d = s1 - s0;
-        if (d != 0u && d < 0x80000000u) {
+        if (hd_seq_newer(s1, s0)) {
             pick = v1;
             *seq = s1;
         } else {
@@ -164,8 +155,7 @@ int32_t hd_pstore_save(const int32_t values[HD_PARAM_COUNT], uint32_t *seq)
     uint32_t s1 = 0;
     const slot_res_t r1 = read_slot(1, tmp, &s1);
     if (r0 == SLOT_OK && r1 == SLOT_OK) {
-        const uint32_t d = s1 - cur;
-        target = (d != 0u && d < 0x80000000u) ? 0u : 1u;
+        target = hd_seq_newer(s1, cur) ? 0u : 1u;
     } else if (r0 == SLOT_OK) {
         target = 1u;
     } else {
@@ -177,26 +167,22 @@ int32_t hd_pstore_save(const int32_t values[HD_PARAM_COUNT], uint32_t *seq)
      * (read error, seq 0) the surviving slot may hold any sequence, and a save
      * with *seq + 1 would lose to it at the next boot (both cases found by
      * tests/fuzz/fuzz_pstore; the second with the two slots 2^31 apart). */
-    uint32_t base = *seq;
     const slot_res_t rk = (target == 0u) ? r1 : r0;
     const uint32_t sk = (target == 0u) ? s1 : cur;
-    if (rk == SLOT_OK && ((base + 1u) - sk) - 1u >= 0x7FFFFFFFu) {
-        base = sk;
-    }
-    const uint32_t nseq = base + 1u;
+    const uint32_t nseq = hd_seq_next(*seq, rk == SLOT_OK, sk);
     for (i = 0; i < REC_PADDED; i++) {
         rec[i] = 0xFFu;
     }
-    put32(&rec[0], HD_PSTORE_MAGIC);
-    put32(&rec[4], HD_PSTORE_FORMAT);
-    put32(&rec[8], HD_PARAM_VERSION);
-    put32(&rec[12], HD_PARAM_TABLE_HASH);
-    put32(&rec[16], nseq);
-    put32(&rec[20], HD_PARAM_COUNT);
+    hd_put_le32(&rec[0], HD_PSTORE_MAGIC);
+    hd_put_le32(&rec[4], HD_PSTORE_FORMAT);
+    hd_put_le32(&rec[8], HD_PARAM_VERSION);
+    hd_put_le32(&rec[12], HD_PARAM_TABLE_HASH);
+    hd_put_le32(&rec[16], nseq);
+    hd_put_le32(&rec[20], HD_PARAM_COUNT);
     for (i = 0; i < HD_PARAM_COUNT; i++) {
-        put32(&rec[(HDR_WORDS + i) * 4u], i2u(values[i]));
+        hd_put_le32(&rec[(HDR_WORDS + i) * 4u], i2u(values[i]));
     }
-    put32(&rec[REC_BYTES - 4u], hd_crc32(0, rec, REC_BYTES - 4u));
+    hd_put_le32(&rec[REC_BYTES - 4u], hd_crc32(0, rec, REC_BYTES - 4u));
     if (hd_hal_nvm_erase(target * ss, ss) != 0 ||
         hd_hal_nvm_write(target * ss, rec, REC_PADDED) != 0) {
         return -1;

@@ -41,6 +41,8 @@ void hd_params_defaults(int32_t values[HD_PARAM_COUNT]);
 /** Range check one raw value. 0 ok, -1 unknown id or out of range. */
 int32_t hd_params_check(uint32_t id, int32_t raw);
 
+/** Bytes of the hal NVM region the store's two slots take from offset 0 (0: no page size). */
+uint32_t hd_pstore_region(void);
 /** Load from NVM into values (defaults on any failure); *seq gets the slot sequence (0 if none). */
 int32_t hd_pstore_load(int32_t values[HD_PARAM_COUNT], uint32_t *seq);
 /** Save values to the other slot with sequence *seq + 1; updates *seq. 0 ok, -1 error. */

@@ -44,43 +44,11 @@ static uint32_t group_magic(uint32_t dom)
 /* word w of the staged domain (NULL beyond the staging area) */
 static uint32_t *stage_word(hd_app_co_t *ac, uint32_t w)
 {
-    hd_preisach_table_t *t = &ac->stage;
-    switch (w) {
-    case 0u: return &t->magic;
-    case 1u: return &t->format;
-    case 2u: return &t->version;
-    case 3u: return &t->levels;
-    case 4u: return &t->sub_bits;
-    case 5u: return &t->in_shift;
-    case 6u: return (uint32_t *)(void *)&t->u0;        /* same-size signed/unsigned alias */
-    case 7u: return &t->unit;
-    case 8u: return &t->n_entries;
-    case 9u: return &t->crc;
-    default: break;
-    }
-    if (w - 10u < HD_PREISACH_N_MAX) {
-        return (uint32_t *)(void *)&t->e[w - 10u];
+    uint32_t *p = hd_preisach_word(&ac->stage, w);
+    if (p != NULL) {
+        return p;
     }
     return (w == HD_APP_CO_STAGE_WORDS - 1u) ? &ac->stage_tail : NULL;
-}
-
-/* word w of an installed table image (w < 10 + n_entries) */
-static uint32_t table_word(const hd_preisach_table_t *t, uint32_t w)
-{
-    switch (w) {
-    case 0u: return t->magic;
-    case 1u: return t->format;
-    case 2u: return t->version;
-    case 3u: return t->levels;
-    case 4u: return t->sub_bits;
-    case 5u: return t->in_shift;
-    case 6u: return (uint32_t)t->u0;
-    case 7u: return t->unit;
-    case 8u: return t->n_entries;
-    case 9u: return t->crc;
-    default: break;
-    }
-    return (w - 10u < HD_PREISACH_N_MAX) ? (uint32_t)t->e[w - 10u] : 0u;
 }
 
 static uint32_t crc_word(uint32_t crc, uint32_t w)
@@ -114,7 +82,7 @@ static uint32_t dom_word(const hd_app_co_t *ac, uint32_t dom, uint32_t w)
     const uint16_t *ids;
     uint32_t n;
     if (dom == HD_APP_CO_DOM_PREISACH) {
-        return table_word(&ac->app->cb.table, w);
+        return hd_preisach_word_get(&ac->app->cb.table, w);
     }
     n = hd_app_co_group_ids(dom, &ids);
     switch (w) {
@@ -333,6 +301,9 @@ static uint32_t a_special_read(void *c, uint16_t index, uint8_t sub, int64_t *v)
     if (index == 0x5000u && sub == 1u) { *v = 0; return 0u; }
     if (index == 0x5000u && sub == 2u) { *v = (int64_t)ac->app->cap.state; return 0u; }
     if (index == 0x5010u && sub == 1u) { *v = 0; return 0u; }
+    if (index == 0x5101u && sub == 1u) { *v = (int64_t)ac->app->pstore_status; return 0u; }
+    if (index == 0x5101u && sub == 2u) { *v = (int64_t)ac->app->tstore_status; return 0u; }
+    if (index == 0x5101u && sub == 3u) { *v = (int64_t)ac->app->tstore_sync; return 0u; }
     if (index == 0x5010u && sub == 2u) {
         *v = (ac->app->mode != HD_MODE_EXCITATION) ? 0 : (ac->app->exc.done != 0u ? 2 : 1);
         return 0u;
@@ -431,16 +402,22 @@ static uint32_t a_special_write(void *c, uint16_t index, uint8_t sub, int64_t v)
 
 static uint32_t a_store(void *c)
 {
-    return hd_app_param_save(((hd_app_co_t *)c)->app) == 0 ? 0u : HD_CO_AB_STATE;
+    return hd_app_store_all(((hd_app_co_t *)c)->app) == 0 ? 0u : HD_CO_AB_STATE;
 }
 
 static uint32_t a_restore(void *c)
 {
     hd_app_co_t *ac = c;
     uint32_t i;
+    /* the defaults include "no Preisach table": dropping a table in use would step
+     * the compensation, so like a save this needs the power stage off */
+    if (ac->app->mode != HD_MODE_OFF) {
+        return HD_CO_AB_STATE;
+    }
     for (i = 0u; i < HD_PARAM_COUNT; i++) {
         (void)hd_app_param_set(ac->app, i, hd_param_table[i].def);
     }
+    hd_app_comp_table_clear(ac->app);
     return 0u;
 }
 

@@ -18,8 +18,12 @@
  *     a latched app fault (power stage off), cleared only by the 402 fault reset
  *   CAN controller state <- hd_hal_can_status() every period; bus-off recovery
  *     -> hd_hal_can_recover() (hd_co.h hd_co_can_state)
- *   0x1010 save -> hd_app_param_save (0x08000022 unless the power stage is off),
- *   0x1011 restore -> defaults
+ *   0x1010 save -> hd_app_store_all: parameters + the Preisach table in force
+ *     (0x08000022 unless the power stage is off)
+ *   0x1011 restore -> defaults and no Preisach table, now (power stage off, else
+ *     0x08000022); 0x1010 then stores them
+ *   0x5101 store status: parameter and table store status of the boot load, table
+ *     saved (1 = the NVM holds the table in force)
  *   0x5000 capture: arm (1) with the signals / length / decimation /
  *     pre-trigger of 0x5000:3..6, command trigger (2), state, data (domain 0:
  *     int32 LE, frame-major, frame 0 = oldest)
@@ -30,7 +34,8 @@
  *     (payload + trailer), empty before the first one.
  *       1 Preisach/Everett table: the hd_preisach_table_t image of
  *         hd_preisach.h (magic, format, levels, its own CRC-32, E[i][i] = 0)
- *         -> hd_app_comp_table() (compensator bank).
+ *         -> hd_app_comp_table() (compensator bank); kept over a power cycle
+ *         once saved with 0x1010 (hd_table_store.h).
  *       2 friction (Stribeck + LuGre parameters) and 3 transmission-error
  *         harmonics: parameter groups, payload = magic ("HDFR" / "HDTE"),
  *         format 1, version, count, then `count` raw int32 in the order of

@@ -4,26 +4,7 @@
  */
 #include <stddef.h>
 #include "hd_flashstore.h"
-
-static void put32(uint8_t *p, uint32_t v)
-{
-    p[0] = (uint8_t)(v & 0xFFu);
-    p[1] = (uint8_t)((v >> 8) & 0xFFu);
-    p[2] = (uint8_t)((v >> 16) & 0xFFu);
-    p[3] = (uint8_t)((v >> 24) & 0xFFu);
-}
-
-static uint32_t get32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
-}
-
-/* a is newer than b (serial-number arithmetic) */
-static int newer(uint32_t a, uint32_t b)
-{
-    const uint32_t d = a - b;
-    return d != 0u && d < 0x80000000u;
-}
+#include "hd_le32.h"
 
 static uint32_t slot_addr(const hd_fstore_t *s, uint32_t slot)
 {
@@ -58,12 +39,12 @@ static int slot_valid(const hd_fstore_t *s, uint32_t slot, uint32_t *seq)
         s->fl->read(s->fl->ctx, a + HD_FS_HDR + s->len, t, HD_FS_TRL) != 0) {
         return 0;
     }
-    const uint32_t sq = get32(&h[4]);
-    if (get32(&h[0]) != HD_FS_MAGIC || get32(&h[8]) != s->len || get32(&t[0]) != HD_FS_COMMIT ||
-        get32(&t[4]) != ~sq) {
+    const uint32_t sq = hd_get_le32(&h[4]);
+    if (hd_get_le32(&h[0]) != HD_FS_MAGIC || hd_get_le32(&h[8]) != s->len || hd_get_le32(&t[0]) != HD_FS_COMMIT ||
+        hd_get_le32(&t[4]) != ~sq) {
         return 0;
     }
-    if (payload_crc(s, a + HD_FS_HDR, hd_crc32(0u, h, 12u), &crc) != 0 || crc != get32(&h[12])) {
+    if (payload_crc(s, a + HD_FS_HDR, hd_crc32(0u, h, 12u), &crc) != 0 || crc != hd_get_le32(&h[12])) {
         return 0;
     }
     *seq = sq;
@@ -108,7 +89,7 @@ int32_t hd_fstore_open(hd_fstore_t *s, const hd_flash_if_t *fl, uint32_t len)
     s->have = 0u;
     s->erases = 0u;
     for (k = 0u; k < s->n_slots; k++) {
-        if (slot_valid(s, k, &sq) && (s->have == 0u || newer(sq, s->seq))) {
+        if (slot_valid(s, k, &sq) && (s->have == 0u || hd_seq_newer(sq, s->seq))) {
             s->have = 1u;
             s->cur = k;
             s->seq = sq;
@@ -133,12 +114,12 @@ int32_t hd_fstore_save(hd_fstore_t *s, const void *payload)
     const uint32_t seq = (s->have != 0u) ? s->seq + 1u : 1u;
     const uint32_t cur_page = s->cur / s->per_page;
     uint32_t target = (s->have != 0u) ? (s->cur + 1u) % s->n_slots : 0u;
-    put32(&h[0], HD_FS_MAGIC);
-    put32(&h[4], seq);
-    put32(&h[8], s->len);
-    put32(&h[12], hd_crc32(hd_crc32(0u, h, 12u), (const uint8_t *)payload, s->len));
-    put32(&t[0], HD_FS_COMMIT);
-    put32(&t[4], ~seq);
+    hd_put_le32(&h[0], HD_FS_MAGIC);
+    hd_put_le32(&h[4], seq);
+    hd_put_le32(&h[8], s->len);
+    hd_put_le32(&h[12], hd_crc32(hd_crc32(0u, h, 12u), (const uint8_t *)payload, s->len));
+    hd_put_le32(&t[0], HD_FS_COMMIT);
+    hd_put_le32(&t[4], ~seq);
     for (tries = 0u; tries < s->n_slots; tries++, target = (target + 1u) % s->n_slots) {
         const uint32_t page = target / s->per_page;
         if (s->have != 0u && page == cur_page && target <= s->cur) {
@@ -185,8 +166,8 @@ static int vn_valid(const hd_vnvm_t *v, uint32_t p, uint32_t *idx, uint32_t *seq
         v->fl->read(v->fl->ctx, a + HD_FS_HDR + v->vpage, t, HD_FS_TRL) != 0) {
         return 0;
     }
-    if (get32(&h[0]) != HD_VN_MAGIC || get32(&h[4]) >= v->n_vpages || get32(&h[12]) != v->vpage ||
-        get32(&t[4]) != HD_FS_COMMIT) {
+    if (hd_get_le32(&h[0]) != HD_VN_MAGIC || hd_get_le32(&h[4]) >= v->n_vpages || hd_get_le32(&h[12]) != v->vpage ||
+        hd_get_le32(&t[4]) != HD_FS_COMMIT) {
         return 0;
     }
     uint32_t crc = hd_crc32(0u, h, HD_FS_HDR);
@@ -198,11 +179,11 @@ static int vn_valid(const hd_vnvm_t *v, uint32_t p, uint32_t *idx, uint32_t *seq
         crc = hd_crc32(crc, buf, n);
         done += n;
     }
-    if (crc != get32(&t[0])) {
+    if (crc != hd_get_le32(&t[0])) {
         return 0;
     }
-    *idx = get32(&h[4]);
-    *seq = get32(&h[8]);
+    *idx = hd_get_le32(&h[4]);
+    *seq = hd_get_le32(&h[8]);
     return 1;
 }
 
@@ -232,12 +213,12 @@ int32_t hd_vnvm_open(hd_vnvm_t *v, const hd_flash_if_t *fl, uint32_t size, uint3
         if (!vn_valid(v, p, &idx, &sq)) {
             continue;
         }
-        if (v->live[idx] == 0u || newer(sq, best[idx])) {
+        if (v->live[idx] == 0u || hd_seq_newer(sq, best[idx])) {
             v->live[idx] = 1u;
             v->phys[idx] = p;
             best[idx] = sq;
         }
-        if (have_seq == 0u || newer(sq, v->seq)) {
+        if (have_seq == 0u || hd_seq_newer(sq, v->seq)) {
             have_seq = 1u;
             v->seq = sq;
             v->last = p;
@@ -297,10 +278,10 @@ static int32_t vn_commit(hd_vnvm_t *v, uint32_t vp, uint32_t in, const uint8_t *
     uint32_t tries, idx, sq;
     const uint32_t seq = v->seq + 1u;
     uint32_t p = v->last;
-    put32(&h[0], HD_VN_MAGIC);
-    put32(&h[4], vp);
-    put32(&h[8], seq);
-    put32(&h[12], v->vpage);
+    hd_put_le32(&h[0], HD_VN_MAGIC);
+    hd_put_le32(&h[4], vp);
+    hd_put_le32(&h[8], seq);
+    hd_put_le32(&h[12], v->vpage);
     for (tries = 0u; tries < v->fl->n_pages; tries++) {
         uint32_t done = 0u;
         uint32_t crc;
@@ -334,8 +315,8 @@ static int32_t vn_commit(hd_vnvm_t *v, uint32_t vp, uint32_t in, const uint8_t *
             ok = (v->fl->prog(v->fl->ctx, a + HD_FS_HDR + done, buf, m) == 0);
             done += m;
         }
-        put32(&t[0], crc);
-        put32(&t[4], HD_FS_COMMIT);
+        hd_put_le32(&t[0], crc);
+        hd_put_le32(&t[4], HD_FS_COMMIT);
         if (!ok || v->fl->prog(v->fl->ctx, a + HD_FS_HDR + v->vpage, t, HD_FS_TRL) != 0) {
             continue;
         }

@@ -87,7 +87,7 @@ int32_t hd_fstore_read(const hd_fstore_t *s, void *buf);
 /** Save a new payload (len bytes). 0 ok (it is now the newest), -1 error (old one kept). */
 int32_t hd_fstore_save(hd_fstore_t *s, const void *payload);
 
-#define HD_VNVM_MAX_VPAGES 8u
+#define HD_VNVM_MAX_VPAGES 24u
 #define HD_VN_MAGIC   0x4E564448u   /* "HDVN" */
 
 typedef struct {

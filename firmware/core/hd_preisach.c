@@ -37,6 +37,31 @@ uint32_t hd_preisach_crc(const hd_preisach_table_t *t)
     return crc ^ 0xFFFFFFFFu;
 }
 
+uint32_t *hd_preisach_word(hd_preisach_table_t *t, uint32_t w)
+{
+    switch (w) {
+    case 0u: return &t->magic;
+    case 1u: return &t->format;
+    case 2u: return &t->version;
+    case 3u: return &t->levels;
+    case 4u: return &t->sub_bits;
+    case 5u: return &t->in_shift;
+    case 6u: return (uint32_t *)(void *)&t->u0;        /* same-size signed/unsigned alias */
+    case 7u: return &t->unit;
+    case 8u: return &t->n_entries;
+    case 9u: return &t->crc;
+    default: break;
+    }
+    return (w - HD_PREISACH_IMG_HDR < HD_PREISACH_N_MAX) ? (uint32_t *)(void *)&t->e[w - HD_PREISACH_IMG_HDR] : NULL;
+}
+
+uint32_t hd_preisach_word_get(const hd_preisach_table_t *t, uint32_t w)
+{
+    /* the pointer is only read: casting const away for the shared accessor is safe */
+    const uint32_t *p = hd_preisach_word((hd_preisach_table_t *)(uintptr_t)t, w);
+    return (p != NULL) ? *p : 0u;
+}
+
 static uint32_t hd__tri(uint32_t i)
 {
     return i * (i + 1u) / 2u;

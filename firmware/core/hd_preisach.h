@@ -70,6 +70,7 @@
 #define HD_PREISACH_SHIFT_MAX 30u
 #define HD_PREISACH_DEPTH     66u          /* entries per stack, sentinel included */
 #define HD_PREISACH_HDR_WORDS 9u           /* words covered by the CRC before the entries */
+#define HD_PREISACH_IMG_HDR   10u          /* image words before the entries (crc included) */
 
 /* Brute-force reference: lattice size limit (P <= this). */
 #define HD_PREISACH_BF_PMAX   255u
@@ -151,6 +152,11 @@ int32_t hd_preisach_check(const hd_preisach_table_t *t);
 /** Copy src into dst only if src passes hd_preisach_check (else dst untouched:
  *  the previous table stays in force).  Returns the check result. */
 int32_t hd_preisach_install(hd_preisach_table_t *dst, const hd_preisach_table_t *src);
+/** Words of a table image (10 header words + n_entries entries, the wire and NVM
+ *  order): a pointer to word w, or NULL for w >= 10 + HD_PREISACH_N_MAX. */
+uint32_t *hd_preisach_word(hd_preisach_table_t *t, uint32_t w);
+/** Word w of a table image (0 for w >= 10 + HD_PREISACH_N_MAX). */
+uint32_t hd_preisach_word_get(const hd_preisach_table_t *t, uint32_t w);
 /** Lattice size P = (L - 1) * 2^sub_bits. */
 int32_t hd_preisach_p_top(const hd_preisach_table_t *t);
 /** Input u -> lattice index p in [0, P]. */

@@ -643,7 +643,7 @@ int hd_sim_serve_main(int argc, char **argv)
         int32_t rc = hd_host_nvm_attach_file(s->port, nvm_path);
         if (rc != 0) {
             fprintf(stderr, "hdservo-sim serve: error: --nvm %s: %s\n", nvm_path,
-                    rc == -1 ? "expected a file of exactly 16384 bytes (or none yet)" : "cannot read the file");
+                    rc == -1 ? "expected a file of exactly 32768 bytes (or none yet)" : "cannot read the file");
             return 1;
         }
         static int32_t vals[HD_PARAM_COUNT];

@@ -23,7 +23,7 @@
 
 /* ---- stub hal ------------------------------------------------------------ */
 
-#define NVM_SIZE 4096u
+#define NVM_SIZE 20480u      /* the STM32G474 layout: parameters 2 x 1 KiB, table 2 x 9 KiB */
 #define NVM_PAGE 1024u
 
 static struct {
@@ -225,6 +225,93 @@ static void test_params_incompatible(void **st)
     assert_int_equal(app.pstore_status, HD_PSTORE_INCOMPATIBLE);
     /* crc32 check value */
     assert_int_equal(hd_crc32(0, (const uint8_t *)"123456789", 9), 0xCBF43926u);
+}
+
+/* an L-level Everett table with E[i][j] = scale (i - j)^2 (zero diagonal), sealed */
+static void small_table(hd_preisach_table_t *t, uint32_t levels, uint32_t version, int32_t scale)
+{
+    memset(t, 0, sizeof *t);
+    t->levels = levels;
+    t->sub_bits = 1u;
+    t->in_shift = 10u;
+    t->u0 = -(1 << 16);
+    t->unit = HD_PREISACH_UNIT_TORQUE_TWIST;
+    t->version = version;
+    for (uint32_t i = 0; i < levels; i++) {
+        for (uint32_t j = 0; j <= i; j++) {
+            t->e[i * (i + 1u) / 2u + j] = scale * (int32_t)((i - j) * (i - j));
+        }
+    }
+    hd_preisach_seal(t);
+}
+
+static void test_preisach_table_survives_power_cycle(void **st)
+{
+    (void)st;
+    static hd_preisach_table_t t, u;
+    static uint8_t before[NVM_SIZE];
+    small_table(&t, 12u, 5u, 300);
+    small_table(&u, 20u, 6u, 40);
+    /* blank NVM: no table, nothing to save */
+    assert_int_equal(app.tstore_status, HD_TSTORE_BLANK);
+    assert_int_equal(app.tstore_sync, 1u);
+    assert_int_equal(app.cb.table_ok, 0u);
+    /* a downloaded table is in RAM until saved */
+    assert_int_equal(hd_app_comp_table(&app, &t), HD_PREISACH_OK);
+    assert_int_equal(app.tstore_sync, 0u);
+    hd_app_init(&app);                                   /* power cycle without a save */
+    assert_int_equal(app.cb.table_ok, 0u);
+    assert_int_equal(hd_app_comp_table(&app, &t), HD_PREISACH_OK);
+    assert_int_equal(hd_app_store_all(&app), 0);
+    assert_int_equal(app.tstore_sync, 1u);
+    hd_app_init(&app);                                   /* power cycle after the save */
+    assert_int_equal(app.tstore_status, HD_TSTORE_OK);
+    assert_int_equal(app.cb.table_ok, 1u);
+    assert_int_equal(app.cb.table.crc, t.crc);
+    assert_int_equal(app.cb.table.version, 5u);
+    assert_memory_equal(app.cb.table.e, t.e, sizeof(int32_t) * t.n_entries);
+    /* an unchanged table is not written again (only the parameter slot changes) */
+    memcpy(before, P.nvm, NVM_SIZE);
+    assert_int_equal(hd_app_store_all(&app), 0);
+    assert_memory_equal(&before[hd_tstore_offset()], &P.nvm[hd_tstore_offset()], NVM_SIZE - hd_tstore_offset());
+    /* refused with the power stage on: neither store written */
+    assert_int_equal(hd_app_comp_table(&app, &u), HD_PREISACH_OK);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_POSITION), 0);
+    run(5);
+    memcpy(before, P.nvm, NVM_SIZE);
+    assert_int_equal(hd_app_store_all(&app), -1);
+    assert_memory_equal(before, P.nvm, NVM_SIZE);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_OFF), 0);
+    run(5);
+    /* a failed table write keeps the saved table and reports the save failed */
+    P.fail_write = 1;
+    assert_int_equal(hd_app_store_all(&app), -1);
+    P.fail_write = 0;
+    assert_int_equal(app.tstore_sync, 0u);
+    hd_app_init(&app);
+    assert_int_equal(app.cb.table.crc, t.crc);
+    /* restore of the defaults drops the table; saved, the next boot has none */
+    assert_int_equal(hd_app_comp_table(&app, &u), HD_PREISACH_OK);
+    assert_int_equal(hd_app_store_all(&app), 0);
+    hd_app_init(&app);
+    assert_int_equal(app.cb.table.crc, u.crc);
+    hd_app_comp_table_clear(&app);
+    assert_int_equal(app.tstore_sync, 0u);
+    assert_int_equal(hd_app_store_all(&app), 0);
+    hd_app_init(&app);
+    assert_int_equal(app.tstore_status, HD_TSTORE_NONE);
+    assert_int_equal(app.cb.table_ok, 0u);
+    /* a damaged table record: no table, the parameters still load */
+    assert_int_equal(hd_app_comp_table(&app, &t), HD_PREISACH_OK);
+    assert_int_equal(hd_app_store_all(&app), 0);
+    for (uint32_t s = 0; s < 2u; s++) {
+        P.nvm[hd_tstore_offset() + s * hd_tstore_slot_size() + 8u] ^= 0x04u;   /* sequence: CRC fails */
+    }
+    hd_app_init(&app);
+    assert_int_equal(app.tstore_status, HD_TSTORE_CORRUPT);
+    assert_int_equal(app.cb.table_ok, 0u);
+    assert_int_equal(app.tstore_sync, 0u);               /* the next save rewrites it */
+    assert_int_equal(app.pstore_status, HD_PSTORE_OK);
 }
 
 /* ---- closed loop on the rigid stub ----------------------------------------- */
@@ -532,6 +619,7 @@ int main(void)
         cmocka_unit_test_setup(test_params_blank_defaults, setup),
         cmocka_unit_test_setup(test_params_save_load_atomic, setup),
         cmocka_unit_test_setup(test_params_incompatible, setup),
+        cmocka_unit_test_setup(test_preisach_table_survives_power_cycle, setup),
         cmocka_unit_test_setup(test_app_position_hold_and_ptp, setup),
         cmocka_unit_test_setup(test_app_rate_low_speed, setup),
         cmocka_unit_test_setup(test_app_faults, setup),

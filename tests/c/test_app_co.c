@@ -325,6 +325,43 @@ static uint32_t csv_halt_ramp(int32_t v, int32_t dmax, int32_t dsteep, uint32_t 
     return n_steep;
 }
 
+static int64_t special(uint16_t index, uint8_t sub)
+{
+    int64_t v = -1;
+    assert_int_equal(co.app.special_read(co.app.ctx, index, sub, &v), 0u);
+    return v;
+}
+
+/* 0x5101 store status and 0x1011 restore (this stub hal has no NVM: both stores
+ * report the NVM error and a save is refused; tests/c/test_app.c saves for real) */
+static void test_store_objects(void **st)
+{
+    static uint8_t back[sizeof img];
+    (void)st;
+    assert_int_equal(special(0x5101u, 1u), HD_PSTORE_NVM_ERROR);
+    assert_int_equal(special(0x5101u, 2u), HD_TSTORE_NVM_ERROR);
+    assert_int_equal(special(0x5101u, 3u), 0);
+    const uint32_t len = make_table(12u, 5u, 300);
+    assert_int_equal(download(HD_APP_CO_DOM_PREISACH, img, len), 0);
+    assert_int_equal(special(0x5101u, 3u), 0);
+    assert_int_equal(co.app.store(co.app.ctx), HD_CO_AB_STATE);       /* no NVM */
+    /* restore with the power stage on: refused, table and parameters stay */
+    enable_402(8);
+    assert_int_equal(hd_app_param_set(&app, HD_P_POS_KP, 33 << 16), 0);
+    assert_int_equal(co.app.restore(co.app.ctx), HD_CO_AB_STATE);
+    assert_int_equal(app.cb.table_ok, 1u);
+    assert_int_equal(app.param[HD_P_POS_KP], 33 << 16);
+    assert_int_equal(upload(HD_APP_CO_DOM_PREISACH, back, sizeof back), len);
+    /* power stage off: defaults and no table */
+    cw_write(0x06u);
+    period();
+    assert_int_equal(app.mode, HD_MODE_OFF);
+    assert_int_equal(co.app.restore(co.app.ctx), 0u);
+    assert_int_equal(app.cb.table_ok, 0u);
+    assert_int_equal(app.param[HD_P_POS_KP], hd_param_table[HD_P_POS_KP].def);
+    assert_int_equal(upload(HD_APP_CO_DOM_PREISACH, back, sizeof back), 0u);
+}
+
 static void test_pp_halt(void **st)
 {
     const int32_t target = 1 << 22;                       /* 0.25 turn (90 deg), 2^-24 turn */
@@ -568,6 +605,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_preisach_table, setup),
+        cmocka_unit_test_setup(test_store_objects, setup),
         cmocka_unit_test_setup(test_group_and_interlock, setup),
         cmocka_unit_test_setup(test_pp_halt, setup),
         cmocka_unit_test_setup(test_csv_halt, setup),

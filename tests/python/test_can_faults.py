@@ -63,7 +63,7 @@ def test_serve_nvm_file_of_wrong_size(tmp_path: Path) -> None:
                        timeout=30)
     assert p.returncode == 1
     assert p.stderr.strip().splitlines() == [
-        f"hdservo-sim serve: error: --nvm {f}: expected a file of exactly 16384 bytes (or none yet)"]
+        f"hdservo-sim serve: error: --nvm {f}: expected a file of exactly 32768 bytes (or none yet)"]
     assert f.read_bytes() == b"\xff" * 100
 
 

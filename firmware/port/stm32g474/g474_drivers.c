@@ -382,7 +382,7 @@ void hd_g474_iwdg_kick(void)
     HD_REG(IWDG_KR) = 0xAAAAu;
 }
 
-/* ---- flash: the parameter area (bank 2, pages 120..127) ------------------------ */
+/* ---- flash: the NVM area (bank 2, pages 104..127) ---------------------------- */
 
 static int32_t flash_wait(void)
 {
