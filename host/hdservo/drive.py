@@ -45,6 +45,11 @@ EDS_PATH = Path(str(resources.files("hdservo") / "data" / "hdservo.eds"))
 LOOP_HZ = 10000
 TURN = 2.0 * math.pi
 
+#: 0x5101:1, the parameters at boot (hd_pstore_status_t); all but "loaded" mean the defaults.
+PARAM_STORE_STATUS = {0: "loaded", 1: "blank", 2: "corrupt", 3: "other table version", 4: "nvm error"}
+#: 0x5101:2, the Preisach table at boot (hd_tstore_status_t); all but "loaded" mean no table.
+TABLE_STORE_STATUS = {0: "loaded", 1: "blank", 2: "corrupt", 3: "saved as none", 4: "nvm error"}
+
 #: attempts per SDO request/response exchange (python canopen's MAX_RETRIES; its default 1
 #: means no retry): a frame lost on the bus costs one response time-out (0.3 s), not the transfer
 SDO_ATTEMPTS = 3
@@ -215,8 +220,27 @@ class Drive:
         self.write(p.index, p.sub, raw)
 
     def save(self) -> None:
-        """Store all parameters in the drive's NVM (0x1010:1 = 'save')."""
+        """Store all parameters and the Preisach table in force in the drive's NVM (0x1010:1 = 'save').
+
+        Refused (0x08000022) with the power stage on.
+        """
         self.write(0x1010, 1, 0x65766173)
+
+    def store_status(self) -> dict[str, Any]:
+        """What the drive's last boot loaded from NVM, and whether the table in force is saved (0x5101).
+
+        Returns
+        -------
+        dict
+            ``params`` and ``table``: the load status by name (:data:`PARAM_STORE_STATUS`,
+            :data:`TABLE_STORE_STATUS`); ``table_saved``: True when the NVM holds the
+            Preisach table in force (or "no table" with none in force), False after a
+            download or a restore of the defaults until :meth:`save`.
+        """
+        p, t = int(self.read(0x5101, 1)), int(self.read(0x5101, 2))
+        return {"params": PARAM_STORE_STATUS.get(p, f"unknown ({p})"),
+                "table": TABLE_STORE_STATUS.get(t, f"unknown ({t})"),
+                "table_saved": bool(self.read(0x5101, 3))}
 
     # ---- NMT and CiA 402 --------------------------------------------------------
     def start(self, wait_tpdo: bool = True) -> None:

@@ -434,7 +434,7 @@ def case_table_download_bus_off(root: Path) -> dict[str, Any]:
 
 
 def case_power_loss_table(root: Path) -> dict[str, Any]:
-    """Power loss (SIGKILL) in the middle of a TE group table download; the group in force was saved."""
+    """Power loss (SIGKILL) in the middle of a TE group table download; the group and a Preisach table were saved."""
     from .drive import TABLE_GROUPS, group_payload
     from .params_gen import BY_NAME
     _, names = TABLE_GROUPS[3]
@@ -444,10 +444,14 @@ def case_power_loss_table(root: Path) -> dict[str, Any]:
             base = {n: d.read(BY_NAME[n].index, BY_NAME[n].sub) for n in names}
             a = dict(base, te_n=2, te_order1=2, te_amp1=40000, te_order2=4, te_amp2=-12345, te_phase2=1 << 29)
             b = dict(base, te_n=1, te_order1=1, te_amp1=-7000)
+            t_saved = _everett_table(16, version=3, scale=1000)
             d.download_group(3, a, version=5)
+            d.download_table(1, t_saved)
             d.save()
+            saved_flag = d.store_status()["table_saved"]
             p_saved = _params(d)
-            d.download_table(1, _everett_table(16, version=3, scale=1000))
+            d.download_table(1, _everett_table(32, version=4, scale=7))      # in force, not saved
+            unsaved_flag = d.store_status()["table_saved"]
             sent = _partial_block_download(d, 0x5100, 3, _trailer(group_payload(3, b, version=6)), 4)
             v.power_loss()
         with _session(root, "--nvm", nvm) as (v, d):
@@ -457,7 +461,9 @@ def case_power_loss_table(root: Path) -> dict[str, Any]:
                    "group_crc32_in_force": f"0x{zlib.crc32(group_payload(3, got, 5)):08X}",
                    "group_crc32_saved": f"0x{zlib.crc32(group_payload(3, a, 5)):08X}",
                    "parameters_as_saved": _params(d) == p_saved,
-                   "preisach_after_restart_bytes": len(d.read_domain(0x5100, 1)),
+                   "preisach_after_restart": "saved" if d.read_domain(0x5100, 1) == _trailer(t_saved) else "other",
+                   "table_saved_after_save": saved_flag, "table_saved_after_new_download": unsaved_flag,
+                   "store_status_after_restart": d.store_status(),
                    "state": _state(d)}
             d.download_group(3, b, version=6)
             obs["fresh_download"] = {n: d.read(BY_NAME[n].index, BY_NAME[n].sub) for n in names} == b
@@ -472,11 +478,16 @@ def case_power_loss_table(root: Path) -> dict[str, Any]:
               "fresh download succeeds": obs["fresh_download"],
               "the fresh group survives the next power loss once saved": obs["after_save_and_power_loss"] == "new",
               "drive boots to SWITCH ON DISABLED": obs["state"] == "SWITCH ON DISABLED",
-              "no Preisach table after restart (RAM only: never a partial one)": obs["preisach_after_restart_bytes"] == 0}
-    return _row("power loss (SIGKILL) in the middle of a table download (0x5100:3 TE group, saved group in NVM)",
+              "the saved Preisach table in force after restart, bit for bit; the later unsaved one gone":
+                  obs["preisach_after_restart"] == "saved",
+              "0x5101 reports the table saved after the save, unsaved after the next download, "
+              "loaded after the restart": saved_flag and not unsaved_flag
+                  and obs["store_status_after_restart"] == {"params": "loaded", "table": "loaded", "table_saved": True}}
+    return _row("power loss (SIGKILL) in the middle of a table download (0x5100:3 TE group, saved group and Preisach table in NVM)",
                 {"power_loss": "SIGKILL of the virtual drive during the block transfer", "nvm": "--nvm file"},
                 {"after restart": "the saved group (old) in force, intact (CRC), every parameter as saved; "
-                                  "the Preisach table (RAM only) is not in force until downloaded again",
+                                  "the saved Preisach table in force (the one downloaded after the save was "
+                                  "only in RAM)",
                  "recovery": "fresh download succeeds; saved, it survives the next power loss"},
                 obs, checks)
 

@@ -16,7 +16,9 @@ harmonics, FRF inertias); keys the model does not have come from ``--axis``
 
 Any refusal or read-back mismatch is one error line and exit status 2; what
 was already written stays (each table is atomic on the drive).  ``--enable``
-sets ``cb_enable`` afterwards.  Without bus options a virtual drive is started
+sets ``cb_enable`` afterwards.  What was written is in force in RAM; ``--save``
+stores it (0x1010: parameters, groups and the Preisach table) and checks that
+the drive reports the table saved (0x5101:3), so it survives a power cycle.  Without bus options a virtual drive is started
 (only useful for a dry run: it stops when the command ends).
 """
 from __future__ import annotations
@@ -52,6 +54,8 @@ def register(p: argparse.ArgumentParser) -> None:
     p.add_argument("--enable", default=None, metavar="NAMES",
                    help="comma-separated compensators to switch on afterwards (stribeck,lugre,maxwell,preisach,"
                         "te,backstep,dob); default: leave cb_enable")
+    p.add_argument("--save", action="store_true",
+                   help="store everything in the drive's NVM afterwards (0x1010; power stage off), verified by 0x5101:3")
     p.add_argument("--version", type=int, default=1, help="table version written into the groups (> 0)")
     p.add_argument("--json", type=Path, metavar="PATH", help="write what was downloaded as JSON")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
@@ -314,12 +318,22 @@ def run(args: argparse.Namespace) -> int:
                     raise UserError("cb_enable: read-back differs")
             except DriveError as e:
                 raise UserError(f"cb_enable: {e}") from None
+        saved = None
+        if args.save:
+            progress("0x1010 save to NVM")
+            try:
+                drive.save()
+                saved = drive.store_status()
+            except DriveError as e:
+                raise UserError(f"save refused by the drive: {e}") from None
+            if not saved["table_saved"]:
+                raise UserError("save: the drive reports the Preisach table in force as not saved (0x5101:3 = 0)")
     finally:
         if drive is not None:
             drive.close()
         if vd is not None:
             vd.stop()
-    summary = {"model": str(args.model), "params_written": done["params"], "tables": done["tables"],
+    summary = {"saved": saved is not None, "model": str(args.model), "params_written": done["params"], "tables": done["tables"],
                "skipped_missing": done["missing"],
                "preisach_file": str(plan["preisach_file"]) if plan["preisach_file"] else None,
                "notes": plan["notes"], "cb_enable": enable,
@@ -328,5 +342,6 @@ def run(args: argparse.Namespace) -> int:
         from ..ident.report import write_json
         write_json(args.json, summary)
     print(f"downloaded {done['params']} parameters and tables "
-          f"{', '.join(f'0x5100:{s}' for s in done['tables']) or '(none)'}; every item read back and verified")
+          f"{', '.join(f'0x5100:{s}' for s in done['tables']) or '(none)'}; every item read back and verified; "
+          + ("saved to NVM" if saved is not None else "in RAM only (--save keeps it over a power cycle)"))
     return 0
