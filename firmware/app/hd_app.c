@@ -26,6 +26,7 @@
  * FF at once.
  */
 #include "hd_app.h"
+#include <stddef.h>
 #include "hd_fixed.h"
 
 #define TWO_PI_Q28 1686629713   /* round(2 pi 2^28) */

@@ -35,18 +35,18 @@ static int region_ok(void)
     return ss != 0u && off != 0u && off <= size && ss <= (size - off) / 2u;
 }
 
-typedef enum { SLOT_EMPTY, SLOT_BAD, SLOT_OK, SLOT_IOERR } slot_res_t;
+typedef enum { TSLOT_EMPTY, TSLOT_BAD, TSLOT_OK, TSLOT_IOERR } tslot_t;
 
 /* Read slot s: header, image and CRC, streamed; if t is not NULL the image words are
  * decoded into *t.  *seq and *words are set when the slot is OK. */
-static slot_res_t scan_slot(uint32_t s, hd_preisach_table_t *t, uint32_t *seq, uint32_t *words)
+static tslot_t scan_slot(uint32_t s, hd_preisach_table_t *t, uint32_t *seq, uint32_t *words)
 {
     uint8_t b[CHUNK];
     uint32_t i, w, n, crc;
     const uint32_t base = hd_tstore_offset() + s * hd_tstore_slot_size();
     int blank = 1;
     if (hd_hal_nvm_read(base, b, HDR_BYTES) != 0) {
-        return SLOT_IOERR;
+        return TSLOT_IOERR;
     }
     for (i = 0u; i < HDR_BYTES; i++) {
         if (b[i] != 0xFFu) {
@@ -54,19 +54,19 @@ static slot_res_t scan_slot(uint32_t s, hd_preisach_table_t *t, uint32_t *seq, u
         }
     }
     if (blank) {
-        return SLOT_EMPTY;
+        return TSLOT_EMPTY;
     }
     n = hd_get_le32(&b[12]);
     if (hd_get_le32(&b[0]) != HD_TSTORE_MAGIC || hd_get_le32(&b[4]) != HD_TSTORE_FORMAT ||
         (n != 0u && (n < HD_PREISACH_IMG_HDR || n > WORDS_MAX))) {
-        return SLOT_BAD;
+        return TSLOT_BAD;
     }
     *seq = hd_get_le32(&b[8]);
     crc = hd_crc32(0u, b, HDR_BYTES);
     for (w = 0u; w < n; w += CHUNK / 4u) {
         const uint32_t k = (n - w < CHUNK / 4u) ? n - w : CHUNK / 4u;
         if (hd_hal_nvm_read(base + HDR_BYTES + 4u * w, b, 4u * k) != 0) {
-            return SLOT_IOERR;
+            return TSLOT_IOERR;
         }
         crc = hd_crc32(crc, b, 4u * k);
         if (t != NULL) {
@@ -76,28 +76,28 @@ static slot_res_t scan_slot(uint32_t s, hd_preisach_table_t *t, uint32_t *seq, u
         }
     }
     if (hd_hal_nvm_read(base + HDR_BYTES + 4u * n, b, 4u) != 0) {
-        return SLOT_IOERR;
+        return TSLOT_IOERR;
     }
     if (hd_get_le32(b) != crc) {
-        return SLOT_BAD;
+        return TSLOT_BAD;
     }
     *words = n;
-    return SLOT_OK;
+    return TSLOT_OK;
 }
 
 /* the slot (0/1) of the newest valid record, -1 if none */
-static int32_t newest(slot_res_t r0, uint32_t s0, slot_res_t r1, uint32_t s1)
+static int32_t newest(tslot_t r0, uint32_t s0, tslot_t r1, uint32_t s1)
 {
-    if (r0 == SLOT_OK && r1 == SLOT_OK) {
+    if (r0 == TSLOT_OK && r1 == TSLOT_OK) {
         return hd_seq_newer(s1, s0) ? 1 : 0;
     }
-    return (r0 == SLOT_OK) ? 0 : ((r1 == SLOT_OK) ? 1 : -1);
+    return (r0 == TSLOT_OK) ? 0 : ((r1 == TSLOT_OK) ? 1 : -1);
 }
 
 int32_t hd_tstore_load(hd_preisach_table_t *t, uint32_t *seq)
 {
     uint32_t s0 = 0u, s1 = 0u, n0 = 0u, n1 = 0u, sq = 0u, nw = 0u;
-    slot_res_t r0, r1;
+    tslot_t r0, r1;
     int32_t k;
     *seq = 0u;
     if (!region_ok()) {
@@ -107,10 +107,10 @@ int32_t hd_tstore_load(hd_preisach_table_t *t, uint32_t *seq)
     r1 = scan_slot(1u, NULL, &s1, &n1);
     k = newest(r0, s0, r1, s1);
     if (k < 0) {
-        if (r0 == SLOT_IOERR || r1 == SLOT_IOERR) {
+        if (r0 == TSLOT_IOERR || r1 == TSLOT_IOERR) {
             return HD_TSTORE_NVM_ERROR;
         }
-        return (r0 == SLOT_BAD || r1 == SLOT_BAD) ? HD_TSTORE_CORRUPT : HD_TSTORE_BLANK;
+        return (r0 == TSLOT_BAD || r1 == TSLOT_BAD) ? HD_TSTORE_CORRUPT : HD_TSTORE_BLANK;
     }
     /* the newest valid record is the last save's intent: its table or "no table"; a
      * torn (CRC-invalid) newer slot was skipped above, so power loss falls back */
@@ -118,7 +118,7 @@ int32_t hd_tstore_load(hd_preisach_table_t *t, uint32_t *seq)
     if (((k == 0) ? n0 : n1) == 0u) {
         return HD_TSTORE_NONE;
     }
-    if (scan_slot((uint32_t)k, t, &sq, &nw) != SLOT_OK) {
+    if (scan_slot((uint32_t)k, t, &sq, &nw) != TSLOT_OK) {
         return HD_TSTORE_NVM_ERROR;         /* it read fine a moment ago */
     }
     if (nw != HD_PREISACH_IMG_HDR + t->n_entries || hd_preisach_check(t) != HD_PREISACH_OK) {
@@ -163,7 +163,7 @@ int32_t hd_tstore_save(const hd_preisach_table_t *t, uint32_t *seq)
     uint32_t s0 = 0u, s1 = 0u, n0 = 0u, n1 = 0u, sq = 0u, nw = 0u, w, crc;
     uint8_t hdr[HDR_BYTES];
     writer_t wr;
-    slot_res_t r0, r1;
+    tslot_t r0, r1;
     int32_t k;
     uint32_t target, nseq, n;
     if (t != NULL && hd_preisach_check(t) != HD_PREISACH_OK) {
@@ -203,7 +203,7 @@ int32_t hd_tstore_save(const hd_preisach_table_t *t, uint32_t *seq)
     put_word(&wr, crc);
     flush(&wr);
     /* it counts only once it reads back whole */
-    if (wr.err != 0 || scan_slot(target, NULL, &sq, &nw) != SLOT_OK || sq != nseq || nw != n) {
+    if (wr.err != 0 || scan_slot(target, NULL, &sq, &nw) != TSLOT_OK || sq != nseq || nw != n) {
         return -2;
     }
     *seq = nseq;

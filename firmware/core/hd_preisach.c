@@ -1,5 +1,6 @@
 /* hd_preisach.c - discrete Preisach model (contract: hd_preisach.h). */
 #include "hd_preisach.h"
+#include <stddef.h>
 #include "hd_fixed.h"
 
 /* ---- table ------------------------------------------------------------------ */
@@ -57,9 +58,13 @@ uint32_t *hd_preisach_word(hd_preisach_table_t *t, uint32_t w)
 
 uint32_t hd_preisach_word_get(const hd_preisach_table_t *t, uint32_t w)
 {
-    /* the pointer is only read: casting const away for the shared accessor is safe */
-    const uint32_t *p = hd_preisach_word((hd_preisach_table_t *)(uintptr_t)t, w);
-    return (p != NULL) ? *p : 0u;
+    /* the header in the order of hd_preisach_word() */
+    const uint32_t hdr[HD_PREISACH_IMG_HDR] = {t->magic, t->format, t->version, t->levels, t->sub_bits,
+                                               t->in_shift, (uint32_t)t->u0, t->unit, t->n_entries, t->crc};
+    if (w < HD_PREISACH_IMG_HDR) {
+        return hdr[w];
+    }
+    return (w - HD_PREISACH_IMG_HDR < HD_PREISACH_N_MAX) ? (uint32_t)t->e[w - HD_PREISACH_IMG_HDR] : 0u;
 }
 
 static uint32_t hd__tri(uint32_t i)
