@@ -155,4 +155,6 @@ const hd_param_desc_t hd_param_table[HD_PARAM_COUNT] = {
     {"bs_th0_4", 0x2860u, 24u, HD_PTYPE_I32, 16u, -1966080000, 1966080000, 0, "N.m"},
     {"dob_fc", 0x2870u, 1u, HD_PTYPE_I32, 16u, 6554, 32768000, 655360, "Hz"},
     {"dob_j", 0x2870u, 2u, HD_PTYPE_I32, 16u, 66, 1966080000, 85197, "kg.m^2"},
+    {"tbl_fr_version", 0x2880u, 1u, HD_PTYPE_U32, 0u, 0, 2147483647, 0, "1"},
+    {"tbl_te_version", 0x2880u, 2u, HD_PTYPE_U32, 0u, 0, 2147483647, 0, "1"},
 };

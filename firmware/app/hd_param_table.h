@@ -9,8 +9,8 @@
 #include <stdint.h>
 
 #define HD_PARAM_VERSION 1u
-#define HD_PARAM_TABLE_HASH 0x2600222Du
-#define HD_PARAM_COUNT 153u
+#define HD_PARAM_TABLE_HASH 0xADB4A22Bu
+#define HD_PARAM_COUNT 155u
 
 typedef enum {
     HD_P_GEAR_RATIO = 0,
@@ -166,6 +166,8 @@ typedef enum {
     HD_P_BS_TH0_4 = 150,
     HD_P_DOB_FC = 151,
     HD_P_DOB_J = 152,
+    HD_P_TBL_FR_VERSION = 153,
+    HD_P_TBL_TE_VERSION = 154,
 } hd_param_id_t;
 
 #define HD_PTYPE_I32 0u

@@ -63,6 +63,19 @@ static uint32_t crc_word(uint32_t crc, uint32_t w)
 
 /* ---- table domains: payload words in force ------------------------------------------ */
 
+/* the parameter holding a group's version (saved with the parameters, so a group read
+ * back after a power cycle is the saved one with its version) */
+static uint32_t group_version_id(uint32_t dom)
+{
+    return (dom == HD_APP_CO_DOM_FRICTION) ? (uint32_t)HD_P_TBL_FR_VERSION : (uint32_t)HD_P_TBL_TE_VERSION;
+}
+
+static uint32_t group_version(const hd_app_co_t *ac, uint32_t dom)
+{
+    const int32_t v = hd_app_param_get(ac->app, group_version_id(dom));
+    return (v > 0) ? (uint32_t)v : 0u;
+}
+
 /* number of payload words in force (0: none) */
 static uint32_t dom_words(const hd_app_co_t *ac, uint32_t dom)
 {
@@ -73,7 +86,7 @@ static uint32_t dom_words(const hd_app_co_t *ac, uint32_t dom)
     {
         const uint16_t *ids;
         const uint32_t n = hd_app_co_group_ids(dom, &ids);
-        return (ac->group_version[dom - HD_APP_CO_DOM_FRICTION] != 0u) ? HD_APP_CO_GROUP_HDR + n : 0u;
+        return (group_version(ac, dom) != 0u) ? HD_APP_CO_GROUP_HDR + n : 0u;
     }
 }
 
@@ -88,7 +101,7 @@ static uint32_t dom_word(const hd_app_co_t *ac, uint32_t dom, uint32_t w)
     switch (w) {
     case 0u: return group_magic(dom);
     case 1u: return HD_APP_CO_GROUP_FORMAT;
-    case 2u: return ac->group_version[dom - HD_APP_CO_DOM_FRICTION];
+    case 2u: return group_version(ac, dom);
     case 3u: return n;
     default: break;
     }
@@ -104,7 +117,7 @@ static uint32_t group_commit(hd_app_co_t *ac, uint32_t dom, uint32_t words)
     uint32_t i;
     if (words != HD_APP_CO_GROUP_HDR + n || n > HD_APP_CO_GROUP_MAX ||
         *stage_word(ac, 0u) != group_magic(dom) || *stage_word(ac, 1u) != HD_APP_CO_GROUP_FORMAT ||
-        *stage_word(ac, 2u) == 0u || *stage_word(ac, 3u) != n) {
+        *stage_word(ac, 2u) == 0u || *stage_word(ac, 2u) > 0x7FFFFFFFu || *stage_word(ac, 3u) != n) {
         return HD_CO_AB_STORE;
     }
     for (i = 0u; i < n; i++) {
@@ -124,7 +137,7 @@ static uint32_t group_commit(hd_app_co_t *ac, uint32_t dom, uint32_t words)
             return HD_CO_AB_STORE;
         }
     }
-    ac->group_version[dom - HD_APP_CO_DOM_FRICTION] = *stage_word(ac, 2u);
+    (void)hd_app_param_set(ac->app, group_version_id(dom), (int32_t)*stage_word(ac, 2u));   /* range checked above */
     return 0u;
 }
 
@@ -650,8 +663,6 @@ void hd_app_co_init(hd_app_co_t *ac, hd_co_t *co, hd_app_t *app, uint8_t node_id
     ac->stage_len = 0u;
     ac->stage_crc = 0u;
     ac->rd_trailer = 0u;
-    ac->group_version[0] = 0u;
-    ac->group_version[1] = 0u;
     ifc.ctx = ac;
     ifc.send = a_send;
     ifc.param_get = a_pget;

@@ -38,9 +38,10 @@
  *         once saved with 0x1010 (hd_table_store.h).
  *       2 friction (Stribeck + LuGre parameters) and 3 transmission-error
  *         harmonics: parameter groups, payload = magic ("HDFR" / "HDTE"),
- *         format 1, version, count, then `count` raw int32 in the order of
- *         hd_app_co_group_ids(); every value range-checked, all applied or
- *         none (old values restored).
+ *         format 1, version (1..2^31-1), count, then `count` raw int32 in the
+ *         order of hd_app_co_group_ids(); every value range-checked, all
+ *         applied or none (old values restored); the version goes to the
+ *         parameter tbl_fr_version / tbl_te_version (saved with the others).
  *   other domains (>= HD_APP_CO_DOM_PORT) and SYNC go to the port's callbacks.
  */
 #ifndef HD_APP_CO_H
@@ -97,7 +98,6 @@ typedef struct {
     uint32_t stage_crc;            /* running CRC-32 of the received bytes but the last 4 */
     uint8_t  stage_win[4];         /* the last 4 bytes received (the trailer at the end) */
     uint32_t rd_trailer;           /* trailer of the domain being uploaded */
-    uint32_t group_version[2];     /* version of the friction / TE group in force (0 = none) */
     hd_preisach_table_t stage;     /* table being received: word w of the domain is field /
                                     * entry w of the image (any domain is staged here) */
     uint32_t stage_tail;           /* word HD_APP_CO_STAGE_WORDS - 1 (a full table's trailer) */

@@ -322,6 +322,9 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x2870u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(2), NULL},  /* highest_sub_index_supported */
     {0x2870u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 151u, INT64_C(6554), INT64_C(32768000), INT64_C(655360), NULL},  /* dob_fc */
     {0x2870u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 152u, INT64_C(66), INT64_C(1966080000), INT64_C(85197), NULL},  /* dob_j */
+    {0x2880u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(2), NULL},  /* highest_sub_index_supported */
+    {0x2880u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 153u, INT64_C(0), INT64_C(2147483647), INT64_C(0), NULL},  /* tbl_fr_version */
+    {0x2880u, 2u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 154u, INT64_C(0), INT64_C(2147483647), INT64_C(0), NULL},  /* tbl_te_version */
     {0x5000u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(7), NULL},  /* highest_sub_index_supported */
     {0x5000u, 1u, 0x05u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(2), INT64_C(0), NULL},  /* capture_control */
     {0x5000u, 2u, 0x05u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(0), NULL},  /* capture_state */

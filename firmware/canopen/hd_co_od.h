@@ -11,8 +11,8 @@
 #include "hd_co_types.h"
 
 #define HD_CO_OD_VERSION 1u
-#define HD_CO_OD_PARAM_HASH 0x2600222Du
-#define HD_CO_OD_COUNT 408u
+#define HD_CO_OD_PARAM_HASH 0xADB4A22Bu
+#define HD_CO_OD_COUNT 411u
 #define HD_CO_N_PDO 4u
 #define HD_CO_N_MAP 8u
 #define HD_CO_VENDOR_ID 0x00000EDAu

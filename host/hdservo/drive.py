@@ -533,9 +533,11 @@ TABLE_GROUPS = {
 
 
 def group_payload(sub: int, raw: dict[str, int], version: int = 1) -> bytes:
-    """Payload of a parameter-group table: magic, format 1, version (> 0), count, raw int32 values."""
+    """Payload of a parameter-group table: magic, format 1, version (1..2^31-1), count, raw int32 values."""
     if sub not in TABLE_GROUPS:
         raise DriveError(f"0x5100:{sub} is not a parameter-group table")
+    if not 0 < version <= 0x7FFFFFFF:
+        raise DriveError(f"0x5100:{sub}: version {version} outside 1..2147483647")
     magic, names = TABLE_GROUPS[sub]
     missing = [n for n in names if n not in raw]
     if missing:

@@ -462,6 +462,8 @@ def case_power_loss_table(root: Path) -> dict[str, Any]:
                    "group_crc32_saved": f"0x{zlib.crc32(group_payload(3, a, 5)):08X}",
                    "parameters_as_saved": _params(d) == p_saved,
                    "preisach_after_restart": "saved" if d.read_domain(0x5100, 1) == _trailer(t_saved) else "other",
+                   "group_readback_after_restart": "saved, version 5"
+                   if d.read_domain(0x5100, 3) == _trailer(group_payload(3, a, 5)) else "other",
                    "table_saved_after_save": saved_flag, "table_saved_after_new_download": unsaved_flag,
                    "store_status_after_restart": d.store_status(),
                    "state": _state(d)}
@@ -475,6 +477,7 @@ def case_power_loss_table(root: Path) -> dict[str, Any]:
     checks = {"old group in force after restart (CRC of the group equal)": obs["group_after_restart"] == "old"
               and obs["group_crc32_in_force"] == obs["group_crc32_saved"],
               "every parameter as saved (none lost or mixed)": obs["parameters_as_saved"],
+              "the group reads back as saved, with its version": obs["group_readback_after_restart"] == "saved, version 5",
               "fresh download succeeds": obs["fresh_download"],
               "the fresh group survives the next power loss once saved": obs["after_save_and_power_loss"] == "new",
               "drive boots to SWITCH ON DISABLED": obs["state"] == "SWITCH ON DISABLED",

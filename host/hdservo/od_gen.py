@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 OD_VERSION = 1
-PARAM_HASH = 0x2600222D
+PARAM_HASH = 0xADB4A22B
 VENDOR_ID = 0x00000EDA
 PRODUCT_CODE = 0x00484453
 REVISION = 0x00010000
@@ -345,6 +345,9 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x2870, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x2870, 1, 'dob_fc', 'i32', 'rw', '', 'Hz', 1.52587890625e-05),
     OdEntry(0x2870, 2, 'dob_j', 'i32', 'rw', '', 'kg.m^2', 1.52587890625e-05),
+    OdEntry(0x2880, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
+    OdEntry(0x2880, 1, 'tbl_fr_version', 'u32', 'rw', '', '1', 1.0),
+    OdEntry(0x2880, 2, 'tbl_te_version', 'u32', 'rw', '', '1', 1.0),
     OdEntry(0x5000, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x5000, 1, 'capture_control', 'u8', 'rw', '', '', 1.0),
     OdEntry(0x5000, 2, 'capture_state', 'u8', 'ro', '', '', 1.0),

@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 VERSION = 1
-TABLE_HASH = 0x2600222D
+TABLE_HASH = 0xADB4A22B
 
 
 class ParamDef(NamedTuple):
@@ -183,5 +183,7 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef(150, 'bs_th0_4', 0x2860, 24, 'i32', 'N.m', 16, -30000.0, 30000.0, 0.0, -1966080000, 1966080000, 0, 'Backstepping: initial estimate of T_load'),
     ParamDef(151, 'dob_fc', 0x2870, 1, 'i32', 'Hz', 16, 0.1, 500.0, 10.0, 6554, 32768000, 655360, 'Disturbance observer: Q-filter corner'),
     ParamDef(152, 'dob_j', 0x2870, 2, 'i32', 'kg.m^2', 16, 0.001, 30000.0, 1.3, 66, 1966080000, 85197, 'Disturbance observer: nominal inertia (output-referred)'),
+    ParamDef(153, 'tbl_fr_version', 0x2880, 1, 'u32', '1', 0, 0.0, 2147483647.0, 0.0, 0, 2147483647, 0, 'Version of the friction group (0x5100:2) in force, set by its download (0 = none); saved with the parameters'),
+    ParamDef(154, 'tbl_te_version', 0x2880, 2, 'u32', '1', 0, 0.0, 2147483647.0, 0.0, 0, 2147483647, 0, 'Version of the transmission-error group (0x5100:3) in force, set by its download (0 = none); saved with the parameters'),
 )
 BY_NAME: dict[str, ParamDef] = {p.name: p for p in PARAMS}

@@ -218,6 +218,25 @@ static void test_group_and_interlock(void **st)
     put32(p + len - 4u, hd_crc32(0u, p, len - 4u));
     assert_int_equal(download(HD_APP_CO_DOM_TE, p, len), HD_CO_AB_STORE);
     assert_int_equal(hd_app_param_get(&app, HD_P_TE_AMP1), old_amp);
+    /* the version is a parameter (saved with the others): 1..2^31-1 */
+    assert_int_equal(hd_app_param_get(&app, HD_P_TBL_TE_VERSION), 9);
+    assert_int_equal(hd_app_param_get(&app, HD_P_TBL_FR_VERSION), 0);
+    put32(p + 16u + 4u * 1u, (uint32_t)hd_app_param_get(&app, ids[1]));
+    put32(p + 8, 0x80000000u);
+    put32(p + len - 4u, hd_crc32(0u, p, len - 4u));
+    assert_int_equal(download(HD_APP_CO_DOM_TE, p, len), HD_CO_AB_STORE);
+    assert_int_equal(hd_app_param_get(&app, HD_P_TE_AMP1), old_amp);
+    assert_int_equal(hd_app_param_get(&app, HD_P_TBL_TE_VERSION), 9);
+    put32(p + 8, 0x7FFFFFFFu);
+    put32(p + len - 4u, hd_crc32(0u, p, len - 4u));
+    assert_int_equal(download(HD_APP_CO_DOM_TE, p, len), 0);
+    assert_int_equal(hd_app_param_get(&app, HD_P_TBL_TE_VERSION), 0x7FFFFFFF);
+    assert_int_equal(upload(HD_APP_CO_DOM_TE, back, sizeof back), len);
+    assert_memory_equal(back, p, len);
+    /* a restore of the defaults: no group version, the group reads back empty */
+    assert_int_equal(co.app.restore(co.app.ctx), 0u);
+    assert_int_equal(upload(HD_APP_CO_DOM_TE, back, sizeof back), 0u);
+    old_amp = hd_app_param_get(&app, HD_P_TE_AMP1);
 
     /* power stage on: every table domain refused */
     assert_int_equal(hd_app_set_mode(&app, HD_MODE_VELOCITY), 0);

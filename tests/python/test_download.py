@@ -149,6 +149,10 @@ def test_download_save_survives_a_restart(tmp_path: Path, capsys) -> None:
             d.start()
             assert d.store_status() == {"params": "loaded", "table": "loaded", "table_saved": True}
             assert d.read_domain(0x5100, 1) == table + struct.pack("<I", zlib.crc32(table))
+            from hdservo.drive import group_payload
+            for sub in (2, 3):           # the groups with their version (a parameter, saved)
+                g = group_payload(sub, plan["groups"][sub], 1)
+                assert d.read_domain(0x5100, sub) == g + struct.pack("<I", zlib.crc32(g))
             for name in ("pr_motor_share", "mx_stiffness", "bs_j"):
                 p = PARAMS[name]
                 assert d.read(p.index, p.sub) == dl.raw_of(name, plan["params"][name])

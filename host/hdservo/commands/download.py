@@ -56,7 +56,7 @@ def register(p: argparse.ArgumentParser) -> None:
                         "te,backstep,dob); default: leave cb_enable")
     p.add_argument("--save", action="store_true",
                    help="store everything in the drive's NVM afterwards (0x1010; power stage off), verified by 0x5101:3")
-    p.add_argument("--version", type=int, default=1, help="table version written into the groups (> 0)")
+    p.add_argument("--version", type=int, default=1, help="table version written into the groups (1..2147483647; the drive saves it with the parameters)")
     p.add_argument("--json", type=Path, metavar="PATH", help="write what was downloaded as JSON")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
@@ -281,8 +281,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.json is not None and not args.json.parent.exists():
         raise UserError(f"{args.json}: directory {args.json.parent} does not exist")
-    if args.version <= 0:
-        raise UserError("--version must be > 0")
+    if not 0 < args.version <= 0x7FFFFFFF:
+        raise UserError(f"--version {args.version}: expected 1..2147483647")
     enable = None
     if args.enable is not None:
         from ..compsetup import enable_mask
