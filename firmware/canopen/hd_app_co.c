@@ -591,7 +591,6 @@ static void a_actual(void *c, hd_co_actual_t *a)
     hd_app_co_t *ac = c;
     const hd_telemetry_t *t = hd_app_telemetry(ac->app);
     const int32_t v = hd_abs_sat(t->vel_out);
-    const int64_t e = hd_abs64_sat(hd_sub64_sat(t->pos_ref, t->pos_out));
     a->tick = t->tick;
     a->load_angle = t->pos_out;
     a->motor_angle = t->pos_mot;
@@ -607,10 +606,9 @@ static void a_actual(void *c, hd_co_actual_t *a)
     /* 0.1 mturn/s ~ 0.036 deg/s; during a quick stop also the ramp at its end (an axis
      * that lags its ramp, or a standstill before the ramp is down, does not end it) */
     a->standstill = (v < 4295 * 100 && (ac->mode != HD_APP_CO_MODE_QSTOP || ac->app->vel_cmd == 0)) ? 1u : 0u;
-    /* target reached: reference and output within 2^-16 turn; in PP also the profile
-     * generator at rest (move finished, or halted: CiA 402 bit 10 with halt = 1) */
-    a->target_reached = (e < ((int64_t)1 << 16) &&
-                         (ac->mode != HD_CO402_MODE_PP || hd_traj_done(&ac->app->traj) != 0)) ? 1u : 0u;
+    /* PP: the profile generator at rest (move finished, or halted: CiA 402 bit 10 with
+     * halt = 1); the position window 0x6067/0x6068 is applied by hd_co_402.c */
+    a->at_rest = (ac->mode != HD_CO402_MODE_PP || hd_traj_done(&ac->app->traj) != 0) ? 1u : 0u;
     a->internal_limit = 0u;
 }
 

@@ -132,7 +132,8 @@ typedef struct {
     uint16_t fault_emcy;      /* EMCY error code of that fault */
     uint8_t  power_enabled;
     uint8_t  standstill;      /* |velocity| small (quick stop done) */
-    uint8_t  target_reached;
+    uint8_t  at_rest;         /* the set-point generator at rest (PP: move finished or halted;
+                               * other modes 1): bit 10 also needs the 0x6067/0x6068 window */
     uint8_t  internal_limit;
 } hd_co_actual_t;
 
@@ -225,6 +226,14 @@ typedef struct {
                               * can arrive within one control period) */
     uint16_t fault_code;     /* EMCY code of the active fault */
     uint32_t standstill_ticks;
+    /* windows of 0x6065/0x6066 and 0x6067/0x6068: since when (hd_co_t.now_us) the
+     * following error has been outside / inside, 0 = not */
+    uint64_t fe_out_since_us;
+    uint64_t win_in_since_us;
+    uint8_t  fe_out;            /* the error is outside 0x6065 (since fe_out_since_us) */
+    uint8_t  win_in;            /* the error is inside 0x6067 at rest (since win_in_since_us) */
+    uint8_t  following_error;   /* statusword bit 13 (PP, CSP) */
+    uint8_t  target_reached;    /* statusword bit 10 */
 } hd_co402_t;
 
 typedef struct {

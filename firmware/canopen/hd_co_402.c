@@ -248,6 +248,42 @@ static int16_t torque_q16_to_permille(int32_t q16, uint32_t rated_mNm)
     return (int16_t)hd_clamp64(v, -32768, 32767);
 }
 
+/* |following error| in 0x6065/0x6067 units (2^-24 turn), as unsigned */
+static uint32_t fe_abs(const hd_co_t *co)
+{
+    const int32_t e = co->od.following_error_actual_value;
+    return (e < 0) ? (uint32_t)(-(e + 1)) + 1u : (uint32_t)e;
+}
+
+/* true once cond has held for at least ms milliseconds (since_us = when it began) */
+static bool held(const hd_co_t *co, bool cond, uint8_t *on, uint64_t *since_us, uint32_t ms)
+{
+    if (!cond) {
+        *on = 0u;
+        return false;
+    }
+    if (*on == 0u) {
+        *on = 1u;
+        *since_us = co->now_us;
+    }
+    return co->now_us - *since_us >= (uint64_t)ms * 1000u;
+}
+
+/* Following error (0x6065 window, 0x6066 time-out; window 0xFFFFFFFF = off): bit 13
+ * once the error has been above the window for the time-out, in OPERATION ENABLED.
+ * Target reached (0x6067 window, 0x6068 time): bit 10 once the generator is at rest
+ * and the error has stayed within the window for the time. */
+static void windows(hd_co_t *co)
+{
+    hd_co402_t *p = &co->p402;
+    const uint32_t e = fe_abs(co);
+    const bool fe_on = co->od.following_error_window != 0xFFFFFFFFu && p->state == HD_CO402_OP_ENABLED &&
+                       e > co->od.following_error_window;
+    p->following_error = held(co, fe_on, &p->fe_out, &p->fe_out_since_us, co->od.following_error_time_out) ? 1u : 0u;
+    p->target_reached = held(co, co->act.at_rest != 0u && e <= co->od.position_window, &p->win_in,
+                             &p->win_in_since_us, co->od.position_window_time) ? 1u : 0u;
+}
+
 static uint16_t statusword(const hd_co_t *co)
 {
     const hd_co402_t *p = &co->p402;
@@ -266,7 +302,7 @@ static uint16_t statusword(const hd_co_t *co)
         sw |= SW_VE;
     }
     sw |= SW_REMOTE;
-    if (co->act.target_reached) {
+    if (p->target_reached) {
         sw |= SW_TR;
     }
     if (co->act.internal_limit) {
@@ -278,6 +314,9 @@ static uint16_t statusword(const hd_co_t *co)
             sw |= SW_OMS1;               /* drive follows the command value */
         } else if (m == HD_CO402_MODE_PP && (co->od.controlword & CW_NEW_SP) != 0u && p->sp_pending == 0u) {
             sw |= SW_OMS1;               /* set-point acknowledge: handed over, bit 4 still set */
+        }
+        if ((m == HD_CO402_MODE_PP || m == HD_CO402_MODE_CSP) && p->following_error != 0u) {
+            sw |= SW_OMS2;               /* following error (0x6065 / 0x6066) */
         }
     }
     return sw;
@@ -307,6 +346,7 @@ void hd_co402_tick(hd_co_t *co)
     co->od.velocity_actual_value = a->load_velocity;
     co->od.torque_actual_value = torque_q16_to_permille(a->output_torque, co->od.motor_rated_torque);
     co->od.following_error_actual_value = hd_sat32(hd_asr64_rnd(hd_sub64_sat(a->setpoint_angle, a->load_angle), 8u));
+    windows(co);
 
     if (p->state == HD_CO402_NOT_READY) {
         enter(co, HD_CO402_SO_DISABLED);

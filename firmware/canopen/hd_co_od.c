@@ -396,8 +396,10 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x6060u, 0u, 0x02u, HD_CO_A_RW, (uint8_t)(HD_CO_F_RPDO), HD_CO_K_VAR, OFF(modes_of_operation), INT64_C(-128), INT64_C(127), INT64_C(0), NULL},  /* modes_of_operation */
     {0x6061u, 0u, 0x02u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO|HD_CO_F_COS), HD_CO_K_VAR, OFF(modes_of_operation_display), INT64_C(-128), INT64_C(127), INT64_C(0), NULL},  /* modes_of_operation_display */
     {0x6064u, 0u, 0x04u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO), HD_CO_K_VAR, OFF(position_actual_value), INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* position_actual_value */
-    {0x6065u, 0u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(following_error_window), INT64_C(0), INT64_C(4294967295), INT64_C(4294967295), NULL},  /* following_error_window */
-    {0x6066u, 0u, 0x06u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(following_error_time_out), INT64_C(0), INT64_C(65535), INT64_C(10), NULL},  /* following_error_time_out */
+    {0x6065u, 0u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_VAR, OFF(following_error_window), INT64_C(0), INT64_C(4294967295), INT64_C(4294967295), NULL},  /* following_error_window */
+    {0x6066u, 0u, 0x06u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_VAR, OFF(following_error_time_out), INT64_C(0), INT64_C(65535), INT64_C(10), NULL},  /* following_error_time_out */
+    {0x6067u, 0u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_VAR, OFF(position_window), INT64_C(0), INT64_C(4294967295), INT64_C(256), NULL},  /* position_window */
+    {0x6068u, 0u, 0x06u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_VAR, OFF(position_window_time), INT64_C(0), INT64_C(65535), INT64_C(0), NULL},  /* position_window_time */
     {0x606Cu, 0u, 0x04u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO), HD_CO_K_VAR, OFF(velocity_actual_value), INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* velocity_actual_value */
     {0x6071u, 0u, 0x03u, HD_CO_A_RW, (uint8_t)(HD_CO_F_RPDO), HD_CO_K_VAR, OFF(target_torque), INT64_C(-32768), INT64_C(32767), INT64_C(0), NULL},  /* target_torque */
     {0x6072u, 0u, 0x06u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(max_torque), INT64_C(0), INT64_C(65535), INT64_C(4000), NULL},  /* max_torque */

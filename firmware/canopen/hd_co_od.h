@@ -12,7 +12,7 @@
 
 #define HD_CO_OD_VERSION 1u
 #define HD_CO_OD_PARAM_HASH 0xADB4A22Bu
-#define HD_CO_OD_COUNT 411u
+#define HD_CO_OD_COUNT 413u
 #define HD_CO_N_PDO 4u
 #define HD_CO_N_MAP 8u
 #define HD_CO_VENDOR_ID 0x00000EDAu
@@ -88,6 +88,8 @@ typedef struct {
     int32_t position_actual_value;  /* 0x6064:0 */
     uint32_t following_error_window;  /* 0x6065:0 */
     uint16_t following_error_time_out;  /* 0x6066:0 */
+    uint32_t position_window;  /* 0x6067:0 */
+    uint16_t position_window_time;  /* 0x6068:0 */
     int32_t velocity_actual_value;  /* 0x606C:0 */
     int16_t target_torque;  /* 0x6071:0 */
     uint16_t max_torque;  /* 0x6072:0 */

@@ -421,6 +421,8 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x6064, 0, 'position_actual_value', 'i32', 'ro', 't', '2^-24 turn', 1.0),
     OdEntry(0x6065, 0, 'following_error_window', 'u32', 'rw', '', '2^-24 turn', 1.0),
     OdEntry(0x6066, 0, 'following_error_time_out', 'u16', 'rw', '', 'ms', 1.0),
+    OdEntry(0x6067, 0, 'position_window', 'u32', 'rw', '', '2^-24 turn', 1.0),
+    OdEntry(0x6068, 0, 'position_window_time', 'u16', 'rw', '', 'ms', 1.0),
     OdEntry(0x606C, 0, 'velocity_actual_value', 'i32', 'ro', 't', '2^-32 turn/s', 1.0),
     OdEntry(0x6071, 0, 'target_torque', 'i16', 'rw', 'r', '1/1000 rated torque', 1.0),
     OdEntry(0x6072, 0, 'max_torque', 'u16', 'rw', '', '1/1000 rated torque', 1.0),

@@ -460,6 +460,75 @@ static void test_pp_halt(void **st)
     assert_true((co.od.statusword & SW_TR) != 0u);
 }
 
+/* one period; the encoders read the reference minus lag (Q32.32 turns) from the next
+ * period on (like period(): the stub axis follows one period late) */
+static void period_lag(int64_t lag)
+{
+    hd_app_step(&app);
+    hd_co_tick(&co, HD_CO_TICK_US);
+    trk_pos = hd_app_telemetry(&app)->pos_ref - lag;
+}
+
+/* 0x6065/0x6066 following error window and time-out -> statusword bit 13 (CSP, PP);
+ * 0x6067/0x6068 position window and time -> bit 10 */
+static void test_following_error_and_position_window(void **st)
+{
+    const uint32_t per_ms = 1000u / HD_CO_TICK_US;
+    uint32_t i;
+    (void)st;
+    assert_int_equal(co.od.following_error_window, 0xFFFFFFFFu);     /* off by default */
+    assert_int_equal(co.od.position_window, 256u);                    /* 2^-16 turn */
+    enable_402(8);
+    period_lag(0);
+    period_lag(0);
+    assert_true((co.od.statusword & SW_TR) != 0u);
+    assert_true((co.od.statusword & 0x2000u) == 0u);
+    /* 1000 units behind, window off: no bit 13; bit 10 off (outside 256) */
+    for (i = 0u; i < 3u; i++) {
+        period_lag((int64_t)1000 << 8);
+    }
+    assert_int_equal(co.od.following_error_actual_value, 1000);
+    assert_true((co.od.statusword & 0x2000u) == 0u);
+    assert_true((co.od.statusword & SW_TR) == 0u);
+    /* window 500, time-out 2 ms: bit 13 after 2 ms outside, not before */
+    co.od.following_error_window = 500u;
+    co.od.following_error_time_out = 2u;
+    period_lag((int64_t)1000 << 8);                                   /* outside from here */
+    for (i = 1u; i < 2u * per_ms; i++) {
+        period_lag((int64_t)1000 << 8);
+        assert_true((co.od.statusword & 0x2000u) == 0u);
+    }
+    period_lag((int64_t)1000 << 8);
+    assert_true((co.od.statusword & 0x2000u) != 0u);
+    /* back inside: bit 13 clears at once; bit 10 after 0x6068 = 3 ms within 256 */
+    co.od.position_window_time = 3u;
+    period_lag((int64_t)100 << 8);                                    /* the encoders read it next period */
+    assert_true((co.od.statusword & 0x2000u) != 0u);
+    period_lag((int64_t)100 << 8);                                    /* inside from here */
+    assert_int_equal(co.od.following_error_actual_value, 100);
+    assert_true((co.od.statusword & 0x2000u) == 0u);
+    for (i = 1u; i < 3u * per_ms; i++) {
+        period_lag((int64_t)100 << 8);
+        assert_true((co.od.statusword & SW_TR) == 0u);
+    }
+    period_lag((int64_t)100 << 8);
+    assert_true((co.od.statusword & SW_TR) != 0u);
+    /* a wider position window takes the 1000-unit lag as reached (after its time) */
+    co.od.position_window = 2000u;
+    co.od.position_window_time = 0u;
+    period_lag((int64_t)1000 << 8);
+    period_lag((int64_t)1000 << 8);
+    assert_int_equal(co.od.following_error_actual_value, 1000);
+    assert_true((co.od.statusword & SW_TR) != 0u);
+    /* CSV: no bit 13 (CiA 402: reserved there) */
+    co.od.modes_of_operation = 9;
+    for (i = 0u; i < 3u * per_ms; i++) {
+        period_lag((int64_t)1000 << 8);
+    }
+    assert_int_equal(co.od.modes_of_operation_display, 9);
+    assert_true((co.od.statusword & 0x2000u) == 0u);
+}
+
 static void test_csv_halt(void **st)
 {
     const int32_t v = 429496730;                          /* 0.1 turn/s, 2^-32 turn/s */
@@ -628,6 +697,7 @@ int main(void)
         cmocka_unit_test_setup(test_group_and_interlock, setup),
         cmocka_unit_test_setup(test_pp_halt, setup),
         cmocka_unit_test_setup(test_csv_halt, setup),
+        cmocka_unit_test_setup(test_following_error_and_position_window, setup),
         cmocka_unit_test_setup(test_pp_profile_objects, setup),
         cmocka_unit_test_setup(test_stop_options, setup),
         cmocka_unit_test_setup(test_pp_halt_quick_stop_decel, setup),
