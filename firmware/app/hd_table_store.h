@@ -1,6 +1,7 @@
 /*
- * hd_table_store.h - the Preisach table in NVM: an atomic two-slot store after the
- * parameter store's slots, so an identified hysteresis table survives a power cycle.
+ * hd_table_store.h - the Preisach table in NVM: an atomic two-slot store
+ * (hd_rec_store.h) after the parameter store's slots, so an identified hysteresis
+ * table survives a power cycle.
  *
  * NVM layout (through hal.h): the parameter store owns [0, hd_pstore_region());
  * this store owns two slots of hd_tstore_slot_size() bytes (a page multiple) from

@@ -1,0 +1,51 @@
+/*
+ * hd_rec_store.h - an atomic two-slot store of one record of 32-bit words in the hal
+ * NVM region: the machinery under the Preisach table store (hd_table_store.h) and the
+ * CANopen object store (hd_co_store.h).
+ *
+ * A store owns two slots of `slot` bytes (a page multiple) from `offset`.  A slot is
+ *     header  { magic, format 1, sequence number, words }  4 x uint32 LE
+ *     payload words x uint32 LE (0 words: an empty record, e.g. "no table")
+ *     crc32   IEEE 802.3 over header + payload
+ * padded with 0xFF to a multiple of 8 bytes.  Load delivers the payload of the valid
+ * slot (magic, format, size, CRC) with the newer sequence number (serial-number
+ * arithmetic), word by word to a callback; save erases and writes the slot that does
+ * not hold the newest valid record, streamed through a 64-byte buffer, and reads it
+ * back: a power loss during a save leaves the old record or the new one, never a mix.
+ */
+#ifndef HD_REC_STORE_H
+#define HD_REC_STORE_H
+
+#include <stdint.h>
+
+typedef struct {
+    uint32_t offset;      /* hal NVM offset of slot 0 (slot 1 follows) */
+    uint32_t slot;        /* bytes per slot, a page multiple (hd_rstore_slot_bytes) */
+    uint32_t magic;       /* record magic */
+    uint32_t words_max;   /* payload words at most */
+} hd_rstore_t;
+
+typedef enum {
+    HD_RSTORE_OK = 0,          /* a record was delivered */
+    HD_RSTORE_BLANK = 1,       /* nothing saved yet */
+    HD_RSTORE_CORRUPT = 2,     /* slot(s) present but none valid */
+    HD_RSTORE_EMPTY = 3,       /* the newest valid record has no words */
+    HD_RSTORE_NVM_ERROR = 4    /* region outside the NVM, or a hal call failed */
+} hd_rstore_status_t;
+
+/** Payload word w of the record being saved. */
+typedef uint32_t (*hd_rstore_get_fn)(const void *ctx, uint32_t w);
+/** Payload word w of the record being loaded. */
+typedef void (*hd_rstore_put_fn)(void *ctx, uint32_t w, uint32_t v);
+
+/** Slot bytes for up to words_max payload words at the hal's page size (0: no pages). */
+uint32_t hd_rstore_slot_bytes(uint32_t words_max);
+/** Deliver the newest valid record to put(); *words gets its length.  A CORRUPT or
+ *  NVM_ERROR result may follow calls of put() (a record that failed its CRC while
+ *  being delivered). Returns hd_rstore_status_t; *seq is 0 unless OK or EMPTY. */
+int32_t hd_rstore_load(const hd_rstore_t *s, void *ctx, hd_rstore_put_fn put, uint32_t *seq, uint32_t *words);
+/** Save words payload words from get() with a sequence number newer than *seq and than
+ *  the record that survives; updates *seq.  0 ok, -1 too many words, -2 NVM error. */
+int32_t hd_rstore_save(const hd_rstore_t *s, const void *ctx, hd_rstore_get_fn get, uint32_t words, uint32_t *seq);
+
+#endif
