@@ -317,6 +317,7 @@ static uint32_t a_special_read(void *c, uint16_t index, uint8_t sub, int64_t *v)
     if (index == 0x5101u && sub == 1u) { *v = (int64_t)ac->app->pstore_status; return 0u; }
     if (index == 0x5101u && sub == 2u) { *v = (int64_t)ac->app->tstore_status; return 0u; }
     if (index == 0x5101u && sub == 3u) { *v = (int64_t)ac->app->tstore_sync; return 0u; }
+    if (index == 0x5101u && sub == 4u) { *v = (int64_t)ac->cstore_status; return 0u; }
     if (index == 0x5010u && sub == 2u) {
         *v = (ac->app->mode != HD_MODE_EXCITATION) ? 0 : (ac->app->exc.done != 0u ? 2 : 1);
         return 0u;
@@ -413,9 +414,43 @@ static uint32_t a_special_write(void *c, uint16_t index, uint8_t sub, int64_t v)
     return HD_CO_AB_READONLY;
 }
 
+/* the communication-object store: after the Preisach table store's two slots */
+static hd_rstore_t co_store(void)
+{
+    hd_rstore_t s;
+    s.offset = hd_tstore_offset() + 2u * hd_tstore_slot_size();
+    s.slot = hd_rstore_slot_bytes(HD_CO_STORE_MAX);
+    s.magic = HD_APP_CO_CSTORE_MAGIC;
+    s.words_max = HD_CO_STORE_MAX;
+    return s;
+}
+
+static void co_img_put(void *ctx, uint32_t w, uint32_t v)
+{
+    hd_co_t *co = ctx;
+    if (w < HD_CO_STORE_MAX) {
+        co->stored[w] = v;
+    }
+}
+
+static uint32_t co_img_get(const void *ctx, uint32_t w)
+{
+    return hd_co_store_word((const hd_co_t *)ctx, w);
+}
+
+/* 0x1010: drive parameters and the Preisach table (app), then the stored objects */
 static uint32_t a_store(void *c)
 {
-    return hd_app_store_all(((hd_app_co_t *)c)->app) == 0 ? 0u : HD_CO_AB_STATE;
+    hd_app_co_t *ac = c;
+    const hd_rstore_t st = co_store();
+    if (hd_app_store_all(ac->app) != 0) {
+        return HD_CO_AB_STATE;
+    }
+    if (hd_rstore_save(&st, ac->co, co_img_get, hd_co_store_words(ac->co), &ac->cstore_seq) != 0) {
+        return HD_CO_AB_STORE;
+    }
+    hd_co_store_capture(ac->co);         /* NMT resets now return to these */
+    return 0u;
 }
 
 static uint32_t a_restore(void *c)
@@ -431,6 +466,7 @@ static uint32_t a_restore(void *c)
         (void)hd_app_param_set(ac->app, i, hd_param_table[i].def);
     }
     hd_app_comp_table_clear(ac->app);
+    hd_co_store_defaults(ac->co);
     return 0u;
 }
 
@@ -684,4 +720,21 @@ void hd_app_co_init(hd_app_co_t *ac, hd_co_t *co, hd_app_t *app, uint8_t node_id
     ifc.can_status = a_can_status;
     ifc.can_recover = a_can_recover;
     hd_co_init(co, node_id, &ifc);
+    /* the saved communication and CiA 402 settings (0x1010), over the defaults */
+    {
+        const hd_rstore_t st = co_store();
+        uint32_t words = 0u;
+        const int32_t rc = hd_rstore_load(&st, co, co_img_put, &ac->cstore_seq, &words);
+        if (rc == HD_RSTORE_OK) {
+            if (hd_co_store_apply(co, co->stored, words, 0x1000u, 0xFFFFu) == 0) {
+                co->stored_ok = 1u;
+                ac->cstore_status = HD_APP_CO_CSTORE_OK;
+            } else {
+                ac->cstore_status = HD_APP_CO_CSTORE_OTHER;
+            }
+        } else {
+            ac->cstore_status = (rc == HD_RSTORE_BLANK) ? HD_APP_CO_CSTORE_BLANK :
+                                ((rc == HD_RSTORE_NVM_ERROR) ? HD_APP_CO_CSTORE_NVM_ERROR : HD_APP_CO_CSTORE_CORRUPT);
+        }
+    }
 }

@@ -19,11 +19,13 @@
  *   CAN controller state <- hd_hal_can_status() every period; bus-off recovery
  *     -> hd_hal_can_recover() (hd_co.h hd_co_can_state)
  *   0x1010 save -> hd_app_store_all: parameters + the Preisach table in force
- *     (0x08000022 unless the power stage is off)
- *   0x1011 restore -> defaults and no Preisach table, now (power stage off, else
- *     0x08000022); 0x1010 then stores them
+ *     (0x08000022 unless the power stage is off), then the stored CANopen objects
+ *     (hd_co_store_*: communication and CiA 402 settings) in their own record after
+ *     the table store (0x08000020 if that write fails)
+ *   0x1011 restore -> defaults (parameters, stored objects) and no Preisach table,
+ *     now (power stage off, else 0x08000022); 0x1010 then stores them
  *   0x5101 store status: parameter and table store status of the boot load, table
- *     saved (1 = the NVM holds the table in force)
+ *     saved (1 = the NVM holds the table in force), stored-object status
  *   0x5000 capture: arm (1) with the signals / length / decimation /
  *     pre-trigger of 0x5000:3..6, command trigger (2), state, data (domain 0:
  *     int32 LE, frame-major, frame 0 = oldest)
@@ -52,6 +54,7 @@
 #include "hal.h"
 #include "hd_app.h"
 #include "hd_co.h"
+#include "hd_rec_store.h"
 
 #define HD_APP_CO_DOM_CAPTURE   0u
 #define HD_APP_CO_DOM_PREISACH  1u
@@ -101,9 +104,20 @@ typedef struct {
     hd_preisach_table_t stage;     /* table being received: word w of the domain is field /
                                     * entry w of the image (any domain is staged here) */
     uint32_t stage_tail;           /* word HD_APP_CO_STAGE_WORDS - 1 (a full table's trailer) */
+    uint32_t cstore_seq;           /* stored-object record (hd_rec_store.h) sequence */
+    uint8_t  cstore_status;        /* HD_APP_CO_CSTORE_* of the boot load (0x5101:4) */
 } hd_app_co_t;
 
-/** Wire the device to the app and start it (hd_co_init: boot-up goes out). */
+/* the stored CANopen objects at boot (0x5101:4) */
+#define HD_APP_CO_CSTORE_OK        0u   /* loaded */
+#define HD_APP_CO_CSTORE_BLANK     1u   /* nothing saved: defaults */
+#define HD_APP_CO_CSTORE_CORRUPT   2u   /* no valid record: defaults */
+#define HD_APP_CO_CSTORE_OTHER     3u   /* another object dictionary's record, or a value out of range: defaults */
+#define HD_APP_CO_CSTORE_NVM_ERROR 4u   /* defaults */
+#define HD_APP_CO_CSTORE_MAGIC     0x53434448u  /* "HDCS" */
+
+/** Wire the device to the app and start it (hd_co_init: boot-up goes out), then put
+ *  the saved communication and CiA 402 objects in force (hd_co_store_apply). */
 void hd_app_co_init(hd_app_co_t *ac, hd_co_t *co, hd_app_t *app, uint8_t node_id,
                     const hd_app_co_port_t *port);
 

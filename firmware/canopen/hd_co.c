@@ -1,6 +1,7 @@
 /*
  * hd_co.c - CiA 301 services of the drive (see hd_co.h).
  */
+#include "hd_crc32.h"
 #include <stddef.h>
 #include "hd_co_util.h"
 #include "hd_co.h"
@@ -93,9 +94,9 @@ static void var_store(hd_co_t *co, const hd_co_entry_t *e, int64_t v)
     }
 }
 
-static int64_t var_load(hd_co_t *co, const hd_co_entry_t *e)
+static int64_t var_load(const hd_co_t *co, const hd_co_entry_t *e)
 {
-    const uint8_t *p = var_ptr(co, e);
+    const uint8_t *p = (const uint8_t *)&co->od + e->arg;
     uint8_t b[8];
     uint32_t n = type_size(e->type);
     switch (n) {
@@ -530,6 +531,148 @@ static void load_defaults(hd_co_t *co, uint16_t lo, uint16_t hi)
             v += co->node_id;
         }
         var_store(co, e, v);
+    }
+}
+
+/* ---- stored objects (0x1010 save; hd_co.h hd_co_store_*) --------------------------- */
+
+/* in the stored image only: the COB-ID is its default base + the node id, so the image
+ * follows a change of the node id like the defaults do */
+#define STORE_NODEREL 0x08000000u
+
+static bool is_stored(const hd_co_entry_t *e)
+{
+    return e->kind == HD_CO_K_VAR && (e->flags & HD_CO_F_STORE) != 0u && type_size(e->type) <= 4u;
+}
+
+uint32_t hd_co_store_words(const hd_co_t *co)
+{
+    uint32_t n = 1u;
+    for (uint32_t i = 0u; i < co->count; i++) {
+        n += is_stored(&co->table[i]) ? 1u : 0u;
+    }
+    return n;
+}
+
+uint32_t hd_co_store_layout(const hd_co_t *co)
+{
+    uint32_t crc = 0u;
+    for (uint32_t i = 0u; i < co->count; i++) {
+        const hd_co_entry_t *e = &co->table[i];
+        if (is_stored(e)) {
+            const uint8_t b[5] = {(uint8_t)(e->index & 0xFFu), (uint8_t)(e->index >> 8), e->sub, e->type, e->flags};
+            crc = hd_crc32(crc, b, 5u);
+        }
+    }
+    return crc;
+}
+
+/* live value of a stored entry -> its image word */
+static uint32_t store_encode(const hd_co_t *co, const hd_co_entry_t *e)
+{
+    const uint32_t u = (uint32_t)((uint64_t)var_load(co, e) & 0xFFFFFFFFu);
+    if ((e->flags & HD_CO_F_NODEID) != 0u && (u & 0x7FFu) == (((uint32_t)e->def + co->node_id) & 0x7FFu)) {
+        return (u - co->node_id) | STORE_NODEREL;
+    }
+    return u;
+}
+
+/* image word -> value of a stored entry (the inverse of store_encode) */
+static int64_t store_decode(const hd_co_t *co, const hd_co_entry_t *e, uint32_t w)
+{
+    uint8_t b[4];
+    if ((e->flags & HD_CO_F_NODEID) != 0u && (w & STORE_NODEREL) != 0u) {
+        w = (w & ~STORE_NODEREL) + co->node_id;
+    }
+    encode_le(b, 4u, (int64_t)w);
+    return decode_le(b, type_size(e->type), type_signed(e->type));
+}
+
+uint32_t hd_co_store_word(const hd_co_t *co, uint32_t w)
+{
+    uint32_t k = 1u;
+    if (w == 0u) {
+        return hd_co_store_layout(co);
+    }
+    for (uint32_t i = 0u; i < co->count; i++) {
+        const hd_co_entry_t *e = &co->table[i];
+        if (is_stored(e)) {
+            if (k == w) {
+                return store_encode(co, e);
+            }
+            k++;
+        }
+    }
+    return 0u;
+}
+
+int32_t hd_co_store_apply(hd_co_t *co, const uint32_t *img, uint32_t words, uint16_t lo, uint16_t hi)
+{
+    uint32_t k;
+    if (words != hd_co_store_words(co) || img[0] != hd_co_store_layout(co)) {
+        return -1;
+    }
+    /* every value inside its entry's limits, or none is applied */
+    k = 1u;
+    for (uint32_t i = 0u; i < co->count; i++) {
+        const hd_co_entry_t *e = &co->table[i];
+        if (is_stored(e)) {
+            const int64_t v = store_decode(co, e, img[k]);
+            if (v < e->min || v > e->max) {
+                return -1;
+            }
+            k++;
+        }
+    }
+    k = 1u;
+    for (uint32_t i = 0u; i < co->count; i++) {
+        const hd_co_entry_t *e = &co->table[i];
+        if (is_stored(e)) {
+            if (e->index >= lo && e->index <= hi) {
+                var_store(co, e, store_decode(co, e, img[k]));
+            }
+            k++;
+        }
+    }
+    for (uint32_t i = 0u; i < HD_CO_N_PDO; i++) {
+        pdo_rebuild(co, true, i);
+        pdo_rebuild(co, false, i);
+    }
+    return 0;
+}
+
+void hd_co_store_keep(hd_co_t *co, const uint32_t *img, uint32_t words)
+{
+    co->stored_ok = 0u;
+    if (words <= HD_CO_STORE_MAX && words == hd_co_store_words(co) && img[0] == hd_co_store_layout(co)) {
+        hd_co_copy(co->stored, img, 4u * words);
+        co->stored_ok = 1u;
+    }
+}
+
+void hd_co_store_capture(hd_co_t *co)
+{
+    const uint32_t n = hd_co_store_words(co);
+    co->stored_ok = 0u;
+    if (n <= HD_CO_STORE_MAX) {
+        for (uint32_t w = 0u; w < n; w++) {
+            co->stored[w] = hd_co_store_word(co, w);
+        }
+        co->stored_ok = 1u;
+    }
+}
+
+void hd_co_store_defaults(hd_co_t *co)
+{
+    for (uint32_t i = 0u; i < co->count; i++) {
+        const hd_co_entry_t *e = &co->table[i];
+        if (is_stored(e)) {
+            var_store(co, e, e->def + (((e->flags & HD_CO_F_NODEID) != 0u) ? (int64_t)co->node_id : 0));
+        }
+    }
+    for (uint32_t i = 0u; i < HD_CO_N_PDO; i++) {
+        pdo_rebuild(co, true, i);
+        pdo_rebuild(co, false, i);
     }
 }
 
@@ -1473,6 +1616,9 @@ static void reset_comm(hd_co_t *co)
 {
     sdo_reset(co, true);
     load_defaults(co, 0x1000u, 0x1FFFu);
+    if (co->stored_ok != 0u) {            /* CiA 301: reset communication = the stored values */
+        (void)hd_co_store_apply(co, co->stored, hd_co_store_words(co), 0x1000u, 0x1FFFu);
+    }
     for (uint32_t i = 0u; i < HD_CO_N_PDO; i++) {
         pdo_rebuild(co, true, i);
         pdo_rebuild(co, false, i);
@@ -1513,6 +1659,9 @@ static void nmt_process(hd_co_t *co, const hd_can_frame_t *f)
             co->app.reset_node(co->app.ctx);
         }
         load_defaults(co, 0x2000u, 0xFFFFu);
+        if (co->stored_ok != 0u) {
+            (void)hd_co_store_apply(co, co->stored, hd_co_store_words(co), 0x2000u, 0xFFFFu);
+        }
         hd_co402_init(co);
         reset_comm(co);
         break;

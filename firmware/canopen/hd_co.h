@@ -101,6 +101,9 @@
 #define HD_CO402_MODE_STAB  (-1)   /* manufacturer-specific: inertial stabilisation (app mode STAB) */
 
 /** Setpoints handed to the app every period in OPERATION ENABLED / QUICK STOP. */
+/** Words of the stored-object image at most (hd_co_store_*, below). */
+#define HD_CO_STORE_MAX 192u
+
 typedef struct {
     int8_t   mode;            /* HD_CO402_MODE_* */
     uint8_t  quick_stop;      /* 1: decelerate to standstill with quick_stop_decel */
@@ -269,7 +272,36 @@ typedef struct {
     hd_co402_t p402;
     hd_co_actual_t act;
     hd_co_stats_t stats;
+    /* the stored objects' saved image (hd_co_store_*, HD_CO_STORE_MAX words): NMT
+     * resets go back to it */
+    uint32_t stored[HD_CO_STORE_MAX];
+    uint8_t  stored_ok;
 } hd_co_t;
+
+/*
+ * Stored objects: every VAR entry flagged HD_CO_F_STORE (communication and CiA 402
+ * settings; the drive parameters have their own store) as one image of 32-bit words:
+ * word 0 the layout (CRC-32 of index, sub, type and flags of those entries, so an image
+ * of another object dictionary is refused), then one word per entry in table order (a
+ * COB-ID that is its default base + node id is kept node-relative).  The app adapter
+ * saves it with 0x1010 and hands it back at boot (hd_app_co.c); the NMT resets return
+ * to it (CiA 301: reset communication / application load the stored values).
+ */
+/** Words of the image (1 + stored entries). */
+uint32_t hd_co_store_words(const hd_co_t *co);
+/** The layout word (image word 0). */
+uint32_t hd_co_store_layout(const hd_co_t *co);
+/** Image word w of the live values. */
+uint32_t hd_co_store_word(const hd_co_t *co, uint32_t w);
+/** Apply an image to the entries with index in [lo, hi]: checked whole first (layout,
+ *  length, every value inside its limits), else nothing changes and -1.  0 ok. */
+int32_t hd_co_store_apply(hd_co_t *co, const uint32_t *img, uint32_t words, uint16_t lo, uint16_t hi);
+/** Keep img as the stored image the NMT resets return to (if its layout matches). */
+void hd_co_store_keep(hd_co_t *co, const uint32_t *img, uint32_t words);
+/** Keep the live values as the stored image (after a successful save). */
+void hd_co_store_capture(hd_co_t *co);
+/** The stored entries to their defaults, now (0x1011 restore). */
+void hd_co_store_defaults(hd_co_t *co);
 
 /** Set everything to defaults, enter PRE-OPERATIONAL, send the boot-up message. */
 void hd_co_init(hd_co_t *co, uint8_t node_id, const hd_co_app_if_t *app);

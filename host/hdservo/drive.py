@@ -49,6 +49,8 @@ TURN = 2.0 * math.pi
 PARAM_STORE_STATUS = {0: "loaded", 1: "blank", 2: "corrupt", 3: "other table version", 4: "nvm error"}
 #: 0x5101:2, the Preisach table at boot (hd_tstore_status_t); all but "loaded" mean no table.
 TABLE_STORE_STATUS = {0: "loaded", 1: "blank", 2: "corrupt", 3: "saved as none", 4: "nvm error"}
+#: 0x5101:4, the stored communication / CiA 402 objects at boot; all but "loaded" mean the defaults.
+OBJECT_STORE_STATUS = {0: "loaded", 1: "blank", 2: "corrupt", 3: "other dictionary", 4: "nvm error"}
 
 #: attempts per SDO request/response exchange (python canopen's MAX_RETRIES; its default 1
 #: means no retry): a frame lost on the bus costs one response time-out (0.3 s), not the transfer
@@ -220,7 +222,8 @@ class Drive:
         self.write(p.index, p.sub, raw)
 
     def save(self) -> None:
-        """Store all parameters and the Preisach table in force in the drive's NVM (0x1010:1 = 'save').
+        """Store the drive parameters, the Preisach table in force and the communication / CiA 402
+        settings (PDO configuration, heartbeat, 0x6065-0x6068, ...) in the drive's NVM (0x1010:1 = 'save').
 
         Refused (0x08000022) with the power stage on.
         """
@@ -232,14 +235,16 @@ class Drive:
         Returns
         -------
         dict
-            ``params`` and ``table``: the load status by name (:data:`PARAM_STORE_STATUS`,
-            :data:`TABLE_STORE_STATUS`); ``table_saved``: True when the NVM holds the
-            Preisach table in force (or "no table" with none in force), False after a
-            download or a restore of the defaults until :meth:`save`.
+            ``params``, ``table`` and ``objects``: the load status by name
+            (:data:`PARAM_STORE_STATUS`, :data:`TABLE_STORE_STATUS`, :data:`OBJECT_STORE_STATUS`);
+            ``table_saved``: True when the NVM holds the Preisach table in force (or "no
+            table" with none in force), False after a download or a restore of the
+            defaults until :meth:`save`.
         """
-        p, t = int(self.read(0x5101, 1)), int(self.read(0x5101, 2))
+        p, t, o = int(self.read(0x5101, 1)), int(self.read(0x5101, 2)), int(self.read(0x5101, 4))
         return {"params": PARAM_STORE_STATUS.get(p, f"unknown ({p})"),
                 "table": TABLE_STORE_STATUS.get(t, f"unknown ({t})"),
+                "objects": OBJECT_STORE_STATUS.get(o, f"unknown ({o})"),
                 "table_saved": bool(self.read(0x5101, 3))}
 
     # ---- NMT and CiA 402 --------------------------------------------------------

@@ -485,7 +485,8 @@ def case_power_loss_table(root: Path) -> dict[str, Any]:
                   obs["preisach_after_restart"] == "saved",
               "0x5101 reports the table saved after the save, unsaved after the next download, "
               "loaded after the restart": saved_flag and not unsaved_flag
-                  and obs["store_status_after_restart"] == {"params": "loaded", "table": "loaded", "table_saved": True}}
+                  and obs["store_status_after_restart"] == {"params": "loaded", "table": "loaded", "objects": "loaded",
+                                                            "table_saved": True}}
     return _row("power loss (SIGKILL) in the middle of a table download (0x5100:3 TE group, saved group and Preisach table in NVM)",
                 {"power_loss": "SIGKILL of the virtual drive during the block transfer", "nvm": "--nvm file"},
                 {"after restart": "the saved group (old) in force, intact (CRC), every parameter as saved; "

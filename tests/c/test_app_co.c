@@ -37,11 +37,34 @@ static hd_hal_can_status_t can_st;   /* controller state the tests set */
 static uint32_t n_recover;
 void hd_hal_can_status(hd_hal_can_status_t *st) { *st = can_st; }
 void hd_hal_can_recover(void) { n_recover++; }
-uint32_t hd_hal_nvm_size(void) { return 0u; }
-uint32_t hd_hal_nvm_page_size(void) { return 1024u; }
-int32_t hd_hal_nvm_read(uint32_t o, void *b, uint32_t l) { (void)o; (void)b; (void)l; return -1; }
-int32_t hd_hal_nvm_write(uint32_t o, const void *b, uint32_t l) { (void)o; (void)b; (void)l; return -1; }
-int32_t hd_hal_nvm_erase(uint32_t o, uint32_t l) { (void)o; (void)l; return -1; }
+/* NVM with flash semantics in RAM, the STM32G474 layout (1 KiB pages, 22 KiB used) */
+#define NVM_SIZE 24576u
+#define NVM_PAGE 1024u
+static uint8_t nvm[NVM_SIZE];
+static int nvm_off;                   /* 1: the hal reports no NVM (every call fails) */
+uint32_t hd_hal_nvm_size(void) { return nvm_off ? 0u : NVM_SIZE; }
+uint32_t hd_hal_nvm_page_size(void) { return NVM_PAGE; }
+int32_t hd_hal_nvm_read(uint32_t o, void *b, uint32_t l)
+{
+    if (nvm_off || o > NVM_SIZE || l > NVM_SIZE - o) return -1;
+    memcpy(b, &nvm[o], l);
+    return 0;
+}
+int32_t hd_hal_nvm_write(uint32_t o, const void *b, uint32_t l)
+{
+    if (nvm_off || o > NVM_SIZE || l > NVM_SIZE - o || o % 8u || l % 8u) return -1;
+    for (uint32_t i = 0; i < l; i++) {
+        if (nvm[o + i] != 0xFFu) return -2;
+        nvm[o + i] = ((const uint8_t *)b)[i];
+    }
+    return 0;
+}
+int32_t hd_hal_nvm_erase(uint32_t o, uint32_t l)
+{
+    if (nvm_off || o > NVM_SIZE || l > NVM_SIZE - o || o % NVM_PAGE || l % NVM_PAGE) return -1;
+    memset(&nvm[o], 0xFF, l);
+    return 0;
+}
 
 static hd_app_t app;
 static hd_co_t co;
@@ -51,17 +74,25 @@ static uint8_t img[4u * HD_APP_CO_STAGE_WORDS + 16u];
 
 static bool p_send(void *c, const hd_can_frame_t *f) { (void)c; (void)f; n_sent++; return true; }
 
-static int setup(void **st)
+/* power-on of the drive on the NVM as it is */
+static void boot(uint8_t node)
 {
-    (void)st;
     hd_app_co_port_t port;
-    track = 0;
-    trk_pos = 0;
     memset(&port, 0, sizeof port);
     port.send = p_send;
     hd_app_init(&app);
-    hd_app_co_init(&ac, &co, &app, 1u, &port);
+    hd_app_co_init(&ac, &co, &app, node, &port);
     hd_app_step(&app);
+}
+
+static int setup(void **st)
+{
+    (void)st;
+    track = 0;
+    trk_pos = 0;
+    nvm_off = 0;
+    memset(nvm, 0xFF, sizeof nvm);
+    boot(1u);
     return 0;
 }
 
@@ -351,34 +382,115 @@ static int64_t special(uint16_t index, uint8_t sub)
     return v;
 }
 
-/* 0x5101 store status and 0x1011 restore (this stub hal has no NVM: both stores
- * report the NVM error and a save is refused; tests/c/test_app.c saves for real) */
+static int64_t od_get(uint16_t index, uint8_t sub)
+{
+    int64_t v = 0;
+    assert_int_equal(hd_co_get_i64(&co, index, sub, &v), 0u);
+    return v;
+}
+
+static void nmt(uint8_t cmd)
+{
+    hd_can_frame_t f;
+    memset(&f, 0, sizeof f);
+    f.id = 0u;
+    f.dlc = 2u;
+    f.data[0] = cmd;
+    f.data[1] = 0u;                                       /* all nodes */
+    hd_co_process(&co, &f);
+}
+
+/* 0x1010 saves parameters, the Preisach table and the communication / CiA 402 settings;
+ * a power cycle, an NMT reset and 0x1011 restore (0x5101 reports what boot found) */
 static void test_store_objects(void **st)
 {
     static uint8_t back[sizeof img];
     (void)st;
-    assert_int_equal(special(0x5101u, 1u), HD_PSTORE_NVM_ERROR);
-    assert_int_equal(special(0x5101u, 2u), HD_TSTORE_NVM_ERROR);
-    assert_int_equal(special(0x5101u, 3u), 0);
+    assert_int_equal(special(0x5101u, 1u), HD_PSTORE_BLANK);
+    assert_int_equal(special(0x5101u, 2u), HD_TSTORE_BLANK);
+    assert_int_equal(special(0x5101u, 3u), 1);
+    assert_int_equal(special(0x5101u, 4u), HD_APP_CO_CSTORE_BLANK);
     const uint32_t len = make_table(12u, 5u, 300);
     assert_int_equal(download(HD_APP_CO_DOM_PREISACH, img, len), 0);
     assert_int_equal(special(0x5101u, 3u), 0);
-    assert_int_equal(co.app.store(co.app.ctx), HD_CO_AB_STATE);       /* no NVM */
-    /* restore with the power stage on: refused, table and parameters stay */
-    enable_402(8);
+    /* settings a master makes: heartbeat, following error window, a TPDO event timer,
+     * a custom RPDO2 COB-ID (disabled first, as CiA 301 asks), a drive parameter */
+    assert_int_equal(hd_co_set_i64(&co, 0x1017u, 0u, 250), 0u);
+    assert_int_equal(hd_co_set_i64(&co, 0x6065u, 0u, 1234), 0u);
+    assert_int_equal(hd_co_set_i64(&co, 0x1800u, 5u, 77), 0u);
+    assert_int_equal(hd_co_set_i64(&co, 0x1401u, 1u, 0x80000000 | 0x3A1), 0u);
+    assert_int_equal(hd_co_set_i64(&co, 0x1401u, 1u, 0x3A1), 0u);
     assert_int_equal(hd_app_param_set(&app, HD_P_POS_KP, 33 << 16), 0);
+    assert_int_equal(co.app.store(co.app.ctx), 0u);
+    assert_int_equal(special(0x5101u, 3u), 1);
+
+    /* power cycle: all of it back */
+    boot(1u);
+    assert_int_equal(special(0x5101u, 1u), HD_PSTORE_OK);
+    assert_int_equal(special(0x5101u, 2u), HD_TSTORE_OK);
+    assert_int_equal(special(0x5101u, 4u), HD_APP_CO_CSTORE_OK);
+    assert_int_equal(od_get(0x1017u, 0u), 250);
+    assert_int_equal(od_get(0x6065u, 0u), 1234);
+    assert_int_equal(od_get(0x1800u, 5u), 77);
+    assert_int_equal(od_get(0x1401u, 1u), 0x3A1);
+    assert_int_equal(od_get(0x1400u, 1u), 0x201);            /* default: 0x200 + node */
+    assert_int_equal(app.param[HD_P_POS_KP], 33 << 16);
+    assert_int_equal(upload(HD_APP_CO_DOM_PREISACH, back, sizeof back), len);
+    assert_memory_equal(back, img, len);
+    /* NMT reset communication goes back to the saved values, not the defaults */
+    assert_int_equal(hd_co_set_i64(&co, 0x1017u, 0u, 500), 0u);
+    nmt(0x82u);
+    assert_int_equal(od_get(0x1017u, 0u), 250);
+    /* another node id on the same NVM: node-relative COB-IDs follow it, a custom one stays */
+    boot(5u);
+    assert_int_equal(od_get(0x1400u, 1u), 0x205);
+    assert_int_equal(od_get(0x1401u, 1u), 0x3A1);
+    assert_int_equal(od_get(0x1017u, 0u), 250);
+    boot(1u);
+
+    /* restore with the power stage on: refused, everything stays */
+    enable_402(8);
     assert_int_equal(co.app.restore(co.app.ctx), HD_CO_AB_STATE);
     assert_int_equal(app.cb.table_ok, 1u);
     assert_int_equal(app.param[HD_P_POS_KP], 33 << 16);
-    assert_int_equal(upload(HD_APP_CO_DOM_PREISACH, back, sizeof back), len);
-    /* power stage off: defaults and no table */
+    assert_int_equal(od_get(0x6065u, 0u), 1234);
+    /* power stage off: defaults and no table, now; saved, the next boot has them */
     cw_write(0x06u);
     period();
     assert_int_equal(app.mode, HD_MODE_OFF);
     assert_int_equal(co.app.restore(co.app.ctx), 0u);
     assert_int_equal(app.cb.table_ok, 0u);
     assert_int_equal(app.param[HD_P_POS_KP], hd_param_table[HD_P_POS_KP].def);
+    assert_int_equal(od_get(0x6065u, 0u), 0xFFFFFFFF);
+    assert_int_equal(od_get(0x1017u, 0u), 100);
+    assert_int_equal(od_get(0x1401u, 1u), 0x301);              /* default 0x300 + node 1 */
     assert_int_equal(upload(HD_APP_CO_DOM_PREISACH, back, sizeof back), 0u);
+    assert_int_equal(co.app.store(co.app.ctx), 0u);
+    boot(1u);
+    assert_int_equal(special(0x5101u, 2u), HD_TSTORE_NONE);
+    assert_int_equal(special(0x5101u, 4u), HD_APP_CO_CSTORE_OK);
+    assert_int_equal(od_get(0x1017u, 0u), 100);
+    assert_int_equal(od_get(0x6065u, 0u), 0xFFFFFFFF);
+
+    /* a damaged object record: defaults, the parameters still load */
+    assert_int_equal(hd_co_set_i64(&co, 0x1017u, 0u, 300), 0u);
+    assert_int_equal(co.app.store(co.app.ctx), 0u);
+    {
+        const uint32_t o = 2u * NVM_PAGE + 18u * NVM_PAGE;   /* after the parameter and table slots */
+        nvm[o + 20u] ^= 0x01u;
+        nvm[o + NVM_PAGE + 20u] ^= 0x01u;
+    }
+    boot(1u);
+    assert_int_equal(special(0x5101u, 4u), HD_APP_CO_CSTORE_CORRUPT);
+    assert_int_equal(special(0x5101u, 1u), HD_PSTORE_OK);
+    assert_int_equal(od_get(0x1017u, 0u), 100);
+    /* no NVM at all: every store reports it, a save is refused */
+    nvm_off = 1;
+    boot(1u);
+    assert_int_equal(special(0x5101u, 1u), HD_PSTORE_NVM_ERROR);
+    assert_int_equal(special(0x5101u, 2u), HD_TSTORE_NVM_ERROR);
+    assert_int_equal(special(0x5101u, 4u), HD_APP_CO_CSTORE_NVM_ERROR);
+    assert_int_equal(co.app.store(co.app.ctx), HD_CO_AB_STATE);
 }
 
 static void test_pp_halt(void **st)

@@ -135,6 +135,9 @@ def test_download_save_survives_a_restart(tmp_path: Path, capsys) -> None:
     srv = Server("--pacing", "realtime", "-q", "--nvm", str(nvm))
     try:
         bus = ["-i", "socketcand", "--host", "127.0.0.1", "--port", str(srv.port), "-q", "--skip-missing"]
+        with Drive.connect(1, interface="socketcand", channel="can0", host="127.0.0.1", port=srv.port) as d:
+            d.write(0x6065, 0, 5000)          # CiA 402 settings a master makes, saved with the rest
+            d.write(0x6067, 0, 40)
         capsys.readouterr()
         rc = main(["download", str(model), *bus, "--save"])
         out = capsys.readouterr()
@@ -147,7 +150,8 @@ def test_download_save_survives_a_restart(tmp_path: Path, capsys) -> None:
     try:
         with Drive.connect(1, interface="socketcand", channel="can0", host="127.0.0.1", port=srv.port) as d:
             d.start()
-            assert d.store_status() == {"params": "loaded", "table": "loaded", "table_saved": True}
+            assert d.store_status() == {"params": "loaded", "table": "loaded", "objects": "loaded", "table_saved": True}
+            assert d.read(0x6065, 0) == 5000 and d.read(0x6067, 0) == 40
             assert d.read_domain(0x5100, 1) == table + struct.pack("<I", zlib.crc32(table))
             from hdservo.drive import group_payload
             for sub in (2, 3):           # the groups with their version (a parameter, saved)
@@ -167,7 +171,9 @@ def test_download_save_survives_a_restart(tmp_path: Path, capsys) -> None:
     try:
         with Drive.connect(1, interface="socketcand", channel="can0", host="127.0.0.1", port=srv.port) as d:
             d.start()
-            assert d.store_status() == {"params": "loaded", "table": "saved as none", "table_saved": True}
+            assert d.store_status() == {"params": "loaded", "table": "saved as none", "objects": "loaded",
+                                        "table_saved": True}
+            assert d.read(0x6065, 0) == 0xFFFFFFFF and d.read(0x6067, 0) == 256     # restored defaults
             assert d.read_domain(0x5100, 1) == b""
             for name in ("pr_motor_share", "mx_stiffness"):          # downloaded != default
                 p = PARAMS[name]

@@ -36,7 +36,8 @@
 
 #define HD_HOST_CAN_RING      256u    /* frames per ring (power of two) */
 #define HD_HOST_NVM_SIZE      32768u  /* bytes: 16 pages of 2 KiB (STM32G4 page): parameter
-                                        * store 2 x 2 KiB, table store 2 x 10 KiB, spare */
+                                        * store 2 x 2 KiB, table store 2 x 10 KiB, stored
+                                        * CANopen objects 2 x 2 KiB, spare */
 #define HD_HOST_NVM_PAGE      2048u
 #define HD_HOST_PATH_MAX      1024u
 

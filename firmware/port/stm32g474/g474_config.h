@@ -39,17 +39,17 @@
 #define HD_G474_SSI_BYTES   6u              /* 48 clocks per output-encoder read */
 
 /* NVM: the last 48 KiB of the 512 KiB flash (bank 2 pages 104..127, dual-bank
- * mode, 2 KiB pages), exposed to hal.h as a 20 KiB virtual region of 1 KiB pages:
- * the parameter store's two slots (1 KiB each: up to 249 parameters; 130 today)
- * and the Preisach table store's two (9 KiB each: a 64-level table).  hd_vnvm
- * needs one physical page per virtual page plus a free one (24 >= 20 + 1; the
- * spare pages spread the wear).  No RAM image: hd_vnvm streams records
+ * mode, 2 KiB pages), exposed to hal.h as a 22 KiB virtual region of 1 KiB pages:
+ * the parameter store's two slots (1 KiB each: up to 249 parameters; 132 today),
+ * the Preisach table store's two (9 KiB each: a 64-level table) and the stored
+ * CANopen objects' two (1 KiB each).  hd_vnvm needs one physical page per virtual
+ * page plus a free one (24 >= 22 + 1; the spare spreads the wear).  No RAM image: hd_vnvm streams records
  * (hd_flashstore.h). */
 #define HD_G474_NVM_ADDR    0x08074000u
 #define HD_G474_NVM_PAGES   24u
 #define HD_G474_NVM_PAGE    2048u
 #define HD_G474_NVM_BANK2_FIRST_PAGE 104u
-#define HD_G474_VNVM_SIZE   20480u
+#define HD_G474_VNVM_SIZE   22528u
 #define HD_G474_VNVM_PAGE   1024u
 
 /* CAN software queues (frames, powers of two) */
