@@ -318,6 +318,7 @@ static uint32_t a_special_read(void *c, uint16_t index, uint8_t sub, int64_t *v)
     if (index == 0x5101u && sub == 2u) { *v = (int64_t)ac->app->tstore_status; return 0u; }
     if (index == 0x5101u && sub == 3u) { *v = (int64_t)ac->app->tstore_sync; return 0u; }
     if (index == 0x5101u && sub == 4u) { *v = (int64_t)ac->cstore_status; return 0u; }
+    if (index == 0x5101u && sub == 5u) { *v = (int64_t)HD_PARAM_TABLE_HASH; return 0u; }
     if (index == 0x5010u && sub == 2u) {
         *v = (ac->app->mode != HD_MODE_EXCITATION) ? 0 : (ac->app->exc.done != 0u ? 2 : 1);
         return 0u;

@@ -12,7 +12,7 @@
 
 #define HD_CO_OD_VERSION 1u
 #define HD_CO_OD_PARAM_HASH 0xADB4A22Bu
-#define HD_CO_OD_COUNT 414u
+#define HD_CO_OD_COUNT 415u
 #define HD_CO_N_PDO 4u
 #define HD_CO_N_MAP 8u
 #define HD_CO_VENDOR_ID 0x00000EDAu

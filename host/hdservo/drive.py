@@ -218,8 +218,8 @@ class Drive:
             raise DriveError(f"unknown parameter '{name}'")
         if not p.min <= value <= p.max:
             raise DriveError(f"{name} = {value} outside [{p.min}, {p.max}] {p.unit}")
-        raw = int(math.floor(value * 2.0 ** p.frac + 0.5)) if value >= 0 else -int(math.floor(-value * 2.0 ** p.frac + 0.5))
-        self.write(p.index, p.sub, raw)
+        from .driveconfig import raw_of
+        self.write(p.index, p.sub, raw_of(p, value))
 
     def save(self) -> None:
         """Store the drive parameters, the Preisach table in force and the communication / CiA 402

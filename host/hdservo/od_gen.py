@@ -381,6 +381,7 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x5101, 2, 'table_store_status', 'u8', 'ro', '', '', 1.0),
     OdEntry(0x5101, 3, 'table_saved', 'u8', 'ro', '', '', 1.0),
     OdEntry(0x5101, 4, 'object_store_status', 'u8', 'ro', '', '', 1.0),
+    OdEntry(0x5101, 5, 'param_layout_hash', 'u32', 'ro', '', '', 1.0),
     OdEntry(0x5F00, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x5F00, 1, 'loop_tick', 'u32', 'ro', 't', '100 us', 1.0),
     OdEntry(0x5F00, 2, 'load_phase', 'u32', 'ro', 't', '2^-32 turn', 1.0),

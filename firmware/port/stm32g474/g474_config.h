@@ -40,7 +40,7 @@
 
 /* NVM: the last 48 KiB of the 512 KiB flash (bank 2 pages 104..127, dual-bank
  * mode, 2 KiB pages), exposed to hal.h as a 22 KiB virtual region of 1 KiB pages:
- * the parameter store's two slots (1 KiB each: up to 249 parameters; 132 today),
+ * the parameter store's two slots (1 KiB each: up to 249 parameters; 155 today),
  * the Preisach table store's two (9 KiB each: a 64-level table) and the stored
  * CANopen objects' two (1 KiB each).  hd_vnvm needs one physical page per virtual
  * page plus a free one (24 >= 22 + 1; the spare spreads the wear).  No RAM image: hd_vnvm streams records

@@ -210,11 +210,10 @@ def plan_download(model_path: Path, axis: str = "reference", preisach: Path | No
 
 
 def raw_of(name: str, value: float) -> int:
-    """Raw word of a drive parameter (round(value x 2^frac), as :meth:`Drive.set_param`)."""
+    """Raw word of a drive parameter (:func:`hdservo.driveconfig.raw_of`, as :meth:`Drive.set_param`)."""
+    from ..driveconfig import raw_of as _raw
     from ..params_gen import BY_NAME as PARAMS
-    p = PARAMS[name]
-    x = float(value) * 2.0 ** p.frac
-    return int(math.floor(x + 0.5)) if x >= 0 else -int(math.floor(-x + 0.5))
+    return _raw(PARAMS[name], value)
 
 
 def write_verified(drive: Any, plan: Mapping[str, Any], tables: bool = True,

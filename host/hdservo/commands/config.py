@@ -1,0 +1,187 @@
+"""``hdservo config``: drive parameters over CAN -- dump to a file, restore from it, get, set, save, status.
+
+* ``dump [-o FILE]``: every drive parameter in SI units as TOML (stdout without ``-o``),
+  signed with the drive's parameter layout hash (0x5101:5);
+* ``restore FILE [--save] [--force]``: the file is checked whole first (signature,
+  types, ranges; unknown names listed, not fatal), then every value is written and read
+  back; ``--save`` stores them (0x1010) and checks the drive's store status;
+* ``get NAME...`` / ``set NAME=VALUE... [--save]``: single parameters in SI units;
+* ``save``: 0x1010 (parameters, the Preisach table in force, the CANopen settings);
+* ``status``: what the drive's last boot loaded from NVM (0x5101).
+
+Changes apply at once and are in RAM until saved.  Any refusal is one error line and
+exit status 2; a restore stops at the first write the drive refuses (what was written
+stays: the values are independent parameters, each range-checked by the drive too).
+Without bus options a virtual drive is started (a dry run: it stops with the command).
+"""
+from __future__ import annotations
+
+import argparse
+import datetime
+import sys
+from pathlib import Path
+from typing import Any, Callable
+
+from ..cli import UserError
+
+NAME = "config"
+HELP = "drive parameters over CAN: dump to a TOML file, restore it (checked, read back), get, set, save, status"
+
+
+def register(p: argparse.ArgumentParser) -> None:
+    from ..drive import add_bus_arguments
+    sub = p.add_subparsers(dest="action", metavar="ACTION", required=True)
+    d = sub.add_parser("dump", help="write every drive parameter (SI units) as TOML")
+    d.add_argument("-o", "--out", type=Path, metavar="FILE.toml", help="file to write (default: stdout)")
+    r = sub.add_parser("restore", help="write a dumped file back (checked first, read back)")
+    r.add_argument("file", type=Path, metavar="FILE.toml")
+    r.add_argument("--force", action="store_true",
+                   help="accept a file of another parameter layout (values matched by name, still checked)")
+    r.add_argument("--save", action="store_true", help="store in NVM afterwards (0x1010)")
+    g = sub.add_parser("get", help="print parameters in SI units")
+    g.add_argument("names", nargs="+", metavar="NAME")
+    s = sub.add_parser("set", help="set parameters in SI units (read back)")
+    s.add_argument("pairs", nargs="+", metavar="NAME=VALUE")
+    s.add_argument("--save", action="store_true", help="store in NVM afterwards (0x1010)")
+    sub.add_parser("save", help="store parameters, Preisach table and CANopen settings in NVM (0x1010)")
+    sub.add_parser("status", help="what the drive's last boot loaded from NVM (0x5101)")
+    for x in sub.choices.values():
+        add_bus_arguments(x)
+
+
+def _save(drive: Any) -> str:
+    from ..drive import DriveError
+    try:
+        drive.save()
+        st = drive.store_status()
+    except DriveError as e:
+        raise UserError(f"save refused by the drive: {e}") from None
+    return "saved to NVM (0x1010)" + ("" if st["table_saved"] else "; the Preisach table in force is NOT saved")
+
+
+def _write_verified(drive: Any, raw: dict[str, int]) -> int:
+    """Write raw words (name -> raw) and read each back; returns how many."""
+    from ..drive import DriveError
+    from ..params_gen import BY_NAME
+    n = 0
+    for name, v in raw.items():
+        p = BY_NAME[name]
+        try:
+            drive.write(p.index, p.sub, v)
+            back = int(drive.read(p.index, p.sub))
+        except DriveError as e:
+            raise UserError(f"{name} (0x{p.index:04X}:{p.sub}): refused by the drive after {n} written: {e}") from None
+        if back != v:
+            raise UserError(f"{name} (0x{p.index:04X}:{p.sub}): read back {back}, wrote {v}")
+        n += 1
+    return n
+
+
+def _dump(drive: Any, args: argparse.Namespace) -> str:
+    from ..driveconfig import to_toml
+    from ..params_gen import BY_NAME
+    raw = {name: int(drive.read(p.index, p.sub)) for name, p in BY_NAME.items()}
+    h = int(drive.read(0x5101, 5))
+    name = str(drive.read(0x1008, 0))
+    stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    text = to_toml(raw, h, f"hdservo drive configuration (hdservo config dump), {stamp}\n"
+                           f"drive: {name}, node {args.node_id}; {len(raw)} parameters, SI units")
+    if args.out is None:
+        sys.stdout.write(text)
+        return ""
+    tmp = args.out.with_name(args.out.name + ".tmp")
+    tmp.write_text(text)
+    tmp.replace(args.out)           # no half-written file
+    return f"wrote {len(raw)} parameters to {args.out}"
+
+
+def _restore(drive: Any, args: argparse.Namespace, progress: Callable[[str], None]) -> str:
+    from ..driveconfig import read_file
+    try:
+        parsed = read_file(args.file, drive_hash=int(drive.read(0x5101, 5)), force=args.force)
+    except ValueError as e:
+        raise UserError(str(e)) from None
+    if parsed.unknown:
+        progress(f"note: not parameters of this drive, skipped: {', '.join(parsed.unknown)}")
+    n = _write_verified(drive, parsed.raw)
+    msg = f"restored {n} parameters from {args.file}, every one read back"
+    return msg + ("; " + _save(drive) if args.save else "; in RAM only (--save keeps them over a power cycle)")
+
+
+def _pairs(pairs: list[str]) -> dict[str, int]:
+    from ..driveconfig import raw_of
+    from ..params_gen import BY_NAME
+    raw: dict[str, int] = {}
+    for s in pairs:
+        name, eq, val = s.partition("=")
+        p = BY_NAME.get(name)
+        if not eq or p is None:
+            raise UserError(f"{s!r}: expected NAME=VALUE with NAME a drive parameter (docs/parameters.md)")
+        try:
+            v = float(val)
+        except ValueError:
+            raise UserError(f"{name}={val!r}: expected a number in {p.unit}") from None
+        if not p.min <= v <= p.max:
+            raise UserError(f"{name} = {v} outside [{p.min}, {p.max}] {p.unit}")
+        raw[name] = raw_of(p, v)
+    return raw
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..drive import Drive, DriveError, bus_kwargs
+    from ..driveconfig import si_of
+    from ..ident.drive_runner import VirtualDrive
+    from ..params_gen import BY_NAME
+
+    def progress(msg: str) -> None:
+        print(f"[config] {msg}", file=sys.stderr, flush=True)
+
+    if args.action == "dump" and args.out is not None and not args.out.parent.exists():
+        raise UserError(f"{args.out}: directory {args.out.parent} does not exist")
+    if args.action == "get":
+        bad = [n for n in args.names if n not in BY_NAME]
+        if bad:
+            raise UserError(f"not drive parameters: {', '.join(bad)} (docs/parameters.md)")
+    pairs = _pairs(args.pairs) if args.action == "set" else {}
+    bus = bus_kwargs(args)
+    vd = None
+    drive = None
+    lines: list[str] = []
+    try:
+        if not bus:
+            progress("no bus options: starting a virtual drive (dry run; it stops with this command)")
+            vd = VirtualDrive(axis="reference", rig=False, node_id=args.node_id, pacing="realtime")
+            bus = {"interface": "socketcand", "channel": "can0", "host": "127.0.0.1", "port": vd.port}
+        try:
+            drive = Drive.connect(args.node_id, **bus)
+            drive.start()
+            if args.action == "dump":
+                lines.append(_dump(drive, args))
+            elif args.action == "restore":
+                lines.append(_restore(drive, args, progress))
+            elif args.action == "get":
+                for n in args.names:
+                    p = BY_NAME[n]
+                    lines.append(f"{n} = {si_of(p, int(drive.read(p.index, p.sub)))!r}  # {p.unit}")
+            elif args.action == "set":
+                lines.append(f"set {_write_verified(drive, pairs)} parameters, read back")
+                if args.save:
+                    lines.append(_save(drive))
+            elif args.action == "save":
+                lines.append(_save(drive))
+            else:
+                st = drive.store_status()
+                lines.append(f"parameters: {st['params']}; Preisach table: {st['table']} "
+                             f"({'saved' if st['table_saved'] else 'in force but not saved'}); "
+                             f"CANopen settings: {st['objects']}")
+        except DriveError as e:
+            raise UserError(f"drive: {e}") from None
+    finally:
+        if drive is not None:
+            drive.close()
+        if vd is not None:
+            vd.stop()
+    for line in lines:
+        if line:
+            print(line)
+    return 0
