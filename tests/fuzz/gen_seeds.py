@@ -145,10 +145,23 @@ def seeds_canopen() -> None:
     write("canopen", "bad_dlc", frame(0, 0x600 + NODE, bytes([0x40, 0, 0x10, 0]), 3) + frame(1, 0x000, b"\x01", 15))
 
 
+def seeds_tstore() -> None:
+    # table region of fuzz_tstore: slot 0 at 0, slot 1 at 9 KiB (1 KiB pages)
+    write("tstore", "valid_both", b"\x00\x0e\x1e")
+    write("tstore", "valid_then_none", b"\x10\x3e\x00")
+    write("tstore", "flip_slot1_image", b"\x00\x0e\x1e" + struct.pack("<HB", 9216 + 60, 0x01))
+    write("tstore", "flip_slot1_resealed", b"\x04\x0e\x1e" + struct.pack("<HB", 9216 + 16 + 4 * 12, 0x04))
+    write("tstore", "flip_count_resealed", b"\x02\x0e\x1e" + struct.pack("<HB", 12, 0x02))
+    write("tstore", "read_fail", b"\x08\x05\x05")
+    write("tstore", "raw_blank", b"\x01" + b"\xff" * 64)
+    write("tstore", "raw_header_only", b"\x01" + struct.pack("<4I", 0x53544448, 1, 1, 10))
+
+
 def main() -> None:
     seeds_toml()
     seeds_preisach()
     seeds_pstore()
+    seeds_tstore()
     seeds_params()
     seeds_canopen()
     for d in sorted(OUT.iterdir()):
