@@ -46,7 +46,7 @@ $(FUZZ_DIR)/libfw.a: $(patsubst %.c,$(FUZZ_DIR)/obj/%.o,$(FW_SRC))
 
 $(FUZZ_DIR)/fuzz_toml: tests/fuzz/fuzz_toml.c tests/fuzz/fuzz_common.h $(FUZZ_DIR)/obj/sim/harness/toml_lite.o $(FUZZ_DIR)/obj/sim/harness/sim_err.o
 	$(FUZZ_CC) $(FUZZ_SIM_CFLAGS) -fsanitize=fuzzer -o $@ $< $(FUZZ_DIR)/obj/sim/harness/toml_lite.o $(FUZZ_DIR)/obj/sim/harness/sim_err.o -lm
-$(FUZZ_DIR)/fuzz_preisach $(FUZZ_DIR)/fuzz_pstore $(FUZZ_DIR)/fuzz_tstore $(FUZZ_DIR)/fuzz_canopen: $(FUZZ_DIR)/fuzz_%: tests/fuzz/fuzz_%.c tests/fuzz/fuzz_common.h $(FUZZ_DIR)/libfw.a
+$(FUZZ_DIR)/fuzz_preisach $(FUZZ_DIR)/fuzz_pstore $(FUZZ_DIR)/fuzz_tstore $(FUZZ_DIR)/fuzz_canopen: $(FUZZ_DIR)/fuzz_%: tests/fuzz/fuzz_%.c tests/fuzz/fuzz_common.h tests/fuzz/fuzz_nvm.h $(FUZZ_DIR)/libfw.a
 	$(FUZZ_CC) $(FUZZ_TGT_CFLAGS) -fsanitize=fuzzer -o $@ $< $(FUZZ_DIR)/libfw.a
 $(FUZZ_DIR)/fuzz_params: tests/fuzz/fuzz_params.c tests/fuzz/fuzz_common.h $(FUZZ_DIR)/libfw.a $(FUZZ_DIR)/obj/firmware/port/host/hal_host.o
 	$(FUZZ_CC) $(FUZZ_TGT_CFLAGS) -fsanitize=fuzzer -o $@ $< $(FUZZ_DIR)/obj/firmware/port/host/hal_host.o $(FUZZ_DIR)/libfw.a

@@ -16,6 +16,7 @@
 
 #include "hd_app.h"
 #include "hd_fixed.h"
+#include "support/test_tables.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -227,31 +228,13 @@ static void test_params_incompatible(void **st)
     assert_int_equal(hd_crc32(0, (const uint8_t *)"123456789", 9), 0xCBF43926u);
 }
 
-/* an L-level Everett table with E[i][j] = scale (i - j)^2 (zero diagonal), sealed */
-static void small_table(hd_preisach_table_t *t, uint32_t levels, uint32_t version, int32_t scale)
-{
-    memset(t, 0, sizeof *t);
-    t->levels = levels;
-    t->sub_bits = 1u;
-    t->in_shift = 10u;
-    t->u0 = -(1 << 16);
-    t->unit = HD_PREISACH_UNIT_TORQUE_TWIST;
-    t->version = version;
-    for (uint32_t i = 0; i < levels; i++) {
-        for (uint32_t j = 0; j <= i; j++) {
-            t->e[i * (i + 1u) / 2u + j] = scale * (int32_t)((i - j) * (i - j));
-        }
-    }
-    hd_preisach_seal(t);
-}
-
 static void test_preisach_table_survives_power_cycle(void **st)
 {
     (void)st;
     static hd_preisach_table_t t, u;
     static uint8_t before[NVM_SIZE];
-    small_table(&t, 12u, 5u, 300);
-    small_table(&u, 20u, 6u, 40);
+    test_everett_table(&t, 12u, 5u, 300);
+    test_everett_table(&u, 20u, 6u, 40);
     /* blank NVM: no table, nothing to save */
     assert_int_equal(app.tstore_status, HD_TSTORE_BLANK);
     assert_int_equal(app.tstore_sync, 1u);

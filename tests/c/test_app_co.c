@@ -13,6 +13,7 @@
 
 #include "hd_app.h"
 #include "hd_app_co.h"
+#include "support/test_tables.h"
 
 uint32_t hd_hal_tick(void) { return 0u; }
 /* track = 1: the encoders read trk_pos (Q32.32 output turns; the test sets it to the
@@ -105,20 +106,8 @@ static void put32(uint8_t *p, uint32_t v)
 static uint32_t make_table(uint32_t levels, uint32_t version, int32_t scale)
 {
     static hd_preisach_table_t t;
-    uint32_t i, j, n = 0u;
-    memset(&t, 0, sizeof t);
-    t.version = version;
-    t.levels = levels;
-    t.sub_bits = 1u;
-    t.in_shift = 10u;
-    t.u0 = -4096;
-    t.unit = HD_PREISACH_UNIT_TORQUE_TWIST;
-    for (i = 0u; i < levels; i++) {
-        for (j = 0u; j <= i; j++) {
-            t.e[i * (i + 1u) / 2u + j] = scale * (int32_t)((i - j) * (i - j + 1u));
-        }
-    }
-    hd_preisach_seal(&t);
+    uint32_t i, n = 0u;
+    test_everett_table(&t, levels, version, scale);
     put32(img + 0, t.magic); put32(img + 4, t.format); put32(img + 8, t.version);
     put32(img + 12, t.levels); put32(img + 16, t.sub_bits); put32(img + 20, t.in_shift);
     put32(img + 24, (uint32_t)t.u0); put32(img + 28, t.unit); put32(img + 32, t.n_entries);

@@ -17,6 +17,7 @@
 #include "hd_le32.h"
 #include "hd_param_store.h"
 #include "hd_table_store.h"
+#include "support/test_tables.h"
 
 /* ---- stub hal NVM ------------------------------------------------------------ */
 
@@ -75,25 +76,6 @@ typedef struct {
     hd_preisach_table_t a, b, got;
 } fx_t;
 
-/* a valid Everett table: E[i][j] = k (i - j)(i - j + 1) + (i + j) % 5 * (i > j) */
-static void build(hd_preisach_table_t *t, uint32_t levels, uint32_t version, int32_t k)
-{
-    uint32_t i, j;
-    memset(t, 0, sizeof *t);
-    t->levels = levels;
-    t->sub_bits = 2u;
-    t->in_shift = 12u;
-    t->u0 = -(1 << 20);
-    t->unit = HD_PREISACH_UNIT_TORQUE_TWIST;
-    t->version = version;
-    for (i = 0; i < levels; i++) {
-        for (j = 0; j <= i; j++) {
-            t->e[i * (i + 1u) / 2u + j] = k * (int32_t)((i - j) * (i - j + 1u)) + ((i > j) ? (int32_t)((i + j) % 5u) : 0);
-        }
-    }
-    hd_preisach_seal(t);
-}
-
 static int same_image(const hd_preisach_table_t *x, const hd_preisach_table_t *y)
 {
     uint32_t w;
@@ -112,8 +94,8 @@ static int setUp(void **state)
     memset(N.nvm, 0xFF, sizeof N.nvm);
     N.size = NVM_SIZE;
     N.cut_after = -1;
-    build(&f->a, 16u, 3u, 1000);
-    build(&f->b, 32u, 4u, 7);
+    test_everett_table(&f->a, 16u, 3u, 1000);
+    test_everett_table(&f->b, 32u, 4u, 7);
     *state = f;
     return 0;
 }
@@ -166,7 +148,7 @@ static void test_largest_table_fits(void **state)
 {
     fx_t *f = *state;
     uint32_t seq = 0u;
-    build(&f->b, HD_PREISACH_L_MAX, 9u, 3);
+    test_everett_table(&f->b, HD_PREISACH_L_MAX, 9u, 3);
     assert_int_equal(hd_tstore_save(&f->b, &seq), 0);
     assert_int_equal(hd_tstore_save(&f->b, &seq), 0);     /* both slots */
     assert_int_equal(hd_tstore_load(&f->got, &seq), HD_TSTORE_OK);

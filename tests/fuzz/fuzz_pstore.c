@@ -23,73 +23,30 @@
 #include <string.h>
 #include "fuzz_common.h"
 #include "hal.h"
+#include "hd_le32.h"
 #include "hd_param_store.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
-#define NVM_SIZE 8192u
-#define NVM_PAGE 1024u
-
-static uint8_t nvm[NVM_SIZE];
-static int nvm_fail_read;
-
-uint32_t hd_hal_nvm_size(void) { return NVM_SIZE; }
-uint32_t hd_hal_nvm_page_size(void) { return NVM_PAGE; }
-int32_t hd_hal_nvm_read(uint32_t off, void *buf, uint32_t len)
-{
-    if (nvm_fail_read || off > NVM_SIZE || len > NVM_SIZE - off) {
-        return -1;
-    }
-    memcpy(buf, &nvm[off], len);
-    return 0;
-}
-int32_t hd_hal_nvm_write(uint32_t off, const void *buf, uint32_t len)
-{
-    FUZZ_ASSERT(off % 8u == 0u && len % 8u == 0u);
-    if (off > NVM_SIZE || len > NVM_SIZE - off) {
-        return -1;
-    }
-    const uint8_t *b = buf;
-    for (uint32_t i = 0; i < len; i++) {
-        FUZZ_ASSERT(nvm[off + i] == 0xFFu); /* flash: program erased memory only */
-        nvm[off + i] = b[i];
-    }
-    return 0;
-}
-int32_t hd_hal_nvm_erase(uint32_t off, uint32_t len)
-{
-    FUZZ_ASSERT(off % NVM_PAGE == 0u && len % NVM_PAGE == 0u);
-    if (off > NVM_SIZE || len > NVM_SIZE - off) {
-        return -1;
-    }
-    memset(&nvm[off], 0xFF, len);
-    return 0;
-}
+#define FUZZ_NVM_SIZE 8192u
+#define FUZZ_NVM_PAGE 1024u
+#include "fuzz_nvm.h"
+#define NVM_SIZE FUZZ_NVM_SIZE
+#define NVM_PAGE FUZZ_NVM_PAGE
 
 #define REC_BYTES ((6u + HD_PARAM_COUNT + 1u) * 4u)
 
-static uint32_t get32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
-}
-static void put32(uint8_t *p, uint32_t v)
-{
-    p[0] = (uint8_t)v;
-    p[1] = (uint8_t)(v >> 8);
-    p[2] = (uint8_t)(v >> 16);
-    p[3] = (uint8_t)(v >> 24);
-}
 static void reseal(uint32_t slot)
 {
     uint8_t *r = &nvm[slot * NVM_PAGE];
-    put32(&r[REC_BYTES - 4u], hd_crc32(0, r, REC_BYTES - 4u));
+    hd_put_le32(&r[REC_BYTES - 4u], hd_crc32(0, r, REC_BYTES - 4u));
 }
 /* values stored in a slot (raw words), for the "never a mix" check */
 static int slot_holds(uint32_t slot, const int32_t v[HD_PARAM_COUNT])
 {
     const uint8_t *r = &nvm[slot * NVM_PAGE];
     for (uint32_t i = 0; i < HD_PARAM_COUNT; i++) {
-        if (get32(&r[(6u + i) * 4u]) != (uint32_t)v[i]) {
+        if (hd_get_le32(&r[(6u + i) * 4u]) != (uint32_t)v[i]) {
             return 0;
         }
     }

@@ -20,53 +20,16 @@
  *   - a save after any boot (the loaded table, or "no table") loads back as saved.
  */
 #include <string.h>
-#include "fuzz_common.h"
-#include "hal.h"
 #include "hd_crc32.h"
 #include "hd_le32.h"
 #include "hd_table_store.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
-#define NVM_SIZE 24576u
-#define NVM_PAGE 1024u
-
-static uint8_t nvm[NVM_SIZE];
-static int nvm_fail_read;
-
-uint32_t hd_hal_nvm_size(void) { return NVM_SIZE; }
-uint32_t hd_hal_nvm_page_size(void) { return NVM_PAGE; }
-int32_t hd_hal_nvm_read(uint32_t off, void *buf, uint32_t len)
-{
-    if (nvm_fail_read || off > NVM_SIZE || len > NVM_SIZE - off) {
-        return -1;
-    }
-    memcpy(buf, &nvm[off], len);
-    return 0;
-}
-int32_t hd_hal_nvm_write(uint32_t off, const void *buf, uint32_t len)
-{
-    FUZZ_ASSERT(off % 8u == 0u && len % 8u == 0u);
-    if (off > NVM_SIZE || len > NVM_SIZE - off) {
-        return -1;
-    }
-    const uint8_t *b = buf;
-    for (uint32_t i = 0; i < len; i++) {
-        FUZZ_ASSERT(nvm[off + i] == 0xFFu); /* flash: program erased memory only */
-        nvm[off + i] = b[i];
-    }
-    return 0;
-}
-int32_t hd_hal_nvm_erase(uint32_t off, uint32_t len)
-{
-    FUZZ_ASSERT(off % NVM_PAGE == 0u && len % NVM_PAGE == 0u);
-    FUZZ_ASSERT(off >= hd_tstore_offset());             /* never the parameter store's slots */
-    if (off > NVM_SIZE || len > NVM_SIZE - off) {
-        return -1;
-    }
-    memset(&nvm[off], 0xFF, len);
-    return 0;
-}
+#define FUZZ_NVM_SIZE 24576u
+#define FUZZ_NVM_PAGE 1024u
+#define FUZZ_NVM_ERASE_MIN hd_tstore_offset()    /* never the parameter store's slots */
+#include "fuzz_nvm.h"
 
 /* a valid L-level table, entries from the level count and version */
 static void build(hd_preisach_table_t *t, uint32_t levels, uint32_t version)
@@ -126,7 +89,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     const uint32_t base = hd_tstore_offset(), region = 2u * hd_tstore_slot_size();
     uint32_t seq = 0;
 
-    FUZZ_ASSERT(base + region <= NVM_SIZE);
+    FUZZ_ASSERT(base + region <= FUZZ_NVM_SIZE);
     nvm_fail_read = 0;
     memset(nvm, 0xFF, sizeof nvm);
     if (flags & 1u) {
