@@ -641,15 +641,6 @@ int32_t hd_co_store_apply(hd_co_t *co, const uint32_t *img, uint32_t words, uint
     return 0;
 }
 
-void hd_co_store_keep(hd_co_t *co, const uint32_t *img, uint32_t words)
-{
-    co->stored_ok = 0u;
-    if (words <= HD_CO_STORE_MAX && words == hd_co_store_words(co) && img[0] == hd_co_store_layout(co)) {
-        hd_co_copy(co->stored, img, 4u * words);
-        co->stored_ok = 1u;
-    }
-}
-
 void hd_co_store_capture(hd_co_t *co)
 {
     const uint32_t n = hd_co_store_words(co);

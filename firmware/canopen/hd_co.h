@@ -296,8 +296,6 @@ uint32_t hd_co_store_word(const hd_co_t *co, uint32_t w);
 /** Apply an image to the entries with index in [lo, hi]: checked whole first (layout,
  *  length, every value inside its limits), else nothing changes and -1.  0 ok. */
 int32_t hd_co_store_apply(hd_co_t *co, const uint32_t *img, uint32_t words, uint16_t lo, uint16_t hi);
-/** Keep img as the stored image the NMT resets return to (if its layout matches). */
-void hd_co_store_keep(hd_co_t *co, const uint32_t *img, uint32_t words);
 /** Keep the live values as the stored image (after a successful save). */
 void hd_co_store_capture(hd_co_t *co);
 /** The stored entries to their defaults, now (0x1011 restore). */
