@@ -19,7 +19,9 @@
  * Invariants: every frame sent is well formed (dlc <= 8, 11-bit id); every
  * SDO response is 8 bytes from 0x580 + node; parameters never leave their
  * range; the committed table is always one that passed hd_preisach_check;
- * nothing is sent while the stack knows the controller is bus-off.
+ * nothing is sent while the stack knows the controller is bus-off; a 0x1010
+ * save keeps the stored objects' image, which the stack accepts back without a
+ * change (the NMT resets then return to it).
  */
 #include <string.h>
 #include "fuzz_common.h"
@@ -148,8 +150,24 @@ static uint32_t f_special_write(void *c, uint16_t index, uint8_t sub, int64_t v)
     (void)c; (void)index; (void)sub;
     return v < 0 ? HD_CO_AB_VALUE : 0u;
 }
-static uint32_t f_store(void *c) { (void)c; return 0u; }
-static uint32_t f_restore(void *c) { (void)c; return 0u; }
+/* 0x1010: keep the stored objects' image (as the adapter does after its NVM write); the
+ * image of live values must always be one the stack accepts back unchanged */
+static uint32_t f_store(void *c)
+{
+    static uint32_t img[HD_CO_STORE_MAX];
+    const uint32_t n = hd_co_store_words(&CO);
+    (void)c;
+    FUZZ_ASSERT(n <= HD_CO_STORE_MAX);
+    hd_co_store_capture(&CO);
+    FUZZ_ASSERT(CO.stored_ok != 0u);
+    memcpy(img, CO.stored, 4u * n);
+    FUZZ_ASSERT(hd_co_store_apply(&CO, img, n, 0x1000u, 0xFFFFu) == 0);
+    for (uint32_t w = 0u; w < n; w++) {
+        FUZZ_ASSERT(hd_co_store_word(&CO, w) == img[w]);   /* applying it changed nothing */
+    }
+    return 0u;
+}
+static uint32_t f_restore(void *c) { (void)c; hd_co_store_defaults(&CO); return 0u; }
 static void f_reset_node(void *c) { (void)c; }
 static void f_sync(void *c, uint8_t n) { (void)c; (void)n; }
 static uint32_t f_enable(void *c, int8_t mode, bool on)

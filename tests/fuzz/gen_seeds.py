@@ -110,6 +110,13 @@ def seeds_canopen() -> None:
     wr = sdo(bytes([0x2B, 0x17, 0x10, 0, 0xF4, 0x01]))             # 0x1017 = 500 ms
     par = sdo(bytes([0x23, 0x00, 0x20, 0x07, 0, 0, 0x64, 0]))      # a manufacturer parameter
     write("canopen", "expedited", up + wr + par + frame(3, 200, b"") + up)
+    # settings, 0x1010 save, changed again, NMT reset communication (back to the saved ones),
+    # 0x1011 restore
+    save = sdo(bytes([0x23, 0x10, 0x10, 1, 0x73, 0x61, 0x76, 0x65]))
+    load = sdo(bytes([0x23, 0x11, 0x10, 1, 0x6C, 0x6F, 0x61, 0x64]))
+    write("canopen", "save_reset_restore", wr + sdo(bytes([0x23, 0x65, 0x60, 0, 0xE8, 0x03, 0, 0])) + save +
+          sdo(bytes([0x2B, 0x17, 0x10, 0, 0x64, 0])) + frame(1, 0x000, bytes([0x82, NODE])) + frame(3, 5, b"") +
+          up + load + frame(1, 0x000, bytes([0x81, 0])) + frame(3, 5, b""))
     nmt = frame(1, 0x000, bytes([0x01, NODE]))
     sync = frame(1, 0x080, b"")
     write("canopen", "nmt_sync_rpdo", nmt + sync + frame(1, 0x200 + NODE, bytes([0x06, 0]), 2) +
