@@ -13,6 +13,9 @@
 #define HD_CO_OD_VERSION 1u
 #define HD_CO_OD_PARAM_HASH 0xADB4A22Bu
 #define HD_CO_OD_COUNT 415u
+/* entries 0x1010 keeps in the stored-object record: hd_co_store_words() less
+ * its layout word; the host's od_gen.STORED lists them for hdservo config */
+#define HD_CO_OD_STORED 124u
 #define HD_CO_N_PDO 4u
 #define HD_CO_N_MAP 8u
 #define HD_CO_VENDOR_ID 0x00000EDAu

@@ -27,13 +27,15 @@ import zlib
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any, Callable, Iterator, Optional
+from typing import Any, Callable, Iterator, Optional, TypeVar
 
 import can
 import canopen
 
 from . import od_gen
 from .params_gen import BY_NAME as PARAMS
+
+T = TypeVar("T")
 
 # python-can's socketcand client logs every partial TCP read at WARNING level
 logging.getLogger("can.interfaces.socketcand").setLevel(logging.ERROR)
@@ -263,6 +265,26 @@ class Drive:
         self.node.nmt.state = "OPERATIONAL"
         if wait_tpdo:
             self.node.tpdo[1].wait_for_reception(2.0)
+
+    def reconfigure(self, writes: Callable[[], T]) -> T:
+        """Run ``writes`` (SDO writes that may change PDO settings) in PRE-OPERATIONAL, then
+        reload the PDO configuration and go back to OPERATIONAL.
+
+        No PDO is exchanged while a PDO is remapped (CiA 301), and the host decodes the
+        frames that follow with the new mapping.
+        """
+        self.node.nmt.state = "PRE-OPERATIONAL"
+        try:
+            out = writes()
+        finally:
+            try:
+                self.node.tpdo.read()
+                self.node.rpdo.read()
+            except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
+                raise DriveError(f"reloading the PDO configuration: {e}") from None
+            finally:
+                self.node.nmt.state = "OPERATIONAL"
+        return out
 
     def enable(self, mode: str = "CYCLIC SYNCHRONOUS POSITION") -> None:
         """Select a mode and walk the 402 state machine to OPERATION ENABLED."""

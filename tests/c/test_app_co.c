@@ -395,6 +395,8 @@ static void test_store_objects(void **st)
 {
     static uint8_t back[sizeof img];
     (void)st;
+    /* the generator's count (the host's od_gen.STORED) is the runtime predicate's */
+    assert_int_equal(hd_co_store_words(&co), 1u + HD_CO_OD_STORED);   /* word 0: layout CRC */
     assert_int_equal(special(0x5101u, 1u), HD_PSTORE_BLANK);
     assert_int_equal(special(0x5101u, 2u), HD_TSTORE_BLANK);
     assert_int_equal(special(0x5101u, 3u), 1);

@@ -83,6 +83,9 @@ def test_dump_edit_restore_round_trip_and_save(tmp_path: Path, capsys) -> None:
     (lambda t: re.sub(r"(?m)^pos_kp = .*$", "pos_kp = -5.0", t), "pos_kp = -5.0 outside"),
     (lambda t: re.sub(r"(?m)^pos_kp = .*$", 'pos_kp = "fast"', t), "expected a number"),
     (lambda t: t + "pos_kp = [\n", "not TOML"),
+    (lambda t: re.sub(r'(?m)^"0x1017:0" = .*$', '"0x1017:0" = 70000', t), '"0x1017:0" = 70000 outside [0, 65535]'),
+    (lambda t: re.sub(r'(?m)^"0x1800:1" = .*$', '"0x1800:1" = "$NODEID+x"', t), 'expected "$NODEID+" and an integer'),
+    (lambda t: re.sub(r'(?m)^"0x6065:0" = .*$', '"0x6065:0" = "$NODEID+0x10"', t), "expected an integer"),
 ])
 def test_bad_file_is_one_line_and_nothing_written(tmp_path: Path, capsys, edit, msg) -> None:
     srv = Server("--pacing", "realtime", "-q")
@@ -99,6 +102,83 @@ def test_bad_file_is_one_line_and_nothing_written(tmp_path: Path, capsys, edit, 
         assert _raw_all(srv.port) == before
     finally:
         srv.stop()
+
+
+def _objects(port: int) -> dict[tuple[int, int], int]:
+    with Drive.connect(1, interface="socketcand", channel="can0", host="127.0.0.1", port=port) as d:
+        d.start()
+        return {k: int(d.read(*k)) for k in driveconfig.STORED_AT}
+
+
+def test_canopen_settings_round_trip_remap_and_save(tmp_path: Path, capsys) -> None:
+    nvm = tmp_path / "nvm.bin"
+    f = tmp_path / "drive.toml"
+    srv = Server("--pacing", "realtime", "-q", "--nvm", str(nvm))
+    try:
+        assert main(["config", "dump", "-o", str(f), *_bus(srv.port)]) == 0
+        before = _objects(srv.port)
+        text = f.read_text()
+        assert driveconfig.parse(text).objects == before        # the file alone gives every setting back
+        assert '"0x1800:1" = "$NODEID+0x180"' in text             # TPDO1 COB-ID follows the node
+        # heartbeat, a TPDO's event timer and its mapping (one object instead of two): the
+        # remap needs the CiA 301 order (PDO invalid, mapping cleared, entries, count, COB-ID)
+        text = re.sub(r'(?m)^"0x1017:0" = .*$', '"0x1017:0" = 250', text)
+        text = re.sub(r'(?m)^"0x1801:5" = .*$', '"0x1801:5" = 20', text)
+        text = re.sub(r'(?m)^"0x1A01:0" = .*$', '"0x1A01:0" = 1', text)
+        text = text.replace("[objects]\n", '[objects]\n"0x1234:9" = 1\n')
+        f.write_text(text)
+        capsys.readouterr()
+        assert main(["config", "restore", str(f), "--save", *_bus(srv.port)]) == 0
+        out = capsys.readouterr()
+        assert "124 CANopen settings" in out.out and "saved to NVM" in out.out
+        assert "0x1234:9" in out.err and "Mismatch" not in out.err
+        after = _objects(srv.port)
+        changed = {(0x1017, 0): 250, (0x1801, 5): 20, (0x1A01, 0): 1}
+        assert {k: after[k] for k in changed} == changed != {k: before[k] for k in changed}
+        assert {k: v for k, v in after.items() if k not in changed} == \
+               {k: v for k, v in before.items() if k not in changed}
+    finally:
+        srv.stop()
+    srv = Server("--pacing", "realtime", "-q", "--nvm", str(nvm))   # restarted: the saved settings are in force
+    try:
+        assert _objects(srv.port) == after
+        # a mapping the drive refuses: one line, exit 2
+        bad = re.sub(r'(?m)^"0x1A01:1" = .*$', '"0x1A01:1" = 0x12345620', f.read_text())
+        f.write_text(bad)
+        capsys.readouterr()
+        assert main(["config", "restore", str(f), *_bus(srv.port)]) == 2
+        err = [x for x in capsys.readouterr().err.strip().splitlines() if "error" in x]
+        assert len(err) == 1 and "0x1A01:1" in err[0] and "refused by the drive" in err[0], err
+        assert "previous values are back" in err[0]
+        assert _objects(srv.port) == after                  # nothing changed, the PDO is valid again
+    finally:
+        srv.stop()
+
+
+def test_node_relative_cob_ids_and_pdo_write_order() -> None:
+    objs = {(e.index, e.sub): e.default + (1 if e.nodeid else 0) for e in driveconfig.STORED}
+    objs[(0x1801, 1)] = 0x2A1                           # not relative to the node: kept absolute
+    text = driveconfig.to_toml({}, TABLE_HASH, "", objs, node_id=1)
+    got = driveconfig.parse(text, node_id=5).objects
+    assert got[(0x1800, 1)] == 0x185 and got[(0x1400, 1)] == 0x205 and got[(0x1801, 1)] == 0x2A1
+    assert got[(0x1403, 1)] == 0x80000505                 # an invalid PDO's COB-ID moves with the node too
+    w = driveconfig.restore_writes(got)
+    assert sorted({(i, s) for i, s, _ in w}) == sorted(got)
+    pos = {k: [n for n, (i, s, _) in enumerate(w) if (i, s) == k] for k in got}
+    for c in (0x1400, 0x1401, 0x1800, 0x1803):
+        m = c + 0x200
+        first_cob, last_cob = pos[(c, 1)][0], pos[(c, 1)][-1]
+        assert w[first_cob][2] & 0x80000000                                        # PDO invalid first
+        assert first_cob < pos[(m, 0)][0] < pos[(m, 1)][0] < pos[(m, 0)][-1] < last_cob
+        assert w[pos[(m, 0)][0]][2] == 0 and w[last_cob][2] == got[(c, 1)]          # cleared, final COB-ID last
+        assert all(pos[(c, s)][0] < last_cob for s in (2, 3, 5))
+    assert max(pos[(0x1017, 0)]) < min(pos[(0x1400, 1)])                           # the rest before the PDOs
+
+
+def test_format_1_files_are_still_read() -> None:
+    text = driveconfig.to_toml({"pos_kp": 40 << 16}, TABLE_HASH).replace("format = 2", "format = 1")
+    p = driveconfig.parse(text)
+    assert p.raw == {"pos_kp": 40 << 16} and p.objects == {}
 
 
 def test_force_matches_another_layout_by_name(tmp_path: Path) -> None:

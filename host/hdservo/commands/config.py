@@ -1,17 +1,21 @@
 """``hdservo config``: drive parameters over CAN -- dump to a file, restore from it, get, set, save, status.
 
 * ``dump [-o FILE]``: every drive parameter in SI units as TOML (stdout without ``-o``),
-  signed with the drive's parameter layout hash (0x5101:5);
+  signed with the drive's parameter layout hash (0x5101:5), and every CANopen / CiA 402
+  setting 0x1010 saves (``[objects]``: SYNC, heartbeats, PDO communication and mapping,
+  option codes, windows; COB-IDs relative to the node written as ``$NODEID+...``);
 * ``restore FILE [--save] [--force]``: the file is checked whole first (signature,
   types, ranges; unknown names listed, not fatal), then every value is written and read
-  back; ``--save`` stores them (0x1010) and checks the drive's store status;
+  back -- the objects in CiA 301 PDO order (PDO invalid, mapping cleared, entries,
+  count, communication parameters, COB-ID last), ``$NODEID`` resolved for the target
+  node; ``--save`` stores them (0x1010) and checks the drive's store status;
 * ``get NAME...`` / ``set NAME=VALUE... [--save]``: single parameters in SI units;
 * ``save``: 0x1010 (parameters, the Preisach table in force, the CANopen settings);
 * ``status``: what the drive's last boot loaded from NVM (0x5101).
 
 Changes apply at once and are in RAM until saved.  Any refusal is one error line and
-exit status 2; a restore stops at the first write the drive refuses (what was written
-stays: the values are independent parameters, each range-checked by the drive too).
+exit status 2; a restore stops at the first write the drive refuses and writes back the
+values the drive had before (read first), so a refused file changes nothing.
 Without bus options a virtual drive is started (a dry run: it stops with the command).
 """
 from __future__ import annotations
@@ -25,13 +29,14 @@ from typing import Any, Callable
 from ..cli import UserError
 
 NAME = "config"
-HELP = "drive parameters over CAN: dump to a TOML file, restore it (checked, read back), get, set, save, status"
+HELP = ("drive parameters and CANopen settings over CAN: dump to a TOML file, restore it (checked, read back), "
+        "get, set, save, status")
 
 
 def register(p: argparse.ArgumentParser) -> None:
     from ..drive import add_bus_arguments
     sub = p.add_subparsers(dest="action", metavar="ACTION", required=True)
-    d = sub.add_parser("dump", help="write every drive parameter (SI units) as TOML")
+    d = sub.add_parser("dump", help="write every drive parameter (SI units) and CANopen setting as TOML")
     d.add_argument("-o", "--out", type=Path, metavar="FILE.toml", help="file to write (default: stdout)")
     r = sub.add_parser("restore", help="write a dumped file back (checked first, read back)")
     r.add_argument("file", type=Path, metavar="FILE.toml")
@@ -77,34 +82,75 @@ def _write_verified(drive: Any, raw: dict[str, int]) -> int:
     return n
 
 
+def _write_objects(drive: Any, objects: dict[tuple[int, int], int]) -> int:
+    """Write stored objects in CiA 301 PDO order and read every one back; returns how many."""
+    from ..drive import DriveError
+    from ..driveconfig import STORED_AT, restore_writes
+    def writes() -> None:
+        n = 0
+        for index, sub, v in restore_writes(objects):
+            try:
+                drive.write(index, sub, v)
+            except DriveError as e:
+                raise UserError(f"{STORED_AT[(index, sub)].name} (0x{index:04X}:{sub}) = 0x{v:X}: refused by the "
+                                f"drive after {n} writes: {e}") from None
+            n += 1
+    try:
+        drive.reconfigure(writes)      # PRE-OPERATIONAL while PDOs change, then the new mapping is loaded
+    except DriveError as e:
+        raise UserError(f"drive: {e}") from None
+    for (index, sub), v in objects.items():
+        back = int(drive.read(index, sub))
+        if back != v:
+            raise UserError(f"{STORED_AT[(index, sub)].name} (0x{index:04X}:{sub}): read back 0x{back:X}, wrote 0x{v:X}")
+    return len(objects)
+
+
 def _dump(drive: Any, args: argparse.Namespace) -> str:
-    from ..driveconfig import to_toml
+    from ..driveconfig import STORED_AT, to_toml
     from ..params_gen import BY_NAME
     raw = {name: int(drive.read(p.index, p.sub)) for name, p in BY_NAME.items()}
+    objects = {key: int(drive.read(*key)) for key in STORED_AT}
     h = int(drive.read(0x5101, 5))
     name = str(drive.read(0x1008, 0))
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
     text = to_toml(raw, h, f"hdservo drive configuration (hdservo config dump), {stamp}\n"
-                           f"drive: {name}, node {args.node_id}; {len(raw)} parameters, SI units")
+                           f"drive: {name}, node {args.node_id}; {len(raw)} parameters, SI units; "
+                           f"{len(objects)} CANopen settings", objects, args.node_id)
     if args.out is None:
         sys.stdout.write(text)
         return ""
     tmp = args.out.with_name(args.out.name + ".tmp")
     tmp.write_text(text)
     tmp.replace(args.out)           # no half-written file
-    return f"wrote {len(raw)} parameters to {args.out}"
+    return f"wrote {len(raw)} parameters and {len(objects)} CANopen settings to {args.out}"
 
 
 def _restore(drive: Any, args: argparse.Namespace, progress: Callable[[str], None]) -> str:
     from ..driveconfig import read_file
     try:
-        parsed = read_file(args.file, drive_hash=int(drive.read(0x5101, 5)), force=args.force)
+        parsed = read_file(args.file, drive_hash=int(drive.read(0x5101, 5)), force=args.force,
+                           node_id=args.node_id)
     except ValueError as e:
         raise UserError(str(e)) from None
     if parsed.unknown:
-        progress(f"note: not parameters of this drive, skipped: {', '.join(parsed.unknown)}")
-    n = _write_verified(drive, parsed.raw)
-    msg = f"restored {n} parameters from {args.file}, every one read back"
+        progress(f"note: not parameters or settings of this drive, skipped: {', '.join(parsed.unknown)}")
+    from ..driveconfig import STORED_AT
+    from ..params_gen import BY_NAME
+    # what the drive has now, to put back if it refuses a value half-way
+    old_raw = {name: int(drive.read(BY_NAME[name].index, BY_NAME[name].sub)) for name in parsed.raw}
+    old_obj = {key: int(drive.read(*key)) for key in parsed.objects if key in STORED_AT}
+    try:
+        n = _write_verified(drive, parsed.raw)
+        k = _write_objects(drive, parsed.objects)
+    except UserError as e:
+        try:
+            _write_verified(drive, old_raw)
+            _write_objects(drive, old_obj)
+        except UserError as e2:
+            raise UserError(f"{e}; putting the previous values back failed too: {e2}") from None
+        raise UserError(f"{e}; the previous values are back") from None
+    msg = f"restored {n} parameters and {k} CANopen settings from {args.file}, every one read back"
     return msg + ("; " + _save(drive) if args.save else "; in RAM only (--save keeps them over a power cycle)")
 
 
