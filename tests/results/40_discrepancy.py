@@ -44,8 +44,14 @@ SEEDS = tuple(range(1 + SEED_OFFSET, int(os.environ.get("HDSERVO_DISC_SEEDS", "5
 #: HDSERVO_DISC_ROWS: comma-separated hidden-effect names ("none" for the null row) to run
 #: only those rows (written to ..._rows.json so the full table is not overwritten).
 ROWS = tuple(r for r in os.environ.get("HDSERVO_DISC_ROWS", "").split(",") if r)
+#: Held-out validation axes (tests/results/axes/): never used to choose a constant of the
+#: workflow, run only when asked for with HDSERVO_DISC_AXES (comma-separated axis names;
+#: default the two axis files of the simulator), written to ..._axes-<names>.json.
+HELD_OUT = {p.stem: str(p) for p in sorted((REPO / "tests" / "results" / "axes").glob("*.toml"))}
+DEFAULT_AXES = ("reference", "csf17_50")
+AXES = tuple(a for a in os.environ.get("HDSERVO_DISC_AXES", ",".join(DEFAULT_AXES)).split(",") if a)
 OUT_NAME = ("discrepancy" + ("" if SEED_OFFSET == 0 else f"_seeds{SEEDS[0]}-{SEEDS[-1]}")
-            + ("_rows" if ROWS else "") + ".json")
+            + ("_rows" if ROWS else "") + ("" if AXES == DEFAULT_AXES else "_axes-" + "-".join(AXES)) + ".json")
 CACHE = REPO / "build" / "cache" / "discrepancy"
 
 
@@ -53,7 +59,8 @@ def _source_hash() -> str:
     """Hash of what a synthetic log depends on (case generator, simulator, axis files)."""
     h = hashlib.sha256()
     files = [REPO / "host" / "hdservo" / "discrepancy" / "cases.py", *sorted((REPO / "host" / "hdservo").glob("sim*.py")),
-             *sorted((REPO / "sim").rglob("*.toml")), *sorted((REPO / "sim").rglob("*.py")), *sorted((REPO / "sim").rglob("*.c"))]
+             *sorted((REPO / "sim").rglob("*.toml")), *(Path(HELD_OUT[a]) for a in AXES if a in HELD_OUT),
+             *sorted((REPO / "sim").rglob("*.py")), *sorted((REPO / "sim").rglob("*.c"))]
     for f in files:
         if f.is_file():
             h.update(f.read_bytes())
@@ -165,10 +172,17 @@ def main() -> int:
         return 2
     if ROWS:
         names = [n for n in names if n in ROWS]
+    known = [*cases.AXES, *HELD_OUT]
+    bad = [a for a in AXES if a not in known]
+    if bad:
+        print(f"HDSERVO_DISC_AXES: unknown axis {bad[0]!r}; expected names from {', '.join(known)}", file=sys.stderr)
+        return 2
+    for a in AXES:  # the worker processes are forked after this, so they see the held-out axes too
+        cases.AXES.setdefault(a, HELD_OUT.get(a, ""))
     confusion: dict[str, dict[str, int]] = {a: {} for a in names}
     t0 = time.monotonic()
     tag = _source_hash()
-    jobs = [(eff, axis, loop, seed, tag) for eff in names for axis in ("reference", "csf17_50")
+    jobs = [(eff, axis, loop, seed, tag) for eff in names for axis in AXES
             for loop in ("closed", "open") for seed in SEEDS]
     rows = []
     with ProcessPoolExecutor(max_workers=WORKERS) as ex:
