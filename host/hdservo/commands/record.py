@@ -4,7 +4,11 @@ Configures the default streaming TPDOs (loop tick + output angle / motor angle /
 motor torque) at ``--rate`` Hz, records for ``--duration`` seconds and writes
 
 * ``OUT.csv`` with the DESIGN.md section 7 columns (``t_s``, ``load_angle_rad``,
-  ``motor_angle_rad``, ``motor_torque_Nm``) and its ``OUT.json`` sidecar;
+  ``motor_angle_rad``, ``motor_torque_Nm``) and its ``OUT.json`` sidecar (format tag,
+  gear ratio and encoder resolutions read from the drive, sample period, firmware
+  version, node, the drive tick of ``t_s`` = 0, lost ticks, and every drive parameter
+  in SI units with the parameter layout hash), so the log goes straight into
+  ``hdservo discrepancy`` or any other log reader;
 * ``OUT.log``, the raw frames in ``candump -L`` format (python-can ``.log``).
 Lost loop ticks are counted and reported (and in the sidecar).
 """
@@ -16,8 +20,9 @@ from pathlib import Path
 
 import can
 
+from .. import logio
 from ..cli import UserError
-from ..drive import LOOP_HZ, TURN, Drive, DriveError, add_bus_arguments, bus_kwargs, unwrap_phase, write_csv_atomic
+from ..drive import LOOP_HZ, TURN, Drive, DriveError, add_bus_arguments, bus_kwargs, unwrap_phase
 
 NAME = "record"
 HELP = "record streamed process data to CSV (+ raw candump log)"
@@ -29,6 +34,25 @@ def register(p: argparse.ArgumentParser) -> None:
     p.add_argument("--rate", type=float, default=1000.0, help="samples per second (divides 10 kHz)")
     p.add_argument("--duration", type=float, default=2.0, help="seconds to record")
     p.add_argument("-o", "--out", required=True, help="CSV to write (also OUT.json, OUT.log)")
+
+
+def drive_info(drive: Drive) -> dict[str, object]:
+    """Sidecar keys that describe the drive a log comes from (DESIGN.md section 7).
+
+    ``gear_ratio``, ``motor_encoder_counts_per_rev`` / ``load_encoder_counts_per_rev``
+    (2^bits of the drive's encoder parameters), ``firmware_version`` (0x100A),
+    ``param_layout_hash`` (0x5101:5) and ``drive_params``: every drive parameter in SI
+    units (the configuration the log was recorded with).
+    """
+    from ..driveconfig import si_of
+    from ..params_gen import BY_NAME
+    params = {name: si_of(p, int(drive.read(p.index, p.sub))) for name, p in BY_NAME.items()}
+    return {"gear_ratio": float(params["gear_ratio"]),
+            "motor_encoder_counts_per_rev": 2 ** int(params["motor_enc_bits"]),
+            "load_encoder_counts_per_rev": 2 ** int(params["output_enc_bits"]),
+            "firmware_version": str(drive.read(0x100A, 0)),
+            "param_layout_hash": f"0x{int(drive.read(0x5101, 5)):08X}",
+            "drive_params": params}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -47,6 +71,7 @@ def run(args: argparse.Namespace) -> int:
     with drive:
         try:
             drive.start()
+            info = drive_info(drive)
             drive.configure_stream(int(round(period)))
             writer_msgs = frames
 
@@ -77,11 +102,17 @@ def run(args: argparse.Namespace) -> int:
         la = unwrap_phase(la, struct.unpack_from("<I", d[0x280], 4)[0])
         ma = unwrap_phase(ma, struct.unpack_from("<I", d[0x380], 4)[0])
         tq = struct.unpack_from("<i", d[0x480], 4)[0] / 65536.0
-        rows.append([t / LOOP_HZ, la * TURN, ma * TURN, tq])
+        rows.append([t, la * TURN, ma * TURN, tq])
+    if len(rows) < 2:
+        raise UserError(f"{len(rows)} complete samples received in {args.duration} s: nothing to write to {out}")
+    t0 = rows[0][0]
     meta = {"sample_period_s": step / LOOP_HZ, "source": "hdservo record (CANopen TPDO stream)",
-            "node_id": args.node_id, "lost_ticks": lost, "samples": len(rows),
-            "columns": ["t_s", "load_angle_rad", "motor_angle_rad", "motor_torque_Nm"]}
-    write_csv_atomic(out, meta["columns"], rows, meta)
+            "node_id": args.node_id, "lost_ticks": lost, "samples": len(rows), "t0_tick": t0, **info}
+    cols = ["t_s", "load_angle_rad", "motor_angle_rad", "motor_torque_Nm"]
+    data = {c: [r[i] for r in rows] for i, c in enumerate(cols)}
+    data["t_s"] = [(t - t0) / LOOP_HZ for t in data["t_s"]]
+    out.parent.mkdir(parents=True, exist_ok=True)
+    logio.write_log(out, data, meta)
     with can.Logger(str(out.with_suffix(".log"))) as lg:
         for m in frames:
             lg.on_message_received(m)
