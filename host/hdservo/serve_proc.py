@@ -121,6 +121,10 @@ class ServeProcess:
             return p.stderr.read() if p.stderr else ""
         except (OSError, ValueError):
             return ""
+        finally:
+            for f in (p.stdout, p.stderr):     # the pipes are ours to close (no ResourceWarning)
+                if f:
+                    f.close()
 
 
 class _Stoppable(Protocol):
