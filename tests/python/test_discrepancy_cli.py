@@ -38,6 +38,29 @@ def test_missing_torque_column(tmp_path: Path, capsys) -> None:
     assert not out.exists()
 
 
+def test_log_that_cannot_identify_the_baseline(tmp_path: Path, capsys) -> None:
+    # a 0.5 s position step (sim/scenarios/step.toml): 197 moving samples, the two-mass fit
+    # comes out with a negative load inertia and spring -- refused, not analysed against it
+    log = tmp_path / "step.csv"
+    assert cli.main(["sim", str(cases.REPO_ROOT / "sim" / "scenarios" / "step.toml"), "-o", str(log)]) == 0
+    out = tmp_path / "o.json"
+    capsys.readouterr()
+    assert cli.main(["discrepancy", str(log), "--json", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(log) in err[0] and "not a mechanical axis" in err[0] and "expected > 0" in err[0], err
+    assert not out.exists()
+    # an axis at rest
+    rest = tmp_path / "rest.csv"
+    rest.write_text("t_s,motor_angle_rad,load_angle_rad,motor_torque_Nm\n"
+                    + "".join(f"{i * 1e-3},0.5,0.005,0.01\n" for i in range(2000)))
+    rest.with_suffix(".json").write_text(json.dumps({"format": "hdservo-log", "version": 1, "gear_ratio": 100.0,
+                                                     "sample_period_s": 1e-3}))
+    assert cli.main(["discrepancy", str(rest), "--json", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(rest) in err[0] and "hardly moves" in err[0], err
+    assert not out.exists()
+
+
 def test_cogging_case_json_and_plots(tmp_path: Path, cog_log: Path) -> None:
     out = tmp_path / "o.json"
     assert cli.main(["discrepancy", str(cog_log), "--json", str(out), "--plots", str(tmp_path / "p")]) == 0

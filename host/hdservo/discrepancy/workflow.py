@@ -536,6 +536,32 @@ SIGNAL_TEXT = ("equation error of the measured motor torque (motor and rigid-bod
                "(N for a linear axis)")
 
 
+#: Baseline parameters that must come out positive for the model to be a mechanical axis
+#: (an inertia or a stiffness <= 0 is a log that does not excite what the model needs).
+POSITIVE_PARAMS = ("J", "J_m_kgm2", "J_l_kgm2", "K_Nm_per_rad")
+
+
+def check_physical(params: dict[str, float], d: bl.Design) -> None:
+    """Refuse a baseline that is not a mechanical axis (one error line, what and why).
+
+    Every residual, simulation and named effect afterwards would be measured against a
+    model with a negative inertia or spring (its window simulation diverges), so there is
+    nothing to report but that the log cannot identify the baseline.
+
+    Raises
+    ------
+    UserError
+        An inertia or the stiffness fitted <= 0.
+    """
+    bad = [f"{k} = {params[k]:.3g}" for k in POSITIVE_PARAMS if k in params and not params[k] > 0]
+    if bad:
+        from ..cli import UserError
+        sig = d.sig
+        raise UserError(f"log: the baseline fit is not a mechanical axis ({', '.join(bad)}; expected > 0): "
+                        f"{int(d.mask.sum())} moving samples over {sig.t[-1] - sig.t[0]:.2f} s do not excite "
+                        "it enough -- record a longer or richer motion (docs/discrepancy.md, Input)")
+
+
 def run(sig: Signals, settings: Settings | None = None, offset: bool | None = None,
         lib: list[fx.Effect] | None = None) -> Result:
     """Run the discrepancy workflow on prepared signals.
@@ -564,6 +590,7 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
     st_.sim = st_.simulate(st_.fit)
     base_fit = st_.fit
     baseline = base_fit.params()
+    check_physical(baseline, d)
     base_rel = relative_error_pct(st_)
     iterations: list[dict[str, Any]] = []
     snapshots = [base_fit]
@@ -768,7 +795,10 @@ def integration_image(state: State, fit: bl.Fit) -> np.ndarray:
     th = np.array([coef.get(c.name, 0.0) for c in state.base_cols])
     e_s = simulation_error(d, state.base_cols, th)
     e_f = simulation_error(d, state.base_cols, th, substeps=INTEGRATION_REF * simerr.SUBSTEPS)
-    return e_s - e_f if len(e_s) == len(e_f) else np.full(len(e_s), np.nan)
+    if len(e_s) != len(e_f):
+        return np.full(len(e_s), np.nan)
+    with np.errstate(invalid="ignore"):                 # inf - inf of a diverging window: nan, judged later
+        return e_s - e_f
 
 
 #: Refinement factor of the reference integration of :func:`integration_image`.
