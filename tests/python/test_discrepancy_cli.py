@@ -61,6 +61,20 @@ def test_log_that_cannot_identify_the_baseline(tmp_path: Path, capsys) -> None:
     assert not out.exists()
 
 
+def test_low_log_rate_gets_a_note(tmp_path: Path, cog_log: Path, capsys) -> None:
+    from hdservo import logio
+    log = logio.read_log(cog_log)
+    slow = tmp_path / "slow.csv"                       # every 10th sample: a 1 kHz logger
+    logio.write_log(slow, {k: v[::10] for k, v in log.columns.items()},
+                    {**log.meta, "sample_period_s": log.meta["sample_period_s"] * 10})
+    out = tmp_path / "o.json"
+    capsys.readouterr()
+    assert cli.main(["discrepancy", str(slow), "--json", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "note: log sampled at 1000 Hz, below the 2000 Hz" in err
+    assert json.loads(out.read_text())["notes"] and "1000 Hz" in json.loads(out.read_text())["notes"][0]
+
+
 def test_cogging_case_json_and_plots(tmp_path: Path, cog_log: Path) -> None:
     out = tmp_path / "o.json"
     assert cli.main(["discrepancy", str(cog_log), "--json", str(out), "--plots", str(tmp_path / "p")]) == 0

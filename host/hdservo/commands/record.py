@@ -31,7 +31,8 @@ HELP = "record streamed process data to CSV (+ raw candump log)"
 def register(p: argparse.ArgumentParser) -> None:
     """Bus options plus rate, duration and output."""
     add_bus_arguments(p)
-    p.add_argument("--rate", type=float, default=1000.0, help="samples per second (divides 10 kHz)")
+    p.add_argument("--rate", type=float, default=2000.0,
+                   help="samples per second (divides 10 kHz; default 2000: hdservo discrepancy wants >= 2 kHz)")
     p.add_argument("--duration", type=float, default=2.0, help="seconds to record")
     p.add_argument("-o", "--out", required=True, help="CSV to write (also OUT.json, OUT.log)")
 
