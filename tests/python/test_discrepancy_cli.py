@@ -61,6 +61,24 @@ def test_log_that_cannot_identify_the_baseline(tmp_path: Path, capsys) -> None:
     assert not out.exists()
 
 
+def test_lost_samples_and_wrong_period_are_refused(tmp_path: Path, cog_log: Path, capsys) -> None:
+    from hdservo import logio
+    log = logio.read_log(cog_log)
+    n = len(log.t)
+    keep = [i for i in range(n) if not 20000 <= i < 20007]            # a logger that lost 7 samples
+    gap = tmp_path / "gap.csv"
+    logio.write_log(gap, {k: v[keep] for k, v in log.columns.items()}, log.meta)
+    wrong = tmp_path / "wrong.csv"                                     # sidecar says 2x the real period
+    logio.write_log(wrong, log.columns, {**log.meta, "sample_period_s": 2 * log.meta["sample_period_s"]})
+    out = tmp_path / "o.json"
+    for p, msg in ((gap, "at row 20001"), (wrong, "sample_period_s is 0.0002 s")):
+        capsys.readouterr()
+        assert cli.main(["discrepancy", str(p), "--json", str(out)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and str(p) in err[0] and msg in err[0], err
+        assert not out.exists()
+
+
 def test_low_log_rate_gets_a_note(tmp_path: Path, cog_log: Path, capsys) -> None:
     from hdservo import logio
     log = logio.read_log(cog_log)

@@ -225,6 +225,7 @@ def from_log(log: logio.Log, structure: str | None = None, fc_Hz: float | None =
     t = log.t
     if len(t) < 400:
         raise UserError(f"{where}: expected at least 400 samples, found {len(t)}")
+    check_uniform(t, dt, where)
     fs = 1.0 / dt
     fc = float(fc_Hz) if fc_Hz else min(FC_REL * fs, FC_MAX_HZ)
     q = max(1, int(fs / (DEC_RATE_REL * fc)))
@@ -256,6 +257,31 @@ def from_log(log: logio.Log, structure: str | None = None, fc_Hz: float | None =
     return Signals(kind=structure, ratio=rat, dt=dt, fc_Hz=fc, q=q, t=t, tau=tau,
                    th_m=th_m, w_m=w_m, a_m=a_m, th_l=th_l, w_l=w_l, a_l=a_l,
                    raw_th_m=raw_m, raw_th_l=raw_l, units=units, meta=dict(log.meta))
+
+
+def check_uniform(t: np.ndarray, dt: float, where: str) -> None:
+    """Refuse a log that is not sampled every ``dt`` (one error line: where, what, expected).
+
+    The states come from filters and central differences that assume one sample every
+    ``sample_period_s``: a logger that lost samples (a step of 1.5 dt or more) or a
+    sidecar with the wrong period (mean step off by more than 1 %) would give wrong
+    velocities, accelerations and every residual after them.  Timestamp jitter below
+    half a period is accepted (the samples are taken as uniform).  The mean step is checked
+    first, so a wrong period is named as such and not as a gap.
+    """
+    d = np.diff(t)
+    if d.size == 0:
+        return
+    mean = float(t[-1] - t[0]) / d.size
+    if abs(mean - dt) > 0.01 * dt:
+        raise UserError(f"{where}: t_s advances {mean:.6g} s per sample on average, but the sidecar's "
+                        f"sample_period_s is {dt:.6g} s (expected within 1 %)")
+    bad = np.flatnonzero((d > 1.5 * dt) | (d < 0.5 * dt))
+    if bad.size:
+        k = int(bad[0])
+        raise UserError(f"{where}: t_s steps by {d[k]:.6g} s at row {k + 2} (t_s = {t[k + 1]:.6g} s), expected one "
+                        f"sample every sample_period_s = {dt:.6g} s; a log with lost samples must be cut or "
+                        "filled there")
 
 
 def read(path: str | Path, structure: str | None = None) -> Signals:
