@@ -21,10 +21,15 @@ def _bus(port: int) -> list[str]:
     return ["-i", "socketcand", "--host", "127.0.0.1", "--port", str(port)]
 
 
-def _raw_all(port: int) -> dict[str, int]:
+def _read(port: int, where: dict) -> dict:
+    """Raw values read from the drive: key -> (index, sub) in, key -> value out."""
     with Drive.connect(1, interface="socketcand", channel="can0", host="127.0.0.1", port=port) as d:
         d.start()
-        return {n: int(d.read(p.index, p.sub)) for n, p in BY_NAME.items()}
+        return {k: int(d.read(*at)) for k, at in where.items()}
+
+
+def _raw_all(port: int) -> dict[str, int]:
+    return _read(port, {n: (p.index, p.sub) for n, p in BY_NAME.items()})
 
 
 def test_dump_edit_restore_round_trip_and_save(tmp_path: Path, capsys) -> None:
@@ -105,9 +110,7 @@ def test_bad_file_is_one_line_and_nothing_written(tmp_path: Path, capsys, edit, 
 
 
 def _objects(port: int) -> dict[tuple[int, int], int]:
-    with Drive.connect(1, interface="socketcand", channel="can0", host="127.0.0.1", port=port) as d:
-        d.start()
-        return {k: int(d.read(*k)) for k in driveconfig.STORED_AT}
+    return _read(port, {k: k for k in driveconfig.STORED_AT})
 
 
 def test_canopen_settings_round_trip_remap_and_save(tmp_path: Path, capsys) -> None:
