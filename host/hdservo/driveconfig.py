@@ -213,7 +213,7 @@ def restore_writes(objects: Mapping[tuple[int, int], int]) -> list[tuple[int, in
     """
     pdo = lambda i: 0x1400 <= i <= 0x1BFF  # noqa: E731
     writes = [(i, s, v) for (i, s), v in sorted(objects.items()) if not pdo(i)]
-    comms = sorted({i if i < 0x1600 or 0x1800 <= i < 0x1A00 else i - 0x200 for (i, _s) in objects if pdo(i)})
+    comms = sorted({i & ~0x200 for (i, _s) in objects if pdo(i)})     # 0x16xx -> 0x14xx, 0x1Axx -> 0x18xx
     for c in comms:
         m = c + 0x200
         cob = objects.get((c, 1))

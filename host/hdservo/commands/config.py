@@ -86,6 +86,7 @@ def _write_objects(drive: Any, objects: dict[tuple[int, int], int]) -> int:
     """Write stored objects in CiA 301 PDO order and read every one back; returns how many."""
     from ..drive import DriveError
     from ..driveconfig import STORED_AT, restore_writes
+
     def writes() -> None:
         n = 0
         for index, sub, v in restore_writes(objects):
@@ -128,6 +129,7 @@ def _dump(drive: Any, args: argparse.Namespace) -> str:
 
 def _restore(drive: Any, args: argparse.Namespace, progress: Callable[[str], None]) -> str:
     from ..driveconfig import read_file
+    from ..params_gen import BY_NAME
     try:
         parsed = read_file(args.file, drive_hash=int(drive.read(0x5101, 5)), force=args.force,
                            node_id=args.node_id)
@@ -135,11 +137,9 @@ def _restore(drive: Any, args: argparse.Namespace, progress: Callable[[str], Non
         raise UserError(str(e)) from None
     if parsed.unknown:
         progress(f"note: not parameters or settings of this drive, skipped: {', '.join(parsed.unknown)}")
-    from ..driveconfig import STORED_AT
-    from ..params_gen import BY_NAME
     # what the drive has now, to put back if it refuses a value half-way
     old_raw = {name: int(drive.read(BY_NAME[name].index, BY_NAME[name].sub)) for name in parsed.raw}
-    old_obj = {key: int(drive.read(*key)) for key in parsed.objects if key in STORED_AT}
+    old_obj = {key: int(drive.read(*key)) for key in parsed.objects}
     try:
         n = _write_verified(drive, parsed.raw)
         k = _write_objects(drive, parsed.objects)
