@@ -15,13 +15,9 @@ Example
 from __future__ import annotations
 
 import argparse
-import csv
-import json
 import logging
 import math
-import os
 import struct
-import tempfile
 import time
 import zlib
 from dataclasses import dataclass
@@ -591,25 +587,5 @@ def unwrap_phase(prev_turns: Optional[float], phase_u32: int) -> float:
     return min(cands, key=lambda c: abs(c - prev_turns))
 
 
-def write_csv_atomic(path: Path, header: list[str], rows: list[list[float]], meta: dict[str, Any]) -> None:
-    """Write CSV + JSON sidecar through temp files (no half-written output)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".rec.")
-    fd2, tmp2 = tempfile.mkstemp(dir=path.parent, prefix=".rec.")
-    try:
-        with os.fdopen(fd, "w", newline="") as f:
-            w = csv.writer(f)
-            w.writerow(header)
-            w.writerows(rows)
-        with os.fdopen(fd2, "w") as f:
-            json.dump(meta, f, indent=2)
-        os.replace(tmp, path)
-        os.replace(tmp2, path.with_suffix(".json"))
-    finally:
-        for t in (tmp, tmp2):
-            if os.path.exists(t):
-                os.unlink(t)
-
-
-__all__ = ["Drive", "DriveError", "add_bus_arguments", "bus_kwargs", "unwrap_phase", "write_csv_atomic",
+__all__ = ["Drive", "DriveError", "add_bus_arguments", "bus_kwargs", "unwrap_phase",
            "EDS_PATH", "MODES", "SIGNALS", "TABLE_GROUPS", "EXC_TYPES", "EXC_INJECTION", "EXC_SCALE", "group_payload", "od_gen"]

@@ -130,9 +130,19 @@ def evidence(cur: bl.Fit, new: bl.Fit, p: int, h: int, n_eff: float) -> dict[str
             "added_params": int(p + h)}
 
 
+def _sse(e: np.ndarray) -> float:
+    """Sum of squares of a candidate's simulation error; inf when it diverged (non-finite or
+    overflowing: such a candidate is judged unfit, without a numpy warning)."""
+    if not np.all(np.isfinite(e)):
+        return np.inf
+    with np.errstate(over="ignore"):
+        s = float(np.sum(np.square(e)))
+    return s if np.isfinite(s) else np.inf
+
+
 def sim_evidence(sse0: float, e1: np.ndarray, p: int, n_eff: float) -> dict[str, float]:
     """Evidence of a candidate in the simulation error: Delta BIC, F-test p-value, explained fraction."""
-    sse1 = float(np.sum(e1 ** 2)) if np.all(np.isfinite(e1)) else np.inf
+    sse1 = _sse(e1)
     if not np.isfinite(sse1) or sse1 <= 0:
         return {"sim_delta_bic": -np.inf if not np.isfinite(sse1) else np.inf, "sim_p_value": 1.0,
                 "sim_explained_fraction": -np.inf if not np.isfinite(sse1) else 1.0, "sim_n_eff": n_eff}
@@ -205,7 +215,7 @@ def oe_fit(state: State, v: fx.Variant, s: Settings | None = None, refine: int =
             th = theta0.copy()
             th[len(base_cols) + j] = g * fc
             e = side_error(d, cols, th, side, tau, key)
-            sse = float(np.sum(e ** 2)) if np.all(np.isfinite(e)) else np.inf
+            sse = _sse(e)
             fx_ = dict(fixed)
             fx_[c.name] = g * fc
             try:
@@ -359,7 +369,7 @@ def refit_named(state: State, c: Candidate, s: Settings | None = None) -> Candid
         if not c.effect.valid(f, w):
             return None
         e = state.simulate(f, w)
-        return (w, f, float(np.sum(e ** 2))) if np.all(np.isfinite(e)) else None
+        return (w, f, _sse(e)) if np.all(np.isfinite(e)) else None
 
     best = fit_of(c.variant)
     if best is None:
@@ -406,7 +416,7 @@ def local_evidence(state: State, c: Candidate, e1: np.ndarray) -> dict[str, floa
     out: dict[str, float] = {}
     if len(rs) == len(state.sim) == len(e1) and rs.any():
         s0 = float(np.sum(state.sim[rs] ** 2))
-        s1 = float(np.sum(e1[rs] ** 2)) if np.all(np.isfinite(e1[rs])) else np.inf
+        s1 = _sse(e1[rs])
         out["sim_explained_fraction_local"] = float(1 - s1 / s0) if s0 > 0 else np.nan
         out["sim_region_share"] = float(rs.mean())
     else:
