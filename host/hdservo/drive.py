@@ -587,5 +587,16 @@ def unwrap_phase(prev_turns: Optional[float], phase_u32: int) -> float:
     return min(cands, key=lambda c: abs(c - prev_turns))
 
 
-__all__ = ["Drive", "DriveError", "add_bus_arguments", "bus_kwargs", "unwrap_phase",
+def unwrap_tick(prev: Optional[int], tick_u32: int) -> int:
+    """Continue a loop-tick count from the drive's wrapping 32-bit tick (0x5F00, TPDO byte 0-3).
+
+    The tick wraps every 2^32 periods (5 days at 10 kHz); the unwrapped count is the one
+    nearest ``prev`` (frames of a stream are at most 2^31 ticks apart).
+    """
+    if prev is None:
+        return int(tick_u32)
+    return prev + ((int(tick_u32) - prev + 2 ** 31) % 2 ** 32) - 2 ** 31
+
+
+__all__ = ["Drive", "DriveError", "add_bus_arguments", "bus_kwargs", "unwrap_phase", "unwrap_tick",
            "EDS_PATH", "MODES", "SIGNALS", "TABLE_GROUPS", "EXC_TYPES", "EXC_INJECTION", "EXC_SCALE", "group_payload", "od_gen"]

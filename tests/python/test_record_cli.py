@@ -10,7 +10,7 @@ import pytest
 
 from hdservo import logio
 from hdservo.cli import main
-from hdservo.drive import Drive
+from hdservo.drive import Drive, unwrap_tick
 from hdservo.params_gen import BY_NAME, TABLE_HASH
 
 from vdrive import SIM, Server  # tests/python/vdrive.py
@@ -62,3 +62,12 @@ def test_record_bad_rate_is_one_line(capsys) -> None:
     assert main(["record", "-i", "socketcand", "--port", "1", "--rate", "3000", "-o", "x.csv"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--rate 3000" in err[0], err
+
+
+def test_tick_unwrap_across_the_32_bit_wrap() -> None:
+    ticks = [2 ** 32 - 10, 2 ** 32 - 5, 0, 5, 3, 2 ** 32 - 1]      # wrap, then frames a little out of order
+    out, last = [], None
+    for t in ticks:
+        last = unwrap_tick(last, t)
+        out.append(last)
+    assert out == [2 ** 32 - 10, 2 ** 32 - 5, 2 ** 32, 2 ** 32 + 5, 2 ** 32 + 3, 2 ** 32 - 1]

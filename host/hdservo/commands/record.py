@@ -22,7 +22,7 @@ import can
 
 from .. import logio
 from ..cli import UserError
-from ..drive import LOOP_HZ, TURN, Drive, DriveError, add_bus_arguments, bus_kwargs, unwrap_phase
+from ..drive import LOOP_HZ, TURN, Drive, DriveError, add_bus_arguments, bus_kwargs, unwrap_phase, unwrap_tick
 
 NAME = "record"
 HELP = "record streamed process data to CSV (+ raw candump log)"
@@ -83,8 +83,10 @@ def run(args: argparse.Namespace) -> int:
             raw = _Raw()
             drive.network.notifier.add_listener(raw)
             by_tick: dict[int, dict[int, bytes]] = {}
+            last = None
             for cob, tick, data in drive.stream(args.duration):
-                by_tick.setdefault(tick, {})[cob - drive.node_id] = data
+                last = unwrap_tick(last, tick)      # a recording across the tick's wrap stays in order
+                by_tick.setdefault(last, {})[cob - drive.node_id] = data
             drive.network.notifier.remove_listener(raw)
             drive.configure_stream(0)
         except DriveError as e:
