@@ -32,12 +32,21 @@ def _raw_all(port: int) -> dict[str, int]:
     return _read(port, {n: (p.index, p.sub) for n, p in BY_NAME.items()})
 
 
-def test_dump_edit_restore_round_trip_and_save(tmp_path: Path, capsys) -> None:
-    nvm = tmp_path / "nvm.bin"
-    f = tmp_path / "drive.toml"
+def _dumped_drive(tmp_path: Path) -> tuple[Server, Path, Path]:
+    """A virtual drive on its own NVM file, its configuration dumped: (drive, file, nvm)."""
+    nvm, f = tmp_path / "nvm.bin", tmp_path / "drive.toml"
     srv = Server("--pacing", "realtime", "-q", "--nvm", str(nvm))
     try:
         assert main(["config", "dump", "-o", str(f), *_bus(srv.port)]) == 0
+    except BaseException:
+        srv.stop()
+        raise
+    return srv, f, nvm
+
+
+def test_dump_edit_restore_round_trip_and_save(tmp_path: Path, capsys) -> None:
+    srv, f, nvm = _dumped_drive(tmp_path)
+    try:
         before = _raw_all(srv.port)
         text = f.read_text()
         assert f"param_layout_hash = 0x{TABLE_HASH:08X}" in text
@@ -114,11 +123,8 @@ def _objects(port: int) -> dict[tuple[int, int], int]:
 
 
 def test_canopen_settings_round_trip_remap_and_save(tmp_path: Path, capsys) -> None:
-    nvm = tmp_path / "nvm.bin"
-    f = tmp_path / "drive.toml"
-    srv = Server("--pacing", "realtime", "-q", "--nvm", str(nvm))
+    srv, f, nvm = _dumped_drive(tmp_path)
     try:
-        assert main(["config", "dump", "-o", str(f), *_bus(srv.port)]) == 0
         before = _objects(srv.port)
         text = f.read_text()
         assert driveconfig.parse(text).objects == before        # the file alone gives every setting back
