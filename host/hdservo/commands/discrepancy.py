@@ -64,11 +64,7 @@ def run(args: argparse.Namespace) -> int:
     model = read_model(args.model) if args.model else {"structure": None, "offset": None}
     log = logio.read_log(args.log)
     sig = signals.from_log(log, model["structure"])
-    try:
-        res = workflow.run(sig, offset=model["offset"])
-    except UserError as e:                     # the workflow's own refusals name the log as "log"
-        msg = str(e)
-        raise UserError(f"{args.log}:{msg[4:]}" if msg.startswith("log:") else msg) from None
+    res = workflow.run(sig, offset=model["offset"])
     out = res.to_json()
     out["log"] = str(args.log)
     out["structure"] = sig.kind

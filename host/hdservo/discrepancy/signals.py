@@ -63,6 +63,8 @@ class Signals:
         Unit strings for plots (``angle``, ``torque``).
     meta : dict
         The sidecar.
+    source : str
+        The log's path (``"log"`` for a log not read from a file), named in error messages.
     """
 
     kind: str
@@ -82,6 +84,7 @@ class Signals:
     raw_th_l: np.ndarray | None
     units: dict[str, str] = field(default_factory=dict)
     meta: dict[str, Any] = field(default_factory=dict)
+    source: str = "log"          #: where the log came from (its path), for error messages
     _dec_cache: dict[int, np.ndarray] = field(default_factory=dict, repr=False)
 
     # ------------------------------------------------------------------ derived
@@ -256,7 +259,7 @@ def from_log(log: logio.Log, structure: str | None = None, fc_Hz: float | None =
         th_l, w_l, a_l = states(raw_l)
     return Signals(kind=structure, ratio=rat, dt=dt, fc_Hz=fc, q=q, t=t, tau=tau,
                    th_m=th_m, w_m=w_m, a_m=a_m, th_l=th_l, w_l=w_l, a_l=a_l,
-                   raw_th_m=raw_m, raw_th_l=raw_l, units=units, meta=dict(log.meta))
+                   raw_th_m=raw_m, raw_th_l=raw_l, units=units, meta=dict(log.meta), source=where)
 
 
 def check_uniform(t: np.ndarray, dt: float, where: str) -> None:

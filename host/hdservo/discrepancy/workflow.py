@@ -567,7 +567,7 @@ def check_physical(params: dict[str, float], d: bl.Design) -> None:
     if bad:
         from ..cli import UserError
         sig = d.sig
-        raise UserError(f"log: the baseline fit is not a mechanical axis ({', '.join(bad)}; expected > 0): "
+        raise UserError(f"{sig.source}: the baseline fit is not a mechanical axis ({', '.join(bad)}; expected > 0): "
                         f"{int(d.mask.sum())} moving samples over {sig.t[-1] - sig.t[0]:.2f} s do not excite "
                         "it enough -- record a longer or richer motion (docs/discrepancy.md, Input)")
 
@@ -590,7 +590,7 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
     d = bl.make_design(sig)
     if int(d.mask.sum()) < 50:
         from ..cli import UserError
-        raise UserError("log: fewer than 50 moving samples after filtering; the axis hardly moves")
+        raise UserError(f"{sig.source}: fewer than 50 moving samples after filtering; the axis hardly moves")
     cols = bl.baseline_columns(d, offset)
     d._baseline_names = {c.name for c in cols}  # type: ignore[attr-defined]
     st_ = State(design=d, base_cols=cols)
