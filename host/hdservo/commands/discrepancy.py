@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import tomllib
 from pathlib import Path
@@ -68,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     out = res.to_json()
     out["log"] = str(args.log)
     out["structure"] = sig.kind
-    notes = []
+    notes = list(res.notes)
     if 1.0 / sig.dt < MIN_VALIDATED_RATE_HZ:
         notes.append(f"log sampled at {1.0 / sig.dt:.0f} Hz, below the {MIN_VALIDATED_RATE_HZ:.0f} Hz the workflow is "
                      "validated at: Stribeck friction and small effects are less reliable (docs/discrepancy.md)")
@@ -76,16 +77,18 @@ def run(args: argparse.Namespace) -> int:
     if args.plots:
         from ..discrepancy.plots import write_plots
         out["plots"] = [str(p) for p in write_plots(res, args.plots)]
-    logio._atomic_write(args.json, json.dumps(out, indent=2) + "\n")
+    logio._atomic_write(args.json, json.dumps(out, indent=2, allow_nan=False) + "\n")
     u = sig.units["torque"]
     au = sig.units["angle"]
+    sim0 = res.sim_rms_history[0]
     print(f"{args.log}: {sig.kind} baseline, equation-error RMS {res.rms_history[0]:.4g} {u}, "
-          f"simulation-error RMS {res.sim_rms_history[0]:.4g} {au}")
+          + (f"simulation-error RMS {sim0:.4g} {au}" if math.isfinite(sim0) else "not simulable (see note)"))
     for it in res.iterations:
         ev = it["evidence"]
         sf = ev.get("sim_explained_fraction")
+        sb = it["sim_rms_before_rad"]
         print(f"  + {it['named_effect']}: {it['rms_before']:.4g} -> {it['rms_after']:.4g} {u}, simulation "
-              f"{it['sim_rms_before_rad']:.4g} -> {it['sim_rms_after_rad']:.4g} {au} "
+              f"{f'{sb:.4g}' if math.isfinite(sb) else '-'} -> {it['sim_rms_after_rad']:.4g} {au} "
               f"(delta BIC {ev['delta_bic']:.0f} + {ev.get('sim_delta_bic') or 0:.0f}, explained "
               f"{100 * ev['explained_fraction']:.0f} % / {100 * (sf or 0):.0f} %)")
         g = it.get("rms_gap") or {}

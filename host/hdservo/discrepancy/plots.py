@@ -131,7 +131,8 @@ def write_plots(res: "Result", out_dir: str | Path) -> list[Path]:
 
     if len(res.sims) >= 1:
         fig, ax = plt.subplots(figsize=(9, 4))
-        for e, lab in ((res.sims[0], "baseline"), (res.sims[-1], "final model")):
+        base_lab = "baseline" if np.all(np.isfinite(res.sims[0])) else "baseline (gaps: not simulable, inertia <= 0)"
+        for e, lab in ((res.sims[0], base_lab), (res.sims[-1], "final model")):
             ax.plot(np.arange(len(e)) * s.dt * max(s.q, 1), e, lw=0.6, label=lab)
         ax.set_xlabel("time (s; two-mass: motor side, then load side)")
         ax.set_ylabel(f"simulated - measured ({s.units['angle']} at the output)")
