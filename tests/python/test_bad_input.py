@@ -145,6 +145,20 @@ def test_sim_bad_scenario(tmp_path: Path, case: str) -> None:
     _assert_one_line_error(_cli(["sim", str(sc), "-o", str(out)], tmp_path), sc.name, [out, tmp_path / "out.json"])
 
 
+def test_sim_output_directory(tmp_path: Path) -> None:
+    """``-o DIR/sub/log.csv`` creates the directories; a path through a file is one error line."""
+    if not (ROOT / "build" / "lib" / "libhdsim.so").exists():
+        pytest.skip("build/lib/libhdsim.so not built")
+    sc = ROOT / "sim" / "scenarios" / "step.toml"
+    out = tmp_path / "new" / "sub" / "log.csv"
+    p = _cli(["sim", str(sc), "-o", str(out), "--json", str(tmp_path / "j" / "run.json")], tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert out.is_file() and out.with_suffix(".json").is_file() and (tmp_path / "j" / "run.json").is_file()
+    (tmp_path / "afile").write_text("x")
+    bad = tmp_path / "afile" / "log.csv"
+    _assert_one_line_error(_cli(["sim", str(sc), "-o", str(bad)], tmp_path), "afile", [bad])
+
+
 AXES = {
     "empty_file_is_not_an_axis": "",
     "malformed": "[stiffness\n",

@@ -43,6 +43,12 @@ def register(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     if not args.scenario.is_file():
         raise UserError(f"{args.scenario}: scenario file not found")
+    for out in (args.output, args.json):
+        if out is not None:
+            try:
+                out.parent.mkdir(parents=True, exist_ok=True)
+            except OSError as e:
+                raise UserError(f"{out}: cannot create its directory {out.parent}: {e.strerror or e}") from None
     t0 = time.monotonic()
     res = sim.run_scenario(args.scenario, params=dict(args.set), seed=args.seed,
                            duration_s=args.duration, log_path=args.output)
