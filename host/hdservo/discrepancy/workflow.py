@@ -575,9 +575,14 @@ SIGNAL_TEXT = ("equation error of the measured motor torque (motor and rigid-bod
 POSITIVE_PARAMS = ("J", "J_m_kgm2", "J_l_kgm2", "K_Nm_per_rad")
 
 
+def unphysical(params: dict[str, float]) -> list[str]:
+    """The inertias and stiffness fitted <= 0 (:data:`POSITIVE_PARAMS`), as "name = value"."""
+    return [f"{k} = {params[k]:.3g}" for k in POSITIVE_PARAMS if k in params and not params[k] > 0]
+
+
 def is_physical(params: dict[str, float]) -> bool:
-    """Every inertia and the stiffness fitted > 0 (:data:`POSITIVE_PARAMS`)."""
-    return all(params[k] > 0 for k in POSITIVE_PARAMS if k in params)
+    """Every inertia and the stiffness fitted > 0: a mechanical axis."""
+    return not unphysical(params)
 
 
 def check_physical(params: dict[str, float], d: bl.Design, library_tried: bool = False) -> None:
@@ -594,7 +599,7 @@ def check_physical(params: dict[str, float], d: bl.Design, library_tried: bool =
     UserError
         An inertia or the stiffness fitted <= 0.
     """
-    bad = [f"{k} = {params[k]:.3g}" for k in POSITIVE_PARAMS if k in params and not params[k] > 0]
+    bad = unphysical(params)
     if bad:
         from ..cli import UserError
         sig = d.sig
@@ -705,7 +710,7 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
     white = ljung_box(next(iter(st_.fit.resid.values())))
     # the floors are images through the baseline's coefficients; a biased baseline cannot
     # be simulated, so then those of the first model that is a mechanical axis
-    floor_fit = next(f for f in snapshots if is_physical(f.params()))
+    floor_fit = next((f for f in snapshots if is_physical(f.params())), base_fit)
     img_eq, img_noise = noise_images(st_, floor_fit)
     img_int = integration_image(st_, floor_fit)
     # the simulation error's floor: sensor noise and integration error, independent
@@ -734,8 +739,7 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
         it["rms_gap"] = _jsonable(rms_gap(it))
     notes = []
     if biased:
-        bad = ", ".join(f"{k} = {baseline[k]:.3g}" for k in POSITIVE_PARAMS if k in baseline and not baseline[k] > 0)
-        notes.append(f"the baseline fit is not a mechanical axis ({bad}): it cannot be simulated, so "
+        notes.append(f"the baseline fit is not a mechanical axis ({', '.join(unphysical(baseline))}): it cannot be simulated, so "
                      f"{iterations[0]['named_effect']} was named on the equation error alone (its simulation-error "
                      "figures before are null)")
     final = {"structure": sig.kind, "params": st_.fit.params(),
