@@ -587,6 +587,19 @@ def unwrap_phase(prev_turns: Optional[float], phase_u32: int) -> float:
     return min(cands, key=lambda c: abs(c - prev_turns))
 
 
+def align_motor_turns(motor_turns: float, load_turns: float, ratio: float) -> float:
+    """The motor's multi-turn angle (turns) that matches the load angle through the gear.
+
+    The TPDOs carry each encoder's single-turn phase, so the motor's whole turns since
+    power-on are unknown: a recording that starts them at zero puts k whole motor turns,
+    k 2 pi / N at the output, into the twist theta_m / N - theta_l (0.063 rad on N = 100,
+    five orders of magnitude above a real twist).  The twist of a gear is far below half a
+    motor turn at the output (pi / N), so the whole turns are the k that bring
+    ``motor_turns / ratio`` nearest ``load_turns``.
+    """
+    return motor_turns + round(ratio * load_turns - motor_turns)
+
+
 def unwrap_tick(prev: Optional[int], tick_u32: int) -> int:
     """Continue a loop-tick count from the drive's wrapping 32-bit tick (0x5F00, TPDO byte 0-3).
 
@@ -598,5 +611,5 @@ def unwrap_tick(prev: Optional[int], tick_u32: int) -> int:
     return prev + ((int(tick_u32) - prev + 2 ** 31) % 2 ** 32) - 2 ** 31
 
 
-__all__ = ["Drive", "DriveError", "add_bus_arguments", "bus_kwargs", "unwrap_phase", "unwrap_tick",
+__all__ = ["Drive", "DriveError", "add_bus_arguments", "bus_kwargs", "unwrap_phase", "unwrap_tick", "align_motor_turns",
            "EDS_PATH", "MODES", "SIGNALS", "TABLE_GROUPS", "EXC_TYPES", "EXC_INJECTION", "EXC_SCALE", "group_payload", "od_gen"]

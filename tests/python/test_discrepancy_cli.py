@@ -140,3 +140,24 @@ def test_baseline_biased_by_the_missing_effect(tmp_path: Path, monkeypatch, caps
     assert 1.0e-5 < fin["J_m_kgm2"] < 2.0e-5 and 1500.0 < fin["K_Nm_per_rad"] < 2300.0
     assert any("not a mechanical axis" in n for n in res["notes"])
     assert "not a mechanical axis" in capsys.readouterr().err
+
+
+def test_encoder_zeros_that_differ(tmp_path: Path, cog_log: Path, capsys) -> None:
+    # the same log with the motor encoder's zero 0.3 turn off (0.019 rad of twist at the
+    # output, forty times a real one): without the correction K came out 44 N.m/rad and
+    # the first name was asymmetric friction
+    from hdservo import logio
+    log = logio.read_log(cog_log)
+    cols = dict(log.columns)
+    cols["motor_angle_rad"] = cols["motor_angle_rad"] + 0.3 * 2 * 3.141592653589793
+    shifted = tmp_path / "shifted.csv"
+    logio.write_log(shifted, cols, {k: v for k, v in log.meta.items() if k not in ("format", "version", "columns")})
+    out, ref = tmp_path / "o.json", tmp_path / "ref.json"
+    assert cli.main(["discrepancy", str(shifted), "--json", str(out)]) == 0
+    assert "zeros differ" in capsys.readouterr().err
+    assert cli.main(["discrepancy", str(cog_log), "--json", str(ref)]) == 0
+    res, want = json.loads(out.read_text()), json.loads(ref.read_text())
+    assert want["notes"] == []                                        # encoders that agree: untouched
+    assert res["named_effects"] == want["named_effects"] and res["named_effects"][:1] == ["cogging_torque"]
+    assert abs(res["baseline"]["K_Nm_per_rad"] / want["baseline"]["K_Nm_per_rad"] - 1) < 0.02
+    assert any("zeros differ" in n and "0.0188" in n for n in res["notes"]), res["notes"]

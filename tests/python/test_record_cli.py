@@ -10,7 +10,7 @@ import pytest
 
 from hdservo import logio
 from hdservo.cli import main
-from hdservo.drive import Drive, unwrap_tick
+from hdservo.drive import Drive, align_motor_turns, unwrap_tick
 from hdservo.params_gen import BY_NAME, TABLE_HASH
 
 from vdrive import SIM, Server  # tests/python/vdrive.py
@@ -46,6 +46,8 @@ def test_recorded_log_goes_into_discrepancy(tmp_path: Path, capsys) -> None:
     assert m["drive_params"]["pos_kp"] == 20.0 and len(m["drive_params"]) == len(BY_NAME)
     assert log.t[0] == 0.0 and len(log.t) >= 5800 and m["lost_ticks"] == 0
     assert float(log["load_angle_rad"].max() - log["load_angle_rad"].min()) > 0.08     # it moved
+    twist = log["motor_angle_rad"] / m["gear_ratio"] - log["load_angle_rad"]
+    assert float(abs(twist).max()) < 5e-3        # the motor's whole turns match the load (align_motor_turns)
     assert out.with_suffix(".log").stat().st_size > 0                                 # raw frames too
     js = tmp_path / "disc.json"
     capsys.readouterr()
@@ -62,6 +64,15 @@ def test_record_bad_rate_is_one_line(capsys) -> None:
     assert main(["record", "-i", "socketcand", "--port", "1", "--rate", "3000", "-o", "x.csv"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--rate 3000" in err[0], err
+
+
+def test_motor_turns_aligned_to_the_load_through_the_gear() -> None:
+    # N = 100, load at 0.2 turn with a twist of 1e-5 turn; the motor's phase 0.99 turn (PDO)
+    # is read as -0.01 turn: its whole turns since power-on (20 -> 19.99) come from the load
+    m = align_motor_turns(-0.01, 0.2 - 1e-5, 100.0)
+    assert m == pytest.approx(19.99, abs=1e-12)
+    assert align_motor_turns(0.3, -0.01, 50.0) == 0.3 - 1          # -0.7: -0.014 turn at the output, not +0.006
+    assert align_motor_turns(0.25, 0.005, 50.0) == 0.25            # already the nearest
 
 
 def test_tick_unwrap_across_the_32_bit_wrap() -> None:

@@ -22,7 +22,8 @@ import can
 
 from .. import logio
 from ..cli import UserError
-from ..drive import LOOP_HZ, TURN, Drive, DriveError, add_bus_arguments, bus_kwargs, unwrap_phase, unwrap_tick
+from ..drive import (LOOP_HZ, TURN, Drive, DriveError, add_bus_arguments, align_motor_turns, bus_kwargs,
+                     unwrap_phase, unwrap_tick)
 
 NAME = "record"
 HELP = "record streamed process data to CSV (+ raw candump log)"
@@ -102,8 +103,11 @@ def run(args: argparse.Namespace) -> int:
             lost += (t - ticks[i - 1]) // step - 1
         if 0x280 not in d or 0x380 not in d or 0x480 not in d:
             continue
+        first = ma is None
         la = unwrap_phase(la, struct.unpack_from("<I", d[0x280], 4)[0])
         ma = unwrap_phase(ma, struct.unpack_from("<I", d[0x380], 4)[0])
+        if first:       # the motor's whole turns since power-on are not in the PDO
+            ma = align_motor_turns(ma, la, float(info["gear_ratio"]))
         tq = struct.unpack_from("<i", d[0x480], 4)[0] / 65536.0
         rows.append([t, la * TURN, ma * TURN, tq])
     if len(rows) < 2:

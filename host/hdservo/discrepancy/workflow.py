@@ -609,6 +609,33 @@ def check_physical(params: dict[str, float], d: bl.Design, library_tried: bool =
                         "it enough -- record a longer or richer motion (docs/discrepancy.md, Input)")
 
 
+def encoder_zero_offset(d: bl.Design, offset: bool | None = None) -> float | None:
+    """The twist offset of a two-encoder log whose encoders' zeros differ, rad at the output, or None.
+
+    The twist phi = theta_m / N - theta_l is only measured up to the encoders' relative
+    zero: a motor encoder offset of a fraction of a turn, or a recording that does not
+    know the motor's whole turns, puts a constant phi0 into it (0.3 motor turn on N = 100:
+    0.019 rad, forty times a real twist), and the baseline's spring K phi then fits
+    nonsense (K = 44 instead of 3.1e4 N.m/rad).  The baseline is fitted once more with a
+    constant in the spring's (motor) equation, K (phi - phi0) / N; phi0 is returned only
+    when that constant torque, K |phi0| / N at the motor, exceeds every torque the motor
+    applied in the log -- a spring preload no motion of the log could have put there, so
+    not a twist.  A real preload (gravity, friction held in the gear) is bounded by the
+    applied torque, so on logs whose encoders agree this returns None and nothing changes;
+    a small zero offset (below that bound) is not detected (docs/discrepancy.md, Input).
+    """
+    if d.sig.kind != "two_mass":
+        return None
+    cols = bl.baseline_columns(d, offset)
+    c0 = bl.Column("twist_offset", np.ones_like(d.sig.tau), None)
+    f = bl.solve(d, [*cols, c0], {})
+    p = f.params()
+    K, a = p.get("K_Nm_per_rad", 0.0), p["twist_offset"]
+    if not K > 0 or abs(a) <= float(np.max(np.abs(d.sig.tau))):
+        return None
+    return float(-a * d.sig.ratio / K)
+
+
 def run(sig: Signals, settings: Settings | None = None, offset: bool | None = None,
         lib: list[fx.Effect] | None = None) -> Result:
     """Run the discrepancy workflow on prepared signals.
@@ -628,6 +655,16 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
     if int(d.mask.sum()) < 50:
         from ..cli import UserError
         raise UserError(f"{sig.source}: fewer than 50 moving samples after filtering; the axis hardly moves")
+    zero_note = None
+    phi0 = encoder_zero_offset(d, offset)
+    if phi0 is not None:
+        from dataclasses import replace
+        shift = sig.ratio * phi0
+        sig = replace(sig, th_m=sig.th_m - shift, raw_th_m=sig.raw_th_m - shift)
+        d = bl.make_design(sig)
+        zero_note = (f"the encoders' zeros differ: the measured twist carries a constant {phi0:.4g} rad (output) that "
+                     "no spring can (it would hold more torque than the motor ever applied); removed from the motor "
+                     "angle before the fit")
     cols = bl.baseline_columns(d, offset)
     d._baseline_names = {c.name for c in cols}  # type: ignore[attr-defined]
     st_ = State(design=d, base_cols=cols)
@@ -737,7 +774,7 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
         it["gap_sim_before"] = systematic_gap(it["sim_rms_region_before_rad"], fl_sim)
         it["gap_sim_after"] = systematic_gap(it["sim_rms_region_after_rad"], fl_sim)
         it["rms_gap"] = _jsonable(rms_gap(it))
-    notes = []
+    notes = [zero_note] if zero_note else []
     if biased:
         notes.append(f"the baseline fit is not a mechanical axis ({', '.join(unphysical(baseline))}): it cannot be simulated, so "
                      f"{iterations[0]['named_effect']} was named on the equation error alone (its simulation-error "
