@@ -329,14 +329,13 @@ def rank(state: State, lib: list[fx.Effect], s: Settings | None = None,
         # cannot see them: oe_fit); the others by their equation-error evidence
         cands.sort(key=lambda c: -(c.variant.oe_gain if c.variant.oe_gain is not None else c.evidence["delta_bic"]))
         best: Candidate | None = None
-        if not simulate:
-            for c in cands[:1]:
-                c.evidence.update(local_evidence(state, c, None))
-                c.evidence["total_delta_bic"] = c.evidence["delta_bic"]
-                c.evidence["score"] = score(c.evidence)
-                best = c
-            cands = []
-        for c in cands[: s.sim_variants]:
+        if not simulate:                     # the best variant on the equation error alone
+            if cands:
+                best = cands[0]
+                best.evidence.update(local_evidence(state, best, None))
+                best.evidence["total_delta_bic"] = best.evidence["delta_bic"]
+                best.evidence["score"] = score(best.evidence)
+        for c in (cands[: s.sim_variants] if simulate else []):
             e1 = state.simulate(c.fit, c.variant)
             c.evidence.update(sim_evidence(sse0, e1, len(c.variant.columns) + c.variant.n_hyper, n_sim))
             c.evidence.update(local_evidence(state, c, e1))
@@ -609,7 +608,7 @@ def check_physical(params: dict[str, float], d: bl.Design, library_tried: bool =
                         "it enough -- record a longer or richer motion (docs/discrepancy.md, Input)")
 
 
-def encoder_zero_offset(d: bl.Design, offset: bool | None = None) -> float | None:
+def encoder_zero_offset(d: bl.Design, cols: list[bl.Column]) -> float | None:
     """The twist offset of a two-encoder log whose encoders' zeros differ, rad at the output, or None.
 
     The twist phi = theta_m / N - theta_l is only measured up to the encoders' relative
@@ -623,10 +622,10 @@ def encoder_zero_offset(d: bl.Design, offset: bool | None = None) -> float | Non
     not a twist.  A real preload (gravity, friction held in the gear) is bounded by the
     applied torque, so on logs whose encoders agree this returns None and nothing changes;
     a small zero offset (below that bound) is not detected (docs/discrepancy.md, Input).
+    ``cols``: the baseline's columns of ``d``.
     """
     if d.sig.kind != "two_mass":
         return None
-    cols = bl.baseline_columns(d, offset)
     c0 = bl.Column("twist_offset", np.ones_like(d.sig.tau), None)
     f = bl.solve(d, [*cols, c0], {})
     p = f.params()
@@ -656,16 +655,17 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
         from ..cli import UserError
         raise UserError(f"{sig.source}: fewer than 50 moving samples after filtering; the axis hardly moves")
     zero_note = None
-    phi0 = encoder_zero_offset(d, offset)
+    cols = bl.baseline_columns(d, offset)
+    phi0 = encoder_zero_offset(d, cols)
     if phi0 is not None:
         from dataclasses import replace
         shift = sig.ratio * phi0
         sig = replace(sig, th_m=sig.th_m - shift, raw_th_m=sig.raw_th_m - shift)
         d = bl.make_design(sig)
+        cols = bl.baseline_columns(d, offset)
         zero_note = (f"the encoders' zeros differ: the measured twist carries a constant {phi0:.4g} rad (output) that "
                      "no spring can (it would hold more torque than the motor ever applied); removed from the motor "
                      "angle before the fit")
-    cols = bl.baseline_columns(d, offset)
     d._baseline_names = {c.name for c in cols}  # type: ignore[attr-defined]
     st_ = State(design=d, base_cols=cols)
     f0 = bl.solve(d, cols, {})
