@@ -117,3 +117,38 @@ def test_gap_region_leaves_out_every_reversal(null_design) -> None:
     # the closed-loop null log reverses (slow chirp, then a triangle wave), and most of
     # its used samples are far from any reversal
     assert (~away).any() and away.mean() > 0.9
+
+
+def test_every_candidate_rebuilds_its_variants_from_other_signals(null_design) -> None:
+    # the per-model noise floor rebuilds the model's columns on noise-injected signals
+    # (Effect.rebuild): on the same signals that must give the very same variant, and on
+    # the noisy ones the same hyper-parameters with columns that differ by the noise
+    from hdservo.discrepancy import effects as fx
+    d, cols, fit = null_design
+    noisy = workflow.sig_noisy(d.sig, np.random.default_rng(1))
+    dn = bl.Design(sig=noisy, v_eps=d.v_eps, mask=d.mask, equations=d.equations)
+    resid = next(iter(fit.resid.values()))
+    seen = set()
+    cog = fx.Cogging()
+    pairs = [(eff, v) for eff in fx.library() if eff.applicable(d) for v in list(eff.variants(d, resid))[:3]]
+    for eff, v in pairs + [(cog, cog.variant_at(d, 12))]:
+        v = fx.Variant(v.hyper, v.columns, v.tau, v.tau_key, v.n_hyper, fixed={c.name: 0.5 for c in v.columns[:1]})
+        same, other = eff.rebuild(d, v), eff.rebuild(dn, v)
+        assert same.hyper == v.hyper == other.hyper and same.fixed == v.fixed == other.fixed
+        assert [c.name for c in same.columns] == [c.name for c in v.columns] == [c.name for c in other.columns]
+        for a, b in zip(v.columns, same.columns):
+            for e in ("M", "R"):
+                x, y = getattr(a, e), getattr(b, e)
+                assert (x is None and y is None) or np.array_equal(x, y), (eff.name, a.name, e)
+        if v.tau is not None:
+            assert np.array_equal(same.tau, v.tau) and not np.array_equal(other.tau, v.tau)
+        elif eff is not cog:     # cogging's columns are of the raw motor angle, which the injection leaves
+            assert any(getattr(a, e) is not None and not np.array_equal(getattr(a, e), getattr(b, e))
+                       for a, b in zip(v.columns, other.columns) for e in ("M", "R")), eff.name
+        seen.add(eff.name)
+    # every two-mass candidate (cogging at a given order: a null log's residual has no line)
+    assert seen >= {"stribeck_friction", "asymmetric_friction", "transmission_error", "cogging_torque", "nonlinear_stiffness",
+                    "hysteresis", "backlash", "gravity_unbalance", "current_loop_lag"}
+    # a variant the signals cannot give is refused with its name and hyper-parameters
+    with pytest.raises(ValueError, match="current_loop_lag"):
+        fx.CurrentLag().rebuild(d, fx.Variant({"time_constant_s": -1.0}, []))

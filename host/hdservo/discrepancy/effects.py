@@ -24,7 +24,7 @@ plots show: the coordinate in :attr:`Effect.coordinate` reveals the effect.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Iterator
 
 import numpy as np
@@ -85,6 +85,25 @@ class Effect:
         effect is added (:func:`hdservo.discrepancy.workflow.refit_named`); none by default."""
         return []
 
+    def rebuild(self, d: Design, v: Variant) -> Variant:
+        """``v`` built again from ``d``'s signals: the same hyper-parameters and fixed
+        coefficients, columns (and torque) from ``d``.
+
+        Used for the noise images (:func:`hdservo.discrepancy.workflow.noise_images`: the
+        model's columns on the signals plus injected sensor noise).  Default: the variant
+        of :meth:`variants` with equal hyper-parameters (effects whose grid does not
+        depend on the data); effects with data-dependent grids build it directly.
+        """
+        for w in self.variants(d, np.zeros(0)):
+            if w.hyper == v.hyper:
+                return self._keep(w, v)
+        raise ValueError(f"{self.name}: no variant with {v.hyper} on these signals")
+
+    @staticmethod
+    def _keep(w: Variant, v: Variant) -> Variant:
+        """``w`` with ``v``'s fitted-elsewhere coefficients and output-error figures."""
+        return replace(w, fixed=v.fixed, oe_levels=v.oe_levels, oe_gain=v.oe_gain)
+
     def params(self, fit: Fit, v: Variant) -> dict[str, Any]:
         out: dict[str, Any] = {k: (float(x) if isinstance(x, (int, float, np.floating)) else x)
                                for k, x in v.hyper.items()}
@@ -142,6 +161,9 @@ class Stribeck(Effect):
         r = float(g[1] / g[0]) if len(g) > 1 else 2.0
         vs = float(v.hyper["vs_out_rad_s"])
         return [self.variant_at(d, vs * r ** e) for e in (-frac, frac)]
+
+    def rebuild(self, d: Design, v: Variant) -> Variant:
+        return self._keep(self.variant_at(d, float(v.hyper["vs_out_rad_s"])), v)
 
     #: Stribeck excess Fs - Fc tried per side by the output-error fitter, in units of that
     #: side's Coulomb friction (Fs/Fc from 1.25 to 3).
@@ -275,18 +297,25 @@ class Cogging(Effect):
         if not np.any(ok):
             return
         cand, cpw = orders[sel][ok], pw[ok]
-        top = cand[np.argsort(cpw)[::-1][:3]]
+        for p in cand[np.argsort(cpw)[::-1][:3]]:
+            yield self.variant_at(d, int(p))
+
+    def variant_at(self, d: Design, p: int) -> Variant:
+        """Lines at ``p`` and ``2 p`` per motor revolution."""
+        s = d.sig
         eq_m = s.kind == "two_mass"
-        for p in top:
-            cols = []
-            for m in (int(p), 2 * int(p)):
-                c, sn = np.cos(m * s.raw_th_m), np.sin(m * s.raw_th_m)
-                cols.append(Column(f"cog{m}_cos_Nm", c if eq_m else None, c,
-                                   fn=lambda tm, wm, tl, wl, m=m, e=eq_m: (np.cos(m * tm) if e else None, np.cos(m * tm))))
-                cols.append(Column(f"cog{m}_sin_Nm", sn if eq_m else None, sn,
-                                   fn=lambda tm, wm, tl, wl, m=m, e=eq_m: (np.sin(m * tm) if e else None, np.sin(m * tm))))
-            # the order was chosen among max_order candidates: penalise the search
-            yield Variant({"order_per_motor_rev": int(p)}, cols, n_hyper=1)
+        cols = []
+        for m in (p, 2 * p):
+            c, sn = np.cos(m * s.raw_th_m), np.sin(m * s.raw_th_m)
+            cols.append(Column(f"cog{m}_cos_Nm", c if eq_m else None, c,
+                               fn=lambda tm, wm, tl, wl, m=m, e=eq_m: (np.cos(m * tm) if e else None, np.cos(m * tm))))
+            cols.append(Column(f"cog{m}_sin_Nm", sn if eq_m else None, sn,
+                               fn=lambda tm, wm, tl, wl, m=m, e=eq_m: (np.sin(m * tm) if e else None, np.sin(m * tm))))
+        # the order was chosen among max_order candidates: penalise the search
+        return Variant({"order_per_motor_rev": p}, cols, n_hyper=1)
+
+    def rebuild(self, d: Design, v: Variant) -> Variant:
+        return self._keep(self.variant_at(d, int(v.hyper["order_per_motor_rev"])), v)
 
     def params(self, fit: Fit, v: Variant) -> dict[str, Any]:
         p = v.hyper["order_per_motor_rev"]
@@ -342,9 +371,20 @@ class NonlinearStiffness(Effect):
         yield Variant({"form": "cubic"}, [Column("k2_Nm_per_rad2", phi * np.abs(phi) / N, None, fn=f2),
                                           Column("k3_Nm_per_rad3", phi ** 3 / N, None, fn=f3)], n_hyper=1)
         for b in _phi_grid(d):
-            yield Variant({"form": "knee", "knee_rad": float(b)},
-                          [Column("dk_knee_Nm_per_rad", sat(phi, b) / N, None, key=f"sat{b:.6g}", fn=_sat_fn(b, N))],
-                          n_hyper=2)
+            yield self.knee(d, float(b))
+
+    @staticmethod
+    def knee(d: Design, b: float) -> Variant:
+        """The knee form at twist ``b`` (rad at the output)."""
+        N = d.sig.ratio
+        return Variant({"form": "knee", "knee_rad": b},
+                       [Column("dk_knee_Nm_per_rad", sat(d.sig.phi, b) / N, None, key=f"sat{b:.6g}", fn=_sat_fn(b, N))],
+                       n_hyper=2)
+
+    def rebuild(self, d: Design, v: Variant) -> Variant:
+        if v.hyper["form"] == "knee":
+            return self._keep(self.knee(d, float(v.hyper["knee_rad"])), v)
+        return super().rebuild(d, v)
 
     def valid(self, fit: Fit, v: Variant) -> bool:
         if v.hyper["form"] != "knee":
@@ -362,11 +402,17 @@ class Backlash(Effect):
         return d.sig.kind == "two_mass"
 
     def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
-        phi = d.sig.phi
         for b in _phi_grid(d):
-            yield Variant({"half_gap_rad": float(b)}, [Column("dk_gap_Nm_per_rad", sat(phi, b) / d.sig.ratio, None,
-                                                              key=f"sat{b:.6g}", fn=_sat_fn(b, d.sig.ratio))],
-                          n_hyper=1)
+            yield self.variant_at(d, float(b))
+
+    @staticmethod
+    def variant_at(d: Design, b: float) -> Variant:
+        """Half-gap ``b`` (rad at the output)."""
+        return Variant({"half_gap_rad": b}, [Column("dk_gap_Nm_per_rad", sat(d.sig.phi, b) / d.sig.ratio, None,
+                                                    key=f"sat{b:.6g}", fn=_sat_fn(b, d.sig.ratio))], n_hyper=1)
+
+    def rebuild(self, d: Design, v: Variant) -> Variant:
+        return self._keep(self.variant_at(d, float(v.hyper["half_gap_rad"])), v)
 
     def valid(self, fit: Fit, v: Variant) -> bool:
         K = _idx(fit, "K_Nm_per_rad")
@@ -409,19 +455,26 @@ class Hysteresis(Effect):
         return d.sig.kind == "two_mass"
 
     def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
+        span = float(np.percentile(np.abs(d.sig.phi), 99))
+        yield self.variant_at(d, [f * span for f in self.fractions])
+
+    @staticmethod
+    def variant_at(d: Design, thresholds: list[float]) -> Variant:
+        """Stop operators of the given thresholds (rad of twist at the output)."""
         s = d.sig
         phi = s.phi
-        span = float(np.percentile(np.abs(phi), 99))
         cols = []
         # the twist is already low-passed at fc: run the (sequential) operators at about
         # 2.5 fc and interpolate back (the operator output is as smooth as its input)
         step = max(1, s.q // 2)
         idx = np.arange(0, len(phi), step)
-        for i, f in enumerate(self.fractions):
-            D = f * span
+        for i, D in enumerate(thresholds):
             sop = np.interp(np.arange(len(phi)), idx, stop_operator(phi[idx], D))
             cols.append(Column(f"maxwell{i + 1}_k_Nm_per_rad", sop / s.ratio, None, key=f"stop{D:.6g}"))
-        yield Variant({"thresholds_rad": [f * span for f in self.fractions]}, cols)
+        return Variant({"thresholds_rad": list(thresholds)}, cols)
+
+    def rebuild(self, d: Design, v: Variant) -> Variant:
+        return self._keep(self.variant_at(d, [float(x) for x in v.hyper["thresholds_rad"]]), v)
 
     def params(self, fit: Fit, v: Variant) -> dict[str, Any]:
         out: dict[str, Any] = {}

@@ -745,34 +745,40 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
         if wm["p_value"] > s.whiteness_p:
             break
     white = ljung_box(next(iter(st_.fit.resid.values())))
-    # the floors are images through the baseline's coefficients; a biased baseline cannot
-    # be simulated, so then those of the first model that is a mechanical axis
-    floor_fit = next((f for f in snapshots if is_physical(f.params())), base_fit)
-    img_eq, img_noise = noise_images(st_, floor_fit)
-    img_int = integration_image(st_, floor_fit)
-    # the simulation error's floor: sensor noise and integration error, independent
-    # sources, in quadrature (per sample)
-    img_sim = np.sqrt(img_noise ** 2 + img_int ** 2)
+    # What no change of a model removes from its residuals (the sensor noise's image and,
+    # in the simulation error, the integration error) is a property of that model: an
+    # added effect can bring a noise source of its own (a rigid model's compliance column
+    # carries the load encoder's twice-differentiated noise). So every model along the
+    # way (baseline, then each added effect) gets its own floor, the before-figure of an
+    # iteration is judged against the model before it, the after-figure against the model after.
     n_used = int(st_.design.mask.sum())
-    floor = {e: _rms(img_eq[i * n_used:(i + 1) * n_used]) for i, e in enumerate(st_.design.equations)}
-    sim_floor = {"noise": _rms(img_noise), "integration": _rms(img_int), "total": _rms(img_sim)}
-    for it, (reg_eq, reg_sim, v) in zip(iterations, regions):
-        eqs = [e for e in it["acting_equations"] if e in floor] or list(floor)
-        fl = float(np.sqrt(np.mean([floor[e] ** 2 for e in eqs])))
-        it["noise_floor_acting"] = fl
-        it["gap_acting_before"] = systematic_gap(it["rms_acting_before"], fl)
-        it["gap_acting_after"] = systematic_gap(it["rms_acting_after"], fl)
-        # the same over the region where the effect acts, both residuals (rms_gap)
+    imgs = [model_floor_images(st_, f, st_.added[:k], sims[k]) for k, f in enumerate(snapshots)]
+    physical = [k for k, f in enumerate(snapshots) if is_physical(f.params())]
+    # the log's floors (Result.floor, sim_floor): the baseline's, or through the first
+    # model that is a mechanical axis when the baseline is biased
+    k0 = physical[0] if physical else 0
+    img_eq0, img_n0, img_i0 = imgs[k0]
+    floor = {e: _rms(img_eq0[i * n_used:(i + 1) * n_used]) for i, e in enumerate(st_.design.equations)}
+    sim_floor = {"noise": _rms(img_n0), "integration": _rms(img_i0), "total": _rms(np.sqrt(img_n0 ** 2 + img_i0 ** 2))}
+    imgs_sim = [(e, np.sqrt(n ** 2 + i ** 2)) for e, n, i in imgs]
+    for k, (it, (reg_eq, reg_sim, v)) in enumerate(zip(iterations, regions)):
         acting = set(_acting(v, st_.design))
-        img_act = np.concatenate([img_eq[i * n_used:(i + 1) * n_used]
-                                  for i, e in enumerate(st_.design.equations) if e in acting])
-        fl_eq, fl_sim = _masked_rms(img_act, reg_eq), _masked_rms(img_sim, reg_sim)
-        it["noise_floor_eq_region"] = fl_eq
-        it["noise_floor_sim_region_rad"] = fl_sim
-        it["gap_eq_before"] = systematic_gap(it["rms_region_before"], fl_eq)
-        it["gap_eq_after"] = systematic_gap(it["rms_region_after"], fl_eq)
-        it["gap_sim_before"] = systematic_gap(it["sim_rms_region_before_rad"], fl_sim)
-        it["gap_sim_after"] = systematic_gap(it["sim_rms_region_after_rad"], fl_sim)
+        eqs = [e for e in it["acting_equations"] if e in floor] or list(floor)
+        for when, (img_eq, img_sim), rms_act, rms_eq, rms_sim in (
+                ("before", imgs_sim[k], it["rms_acting_before"], it["rms_region_before"], it["sim_rms_region_before_rad"]),
+                ("after", imgs_sim[k + 1], it["rms_acting_after"], it["rms_region_after"], it["sim_rms_region_after_rad"])):
+            per_eq = {e: _rms(img_eq[i * n_used:(i + 1) * n_used]) for i, e in enumerate(st_.design.equations)}
+            fl = float(np.sqrt(np.mean([per_eq[e] ** 2 for e in eqs])))
+            it[f"noise_floor_acting_{when}"] = fl
+            it[f"gap_acting_{when}"] = systematic_gap(rms_act, fl)
+            # the same over the region where the effect acts, both residuals (rms_gap)
+            img_act = np.concatenate([img_eq[i * n_used:(i + 1) * n_used]
+                                      for i, e in enumerate(st_.design.equations) if e in acting])
+            fl_eq, fl_sim = _masked_rms(img_act, reg_eq), _masked_rms(img_sim, reg_sim)
+            it[f"noise_floor_eq_region_{when}"] = fl_eq
+            it[f"noise_floor_sim_region_{when}_rad"] = fl_sim
+            it[f"gap_eq_{when}"] = systematic_gap(rms_eq, fl_eq)
+            it[f"gap_sim_{when}"] = systematic_gap(rms_sim, fl_sim)
         it["rms_gap"] = _jsonable(rms_gap(it))
     notes = [zero_note] if zero_note else []
     if biased:
@@ -839,17 +845,48 @@ def _eq_rms(fit: bl.Fit, v: fx.Variant) -> float:
     return _rms(np.concatenate([fit.resid[e] for e in (cols_eq or eqs)]))
 
 
-def noise_images(state: State, fit: bl.Fit, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Change of both residuals that the sensor noise alone causes (noise injection).
+def _model_on(state: State, d: bl.Design, added: list[tuple[fx.Effect, fx.Variant]]
+              ) -> tuple[list[bl.Column], np.ndarray | None, str]:
+    """Columns and input torque of the model ``base + added`` built from ``d``'s signals."""
+    base = bl.baseline_columns(d, any(c.name.startswith("offset") for c in state.base_cols))
+    vs = [e.rebuild(d, v) for e, v in added]
+    tau, key = None, "tau"
+    for v in vs:
+        if v.tau is not None:
+            tau, key = v.tau, v.tau_key
+    return base + [c for v in vs for c in v.columns], tau, key
+
+
+def noise_images(state: State, fit: bl.Fit, seed: int = 0, added: list[tuple[fx.Effect, fx.Variant]] | None = None,
+                 sim0: np.ndarray | None = None, simulate: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Change of both residuals of one model that the sensor noise alone causes (noise injection).
 
     Each raw sensor signal (motor and load angle, torque) gets white noise of its own
     level (:func:`hdservo.discrepancy.signals.hf_noise_std`: the content above the
     angle cutoff and above fs/4, where the motion and the loops have none), the states
-    and the baseline columns are rebuilt through the same filter/differentiation/
-    decimation, and both residuals of ``fit``'s baseline coefficients are recomputed.
-    For a pipeline linear in the noise (the inertia, spring, damping, viscous and torque
-    terms; the sign columns are smoothed over the noise band) the RMS of the change
-    equals the RMS the log's own noise adds.
+    and **every column of the model** (baseline and added effects, with the same
+    hyper-parameters: :meth:`hdservo.discrepancy.effects.Effect.rebuild`) are rebuilt
+    through the same filter/differentiation/decimation, and both residuals of ``fit``'s
+    coefficients are recomputed.  For a pipeline linear in the noise (the inertia,
+    spring, damping, viscous and torque terms; the sign columns are smoothed over the
+    noise band) the RMS of the change equals the RMS the log's own noise adds.  The
+    model matters: an added effect can carry a noise source of its own (the compliance
+    column of a rigid model brings the load encoder's twice-differentiated noise; a
+    current-loop lag filters the torque's).
+
+    Parameters
+    ----------
+    state : State
+    fit : Fit
+        The model's fit (its coefficients, fixed ones included).
+    seed : int
+    added : list of (Effect, Variant), optional
+        The model's added effects (default: none, the baseline).
+    sim0 : numpy.ndarray, optional
+        The model's simulation error on the log's own signals, if already computed.
+    simulate : bool
+        False: the equation error's image only (a model that is not a mechanical axis
+        cannot be simulated); ``sim`` is then empty.
 
     Returns
     -------
@@ -862,40 +899,45 @@ def noise_images(state: State, fit: bl.Fit, seed: int = 0) -> tuple[np.ndarray, 
     """
     d = state.design
     sig = d.sig
+    added = added or []
     rng = np.random.default_rng(seed)
     noisy = sig_noisy(sig, rng)
     dn = bl.Design(sig=noisy, v_eps=d.v_eps, mask=d.mask, equations=d.equations)
     coef = dict(zip(fit.names, fit.theta))
-    base = bl.baseline_columns(dn, any(c.name.startswith("offset") for c in state.base_cols))
-    base0 = state.base_cols
-    y0, yn = d.lhs(sig.tau), dn.lhs(noisy.tau)
-    diff = yn - y0
-    for c0, cn in zip(base0, base):
+    cols0, tau0, key0 = _model_on(state, d, added)
+    colsn, taun, keyn = _model_on(state, dn, added)
+    diff = dn.lhs(noisy.tau if taun is None else taun, keyn) - d.lhs(sig.tau if tau0 is None else tau0, key0)
+    for c0, cn in zip(cols0, colsn):
         a = coef.get(c0.name, 0.0)
         diff = diff - a * (dn.stack(cn) - d.stack(c0))
-    th = np.array([coef.get(c.name, 0.0) for c in base0])
-    e0 = simulation_error(d, base0, th)
-    e1 = simulation_error(dn, base, th)
+    if not simulate:
+        return diff, np.zeros(0)
+    th = np.array([coef.get(c.name, 0.0) for c in cols0])
+    e0 = simulation_error(d, cols0, th, tau0, key0) if sim0 is None else sim0
+    e1 = simulation_error(dn, colsn, th, taun, keyn)
     sim = e1 - e0 if len(e1) == len(e0) else np.full(len(e0), np.nan)
     return diff, sim
 
 
-def integration_image(state: State, fit: bl.Fit) -> np.ndarray:
-    """The window simulation's own integration error, rad at the output (aligned with
-    :func:`simulation_error`).
+def integration_image(state: State, fit: bl.Fit, added: list[tuple[fx.Effect, fx.Variant]] | None = None,
+                      sim0: np.ndarray | None = None) -> np.ndarray:
+    """The window simulation's own integration error for one model, rad at the output
+    (aligned with :func:`simulation_error`).
 
     The Euler/Karnopp integration at :data:`simerr.SUBSTEPS` sub-steps is not converged
     (null logs: most of the baseline's simulation error is this error, docs/discrepancy.md
     round 5); its error is estimated as the difference from an ``INTEGRATION_REF`` times
-    finer integration of ``fit``'s baseline coefficients (32 sub-steps: within 5 % of 64
-    on the null logs).  Like the sensor noise it is not caused by the model mismatch and
-    no effect removes it.
+    finer integration of the model ``base + added`` with ``fit``'s coefficients (32
+    sub-steps: within 5 % of 64 on the null logs).  Like the sensor noise it is not
+    caused by the model mismatch and no effect removes it.  ``sim0``: the model's
+    simulation error at the usual sub-steps, if already computed.
     """
     d = state.design
     coef = dict(zip(fit.names, fit.theta))
-    th = np.array([coef.get(c.name, 0.0) for c in state.base_cols])
-    e_s = simulation_error(d, state.base_cols, th)
-    e_f = simulation_error(d, state.base_cols, th, substeps=INTEGRATION_REF * simerr.SUBSTEPS)
+    cols, tau, key = _model_on(state, d, added or [])
+    th = np.array([coef.get(c.name, 0.0) for c in cols])
+    e_s = simulation_error(d, cols, th, tau, key) if sim0 is None else sim0
+    e_f = simulation_error(d, cols, th, tau, key, substeps=INTEGRATION_REF * simerr.SUBSTEPS)
     if len(e_s) != len(e_f):
         return np.full(len(e_s), np.nan)
     with np.errstate(invalid="ignore"):                 # inf - inf of a diverging window: nan, judged later
@@ -906,14 +948,33 @@ def integration_image(state: State, fit: bl.Fit) -> np.ndarray:
 INTEGRATION_REF = 8
 
 
-def noise_floor(state: State, fit: bl.Fit, seed: int = 0) -> dict[str, float]:
-    """RMS of the equation error that the sensor noise alone causes, per equation, N.m.
+def model_floor_images(state: State, fit: bl.Fit, added: list[tuple[fx.Effect, fx.Variant]],
+                       sim0: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What no change of one model removes from its residuals, per sample.
 
-    :func:`noise_images`' equation-error part, per equation.  The noise is independent
-    of the model mismatch, so the mismatch's part of the residual (the "systematic
-    gap") has RMS sqrt(RMS^2 - floor^2).  Only the baseline columns are rebuilt (with
-    the fit's coefficients for them): the floor is set by the inertia, spring and
-    torque terms every model shares.
+    Returns
+    -------
+    eq : numpy.ndarray
+        The sensor noise's image in the stacked equation error, N.m at the motor.
+    noise, integration : numpy.ndarray
+        The sensor noise's image and the integration error in the simulation error
+        (independent sources: they add in quadrature), rad at the output; NaN for a model
+        that is not a mechanical axis (it cannot be simulated).
+    """
+    if not is_physical(fit.params()):
+        img_eq, _ = noise_images(state, fit, added=added, simulate=False)
+        nan = np.full(len(state.sim) if state.sim is not None else 0, np.nan)
+        return img_eq, nan, nan
+    img_eq, img_noise = noise_images(state, fit, added=added, sim0=sim0)
+    return img_eq, img_noise, integration_image(state, fit, added, sim0)
+
+
+def noise_floor(state: State, fit: bl.Fit, seed: int = 0) -> dict[str, float]:
+    """RMS of the baseline's equation error that the sensor noise alone causes, per equation, N.m.
+
+    :func:`noise_images`' equation-error part for the baseline model, per equation.  The
+    noise is independent of the model mismatch, so the mismatch's part of the residual
+    (the "systematic gap") has RMS sqrt(RMS^2 - floor^2).
     """
     diff, _ = noise_images(state, fit, seed)
     n = int(state.design.mask.sum())
@@ -926,7 +987,9 @@ def rms_gap(it: dict[str, Any]) -> dict[str, Any]:
     The gap is the part of the residual the model mismatch causes: the systematic gap
     sqrt(RMS^2 - floor^2) (:func:`systematic_gap`), the floor being what no model
     removes -- the sensor noise's image (:func:`noise_images`) and, in the simulation
-    error, the integration error (:func:`integration_image`) -- over the region where
+    error, the integration error (:func:`integration_image`), each through the model
+    whose residual it is (before: the model without the effect, after: with it) --
+    over the region where
     the effect acts (its own speed band for Stribeck friction, the whole record
     otherwise -- in the equation error away from velocity reversals,
     :func:`_eq_region_rows`) and, in the equation error, the equations it acts in.  Both residuals
@@ -941,24 +1004,28 @@ def rms_gap(it: dict[str, Any]) -> dict[str, Any]:
     Returns
     -------
     dict
-        ``residual`` ("equation" or "simulation"), ``before``, ``after``, ``floor`` (N.m
-        at the motor or rad at the output), ``shrink`` (before/after; inf when the
+        ``residual`` ("equation" or "simulation"), ``before``, ``after``, ``floor_before``,
+        ``floor_after`` (N.m at the motor or rad at the output; ``floor`` = ``floor_after``,
+        what the final residual is judged against), ``shrink`` (before/after; inf when the
         after-gap is at the floor, then ``closed`` is true), ``raw_shrink`` (the RMS
         before/after in that view).
     """
-    views = {"equation": ("explained_fraction_local_acting", "gap_eq_before", "gap_eq_after", "noise_floor_eq_region",
+    views = {"equation": ("explained_fraction_local_acting", "gap_eq_before", "gap_eq_after",
+                          "noise_floor_eq_region_before", "noise_floor_eq_region_after",
                           "rms_region_before", "rms_region_after"),
              "simulation": ("sim_explained_fraction_local", "gap_sim_before", "gap_sim_after",
-                            "noise_floor_sim_region_rad", "sim_rms_region_before_rad", "sim_rms_region_after_rad")}
+                            "noise_floor_sim_region_before_rad", "noise_floor_sim_region_after_rad",
+                            "sim_rms_region_before_rad", "sim_rms_region_after_rad")}
     ev = it.get("evidence", {})
 
     def part(v: tuple[str, ...]) -> float:
         x = ev.get(v[0])
         return float(x) if x is not None and np.isfinite(x) else -np.inf
     name = max(views, key=lambda k: part(views[k]))
-    gb, ga, fl, rb, ra = (it.get(k, np.nan) for k in views[name][1:])
+    gb, ga, fb, fa, rb, ra = (it.get(k, np.nan) for k in views[name][1:])
     shrink = gb / ga if ga > 0 else (np.inf if gb > 0 else np.nan)
-    return {"residual": name, "before": gb, "after": ga, "floor": fl, "shrink": shrink,
+    return {"residual": name, "before": gb, "after": ga, "floor_before": fb, "floor_after": fa, "floor": fa,
+            "shrink": shrink,
             "closed": bool(ga == 0.0 and gb > 0.0), "raw_shrink": rb / ra if ra > 0 else np.nan}
 
 
