@@ -544,7 +544,7 @@ class Result:
     ranking_first: list[dict[str, Any]] = field(default_factory=list)
     sim_rms_history: list[float] = field(default_factory=list)
     sims: list[np.ndarray] = field(default_factory=list)
-    #: Sensor-noise floor of the equation error per equation, N.m (:func:`noise_floor`).
+    #: Sensor-noise floor of the baseline's equation error per equation, N.m (:func:`noise_images`).
     floor: dict[str, float] = field(default_factory=dict)
     #: Floor of the simulation error, rad at the output: ``noise`` (:func:`noise_images`),
     #: ``integration`` (:func:`integration_image`), ``total`` (both in quadrature).
@@ -845,11 +845,15 @@ def _eq_rms(fit: bl.Fit, v: fx.Variant) -> float:
     return _rms(np.concatenate([fit.resid[e] for e in (cols_eq or eqs)]))
 
 
-def _model_on(state: State, d: bl.Design, added: list[tuple[fx.Effect, fx.Variant]]
+def _model_on(state: State, d: bl.Design | None, added: list[tuple[fx.Effect, fx.Variant]]
               ) -> tuple[list[bl.Column], np.ndarray | None, str]:
-    """Columns and input torque of the model ``base + added`` built from ``d``'s signals."""
-    base = bl.baseline_columns(d, any(c.name.startswith("offset") for c in state.base_cols))
-    vs = [e.rebuild(d, v) for e, v in added]
+    """Columns and input torque of the model ``base + added``: the state's own (``d`` None,
+    the log's signals) or built again from ``d``'s signals."""
+    if d is None:
+        base, vs = list(state.base_cols), [v for _, v in added]
+    else:
+        base = bl.baseline_columns(d, any(c.name.startswith("offset") for c in state.base_cols))
+        vs = [e.rebuild(d, v) for e, v in added]
     tau, key = None, "tau"
     for v in vs:
         if v.tau is not None:
@@ -904,7 +908,7 @@ def noise_images(state: State, fit: bl.Fit, seed: int = 0, added: list[tuple[fx.
     noisy = sig_noisy(sig, rng)
     dn = bl.Design(sig=noisy, v_eps=d.v_eps, mask=d.mask, equations=d.equations)
     coef = dict(zip(fit.names, fit.theta))
-    cols0, tau0, key0 = _model_on(state, d, added)
+    cols0, tau0, key0 = _model_on(state, None, added)
     colsn, taun, keyn = _model_on(state, dn, added)
     diff = dn.lhs(noisy.tau if taun is None else taun, keyn) - d.lhs(sig.tau if tau0 is None else tau0, key0)
     for c0, cn in zip(cols0, colsn):
@@ -934,7 +938,7 @@ def integration_image(state: State, fit: bl.Fit, added: list[tuple[fx.Effect, fx
     """
     d = state.design
     coef = dict(zip(fit.names, fit.theta))
-    cols, tau, key = _model_on(state, d, added or [])
+    cols, tau, key = _model_on(state, None, added or [])
     th = np.array([coef.get(c.name, 0.0) for c in cols])
     e_s = simulation_error(d, cols, th, tau, key) if sim0 is None else sim0
     e_f = simulation_error(d, cols, th, tau, key, substeps=INTEGRATION_REF * simerr.SUBSTEPS)
@@ -967,18 +971,6 @@ def model_floor_images(state: State, fit: bl.Fit, added: list[tuple[fx.Effect, f
         return img_eq, nan, nan
     img_eq, img_noise = noise_images(state, fit, added=added, sim0=sim0)
     return img_eq, img_noise, integration_image(state, fit, added, sim0)
-
-
-def noise_floor(state: State, fit: bl.Fit, seed: int = 0) -> dict[str, float]:
-    """RMS of the baseline's equation error that the sensor noise alone causes, per equation, N.m.
-
-    :func:`noise_images`' equation-error part for the baseline model, per equation.  The
-    noise is independent of the model mismatch, so the mismatch's part of the residual
-    (the "systematic gap") has RMS sqrt(RMS^2 - floor^2).
-    """
-    diff, _ = noise_images(state, fit, seed)
-    n = int(state.design.mask.sum())
-    return {e: _rms(diff[i * n:(i + 1) * n]) for i, e in enumerate(state.design.equations)}
 
 
 def rms_gap(it: dict[str, Any]) -> dict[str, Any]:
