@@ -152,3 +152,30 @@ def test_every_candidate_rebuilds_its_variants_from_other_signals(null_design) -
     # a variant the signals cannot give is refused with its name and hyper-parameters
     with pytest.raises(ValueError, match="current_loop_lag"):
         fx.CurrentLag().rebuild(d, fx.Variant({"time_constant_s": -1.0}, []))
+
+
+def test_output_error_gain_is_the_joint_score_of_all_levels(tmp_path: Path) -> None:
+    """oe_gain ranks the Stribeck variants: it must be the score of *all* the variant's
+    chosen levels together (motor and load side), not the last side's alone."""
+    c = cases.Case("stribeck_friction", axis="csf17_50", loop="closed", seed=3, size=1)
+    d = bl.make_design(signals.from_log(logio.read_log(cases.make_log(c, tmp_path / "l.csv"))))
+    cols = bl.baseline_columns(d)
+    d._baseline_names = {c.name for c in cols}  # type: ignore[attr-defined]
+    st = workflow.State(design=d, base_cols=cols)
+    st.weights = bl.equation_weights(bl.solve(d, cols, {}))
+    st.fit = st.solve()
+    st.sim = st.simulate(st.fit)
+    coef = dict(zip(st.fit.names, st.fit.theta))
+    eff = workflow.fx.Stribeck()
+    both = 0
+    for v in eff.variants(d, None):
+        w = workflow.oe_fit(st, v)
+        if w is None:
+            continue
+        assert w.fixed is not None and w.oe_gain is not None
+        both += all(w.fixed[k.name] > 0 for k in w.columns)
+        th = np.array([coef.get(k.name, 0.0) for k in cols] + [w.fixed[k.name] for k in w.columns])
+        sse = sum(float(np.sum(simerr.side_error(d, cols + w.columns, th, s) ** 2)) for s in ("m", "l"))
+        joint = np.log(st.fit.rss_w / st.solve(w).rss_w) + np.log(float(np.sum(st.sim ** 2)) / sse)
+        assert w.oe_gain == pytest.approx(joint, rel=1e-6, abs=1e-9)
+    assert both >= 2            # variants with a level on both sides were checked

@@ -210,9 +210,15 @@ def oe_fit(state: State, v: fx.Variant, s: Settings | None = None, refine: int =
             sse_side[side] = float(np.sum(side_error(d, base_cols, theta0[: len(base_cols)], side, tau, key) ** 2))
             sse_now[side] = sse_side[side]
 
+        # the whole record's SSE with the levels chosen so far (the other sides' gains
+        # count: the score is the joint score of all the variant's levels)
+        sse_tot_now = sse_tot0 + sum(sse_now[k] - sse_side[k] for k in sse_side)
+
         def judge(g: float) -> tuple[bool, float, float]:
             """(admissible and lowers this side's SSE, joint score, side SSE) of level g."""
             th = theta0.copy()
+            for i, ci in enumerate(v.columns):          # the levels chosen so far
+                th[len(base_cols) + i] = fixed[ci.name]
             th[len(base_cols) + j] = g * fc
             e = side_error(d, cols, th, side, tau, key)
             sse = _sse(e)
@@ -222,7 +228,7 @@ def oe_fit(state: State, v: fx.Variant, s: Settings | None = None, refine: int =
                 f = state.solve(fx.Variant(dict(v.hyper), v.columns, v.tau, v.tau_key, v.n_hyper, fixed=fx_))
             except np.linalg.LinAlgError:
                 return False, -np.inf, sse
-            sse_all = sse_tot0 - sse_now[side] + sse
+            sse_all = sse_tot_now - sse_now[side] + sse
             if not (np.isfinite(sse_all) and sse_all > 0 and f.rss_w > 0):
                 return False, -np.inf, sse
             ev = {"n_eff": n_eff, "explained_fraction": 1.0 - f.rss_w / rss0,
