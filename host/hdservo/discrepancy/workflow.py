@@ -99,14 +99,21 @@ class State:
         return cols
 
     def tau(self, extra: fx.Variant | None = None) -> tuple[np.ndarray | None, str]:
-        for v in [x for _, x in self.added] + ([extra] if extra is not None else []):
-            if v.tau is not None:
-                return v.tau, v.tau_key
-        return None, "tau"
+        return torque_of([x for _, x in self.added] + ([extra] if extra is not None else []))
 
     def solve(self, extra: fx.Variant | None = None) -> bl.Fit:
         tau, key = self.tau(extra)
         return bl.solve(self.design, self.columns(extra), self.weights, tau, key, self.fixed(extra))
+
+
+def torque_of(variants: list[fx.Variant]) -> tuple[np.ndarray | None, str]:
+    """The input torque of a model made of ``variants`` (N.m at the motor) and its cache key:
+    the first variant that replaces the measured torque (a current-loop lag) sets it;
+    (None, "tau") means the measured torque."""
+    for v in variants:
+        if v.tau is not None:
+            return v.tau, v.tau_key
+    return None, "tau"
 
 
 def _weighted(fit: bl.Fit, w: dict[str, float]) -> np.ndarray:
@@ -860,10 +867,7 @@ def _model_on(state: State, d: bl.Design | None, added: list[tuple[fx.Effect, fx
     else:
         base = bl.baseline_columns(d, any(c.name.startswith("offset") for c in state.base_cols))
         vs = [e.rebuild(d, v) for e, v in added]
-    tau, key = None, "tau"
-    for v in vs:
-        if v.tau is not None:
-            tau, key = v.tau, v.tau_key
+    tau, key = torque_of(vs)
     return base + [c for v in vs for c in v.columns], tau, key
 
 
