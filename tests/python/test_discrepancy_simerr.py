@@ -161,10 +161,8 @@ def test_output_error_gain_is_the_joint_score_of_all_levels(tmp_path: Path) -> N
     d = bl.make_design(signals.from_log(logio.read_log(cases.make_log(c, tmp_path / "l.csv"))))
     cols = bl.baseline_columns(d)
     d._baseline_names = {c.name for c in cols}  # type: ignore[attr-defined]
-    st = workflow.State(design=d, base_cols=cols)
-    st.weights = bl.equation_weights(bl.solve(d, cols, {}))
-    st.fit = st.solve()
-    st.sim = st.simulate(st.fit)
+    st = workflow.State.start(d, cols)
+    assert st.fit is not None and st.sim is not None
     coef = dict(zip(st.fit.names, st.fit.theta))
     eff = workflow.fx.Stribeck()
     both = 0

@@ -75,6 +75,16 @@ class State:
     fit: bl.Fit | None = None
     sim: np.ndarray | None = None
 
+    @classmethod
+    def start(cls, d: bl.Design, cols: list[bl.Column]) -> "State":
+        """The baseline model of a design: equation weights from an unweighted fit, the
+        weighted fit and its simulation error."""
+        st_ = cls(design=d, base_cols=cols)
+        st_.weights = bl.equation_weights(bl.solve(d, cols, {}))
+        st_.fit = st_.solve()
+        st_.sim = st_.simulate(st_.fit)
+        return st_
+
     def fixed(self, extra: fx.Variant | None = None) -> list[tuple[bl.Column, float]]:
         """Columns whose coefficient was fitted on the simulation error, with that value."""
         out = []
@@ -680,11 +690,7 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
                      "no spring can (it would hold more torque than the motor ever applied); removed from the motor "
                      "angle before the fit")
     d._baseline_names = {c.name for c in cols}  # type: ignore[attr-defined]
-    st_ = State(design=d, base_cols=cols)
-    f0 = bl.solve(d, cols, {})
-    st_.weights = bl.equation_weights(f0)
-    st_.fit = st_.solve()
-    st_.sim = st_.simulate(st_.fit)
+    st_ = State.start(d, cols)
     base_fit = st_.fit
     baseline = base_fit.params()
     # A missing effect can bias the baseline into a negative inertia or spring (held-out
