@@ -230,12 +230,11 @@ def oe_fit(state: State, v: fx.Variant, s: Settings | None = None, refine: int =
         # the whole record's SSE with the levels chosen so far (the other sides' gains
         # count: the score is the joint score of all the variant's levels)
         sse_tot_now = sse_tot0 + sum(sse_now[k] - sse_side[k] for k in sse_side)
+        th_now = np.concatenate([theta0[: len(base_cols)], [fixed[ci.name] for ci in v.columns]])
 
         def judge(g: float) -> tuple[bool, float, float]:
             """(admissible and lowers this side's SSE, joint score, side SSE) of level g."""
-            th = theta0.copy()
-            for i, ci in enumerate(v.columns):          # the levels chosen so far
-                th[len(base_cols) + i] = fixed[ci.name]
+            th = th_now.copy()
             th[len(base_cols) + j] = g * fc
             e = side_error(d, cols, th, side, tau, key)
             sse = _sse(e)
