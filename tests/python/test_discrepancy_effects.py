@@ -61,7 +61,7 @@ def test_noise_level_ignores_the_loops_content_below_fs_over_4() -> None:
     ("hysteresis", "reference", "closed", 2),
     # Stribeck friction Fs = 2.2 Fc in closed loop: the ranking's sqrt(2) level grid gave
     # 1.0 Fc for the plant's 1.2 Fc and a 1.3x gap; the re-fit of the named effect
-    # (workflow.refit_named) reaches ~6x
+    # (workflow.refit_named) reaches ~5x (session 12: 10 ms band windows, 4.9x)
     ("stribeck_friction", "csf17_50", "closed", 5),
 ])
 def test_named_effect_gap_shrinks_3x_where_round5b_missed(tmp_path: Path, effect: str, axis: str, loop: str, seed: int) -> None:

@@ -60,8 +60,9 @@ def _state(d: Design) -> dict[str, np.ndarray]:
     return out
 
 
-def _windows(d: Design, horizon_s: float) -> tuple[dict[str, np.ndarray], int, float, int, np.ndarray]:
-    """The decimated state and the window geometry every simulation-error function shares.
+def _windows(d: Design, horizon_s: float, phase: int = 0) -> tuple[dict[str, np.ndarray], int, float, int, np.ndarray]:
+    """The decimated state and the window geometry every simulation-error function shares
+    (``phase``: first window start, decimated samples; the windows tile the record from there).
 
     Returns
     -------
@@ -80,14 +81,14 @@ def _windows(d: Design, horizon_s: float) -> tuple[dict[str, np.ndarray], int, f
     n = len(x["thm"])
     dt = d.sig.dt * max(d.sig.q, 1)
     H = max(2, int(round(horizon_s / dt)))
-    return x, n, dt, H, np.arange(0, n - H - 1, H)
+    return x, n, dt, H, np.arange(max(0, int(phase)), n - H - 1, H)
 
 
 def _side_sim(d: Design, cols: Sequence[Column], theta: np.ndarray, force: np.ndarray, side: str,
-              horizon_s: float, substeps: int | None = None) -> np.ndarray:
+              horizon_s: float, substeps: int | None = None, phase: int = 0) -> np.ndarray:
     """Simulate one side over windows; returns simulated-minus-measured angle at the dec rate (own unit)."""
     s = d.sig
-    x, n, dt, H, starts = _windows(d, horizon_s)
+    x, n, dt, H, starts = _windows(d, horizon_s, phase)
     err = np.full(n, np.nan)
     if side == "m":
         th, w, eps = x["thm"][starts].copy(), x["wm"][starts].copy(), d.v_eps * s.ratio
@@ -188,12 +189,13 @@ def _side_sim(d: Design, cols: Sequence[Column], theta: np.ndarray, force: np.nd
 
 
 def side_error(d: Design, cols: Sequence[Column], theta: np.ndarray, side: str, tau: np.ndarray | None = None,
-               tau_key: str = "tau", horizon_s: float = HORIZON_S) -> np.ndarray:
-    """Simulation error of one side (``"m"``: motor or rigid, ``"l"``: load), rad at the output."""
+               tau_key: str = "tau", horizon_s: float = HORIZON_S, substeps: int | None = None) -> np.ndarray:
+    """Simulation error of one side (``"m"``: motor or rigid, ``"l"``: load), rad at the output
+    (``substeps`` as in :func:`simulation_error`)."""
     s = d.sig
     force = d.dec(tau_key, s.tau if tau is None else tau)
     with np.errstate(over="ignore", invalid="ignore"):      # a diverging candidate gives inf, judged later
-        e = _side_sim(d, cols, theta, force, side, horizon_s)
+        e = _side_sim(d, cols, theta, force, side, horizon_s, substeps)
     if side == "m":
         e = e / s.ratio
     return e[~np.isnan(e)]
@@ -201,7 +203,7 @@ def side_error(d: Design, cols: Sequence[Column], theta: np.ndarray, side: str, 
 
 def simulation_error(d: Design, cols: Sequence[Column], theta: np.ndarray, tau: np.ndarray | None = None,
                      tau_key: str = "tau", horizon_s: float = HORIZON_S,
-                     substeps: int | None = None) -> np.ndarray:
+                     substeps: int | None = None, phase: int = 0) -> np.ndarray:
     """Simulation error of a fitted model over windows of ``horizon_s``, rad at the output.
 
     Each side obeys J acc = F - sum(coef * column value) with F the measured torque
@@ -221,6 +223,8 @@ def simulation_error(d: Design, cols: Sequence[Column], theta: np.ndarray, tau: 
         Window length, s.
     substeps : int, optional
         Integration sub-steps per decimated sample (default :data:`SUBSTEPS`).
+    phase : int
+        Start of the first window, decimated samples (the record before it is left out).
 
     Returns
     -------
@@ -232,14 +236,15 @@ def simulation_error(d: Design, cols: Sequence[Column], theta: np.ndarray, tau: 
     s = d.sig
     force = d.dec(tau_key, s.tau if tau is None else tau)
     with np.errstate(over="ignore", invalid="ignore"):      # a diverging candidate gives inf, judged later
-        parts = [_side_sim(d, cols, theta, force, "m", horizon_s, substeps) / s.ratio]
+        parts = [_side_sim(d, cols, theta, force, "m", horizon_s, substeps, phase) / s.ratio]
         if s.kind == "two_mass":
-            parts.append(_side_sim(d, cols, theta, force, "l", horizon_s, substeps))
+            parts.append(_side_sim(d, cols, theta, force, "l", horizon_s, substeps, phase))
     e = np.concatenate(parts)
     return e[np.isfinite(e) | np.isinf(e)]
 
 
-def region_mask(d: Design, bands: dict[str, float] | None, horizon_s: float = HORIZON_S) -> np.ndarray:
+def region_mask(d: Design, bands: dict[str, float] | None, horizon_s: float = HORIZON_S,
+                phase: int = 0) -> np.ndarray:
     """Samples of :func:`simulation_error` where an effect acting below a speed band can show.
 
     The simulation error is causal within a window: an effect that acts only while a side
@@ -258,6 +263,8 @@ def region_mask(d: Design, bands: dict[str, float] | None, horizon_s: float = HO
         rad/s); None selects the whole record.
     horizon_s : float
         Window length, s (as in :func:`simulation_error`).
+    phase : int
+        First window start, decimated samples (as in :func:`simulation_error`).
 
     Returns
     -------
@@ -265,7 +272,7 @@ def region_mask(d: Design, bands: dict[str, float] | None, horizon_s: float = HO
         Aligned with the output of :func:`simulation_error`.
     """
     s = d.sig
-    x, n, _, H, starts = _windows(d, horizon_s)
+    x, n, _, H, starts = _windows(d, horizon_s, phase)
     sides = ["m"] + (["l"] if s.kind == "two_mass" else [])
     parts = []
     for side in sides:
