@@ -386,10 +386,10 @@ def rank(state: State, lib: list[fx.Effect], s: Settings | None = None,
 REFIT_LEVEL_STEPS = 3
 
 #: Integration sub-steps of the re-fit's simulations and of a banded effect's gap
-#: (:func:`local_gap`): twice :data:`simerr.SUBSTEPS`.  At 4 sub-steps the Karnopp
+#: (:func:`band_sim_figures`): twice :data:`simerr.SUBSTEPS`.  At 4 sub-steps the Karnopp
 #: breakaway of the Stribeck hump is not converged: on csf17_50 closed loop s3 the plant's
-#: own friction law simulates to 3.36e-5 rad against 3.45e-5 for a fit far from it; at 8
-#: sub-steps to 1.83e-5 (docs/discrepancy.md, session 12).
+#: own friction law simulates to 3.36e-5 rad over the band against 3.45e-5 for a fit far
+#: from it; at 8 sub-steps to 1.83e-5 (docs/discrepancy.md, sessions 6 and 11).
 FINE_SUBSTEPS = 8
 #: Window of the re-fit's simulations, s: short segments (as in multiple shooting).
 #: Through the Stribeck hump the replayed motor side is unstable (e-folding time about
@@ -429,8 +429,8 @@ def refit_named(state: State, c: Candidate, s: Settings | None = None) -> Candid
     assert fine.fit is not None
     fine.sim = fine.simulate(fine.fit)
 
-    def fit_of(v: fx.Variant, refine: int) -> tuple[fx.Variant, bl.Fit, float] | None:
-        w = oe_fit(fine, v, s, refine=refine, by_sim=True, admit=False)
+    def fit_of(v: fx.Variant) -> tuple[fx.Variant, bl.Fit, float] | None:
+        w = oe_fit(fine, v, s, refine=REFIT_LEVEL_STEPS, by_sim=True, admit=False)
         if w is None or w.oe_gain is None:
             return None
         try:
@@ -444,13 +444,13 @@ def refit_named(state: State, c: Candidate, s: Settings | None = None) -> Candid
 
     resid = next(iter(fine.fit.resid.values()))
     starts = [c.variant] + [v for v in c.effect.variants(d, resid) if v.hyper != c.variant.hyper]
-    got = [g for g in (fit_of(v, REFIT_LEVEL_STEPS) for v in starts) if g is not None]
+    got = [g for g in (fit_of(v) for v in starts) if g is not None]
     if not got:
         return c
     best = min(got, key=lambda g: g[2])
     for frac in (0.5, 0.25):                 # half grid steps, then quarter steps
         for v in c.effect.refine_hyper(d, best[0], frac):
-            g = fit_of(v, REFIT_LEVEL_STEPS)
+            g = fit_of(v)
             if g is not None and g[2] < best[2]:
                 best = g
     return Candidate(c.effect, best[0], state.solve(best[0]), c.evidence)
@@ -1060,7 +1060,7 @@ def band_sim_figures(state: State, fit: bl.Fit, added: list[tuple[fx.Effect, fx.
     integration error (difference from ``INTEGRATION_REF`` times finer integration), in
     quadrature.  The band holds a few stops (1.5 % of a closed-loop record), so one tiling
     of windows depends on where its edges fall relative to each breakaway (reference
-    closed s3, one tiling: 4.8x at 10 ms, 2.4x at 20 ms, 4.0x at 50 ms): the squares of
+    closed s3, one fit, one tiling: 4.8x at 10 ms, 2.4x at 20 ms, 4.0x at 50 ms): the squares of
     ``BAND_GAP_PHASES`` tilings shifted by H / phases are pooled (5.1x at 10 ms, 3.1x at
     20 ms).  NaN, NaN for a model that is not a mechanical axis.
     """
