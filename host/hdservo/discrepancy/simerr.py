@@ -80,8 +80,13 @@ def _windows(d: Design, horizon_s: float, phase: int = 0) -> tuple[dict[str, np.
     x = _state(d)
     n = len(x["thm"])
     dt = d.sig.dt * max(d.sig.q, 1)
-    H = max(2, int(round(horizon_s / dt)))
+    H = window_samples(d, horizon_s)
     return x, n, dt, H, np.arange(max(0, int(phase)), n - H - 1, H)
+
+
+def window_samples(d: Design, horizon_s: float) -> int:
+    """Decimated samples per window of ``horizon_s`` (at least 2)."""
+    return max(2, int(round(horizon_s / (d.sig.dt * max(d.sig.q, 1)))))
 
 
 def _side_sim(d: Design, cols: Sequence[Column], theta: np.ndarray, force: np.ndarray, side: str,

@@ -453,7 +453,7 @@ def refit_named(state: State, c: Candidate, s: Settings | None = None) -> Candid
             g = fit_of(v)
             if g is not None and g[2] < best[2]:
                 best = g
-    return Candidate(c.effect, best[0], state.solve(best[0]), c.evidence)
+    return Candidate(c.effect, best[0], best[1], c.evidence)   # solve() is the same in `fine`
 
 
 def eq_region(d: bl.Design, bands: dict[str, float] | None) -> np.ndarray:
@@ -1070,7 +1070,7 @@ def band_sim_figures(state: State, fit: bl.Fit, added: list[tuple[fx.Effect, fx.
     coef = dict(zip(fit.names, fit.theta))
     cols, tau, key = _model_on(state, None, added)
     th = np.array([coef.get(c.name, 0.0) for c in cols])
-    n_h = max(2, int(round(H / (d.sig.dt * max(d.sig.q, 1)))))
+    n_h = simerr.window_samples(d, H)
     sq_e = sq_f = 0.0
     count = 0
     for ph in sorted({int(round(i * n_h / BAND_GAP_PHASES)) for i in range(BAND_GAP_PHASES)}):
