@@ -1,5 +1,5 @@
 # EMPS real-data benchmark (docs/emps.md): reproduce the published IDIM-LS
-# results from ../shared/data/emps (or $HDSERVO_EMPS_DIR) and write
+# results from the records shipped in host/hdservo/data/emps (or $HDSERVO_EMPS_DIR) and write
 # build/verify/emps.json.  Fails when a number is outside the targets.
 .PHONY: verify-emps
 verify-emps: setup

@@ -2,13 +2,13 @@
 
 EMPS (Janot, Gautier, Brunot 2019) is a real prismatic axis (DC motor, ball
 screw, translating load) under a position-P / velocity-P controller.  The data
-live in ``../shared/data/emps`` beside the repository (see ``PROVENANCE.md``
-there).  This module
+ship with the package in ``hdservo/data/emps`` (see ``PROVENANCE.md`` there:
+source, checksums, citation).  This module
 
 * reads the records (CSV, or the original ``.mat`` through scipy) into arrays
   with honest names and units: position ``qm`` in m, reference ``qg`` in m,
   controller output ``vir`` in V, force on the load side ``gtau*vir`` in N;
-* converts a record into the hdservo log shape (DESIGN.md section 7) with
+* converts a record into the hdservo log shape (docs/sim.md, logs) with
   linear-axis column names and a sidecar that states which rotary column each
   one plays the role of;
 * reproduces the published IDIM-LS results with the authors' processing
@@ -32,11 +32,12 @@ import numpy as np
 import scipy.io
 import scipy.signal as sig
 
-from . import REPO_ROOT
 from .cli import UserError
 
 #: Environment variable that overrides the default data directory.
 ENV_DATA_DIR = "HDSERVO_EMPS_DIR"
+#: The EMPS records and their provenance, shipped as package data.
+DEFAULT_DATA_DIR = Path(__file__).resolve().parent / "data" / "emps"
 #: Training (estimation) and test (validation) record names.
 TRAIN_RECORD = "DATA_EMPS"
 TEST_RECORD = "DATA_EMPS_PULSES"
@@ -64,7 +65,7 @@ SYMMETRIC_PARAMS: Tuple[str, ...] = ("M", "Fv", "Fc", "offset")
 ASYMMETRIC_PARAMS: Tuple[str, ...] = ("M", "Fv_plus", "Fc_plus", "Fv_minus", "Fc_minus")
 
 #: hdservo log columns of an EMPS record -> the rotary log column whose role
-#: each one plays (DESIGN.md section 7).  The axis is prismatic, so the names
+#: each one plays (the log format of docs/sim.md).  The axis is prismatic, so the names
 #: keep the true SI units (m, N, V) instead of borrowing ``_rad``/``_Nm``.
 LOG_COLUMN_ROLES: Dict[str, Optional[str]] = {
     "t_s": "t_s",
@@ -135,8 +136,8 @@ def resolve_data_dir(explicit: Optional[str] = None) -> Path:
     Returns
     -------
     pathlib.Path
-        ``explicit``, else ``$HDSERVO_EMPS_DIR``, else
-        ``<repo>/../shared/data/emps``.
+        ``explicit``, else ``$HDSERVO_EMPS_DIR``, else the records shipped
+        with the package (``hdservo/data/emps``).
 
     Raises
     ------
@@ -148,7 +149,7 @@ def resolve_data_dir(explicit: Optional[str] = None) -> Path:
     elif os.environ.get(ENV_DATA_DIR):
         path, how = Path(os.environ[ENV_DATA_DIR]), ENV_DATA_DIR
     else:
-        path, how = REPO_ROOT.parent / "shared" / "data" / "emps", "default location"
+        path, how = DEFAULT_DATA_DIR, "records shipped with hdservo"
     if not path.is_dir():
         raise UserError(f"{path}: EMPS data directory not found ({how}); expected a directory "
                         f"holding {TRAIN_RECORD}.csv; pass --data DIR or set {ENV_DATA_DIR}")
@@ -407,7 +408,7 @@ def to_log_columns(rec: EmpsRecord) -> Dict[str, np.ndarray]:
 
 
 def log_sidecar(rec: EmpsRecord) -> Dict[str, Any]:
-    """JSON sidecar of :func:`to_log_columns` (DESIGN.md section 7)."""
+    """JSON sidecar of :func:`to_log_columns` (the log format of docs/sim.md)."""
     cols = to_log_columns(rec)
     return {
         # same tag and version as the hdservo log sidecar (hdservo.logio)

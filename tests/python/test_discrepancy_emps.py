@@ -1,4 +1,4 @@
-"""Discrepancy workflow on real data: EMPS (skipped when ../shared/data/emps is absent)."""
+"""Discrepancy workflow on real data: EMPS (the records shipped with the package)."""
 from __future__ import annotations
 
 import json

@@ -1,6 +1,6 @@
 """EMPS real-data importer and the reproduction of the published IDIM-LS results.
 
-The published numbers are read from ``reference_results.csv`` in the shared data
+The published numbers are read from ``reference_results.csv`` in the shipped data
 directory (never copied here).  The reproduction tests skip, with the reason,
 only when that directory is absent; the bad-input tests build their own files.
 """
@@ -17,19 +17,19 @@ from typing import Dict
 import numpy as np
 import pytest
 
-from hdservo import REPO_ROOT, cli, emps
+from hdservo import cli, emps
 from hdservo.cli import UserError
 
 
 def _data_dir() -> Path:
     env = os.environ.get(emps.ENV_DATA_DIR)
-    return Path(env) if env else REPO_ROOT.parent / "shared" / "data" / "emps"
+    return Path(env) if env else emps.DEFAULT_DATA_DIR
 
 
 DATA = _data_dir()
 needs_data = pytest.mark.skipif(
     not (DATA / "DATA_EMPS.csv").is_file(),
-    reason=f"EMPS shared data not found at {DATA} (set {emps.ENV_DATA_DIR})")
+    reason=f"EMPS data not found at {DATA} (set {emps.ENV_DATA_DIR})")
 
 
 def _published() -> Dict[str, Dict[str, Dict[str, float]]]:

@@ -27,7 +27,7 @@ def register(parser: argparse.ArgumentParser) -> None:
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("--data", metavar="DIR", default=None,
                         help=f"EMPS data directory (default ${emps.ENV_DATA_DIR}, "
-                             "else ../shared/data/emps beside the repository)")
+                             "else the records shipped with hdservo)")
     common.add_argument("--format", choices=("auto", "csv", "mat"), default="auto",
                         help="read the CSV files or the original .mat files (default auto: CSV)")
     v = sub.add_parser("verify", parents=[common],
