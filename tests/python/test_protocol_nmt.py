@@ -115,7 +115,8 @@ class Master:
             time.sleep(0.02)
 
     # ---- SDO -------------------------------------------------------------------------
-    def _obj(self, index: int, sub: int):
+    def _obj(self, index: int, sub: int) -> canopen.sdo.Variable:
+        """The SDO variable index:sub (sub ignored for a plain variable)."""
         obj = self.node.sdo[index]
         if isinstance(obj, (canopen.sdo.Record, canopen.sdo.Array)):
             obj = obj[sub]
@@ -236,19 +237,21 @@ def test_nmt_command_in_every_402_state(master: Master, state: str, cmd: int, op
         assert m.read(0x60FF) == VEL             # option 0: the command is unchanged, still turning
 
 
-def test_quick_stop_option_ramps_down_on_nmt_stop(master: Master) -> None:
+def test_quick_stop_option_ramps_down_on_leaving_operational(master: Master) -> None:
     """0x6007 = 3: QUICK STOP ACTIVE while the axis decelerates, then SWITCH ON DISABLED."""
     m = master
     _fresh(m)
     m.write(0x6007, 0, 3)
+    m.write(0x605A, 0, 2)                        # quick stop at 0x6085
+    m.write(0x6085, 0, int(20 / 360 * 2 ** 24))  # 20 deg/s^2: 1.5 s from 30 deg/s
     _prepare(m, "OPERATION ENABLED")
-    m.write(0x60FF, 0, 30 * VEL)                 # 30 deg/s: 0.15 s down at 200 deg/s^2
+    m.write(0x60FF, 0, 30 * VEL)
     time.sleep(0.3)
     m.nmt(NMT_START)
     m.nmt(NMT_PREOP)
     sw = m.statusword()
     assert _state(sw) == "QUICK STOP ACTIVE" and sw & SW_VOLTAGE
-    m.wait_state("SWITCH ON DISABLED", 5.0)
+    m.wait_state("SWITCH ON DISABLED", 10.0)
 
 
 # ---- COB-IDs ----------------------------------------------------------------------------
@@ -344,7 +347,10 @@ def test_table_download_aborted_when_the_drive_is_enabled(master: Master) -> Non
     m.nmt(NMT_START)
     m.drain()
     # segmented download by hand: initiate (size indicated), two segments
-    rx = lambda f: f.arbitration_id == 0x580 + n            # noqa: E731
+
+    def rx(f: can.Message) -> bool:
+        return f.arbitration_id == 0x580 + n
+
     m.send(0x600 + n, struct.pack("<BHBI", 0x21, 0x5100, 3, len(new)))
     assert m.wait_frame(rx).data[0] == 0x60
     for seg, toggle in ((0, 0x00), (1, 0x10)):
