@@ -210,6 +210,12 @@ static uint32_t a_dread(void *c, uint16_t dom, uint32_t off, uint8_t *buf, uint3
                                      : HD_CO_AB_NO_OBJECT;
 }
 
+/* the power stage is on (or commanded on): no table changes now */
+static bool power_stage_on(const hd_app_co_t *ac)
+{
+    return ac->app->tel.mode != HD_MODE_OFF || ac->app->mode != HD_MODE_OFF;
+}
+
 static uint32_t a_dbegin(void *c, uint16_t dom, uint32_t size)
 {
     hd_app_co_t *ac = c;
@@ -217,7 +223,7 @@ static uint32_t a_dbegin(void *c, uint16_t dom, uint32_t size)
         return HD_CO_AB_READONLY;
     }
     if (dom < HD_APP_CO_DOM_PORT) {
-        if (ac->app->tel.mode != HD_MODE_OFF || ac->app->mode != HD_MODE_OFF) {
+        if (power_stage_on(ac)) {
             return HD_CO_AB_STATE;             /* tables change with the power stage off */
         }
         if (size > 4u * HD_APP_CO_STAGE_WORDS) {
@@ -285,6 +291,11 @@ static uint32_t a_dend(void *c, uint16_t dom, uint32_t total, bool complete)
         ac->stage_dom = 0u;
         if (!complete) {
             return 0u;                          /* aborted: the table in force stays */
+        }
+        if (power_stage_on(ac)) {
+            /* enabled after the transfer began (by a path that did not abort it): the
+             * table in force stays, the staged one is dropped */
+            return HD_CO_AB_STATE;
         }
         if (!ours || total != k || k < 8u || (k % 4u) != 0u) {
             return HD_CO_AB_STORE;
@@ -512,6 +523,11 @@ static uint32_t a_enable(void *c, int8_t mode, bool on)
         return 1u;
     }
     ac->mode = mode;
+    if (ac->stage_dom != 0u) {
+        /* a table download running: it would land with the power stage on, so the client
+         * gets 0x08000022 now and the staging is discarded (a_dend, complete = false) */
+        hd_co_sdo_abort(ac->co, HD_CO_AB_STATE);
+    }
     return 0u;
 }
 

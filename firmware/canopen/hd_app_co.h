@@ -31,7 +31,9 @@
  *     int32 LE, frame-major, frame 0 = oldest)
  *   0x5100 tables (domains 1..3), each "payload + CRC-32 trailer" (CRC-32 IEEE
  *     of the payload, LE).  Written only with the power stage off (else
- *     0x08000022).  A payload that fails any check is refused with 0x08000020
+ *     0x08000022, checked at the start and at the commit); enabling the drive
+ *     while one is being written aborts that transfer (0x08000022 to the client,
+ *     staging discarded: hd_co_sdo_abort).  A payload that fails any check is refused with 0x08000020
  *     and the table in force stays; read-back returns the table in force
  *     (payload + trailer), empty before the first one.
  *       1 Preisach/Everett table: the hd_preisach_table_t image of

@@ -298,6 +298,105 @@ static uint32_t map_check(const hd_co_t *co, bool tx, uint32_t v, uint32_t *bits
     return 0u;
 }
 
+/* ---- COB-IDs (CiA 301) ---------------------------------------------------- */
+
+#define COB_INVALID   0x80000000u      /* EMCY / PDO: the object is not used */
+#define COB_ID_MASK   0x7FFu
+
+/* The COB-ID objects, in one order: 0 SYNC, 1 EMCY, 2.. RPDOs, then TPDOs; -1 for none. */
+enum { COB_SYNC = 0, COB_EMCY = 1, COB_RPDO = 2, COB_TPDO = 2 + (int)HD_CO_N_PDO, COB_COUNT = 2 + 2 * (int)HD_CO_N_PDO };
+
+static int32_t cob_slot(uint16_t index, uint8_t sub)
+{
+    if (index == 0x1005u && sub == 0u) {
+        return COB_SYNC;
+    }
+    if (index == 0x1014u && sub == 0u) {
+        return COB_EMCY;
+    }
+    if (sub == 1u && index >= 0x1400u && index < 0x1400u + HD_CO_N_PDO) {
+        return COB_RPDO + (int32_t)(index - 0x1400u);
+    }
+    if (sub == 1u && index >= 0x1800u && index < 0x1800u + HD_CO_N_PDO) {
+        return COB_TPDO + (int32_t)(index - 0x1800u);
+    }
+    return -1;
+}
+
+/* the value in force of COB-ID object `slot` */
+static uint32_t cob_value(const hd_co_t *co, int32_t slot)
+{
+    if (slot == COB_SYNC) {
+        return co->od.cob_id_sync;
+    }
+    if (slot == COB_EMCY) {
+        return co->od.cob_id_emcy;
+    }
+    if (slot < COB_TPDO) {
+        return co->od.rpdo_cob[slot - COB_RPDO];
+    }
+    return co->od.tpdo_cob[slot - COB_TPDO];
+}
+
+/* CiA 301 restricted CAN-IDs: NMT, the reserved block below SYNC, 0x101-0x180 (reserved, and
+ * no node 0 for 0x180), every node's SDO, 0x6E0-0x6FF, every node's heartbeat, LSS and the rest */
+static bool cob_restricted(uint32_t id)
+{
+    return id <= 0x07Fu || (id >= 0x101u && id <= 0x180u) || (id >= 0x581u && id <= 0x5FFu) ||
+           (id >= 0x601u && id <= 0x67Fu) || (id >= 0x6E0u && id <= 0x6FFu) || id >= 0x701u;
+}
+
+bool hd_co_cobid_allowed(const hd_co_t *co, uint16_t index, uint8_t sub, uint32_t v)
+{
+    const int32_t slot = cob_slot(index, sub);
+    if (slot < 0) {
+        return false;
+    }
+    /* SYNC: this device consumes it, so no "generate" bit 30, and there is no invalid bit;
+     * EMCY / PDO: bit 31 invalid; bit 30 (PDO: RTR) and bit 29 (29-bit frame) never */
+    const uint32_t reserved = (slot == COB_SYNC) ? ~COB_ID_MASK : (~COB_ID_MASK & ~COB_INVALID);
+    if ((v & reserved) != 0u) {
+        return false;
+    }
+    if ((v & COB_INVALID) != 0u) {
+        return true;                         /* not in use: any identifier until it is valid */
+    }
+    const uint32_t id = v & COB_ID_MASK;
+    if (cob_restricted(id)) {
+        return false;
+    }
+    for (int32_t k = 0; k < COB_COUNT; k++) {
+        const uint32_t other = cob_value(co, k);
+        if (k != slot && (other & COB_INVALID) == 0u && (other & COB_ID_MASK) == id) {
+            return false;                    /* another of the node's services uses it */
+        }
+    }
+    return true;
+}
+
+bool hd_co_cobids_ok(const hd_co_t *co)
+{
+    static const uint16_t base[4] = {0x1005u, 0x1014u, 0x1400u, 0x1800u};
+    for (int32_t k = 0; k < COB_COUNT; k++) {
+        uint16_t index;
+        uint8_t sub;
+        if (k < COB_RPDO) {
+            index = base[k];
+            sub = 0u;
+        } else if (k < COB_TPDO) {
+            index = (uint16_t)(base[2] + (uint32_t)(k - COB_RPDO));
+            sub = 1u;
+        } else {
+            index = (uint16_t)(base[3] + (uint32_t)(k - COB_TPDO));
+            sub = 1u;
+        }
+        if (!hd_co_cobid_allowed(co, index, sub, cob_value(co, k))) {
+            return false;
+        }
+    }
+    return true;
+}
+
 /* Object-specific rules before a write is accepted. */
 static uint32_t check_write(hd_co_t *co, const hd_co_entry_t *e, int64_t v)
 {
@@ -342,16 +441,10 @@ static uint32_t check_write(hd_co_t *co, const hd_co_entry_t *e, int64_t v)
         uint32_t cob = tx ? co->od.tpdo_cob[i] : co->od.rpdo_cob[i];
         if (e->sub == 1u) {
             uint32_t nv = (uint32_t)v;
-            if ((nv & 0x60000000u) != 0u || (nv & 0x1FFFF800u) != 0u) {
-                return HD_CO_AB_VALUE;   /* no extended ids, no RTR */
-            }
-            if ((cob & 0x80000000u) == 0u && (nv & 0x80000000u) == 0u && (nv & 0x7FFu) != (cob & 0x7FFu)) {
+            if ((cob & COB_INVALID) == 0u && (nv & COB_INVALID) == 0u && (nv & COB_ID_MASK) != (cob & COB_ID_MASK)) {
                 return HD_CO_AB_VALUE;   /* valid PDO: disable before changing the id */
             }
-            if ((nv & 0x80000000u) == 0u && ((nv & 0x7FFu) == 0u || (nv & 0x7FFu) >= 0x780u)) {
-                return HD_CO_AB_VALUE;
-            }
-            return 0u;
+            return hd_co_cobid_allowed(co, ix, e->sub, nv) ? 0u : HD_CO_AB_VALUE;
         }
         if (e->sub == 2u) {
             if (!(v <= 240 || v == 254 || v == 255)) {
@@ -365,11 +458,9 @@ static uint32_t check_write(hd_co_t *co, const hd_co_entry_t *e, int64_t v)
         return 0u;
     }
     switch (ix) {
+    case 0x1005u:
     case 0x1014u:
-        if (((uint32_t)v & 0x7FFFF800u) != 0u) {
-            return HD_CO_AB_VALUE;
-        }
-        return 0u;
+        return hd_co_cobid_allowed(co, ix, e->sub, (uint32_t)v) ? 0u : HD_CO_AB_VALUE;
     case 0x1016u: {
         uint32_t node = ((uint32_t)v >> 16) & 0xFFu;
         if (node > 127u || (node == co->node_id && ((uint32_t)v & 0xFFFFu) != 0u)) {
@@ -984,6 +1075,13 @@ static void sdo_fail(hd_co_t *co, uint32_t code)
     uint8_t sb = co->sdo.state != SDO_IDLE ? e->sub : 0u;
     sdo_reset(co, true);
     sdo_abort(co, ix, sb, code);
+}
+
+void hd_co_sdo_abort(hd_co_t *co, uint32_t code)
+{
+    if (co->sdo.state != SDO_IDLE) {
+        sdo_fail(co, code);
+    }
 }
 
 static void sdo_reply(hd_co_t *co, uint8_t cmd, uint16_t index, uint8_t sub, uint32_t v)
@@ -1620,8 +1718,21 @@ static void reset_comm(hd_co_t *co)
     boot_up(co);
 }
 
+/* CiA 402 0x6007 when an NMT command ends the master's connection (`leaving`: stop from
+ * OPERATIONAL or PRE-OPERATIONAL, pre-operational from OPERATIONAL, either reset) with the
+ * power stage on; true when the reaction was the fault (its EMCY follows the transition) */
+static bool nmt_abort_connection(hd_co_t *co, bool leaving)
+{
+    if (!leaving || co->p402.state == HD_CO402_FAULT_REACTION || !hd_co402_powered(co)) {
+        return false;
+    }
+    hd_co402_abort_connection(co, HD_CO_EMCY_COMM);
+    return co->p402.state == HD_CO402_FAULT_REACTION || co->p402.state == HD_CO402_FAULT;
+}
+
 static void nmt_process(hd_co_t *co, const hd_can_frame_t *f)
 {
+    bool faulted = false;
     if (f->dlc != 2u || f->rtr) {
         co->stats.rx_ignored++;
         return;
@@ -1643,9 +1754,17 @@ static void nmt_process(hd_co_t *co, const hd_can_frame_t *f)
         }
         co->nmt = HD_CO_NMT_OP;
         break;
-    case 0x02u: co->nmt = HD_CO_NMT_STOPPED; sdo_reset(co, true); break;
-    case 0x80u: co->nmt = HD_CO_NMT_PREOP; break;
+    case 0x02u:
+        faulted = nmt_abort_connection(co, co->nmt != HD_CO_NMT_STOPPED);
+        co->nmt = HD_CO_NMT_STOPPED;
+        sdo_reset(co, true);
+        break;
+    case 0x80u:
+        faulted = nmt_abort_connection(co, co->nmt == HD_CO_NMT_OP);
+        co->nmt = HD_CO_NMT_PREOP;
+        break;
     case 0x81u:
+        faulted = nmt_abort_connection(co, true);
         if (co->app.reset_node != NULL) {
             co->app.reset_node(co->app.ctx);
         }
@@ -1653,11 +1772,19 @@ static void nmt_process(hd_co_t *co, const hd_can_frame_t *f)
         if (co->stored_ok != 0u) {
             (void)hd_co_store_apply(co, co->stored, hd_co_store_words(co), 0x2000u, 0xFFFFu);
         }
-        hd_co402_init(co);
+        hd_co402_restart(co);
         reset_comm(co);
         break;
-    case 0x82u: reset_comm(co); break;
+    case 0x82u:
+        faulted = nmt_abort_connection(co, true);
+        reset_comm(co);
+        break;
     default: co->stats.rx_ignored++; break;
+    }
+    if (faulted) {
+        /* after the transition: a reset's boot-up goes first and its cleared error register
+         * gets the bit back; in STOPPED the EMCY is only recorded (0x1003, 0x1001) */
+        hd_co_emcy(co, HD_CO_EMCY_COMM, HD_CO_ER_COMM, NULL);
     }
 }
 

@@ -82,6 +82,8 @@
 #define HD_CO_EMCY_BUS_OFF      0x8140u  /* recovered from bus off */
 #define HD_CO_EMCY_PDO_LEN      0x8210u
 #define HD_CO_EMCY_CAN_OVERRUN  0x8110u
+#define HD_CO_EMCY_COMM         0x8100u  /* communication, generic: an NMT command ended the
+                                          * master's connection with the power stage on */
 
 /* ---- CiA 402 ------------------------------------------------------------ */
 #define HD_CO402_NOT_READY      0u
@@ -322,6 +324,21 @@ void hd_co_emcy(hd_co_t *co, uint16_t code, uint8_t reg_bits, const uint8_t mfr[
 /** Clear error register bits; when none is left an EMCY 0x0000 (error reset) goes out. */
 void hd_co_emcy_clear(hd_co_t *co, uint8_t reg_bits);
 
+/** CiA 301 COB-ID rules (docs/can.md, COB-IDs): may v be the COB-ID of index:sub (SYNC 0x1005:0,
+ *  EMCY 0x1014:0, RPDO 0x1400+i:1, TPDO 0x1800+i:1) on this node?  11-bit identifiers only
+ *  (bit 29 and the other reserved bits clear); bit 31 (EMCY, PDO) marks the object invalid and
+ *  is always allowed; a valid identifier is none of the CiA 301 restricted CAN-IDs and none
+ *  of the identifiers the node's other COB-ID objects use now (SYNC, a valid EMCY, every valid
+ *  RPDO/TPDO; the object itself excluded).  false for any other object.  The SDO write
+ *  refuses a value it rejects with 0x06090030; a stored image checked after it is put in
+ *  force calls it for each of those objects (hd_co_cobids_ok). */
+bool hd_co_cobid_allowed(const hd_co_t *co, uint16_t index, uint8_t sub, uint32_t v);
+/** Every COB-ID object in force passes hd_co_cobid_allowed. */
+bool hd_co_cobids_ok(const hd_co_t *co);
+/** Abort the running SDO transfer (if any) with code: the client gets the abort, a domain
+ *  download is discarded (domain_write_end complete = false: the old data stays). */
+void hd_co_sdo_abort(hd_co_t *co, uint32_t code);
+
 /** Entry number of (index, sub) or -1. */
 int32_t hd_co_find(const hd_co_t *co, uint16_t index, uint8_t sub);
 /** Read one non-domain entry into buf (little endian); returns 0 or an abort code. */
@@ -340,8 +357,14 @@ void hd_co402_init(hd_co_t *co);
 void hd_co402_controlword(hd_co_t *co);
 void hd_co402_tick(hd_co_t *co);
 void hd_co402_comm_fault(hd_co_t *co, uint16_t emcy_code);
-/** CiA 402 0x6007 reaction to a communication error (heartbeat lost, bus-off). */
+/** CiA 402 0x6007 reaction to a communication error (heartbeat lost, bus-off) or to an NMT
+ *  command that ends the master's connection with the power stage on (hd_co.c nmt_process). */
 void hd_co402_abort_connection(hd_co_t *co, uint16_t emcy_code);
+/** The power stage is on (OPERATION ENABLED, QUICK STOP ACTIVE, FAULT REACTION ACTIVE). */
+bool hd_co402_powered(const hd_co_t *co);
+/** NMT reset node (the application restarts): the power stage off now, the state machine
+ *  from NOT READY TO SWITCH ON; a fault the stack latched (0x6007 = 1) stays latched. */
+void hd_co402_restart(hd_co_t *co);
 uint32_t hd_co402_check_mode(int64_t mode);
 
 #endif /* HD_CO_H */

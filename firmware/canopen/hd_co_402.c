@@ -9,10 +9,13 @@
  *      --quick stop 0x02--> QUICK STOP ACTIVE --(standstill)--> SOD
  *   any state --fault--> FAULT REACTION ACTIVE --(power off)--> FAULT
  *   FAULT --rising edge of bit 7, cause gone--> SOD
- *   communication error (host heartbeat lost, bus-off), 0x6007 abort connection
+ *   communication error (host heartbeat lost, bus-off) or an NMT command that ends
+ *   the master's connection with the power stage on (stop, pre-operational from
+ *   OPERATIONAL, reset communication, reset node), 0x6007 abort connection
  *   option code: 0 nothing, 1 (default) fault (as an app fault, EMCY 0x8130 /
- *   0x8140), 2 disable voltage (-> SOD), 3 quick stop (-> QUICK STOP ACTIVE,
+ *   0x8140 / 0x8100), 2 disable voltage (-> SOD), 3 quick stop (-> QUICK STOP ACTIVE,
  *   then SOD at standstill); 2 and 3 need a new enable sequence, 1 a fault reset.
+ *   NMT reset node also restarts the state machine with the power stage off.
  * Power is on only in OPERATION ENABLED and QUICK STOP ACTIVE.  In OPERATION
  * ENABLED the targets (0x607A, 0x60FF, 0x6071, offsets, profile) go to the app
  * every period; the actual values come back every period into the OD.
@@ -140,6 +143,27 @@ void hd_co402_abort_connection(hd_co_t *co, uint16_t emcy_code)
         break;
     default:                                  /* 0: no action */
         break;
+    }
+}
+
+bool hd_co402_powered(const hd_co_t *co)
+{
+    const uint8_t st = co->p402.state;
+    return st == HD_CO402_OP_ENABLED || st == HD_CO402_QUICK_STOP || st == HD_CO402_FAULT_REACTION;
+}
+
+void hd_co402_restart(hd_co_t *co)
+{
+    /* the fault latched by 0x6007 = 1 (or a lost heartbeat) is the host's to reset: a
+     * restart of the application does not clear it */
+    const bool latched = co->p402.comm_fault != 0u;
+    const uint16_t code = co->p402.fault_code;
+    if (hd_co402_powered(co)) {
+        power_off(co);                      /* no quick stop ramp survives a restart */
+    }
+    hd_co402_init(co);
+    if (latched) {
+        hd_co402_comm_fault(co, code);
     }
 }
 

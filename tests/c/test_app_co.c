@@ -73,7 +73,16 @@ static hd_app_co_t ac;
 static uint32_t n_sent;
 static uint8_t img[4u * HD_APP_CO_STAGE_WORDS + 16u];
 
-static bool p_send(void *c, const hd_can_frame_t *f) { (void)c; (void)f; n_sent++; return true; }
+static hd_can_frame_t last_sdo;      /* the last SDO response (0x581) */
+static bool p_send(void *c, const hd_can_frame_t *f)
+{
+    (void)c;
+    n_sent++;
+    if (f->id == 0x581u) {
+        last_sdo = *f;
+    }
+    return true;
+}
 
 /* power-on of the drive on the NVM as it is */
 static void boot(uint8_t node)
@@ -792,6 +801,99 @@ static void test_pp_halt_quick_stop_decel(void **st)
     assert_true(stop >= lim - 2 * v0 / HD_LOOP_HZ);
 }
 
+
+/* ---- table commit interlock ------------------------------------------------------ */
+
+static void sdo_frame(const uint8_t d[8])
+{
+    hd_can_frame_t f;
+    memset(&f, 0, sizeof f);
+    f.id = 0x601u;
+    f.dlc = 8u;
+    memcpy(f.data, d, 8u);
+    memset(&last_sdo, 0, sizeof last_sdo);
+    hd_co_process(&co, &f);
+}
+
+static uint32_t last_abort_code(void)
+{
+    assert_int_equal(last_sdo.data[0], 0x80);
+    return (uint32_t)last_sdo.data[4] | ((uint32_t)last_sdo.data[5] << 8) |
+           ((uint32_t)last_sdo.data[6] << 16) | ((uint32_t)last_sdo.data[7] << 24);
+}
+
+/* segmented download of img[0..len) to 0x5100:1, segments [from, to) of 7 bytes */
+static void seg_initiate(uint32_t len)
+{
+    const uint8_t d[8] = {0x21, 0x00, 0x51, 0x01, (uint8_t)len, (uint8_t)(len >> 8), 0, 0};
+    sdo_frame(d);
+    assert_int_equal(last_sdo.data[0], 0x60);
+}
+
+static void seg_send(uint32_t len, uint32_t seg, uint8_t toggle)
+{
+    uint8_t d[8] = {0};
+    const uint32_t off = 7u * seg;
+    const uint32_t n = (len - off < 7u) ? len - off : 7u;
+    d[0] = (uint8_t)((toggle << 4) | ((7u - n) << 1) | (off + n >= len ? 1u : 0u));
+    memcpy(&d[1], img + off, n);
+    sdo_frame(d);
+}
+
+/* A table download that is running when the power stage comes on never lands: enabling
+ * aborts it (0x08000022 to the client, staging discarded), and a commit with the power
+ * stage on (enabled by a path that did not abort the transfer) is refused with 0x08000022. */
+static void test_table_commit_interlock(void **st)
+{
+    static uint8_t back[sizeof img], good[sizeof img];
+    (void)st;
+    uint32_t len = make_table(8u, 3u, 200);
+    assert_int_equal(download(HD_APP_CO_DOM_PREISACH, img, len), 0);
+    memcpy(good, img, len);
+    assert_int_equal(app.cb.table.version, 3);
+
+    /* commit with the power stage on: refused, the old table stays */
+    len = make_table(8u, 4u, 100);
+    const hd_co_app_if_t *a = &co.app;
+    assert_int_equal(a->domain_write_begin(a->ctx, HD_APP_CO_DOM_PREISACH, len), 0);
+    assert_int_equal(a->domain_write(a->ctx, HD_APP_CO_DOM_PREISACH, 0u, img, len), 0);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_VELOCITY), 0);
+    hd_app_step(&app);
+    assert_int_equal(a->domain_write_end(a->ctx, HD_APP_CO_DOM_PREISACH, len, true), HD_CO_AB_STATE);
+    assert_int_equal(app.cb.table.version, 3);
+    assert_int_equal(upload(HD_APP_CO_DOM_PREISACH, back, sizeof back), len);
+    assert_memory_equal(back, good, len);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_OFF), 0);
+    hd_app_step(&app);
+
+    /* over SDO: a segmented download, the drive enabled half-way (CiA 402) */
+    seg_initiate(len);
+    seg_send(len, 0u, 0u);
+    assert_int_equal(last_sdo.data[0], 0x20);
+    seg_send(len, 1u, 1u);
+    assert_int_equal(last_sdo.data[0], 0x30);
+    memset(&last_sdo, 0, sizeof last_sdo);
+    enable_402(HD_CO402_MODE_CSV);
+    assert_int_equal(last_abort_code(), HD_CO_AB_STATE);   /* the client is told at once */
+    assert_int_equal(ac.stage_dom, 0u);                     /* staging discarded */
+    /* the rest of the segments belong to no transfer */
+    for (uint32_t seg = 2u, t = 0u; 7u * seg < len; seg++, t ^= 1u) {
+        seg_send(len, seg, (uint8_t)t);
+        assert_int_equal(last_abort_code(), HD_CO_AB_CMD);
+    }
+    assert_int_equal(app.cb.table.version, 3);
+    /* with the power stage off again the same table goes in */
+    cw_write(0x06u);
+    period();
+    assert_int_equal(app.tel.mode, HD_MODE_OFF);
+    seg_initiate(len);
+    for (uint32_t seg = 0u, t = 0u; 7u * seg < len; seg++, t ^= 1u) {
+        seg_send(len, seg, (uint8_t)t);
+        assert_int_equal(last_sdo.data[0] & 0xE0, 0x20);
+    }
+    assert_int_equal(app.cb.table.version, 4);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -804,6 +906,7 @@ int main(void)
         cmocka_unit_test_setup(test_pp_profile_objects, setup),
         cmocka_unit_test_setup(test_stop_options, setup),
         cmocka_unit_test_setup(test_pp_halt_quick_stop_decel, setup),
+        cmocka_unit_test_setup(test_table_commit_interlock, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

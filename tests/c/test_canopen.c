@@ -858,6 +858,233 @@ static void test_fuzz_random_frames(void **st)
     assert_true(CO.stats.rx_ignored > 1000u);
 }
 
+
+/* ---- NMT transitions and CiA 402 0x6007 ------------------------------------------- */
+
+static void nmt_cmd(uint8_t cmd)
+{
+    uint8_t d[2] = {cmd, NODE};
+    rx(0, 2, d);
+}
+
+/* OPERATION ENABLED in CSV at a target velocity, with 0x6007 = opt; NMT `op`: OPERATIONAL */
+static void enable_csv(int16_t opt, bool op)
+{
+    setup_dev();
+    tick(1);
+    assert_int_equal(sdo_write(0x6007u, 0u, (uint32_t)(uint16_t)opt, 2u), 0);
+    assert_int_equal(sdo_write(0x6060u, 0u, 9u, 1u), 0);
+    cw(0x06);
+    cw(0x0F);
+    assert_int_equal(sdo_write(0x60FFu, 0u, 100000u, 4u), 0);
+    if (op) {
+        nmt_cmd(0x01);
+        assert_int_equal(CO.nmt, HD_CO_NMT_OP);
+    }
+    tick(1);
+    assert_int_equal(statusword() & 0x6F, 0x27);
+    assert_true(X.on);
+    assert_int_equal(X.sp.target_velocity, 100000);
+}
+
+static bool emcy_sent(uint16_t code)
+{
+    for (uint32_t i = 0; i < X.ntx; i++) {
+        const hd_can_frame_t *f = &X.tx[i];
+        if (f->id == 0x80u + NODE && (uint16_t)(f->data[0] | (f->data[1] << 8)) == code) {
+            return true;
+        }
+    }
+    return false;
+}
+
+/* Every NMT command that ends the master's connection (stop, pre-operational from
+ * OPERATIONAL, reset communication, reset node) with the power stage on applies 0x6007
+ * (docs/can.md): 0 nothing (reset node: power stage off all the same), 1 FAULT with 0x603F
+ * 0x8100, 2 SWITCH ON DISABLED, 3 QUICK STOP ACTIVE then SWITCH ON DISABLED. */
+static void test_nmt_leaving_operational_applies_0x6007(void **st)
+{
+    static const uint8_t cmds[4] = {0x02, 0x80, 0x82, 0x81};
+    (void)st;
+    for (int16_t opt = 0; opt <= 3; opt++) {
+        for (uint32_t c = 0; c < 4u; c++) {
+            const uint8_t cmd = cmds[c];
+            enable_csv(opt, true);
+            flush();
+            nmt_cmd(cmd);
+            if (opt == 3 && cmd != 0x81) {
+                assert_int_equal(statusword() & 0x6F, 0x27);     /* updated by the tick */
+                tick(1);
+                assert_int_equal(statusword() & 0x6F, 0x07);     /* quick stop active */
+                assert_true(X.on);
+                assert_int_equal(X.sp.quick_stop, 1);
+            }
+            tick(20);
+            const bool emcy = emcy_sent(HD_CO_EMCY_COMM);
+            uint32_t v = 0;
+            if (cmd != 0x02) {
+                assert_int_equal(sdo_read(0x603Fu, 0u, &v), 0);
+            } else {
+                v = CO.od.error_code;                            /* STOPPED: no SDO */
+            }
+            if (opt == 0 && cmd != 0x81) {
+                assert_int_equal(statusword() & 0x6F, 0x27);     /* "no action": keeps running */
+                assert_true(X.on);
+            } else if (opt == 1) {
+                assert_int_equal(statusword() & 0x4F, 0x08);     /* fault */
+                assert_false(X.on);
+                assert_int_equal(v, HD_CO_EMCY_COMM);
+                assert_int_equal(X.comm_faults, 1);
+                assert_true((CO.od.error_register & HD_CO_ER_COMM) != 0u);
+                assert_int_equal(CO.err_hist[0], HD_CO_EMCY_COMM);
+                /* the EMCY goes out unless the node is STOPPED */
+                assert_int_equal(emcy, cmd != 0x02);
+            } else {
+                assert_int_equal(statusword() & 0x4F, 0x40);     /* switch on disabled */
+                assert_false(X.on);
+                assert_int_equal(X.comm_faults, 0);
+                assert_false(emcy);
+            }
+        }
+    }
+    /* recovery from the fault: start, fault reset, enable again */
+    enable_csv(1, true);
+    nmt_cmd(0x02);
+    tick(2);
+    nmt_cmd(0x01);
+    cw(0x00);
+    cw(0x80);
+    tick(1);
+    assert_int_equal(statusword() & 0x4F, 0x40);
+    assert_int_equal(CO.od.error_register, 0);
+    cw(0x06);
+    cw(0x0F);
+    assert_int_equal(statusword() & 0x6F, 0x27);
+    assert_true(X.on);
+}
+
+/* No reaction when the connection does not end or the power stage is off: NMT start, pre-
+ * operational from PRE-OPERATIONAL (the SDO channel stays), any command with the power stage
+ * off; stop from PRE-OPERATIONAL with the power stage on does react. */
+static void test_nmt_without_reaction(void **st)
+{
+    (void)st;
+    enable_csv(1, false);                          /* enabled over SDO in PRE-OPERATIONAL */
+    nmt_cmd(0x80);
+    nmt_cmd(0x01);
+    nmt_cmd(0x01);
+    tick(5);
+    assert_int_equal(statusword() & 0x6F, 0x27);
+    assert_true(X.on);
+    nmt_cmd(0x80);                                 /* OPERATIONAL -> PRE-OPERATIONAL */
+    tick(2);
+    assert_int_equal(statusword() & 0x4F, 0x08);
+    enable_csv(2, false);
+    nmt_cmd(0x02);                                 /* PRE-OPERATIONAL -> STOPPED */
+    tick(2);
+    assert_int_equal(statusword() & 0x4F, 0x40);
+    assert_false(X.on);
+    /* power stage off: every command leaves the state alone (0x6007 = 1 would fault) */
+    static const uint8_t cmds[5] = {0x01, 0x02, 0x80, 0x82, 0x01};
+    setup_dev();
+    tick(1);
+    cw(0x06);
+    cw(0x07);
+    for (uint32_t c = 0; c < 5u; c++) {
+        nmt_cmd(cmds[c]);
+        tick(2);
+        assert_int_equal(statusword() & 0x6F, 0x23);  /* switched on */
+        assert_int_equal(X.comm_faults, 0);
+    }
+    nmt_cmd(0x81);                                 /* the application restarts */
+    tick(2);
+    assert_int_equal(statusword() & 0x4F, 0x40);
+    assert_int_equal(X.comm_faults, 0);
+}
+
+/* ---- COB-IDs ------------------------------------------------------------------------ */
+
+/* CiA 301 restricted CAN-IDs and the node's own service IDs are refused with 0x06090030,
+ * the old value kept; the disable / change / enable sequence works. */
+static void test_cobid_rules(void **st)
+{
+    static const uint32_t restricted[] = {0x001, 0x07F, 0x101, 0x17F, 0x180, 0x581, 0x580 + NODE, 0x5FF,
+                                          0x601, 0x600 + NODE, 0x67F, 0x6E0, 0x6FF, 0x701, 0x700 + NODE,
+                                          0x77F, 0x780, 0x7E5, 0x7FF};
+    uint32_t v = 0;
+    (void)st;
+    setup_dev();
+    assert_true(hd_co_cobids_ok(&CO));
+    /* SYNC on the node's SDO request id would make every request a SYNC */
+    assert_int_equal(sdo_write(0x1005u, 0u, 0x600u + NODE, 4u), HD_CO_AB_VALUE);
+    assert_int_equal(sdo_read(0x1005u, 0u, &v), 0);               /* still answers */
+    assert_int_equal(v, 0x80u);
+    for (uint32_t i = 0; i < sizeof restricted / sizeof restricted[0]; i++) {
+        const uint32_t id = restricted[i];
+        assert_false(hd_co_cobid_allowed(&CO, 0x1005u, 0u, id));
+        assert_int_equal(sdo_write(0x1005u, 0u, id, 4u), HD_CO_AB_VALUE);
+        assert_int_equal(sdo_write(0x1800u, 1u, id, 4u), HD_CO_AB_VALUE);
+        assert_int_equal(sdo_write(0x1400u, 1u, id, 4u), HD_CO_AB_VALUE);
+        if (id > 0x80u) {                                          /* 0x1014 minimum 0x81 */
+            assert_int_equal(sdo_write(0x1014u, 0u, id, 4u), HD_CO_AB_VALUE);
+        }
+        /* through the CiA 301 sequence too: invalid first, then the id */
+        assert_int_equal(sdo_write(0x1801u, 1u, 0x80000000u | (0x280u + NODE), 4u), 0);
+        assert_int_equal(sdo_write(0x1801u, 1u, id, 4u), HD_CO_AB_VALUE);
+        assert_int_equal(sdo_write(0x1801u, 1u, 0x280u + NODE, 4u), 0);
+    }
+    assert_int_equal(sdo_write(0x1400u, 1u, 0x80000000u | (0x200u + NODE), 4u), 0);
+    assert_int_equal(sdo_write(0x1400u, 1u, 0x000u, 4u), HD_CO_AB_VALUE);
+    assert_int_equal(sdo_write(0x1400u, 1u, 0x200u + NODE, 4u), 0);
+    /* the node's own services: SYNC, EMCY, every valid PDO */
+    assert_int_equal(sdo_write(0x1005u, 0u, 0x80u + NODE, 4u), HD_CO_AB_VALUE);   /* = EMCY */
+    assert_int_equal(sdo_write(0x1005u, 0u, 0x180u + NODE, 4u), HD_CO_AB_VALUE);  /* = TPDO1 */
+    assert_int_equal(sdo_write(0x1005u, 0u, 0x200u + NODE, 4u), HD_CO_AB_VALUE);  /* = RPDO1 */
+    assert_int_equal(sdo_write(0x1014u, 0u, 0x180u + NODE, 4u), HD_CO_AB_VALUE);
+    assert_int_equal(sdo_write(0x1801u, 1u, 0x80000000u | (0x280u + NODE), 4u), 0);
+    assert_int_equal(sdo_write(0x1801u, 1u, 0x180u + NODE, 4u), HD_CO_AB_VALUE);  /* = TPDO1 */
+    assert_int_equal(sdo_write(0x1801u, 1u, 0x200u + NODE, 4u), HD_CO_AB_VALUE);  /* = RPDO1 */
+    assert_int_equal(sdo_write(0x1801u, 1u, 0x080u, 4u), HD_CO_AB_VALUE);         /* = SYNC */
+    assert_int_equal(sdo_write(0x1801u, 1u, 0x80u + NODE, 4u), HD_CO_AB_VALUE);   /* = EMCY */
+    /* 29-bit (bit 29) and the reserved bits are refused */
+    assert_int_equal(sdo_write(0x1801u, 1u, 0x20000000u | (0x2A0u + NODE), 4u), HD_CO_AB_VALUE);
+    assert_int_equal(sdo_write(0x1801u, 1u, 0x00000800u | (0x2A0u + NODE), 4u), HD_CO_AB_VALUE);
+    assert_int_equal(sdo_write(0x1014u, 0u, 0x20000000u | (0x80u + NODE), 4u), HD_CO_AB_VALUE);
+    assert_false(hd_co_cobid_allowed(&CO, 0x1005u, 0u, 0x20000090u));
+    assert_false(hd_co_cobid_allowed(&CO, 0x1005u, 0u, 0x40000090u));
+    assert_false(hd_co_cobid_allowed(&CO, 0x1006u, 0u, 0x90u));                 /* not a COB-ID */
+    /* none of it changed anything */
+    assert_int_equal(CO.od.cob_id_sync, 0x80u);
+    assert_int_equal(CO.od.cob_id_emcy, 0x80u + NODE);
+    assert_int_equal(CO.od.tpdo_cob[0], 0x180u + NODE);
+    assert_int_equal(CO.od.tpdo_cob[1], 0x80000000u | (0x280u + NODE));
+    assert_int_equal(CO.od.rpdo_cob[0], 0x200u + NODE);
+    /* legal changes: a valid PDO's id only through invalid; an id freed by another object */
+    assert_int_equal(sdo_write(0x1800u, 1u, 0x1A0u + NODE, 4u), HD_CO_AB_VALUE);  /* valid: disable first */
+    assert_int_equal(sdo_write(0x1800u, 1u, 0x80000000u | (0x180u + NODE), 4u), 0);
+    assert_int_equal(sdo_write(0x1800u, 1u, 0x1A0u + NODE, 4u), 0);
+    assert_int_equal(sdo_write(0x1801u, 1u, 0x180u + NODE, 4u), 0);              /* TPDO1's old id */
+    assert_int_equal(sdo_write(0x1005u, 0u, 0x0FFu, 4u), 0);
+    assert_int_equal(sdo_write(0x1014u, 0u, 0x80000000u | (0x80u + NODE), 4u), 0); /* EMCY off */
+    assert_int_equal(sdo_write(0x1401u, 1u, 0x80000000u | (0x300u + NODE), 4u), 0);
+    assert_int_equal(sdo_write(0x1401u, 1u, 0x80u + NODE, 4u), 0);               /* free now */
+    assert_int_equal(sdo_write(0x1014u, 0u, 0x80u + NODE, 4u), HD_CO_AB_VALUE);   /* taken */
+    assert_true(hd_co_cobids_ok(&CO));
+    /* the new ids work: SYNC on 0x0FF, TPDO1 on 0x1A0+n */
+    assert_int_equal(sdo_write(0x1800u, 2u, 1u, 1u), 0);
+    nmt_cmd(0x01);
+    flush();
+    rx(0x0FFu, 0, NULL);
+    bool seen = false;
+    for (uint32_t i = 0; i < X.ntx; i++) {
+        seen = seen || X.tx[i].id == 0x1A0u + NODE;
+    }
+    assert_true(seen);
+    /* a dictionary with a colliding pair in force fails the shared check */
+    CO.od.tpdo_cob[3] = 0x1A0u + NODE;
+    assert_false(hd_co_cobids_ok(&CO));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -869,6 +1096,9 @@ int main(void)
         cmocka_unit_test(test_402_new_setpoint_edge_latched_at_write),
         cmocka_unit_test(test_heartbeat_consumer),
         cmocka_unit_test(test_pdo_mapping_and_stream),
+        cmocka_unit_test(test_nmt_leaving_operational_applies_0x6007),
+        cmocka_unit_test(test_nmt_without_reaction),
+        cmocka_unit_test(test_cobid_rules),
         cmocka_unit_test(test_fuzz_random_frames),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
