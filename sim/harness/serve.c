@@ -688,7 +688,7 @@ int hd_sim_serve_main(int argc, char **argv)
     const int64_t n_end = duration > 0.0 ? (int64_t)llround(duration / dt) : INT64_MAX;
     double t0 = wall_s();
     int64_t k = 0;
-    int had_client = 0;
+    int had_client = 0, diverged = 0;
     while (!g_stop && k < n_end) {
         /* wait for a client before time starts (the boot-up message must reach it) */
         if (!s->use_scan && !hd_scd_streaming(s->scd)) {
@@ -716,6 +716,14 @@ int hd_sim_serve_main(int argc, char **argv)
          * takes effect at the same tick whatever the host's timing (lock-step is exact) */
         if (s->rig && pace != 2 && k % 10 == 0) rig_poll(s);
         hd_sim_step(s->sim, NULL);
+        if (hd_sim_check_diverged(s->sim, msg, sizeof msg)) {
+            /* the plant state is not finite: nothing the drive sends from here on is
+             * meaningful, so the server stops with the harness's one-line error */
+            snprintf(msg, sizeof msg, "--axis %s: the simulation diverged at t = %.6g s (the plant state is not finite)",
+                     axis, (double)k * dt);
+            diverged = 1;
+            break;
+        }
         hd_co_tick(&s->co, HD_CO_TICK_US);
         k++;
         s->t_us = (uint64_t)k * 100u;
@@ -758,5 +766,9 @@ int hd_sim_serve_main(int argc, char **argv)
     free(s->test.stage);
     free(s);
     free(sc);
+    if (diverged) {
+        fprintf(stderr, "hdservo-sim serve: error: %s\n", msg);
+        return 2;
+    }
     return 0;
 }
