@@ -48,7 +48,8 @@
  *   transport (through the optional bus model).
  * Pacing: realtime = one period per 100 us of wall-clock; fast = as fast as
  * the client reads (the TCP output blocks when its buffer is full, so no
- * frame is lost); sync = K periods per SYNC received (lock-step with the host); frames
+ * frame is lost; a client whose socket accepts nothing for --client-timeout S,
+ * default 5 s, is dropped, and SIGINT/SIGTERM end the wait at once); sync = K periods per SYNC received (lock-step with the host); frames
  * and rig commands are then read only between SYNC credits, so a run repeats exactly.
  * Bus model (--bitrate B > 0): every frame costs its bit-stuffed length at B;
  * frames wait in a 64-frame controller queue and are dropped (counted) when
@@ -531,7 +532,7 @@ int hd_sim_serve_main(int argc, char **argv)
 {
     const char *axis = "reference", *transport = "socketcand", *pacing = "realtime", *channel = "can0";
     unsigned long node = 1, port = 0, sync_periods = 10, bitrate = 0, seed = 1;
-    double duration = 0.0, can_drop = 0.0;
+    double duration = 0.0, can_drop = 0.0, client_timeout = HD_SCD_STALL_MS / 1000.0;
     unsigned long can_seed_v = 1;
     const char *nvm_path = NULL;
     int quiet = 0, rig = 0;
@@ -580,6 +581,13 @@ int hd_sim_serve_main(int argc, char **argv)
             can_drop = strtod(v, &end);
             if (*end || !(can_drop >= 0.0 && can_drop <= 1.0)) return usage_fail("--can-drop must be a probability 0..1");
         }
+        else if (strcmp(a, "--client-timeout") == 0) {
+            NEEDV();
+            char *end;
+            client_timeout = strtod(v, &end);
+            if (*end || !(client_timeout >= 0.1 && client_timeout <= 3600.0))
+                return usage_fail("--client-timeout must be 0.1..3600 seconds");
+        }
         else if (strcmp(a, "--can-seed") == 0) { NEEDV(); if (parse_u(v, 0, 0xFFFFFFFFul, &can_seed_v)) return usage_fail("--can-seed must be an integer 0..2^32-1"); }
         else if (strcmp(a, "--nvm") == 0) { NEEDV(); nvm_path = v; }
         else if (strcmp(a, "--rig") == 0) rig = 1;
@@ -588,7 +596,7 @@ int hd_sim_serve_main(int argc, char **argv)
             printf("usage: hdservo-sim serve [--axis AXIS.toml|reference|minimal] [--node-id N] "
                    "[--transport socketcand|socketcan] [--port P] [--channel can0] "
                    "[--pacing realtime|fast|sync] [--sync-periods K] [--bitrate B] [--duration S] [--seed N] "
-                   "[--set KEY=VALUE]... [--rig] [--can-drop P] [--can-seed N] [--nvm PATH] [-q]\n");
+                   "[--set KEY=VALUE]... [--rig] [--can-drop P] [--can-seed N] [--nvm PATH] [--client-timeout S] [-q]\n");
             return 0;
         } else {
             snprintf(msg, sizeof msg, "unknown option '%.100s'", a);
@@ -664,6 +672,10 @@ int hd_sim_serve_main(int argc, char **argv)
             fprintf(stderr, "hdservo-sim serve: error: %s\n", msg);
             return 1;
         }
+        /* blocking writes to a client that stopped reading watch the signal flag and
+         * give the client up after --client-timeout without progress */
+        s->scd->stop = &g_stop;
+        s->scd->stall_ms = (uint32_t)llround(client_timeout * 1000.0);
         printf("listening on 127.0.0.1:%u\n", (unsigned)s->scd->port);
     }
     fflush(stdout);
@@ -750,7 +762,8 @@ int hd_sim_serve_main(int argc, char **argv)
             "{\"periods\": %lld, \"sim_s\": %.4f, \"wall_s\": %.4f, \"frames_to_bus\": %llu, "
             "\"bus_dropped\": %llu, \"bus_load\": %.4f, \"stack_tx_dropped\": %u, \"rx_frames\": %u, "
             "\"rx_ignored\": %u, \"transport_dropped\": %u, \"can_lost_rx\": %llu, \"can_lost_tx\": %llu, "
-            "\"can_busoff_rx\": %llu, \"can_busoff_tx\": %llu, \"can_bus_off\": %lu, \"can_recoveries\": %lu}\n",
+            "\"can_busoff_rx\": %llu, \"can_busoff_tx\": %llu, \"can_bus_off\": %lu, \"can_recoveries\": %lu, "
+            "\"client_timeouts\": %u}\n",
             (long long)k, (double)k * dt, wall, (unsigned long long)s->bus_frames,
             (unsigned long long)s->bus_dropped,
             s->bitrate && k ? (double)s->bus_bits_total / ((double)s->bitrate * (double)k * dt) : 0.0,
@@ -758,7 +771,8 @@ int hd_sim_serve_main(int argc, char **argv)
             s->use_scan ? s->scan.tx_dropped : s->scd->tx_dropped,
             (unsigned long long)s->can_lost_rx, (unsigned long long)s->can_lost_tx,
             (unsigned long long)s->can_busoff_rx, (unsigned long long)s->can_busoff_tx,
-            (unsigned long)s->port->can_ctrl.bus_off_count, (unsigned long)s->port->can_ctrl.recoveries);
+            (unsigned long)s->port->can_ctrl.bus_off_count, (unsigned long)s->port->can_ctrl.recoveries,
+            s->use_scan ? 0u : s->scd->stalled);
     if (s->use_scan) hd_scan_close(&s->scan);
     else hd_scd_close(s->scd);
     hd_sim_free(s->sim);
