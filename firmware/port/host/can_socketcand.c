@@ -57,6 +57,7 @@ int32_t hd_scd_open(hd_scd_t *s, uint16_t port, char *err, uint32_t errlen)
     s->stop = NULL;
     s->stall_ms = HD_SCD_STALL_MS;
     s->stalled = 0u;
+    s->quiet_ms = HD_SCD_QUIET_MS;
     s->listen_fd = socket(AF_INET, SOCK_STREAM, 0);
     if (s->listen_fd < 0) {
         snprintf(err, errlen, "socketcand: socket: %s", strerror(errno));
@@ -199,7 +200,7 @@ static void handle_line(hd_scd_t *s, const char *body, uint32_t len, hd_can_fram
             send_bare(s, "< ok >");
             /* the client compares this reply with ONE recv(): stay quiet for a
              * moment so that no frame lands in the same read */
-            (void)poll(NULL, 0, HD_SCD_QUIET_MS);
+            (void)poll(NULL, 0, (int)s->quiet_ms);
             return;
         }
     } else {

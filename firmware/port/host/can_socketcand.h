@@ -46,6 +46,7 @@ typedef struct {
     const volatile sig_atomic_t *stop;
     uint32_t stall_ms;
     uint32_t stalled;
+    uint32_t quiet_ms;           /* pause after "rawmode" (HD_SCD_QUIET_MS; tests may shorten it) */
 } hd_scd_t;
 
 /** Listen on 127.0.0.1:port (0 = ephemeral).  0 ok, -1 with a message in err. */
