@@ -48,6 +48,20 @@ $(FUZZ_DIR)/fuzz_toml: tests/fuzz/fuzz_toml.c tests/fuzz/fuzz_common.h $(FUZZ_DI
 	$(FUZZ_CC) $(FUZZ_SIM_CFLAGS) -fsanitize=fuzzer -o $@ $< $(FUZZ_DIR)/obj/sim/harness/toml_lite.o $(FUZZ_DIR)/obj/sim/harness/sim_err.o -lm
 $(FUZZ_DIR)/fuzz_preisach $(FUZZ_DIR)/fuzz_pstore $(FUZZ_DIR)/fuzz_tstore $(FUZZ_DIR)/fuzz_canopen: $(FUZZ_DIR)/fuzz_%: tests/fuzz/fuzz_%.c tests/fuzz/fuzz_common.h tests/fuzz/fuzz_nvm.h $(FUZZ_DIR)/libfw.a
 	$(FUZZ_CC) $(FUZZ_TGT_CFLAGS) -fsanitize=fuzzer -o $@ $< $(FUZZ_DIR)/libfw.a
+# Simulator targets: the plant + closed-loop harness (fuzz_plant), the socketcand
+# server of the host port and the serve --rig channel (fuzz_socketcand).  The sim
+# objects see the plant, the firmware headers and the host port; the host port's
+# socketcand server uses system headers, so it is built like hal_host.o.
+FUZZ_SIMX_CFLAGS := $(FUZZ_SIM_CFLAGS) -Isim/plant $(FW_INC) -Ifirmware/port/host
+FUZZ_PLANT_SIM := $(addprefix $(FUZZ_DIR)/obj/sim/,plant/hd_plant.o plant/hd_plant_params.o plant/hd_plant_preisach.o \
+                    harness/harness.o harness/scenario.o harness/toml_lite.o harness/sim_err.o harness/logwrite.o)
+$(FUZZ_PLANT_SIM) $(FUZZ_DIR)/obj/sim/harness/rig.o: FUZZ_SIM_CFLAGS := $(FUZZ_SIMX_CFLAGS)
+$(FUZZ_DIR)/obj/firmware/port/host/can_socketcand.o: FUZZ_FW_CFLAGS := $(FUZZ_TGT_CFLAGS)
+$(FUZZ_DIR)/fuzz_plant: tests/fuzz/fuzz_plant.c tests/fuzz/fuzz_common.h $(FUZZ_PLANT_SIM) $(FUZZ_DIR)/obj/firmware/port/host/hal_host.o $(FUZZ_DIR)/libfw.a
+	$(FUZZ_CC) $(FUZZ_SIMX_CFLAGS) -fsanitize=fuzzer -o $@ $< $(FUZZ_PLANT_SIM) $(FUZZ_DIR)/obj/firmware/port/host/hal_host.o $(FUZZ_DIR)/libfw.a -lm
+$(FUZZ_DIR)/fuzz_socketcand: tests/fuzz/fuzz_socketcand.c tests/fuzz/fuzz_common.h $(FUZZ_DIR)/obj/sim/harness/rig.o $(FUZZ_DIR)/obj/firmware/port/host/can_socketcand.o
+	$(FUZZ_CC) $(FUZZ_SIMX_CFLAGS) -fsanitize=fuzzer -o $@ $< $(FUZZ_DIR)/obj/sim/harness/rig.o $(FUZZ_DIR)/obj/firmware/port/host/can_socketcand.o -lm
+
 $(FUZZ_DIR)/fuzz_params: tests/fuzz/fuzz_params.c tests/fuzz/fuzz_common.h $(FUZZ_DIR)/libfw.a $(FUZZ_DIR)/obj/firmware/port/host/hal_host.o
 	$(FUZZ_CC) $(FUZZ_TGT_CFLAGS) -fsanitize=fuzzer -o $@ $< $(FUZZ_DIR)/obj/firmware/port/host/hal_host.o $(FUZZ_DIR)/libfw.a
 

@@ -472,12 +472,22 @@ void hd_sim_step(hd_sim_t *s, double *row)
     s->k++;
 }
 
+int hd_sim_check_diverged(const hd_sim_t *s, char *err, size_t errlen)
+{
+    if (!hd_plant_diverged(&s->plant)) return 0;
+    sim_set_err(err, errlen, "%s: the simulation diverged at t = %.6g s (the plant state is not finite)",
+                s->sc.path, (double)(s->k - 1) * s->sc.dt_s);
+    return -1;
+}
+
 int hd_sim_run(hd_sim_t *s, double *rows, char *err, size_t errlen)
 {
     int64_t D = s->sc.log_decimation, j = 0;
     while (s->k < s->n_periods) {
         int log = (s->k % D) == 0;
         hd_sim_step(s, log ? rows + j * HD_SIM_NCOL : NULL);
+        /* every period, not only logged rows: a diverged plant must stop the run at once */
+        if (hd_sim_check_diverged(s, err, errlen)) return -1;
         if (log) {
             const double *r = rows + j * HD_SIM_NCOL;
             for (int32_t c = 0; c < HD_SIM_NCOL; c++) {

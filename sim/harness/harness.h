@@ -77,6 +77,10 @@ void hd_sim_timing(const hd_sim_t *s, double *app_s, double *plant_s, int64_t *p
 
 /* One period; if row != NULL it receives HD_SIM_NCOL values. */
 void hd_sim_step(hd_sim_t *s, double *row);
+/* -1 with "PATH: the simulation diverged at t = ..." in err once the plant state
+ * became non-finite (hd_plant_diverged), else 0.  hd_sim_run checks it every
+ * period; callers stepping with hd_sim_step check it themselves. */
+int hd_sim_check_diverged(const hd_sim_t *s, char *err, size_t errlen);
 /* Run every period, writing hd_sim_n_rows() rows (row-major) into rows. 0 ok. */
 int hd_sim_run(hd_sim_t *s, double *rows, char *err, size_t errlen);
 

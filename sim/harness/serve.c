@@ -48,7 +48,8 @@
  *   transport (through the optional bus model).
  * Pacing: realtime = one period per 100 us of wall-clock; fast = as fast as
  * the client reads (the TCP output blocks when its buffer is full, so no
- * frame is lost); sync = K periods per SYNC received (lock-step with the host); frames
+ * frame is lost; a client whose socket accepts nothing for --client-timeout S,
+ * default 5 s, is dropped, and SIGINT/SIGTERM end the wait at once); sync = K periods per SYNC received (lock-step with the host); frames
  * and rig commands are then read only between SYNC credits, so a run repeats exactly.
  * Bus model (--bitrate B > 0): every frame costs its bit-stuffed length at B;
  * frames wait in a 64-frame controller queue and are dropped (counted) when
@@ -74,6 +75,7 @@
 #include "can_socketcan.h"
 #include "hal_host.h"
 #include "hd_param_store.h"
+#include "rig.h"
 #include "serve.h"
 
 #define BUSQ 64u
@@ -112,8 +114,7 @@ typedef struct {
     uint32_t sync_periods;
     /* test rig (--rig): output lock, external output torque, reference instruments */
     int rig;
-    char rig_line[1024];
-    size_t rig_len;
+    hd_rig_lines_t rig_in;   /* stdin line assembly (rig.c) */
     double rig_torque, rig_torque_target, rig_torque_rate;
     double rig_q_target[RIG_QUEUE], rig_q_rate[RIG_QUEUE];   /* queued ramps ("then") */
     int rig_q_head, rig_q_n;
@@ -389,116 +390,95 @@ static void rig_command_can_status(srv_t *s)
     rig_answer(s, extra);
 }
 
+/* Execute one parsed rig command (rig.c parses) and answer it with one line. */
 static void rig_command(srv_t *s, char *line)
 {
-    char *argv[4] = { 0 };
-    int argc = 0;
+    hd_rig_cmd_t c;
     char extra[160];
-    for (char *tok = strtok(line, " \t\r"); tok && argc < 4; tok = strtok(NULL, " \t\r")) argv[argc++] = tok;
-    if (argc == 0) return;
-    if (strcmp(argv[0], "brake") == 0 && argc == 2 && (strcmp(argv[1], "0") == 0 || strcmp(argv[1], "1") == 0)) {
-        hd_plant_set_brake(rig_plant(s), argv[1][0] == '1');
-        snprintf(extra, sizeof extra, "brake=%c", argv[1][0]);
+    hd_rig_parse(line, &c);
+    switch (c.kind) {
+    case HD_RIG_NONE:
+        return;
+    case HD_RIG_ERROR:
+        rig_error(c.error);
+        return;
+    case HD_RIG_BRAKE:
+        hd_plant_set_brake(rig_plant(s), c.on);
+        snprintf(extra, sizeof extra, "brake=%c", c.on ? '1' : '0');
         rig_answer(s, extra);
-    } else if (strcmp(argv[0], "torque") == 0 && (argc == 2 || argc == 3)) {
-        char *end = NULL;
-        double t = strtod(argv[1], &end), r = 0.0;
-        if (!end || *end || !isfinite(t)) { rig_error("torque: expected a number of N.m"); return; }
-        if (argc == 3) {
-            r = strtod(argv[2], &end);
-            if (!end || *end || !isfinite(r) || r < 0.0) { rig_error("torque: expected a rate >= 0 N.m/s"); return; }
-        }
-        s->rig_torque_target = t;
-        s->rig_torque_rate = r;
+        return;
+    case HD_RIG_TORQUE:
+        s->rig_torque_target = c.torque_Nm;
+        s->rig_torque_rate = c.rate_Nm_s;
         s->rig_q_n = 0;
-        if (r == 0.0) s->rig_torque = t;
+        if (c.rate_Nm_s == 0.0) s->rig_torque = c.torque_Nm;
         hd_plant_fault_load_step(rig_plant(s), s->rig_torque);
-        snprintf(extra, sizeof extra, "torque=%.9g target=%.9g", s->rig_torque, t);
+        snprintf(extra, sizeof extra, "torque=%.9g target=%.9g", s->rig_torque, c.torque_Nm);
         rig_answer(s, extra);
-    } else if (strcmp(argv[0], "then") == 0 && argc == 3) {
-        char *end = NULL;
-        double t = strtod(argv[1], &end), r;
-        if (!end || *end || !isfinite(t)) { rig_error("then: expected a number of N.m"); return; }
-        r = strtod(argv[2], &end);
-        if (!end || *end || !isfinite(r) || r <= 0.0) { rig_error("then: expected a rate > 0 N.m/s"); return; }
+        return;
+    case HD_RIG_THEN: {
         if (s->rig_q_n >= RIG_QUEUE) { rig_error("then: queue full (64 ramps)"); return; }
         int q = (s->rig_q_head + s->rig_q_n) % RIG_QUEUE;
-        s->rig_q_target[q] = t;
-        s->rig_q_rate[q] = r;
+        s->rig_q_target[q] = c.torque_Nm;
+        s->rig_q_rate[q] = c.rate_Nm_s;
         s->rig_q_n++;
         snprintf(extra, sizeof extra, "queued=%d", s->rig_q_n);
         rig_answer(s, extra);
-    } else if (strcmp(argv[0], "record") == 0 && argc == 2 && strcmp(argv[1], "stop") == 0) {
+        return;
+    }
+    case HD_RIG_RECORD_STOP:
         if (s->rig_rec) fclose(s->rig_rec);
         s->rig_rec = NULL;
         rig_answer(s, "record=stop");
-    } else if (strcmp(argv[0], "record") == 0 && argc == 3) {
-        unsigned long d;
-        if (parse_u(argv[2], 1, 1000000, &d) != 0) { rig_error("record: expected a decimation 1..1000000"); return; }
+        return;
+    case HD_RIG_RECORD:
         if (s->rig_rec) fclose(s->rig_rec);
-        s->rig_rec = fopen(argv[1], "w");
+        s->rig_rec = fopen(c.path, "w");
         if (!s->rig_rec) { rig_error("record: cannot open the file for writing"); return; }
         fputs("tick,t_s,gear_torque_Nm,applied_torque_Nm,torsion_rad,load_angle_true_rad,"
               "inertial_angle_rad,motor_angle_true_rad,te_rad\n", s->rig_rec);
-        s->rig_rec_decim = (uint32_t)d;
+        s->rig_rec_decim = c.decimation;
         s->rig_k = 0;
         rig_answer(s, "record=start");
-    } else if (strcmp(argv[0], "can") == 0 && argc >= 2) {
-        char *end = NULL;
-        if (strcmp(argv[1], "drop") == 0 && (argc == 3 || argc == 4)) {
-            double p = strtod(argv[2], &end);
-            unsigned long sd = 1;
-            if (!end || *end || !(p >= 0.0 && p <= 1.0)) { rig_error("can drop: expected a probability 0..1"); return; }
-            if (argc == 4 && parse_u(argv[3], 0, 0xFFFFFFFFul, &sd) != 0) { rig_error("can drop: expected a seed 0..2^32-1"); return; }
-            s->can_drop = p;
-            if (argc == 4) can_seed(s, (uint64_t)sd);
-            snprintf(extra, sizeof extra, "can_drop=%.9g", p);
-            rig_answer(s, extra);
-        } else if (strcmp(argv[1], "errors") == 0 && argc == 4) {
-            unsigned long tx, rxe;
-            if (parse_u(argv[2], 0, 1000, &tx) || parse_u(argv[3], 0, 1000, &rxe)) {
-                rig_error("can errors: expected TX RX error counts 0..1000"); return;
-            }
-            hd_host_can_errors(s->port, (uint32_t)tx, (uint32_t)rxe);
-            rig_command_can_status(s);
-        } else if (strcmp(argv[1], "busoff") == 0 && argc == 2) {
-            hd_host_can_bus_off(s->port);
-            rig_command_can_status(s);
-        } else if (strcmp(argv[1], "status") == 0 && argc == 2) {
-            rig_command_can_status(s);
-        } else {
-            rig_error("can: expected drop P [SEED], errors TX RX, busoff or status");
-        }
-    } else if (strcmp(argv[0], "status") == 0 && argc == 1) {
+        return;
+    case HD_RIG_CAN_DROP:
+        s->can_drop = c.probability;
+        if (c.has_seed) can_seed(s, (uint64_t)c.seed);
+        snprintf(extra, sizeof extra, "can_drop=%.9g", c.probability);
+        rig_answer(s, extra);
+        return;
+    case HD_RIG_CAN_ERRORS:
+        hd_host_can_errors(s->port, c.tx_errors, c.rx_errors);
+        rig_command_can_status(s);
+        return;
+    case HD_RIG_CAN_BUSOFF:
+        hd_host_can_bus_off(s->port);
+        rig_command_can_status(s);
+        return;
+    case HD_RIG_CAN_STATUS:
+        rig_command_can_status(s);
+        return;
+    case HD_RIG_STATUS:
         snprintf(extra, sizeof extra, "torque=%.9g brake=%d queued=%d", s->rig_torque,
                  hd_sim_plant(s->sim)->out.brake_engaged, s->rig_q_n);
         rig_answer(s, extra);
-    } else {
-        rig_error("unknown rig command (expected: brake 0|1, torque T [RATE], then T RATE, record PATH DECIM, "
-                  "record stop, status, can drop P [SEED], can errors TX RX, can busoff, can status)");
+        return;
     }
 }
+
+static void rig_line(void *ctx, char *line) { rig_command(ctx, line); }
+static void rig_too_long(void *ctx) { (void)ctx; rig_error("rig command too long"); }
 
 /* Read whatever is waiting on stdin (never blocks) and run each complete line. */
 static void rig_poll(srv_t *s)
 {
     for (;;) {
         struct pollfd pfd = { 0, POLLIN, 0 };
+        char chunk[512];
         if (poll(&pfd, 1, 0) <= 0 || !(pfd.revents & (POLLIN | POLLHUP))) return;
-        ssize_t n = read(0, s->rig_line + s->rig_len, sizeof s->rig_line - 1 - s->rig_len);
+        ssize_t n = read(0, chunk, sizeof chunk);
         if (n <= 0) { s->rig = 0; return; }           /* stdin closed: no more rig commands */
-        s->rig_len += (size_t)n;
-        s->rig_line[s->rig_len] = '\0';
-        char *nl;
-        while ((nl = memchr(s->rig_line, '\n', s->rig_len)) != NULL) {
-            *nl = '\0';
-            size_t used = (size_t)(nl - s->rig_line) + 1;
-            rig_command(s, s->rig_line);
-            memmove(s->rig_line, s->rig_line + used, s->rig_len - used);
-            s->rig_len -= used;
-            s->rig_line[s->rig_len] = '\0';
-        }
-        if (s->rig_len >= sizeof s->rig_line - 1) { rig_error("rig command too long"); s->rig_len = 0; }
+        hd_rig_lines_add(&s->rig_in, chunk, (size_t)n, rig_line, rig_too_long, s);
     }
 }
 
@@ -531,7 +511,7 @@ int hd_sim_serve_main(int argc, char **argv)
 {
     const char *axis = "reference", *transport = "socketcand", *pacing = "realtime", *channel = "can0";
     unsigned long node = 1, port = 0, sync_periods = 10, bitrate = 0, seed = 1;
-    double duration = 0.0, can_drop = 0.0;
+    double duration = 0.0, can_drop = 0.0, client_timeout = HD_SCD_STALL_MS / 1000.0;
     unsigned long can_seed_v = 1;
     const char *nvm_path = NULL;
     int quiet = 0, rig = 0;
@@ -580,6 +560,13 @@ int hd_sim_serve_main(int argc, char **argv)
             can_drop = strtod(v, &end);
             if (*end || !(can_drop >= 0.0 && can_drop <= 1.0)) return usage_fail("--can-drop must be a probability 0..1");
         }
+        else if (strcmp(a, "--client-timeout") == 0) {
+            NEEDV();
+            char *end;
+            client_timeout = strtod(v, &end);
+            if (*end || !(client_timeout >= 0.1 && client_timeout <= 3600.0))
+                return usage_fail("--client-timeout must be 0.1..3600 seconds");
+        }
         else if (strcmp(a, "--can-seed") == 0) { NEEDV(); if (parse_u(v, 0, 0xFFFFFFFFul, &can_seed_v)) return usage_fail("--can-seed must be an integer 0..2^32-1"); }
         else if (strcmp(a, "--nvm") == 0) { NEEDV(); nvm_path = v; }
         else if (strcmp(a, "--rig") == 0) rig = 1;
@@ -588,7 +575,7 @@ int hd_sim_serve_main(int argc, char **argv)
             printf("usage: hdservo-sim serve [--axis AXIS.toml|reference|minimal] [--node-id N] "
                    "[--transport socketcand|socketcan] [--port P] [--channel can0] "
                    "[--pacing realtime|fast|sync] [--sync-periods K] [--bitrate B] [--duration S] [--seed N] "
-                   "[--set KEY=VALUE]... [--rig] [--can-drop P] [--can-seed N] [--nvm PATH] [-q]\n");
+                   "[--set KEY=VALUE]... [--rig] [--can-drop P] [--can-seed N] [--nvm PATH] [--client-timeout S] [-q]\n");
             return 0;
         } else {
             snprintf(msg, sizeof msg, "unknown option '%.100s'", a);
@@ -664,6 +651,10 @@ int hd_sim_serve_main(int argc, char **argv)
             fprintf(stderr, "hdservo-sim serve: error: %s\n", msg);
             return 1;
         }
+        /* blocking writes to a client that stopped reading watch the signal flag and
+         * give the client up after --client-timeout without progress */
+        s->scd->stop = &g_stop;
+        s->scd->stall_ms = (uint32_t)llround(client_timeout * 1000.0);
         printf("listening on 127.0.0.1:%u\n", (unsigned)s->scd->port);
     }
     fflush(stdout);
@@ -688,7 +679,7 @@ int hd_sim_serve_main(int argc, char **argv)
     const int64_t n_end = duration > 0.0 ? (int64_t)llround(duration / dt) : INT64_MAX;
     double t0 = wall_s();
     int64_t k = 0;
-    int had_client = 0;
+    int had_client = 0, diverged = 0;
     while (!g_stop && k < n_end) {
         /* wait for a client before time starts (the boot-up message must reach it) */
         if (!s->use_scan && !hd_scd_streaming(s->scd)) {
@@ -716,6 +707,14 @@ int hd_sim_serve_main(int argc, char **argv)
          * takes effect at the same tick whatever the host's timing (lock-step is exact) */
         if (s->rig && pace != 2 && k % 10 == 0) rig_poll(s);
         hd_sim_step(s->sim, NULL);
+        if (hd_sim_check_diverged(s->sim, msg, sizeof msg)) {
+            /* the plant state is not finite: nothing the drive sends from here on is
+             * meaningful, so the server stops with the harness's one-line error */
+            snprintf(msg, sizeof msg, "--axis %s: the simulation diverged at t = %.6g s (the plant state is not finite)",
+                     axis, (double)k * dt);
+            diverged = 1;
+            break;
+        }
         hd_co_tick(&s->co, HD_CO_TICK_US);
         k++;
         s->t_us = (uint64_t)k * 100u;
@@ -742,7 +741,8 @@ int hd_sim_serve_main(int argc, char **argv)
             "{\"periods\": %lld, \"sim_s\": %.4f, \"wall_s\": %.4f, \"frames_to_bus\": %llu, "
             "\"bus_dropped\": %llu, \"bus_load\": %.4f, \"stack_tx_dropped\": %u, \"rx_frames\": %u, "
             "\"rx_ignored\": %u, \"transport_dropped\": %u, \"can_lost_rx\": %llu, \"can_lost_tx\": %llu, "
-            "\"can_busoff_rx\": %llu, \"can_busoff_tx\": %llu, \"can_bus_off\": %lu, \"can_recoveries\": %lu}\n",
+            "\"can_busoff_rx\": %llu, \"can_busoff_tx\": %llu, \"can_bus_off\": %lu, \"can_recoveries\": %lu, "
+            "\"client_timeouts\": %u}\n",
             (long long)k, (double)k * dt, wall, (unsigned long long)s->bus_frames,
             (unsigned long long)s->bus_dropped,
             s->bitrate && k ? (double)s->bus_bits_total / ((double)s->bitrate * (double)k * dt) : 0.0,
@@ -750,7 +750,8 @@ int hd_sim_serve_main(int argc, char **argv)
             s->use_scan ? s->scan.tx_dropped : s->scd->tx_dropped,
             (unsigned long long)s->can_lost_rx, (unsigned long long)s->can_lost_tx,
             (unsigned long long)s->can_busoff_rx, (unsigned long long)s->can_busoff_tx,
-            (unsigned long)s->port->can_ctrl.bus_off_count, (unsigned long)s->port->can_ctrl.recoveries);
+            (unsigned long)s->port->can_ctrl.bus_off_count, (unsigned long)s->port->can_ctrl.recoveries,
+            s->use_scan ? 0u : s->scd->stalled);
     if (s->use_scan) hd_scan_close(&s->scan);
     else hd_scd_close(s->scd);
     hd_sim_free(s->sim);
@@ -758,5 +759,9 @@ int hd_sim_serve_main(int argc, char **argv)
     free(s->test.stage);
     free(s);
     free(sc);
+    if (diverged) {
+        fprintf(stderr, "hdservo-sim serve: error: %s\n", msg);
+        return 2;
+    }
     return 0;
 }

@@ -709,6 +709,7 @@ double hd_plant_energy(const hd_plant *p)
 static int64_t floor_i64(double x)
 {
     double f = floor(x);
+    if (isnan(f)) return 0;           /* diverged plant: no count (NaN -> integer is undefined) */
     if (f > 9.0e18) return INT64_MAX;
     if (f < -9.0e18) return INT64_MIN;
     return (int64_t)f;
@@ -766,6 +767,9 @@ const hd_plant_output *hd_plant_step(hd_plant *p, const hd_plant_input *in, doub
     int n = q->substeps, k;
 
     if (!(dt_s > 0.0)) return o;
+    /* once the state is not finite nothing meaningful can follow: hold the diverged
+     * output (the harness reports the divergence) instead of integrating NaN */
+    if (p->diverged) return o;
     if (dt_s != p->k_dt) period_constants(p, dt_s);
     h = p->k_h;
     E = p->k_E;
@@ -797,6 +801,10 @@ const hd_plant_output *hd_plant_step(hd_plant *p, const hd_plant_input *in, doub
         p->base_ext_angle += in->base_rate_rad_s * h;
         p->t += h;
     }
+
+    if (!(isfinite(p->th_m) && isfinite(p->w_m) && isfinite(p->th_l) && isfinite(p->w_l) && isfinite(p->i)
+          && isfinite(p->z_m) && isfinite(p->z_l)))
+        p->diverged = 1;
 
     /* diagnostics at the end of the period: the cached end evaluation (base motion at
      * the end of the last sub-step), motor torque from the end current */
@@ -842,6 +850,11 @@ const hd_plant_output *hd_plant_step(hd_plant *p, const hd_plant_input *in, doub
         o->gyro_rad_s = p->gyro_f;
     }
     return o;
+}
+
+int hd_plant_diverged(const hd_plant *p)
+{
+    return p->diverged != 0;
 }
 
 void hd_plant_set_brake(hd_plant *p, int engaged)

@@ -263,6 +263,7 @@ typedef struct {
     /* encoder hold values for dropouts */
     int64_t  enc_last[2];
     hd_plant_output out;
+    int32_t  diverged;                /* the state became non-finite (hd_plant_diverged) */
     /* ---- internal caches of hd_plant.c (derived at init or memoised; no API) ---- */
     double   zig_x[129], zig_r[128];  /* Gaussian ziggurat tables (128 layers) */
     int32_t  hn[3];                   /* active harmonics per list (cogging, TE wg, TE out) */
@@ -295,6 +296,11 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
 /* Advance one control period dt_s (> 0) with prm.substeps fixed RK4 sub-steps;
  * sensors are sampled at the end of the period.  Returns &p->out. */
 const hd_plant_output *hd_plant_step(hd_plant *p, const hd_plant_input *in, double dt_s);
+
+/* 1 once a step left the state non-finite (the parameters or the inputs made the
+ * integration diverge).  From then on hd_plant_step returns the diverged output
+ * unchanged; hd_plant_init clears it. */
+int hd_plant_diverged(const hd_plant *p);
 
 /* Set the initial/current mechanical state (e.g. a pre-twisted axis); angles in rad. */
 void hd_plant_set_state(hd_plant *p, double th_m, double w_m, double th_l, double w_l);

@@ -42,7 +42,11 @@ double hd_preisach_E(const double *E, double u_max, double alpha, double beta)
     double du = 2.0 * u_max / (double)L;
     double xa = (alpha + u_max) / du, xb = (beta + u_max) / du, fa, fb;
     int ia, ib;
+    /* a diverged plant hands in NaN: no table cell belongs to it, and converting
+     * NaN to int is undefined, so it propagates as NaN for the harness to report */
+    if (isnan(xa) || isnan(xb)) return NAN;
     if (alpha <= beta) return 0.0;
+    /* clamp in double before the cast: an out-of-range double -> int is undefined */
     if (xa < 0.0) xa = 0.0;
     if (xa > (double)L) xa = (double)L;
     if (xb < 0.0) xb = 0.0;

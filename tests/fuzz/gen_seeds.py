@@ -164,6 +164,88 @@ def seeds_tstore() -> None:
     write("tstore", "raw_header_only", b"\x01" + struct.pack("<4I", 0x53544448, 1, 1, 10))
 
 
+def plant_param_names() -> list[str]:
+    """Parameter names in the plant table's order (fuzz_plant reads one selector byte each),
+    from build/lib/libhdsim.so; empty when it is not built."""
+    import ctypes
+    lib_path = ROOT / "build" / "lib" / "libhdsim.so"
+    if not lib_path.exists():
+        return []
+    lib = ctypes.CDLL(str(lib_path))
+    lib.hd_simlib_param_name.restype = ctypes.c_char_p
+    lib.hd_simlib_param_name.argtypes = [ctypes.c_int32]
+    return [lib.hd_simlib_param_name(i).decode() for i in range(lib.hd_simlib_param_count())]
+
+
+def seeds_plant() -> None:
+    # layout of fuzz_plant: defaults (0 reference, 1 minimal), mode (0 position, 1 velocity,
+    # 2 torque, 3 off, 4 stabilise), periods - 20, amplitude (int8, 2^-k), then one selector
+    # byte per plant parameter (15 = keep; for numbers 0 min, 1 max, 2 zero, 3 tiny, 5 1e9 ...;
+    # for bools 96 = off, 97 = on), then the seed byte and the open-loop inputs
+    names = plant_param_names()
+    if not names:
+        print("plant: build/lib/libhdsim.so not built, seeds skipped (make sim)")
+        return
+    keep = [15] * len(names)
+    inputs = bytes([7, 40]) + b"\x00\x10\x00\x00\x05\x00" * 40
+
+    def sel(**over: int) -> bytes:
+        b = list(keep)
+        for k, v in over.items():
+            b[names.index(k.replace("__", "."))] = v
+        return bytes(b)
+
+    head = bytes([0, 0, 100, 10, 12])
+    write("plant", "reference_step", head + sel() + bytes([1]) + inputs)
+    write("plant", "minimal_velocity", bytes([1, 1, 80, 20, 8]) + sel() + bytes([2]) + inputs)
+    for m, name in enumerate(["position", "velocity", "torque", "off", "stabilise"]):
+        write("plant", f"mode_{name}", bytes([0, m, 60, 0x7F, 2]) + sel() + bytes([3]) + inputs)
+    stiff = {k: 5 for k in ("stiffness__k1_Nm_per_rad", "stiffness__k2_Nm_per_rad", "stiffness__k3_Nm_per_rad",
+                            "stiffness_cubic__k1_Nm_per_rad", "stiffness_cubic__k3_Nm_per_rad3")}
+    write("plant", "diverge_stiff_1e9_preisach", head + sel(**stiff) + bytes([1]) + inputs)
+    bools = [i for i, n in enumerate(names) if n.endswith("enabled")]
+    on, off = list(keep), list(keep)
+    for i in bools:
+        on[i], off[i] = 97, 96
+    write("plant", "every_effect_on", head + bytes(on) + bytes([1]) + inputs)
+    write("plant", "every_effect_off", head + bytes(off) + bytes([1]) + inputs)
+    write("plant", "all_min", head + bytes([0] * len(names)) + bytes([1]) + inputs)
+    write("plant", "all_max", head + bytes([1] * len(names)) + bytes([1]) + inputs)
+    write("plant", "all_zero_tiny", head + bytes([2, 3] * len(names))[:len(names)] + bytes([1]) + inputs)
+
+
+def chunks(data: bytes, size: int, limit: int) -> bytes:
+    """The chunk framing of fuzz_socketcand: a length byte (len - 1) before each chunk."""
+    out = b""
+    for i in range(0, len(data), size):
+        c = data[i:i + size]
+        assert len(c) <= limit
+        out += bytes([len(c) - 1]) + c
+    return out
+
+
+def seeds_socketcand() -> None:
+    # fuzz_socketcand: selector (even = socketcand server, odd = rig channel); server: the
+    # handshake stage (0 after "< hi >", 1 after open, 2 streaming), then chunks (length
+    # byte < 240 + bytes) and drive frames (byte >= 240 + id u32, dlc, 8 data, dt u32)
+    hs = b"< open can0 >< rawmode >"
+    sends = (b"< send 601 8 40 0 10 0 0 0 0 0 >< send 0 2 1 5 >< send 80 0 >"
+             b"< send 1FFFFFFF 8 FF FF FF FF FF FF FF FF >< echo >")
+    write("socketcand", "handshake_and_sends", b"\x00\x00" + chunks(hs + sends, 13, 96))
+    write("socketcand", "bytewise", b"\x00\x00" + chunks(hs + sends[:60], 1, 96))
+    write("socketcand", "streaming_bad",
+          b"\x00\x02" + chunks(b"< send 800 1 0 >< send 1 9 0 >< send 123456789 0 >< send 1 1 100 >"
+                               b"<<< > garbage >> < send   1   1   AB   >< send 1 1 0 0 >", 40, 96))
+    frame = bytes([0xF1]) + struct.pack("<I", 0x181) + bytes([8]) + bytes(range(8)) + struct.pack("<I", 100)
+    write("socketcand", "frames_out", b"\x00\x02" + frame * 3 + chunks(b"< send 181 1 1 >", 16, 96))
+    write("socketcand", "overlong", b"\x00\x02" + chunks(b"<" + b"x" * 300 + b">< send " + b"F" * 40 + b" 1 1 >", 90, 96))
+    rig = (b"brake 1\nbrake 0\ntorque 1.5 10\nthen -2 5\nthen 0 1\nstatus\n"
+           b"record /dev/null 10\nrecord stop\ncan drop 0.5 7\ncan errors 10 3\ncan busoff\ncan status\n"
+           b"torque nan\nthen 1 0\ncan drop 2\nbogus\n\n   \t\r\n")
+    write("socketcand", "rig_commands", b"\x01" + chunks(rig, 17, 128))
+    write("socketcand", "rig_too_long", b"\x01" + chunks(b"torque " + b"9" * 1100 + b"\nstatus\n", 100, 128))
+
+
 def main() -> None:
     seeds_toml()
     seeds_preisach()
@@ -171,6 +253,8 @@ def main() -> None:
     seeds_tstore()
     seeds_params()
     seeds_canopen()
+    seeds_plant()
+    seeds_socketcand()
     for d in sorted(OUT.iterdir()):
         print(f"{d.name}: {len(list(d.iterdir()))} seeds")
 

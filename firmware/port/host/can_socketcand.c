@@ -14,6 +14,32 @@
 
 #include "can_socketcand.h"
 
+#define WAIT_SLICE_MS 100
+
+/* One wait for the socket to take more output: a poll of at most WAIT_SLICE_MS, so a
+ * stop request is seen promptly.  *idle_ms counts the slices that ended with the
+ * socket still full (a slice cut short by a signal or by room is not counted; the
+ * caller resets it whenever bytes go out), which keeps the port free of clocks and
+ * floating point.  false: stop requested, or idle past the stall time-out (the
+ * client is then dropped and counted). */
+static void drop_client(hd_scd_t *s);
+static bool wait_writable(hd_scd_t *s, uint32_t *idle_ms)
+{
+    if (s->stop != NULL && *s->stop != 0) {
+        return false;
+    }
+    if (*idle_ms >= s->stall_ms) {
+        s->stalled++;
+        drop_client(s);
+        return false;
+    }
+    struct pollfd p = {s->fd, POLLOUT, 0};
+    if (poll(&p, 1, WAIT_SLICE_MS) == 0) {
+        *idle_ms += (uint32_t)WAIT_SLICE_MS;
+    }
+    return !(s->stop != NULL && *s->stop != 0);
+}
+
 static void set_nonblock(int fd)
 {
     int fl = fcntl(fd, F_GETFL, 0);
@@ -28,6 +54,10 @@ int32_t hd_scd_open(hd_scd_t *s, uint16_t port, char *err, uint32_t errlen)
     s->stage = 0u;
     s->in_len = s->out_len = 0u;
     s->rx_frames = s->tx_frames = s->tx_dropped = s->bad_lines = s->clients = 0u;
+    s->stop = NULL;
+    s->stall_ms = HD_SCD_STALL_MS;
+    s->stalled = 0u;
+    s->quiet_ms = HD_SCD_QUIET_MS;
     s->listen_fd = socket(AF_INET, SOCK_STREAM, 0);
     if (s->listen_fd < 0) {
         snprintf(err, errlen, "socketcand: socket: %s", strerror(errno));
@@ -80,18 +110,21 @@ static void send_bare(hd_scd_t *s, const char *msg)
 {
     size_t n = strlen(msg);
     size_t off = 0u;
-    while (off < n) {
+    uint32_t idle = 0u;
+    while (off < n && s->fd >= 0) {
         ssize_t w = send(s->fd, msg + off, n - off, MSG_NOSIGNAL);
         if (w < 0) {
             if (errno == EAGAIN || errno == EINTR) {
-                struct pollfd p = {s->fd, POLLOUT, 0};
-                (void)poll(&p, 1, 100);
+                if (!wait_writable(s, &idle)) {
+                    return;
+                }
                 continue;
             }
             drop_client(s);
             return;
         }
         off += (size_t)w;
+        idle = 0u;
     }
 }
 
@@ -167,7 +200,7 @@ static void handle_line(hd_scd_t *s, const char *body, uint32_t len, hd_can_fram
             send_bare(s, "< ok >");
             /* the client compares this reply with ONE recv(): stay quiet for a
              * moment so that no frame lands in the same read */
-            (void)poll(NULL, 0, HD_SCD_QUIET_MS);
+            (void)poll(NULL, 0, (int)s->quiet_ms);
             return;
         }
     } else {
@@ -304,19 +337,22 @@ void hd_scd_send(hd_scd_t *s, const hd_can_frame_t *f, uint64_t t_us)
 
 void hd_scd_flush(hd_scd_t *s, bool block, uint32_t keep)
 {
+    uint32_t idle = 0u;              /* ms waited since the socket last took a byte */
     while (s->fd >= 0 && s->out_len > 0u) {
         ssize_t w = send(s->fd, s->out, s->out_len, MSG_NOSIGNAL);
         if (w > 0) {
             memmove(s->out, s->out + w, s->out_len - (uint32_t)w);
             s->out_len -= (uint32_t)w;
+            idle = 0u;
             continue;
         }
         if (w < 0 && (errno == EAGAIN || errno == EINTR)) {
             if (!block || s->out_len <= keep) {
                 return;
             }
-            struct pollfd p = {s->fd, POLLOUT, 0};
-            (void)poll(&p, 1, 100);
+            if (!wait_writable(s, &idle)) {
+                return;
+            }
             continue;
         }
         drop_client(s);

@@ -18,6 +18,7 @@
 #ifndef HD_CAN_SOCKETCAND_H
 #define HD_CAN_SOCKETCAND_H
 
+#include <signal.h>
 #include <stdint.h>
 #include <stdbool.h>
 #include "hal.h"
@@ -25,6 +26,7 @@
 #define HD_SCD_IN_CAP   8192u
 #define HD_SCD_QUIET_MS 50      /* after the last "< ok >" before the first frame */
 #define HD_SCD_OUT_CAP  (1u << 20)   /* the struct is large: give it static storage */
+#define HD_SCD_STALL_MS 5000u   /* default: a client whose socket accepts nothing this long is dropped */
 
 typedef struct {
     int      listen_fd;
@@ -36,6 +38,15 @@ typedef struct {
     char     out[HD_SCD_OUT_CAP];
     uint32_t out_len;
     uint32_t rx_frames, tx_frames, tx_dropped, bad_lines, clients;
+    /* Blocking writes (handshake replies, hd_scd_flush with block) wait in slices
+     * of at most 100 ms and give up when *stop becomes non-zero (the server's
+     * signal flag; NULL = never) or when the socket has accepted no byte for
+     * stall_ms (the client stopped reading: it is dropped and counted in
+     * stalled).  hd_scd_open sets stop = NULL and stall_ms = HD_SCD_STALL_MS. */
+    const volatile sig_atomic_t *stop;
+    uint32_t stall_ms;
+    uint32_t stalled;
+    uint32_t quiet_ms;           /* pause after "rawmode" (HD_SCD_QUIET_MS; tests may shorten it) */
 } hd_scd_t;
 
 /** Listen on 127.0.0.1:port (0 = ephemeral).  0 ok, -1 with a message in err. */
@@ -52,7 +63,8 @@ int32_t hd_scd_poll(hd_scd_t *s, int32_t timeout_ms, hd_can_frame_t *rx, uint32_
 /** Queue one frame for the client with timestamp t_us (dropped if no client / full). */
 void hd_scd_send(hd_scd_t *s, const hd_can_frame_t *f, uint64_t t_us);
 
-/** Write buffered output; with block, wait until at most keep bytes remain. */
+/** Write buffered output; with block, wait until at most keep bytes remain (or
+ *  *stop is set, or the client stalls past stall_ms and is dropped). */
 void hd_scd_flush(hd_scd_t *s, bool block, uint32_t keep);
 
 /** True when a client finished the handshake. */
