@@ -34,6 +34,7 @@ import numpy as np
 
 from .. import logio
 from ..cli import UserError
+from ..tomltext import basic_string
 
 #: Firmware loop period, s.
 LOOP_S = 1e-4
@@ -429,13 +430,13 @@ class SimRunner:
 
     def _scenario(self, tmp: Path, name: str, mode: str, setpoint: Mapping[str, Any], duration: float,
                   seed: int) -> Path:
-        lines = ["[scenario]", f'name = "{name}"', f'axis = "{self._axis_ref()}"', f"duration_s = {float(duration)!r}",
-                 f"seed = {seed}", f"log_decimation = {self.decimation}", "", "[controller]", f'mode = "{mode}"', ""]
+        lines = ["[scenario]", f"name = {basic_string(name)}", f"axis = {basic_string(str(self._axis_ref()))}", f"duration_s = {float(duration)!r}",
+                 f"seed = {seed}", f"log_decimation = {self.decimation}", "", "[controller]", f"mode = {basic_string(mode)}", ""]
         if self.gains:
             lines += ["[controller.gains]"] + [f"{k} = {float(v)!r}" for k, v in self.gains.items()] + [""]
         lines += ["[setpoint]"]
         for k, v in setpoint.items():
-            lines.append(f'{k} = "{v}"' if isinstance(v, str) else f"{k} = {float(v)!r}")
+            lines.append(f"{k} = {basic_string(v)}" if isinstance(v, str) else f"{k} = {float(v)!r}")
         p = tmp / f"{name}.toml"
         p.write_text("\n".join(lines) + "\n")
         return p
