@@ -106,7 +106,9 @@ def test_identify_bad_log(tmp_path: Path, case: str) -> None:
 
 
 @pytest.mark.parametrize("meta", [None, {}, {"format": "hdservo-log", "gear_ratio": "x", "sample_period_s": 0.001},
-                                  "not json {"])
+                                  "not json {",
+                                  {"format": "hdservo-log", "version": 1, "gear_ratio": 10 ** 400,
+                                   "sample_period_s": 0.001}])
 def test_bad_sidecar(tmp_path: Path, meta) -> None:
     log = tmp_path / "l.csv"
     log.write_text(HEADER + _rows(50))
