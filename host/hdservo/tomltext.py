@@ -8,9 +8,6 @@ string both in Python (``tomllib``) and in the simulator's C reader
 """
 from __future__ import annotations
 
-import math
-from typing import Any
-
 #: Escapes both readers understand.
 _ESCAPES = {"\\": "\\\\", '"': '\\"', "\n": "\\n", "\t": "\\t", "\r": "\\r"}
 
@@ -46,28 +43,4 @@ def basic_string(s: str) -> str:
     return '"' + "".join(out) + '"'
 
 
-def value(v: Any) -> str:
-    """TOML text of a bool, integer, finite float, string or list of them.
-
-    Raises
-    ------
-    ValueError
-        A non-finite float, a control character in a string, or another type.
-    """
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int) or (hasattr(v, "dtype") and getattr(v.dtype, "kind", "") in "iu" and v.ndim == 0):
-        return str(int(v))
-    if isinstance(v, float) or (hasattr(v, "dtype") and getattr(v.dtype, "kind", "") == "f" and v.ndim == 0):
-        x = float(v)
-        if not math.isfinite(x):
-            raise ValueError(f"non-finite value {x!r}")
-        return repr(x)
-    if isinstance(v, str):
-        return basic_string(v)
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(value(x) for x in v) + "]"
-    raise ValueError(f"cannot write {type(v).__name__} {v!r} to TOML")
-
-
-__all__ = ["basic_string", "value"]
+__all__ = ["basic_string"]

@@ -31,7 +31,9 @@ from hdservo.params_gen import BY_NAME, TABLE_HASH
 from hdservo.preisach_table import PreisachTable, quantise_everett
 from hdservo.tomltext import basic_string
 
-FAST = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+#: modest example counts (the file runs in seconds); no example database written into the tree
+FAST = settings(max_examples=60, deadline=None, database=None,
+                suppress_health_check=[HealthCheck.function_scoped_fixture])
 
 # ------------------------------------------------------------------ strategies
 
@@ -40,7 +42,7 @@ scalars = st.one_of(st.booleans(), st.integers(min_value=-2 ** 70, max_value=2 *
                     st.text(max_size=12))
 toml_values = st.recursive(scalars, lambda c: st.lists(c, max_size=3) | st.dictionaries(st.text(max_size=6), c,
                                                                                       max_size=3), max_leaves=8)
-KEYS = [f"{s}.{k}" for s, ks in mr._KEYS.items() for k in ks] + [
+MODEL_KEYS = [f"{s}.{k}" for s, ks in mr.KEYS.items() for k in ks] + [
     "hysteresis_maxwell.e1_k_Nm_per_rad", "hysteresis_maxwell.e1_w_Nm", "transmission_error.wg1_order",
     "transmission_error.wg1_amp_rad", "transmission_error.wg1_phase_rad"]
 
@@ -103,8 +105,8 @@ def test_model_arbitrary_bytes(raw: bytes) -> None:
 
 
 @FAST
-@given(st.dictionaries(st.sampled_from(list(mr._KEYS) + ["other"]),
-                       st.dictionaries(st.sampled_from([k.split(".")[1] for k in KEYS]), scalars, max_size=6)
+@given(st.dictionaries(st.sampled_from(list(mr.KEYS) + ["other"]),
+                       st.dictionaries(st.sampled_from([k.split(".")[1] for k in MODEL_KEYS]), scalars, max_size=6)
                        | scalars, max_size=5))
 def test_model_arbitrary_structure(doc: dict[str, Any]) -> None:
     try:
@@ -115,7 +117,7 @@ def test_model_arbitrary_structure(doc: dict[str, Any]) -> None:
 
 
 @FAST
-@given(st.sampled_from(KEYS), toml_values | st.none())
+@given(st.sampled_from(MODEL_KEYS), toml_values | st.none())
 def test_model_mutated(key: str, v: Any) -> None:
     """One key of a valid model replaced by anything (None: removed)."""
     sec, k = key.split(".")
@@ -136,7 +138,7 @@ def test_model_mutated(key: str, v: Any) -> None:
 def _assert_valid_model(m: mr.Model) -> None:
     """What the consumers rely on after a successful read."""
     assert isinstance(m["gear"]["ratio"], float) and m["gear"]["ratio"] > 0
-    for sec, kinds in mr._KEYS.items():
+    for sec, kinds in mr.KEYS.items():
         for k, kind in kinds.items():
             v = m.get(sec, {}).get(k)
             if v is None:

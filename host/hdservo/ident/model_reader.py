@@ -17,16 +17,15 @@ import math
 import os
 import tomllib
 from pathlib import Path
-from typing import Any, Union
+from typing import Any
 
 from ..cli import UserError
 
 #: A checked model: section -> key -> value (numbers as float, counts as int).
 Model = dict[str, dict[str, Any]]
-Value = Union[float, int, str, bool]
 
-#: Kinds of value: "num" finite number, "pos" finite number > 0, "nonneg" >= 0, "int" integer >= 0, "str" string.
-_KEYS: dict[str, dict[str, str]] = {
+#: Known keys of each section and their kind: "num" finite number, "pos" finite number > 0, "nonneg" >= 0, "int" integer >= 0, "str" string.
+KEYS: dict[str, dict[str, str]] = {
     "gear": {"ratio": "pos"},
     "stiffness": {"k1_Nm_per_rad": "pos", "k2_Nm_per_rad": "num", "k3_Nm_per_rad": "num", "t1_Nm": "num",
                   "t2_Nm": "num", "damping_Nms_per_rad": "num"},
@@ -70,8 +69,8 @@ def _got(v: Any) -> str:
     return s if len(s) <= 40 else s[:37] + "..."
 
 
-def check_value(where: str, key: str, v: Any, kind: str) -> Value:
-    """``v`` checked against ``kind`` (see :data:`_KEYS`); ModelError naming ``where`` and ``key``."""
+def check_value(where: str, key: str, v: Any, kind: str) -> float | int | str:
+    """``v`` checked against ``kind`` (see :data:`KEYS`); ModelError naming ``where`` and ``key``."""
     bad = ModelError(f"{where}: key '{key}': expected {_EXPECT[kind]}, got {_got(v)}")
     if kind == "str":
         if not isinstance(v, str):
@@ -117,12 +116,12 @@ def check_model(data: Any, where: str = "model") -> Model:
                          "(not an identified model from hdservo identify -o)")
     out: Model = {}
     for sec, body in data.items():
-        if sec not in _KEYS:
+        if sec not in KEYS:
             out[sec] = body if not isinstance(body, dict) else dict(body)
             continue
         if not isinstance(body, dict):
             raise ModelError(f"{where}: key '{sec}': expected a table [{sec}], got {_got(body)}")
-        kinds = dict(_KEYS[sec])
+        kinds = dict(KEYS[sec])
         if sec == "hysteresis_maxwell":
             n = check_value(where, f"{sec}.n_elements", body.get("n_elements", 0), "int")
             if int(n) > MAX_ELEMENTS:
@@ -201,4 +200,4 @@ def parse_model(raw: bytes, where: str = "model") -> Model:
     return check_model(data, where)
 
 
-__all__ = ["MAX_ELEMENTS", "Model", "ModelError", "check_model", "check_value", "parse_model", "read_model"]
+__all__ = ["KEYS", "MAX_ELEMENTS", "Model", "ModelError", "check_model", "check_value", "parse_model", "read_model"]
