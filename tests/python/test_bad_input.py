@@ -6,9 +6,11 @@ exit non-zero (2, the CLI's user-error status), print no traceback, and leave
 no output file behind (not even a half-written one).
 
 Commands covered: logs through hdservo.logio (``discrepancy``, ``identify
---data``), scenario TOML (``sim``, through the C reader of sim/harness),
-axis/model TOML (``df --axis``, ``discrepancy --model``), EMPS import
-(``emps export --data``).  The C TOML reader itself is fuzzed
+--data``, including logs the fits cannot use), scenario TOML (``sim``, through
+the C reader of sim/harness), axis/model TOML (``df --axis``, ``discrepancy
+--model``), identified models (``download``, ``compare --model``, ``test
+--model``: refused before any drive is contacted), EMPS import (``emps export
+--data``).  The C TOML reader itself is fuzzed
 (tests/fuzz/fuzz_toml.c).
 """
 from __future__ import annotations
