@@ -39,6 +39,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from . import REPO_ROOT, filters, sim
+from .tomltext import basic_string
 
 #: arcsec per radian.
 ARCSEC_PER_RAD = 180.0 / math.pi * 3600.0
@@ -219,7 +220,7 @@ def _toml_value(v: Any) -> str:
             raise ValueError(f"non-finite value {x!r} in a scenario")
         return repr(x)
     if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        return basic_string(v)
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     raise ValueError(f"cannot write {v!r} to a scenario")

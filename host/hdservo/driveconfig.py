@@ -31,8 +31,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
+from .cli import UserError
 from .od_gen import STORED, StoredEntry
 from .params_gen import BY_NAME, TABLE_HASH, ParamDef
+
+
+class ConfigError(UserError, ValueError):
+    """A configuration file is unreadable or holds a bad value; one line (what, where, expected)."""
 
 #: File format written here; :data:`FORMATS` are read.
 FORMAT = 2
@@ -109,7 +114,7 @@ class Parsed:
 
 def parse(text: str, drive_hash: int | None = None, force: bool = False, where: str = "config",
           node_id: int = 1) -> Parsed:
-    """Check a configuration file; ValueError (one line: what, where, expected) on the first problem.
+    """Check a configuration file; ConfigError (a ValueError; one line: what, where, expected) on the first problem.
 
     Parameters
     ----------
@@ -127,18 +132,20 @@ def parse(text: str, drive_hash: int | None = None, force: bool = False, where: 
     try:
         data: dict[str, Any] = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
-        raise ValueError(f"{where}: not TOML ({e})") from None
+        raise ConfigError(f"{where}: not TOML ({e})") from None
+    except RecursionError:
+        raise ConfigError(f"{where}: not TOML (nested too deeply)") from None
     meta, params = data.get("meta"), data.get("params")
     if not isinstance(meta, dict) or not isinstance(params, dict):
-        raise ValueError(f"{where}: expected the tables [meta] and [params] (hdservo config dump)")
+        raise ConfigError(f"{where}: expected the tables [meta] and [params] (hdservo config dump)")
     if meta.get("format") not in FORMATS:
-        raise ValueError(f"{where}: [meta] format = {meta.get('format')!r}, expected one of {FORMATS}")
+        raise ConfigError(f"{where}: [meta] format = {meta.get('format')!r}, expected one of {FORMATS}")
     h = meta.get("param_layout_hash")
     if not isinstance(h, int):
-        raise ValueError(f"{where}: [meta] param_layout_hash missing (expected the 0x... of the dump)")
+        raise ConfigError(f"{where}: [meta] param_layout_hash missing (expected the 0x... of the dump)")
     want = TABLE_HASH if drive_hash is None else drive_hash
     if h != want and not force:
-        raise ValueError(f"{where}: parameter layout 0x{h:08X} is not the drive's 0x{want:08X} "
+        raise ConfigError(f"{where}: parameter layout 0x{h:08X} is not the drive's 0x{want:08X} "
                          "(another firmware's table; --force matches the values by name)")
     raw: dict[str, int] = {}
     unknown: list[str] = []
@@ -147,17 +154,17 @@ def parse(text: str, drive_hash: int | None = None, force: bool = False, where: 
         if p is None:
             unknown.append(name)
             continue
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(float(v)):
-            raise ValueError(f"{where}: [params] {name} = {v!r}: expected a number in {p.unit}")
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not _finite(v):
+            raise ConfigError(f"{where}: [params] {name} = {v!r}: expected a number in {p.unit}")
         if not p.min <= float(v) <= p.max:
-            raise ValueError(f"{where}: [params] {name} = {v!r} outside [{p.min}, {p.max}] {p.unit}")
+            raise ConfigError(f"{where}: [params] {name} = {v!r} outside [{p.min}, {p.max}] {p.unit}")
         r = raw_of(p, float(v))
         if not p.raw_min <= r <= p.raw_max:
-            raise ValueError(f"{where}: [params] {name} = {v!r} rounds to raw {r} outside [{p.raw_min}, {p.raw_max}]")
+            raise ConfigError(f"{where}: [params] {name} = {v!r} rounds to raw {r} outside [{p.raw_min}, {p.raw_max}]")
         raw[name] = r
     objs = data.get("objects", {})
     if not isinstance(objs, dict):
-        raise ValueError(f"{where}: [objects] must be a table of \"0xIIII:S\" = value")
+        raise ConfigError(f"{where}: [objects] must be a table of \"0xIIII:S\" = value")
     objects: dict[tuple[int, int], int] = {}
     for key, v in objs.items():
         e = _stored_of(key)
@@ -166,6 +173,14 @@ def parse(text: str, drive_hash: int | None = None, force: bool = False, where: 
             continue
         objects[(e.index, e.sub)] = _object_value(e, v, node_id, f"{where}: [objects] \"{key}\"")
     return Parsed(raw=raw, unknown=sorted(unknown), layout_hash=h, objects=objects)
+
+
+def _finite(v: int | float) -> bool:
+    """True for a number that is finite as a float (a huge TOML integer is not)."""
+    try:
+        return math.isfinite(float(v))
+    except OverflowError:
+        return False
 
 
 def _stored_of(key: str) -> StoredEntry | None:
@@ -178,28 +193,28 @@ def _stored_of(key: str) -> StoredEntry | None:
 
 
 def _object_value(e: StoredEntry, v: Any, node_id: int, where: str) -> int:
-    """Checked value of a stored object for node ``node_id`` (ValueError: one line)."""
+    """Checked value of a stored object for node ``node_id`` (ConfigError: one line)."""
     if isinstance(v, str):
         rest = v.replace(" ", "")
         if not (e.nodeid and rest.upper().startswith("$NODEID+")):
-            raise ValueError(f"{where} = {v!r}: expected an integer" + (" or \"$NODEID+0x...\"" if e.nodeid else ""))
+            raise ConfigError(f"{where} = {v!r}: expected an integer" + (" or \"$NODEID+0x...\"" if e.nodeid else ""))
         try:
             v = int(rest[len("$NODEID+"):], 0) + node_id
         except ValueError:
-            raise ValueError(f"{where} = {v!r}: expected \"$NODEID+\" and an integer") from None
+            raise ConfigError(f"{where} = {v!r}: expected \"$NODEID+\" and an integer") from None
     if isinstance(v, bool) or not isinstance(v, int):
-        raise ValueError(f"{where} = {v!r}: expected an integer ({e.name})")
+        raise ConfigError(f"{where} = {v!r}: expected an integer ({e.name})")
     if not e.min <= v <= e.max:
-        raise ValueError(f"{where} = {v} outside [{e.min}, {e.max}] ({e.name})")
+        raise ConfigError(f"{where} = {v} outside [{e.min}, {e.max}] ({e.name})")
     return v
 
 
 def read_file(path: Path, drive_hash: int | None = None, force: bool = False, node_id: int = 1) -> Parsed:
-    """:func:`parse` of a file; ValueError with one line when it cannot be read."""
+    """:func:`parse` of a file; ConfigError (a ValueError) with one line when it cannot be read."""
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as e:
-        raise ValueError(f"{path}: cannot read ({e.__class__.__name__}: {e})") from None
+        raise ConfigError(f"{path}: cannot read ({e.__class__.__name__}: {e})") from None
     return parse(text, drive_hash, force, str(path), node_id)
 
 

@@ -31,6 +31,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from .tomltext import basic_string
+
 FAULT_NAMES = {0: "NONE", 1: "TORQUE_SAT", 2: "OVERSPEED", 3: "TRAVEL", 4: "FOLLOWING",
                5: "ENC_JUMP", 6: "SENSOR", 7: "PARAM", 8: "COMM"}
 EMCY = {0: None, 1: "0x2310", 2: "0x8400", 3: "0x8612", 4: "0x8611", 5: "0x7305", 6: "0x7300", 7: "0x6320",
@@ -103,7 +105,7 @@ def _toml(case: dict) -> str:
         text += "[controller.gains]\n" + "".join(f"{k} = {v}\n" for k, v in case["gains"].items())
     for f in case["faults"]:
         text += "[[fault]]\n" + "".join(
-            f'{k} = "{v}"\n' if isinstance(v, str) else f"{k} = {v}\n" for k, v in f.items())
+            f"{k} = {basic_string(v)}\n" if isinstance(v, str) else f"{k} = {v}\n" for k, v in f.items())
     return text
 
 

@@ -270,7 +270,12 @@ def read_csv(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
 
 def _type_ok(value: Any, want: type) -> bool:
     if want is float:
-        return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            return False
+        try:
+            return math.isfinite(value)
+        except OverflowError:       # a JSON integer beyond the float range
+            return False
     if want is int:
         return isinstance(value, int) and not isinstance(value, bool)
     return isinstance(value, want)

@@ -23,12 +23,16 @@ image that fails any check and keeps the previous table in force.
 """
 from __future__ import annotations
 
+import os
 import struct
 import zlib
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
+
+from .cli import UserError
 
 MAGIC = 0x54504448
 FORMAT = 1
@@ -42,6 +46,10 @@ UNIT_GENERIC, UNIT_TORQUE_TWIST, UNIT_POS_POS = 0, 1, 2
 def tri_index(i: int, j: int) -> int:
     """Entry index of ``E[i][j]`` (``0 <= j <= i``)."""
     return i * (i + 1) // 2 + j
+
+
+class PreisachError(UserError, ValueError):
+    """A Preisach image fails a check (size, magic, format, CRC, diagonal); one line."""
 
 
 @dataclass
@@ -105,28 +113,41 @@ class PreisachTable:
 
     @classmethod
     def from_bytes(cls, data: bytes) -> "PreisachTable":
-        """Parse and validate an image; raises ValueError naming the failed check."""
+        """Parse and validate an image; raises :class:`PreisachError` (a ValueError) naming the failed check."""
         if len(data) < 40 or len(data) % 4:
-            raise ValueError(f"Preisach image: {len(data)} bytes, expected 40 + 4*n")
+            raise PreisachError(f"Preisach image: {len(data)} bytes, expected 40 + 4*n")
         w = struct.unpack(f"<{len(data) // 4}I", data)
         magic, fmt, version, levels, sub_bits, in_shift, u0, unit, n, crc = w[:10]
         if magic != MAGIC:
-            raise ValueError(f"Preisach image: magic 0x{magic:08x}, expected 0x{MAGIC:08x}")
+            raise PreisachError(f"Preisach image: magic 0x{magic:08x}, expected 0x{MAGIC:08x}")
         if fmt != FORMAT:
-            raise ValueError(f"Preisach image: format {fmt}, expected {FORMAT}")
+            raise PreisachError(f"Preisach image: format {fmt}, expected {FORMAT}")
         if not (L_MIN <= levels <= L_MAX) or sub_bits > SUB_MAX or in_shift > SHIFT_MAX \
                 or n != levels * (levels + 1) // 2 or len(w) != 10 + n:
-            raise ValueError("Preisach image: inconsistent sizes")
+            raise PreisachError("Preisach image: inconsistent sizes")
         ent = np.array(w[10:], dtype=np.int64)
         ent = np.where(ent >= 2**31, ent - 2**32, ent)
         u0s = u0 - 2**32 if u0 >= 2**31 else u0
         t = cls(levels=levels, entries=ent, sub_bits=sub_bits, in_shift=in_shift, u0=u0s,
                 unit=unit, version=version, crc=crc)
         if t.compute_crc() != crc:
-            raise ValueError("Preisach image: CRC mismatch")
+            raise PreisachError("Preisach image: CRC mismatch")
         if any(ent[tri_index(i, i)] != 0 for i in range(levels)):
-            raise ValueError("Preisach image: non-zero diagonal entry")
+            raise PreisachError("Preisach image: non-zero diagonal entry")
         return t
+
+    @classmethod
+    def read(cls, path: "str | os.PathLike[str]") -> "PreisachTable":
+        """:meth:`from_bytes` of a file; PreisachError (one line, naming the file) when unreadable or bad."""
+        p = Path(path)
+        try:
+            data = p.read_bytes()
+        except OSError as e:
+            raise PreisachError(f"{p}: cannot read: {e.strerror or e}") from None
+        try:
+            return cls.from_bytes(data)
+        except PreisachError as e:
+            raise PreisachError(f"{p}: {e}") from None
 
     def grid(self) -> np.ndarray:
         """Full L x L array with E[i][j] (zeros above the diagonal), int64."""

@@ -341,6 +341,28 @@ static int usage_fail(const char *msg)
     return 2;
 }
 
+/* s as a TOML basic string body (no quotes) in out: a path may hold quotes and
+ * backslashes (C:\\axes\\x.toml), which the scenario text must carry unchanged.
+ * Returns -1 when it does not fit or holds a control character the reader refuses. */
+static int toml_escape(const char *s, char *out, size_t cap)
+{
+    size_t n = 0;
+    for (; *s; s++) {
+        const unsigned char c = (unsigned char)*s;
+        char e = 0;
+        if (c == '\\' || c == '"') e = (char)c;
+        else if (c == '\n') e = 'n';
+        else if (c == '\t') e = 't';
+        else if (c == '\r') e = 'r';
+        else if (c < 0x20u || c == 0x7fu) return -1;
+        if (n + (e ? 2u : 1u) >= cap) return -1;
+        if (e) { out[n++] = '\\'; out[n++] = e; }
+        else out[n++] = (char)c;
+    }
+    out[n] = '\0';
+    return 0;
+}
+
 static int parse_u(const char *s, unsigned long lo, unsigned long hi, unsigned long *out)
 {
     char *end;
@@ -596,9 +618,15 @@ int hd_sim_serve_main(int argc, char **argv)
     srv_t *s = calloc(1, sizeof *s);
     if (!sc || !s) return usage_fail("out of memory");
     static char text[8192];
+    static char axis_q[2048];
+    if (toml_escape(axis, axis_q, sizeof axis_q) != 0) {
+        fprintf(stderr, "hdservo-sim serve: error: --axis %.200s: expected a path of printable characters, "
+                "shorter than %zu bytes\n", axis, sizeof axis_q / 2);
+        return 1;
+    }
     snprintf(text, sizeof text,
              "[scenario]\nname = \"serve\"\naxis = \"%s\"\nduration_s = 3600\nseed = %lu\n"
-             "[controller]\nmode = \"off\"\n%s%s", axis, seed, plant_set_len ? "[plant]\n" : "", plant_set);
+             "[controller]\nmode = \"off\"\n%s%s", axis_q, seed, plant_set_len ? "[plant]\n" : "", plant_set);
     if (hd_scenario_parse(text, strlen(text), "serve", sc, msg, sizeof msg) != 0) {
         fprintf(stderr, "hdservo-sim serve: error: --axis %s: %s\n", axis, msg);
         return 1;

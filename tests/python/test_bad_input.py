@@ -6,9 +6,11 @@ exit non-zero (2, the CLI's user-error status), print no traceback, and leave
 no output file behind (not even a half-written one).
 
 Commands covered: logs through hdservo.logio (``discrepancy``, ``identify
---data``), scenario TOML (``sim``, through the C reader of sim/harness),
-axis/model TOML (``df --axis``, ``discrepancy --model``), EMPS import
-(``emps export --data``).  The C TOML reader itself is fuzzed
+--data``, including logs the fits cannot use), scenario TOML (``sim``, through
+the C reader of sim/harness), axis/model TOML (``df --axis``, ``discrepancy
+--model``), identified models (``download``, ``compare --model``, ``test
+--model``: refused before any drive is contacted), EMPS import (``emps export
+--data``).  The C TOML reader itself is fuzzed
 (tests/fuzz/fuzz_toml.c).
 """
 from __future__ import annotations
@@ -16,6 +18,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import math
 import os
 import subprocess
 import sys
@@ -105,7 +108,9 @@ def test_identify_bad_log(tmp_path: Path, case: str) -> None:
 
 
 @pytest.mark.parametrize("meta", [None, {}, {"format": "hdservo-log", "gear_ratio": "x", "sample_period_s": 0.001},
-                                  "not json {"])
+                                  "not json {",
+                                  {"format": "hdservo-log", "version": 1, "gear_ratio": 10 ** 400,
+                                   "sample_period_s": 0.001}])
 def test_bad_sidecar(tmp_path: Path, meta) -> None:
     log = tmp_path / "l.csv"
     log.write_text(HEADER + _rows(50))
@@ -203,3 +208,145 @@ def test_emps_bad_import(tmp_path: Path, case: str) -> None:
     out = tmp_path / "emps.csv"
     p = _cli(["emps", "export", "--data", str(d), "--format", "csv", "--out", str(out)], tmp_path)
     _assert_one_line_error(p, "DATA_EMPS", [out, tmp_path / "emps.json"])
+
+
+# ------------------------------------------------------------------ identified models (download, compare, test)
+
+GOOD_MODEL = ("[gear]\nratio = 100.0\n[friction_total]\nfc_pos_Nm = 7.4\nfc_neg_Nm = 7.0\nfs_pos_Nm = 10.5\n"
+              "fs_neg_Nm = 10.0\nvs_rad_s = 0.02\ndelta = 2.0\nviscous_Nms_per_rad = 5.3\n"
+              "[stiffness]\nk1_Nm_per_rad = 31000.0\nk2_Nm_per_rad = 50000.0\n"
+              "[hysteresis_maxwell]\nn_elements = 1\ne1_k_Nm_per_rad = 10000.0\ne1_w_Nm = 1.0\n")
+
+#: case -> (model text, the key the error line must name)
+BAD_MODELS = {
+    "ratio_not_a_number": ("[gear]\nratio = \"abc\"\n", "gear.ratio"),
+    "ratio_zero": ("[gear]\nratio = 0\n", "gear.ratio"),
+    "no_gear": ("[stiffness]\nk1_Nm_per_rad = 3.0\n", "gear.ratio"),
+    "gear_not_a_table": ("gear = 5\n", "gear"),
+    "k1_missing": (GOOD_MODEL.replace("k1_Nm_per_rad = 31000.0\n", ""), "stiffness.k1_Nm_per_rad"),
+    "string_for_number": (GOOD_MODEL.replace("fc_pos_Nm = 7.4", "fc_pos_Nm = \"7.4\""), "friction_total.fc_pos_Nm"),
+    "nan": (GOOD_MODEL.replace("vs_rad_s = 0.02", "vs_rad_s = nan"), "friction_total.vs_rad_s"),
+    "maxwell_element_missing": (GOOD_MODEL.replace("n_elements = 1", "n_elements = 2"),
+                                "hysteresis_maxwell.e2_k_Nm_per_rad"),
+    "negative_count": (GOOD_MODEL.replace("n_elements = 1", "n_elements = -1"), "hysteresis_maxwell.n_elements"),
+    "te_harmonic_incomplete": ("[gear]\nratio = 100.0\n[transmission_error]\nwg1_order = 2\nwg1_amp_rad = 1e-5\n",
+                               "transmission_error.wg1_phase_rad"),
+    "bool_for_number": ("[gear]\nratio = 100.0\n[load]\njl_kgm2 = true\n", "load.jl_kgm2"),
+    "not_utf8": ("[gear]\nratio = 100.0\n# \xff\xfe\n", ":3"),
+    "not_toml": ("[gear\nratio = 100.0\n", "expected TOML"),
+}
+
+
+@pytest.fixture
+def no_drive(monkeypatch):
+    """Record (and refuse) every attempt to contact a drive or start a virtual one."""
+    from hdservo.drive import Drive
+    from hdservo.serve_proc import ServeProcess
+    calls: list[str] = []
+
+    def connect(*a, **k):
+        calls.append("Drive.connect")
+        raise AssertionError("a drive was contacted")
+
+    def serve(self, *a, **k):
+        calls.append("ServeProcess")
+        raise AssertionError("a virtual drive was started")
+    monkeypatch.setattr(Drive, "connect", classmethod(lambda cls, *a, **k: connect()))
+    monkeypatch.setattr(ServeProcess, "__init__", serve)
+    return calls
+
+
+def _bad_model(tmp_path: Path, case: str) -> tuple[Path, str]:
+    text, key = BAD_MODELS[case]
+    m = tmp_path / f"{case}.toml"
+    m.write_bytes(text.encode("latin-1"))
+    return m, key
+
+
+@pytest.mark.parametrize("case", sorted(BAD_MODELS))
+def test_download_bad_model(tmp_path: Path, case: str, no_drive: list) -> None:
+    m, key = _bad_model(tmp_path, case)
+    out = tmp_path / "d.json"
+    p = _cli(["download", str(m), "-q", "-i", "socketcand", "--port", "1", "--json", str(out)], tmp_path)
+    _assert_one_line_error(p, m.name, [out])
+    assert key in p.stderr, p.stderr
+    assert no_drive == [], "the model must be refused before any drive is contacted"
+
+
+@pytest.mark.parametrize("case", ["ratio_not_a_number", "k1_missing", "string_for_number"])
+def test_compare_and_test_bad_model(tmp_path: Path, case: str, no_drive: list) -> None:
+    m, key = _bad_model(tmp_path, case)
+    out = tmp_path / "out.json"
+    for args in (["compare", "--model", str(m), "--out", str(tmp_path / "cmp"), "--json", str(out), "-q",
+                  "--procedures", "positioning", "--controllers", "pid"],
+                 ["test", "positioning", "--model", str(m), "--json", str(out), "-q"]):
+        p = _cli(args, tmp_path)
+        _assert_one_line_error(p, m.name, [out])
+        assert key in p.stderr, p.stderr
+    assert no_drive == []
+
+
+def test_good_model_passes_the_reader(tmp_path: Path) -> None:
+    """The same reader accepts a complete model (the bad cases above are refused for their defect only)."""
+    from hdservo.ident.model_reader import read_model
+    m = tmp_path / "good.toml"
+    m.write_text(GOOD_MODEL)
+    got = read_model(m)
+    assert got["gear"]["ratio"] == 100.0 and got["hysteresis_maxwell"]["n_elements"] == 1
+    assert got["friction_total"]["vs_rad_s"] == 0.02
+
+
+def test_discrepancy_model_not_utf8(tmp_path: Path) -> None:
+    log = _write_log(tmp_path, "ok", HEADER + _rows(50), {**GOOD_META, "version": 1})
+    m = tmp_path / "base.toml"
+    m.write_bytes(b"[model]\nstructure = \"rigid\"\n# \xff\xfe\n")
+    out = tmp_path / "out.json"
+    p = _cli(["discrepancy", str(log), "--model", str(m), "--json", str(out)], tmp_path)
+    _assert_one_line_error(p, m.name, [out])
+    assert "UTF-8" in p.stderr
+
+
+# ------------------------------------------------------------------ identify --data: logs it cannot use
+
+def _exp_log(d: Path, name: str, kind: str, segments, rows: str | None = None) -> Path:
+    p = d / f"{name}.csv"
+    n = 1500          # 1.5 s: the gravity fit skips the first second
+    p.write_text(rows if rows is not None else
+                 "t_s,motor_angle_rad,load_angle_rad,motor_torque_Nm,segment_code\n"
+                 + "".join(f"{i * 0.001!r},{100 * math.sin(3 * i * 0.001)!r},{math.sin(3 * i * 0.001)!r},"
+                           f"{0.5 + 0.1 * math.cos(3 * i * 0.001)!r},0\n" for i in range(n)))
+    meta = {**GOOD_META, "version": 1, "experiment": kind}
+    if segments is not None:
+        meta["segments"] = segments
+    (d / f"{name}.json").write_text(json.dumps(meta))
+    return p
+
+
+UNUSABLE = {
+    "segment_not_listed": [{"index": 1, "settle_s": 0.01}],
+    "segment_null_field": [{"index": 0, "settle_s": None}],
+    "segment_not_object": [3],
+    "segment_index_string": [{"index": "0"}],
+    "segments_not_list": {"index": 0},
+    "settle_missing": [{"index": 0}],
+    "nothing_usable": None,
+}
+
+
+@pytest.mark.parametrize("case", sorted(UNUSABLE))
+def test_identify_friction_unusable_logs(tmp_path: Path, case: str) -> None:
+    g = _exp_log(tmp_path, "grav", "gravity_sine", UNUSABLE[case] if case != "settle_missing" else [{"index": 0}])
+    s = _exp_log(tmp_path, "sweep", "friction_sweep", UNUSABLE[case])
+    out, model = tmp_path / "out.json", tmp_path / "model.toml"
+    p = _cli(["identify", "friction", "--data", str(g), "--data", str(s), "--json", str(out), "-o", str(model),
+              "-q"], tmp_path)
+    _assert_one_line_error(p, ".", [out, model])
+    assert "grav." in p.stderr or "sweep." in p.stderr, p.stderr
+
+
+def test_identify_two_logs_of_one_experiment(tmp_path: Path) -> None:
+    g = _exp_log(tmp_path, "grav", "gravity_sine", [{"index": 0}])
+    model = tmp_path / "model.toml"
+    p = _cli(["identify", "friction", "--data", str(g), "--data", str(g), "-o", str(model), "-q"], tmp_path)
+    _assert_one_line_error(p, "grav.csv", [model])
+    assert "second 'gravity_sine'" in p.stderr

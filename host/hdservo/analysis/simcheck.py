@@ -31,6 +31,7 @@ from typing import Any, Dict, List, Optional
 import numpy as np
 
 from .. import REPO_ROOT
+from ..tomltext import basic_string
 from .axis import load_axis, load_gains
 from .catalogue import build
 from .limitcycle import LimitCycle, find_limit_cycles
@@ -160,7 +161,7 @@ def scenario_text(case: HuntingCase, axis: Path) -> str:
     plant = "\n".join(f"{k} = {_toml_value(v)}" for k, v in case.plant.items())
     return f"""[scenario]
 name = "df_hunting_pos_ki_{case.pos_ki:g}"
-axis = "{axis.as_posix()}"
+axis = {basic_string(axis.as_posix())}
 duration_s = {case.duration_s!r}
 seed = 1
 log_decimation = {int(case.log_decimation)}

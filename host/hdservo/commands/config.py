@@ -143,15 +143,26 @@ def _restore(drive: Any, args: argparse.Namespace, progress: Callable[[str], Non
     try:
         n = _write_verified(drive, parsed.raw)
         k = _write_objects(drive, parsed.objects)
-    except UserError as e:
+    except Exception as e:  # noqa: BLE001 - any failure (refusal, read-back, timeout, bus) rolls back
+        why = _failure(e)
         try:
             _write_verified(drive, old_raw)
             _write_objects(drive, old_obj)
-        except UserError as e2:
-            raise UserError(f"{e}; putting the previous values back failed too: {e2}") from None
-        raise UserError(f"{e}; the previous values are back") from None
+        except Exception as e2:  # noqa: BLE001
+            raise UserError(f"{why}; putting the previous values back failed too: {_failure(e2)}") from None
+        raise UserError(f"{why}; the previous values are back") from None
     msg = f"restored {n} parameters and {k} CANopen settings from {args.file}, every one read back"
     return msg + ("; " + _save(drive) if args.save else "; in RAM only (--save keeps them over a power cycle)")
+
+
+def _failure(e: BaseException) -> str:
+    """One line for a failure inside a restore: a UserError as it is, anything else named by its kind."""
+    from ..drive import DriveError
+    if isinstance(e, UserError):
+        return str(e)
+    if isinstance(e, DriveError):
+        return f"drive: {e}"
+    return f"{type(e).__name__}: {e}"
 
 
 def _pairs(pairs: list[str]) -> dict[str, int]:

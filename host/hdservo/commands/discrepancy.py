@@ -34,9 +34,14 @@ def register(p: argparse.ArgumentParser) -> None:
 def read_model(path: Path) -> dict[str, Any]:
     """Read and check a baseline model TOML; one-line UserError on bad input."""
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        raw = path.read_bytes()
     except OSError as e:
         raise UserError(f"{path}: cannot read: {e.strerror or e}") from None
+    try:
+        data = tomllib.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError as e:
+        line = raw[: e.start].count(b"\n") + 1
+        raise UserError(f"{path}:{line}: expected UTF-8 TOML text, found byte 0x{raw[e.start]:02x}") from None
     except tomllib.TOMLDecodeError as e:
         raise UserError(f"{path}: expected TOML: {e}") from None
     m = data.get("model")

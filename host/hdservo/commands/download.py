@@ -65,17 +65,9 @@ def register(p: argparse.ArgumentParser) -> None:
 
 
 def read_model(path: Path) -> dict[str, dict[str, Any]]:
-    """Parse an identified model TOML; one-line UserError when unreadable."""
-    import tomllib
-    if not path.is_file():
-        raise UserError(f"{path}: model file not found")
-    try:
-        data = tomllib.loads(path.read_text())
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise UserError(f"{path}: not a TOML file ({e})") from None
-    if not isinstance(data.get("gear"), dict) or "ratio" not in data["gear"]:
-        raise UserError(f"{path}: no [gear] ratio (not an identified model from hdservo identify -o)")
-    return data
+    """The checked model (:func:`hdservo.ident.model_reader.read_model`); one-line UserError when bad."""
+    from ..ident.model_reader import read_model as _read
+    return _read(path)
 
 
 def model_overrides(model: Mapping[str, Mapping[str, Any]], axis_get) -> tuple[dict[str, float], list[str]]:
@@ -116,16 +108,16 @@ def model_overrides(model: Mapping[str, Mapping[str, Any]], axis_get) -> tuple[d
     else:
         notes.append("no [friction_total] in the model: friction from --axis")
     st = model.get("stiffness")
-    if st:
+    if st and "k1_Nm_per_rad" in st:        # an FRF-only model has the damping alone: K1 from --axis
         o["stiffness.enabled"] = 1.0
         o["stiffness.k1_Nm_per_rad"] = float(st["k1_Nm_per_rad"])
     hm = model.get("hysteresis_maxwell")
     if hm:
         o["hysteresis_maxwell.enabled"] = 1.0
         o["hysteresis_maxwell.n_elements"] = float(hm.get("n_elements", 0))
-        for k, v in hm.items():
-            if k.startswith("e") and (k.endswith("_k_Nm_per_rad") or k.endswith("_w_Nm")):
-                o[f"hysteresis_maxwell.{k}"] = float(v)
+        for i in range(1, int(hm.get("n_elements", 0)) + 1):      # the checked elements, not stray keys
+            for k in (f"e{i}_k_Nm_per_rad", f"e{i}_w_Nm"):
+                o[f"hysteresis_maxwell.{k}"] = float(hm[k])
         # the identified hysteresis is in the Maxwell elements / the Preisach image, not the plant's Preisach keys
         o["hysteresis_preisach.enabled"] = 0.0
     te = model.get("transmission_error")
@@ -172,7 +164,7 @@ def plan_download(model_path: Path, axis: str = "reference", preisach: Path | No
     over, notes = model_overrides(model, lambda k: float(sim.axis_param(k, ax)))
     try:
         cp = compsetup.compensator_params(ax, model=over)
-    except (ValueError, KeyError, ZeroDivisionError) as e:
+    except (ValueError, KeyError, ZeroDivisionError, TypeError, OverflowError) as e:
         raise UserError(f"{model_path}: cannot compute the compensator parameters: {e}") from None
     cp.pop("cb_enable", None)
     params: dict[str, float] = {}
@@ -199,12 +191,19 @@ def plan_download(model_path: Path, axis: str = "reference", preisach: Path | No
             ptab = model_path.parent / str(name)
     if ptab is not None:
         if not ptab.is_file():
-            raise UserError(f"{ptab}: Preisach table file not found")
-        blob = ptab.read_bytes()
+            raise UserError(f"{ptab}: Preisach table file not found"
+                            + ("" if preisach is not None else f" (named by {model_path} [identified] preisach_table)"))
         try:
-            PreisachTable.from_bytes(blob)
-        except ValueError as e:
-            raise UserError(f"{ptab}: {e}; nothing downloaded") from None
+            try:
+                blob = ptab.read_bytes()
+            except OSError as e:
+                raise UserError(f"{ptab}: cannot read: {e.strerror or e}") from None
+            try:
+                PreisachTable.from_bytes(blob)
+            except UserError as e:
+                raise UserError(f"{ptab}: {e}") from None
+        except UserError as e:
+            raise UserError(f"{e}; nothing downloaded") from None
     return {"params": params, "sdo": sdo, "groups": groups, "preisach": blob, "preisach_file": ptab,
             "notes": notes, "overrides": over, "version": version}
 

@@ -102,6 +102,8 @@ def _run(args: argparse.Namespace) -> int:
             if not path.is_file():
                 raise UserError(f"{path}: log file not found")
             d = ex.ExperimentData.load(path)
+            if d.kind in data:
+                raise UserError(f"{path}: a second '{d.kind}' log (one log per experiment)")
             data[d.kind] = d
         source = "data"
     elif args.sim:
@@ -131,10 +133,27 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _run_pipeline(args: argparse.Namespace, runner: object, data: dict, progress) -> object:
+    import numpy as np
+
     from ..ident import pipeline
     settings = pipeline.Settings(torque_max_Nm=args.torque_max, rated_torque_Nm=args.rated_torque)
     pl = pipeline.Pipeline(runner=runner, settings=settings, progress=progress, data=data)
-    pl.run(args.target)
+    if runner is not None:
+        pl.run(args.target)
+        return pl
+    # logs given with --data: whatever in them the fits cannot use is the user's input, one line
+    try:
+        pl.run(args.target)
+    except UserError as e:
+        files = ", ".join(str(p) for p in args.data)
+        if any(str(p) in str(e) or p.name in str(e) for p in args.data):
+            raise
+        raise UserError(f"{files}: {e}") from None
+    except (ArithmeticError, IndexError, KeyError, LookupError, TypeError, ValueError,
+            np.linalg.LinAlgError) as e:
+        files = ", ".join(str(p) for p in args.data)
+        raise UserError(f"{files}: cannot identify {args.target} from these logs "
+                        f"({type(e).__name__}: {str(e)[:120] or 'no detail'})") from None
     return pl
 
 

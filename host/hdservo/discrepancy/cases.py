@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from .. import REPO_ROOT, logio, sim
+from ..tomltext import basic_string
 
 AXES = {"reference": "reference", "csf17_50": str(REPO_ROOT / "sim" / "axes" / "csf17_50.toml")}
 
@@ -159,7 +160,7 @@ def _scenario_text(case: Case, amp: float, f0: float, f1: float) -> str:
     ref = Case(None)
     g = _total_inertia(case) / _total_inertia(ref)
     return f"""[scenario]
-axis = "{axis}"
+axis = {basic_string(str(axis))}
 duration_s = {case.duration_s}
 seed = {case.seed}
 [controller]

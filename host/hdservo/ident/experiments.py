@@ -34,6 +34,7 @@ import numpy as np
 
 from .. import logio
 from ..cli import UserError
+from ..tomltext import basic_string
 
 #: Firmware loop period, s.
 LOOP_S = 1e-4
@@ -73,12 +74,12 @@ class ExperimentData:
     @property
     def segments(self) -> list[dict[str, Any]]:
         """Per-segment descriptions (``index`` = value of ``segment_code``)."""
-        return list(self.meta.get("segments", []))
+        return [_Fields(f"{self.kind} data: segment {s.get('index')}", s) for s in self.meta.get("segments", [])]
 
     def segment(self, i: int) -> dict[str, np.ndarray]:
-        """Columns restricted to segment ``i``."""
+        """Columns restricted to segment ``i`` (a missing column is a UserError naming it)."""
         m = self.columns["segment_code"] == i
-        return {k: v[m] for k, v in self.columns.items()}
+        return _Fields(f"{self.kind} data", {k: v[m] for k, v in self.columns.items()})
 
     @property
     def gear_ratio(self) -> float:
@@ -113,7 +114,62 @@ class ExperimentData:
             cols["t_s"] = cols.pop("segment_time_s")
         if "segment_code" not in cols:
             cols["segment_code"] = np.zeros(len(cols["t_s"]))
+        _check_segments(Path(path), kind, cols["segment_code"], log.meta)
         return cls(kind=kind, columns=cols, meta=dict(log.meta))
+
+
+class _Fields(dict):  # type: ignore[type-arg]
+    """A dict whose missing key is a one-line UserError naming what lacks it (logs given with --data)."""
+
+    def __init__(self, what: str, items: Mapping[str, Any]) -> None:
+        super().__init__(items)
+        self.what = what
+
+    def __missing__(self, key: str) -> Any:
+        raise UserError(f"{self.what}: expected '{key}', have {', '.join(map(str, self)) or 'nothing'}")
+
+
+def _check_segments(path: Path, kind: str, code: np.ndarray, meta: Mapping[str, Any]) -> None:
+    """The sidecar's ``segments`` against the log's ``segment_code`` (UserError: one line naming the file).
+
+    Each segment is an object with an integer ``index`` >= 0, the others numbers, strings or
+    booleans; every index has samples and every ``segment_code`` value is a listed index.
+    """
+    side = logio.sidecar_path(path)
+    codes = np.unique(code)
+    if codes.size and (np.any(codes != np.round(codes)) or np.any(codes < 0)):
+        raise UserError(f"{path}: column 'segment_code': expected segment indices (integers >= 0)")
+    if "segments" not in meta:
+        return
+    segs = meta["segments"]
+    if not isinstance(segs, list) or not segs:
+        raise UserError(f"{side}: key \"segments\": expected a non-empty array of objects")
+    seen: set[int] = set()
+    for j, s in enumerate(segs):
+        if not isinstance(s, dict):
+            raise UserError(f"{side}: \"segments\"[{j}]: expected an object, found {json_text(s)}")
+        i = s.get("index")
+        if isinstance(i, bool) or not isinstance(i, int) or i < 0 or i in seen:
+            raise UserError(f"{side}: \"segments\"[{j}] \"index\": expected a new integer >= 0, found {json_text(i)}")
+        seen.add(i)
+        for k, v in s.items():
+            if isinstance(v, (str, bool, list, dict)) or (isinstance(v, int) and abs(v) < 2 ** 63) \
+                    or (isinstance(v, float) and math.isfinite(v)):
+                continue
+            raise UserError(f"{side}: \"segments\"[{j}] \"{k}\": expected a finite number or a string, "
+                                f"found {json_text(v)}")
+    have = {int(c) for c in codes}
+    if have - seen:
+        raise UserError(f"{path}: segment_code {min(have - seen)} is not a segment of {side} "
+                        f"(listed: {sorted(seen)})")
+    if seen - have:
+        raise UserError(f"{path}: segment {min(seen - have)} listed in {side} has no samples")
+
+
+def json_text(v: Any) -> str:
+    """Short JSON-like text of a value for a message."""
+    s = repr(v)
+    return s if len(s) <= 40 else s[:37] + "..."
 
 
 def concat(kind: str, parts: Sequence[tuple[dict[str, np.ndarray], dict[str, Any]]],
@@ -429,13 +485,13 @@ class SimRunner:
 
     def _scenario(self, tmp: Path, name: str, mode: str, setpoint: Mapping[str, Any], duration: float,
                   seed: int) -> Path:
-        lines = ["[scenario]", f'name = "{name}"', f'axis = "{self._axis_ref()}"', f"duration_s = {float(duration)!r}",
-                 f"seed = {seed}", f"log_decimation = {self.decimation}", "", "[controller]", f'mode = "{mode}"', ""]
+        lines = ["[scenario]", f"name = {basic_string(name)}", f"axis = {basic_string(str(self._axis_ref()))}", f"duration_s = {float(duration)!r}",
+                 f"seed = {seed}", f"log_decimation = {self.decimation}", "", "[controller]", f"mode = {basic_string(mode)}", ""]
         if self.gains:
             lines += ["[controller.gains]"] + [f"{k} = {float(v)!r}" for k, v in self.gains.items()] + [""]
         lines += ["[setpoint]"]
         for k, v in setpoint.items():
-            lines.append(f'{k} = "{v}"' if isinstance(v, str) else f"{k} = {float(v)!r}")
+            lines.append(f"{k} = {basic_string(v)}" if isinstance(v, str) else f"{k} = {float(v)!r}")
         p = tmp / f"{name}.toml"
         p.write_text("\n".join(lines) + "\n")
         return p

@@ -27,6 +27,8 @@ import tempfile
 from pathlib import Path
 from typing import Any, Mapping
 
+from ..tomltext import basic_string
+
 
 def _fmt(v: Any) -> str:
     if isinstance(v, bool):
@@ -38,7 +40,7 @@ def _fmt(v: Any) -> str:
             raise ValueError(f"non-finite value {v}")
         return repr(float(v))
     if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        return basic_string(v)
     raise TypeError(f"cannot write {type(v).__name__} to TOML")
 
 

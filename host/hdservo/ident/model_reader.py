@@ -1,0 +1,203 @@
+"""Reading an identified model TOML (``hdservo identify -o``): the one checked reader.
+
+``hdservo download``, ``compare --model``, ``test --model`` and ``design verify``
+read a model through :func:`read_model`, which checks every key they use before
+any drive is contacted: each section is a table, each known key has the right
+type (a finite number, an integer, a string), positive where the compensator
+arithmetic divides by it, and the keys that come in groups are complete
+(``[gear] ratio``; the six Stribeck keys of ``[friction_total]``; ``k1`` of a
+``[stiffness]`` with a spring; ``eK_k``/``eK_w`` for every Maxwell element;
+order/amplitude/phase of every TE harmonic).  A bad file is one
+:class:`ModelError` line ``FILE: key 'section.key': expected ..., got ...``.
+Keys the reader does not know are kept as they are (a model may carry notes).
+"""
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from ..cli import UserError
+
+#: A checked model: section -> key -> value (numbers as float, counts as int).
+Model = dict[str, dict[str, Any]]
+
+#: Known keys of each section and their kind: "num" finite number, "pos" finite number > 0, "nonneg" >= 0, "int" integer >= 0, "str" string.
+KEYS: dict[str, dict[str, str]] = {
+    "gear": {"ratio": "pos"},
+    "stiffness": {"k1_Nm_per_rad": "pos", "k2_Nm_per_rad": "num", "k3_Nm_per_rad": "num", "t1_Nm": "num",
+                  "t2_Nm": "num", "damping_Nms_per_rad": "num"},
+    "stiffness_cubic": {"k1_Nm_per_rad": "num", "k3_Nm_per_rad3": "num"},
+    "hysteresis_maxwell": {"n_elements": "int"},
+    "transmission_error": {},
+    "load": {"jl_kgm2": "pos"},
+    "motor": {"jm_kgm2": "pos"},
+    "gravity": {"mgl_Nm": "num", "offset_rad": "num"},
+    "friction_total": {"fc_pos_Nm": "num", "fc_neg_Nm": "num", "fs_pos_Nm": "num", "fs_neg_Nm": "num",
+                       "vs_rad_s": "pos", "delta": "pos", "viscous_Nms_per_rad": "num"},
+    "friction_motor": {"sigma0_Nm_per_rad": "nonneg", "sigma1_Nms_per_rad": "nonneg",
+                       "presliding_breakaway_pos_Nm": "num", "presliding_breakaway_neg_Nm": "num"},
+    "identified": {"hysteresis_loss_rad": "num", "lost_motion_rad": "num", "f_antiresonance_Hz": "num",
+                   "f_resonance_Hz": "num", "frf_small_signal_k_Nm_per_rad": "num", "preisach_offset_rad": "num",
+                   "preisach_u0_Nm": "num", "preisach_step_Nm": "num", "preisach_levels": "int",
+                   "preisach_crc": "int", "preisach_table": "str"},
+}
+#: Keys a section needs when it is present.
+_REQUIRED: dict[str, tuple[str, ...]] = {
+    "gear": ("ratio",),
+    "friction_total": ("fc_pos_Nm", "fc_neg_Nm", "fs_pos_Nm", "fs_neg_Nm", "vs_rad_s", "viscous_Nms_per_rad"),
+}
+#: Most Maxwell-slip elements / TE harmonics a model may list.
+MAX_ELEMENTS = 64
+
+_EXPECT = {"num": "a finite number", "pos": "a finite number > 0", "nonneg": "a finite number >= 0",
+           "int": "an integer >= 0", "str": "a string"}
+
+
+class ModelError(UserError, ValueError):
+    """A model file is unreadable or a key is missing or of the wrong type; one line."""
+
+
+def _got(v: Any) -> str:
+    if isinstance(v, dict):
+        return "a table"
+    if isinstance(v, list):
+        return "an array"
+    s = repr(v)
+    return s if len(s) <= 40 else s[:37] + "..."
+
+
+def check_value(where: str, key: str, v: Any, kind: str) -> float | int | str:
+    """``v`` checked against ``kind`` (see :data:`KEYS`); ModelError naming ``where`` and ``key``."""
+    bad = ModelError(f"{where}: key '{key}': expected {_EXPECT[kind]}, got {_got(v)}")
+    if kind == "str":
+        if not isinstance(v, str):
+            raise bad
+        return v
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise bad
+    if kind == "int":
+        if not isinstance(v, int) or v < 0:
+            raise bad
+        return int(v)
+    try:
+        x = float(v)
+    except OverflowError:
+        raise bad from None
+    if not math.isfinite(x) or (kind == "pos" and not x > 0) or (kind == "nonneg" and not x >= 0):
+        raise bad
+    return x
+
+
+def check_model(data: Any, where: str = "model") -> Model:
+    """Check a parsed model document; returns the checked sections (unknown keys kept).
+
+    Parameters
+    ----------
+    data : Any
+        The parsed TOML document.
+    where : str
+        The file name, for the messages.
+
+    Raises
+    ------
+    ModelError
+        The first problem, one line.
+    """
+    if not isinstance(data, dict):
+        raise ModelError(f"{where}: expected a TOML document of tables")
+    gear = data.get("gear")
+    if "gear" in data and not isinstance(gear, dict):
+        raise ModelError(f"{where}: key 'gear': expected a table [gear], got {_got(gear)}")
+    if not isinstance(gear, dict) or "ratio" not in gear:
+        raise ModelError(f"{where}: key 'gear.ratio': expected a finite number > 0, got nothing "
+                         "(not an identified model from hdservo identify -o)")
+    out: Model = {}
+    for sec, body in data.items():
+        if sec not in KEYS:
+            out[sec] = body if not isinstance(body, dict) else dict(body)
+            continue
+        if not isinstance(body, dict):
+            raise ModelError(f"{where}: key '{sec}': expected a table [{sec}], got {_got(body)}")
+        kinds = dict(KEYS[sec])
+        if sec == "hysteresis_maxwell":
+            n = check_value(where, f"{sec}.n_elements", body.get("n_elements", 0), "int")
+            if int(n) > MAX_ELEMENTS:
+                raise ModelError(f"{where}: key '{sec}.n_elements': expected at most {MAX_ELEMENTS}, got {n}")
+            for i in range(1, int(n) + 1):
+                kinds[f"e{i}_k_Nm_per_rad"] = "nonneg"
+                kinds[f"e{i}_w_Nm"] = "nonneg"
+            need = tuple(k for k in kinds if k != "n_elements")
+        elif sec == "transmission_error":
+            need = ()
+            for pre in ("wg", "out"):
+                i = 1
+                while any(f"{pre}{i}_{s}" in body for s in ("order", "amp_rad", "phase_rad")):
+                    if i > MAX_ELEMENTS:
+                        raise ModelError(f"{where}: key '{sec}.{pre}{i}_order': expected at most "
+                                         f"{MAX_ELEMENTS} harmonics")
+                    kinds.update({f"{pre}{i}_order": "int", f"{pre}{i}_amp_rad": "num", f"{pre}{i}_phase_rad": "num"})
+                    need += (f"{pre}{i}_order", f"{pre}{i}_amp_rad", f"{pre}{i}_phase_rad")
+                    i += 1
+        elif sec == "stiffness":
+            # an FRF-only model has the damping alone; a spring needs its K1
+            spring = any(k in body for k in ("k1_Nm_per_rad", "k2_Nm_per_rad", "k3_Nm_per_rad", "t1_Nm", "t2_Nm"))
+            need = ("k1_Nm_per_rad",) if spring else ()
+        else:
+            need = _REQUIRED.get(sec, ())
+        for k in need:
+            if k not in body:
+                raise ModelError(f"{where}: key '{sec}.{k}': expected {_EXPECT[kinds[k]]}, got nothing")
+        out[sec] = {k: (check_value(where, f"{sec}.{k}", v, kinds[k]) if k in kinds else v) for k, v in body.items()}
+    return out
+
+
+def read_model(path: str | os.PathLike[str]) -> Model:
+    """Read and check an identified model TOML.
+
+    Parameters
+    ----------
+    path : path-like
+        The model file (``hdservo identify -o MODEL.toml``).
+
+    Returns
+    -------
+    Model
+        Section -> key -> value; numbers are float (N.m, rad, s ... as the key's
+        unit suffix says), counts int.
+
+    Raises
+    ------
+    ModelError
+        Missing, unreadable, not UTF-8, not TOML, or a key missing / of the wrong
+        type: one line naming the file and the key.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise ModelError(f"{p}: model file not found")
+    try:
+        raw = p.read_bytes()
+    except OSError as e:
+        raise ModelError(f"{p}: cannot read: {e.strerror or e}") from None
+    return parse_model(raw, str(p))
+
+
+def parse_model(raw: bytes, where: str = "model") -> Model:
+    """:func:`check_model` of the bytes of a model file (ModelError when not UTF-8 TOML)."""
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = raw[: e.start].count(b"\n") + 1
+        raise ModelError(f"{where}:{line}: expected UTF-8 TOML text, got byte 0x{raw[e.start]:02x}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise ModelError(f"{where}: expected TOML: {e}") from None
+    except RecursionError:
+        raise ModelError(f"{where}: expected TOML: nested too deeply") from None
+    return check_model(data, where)
+
+
+__all__ = ["KEYS", "MAX_ELEMENTS", "Model", "ModelError", "check_model", "check_value", "parse_model", "read_model"]

@@ -1,0 +1,46 @@
+"""TOML text the host generates (scenarios, models, configuration files).
+
+Every string the host pastes into a TOML document -- file paths above all, which
+may hold quotes, backslashes (``C:\\axes\\x.toml``) or other odd characters --
+goes through :func:`basic_string`, so the document parses back to the same
+string both in Python (``tomllib``) and in the simulator's C reader
+(``sim/harness/toml_lite.c``, which knows the escapes ``\\" \\\\ \\n \\t \\r``).
+"""
+from __future__ import annotations
+
+#: Escapes both readers understand.
+_ESCAPES = {"\\": "\\\\", '"': '\\"', "\n": "\\n", "\t": "\\t", "\r": "\\r"}
+
+
+def basic_string(s: str) -> str:
+    """A TOML basic string (with the quotes) whose value is ``s``.
+
+    Parameters
+    ----------
+    s : str
+        Any text; a path is passed as ``str(path)``.
+
+    Returns
+    -------
+    str
+        ``"..."`` with backslash, quote, newline, tab and carriage return escaped.
+
+    Raises
+    ------
+    ValueError
+        ``s`` holds another control character (U+0000-U+001F, U+007F), which the
+        simulator's TOML reader cannot take.
+    """
+    out = []
+    for c in str(s):
+        e = _ESCAPES.get(c)
+        if e is not None:
+            out.append(e)
+        elif ord(c) < 0x20 or ord(c) == 0x7F:
+            raise ValueError(f"{s!r}: control character U+{ord(c):04X} cannot go into a TOML string")
+        else:
+            out.append(c)
+    return '"' + "".join(out) + '"'
+
+
+__all__ = ["basic_string"]
