@@ -86,7 +86,7 @@ def _run(args: argparse.Namespace) -> int:
         if not sep or not k:
             raise UserError(f"--gain {g}: expected NAME=NUMBER")
     bus_given = [f"--{a}" for a in ("interface", "channel", "bitrate", "host", "port", "sim")
-                 if getattr(args, a) is not None]
+                 if getattr(args, a) is not None] + (["--no-rig"] if args.no_rig else [])
     if args.offline is not None and args.data:
         raise UserError("--offline and --data are two sources: give one")
     if (args.offline is not None or args.data) and bus_given:
