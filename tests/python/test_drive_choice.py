@@ -6,6 +6,7 @@
   the simulated drive, said on stderr in one line;
 * a python-can config file that names socketcand on the port of a running virtual drive:
   the command talks to that drive (python-can's configuration is what is used).
+* `hdservo demo`, simulated by design, says so first.
 
 The commands run as subprocesses with ``HOME`` in a temporary directory and no ``CAN_*``
 variables, so no configuration of the machine leaks in.  ``HDSERVO_SIM`` points at a stand-in
@@ -195,3 +196,15 @@ def test_sim_starts_a_real_virtual_drive(tmp_path: Path) -> None:
     assert p.returncode == 0, p.stderr
     assert p.stdout.startswith("pos_kp = ")
     assert sum(NOTICE in ln for ln in p.stderr.splitlines()) == 1
+
+
+def test_demo_says_it_is_simulated(tmp_path: Path) -> None:
+    prog, mark = _fake_sim(tmp_path)
+    home = tmp_path / "home"
+    home.mkdir()
+    p = _run(["demo", "-o", str(tmp_path / "demo"), "--quick", "--controllers", "pid", "--procedures", "peak-torque"],
+             tmp_path, _env(home, HDSERVO_SIM=str(prog)))
+    err = p.stderr.splitlines()
+    assert err and err[0] == ("hdservo demo: using a simulated drive (virtual drive, axis reference); "
+                              "your real drive is not touched"), p.stderr
+    assert mark.exists() and p.returncode == 2 and "Traceback" not in p.stderr    # the stand-in did not start
