@@ -5,8 +5,8 @@
 * ``--sim [AXIS]`` or the interface name ``virtual-drive`` (``-i`` or ``CAN_INTERFACE``):
   the simulated drive, said on stderr in one line;
 * a python-can config file that names socketcand on the port of a running virtual drive:
-  the command talks to that drive (python-can's configuration is what is used).
-* `hdservo demo`, simulated by design, says so first.
+  the command talks to that drive (python-can's configuration is what is used);
+* ``hdservo demo``, simulated by design, says so first.
 
 The commands run as subprocesses with ``HOME`` in a temporary directory and no ``CAN_*``
 variables, so no configuration of the machine leaks in.  ``HDSERVO_SIM`` points at a stand-in
