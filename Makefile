@@ -65,7 +65,7 @@ help:
 	@echo "make test     build and run every test; last line 'N passed, N failed'"
 	@echo "make bench    measure (never fails on time); JSON under build/bench/"
 	@echo "make results  closed-loop figures; JSON under build/results/"
-	@echo "make demo     the end-to-end demo on the reference axis"
+	@echo "make demo     the end-to-end demo on the simulated reference axis"
 
 setup:
 	@bash tools/setup.sh

@@ -2,7 +2,7 @@
 """Prediction vs measurement for the pitch-drive design (docs/design-flow.md section 6).
 
 Serves the axis the flow chose (report/axis_chosen.toml) as a virtual drive, identifies it
-over CAN (`hdservo identify all --axis ...`), downloads the identified compensator
+over CAN (`hdservo identify all --sim ...`), downloads the identified compensator
 parameters (the `hdservo download` code, read back) into each procedure's drive together
 with the flow's gains, runs the test procedures (`hdservo test` code; stabilisation in
 the drive's STAB mode) and compares every predicted figure with the measured one

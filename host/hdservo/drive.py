@@ -29,6 +29,7 @@ import can
 import canopen
 
 from . import od_gen
+from .cli import UserError
 from .params_gen import BY_NAME as PARAMS
 
 T = TypeVar("T")
@@ -76,18 +77,38 @@ class DriveError(Exception):
     """A drive-side failure reported in one line (SDO abort, time-out, refused transition)."""
 
 
-def add_bus_arguments(p: argparse.ArgumentParser) -> None:
-    """Add the python-can bus options ``-i/-c/-b`` plus socketcand ``--host/--port`` and ``--node-id``."""
-    p.add_argument("-i", "--interface", help="python-can interface (default: config file / CAN_INTERFACE)")
-    p.add_argument("-c", "--channel", help="channel, e.g. can0 (default: config file / CAN_CHANNEL)")
-    p.add_argument("-b", "--bitrate", type=int, help="bitrate in bit/s")
+#: python-can-like interface name of the simulated drive (``-i virtual-drive``, ``CAN_INTERFACE``, config file)
+SIM_INTERFACE = "virtual-drive"
+#: built-in axes of the simulated drive (else an axis TOML file)
+SIM_AXES = ("reference", "minimal")
+#: python-can's configuration files, in its order (``can.util.CONFIG_FILES``)
+CAN_CONFIG_FILES = "~/can.conf, /etc/can.conf, ~/.can, ~/.canrc"
+
+
+def add_bus_arguments(p: "argparse.ArgumentParser | argparse._ArgumentGroup", sim: bool = True) -> None:
+    """Add the python-can bus options ``-i/-c/-b``, socketcand ``--host/--port``, ``--node-id`` and ``--sim [AXIS]``.
+
+    Without ``-i/-c/-b/--host/--port`` the bus comes from python-can's configuration (its
+    config file, ``CAN_INTERFACE`` / ``CAN_CHANNEL`` / ``CAN_BITRATE``); a simulated drive
+    only with ``--sim [AXIS]`` or the interface name ``virtual-drive`` (:func:`choose_drive`).
+    """
+    p.add_argument("-i", "--interface",
+                   help=f"python-can interface, or '{SIM_INTERFACE}' for the simulator "
+                        "(default: python-can config file / CAN_INTERFACE)")
+    p.add_argument("-c", "--channel", help="channel, e.g. can0 (default: python-can config file / CAN_CHANNEL)")
+    p.add_argument("-b", "--bitrate", type=int, help="bitrate in bit/s (default: python-can config / CAN_BITRATE)")
     p.add_argument("--host", default=None, help="socketcand server host (interface socketcand)")
     p.add_argument("--port", type=int, default=None, help="socketcand server port (interface socketcand)")
     p.add_argument("--node-id", type=int, default=1, help="CANopen node id of the drive (default 1)")
+    if sim:
+        p.add_argument("--sim", nargs="?", const="reference", default=None, metavar="AXIS",
+                       help="talk to a simulated drive instead (a virtual drive started for this command, over "
+                            "CAN): axis 'reference' (default), 'minimal' or an axis TOML file; the same as "
+                            f"-i {SIM_INTERFACE}. Put it last or write --sim=AXIS")
 
 
 def bus_kwargs(args: argparse.Namespace) -> dict[str, Any]:
-    """python-can keyword arguments from parsed :func:`add_bus_arguments` options."""
+    """python-can keyword arguments given on the command line (:func:`add_bus_arguments` options only)."""
     kw: dict[str, Any] = {}
     if args.interface:
         kw["interface"] = args.interface
@@ -103,6 +124,129 @@ def bus_kwargs(args: argparse.Namespace) -> dict[str, Any]:
         kw.setdefault("channel", "can0")
         kw.setdefault("host", "127.0.0.1")
     return kw
+
+
+@dataclass(frozen=True)
+class DriveChoice:
+    """The drive a command talks to: a bus from python-can's settings, or a simulated drive.
+
+    Attributes
+    ----------
+    bus : dict or None
+        python-can keyword arguments of the real bus; None for a simulated drive.
+    axis : str or None
+        Simulated drive only: ``reference``, ``minimal`` or an absolute axis TOML path.
+    origin : str
+        Where the choice comes from (``--sim``, ``-i``, ``CAN_INTERFACE``, ``python-can config file``).
+    """
+
+    bus: Optional[dict[str, Any]]
+    axis: Optional[str]
+    origin: str
+
+    @property
+    def virtual(self) -> bool:
+        """True for a simulated drive."""
+        return self.bus is None
+
+    def describe(self) -> str:
+        """One phrase for logs and reports."""
+        if self.bus is None:
+            return f"simulated drive (virtual drive, axis {self.axis_name})"
+        shown = {k: v for k, v in self.bus.items() if k in ("interface", "channel", "bitrate", "host", "port")}
+        return f"drive {shown} ({self.origin})"
+
+    @property
+    def axis_name(self) -> str:
+        """The simulated axis as the user gave it (a file by its name)."""
+        return self.axis if self.axis in SIM_AXES or self.axis is None else Path(self.axis).name
+
+    def announce(self, command: str) -> None:
+        """Say on stderr, in one line, that a simulated drive is started (nothing for a real one)."""
+        if self.bus is None:
+            import sys
+            print(f"hdservo {command}: using a simulated drive (virtual drive, axis {self.axis_name}); "
+                  "your real drive is not touched", file=sys.stderr, flush=True)
+
+
+def _configured_interface(given: dict[str, Any]) -> tuple[Optional[str], str]:
+    """The interface name python-can would use (options, ``can.rc``, ``CAN_INTERFACE``/``CAN_CONFIG``,
+    config files, in python-can's order) and where it comes from; (None, "") without one."""
+    from can.util import load_environment_config, load_file_config
+    if given.get("interface"):
+        return str(given["interface"]), "-i"
+    sources: list[tuple[str, Callable[[], dict[str, Any]]]] = [
+        ("can.rc", lambda: dict(can.rc)),
+        ("CAN_INTERFACE", lambda: dict(load_environment_config())),
+        (f"python-can config file ({CAN_CONFIG_FILES})", lambda: dict(load_file_config())),
+    ]
+    for origin, load in sources:
+        try:
+            cfg = load()
+        except ValueError as e:        # CAN_CONFIG is not JSON; a config file does not parse
+            raise UserError(f"python-can configuration ({origin}): {e}") from None
+        name = cfg.get("interface") or cfg.get("bustype")
+        if name:
+            return str(name), origin
+    return None, ""
+
+
+def choose_drive(args: argparse.Namespace, sim_only: tuple[str, ...] = ()) -> DriveChoice:
+    """The drive a command talks to, python-can's way; a simulated drive only when asked for.
+
+    Bus options on the command line first, then python-can's configuration
+    (:func:`can.util.load_config`: ``can.rc``, ``CAN_INTERFACE`` / ``CAN_CHANNEL`` /
+    ``CAN_BITRATE`` / ``CAN_CONFIG``, then ``~/can.conf``, ``/etc/can.conf``, ``~/.can``,
+    ``~/.canrc``).  ``--sim [AXIS]`` or the interface name ``virtual-drive`` (from any of
+    those) chooses the simulated drive.  Without any of them there is no drive: an error,
+    never a silent simulation.
+
+    Parameters
+    ----------
+    args
+        Parsed :func:`add_bus_arguments` options.
+    sim_only
+        Names of options that only mean something for the simulated drive (e.g. ``seed``):
+        refused, when set (not None / False), with a real drive.
+
+    Raises
+    ------
+    UserError
+        No drive configured, conflicting options, an unknown axis or a bad python-can configuration.
+    """
+    given = {k: getattr(args, k) for k in ("interface", "channel", "bitrate", "host", "port")
+             if getattr(args, k, None) not in (None, "")}
+    sim_axis = getattr(args, "sim", None)
+    name, origin = _configured_interface(given)
+    if sim_axis is not None or name == SIM_INTERFACE:
+        origin = "--sim" if sim_axis is not None else origin
+        clash = [f"--{k}" for k in given if not (k == "interface" and given[k] == SIM_INTERFACE)]
+        if clash:
+            raise UserError(f"{', '.join(clash)}: bus options do not go with a simulated drive ({origin}); "
+                             "give either the bus or --sim")
+        axis = sim_axis or "reference"
+        if axis not in SIM_AXES:
+            if not Path(axis).is_file():
+                raise UserError(f"--sim {axis}: no such axis file (expected {', '.join(SIM_AXES)} "
+                                 "or an axis TOML file)")
+            axis = str(Path(axis).resolve())
+        return DriveChoice(bus=None, axis=axis, origin=origin)
+    for opt in sim_only:
+        if getattr(args, opt, None) not in (None, False):
+            raise UserError(f"--{opt.replace('_', '-')} is an option of the simulated drive: it goes with --sim")
+    if name is None:
+        raise UserError("no CAN interface chosen: no -i option and no python-can configuration "
+                         f"(CAN_INTERFACE / CAN_CHANNEL, or a [default] section in {CAN_CONFIG_FILES}); "
+                         "choose the drive with -i/-c, a python-can config, or --sim for the simulator")
+    try:
+        cfg = dict(can.util.load_config(config=dict(given)))
+    except (can.CanInterfaceNotImplementedError, ValueError, TypeError) as e:
+        raise UserError(f"python-can configuration ({origin}): {e}") from None
+    bus = {k: v for k, v in cfg.items() if v is not None}
+    if bus.get("interface") == "socketcand":
+        bus.setdefault("channel", "can0")
+        bus.setdefault("host", "127.0.0.1")
+    return DriveChoice(bus=bus, axis=None, origin=origin if origin == "-i" else f"python-can configuration: {origin}")
 
 
 @dataclass
@@ -611,5 +755,6 @@ def unwrap_tick(prev: Optional[int], tick_u32: int) -> int:
     return prev + ((int(tick_u32) - prev + 2 ** 31) % 2 ** 32) - 2 ** 31
 
 
-__all__ = ["Drive", "DriveError", "add_bus_arguments", "bus_kwargs", "unwrap_phase", "unwrap_tick", "align_motor_turns",
+__all__ = ["Drive", "DriveError", "DriveChoice", "add_bus_arguments", "bus_kwargs", "choose_drive",
+           "SIM_INTERFACE", "SIM_AXES", "unwrap_phase", "unwrap_tick", "align_motor_turns",
            "EDS_PATH", "MODES", "SIGNALS", "TABLE_GROUPS", "EXC_TYPES", "EXC_INJECTION", "EXC_SCALE", "group_payload", "od_gen"]

@@ -45,7 +45,15 @@ def test_te_from_saved_log(tmp_path: Path, capsys) -> None:
     assert rep["results"]["te"]["wg_orders"][1] == 2
 
 
-def test_drive_hook_refuses_cleanly(capsys) -> None:
-    rc = main(["identify", "te", "--drive", "-q"])
-    err = capsys.readouterr().err.strip().splitlines()
-    assert rc == 2 and len(err) == 1 and "--drive" in err[0]
+def test_sources_exclude_each_other(tmp_path: Path, capsys) -> None:
+    log = tmp_path / "te.csv"
+    for argv, words in ((["--offline", "reference", "--sim"], "--sim: drive options do not go with --offline"),
+                        (["--data", str(log), "-i", "socketcand"], "--interface: drive options do not go with --data"),
+                        (["--offline", "reference", "--data", str(log)], "two sources"),
+                        (["--data", str(log), "--seed", "2"], "--seed"),
+                        (["--offline", "nosuch/axis.toml"], "nosuch/axis.toml"),
+                        (["--sim", "nosuch/axis.toml"], "no such axis file"),
+                        (["--no-rig", "-i", "socketcand", "--port", "1"], "--no-rig")):
+        rc = main(["identify", "te", "-q", *argv])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert rc == 2 and len(err) == 1 and words in err[0], (argv, err)

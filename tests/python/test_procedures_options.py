@@ -19,6 +19,7 @@ ROOT = Path(__file__).resolve().parents[2]
 SIM = ROOT / "build" / "bin" / "hdservo-sim"
 EX = ROOT / "examples" / "pitch_drive"
 CLI = [sys.executable, "-m", "hdservo.cli", "test"]
+SIM_ARGS = ["--sim"]     # the simulated drive, asked for (no python-can configuration needed)
 ENV = {"PYTHONPATH": str(ROOT / "host"), "PATH": "/usr/bin:/bin"}
 needs_sim = pytest.mark.skipif(not SIM.exists(), reason="build/bin/hdservo-sim not built (make sim)")
 
@@ -48,7 +49,7 @@ def test_stab_mode_auto_uses_the_drives_stabilisation_mode() -> None:
 @needs_sim
 def test_cli_params_and_peak_torque_definition(tmp_path: Path) -> None:
     out = tmp_path / "r.json"
-    p = subprocess.run(CLI + ["peak-torque", "--params", "torque_limit=40", "-q", "--json", str(out)],
+    p = subprocess.run(CLI + ["peak-torque", *SIM_ARGS, "--params", "torque_limit=40", "-q", "--json", str(out)],
                        capture_output=True, text=True, env=ENV, timeout=300)
     assert p.returncode == 0, p.stderr
     doc = json.loads(out.read_text())
@@ -65,7 +66,7 @@ def test_cli_params_and_peak_torque_definition(tmp_path: Path) -> None:
     assert any("torque_limit=40" in n for n in doc["notes"])
     for bad in (["--params", "no_such_param=1"], ["--params", "torque_limit"], ["--params", "vel_kp=-5"],
                 ["--model", str(tmp_path / "none.toml")]):
-        q = subprocess.run(CLI + ["peak-torque", "--json", str(tmp_path / "x.json")] + bad,
+        q = subprocess.run(CLI + ["peak-torque", *SIM_ARGS, "--json", str(tmp_path / "x.json")] + bad,
                            capture_output=True, text=True, env=ENV, timeout=60)
         assert q.returncode == 2 and bad[0] in q.stderr.strip().splitlines()[-1], (bad, q.stderr)
     assert not (tmp_path / "x.json").exists()
@@ -77,7 +78,7 @@ def test_cli_model_download_and_stab_mode(tmp_path: Path) -> None:
     if not model.is_file():
         pytest.skip("examples/pitch_drive/verify/model.toml not present")
     out = tmp_path / "r.json"
-    p = subprocess.run(CLI + ["stabilisation", "--axis", str(EX / "report" / "axis_chosen.toml"), "--model",
+    p = subprocess.run(CLI + ["stabilisation", "--sim", str(EX / "report" / "axis_chosen.toml"), "--model",
                               str(model), "--compensators", "lugre", "--stab-mode", "stab", "--duration", "1",
                               "-q", "--json", str(out)], capture_output=True, text=True, env=ENV, timeout=300)
     assert p.returncode == 0, p.stderr

@@ -176,18 +176,18 @@ def test_cli_json_and_bad_input(tmp_path: Path) -> None:
     env_py = [sys.executable, "-m", "hdservo.cli", "test"]
     env = {"PYTHONPATH": str(ROOT / "host"), "PATH": "/usr/bin:/bin"}
     out = tmp_path / "r.json"
-    p = subprocess.run(env_py + ["stabilisation", "--duration", "1", "-q", "--json", str(out), "--plots",
+    p = subprocess.run(env_py + ["stabilisation", "--sim", "--duration", "1", "-q", "--json", str(out), "--plots",
                                  str(tmp_path / "plots")], capture_output=True, text=True, env=env, timeout=300)
     assert p.returncode == 0, p.stderr
     doc = json.loads(out.read_text())
     assert doc["format"] == "hdservo-test"
     assert doc["headline"]["stabilisation_rms_arcsec"] > 100
     assert (tmp_path / "plots" / "stabilisation.png").exists()
-    bad = subprocess.run(env_py + ["positioning", "--runs", "1", "--json", str(tmp_path / "x.json")],
+    bad = subprocess.run(env_py + ["positioning", "--sim", "--runs", "1", "--json", str(tmp_path / "x.json")],
                          capture_output=True, text=True, env=env, timeout=60)
     assert bad.returncode == 2
     assert len(bad.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "x.json").exists()
-    bad2 = subprocess.run(env_py + ["stiffness", "--axis", str(tmp_path / "none.toml")],
+    bad2 = subprocess.run(env_py + ["stiffness", "--sim", str(tmp_path / "none.toml")],
                           capture_output=True, text=True, env=env, timeout=60)
     assert bad2.returncode == 2 and "none.toml" in bad2.stderr

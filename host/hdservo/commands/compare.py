@@ -1,9 +1,10 @@
 """``hdservo compare``: the test procedures with the PID baseline, each compensator and the best combination.
 
-Without bus options every procedure runs on its own virtual reference axis
-(``--axis`` for another axis file), exactly as ``hdservo test`` does; with
-``-i/-c/-b`` on that drive.  ``--model MODEL.toml`` (``hdservo identify -o``)
-downloads the compensator parameters computed from the identified model
+The procedures run on the drive python-can's settings name (``-i/-c/-b``, else
+its config file and ``CAN_*`` variables; without any of them the command
+refuses); with ``--sim [AXIS]`` (or ``-i virtual-drive``) every procedure runs
+on its own simulated axis (reference, or AXIS), exactly as ``hdservo test`` does.
+``--model MODEL.toml`` (``hdservo identify -o``) downloads the compensator parameters computed from the identified model
 (verified by read-back) before every compensated procedure.  Writes
 ``OUT/compare.json``, per-controller ``hdservo-test`` JSON and plots, and one
 comparison chart per headline figure (layout: :mod:`hdservo.compare`); prints
@@ -42,8 +43,7 @@ def register(p: argparse.ArgumentParser) -> None:
     p.add_argument("--proc-args", default=None, metavar="'OPTIONS'",
                    help="further 'hdservo test' procedure options for every procedure, e.g. '--runs 3'")
     add_bus_arguments(p)
-    p.add_argument("--axis", default="reference", help="virtual drive only: axis TOML, 'reference' or 'minimal'")
-    p.add_argument("--seed", type=int, default=1, help="virtual drive only: sensor-noise seed")
+    p.add_argument("--seed", type=int, default=None, help="with --sim only: sensor-noise seed (default 1)")
     p.add_argument("--json", type=Path, help="also write the comparison document here")
     p.add_argument("--pdf", action="store_true", help="also write PDF plots")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
@@ -62,10 +62,11 @@ def _check_dir(path: Path, what: str) -> None:
 def run(args: argparse.Namespace) -> int:
     """Check the input, run the comparison, print the table."""
     from .. import compare as cmp
-    from ..drive import bus_kwargs
-    bus = bus_kwargs(args) or None
-    if bus is None and args.axis not in ("reference", "minimal") and not Path(args.axis).is_file():
-        raise UserError(f"--axis {args.axis}: no such file")
+    from ..drive import choose_drive
+    choice = choose_drive(args, sim_only=("seed",))
+    bus = choice.bus
+    axis = choice.axis or "reference"
+    seed = 1 if args.seed is None else args.seed
     if args.model is not None and not args.model.is_file():
         raise UserError(f"--model {args.model}: no such file")
     _check_dir(args.out, "--out")
@@ -74,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
             raise UserError(f"--json {args.json}: is a directory")
         _check_dir(args.json.parent, "--json")
     try:
-        ctls = cmp.controllers_from_names(args.controllers.split(","), args.axis if bus is None else "reference")
+        ctls = cmp.controllers_from_names(args.controllers.split(","), axis)
         procs = [x.strip() for x in args.procedures.split(",") if x.strip()]
         if not procs:
             raise ValueError("--procedures: none given")
@@ -89,10 +90,11 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(str(e)) from None
     if args.model is not None:              # a bad model is refused before anything runs
         from .download import plan_download
-        plan_download(args.model, args.axis)
+        plan_download(args.model, axis)
+    choice.announce("compare")
     try:
         doc = cmp.run_compare(args.out, ctls, procs, proc_extra=extra, bus=bus, node_id=args.node_id,
-                              axis=args.axis, seed=args.seed, model=args.model, progress=not args.quiet,
+                              axis=axis, seed=seed, model=args.model, progress=not args.quiet,
                               pdf=args.pdf, echo=(lambda s: None) if args.quiet else print)
     except ValueError as e:
         raise UserError(str(e)) from None

@@ -16,7 +16,10 @@
 Changes apply at once and are in RAM until saved.  Any refusal is one error line and
 exit status 2; a restore stops at the first write the drive refuses and writes back the
 values the drive had before (read first), so a refused file changes nothing.
-Without bus options a virtual drive is started (a dry run: it stops with the command).
+The drive is the one python-can's settings name (``-i/-c/-b``, else its config file and
+``CAN_*`` variables); without any of them the command refuses.  ``--sim [AXIS]`` (or
+``-i virtual-drive``) starts a simulated drive for a dry run, said on stderr; it stops with
+the command.
 """
 from __future__ import annotations
 
@@ -185,7 +188,7 @@ def _pairs(pairs: list[str]) -> dict[str, int]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..drive import Drive, DriveError, bus_kwargs
+    from ..drive import Drive, DriveError, choose_drive
     from ..driveconfig import si_of
     from ..ident.drive_runner import VirtualDrive
     from ..params_gen import BY_NAME
@@ -200,14 +203,15 @@ def run(args: argparse.Namespace) -> int:
         if bad:
             raise UserError(f"not drive parameters: {', '.join(bad)} (docs/parameters.md)")
     pairs = _pairs(args.pairs) if args.action == "set" else {}
-    bus = bus_kwargs(args)
+    target = choose_drive(args)
     vd = None
     drive = None
     lines: list[str] = []
     try:
-        if not bus:
-            progress("no bus options: starting a virtual drive (dry run; it stops with this command)")
-            vd = VirtualDrive(axis="reference", rig=False, node_id=args.node_id, pacing="realtime")
+        bus = target.bus
+        if bus is None:
+            target.announce("config")
+            vd = VirtualDrive(axis=target.axis or "reference", rig=False, node_id=args.node_id, pacing="realtime")
             bus = {"interface": "socketcand", "channel": "can0", "host": "127.0.0.1", "port": vd.port}
         try:
             drive = Drive.connect(args.node_id, **bus)

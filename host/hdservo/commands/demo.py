@@ -1,7 +1,7 @@
 """``hdservo demo`` (``make demo``): the whole flow on the virtual reference axis, end to end.
 
 1. start the virtual reference axis (``hdservo-sim serve --rig`` on an ephemeral loopback port);
-2. identify the axis over CAN (``hdservo identify all``; the identification starts its own
+2. identify the axis over CAN (``hdservo identify all --sim``; the identification starts its own
    lock-step virtual drive with the test-rig channel it needs for the locked-output experiments);
 3. download the compensator parameters and tables computed from the identified model to the
    running virtual drive, every item read back (``hdservo download``);
@@ -105,13 +105,15 @@ def run(args: argparse.Namespace) -> int:
     print(f"hdservo demo: reference axis, {len(ctls)} controllers x {len(procs)} procedures, outputs in {out}/",
           flush=True)
 
+    print("hdservo demo: using a simulated drive (virtual drive, axis reference); your real drive is not touched",
+          file=sys.stderr, flush=True)
     _say(1, "starting the virtual reference axis (hdservo-sim serve)", t0)
     drive = VirtualDriveProcess("reference", pacing="fast", seed=args.seed)
     try:
         print(f"  virtual drive: CANopen node 1 on socketcand 127.0.0.1:{drive.port}", flush=True)
 
         _say(2, "identifying the axis over CAN (hdservo identify all)", t0)
-        _hdservo(["identify", "all", "-o", str(model), "--json", str(out / "identify.json"),
+        _hdservo(["identify", "all", "--sim=reference", "-o", str(model), "--json", str(out / "identify.json"),
                   "--plots", str(out / "identify-plots"), "--seed", str(args.seed)], "identification",
                  out / "identify.txt")
 

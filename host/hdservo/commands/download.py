@@ -18,8 +18,12 @@ Any refusal or read-back mismatch is one error line and exit status 2; what
 was already written stays (each table is atomic on the drive).  ``--enable``
 sets ``cb_enable`` afterwards.  What was written is in force in RAM; ``--save``
 stores it (0x1010: parameters, groups and the Preisach table) and checks that
-the drive reports the table saved (0x5101:3), so it survives a power cycle.  Without bus options a virtual drive is started
-(only useful for a dry run: it stops when the command ends).
+the drive reports the table saved (0x5101:3), so it survives a power cycle.
+
+The drive is the one python-can's settings name (``-i/-c/-b``, else its config file and
+``CAN_*`` variables); without any of them the command refuses.  ``--sim [AXIS]`` (or
+``-i virtual-drive``) starts a simulated drive for a dry run (said on stderr; it stops when
+the command ends).
 """
 from __future__ import annotations
 
@@ -43,8 +47,7 @@ def register(p: argparse.ArgumentParser) -> None:
     p.add_argument("model", type=Path, metavar="MODEL.toml", help="identified model (hdservo identify -o)")
     add_bus_arguments(p)
     p.add_argument("--axis", default="reference", metavar="AXIS.toml",
-                   help="axis file for the keys the model lacks (default: reference); also the axis of the "
-                        "virtual drive started when no bus option is given")
+                   help="axis file for the keys the model lacks (default: reference)")
     p.add_argument("--preisach", type=Path, metavar="TABLE.bin",
                    help="Preisach image to download (default: the one the model names, if any)")
     p.add_argument("--no-tables", action="store_true", help="parameters only")
@@ -270,7 +273,7 @@ def write_verified(drive: Any, plan: Mapping[str, Any], tables: bool = True,
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..drive import Drive, DriveError, bus_kwargs
+    from ..drive import Drive, DriveError, choose_drive
     from ..ident.drive_runner import VirtualDrive
 
     def progress(msg: str) -> None:
@@ -289,16 +292,16 @@ def run(args: argparse.Namespace) -> int:
         except ValueError as e:
             raise UserError(f"--enable: {e}") from None
     plan = plan_download(args.model, args.axis, args.preisach, args.version)
+    target = choose_drive(args)
     for n in plan["notes"]:
         progress(f"note: {n}")
-    bus = bus_kwargs(args)
+    bus = target.bus
     vd = None
     drive = None
     try:
-        if not bus:
-            progress("no bus options: starting a virtual drive (dry run; it stops with this command)")
-            vd = VirtualDrive(axis=args.axis if args.axis in ("reference", "minimal") else str(Path(args.axis).resolve()),
-                              rig=False, node_id=args.node_id, pacing="realtime")
+        if bus is None:
+            target.announce("download")
+            vd = VirtualDrive(axis=target.axis or "reference", rig=False, node_id=args.node_id, pacing="realtime")
             bus = {"interface": "socketcand", "channel": "can0", "host": "127.0.0.1", "port": vd.port}
         try:
             drive = Drive.connect(args.node_id, **bus)

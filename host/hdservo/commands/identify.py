@@ -2,13 +2,14 @@
 
 Sources (one of):
 
-(none)                the DEFAULT: a virtual drive (``hdservo-sim serve``, reference axis or
-                      ``--axis``, lock-step pacing, test-rig interface) started on a loopback
-                      port and driven over CAN exactly like a real drive; always stopped
-``--drive``           a real drive over CAN: python-can settings ``-i/-c/-b`` (+ socketcand
+(default)             the drive python-can's settings name, over CAN: ``-i/-c/-b`` (+ socketcand
                       ``--host/--port``), else python-can's config file / ``CAN_*`` variables;
-                      any of ``-i/-c/-b/--host/--port`` implies ``--drive``
-``--sim AXIS.toml``   the simulator binding (no CAN)
+                      without any of them the command refuses (no silent simulation)
+``--sim [AXIS]``      a simulated drive over CAN, exactly like a real drive: ``hdservo-sim serve``
+                      of the reference axis (or AXIS: 'minimal' or a TOML file), lock-step pacing,
+                      test-rig interface, started on a loopback port (said on stderr), always
+                      stopped; the same as ``-i virtual-drive``
+``--offline AXIS``    the simulator binding in this process (no CAN, no drive)
 ``--data LOG.csv``    recorded experiment logs (repeatable; each sidecar names its experiment)
 
 Outputs: ``-o MODEL.toml`` (axis/model, SI keys), ``--json REPORT.json``,
@@ -28,30 +29,21 @@ HELP = "identify friction, stiffness, hysteresis, transmission error and FRF of 
 
 
 def register(p: argparse.ArgumentParser) -> None:
+    from ..drive import add_bus_arguments
     from ..ident.pipeline import TARGETS
     p.add_argument("target", choices=TARGETS, help="what to identify")
-    src = p.add_mutually_exclusive_group()
-    src.add_argument("--sim", metavar="AXIS.toml", help="run the experiments on the simulator binding (no CAN) "
-                     "with this axis file (or 'reference')")
+    src = p.add_argument_group("source (default: the drive of the python-can settings below)")
+    src.add_argument("--offline", metavar="AXIS", help="run the experiments on the simulator binding in this "
+                     "process (no CAN, no drive) with this axis ('reference', 'minimal' or an axis TOML file)")
     src.add_argument("--data", metavar="LOG.csv", action="append", type=Path,
                      help="recorded experiment log (repeatable)")
-    src.add_argument("--drive", action="store_true",
-                     help="run on a real drive over CAN (python-can options below, else python-can's config "
-                          "file / CAN_* variables). Without --drive, --sim, --data or bus options the DEFAULT is a "
-                          "virtual drive of --axis (hdservo-sim serve, lock-step) driven over CAN")
-    can = p.add_argument_group("drive (python-can settings; any of them implies --drive)")
-    can.add_argument("-i", "--interface", help="python-can interface (e.g. socketcand, socketcan)")
-    can.add_argument("-c", "--channel", help="python-can channel (e.g. vcan0)")
-    can.add_argument("-b", "--bitrate", type=int, help="bit rate, bit/s")
-    can.add_argument("--host", help="socketcand server host (interface socketcand)")
-    can.add_argument("--port", type=int, help="socketcand server port (interface socketcand)")
-    can.add_argument("--node", type=int, default=1, help="CANopen node id (default 1)")
-    can.add_argument("--axis", default="reference", metavar="AXIS.toml",
-                     help="axis of the default virtual drive ('reference', 'minimal' or a TOML file)")
+    can = p.add_argument_group("drive (python-can settings; default: python-can's config file / CAN_* variables)")
+    add_bus_arguments(can)
     can.add_argument("--no-rig", action="store_true",
-                     help="virtual drive: do not use its test-rig interface; the locked-output experiments then "
-                          "run on the simulator binding (said in the JSON report)")
-    p.add_argument("--seed", type=int, default=1, help="simulator noise seed (default 1)")
+                     help="with --sim only: do not use the simulated drive's test-rig interface; the locked-output "
+                          "experiments then run on the simulator binding (said in the JSON report)")
+    p.add_argument("--seed", type=int, default=None,
+                   help="with --sim or --offline only: simulator noise seed (default 1)")
     p.add_argument("--gain", action="append", default=[], metavar="NAME=VALUE",
                    help="drive gain override for the closed-loop experiments (repeatable), e.g. vel_kp=27.5")
     p.add_argument("--torque-max", type=float, default=67.0, metavar="NM",
@@ -93,9 +85,16 @@ def _run(args: argparse.Namespace) -> int:
             raise UserError(f"--gain {g}: expected NAME=NUMBER") from None
         if not sep or not k:
             raise UserError(f"--gain {g}: expected NAME=NUMBER")
-    bus_given = any(getattr(args, a) is not None for a in ("interface", "channel", "bitrate", "host", "port"))
-    if (args.sim or args.data) and bus_given:
-        raise UserError("bus options (-i/-c/-b/--host/--port) go with --drive, not with --sim/--data")
+    bus_given = [f"--{a}" for a in ("interface", "channel", "bitrate", "host", "port", "sim")
+                 if getattr(args, a) is not None] + (["--no-rig"] if args.no_rig else [])
+    if args.offline is not None and args.data:
+        raise UserError("--offline and --data are two sources: give one")
+    if (args.offline is not None or args.data) and bus_given:
+        raise UserError(f"{', '.join(bus_given)}: drive options do not go with "
+                        f"{'--offline' if args.offline is not None else '--data'}")
+    if args.data and args.seed is not None:
+        raise UserError("--seed is the simulator's noise seed: it goes with --sim or --offline, not --data")
+    seed = 1 if args.seed is None else args.seed
     session = None
     if args.data:
         for path in args.data:
@@ -106,21 +105,19 @@ def _run(args: argparse.Namespace) -> int:
                 raise UserError(f"{path}: a second '{d.kind}' log (one log per experiment)")
             data[d.kind] = d
         source = "data"
-    elif args.sim:
-        runner = ex.SimRunner(axis=args.sim, seed=args.seed, progress=progress, gains=gains)
-        source = f"simulator {args.sim}"
+    elif args.offline is not None:
+        runner = ex.SimRunner(axis=args.offline, seed=seed, progress=progress, gains=gains)
+        source = f"simulator {args.offline}"
     else:
-        from ..drive import bus_kwargs
-        if args.drive or bus_given:
-            ns = argparse.Namespace(interface=args.interface, channel=args.channel, bitrate=args.bitrate,
-                                    host=args.host, port=args.port)
-            bus = bus_kwargs(ns)
-            source = f"drive over CAN {bus or '(python-can config)'} node {args.node}"
+        from ..drive import choose_drive
+        target = choose_drive(args, sim_only=("seed", "no_rig"))
+        if target.virtual:
+            source = f"virtual drive over CAN (axis {target.axis_name})"
+            target.announce("identify")
         else:
-            bus = None
-            source = f"virtual drive over CAN (axis {args.axis})"
-        session = ex.drive_runner(bus=bus, node_id=args.node, axis=args.axis, seed=args.seed, progress=progress,
-                                  rig=not args.no_rig, gains=gains)
+            source = f"{target.describe()} node {args.node_id}"
+        session = ex.drive_runner(bus=target.bus, node_id=args.node_id, axis=target.axis or "reference", seed=seed,
+                                  progress=progress, rig=not args.no_rig, gains=gains)
     if session is not None:
         with session as runner:
             pl = _run_pipeline(args, runner, data, progress)

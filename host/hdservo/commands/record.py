@@ -11,18 +11,23 @@ motor torque) at ``--rate`` Hz, records for ``--duration`` seconds and writes
   ``hdservo discrepancy`` or any other log reader;
 * ``OUT.log``, the raw frames in ``candump -L`` format (python-can ``.log``).
 Lost loop ticks are counted and reported (and in the sidecar).
+
+The drive is the one python-can's settings name (``-i/-c/-b``, else its config file and
+``CAN_*`` variables); without any of them the command refuses.  ``--sim [AXIS]`` (or
+``-i virtual-drive``) records a simulated drive started for the command (said on stderr).
 """
 from __future__ import annotations
 
 import argparse
 import struct
 from pathlib import Path
+from typing import Any
 
 import can
 
 from .. import logio
 from ..cli import UserError
-from ..drive import (LOOP_HZ, TURN, Drive, DriveError, add_bus_arguments, align_motor_turns, bus_kwargs,
+from ..drive import (LOOP_HZ, TURN, Drive, DriveError, add_bus_arguments, align_motor_turns, choose_drive,
                      unwrap_phase, unwrap_tick)
 
 NAME = "record"
@@ -65,8 +70,25 @@ def run(args: argparse.Namespace) -> int:
     if args.duration <= 0:
         raise UserError("--duration must be positive")
     out = Path(args.out)
+    target = choose_drive(args)
+    vd = None
+    if target.bus is None:
+        from ..ident.drive_runner import VirtualDrive
+        target.announce("record")
+        vd = VirtualDrive(axis=target.axis or "reference", rig=False, node_id=args.node_id, pacing="realtime")
     try:
-        drive = Drive.connect(node_id=args.node_id, **bus_kwargs(args))
+        return _record(args, out, target.bus if vd is None else
+                       {"interface": "socketcand", "channel": "can0", "host": "127.0.0.1", "port": vd.port})
+    finally:
+        if vd is not None:
+            vd.stop()
+
+
+def _record(args: argparse.Namespace, out: Path, bus: dict[str, Any]) -> int:
+    """Record from the drive on ``bus`` (python-can settings) and write the log."""
+    period = LOOP_HZ / args.rate
+    try:
+        drive = Drive.connect(node_id=args.node_id, **bus)
     except DriveError as e:
         raise UserError(str(e)) from None
     frames: list[can.Message] = []

@@ -1,10 +1,12 @@
 """``hdservo test PROCEDURE``: the standard test procedures against a drive (docs/procedures.md).
 
-Without bus options a virtual reference axis is started (``--axis`` to choose
-another axis file) and stopped afterwards; with ``-i/-c/-b`` (python-can
-settings) the procedures run on that drive and the rig steps are printed for
-the operator.  Every run prints a summary, ``--json PATH`` writes the figures,
-``--plots DIR`` the PNG plots (``--pdf`` adds PDFs).
+The procedures run on the drive python-can's settings name (``-i/-c/-b``, else
+its config file and ``CAN_*`` variables; without any of them the command
+refuses), and the rig steps are printed for the operator.  ``--sim [AXIS]`` (or
+``-i virtual-drive``) runs them on a simulated axis instead (the reference axis,
+or AXIS; a virtual drive per procedure, said on stderr, stopped afterwards).
+Every run prints a summary, ``--json PATH`` writes the figures, ``--plots DIR``
+the PNG plots (``--pdf`` adds PDFs).
 
 ``--model MODEL.toml`` downloads the compensator parameters and tables of an
 identified model (the code of ``hdservo download``: ``plan_download`` +
@@ -27,7 +29,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ..cli import UserError
-from ..drive import DriveError, add_bus_arguments, bus_kwargs
+from ..drive import DriveError, add_bus_arguments, choose_drive
 from ..procedures import closedloop as cl
 from ..procedures import frequency as fq
 from ..procedures import gear
@@ -105,13 +107,13 @@ def register(p: argparse.ArgumentParser) -> None:
     """Options of ``hdservo test``."""
     p.add_argument("procedure", choices=sorted(PROCEDURES) + ["all"], help="procedure to run ('all' = every one)")
     add_bus_arguments(p)
-    p.add_argument("--axis", default="reference", help="virtual drive only: axis TOML, 'reference' or 'minimal'")
-    p.add_argument("--seed", type=int, default=1, help="virtual drive only: sensor-noise seed")
+    p.add_argument("--seed", type=int, default=None, help="with --sim only: sensor-noise seed (default 1)")
     p.add_argument("--compensators", default=None,
                    help="comma-separated compensators to enable (cb_enable), e.g. stribeck,lugre; '' = none")
     p.add_argument("--model", type=Path, metavar="MODEL.toml",
                    help="identified model (hdservo identify -o): download its compensator parameters and tables "
-                        "into the drive before each procedure, read back (keys it lacks from --axis)")
+                        "into the drive before each procedure, read back (keys it lacks from the --sim axis, else the "
+                        "reference axis)")
     p.add_argument("--params", type=_param, action="append", default=[], metavar="KEY=VALUE",
                    help="drive parameter by name, written (and read back) before each procedure after --model; "
                         "repeatable, e.g. --params vel_kp=200 --params torque_limit=90")
@@ -182,9 +184,9 @@ def run(args: argparse.Namespace) -> int:
     _check_out(args.json, "json")
     _check_out(args.plots, "plots")
     comps = None if args.compensators is None else [c.strip() for c in args.compensators.split(",") if c.strip()]
-    kw = bus_kwargs(args)
-    if args.axis not in ("reference", "minimal") and not Path(args.axis).is_file() and (not kw or args.model):
-        raise UserError(f"--axis {args.axis}: no such file")
+    choice = choose_drive(args, sim_only=("seed",))
+    axis = choice.axis or "reference"
+    seed = 1 if args.seed is None else args.seed
     params = _check_params(getattr(args, "params", []) or [])
     plan = None
     model = getattr(args, "model", None)
@@ -192,10 +194,11 @@ def run(args: argparse.Namespace) -> int:
         if not model.is_file():
             raise UserError(f"--model {model}: no such file")
         from .download import plan_download
-        plan = dict(plan_download(model, args.axis))
+        plan = dict(plan_download(model, axis))
         plan["model_file"] = model.name
-    target = Target(bus=kw or None, node_id=args.node_id, axis=args.axis, seed=args.seed, compensators=comps,
+    target = Target(bus=choice.bus, node_id=args.node_id, axis=axis, seed=seed, compensators=comps,
                     download=plan, params=params)
+    choice.announce("test")
     names = sorted(PROCEDURES) if args.procedure == "all" else [args.procedure]
     results: list[Result] = []
     for name in names:
@@ -209,8 +212,8 @@ def run(args: argparse.Namespace) -> int:
         res.notes.extend(target.notes)
         results.append(res)
         print(res.summary())
-    meta: dict[str, Any] = {"target": "virtual drive (hdservo-sim serve)" if target.virtual else f"drive {kw}",
-                            "axis": args.axis if target.virtual else None, "seed": args.seed if target.virtual else None,
+    meta: dict[str, Any] = {"target": "virtual drive (hdservo-sim serve)" if target.virtual else choice.describe(),
+                            "axis": choice.axis_name if target.virtual else None, "seed": seed if target.virtual else None,
                             "compensators": comps, "model": str(model) if model is not None else None,
                             "params": params or None, "notes": target.notes}
     if args.plots is not None:

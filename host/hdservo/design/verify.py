@@ -2,7 +2,7 @@
 
 Chain (docs/design-flow.md section 6):
 
-1. **identify** the axis over CAN: ``hdservo identify all --axis AXIS`` (the
+1. **identify** the axis over CAN: ``hdservo identify all --sim AXIS`` (the
    virtual drive, lock-step), with the flow's velocity-loop gains;
 2. **download**: the identified model -> compensator parameters and tables
    (:func:`hdservo.commands.download.plan_download`, written and read back with
@@ -118,7 +118,7 @@ def _say(msg: str) -> None:
 
 def identify(axis: Path, gains: Mapping[str, float], model: Path, target: str = "all", seed: int = 1,
              quiet: bool = True) -> dict[str, Any]:
-    """``hdservo identify TARGET --axis AXIS -o MODEL --json`` on the virtual drive over CAN.
+    """``hdservo identify TARGET --sim AXIS -o MODEL --json`` on the virtual drive over CAN.
 
     The flow's velocity-loop gains are passed with ``--gain`` (the drive's
     defaults are tuned for the reference axis).  Returns the identification
@@ -128,7 +128,7 @@ def identify(axis: Path, gains: Mapping[str, float], model: Path, target: str = 
     # run beside the model with a relative axis path: the model's header names the axis, no absolute path
     cwd = model.resolve().parent
     ax = os.path.relpath(Path(axis).resolve(), cwd)
-    cmd = [sys.executable, "-m", "hdservo.cli", "identify", target, "--axis", ax, "-o", model.name,
+    cmd = [sys.executable, "-m", "hdservo.cli", "identify", target, f"--sim={ax}", "-o", model.name,
            "--json", rep.name, "--seed", str(seed)]
     for k in ("vel_kp", "vel_ki"):
         cmd += ["--gain", f"{k}={gains[k]!r}"]

@@ -701,7 +701,7 @@ class DriveSession:
             return r
         except DriveError as e:
             self.__exit__(None, None, None)
-            raise UserError(f"--drive: {e}") from None
+            raise UserError(f"drive: {e}") from None
         except BaseException:
             self.__exit__(None, None, None)
             raise

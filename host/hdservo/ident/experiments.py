@@ -15,8 +15,9 @@ Runners execute the designs:
   plant alone with the output clamped (``load.jl_kgm2`` = 1e9 kg.m^2, i.e. a
   fixture; base still) and a rig torque sensor between gear and clamp
   (transmitted torque + white noise + ADC quantisation, emulated here).
-* :class:`.drive_runner.DriveRunner` -- a drive over CAN (:mod:`hdservo.drive`),
-  the virtual drive by default (:func:`drive_runner`).
+* :class:`.drive_runner.DriveRunner` -- a drive over CAN (:mod:`hdservo.drive`):
+  the bus the caller gives, or a virtual drive it starts (:func:`drive_runner`, ``bus=None``;
+  ``hdservo identify --sim``).
 
 Bench conditions for every experiment: base motion off (the axis is on a
 still bench); everything else as the axis file says.
