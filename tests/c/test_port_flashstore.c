@@ -392,6 +392,39 @@ static void test_vnvm_wear_and_power_loss(void **st)
     assert_true(n_old > 0u && n_new > 0u);
 }
 
+/* hd_vnvm_wear: the erase count survives a reboot (from the sequence numbers) and the
+ * per-page figure bounds the most erased page */
+static void test_vnvm_wear_count(void **st)
+{
+    static uint8_t a[1024];
+    uint32_t k, total, max_page, real_total = 0u, real_max = 0u;
+    (void)st;
+    sf_init(&F, 2048u, 8u, 31u);
+    assert_int_equal(hd_vnvm_open(&V, &F.fi, 4096u, 1024u), 0);
+    hd_vnvm_wear(&V, &total, &max_page);
+    assert_int_equal(total, 0u);
+    assert_int_equal(max_page, 0u);
+    for (k = 0; k < 300u; k++) {
+        fill(a, 1024u, k);
+        assert_int_equal(hd_vnvm_erase(&V, (k % 3u) * 1024u, 1024u), 0);
+        assert_int_equal(hd_vnvm_write(&V, (k % 3u) * 1024u, a, 1024u), 0);
+    }
+    for (k = 0; k < 8u; k++) {
+        real_total += F.erase_count[k];
+        if (F.erase_count[k] > real_max) real_max = F.erase_count[k];
+    }
+    hd_vnvm_wear(&V, &total, &max_page);
+    assert_int_equal(total, real_total);
+    assert_true(max_page >= real_max);
+    assert_true(max_page <= real_total / (8u - 3u) + 2u);
+    /* power cycle: the count is read back from the flash, not lost */
+    reboot(&F);
+    assert_int_equal(hd_vnvm_open(&V, &F.fi, 4096u, 1024u), 0);
+    hd_vnvm_wear(&V, &total, &max_page);
+    assert_int_equal(total, real_total);
+    assert_true(max_page >= real_max);
+}
+
 static void test_param_store_power_loss(void **st)
 {
     int32_t a[HD_PARAM_COUNT], b[HD_PARAM_COUNT], got[HD_PARAM_COUNT];
@@ -437,6 +470,7 @@ int main(void)
         cmocka_unit_test(test_power_loss_every_position),
         cmocka_unit_test(test_vnvm_semantics),
         cmocka_unit_test(test_vnvm_wear_and_power_loss),
+        cmocka_unit_test(test_vnvm_wear_count),
         cmocka_unit_test(test_param_store_power_loss),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
