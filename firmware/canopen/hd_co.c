@@ -610,17 +610,19 @@ uint32_t hd_co_store_word(const hd_co_t *co, uint32_t w)
  * master follows over SDO (CiA 301 PDO reconfiguration), so that every write passes the
  * same object rules as an SDO download does. */
 typedef enum {
-    STORE_STEP_DISABLE = 0,   /* PDO COB-IDs with bit 31 set: the PDOs off */
+    STORE_STEP_DISABLE = 0,   /* PDO and EMCY COB-IDs with bit 31 set: the objects off */
     STORE_STEP_UNMAP = 1,     /* PDO mapping counts to 0: entries may change */
     STORE_STEP_VALUES = 2,    /* every other entry: mapping entries, types, timers, ... */
     STORE_STEP_MAP = 3,       /* PDO mapping counts: the mapping is checked whole */
-    STORE_STEP_COBID = 4,     /* PDO COB-IDs as stored: restricted ids are refused here */
+    STORE_STEP_COBID = 4,     /* PDO and EMCY COB-IDs as stored: restricted ids are refused here */
     STORE_STEP_N = 5
 } store_step_t;
 
+/* a COB-ID whose bit 31 means "not valid" (PDO, EMCY): written invalid first, as stored last */
 static bool is_pdo_cobid(const hd_co_entry_t *e)
 {
-    return e->sub == 1u && ((e->index >= 0x1400u && e->index < 0x1600u) || (e->index >= 0x1800u && e->index < 0x1A00u));
+    return (e->sub == 1u && ((e->index >= 0x1400u && e->index < 0x1600u) || (e->index >= 0x1800u && e->index < 0x1A00u))) ||
+           (e->index == 0x1014u && e->sub == 0u);
 }
 
 static bool is_pdo_nmap(const hd_co_entry_t *e)
