@@ -101,13 +101,14 @@ typedef struct {
 
 /* 0x1010 save rate limit: a token bucket of flash page erases in the drive's own time
  * (hd_co now_us, advanced by hd_co_tick: lock-step reproducible, no wall clock).  The
- * STM32G474 flash endures 10 000 erases per page; 2 erases per hour over 10 years
- * (87 600 h) spread over the 24 pages of the NVM area is 7 300 per page, so the long-run
- * rate is one erase per 30 min, with a burst of 160 for commissioning (a full 64-level
- * table save and a dozen parameter saves).  Saves that change nothing cost nothing and
- * are never refused.  docs/can.md "What 0x1010 saves". */
+ * STM32G474 flash endures 10 000 erases per page.  Of the 24 pages of the NVM area at
+ * least 4 rotate (wear levelling: the two slots of the store being saved and the 2 free
+ * pages, when everything else is saved and still), so one erase per 3 h for 10 years
+ * (29 200) plus the burst is <= 7 340 erases per page, 1 230 when all 24 rotate.  The
+ * burst of 160 is commissioning: a full table save and a few dozen parameter saves.
+ * Saves that change nothing cost nothing and are never refused.  docs/can.md. */
 #define HD_APP_CO_SAVE_CREDIT_MAX    160          /* page erases */
-#define HD_APP_CO_SAVE_REFILL_US     1800000000u  /* one page erase of credit per 30 min */
+#define HD_APP_CO_SAVE_REFILL_US     10800000000ull  /* one page erase of credit per 3 h */
 #define HD_APP_CO_SAVE_COST_UNKNOWN  16           /* credit of a save when the port counts no erases */
 #define HD_APP_CO_AB_SAVE_RATE       0x08000021u  /* save refused: rate limit (local control) */
 #define HD_APP_CO_EMCY_SAVE_RATE     0xFF10u      /* manufacturer: 0x1010 save refused by the rate limit */

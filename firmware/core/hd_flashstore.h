@@ -41,7 +41,8 @@
  * with the next write of that page; lost by a power cut it simply did not
  * happen - the page keeps its older valid content, which hal.h allows and the
  * parameter store's sequence numbers handle.  Needs n_pages >= n_vpages + 1.
- * The app's two-slot store on top: one save = one page erase + one record.
+ * Every hal write costs one page erase per virtual page it touches (hd_vnvm_wear
+ * counts them); the stores on top write only records that changed.
  */
 #ifndef HD_FLASHSTORE_H
 #define HD_FLASHSTORE_H

@@ -627,10 +627,10 @@ static void test_save_rate_limit(void **st)
     assert_int_equal(hd_co_set_i64(&co, 0x1017u, 0u, (int64_t)(200u + ((i - 2u) % 2u))), 0u);
     assert_int_equal(co.app.store(co.app.ctx), 0u);
     assert_int_equal(erases_total(), e0);
-    /* drive time refills the credit: one erase per 30 min */
+    /* drive time refills the credit: one erase per 3 h */
     assert_int_equal(hd_co_set_i64(&co, 0x1017u, 0u, 999), 0u);
     while (special(0x5102u, 4u) <= 0) {
-        hd_co_tick(&co, HD_APP_CO_SAVE_REFILL_US / 2u);
+        hd_co_tick(&co, (uint32_t)(HD_APP_CO_SAVE_REFILL_US / 4u));
     }
     assert_int_equal(co.app.store(co.app.ctx), 0u);
     assert_int_equal(erases_total(), e0 + 1u);
