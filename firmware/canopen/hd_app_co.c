@@ -487,16 +487,16 @@ static uint32_t a_store(void *c)
     const hd_rstore_t st = co_store();
     const uint32_t words = hd_co_store_words(ac->co);
     uint32_t before, cost;
+    bool changed;
     if (ac->app->mode != HD_MODE_OFF) {
         return HD_CO_AB_STATE;
     }
-    /* only a save that changes the NVM wears the flash, so only such a save is limited */
+    /* only a save that changes the NVM wears the flash, so only such a save is limited;
+     * one that changes nothing still runs (it writes nothing, and marks a re-downloaded
+     * table that equals the saved one as saved) */
     save_refill(ac);
-    if (hd_app_store_pending(ac->app) == 0 && hd_rstore_same(&st, ac->co, co_img_get, words) != 0) {
-        hd_co_store_capture(ac->co);
-        return 0u;
-    }
-    if (ac->save_credit <= 0) {
+    changed = hd_app_store_pending(ac->app) != 0 || hd_rstore_same(&st, ac->co, co_img_get, words) == 0;
+    if (changed && ac->save_credit <= 0) {
         ac->saves_refused++;
         if (ac->save_emcy == 0u) {
             hd_co_emcy(ac->co, HD_APP_CO_EMCY_SAVE_RATE, 0u, NULL);
@@ -511,7 +511,11 @@ static uint32_t a_store(void *c)
     if (hd_rstore_save(&st, ac->co, co_img_get, words, &ac->cstore_seq) != 0) {
         return HD_CO_AB_STORE;
     }
-    cost = (ac->port.nvm_wear != NULL) ? wear_total(ac) - before : (uint32_t)HD_APP_CO_SAVE_COST_UNKNOWN;
+    if (ac->port.nvm_wear != NULL) {
+        cost = wear_total(ac) - before;
+    } else {
+        cost = changed ? (uint32_t)HD_APP_CO_SAVE_COST_UNKNOWN : 0u;
+    }
     ac->save_credit -= (cost > (uint32_t)HD_APP_CO_SAVE_CREDIT_MAX) ? HD_APP_CO_SAVE_CREDIT_MAX : (int32_t)cost;
     if (ac->save_emcy != 0u) {
         ac->save_emcy = 0u;

@@ -597,6 +597,17 @@ static void test_identical_save_erases_nothing(void **st)
     assert_int_equal(co.app.store(co.app.ctx), 0u);
     assert_int_equal(erases_total(), e0 + 1u);
     assert_int_equal(special(0x5102u, 2u), 1);                          /* no page twice yet */
+    /* a table saved once, then downloaded again unchanged: the save erases nothing and
+     * the table counts as saved */
+    const uint32_t len = make_table(12u, 5u, 300);
+    assert_int_equal(download(HD_APP_CO_DOM_PREISACH, img, len), 0);
+    assert_int_equal(co.app.store(co.app.ctx), 0u);
+    e0 = erases_total();
+    assert_int_equal(download(HD_APP_CO_DOM_PREISACH, img, len), 0);
+    assert_int_equal(special(0x5101u, 3u), 0);
+    assert_int_equal(co.app.store(co.app.ctx), 0u);
+    assert_int_equal(erases_total(), e0);
+    assert_int_equal(special(0x5101u, 3u), 1);
 }
 
 /* 0x1010 rate limit: page erases in drive time; over it a save that changes the NVM
