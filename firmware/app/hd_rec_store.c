@@ -9,7 +9,13 @@
 #include "hd_le32.h"
 
 #define HDR_BYTES 16u
-#define CHUNK     64u                  /* bytes per hal call (a multiple of 8) */
+#define CHUNK     64u                  /* bytes per hal read (a multiple of 8) */
+/* Bytes per hal write: one STM32G474 virtual page (hd_flashstore.h), because there every
+ * hal write costs one flash page erase per virtual page it touches: a record written in
+ * 1 KiB pieces from its page-aligned slot costs one erase per KiB, not one per 64 bytes.
+ * A multiple of 8; the buffer lives only during a save, after the parameter store's
+ * deeper save has returned (stack: docs/stm32g474.md). */
+#define WCHUNK    1024u
 #define FORMAT    1u
 
 uint32_t hd_rstore_slot_bytes(uint32_t words_max)
@@ -119,9 +125,9 @@ int32_t hd_rstore_load(const hd_rstore_t *s, void *ctx, hd_rstore_put_fn put, ui
     return HD_RSTORE_OK;
 }
 
-/* streamed record writer: CHUNK bytes per hal write, at 8-aligned offsets */
+/* streamed record writer: WCHUNK bytes per hal write, at 8-aligned offsets */
 typedef struct {
-    uint8_t b[CHUNK];
+    uint8_t b[WCHUNK];
     uint32_t fill;
     uint32_t at;       /* NVM offset of b[0] */
     int32_t err;
@@ -147,7 +153,7 @@ static uint32_t put_word(writer_t *wr, uint32_t crc, uint32_t v)
     hd_put_le32(&wr->b[wr->fill], v);
     crc = hd_crc32(crc, &wr->b[wr->fill], 4u);
     wr->fill += 4u;
-    if (wr->fill == CHUNK) {
+    if (wr->fill == WCHUNK) {
         flush(wr);
     }
     return crc;

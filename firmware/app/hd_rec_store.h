@@ -10,8 +10,8 @@
  * padded with 0xFF to a multiple of 8 bytes.  Load delivers the payload of the valid
  * slot (magic, format, size, CRC) with the newer sequence number (serial-number
  * arithmetic), word by word to a callback; save erases and writes the slot that does
- * not hold the newest valid record, streamed through a 64-byte buffer, and reads it
- * back: a power loss during a save leaves the old record or the new one, never a mix.
+ * not hold the newest valid record, streamed through a 1 KiB buffer (one hal write
+ * per KiB: one flash page erase per KiB on the STM32G474), and reads it back: a power loss during a save leaves the old record or the new one, never a mix.
  * A save of the words the newest valid record already holds writes nothing (no erase):
  * repeated saves of unchanged settings cost no flash wear.
  */

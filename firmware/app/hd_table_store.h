@@ -16,7 +16,8 @@
  * hd_preisach_check() (the image carries its own CRC), else the other valid one;
  * save erases and writes the slot that does not hold the newest valid record and
  * reads it back, so a power loss during save leaves the old table or the new one,
- * never a mix.  Streamed through a 64-byte buffer: no second table image in RAM.
+ * never a mix.  Streamed through hd_rec_store's 1 KiB write buffer: no second table
+ * image in RAM.
  */
 #ifndef HD_TABLE_STORE_H
 #define HD_TABLE_STORE_H

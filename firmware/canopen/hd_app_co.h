@@ -105,7 +105,8 @@ typedef struct {
  * least 4 rotate (wear levelling: the two slots of the store being saved and the 2 free
  * pages, when everything else is saved and still), so one erase per 3 h for 10 years
  * (29 200) plus the burst is <= 7 340 erases per page, 1 230 when all 24 rotate.  The
- * burst of 160 is commissioning: a full table save and a few dozen parameter saves.
+ * burst of 160 is commissioning: about 14 saves with a new 64-level table (11 erases
+ * each) or 160 saves of parameters or objects (1 erase each).
  * Saves that change nothing cost nothing and are never refused.  docs/can.md. */
 #define HD_APP_CO_SAVE_CREDIT_MAX    160          /* page erases */
 #define HD_APP_CO_SAVE_REFILL_US     10800000000ull  /* one page erase of credit per 3 h */
