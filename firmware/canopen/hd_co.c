@@ -725,6 +725,14 @@ int32_t hd_co_store_apply(hd_co_t *co, const uint32_t *img, uint32_t words, uint
     }
     if (ab != 0u) {
         store_defaults_range(co, lo, hi);
+        /* the side effects of the values written before the refusal follow the defaults
+         * too (heartbeat timers, consumer state), as if the defaults had been written */
+        for (uint32_t i = 0u; i < co->count; i++) {
+            const hd_co_entry_t *e = &co->table[i];
+            if (is_stored(e) && e->index >= lo && e->index <= hi) {
+                after_write(co, e);
+            }
+        }
     }
     for (uint32_t i = 0u; i < HD_CO_N_PDO; i++) {
         pdo_rebuild(co, true, i);

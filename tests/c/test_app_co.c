@@ -545,6 +545,7 @@ static void test_stored_image_with_read_only_rpdo_mapping_refused(void **st)
     assert_int_equal(od_get(0x1600u, 1u), co.table[hd_co_find(&co, 0x1600u, 1u)].def);
     assert_int_equal(od_get(0x1600u, 0u), co.table[hd_co_find(&co, 0x1600u, 0u)].def);
     assert_int_equal(od_get(0x1017u, 0u), 100);                         /* default, not 250 */
+    assert_int_equal(co.hb_next_us, co.now_us + 100000u);               /* its timer too */
     assert_true(n_emcy >= 1u);
     assert_int_equal(emcy_code(), HD_APP_CO_EMCY_STORE_REFUSED);
     assert_int_equal(last_emcy.data[3] | (last_emcy.data[4] << 8), 0x1600);
