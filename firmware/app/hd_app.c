@@ -485,6 +485,17 @@ int32_t hd_app_store_all(hd_app_t *a)
     return 0;
 }
 
+int32_t hd_app_store_pending(const hd_app_t *a)
+{
+    if (hd_pstore_same(a->param) == 0) {
+        return 1;
+    }
+    if (a->tstore_sync == 0u && hd_tstore_same((a->cb.table_ok != 0u) ? &a->cb.table : NULL) == 0) {
+        return 1;
+    }
+    return 0;
+}
+
 int32_t hd_app_capture_arm(hd_app_t *a, const hd_capture_cfg_t *c, const uint32_t *sig)
 {
     uint32_t i;

@@ -288,6 +288,9 @@ void hd_app_comp_table_clear(hd_app_t *a);
  *  table in force (or "no table") to NVM; only with the power stage off.  0 ok, -1
  *  refused or failed (what was not written keeps its old NVM content). */
 int32_t hd_app_store_all(hd_app_t *a);
+/** 1 if hd_app_store_all() would write anything (parameters other than the newest saved
+ *  set, or a table in force other than the saved one), 0 if it would write nothing. */
+int32_t hd_app_store_pending(const hd_app_t *a);
 
 /** Latest telemetry (also available as a->tel). */
 const hd_telemetry_t *hd_app_telemetry(const hd_app_t *a);

@@ -85,6 +85,40 @@ static slot_res_t read_slot(uint32_t s, int32_t values[HD_PARAM_COUNT], uint32_t
     return SLOT_OK;
 }
 
+static int same_values(const int32_t a[HD_PARAM_COUNT], const int32_t b[HD_PARAM_COUNT])
+{
+    uint32_t i;
+    for (i = 0; i < HD_PARAM_COUNT; i++) {
+        if (a[i] != b[i]) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+int32_t hd_pstore_same(const int32_t values[HD_PARAM_COUNT])
+{
+    int32_t v0[HD_PARAM_COUNT];
+    uint32_t s0 = 0u, s1 = 0u;
+    const uint32_t ss = slot_size();
+    if (ss == 0u || 2u * ss > hd_hal_nvm_size()) {
+        return 0;
+    }
+    const slot_res_t r0 = read_slot(0, v0, &s0);
+    const slot_res_t r1 = read_slot(1, v0, &s1);
+    uint32_t k;
+    if (r0 == SLOT_OK && r1 == SLOT_OK) {
+        k = hd_seq_newer(s1, s0) ? 1u : 0u;
+    } else if (r0 == SLOT_OK) {
+        k = 0u;
+    } else if (r1 == SLOT_OK) {
+        k = 1u;
+    } else {
+        return 0;
+    }
+    return (read_slot(k, v0, &s0) == SLOT_OK && same_values(v0, values)) ? 1 : 0;
+}
+
 uint32_t hd_pstore_region(void)
 {
     return 2u * slot_size();
@@ -167,6 +201,15 @@ int32_t hd_pstore_save(const int32_t values[HD_PARAM_COUNT], uint32_t *seq)
      * (read error, seq 0) the surviving slot may hold any sequence, and a save
      * with *seq + 1 would lose to it at the next boot (both cases found by
      * tests/fuzz/fuzz_pstore; the second with the two slots 2^31 apart). */
+    /* the newest valid set already holds these values: nothing to write (no flash wear) */
+    if (r0 == SLOT_OK || r1 == SLOT_OK) {
+        const uint32_t newest = (target == 0u) ? 1u : 0u;
+        uint32_t sn = 0u;
+        if (read_slot(newest, tmp, &sn) == SLOT_OK && same_values(tmp, values)) {
+            *seq = sn;
+            return 0;
+        }
+    }
     const slot_res_t rk = (target == 0u) ? r1 : r0;
     const uint32_t sk = (target == 0u) ? s1 : cur;
     const uint32_t nseq = hd_seq_next(*seq, rk == SLOT_OK, sk);

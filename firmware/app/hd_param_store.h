@@ -16,7 +16,8 @@
  * old set or the new set, never a mix.  A slot whose magic, CRC, format,
  * table version, hash or count disagrees is ignored; if no slot is usable the
  * defaults are loaded and the status says why.  Each loaded value is range
- * checked too (out of range -> whole set rejected, defaults).
+ * checked too (out of range -> whole set rejected, defaults).  A save of the values
+ * the newest valid slot already holds writes nothing (no erase, no flash wear).
  */
 #ifndef HD_PARAM_STORE_H
 #define HD_PARAM_STORE_H
@@ -45,7 +46,10 @@ int32_t hd_params_check(uint32_t id, int32_t raw);
 uint32_t hd_pstore_region(void);
 /** Load from NVM into values (defaults on any failure); *seq gets the slot sequence (0 if none). */
 int32_t hd_pstore_load(int32_t values[HD_PARAM_COUNT], uint32_t *seq);
-/** Save values to the other slot with sequence *seq + 1; updates *seq. 0 ok, -1 error. */
+/** 1 if the newest valid slot holds exactly these values (a save would write nothing), else 0. */
+int32_t hd_pstore_same(const int32_t values[HD_PARAM_COUNT]);
+/** Save values to the other slot with a newer sequence; updates *seq.  Values equal to the
+ *  newest valid slot: nothing is written, *seq becomes that slot's.  0 ok, -1 error. */
 int32_t hd_pstore_save(const int32_t values[HD_PARAM_COUNT], uint32_t *seq);
 
 #endif

@@ -9,7 +9,13 @@
 #include "hd_le32.h"
 
 #define HDR_BYTES 16u
-#define CHUNK     64u                  /* bytes per hal call (a multiple of 8) */
+#define CHUNK     64u                  /* bytes per hal read (a multiple of 8) */
+/* Bytes per hal write: one STM32G474 virtual page (hd_flashstore.h), because there every
+ * hal write costs one flash page erase per virtual page it touches: a record written in
+ * 1 KiB pieces from its page-aligned slot costs one erase per KiB, not one per 64 bytes.
+ * A multiple of 8; the buffer lives only during a save, after the parameter store's
+ * deeper save has returned (stack: docs/stm32g474.md). */
+#define WCHUNK    1024u
 #define FORMAT    1u
 
 uint32_t hd_rstore_slot_bytes(uint32_t words_max)
@@ -119,9 +125,9 @@ int32_t hd_rstore_load(const hd_rstore_t *s, void *ctx, hd_rstore_put_fn put, ui
     return HD_RSTORE_OK;
 }
 
-/* streamed record writer: CHUNK bytes per hal write, at 8-aligned offsets */
+/* streamed record writer: WCHUNK bytes per hal write, at 8-aligned offsets */
 typedef struct {
-    uint8_t b[CHUNK];
+    uint8_t b[WCHUNK];
     uint32_t fill;
     uint32_t at;       /* NVM offset of b[0] */
     int32_t err;
@@ -147,10 +153,51 @@ static uint32_t put_word(writer_t *wr, uint32_t crc, uint32_t v)
     hd_put_le32(&wr->b[wr->fill], v);
     crc = hd_crc32(crc, &wr->b[wr->fill], 4u);
     wr->fill += 4u;
-    if (wr->fill == CHUNK) {
+    if (wr->fill == WCHUNK) {
         flush(wr);
     }
     return crc;
+}
+
+/* 1 if slot k (valid, n words) holds exactly the words get() gives */
+static int slot_equals(const hd_rstore_t *s, uint32_t k, uint32_t n, const void *ctx, hd_rstore_get_fn get,
+                       uint32_t words)
+{
+    uint8_t b[CHUNK];
+    uint32_t w, i;
+    const uint32_t base = s->offset + k * s->slot + HDR_BYTES;
+    if (n != words) {
+        return 0;
+    }
+    for (w = 0u; w < n; w += CHUNK / 4u) {
+        const uint32_t m = (n - w < CHUNK / 4u) ? n - w : CHUNK / 4u;
+        if (hd_hal_nvm_read(base + 4u * w, b, 4u * m) != 0) {
+            return 0;
+        }
+        for (i = 0u; i < m; i++) {
+            if (hd_get_le32(&b[4u * i]) != get(ctx, w + i)) {
+                return 0;
+            }
+        }
+    }
+    return 1;
+}
+
+int32_t hd_rstore_same(const hd_rstore_t *s, const void *ctx, hd_rstore_get_fn get, uint32_t words)
+{
+    uint32_t s0 = 0u, s1 = 0u, n0 = 0u, n1 = 0u;
+    rslot_t r0, r1;
+    int32_t k;
+    if (words > s->words_max || !region_ok(s)) {
+        return 0;
+    }
+    r0 = scan_slot(s, 0u, NULL, NULL, &s0, &n0);
+    r1 = scan_slot(s, 1u, NULL, NULL, &s1, &n1);
+    k = newest(r0, s0, r1, s1);
+    if (k < 0) {
+        return 0;
+    }
+    return slot_equals(s, (uint32_t)k, (k == 0) ? n0 : n1, ctx, get, words);
 }
 
 int32_t hd_rstore_save(const hd_rstore_t *s, const void *ctx, hd_rstore_get_fn get, uint32_t words, uint32_t *seq)
@@ -170,6 +217,11 @@ int32_t hd_rstore_save(const hd_rstore_t *s, const void *ctx, hd_rstore_get_fn g
     r0 = scan_slot(s, 0u, NULL, NULL, &s0, &n0);
     r1 = scan_slot(s, 1u, NULL, NULL, &s1, &n1);
     k = newest(r0, s0, r1, s1);
+    /* the newest record already holds these words: nothing to write (no flash wear) */
+    if (k >= 0 && slot_equals(s, (uint32_t)k, (k == 0) ? n0 : n1, ctx, get, words)) {
+        *seq = (k == 0) ? s0 : s1;
+        return 0;
+    }
     target = (k == 0) ? 1u : 0u;
     nseq = hd_seq_next(*seq, k >= 0, (k == 1) ? s1 : s0);
     wr.fill = 0u;

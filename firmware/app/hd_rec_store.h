@@ -10,8 +10,10 @@
  * padded with 0xFF to a multiple of 8 bytes.  Load delivers the payload of the valid
  * slot (magic, format, size, CRC) with the newer sequence number (serial-number
  * arithmetic), word by word to a callback; save erases and writes the slot that does
- * not hold the newest valid record, streamed through a 64-byte buffer, and reads it
- * back: a power loss during a save leaves the old record or the new one, never a mix.
+ * not hold the newest valid record, streamed through a 1 KiB buffer (one hal write
+ * per KiB: one flash page erase per KiB on the STM32G474), and reads it back: a power loss during a save leaves the old record or the new one, never a mix.
+ * A save of the words the newest valid record already holds writes nothing (no erase):
+ * repeated saves of unchanged settings cost no flash wear.
  */
 #ifndef HD_REC_STORE_H
 #define HD_REC_STORE_H
@@ -44,8 +46,11 @@ uint32_t hd_rstore_slot_bytes(uint32_t words_max);
  *  NVM_ERROR result may follow calls of put() (a record that failed its CRC while
  *  being delivered). Returns hd_rstore_status_t; *seq is 0 unless OK or EMPTY. */
 int32_t hd_rstore_load(const hd_rstore_t *s, void *ctx, hd_rstore_put_fn put, uint32_t *seq, uint32_t *words);
+/** 1 if the newest valid record holds exactly these words (a save would write nothing), else 0. */
+int32_t hd_rstore_same(const hd_rstore_t *s, const void *ctx, hd_rstore_get_fn get, uint32_t words);
 /** Save words payload words from get() with a sequence number newer than *seq and than
- *  the record that survives; updates *seq.  0 ok, -1 too many words, -2 NVM error. */
+ *  the record that survives; updates *seq.  Equal to the newest valid record: nothing is
+ *  written, *seq becomes that record's.  0 ok, -1 too many words, -2 NVM error. */
 int32_t hd_rstore_save(const hd_rstore_t *s, const void *ctx, hd_rstore_get_fn get, uint32_t words, uint32_t *seq);
 
 #endif

@@ -77,3 +77,12 @@ int32_t hd_tstore_save(const hd_preisach_table_t *t, uint32_t *seq)
     }
     return (hd_rstore_save(&s, t, get, (t != NULL) ? HD_PREISACH_IMG_HDR + t->n_entries : 0u, seq) == 0) ? 0 : -2;
 }
+
+int32_t hd_tstore_same(const hd_preisach_table_t *t)
+{
+    const hd_rstore_t s = store();
+    if (hd_tstore_offset() == 0u) {
+        return 0;
+    }
+    return hd_rstore_same(&s, t, get, (t != NULL) ? HD_PREISACH_IMG_HDR + t->n_entries : 0u);
+}

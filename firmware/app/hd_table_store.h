@@ -16,7 +16,8 @@
  * hd_preisach_check() (the image carries its own CRC), else the other valid one;
  * save erases and writes the slot that does not hold the newest valid record and
  * reads it back, so a power loss during save leaves the old table or the new one,
- * never a mix.  Streamed through a 64-byte buffer: no second table image in RAM.
+ * never a mix.  Streamed through hd_rec_store's 1 KiB write buffer: no second table
+ * image in RAM.
  */
 #ifndef HD_TABLE_STORE_H
 #define HD_TABLE_STORE_H
@@ -42,7 +43,9 @@ uint32_t hd_tstore_slot_size(void);
 /** Load the newest valid table into *t (whose content is undefined unless OK); *seq
  *  gets the record's sequence number (0 if none).  Returns hd_tstore_status_t. */
 int32_t hd_tstore_load(hd_preisach_table_t *t, uint32_t *seq);
-/** Save *t (checked first; NULL: "no table") with a sequence newer than the slot that
+/** 1 if the newest valid record holds exactly *t (NULL: "no table"): a save would write nothing. */
+int32_t hd_tstore_same(const hd_preisach_table_t *t);
+/** Save *t (checked first; NULL: "no table"; equal to the newest record: nothing written) with a sequence newer than the slot that
  *  survives; updates *seq.  0 ok, -1 bad table, -2 NVM error (the old record stays). */
 int32_t hd_tstore_save(const hd_preisach_table_t *t, uint32_t *seq);
 

@@ -318,6 +318,35 @@ static uint32_t a_dend(void *c, uint16_t dom, uint32_t total, bool complete)
                                           : HD_CO_AB_NO_OBJECT;
 }
 
+/* the rate limit's credit grows by one page erase per HD_APP_CO_SAVE_REFILL_US of drive time */
+static void save_refill(hd_app_co_t *ac)
+{
+    const uint64_t now = ac->co->now_us;
+    const uint64_t n = (now - ac->save_credit_us) / HD_APP_CO_SAVE_REFILL_US;
+    if (ac->save_credit >= HD_APP_CO_SAVE_CREDIT_MAX || n >= (uint64_t)HD_APP_CO_SAVE_CREDIT_MAX * 2u) {
+        ac->save_credit_us = now;      /* full (or empty for ages): the next erase starts a new period */
+        if (n >= (uint64_t)HD_APP_CO_SAVE_CREDIT_MAX * 2u) {
+            ac->save_credit = HD_APP_CO_SAVE_CREDIT_MAX;
+        }
+        return;
+    }
+    ac->save_credit += (int32_t)n;
+    ac->save_credit_us += n * HD_APP_CO_SAVE_REFILL_US;
+    if (ac->save_credit > HD_APP_CO_SAVE_CREDIT_MAX) {
+        ac->save_credit = HD_APP_CO_SAVE_CREDIT_MAX;
+    }
+}
+
+/* page erases counted by the port so far (0 if it counts none) */
+static uint32_t wear_total(const hd_app_co_t *ac)
+{
+    uint32_t total = 0u, max_page = 0u;
+    if (ac->port.nvm_wear == NULL || ac->port.nvm_wear(ac->port.ctx, &total, &max_page) != 0) {
+        return 0u;
+    }
+    return total;
+}
+
 static uint32_t a_special_read(void *c, uint16_t index, uint8_t sub, int64_t *v)
 {
     hd_app_co_t *ac = c;
@@ -330,6 +359,18 @@ static uint32_t a_special_read(void *c, uint16_t index, uint8_t sub, int64_t *v)
     if (index == 0x5101u && sub == 3u) { *v = (int64_t)ac->app->tstore_sync; return 0u; }
     if (index == 0x5101u && sub == 4u) { *v = (int64_t)ac->cstore_status; return 0u; }
     if (index == 0x5101u && sub == 5u) { *v = (int64_t)HD_PARAM_TABLE_HASH; return 0u; }
+    if (index == 0x5101u && sub == 6u) { *v = (int64_t)ac->cstore_refused; return 0u; }
+    if (index == 0x5102u && sub >= 1u && sub <= 2u) {
+        uint32_t total = 0u, max_page = 0u;
+        if (ac->port.nvm_wear == NULL || ac->port.nvm_wear(ac->port.ctx, &total, &max_page) != 0) {
+            total = 0u;
+            max_page = 0u;
+        }
+        *v = (int64_t)((sub == 1u) ? total : max_page);
+        return 0u;
+    }
+    if (index == 0x5102u && sub == 3u) { *v = (int64_t)ac->saves_refused; return 0u; }
+    if (index == 0x5102u && sub == 4u) { save_refill(ac); *v = (int64_t)ac->save_credit; return 0u; }
     if (index == 0x5010u && sub == 2u) {
         *v = (ac->app->mode != HD_MODE_EXCITATION) ? 0 : (ac->app->exc.done != 0u ? 2 : 1);
         return 0u;
@@ -455,11 +496,41 @@ static uint32_t a_store(void *c)
 {
     hd_app_co_t *ac = c;
     const hd_rstore_t st = co_store();
+    const uint32_t words = hd_co_store_words(ac->co);
+    uint32_t before, cost;
+    bool changed;
+    if (ac->app->mode != HD_MODE_OFF) {
+        return HD_CO_AB_STATE;
+    }
+    /* only a save that changes the NVM wears the flash, so only such a save is limited;
+     * one that changes nothing still runs (it writes nothing, and marks a re-downloaded
+     * table that equals the saved one as saved) */
+    save_refill(ac);
+    changed = hd_app_store_pending(ac->app) != 0 || hd_rstore_same(&st, ac->co, co_img_get, words) == 0;
+    if (changed && ac->save_credit <= 0) {
+        ac->saves_refused++;
+        if (ac->save_emcy == 0u) {
+            hd_co_emcy(ac->co, HD_APP_CO_EMCY_SAVE_RATE, 0u, NULL);
+            ac->save_emcy = 1u;
+        }
+        return HD_APP_CO_AB_SAVE_RATE;
+    }
+    before = wear_total(ac);
     if (hd_app_store_all(ac->app) != 0) {
         return HD_CO_AB_STATE;
     }
-    if (hd_rstore_save(&st, ac->co, co_img_get, hd_co_store_words(ac->co), &ac->cstore_seq) != 0) {
+    if (hd_rstore_save(&st, ac->co, co_img_get, words, &ac->cstore_seq) != 0) {
         return HD_CO_AB_STORE;
+    }
+    if (ac->port.nvm_wear != NULL) {
+        cost = wear_total(ac) - before;
+    } else {
+        cost = changed ? (uint32_t)HD_APP_CO_SAVE_COST_UNKNOWN : 0u;
+    }
+    ac->save_credit -= (cost > (uint32_t)HD_APP_CO_SAVE_CREDIT_MAX) ? HD_APP_CO_SAVE_CREDIT_MAX : (int32_t)cost;
+    if (ac->save_emcy != 0u) {
+        ac->save_emcy = 0u;
+        hd_co_emcy_clear(ac->co, 0u);    /* EMCY 0x0000 unless another error is active */
     }
     hd_co_store_capture(ac->co);         /* NMT resets now return to these */
     return 0u;
@@ -714,6 +785,11 @@ void hd_app_co_init(hd_app_co_t *ac, hd_co_t *co, hd_app_t *app, uint8_t node_id
     ac->stage_len = 0u;
     ac->stage_crc = 0u;
     ac->rd_trailer = 0u;
+    ac->cstore_refused = 0u;
+    ac->save_credit = HD_APP_CO_SAVE_CREDIT_MAX;
+    ac->save_credit_us = 0u;
+    ac->saves_refused = 0u;
+    ac->save_emcy = 0u;
     ifc.ctx = ac;
     ifc.send = a_send;
     ifc.param_get = a_pget;
@@ -743,9 +819,20 @@ void hd_app_co_init(hd_app_co_t *ac, hd_co_t *co, hd_app_t *app, uint8_t node_id
         uint32_t words = 0u;
         const int32_t rc = hd_rstore_load(&st, co, co_img_put, &ac->cstore_seq, &words);
         if (rc == HD_RSTORE_OK) {
-            if (hd_co_store_apply(co, co->stored, words, 0x1000u, 0xFFFFu) == 0) {
+            const int32_t ap = hd_co_store_apply(co, co->stored, words, 0x1000u, 0xFFFFu);
+            if (ap == 0) {
                 co->stored_ok = 1u;
                 ac->cstore_status = HD_APP_CO_CSTORE_OK;
+            } else if (ap == -2) {
+                /* CRC-valid but a master could not have set it (a read-only object in an
+                 * RPDO, a restricted COB-ID, ...): defaults in force, and the master told */
+                uint8_t mfr[5] = {0u, 0u, 0u, 0u, 0u};
+                ac->cstore_status = HD_APP_CO_CSTORE_REFUSED;
+                ac->cstore_refused = ((uint32_t)co->store_refused_index << 8) | co->store_refused_sub;
+                mfr[0] = (uint8_t)(co->store_refused_index & 0xFFu);
+                mfr[1] = (uint8_t)(co->store_refused_index >> 8);
+                mfr[2] = co->store_refused_sub;
+                hd_co_emcy(co, HD_APP_CO_EMCY_STORE_REFUSED, HD_CO_ER_GENERIC, mfr);
             } else {
                 ac->cstore_status = HD_APP_CO_CSTORE_OTHER;
             }

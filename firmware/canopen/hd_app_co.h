@@ -25,7 +25,13 @@
  *   0x1011 restore -> defaults (parameters, stored objects) and no Preisach table,
  *     now (power stage off, else 0x08000022); 0x1010 then stores them
  *   0x5101 store status: parameter and table store status of the boot load, table
- *     saved (1 = the NVM holds the table in force), stored-object status
+ *     saved (1 = the NVM holds the table in force), stored-object status; a stored
+ *     image goes in through the SDO write checks (hd_co_store_apply): refused ->
+ *     defaults, status 5, the object in :6, EMCY 0x6300
+ *   0x1010 saves write only what changed (an unchanged record is not rewritten) and are
+ *     rate-limited in flash page erases (HD_APP_CO_SAVE_*): over the limit a save that
+ *     would change the NVM is refused with 0x08000021 and EMCY 0xFF10; 0x5102 reports
+ *     the wear (port callback nvm_wear), the refusals and the credit left
  *   0x5000 capture: arm (1) with the signals / length / decimation /
  *     pre-trigger of 0x5000:3..6, command trigger (2), state, data (domain 0:
  *     int32 LE, frame-major, frame 0 = oldest)
@@ -89,7 +95,27 @@ typedef struct {
     uint32_t (*domain_write_begin)(void *ctx, uint16_t dom, uint32_t size_or_0);
     uint32_t (*domain_write)(void *ctx, uint16_t dom, uint32_t off, const uint8_t *buf, uint32_t len);
     uint32_t (*domain_write_end)(void *ctx, uint16_t dom, uint32_t total, bool complete);
+    /* optional: flash wear of the NVM area, page erases in all (*total) and of the most
+     * erased page (*max_page); 0 ok.  Without it 0x5102:1/2 read 0 and a save that
+     * changes the NVM costs HD_APP_CO_SAVE_COST_UNKNOWN of the rate limit's credit. */
+    int32_t (*nvm_wear)(void *ctx, uint32_t *total, uint32_t *max_page);
 } hd_app_co_port_t;
+
+/* 0x1010 save rate limit: a token bucket of flash page erases in the drive's own time
+ * (hd_co now_us, advanced by hd_co_tick: lock-step reproducible, no wall clock).  The
+ * STM32G474 flash endures 10 000 erases per page.  Of the 24 pages of the NVM area at
+ * least 4 rotate (wear levelling: the two slots of the store being saved and the 2 free
+ * pages, when everything else is saved and still), so one erase per 3 h for 10 years
+ * (29 200) plus the burst is <= 7 340 erases per page, 1 230 when all 24 rotate.  The
+ * burst of 160 is commissioning: about 14 saves with a new 64-level table (11 erases
+ * each) or 160 saves of parameters or objects (1 erase each).
+ * Saves that change nothing cost nothing and are never refused.  docs/can.md. */
+#define HD_APP_CO_SAVE_CREDIT_MAX    160          /* page erases */
+#define HD_APP_CO_SAVE_REFILL_US     10800000000ull  /* one page erase of credit per 3 h */
+#define HD_APP_CO_SAVE_COST_UNKNOWN  16           /* credit of a save when the port counts no erases */
+#define HD_APP_CO_AB_SAVE_RATE       0x08000021u  /* save refused: rate limit (local control) */
+#define HD_APP_CO_EMCY_SAVE_RATE     0xFF10u      /* manufacturer: 0x1010 save refused by the rate limit */
+#define HD_APP_CO_EMCY_STORE_REFUSED 0x6300u      /* data set: the stored objects were refused at boot */
 
 typedef struct {
     hd_co_t *co;
@@ -108,6 +134,11 @@ typedef struct {
     uint32_t stage_tail;           /* word HD_APP_CO_STAGE_WORDS - 1 (a full table's trailer) */
     uint32_t cstore_seq;           /* stored-object record (hd_rec_store.h) sequence */
     uint8_t  cstore_status;        /* HD_APP_CO_CSTORE_* of the boot load (0x5101:4) */
+    uint32_t cstore_refused;       /* index << 8 | sub the boot load refused (0x5101:6) */
+    int32_t  save_credit;          /* rate limit: page erases still allowed (0x5102:4) */
+    uint64_t save_credit_us;       /* drive time the credit was last refilled to */
+    uint32_t saves_refused;        /* saves refused by the rate limit (0x5102:3) */
+    uint8_t  save_emcy;            /* 1: the rate-limit EMCY is active (cleared by a save) */
 } hd_app_co_t;
 
 /* the stored CANopen objects at boot (0x5101:4) */
@@ -116,6 +147,7 @@ typedef struct {
 #define HD_APP_CO_CSTORE_CORRUPT   2u   /* no valid record: defaults */
 #define HD_APP_CO_CSTORE_OTHER     3u   /* another object dictionary's record, or a value out of range: defaults */
 #define HD_APP_CO_CSTORE_NVM_ERROR 4u   /* defaults */
+#define HD_APP_CO_CSTORE_REFUSED   5u   /* refused by the SDO write checks (EMCY 0x6300): defaults */
 #define HD_APP_CO_CSTORE_MAGIC     0x53434448u  /* "HDCS" */
 
 /** Wire the device to the app and start it (hd_co_init: boot-up goes out), then put

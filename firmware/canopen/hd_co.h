@@ -278,6 +278,10 @@ typedef struct {
      * resets go back to it */
     uint32_t stored[HD_CO_STORE_MAX];
     uint8_t  stored_ok;
+    /* the entry and abort code that made the last hd_co_store_apply refuse an image (0: none) */
+    uint16_t store_refused_index;
+    uint8_t  store_refused_sub;
+    uint32_t store_refused_abort;
 } hd_co_t;
 
 /*
@@ -295,8 +299,13 @@ uint32_t hd_co_store_words(const hd_co_t *co);
 uint32_t hd_co_store_layout(const hd_co_t *co);
 /** Image word w of the live values. */
 uint32_t hd_co_store_word(const hd_co_t *co, uint32_t w);
-/** Apply an image to the entries with index in [lo, hi]: checked whole first (layout,
- *  length, every value inside its limits), else nothing changes and -1.  0 ok. */
+/** Apply an image to the entries with index in [lo, hi].  Layout, length and every
+ *  value's limits are checked first: -1 and nothing changes.  Then each value goes
+ *  through the SDO download checks (access, object rules such as PDO mapping and COB-ID
+ *  rules) in the CiA 301 order (PDOs disabled, mapping counts 0, values, mapping counts,
+ *  COB-IDs); the first refusal puts the stored entries in [lo, hi] back to their
+ *  defaults and returns -2 (co->store_refused_* name the entry and the abort code).
+ *  0: the whole image is in force. */
 int32_t hd_co_store_apply(hd_co_t *co, const uint32_t *img, uint32_t words, uint16_t lo, uint16_t hi);
 /** Keep the live values as the stored image (after a successful save). */
 void hd_co_store_capture(hd_co_t *co);

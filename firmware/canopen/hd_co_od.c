@@ -353,12 +353,18 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x5100u, 1u, 0x0Fu, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_DOMAIN, 1u, INT64_C(0), INT64_C(0), INT64_C(0), NULL},  /* table_preisach */
     {0x5100u, 2u, 0x0Fu, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_DOMAIN, 2u, INT64_C(0), INT64_C(0), INT64_C(0), NULL},  /* table_friction */
     {0x5100u, 3u, 0x0Fu, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_DOMAIN, 3u, INT64_C(0), INT64_C(0), INT64_C(0), NULL},  /* table_te */
-    {0x5101u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(5), NULL},  /* highest_sub_index_supported */
+    {0x5101u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(6), NULL},  /* highest_sub_index_supported */
     {0x5101u, 1u, 0x05u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(0), NULL},  /* param_store_status */
     {0x5101u, 2u, 0x05u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(0), NULL},  /* table_store_status */
     {0x5101u, 3u, 0x05u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(0), NULL},  /* table_saved */
     {0x5101u, 4u, 0x05u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(0), NULL},  /* object_store_status */
     {0x5101u, 5u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* param_layout_hash */
+    {0x5101u, 6u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* object_store_refused */
+    {0x5102u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(4), NULL},  /* highest_sub_index_supported */
+    {0x5102u, 1u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* nvm_erases_total */
+    {0x5102u, 2u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* nvm_erases_max_page */
+    {0x5102u, 3u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* saves_refused */
+    {0x5102u, 4u, 0x04u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* save_credit */
     {0x5F00u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(12), NULL},  /* highest_sub_index_supported */
     {0x5F00u, 1u, 0x07u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO), HD_CO_K_VAR, OFF(drive_status_loop_tick), INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* loop_tick */
     {0x5F00u, 2u, 0x07u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO), HD_CO_K_VAR, OFF(drive_status_load_phase), INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* load_phase */

@@ -224,7 +224,20 @@ int32_t hd_vnvm_open(hd_vnvm_t *v, const hd_flash_if_t *fl, uint32_t size, uint3
             v->last = p;
         }
     }
+    v->seq_open = v->seq;
     return 0;
+}
+
+void hd_vnvm_wear(const hd_vnvm_t *v, uint32_t *total, uint32_t *max_page)
+{
+    uint32_t k, live = 0u;
+    for (k = 0u; k < v->n_vpages; k++) {
+        live += (v->live[k] != 0u) ? 1u : 0u;
+    }
+    /* open ensures n_pages >= n_vpages + 1, so at least one page rotates */
+    const uint32_t rot = v->fl->n_pages - live;
+    *total = v->seq_open + v->erases;
+    *max_page = (*total == 0u) ? 0u : (*total + rot - 1u) / rot + 1u;
 }
 
 static int range_ok(const hd_vnvm_t *v, uint32_t off, uint32_t len)

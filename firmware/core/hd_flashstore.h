@@ -41,7 +41,8 @@
  * with the next write of that page; lost by a power cut it simply did not
  * happen - the page keeps its older valid content, which hal.h allows and the
  * parameter store's sequence numbers handle.  Needs n_pages >= n_vpages + 1.
- * The app's two-slot store on top: one save = one page erase + one record.
+ * Every hal write costs one page erase per virtual page it touches (hd_vnvm_wear
+ * counts them); the stores on top write only records that changed.
  */
 #ifndef HD_FLASHSTORE_H
 #define HD_FLASHSTORE_H
@@ -100,6 +101,7 @@ typedef struct {
     uint32_t live[HD_VNVM_MAX_VPAGES];     /* 1 if the virtual page has a record */
     uint32_t pend_erase[HD_VNVM_MAX_VPAGES]; /* 1 if erased since (reads 0xFF) */
     uint32_t erases;                       /* physical erases by this instance */
+    uint32_t seq_open;                     /* newest sequence number found by open */
 } hd_vnvm_t;
 
 /** Open the virtual NVM of size bytes in erase pages of page bytes (scans the flash).
@@ -110,5 +112,12 @@ int32_t hd_vnvm_open(hd_vnvm_t *v, const hd_flash_if_t *fl, uint32_t size, uint3
 int32_t hd_vnvm_read(const hd_vnvm_t *v, uint32_t off, void *buf, uint32_t len);
 int32_t hd_vnvm_write(hd_vnvm_t *v, uint32_t off, const void *buf, uint32_t len);
 int32_t hd_vnvm_erase(hd_vnvm_t *v, uint32_t off, uint32_t len);
+/** Flash wear, persisted without a counter of its own: every committed record took one
+ *  page erase and carries the next sequence number, so the sequence number found at open
+ *  (+ the erases since) is the erases since the area was blank (*total; a failed try
+ *  before a boot is not counted).  Free pages are taken in ring order and each live
+ *  virtual page is skipped at most once per round, so no page is erased more than
+ *  ceil(total / (n_pages - live)) + 1 times (*max_page, an upper bound). */
+void hd_vnvm_wear(const hd_vnvm_t *v, uint32_t *total, uint32_t *max_page);
 
 #endif

@@ -49,7 +49,8 @@ PARAM_STORE_STATUS = {0: "loaded", 1: "blank", 2: "corrupt", 3: "other table ver
 #: 0x5101:2, the Preisach table at boot (hd_tstore_status_t); all but "loaded" mean no table.
 TABLE_STORE_STATUS = {0: "loaded", 1: "blank", 2: "corrupt", 3: "saved as none", 4: "nvm error"}
 #: 0x5101:4, the stored communication / CiA 402 objects at boot; all but "loaded" mean the defaults.
-OBJECT_STORE_STATUS = {0: "loaded", 1: "blank", 2: "corrupt", 3: "other dictionary", 4: "nvm error"}
+OBJECT_STORE_STATUS = {0: "loaded", 1: "blank", 2: "corrupt", 3: "other dictionary", 4: "nvm error",
+                       5: "refused by the SDO checks"}
 
 #: attempts per SDO request/response exchange (python canopen's MAX_RETRIES; its default 1
 #: means no retry): a frame lost on the bus costs one response time-out (0.3 s), not the transfer

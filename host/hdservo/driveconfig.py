@@ -244,3 +244,55 @@ def restore_writes(objects: Mapping[tuple[int, int], int]) -> list[tuple[int, in
         if cob is not None:
             writes.append((c, 1, cob))
     return writes
+
+
+#: 0x5102, the drive's flash wear and 0x1010 save rate limit (firmware/canopen/hd_app_co.h).
+NVM_WEAR_INDEX = 0x5102
+#: page erase cycles the STM32G474 flash endures per page (datasheet, 10 000 cycles)
+FLASH_ENDURANCE = 10_000
+
+
+@dataclass(frozen=True)
+class NvmWear:
+    """The drive's NVM wear figures (0x5102).
+
+    Attributes
+    ----------
+    erases_total : int
+        Flash page erases of the NVM area, page erases (:1).
+    erases_max_page : int
+        Erases of the most erased page, page erases (:2; an upper bound on the STM32G474).
+    saves_refused : int
+        0x1010 saves refused by the rate limit since power-up (:3).
+    save_credit : int
+        Page erases the rate limit allows now (:4; a changing save is refused at <= 0).
+    """
+
+    erases_total: int
+    erases_max_page: int
+    saves_refused: int
+    save_credit: int
+
+    def line(self) -> str:
+        """One status line: the figures and the most erased page's share of its endurance."""
+        used = 100.0 * self.erases_max_page / FLASH_ENDURANCE
+        return (f"NVM wear: {self.erases_total} page erases, most erased page {self.erases_max_page} "
+                f"of {FLASH_ENDURANCE} ({used:.2f} %); save credit {self.save_credit} erases, "
+                f"{self.saves_refused} saves refused by the rate limit")
+
+
+def read_nvm_wear(drive: Any) -> NvmWear:
+    """Read the drive's flash wear object 0x5102.
+
+    Parameters
+    ----------
+    drive : hdservo.drive.Drive
+        A connected drive (anything with ``read(index, sub)``).
+
+    Returns
+    -------
+    NvmWear
+        The four figures, page erases / saves (dimensionless counts).
+    """
+    r = [int(drive.read(NVM_WEAR_INDEX, k)) for k in (1, 2, 3, 4)]
+    return NvmWear(erases_total=r[0], erases_max_page=r[1], saves_refused=r[2], save_credit=r[3])

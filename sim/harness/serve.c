@@ -232,6 +232,14 @@ static uint32_t a_dwrite(void *c, uint16_t dom, uint32_t off, const uint8_t *buf
     return 0;
 }
 
+/* flash wear of the NVM (0x5102): the host port counts every page erase */
+static int32_t a_nvm_wear(void *c, uint32_t *total, uint32_t *max_page)
+{
+    srv_t *s = c;
+    hd_host_nvm_wear(s->port, total, max_page);
+    return 0;
+}
+
 /* commit: the last 4 bytes are the CRC-32 of the rest; refused -> old data stays */
 static uint32_t a_dend(void *c, uint16_t dom, uint32_t total, bool complete)
 {
@@ -697,6 +705,7 @@ int hd_sim_serve_main(int argc, char **argv)
     pif.domain_write_begin = a_dbegin;
     pif.domain_write = a_dwrite;
     pif.domain_write_end = a_dend;
+    pif.nvm_wear = a_nvm_wear;
     hd_app_co_init(&s->ac, &s->co, s->app, (uint8_t)node, &pif);
 
     signal(SIGINT, on_signal);

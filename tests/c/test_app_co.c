@@ -60,10 +60,29 @@ int32_t hd_hal_nvm_write(uint32_t o, const void *b, uint32_t l)
     }
     return 0;
 }
+static uint32_t nvm_erases[NVM_SIZE / NVM_PAGE];   /* page erases (flash wear) */
 int32_t hd_hal_nvm_erase(uint32_t o, uint32_t l)
 {
     if (nvm_off || o > NVM_SIZE || l > NVM_SIZE - o || o % NVM_PAGE || l % NVM_PAGE) return -1;
     memset(&nvm[o], 0xFF, l);
+    for (uint32_t k = o / NVM_PAGE; k < (o + l) / NVM_PAGE; k++) nvm_erases[k]++;
+    return 0;
+}
+static uint32_t erases_total(void)
+{
+    uint32_t t = 0u;
+    for (uint32_t k = 0u; k < NVM_SIZE / NVM_PAGE; k++) t += nvm_erases[k];
+    return t;
+}
+/* the port's wear counter (hd_app_co_port_t.nvm_wear) */
+static int32_t p_wear(void *c, uint32_t *total, uint32_t *max_page)
+{
+    (void)c;
+    *total = erases_total();
+    *max_page = 0u;
+    for (uint32_t k = 0u; k < NVM_SIZE / NVM_PAGE; k++) {
+        if (nvm_erases[k] > *max_page) *max_page = nvm_erases[k];
+    }
     return 0;
 }
 
@@ -74,12 +93,18 @@ static uint32_t n_sent;
 static uint8_t img[4u * HD_APP_CO_STAGE_WORDS + 16u];
 
 static hd_can_frame_t last_sdo;      /* the last SDO response (0x581) */
+static hd_can_frame_t last_emcy;     /* the last EMCY frame the drive sent */
+static uint32_t n_emcy;
 static bool p_send(void *c, const hd_can_frame_t *f)
 {
     (void)c;
     n_sent++;
     if (f->id == 0x581u) {
         last_sdo = *f;
+    }
+    if (f->id >= 0x81u && f->id <= 0xFFu) {
+        last_emcy = *f;
+        n_emcy++;
     }
     return true;
 }
@@ -90,6 +115,9 @@ static void boot(uint8_t node)
     hd_app_co_port_t port;
     memset(&port, 0, sizeof port);
     port.send = p_send;
+    port.nvm_wear = p_wear;
+    n_emcy = 0u;
+    memset(&last_emcy, 0, sizeof last_emcy);
     hd_app_init(&app);
     hd_app_co_init(&ac, &co, &app, node, &port);
     hd_app_step(&app);
@@ -102,6 +130,7 @@ static int setup(void **st)
     trk_pos = 0;
     nvm_off = 0;
     memset(nvm, 0xFF, sizeof nvm);
+    memset(nvm_erases, 0, sizeof nvm_erases);
     boot(1u);
     return 0;
 }
@@ -491,6 +520,138 @@ static void test_store_objects(void **st)
     assert_int_equal(special(0x5101u, 2u), HD_TSTORE_NVM_ERROR);
     assert_int_equal(special(0x5101u, 4u), HD_APP_CO_CSTORE_NVM_ERROR);
     assert_int_equal(co.app.store(co.app.ctx), HD_CO_AB_STATE);
+}
+
+static uint16_t emcy_code(void)
+{
+    return (uint16_t)(last_emcy.data[0] | (last_emcy.data[1] << 8));
+}
+
+/* A CRC-valid stored image (written by the drive's own 0x1010 from values set behind
+ * the SDO checks) that maps a read-only object into an RPDO: refused at boot like the
+ * SDO write would be; every stored object at its default (nothing of the image, not the
+ * valid heartbeat either), 0x5101:4 = 5 with the object in :6, EMCY 0x6300; an NMT reset
+ * communication keeps the defaults. */
+static void test_stored_image_with_read_only_rpdo_mapping_refused(void **st)
+{
+    (void)st;
+    assert_int_equal(hd_co_set_i64(&co, 0x1017u, 0u, 250), 0u);      /* a valid setting */
+    /* an SDO master cannot do this: */
+    assert_int_equal(hd_co_set_i64(&co, 0x1600u, 0u, 0), 0u);
+    assert_int_equal(hd_co_set_i64(&co, 0x1600u, 1u, 0x60410010), HD_CO_AB_NO_MAP);
+    co.od.rpdo_map[0][0] = 0x60410010u;                                 /* statusword: ro, TPDO only */
+    co.od.rpdo_nmap[0] = 1u;
+    assert_int_equal(co.app.store(co.app.ctx), 0u);                     /* CRC-valid record */
+    boot(1u);
+    assert_int_equal(special(0x5101u, 4u), HD_APP_CO_CSTORE_REFUSED);
+    assert_int_equal(special(0x5101u, 6u), (0x1600 << 8) | 1);
+    assert_int_equal(special(0x5101u, 1u), HD_PSTORE_OK);               /* the parameters still load */
+    assert_int_equal(od_get(0x1600u, 1u), co.table[hd_co_find(&co, 0x1600u, 1u)].def);
+    assert_int_equal(od_get(0x1600u, 0u), co.table[hd_co_find(&co, 0x1600u, 0u)].def);
+    assert_int_equal(od_get(0x1017u, 0u), 100);                         /* default, not 250 */
+    assert_int_equal(co.hb_next_us, co.now_us + 100000u);               /* its timer too */
+    assert_true(n_emcy >= 1u);
+    assert_int_equal(emcy_code(), HD_APP_CO_EMCY_STORE_REFUSED);
+    assert_int_equal(last_emcy.data[3] | (last_emcy.data[4] << 8), 0x1600);
+    assert_int_equal(last_emcy.data[5], 1);
+    assert_true((od_get(0x1001u, 0u) & HD_CO_ER_GENERIC) != 0);
+    nmt(0x82u);
+    assert_int_equal(od_get(0x1017u, 0u), 100);
+    assert_int_equal(od_get(0x1600u, 0u), co.table[hd_co_find(&co, 0x1600u, 0u)].def);
+}
+
+/* the same for an RPDO COB-ID in a restricted range (LSS, 0x7E5) */
+static void test_stored_image_with_restricted_cob_id_refused(void **st)
+{
+    (void)st;
+    assert_int_equal(hd_co_set_i64(&co, 0x6065u, 0u, 1234), 0u);
+    assert_int_equal(hd_co_set_i64(&co, 0x1401u, 1u, 0x80000000 | 0x7E5), 0u);
+    assert_int_equal(hd_co_set_i64(&co, 0x1401u, 1u, 0x7E5), HD_CO_AB_VALUE);
+    co.od.rpdo_cob[1] = 0x7E5u;
+    assert_int_equal(co.app.store(co.app.ctx), 0u);
+    boot(1u);
+    assert_int_equal(special(0x5101u, 4u), HD_APP_CO_CSTORE_REFUSED);
+    assert_int_equal(special(0x5101u, 6u), (0x1401 << 8) | 1);
+    assert_int_equal(od_get(0x1401u, 1u), 0x301);                       /* default 0x300 + node */
+    assert_int_equal(od_get(0x6065u, 0u), 0xFFFFFFFF);                  /* nothing half-applied */
+    assert_int_equal(emcy_code(), HD_APP_CO_EMCY_STORE_REFUSED);
+    /* a good image loads again once saved: the status goes back to 0 */
+    assert_int_equal(co.app.store(co.app.ctx), 0u);
+    boot(1u);
+    assert_int_equal(special(0x5101u, 4u), HD_APP_CO_CSTORE_OK);
+    assert_int_equal(special(0x5101u, 6u), 0);
+}
+
+/* 0x1010 writes only what changed: a save of unchanged settings erases nothing */
+static void test_identical_save_erases_nothing(void **st)
+{
+    uint32_t e0;
+    (void)st;
+    assert_int_equal(hd_co_set_i64(&co, 0x1017u, 0u, 250), 0u);
+    assert_int_equal(co.app.store(co.app.ctx), 0u);
+    e0 = erases_total();
+    assert_true(e0 > 0u);
+    assert_int_equal(special(0x5102u, 1u), (int64_t)e0);
+    for (uint32_t i = 0u; i < 5u; i++) {
+        assert_int_equal(co.app.store(co.app.ctx), 0u);
+    }
+    assert_int_equal(erases_total(), e0);
+    assert_int_equal(special(0x5102u, 1u), (int64_t)e0);
+    /* a changed object: one record rewritten (its own slot page), not the parameters */
+    assert_int_equal(hd_co_set_i64(&co, 0x1017u, 0u, 300), 0u);
+    assert_int_equal(co.app.store(co.app.ctx), 0u);
+    assert_int_equal(erases_total(), e0 + 1u);
+    assert_int_equal(special(0x5102u, 2u), 1);                          /* no page twice yet */
+    /* a table saved once, then downloaded again unchanged: the save erases nothing and
+     * the table counts as saved */
+    const uint32_t len = make_table(12u, 5u, 300);
+    assert_int_equal(download(HD_APP_CO_DOM_PREISACH, img, len), 0);
+    assert_int_equal(co.app.store(co.app.ctx), 0u);
+    e0 = erases_total();
+    assert_int_equal(download(HD_APP_CO_DOM_PREISACH, img, len), 0);
+    assert_int_equal(special(0x5101u, 3u), 0);
+    assert_int_equal(co.app.store(co.app.ctx), 0u);
+    assert_int_equal(erases_total(), e0);
+    assert_int_equal(special(0x5101u, 3u), 1);
+}
+
+/* 0x1010 rate limit: page erases in drive time; over it a save that changes the NVM
+ * is refused (0x08000021, EMCY 0xFF10, 0x5102:3), one that changes nothing is not;
+ * credit comes back with drive time (hd_co_tick) and the next save clears the EMCY */
+static void test_save_rate_limit(void **st)
+{
+    uint32_t i, ab = 0u, saves = 0u, e0;
+    (void)st;
+    assert_int_equal(special(0x5102u, 4u), HD_APP_CO_SAVE_CREDIT_MAX);
+    for (i = 0u; i < 1000u && ab == 0u; i++) {
+        assert_int_equal(hd_co_set_i64(&co, 0x1017u, 0u, (int64_t)(200u + (i % 2u))), 0u);
+        ab = co.app.store(co.app.ctx);
+        saves += (ab == 0u) ? 1u : 0u;
+    }
+    assert_int_equal(ab, HD_APP_CO_AB_SAVE_RATE);
+    assert_true(erases_total() >= (uint32_t)HD_APP_CO_SAVE_CREDIT_MAX);
+    assert_true(erases_total() <= (uint32_t)HD_APP_CO_SAVE_CREDIT_MAX + 2u);
+    assert_true(saves >= 100u);                          /* one page per changed object save */
+    assert_int_equal(special(0x5102u, 3u), 1);
+    assert_true(special(0x5102u, 4u) <= 0);
+    assert_int_equal(emcy_code(), HD_APP_CO_EMCY_SAVE_RATE);
+    e0 = erases_total();
+    assert_int_equal(co.app.store(co.app.ctx), HD_APP_CO_AB_SAVE_RATE);   /* again: refused, */
+    assert_int_equal(special(0x5102u, 3u), 2);
+    assert_int_equal(erases_total(), e0);                                 /* nothing erased */
+    /* back to the saved value: nothing to write, so not refused */
+    assert_int_equal(hd_co_set_i64(&co, 0x1017u, 0u, (int64_t)(200u + ((i - 2u) % 2u))), 0u);
+    assert_int_equal(co.app.store(co.app.ctx), 0u);
+    assert_int_equal(erases_total(), e0);
+    /* drive time refills the credit: one erase per 3 h */
+    assert_int_equal(hd_co_set_i64(&co, 0x1017u, 0u, 999), 0u);
+    while (special(0x5102u, 4u) <= 0) {
+        hd_co_tick(&co, (uint32_t)(HD_APP_CO_SAVE_REFILL_US / 4u));
+    }
+    assert_int_equal(co.app.store(co.app.ctx), 0u);
+    assert_int_equal(erases_total(), e0 + 1u);
+    assert_int_equal(emcy_code(), 0x0000u);                               /* error reset */
+    assert_int_equal(special(0x5102u, 3u), 2);
 }
 
 static void test_pp_halt(void **st)
@@ -899,6 +1060,10 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_preisach_table, setup),
         cmocka_unit_test_setup(test_store_objects, setup),
+        cmocka_unit_test_setup(test_stored_image_with_read_only_rpdo_mapping_refused, setup),
+        cmocka_unit_test_setup(test_stored_image_with_restricted_cob_id_refused, setup),
+        cmocka_unit_test_setup(test_identical_save_erases_nothing, setup),
+        cmocka_unit_test_setup(test_save_rate_limit, setup),
         cmocka_unit_test_setup(test_group_and_interlock, setup),
         cmocka_unit_test_setup(test_pp_halt, setup),
         cmocka_unit_test_setup(test_csv_halt, setup),

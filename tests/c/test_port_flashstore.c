@@ -27,8 +27,11 @@
 #include "hd_flashstore.h"
 #include "hal.h"
 #include "hd_param_store.h"
+#include "hd_rec_store.h"
+#include "hd_table_store.h"
+#include "support/test_tables.h"
 
-#define MAXMEM (16u * 2048u)
+#define MAXMEM (24u * 2048u)     /* the STM32G474 NVM area: 24 pages of 2 KiB */
 
 typedef struct {
     uint8_t mem[MAXMEM];
@@ -392,6 +395,39 @@ static void test_vnvm_wear_and_power_loss(void **st)
     assert_true(n_old > 0u && n_new > 0u);
 }
 
+/* hd_vnvm_wear: the erase count survives a reboot (from the sequence numbers) and the
+ * per-page figure bounds the most erased page */
+static void test_vnvm_wear_count(void **st)
+{
+    static uint8_t a[1024];
+    uint32_t k, total, max_page, real_total = 0u, real_max = 0u;
+    (void)st;
+    sf_init(&F, 2048u, 8u, 31u);
+    assert_int_equal(hd_vnvm_open(&V, &F.fi, 4096u, 1024u), 0);
+    hd_vnvm_wear(&V, &total, &max_page);
+    assert_int_equal(total, 0u);
+    assert_int_equal(max_page, 0u);
+    for (k = 0; k < 300u; k++) {
+        fill(a, 1024u, k);
+        assert_int_equal(hd_vnvm_erase(&V, (k % 3u) * 1024u, 1024u), 0);
+        assert_int_equal(hd_vnvm_write(&V, (k % 3u) * 1024u, a, 1024u), 0);
+    }
+    for (k = 0; k < 8u; k++) {
+        real_total += F.erase_count[k];
+        if (F.erase_count[k] > real_max) real_max = F.erase_count[k];
+    }
+    hd_vnvm_wear(&V, &total, &max_page);
+    assert_int_equal(total, real_total);
+    assert_true(max_page >= real_max);
+    assert_true(max_page <= real_total / (8u - 3u) + 2u);
+    /* power cycle: the count is read back from the flash, not lost */
+    reboot(&F);
+    assert_int_equal(hd_vnvm_open(&V, &F.fi, 4096u, 1024u), 0);
+    hd_vnvm_wear(&V, &total, &max_page);
+    assert_int_equal(total, real_total);
+    assert_true(max_page >= real_max);
+}
+
 static void test_param_store_power_loss(void **st)
 {
     int32_t a[HD_PARAM_COUNT], b[HD_PARAM_COUNT], got[HD_PARAM_COUNT];
@@ -428,6 +464,53 @@ static void test_param_store_power_loss(void **st)
     assert_true(n_old > 0u && n_new > 0u);
 }
 
+static uint32_t w_get(const void *ctx, uint32_t w) { return *(const uint32_t *)ctx + w; }
+
+/* Flash erases per save on the drive's geometry (24 pages of 2 KiB, 22 KiB of 1 KiB virtual
+ * pages): a changed parameter set 1, a 125-word CANopen object record 1, a 64-level
+ * Preisach table 9 (one erase per KiB written); an unchanged save 0. */
+static void test_erases_per_save_on_the_drive_geometry(void **st)
+{
+    static hd_preisach_table_t t;
+    int32_t a[HD_PARAM_COUNT];
+    uint32_t seq = 0u, tseq = 0u, cseq = 0u, e;
+    const uint32_t base = 7u;
+    hd_rstore_t co;
+    (void)st;
+    sf_init(&F, 2048u, 24u, 41u);
+    assert_int_equal(hd_vnvm_open(&V, &F.fi, 22528u, 1024u), 0);
+    hd_params_defaults(a);
+    assert_int_equal(hd_pstore_save(a, &seq), 0);
+    for (uint32_t i = 0; i < HD_PARAM_COUNT; i++) {
+        if (hd_params_check(i, a[i] + 1) == 0) { a[i] = a[i] + 1; break; }
+    }
+    e = V.erases;
+    assert_int_equal(hd_pstore_save(a, &seq), 0);
+    assert_int_equal(V.erases - e, 1u);
+    e = V.erases;
+    assert_int_equal(hd_pstore_save(a, &seq), 0);
+    assert_int_equal(V.erases - e, 0u);
+
+    test_everett_table(&t, 64u, 1u, 1000);
+    e = V.erases;
+    assert_int_equal(hd_tstore_save(&t, &tseq), 0);
+    printf("# 64-level table save: %u page erases\n", V.erases - e);
+    assert_int_equal(V.erases - e, 9u);
+    e = V.erases;
+    assert_int_equal(hd_tstore_save(&t, &tseq), 0);
+    assert_int_equal(V.erases - e, 0u);
+
+    co.offset = hd_tstore_offset() + 2u * hd_tstore_slot_size();   /* as hd_app_co.c */
+    co.slot = hd_rstore_slot_bytes(192u);
+    co.magic = 0x53434448u;
+    co.words_max = 192u;
+    e = V.erases;
+    assert_int_equal(hd_rstore_save(&co, &base, w_get, 125u, &cseq), 0);
+    assert_int_equal(V.erases - e, 1u);
+    hd_vnvm_wear(&V, &e, &seq);
+    assert_int_equal(e, V.erases);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -437,7 +520,9 @@ int main(void)
         cmocka_unit_test(test_power_loss_every_position),
         cmocka_unit_test(test_vnvm_semantics),
         cmocka_unit_test(test_vnvm_wear_and_power_loss),
+        cmocka_unit_test(test_vnvm_wear_count),
         cmocka_unit_test(test_param_store_power_loss),
+        cmocka_unit_test(test_erases_per_save_on_the_drive_geometry),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

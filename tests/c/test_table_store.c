@@ -266,14 +266,60 @@ static void test_sequence_newer_than_the_survivor_after_a_default_boot(void **st
 {
     fx_t *f = *state;
     uint32_t seq = 0u, s = 0u;
+    /* a, b, a: a save equal to the newest record writes nothing, so the contents alternate */
     assert_int_equal(hd_tstore_save(&f->a, &seq), 0);
-    assert_int_equal(hd_tstore_save(&f->a, &seq), 0);
+    assert_int_equal(hd_tstore_save(&f->b, &seq), 0);
     assert_int_equal(hd_tstore_save(&f->a, &seq), 0);     /* seq 3 in slot 0, 2 in slot 1 */
+    assert_int_equal(seq, 3u);
     seq = 0u;                                             /* e.g. a boot with a read error */
     assert_int_equal(hd_tstore_save(&f->b, &seq), 0);
     assert_int_equal(seq, 4u);
     assert_int_equal(hd_tstore_load(&f->got, &s), HD_TSTORE_OK);
     assert_true(same_image(&f->got, &f->b));
+}
+
+/* flash wear: a save equal to the newest record erases and programs nothing, for the
+ * table, "no table" and the parameter set; a changed one is written */
+static void test_identical_save_costs_no_erase(void **state)
+{
+    fx_t *f = *state;
+    uint32_t seq = 0u, pseq = 0u, before;
+    int32_t values[HD_PARAM_COUNT];
+    assert_int_equal(hd_tstore_same(&f->a), 0);            /* blank: a save writes */
+    assert_int_equal(hd_tstore_save(&f->a, &seq), 0);
+    assert_int_equal(seq, 1u);
+    assert_true(N.erases > 0u);
+    before = N.erases + N.writes;
+    assert_int_equal(hd_tstore_same(&f->a), 1);
+    assert_int_equal(hd_tstore_same(&f->b), 0);
+    assert_int_equal(hd_tstore_same(NULL), 0);
+    assert_int_equal(hd_tstore_save(&f->a, &seq), 0);
+    assert_int_equal(N.erases + N.writes, before);         /* nothing erased, nothing written */
+    assert_int_equal(seq, 1u);
+    assert_int_equal(hd_tstore_save(&f->b, &seq), 0);      /* changed: written */
+    assert_true(N.erases + N.writes > before);
+    assert_int_equal(seq, 2u);
+    assert_int_equal(hd_tstore_save(NULL, &seq), 0);       /* "no table" once, then free */
+    before = N.erases + N.writes;
+    assert_int_equal(hd_tstore_same(NULL), 1);
+    assert_int_equal(hd_tstore_save(NULL, &seq), 0);
+    assert_int_equal(N.erases + N.writes, before);
+    assert_int_equal(hd_tstore_load(&f->got, &seq), HD_TSTORE_NONE);
+
+    hd_params_defaults(values);
+    assert_int_equal(hd_pstore_same(values), 0);
+    assert_int_equal(hd_pstore_save(values, &pseq), 0);
+    assert_int_equal(pseq, 1u);
+    before = N.erases + N.writes;
+    assert_int_equal(hd_pstore_same(values), 1);
+    assert_int_equal(hd_pstore_save(values, &pseq), 0);
+    assert_int_equal(N.erases + N.writes, before);
+    assert_int_equal(pseq, 1u);
+    values[0] = (values[0] == hd_param_table[0].max) ? hd_param_table[0].min : hd_param_table[0].max;
+    assert_int_equal(hd_pstore_same(values), 0);
+    assert_int_equal(hd_pstore_save(values, &pseq), 0);
+    assert_true(N.erases + N.writes > before);
+    assert_int_equal(pseq, 2u);
 }
 
 static void test_nvm_too_small_or_unreadable(void **state)
@@ -305,6 +351,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_no_table_record, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_bad_table_refused_nvm_unchanged, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_sequence_newer_than_the_survivor_after_a_default_boot, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_identical_save_costs_no_erase, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_nvm_too_small_or_unreadable, setUp, tearDown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -90,6 +90,46 @@ def test_dump_edit_restore_round_trip_and_save(tmp_path: Path, capsys) -> None:
         srv.stop()
 
 
+def _wear(out: str) -> tuple[int, int, int, int]:
+    """(total erases, most erased page, credit, refused) from `config status` output."""
+    m = re.search(r"NVM wear: (\d+) page erases, most erased page (\d+) of 10000 \([0-9.]+ %\); "
+                  r"save credit (-?\d+) erases, (\d+) saves refused by the rate limit", out)
+    assert m, out
+    return int(m[1]), int(m[2]), int(m[3]), int(m[4])
+
+
+def test_status_shows_flash_wear(tmp_path: Path, capsys) -> None:
+    """`config status` shows the drive's 0x5102 wear figures: a changing save erases pages,
+    an identical one none, and the count survives a restart on the same NVM file."""
+    nvm = tmp_path / "nvm.bin"
+    srv = Server("--pacing", "realtime", "-q", "--nvm", str(nvm))
+    try:
+        assert main(["config", "status", *_bus(srv.port)]) == 0
+        assert _wear(capsys.readouterr().out) == (0, 0, 160, 0)          # blank NVM, full credit
+        assert main(["config", "set", "pos_kp=12.5", "--save", *_bus(srv.port)]) == 0
+        capsys.readouterr()
+        assert main(["config", "status", *_bus(srv.port)]) == 0
+        total, top, credit, refused = _wear(capsys.readouterr().out)
+        assert total >= 1 and 1 <= top <= total and credit == 160 - total and refused == 0
+        with Drive.connect(1, interface="socketcand", channel="can0", host="127.0.0.1", port=srv.port) as d:
+            d.start()
+            assert int(d.read(0x5102, 1)) == total
+        assert main(["config", "save", *_bus(srv.port)]) == 0               # nothing changed
+        capsys.readouterr()
+        assert main(["config", "status", *_bus(srv.port)]) == 0
+        assert _wear(capsys.readouterr().out)[0] == total                  # no erase
+    finally:
+        srv.stop()
+    srv = Server("--pacing", "realtime", "-q", "--nvm", str(nvm))
+    try:
+        assert main(["config", "status", *_bus(srv.port)]) == 0
+        again = _wear(capsys.readouterr().out)
+        assert again[:2] == (total, top)                                   # persisted (nvm.bin.wear)
+        assert again[2] == 160                                             # credit: full after power-up
+    finally:
+        srv.stop()
+
+
 @pytest.mark.parametrize("edit, msg", [
     (lambda t: t.replace("[meta]", "[meat]"), "expected the tables [meta] and [params]"),
     (lambda t: re.sub(r"param_layout_hash = 0x[0-9A-F]+", "param_layout_hash = 0x12345678", t),

@@ -222,6 +222,55 @@ static int32_t nvm_flush(hd_host_port_t *p)
     return 0;
 }
 
+#define NVM_PAGES (HD_HOST_NVM_SIZE / HD_HOST_NVM_PAGE)
+
+/* The erase counts to PATH.wear (temp file + rename): a torn write leaves the old counts. */
+static void wear_flush(hd_host_port_t *p)
+{
+    char path[HD_HOST_PATH_MAX + 8];
+    char tmp[HD_HOST_PATH_MAX + 16];
+    int n = snprintf(path, sizeof path, "%s.wear", p->nvm_path);
+    int m = snprintf(tmp, sizeof tmp, "%s.wear.tmp", p->nvm_path);
+    if (p->nvm_path[0] == '\0' || n < 0 || (size_t)n >= sizeof path || m < 0 || (size_t)m >= sizeof tmp) return;
+    FILE *f = fopen(tmp, "w");
+    if (!f) return;
+    int bad = 0;
+    for (uint32_t k = 0u; k < NVM_PAGES; k++)
+        if (fprintf(f, "%lu\n", (unsigned long)p->nvm_erases[k]) < 0) bad = 1;
+    if (fclose(f) != 0) bad = 1;
+    if (bad || rename(tmp, path) != 0) remove(tmp);
+}
+
+/* The erase counts from PATH.wear if it is there and whole; else they start at 0. */
+static void wear_load(hd_host_port_t *p)
+{
+    char path[HD_HOST_PATH_MAX + 8];
+    uint32_t c[NVM_PAGES];
+    int n = snprintf(path, sizeof path, "%s.wear", p->nvm_path);
+    memset(p->nvm_erases, 0, sizeof p->nvm_erases);
+    if (n < 0 || (size_t)n >= sizeof path) return;
+    FILE *f = fopen(path, "r");
+    if (!f) return;
+    for (uint32_t k = 0u; k < NVM_PAGES; k++) {
+        unsigned long v;
+        if (fscanf(f, "%lu", &v) != 1 || v > 0xFFFFFFFFul) { fclose(f); return; }
+        c[k] = (uint32_t)v;
+    }
+    fclose(f);
+    memcpy(p->nvm_erases, c, sizeof c);
+}
+
+void hd_host_nvm_wear(const hd_host_port_t *p, uint32_t *total, uint32_t *max_page)
+{
+    uint32_t t = 0u, m = 0u;
+    for (uint32_t k = 0u; k < NVM_PAGES; k++) {
+        t += p->nvm_erases[k];
+        if (p->nvm_erases[k] > m) m = p->nvm_erases[k];
+    }
+    *total = t;
+    *max_page = m;
+}
+
 int32_t hd_host_nvm_attach_file(hd_host_port_t *p, const char *path)
 {
     size_t len = strlen(path);
@@ -231,6 +280,7 @@ int32_t hd_host_nvm_attach_file(hd_host_port_t *p, const char *path)
     if (!f) {
         if (errno == ENOENT) {
             memset(p->nvm, 0xFF, sizeof p->nvm);
+            wear_load(p);
             return 0;
         }
         p->nvm_path[0] = '\0';
@@ -245,6 +295,7 @@ int32_t hd_host_nvm_attach_file(hd_host_port_t *p, const char *path)
         p->nvm_path[0] = '\0';
         return -1;
     }
+    wear_load(p);
     return 0;
 }
 
@@ -270,5 +321,8 @@ int32_t hd_hal_nvm_erase(uint32_t offset, uint32_t len)
     if (!g_port || !nvm_range_ok(offset, len)) return -1;
     if ((offset % HD_HOST_NVM_PAGE) != 0u || (len % HD_HOST_NVM_PAGE) != 0u) return -1;
     memset(&g_port->nvm[offset], 0xFF, len);
+    for (uint32_t k = offset / HD_HOST_NVM_PAGE; k < (offset + len) / HD_HOST_NVM_PAGE; k++)
+        g_port->nvm_erases[k]++;
+    wear_flush(g_port);
     return nvm_flush(g_port);
 }

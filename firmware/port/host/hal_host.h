@@ -22,7 +22,9 @@
  * NVM: HD_HOST_NVM_SIZE bytes in memory with flash semantics (erased = 0xFF,
  * program only erased 8-byte words, erase whole pages).  Optionally backed by
  * a file: loaded at attach, written back (temp file + rename) after every
- * successful write or erase.
+ * successful write or erase.  Page erases are counted per page (flash wear, CANopen
+ * 0x5102); with a file the counts persist in PATH.wear (one decimal count per page
+ * and line, written like the image), so they survive a restart of the drive.
  *
  * Integer-only like the rest of firmware/ (unit conversion to SI is done on
  * the sim side).
@@ -85,6 +87,7 @@ typedef struct {
     uint8_t  nvm[HD_HOST_NVM_SIZE];
     char     nvm_path[HD_HOST_PATH_MAX];  /* "" = memory only */
     int32_t  nvm_file_error;        /* last file write-back error (0 = none) */
+    uint32_t nvm_erases[HD_HOST_NVM_SIZE / HD_HOST_NVM_PAGE];  /* erases of each page */
 } hd_host_port_t;
 
 /* Reset: tick 0, zero sensors (all invalid), command off, empty rings,
@@ -104,6 +107,9 @@ void hd_host_port_end_period(hd_host_port_t *p);
 /* Back the NVM with a file: read it if it exists (must be exactly
  * HD_HOST_NVM_SIZE bytes), else start erased.  0 ok, -1 bad path/size, -2 read error. */
 int32_t hd_host_nvm_attach_file(hd_host_port_t *p, const char *path);
+
+/* Flash wear: page erases in all and of the most erased page. */
+void hd_host_nvm_wear(const hd_host_port_t *p, uint32_t *total, uint32_t *max_page);
 
 /* CAN for transports (act on the bound port).  push_rx: false if the ring is
  * full or nothing is bound; pop_tx: false if nothing is waiting. */

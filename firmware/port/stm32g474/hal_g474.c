@@ -293,6 +293,17 @@ void hd_g474_adc_irq(void)
     }
 }
 
+/* flash wear of the NVM area (0x5102), persisted in the virtual NVM's sequence numbers */
+static int32_t nvm_wear(void *ctx, uint32_t *total, uint32_t *max_page)
+{
+    (void)ctx;
+    if (nvm_ok != 0) {
+        return -1;
+    }
+    hd_vnvm_wear(&vnvm, total, max_page);
+    return 0;
+}
+
 static bool co_send(void *ctx, const hd_can_frame_t *f)
 {
     (void)ctx;
@@ -349,7 +360,7 @@ int main(void)
     hd_g474_nvic_enable(IRQ_FDCAN1_IT0, 1u);
     {
         /* CANopen: boot-up goes out now; the control period (PendSV) runs it */
-        static const hd_app_co_port_t co_port = {0, co_send, 0, 0, 0, 0, 0, 0};
+        static const hd_app_co_port_t co_port = {0, co_send, 0, 0, 0, 0, 0, 0, nvm_wear};
         hd_app_co_init(&app_co, &co, &app, (uint8_t)HD_G474_NODE_ID, &co_port);
     }
     hd_g474_ssi_dma_init();                   /* from now on the output encoder is read by DMA */

@@ -11,7 +11,9 @@
   node; ``--save`` stores them (0x1010) and checks the drive's store status;
 * ``get NAME...`` / ``set NAME=VALUE... [--save]``: single parameters in SI units;
 * ``save``: 0x1010 (parameters, the Preisach table in force, the CANopen settings);
-* ``status``: what the drive's last boot loaded from NVM (0x5101).
+* ``status``: what the drive's last boot loaded from NVM (0x5101) and the flash wear
+  (0x5102: page erases, the most erased page against its 10 000 cycles, the save rate
+  limit's credit and refusals).
 
 Changes apply at once and are in RAM until saved.  Any refusal is one error line and
 exit status 2; a restore stops at the first write the drive refuses and writes back the
@@ -52,7 +54,7 @@ def register(p: argparse.ArgumentParser) -> None:
     s.add_argument("pairs", nargs="+", metavar="NAME=VALUE")
     s.add_argument("--save", action="store_true", help="store in NVM afterwards (0x1010)")
     sub.add_parser("save", help="store parameters, Preisach table and CANopen settings in NVM (0x1010)")
-    sub.add_parser("status", help="what the drive's last boot loaded from NVM (0x5101)")
+    sub.add_parser("status", help="what the drive's last boot loaded from NVM (0x5101) and its flash wear (0x5102)")
     for x in sub.choices.values():
         add_bus_arguments(x)
 
@@ -189,7 +191,7 @@ def _pairs(pairs: list[str]) -> dict[str, int]:
 
 def run(args: argparse.Namespace) -> int:
     from ..drive import Drive, DriveError, choose_drive
-    from ..driveconfig import si_of
+    from ..driveconfig import read_nvm_wear, si_of
     from ..ident.drive_runner import VirtualDrive
     from ..params_gen import BY_NAME
 
@@ -235,6 +237,11 @@ def run(args: argparse.Namespace) -> int:
                 lines.append(f"parameters: {st['params']}; Preisach table: {st['table']} "
                              f"({'saved' if st['table_saved'] else 'in force but not saved'}); "
                              f"CANopen settings: {st['objects']}")
+                refused = int(drive.read(0x5101, 6))
+                if refused:
+                    lines.append(f"CANopen settings refused at boot by 0x{refused >> 8:04X}:{refused & 0xFF} "
+                                 f"(the drive runs the defaults)")
+                lines.append(read_nvm_wear(drive).line())
         except DriveError as e:
             raise UserError(f"drive: {e}") from None
     finally:
