@@ -109,6 +109,10 @@ int32_t hd_app_apply_params(hd_app_t *a)
     hd_stab_design(&a->stab_cfg, param_raw(a, HD_P_STAB_GYRO_BIAS), param_raw(a, HD_P_STAB_BLEND_FC), param_raw(a, HD_P_STAB_BLEND_FR),
                    param_raw(a, HD_P_STAB_BIAS_MAX), param_raw(a, HD_P_STAB_BASE_BW), param_raw(a, HD_P_OBS_ZETA), param_raw(a, HD_P_STAB_FF_DB));
 
+    /* travel limits in the unit of pos_out, compared every period */
+    a->travel_min_q = hdf_shl64_sat(param_raw(a, HD_P_TRAVEL_MIN), 8u);
+    a->travel_max_q = hdf_shl64_sat(param_raw(a, HD_P_TRAVEL_MAX), 8u);
+
     a->traj_cfg.vmax = param_raw(a, HD_P_TRAJ_VMAX);
     a->traj_cfg.amax = param_raw(a, HD_P_TRAJ_AMAX);
     a->traj_cfg.jmax = param_raw(a, HD_P_TRAJ_JMAX);
@@ -228,6 +232,28 @@ static int32_t div32_rnd(int32_t num, int32_t den)
     uint32_t quo = un / ud;
     const uint32_t rem = un - quo * ud;
     if (rem >= ud - rem) {
+        quo += 1u;
+    }
+    return hdf_sat32((num < 0) ? -(int64_t)quo : (int64_t)quo);
+}
+
+/* hd_div_q(num, den, 16u) for den >= 1: with den < 2^16 the 48-bit dividend
+ * |num| 2^16 is divided in two 32-bit steps (q1 = |num| / den, then the
+ * remainder r1 < 2^16 shifted by 16 bits: < 2^32), two UDIVs instead of the
+ * 64-bit long division; same quotient, rounding and saturation.  Larger den: hd_div_q. */
+static int32_t div_q16_rnd(int32_t num, int32_t den)
+{
+    if (den < 1 || den > 65535) {
+        return hd_div_q(num, den, 16u);
+    }
+    const uint32_t un = (uint32_t)mag64(num);      /* <= 2^31 */
+    const uint32_t ud = (uint32_t)den;
+    const uint32_t q1 = un / ud;
+    const uint32_t t = (un - q1 * ud) << 16;
+    const uint32_t q2 = t / ud;
+    const uint32_t r2 = t - q2 * ud;
+    uint64_t quo = ((uint64_t)q1 << 16) + q2;
+    if (r2 >= ud - r2) {
         quo += 1u;
     }
     return hdf_sat32((num < 0) ? -(int64_t)quo : (int64_t)quo);
@@ -764,7 +790,9 @@ static void phase_hunt_breaker(hd_app_t *a, hd_period_t *p)
 static void phase_loops(hd_app_t *a, hd_period_t *p)
 {
     if (p->loops == HD_LOOPS_POS_VEL) {
-        const hd_vel_out_t vff = hdf_mul_q(p->v_ff, param_raw(a, HD_P_VFF_GAIN), 30u);
+        /* gain 1.0 (the default): the Q30 product is v_ff itself, exactly */
+        const int32_t gain = param_raw(a, HD_P_VFF_GAIN);
+        const hd_vel_out_t vff = (gain == HD_Q30_ONE) ? p->v_ff : hdf_mul_q(p->v_ff, gain, 30u);
         p->vel_ref = hd_pid_step(&a->pos_pid, (p->mode == HD_MODE_STAB) ? &a->stab_pos_cfg : &a->pos_cfg,
                                  p->pos_err, 0, vff);
     }
@@ -806,8 +834,7 @@ static void phase_limits_faults(hd_app_t *a, const hd_period_t *p)
         trip(a, HD_FAULT_OVERSPEED);
     }
     if ((fen & HD_FCHK_TRAVEL) &&
-        (a->pos_out < hdf_shl64_sat(param_raw(a, HD_P_TRAVEL_MIN), 8u) ||
-         a->pos_out > hdf_shl64_sat(param_raw(a, HD_P_TRAVEL_MAX), 8u))) {
+        (a->pos_out < a->travel_min_q || a->pos_out > a->travel_max_q)) {
         trip(a, HD_FAULT_TRAVEL);
     }
     if ((fen & HD_FCHK_FOLLOWING) && p->loops == HD_LOOPS_POS_VEL &&
@@ -830,7 +857,7 @@ static void phase_command(hd_app_t *a, hd_period_t *p)
         p->cmd.enable = 0;
     } else {
         p->cmd.torque = div32_rnd(p->t_cmd, p->n);
-        p->cmd.current = hd_div_q(p->cmd.torque, param_raw(a, HD_P_KT), 16u);
+        p->cmd.current = div_q16_rnd(p->cmd.torque, param_raw(a, HD_P_KT));
         p->cmd.enable = 1;
     }
     hd_hal_write_command(&p->cmd);
