@@ -215,12 +215,14 @@ void hd_app_init(hd_app_t *a)
 
 /* ---- sensors ------------------------------------------------------------ */
 
-static int64_t wrap_delta(uint32_t now, uint32_t prev, uint32_t bits)
+/* The step now - prev of a bits-bit counter (wrapped into [-2^(bits-1), 2^(bits-1)))
+ * times 2^(32 - bits), i.e. in 2^-32 turn: shifted to the top of a 32-bit word the
+ * wrapped difference IS that signed value (two's complement), so no 64-bit shift and
+ * no saturation (|result| <= 2^31).  8 <= bits <= 32 (parameter ranges). */
+static int32_t enc_step_q32(uint32_t now, uint32_t prev, uint32_t bits)
 {
-    const uint32_t mask = (bits >= 32u) ? 0xFFFFFFFFu : ((1u << bits) - 1u);
-    const uint32_t d = (now - prev) & mask;
-    const uint32_t half = 1u << (bits - 1u);
-    return (d >= half) ? (int64_t)d - ((int64_t)mask + 1) : (int64_t)d;
+    const uint32_t u = (now - prev) << (32u - bits);
+    return (u > 0x7FFFFFFFu) ? -(int32_t)(~u) - 1 : (int32_t)u;
 }
 
 /* hd_sat32(hd_div64_rnd(num, den)) for int32 num and den >= 1, in 32-bit
@@ -314,12 +316,11 @@ static int32_t read_sensors(hd_app_t *a, hd_hal_sensors_t *sn)
         hd_velobs_reset(&a->obs_out, a->pos_out);
         hd_traj_reset(&a->traj, a->pos_out);
     } else {
-        const int64_t dm = wrap_delta(mraw, a->mot_raw_prev, mb);
-        const int64_t dout = wrap_delta(oraw, a->out_raw_prev, ob);
-        a->pos_mot = hdf_add64_sat(a->pos_mot, hdf_shl64_sat(dm, 32u - mb));
-        const int64_t dq = hdf_shl64_sat(dout, 32u - ob);
-        a->pos_out = hdf_add64_sat(a->pos_out, dq);
-        if (hd_abs64_sat(dq) > (int64_t)param_raw(a, HD_P_ENC_JUMP_MAX)) {
+        const int32_t dm = enc_step_q32(mraw, a->mot_raw_prev, mb);
+        const int32_t dq = enc_step_q32(oraw, a->out_raw_prev, ob);
+        a->pos_mot = hdf_add64_sat(a->pos_mot, (int64_t)dm);
+        a->pos_out = hdf_add64_sat(a->pos_out, (int64_t)dq);
+        if (hdf_abs64_sat((int64_t)dq) > (int64_t)param_raw(a, HD_P_ENC_JUMP_MAX)) {
             fault = HD_FAULT_ENC_JUMP;
         }
     }
