@@ -11,7 +11,7 @@
  *   motor torque = t_f / N ; current = motor torque / Kt
  * vel_fb = motor-encoder observer / N (vel_fb_src 0) or output-encoder observer (1).
  *
- * Standstill hunt breaker (hold_ticks > 0; position modes except STAB; issue 10):
+ * Standstill hunt breaker (hold_ticks > 0; position modes except STAB):
  * the reference is "at rest" when pos_ref (before the bank's corrections) equals last
  * period's and v_ff is 0; inpos_n counts such periods (a CSP stream moves pos_ref at
  * every SYNC, so a CSP multisine is never at rest).  The Stribeck feed-forward on the
