@@ -11,7 +11,7 @@
  *   motor torque = t_f / N ; current = motor torque / Kt
  * vel_fb = motor-encoder observer / N (vel_fb_src 0) or output-encoder observer (1).
  *
- * Standstill hunt breaker (hold_ticks > 0; position modes except STAB; issue 10):
+ * Standstill hunt breaker (hold_ticks > 0; position modes except STAB):
  * the reference is "at rest" when pos_ref (before the bank's corrections) equals last
  * period's and v_ff is 0; inpos_n counts such periods (a CSP stream moves pos_ref at
  * every SYNC, so a CSP multisine is never at rest).  The Stribeck feed-forward on the
@@ -38,7 +38,7 @@ static inline uint64_t mag64(int64_t x)   /* |x| without overflow */
     return (x < 0) ? ((uint64_t)0 - (uint64_t)x) : (uint64_t)x;
 }
 
-static int32_t P(const hd_app_t *a, hd_param_id_t id)
+static int32_t param_raw(const hd_app_t *a, hd_param_id_t id)
 {
     return a->param[id];
 }
@@ -51,73 +51,77 @@ static int32_t two_pi(int32_t x)
 
 int32_t hd_app_apply_params(hd_app_t *a)
 {
-    const int32_t n = P(a, HD_P_GEAR_RATIO);
-    if (n < 1 || P(a, HD_P_KT) <= 0) {
+    const int32_t n = param_raw(a, HD_P_GEAR_RATIO);
+    if (n < 1 || param_raw(a, HD_P_KT) <= 0) {
         return -1;
     }
     /* position loop: in 2^-32 turn, out 2^-32 turn/s, gains Q16 */
     a->pos_cfg.shift = 16u;
-    a->pos_cfg.kp = P(a, HD_P_POS_KP);
-    a->pos_cfg.ki_dt = hd_sat32(hd_div64_rnd(P(a, HD_P_POS_KI), HD_LOOP_HZ));
+    a->pos_cfg.kp = param_raw(a, HD_P_POS_KP);
+    a->pos_cfg.ki_dt = hd_sat32(hd_div64_rnd(param_raw(a, HD_P_POS_KI), HD_LOOP_HZ));
     a->pos_cfg.kd_fs = 0;
     a->pos_cfg.d_alpha = HD_Q30_ONE;
-    a->pos_cfg.out_max = P(a, HD_P_POS_VLIM);
+    a->pos_cfg.out_max = param_raw(a, HD_P_POS_VLIM);
     a->pos_cfg.out_min = hd_neg_sat(a->pos_cfg.out_max);
 
     /* hunt breaker: per-period step of the Stribeck FF weight (Q30), fade over hold_fade_ticks */
-    a->inpos_dw = (P(a, HD_P_HOLD_FADE_TICKS) > 0) ?
-        hd_sat32(hd_div64_rnd((int64_t)HD_Q30_ONE, P(a, HD_P_HOLD_FADE_TICKS))) : HD_Q30_ONE;
+    a->inpos_dw = (param_raw(a, HD_P_HOLD_FADE_TICKS) > 0) ?
+        hd_sat32(hd_div64_rnd((int64_t)HD_Q30_ONE, param_raw(a, HD_P_HOLD_FADE_TICKS))) : HD_Q30_ONE;
 
     /* velocity loop: in 2^-32 turn/s, out Q15.16 N.m, gains Q16 N.m/(turn/s) with shift 32 */
     a->vel_cfg.shift = 32u;
-    a->vel_cfg.kp = two_pi(P(a, HD_P_VEL_KP));
-    a->vel_cfg.ki_dt = hd_sat32(hd_div64_rnd(hd_mul64x32_q(P(a, HD_P_VEL_KI), TWO_PI_Q28, 28u), HD_LOOP_HZ));
-    a->vel_cfg.kd_fs = hd_sat32(hd_mul64x32_q(hd_mul64x32_q(P(a, HD_P_VEL_KD), TWO_PI_Q28, 28u), HD_LOOP_HZ, 0u));
+    a->vel_cfg.kp = two_pi(param_raw(a, HD_P_VEL_KP));
+    a->vel_cfg.ki_dt = hd_sat32(hd_div64_rnd(hd_mul64x32_q(param_raw(a, HD_P_VEL_KI), TWO_PI_Q28, 28u), HD_LOOP_HZ));
+    a->vel_cfg.kd_fs = hd_sat32(hd_mul64x32_q(hd_mul64x32_q(param_raw(a, HD_P_VEL_KD), TWO_PI_Q28, 28u), HD_LOOP_HZ, 0u));
     {
-        const int32_t x = hd_sat32(hd_div64_rnd(two_pi(P(a, HD_P_VEL_D_FC)), HD_LOOP_HZ)); /* 2 pi fc T, Q16 */
+        const int32_t x = hd_sat32(hd_div64_rnd(two_pi(param_raw(a, HD_P_VEL_D_FC)), HD_LOOP_HZ)); /* 2 pi fc T, Q16 */
         a->vel_cfg.d_alpha = HD_Q30_ONE - hd_exp_neg_q16(x);
         if (a->vel_cfg.d_alpha <= 0) {
             a->vel_cfg.d_alpha = 1;
         }
     }
-    a->vel_cfg.out_max = P(a, HD_P_TORQUE_LIMIT);
+    a->vel_cfg.out_max = param_raw(a, HD_P_TORQUE_LIMIT);
     a->vel_cfg.out_min = hd_neg_sat(a->vel_cfg.out_max);
 
-    hd_velobs_design(&a->obs_mot_cfg, two_pi(P(a, HD_P_OBS_MOT_BW)), P(a, HD_P_OBS_ZETA));
-    hd_velobs_design(&a->obs_out_cfg, two_pi(P(a, HD_P_OBS_OUT_BW)), P(a, HD_P_OBS_ZETA));
+    hd_velobs_design(&a->obs_mot_cfg, two_pi(param_raw(a, HD_P_OBS_MOT_BW)), param_raw(a, HD_P_OBS_ZETA));
+    hd_velobs_design(&a->obs_out_cfg, two_pi(param_raw(a, HD_P_OBS_OUT_BW)), param_raw(a, HD_P_OBS_ZETA));
 
     {
-        const uint32_t en = (uint32_t)P(a, HD_P_FILT_ENABLE);
+        const uint32_t en = (uint32_t)param_raw(a, HD_P_FILT_ENABLE);
         uint32_t k = 0;
         if (en & 1u) {
             hd_biquad_coef_t *c = &a->filt_cfg.c[k++];
-            c->b0 = P(a, HD_P_F1_B0); c->b1 = P(a, HD_P_F1_B1); c->b2 = P(a, HD_P_F1_B2);
-            c->a1 = P(a, HD_P_F1_A1); c->a2 = P(a, HD_P_F1_A2);
+            c->b0 = param_raw(a, HD_P_F1_B0); c->b1 = param_raw(a, HD_P_F1_B1); c->b2 = param_raw(a, HD_P_F1_B2);
+            c->a1 = param_raw(a, HD_P_F1_A1); c->a2 = param_raw(a, HD_P_F1_A2);
         }
         if (en & 2u) {
             hd_biquad_coef_t *c = &a->filt_cfg.c[k++];
-            c->b0 = P(a, HD_P_F2_B0); c->b1 = P(a, HD_P_F2_B1); c->b2 = P(a, HD_P_F2_B2);
-            c->a1 = P(a, HD_P_F2_A1); c->a2 = P(a, HD_P_F2_A2);
+            c->b0 = param_raw(a, HD_P_F2_B0); c->b1 = param_raw(a, HD_P_F2_B1); c->b2 = param_raw(a, HD_P_F2_B2);
+            c->a1 = param_raw(a, HD_P_F2_A1); c->a2 = param_raw(a, HD_P_F2_A2);
         }
         a->filt_cfg.n = k;
     }
 
     /* STAB: the position loop on the inertial-angle error, own gains */
     a->stab_pos_cfg = a->pos_cfg;
-    a->stab_pos_cfg.kp = P(a, HD_P_STAB_KP);
-    a->stab_pos_cfg.ki_dt = hd_sat32(hd_div64_rnd(P(a, HD_P_STAB_KI), HD_LOOP_HZ));
-    hd_stab_design(&a->stab_cfg, P(a, HD_P_STAB_GYRO_BIAS), P(a, HD_P_STAB_BLEND_FC), P(a, HD_P_STAB_BLEND_FR),
-                   P(a, HD_P_STAB_BIAS_MAX), P(a, HD_P_STAB_BASE_BW), P(a, HD_P_OBS_ZETA), P(a, HD_P_STAB_FF_DB));
+    a->stab_pos_cfg.kp = param_raw(a, HD_P_STAB_KP);
+    a->stab_pos_cfg.ki_dt = hd_sat32(hd_div64_rnd(param_raw(a, HD_P_STAB_KI), HD_LOOP_HZ));
+    hd_stab_design(&a->stab_cfg, param_raw(a, HD_P_STAB_GYRO_BIAS), param_raw(a, HD_P_STAB_BLEND_FC), param_raw(a, HD_P_STAB_BLEND_FR),
+                   param_raw(a, HD_P_STAB_BIAS_MAX), param_raw(a, HD_P_STAB_BASE_BW), param_raw(a, HD_P_OBS_ZETA), param_raw(a, HD_P_STAB_FF_DB));
 
-    a->traj_cfg.vmax = P(a, HD_P_TRAJ_VMAX);
-    a->traj_cfg.amax = P(a, HD_P_TRAJ_AMAX);
-    a->traj_cfg.jmax = P(a, HD_P_TRAJ_JMAX);
+    /* travel limits in the unit of pos_out, compared every period */
+    a->travel_min_q = hdf_shl64_sat(param_raw(a, HD_P_TRAVEL_MIN), 8u);
+    a->travel_max_q = hdf_shl64_sat(param_raw(a, HD_P_TRAVEL_MAX), 8u);
+
+    a->traj_cfg.vmax = param_raw(a, HD_P_TRAJ_VMAX);
+    a->traj_cfg.amax = param_raw(a, HD_P_TRAJ_AMAX);
+    a->traj_cfg.jmax = param_raw(a, HD_P_TRAJ_JMAX);
     /* one-direction final approach of PTP moves: cb_enable bit HD_CB_APPROACH */
-    if (((uint32_t)P(a, HD_P_CB_ENABLE) & HD_CB_APPROACH) != 0u) {
-        a->traj_cfg.appr_dir = P(a, HD_P_APPR_DIR);
-        a->traj_cfg.appr_dist = P(a, HD_P_APPR_DIST);
-        a->traj_cfg.appr_vmax = P(a, HD_P_APPR_VMAX);
-        a->traj_cfg.appr_dwell = (uint32_t)hd_div64_rnd((int64_t)P(a, HD_P_APPR_DWELL) * HD_LOOP_HZ, 65536);
+    if (((uint32_t)param_raw(a, HD_P_CB_ENABLE) & HD_CB_APPROACH) != 0u) {
+        a->traj_cfg.appr_dir = param_raw(a, HD_P_APPR_DIR);
+        a->traj_cfg.appr_dist = param_raw(a, HD_P_APPR_DIST);
+        a->traj_cfg.appr_vmax = param_raw(a, HD_P_APPR_VMAX);
+        a->traj_cfg.appr_dwell = (uint32_t)hd_div64_rnd((int64_t)param_raw(a, HD_P_APPR_DWELL) * HD_LOOP_HZ, 65536);
     } else {
         a->traj_cfg.appr_dir = 0;
         a->traj_cfg.appr_dist = 0;
@@ -211,12 +215,14 @@ void hd_app_init(hd_app_t *a)
 
 /* ---- sensors ------------------------------------------------------------ */
 
-static int64_t wrap_delta(uint32_t now, uint32_t prev, uint32_t bits)
+/* The step now - prev of a bits-bit counter (wrapped into [-2^(bits-1), 2^(bits-1)))
+ * times 2^(32 - bits), i.e. in 2^-32 turn: shifted to the top of a 32-bit word the
+ * wrapped difference IS that signed value (two's complement), so no 64-bit shift and
+ * no saturation (|result| <= 2^31).  8 <= bits <= 32 (parameter ranges). */
+static int32_t enc_step_q32(uint32_t now, uint32_t prev, uint32_t bits)
 {
-    const uint32_t mask = (bits >= 32u) ? 0xFFFFFFFFu : ((1u << bits) - 1u);
-    const uint32_t d = (now - prev) & mask;
-    const uint32_t half = 1u << (bits - 1u);
-    return (d >= half) ? (int64_t)d - ((int64_t)mask + 1) : (int64_t)d;
+    const uint32_t u = (now - prev) << (32u - bits);
+    return (u > 0x7FFFFFFFu) ? -(int32_t)(~u) - 1 : (int32_t)u;
 }
 
 /* hd_sat32(hd_div64_rnd(num, den)) for int32 num and den >= 1, in 32-bit
@@ -228,6 +234,28 @@ static int32_t div32_rnd(int32_t num, int32_t den)
     uint32_t quo = un / ud;
     const uint32_t rem = un - quo * ud;
     if (rem >= ud - rem) {
+        quo += 1u;
+    }
+    return hdf_sat32((num < 0) ? -(int64_t)quo : (int64_t)quo);
+}
+
+/* hd_div_q(num, den, 16u) for den >= 1: with den < 2^16 the 48-bit dividend
+ * |num| 2^16 is divided in two 32-bit steps (q1 = |num| / den, then the
+ * remainder r1 < 2^16 shifted by 16 bits: < 2^32), two UDIVs instead of the
+ * 64-bit long division; same quotient, rounding and saturation.  Larger den: hd_div_q. */
+static int32_t div_q16_rnd(int32_t num, int32_t den)
+{
+    if (den < 1 || den > 65535) {
+        return hd_div_q(num, den, 16u);
+    }
+    const uint32_t un = (uint32_t)mag64(num);      /* <= 2^31 */
+    const uint32_t ud = (uint32_t)den;
+    const uint32_t q1 = un / ud;
+    const uint32_t t = (un - q1 * ud) << 16;
+    const uint32_t q2 = t / ud;
+    const uint32_t r2 = t - q2 * ud;
+    uint64_t quo = ((uint64_t)q1 << 16) + q2;
+    if (r2 >= ud - r2) {
         quo += 1u;
     }
     return hdf_sat32((num < 0) ? -(int64_t)quo : (int64_t)quo);
@@ -262,8 +290,8 @@ static int32_t div_n_q16_rnd(int64_t x, int32_t n)
 /* returns 0 or a fault code */
 static int32_t read_sensors(hd_app_t *a, hd_hal_sensors_t *sn)
 {
-    const uint32_t mb = (uint32_t)P(a, HD_P_MOTOR_ENC_BITS);
-    const uint32_t ob = (uint32_t)P(a, HD_P_OUTPUT_ENC_BITS);
+    const uint32_t mb = (uint32_t)param_raw(a, HD_P_MOTOR_ENC_BITS);
+    const uint32_t ob = (uint32_t)param_raw(a, HD_P_OUTPUT_ENC_BITS);
     const uint32_t need = HD_HAL_VALID_MOTOR_ENC | HD_HAL_VALID_OUTPUT_ENC;
     const uint32_t omask = (1u << ob) - 1u;
     hd_hal_read_sensors(sn);
@@ -271,7 +299,7 @@ static int32_t read_sensors(hd_app_t *a, hd_hal_sensors_t *sn)
         return HD_FAULT_SENSOR;
     }
     const uint32_t mraw = sn->motor_enc_raw & ((1u << mb) - 1u);
-    const uint32_t oraw = (sn->output_enc_raw - (uint32_t)P(a, HD_P_OUTPUT_ENC_ZERO)) & omask;
+    const uint32_t oraw = (sn->output_enc_raw - (uint32_t)param_raw(a, HD_P_OUTPUT_ENC_ZERO)) & omask;
     int32_t fault = 0;
     if (!a->started) {
         /* output: signed single turn in [-0.5, 0.5) */
@@ -279,7 +307,7 @@ static int32_t read_sensors(hd_app_t *a, hd_hal_sensors_t *sn)
         const int64_t so = ((int64_t)oraw >= half) ? (int64_t)oraw - 2 * half : (int64_t)oraw;
         a->pos_out = hdf_shl64_sat(so, 32u - ob);
         /* motor: N * output angle, adjusted to the encoder's own fraction */
-        const int64_t base = hdf_mul64x32_q(a->pos_out, P(a, HD_P_GEAR_RATIO), 0u);
+        const int64_t base = hdf_mul64x32_q(a->pos_out, param_raw(a, HD_P_GEAR_RATIO), 0u);
         const uint32_t mfrac = mraw << (32u - mb);
         const uint32_t d = mfrac - (uint32_t)(uint64_t)base;
         a->pos_mot = base + ((d >= 0x80000000u) ? (int64_t)d - 4294967296LL : (int64_t)d);
@@ -288,12 +316,11 @@ static int32_t read_sensors(hd_app_t *a, hd_hal_sensors_t *sn)
         hd_velobs_reset(&a->obs_out, a->pos_out);
         hd_traj_reset(&a->traj, a->pos_out);
     } else {
-        const int64_t dm = wrap_delta(mraw, a->mot_raw_prev, mb);
-        const int64_t dout = wrap_delta(oraw, a->out_raw_prev, ob);
-        a->pos_mot = hdf_add64_sat(a->pos_mot, hdf_shl64_sat(dm, 32u - mb));
-        const int64_t dq = hdf_shl64_sat(dout, 32u - ob);
-        a->pos_out = hdf_add64_sat(a->pos_out, dq);
-        if (hd_abs64_sat(dq) > (int64_t)P(a, HD_P_ENC_JUMP_MAX)) {
+        const int32_t dm = enc_step_q32(mraw, a->mot_raw_prev, mb);
+        const int32_t dq = enc_step_q32(oraw, a->out_raw_prev, ob);
+        a->pos_mot = hdf_add64_sat(a->pos_mot, (int64_t)dm);
+        a->pos_out = hdf_add64_sat(a->pos_out, (int64_t)dq);
+        if (hdf_abs64_sat((int64_t)dq) > (int64_t)param_raw(a, HD_P_ENC_JUMP_MAX)) {
             fault = HD_FAULT_ENC_JUMP;
         }
     }
@@ -571,133 +598,175 @@ static void trip(hd_app_t *a, int32_t code)
     }
 }
 
-void hd_app_step(hd_app_t *a)
+/* Which loops of the cascade run this period. */
+typedef enum {
+    HD_LOOPS_NONE = 0,      /* open loop: torque reference, excitation at torque, or off */
+    HD_LOOPS_VEL = 1,       /* velocity loop only */
+    HD_LOOPS_POS_VEL = 2    /* position + velocity loops (and the compensator bank) */
+} hd_loops_t;
+
+/* The signals of one period, handed from phase to phase (stack, no state kept). */
+typedef struct {
+    hd_hal_sensors_t   sn;        /* the sensor sample */
+    uint32_t           fen;       /* fault_enable bits */
+    int32_t            n;         /* gear ratio */
+    hd_vel_out_t       v_fb;      /* velocity-loop feedback, 2^-32 turn/s */
+    hd_vel_out_t       v_out_enc; /* output-encoder observer, 2^-32 turn/s */
+    int32_t            mode;      /* hd_mode_t in effect (OFF while faulted) */
+    hd_loops_t         loops;
+    hd_angle_t         pos_ref;   /* Q32.32 turns */
+    hd_angle_t         ref_plain; /* pos_ref before the bank's corrections */
+    hd_vel_out_t       v_ff;      /* velocity feed-forward, 2^-32 turn/s */
+    hd_vel_out_t       vff_plain; /* v_ff before the bank's corrections */
+    hd_acc_t           acc_ref;   /* 2^-24 turn/s^2 */
+    hd_torque_t        t_ff;      /* torque feed-forward, Q15.16 N.m */
+    int32_t            exc;       /* excitation value, injection format */
+    hd_vel_out_t       vel_ref;   /* velocity-loop reference, 2^-32 turn/s */
+    int64_t            t_out;     /* torque before the limit, Q15.16 N.m */
+    int32_t            pos_err;   /* 2^-32 turn, saturated */
+    int32_t            t_cmd;     /* limited output torque command, Q15.16 N.m */
+    hd_comp_bank_in_t  cbi;       /* the bank's inputs (pre and post) */
+    hd_hal_command_t   cmd;
+} hd_period_t;
+
+/* Sensors: sample, unwrap, sensor / encoder-jump faults, pending mode entry,
+ * velocity observers and the loop's velocity feedback -> p->sn, v_fb, v_out_enc. */
+static void phase_sensors(hd_app_t *a, hd_period_t *p)
 {
-    hd_hal_sensors_t sn;
-    const uint32_t fen = (uint32_t)P(a, HD_P_FAULT_ENABLE);
-    const int32_t sf = read_sensors(a, &sn);
-    if (sf == HD_FAULT_SENSOR && (fen & HD_FCHK_SENSOR) && a->mode != HD_MODE_OFF) {
+    p->fen = (uint32_t)param_raw(a, HD_P_FAULT_ENABLE);
+    const int32_t sf = read_sensors(a, &p->sn);
+    if (sf == HD_FAULT_SENSOR && (p->fen & HD_FCHK_SENSOR) && a->mode != HD_MODE_OFF) {
         trip(a, sf);
     }
-    if (sf == HD_FAULT_ENC_JUMP && (fen & HD_FCHK_ENC_JUMP)) {
+    if (sf == HD_FAULT_ENC_JUMP && (p->fen & HD_FCHK_ENC_JUMP)) {
         trip(a, sf);
     }
     if (a->started && a->mode_changed) {
         a->mode_changed = 0;
         enter_mode(a, a->mode_req);
     }
-
-    /* velocity estimates */
     hd_velobs_step(&a->obs_mot, &a->obs_mot_cfg, a->pos_mot);
     hd_velobs_step(&a->obs_out, &a->obs_out_cfg, a->pos_out);
-    const int32_t n = P(a, HD_P_GEAR_RATIO);
-    const hd_vel_out_t v_mot_out = div_n_q16_rnd(hd_velobs_vel48(&a->obs_mot), n);
-    const hd_vel_out_t v_out_enc = hd_velobs_vel_out(&a->obs_out);
-    const hd_vel_out_t v_fb = (P(a, HD_P_VEL_FB_SRC) == 0) ? v_mot_out : v_out_enc;
+    p->n = param_raw(a, HD_P_GEAR_RATIO);
+    const hd_vel_out_t v_mot_out = div_n_q16_rnd(hd_velobs_vel48(&a->obs_mot), p->n);
+    p->v_out_enc = hd_velobs_vel_out(&a->obs_out);
+    p->v_fb = (param_raw(a, HD_P_VEL_FB_SRC) == 0) ? v_mot_out : p->v_out_enc;
+}
 
-    int32_t mode = (a->fault != HD_FAULT_NONE) ? HD_MODE_OFF : a->mode;
-    hd_angle_t pos_ref = a->pos_out;
-    hd_vel_out_t v_ff = 0;
-    hd_acc_t acc_ref = 0;
-    hd_torque_t t_ff = a->torque_cmd;
-    int32_t exc = 0;
-    int32_t closed = 0;     /* 1 = velocity loop, 2 = position + velocity loops */
-    hd_vel_out_t vel_ref = 0;
-    int64_t t_out = 0;
+/* References of the mode in effect (trajectory, excitation, stabilisation)
+ * -> p->mode, loops, pos_ref, v_ff, acc_ref, t_ff, exc, vel_ref, t_out. */
+static void phase_references(hd_app_t *a, hd_period_t *p)
+{
+    p->mode = (a->fault != HD_FAULT_NONE) ? HD_MODE_OFF : a->mode;
+    p->pos_ref = a->pos_out;
+    p->v_ff = 0;
+    p->acc_ref = 0;
+    p->t_ff = a->torque_cmd;
+    p->exc = 0;
+    p->loops = HD_LOOPS_NONE;
+    p->vel_ref = 0;
+    p->t_out = 0;
 
-    switch (mode) {
+    switch (p->mode) {
     case HD_MODE_TORQUE:
-        t_out = a->torque_cmd;
+        p->t_out = a->torque_cmd;
         break;
     case HD_MODE_VELOCITY:
-        vel_ref = a->vel_cmd;
-        closed = 1;
+        p->vel_ref = a->vel_cmd;
+        p->loops = HD_LOOPS_VEL;
         break;
     case HD_MODE_POSITION:
-        pos_ref = a->pos_cmd;
-        v_ff = a->vel_cmd;
-        closed = 2;
+        p->pos_ref = a->pos_cmd;
+        p->v_ff = a->vel_cmd;
+        p->loops = HD_LOOPS_POS_VEL;
         break;
     case HD_MODE_PTP:
     case HD_MODE_RATE:
     case HD_MODE_SINE:
         hd_traj_step(&a->traj, &a->traj_cfg);
-        pos_ref = a->traj.pos;
-        v_ff = a->traj.vel;
-        acc_ref = a->traj.acc;
-        closed = 2;
+        p->pos_ref = a->traj.pos;
+        p->v_ff = a->traj.vel;
+        p->acc_ref = a->traj.acc;
+        p->loops = HD_LOOPS_POS_VEL;
         break;
     case HD_MODE_EXCITATION:
-        exc = hd_exc_step(&a->exc, &a->exc_cfg);
+        p->exc = hd_exc_step(&a->exc, &a->exc_cfg);
         if (a->exc_inj == HD_INJ_TORQUE) {
-            t_out = exc;
+            p->t_out = p->exc;
         } else if (a->exc_inj == HD_INJ_VEL_REF) {
-            vel_ref = exc;
-            closed = 1;
+            p->vel_ref = p->exc;
+            p->loops = HD_LOOPS_VEL;
         } else if (a->exc_inj == HD_INJ_TORQUE_FF) {
-            pos_ref = a->hold_pos;
-            t_ff = hd_add_sat(t_ff, exc);
-            closed = 2;
+            p->pos_ref = a->hold_pos;
+            p->t_ff = hd_add_sat(p->t_ff, p->exc);
+            p->loops = HD_LOOPS_POS_VEL;
         } else {
-            pos_ref = hdf_add64_sat(a->hold_pos, exc);
-            closed = 2;
+            p->pos_ref = hdf_add64_sat(a->hold_pos, p->exc);
+            p->loops = HD_LOOPS_POS_VEL;
         }
         break;
     case HD_MODE_STAB:
-        if ((sn.valid & HD_HAL_VALID_GYRO) == 0u && (fen & HD_FCHK_SENSOR)) {
+        if ((p->sn.valid & HD_HAL_VALID_GYRO) == 0u && (p->fen & HD_FCHK_SENSOR)) {
             trip(a, HD_FAULT_SENSOR);
         }
         if (a->stab_primed == 0u) {
-            hd_stab_start(&a->stab, &a->stab_cfg, a->pos_out, sn.gyro_rate, v_out_enc);
+            hd_stab_start(&a->stab, &a->stab_cfg, a->pos_out, p->sn.gyro_rate, p->v_out_enc);
             a->stab_primed = 1u;
         }
-        hd_stab_step(&a->stab, &a->stab_cfg, sn.gyro_rate, a->pos_out, a->vel_cmd);
-        pos_ref = hdf_add64_sat(a->pos_out, a->stab.err);   /* pos_err = inertial-angle error */
-        v_ff = a->stab.vff;
-        closed = 2;
+        hd_stab_step(&a->stab, &a->stab_cfg, p->sn.gyro_rate, a->pos_out, a->vel_cmd);
+        p->pos_ref = hdf_add64_sat(a->pos_out, a->stab.err);   /* pos_err = inertial-angle error */
+        p->v_ff = a->stab.vff;
+        p->loops = HD_LOOPS_POS_VEL;
         break;
     default:
         break;
     }
+    /* the reference before the bank's corrections ("at rest" of the hunt breaker) */
+    p->ref_plain = p->pos_ref;
+    p->vff_plain = p->v_ff;
+}
 
-    /* reference before the bank's corrections (hunt breaker: "at rest") */
-    const hd_angle_t ref_plain = pos_ref;
-    const hd_vel_out_t vff_plain = v_ff;
-
-    /* compensator bank (position modes): corrections and torque feed-forward */
-    hd_comp_bank_in_t cbi;
-    if (closed == 2) {
+/* Compensator bank (position loops only): corrections of pos_ref / v_ff, its torque
+ * feed-forward into t_ff, the velocity-integrator hand-over of a weight ramp;
+ * then pos_err of the corrected reference. */
+static void phase_comp_bank(hd_app_t *a, hd_period_t *p)
+{
+    if (p->loops == HD_LOOPS_POS_VEL) {
         hd_comp_bank_out_t cbo;
-        cbi.pos_ref = pos_ref;
-        cbi.pos_out = a->pos_out;
-        cbi.pos_mot = a->pos_mot;
-        cbi.vel_ref = (mode == HD_MODE_STAB) ? a->stab.vff_db : v_ff;   /* friction FF without gyro-noise chatter */
-        cbi.vel_fb = v_fb;
-        cbi.acc_ref = acc_ref;
+        p->cbi.pos_ref = p->pos_ref;
+        p->cbi.pos_out = a->pos_out;
+        p->cbi.pos_mot = a->pos_mot;
+        p->cbi.vel_ref = (p->mode == HD_MODE_STAB) ? a->stab.vff_db : p->v_ff;   /* friction FF without gyro-noise chatter */
+        p->cbi.vel_fb = p->v_fb;
+        p->cbi.acc_ref = p->acc_ref;
         /* velocity-integrator hand-over: the part of the friction FF that a weight ramp adds
          * this period, (w_k - w_k-1) x raw torque, is taken off the integrator (bumpless) */
         const int32_t w_str = a->cb.str.blend.w, w_lug = a->cb.lug.blend.w;
-        hd_comp_bank_pre(&a->cb, &a->cb_cfg, &cbi, &cbo);
+        hd_comp_bank_pre(&a->cb, &a->cb_cfg, &p->cbi, &cbo);
         a->vel_pid.integ = hdf_sub64_sat(a->vel_pid.integ, hdf_shl64_sat(
             (int64_t)hdf_mul_q(a->cb.str.tau_raw, a->cb.str.blend.w - w_str, 30u) +
             (int64_t)hdf_mul_q(a->cb.lug.tau_raw, a->cb.lug.blend.w - w_lug, 30u), a->vel_cfg.shift));
-        pos_ref = hdf_add64_sat(pos_ref, cbo.dpos);
-        v_ff = hd_add_sat(v_ff, cbo.dvel);
-        t_ff = hd_add_sat(t_ff, cbo.tff);
+        p->pos_ref = hdf_add64_sat(p->pos_ref, cbo.dpos);
+        p->v_ff = hd_add_sat(p->v_ff, cbo.dvel);
+        p->t_ff = hd_add_sat(p->t_ff, cbo.tff);
     }
+    p->pos_err = hdf_sat32(hdf_sub64_sat(p->pos_ref, a->pos_out));
+}
 
-    const int32_t pos_err = hdf_sat32(hdf_sub64_sat(pos_ref, a->pos_out));
-    const uint32_t hold_ticks = (uint32_t)P(a, HD_P_HOLD_TICKS);
-    if (closed == 2 && hold_ticks > 0u && mode != HD_MODE_STAB) {
-        /* standstill hunt breaker (header comment) */
-        if (ref_plain != a->inpos_ref_prev || vff_plain != 0) {
+/* Standstill hunt breaker (file header comment): at rest and hunting, the Stribeck
+ * FF in p->t_ff fades to its running mean and back; otherwise disarmed. */
+static void phase_hunt_breaker(hd_app_t *a, hd_period_t *p)
+{
+    const uint32_t hold_ticks = (uint32_t)param_raw(a, HD_P_HOLD_TICKS);
+    if (p->loops == HD_LOOPS_POS_VEL && hold_ticks > 0u && p->mode != HD_MODE_STAB) {
+        if (p->ref_plain != a->inpos_ref_prev || p->vff_plain != 0) {
             a->inpos_n = 0u;                    /* the reference moves: full FF at once */
             a->inpos_on = 0u;
             a->inpos_w = HD_Q30_ONE;
         } else if (a->inpos_n < hold_ticks) {
             a->inpos_n++;
         }
-        a->inpos_ref_prev = ref_plain;
+        a->inpos_ref_prev = p->ref_plain;
         if (a->inpos_on != 0u) {
             /* breaking a hunt: fade to the mean, then back */
             if (a->inpos_w > a->inpos_dw) {
@@ -709,13 +778,13 @@ void hd_app_step(hd_app_t *a)
             }
         } else if (a->inpos_w < HD_Q30_ONE) {
             a->inpos_w = (a->inpos_w < HD_Q30_ONE - a->inpos_dw) ? a->inpos_w + a->inpos_dw : HD_Q30_ONE;
-        } else if (a->inpos_n >= hold_ticks && hd_abs_sat(pos_err) > P(a, HD_P_HOLD_HUNT_WIN)) {
+        } else if (a->inpos_n >= hold_ticks && hd_abs_sat(p->pos_err) > param_raw(a, HD_P_HOLD_HUNT_WIN)) {
             a->inpos_on = 1u;                   /* hunting at rest */
         }
         if (a->inpos_w < HD_Q30_ONE) {
             /* the Stribeck FF (already in t_ff) -> mean + w (FF - mean) */
             const int32_t mean = hdf_sat32(hdf_asr64_rnd(a->inpos_tau, 16u));
-            t_ff = hd_sub_sat(t_ff, hdf_mul_q(hd_sub_sat(a->cb.str.tau, mean), HD_Q30_ONE - a->inpos_w, 30u));
+            p->t_ff = hd_sub_sat(p->t_ff, hdf_mul_q(hd_sub_sat(a->cb.str.tau, mean), HD_Q30_ONE - a->inpos_w, 30u));
         } else {
             const int64_t d = hdf_sub64_sat(hdf_shl64_sat((int64_t)a->cb.str.tau, 16u), a->inpos_tau);
             a->inpos_tau = hdf_add64_sat(a->inpos_tau, hdf_asr64_rnd(d, HD_INPOS_TAU_SHIFT));
@@ -724,71 +793,92 @@ void hd_app_step(hd_app_t *a)
         a->inpos_n = 0u;
         a->inpos_on = 0u;
         a->inpos_w = HD_Q30_ONE;
-        a->inpos_ref_prev = ref_plain;
+        a->inpos_ref_prev = p->ref_plain;
     }
-    if (closed == 2) {
-        const hd_vel_out_t vff = hdf_mul_q(v_ff, P(a, HD_P_VFF_GAIN), 30u);
-        vel_ref = hd_pid_step(&a->pos_pid, (mode == HD_MODE_STAB) ? &a->stab_pos_cfg : &a->pos_cfg, pos_err, 0, vff);
+}
+
+/* The cascade: position PID -> velocity PID (+ acceleration FF) -> backstepping
+ * blend -> torque filters, then the torque limit -> p->vel_ref, t_out, t_cmd. */
+static void phase_loops(hd_app_t *a, hd_period_t *p)
+{
+    if (p->loops == HD_LOOPS_POS_VEL) {
+        /* gain 1.0 (the default): the Q30 product is v_ff itself, exactly */
+        const int32_t gain = param_raw(a, HD_P_VFF_GAIN);
+        const hd_vel_out_t vff = (gain == HD_Q30_ONE) ? p->v_ff : hdf_mul_q(p->v_ff, gain, 30u);
+        p->vel_ref = hd_pid_step(&a->pos_pid, (p->mode == HD_MODE_STAB) ? &a->stab_pos_cfg : &a->pos_cfg,
+                                 p->pos_err, 0, vff);
     }
-    if (closed != 0) {
+    if (p->loops != HD_LOOPS_NONE) {
         /* acceleration feed-forward: j_total [Q16 kg m^2] * acc [2^-24 turn/s^2] * 2 pi -> Q16 N.m */
-        if (acc_ref != 0 && P(a, HD_P_AFF_GAIN) != 0) {    /* else the product is exactly 0 */
-            const int64_t ja = hdf_mul64x32_q((int64_t)P(a, HD_P_J_TOTAL), acc_ref, 24u);
+        if (p->acc_ref != 0 && param_raw(a, HD_P_AFF_GAIN) != 0) {    /* else the product is exactly 0 */
+            const int64_t ja = hdf_mul64x32_q((int64_t)param_raw(a, HD_P_J_TOTAL), p->acc_ref, 24u);
             const int64_t jaw = hdf_mul64x32_q(ja, TWO_PI_Q28, 28u);
-            const int32_t aff = hdf_mul_q(hdf_sat32(jaw), P(a, HD_P_AFF_GAIN), 30u);
-            t_ff = hd_add_sat(t_ff, aff);
+            const int32_t aff = hdf_mul_q(hdf_sat32(jaw), param_raw(a, HD_P_AFF_GAIN), 30u);
+            p->t_ff = hd_add_sat(p->t_ff, aff);
         }
-        int32_t t = hd_pid_step(&a->vel_pid, &a->vel_cfg, vel_ref, v_fb, t_ff);
-        if (closed == 2) {
-            t = hd_comp_bank_post(&a->cb, &a->cb_cfg, &cbi, t);
+        int32_t t = hd_pid_step(&a->vel_pid, &a->vel_cfg, p->vel_ref, p->v_fb, p->t_ff);
+        if (p->loops == HD_LOOPS_POS_VEL) {
+            t = hd_comp_bank_post(&a->cb, &a->cb_cfg, &p->cbi, t);
         }
-        t_out = hd_biquad_chain_step(&a->filt, &a->filt_cfg, t);
+        p->t_out = hd_biquad_chain_step(&a->filt, &a->filt_cfg, t);
     }
-    const int32_t tlim = P(a, HD_P_TORQUE_LIMIT);
-    const int32_t t_cmd = hd_clamp32(hdf_sat32(t_out), hd_neg_sat(tlim), tlim);
+    const int32_t tlim = param_raw(a, HD_P_TORQUE_LIMIT);
+    p->t_cmd = hd_clamp32(hdf_sat32(p->t_out), hd_neg_sat(tlim), tlim);
+}
 
-    /* limits and faults (latched) */
-    if (mode != HD_MODE_OFF) {
-        const int32_t at = hd_abs_sat(t_cmd);
-        if (at >= tlim || (closed && a->vel_pid.saturated)) {
-            a->sat_count++;
-        } else {
-            a->sat_count = 0;
-        }
-        if ((fen & HD_FCHK_TORQUE_SAT) && a->sat_count > (uint32_t)P(a, HD_P_TORQUE_SAT_TIME)) {
-            trip(a, HD_FAULT_TORQUE_SAT);
-        }
-        if ((fen & HD_FCHK_OVERSPEED) && hd_abs_sat(v_fb) > P(a, HD_P_VEL_TRIP)) {
-            trip(a, HD_FAULT_OVERSPEED);
-        }
-        if ((fen & HD_FCHK_TRAVEL) &&
-            (a->pos_out < hdf_shl64_sat(P(a, HD_P_TRAVEL_MIN), 8u) ||
-             a->pos_out > hdf_shl64_sat(P(a, HD_P_TRAVEL_MAX), 8u))) {
-            trip(a, HD_FAULT_TRAVEL);
-        }
-        if ((fen & HD_FCHK_FOLLOWING) && closed == 2 && hd_abs_sat(pos_err) > P(a, HD_P_FOLLOW_ERR_MAX)) {
-            trip(a, HD_FAULT_FOLLOWING);
-        }
+/* Limits and faults (latched; each check enabled by its fault_enable bit). */
+static void phase_limits_faults(hd_app_t *a, const hd_period_t *p)
+{
+    if (p->mode == HD_MODE_OFF) {
+        return;
     }
+    const uint32_t fen = p->fen;
+    const int32_t tlim = param_raw(a, HD_P_TORQUE_LIMIT);
+    if (hd_abs_sat(p->t_cmd) >= tlim || (p->loops != HD_LOOPS_NONE && a->vel_pid.saturated)) {
+        a->sat_count++;
+    } else {
+        a->sat_count = 0;
+    }
+    if ((fen & HD_FCHK_TORQUE_SAT) && a->sat_count > (uint32_t)param_raw(a, HD_P_TORQUE_SAT_TIME)) {
+        trip(a, HD_FAULT_TORQUE_SAT);
+    }
+    if ((fen & HD_FCHK_OVERSPEED) && hd_abs_sat(p->v_fb) > param_raw(a, HD_P_VEL_TRIP)) {
+        trip(a, HD_FAULT_OVERSPEED);
+    }
+    if ((fen & HD_FCHK_TRAVEL) &&
+        (a->pos_out < a->travel_min_q || a->pos_out > a->travel_max_q)) {
+        trip(a, HD_FAULT_TRAVEL);
+    }
+    if ((fen & HD_FCHK_FOLLOWING) && p->loops == HD_LOOPS_POS_VEL &&
+        hd_abs_sat(p->pos_err) > param_raw(a, HD_P_FOLLOW_ERR_MAX)) {
+        trip(a, HD_FAULT_FOLLOWING);
+    }
+}
 
-    hd_hal_command_t cmd;
-    if (a->fault != HD_FAULT_NONE || mode == HD_MODE_OFF) {
+/* Command: power stage off on a fault or in OFF (loops reset), else motor torque
+ * t_cmd / N and current / Kt to the hal; the bank learns the torque applied. */
+static void phase_command(hd_app_t *a, hd_period_t *p)
+{
+    if (a->fault != HD_FAULT_NONE || p->mode == HD_MODE_OFF) {
         if (a->fault != HD_FAULT_NONE && a->mode != HD_MODE_OFF) {
             a->mode = HD_MODE_OFF;
             reset_loops(a);
         }
-        cmd.torque = 0;
-        cmd.current = 0;
-        cmd.enable = 0;
+        p->cmd.torque = 0;
+        p->cmd.current = 0;
+        p->cmd.enable = 0;
     } else {
-        cmd.torque = div32_rnd(t_cmd, n);
-        cmd.current = hd_div_q(cmd.torque, P(a, HD_P_KT), 16u);
-        cmd.enable = 1;
+        p->cmd.torque = div32_rnd(p->t_cmd, p->n);
+        p->cmd.current = div_q16_rnd(p->cmd.torque, param_raw(a, HD_P_KT));
+        p->cmd.enable = 1;
     }
-    hd_hal_write_command(&cmd);
-    hd_comp_bank_end(&a->cb, cmd.enable ? t_cmd : 0);
+    hd_hal_write_command(&p->cmd);
+    hd_comp_bank_end(&a->cb, p->cmd.enable ? p->t_cmd : 0);
+}
 
-    /* telemetry */
+/* Telemetry of the period (a->tel) and the capture of the armed signals. */
+static void phase_telemetry(hd_app_t *a, const hd_period_t *p)
+{
     hd_telemetry_t *t = &a->tel;
     t->tick = (a->started > 1u) ? t->tick + 1u : 0u;
     a->started = 2u;
@@ -796,18 +886,18 @@ void hd_app_step(hd_app_t *a)
     t->fault = a->fault;
     t->pos_out = a->pos_out;
     t->pos_mot = a->pos_mot;
-    t->vel_out = v_fb;
-    t->vel_out_enc = v_out_enc;
+    t->vel_out = p->v_fb;
+    t->vel_out_enc = p->v_out_enc;
     t->vel_mot = hdf_asr32_rnd(hd_velobs_vel48(&a->obs_mot), 24u);
-    t->pos_ref = pos_ref;
-    t->vel_ref = vel_ref;
-    t->acc_ref = acc_ref;
-    t->torque_cmd = cmd.enable ? t_cmd : 0;
-    t->motor_torque = cmd.torque;
-    t->current = sn.current;
-    t->gyro = sn.gyro_rate;
-    t->exc = exc;
-    t->pos_err = pos_err;
+    t->pos_ref = p->pos_ref;
+    t->vel_ref = p->vel_ref;
+    t->acc_ref = p->acc_ref;
+    t->torque_cmd = p->cmd.enable ? p->t_cmd : 0;
+    t->motor_torque = p->cmd.torque;
+    t->current = p->sn.current;
+    t->gyro = p->sn.gyro_rate;
+    t->exc = p->exc;
+    t->pos_err = p->pos_err;
 
     if (a->cap.state == HD_CAP_ARMED || a->cap.state == HD_CAP_TRIGGERED) {
         int32_t smp[HD_CAPTURE_MAX_CH];
@@ -817,4 +907,35 @@ void hd_app_step(hd_app_t *a)
         }
         hd_capture_step(&a->cap, smp);
     }
+}
+
+/* Instruction-count probe between the phases (tests/bench/15_phase_cost.sh builds
+ * the cost image with HD_APP_PHASE_PROBE defined); nothing in the firmware. */
+#ifdef HD_APP_PHASE_PROBE
+void hd_app_phase_mark(void);
+#define PHASE_MARK() hd_app_phase_mark()
+#else
+#define PHASE_MARK() ((void)0)
+#endif
+
+void hd_app_step(hd_app_t *a)
+{
+    hd_period_t p;
+    PHASE_MARK();
+    phase_sensors(a, &p);
+    PHASE_MARK();
+    phase_references(a, &p);
+    PHASE_MARK();
+    phase_comp_bank(a, &p);
+    PHASE_MARK();
+    phase_hunt_breaker(a, &p);
+    PHASE_MARK();
+    phase_loops(a, &p);
+    PHASE_MARK();
+    phase_limits_faults(a, &p);
+    PHASE_MARK();
+    phase_command(a, &p);
+    PHASE_MARK();
+    phase_telemetry(a, &p);
+    PHASE_MARK();
 }

@@ -173,6 +173,8 @@ typedef struct {
     hd_velobs_cfg_t obs_mot_cfg, obs_out_cfg;
     hd_biquad_chain_cfg_t filt_cfg;
     hd_traj_cfg_t traj_cfg;
+    hd_angle_t travel_min_q;      /* travel limits as Q32.32 turns (travel_min/max x 2^8, saturated) */
+    hd_angle_t travel_max_q;
 
     /* controller state */
     hd_pid_t pos_pid, vel_pid;

@@ -279,7 +279,7 @@ static int32_t pki_step(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd
         /* w Ki T e: e [2^-32 turn] * Ki [Q16 1/s^2] = 2^-48 turn/s^2; x w (Q30); x T */
         const int32_t e = hdf_sat32(hdf_sub64_sat(in->pos_ref, in->pos_out));
         const int64_t ke = hdf_mul64x32_q((int64_t)e * (int64_t)c->pki, w, 30u);
-        i = hdf_add64_sat(i, hd_div64_rnd(ke, (int64_t)HD_LOOP_HZ));
+        i = hdf_add64_sat(i, hdf_div64_rnd_u16(ke, (uint32_t)HD_LOOP_HZ));
     }
     if (w < HD_Q30_ONE && i != 0) {
         /* leak (1 - w) leak T I; at least 1 LSB toward 0 so that it reaches 0 */

@@ -56,9 +56,11 @@ static int64_t hd__law(int32_t *e1o, int32_t *e2o, int32_t phi[HD_BS_NP], const 
     /* J (alpha1' - c2 e2) - ke e1 */
     u = (int64_t)hdf_mul_q(c->j, hdf_sub_sat(dalpha1, hdf_mul_q(c->c2, e2, 24u)), 24u);
     u -= (int64_t)hdf_asr32_rnd((int64_t)c->ke * (int64_t)e1, 24u);
-    for (i = 0; i < HD_BS_NP; i++) {
+    for (i = 0; i < 3u; i++) {
         u = hdf_add64_sat(u, hdf_mul64x32_q(th[i], phi[i], 62u));   /* Q48 * Q30 -> Q16 */
     }
+    /* phi_3 = 1.0 (Q30): th_3 2^30 / 2^62 rounded is th_3 / 2^32 rounded, exactly */
+    u = hdf_add64_sat(u, hdf_asr64_rnd(th[3], 32u));
     *e1o = e1;
     *e2o = e2;
     return u;

@@ -4,53 +4,6 @@
 #include "hd_biquad.h"
 #include "hd_fixed.h"
 
-/* ---- local names of the hd_fixed.h inline fast paths (hdf_*, bit-identical to hd_*) */
-#define FX_INLINE static inline __attribute__((always_inline))
-FX_INLINE int32_t bq_sat32(int64_t x)
-{
-    return hdf_sat32(x);
-}
-FX_INLINE int64_t bq_add64_sat(int64_t a, int64_t b)
-{
-    return hdf_add64_sat(a, b);
-}
-FX_INLINE int64_t bq_sub64_sat(int64_t a, int64_t b)
-{
-    return hdf_sub64_sat(a, b);
-}
-FX_INLINE int64_t bq_clamp64(int64_t x, int64_t lo, int64_t hi)
-{
-    return hdf_clamp64(x, lo, hi);
-}
-FX_INLINE int64_t bq_asr64_floor(int64_t x, uint32_t s)
-{
-    return hdf_asr64_floor(x, s);
-}
-FX_INLINE int64_t bq_asr64_rnd(int64_t x, uint32_t s)
-{
-    return hdf_asr64_rnd(x, s);
-}
-FX_INLINE int32_t bq_asr32_rnd(int64_t x, uint32_t s)
-{
-    return hdf_asr32_rnd(x, s);
-}
-FX_INLINE int64_t bq_shl64_sat(int64_t x, uint32_t s)
-{
-    return hdf_shl64_sat(x, s);
-}
-FX_INLINE int32_t bq_mul_q(int32_t a, int32_t b, uint32_t q)
-{
-    return hdf_mul_q(a, b, q);
-}
-FX_INLINE int64_t bq_mul64x32_q(int64_t a, int32_t b, uint32_t q)
-{
-    return hdf_mul64x32_q(a, b, q);
-}
-FX_INLINE int64_t bq_mac64(int64_t acc, int32_t a, int32_t b)
-{
-    return hdf_mac64(acc, a, b);
-}
-
 void hd_biquad_identity(hd_biquad_coef_t *c)
 {
     c->b0 = HD_Q30_ONE;
@@ -71,12 +24,12 @@ int32_t hd_biquad_step(hd_biquad_state_t *s, const hd_biquad_coef_t *c, int32_t 
     /* acc = b0 x + s1 keeps 30 fractional bits; the FULL-precision acc (not the
      * rounded y) is fed back, so the output rounding is not amplified by 1/A(z)
      * (which is large for a narrow notch). */
-    const int64_t acc = bq_mac64(s->s1, c->b0, x);
-    const int32_t y = bq_asr32_rnd(acc, 30u);
-    int64_t s1 = bq_mac64(s->s2, c->b1, x);
-    s1 = bq_sub64_sat(s1, bq_mul64x32_q(acc, c->a1, 30u));
-    int64_t s2 = bq_mac64(0, c->b2, x);
-    s2 = bq_sub64_sat(s2, bq_mul64x32_q(acc, c->a2, 30u));
+    const int64_t acc = hdf_mac64(s->s1, c->b0, x);
+    const int32_t y = hdf_asr32_rnd(acc, 30u);
+    int64_t s1 = hdf_mac64(s->s2, c->b1, x);
+    s1 = hdf_sub64_sat(s1, hdf_mul64x32_q(acc, c->a1, 30u));
+    int64_t s2 = hdf_mac64(0, c->b2, x);
+    s2 = hdf_sub64_sat(s2, hdf_mul64x32_q(acc, c->a2, 30u));
     s->s1 = s1;
     s->s2 = s2;
     return y;

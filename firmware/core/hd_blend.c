@@ -14,13 +14,12 @@ void hd_blend_set_enabled(hd_blend_t *b, bool enabled)
     b->target = enabled ? HD_Q30_ONE : 0;
 }
 
-int32_t hd_blend_update(hd_blend_t *b)
+int32_t hd_blend_ramp(hd_blend_t *b)
 {
     int32_t step;
-    int32_t tgt = (b->target > 0) ? HD_Q30_ONE : 0;
+    const int32_t tgt = (b->target > 0) ? HD_Q30_ONE : 0;
 
     if ((b->ramp_ticks == 0u) || (b->w == tgt)) {
-        /* no ramp, or the ramp is done (the steady state): no step, no divide */
         b->w = tgt;
         return b->w;
     }
@@ -32,14 +31,6 @@ int32_t hd_blend_update(hd_blend_t *b)
         b->w = (b->w - tgt <= step) ? tgt : b->w - step;
     }
     return b->w;
-}
-
-int32_t hd_blend_apply(const hd_blend_t *b, int32_t x)
-{
-    if (b->w >= HD_Q30_ONE) {
-        return x;
-    }
-    return hdf_mul_q(x, b->w, 30u);
 }
 
 int32_t hd_blend_mix(const hd_blend_t *b, int32_t off, int32_t on)
@@ -57,9 +48,4 @@ int64_t hd_blend_mix64(const hd_blend_t *b, int64_t off, int64_t on)
         return on;
     }
     return hdf_add64_sat(off, hdf_mul64x32_q(hdf_sub64_sat(on, off), b->w, 30u));
-}
-
-bool hd_blend_active(const hd_blend_t *b)
-{
-    return (b->w != 0) || (b->target != 0);
 }

@@ -20,6 +20,7 @@
 
 #include <stdint.h>
 #include <stdbool.h>
+#include "hd_fixed.h"
 
 typedef struct {
     uint32_t ramp_ticks;  /* parameter: ramp length in loop periods, 0 = step */
@@ -31,15 +32,38 @@ typedef struct {
 void hd_blend_init(hd_blend_t *b, uint32_t ramp_ticks, bool enabled);
 /** Request on/off; the weight ramps there in later hd_blend_update() calls. */
 void hd_blend_set_enabled(hd_blend_t *b, bool enabled);
-/** Advance the ramp by one loop period; returns the new weight (Q30). */
-int32_t hd_blend_update(hd_blend_t *b);
-/** w * x, rounded to nearest (exact at w = 0 and w = 2^30). */
-int32_t hd_blend_apply(const hd_blend_t *b, int32_t x);
+/** One step of a running ramp (hd_blend_update's slow path, contains a division). */
+int32_t hd_blend_ramp(hd_blend_t *b);
+/** Advance the ramp by one loop period; returns the new weight (Q30).  Inline
+ *  because it runs for every compensator every period and is nearly always in
+ *  the steady state (w at its target), which then costs two compares. */
+static inline int32_t hd_blend_update(hd_blend_t *b)
+{
+    const int32_t tgt = (b->target > 0) ? HD_Q30_ONE : 0;
+    if ((b->ramp_ticks == 0u) || (b->w == tgt)) {
+        /* no ramp, or the ramp is done (the steady state): no step, no divide */
+        b->w = tgt;
+        return tgt;
+    }
+    return hd_blend_ramp(b);
+}
+/** w * x, rounded to nearest (exact at w = 0 and w = 2^30); inline (every
+ *  compensator output, every period; fully on it is x itself). */
+static inline int32_t hd_blend_apply(const hd_blend_t *b, int32_t x)
+{
+    if (b->w >= HD_Q30_ONE) {
+        return x;
+    }
+    return hdf_mul_q(x, b->w, 30u);
+}
 /** off + w * (on - off) for int32 signals, saturated, rounded to nearest. */
 int32_t hd_blend_mix(const hd_blend_t *b, int32_t off, int32_t on);
 /** off + w * (on - off) for int64 signals (angles), saturated, rounded. */
 int64_t hd_blend_mix64(const hd_blend_t *b, int64_t off, int64_t on);
 /** True while the weight is not 0 or is moving (output may be non-zero). */
-bool hd_blend_active(const hd_blend_t *b);
+static inline bool hd_blend_active(const hd_blend_t *b)
+{
+    return (b->w != 0) || (b->target != 0);
+}
 
 #endif

@@ -291,5 +291,33 @@ HD_FX_INLINE int64_t hdf_mac64(int64_t acc, int32_t a, int32_t b)
 {
     return hdf_add64_sat(acc, (int64_t)a * (int64_t)b);
 }
+/* hd_div64_rnd(num, den) for a small positive divisor, 2 <= den <= 65535 (a
+ * constant such as HD_LOOP_HZ at the call site): |num| is divided in three
+ * 32-bit UDIV steps (the high word, then two 16-bit digits; each dividend
+ * (r 2^16 + digit) < den 2^16 <= 2^32) instead of the 64-bit long division;
+ * same quotient and rounding (half away).  den == 1 returns num, other den
+ * go to hd_div64_rnd.  |result| <= 2^62 + 1 for den >= 2: no saturation. */
+HD_FX_INLINE int64_t hdf_div64_rnd_u16(int64_t num, uint32_t den)
+{
+    if (den < 2u || den > 65535u) {
+        return (den == 1u) ? num : hd_div64_rnd(num, (int64_t)den);
+    }
+    {
+        const uint64_t m = (num < 0) ? ((uint64_t)0 - (uint64_t)num) : (uint64_t)num;
+        const uint32_t hi = (uint32_t)(m >> 32);
+        const uint32_t lo = (uint32_t)(m & 0xFFFFFFFFu);
+        const uint32_t q2 = hi / den;
+        uint32_t t = ((hi - q2 * den) << 16) | (lo >> 16);
+        const uint32_t q1 = t / den;
+        t = ((t - q1 * den) << 16) | (lo & 0xFFFFu);
+        const uint32_t q0 = t / den;
+        const uint32_t r = t - q0 * den;
+        uint64_t quo = ((uint64_t)q2 << 32) + ((uint64_t)q1 << 16) + q0;
+        if (r >= den - r) {
+            quo += 1u;
+        }
+        return (num < 0) ? -(int64_t)quo : (int64_t)quo;
+    }
+}
 
 #endif /* HD_FIXED_H */

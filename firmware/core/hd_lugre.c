@@ -109,7 +109,7 @@ int32_t hd_lugre_step(hd_lugre_t *s, const hd_lugre_cfg_t *c, hd_vel_out_t v, hd
     if (c->k_obs != 0 && e != 0) {
         /* k T e in Q48: k_Q16 * e_Q32 / f_s */
         const int64_t ke = hdf_mul64x32_q(e, c->k_obs, 0u);
-        z1 = hdf_sub64_sat(z1, hd_div64_rnd(ke, (int64_t)HD_LOOP_HZ));
+        z1 = hdf_sub64_sat(z1, hdf_div64_rnd_u16(ke, (uint32_t)HD_LOOP_HZ));
     }
     s->dz = hdf_sub64_sat(z1, s->z);
     s->z = z1;

@@ -4,53 +4,6 @@
 #include "hd_pid.h"
 #include "hd_fixed.h"
 
-/* ---- local names of the hd_fixed.h inline fast paths (hdf_*, bit-identical to hd_*) */
-#define FX_INLINE static inline __attribute__((always_inline))
-FX_INLINE int32_t pid_sat32(int64_t x)
-{
-    return hdf_sat32(x);
-}
-FX_INLINE int64_t pid_add64_sat(int64_t a, int64_t b)
-{
-    return hdf_add64_sat(a, b);
-}
-FX_INLINE int64_t pid_sub64_sat(int64_t a, int64_t b)
-{
-    return hdf_sub64_sat(a, b);
-}
-FX_INLINE int64_t pid_clamp64(int64_t x, int64_t lo, int64_t hi)
-{
-    return hdf_clamp64(x, lo, hi);
-}
-FX_INLINE int64_t pid_asr64_floor(int64_t x, uint32_t s)
-{
-    return hdf_asr64_floor(x, s);
-}
-FX_INLINE int64_t pid_asr64_rnd(int64_t x, uint32_t s)
-{
-    return hdf_asr64_rnd(x, s);
-}
-FX_INLINE int32_t pid_asr32_rnd(int64_t x, uint32_t s)
-{
-    return hdf_asr32_rnd(x, s);
-}
-FX_INLINE int64_t pid_shl64_sat(int64_t x, uint32_t s)
-{
-    return hdf_shl64_sat(x, s);
-}
-FX_INLINE int32_t pid_mul_q(int32_t a, int32_t b, uint32_t q)
-{
-    return hdf_mul_q(a, b, q);
-}
-FX_INLINE int64_t pid_mul64x32_q(int64_t a, int32_t b, uint32_t q)
-{
-    return hdf_mul64x32_q(a, b, q);
-}
-FX_INLINE int64_t pid_mac64(int64_t acc, int32_t a, int32_t b)
-{
-    return hdf_mac64(acc, a, b);
-}
-
 void hd_pid_reset(hd_pid_t *s)
 {
     s->integ = 0;
@@ -67,13 +20,13 @@ void hd_pid_reset(hd_pid_t *s)
 void hd_pid_preload(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t out_i)
 {
     int32_t v = hdf_clamp32(out_i, c->out_min, c->out_max);
-    s->integ = pid_shl64_sat((int64_t)v, c->shift);
+    s->integ = hdf_shl64_sat((int64_t)v, c->shift);
     s->i = v;
 }
 
 /* The step with the gain shift as a parameter; hd_pid_step() calls it with the
  * shifts the drive uses (16, 32) as constants so each gets its own folded copy. */
-FX_INLINE int32_t pid_core(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t ref, int32_t meas, int32_t ff,
+HD_FX_INLINE int32_t pid_core(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t ref, int32_t meas, int32_t ff,
                            const uint32_t shift)
 {
     const int32_t e = hdf_sub_sat(ref, meas);
@@ -86,36 +39,36 @@ FX_INLINE int32_t pid_core(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t ref, int3
     s->meas_prev = meas;
     s->primed = 1;
     {
-        const int64_t target = pid_shl64_sat(dmeas, 16);
-        const int64_t diff = pid_sub64_sat(target, s->dfilt);
+        const int64_t target = hdf_shl64_sat(dmeas, 16);
+        const int64_t diff = hdf_sub64_sat(target, s->dfilt);
         /* |diff| < 2^49 so the 64x32 product fits the helper's 96-bit intermediate */
         /* d_alpha == 1.0 (no filter): the product is diff itself, exactly */
-        const int64_t step = (c->d_alpha == HD_Q30_ONE) ? diff : pid_mul64x32_q(diff, c->d_alpha, 30);
-        s->dfilt = pid_add64_sat(s->dfilt, step);
+        const int64_t step = (c->d_alpha == HD_Q30_ONE) ? diff : hdf_mul64x32_q(diff, c->d_alpha, 30);
+        s->dfilt = hdf_add64_sat(s->dfilt, step);
     }
 
-    const int32_t p = pid_mul_q(c->kp, e, shift);
+    const int32_t p = hdf_mul_q(c->kp, e, shift);
     /* kd_fs == 0 (no D term): the product is exactly 0 */
     const int32_t d = (c->kd_fs == 0) ? 0
-                      : hdf_neg_sat((int32_t)pid_sat32(pid_mul64x32_q(s->dfilt, c->kd_fs, shift + 16u)));
+                      : hdf_neg_sat((int32_t)hdf_sat32(hdf_mul64x32_q(s->dfilt, c->kd_fs, shift + 16u)));
 
     /* conditional integration: tentative update, kept unless it deepens saturation */
-    const int64_t lim_hi = pid_shl64_sat((int64_t)c->out_max, shift);
-    const int64_t lim_lo = pid_shl64_sat((int64_t)c->out_min, shift);
-    int64_t integ_new = pid_mac64(s->integ, c->ki_dt, e);
-    integ_new = pid_clamp64(integ_new, lim_lo, lim_hi);
-    int32_t i_new = pid_asr32_rnd(integ_new, shift);
+    const int64_t lim_hi = hdf_shl64_sat((int64_t)c->out_max, shift);
+    const int64_t lim_lo = hdf_shl64_sat((int64_t)c->out_min, shift);
+    int64_t integ_new = hdf_mac64(s->integ, c->ki_dt, e);
+    integ_new = hdf_clamp64(integ_new, lim_lo, lim_hi);
+    int32_t i_new = hdf_asr32_rnd(integ_new, shift);
 
     int64_t u = (int64_t)p + (int64_t)i_new + (int64_t)d + (int64_t)ff;
     if ((u > (int64_t)c->out_max && integ_new > s->integ) ||
         (u < (int64_t)c->out_min && integ_new < s->integ)) {
         integ_new = s->integ;                       /* freeze */
-        i_new = pid_asr32_rnd(integ_new, shift);
+        i_new = hdf_asr32_rnd(integ_new, shift);
         u = (int64_t)p + (int64_t)i_new + (int64_t)d + (int64_t)ff;
     }
     s->integ = integ_new;
 
-    const int64_t uc = pid_clamp64(u, (int64_t)c->out_min, (int64_t)c->out_max);
+    const int64_t uc = hdf_clamp64(u, (int64_t)c->out_min, (int64_t)c->out_max);
     s->saturated = (uc != u) ? 1u : 0u;
     s->p = p;
     s->i = i_new;

@@ -4,53 +4,6 @@
 #include "hd_vel_observer.h"
 #include "hd_fixed.h"
 
-/* ---- local names of the hd_fixed.h inline fast paths (hdf_*, bit-identical to hd_*) */
-#define FX_INLINE static inline __attribute__((always_inline))
-FX_INLINE int32_t vobs_sat32(int64_t x)
-{
-    return hdf_sat32(x);
-}
-FX_INLINE int64_t vobs_add64_sat(int64_t a, int64_t b)
-{
-    return hdf_add64_sat(a, b);
-}
-FX_INLINE int64_t vobs_sub64_sat(int64_t a, int64_t b)
-{
-    return hdf_sub64_sat(a, b);
-}
-FX_INLINE int64_t vobs_clamp64(int64_t x, int64_t lo, int64_t hi)
-{
-    return hdf_clamp64(x, lo, hi);
-}
-FX_INLINE int64_t vobs_asr64_floor(int64_t x, uint32_t s)
-{
-    return hdf_asr64_floor(x, s);
-}
-FX_INLINE int64_t vobs_asr64_rnd(int64_t x, uint32_t s)
-{
-    return hdf_asr64_rnd(x, s);
-}
-FX_INLINE int32_t vobs_asr32_rnd(int64_t x, uint32_t s)
-{
-    return hdf_asr32_rnd(x, s);
-}
-FX_INLINE int64_t vobs_shl64_sat(int64_t x, uint32_t s)
-{
-    return hdf_shl64_sat(x, s);
-}
-FX_INLINE int32_t vobs_mul_q(int32_t a, int32_t b, uint32_t q)
-{
-    return hdf_mul_q(a, b, q);
-}
-FX_INLINE int64_t vobs_mul64x32_q(int64_t a, int32_t b, uint32_t q)
-{
-    return hdf_mul64x32_q(a, b, q);
-}
-FX_INLINE int64_t vobs_mac64(int64_t acc, int32_t a, int32_t b)
-{
-    return hdf_mac64(acc, a, b);
-}
-
 /* T = 1e-4 s in Q44: 2^44 / 10000 = 1759218604.4416 -> 1759218604 (rel. error 2.5e-10;
  * the loop closes on the measurement, so this only scales the gains by that much). */
 #define HD_VELOBS_T_Q44 1759218604
@@ -73,24 +26,24 @@ void hd_velobs_step(hd_velobs_t *s, const hd_velobs_cfg_t *c, hd_angle_t theta_m
         /* |angles| < 2^46 turn * 2^-32: nothing below saturates, the same value directly */
         e48 = (theta_meas - s->theta) * 65536 - (int64_t)s->frac;
     } else {
-        e48 = vobs_sub64_sat(vobs_sub64_sat(vobs_shl64_sat(theta_meas, 16u), vobs_shl64_sat(s->theta, 16u)),
+        e48 = hdf_sub64_sat(hdf_sub64_sat(hdf_shl64_sat(theta_meas, 16u), hdf_shl64_sat(s->theta, 16u)),
                            (int64_t)s->frac);
     }
-    s->err = vobs_asr32_rnd(e48, 16u);
+    s->err = hdf_asr32_rnd(e48, 16u);
     /* vel [2^-48 turn/s] += (Ki T)[Q16 1/s] * e [2^-48 turn] / 2^16 */
-    s->vel = vobs_add64_sat(s->vel, vobs_mul64x32_q(e48, c->ki_dt, 16u));
+    s->vel = hdf_add64_sat(s->vel, hdf_mul64x32_q(e48, c->ki_dt, 16u));
     /* angle advance in 2^-48 turn: T * vel + (Kp T) * e */
-    int64_t adv = vobs_mul64x32_q(s->vel, HD_VELOBS_T_Q44, HD_VELOBS_T_SHIFT);
-    adv = vobs_add64_sat(adv, vobs_mul64x32_q(e48, c->kp_dt, 16u));
-    adv = vobs_add64_sat(adv, (int64_t)s->frac);
-    const int64_t whole = vobs_asr64_floor(adv, 16u);
+    int64_t adv = hdf_mul64x32_q(s->vel, HD_VELOBS_T_Q44, HD_VELOBS_T_SHIFT);
+    adv = hdf_add64_sat(adv, hdf_mul64x32_q(e48, c->kp_dt, 16u));
+    adv = hdf_add64_sat(adv, (int64_t)s->frac);
+    const int64_t whole = hdf_asr64_floor(adv, 16u);
     s->frac = (int32_t)(adv - whole * 65536);
-    s->theta = vobs_add64_sat(s->theta, whole);
+    s->theta = hdf_add64_sat(s->theta, whole);
 }
 
 hd_vel_out_t hd_velobs_vel_out(const hd_velobs_t *s)
 {
-    return vobs_asr32_rnd(s->vel, 16u);
+    return hdf_asr32_rnd(s->vel, 16u);
 }
 
 int64_t hd_velobs_vel48(const hd_velobs_t *s)

@@ -1,0 +1,286 @@
+/*
+ * test_isr_lean.c - the bit-identical shortcuts of the control period against
+ * the general forms they replace:
+ *   hdf_div64_rnd_u16        vs hd_div64_rnd (division by a small constant)
+ *   hd_blend_update (inline) vs the ramp rule of hd_blend.h, step by step
+ *   hd_app: motor current    vs hd_div_q(motor torque, Kt, 16) over the Kt range
+ *   hd_app: encoder steps    vs the wrapped counter difference x 2^(32 - bits)
+ *   hd_app: travel limits    follow a parameter change (precomputed at apply)
+ * The hal is a stub: the sensor sample is set by the test, the command recorded,
+ * NVM blank (defaults) and read-only.
+ */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "hd_app.h"
+#include "hd_fixed.h"
+#include "hd_blend.h"
+
+/* ---- stub hal ------------------------------------------------------------ */
+
+static hd_hal_sensors_t stub_sn;
+static hd_hal_command_t stub_cmd;
+static uint32_t stub_tick;
+
+uint32_t hd_hal_tick(void) { return stub_tick; }
+void hd_hal_read_sensors(hd_hal_sensors_t *s) { *s = stub_sn; }
+void hd_hal_write_command(const hd_hal_command_t *c) { stub_cmd = *c; stub_tick++; }
+bool hd_hal_can_send(const hd_can_frame_t *f) { (void)f; return true; }
+bool hd_hal_can_recv(hd_can_frame_t *f) { (void)f; return false; }
+void hd_hal_can_status(hd_hal_can_status_t *st) { memset(st, 0, sizeof *st); }
+void hd_hal_can_recover(void) { }
+uint32_t hd_hal_nvm_size(void) { return 20480u; }
+uint32_t hd_hal_nvm_page_size(void) { return 1024u; }
+int32_t hd_hal_nvm_read(uint32_t off, void *buf, uint32_t len) { (void)off; memset(buf, 0xFF, len); return 0; }
+int32_t hd_hal_nvm_write(uint32_t off, const void *buf, uint32_t len) { (void)off; (void)buf; (void)len; return -1; }
+int32_t hd_hal_nvm_erase(uint32_t off, uint32_t len) { (void)off; (void)len; return -1; }
+
+static hd_app_t app;   /* large (capture buffer): static */
+
+/* xorshift64: deterministic pseudo-random words */
+static uint64_t rng_s;
+static uint64_t rnd64(void)
+{
+    rng_s ^= rng_s << 13;
+    rng_s ^= rng_s >> 7;
+    rng_s ^= rng_s << 17;
+    return rng_s;
+}
+static int64_t s64(uint64_t u)
+{
+    return (u > (uint64_t)INT64_MAX) ? -(int64_t)(~u) - 1 : (int64_t)u;
+}
+static int32_t s32(uint32_t u)
+{
+    return (u > 0x7FFFFFFFu) ? -(int32_t)(~u) - 1 : (int32_t)u;
+}
+
+static int setUp(void **state)
+{
+    (void)state;
+    rng_s = 0x9E3779B97F4A7C15ull;
+    memset(&stub_sn, 0, sizeof stub_sn);
+    memset(&stub_cmd, 0, sizeof stub_cmd);
+    stub_tick = 0;
+    stub_sn.valid = HD_HAL_VALID_ALL;
+    return 0;
+}
+
+static int tearDown(void **state)
+{
+    (void)state;
+    return 0;
+}
+
+/* ---- hdf_div64_rnd_u16 ------------------------------------------------------ */
+
+static void test_div64_rnd_u16_matches_div64_rnd(void **state)
+{
+    static const uint32_t dens[] = {0u, 1u, 2u, 3u, 7u, 625u, 9999u, 10000u, 10001u, 65535u, 65536u, 100000u};
+    static const int64_t edges[] = {0, 1, -1, 4999, 5000, 5001, -4999, -5000, -5001, 15000, -15000,
+                                    INT32_MAX, INT32_MIN, (int64_t)1 << 48, -((int64_t)1 << 48),
+                                    INT64_MAX, INT64_MAX - 1, INT64_MIN, INT64_MIN + 1,
+                                    INT64_MAX / 10000 * 10000 + 5000, INT64_MIN / 10000 * 10000 - 5000};
+    uint32_t i, j, k;
+    (void)state;
+    for (i = 0; i < sizeof dens / sizeof dens[0]; i++) {
+        const uint32_t d = dens[i];
+        for (j = 0; j < sizeof edges / sizeof edges[0]; j++) {
+            assert_true(hdf_div64_rnd_u16(edges[j], d) == hd_div64_rnd(edges[j], (int64_t)d));
+        }
+        for (k = 0; k < 200000u; k++) {
+            /* every magnitude: a random word shifted right by 0..63 bits, both signs,
+             * and exact half-way points of the divisor */
+            const int64_t x = s64(rnd64() >> (k % 64u));
+            assert_true(hdf_div64_rnd_u16(x, d) == hd_div64_rnd(x, (int64_t)d));
+            if (d > 1u && d < 65536u) {
+                const int64_t h = (x / 4 / (int64_t)d) * (int64_t)d + (int64_t)(d / 2u);
+                assert_true(hdf_div64_rnd_u16(h, d) == hd_div64_rnd(h, (int64_t)d));
+                assert_true(hdf_div64_rnd_u16(-h, d) == hd_div64_rnd(-h, (int64_t)d));
+            }
+        }
+    }
+    /* the drive's divisor, a constant at the call sites */
+    assert_true(hdf_div64_rnd_u16(15000, (uint32_t)HD_LOOP_HZ) == 2);
+    assert_true(hdf_div64_rnd_u16(-15000, (uint32_t)HD_LOOP_HZ) == -2);
+    assert_true(hdf_div64_rnd_u16(14999, (uint32_t)HD_LOOP_HZ) == 1);
+}
+
+/* ---- hd_blend_update -------------------------------------------------------- */
+
+/* the ramp rule of hd_blend.h: w moves by ceil(2^30 / ramp_ticks) towards the
+ * target each update, at once with ramp_ticks == 0 */
+static int32_t blend_ref(int32_t w, int32_t target, uint32_t ramp)
+{
+    const int32_t tgt = (target > 0) ? HD_Q30_ONE : 0;
+    int64_t step;
+    if (ramp == 0u) {
+        return tgt;
+    }
+    step = (((int64_t)1 << 30) + (int64_t)ramp - 1) / (int64_t)ramp;
+    if (w < tgt) {
+        return ((int64_t)tgt - w <= step) ? tgt : (int32_t)(w + step);
+    }
+    if (w > tgt) {
+        return ((int64_t)w - tgt <= step) ? tgt : (int32_t)(w - step);
+    }
+    return w;
+}
+
+static void test_blend_update_follows_ramp_rule(void **state)
+{
+    static const uint32_t ramps[] = {0u, 1u, 2u, 3u, 4u, 7u, 100u, 1000u, 3u};
+    hd_blend_t b;
+    uint32_t i, k, moves = 0u;
+    (void)state;
+    hd_blend_init(&b, 4u, false);
+    for (i = 0; i < sizeof ramps / sizeof ramps[0]; i++) {
+        b.ramp_ticks = ramps[i];
+        for (k = 0; k < 3000u; k++) {
+            if ((rnd64() % 97u) == 0u) {
+                hd_blend_set_enabled(&b, (rnd64() & 1u) != 0u);
+            }
+            const int32_t want = blend_ref(b.w, b.target, b.ramp_ticks);
+            const int32_t w_before = b.w;
+            assert_int_equal(hd_blend_update(&b), want);
+            assert_int_equal(b.w, want);
+            assert_true(hd_blend_active(&b) == ((b.w != 0) || (b.target != 0)));
+            assert_int_equal(hd_blend_apply(&b, 123456789), (b.w >= HD_Q30_ONE) ? 123456789
+                             : hd_mul_q(123456789, b.w, 30u));
+            moves += (b.w != w_before) ? 1u : 0u;
+        }
+    }
+    assert_true(moves > 100u);    /* the sequences did ramp, not only sit at the target */
+}
+
+/* ---- hd_app ------------------------------------------------------------------ */
+
+static void app_start(uint32_t mot, uint32_t out)
+{
+    stub_sn.motor_enc_raw = mot;
+    stub_sn.output_enc_raw = out;
+    hd_app_init(&app);
+    assert_int_equal(hd_app_param_set(&app, HD_P_FAULT_ENABLE, 0), 0);
+    hd_app_step(&app);
+}
+
+/* the motor current command = round(motor torque 2^16 / Kt) over the whole Kt range,
+ * both branches of the 32-bit division (Kt < 1 N.m/A) and the general one */
+static void test_app_current_is_div_q(void **state)
+{
+    static const int32_t kts[] = {66, 100, 6554, 12345, 65535, 65536, 65537, 1000000, 6553600};
+    static const int32_t torques[] = {0, 1, -1, 2, -2, 32767, -32768, 65536 * 5, -65536 * 5,
+                                      65536 * 1000, -65536 * 1000, INT32_MAX, INT32_MIN + 1};
+    uint32_t i, j, n = 0u;
+    (void)state;
+    app_start(0u, 0u);
+    assert_int_equal(hd_app_param_set(&app, HD_P_GEAR_RATIO, 1), 0);
+    assert_int_equal(hd_app_param_set(&app, HD_P_TORQUE_LIMIT, 1000 * 65536), 0);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_TORQUE), 0);
+    for (i = 0; i < sizeof kts / sizeof kts[0]; i++) {
+        assert_int_equal(hd_app_param_set(&app, HD_P_KT, kts[i]), 0);
+        for (j = 0; j < sizeof torques / sizeof torques[0] + 2000u; j++) {
+            /* the edges, then random torques of every magnitude (a random word / 2^0..2^19) */
+            const int32_t scale = (int32_t)(1u << (uint32_t)(rnd64() % 20u));
+            const int32_t t = (j < sizeof torques / sizeof torques[0]) ? torques[j] : s32((uint32_t)rnd64()) / scale;
+            hd_app_set_torque(&app, t);
+            hd_app_step(&app);
+            assert_int_equal(stub_cmd.enable, 1);
+            assert_int_equal(stub_cmd.current, hd_div_q(stub_cmd.torque, kts[i], 16u));
+            n += (stub_cmd.current != 0) ? 1u : 0u;
+        }
+    }
+    assert_true(n > 1000u);
+}
+
+/* position unwrapping: each period adds the wrapped counter step x 2^(32 - bits),
+ * for the smallest, default and largest encoder resolutions; steps up to just
+ * under half a counter turn each way, and the exact half (-half) */
+static void test_app_encoder_steps(void **state)
+{
+    static const int32_t mbits[] = {8, 17, 24};
+    static const int32_t obits[] = {12, 24, 30};
+    uint32_t i, k;
+    (void)state;
+    for (i = 0; i < 3u; i++) {
+        const uint32_t mb = (uint32_t)mbits[i], ob = (uint32_t)obits[i];
+        const uint32_t mmask = (1u << mb) - 1u, omask = (1u << ob) - 1u;
+        uint32_t mraw = 5u, oraw = 7u;
+        int64_t pm, po;
+        app_start(0u, 0u);
+        assert_int_equal(hd_app_param_set(&app, HD_P_MOTOR_ENC_BITS, mbits[i]), 0);
+        assert_int_equal(hd_app_param_set(&app, HD_P_OUTPUT_ENC_BITS, obits[i]), 0);
+        app.started = 0;                 /* re-initialise the positions from this sample */
+        stub_sn.motor_enc_raw = mraw;
+        stub_sn.output_enc_raw = oraw;
+        hd_app_step(&app);
+        pm = app.pos_mot;
+        po = app.pos_out;
+        for (k = 0; k < 20000u; k++) {
+            uint32_t dm, dout;
+            switch (k % 4u) {
+            case 0u: dm = (1u << (mb - 1u)) - 1u; dout = 0u - ((1u << (ob - 1u)) - 1u); break;
+            case 1u: dm = 1u << (mb - 1u); dout = 1u << (ob - 1u); break;     /* exactly -half */
+            default: dm = (uint32_t)rnd64(); dout = (uint32_t)rnd64() >> (k % 32u); break;
+            }
+            const int64_t sm = (int64_t)((dm & mmask) ^ (1u << (mb - 1u))) - ((int64_t)1 << (mb - 1u));
+            const int64_t so = (int64_t)((dout & omask) ^ (1u << (ob - 1u))) - ((int64_t)1 << (ob - 1u));
+            mraw = (mraw + dm) & mmask;
+            oraw = (oraw + dout) & omask;
+            stub_sn.motor_enc_raw = mraw;
+            stub_sn.output_enc_raw = oraw;
+            hd_app_step(&app);
+            pm += sm * ((int64_t)1 << (32u - mb));
+            po += so * ((int64_t)1 << (32u - ob));
+            assert_true(app.pos_mot == pm);
+            assert_true(app.pos_out == po);
+        }
+    }
+}
+
+/* the travel limits are compared in Q32.32; a parameter change takes effect at once */
+static void test_app_travel_limit_follows_parameter(void **state)
+{
+    (void)state;
+    app_start(0u, 0u);
+    assert_int_equal(hd_app_param_set(&app, HD_P_FAULT_ENABLE, (int32_t)HD_FCHK_TRAVEL), 0);
+    /* output at +0.25 turn (24-bit encoder), limit 0.25 turn + 1 LSB of Q8.24: inside */
+    assert_int_equal(hd_app_param_set(&app, HD_P_TRAVEL_MAX, (1 << 22) + 1), 0);
+    stub_sn.output_enc_raw = 1u << 22;
+    app.started = 0;
+    hd_app_step(&app);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_TORQUE), 0);
+    hd_app_step(&app);
+    assert_int_equal(app.fault, HD_FAULT_NONE);
+    /* limit exactly at the position: still inside (pos_out > max trips) */
+    assert_int_equal(hd_app_param_set(&app, HD_P_TRAVEL_MAX, 1 << 22), 0);
+    hd_app_step(&app);
+    assert_int_equal(app.fault, HD_FAULT_NONE);
+    /* one LSB below it: trips at the next period */
+    assert_int_equal(hd_app_param_set(&app, HD_P_TRAVEL_MAX, (1 << 22) - 1), 0);
+    hd_app_step(&app);
+    assert_int_equal(app.fault, HD_FAULT_TRAVEL);
+    /* the lower limit the same way */
+    hd_app_fault_reset(&app);
+    assert_int_equal(hd_app_param_set(&app, HD_P_TRAVEL_MAX, 1 << 23), 0);
+    assert_int_equal(hd_app_param_set(&app, HD_P_TRAVEL_MIN, (1 << 22) + 1), 0);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_TORQUE), 0);
+    hd_app_step(&app);
+    assert_int_equal(app.fault, HD_FAULT_TRAVEL);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(test_div64_rnd_u16_matches_div64_rnd, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_blend_update_follows_ramp_rule, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_app_current_is_div_q, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_app_encoder_steps, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_app_travel_limit_follows_parameter, setUp, tearDown),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
