@@ -52,8 +52,9 @@
  *     stored record, a loaded Preisach table passes its check; no RPDO maps an
  *     object that is not writable and RPDO-mappable (FUZZ_CHECK_LOAD_VALIDATION);
  *   - a 0x1010 save with the power stage off succeeds.
- * Each FUZZ_CHECK_* (default 1) switches one invariant that waits for a firmware fix
- * (mk/fuzz.mk FUZZ_APPCO_DEFS); -DFUZZ_TRACE prints one state line per operation.
+ * Each FUZZ_CHECK_* (default 1) guards one invariant so that a build can leave it out
+ * (mk/fuzz.mk FUZZ_APPCO_DEFS) and still fuzz the rest; -DFUZZ_TRACE prints one state
+ * line per operation.
  */
 #include <string.h>
 #include "fuzz_common.h"
@@ -115,6 +116,7 @@ static harness_t H;
 
 /* ---- frames out ------------------------------------------------------------------- */
 
+#if FUZZ_CHECK_RESTRICTED_COBID
 /* CiA 301 restricted COB-IDs (7.3.5): not to be used by configurable objects */
 static int restricted_cob(uint32_t id)
 {
@@ -122,6 +124,7 @@ static int restricted_cob(uint32_t id)
            (id >= 0x581u && id <= 0x5FFu) || (id >= 0x601u && id <= 0x67Fu) ||
            (id >= 0x6E0u && id <= 0x6FFu) || (id >= 0x701u && id <= 0x77Fu) || id >= 0x780u;
 }
+#endif
 
 static bool p_send(void *c, const hd_can_frame_t *f)
 {
