@@ -246,6 +246,8 @@ def seeds_appco() -> None:
           omut(1, 3, 0x0) + bytes([12, 1 | (2 << 1)]) + omut(2, 5, 7) + omut(3, 9, 0x12345678) + omut(2, 1, 31))
     write("appco", "save_restore_reboot", a_misc(7, 2) + a_table(1, 77) + a_segments() + a_segments() + a_misc(0) +
           bytes([11]) + a_misc(6, 4) + a_misc(1) + a_misc(0) + bytes([11]) + a_misc(6, 1))
+    write("appco", "shutdown_while_enabled", start + a_walk(1) + a_periods(5) + a_write(0x6040, 0, 0x06) +
+          a_periods(3) + a_write(0x6040, 0, 0x0F) + a_periods(3) + a_write(0x6040, 0, 0x02) + a_periods(31))
     # TPDO 1 moved to a restricted COB-ID (0x581: SDO replies of node 1), then OPERATIONAL
     write("appco", "tpdo_restricted_cobid", a_write(0x1800, 1, 0x80000185) + a_write(0x1800, 1, 0x581) + start +
           a_periods(3))
