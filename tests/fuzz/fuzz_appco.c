@@ -460,7 +460,7 @@ static void crafted(fz_stream_t *s)
         uint32_t seq = ac.cstore_seq;
         static uint32_t maps[HD_CO_N_PDO * HD_CO_N_MAP + HD_CO_N_PDO];
         uint32_t nmaps = 0u, k = 1u;
-        if (hd_rstore_save(&st, &CO, co_get, n, &seq) != 0) {
+        if (n < 2u || hd_rstore_save(&st, &CO, co_get, n, &seq) != 0) {
             return;
         }
         /* image words of the RPDO mapping entries */
