@@ -217,6 +217,17 @@ def a_write(index: int, sub: int, value: int) -> bytes:
     return bytes([0]) + struct.pack("<HIB", od_entry(index, sub), value & 0xFFFFFFFF, 0)
 
 
+def pmut(how: int, pid: int, raw: int = 0) -> bytes:
+    """One change of a crafted parameter record (how: 0 min-1, 1 max+1, 2 min, 3 max, 4 any word)."""
+    return bytes([how, pid]) + struct.pack("<I", raw)
+
+
+def omut(how: int, a: int, raw: int = 0) -> bytes:
+    """One change of a crafted object record (how: 0 RPDO mapping -> object raw = index << 8 | sub,
+    1 a bare COB-ID, 2 one bit flipped, 3 any value)."""
+    return bytes([how]) + struct.pack("<HI", a, raw)
+
+
 def seeds_appco() -> None:
     start = a_nmt(0)
     write("appco", "walk_op_enabled", start + a_walk(1) + a_periods(20) + a_walk(0, rpdo=True) + a_periods(30) +
@@ -238,8 +249,6 @@ def seeds_appco() -> None:
           a_periods(32) + a_periods(32) + a_upload(0, segs=256) + a_upload(0, block=True, segs=64))
     write("appco", "excitation", start + a_walk(1) + a_misc(2, cap) + a_misc(4, 2 | (1 << 3) | (0x400 << 8) | (1000 << 20)) +
           a_periods(32) + a_periods(32) + a_misc(5) + a_periods(4) + a_upload(0, segs=64))
-    pmut = lambda how, pid, raw=0: bytes([how, pid]) + struct.pack("<I", raw)    # noqa: E731
-    omut = lambda how, a, raw=0: bytes([how]) + struct.pack("<HI", a, raw)       # noqa: E731
     write("appco", "crafted_params", bytes([12, 0 | (1 << 1)]) + pmut(2, 6) + pmut(3, 9) + a_periods(2) +
           bytes([12, 0]) + pmut(0, 7) + bytes([12, 0]) + pmut(4, 0, 0x0100 * 7 + 3))
     write("appco", "crafted_objects", bytes([12, 1]) + omut(0, 0, 0x604100) + a_periods(2) + bytes([12, 1]) +
