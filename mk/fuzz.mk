@@ -64,8 +64,17 @@ $(FUZZ_DIR)/fuzz_socketcand: tests/fuzz/fuzz_socketcand.c tests/fuzz/fuzz_common
 
 $(FUZZ_DIR)/fuzz_params: tests/fuzz/fuzz_params.c tests/fuzz/fuzz_common.h $(FUZZ_DIR)/libfw.a $(FUZZ_DIR)/obj/firmware/port/host/hal_host.o
 	$(FUZZ_CC) $(FUZZ_TGT_CFLAGS) -fsanitize=fuzzer -o $@ $< $(FUZZ_DIR)/obj/firmware/port/host/hal_host.o $(FUZZ_DIR)/libfw.a
+# fuzz_appco: device + adapter + app on the host port.  FUZZ_APPCO_DEFS leaves single
+# invariants out of a build (to fuzz the rest past a known violation), e.g.
+#   make fuzz FUZZ_TARGETS=appco FUZZ_APPCO_DEFS=-DFUZZ_CHECK_NMT_REACTION=0
+# (the value is kept in appco.defs, so changing it rebuilds the target).
+FUZZ_APPCO_DEFS ?=
+$(FUZZ_DIR)/appco.defs: fuzz-appco-defs
+	@mkdir -p $(@D); echo '$(FUZZ_APPCO_DEFS)' | cmp -s - $@ || echo '$(FUZZ_APPCO_DEFS)' >$@
+$(FUZZ_DIR)/fuzz_appco: tests/fuzz/fuzz_appco.c tests/fuzz/fuzz_common.h $(FUZZ_DIR)/libfw.a $(FUZZ_DIR)/obj/firmware/port/host/hal_host.o $(FUZZ_DIR)/appco.defs
+	$(FUZZ_CC) $(FUZZ_TGT_CFLAGS) $(FUZZ_APPCO_DEFS) -fsanitize=fuzzer -o $@ $< $(FUZZ_DIR)/obj/firmware/port/host/hal_host.o $(FUZZ_DIR)/libfw.a
 
-.PHONY: fuzz fuzz-build fuzz-merge
+.PHONY: fuzz fuzz-build fuzz-merge fuzz-appco-defs
 fuzz-build: $(FUZZ_BINS)
 
 fuzz: fuzz-build

@@ -246,6 +246,104 @@ def seeds_socketcand() -> None:
     write("socketcand", "rig_too_long", b"\x01" + chunks(b"torque " + b"9" * 1100 + b"\nstatus\n", 100, 128))
 
 
+# ---- fuzz_appco: operation records (see the header of tests/fuzz/fuzz_appco.c) ----------
+def a_nmt(i: int) -> bytes:        # 0 start, 1 stop, 2 pre-op, 3 reset node, 4 reset comm
+    return bytes([8, i])
+
+
+def a_walk(mode: int, rpdo: bool = False, per: int = 1) -> bytes:  # mode 0 PP, 1 CSP, 2 CSV, 3 CST, 4 STAB
+    return bytes([10, mode | ((per - 1) << 3) | (0x80 if rpdo else 0)])
+
+
+def a_periods(n: int, how: int = 0) -> bytes:  # how 0 follows the reference, 1 at rest
+    return bytes([9 | (how << 4), (n - 1) % 32])
+
+
+def a_misc(kind: int, arg: int = 0) -> bytes:  # 0 save, 1 restore, 2 capture arm, 3 trigger, 4/5 excitation, 7 options
+    return bytes([13, kind]) + struct.pack("<I", arg & 0xFFFFFFFF)
+
+
+def a_table(kind: int, arg: int, bad: int = 0, block: bool = False) -> bytes:  # kind 0 Preisach, 1 friction, 2 TE
+    return bytes([4 if block else 2, kind]) + struct.pack("<I", arg) + bytes([bad])
+
+
+def a_segments(n: int = 16) -> bytes:
+    return bytes([3, n - 1])
+
+
+def a_upload(sub: int, block: bool = False, segs: int = 256) -> bytes:  # sub 0 capture data, 1..3 tables
+    return bytes([5, sub | (4 if block else 0) | (((segs - 8) // 8) << 3)])
+
+
+def capture_arg() -> int:
+    # signals 5 (output velocity), 11 (torque command) and a third from byte 2; length,
+    # decimation and pre-trigger come from the same word (op_misc in fuzz_appco.c)
+    for x in list(range(17)) + [0xFF]:
+        a = 0xFF000000 | (x << 16) | 0x0B05
+        length = (a >> 4) % 700
+        pre = (a >> 16) % 300
+        if length >= 100 and pre < length // 2:
+            return a
+    raise SystemExit("no capture argument")
+
+
+def od_entry(index: int, sub: int) -> int:
+    """Position of (index, sub) in the generated object dictionary table hd_co_od[]."""
+    rows = [ln for ln in (ROOT / "firmware" / "canopen" / "hd_co_od.c").read_text().splitlines()
+            if ln.startswith("    {0x")]
+    key = f"{{0x{index:04X}u, {sub}u,"
+    return next(i for i, ln in enumerate(rows) if ln.startswith("    " + key))
+
+
+def a_write(index: int, sub: int, value: int) -> bytes:
+    return bytes([0]) + struct.pack("<HIB", od_entry(index, sub), value & 0xFFFFFFFF, 0)
+
+
+def pmut(how: int, pid: int, raw: int = 0) -> bytes:
+    """One change of a crafted parameter record (how: 0 min-1, 1 max+1, 2 min, 3 max, 4 any word)."""
+    return bytes([how, pid]) + struct.pack("<I", raw)
+
+
+def omut(how: int, a: int, raw: int = 0) -> bytes:
+    """One change of a crafted object record (how: 0 RPDO mapping -> object raw = index << 8 | sub,
+    1 a bare COB-ID, 2 one bit flipped, 3 any value)."""
+    return bytes([how]) + struct.pack("<HI", a, raw)
+
+
+def seeds_appco() -> None:
+    start = a_nmt(0)
+    write("appco", "walk_op_enabled", start + a_walk(1) + a_periods(20) + a_walk(0, rpdo=True) + a_periods(30) +
+          a_walk(2, per=2) + a_periods(10))
+    for i, name in ((1, "stop"), (2, "preop"), (4, "reset_comm"), (3, "reset_node")):
+        write("appco", f"nmt_{name}_while_enabled", start + a_walk(1) + a_periods(5) + a_nmt(i) + a_periods(5))
+    write("appco", "nmt_stop_quick_stop_option", a_misc(7, 3 | (2 << 8)) + start + a_walk(2) + a_periods(5) +
+          a_nmt(1) + a_periods(30))
+    write("appco", "busoff_while_enabled", start + a_walk(1) + a_periods(5) + bytes([14, 1, 0]) + a_periods(31))
+    write("appco", "staging_commit", a_table(0, 2) + a_segments() + a_segments() + a_table(1, 5) + a_segments() +
+          a_segments() + a_table(2, 9 | (3 << 24), block=True) + a_upload(1) + a_upload(2, block=True) +
+          a_upload(3) + a_misc(0) + bytes([11]) + a_upload(1))
+    write("appco", "staging_bad", a_table(0, 3, bad=1) + a_segments() + a_segments() + a_table(1, 5, bad=4, block=True) +
+          a_table(2, 1, bad=2) + a_segments() + a_segments() + a_table(0, 4, bad=0x40, block=True))
+    write("appco", "commit_while_enabled", a_table(0, 2) + a_segments(4) + start + a_walk(1, rpdo=True) +
+          a_periods(3) + a_segments() + a_segments() + a_periods(2))
+    cap = capture_arg()
+    write("appco", "capture_read", start + a_walk(1) + a_misc(2, cap) + a_periods(10) + a_misc(3) + a_periods(32) +
+          a_periods(32) + a_periods(32) + a_upload(0, segs=256) + a_upload(0, block=True, segs=64))
+    write("appco", "excitation", start + a_walk(1) + a_misc(2, cap) + a_misc(4, 2 | (1 << 3) | (0x400 << 8) | (1000 << 20)) +
+          a_periods(32) + a_periods(32) + a_misc(5) + a_periods(4) + a_upload(0, segs=64))
+    write("appco", "crafted_params", bytes([12, 0 | (1 << 1)]) + pmut(2, 6) + pmut(3, 9) + a_periods(2) +
+          bytes([12, 0]) + pmut(0, 7) + bytes([12, 0]) + pmut(4, 0, 0x0100 * 7 + 3))
+    write("appco", "crafted_objects", bytes([12, 1]) + omut(0, 0, 0x604100) + a_periods(2) + bytes([12, 1]) +
+          omut(1, 3, 0x0) + bytes([12, 1 | (2 << 1)]) + omut(2, 5, 7) + omut(3, 9, 0x12345678) + omut(2, 1, 31))
+    write("appco", "save_restore_reboot", a_misc(7, 2) + a_table(1, 77) + a_segments() + a_segments() + a_misc(0) +
+          bytes([11]) + a_misc(6, 4) + a_misc(1) + a_misc(0) + bytes([11]) + a_misc(6, 1))
+    write("appco", "shutdown_while_enabled", start + a_walk(1) + a_periods(5) + a_write(0x6040, 0, 0x06) +
+          a_periods(3) + a_write(0x6040, 0, 0x0F) + a_periods(3) + a_write(0x6040, 0, 0x02) + a_periods(31))
+    # TPDO 1 moved to a restricted COB-ID (0x581: SDO replies of node 1), then OPERATIONAL
+    write("appco", "tpdo_restricted_cobid", a_write(0x1800, 1, 0x80000185) + a_write(0x1800, 1, 0x581) + start +
+          a_periods(3))
+
+
 def main() -> None:
     seeds_toml()
     seeds_preisach()
@@ -255,6 +353,7 @@ def main() -> None:
     seeds_canopen()
     seeds_plant()
     seeds_socketcand()
+    seeds_appco()
     for d in sorted(OUT.iterdir()):
         print(f"{d.name}: {len(list(d.iterdir()))} seeds")
 
