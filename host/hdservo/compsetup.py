@@ -68,7 +68,7 @@ ENABLE_BITS: dict[str, int] = {"stribeck": 1, "lugre": 2, "maxwell": 4, "preisac
 #: stick-slip limit cycle.  The drive's standstill hunt breaker (``hold_ticks`` 2000 = 0.2 s at rest, then an
 #: error above ``hold_hunt_win`` 6" fades the Stribeck feed-forward to its mean over ``hold_fade_ticks`` 300
 #: and back): the relay at rest sometimes falls into a ~13 Hz +-10-20" cycle instead of its ~107 Hz dither
-#: (issue 10, docs/compensators.md).  The stabilisation procedure runs in the drive's STAB mode (gyro).
+#: (docs/compensators.md).  The stabilisation procedure runs in the drive's STAB mode (gyro).
 BEST_NAMES: tuple[str, ...] = ("stribeck", "approach")
 #: Procedure options of the best combination: the stabilisation test in the drive's STAB mode (gyro).
 BEST_PROC_ARGS: dict[str, list[str]] = {"stabilisation": ["--stab-mode", "stab"]}

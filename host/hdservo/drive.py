@@ -721,7 +721,7 @@ class _Collector(can.Listener):
         self.q.append(msg)
 
 
-# ---- decoding of the default stream into the DESIGN.md section 7 columns ------------
+# ---- decoding of the default stream into the log columns (docs/sim.md) ------------
 def unwrap_phase(prev_turns: Optional[float], phase_u32: int) -> float:
     """Continue a multi-turn angle (turns) from a wrapped 2^32-per-turn phase."""
     frac = phase_u32 / 2.0 ** 32

@@ -93,7 +93,7 @@ CASES = [
      "mode": "velocity", "gains": {"travel_min": -5.0, "travel_max": 5.0}},
 ]
 
-#: scenarios of issue 12 without a row of their own (empty: every one is covered)
+#: fault scenarios without a row of their own (empty: every one is covered)
 NOT_COVERED: list[dict[str, str]] = []
 
 

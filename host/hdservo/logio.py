@@ -1,4 +1,4 @@
-"""Decoded logs: CSV with SI unit suffixes plus a JSON sidecar (DESIGN.md section 7).
+"""Decoded logs: CSV with SI unit suffixes plus a JSON sidecar (the log format of docs/sim.md).
 
 A log ``run.csv`` is one row per sample, a header naming every column with
 its SI unit suffix (``t_s``, ``motor_angle_rad``, ``load_velocity_rad_s``,

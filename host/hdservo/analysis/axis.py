@@ -27,7 +27,7 @@ from .. import REPO_ROOT
 
 ARCMIN_RAD = math.pi / (180.0 * 60.0)
 
-#: Reference axis (DESIGN.md section 2; sim/plant hd_plant_defaults_reference), "section.key" -> value.
+#: Reference axis (docs/reference-axis.md; sim/plant hd_plant_defaults_reference), "section.key" -> value.
 REFERENCE_AXIS: Dict[str, float] = {
     "gear.ratio": 100.0,
     "motor.jm_kgm2": 8e-5,
@@ -53,7 +53,7 @@ REFERENCE_AXIS: Dict[str, float] = {
     "hysteresis_preisach.r0_rad": 1e-4,
     "hysteresis_preisach.s_rad": 2e-4,
     "load.jl_kgm2": 0.5,
-    # Lost motion is not a plant parameter; DESIGN.md section 2: ~1 arcmin.
+    # Lost motion is not a plant parameter; docs/reference-axis.md: ~1 arcmin.
     "lost_motion.b_rad": ARCMIN_RAD,
 }
 for _i in range(4):
@@ -147,7 +147,7 @@ def load_axis(path: Path | None) -> Tuple[Dict[str, float], List[str]]:
         cand = REPO_ROOT / "sim" / "axes" / "reference.toml"
         if not cand.is_file():
             notes.append("no axis file given and sim/axes/reference.toml not found: "
-                         "using the built-in reference axis (DESIGN.md section 2)")
+                         "using the built-in reference axis (docs/reference-axis.md)")
             return params, notes
         path = cand.relative_to(REPO_ROOT)
         doc = _flatten(read_toml(cand))

@@ -8,7 +8,7 @@ on its own simulated axis (reference, or AXIS), exactly as ``hdservo test`` does
 (verified by read-back) before every compensated procedure.  Writes
 ``OUT/compare.json``, per-controller ``hdservo-test`` JSON and plots, and one
 comparison chart per headline figure (layout: :mod:`hdservo.compare`); prints
-a table with the targets of DESIGN.md section 2 marked.  ``hdservo report
+a table with the targets of docs/reference-axis.md marked.  ``hdservo report
 OUT/compare.json`` turns it into one HTML file.
 """
 from __future__ import annotations

@@ -25,7 +25,7 @@ HELP = "find and name the physics a baseline axis model lacks (model-discrepancy
 
 
 def register(p: argparse.ArgumentParser) -> None:
-    p.add_argument("log", type=Path, help="log CSV (DESIGN.md section 7) with its JSON sidecar")
+    p.add_argument("log", type=Path, help="log CSV (the log format of docs/sim.md) with its JSON sidecar")
     p.add_argument("--model", type=Path, help="baseline model TOML ([model] structure, offset)")
     p.add_argument("--json", type=Path, required=True, metavar="OUT.json", help="result JSON to write")
     p.add_argument("--plots", type=Path, metavar="DIR", help="directory for the PNG plots")

@@ -3,7 +3,7 @@
 Configures the default streaming TPDOs (loop tick + output angle / motor angle /
 motor torque) at ``--rate`` Hz, records for ``--duration`` seconds and writes
 
-* ``OUT.csv`` with the DESIGN.md section 7 columns (``t_s``, ``load_angle_rad``,
+* ``OUT.csv`` with the log columns of docs/sim.md (``t_s``, ``load_angle_rad``,
   ``motor_angle_rad``, ``motor_torque_Nm``) and its ``OUT.json`` sidecar (format tag,
   gear ratio and encoder resolutions read from the drive, sample period, firmware
   version, node, the drive tick of ``t_s`` = 0, lost ticks, and every drive parameter
@@ -44,7 +44,7 @@ def register(p: argparse.ArgumentParser) -> None:
 
 
 def drive_info(drive: Drive) -> dict[str, object]:
-    """Sidecar keys that describe the drive a log comes from (DESIGN.md section 7).
+    """Sidecar keys that describe the drive a log comes from (the log format of docs/sim.md).
 
     ``gear_ratio``, ``motor_encoder_counts_per_rev`` / ``load_encoder_counts_per_rev``
     (2^bits of the drive's encoder parameters), ``firmware_version`` (0x100A),

@@ -2,7 +2,7 @@
 
 Runs the drive firmware against the simulated axis through the ctypes
 binding (:mod:`hdservo.sim`) and writes the log (CSV + JSON sidecar,
-DESIGN.md section 7).  Same engine as ``build/bin/hdservo-sim run``.
+the log format of docs/sim.md).  Same engine as ``build/bin/hdservo-sim run``.
 """
 from __future__ import annotations
 

@@ -30,7 +30,7 @@ current_sensor.noise_A      0.05 % of the peak current (reference: 0.01 A at 20 
 
 Scaling the reference's shapes (rather than inventing new ones) keeps the
 candidate axes comparable with the reference axis, whose values are the
-DESIGN.md section 2 figures.
+reference-axis figures (docs/reference-axis.md).
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Model-discrepancy workflow (issue 9): find the physics a baseline axis model lacks.
+"""Model-discrepancy workflow: find the physics a baseline axis model lacks.
 
 Modules
 -------

@@ -1,6 +1,6 @@
 """Log -> states for the discrepancy workflow, with IDIM-style parallel filtering.
 
-A log (DESIGN.md section 7) gives the measured motor torque and one or two angles.
+A log (the log format of docs/sim.md) gives the measured motor torque and one or two angles.
 States are obtained the usual inverse-dynamics way: the angles are low-passed
 zero-phase (Butterworth, cutoff ``fc_Hz``) and differentiated by central
 differences.  Every regression column is built from these states at the log rate

@@ -393,10 +393,10 @@ REFIT_LEVEL_STEPS = 3
 FINE_SUBSTEPS = 8
 #: Window of the re-fit's simulations, s: short segments (as in multiple shooting).
 #: Through the Stribeck hump the replayed motor side is unstable (e-folding time about
-#: 1.2 ms on csf17_50, docs/discrepancy.md session 7), so a breakaway instant that is off
+#: 1.2 ms on csf17_50), so a breakaway instant that is off
 #: grows over the window and a 50 ms window's SSE is rough in vs: csf17_50 closed s1 fitted
 #: on 50 ms windows lands at vs 0.0115 rad/s, load Fs - Fc 0.40 N.m (plant 0.020, 0.204),
-#: on 10 ms windows at 0.0183, 0.219 (session 12).
+#: on 10 ms windows at 0.0183, 0.219.
 REFIT_HORIZON_S = 0.01
 
 
@@ -1039,7 +1039,7 @@ def model_floor_images(state: State, fit: bl.Fit, added: list[tuple[fx.Effect, f
 
 
 #: Window of a banded effect's simulation-error gap (:func:`band_sim_figures`), s: about
-#: the median dwell in a Stribeck band (0.3-14 ms on the logs measured, session 12).
+#: the median dwell in a Stribeck band (0.3-14 ms on the logs measured).
 BAND_GAP_HORIZON_S = 0.01
 #: Window phases pooled by :func:`band_sim_figures` (starts 0, H/4, H/2, 3H/4).
 BAND_GAP_PHASES = 4
@@ -1090,7 +1090,7 @@ def band_sim_figures(state: State, fit: bl.Fit, added: list[tuple[fx.Effect, fx.
 
 
 def rms_gap(it: dict[str, Any]) -> dict[str, Any]:
-    """The RMS gap of a named effect (issue 9's 3x rule), one definition for every effect.
+    """The RMS gap of a named effect (the 3x rule), one definition for every effect.
 
     The gap is the part of the residual the model mismatch causes: the systematic gap
     sqrt(RMS^2 - floor^2) (:func:`systematic_gap`), the floor being what no model

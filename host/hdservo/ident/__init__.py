@@ -1,4 +1,4 @@
-"""Identification of a harmonic-drive axis (issue 7).
+"""Identification of a harmonic-drive axis.
 
 Experiments are defined once (:mod:`.experiments`) and run on the simulator
 (:class:`.experiments.SimRunner`) or, later, on a drive over CAN; each fit

@@ -2,7 +2,7 @@
 
 Every experiment is a small dataclass holding its design (speeds, torque
 levels, excitation) and produces an :class:`ExperimentData`: log columns
-with SI suffixes (DESIGN.md section 7) cut into *segments* (one per
+with SI suffixes (the log format of docs/sim.md) cut into *segments* (one per
 constant-velocity point, torque cycle, ...) plus metadata.  The same data
 can be written as a log (CSV + JSON sidecar, :mod:`hdservo.logio`) and read
 back for ``hdservo identify --data LOG.csv``.

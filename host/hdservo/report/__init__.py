@@ -8,7 +8,7 @@
   ``hdservo download --json`` record,
 
 and writes one HTML file: tables of every headline figure (targets of
-DESIGN.md section 2 marked met / not met, verdict against the PID baseline),
+docs/reference-axis.md marked met / not met, verdict against the PID baseline),
 each procedure's conditions, figures and notes, and every plot embedded as a
 base64 PNG data URI (no external file, script or style sheet).  Every plot is
 checked before it is embedded: it must exist, be a PNG and not be blank
@@ -213,7 +213,7 @@ def _headline_section(cmp: Mapping[str, Any]) -> str:
         cls.append(c)
     v = cmp.get("verdict", {})
     lines = ["<h2>Headline figures</h2>",
-             "<p>Targets from DESIGN.md section 2 (reference axis). Green &#10003; = target met, red &#10007; = not met; "
+             "<p>Targets of the reference axis (docs/reference-axis.md). Green &#10003; = target met, red &#10007; = not met; "
              "&lsquo;none&rsquo; = no value (e.g. no rung of the rate ladder was smooth, or the procedure failed). "
              f"The verdict column compares <b>{esc(best)}</b> (the compensated axis) with <b>{esc(ref)}</b>; "
              "&lsquo;best measured&rsquo; names the controller with the best value of each figure.</p>",
