@@ -12,10 +12,7 @@ import sys
 from typing import Sequence
 
 from . import __version__, commands
-
-
-class UserError(Exception):
-    """A problem with the user's input: printed as one line, exit status 2."""
+from .errors import UserError  # noqa: F401  (re-exported: the one error type the CLI prints)
 
 
 def build_parser() -> argparse.ArgumentParser:

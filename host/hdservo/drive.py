@@ -29,7 +29,7 @@ import can
 import canopen
 
 from . import od_gen
-from .cli import UserError
+from .errors import UserError
 from .params_gen import BY_NAME as PARAMS
 
 T = TypeVar("T")

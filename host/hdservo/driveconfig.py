@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
-from .cli import UserError
+from .errors import UserError
 from .od_gen import STORED, StoredEntry
 from .params_gen import BY_NAME, TABLE_HASH, ParamDef
 

@@ -32,7 +32,7 @@ import numpy as np
 import scipy.io
 import scipy.signal as sig
 
-from .cli import UserError
+from .errors import UserError
 
 #: Environment variable that overrides the default data directory.
 ENV_DATA_DIR = "HDSERVO_EMPS_DIR"

@@ -24,7 +24,7 @@ from typing import Any, Iterable, Mapping
 
 import numpy as np
 
-from .cli import UserError
+from .errors import UserError
 
 #: Format tag and version written into (and required in) every sidecar.
 FORMAT = "hdservo-log"

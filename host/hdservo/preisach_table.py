@@ -32,7 +32,7 @@ from typing import Callable
 
 import numpy as np
 
-from .cli import UserError
+from .errors import UserError
 
 MAGIC = 0x54504448
 FORMAT = 1

@@ -16,7 +16,7 @@ import threading
 from pathlib import Path
 from typing import Any, Iterator, Optional, Protocol, Sequence, TypeVar
 
-from .cli import UserError
+from .errors import UserError
 
 LISTENING = "listening on 127.0.0.1:"
 

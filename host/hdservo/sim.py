@@ -30,7 +30,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from . import REPO_ROOT
-from .cli import UserError
+from .errors import UserError
 
 #: Where the shared library is built (relative to the repository root).
 LIB_RELPATH = Path("build") / "lib" / "libhdsim.so"

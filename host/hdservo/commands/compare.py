@@ -17,7 +17,7 @@ import argparse
 import os
 from pathlib import Path
 
-from ..cli import UserError
+from ..errors import UserError
 
 NAME = "compare"
 HELP = "run the test procedures with the PID baseline, each compensator and the best combination; compare"
@@ -63,10 +63,8 @@ def run(args: argparse.Namespace) -> int:
     """Check the input, run the comparison, print the table."""
     from .. import compare as cmp
     from ..drive import choose_drive
-    choice = choose_drive(args, sim_only=("seed",))
-    bus = choice.bus
-    axis = choice.axis or "reference"
-    seed = 1 if args.seed is None else args.seed
+    # the user's files are checked before a drive is chosen: a bad file is the first error
+    axis = getattr(args, "sim", None) or "reference"
     if args.model is not None and not args.model.is_file():
         raise UserError(f"--model {args.model}: no such file")
     _check_dir(args.out, "--out")
@@ -91,6 +89,12 @@ def run(args: argparse.Namespace) -> int:
     if args.model is not None:              # a bad model is refused before anything runs
         from .download import plan_download
         plan_download(args.model, axis)
+    choice = choose_drive(args, sim_only=("seed",))
+    bus = choice.bus
+    if (choice.axis or "reference") != axis:
+        axis = choice.axis or "reference"
+        ctls = cmp.controllers_from_names(args.controllers.split(","), axis)
+    seed = 1 if args.seed is None else args.seed
     choice.announce("compare")
     try:
         doc = cmp.run_compare(args.out, ctls, procs, proc_extra=extra, bus=bus, node_id=args.node_id,

@@ -31,7 +31,7 @@ import sys
 from pathlib import Path
 from typing import Any, Callable
 
-from ..cli import UserError
+from ..errors import UserError
 
 NAME = "config"
 HELP = ("drive parameters and CANopen settings over CAN: dump to a TOML file, restore it (checked, read back), "

@@ -27,7 +27,7 @@ import time
 from pathlib import Path
 from typing import Sequence
 
-from ..cli import UserError
+from ..errors import UserError
 
 NAME = "demo"
 HELP = "end-to-end demo on the virtual reference axis: identify, download, compare PID vs compensation, report"

@@ -10,7 +10,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from ..cli import UserError
+from ..errors import UserError
 
 NAME = "design"
 HELP = "design a harmonic-drive axis from requirements: feasible parts, simulated figures, ranking, report"

@@ -19,7 +19,7 @@ import tempfile
 from pathlib import Path
 from typing import Any, Dict
 
-from ..cli import UserError
+from ..errors import UserError
 
 NAME = "df"
 HELP = "describing-function analysis: N(A), limit cycles, margins against amplitude"

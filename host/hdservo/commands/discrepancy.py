@@ -18,7 +18,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from ..cli import UserError
+from ..errors import UserError
 
 NAME = "discrepancy"
 HELP = "find and name the physics a baseline axis model lacks (model-discrepancy workflow)"

@@ -33,7 +33,7 @@ import sys
 from pathlib import Path
 from typing import Any, Mapping
 
-from ..cli import UserError
+from ..errors import UserError
 
 NAME = "download"
 HELP = "write compensator parameters and tables computed from an identified model to a drive (verified)"

@@ -22,7 +22,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..cli import UserError
+from ..errors import UserError
 
 NAME = "identify"
 HELP = "identify friction, stiffness, hysteresis, transmission error and FRF of an axis"

@@ -26,7 +26,7 @@ from typing import Any
 import can
 
 from .. import logio
-from ..cli import UserError
+from ..errors import UserError
 from ..drive import (LOOP_HZ, TURN, Drive, DriveError, add_bus_arguments, align_motor_turns, choose_drive,
                      unwrap_phase, unwrap_tick)
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..cli import UserError
+from ..errors import UserError
 
 NAME = "report"
 HELP = "assemble one self-contained HTML report (tables and every plot) from compare/test/identify JSON"

@@ -12,7 +12,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
-from ..cli import UserError
+from ..errors import UserError
 
 NAME = "serve"
 HELP = "serve the simulated axis as a CANopen drive (virtual drive)"

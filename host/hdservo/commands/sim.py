@@ -11,7 +11,7 @@ import json
 import time
 from pathlib import Path
 
-from ..cli import UserError
+from ..errors import UserError
 from .. import sim
 
 NAME = "sim"

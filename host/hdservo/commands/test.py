@@ -28,7 +28,7 @@ import os
 from pathlib import Path
 from typing import Any, Callable
 
-from ..cli import UserError
+from ..errors import UserError
 from ..drive import DriveError, add_bus_arguments, choose_drive
 from ..procedures import closedloop as cl
 from ..procedures import frequency as fq
@@ -171,6 +171,16 @@ def _check_out(path: Path | None, what: str) -> None:
         raise UserError(f"--{what} {path}: not writable")
 
 
+
+def _model_plan(model: Path | None, axis: str) -> dict | None:
+    """The download plan of ``--model`` (keys it lacks from ``axis``), or None without one."""
+    if model is None:
+        return None
+    from .download import plan_download
+    plan = dict(plan_download(model, axis))
+    plan["model_file"] = model.name
+    return plan
+
 def run(args: argparse.Namespace) -> int:
     """Run one procedure (or all), print the summary, write JSON/plots."""
     if args.runs < 2:
@@ -184,18 +194,17 @@ def run(args: argparse.Namespace) -> int:
     _check_out(args.json, "json")
     _check_out(args.plots, "plots")
     comps = None if args.compensators is None else [c.strip() for c in args.compensators.split(",") if c.strip()]
+    params = _check_params(getattr(args, "params", []) or [])
+    # the user's files are checked before a drive is chosen: a bad file is the first error
+    model = getattr(args, "model", None)
+    if model is not None and not model.is_file():
+        raise UserError(f"--model {model}: no such file")
+    plan = _model_plan(model, getattr(args, "sim", None) or "reference")
     choice = choose_drive(args, sim_only=("seed",))
     axis = choice.axis or "reference"
+    if model is not None and axis != (getattr(args, "sim", None) or "reference"):
+        plan = _model_plan(model, axis)
     seed = 1 if args.seed is None else args.seed
-    params = _check_params(getattr(args, "params", []) or [])
-    plan = None
-    model = getattr(args, "model", None)
-    if model is not None:
-        if not model.is_file():
-            raise UserError(f"--model {model}: no such file")
-        from .download import plan_download
-        plan = dict(plan_download(model, axis))
-        plan["model_file"] = model.name
     target = Target(bus=choice.bus, node_id=args.node_id, axis=axis, seed=seed, compensators=comps,
                     download=plan, params=params)
     choice.announce("test")

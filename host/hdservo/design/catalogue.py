@@ -24,7 +24,7 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Type, TypeVar
 
-from ..cli import UserError
+from ..errors import UserError
 
 try:  # Python >= 3.11
     import tomllib

@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Dict, List, Optional, Tuple
 
-from ..cli import UserError
+from ..errors import UserError
 from .structure import (Calibration, Structure, breakpoints, lost_motion, three_slope,
                         two_mass_resonance)
 

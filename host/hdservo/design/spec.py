@@ -53,7 +53,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Dict, List, Mapping, Optional, Tuple
 
-from ..cli import UserError
+from ..errors import UserError
 
 try:  # Python >= 3.11
     import tomllib

@@ -32,7 +32,7 @@ from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..cli import UserError
+from ..errors import UserError
 from .catalogue import DATA_DIR, GearRow, load_gears
 
 try:  # Python >= 3.11

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from .. import emps
-from ..cli import UserError
+from ..errors import UserError
 
 
 def effect_columns(name: str, params: dict[str, Any], qd: np.ndarray) -> list[np.ndarray]:

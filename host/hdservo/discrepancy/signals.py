@@ -21,7 +21,7 @@ from typing import Any, Mapping
 import numpy as np
 import scipy.signal as sps
 
-from ..cli import UserError
+from ..errors import UserError
 from .. import logio
 
 #: Angle low-pass cutoff relative to the sample rate (never above :data:`FC_MAX_HZ`).

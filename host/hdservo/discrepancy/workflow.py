@@ -659,7 +659,7 @@ def check_physical(params: dict[str, float], d: bl.Design, library_tried: bool =
     """
     bad = unphysical(params)
     if bad:
-        from ..cli import UserError
+        from ..errors import UserError
         sig = d.sig
         why = " and no single effect of the library makes it one" if library_tried else ""
         raise UserError(f"{sig.source}: the baseline fit is not a mechanical axis ({', '.join(bad)}; expected > 0){why}: "
@@ -711,7 +711,7 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
     lib = lib if lib is not None else fx.library()
     d = bl.make_design(sig)
     if int(d.mask.sum()) < 50:
-        from ..cli import UserError
+        from ..errors import UserError
         raise UserError(f"{sig.source}: fewer than 50 moving samples after filtering; the axis hardly moves")
     zero_note = None
     cols = bl.baseline_columns(d, offset)

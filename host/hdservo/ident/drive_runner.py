@@ -45,7 +45,7 @@ from typing import Any, Callable, Mapping, Optional, Sequence
 
 import numpy as np
 
-from ..cli import UserError
+from ..errors import UserError
 from . import experiments as ex
 
 LOOP_HZ = 10000

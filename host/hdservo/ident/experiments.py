@@ -34,7 +34,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from .. import logio
-from ..cli import UserError
+from ..errors import UserError
 from ..tomltext import basic_string
 
 #: Firmware loop period, s.

@@ -28,7 +28,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import csd, welch
 
-from ..cli import UserError
+from ..errors import UserError
 from .experiments import ExperimentData
 
 

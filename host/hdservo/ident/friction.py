@@ -33,7 +33,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
-from ..cli import UserError
+from ..errors import UserError
 from .experiments import ExperimentData
 
 

@@ -31,7 +31,7 @@ from typing import Any, Sequence
 import numpy as np
 from scipy.optimize import nnls
 
-from ..cli import UserError
+from ..errors import UserError
 
 #: Twist LSB of the firmware output format: 2^-32 turn, rad.
 TWIST_LSB_RAD = 2.0 * math.pi / 2.0 ** 32

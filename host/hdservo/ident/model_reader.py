@@ -19,7 +19,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from ..cli import UserError
+from ..errors import UserError
 
 #: A checked model: section -> key -> value (numbers as float, counts as int).
 Model = dict[str, dict[str, Any]]

@@ -14,7 +14,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from ..cli import UserError
+from ..errors import UserError
 from . import experiments as ex
 from . import friction as fr
 from . import frf as frfm

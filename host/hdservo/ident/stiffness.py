@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import lsq_linear, minimize, nnls
 
-from ..cli import UserError
+from ..errors import UserError
 from .experiments import ExperimentData
 from .hysteresis import MaxwellSlip, maxwell_from_weights, split_reversals, stop_operators
 from .te import TEResult

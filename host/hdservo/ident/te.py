@@ -24,7 +24,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..cli import UserError
+from ..errors import UserError
 from .experiments import ExperimentData
 
 

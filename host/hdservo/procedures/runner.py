@@ -32,7 +32,7 @@ from typing import Any, Callable, Iterator, Mapping, Optional, Sequence
 import can
 import numpy as np
 
-from ..cli import UserError
+from ..errors import UserError
 from ..serve_proc import ServeProcess
 from ..drive import Drive, DriveError
 from ..params_gen import BY_NAME as PARAMS
