@@ -132,11 +132,30 @@ static double sat(double x, double d) { return x > d ? d : (x < -d ? -d : x); }
  * P_mean(u) = E(u,-M) - E(M,u), M = u_max.  The gear's hysteresis torque is
  * P_mean(phi) - P[phi]: it has no single-valued (spring-like) part, so the
  * stiffness seen by a torque-twist test is the stiffness model's alone, and it
- * is dissipative (above the centre line on loading, below on unloading). */
+ * is dissipative (above the centre line on loading, below on unloading).
+ * With one argument on the grid's edge the interpolated Everett function is linear
+ * in the other inside each cell, so P_mean is piecewise linear on the grid: it is
+ * tabulated at the L+1 nodes at init (pmean_table) and interpolated here. */
+static void pmean_table(hd_plant *p)
+{
+    const double M = p->prm.preisach_u_max_rad, du = 2.0 * M / (double)HD_PLANT_PREISACH_L;
+    int i;
+    for (i = 0; i <= HD_PLANT_PREISACH_L; i++) {
+        const double u = i == HD_PLANT_PREISACH_L ? M : -M + (double)i * du;
+        p->preisach_pm[i] = hd_preisach_E(p->everett, M, u, -M) - hd_preisach_E(p->everett, M, M, u);
+    }
+    p->preisach_inv_du = (double)HD_PLANT_PREISACH_L / (2.0 * M);
+}
+
 static double preisach_mean(const hd_plant *p, const hd_plant_params *q, double phi)
 {
-    const double M = q->preisach_u_max_rad, u = sat(phi, M);
-    return hd_preisach_E(p->everett, M, u, -M) - hd_preisach_E(p->everett, M, M, u);
+    const double M = q->preisach_u_max_rad, x = (sat(phi, M) + M) * p->preisach_inv_du;
+    int i = (int)x;
+    double f;
+    if (i > HD_PLANT_PREISACH_L - 1) i = HD_PLANT_PREISACH_L - 1;
+    if (i < 0) i = 0;
+    f = x - (double)i;
+    return p->preisach_pm[i] + f * (p->preisach_pm[i + 1] - p->preisach_pm[i]);
 }
 
 static double sat_pot(double x, double d)   /* integral of sat_d from 0 to x */
@@ -169,127 +188,165 @@ static double spring_energy(const hd_plant *p, double phi)
     return e;
 }
 
-/* cos/sin(n*x) from c = cos x, s = sin x by binary powers of exp(i x). */
-static void cis_pow(double c, double s, uint32_t n, double *cn, double *sn)
+/* Harmonic lists (0 cogging, 1 TE wave generator, 2 TE output), compacted at init to
+ * the active entries.  Integer orders are evaluated from one cos/sin of the angle by a
+ * power chain shared by every list on that angle (chain 0: theta_m for cogging and
+ * the wave-generator TE, chain 1: theta_l for the output TE): entry 0 is e^{i theta},
+ * each later entry the product of two earlier ones (a square when both are the same),
+ * so e.g. orders 1, 2, 4, 36, 72 cost 7 complex products per evaluation instead of a
+ * binary power per harmonic.  Non-integer orders (hidx < 0) use libm sin/cos. */
+static int32_t pw_find(const hd_plant *p, int ch, uint32_t o)
 {
-    double rc = 1.0, rs = 0.0, bc = c, bs = s, t;
-    while (n != 0u) {
-        if (n & 1u) { t = rc * bc - rs * bs; rs = rc * bs + rs * bc; rc = t; }
-        n >>= 1;
-        if (n != 0u) { t = bc * bc - bs * bs; bs = 2.0 * bc * bs; bc = t; }
-    }
-    *cn = rc;
-    *sn = rs;
+    int32_t j;
+    for (j = 0; j < p->pw_n[ch]; j++)
+        if (p->pw_ord[ch][j] == o) return j;
+    return -1;
 }
 
-/* Harmonic lists (0 cogging, 1 TE wave generator, 2 TE output), compacted at init to
- * the active entries.  Integer orders are evaluated from one cos/sin of the angle:
- * op 1 = the angle itself, 2 = square of entry i1, 3 = product of entries i1, i2,
- * 4 = binary power (cis_pow); op 0 = non-integer order (libm sin/cos). */
-enum { H_SIN = 0, H_BASE = 1, H_SQ = 2, H_MUL = 3, H_POW = 4 };
+static int32_t pw_push(hd_plant *p, int ch, int32_t a, int32_t b)
+{
+    int32_t n = p->pw_n[ch];
+    p->pw_a[ch][n] = a;
+    p->pw_b[ch][n] = b;
+    p->pw_ord[ch][n] = p->pw_ord[ch][a] + p->pw_ord[ch][b];
+    p->pw_n[ch] = n + 1;
+    return n;
+}
+
+/* Entry of order o (1 <= o <= 4096), added with what it needs: a sum of two entries
+ * already there, else the binary method (o = 2*(o/2) or (o-1) + 1); at most 24 new
+ * entries per order, so HD_PLANT_POW_MAX always suffices. */
+static int32_t pw_add(hd_plant *p, int ch, uint32_t o)
+{
+    int32_t j, i2, e = pw_find(p, ch, o);
+    if (e >= 0) return e;
+    for (j = 0; j < p->pw_n[ch]; j++)
+        if (p->pw_ord[ch][j] < o && (i2 = pw_find(p, ch, o - p->pw_ord[ch][j])) >= 0) return pw_push(p, ch, j, i2);
+    if ((o & 1u) == 0u) { e = pw_add(p, ch, o / 2u); return pw_push(p, ch, e, e); }
+    e = pw_add(p, ch, o - 1u);
+    return pw_push(p, ch, e, 0);
+}
 
 static void harm_plan(hd_plant *p)
 {
     const hd_plant_params *q = &p->prm;
-    int l, k;
+    int l, k, ch;
+    for (ch = 0; ch < 2; ch++) {
+        p->pw_n[ch] = 1;
+        p->pw_ord[ch][0] = 1u;
+        p->pw_a[ch][0] = p->pw_b[ch][0] = 0;
+    }
     for (l = 0; l < 3; l++) {
         const double *ord = l == 0 ? q->cog_order : (l == 1 ? q->te_wg_order : q->te_out_order);
         const double *amp = l == 0 ? q->cog_amp_Nm : (l == 1 ? q->te_wg_amp_rad : q->te_out_amp_rad);
         const double *ph = l == 0 ? q->cog_phase_rad : (l == 1 ? q->te_wg_phase_rad : q->te_out_phase_rad);
-        int n = 0;
-        for (k = 0; k < HD_PLANT_MAX_HARM; k++) {
-            int j, i2, op;
-            uint32_t o;
-            if (ord[k] == 0.0 || amp[k] == 0.0) continue;
-            p->hfo[l][n] = ord[k];
-            p->hamp[l][n] = amp[k];
-            p->hampn[l][n] = amp[k] * ord[k];
-            p->hcp[l][n] = p->harm_cp[l][k];
-            p->hsp[l][n] = p->harm_sp[l][k];
-            p->hph[l][n] = ph[k];
-            p->hi1[l][n] = p->hi2[l][n] = 0;
-            if (!p->harm_int[l][k]) {
-                op = H_SIN;
-                o = 0u;
-            } else {
-                o = (uint32_t)ord[k];
-                op = o == 1u ? H_BASE : (o == 2u ? H_SQ : H_POW);
-                if (op == H_SQ) p->hi1[l][n] = -1;                  /* square of the angle itself */
-                for (j = 0; j < n && op == H_POW; j++)
-                    if (p->hop[l][j] != H_SIN && 2u * p->hord[l][j] == o) { op = H_SQ; p->hi1[l][n] = j; }
-                for (j = 0; j < n && op == H_POW; j++)
-                    for (i2 = 0; i2 <= j && op == H_POW; i2++)
-                        if (p->hop[l][j] != H_SIN && p->hop[l][i2] != H_SIN && p->hord[l][j] + p->hord[l][i2] == o)
-                            { op = H_MUL; p->hi1[l][n] = j; p->hi2[l][n] = i2; }
+        int n = 0, pass;
+        ch = l == 2 ? 1 : 0;
+        for (pass = 0; pass < 2; pass++) {         /* integer orders first, then the rest */
+            for (k = 0; k < HD_PLANT_MAX_HARM; k++) {
+                if (ord[k] == 0.0 || amp[k] == 0.0 || (p->harm_int[l][k] != 0) != (pass == 0)) continue;
+                p->hfo[l][n] = ord[k];
+                p->hamp[l][n] = amp[k];
+                p->hampn[l][n] = amp[k] * ord[k];
+                p->hcp[l][n] = p->harm_cp[l][k];
+                p->hsp[l][n] = p->harm_sp[l][k];
+                p->hph[l][n] = ph[k];
+                p->hidx[l][n] = pass == 0 ? pw_add(p, ch, (uint32_t)ord[k]) : -1;
+                n++;
             }
-            p->hop[l][n] = op;
-            p->hord[l][n] = o;
-            n++;
+            if (pass == 0) p->hn_int[l] = n;
         }
         p->hn[l] = n;
+        if (p->hn_int[l] < n) p->h_libm = 1;
     }
 }
 
-/* sum_k a_k*sin(n_k*th + p_k) and its derivative d/dth for list l; c1/s1 = cos/sin(th). */
-static double harm_sum(const hd_plant *p, int l, double th, double c1, double s1, double *dsum)
+/* Non-integer orders of list l (entries hn_int..hn-1) by libm, kept out of the
+ * arithmetic loops of harm_eval (no call there). */
+static double harm_sum_libm(const hd_plant *p, int l, double th, double *dsum)
 {
-    double pc[HD_PLANT_MAX_HARM], ps[HD_PLANT_MAX_HARM];
     double sum = 0.0, d = 0.0;
-    int k, n = p->hn[l];
-    for (k = 0; k < n; k++) {
-        double cb, sb, sn, cn;
-        switch (p->hop[l][k]) {
-        case H_BASE: cb = c1; sb = s1; break;
-        case H_SQ: {
-            double a = p->hi1[l][k] < 0 ? c1 : pc[p->hi1[l][k]], b = p->hi1[l][k] < 0 ? s1 : ps[p->hi1[l][k]];
-            cb = a * a - b * b; sb = 2.0 * a * b; break;
-        }
-        case H_MUL: {
-            double a = pc[p->hi1[l][k]], b = ps[p->hi1[l][k]], e = pc[p->hi2[l][k]], f = ps[p->hi2[l][k]];
-            cb = a * e - b * f; sb = a * f + b * e; break;
-        }
-        case H_POW: cis_pow(c1, s1, p->hord[l][k], &cb, &sb); break;
-        default:
-            sn = sin(p->hfo[l][k] * th + p->hph[l][k]);
-            cn = cos(p->hfo[l][k] * th + p->hph[l][k]);
-            pc[k] = ps[k] = 0.0;
-            sum += p->hamp[l][k] * sn;
-            d += p->hampn[l][k] * cn;
-            continue;
-        }
-        pc[k] = cb; ps[k] = sb;
-        sn = sb * p->hcp[l][k] + cb * p->hsp[l][k];
-        cn = cb * p->hcp[l][k] - sb * p->hsp[l][k];
-        sum += p->hamp[l][k] * sn;
-        d += p->hampn[l][k] * cn;
+    int32_t k;
+    for (k = p->hn_int[l]; k < p->hn[l]; k++) {
+        const double arg = p->hfo[l][k] * th + p->hph[l][k];
+        sum += p->hamp[l][k] * sin(arg);
+        d += p->hampn[l][k] * cos(arg);
     }
-    *dsum = d;
+    *dsum += d;
     return sum;
 }
 
-/* Kinematic TE and its partial derivatives w.r.t. theta_m and theta_l (cm, sm = cos, sin theta_m). */
-static double te_eval(const hd_plant *p, double th_m, double cm, double sm, double th_l, double cl, double sl,
-                      double *de_m, double *de_l)
+/* cos/sin of every entry of chain ch from c1 = cos, s1 = sin of the angle. */
+#define HARM_POWERS(ch, c1, s1)                                                    \
+    do {                                                                           \
+        const int32_t n_ = p->pw_n[ch], *ia_ = p->pw_a[ch], *ib_ = p->pw_b[ch];    \
+        int32_t j_;                                                                \
+        pc[0] = (c1);                                                              \
+        ps[0] = (s1);                                                              \
+        for (j_ = 1; j_ < n_; j_++) {                                              \
+            const double a_ = pc[ia_[j_]], b_ = ps[ia_[j_]];                       \
+            const double e_ = pc[ib_[j_]], f_ = ps[ib_[j_]];                       \
+            pc[j_] = a_ * e_ - b_ * f_;                                            \
+            ps[j_] = a_ * f_ + b_ * e_;                                            \
+        }                                                                          \
+    } while (0)
+
+/* Kinematic TE (both TE lists), its partial derivatives w.r.t. theta_m and theta_l,
+ * and the cogging torque (cm, sm = cos, sin theta_m; cl, sl = cos, sin theta_l).
+ * One power chain per angle serves every list on it; written out in one function
+ * (no calls on the integer-order path) because it runs at every RK stage. */
+static double harm_eval(const hd_plant *p, double th_m, double cm, double sm, double th_l, double cl, double sl,
+                        double *de_m, double *de_l, double *tcog)
 {
-    double e = 0.0;
-    *de_m = 0.0;
-    *de_l = 0.0;
-    if (p->prm.te_enabled) {
-        e = harm_sum(p, 1, th_m, cm, sm, de_m);
-        if (p->has_te_out) e += harm_sum(p, 2, th_l, cl, sl, de_l);
+    double pc[HD_PLANT_POW_MAX], ps[HD_PLANT_POW_MAX], e = 0.0, d = 0.0, dl = 0.0, cg = 0.0;
+    const int te = p->prm.te_enabled != 0, cog = p->prm.cogging_enabled != 0;
+    int32_t k, n;
+    if (te || cog) {
+        HARM_POWERS(0, cm, sm);
+        if (te) {
+            const int32_t *idx = p->hidx[1];
+            const double *cp = p->hcp[1], *sp = p->hsp[1], *amp = p->hamp[1], *ampn = p->hampn[1];
+            n = p->hn_int[1];
+            for (k = 0; k < n; k++) {
+                const double c = pc[idx[k]], s = ps[idx[k]];
+                e += amp[k] * (s * cp[k] + c * sp[k]);
+                d += ampn[k] * (c * cp[k] - s * sp[k]);
+            }
+        }
+        if (cog) {
+            const int32_t *idx = p->hidx[0];
+            const double *cp = p->hcp[0], *sp = p->hsp[0], *amp = p->hamp[0];
+            n = p->hn_int[0];
+            for (k = 0; k < n; k++)
+                cg += amp[k] * (ps[idx[k]] * cp[k] + pc[idx[k]] * sp[k]);
+        }
     }
+    if (te && p->has_te_out) {
+        const int32_t *idx = p->hidx[2];
+        const double *cp = p->hcp[2], *sp = p->hsp[2], *amp = p->hamp[2], *ampn = p->hampn[2];
+        HARM_POWERS(1, cl, sl);
+        n = p->hn_int[2];
+        for (k = 0; k < n; k++) {
+            const double c = pc[idx[k]], s = ps[idx[k]];
+            e += amp[k] * (s * cp[k] + c * sp[k]);
+            dl += ampn[k] * (c * cp[k] - s * sp[k]);
+        }
+    }
+    if (p->h_libm) {                     /* some order is not an integer */
+        double dd = 0.0;
+        if (te) e += harm_sum_libm(p, 1, th_m, &d) + harm_sum_libm(p, 2, th_l, &dl);
+        if (cog) cg += harm_sum_libm(p, 0, th_m, &dd);
+    }
+    *de_m = d;
+    *de_l = dl;
+    *tcog = cg;
     return e;
 }
 
 static double te_eval1(const hd_plant *p, double th_m, double th_l, double *de_m, double *de_l)
 {
-    return te_eval(p, th_m, cos(th_m), sin(th_m), th_l, cos(th_l), sin(th_l), de_m, de_l);
-}
-
-static double cogging(const hd_plant *p, double th_m, double cm, double sm)
-{
-    double d;
-    return p->prm.cogging_enabled ? harm_sum(p, 0, th_m, cm, sm, &d) : 0.0;
+    double tcog;
+    return harm_eval(p, th_m, cos(th_m), sin(th_m), th_l, cos(th_l), sin(th_l), de_m, de_l, &tcog);
 }
 
 static double cogging_energy(const hd_plant_params *q, double th_m)
@@ -443,7 +500,7 @@ static void pos_eval(const hd_plant *p, const xstate *x, double cm, double sm, d
 {
     const hd_plant_params *q = &p->prm;
     double Th = 0.0, phi;
-    pp->te = te_eval(p, x->th_m, cm, sm, x->th_l, cl, sl, &pp->de_m, &pp->de_l);
+    pp->te = harm_eval(p, x->th_m, cm, sm, x->th_l, cl, sl, &pp->de_m, &pp->de_l, &pp->Tcog);
     phi = x->th_m / q->ratio + pp->te - x->th_l;
     pp->phi = phi;
     if (q->maxwell_enabled) {
@@ -456,7 +513,6 @@ static void pos_eval(const hd_plant *p, const xstate *x, double cm, double sm, d
               - hd_plant_preisach_eval(&p->pz, p->everett, q->preisach_u_max_rad, phi, NULL);
     pp->Th = Th;
     pp->Tsh = spring_torque(p, phi) + Th;
-    pp->Tcog = cogging(p, x->th_m, cm, sm);
     pp->cl = cl;
     pp->sl = sl;
 }
@@ -544,7 +600,7 @@ static void end_eval(hd_plant *p)
         if (need_trig_l(p)) { cl = cos(x.th_l); sl = sin(x.th_l); }
         p->trig_n = 0;
     }
-    te = te_eval(p, x.th_m, cm, sm, x.th_l, cl, sl, &de_m, &de_l);
+    te = harm_eval(p, x.th_m, cm, sm, x.th_l, cl, sl, &de_m, &de_l, &p->end_Tcog);
     phi = x.th_m / q->ratio + te - x.th_l;
     if (q->maxwell_enabled) {
         for (k = 0; k < q->maxwell_n; k++) {
@@ -563,7 +619,6 @@ static void end_eval(hd_plant *p)
     p->end_phi = phi; p->end_te = te; p->end_de_m = de_m; p->end_de_l = de_l;
     p->end_Th = Th;
     p->end_Tsh = spring_torque(p, phi) + Th;
-    p->end_Tcog = cogging(p, x.th_m, cm, sm);
     p->end_cm = cm; p->end_sm = sm; p->end_cl = cl; p->end_sl = sl;
     p->end_valid = 1;
 }
@@ -669,6 +724,7 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
                             prm->preisach_r0_rad, prm->preisach_s_rad);
         hd_plant_preisach_reset(&p->pz, p->everett, prm->preisach_u_max_rad);
         p->preisach_kp = prm->preisach_t_sat_Nm / prm->preisach_u_max_rad;
+        pmean_table(p);
     }
     for (k = 0; k < 4; k++) p->rng[k] = splitmix64(&sm);
     zig_init(p->zig_x, p->zig_r);

@@ -41,6 +41,7 @@ extern "C" {
 #define HD_PLANT_MAX_MAXWELL  8   /* Maxwell-slip elements */
 #define HD_PLANT_PREISACH_L  32   /* Preisach input levels (Everett table L+1 x L+1) */
 #define HD_PLANT_PREISACH_STACK 80 /* memory depth (oldest pair merged when full) */
+#define HD_PLANT_POW_MAX (48 * HD_PLANT_MAX_HARM + 1) /* power-chain entries (24 per integer order <= 4096) */
 
 /* Error codes (negative) returned by the functions below. */
 #define HD_PLANT_OK        0
@@ -244,6 +245,8 @@ typedef struct {
     int32_t  harm_int[3][HD_PLANT_MAX_HARM];  /* integer order: evaluated by powers of one sincos */
     int32_t  has_te_out;
     double   preisach_kp;             /* t_sat/u_max */
+    double   preisach_pm[HD_PLANT_PREISACH_L + 1]; /* major-loop centre line at the grid nodes */
+    double   preisach_inv_du;         /* L/(2 u_max) */
     double   everett[(HD_PLANT_PREISACH_L + 1) * (HD_PLANT_PREISACH_L + 1)];
     /* continuous state */
     double   t;                       /* s */
@@ -265,9 +268,11 @@ typedef struct {
     hd_plant_output out;
     /* ---- internal caches of hd_plant.c (derived at init or memoised; no API) ---- */
     double   zig_x[129], zig_r[128];  /* Gaussian ziggurat tables (128 layers) */
-    int32_t  hn[3];                   /* active harmonics per list (cogging, TE wg, TE out) */
-    int32_t  hop[3][HD_PLANT_MAX_HARM], hi1[3][HD_PLANT_MAX_HARM], hi2[3][HD_PLANT_MAX_HARM];
-    uint32_t hord[3][HD_PLANT_MAX_HARM];
+    int32_t  hn[3], hn_int[3];        /* active harmonics per list (cogging, TE wg, TE out), integer-order ones */
+    int32_t  h_libm;                  /* some active order is not an integer */
+    int32_t  hidx[3][HD_PLANT_MAX_HARM];      /* power-chain entry of each harmonic (-1: libm) */
+    int32_t  pw_n[2], pw_a[2][HD_PLANT_POW_MAX], pw_b[2][HD_PLANT_POW_MAX]; /* chains: theta_m, theta_l */
+    uint32_t pw_ord[2][HD_PLANT_POW_MAX];
     double   hfo[3][HD_PLANT_MAX_HARM], hamp[3][HD_PLANT_MAX_HARM], hampn[3][HD_PLANT_MAX_HARM];
     double   hcp[3][HD_PLANT_MAX_HARM], hsp[3][HD_PLANT_MAX_HARM], hph[3][HD_PLANT_MAX_HARM];
     double   k_dt, k_h, k_E, k_Efac, k_gyro_a, k_gyro_sd, k_rot_c, k_rot_s, k_rot2_c, k_rot2_s; /* per-dt */
