@@ -360,44 +360,74 @@ static double cogging_energy(const hd_plant_params *q, double th_m)
     return e;
 }
 
+/* exp(-y), y >= 0, for side 0 (motor) / 1 (load): within STRIBECK_DY of the side's
+ * anchor ya, exp(-ya) * exp(-(y - ya)) with a Taylor polynomial of the small factor
+ * (terms to d^6, truncation < d^7/7! < 5e-17 relative for |d| <= 1/64); else libm,
+ * which re-anchors.  The anchor value always comes from libm, so the error stays
+ * at about one ulp and does not accumulate; successive RK stages move y by far less
+ * than 1/64 while the side turns slowly, which is where the Stribeck curve matters. */
+#define STRIBECK_DY 0.015625
+static double stribeck_exp(hd_plant *p, int side, double y)
+{
+    const double d = y - p->fr_ya[side];
+    if (d <= STRIBECK_DY && d >= -STRIBECK_DY)
+        return p->fr_ea[side] * (1.0 - d * (1.0 - d * (1.0 / 2.0) * (1.0 - d * (1.0 / 3.0) * (1.0 - d * (1.0 / 4.0)
+                                 * (1.0 - d * (1.0 / 5.0) * (1.0 - d * (1.0 / 6.0)))))));
+    if (y > 700.0) return 0.0;                                   /* avoid the slow underflow path */
+    p->fr_ya[side] = y;
+    p->fr_ea[side] = exp(-y);
+    return p->fr_ea[side];
+}
+
 /* Stribeck level g(v) > 0 for the direction of v (v == 0: positive side). */
-static double stribeck_g(const hd_plant_friction_params *f, double v)
+static double stribeck_g(hd_plant *p, int side, const hd_plant_friction_params *f, double v)
 {
     double fc = v < 0.0 ? f->fc_neg_Nm : f->fc_pos_Nm;
     double fs = v < 0.0 ? f->fs_neg_Nm : f->fs_pos_Nm;
-    double r = fabs(v) / f->vs_rad_s, e;
-    if (f->delta == 2.0) e = r * r > 700.0 ? 0.0 : exp(-r * r);   /* avoid the slow underflow path */
-    else if (f->delta == 1.0) e = r > 700.0 ? 0.0 : exp(-r);
+    double r = fabs(v) * p->fr_inv_vs[side], e;
+    if (f->delta == 2.0) e = stribeck_exp(p, side, r * r);
+    else if (f->delta == 1.0) e = stribeck_exp(p, side, r);
     else { double rp = pow(r, f->delta); e = rp > 700.0 ? 0.0 : exp(-rp); }
     return fc + (fs - fc) * e;
 }
 
-/* g(v) of side 0 (motor) / 1 (load), memoised on the last velocity (the end-of-step
- * evaluation and the next step's first stage share the velocity). */
+/* g(v) of side 0 (motor) / 1 (load) and its reciprocal, memoised on the last velocity
+ * (the end-of-step evaluation and the next step's first stage share the velocity). */
 static double stribeck_m(hd_plant *p, int side, const hd_plant_friction_params *f, double v)
 {
     if (v != p->fr_v[side]) {
         p->fr_v[side] = v;
-        p->fr_g[side] = stribeck_g(f, v);
+        p->fr_g[side] = stribeck_g(p, side, f, v);
+        p->fr_ig[side] = 1.0 / p->fr_g[side];
     }
     return p->fr_g[side];
 }
 
-/* LuGre: bristle state after time s at constant velocity v, from z0 (g = g(v)). */
-static double lugre_z(const hd_plant_friction_params *f, double z0, double v, double s, double g)
+/* LuGre: bristle state after time s at constant velocity v, from z0 (ig = 1/g(v)):
+ * z0*e^x + v*s*phi1(x), x = -sigma0*|v|*s/g, phi1(x) = expm1(x)/x.  For |x| <= 1/64
+ * phi1 by its Taylor series (terms to x^7/8!, truncation < 1e-20; no cancellation and
+ * no division), else expm1 (exp when e^x < 0.5, where it is as accurate). */
+#define LUGRE_XPOLY 0.015625
+static double lugre_z(const hd_plant_friction_params *f, double z0, double v, double s, double ig)
 {
-    double x = -f->sigma0_Nm_per_rad * fabs(v) * s / g, em1;
+    double x, em1;
     if (s == 0.0) return z0;
-    if (fabs(x) < 1e-8) return z0 * (1.0 + x) + v * s * (1.0 + 0.5 * x);
-    em1 = x < -40.0 ? -1.0 : (x < -0.7 ? exp(x) - 1.0 : expm1(x));   /* exp(x) < 0.5: no cancellation */
+    x = -f->sigma0_Nm_per_rad * fabs(v) * s * ig;
+    if (x >= -LUGRE_XPOLY) {
+        const double ph = 1.0 + x * (1.0 / 2.0) * (1.0 + x * (1.0 / 3.0) * (1.0 + x * (1.0 / 4.0) * (1.0 + x * (1.0 / 5.0)
+                          * (1.0 + x * (1.0 / 6.0) * (1.0 + x * (1.0 / 7.0) * (1.0 + x * (1.0 / 8.0)))))));
+        return z0 * (1.0 + x * ph) + v * s * ph;
+    }
+    em1 = x < -40.0 ? -1.0 : (x < -0.7 ? exp(x) - 1.0 : expm1(x));
     return z0 * (1.0 + em1) + v * s * (em1 / x);
 }
 
 static double lugre_force(hd_plant *p, int side, const hd_plant_friction_params *f, double z0, double v, double s)
 {
-    double g = stribeck_m(p, side, f, v);
-    double z = lugre_z(f, z0, v, s, g);
-    double zd = v - f->sigma0_Nm_per_rad * fabs(v) * z / g;
+    double z, zd;
+    (void)stribeck_m(p, side, f, v);
+    z = lugre_z(f, z0, v, s, p->fr_ig[side]);
+    zd = v - f->sigma0_Nm_per_rad * fabs(v) * z * p->fr_ig[side];
     return f->sigma0_Nm_per_rad * z + f->sigma1_Nms_per_rad * zd + f->viscous_Nms_per_rad * v;
 }
 
@@ -421,7 +451,7 @@ static double breakaway(const hd_plant_friction_params *f, double applied)
 typedef struct { double th_m, w_m, th_l, w_l; } xstate;
 
 typedef struct {           /* constants of one sub-step */
-    double t0, h;
+    double t0, h, inv_h;
     double tq_m;           /* Kt * mean current */
     double t_ext;          /* external load torque */
     double base_ext_angle0, base_ext_rate, base_ext_accel;
@@ -501,7 +531,7 @@ static void pos_eval(const hd_plant *p, const xstate *x, double cm, double sm, d
     const hd_plant_params *q = &p->prm;
     double Th = 0.0, phi;
     pp->te = harm_eval(p, x->th_m, cm, sm, x->th_l, cl, sl, &pp->de_m, &pp->de_l, &pp->Tcog);
-    phi = x->th_m / q->ratio + pp->te - x->th_l;
+    phi = x->th_m * p->inv_ratio + pp->te - x->th_l;
     pp->phi = phi;
     if (q->maxwell_enabled) {
         int k;
@@ -523,7 +553,7 @@ static void accel_eval(hd_plant *p, const substep_ctx *c, double s, int bi, cons
                        xstate *dx, eval_diag *dg)
 {
     const hd_plant_params *q = &p->prm;
-    double T = pp->Tsh, Fm = 0.0, Fl = 0.0, Tg = 0.0, appl_m, appl_l, a_b, invN = 1.0 / q->ratio;
+    double T = pp->Tsh, Fm = 0.0, Fl = 0.0, Tg = 0.0, appl_m, appl_l, a_b, invN = p->inv_ratio;
     a_b = c->ba[bi];
     if (q->stiffness_enabled || q->cubic_enabled)
         T += q->damping_Nms_per_rad * (x->w_m * (invN + pp->de_m) + x->w_l * (pp->de_l - 1.0));
@@ -601,7 +631,7 @@ static void end_eval(hd_plant *p)
         p->trig_n = 0;
     }
     te = harm_eval(p, x.th_m, cm, sm, x.th_l, cl, sl, &de_m, &de_l, &p->end_Tcog);
-    phi = x.th_m / q->ratio + te - x.th_l;
+    phi = x.th_m * p->inv_ratio + te - x.th_l;
     if (q->maxwell_enabled) {
         for (k = 0; k < q->maxwell_n; k++) {
             double kk = q->maxwell_k_Nm_per_rad[k], w = q->maxwell_w_Nm[k];
@@ -680,9 +710,11 @@ static void substep(hd_plant *p, const substep_ctx *c)
 
     /* LuGre bristles: exponential update with the mean velocity of the sub-step */
     if (q->fric_m.enabled && q->fric_m.lugre_enabled)
-        { double v = (p->th_m - x0.th_m) / h; p->z_m = lugre_z(&q->fric_m, p->z_m, v, h, stribeck_g(&q->fric_m, v)); }
+        { double v = (p->th_m - x0.th_m) * c->inv_h; (void)stribeck_m(p, 0, &q->fric_m, v);
+          p->z_m = lugre_z(&q->fric_m, p->z_m, v, h, p->fr_ig[0]); }
     if (q->fric_l.enabled && q->fric_l.lugre_enabled && !p->brake)
-        { double v = (p->th_l - x0.th_l) / h; p->z_l = lugre_z(&q->fric_l, p->z_l, v, h, stribeck_g(&q->fric_l, v)); }
+        { double v = (p->th_l - x0.th_l) * c->inv_h; (void)stribeck_m(p, 1, &q->fric_l, v);
+          p->z_l = lugre_z(&q->fric_l, p->z_l, v, h, p->fr_ig[1]); }
 
     /* stick/slip of the static friction model (applied torque at the end of the step) */
     stick_update(&q->fric_m, &p->stuck_m, x0.w_m, &p->w_m, dg.appl_m);
@@ -706,6 +738,7 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
         p->phi2 = p->phi1 + (prm->t2_Nm - prm->t1_Nm) / prm->k2_Nm_per_rad;
     }
     p->tau_i = 1.0 / (TWO_PI * prm->current_bandwidth_Hz);
+    p->inv_ratio = 1.0 / prm->ratio;      /* the RK stages multiply, they do not divide */
     for (k = 0; k < HD_PLANT_MAX_HARM; k++) {
         int l;
         const double *ord[3], *ph[3];
@@ -733,6 +766,10 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
     p->enc_scale[0] = ldexp(1.0, prm->enc_m_bits);
     p->enc_scale[1] = ldexp(1.0, prm->enc_l_bits);
     p->fr_v[0] = p->fr_v[1] = NAN;        /* no memoised friction level yet */
+    p->fr_ya[0] = p->fr_ya[1] = 0.0;      /* Stribeck exponential anchors: exp(-0) = 1 */
+    p->fr_ea[0] = p->fr_ea[1] = 1.0;
+    p->fr_inv_vs[0] = 1.0 / prm->fric_m.vs_rad_s;
+    p->fr_inv_vs[1] = 1.0 / prm->fric_l.vs_rad_s;
     p->k_dt = 0.0;
     p->end_valid = 0;
     return HD_PLANT_OK;
@@ -745,7 +782,7 @@ void hd_plant_set_state(hd_plant *p, double th_m, double w_m, double th_l, doubl
     p->th_m = th_m; p->w_m = w_m; p->th_l = th_l; p->w_l = w_l;
     p->stuck_m = p->stuck_l = 0;
     /* hysteresis memory: elements relaxed at the new twist */
-    phi = th_m / p->prm.ratio + te_eval1(p, th_m, th_l, &de_m, &de_l) - th_l;
+    phi = th_m * p->inv_ratio + te_eval1(p, th_m, th_l, &de_m, &de_l) - th_l;
     for (k = 0; k < HD_PLANT_MAX_MAXWELL; k++) p->xi[k] = phi;
     p->end_valid = 0;
 }
@@ -754,7 +791,7 @@ double hd_plant_energy(const hd_plant *p)
 {
     const hd_plant_params *q = &p->prm;
     double de_m, de_l;
-    double phi = p->th_m / q->ratio + te_eval1(p, p->th_m, p->th_l, &de_m, &de_l) - p->th_l;
+    double phi = p->th_m * p->inv_ratio + te_eval1(p, p->th_m, p->th_l, &de_m, &de_l) - p->th_l;
     double e = 0.5 * q->jm_kgm2 * p->w_m * p->w_m + 0.5 * q->jl_kgm2 * p->w_l * p->w_l;
     e += spring_energy(p, phi);
     e += cogging_energy(q, p->th_m);   /* T_cog = -dV/dtheta, V = sum a/n cos(...) */
@@ -800,6 +837,7 @@ static void period_constants(hd_plant *p, double dt_s)
     double h = dt_s / (double)q->substeps;
     p->k_dt = dt_s;
     p->k_h = h;
+    p->k_inv_h = 1.0 / h;
     p->k_E = q->current_loop_enabled ? exp(-h / p->tau_i) : 0.0;
     p->k_Efac = (p->tau_i / h) * (1.0 - p->k_E);
     p->k_gyro_a = -expm1(-dt_s * TWO_PI * q->gyro_bandwidth_Hz);
@@ -832,6 +870,7 @@ const hd_plant_output *hd_plant_step(hd_plant *p, const hd_plant_input *in, doub
     icmd = sat(icmd, lim);
 
     c.h = h;
+    c.inv_h = p->k_inv_h;
     c.t_ext = in->load_torque_Nm + p->faults.load_step_Nm;
     c.base_ext_rate = in->base_rate_rad_s;
     c.base_ext_accel = in->base_accel_rad_s2;

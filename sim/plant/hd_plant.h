@@ -241,6 +241,7 @@ typedef struct {
     /* derived */
     double   phi1, phi2;              /* three-slope breakpoints */
     double   tau_i;                   /* current-loop time constant */
+    double   inv_ratio;               /* 1/N */
     double   harm_cp[3][HD_PLANT_MAX_HARM], harm_sp[3][HD_PLANT_MAX_HARM]; /* cos/sin of phases */
     int32_t  harm_int[3][HD_PLANT_MAX_HARM];  /* integer order: evaluated by powers of one sincos */
     int32_t  has_te_out;
@@ -275,9 +276,11 @@ typedef struct {
     uint32_t pw_ord[2][HD_PLANT_POW_MAX];
     double   hfo[3][HD_PLANT_MAX_HARM], hamp[3][HD_PLANT_MAX_HARM], hampn[3][HD_PLANT_MAX_HARM];
     double   hcp[3][HD_PLANT_MAX_HARM], hsp[3][HD_PLANT_MAX_HARM], hph[3][HD_PLANT_MAX_HARM];
-    double   k_dt, k_h, k_E, k_Efac, k_gyro_a, k_gyro_sd, k_rot_c, k_rot_s, k_rot2_c, k_rot2_s; /* per-dt */
+    double   k_dt, k_h, k_inv_h, k_E, k_Efac, k_gyro_a, k_gyro_sd, k_rot_c, k_rot_s, k_rot2_c, k_rot2_s; /* per-dt */
     double   enc_scale[2];
-    double   fr_v[2], fr_g[2];        /* last Stribeck level g(v) per side */
+    double   fr_v[2], fr_g[2], fr_ig[2]; /* last Stribeck level g(v) per side, 1/g */
+    double   fr_ya[2], fr_ea[2];      /* Stribeck exponential anchor: y, exp(-y) from libm */
+    double   fr_inv_vs[2];            /* 1/vs per side */
     int32_t  end_valid;               /* end-of-sub-step evaluation below is current */
     double   end_th_m, end_th_l, end_phi, end_te, end_de_m, end_de_l, end_Tsh, end_Th, end_Tcog;
     double   end_cm, end_sm, end_cl, end_sl;
