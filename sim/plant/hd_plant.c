@@ -99,7 +99,7 @@ static double rng_gauss(hd_plant *p)
 
 /* cos/sin(x0 + d) from c0 = cos x0, s0 = sin x0: angle addition with a Taylor
  * polynomial of cos/sin d for small |d| (truncation < 1e-22), libm otherwise. */
-static void rot_small(double c0, double s0, double x, double d, double *c, double *s)
+static inline void rot_small(double c0, double s0, double x, double d, double *c, double *s)
 {
     double ad = fabs(d);
     if (ad < 2e-3) {
@@ -371,8 +371,8 @@ static double stribeck_exp(hd_plant *p, int side, double y)
 {
     const double d = y - p->fr_ya[side];
     if (d <= STRIBECK_DY && d >= -STRIBECK_DY)
-        return p->fr_ea[side] * (1.0 - d * (1.0 - d * (1.0 / 2.0) * (1.0 - d * (1.0 / 3.0) * (1.0 - d * (1.0 / 4.0)
-                                 * (1.0 - d * (1.0 / 5.0) * (1.0 - d * (1.0 / 6.0)))))));
+        return p->fr_ea[side] * (1.0 + d * (-1.0 + d * (1.0 / 2.0 + d * (-1.0 / 6.0 + d * (1.0 / 24.0
+                                 + d * (-1.0 / 120.0 + d * (1.0 / 720.0)))))));
     if (y > 700.0) return 0.0;                                   /* avoid the slow underflow path */
     p->fr_ya[side] = y;
     p->fr_ea[side] = exp(-y);
@@ -382,13 +382,13 @@ static double stribeck_exp(hd_plant *p, int side, double y)
 /* Stribeck level g(v) > 0 for the direction of v (v == 0: positive side). */
 static double stribeck_g(hd_plant *p, int side, const hd_plant_friction_params *f, double v)
 {
-    double fc = v < 0.0 ? f->fc_neg_Nm : f->fc_pos_Nm;
-    double fs = v < 0.0 ? f->fs_neg_Nm : f->fs_pos_Nm;
+    const int neg = v < 0.0;                 /* table look-up, no branch on the sign */
+    const double fc = p->fr_fc[side][neg], dfs = p->fr_dfs[side][neg];
     double r = fabs(v) * p->fr_inv_vs[side], e;
     if (f->delta == 2.0) e = stribeck_exp(p, side, r * r);
     else if (f->delta == 1.0) e = stribeck_exp(p, side, r);
     else { double rp = pow(r, f->delta); e = rp > 700.0 ? 0.0 : exp(-rp); }
-    return fc + (fs - fc) * e;
+    return fc + dfs * e;
 }
 
 /* g(v) of side 0 (motor) / 1 (load) and its reciprocal, memoised on the last velocity
@@ -414,8 +414,8 @@ static double lugre_z(const hd_plant_friction_params *f, double z0, double v, do
     if (s == 0.0) return z0;
     x = -f->sigma0_Nm_per_rad * fabs(v) * s * ig;
     if (x >= -LUGRE_XPOLY) {
-        const double ph = 1.0 + x * (1.0 / 2.0) * (1.0 + x * (1.0 / 3.0) * (1.0 + x * (1.0 / 4.0) * (1.0 + x * (1.0 / 5.0)
-                          * (1.0 + x * (1.0 / 6.0) * (1.0 + x * (1.0 / 7.0) * (1.0 + x * (1.0 / 8.0)))))));
+        const double ph = 1.0 + x * (1.0 / 2.0 + x * (1.0 / 6.0 + x * (1.0 / 24.0 + x * (1.0 / 120.0
+                          + x * (1.0 / 720.0 + x * (1.0 / 5040.0 + x * (1.0 / 40320.0)))))));
         return z0 * (1.0 + x * ph) + v * s * ph;
     }
     em1 = x < -40.0 ? -1.0 : (x < -0.7 ? exp(x) - 1.0 : expm1(x));
@@ -768,8 +768,14 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
     p->fr_v[0] = p->fr_v[1] = NAN;        /* no memoised friction level yet */
     p->fr_ya[0] = p->fr_ya[1] = 0.0;      /* Stribeck exponential anchors: exp(-0) = 1 */
     p->fr_ea[0] = p->fr_ea[1] = 1.0;
-    p->fr_inv_vs[0] = 1.0 / prm->fric_m.vs_rad_s;
-    p->fr_inv_vs[1] = 1.0 / prm->fric_l.vs_rad_s;
+    for (k = 0; k < 2; k++) {
+        const hd_plant_friction_params *f = k == 0 ? &prm->fric_m : &prm->fric_l;
+        p->fr_inv_vs[k] = 1.0 / f->vs_rad_s;
+        p->fr_fc[k][0] = f->fc_pos_Nm;
+        p->fr_fc[k][1] = f->fc_neg_Nm;
+        p->fr_dfs[k][0] = f->fs_pos_Nm - f->fc_pos_Nm;
+        p->fr_dfs[k][1] = f->fs_neg_Nm - f->fc_neg_Nm;
+    }
     p->k_dt = 0.0;
     p->end_valid = 0;
     return HD_PLANT_OK;

@@ -281,6 +281,7 @@ typedef struct {
     double   fr_v[2], fr_g[2], fr_ig[2]; /* last Stribeck level g(v) per side, 1/g */
     double   fr_ya[2], fr_ea[2];      /* Stribeck exponential anchor: y, exp(-y) from libm */
     double   fr_inv_vs[2];            /* 1/vs per side */
+    double   fr_fc[2][2], fr_dfs[2][2]; /* [side][v < 0]: Fc, Fs - Fc */
     int32_t  end_valid;               /* end-of-sub-step evaluation below is current */
     double   end_th_m, end_th_l, end_phi, end_te, end_de_m, end_de_l, end_Tsh, end_Th, end_Tcog;
     double   end_cm, end_sm, end_cl, end_sl;
