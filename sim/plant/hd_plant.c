@@ -461,6 +461,7 @@ typedef struct {           /* constants of one sub-step */
 
 typedef struct {           /* diagnostics of one evaluation */
     double phi, te, T, Th, Fm, Fl, Tcog, Tg, appl_m, appl_l, th_b, w_b;
+    double rest_m, rest_l;         /* applied torques without the motor torque, external load, base inertia */
 } eval_diag;
 
 typedef struct {           /* the velocity-independent part of one evaluation */
@@ -553,15 +554,17 @@ static void accel_eval(hd_plant *p, const substep_ctx *c, double s, int bi, cons
                        xstate *dx, eval_diag *dg)
 {
     const hd_plant_params *q = &p->prm;
-    double T = pp->Tsh, Fm = 0.0, Fl = 0.0, Tg = 0.0, appl_m, appl_l, a_b, invN = p->inv_ratio;
+    double T = pp->Tsh, Fm = 0.0, Fl = 0.0, Tg = 0.0, appl_m, appl_l, rest_m, rest_l, a_b, invN = p->inv_ratio;
     a_b = c->ba[bi];
     if (q->stiffness_enabled || q->cubic_enabled)
         T += q->damping_Nms_per_rad * (x->w_m * (invN + pp->de_m) + x->w_l * (pp->de_l - 1.0));
     /* cos(theta_l + theta_b + offset) by angle addition with the cached cos/sin of theta_b + offset */
     if (q->gravity_enabled) Tg = -q->mgl_Nm * (pp->cl * c->gc[bi] - pp->sl * c->gs[bi]);
 
-    appl_m = c->tq_m + pp->Tcog - T * (invN + pp->de_m) - q->jm_kgm2 * a_b;
-    appl_l = T * (1.0 - pp->de_l) + Tg + c->t_ext - q->jl_kgm2 * a_b;
+    rest_m = pp->Tcog - T * (invN + pp->de_m);
+    rest_l = T * (1.0 - pp->de_l) + Tg;
+    appl_m = c->tq_m + rest_m - q->jm_kgm2 * a_b;
+    appl_l = rest_l + c->t_ext - q->jl_kgm2 * a_b;
 
     /* motor side */
     if (q->fric_m.enabled) {
@@ -595,6 +598,7 @@ static void accel_eval(hd_plant *p, const substep_ctx *c, double s, int bi, cons
         dg->phi = pp->phi; dg->te = pp->te; dg->T = T; dg->Th = pp->Th; dg->Fm = Fm; dg->Fl = Fl;
         dg->Tcog = pp->Tcog; dg->Tg = Tg; dg->appl_m = appl_m; dg->appl_l = appl_l;
         dg->th_b = c->bth[bi]; dg->w_b = c->bw[bi];
+        dg->rest_m = rest_m; dg->rest_l = rest_l;
     }
 }
 
@@ -664,6 +668,33 @@ static void end_part(const hd_plant *p, pos_part *pp)
     pp->Tsh = p->end_Tsh; pp->Th = p->end_Th; pp->Tcog = p->end_Tcog; pp->cl = p->end_cl; pp->sl = p->end_sl;
 }
 
+/* First stage of a period's first sub-step from the end-of-period evaluation that
+ * hd_plant_step made for its outputs at the same state (same angles, velocities,
+ * bristles and committed hysteresis memory): only the motor torque, the external load
+ * and the base acceleration of the new period are applied again.  Not used with the
+ * static friction map, whose force depends on the applied torque (sticking). */
+static int k1_cached(const hd_plant *p, const xstate *x)
+{
+    return p->k1_valid && p->k1_ok && end_current(p) && p->k1_w_m == x->w_m && p->k1_w_l == x->w_l
+           && p->k1_brake == p->brake;
+}
+
+static void k1_from_cache(const hd_plant *p, const substep_ctx *c, const xstate *x, xstate *dx)
+{
+    const hd_plant_params *q = &p->prm;
+    const double a_b = c->ba[0];
+    const double appl_m = c->tq_m + p->k1_rest_m - q->jm_kgm2 * a_b;
+    const double appl_l = p->k1_rest_l + c->t_ext - q->jl_kgm2 * a_b;
+    dx->th_m = x->w_m;
+    dx->w_m = (appl_m - p->k1_Fm) / q->jm_kgm2;
+    if (p->brake) {
+        dx->th_l = 0.0; dx->w_l = 0.0;
+    } else {
+        dx->th_l = x->w_l;
+        dx->w_l = (appl_l - p->k1_Fl) / q->jl_kgm2;
+    }
+}
+
 static void axpy(xstate *o, const xstate *x, double a, const xstate *d)
 {
     o->th_m = x->th_m + a * d->th_m;
@@ -696,7 +727,9 @@ static void substep(hd_plant *p, const substep_ctx *c)
     if (!end_current(p)) end_eval(p);      /* first call, or the state was placed from outside */
     end_part(p, &pp);
     t0[0] = p->end_cm; t0[1] = p->end_sm; t0[2] = p->end_cl; t0[3] = p->end_sl;
-    accel_eval(p, c, 0.0, 0, &x0, &pp, &k1, NULL);
+    if (k1_cached(p, &x0)) k1_from_cache(p, c, &x0, &k1);
+    else accel_eval(p, c, 0.0, 0, &x0, &pp, &k1, NULL);
+    p->k1_valid = 0;
     axpy(&xt, &x0, 0.5 * h, &k1);
     stage(p, c, 0.5 * h, &x0, &xt, t0, &k2, NULL);
     axpy(&xt, &x0, 0.5 * h, &k2);
@@ -778,6 +811,8 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
     }
     p->k_dt = 0.0;
     p->end_valid = 0;
+    p->k1_valid = 0;
+    p->k1_ok = !(prm->fric_m.enabled && !prm->fric_m.lugre_enabled) && !(prm->fric_l.enabled && !prm->fric_l.lugre_enabled);
     return HD_PLANT_OK;
 }
 
@@ -906,6 +941,9 @@ const hd_plant_output *hd_plant_step(hd_plant *p, const hd_plant_input *in, doub
     if (!end_current(p)) end_eval(p);
     end_part(p, &pp);
     accel_eval(p, &c, 0.0, 2, &x, &pp, &dx, &dg);   /* bristles as committed; base at the end (point 2) */
+    p->k1_valid = 1;                                  /* the next period's first stage starts from here */
+    p->k1_rest_m = dg.rest_m; p->k1_rest_l = dg.rest_l; p->k1_Fm = dg.Fm; p->k1_Fl = dg.Fl;
+    p->k1_w_m = x.w_m; p->k1_w_l = x.w_l; p->k1_brake = p->brake;
 
     o->t_s = p->t;
     o->motor_angle_rad = p->th_m;

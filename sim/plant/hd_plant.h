@@ -286,6 +286,8 @@ typedef struct {
     double   end_th_m, end_th_l, end_phi, end_te, end_de_m, end_de_l, end_Tsh, end_Th, end_Tcog;
     double   end_cm, end_sm, end_cl, end_sl;
     int32_t  trig_n;                  /* end evaluations since cos/sin came from libm */
+    int32_t  k1_valid, k1_ok, k1_brake;  /* end-of-period evaluation reusable as the next first stage */
+    double   k1_rest_m, k1_rest_l, k1_Fm, k1_Fl, k1_w_m, k1_w_l;
     double   base_t, base_h, base_c, base_s, grav_a, grav_c, grav_s; /* base-generator / gravity phase */
 } hd_plant;
 
