@@ -132,15 +132,24 @@ class ParamInfo:
     kind: str
 
 
+_PARAM_TABLES: dict[int, tuple[ParamInfo, ...]] = {}
+
+
 def param_table() -> list[ParamInfo]:
-    """Every plant parameter the axis files and overrides may set."""
+    """Every plant parameter the axis files and overrides may set.
+
+    Read once per loaded library (the table is compiled in); each run's effect and
+    parameter look-ups would otherwise rebuild it (about 0.2 ms each).
+    """
     lib = load_library()
-    kinds = {0: "double", 1: "bool", 2: "int"}
-    out = []
-    for i in range(lib.hd_simlib_param_count()):
-        out.append(ParamInfo(lib.hd_simlib_param_name(i).decode(), lib.hd_simlib_param_unit(i).decode(),
-                             kinds.get(lib.hd_simlib_param_type(i), "?")))
-    return out
+    table = _PARAM_TABLES.get(id(lib))
+    if table is None:
+        kinds = {0: "double", 1: "bool", 2: "int"}
+        table = tuple(ParamInfo(lib.hd_simlib_param_name(i).decode(), lib.hd_simlib_param_unit(i).decode(),
+                                kinds.get(lib.hd_simlib_param_type(i), "?"))
+                      for i in range(lib.hd_simlib_param_count()))
+        _PARAM_TABLES[id(lib)] = table
+    return list(table)
 
 
 def effect_names() -> list[str]:

@@ -482,15 +482,20 @@ int hd_sim_check_diverged(const hd_sim_t *s, char *err, size_t errlen)
 
 int hd_sim_run(hd_sim_t *s, double *rows, char *err, size_t errlen)
 {
-    int64_t D = s->sc.log_decimation, j = 0;
+    int64_t D = s->sc.log_decimation, j = 0, m = s->k % D;   /* m = k mod D, counted (no division per period) */
     while (s->k < s->n_periods) {
-        int log = (s->k % D) == 0;
+        int log = m == 0;
+        if (++m == D) m = 0;
         hd_sim_step(s, log ? rows + j * HD_SIM_NCOL : NULL);
         /* every period, not only logged rows: a diverged plant must stop the run at once */
         if (hd_sim_check_diverged(s, err, errlen)) return -1;
         if (log) {
             const double *r = rows + j * HD_SIM_NCOL;
-            for (int32_t c = 0; c < HD_SIM_NCOL; c++) {
+            /* one check per row: the sum of the columns is finite unless a column is
+             * (or the sum overflows, which the column scan below then tells apart) */
+            double sum = 0.0;
+            for (int32_t c = 0; c < HD_SIM_NCOL; c++) sum += r[c];
+            for (int32_t c = 0; c < HD_SIM_NCOL && !isfinite(sum); c++) {
                 if (!isfinite(r[c])) {
                     sim_set_err(err, errlen, "%s: the simulation diverged at t = %.6g s (%s is not finite)",
                             s->sc.path, r[HD_COL_T], hd_sim_column_name(c, (int32_t)s->sc.mode));

@@ -99,7 +99,7 @@ static double rng_gauss(hd_plant *p)
 
 /* cos/sin(x0 + d) from c0 = cos x0, s0 = sin x0: angle addition with a Taylor
  * polynomial of cos/sin d for small |d| (truncation < 1e-22), libm otherwise. */
-static void rot_small(double c0, double s0, double x, double d, double *c, double *s)
+static inline void rot_small(double c0, double s0, double x, double d, double *c, double *s)
 {
     double ad = fabs(d);
     if (ad < 2e-3) {
@@ -132,11 +132,30 @@ static double sat(double x, double d) { return x > d ? d : (x < -d ? -d : x); }
  * P_mean(u) = E(u,-M) - E(M,u), M = u_max.  The gear's hysteresis torque is
  * P_mean(phi) - P[phi]: it has no single-valued (spring-like) part, so the
  * stiffness seen by a torque-twist test is the stiffness model's alone, and it
- * is dissipative (above the centre line on loading, below on unloading). */
+ * is dissipative (above the centre line on loading, below on unloading).
+ * With one argument on the grid's edge the interpolated Everett function is linear
+ * in the other inside each cell, so P_mean is piecewise linear on the grid: it is
+ * tabulated at the L+1 nodes at init (pmean_table) and interpolated here. */
+static void pmean_table(hd_plant *p)
+{
+    const double M = p->prm.preisach_u_max_rad, du = 2.0 * M / (double)HD_PLANT_PREISACH_L;
+    int i;
+    for (i = 0; i <= HD_PLANT_PREISACH_L; i++) {
+        const double u = i == HD_PLANT_PREISACH_L ? M : -M + (double)i * du;
+        p->preisach_pm[i] = hd_preisach_E(p->everett, M, u, -M) - hd_preisach_E(p->everett, M, M, u);
+    }
+    p->preisach_inv_du = (double)HD_PLANT_PREISACH_L / (2.0 * M);
+}
+
 static double preisach_mean(const hd_plant *p, const hd_plant_params *q, double phi)
 {
-    const double M = q->preisach_u_max_rad, u = sat(phi, M);
-    return hd_preisach_E(p->everett, M, u, -M) - hd_preisach_E(p->everett, M, M, u);
+    const double M = q->preisach_u_max_rad, x = (sat(phi, M) + M) * p->preisach_inv_du;
+    int i = (int)x;
+    double f;
+    if (i > HD_PLANT_PREISACH_L - 1) i = HD_PLANT_PREISACH_L - 1;
+    if (i < 0) i = 0;
+    f = x - (double)i;
+    return p->preisach_pm[i] + f * (p->preisach_pm[i + 1] - p->preisach_pm[i]);
 }
 
 static double sat_pot(double x, double d)   /* integral of sat_d from 0 to x */
@@ -169,127 +188,165 @@ static double spring_energy(const hd_plant *p, double phi)
     return e;
 }
 
-/* cos/sin(n*x) from c = cos x, s = sin x by binary powers of exp(i x). */
-static void cis_pow(double c, double s, uint32_t n, double *cn, double *sn)
+/* Harmonic lists (0 cogging, 1 TE wave generator, 2 TE output), compacted at init to
+ * the active entries.  Integer orders are evaluated from one cos/sin of the angle by a
+ * power chain shared by every list on that angle (chain 0: theta_m for cogging and
+ * the wave-generator TE, chain 1: theta_l for the output TE): entry 0 is e^{i theta},
+ * each later entry the product of two earlier ones (a square when both are the same),
+ * so e.g. orders 1, 2, 4, 36, 72 cost 7 complex products per evaluation instead of a
+ * binary power per harmonic.  Non-integer orders (hidx < 0) use libm sin/cos. */
+static int32_t pw_find(const hd_plant *p, int ch, uint32_t o)
 {
-    double rc = 1.0, rs = 0.0, bc = c, bs = s, t;
-    while (n != 0u) {
-        if (n & 1u) { t = rc * bc - rs * bs; rs = rc * bs + rs * bc; rc = t; }
-        n >>= 1;
-        if (n != 0u) { t = bc * bc - bs * bs; bs = 2.0 * bc * bs; bc = t; }
-    }
-    *cn = rc;
-    *sn = rs;
+    int32_t j;
+    for (j = 0; j < p->pw_n[ch]; j++)
+        if (p->pw_ord[ch][j] == o) return j;
+    return -1;
 }
 
-/* Harmonic lists (0 cogging, 1 TE wave generator, 2 TE output), compacted at init to
- * the active entries.  Integer orders are evaluated from one cos/sin of the angle:
- * op 1 = the angle itself, 2 = square of entry i1, 3 = product of entries i1, i2,
- * 4 = binary power (cis_pow); op 0 = non-integer order (libm sin/cos). */
-enum { H_SIN = 0, H_BASE = 1, H_SQ = 2, H_MUL = 3, H_POW = 4 };
+static int32_t pw_push(hd_plant *p, int ch, int32_t a, int32_t b)
+{
+    int32_t n = p->pw_n[ch];
+    p->pw_a[ch][n] = a;
+    p->pw_b[ch][n] = b;
+    p->pw_ord[ch][n] = p->pw_ord[ch][a] + p->pw_ord[ch][b];
+    p->pw_n[ch] = n + 1;
+    return n;
+}
+
+/* Entry of order o (1 <= o <= 4096), added with what it needs: a sum of two entries
+ * already there, else the binary method (o = 2*(o/2) or (o-1) + 1); at most 24 new
+ * entries per order, so HD_PLANT_POW_MAX always suffices. */
+static int32_t pw_add(hd_plant *p, int ch, uint32_t o)
+{
+    int32_t j, i2, e = pw_find(p, ch, o);
+    if (e >= 0) return e;
+    for (j = 0; j < p->pw_n[ch]; j++)
+        if (p->pw_ord[ch][j] < o && (i2 = pw_find(p, ch, o - p->pw_ord[ch][j])) >= 0) return pw_push(p, ch, j, i2);
+    if ((o & 1u) == 0u) { e = pw_add(p, ch, o / 2u); return pw_push(p, ch, e, e); }
+    e = pw_add(p, ch, o - 1u);
+    return pw_push(p, ch, e, 0);
+}
 
 static void harm_plan(hd_plant *p)
 {
     const hd_plant_params *q = &p->prm;
-    int l, k;
+    int l, k, ch;
+    for (ch = 0; ch < 2; ch++) {
+        p->pw_n[ch] = 1;
+        p->pw_ord[ch][0] = 1u;
+        p->pw_a[ch][0] = p->pw_b[ch][0] = 0;
+    }
     for (l = 0; l < 3; l++) {
         const double *ord = l == 0 ? q->cog_order : (l == 1 ? q->te_wg_order : q->te_out_order);
         const double *amp = l == 0 ? q->cog_amp_Nm : (l == 1 ? q->te_wg_amp_rad : q->te_out_amp_rad);
         const double *ph = l == 0 ? q->cog_phase_rad : (l == 1 ? q->te_wg_phase_rad : q->te_out_phase_rad);
-        int n = 0;
-        for (k = 0; k < HD_PLANT_MAX_HARM; k++) {
-            int j, i2, op;
-            uint32_t o;
-            if (ord[k] == 0.0 || amp[k] == 0.0) continue;
-            p->hfo[l][n] = ord[k];
-            p->hamp[l][n] = amp[k];
-            p->hampn[l][n] = amp[k] * ord[k];
-            p->hcp[l][n] = p->harm_cp[l][k];
-            p->hsp[l][n] = p->harm_sp[l][k];
-            p->hph[l][n] = ph[k];
-            p->hi1[l][n] = p->hi2[l][n] = 0;
-            if (!p->harm_int[l][k]) {
-                op = H_SIN;
-                o = 0u;
-            } else {
-                o = (uint32_t)ord[k];
-                op = o == 1u ? H_BASE : (o == 2u ? H_SQ : H_POW);
-                if (op == H_SQ) p->hi1[l][n] = -1;                  /* square of the angle itself */
-                for (j = 0; j < n && op == H_POW; j++)
-                    if (p->hop[l][j] != H_SIN && 2u * p->hord[l][j] == o) { op = H_SQ; p->hi1[l][n] = j; }
-                for (j = 0; j < n && op == H_POW; j++)
-                    for (i2 = 0; i2 <= j && op == H_POW; i2++)
-                        if (p->hop[l][j] != H_SIN && p->hop[l][i2] != H_SIN && p->hord[l][j] + p->hord[l][i2] == o)
-                            { op = H_MUL; p->hi1[l][n] = j; p->hi2[l][n] = i2; }
+        int n = 0, pass;
+        ch = l == 2 ? 1 : 0;
+        for (pass = 0; pass < 2; pass++) {         /* integer orders first, then the rest */
+            for (k = 0; k < HD_PLANT_MAX_HARM; k++) {
+                if (ord[k] == 0.0 || amp[k] == 0.0 || (p->harm_int[l][k] != 0) != (pass == 0)) continue;
+                p->hfo[l][n] = ord[k];
+                p->hamp[l][n] = amp[k];
+                p->hampn[l][n] = amp[k] * ord[k];
+                p->hcp[l][n] = p->harm_cp[l][k];
+                p->hsp[l][n] = p->harm_sp[l][k];
+                p->hph[l][n] = ph[k];
+                p->hidx[l][n] = pass == 0 ? pw_add(p, ch, (uint32_t)ord[k]) : -1;
+                n++;
             }
-            p->hop[l][n] = op;
-            p->hord[l][n] = o;
-            n++;
+            if (pass == 0) p->hn_int[l] = n;
         }
         p->hn[l] = n;
+        if (p->hn_int[l] < n) p->h_libm = 1;
     }
 }
 
-/* sum_k a_k*sin(n_k*th + p_k) and its derivative d/dth for list l; c1/s1 = cos/sin(th). */
-static double harm_sum(const hd_plant *p, int l, double th, double c1, double s1, double *dsum)
+/* Non-integer orders of list l (entries hn_int..hn-1) by libm, kept out of the
+ * arithmetic loops of harm_eval (no call there). */
+static double harm_sum_libm(const hd_plant *p, int l, double th, double *dsum)
 {
-    double pc[HD_PLANT_MAX_HARM], ps[HD_PLANT_MAX_HARM];
     double sum = 0.0, d = 0.0;
-    int k, n = p->hn[l];
-    for (k = 0; k < n; k++) {
-        double cb, sb, sn, cn;
-        switch (p->hop[l][k]) {
-        case H_BASE: cb = c1; sb = s1; break;
-        case H_SQ: {
-            double a = p->hi1[l][k] < 0 ? c1 : pc[p->hi1[l][k]], b = p->hi1[l][k] < 0 ? s1 : ps[p->hi1[l][k]];
-            cb = a * a - b * b; sb = 2.0 * a * b; break;
-        }
-        case H_MUL: {
-            double a = pc[p->hi1[l][k]], b = ps[p->hi1[l][k]], e = pc[p->hi2[l][k]], f = ps[p->hi2[l][k]];
-            cb = a * e - b * f; sb = a * f + b * e; break;
-        }
-        case H_POW: cis_pow(c1, s1, p->hord[l][k], &cb, &sb); break;
-        default:
-            sn = sin(p->hfo[l][k] * th + p->hph[l][k]);
-            cn = cos(p->hfo[l][k] * th + p->hph[l][k]);
-            pc[k] = ps[k] = 0.0;
-            sum += p->hamp[l][k] * sn;
-            d += p->hampn[l][k] * cn;
-            continue;
-        }
-        pc[k] = cb; ps[k] = sb;
-        sn = sb * p->hcp[l][k] + cb * p->hsp[l][k];
-        cn = cb * p->hcp[l][k] - sb * p->hsp[l][k];
-        sum += p->hamp[l][k] * sn;
-        d += p->hampn[l][k] * cn;
+    int32_t k;
+    for (k = p->hn_int[l]; k < p->hn[l]; k++) {
+        const double arg = p->hfo[l][k] * th + p->hph[l][k];
+        sum += p->hamp[l][k] * sin(arg);
+        d += p->hampn[l][k] * cos(arg);
     }
-    *dsum = d;
+    *dsum += d;
     return sum;
 }
 
-/* Kinematic TE and its partial derivatives w.r.t. theta_m and theta_l (cm, sm = cos, sin theta_m). */
-static double te_eval(const hd_plant *p, double th_m, double cm, double sm, double th_l, double cl, double sl,
-                      double *de_m, double *de_l)
+/* cos/sin of every entry of chain ch from c1 = cos, s1 = sin of the angle. */
+#define HARM_POWERS(ch, c1, s1)                                                    \
+    do {                                                                           \
+        const int32_t n_ = p->pw_n[ch], *ia_ = p->pw_a[ch], *ib_ = p->pw_b[ch];    \
+        int32_t j_;                                                                \
+        pc[0] = (c1);                                                              \
+        ps[0] = (s1);                                                              \
+        for (j_ = 1; j_ < n_; j_++) {                                              \
+            const double a_ = pc[ia_[j_]], b_ = ps[ia_[j_]];                       \
+            const double e_ = pc[ib_[j_]], f_ = ps[ib_[j_]];                       \
+            pc[j_] = a_ * e_ - b_ * f_;                                            \
+            ps[j_] = a_ * f_ + b_ * e_;                                            \
+        }                                                                          \
+    } while (0)
+
+/* Kinematic TE (both TE lists), its partial derivatives w.r.t. theta_m and theta_l,
+ * and the cogging torque (cm, sm = cos, sin theta_m; cl, sl = cos, sin theta_l).
+ * One power chain per angle serves every list on it; written out in one function
+ * (no calls on the integer-order path) because it runs at every RK stage. */
+static double harm_eval(const hd_plant *p, double th_m, double cm, double sm, double th_l, double cl, double sl,
+                        double *de_m, double *de_l, double *tcog)
 {
-    double e = 0.0;
-    *de_m = 0.0;
-    *de_l = 0.0;
-    if (p->prm.te_enabled) {
-        e = harm_sum(p, 1, th_m, cm, sm, de_m);
-        if (p->has_te_out) e += harm_sum(p, 2, th_l, cl, sl, de_l);
+    double pc[HD_PLANT_POW_MAX], ps[HD_PLANT_POW_MAX], e = 0.0, d = 0.0, dl = 0.0, cg = 0.0;
+    const int te = p->prm.te_enabled != 0, cog = p->prm.cogging_enabled != 0;
+    int32_t k, n;
+    if (te || cog) {
+        HARM_POWERS(0, cm, sm);
+        if (te) {
+            const int32_t *idx = p->hidx[1];
+            const double *cp = p->hcp[1], *sp = p->hsp[1], *amp = p->hamp[1], *ampn = p->hampn[1];
+            n = p->hn_int[1];
+            for (k = 0; k < n; k++) {
+                const double c = pc[idx[k]], s = ps[idx[k]];
+                e += amp[k] * (s * cp[k] + c * sp[k]);
+                d += ampn[k] * (c * cp[k] - s * sp[k]);
+            }
+        }
+        if (cog) {
+            const int32_t *idx = p->hidx[0];
+            const double *cp = p->hcp[0], *sp = p->hsp[0], *amp = p->hamp[0];
+            n = p->hn_int[0];
+            for (k = 0; k < n; k++)
+                cg += amp[k] * (ps[idx[k]] * cp[k] + pc[idx[k]] * sp[k]);
+        }
     }
+    if (te && p->has_te_out) {
+        const int32_t *idx = p->hidx[2];
+        const double *cp = p->hcp[2], *sp = p->hsp[2], *amp = p->hamp[2], *ampn = p->hampn[2];
+        HARM_POWERS(1, cl, sl);
+        n = p->hn_int[2];
+        for (k = 0; k < n; k++) {
+            const double c = pc[idx[k]], s = ps[idx[k]];
+            e += amp[k] * (s * cp[k] + c * sp[k]);
+            dl += ampn[k] * (c * cp[k] - s * sp[k]);
+        }
+    }
+    if (p->h_libm) {                     /* some order is not an integer */
+        double dd = 0.0;
+        if (te) e += harm_sum_libm(p, 1, th_m, &d) + harm_sum_libm(p, 2, th_l, &dl);
+        if (cog) cg += harm_sum_libm(p, 0, th_m, &dd);
+    }
+    *de_m = d;
+    *de_l = dl;
+    *tcog = cg;
     return e;
 }
 
 static double te_eval1(const hd_plant *p, double th_m, double th_l, double *de_m, double *de_l)
 {
-    return te_eval(p, th_m, cos(th_m), sin(th_m), th_l, cos(th_l), sin(th_l), de_m, de_l);
-}
-
-static double cogging(const hd_plant *p, double th_m, double cm, double sm)
-{
-    double d;
-    return p->prm.cogging_enabled ? harm_sum(p, 0, th_m, cm, sm, &d) : 0.0;
+    double tcog;
+    return harm_eval(p, th_m, cos(th_m), sin(th_m), th_l, cos(th_l), sin(th_l), de_m, de_l, &tcog);
 }
 
 static double cogging_energy(const hd_plant_params *q, double th_m)
@@ -303,44 +360,74 @@ static double cogging_energy(const hd_plant_params *q, double th_m)
     return e;
 }
 
-/* Stribeck level g(v) > 0 for the direction of v (v == 0: positive side). */
-static double stribeck_g(const hd_plant_friction_params *f, double v)
+/* exp(-y), y >= 0, for side 0 (motor) / 1 (load): within STRIBECK_DY of the side's
+ * anchor ya, exp(-ya) * exp(-(y - ya)) with a Taylor polynomial of the small factor
+ * (terms to d^6, truncation < d^7/7! < 5e-17 relative for |d| <= 1/64); else libm,
+ * which re-anchors.  The anchor value always comes from libm, so the error stays
+ * at about one ulp and does not accumulate; successive RK stages move y by far less
+ * than 1/64 while the side turns slowly, which is where the Stribeck curve matters. */
+#define STRIBECK_DY 0.015625
+static double stribeck_exp(hd_plant *p, int side, double y)
 {
-    double fc = v < 0.0 ? f->fc_neg_Nm : f->fc_pos_Nm;
-    double fs = v < 0.0 ? f->fs_neg_Nm : f->fs_pos_Nm;
-    double r = fabs(v) / f->vs_rad_s, e;
-    if (f->delta == 2.0) e = r * r > 700.0 ? 0.0 : exp(-r * r);   /* avoid the slow underflow path */
-    else if (f->delta == 1.0) e = r > 700.0 ? 0.0 : exp(-r);
-    else { double rp = pow(r, f->delta); e = rp > 700.0 ? 0.0 : exp(-rp); }
-    return fc + (fs - fc) * e;
+    const double d = y - p->fr_ya[side];
+    if (d <= STRIBECK_DY && d >= -STRIBECK_DY)
+        return p->fr_ea[side] * (1.0 + d * (-1.0 + d * (1.0 / 2.0 + d * (-1.0 / 6.0 + d * (1.0 / 24.0
+                                 + d * (-1.0 / 120.0 + d * (1.0 / 720.0)))))));
+    if (y > 700.0) return 0.0;                                   /* avoid the slow underflow path */
+    p->fr_ya[side] = y;
+    p->fr_ea[side] = exp(-y);
+    return p->fr_ea[side];
 }
 
-/* g(v) of side 0 (motor) / 1 (load), memoised on the last velocity (the end-of-step
- * evaluation and the next step's first stage share the velocity). */
+/* Stribeck level g(v) > 0 for the direction of v (v == 0: positive side). */
+static double stribeck_g(hd_plant *p, int side, const hd_plant_friction_params *f, double v)
+{
+    const int neg = v < 0.0;                 /* table look-up, no branch on the sign */
+    const double fc = p->fr_fc[side][neg], dfs = p->fr_dfs[side][neg];
+    double r = fabs(v) * p->fr_inv_vs[side], e;
+    if (f->delta == 2.0) e = stribeck_exp(p, side, r * r);
+    else if (f->delta == 1.0) e = stribeck_exp(p, side, r);
+    else { double rp = pow(r, f->delta); e = rp > 700.0 ? 0.0 : exp(-rp); }
+    return fc + dfs * e;
+}
+
+/* g(v) of side 0 (motor) / 1 (load) and its reciprocal, memoised on the last velocity
+ * (the end-of-step evaluation and the next step's first stage share the velocity). */
 static double stribeck_m(hd_plant *p, int side, const hd_plant_friction_params *f, double v)
 {
     if (v != p->fr_v[side]) {
         p->fr_v[side] = v;
-        p->fr_g[side] = stribeck_g(f, v);
+        p->fr_g[side] = stribeck_g(p, side, f, v);
+        p->fr_ig[side] = 1.0 / p->fr_g[side];
     }
     return p->fr_g[side];
 }
 
-/* LuGre: bristle state after time s at constant velocity v, from z0 (g = g(v)). */
-static double lugre_z(const hd_plant_friction_params *f, double z0, double v, double s, double g)
+/* LuGre: bristle state after time s at constant velocity v, from z0 (ig = 1/g(v)):
+ * z0*e^x + v*s*phi1(x), x = -sigma0*|v|*s/g, phi1(x) = expm1(x)/x.  For |x| <= 1/64
+ * phi1 by its Taylor series (terms to x^7/8!, truncation < 1e-20; no cancellation and
+ * no division), else expm1 (exp when e^x < 0.5, where it is as accurate). */
+#define LUGRE_XPOLY 0.015625
+static double lugre_z(const hd_plant_friction_params *f, double z0, double v, double s, double ig)
 {
-    double x = -f->sigma0_Nm_per_rad * fabs(v) * s / g, em1;
+    double x, em1;
     if (s == 0.0) return z0;
-    if (fabs(x) < 1e-8) return z0 * (1.0 + x) + v * s * (1.0 + 0.5 * x);
-    em1 = x < -40.0 ? -1.0 : (x < -0.7 ? exp(x) - 1.0 : expm1(x));   /* exp(x) < 0.5: no cancellation */
+    x = -f->sigma0_Nm_per_rad * fabs(v) * s * ig;
+    if (x >= -LUGRE_XPOLY) {
+        const double ph = 1.0 + x * (1.0 / 2.0 + x * (1.0 / 6.0 + x * (1.0 / 24.0 + x * (1.0 / 120.0
+                          + x * (1.0 / 720.0 + x * (1.0 / 5040.0 + x * (1.0 / 40320.0)))))));
+        return z0 * (1.0 + x * ph) + v * s * ph;
+    }
+    em1 = x < -40.0 ? -1.0 : (x < -0.7 ? exp(x) - 1.0 : expm1(x));
     return z0 * (1.0 + em1) + v * s * (em1 / x);
 }
 
 static double lugre_force(hd_plant *p, int side, const hd_plant_friction_params *f, double z0, double v, double s)
 {
-    double g = stribeck_m(p, side, f, v);
-    double z = lugre_z(f, z0, v, s, g);
-    double zd = v - f->sigma0_Nm_per_rad * fabs(v) * z / g;
+    double z, zd;
+    (void)stribeck_m(p, side, f, v);
+    z = lugre_z(f, z0, v, s, p->fr_ig[side]);
+    zd = v - f->sigma0_Nm_per_rad * fabs(v) * z * p->fr_ig[side];
     return f->sigma0_Nm_per_rad * z + f->sigma1_Nms_per_rad * zd + f->viscous_Nms_per_rad * v;
 }
 
@@ -364,7 +451,7 @@ static double breakaway(const hd_plant_friction_params *f, double applied)
 typedef struct { double th_m, w_m, th_l, w_l; } xstate;
 
 typedef struct {           /* constants of one sub-step */
-    double t0, h;
+    double t0, h, inv_h;
     double tq_m;           /* Kt * mean current */
     double t_ext;          /* external load torque */
     double base_ext_angle0, base_ext_rate, base_ext_accel;
@@ -374,6 +461,7 @@ typedef struct {           /* constants of one sub-step */
 
 typedef struct {           /* diagnostics of one evaluation */
     double phi, te, T, Th, Fm, Fl, Tcog, Tg, appl_m, appl_l, th_b, w_b;
+    double rest_m, rest_l;         /* applied torques without the motor torque, external load, base inertia */
 } eval_diag;
 
 typedef struct {           /* the velocity-independent part of one evaluation */
@@ -443,8 +531,8 @@ static void pos_eval(const hd_plant *p, const xstate *x, double cm, double sm, d
 {
     const hd_plant_params *q = &p->prm;
     double Th = 0.0, phi;
-    pp->te = te_eval(p, x->th_m, cm, sm, x->th_l, cl, sl, &pp->de_m, &pp->de_l);
-    phi = x->th_m / q->ratio + pp->te - x->th_l;
+    pp->te = harm_eval(p, x->th_m, cm, sm, x->th_l, cl, sl, &pp->de_m, &pp->de_l, &pp->Tcog);
+    phi = x->th_m * p->inv_ratio + pp->te - x->th_l;
     pp->phi = phi;
     if (q->maxwell_enabled) {
         int k;
@@ -456,7 +544,6 @@ static void pos_eval(const hd_plant *p, const xstate *x, double cm, double sm, d
               - hd_plant_preisach_eval(&p->pz, p->everett, q->preisach_u_max_rad, phi, NULL);
     pp->Th = Th;
     pp->Tsh = spring_torque(p, phi) + Th;
-    pp->Tcog = cogging(p, x->th_m, cm, sm);
     pp->cl = cl;
     pp->sl = sl;
 }
@@ -467,15 +554,17 @@ static void accel_eval(hd_plant *p, const substep_ctx *c, double s, int bi, cons
                        xstate *dx, eval_diag *dg)
 {
     const hd_plant_params *q = &p->prm;
-    double T = pp->Tsh, Fm = 0.0, Fl = 0.0, Tg = 0.0, appl_m, appl_l, a_b, invN = 1.0 / q->ratio;
+    double T = pp->Tsh, Fm = 0.0, Fl = 0.0, Tg = 0.0, appl_m, appl_l, rest_m, rest_l, a_b, invN = p->inv_ratio;
     a_b = c->ba[bi];
     if (q->stiffness_enabled || q->cubic_enabled)
         T += q->damping_Nms_per_rad * (x->w_m * (invN + pp->de_m) + x->w_l * (pp->de_l - 1.0));
     /* cos(theta_l + theta_b + offset) by angle addition with the cached cos/sin of theta_b + offset */
     if (q->gravity_enabled) Tg = -q->mgl_Nm * (pp->cl * c->gc[bi] - pp->sl * c->gs[bi]);
 
-    appl_m = c->tq_m + pp->Tcog - T * (invN + pp->de_m) - q->jm_kgm2 * a_b;
-    appl_l = T * (1.0 - pp->de_l) + Tg + c->t_ext - q->jl_kgm2 * a_b;
+    rest_m = pp->Tcog - T * (invN + pp->de_m);
+    rest_l = T * (1.0 - pp->de_l) + Tg;
+    appl_m = c->tq_m + rest_m - q->jm_kgm2 * a_b;
+    appl_l = rest_l + c->t_ext - q->jl_kgm2 * a_b;
 
     /* motor side */
     if (q->fric_m.enabled) {
@@ -509,6 +598,7 @@ static void accel_eval(hd_plant *p, const substep_ctx *c, double s, int bi, cons
         dg->phi = pp->phi; dg->te = pp->te; dg->T = T; dg->Th = pp->Th; dg->Fm = Fm; dg->Fl = Fl;
         dg->Tcog = pp->Tcog; dg->Tg = Tg; dg->appl_m = appl_m; dg->appl_l = appl_l;
         dg->th_b = c->bth[bi]; dg->w_b = c->bw[bi];
+        dg->rest_m = rest_m; dg->rest_l = rest_l;
     }
 }
 
@@ -544,8 +634,8 @@ static void end_eval(hd_plant *p)
         if (need_trig_l(p)) { cl = cos(x.th_l); sl = sin(x.th_l); }
         p->trig_n = 0;
     }
-    te = te_eval(p, x.th_m, cm, sm, x.th_l, cl, sl, &de_m, &de_l);
-    phi = x.th_m / q->ratio + te - x.th_l;
+    te = harm_eval(p, x.th_m, cm, sm, x.th_l, cl, sl, &de_m, &de_l, &p->end_Tcog);
+    phi = x.th_m * p->inv_ratio + te - x.th_l;
     if (q->maxwell_enabled) {
         for (k = 0; k < q->maxwell_n; k++) {
             double kk = q->maxwell_k_Nm_per_rad[k], w = q->maxwell_w_Nm[k];
@@ -563,7 +653,6 @@ static void end_eval(hd_plant *p)
     p->end_phi = phi; p->end_te = te; p->end_de_m = de_m; p->end_de_l = de_l;
     p->end_Th = Th;
     p->end_Tsh = spring_torque(p, phi) + Th;
-    p->end_Tcog = cogging(p, x.th_m, cm, sm);
     p->end_cm = cm; p->end_sm = sm; p->end_cl = cl; p->end_sl = sl;
     p->end_valid = 1;
 }
@@ -577,6 +666,33 @@ static void end_part(const hd_plant *p, pos_part *pp)
 {
     pp->phi = p->end_phi; pp->te = p->end_te; pp->de_m = p->end_de_m; pp->de_l = p->end_de_l;
     pp->Tsh = p->end_Tsh; pp->Th = p->end_Th; pp->Tcog = p->end_Tcog; pp->cl = p->end_cl; pp->sl = p->end_sl;
+}
+
+/* First stage of a period's first sub-step from the end-of-period evaluation that
+ * hd_plant_step made for its outputs at the same state (same angles, velocities,
+ * bristles and committed hysteresis memory): only the motor torque, the external load
+ * and the base acceleration of the new period are applied again.  Not used with the
+ * static friction map, whose force depends on the applied torque (sticking). */
+static int k1_cached(const hd_plant *p, const xstate *x)
+{
+    return p->k1_valid && p->k1_ok && end_current(p) && p->k1_w_m == x->w_m && p->k1_w_l == x->w_l
+           && p->k1_brake == p->brake;
+}
+
+static void k1_from_cache(const hd_plant *p, const substep_ctx *c, const xstate *x, xstate *dx)
+{
+    const hd_plant_params *q = &p->prm;
+    const double a_b = c->ba[0];
+    const double appl_m = c->tq_m + p->k1_rest_m - q->jm_kgm2 * a_b;
+    const double appl_l = p->k1_rest_l + c->t_ext - q->jl_kgm2 * a_b;
+    dx->th_m = x->w_m;
+    dx->w_m = (appl_m - p->k1_Fm) / q->jm_kgm2;
+    if (p->brake) {
+        dx->th_l = 0.0; dx->w_l = 0.0;
+    } else {
+        dx->th_l = x->w_l;
+        dx->w_l = (appl_l - p->k1_Fl) / q->jl_kgm2;
+    }
 }
 
 static void axpy(xstate *o, const xstate *x, double a, const xstate *d)
@@ -611,7 +727,9 @@ static void substep(hd_plant *p, const substep_ctx *c)
     if (!end_current(p)) end_eval(p);      /* first call, or the state was placed from outside */
     end_part(p, &pp);
     t0[0] = p->end_cm; t0[1] = p->end_sm; t0[2] = p->end_cl; t0[3] = p->end_sl;
-    accel_eval(p, c, 0.0, 0, &x0, &pp, &k1, NULL);
+    if (k1_cached(p, &x0)) k1_from_cache(p, c, &x0, &k1);
+    else accel_eval(p, c, 0.0, 0, &x0, &pp, &k1, NULL);
+    p->k1_valid = 0;
     axpy(&xt, &x0, 0.5 * h, &k1);
     stage(p, c, 0.5 * h, &x0, &xt, t0, &k2, NULL);
     axpy(&xt, &x0, 0.5 * h, &k2);
@@ -625,9 +743,11 @@ static void substep(hd_plant *p, const substep_ctx *c)
 
     /* LuGre bristles: exponential update with the mean velocity of the sub-step */
     if (q->fric_m.enabled && q->fric_m.lugre_enabled)
-        { double v = (p->th_m - x0.th_m) / h; p->z_m = lugre_z(&q->fric_m, p->z_m, v, h, stribeck_g(&q->fric_m, v)); }
+        { double v = (p->th_m - x0.th_m) * c->inv_h; (void)stribeck_m(p, 0, &q->fric_m, v);
+          p->z_m = lugre_z(&q->fric_m, p->z_m, v, h, p->fr_ig[0]); }
     if (q->fric_l.enabled && q->fric_l.lugre_enabled && !p->brake)
-        { double v = (p->th_l - x0.th_l) / h; p->z_l = lugre_z(&q->fric_l, p->z_l, v, h, stribeck_g(&q->fric_l, v)); }
+        { double v = (p->th_l - x0.th_l) * c->inv_h; (void)stribeck_m(p, 1, &q->fric_l, v);
+          p->z_l = lugre_z(&q->fric_l, p->z_l, v, h, p->fr_ig[1]); }
 
     /* stick/slip of the static friction model (applied torque at the end of the step) */
     stick_update(&q->fric_m, &p->stuck_m, x0.w_m, &p->w_m, dg.appl_m);
@@ -651,6 +771,7 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
         p->phi2 = p->phi1 + (prm->t2_Nm - prm->t1_Nm) / prm->k2_Nm_per_rad;
     }
     p->tau_i = 1.0 / (TWO_PI * prm->current_bandwidth_Hz);
+    p->inv_ratio = 1.0 / prm->ratio;      /* the RK stages multiply, they do not divide */
     for (k = 0; k < HD_PLANT_MAX_HARM; k++) {
         int l;
         const double *ord[3], *ph[3];
@@ -669,6 +790,7 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
                             prm->preisach_r0_rad, prm->preisach_s_rad);
         hd_plant_preisach_reset(&p->pz, p->everett, prm->preisach_u_max_rad);
         p->preisach_kp = prm->preisach_t_sat_Nm / prm->preisach_u_max_rad;
+        pmean_table(p);
     }
     for (k = 0; k < 4; k++) p->rng[k] = splitmix64(&sm);
     zig_init(p->zig_x, p->zig_r);
@@ -677,8 +799,20 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
     p->enc_scale[0] = ldexp(1.0, prm->enc_m_bits);
     p->enc_scale[1] = ldexp(1.0, prm->enc_l_bits);
     p->fr_v[0] = p->fr_v[1] = NAN;        /* no memoised friction level yet */
+    p->fr_ya[0] = p->fr_ya[1] = 0.0;      /* Stribeck exponential anchors: exp(-0) = 1 */
+    p->fr_ea[0] = p->fr_ea[1] = 1.0;
+    for (k = 0; k < 2; k++) {
+        const hd_plant_friction_params *f = k == 0 ? &prm->fric_m : &prm->fric_l;
+        p->fr_inv_vs[k] = 1.0 / f->vs_rad_s;
+        p->fr_fc[k][0] = f->fc_pos_Nm;
+        p->fr_fc[k][1] = f->fc_neg_Nm;
+        p->fr_dfs[k][0] = f->fs_pos_Nm - f->fc_pos_Nm;
+        p->fr_dfs[k][1] = f->fs_neg_Nm - f->fc_neg_Nm;
+    }
     p->k_dt = 0.0;
     p->end_valid = 0;
+    p->k1_valid = 0;
+    p->k1_ok = !(prm->fric_m.enabled && !prm->fric_m.lugre_enabled) && !(prm->fric_l.enabled && !prm->fric_l.lugre_enabled);
     return HD_PLANT_OK;
 }
 
@@ -689,7 +823,7 @@ void hd_plant_set_state(hd_plant *p, double th_m, double w_m, double th_l, doubl
     p->th_m = th_m; p->w_m = w_m; p->th_l = th_l; p->w_l = w_l;
     p->stuck_m = p->stuck_l = 0;
     /* hysteresis memory: elements relaxed at the new twist */
-    phi = th_m / p->prm.ratio + te_eval1(p, th_m, th_l, &de_m, &de_l) - th_l;
+    phi = th_m * p->inv_ratio + te_eval1(p, th_m, th_l, &de_m, &de_l) - th_l;
     for (k = 0; k < HD_PLANT_MAX_MAXWELL; k++) p->xi[k] = phi;
     p->end_valid = 0;
 }
@@ -698,7 +832,7 @@ double hd_plant_energy(const hd_plant *p)
 {
     const hd_plant_params *q = &p->prm;
     double de_m, de_l;
-    double phi = p->th_m / q->ratio + te_eval1(p, p->th_m, p->th_l, &de_m, &de_l) - p->th_l;
+    double phi = p->th_m * p->inv_ratio + te_eval1(p, p->th_m, p->th_l, &de_m, &de_l) - p->th_l;
     double e = 0.5 * q->jm_kgm2 * p->w_m * p->w_m + 0.5 * q->jl_kgm2 * p->w_l * p->w_l;
     e += spring_energy(p, phi);
     e += cogging_energy(q, p->th_m);   /* T_cog = -dV/dtheta, V = sum a/n cos(...) */
@@ -745,6 +879,7 @@ static void period_constants(hd_plant *p, double dt_s)
     double h = dt_s / (double)q->substeps;
     p->k_dt = dt_s;
     p->k_h = h;
+    p->k_inv_h = 1.0 / h;
     p->k_E = q->current_loop_enabled ? exp(-h / p->tau_i) : 0.0;
     p->k_Efac = (p->tau_i / h) * (1.0 - p->k_E);
     p->k_gyro_a = -expm1(-dt_s * TWO_PI * q->gyro_bandwidth_Hz);
@@ -780,6 +915,7 @@ const hd_plant_output *hd_plant_step(hd_plant *p, const hd_plant_input *in, doub
     icmd = sat(icmd, lim);
 
     c.h = h;
+    c.inv_h = p->k_inv_h;
     c.t_ext = in->load_torque_Nm + p->faults.load_step_Nm;
     c.base_ext_rate = in->base_rate_rad_s;
     c.base_ext_accel = in->base_accel_rad_s2;
@@ -813,6 +949,9 @@ const hd_plant_output *hd_plant_step(hd_plant *p, const hd_plant_input *in, doub
     if (!end_current(p)) end_eval(p);
     end_part(p, &pp);
     accel_eval(p, &c, 0.0, 2, &x, &pp, &dx, &dg);   /* bristles as committed; base at the end (point 2) */
+    p->k1_valid = 1;                                  /* the next period's first stage starts from here */
+    p->k1_rest_m = dg.rest_m; p->k1_rest_l = dg.rest_l; p->k1_Fm = dg.Fm; p->k1_Fl = dg.Fl;
+    p->k1_w_m = x.w_m; p->k1_w_l = x.w_l; p->k1_brake = p->brake;
 
     o->t_s = p->t;
     o->motor_angle_rad = p->th_m;

@@ -41,6 +41,7 @@ extern "C" {
 #define HD_PLANT_MAX_MAXWELL  8   /* Maxwell-slip elements */
 #define HD_PLANT_PREISACH_L  32   /* Preisach input levels (Everett table L+1 x L+1) */
 #define HD_PLANT_PREISACH_STACK 80 /* memory depth (oldest pair merged when full) */
+#define HD_PLANT_POW_MAX (48 * HD_PLANT_MAX_HARM + 1) /* power-chain entries (24 per integer order <= 4096) */
 
 /* Error codes (negative) returned by the functions below. */
 #define HD_PLANT_OK        0
@@ -240,10 +241,13 @@ typedef struct {
     /* derived */
     double   phi1, phi2;              /* three-slope breakpoints */
     double   tau_i;                   /* current-loop time constant */
+    double   inv_ratio;               /* 1/N */
     double   harm_cp[3][HD_PLANT_MAX_HARM], harm_sp[3][HD_PLANT_MAX_HARM]; /* cos/sin of phases */
     int32_t  harm_int[3][HD_PLANT_MAX_HARM];  /* integer order: evaluated by powers of one sincos */
     int32_t  has_te_out;
     double   preisach_kp;             /* t_sat/u_max */
+    double   preisach_pm[HD_PLANT_PREISACH_L + 1]; /* major-loop centre line at the grid nodes */
+    double   preisach_inv_du;         /* L/(2 u_max) */
     double   everett[(HD_PLANT_PREISACH_L + 1) * (HD_PLANT_PREISACH_L + 1)];
     /* continuous state */
     double   t;                       /* s */
@@ -266,18 +270,25 @@ typedef struct {
     int32_t  diverged;                /* the state became non-finite (hd_plant_diverged) */
     /* ---- internal caches of hd_plant.c (derived at init or memoised; no API) ---- */
     double   zig_x[129], zig_r[128];  /* Gaussian ziggurat tables (128 layers) */
-    int32_t  hn[3];                   /* active harmonics per list (cogging, TE wg, TE out) */
-    int32_t  hop[3][HD_PLANT_MAX_HARM], hi1[3][HD_PLANT_MAX_HARM], hi2[3][HD_PLANT_MAX_HARM];
-    uint32_t hord[3][HD_PLANT_MAX_HARM];
+    int32_t  hn[3], hn_int[3];        /* active harmonics per list (cogging, TE wg, TE out), integer-order ones */
+    int32_t  h_libm;                  /* some active order is not an integer */
+    int32_t  hidx[3][HD_PLANT_MAX_HARM];      /* power-chain entry of each harmonic (-1: libm) */
+    int32_t  pw_n[2], pw_a[2][HD_PLANT_POW_MAX], pw_b[2][HD_PLANT_POW_MAX]; /* chains: theta_m, theta_l */
+    uint32_t pw_ord[2][HD_PLANT_POW_MAX];
     double   hfo[3][HD_PLANT_MAX_HARM], hamp[3][HD_PLANT_MAX_HARM], hampn[3][HD_PLANT_MAX_HARM];
     double   hcp[3][HD_PLANT_MAX_HARM], hsp[3][HD_PLANT_MAX_HARM], hph[3][HD_PLANT_MAX_HARM];
-    double   k_dt, k_h, k_E, k_Efac, k_gyro_a, k_gyro_sd, k_rot_c, k_rot_s, k_rot2_c, k_rot2_s; /* per-dt */
+    double   k_dt, k_h, k_inv_h, k_E, k_Efac, k_gyro_a, k_gyro_sd, k_rot_c, k_rot_s, k_rot2_c, k_rot2_s; /* per-dt */
     double   enc_scale[2];
-    double   fr_v[2], fr_g[2];        /* last Stribeck level g(v) per side */
+    double   fr_v[2], fr_g[2], fr_ig[2]; /* last Stribeck level g(v) per side, 1/g */
+    double   fr_ya[2], fr_ea[2];      /* Stribeck exponential anchor: y, exp(-y) from libm */
+    double   fr_inv_vs[2];            /* 1/vs per side */
+    double   fr_fc[2][2], fr_dfs[2][2]; /* [side][v < 0]: Fc, Fs - Fc */
     int32_t  end_valid;               /* end-of-sub-step evaluation below is current */
     double   end_th_m, end_th_l, end_phi, end_te, end_de_m, end_de_l, end_Tsh, end_Th, end_Tcog;
     double   end_cm, end_sm, end_cl, end_sl;
     int32_t  trig_n;                  /* end evaluations since cos/sin came from libm */
+    int32_t  k1_valid, k1_ok, k1_brake;  /* end-of-period evaluation reusable as the next first stage */
+    double   k1_rest_m, k1_rest_l, k1_Fm, k1_Fl, k1_w_m, k1_w_l;
     double   base_t, base_h, base_c, base_s, grav_a, grav_c, grav_s; /* base-generator / gravity phase */
 } hd_plant;
 

@@ -39,8 +39,8 @@ void hd_plant_preisach_everett(double *E, double u_max, double t_sat, double r0,
 
 double hd_preisach_E(const double *E, double u_max, double alpha, double beta)
 {
-    double du = 2.0 * u_max / (double)L;
-    double xa = (alpha + u_max) / du, xb = (beta + u_max) / du, fa, fb;
+    const double inv_du = (double)L / (2.0 * u_max);   /* one division instead of two */
+    double xa = (alpha + u_max) * inv_du, xb = (beta + u_max) * inv_du, fa, fb;
     int ia, ib;
     /* a diverged plant hands in NaN: no table cell belongs to it, and converting
      * NaN to int is undefined, so it propagates as NaN for the harness to report */

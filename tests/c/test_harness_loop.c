@@ -109,6 +109,49 @@ static void test_bridge_rounds_and_saturates(void **state)
     assert_true(hd_bridge_from_q16(65536) == 1.0);
 }
 
+/* hd_sim_run: logged rows every log_decimation periods (t = j * D * dt), and a run whose
+ * state stops being finite ends with one error naming the time and the column. */
+static void test_run_decimation_and_divergence(void **state)
+{
+    (void)state;
+    static const char *DEC =
+        "[scenario]\nduration_s = 0.01\nseed = 5\nlog_decimation = 3\n"
+        "[controller]\nmode = \"position\"\n"
+        "[setpoint]\ntype = \"step\"\namplitude_rad = 1e-3\nt0_s = 0.002\n";
+    /* a load inertia far below what one 100 us RK4 step can integrate: unstable, so the
+     * states overflow to inf/NaN within a few ms (Preisach off: its table index needs a
+     * finite twist) */
+    static const char *DIVERGE =
+        "[scenario]\nduration_s = 0.05\nseed = 5\nlog_decimation = 2\n"
+        "[controller]\nmode = \"position\"\n"
+        "[setpoint]\ntype = \"step\"\namplitude_rad = 1e-3\nt0_s = 0.0\n"
+        "[plant]\nload.jl_kgm2 = 1e-9\nhysteresis_preisach.enabled = false\n";
+    int64_t n;
+    double *r = run(DEC, NULL, &n);
+    assert_int_equal(n, 34);                          /* periods 0, 3, ..., 99 */
+    for (int64_t j = 0; j < n; j++) assert_true(fabs(r[j * HD_SIM_NCOL + HD_COL_T] - (double)(3 * j) * 1e-4) < 1e-12);
+    free(r);
+
+    hd_scenario_t *sc = malloc(sizeof *sc);
+    hd_plant_params prm;
+    char err[512];
+    assert_non_null(sc);
+    assert_int_equal(hd_scenario_parse(DIVERGE, strlen(DIVERGE), "diverge.toml", sc, err, sizeof err), 0);
+    assert_int_equal(hd_sim_scenario_params(sc, &prm, err, sizeof err), 0);
+    hd_sim_t *s = hd_sim_new(sc, &prm, err, sizeof err);
+    assert_non_null(s);
+    n = hd_sim_n_rows(s);
+    r = calloc((size_t)n * HD_SIM_NCOL, sizeof *r);
+    assert_non_null(r);
+    err[0] = '\0';
+    assert_int_equal(hd_sim_run(s, r, err, sizeof err), -1);
+    assert_non_null(strstr(err, "diverge.toml: the simulation diverged at t = "));
+    assert_non_null(strstr(err, " is not finite)"));
+    free(r);
+    free(sc);
+    hd_sim_free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -116,6 +159,7 @@ int main(void)
         cmocka_unit_test(test_rerun_is_bit_identical),
         cmocka_unit_test(test_glitch_reaches_app),
         cmocka_unit_test(test_bridge_rounds_and_saturates),
+        cmocka_unit_test(test_run_decimation_and_divergence),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

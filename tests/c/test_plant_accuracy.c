@@ -1,0 +1,236 @@
+/*
+ * test_plant_accuracy.c - simulated axis: the fast evaluation paths against libm and
+ * the one-sub-step integrator against a reference run with 16 sub-steps, every effect on
+ * (docs/plant.md, "Integrator" and "Verification").
+ */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <math.h>
+#include <cmocka.h>
+
+#include "hd_plant.h"
+
+#define PI 3.14159265358979323846
+
+static hd_plant *new_plant(const hd_plant_params *prm, uint64_t seed)
+{
+    hd_plant *p = calloc(1, sizeof *p);
+    char msg[200] = "";
+    int rc;
+    assert_non_null(p);
+    rc = hd_plant_init(p, prm, seed, msg, sizeof msg);
+    if (rc != 0) fprintf(stderr, "init: %s\n", msg);
+    assert_int_equal(rc, 0);
+    return p;
+}
+
+/* The reference axis with every effect on (cubic stiffness too) and 0.5 deg base rocking at 1 Hz. */
+static void every_effect(hd_plant_params *prm)
+{
+    hd_plant_defaults_reference(prm);
+    prm->cubic_enabled = 1;
+    prm->base_enabled = 1;
+    prm->base_amp_rad = 0.5 * PI / 180.0;
+    prm->base_freq_Hz = 1.0;
+}
+
+/* Current command: rest, a 3 A step at 10 ms, then 1 A at 7 Hz on top (reversals). */
+static double current_cmd(long k)
+{
+    const double t = (double)k * 1e-4;
+    return k < 100 ? 0.0 : 3.0 + sin(2.0 * PI * 7.0 * t);
+}
+
+static void run_states(int substeps, long n, double *th_l, double *w_m)
+{
+    hd_plant_params prm;
+    hd_plant_input in;
+    hd_plant *p;
+    long k;
+    every_effect(&prm);
+    prm.substeps = substeps;
+    p = new_plant(&prm, 11u);
+    memset(&in, 0, sizeof in);
+    for (k = 0; k < n; k++) {
+        in.current_cmd_A = current_cmd(k);
+        hd_plant_step(p, &in, 1e-4);
+        th_l[k] = p->out.load_angle_rad;
+        w_m[k] = p->out.motor_velocity_rad_s;
+    }
+    free(p);
+}
+
+/* One RK4 sub-step per 100 us period (the default) against 16 sub-steps, every effect on:
+ * the documented tolerance for one sub-step is 1e-3 of the peak. */
+static void test_one_substep_vs_reference(void **state)
+{
+    enum { N = 5000 };
+    static double a_th[N], a_w[N], r_th[N], r_w[N];
+    double pk_th = 0.0, pk_w = 0.0, d_th = 0.0, d_w = 0.0;
+    long k;
+    (void)state;
+    run_states(1, N, a_th, a_w);
+    run_states(16, N, r_th, r_w);
+    for (k = 0; k < N; k++) {
+        if (fabs(r_th[k]) > pk_th) pk_th = fabs(r_th[k]);
+        if (fabs(r_w[k]) > pk_w) pk_w = fabs(r_w[k]);
+        if (fabs(a_th[k] - r_th[k]) > d_th) d_th = fabs(a_th[k] - r_th[k]);
+        if (fabs(a_w[k] - r_w[k]) > d_w) d_w = fabs(a_w[k] - r_w[k]);
+    }
+    printf("# 1 vs 16 sub-steps, every effect on, 0.5 s: load angle max error %.3e rad (%.2e of peak %.3e), "
+           "motor velocity %.3e rad/s (%.2e of peak %.3e)\n", d_th, d_th / pk_th, pk_th, d_w, d_w / pk_w, pk_w);
+    assert_true(pk_th > 1e-2);
+    assert_true(pk_w > 1.0);
+    assert_true(d_th / pk_th < 1e-3);
+    assert_true(d_w / pk_w < 1e-3);
+}
+
+/* Static friction map (no LuGre) on a spinning motor: the reported friction equals the
+ * closed form Fc + (Fs - Fc) exp(-(v/vs)^2) + sigma2 v by libm at every period (the plant
+ * takes the exponential from an anchor and a short series; it must not drift). */
+static void test_stribeck_matches_libm(void **state)
+{
+    hd_plant_params prm, r;
+    hd_plant_input in;
+    hd_plant *p;
+    const hd_plant_friction_params *f;
+    double worst = 0.0;
+    long k, n_cmp = 0;
+    (void)state;
+    hd_plant_defaults_minimal(&prm);
+    hd_plant_defaults_reference(&r);
+    prm.stiffness_enabled = 0;
+    prm.fric_m = r.fric_m;
+    prm.fric_m.lugre_enabled = 0;
+    prm.current_loop_enabled = 1;
+    p = new_plant(&prm, 3u);
+    f = &prm.fric_m;
+    memset(&in, 0, sizeof in);
+    for (k = 0; k < 200000; k++) {
+        /* slow torque sine: the motor sweeps through the Stribeck region both ways */
+        const double tq = 0.14 * sin(2.0 * PI * 0.5 * (double)k * 1e-4);
+        const hd_plant_output *o;
+        double v, g, ref;
+        in.current_cmd_A = tq / prm.kt_Nm_per_A;
+        o = hd_plant_step(p, &in, 1e-4);
+        v = o->motor_velocity_rad_s;
+        if (v == 0.0) continue;                  /* stuck: friction balances the applied torque */
+        g = v < 0.0 ? f->fc_neg_Nm + (f->fs_neg_Nm - f->fc_neg_Nm) * exp(-(v / f->vs_rad_s) * (v / f->vs_rad_s))
+                    : f->fc_pos_Nm + (f->fs_pos_Nm - f->fc_pos_Nm) * exp(-(v / f->vs_rad_s) * (v / f->vs_rad_s));
+        ref = (v < 0.0 ? -g : g) + f->viscous_Nms_per_rad * v;
+        if (fabs(o->friction_motor_Nm - ref) / fabs(ref) > worst) worst = fabs(o->friction_motor_Nm - ref) / fabs(ref);
+        n_cmp++;
+    }
+    printf("# Stribeck map vs libm over %ld moving periods: worst relative error %.2e\n", n_cmp, worst);
+    assert_true(n_cmp > 100000);
+    assert_true(worst < 1e-14);
+    free(p);
+}
+
+/* TE and cogging over a long run at high motor speed (angles of hundreds of rad): the
+ * harmonic sums from powers of one cos/sin equal the libm formulas, including a
+ * non-integer order (its libm path) next to integer ones. */
+static void test_harmonics_match_libm(void **state)
+{
+    hd_plant_params prm;
+    hd_plant_input in;
+    hd_plant *p;
+    double worst_cog = 0.0, worst_te = 0.0, amp_cog = 0.0, amp_te = 0.0;
+    long k;
+    int j;
+    (void)state;
+    hd_plant_defaults_reference(&prm);
+    prm.fric_m.enabled = 0;
+    prm.fric_l.enabled = 0;
+    prm.gravity_enabled = 0;
+    prm.cog_order[2] = 2.5;
+    prm.cog_amp_Nm[2] = 5e-4;
+    prm.cog_phase_rad[2] = -0.7;
+    p = new_plant(&prm, 5u);
+    for (j = 0; j < HD_PLANT_MAX_HARM; j++) {
+        amp_cog += fabs(prm.cog_amp_Nm[j]);
+        amp_te += fabs(prm.te_wg_amp_rad[j]) + fabs(prm.te_out_amp_rad[j]);
+    }
+    memset(&in, 0, sizeof in);
+    for (k = 0; k < 100000; k++) {
+        const hd_plant_output *o;
+        double cog = 0.0, te = 0.0;
+        in.current_cmd_A = k < 500 ? 1.0 : 0.0;       /* spin up to ~40 rad/s, then coast */
+        o = hd_plant_step(p, &in, 1e-4);
+        for (j = 0; j < HD_PLANT_MAX_HARM; j++) {
+            if (prm.cog_order[j] != 0.0)
+                cog += prm.cog_amp_Nm[j] * sin(prm.cog_order[j] * o->motor_angle_rad + prm.cog_phase_rad[j]);
+            if (prm.te_wg_order[j] != 0.0)
+                te += prm.te_wg_amp_rad[j] * sin(prm.te_wg_order[j] * o->motor_angle_rad + prm.te_wg_phase_rad[j]);
+            if (prm.te_out_order[j] != 0.0)
+                te += prm.te_out_amp_rad[j] * sin(prm.te_out_order[j] * o->load_angle_rad + prm.te_out_phase_rad[j]);
+        }
+        if (fabs(o->cogging_torque_Nm - cog) > worst_cog) worst_cog = fabs(o->cogging_torque_Nm - cog);
+        if (fabs(o->te_rad - te) > worst_te) worst_te = fabs(o->te_rad - te);
+    }
+    printf("# harmonics vs libm, motor at %.0f rad after 10 s at ~40 rad/s: cogging %.2e of its amplitude, TE %.2e\n",
+           p->out.motor_angle_rad, worst_cog / amp_cog, worst_te / amp_te);
+    assert_true(fabs(p->out.motor_angle_rad) > 100.0);
+    /* angles of a few hundred rad carry ~1e-13 rad of rounding, times orders up to 72 */
+    assert_true(worst_cog / amp_cog < 1e-10);
+    assert_true(worst_te / amp_te < 1e-10);
+    free(p);
+}
+
+/* The first RK stage of a period reuses the end-of-period evaluation (same state); with
+ * that reuse switched off (k1_ok = 0, an internal cache flag) every stage is evaluated in
+ * full.  Both runs agree to rounding, with changing motor, load and base inputs and the
+ * brake engaged and released on the way. */
+static void test_first_stage_reuse(void **state)
+{
+    hd_plant_params prm;
+    hd_plant_input in;
+    hd_plant *a, *b;
+    double worst = 0.0, peak = 0.0;
+    long k;
+    (void)state;
+    every_effect(&prm);
+    a = new_plant(&prm, 9u);
+    b = new_plant(&prm, 9u);
+    b->k1_ok = 0;
+    memset(&in, 0, sizeof in);
+    for (k = 0; k < 4000; k++) {
+        const double t = (double)k * 1e-4;
+        in.current_cmd_A = current_cmd(k);
+        in.load_torque_Nm = k >= 1500 ? 2.0 : 0.0;
+        in.base_rate_rad_s = 1e-3 * sin(2.0 * PI * 3.0 * t);
+        in.base_accel_rad_s2 = 2.0 * PI * 3.0 * 1e-3 * cos(2.0 * PI * 3.0 * t);
+        if (k == 2500 || k == 3000) {
+            hd_plant_set_brake(a, k == 2500);
+            hd_plant_set_brake(b, k == 2500);
+        }
+        hd_plant_step(a, &in, 1e-4);
+        hd_plant_step(b, &in, 1e-4);
+        if (fabs(b->out.motor_velocity_rad_s) > peak) peak = fabs(b->out.motor_velocity_rad_s);
+        if (fabs(a->out.motor_velocity_rad_s - b->out.motor_velocity_rad_s) > worst)
+            worst = fabs(a->out.motor_velocity_rad_s - b->out.motor_velocity_rad_s);
+        assert_true(a->out.brake_engaged == b->out.brake_engaged);
+    }
+    printf("# first stage from the end-of-period evaluation vs evaluated in full: motor velocity %.2e of peak\n",
+           worst / peak);
+    assert_true(peak > 1.0);
+    assert_true(worst / peak < 1e-12);
+    free(a);
+    free(b);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_one_substep_vs_reference),
+        cmocka_unit_test(test_stribeck_matches_libm),
+        cmocka_unit_test(test_harmonics_match_libm),
+        cmocka_unit_test(test_first_stage_reuse),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
