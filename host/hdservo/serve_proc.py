@@ -9,7 +9,9 @@ SIGTERM then SIGKILL.  This module is that one piece; the callers only choose th
 from __future__ import annotations
 
 import contextlib
+import os
 import select
+import shutil
 import signal
 import subprocess
 import threading
@@ -19,6 +21,20 @@ from typing import Any, Iterator, Optional, Protocol, Sequence, TypeVar
 from .errors import UserError
 
 LISTENING = "listening on 127.0.0.1:"
+
+
+def find_sim() -> Path:
+    """Locate the hdservo-sim program: $HDSERVO_SIM, the build tree, then PATH."""
+    env = os.environ.get("HDSERVO_SIM")
+    if env:
+        return Path(env)
+    here = Path(__file__).resolve().parents[2] / "build" / "bin" / "hdservo-sim"
+    if here.exists():
+        return here
+    w = shutil.which("hdservo-sim")
+    if w:
+        return Path(w)
+    raise UserError("hdservo-sim not found (run `make sim` or set HDSERVO_SIM)")
 
 
 class ServeError(UserError):

@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as e:
         raise UserError(str(e)) from None
     if args.model is not None:              # a bad model is refused before anything runs
-        from .download import plan_download
+        from ..download import plan_download
         plan_download(args.model, axis)
     choice = choose_drive(args, sim_only=("seed",))
     bus = choice.bus

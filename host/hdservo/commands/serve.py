@@ -7,29 +7,14 @@ Every option is passed through to ``build/bin/hdservo-sim serve``.
 from __future__ import annotations
 
 import argparse
-import os
-import shutil
 import subprocess
 from pathlib import Path
 
 from ..errors import UserError
+from ..serve_proc import find_sim
 
 NAME = "serve"
 HELP = "serve the simulated axis as a CANopen drive (virtual drive)"
-
-
-def find_sim() -> Path:
-    """Locate the hdservo-sim program: $HDSERVO_SIM, the build tree, then PATH."""
-    env = os.environ.get("HDSERVO_SIM")
-    if env:
-        return Path(env)
-    here = Path(__file__).resolve().parents[3] / "build" / "bin" / "hdservo-sim"
-    if here.exists():
-        return here
-    w = shutil.which("hdservo-sim")
-    if w:
-        return Path(w)
-    raise UserError("hdservo-sim not found (run `make sim` or set HDSERVO_SIM)")
 
 
 def register(p: argparse.ArgumentParser) -> None:

@@ -176,7 +176,7 @@ def _model_plan(model: Path | None, axis: str) -> dict | None:
     """The download plan of ``--model`` (keys it lacks from ``axis``), or None without one."""
     if model is None:
         return None
-    from .download import plan_download
+    from ..download import plan_download
     plan = dict(plan_download(model, axis))
     plan["model_file"] = model.name
     return plan

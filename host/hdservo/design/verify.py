@@ -5,8 +5,8 @@ Chain (docs/design-flow.md section 6):
 1. **identify** the axis over CAN: ``hdservo identify all --sim AXIS`` (the
    virtual drive, lock-step), with the flow's velocity-loop gains;
 2. **download**: the identified model -> compensator parameters and tables
-   (:func:`hdservo.commands.download.plan_download`, written and read back with
-   :func:`~hdservo.commands.download.write_verified`: the code of ``hdservo
+   (:func:`hdservo.download.plan_download`, written and read back with
+   :func:`~hdservo.download.write_verified`: the code of ``hdservo
    download``);
 3. **test**: the procedures of ``hdservo test`` (:mod:`hdservo.procedures.closedloop`)
    on the virtual drive, configured as the flow assumed: the flow's gains
@@ -142,7 +142,7 @@ def identify(axis: Path, gains: Mapping[str, float], model: Path, target: str = 
 
 def download_plan(model: Path, axis: Path) -> dict[str, Any]:
     """The download of ``hdservo download MODEL --axis AXIS`` (parameters, groups, Preisach image)."""
-    from ..commands import download as dl
+    from .. import download as dl
     return dl.plan_download(model, str(axis))
 
 
@@ -155,7 +155,7 @@ def configure(bench: Bench, gains: Mapping[str, float], plan: Mapping[str, Any],
     drive parameters (``extra``, e.g. the best combination's ``pos_kp`` and
     ``str_w_ref``: set after the model as ``hdservo compare`` does), then ``cb_enable``.
     """
-    from ..commands import download as dl
+    from .. import download as dl
     from ..compsetup import enable_mask
     d = bench.drive
     for k in GAIN_KEYS:

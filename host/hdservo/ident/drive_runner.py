@@ -80,7 +80,7 @@ class VirtualDrive:
     def __init__(self, axis: str = "reference", seed: int = 1, sync_periods: int = 10,
                  sets: Sequence[str] = ("base.enabled=false",), rig: bool = True, node_id: int = 1,
                  pacing: str = "sync") -> None:
-        from ..commands.serve import find_sim
+        from ..serve_proc import find_sim
         from ..serve_proc import ServeError, ServeProcess
         self.sim = find_sim()
         self.node_id = node_id

@@ -125,8 +125,8 @@ class Progress:
 # ---- the virtual drive process -------------------------------------------------------------
 
 def find_sim() -> Path:
-    """The hdservo-sim program (see :func:`hdservo.commands.serve.find_sim`)."""
-    from ..commands.serve import find_sim as fs
+    """The hdservo-sim program (see :func:`hdservo.serve_proc.find_sim`)."""
+    from ..serve_proc import find_sim as fs
     return fs()
 
 
@@ -533,7 +533,7 @@ class Target:
     plant: dict[str, float] = field(default_factory=dict)   #: virtual only: extra plant overrides
     interactive: Optional[bool] = None
     notes: list[str] = field(default_factory=list)
-    #: compensator download (:func:`hdservo.commands.download.plan_download`), written and read back
+    #: compensator download (:func:`hdservo.download.plan_download`), written and read back
     #: into the drive before each procedure (the virtual drive keeps no parameters)
     download: Optional[Mapping[str, Any]] = None
     #: drive parameters by name (``--params KEY=VALUE``), written after the download, read back
@@ -583,7 +583,7 @@ def configure_drive(drive: Drive, target: Target) -> list[str]:
     """
     notes: list[str] = []
     if target.download is not None:
-        from ..commands.download import write_verified
+        from ..download import write_verified
         done = write_verified(drive, target.download, tables=True)
         tabs = ", ".join(f"0x5100:{t}" for t in done["tables"]) or "none"
         src = target.download.get("model_file")
