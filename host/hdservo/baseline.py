@@ -42,7 +42,7 @@ from . import REPO_ROOT, filters, sim
 from .tomltext import basic_string
 
 #: arcsec per radian.
-ARCSEC_PER_RAD = 180.0 / math.pi * 3600.0
+from .units import ARCSEC_PER_RAD  # noqa: E402
 #: rad per degree.
 RAD_PER_DEG = math.pi / 180.0
 

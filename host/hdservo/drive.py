@@ -41,8 +41,8 @@ logging.getLogger("can.interfaces.socketcand").setLevel(logging.ERROR)
 logging.getLogger("canopen.sdo.client").setLevel(logging.CRITICAL)
 
 EDS_PATH = Path(str(resources.files("hdservo") / "data" / "hdservo.eds"))
-LOOP_HZ = 10000
-TURN = 2.0 * math.pi
+from .fw_const import LOOP_HZ, SIGNALS  # noqa: E402  (generated from the C headers)
+from .units import TURN  # noqa: E402
 
 #: 0x5101:1, the parameters at boot (hd_pstore_status_t); all but "loaded" mean the defaults.
 PARAM_STORE_STATUS = {0: "loaded", 1: "blank", 2: "corrupt", 3: "other table version", 4: "nvm error"}
@@ -674,10 +674,7 @@ class Drive:
 
 
 # ---- table domains 0x5100 (firmware/canopen/hd_app_co.h) --------------------------------
-#: capture signal ids (hd_sig_t in firmware/app/hd_app.h)
-SIGNALS = {"tick": 0, "pos_out_lo": 1, "pos_out_hi": 2, "pos_mot_lo": 3, "pos_mot_hi": 4, "vel_out": 5,
-           "vel_mot": 6, "pos_ref_lo": 7, "pos_ref_hi": 8, "vel_ref": 9, "acc_ref": 10, "torque_cmd": 11,
-           "current": 12, "gyro": 13, "exc": 14, "pos_err": 15, "fault": 16}
+#: capture signal ids: SIGNALS (hd_sig_t), from fw_const
 
 #: excitation kinds (0x5010:3, hd_exc_kind_t) and injection points (0x5010:4, hd_inj_t)
 EXC_TYPES = {"steps": 1, "torque_ramp": 2, "reversal": 3, "chirp": 4, "multisine": 5, "prbs": 6}

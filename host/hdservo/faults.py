@@ -31,13 +31,12 @@ import sys
 import tempfile
 from pathlib import Path
 
+from .fw_const import FAULT_EMCY, FAULT_NAMES, PSTORE_STATUS
 from .tomltext import basic_string
 
-FAULT_NAMES = {0: "NONE", 1: "TORQUE_SAT", 2: "OVERSPEED", 3: "TRAVEL", 4: "FOLLOWING",
-               5: "ENC_JUMP", 6: "SENSOR", 7: "PARAM", 8: "COMM"}
-EMCY = {0: None, 1: "0x2310", 2: "0x8400", 3: "0x8612", 4: "0x8611", 5: "0x7305", 6: "0x7300", 7: "0x6320",
-        8: "0x8130"}
-PSTORE = {0: "OK", 1: "BLANK", 2: "CORRUPT", 3: "INCOMPATIBLE", 4: "NVM_ERROR"}
+#: fault names, EMCY codes and store states of the firmware (generated from the C headers)
+EMCY = {0: None, **{code: f"0x{emcy:04x}" for code, emcy in FAULT_EMCY.items()}}
+PSTORE = PSTORE_STATUS
 
 _HOLD = """[scenario]
 name = "{name}"

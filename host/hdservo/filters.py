@@ -13,7 +13,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
-FS_HZ = 10_000.0
+from .fw_const import LOOP_HZ  # noqa: E402
+
+FS_HZ = float(LOOP_HZ)
 Q30 = float(1 << 30)
 Q30_MIN = -(1 << 31)
 Q30_MAX = (1 << 31) - 1

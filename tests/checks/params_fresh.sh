@@ -14,3 +14,11 @@ for f in firmware/app/hd_param_table.h firmware/app/hd_param_table.c host/hdserv
         echo "not ok - generated $f is stale (run tools/gen_params.py)"
     fi
 done
+# the firmware facts the host reads (loop rate, Q formats, signal / fault / mode enums, EMCY codes)
+if ! "$PY" tools/gen_fw_const.py --out-dir "$tmp" 2>"$tmp/err2"; then
+    echo "not ok - gen_fw_const.py failed: $(head -1 "$tmp/err2")"
+elif diff -q "$tmp/host/hdservo/fw_const.py" host/hdservo/fw_const.py >/dev/null 2>&1; then
+    echo "ok - generated host/hdservo/fw_const.py is fresh"
+else
+    echo "not ok - generated host/hdservo/fw_const.py is stale (run tools/gen_fw_const.py)"
+fi

@@ -10,7 +10,7 @@ import pytest
 
 from hdservo import compsetup
 from hdservo.cli import UserError, main
-from hdservo.commands import download as dl
+from hdservo import download as dl
 from hdservo.drive import Drive
 from hdservo.params_gen import BY_NAME as PARAMS
 

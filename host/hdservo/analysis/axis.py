@@ -24,6 +24,8 @@ from pathlib import Path
 from typing import Any, Dict, List, Mapping, Tuple
 
 from .. import REPO_ROOT
+from ..fw_const import LOOP_HZ
+from ..params_gen import BY_NAME as PARAM_DEFS
 
 ARCMIN_RAD = math.pi / (180.0 * 60.0)
 
@@ -67,13 +69,17 @@ for _side, (_fs, _fc, _asym, _vs, _visc) in {"friction_motor": (0.10, 0.07, 0.05
                            f"{_side}.fc_neg_Nm": _fc * (1 - _asym), f"{_side}.vs_rad_s": _vs,
                            f"{_side}.delta": 2.0, f"{_side}.viscous_Nms_per_rad": _visc})
 
-#: Drive gains of the reference axis (firmware/params/params.toml defaults).
+#: Drive parameters the loop model reads; their values are the defaults of
+#: firmware/params/params.toml (through the generated params_gen).
+_GAIN_PARAMS = ("pos_kp", "pos_ki", "vel_kp", "vel_ki", "vel_kd", "vel_d_fc", "vel_fb_src", "obs_mot_bw",
+                "obs_out_bw", "obs_zeta", "f1_b0", "f1_b1", "f1_b2", "f1_a1", "f1_a2", "f2_b0", "f2_b1",
+                "f2_b2", "f2_a1", "f2_a2", "filt_enable")
+
+#: Drive gains of the reference axis: the drive's parameter defaults, the loop period
+#: and the modelled computation + zero-order-hold delay (periods).
 REFERENCE_GAINS: Dict[str, float] = {
-    "pos_kp": 50.0, "pos_ki": 0.0, "vel_kp": 245.0, "vel_ki": 11550.0, "vel_kd": 0.0,
-    "vel_d_fc": 500.0, "vel_fb_src": 0.0, "obs_mot_bw": 300.0, "obs_out_bw": 30.0, "obs_zeta": 1.0,
-    "f1_b0": 0.988832, "f1_b1": -1.97421, "f1_b2": 0.986351, "f1_a1": -1.97421, "f1_a2": 0.975183,
-    "f2_b0": 0.0674553, "f2_b1": 0.134911, "f2_b2": 0.0674553, "f2_a1": -1.14298, "f2_a2": 0.412802,
-    "filt_enable": 3.0, "loop_period_s": 1e-4, "delay_periods": 1.5,
+    **{name: float(PARAM_DEFS[name].default) for name in _GAIN_PARAMS},
+    "loop_period_s": 1.0 / LOOP_HZ, "delay_periods": 1.5,
 }
 
 PARAMS_TOML = Path("firmware") / "params" / "params.toml"

@@ -38,7 +38,7 @@ from .limitcycle import LimitCycle, find_limit_cycles
 from .loop import LoopModel
 from .timesim import measure_oscillation
 
-ARCSEC_RAD = math.pi / (180.0 * 3600.0)
+from ..units import ARCSEC as ARCSEC_RAD  # noqa: E402
 
 #: Plant effects switched off so that the friction cycle is not blurred.
 QUIET_PLANT: Dict[str, bool] = {

@@ -52,9 +52,7 @@ except ModuleNotFoundError:  # pragma: no cover
 
 #: The reference axis file every candidate starts from.
 REFERENCE_AXIS: Path = REPO_ROOT / "sim" / "axes" / "reference.toml"
-ARCSEC = math.pi / 180.0 / 3600.0
-ARCMIN = 60.0 * ARCSEC
-DEG = math.pi / 180.0
+from ..units import DEG  # noqa: E402
 #: reference gear and motor (the values of reference.toml were made for these)
 REF_SIZE, REF_RATIO, REF_T1_Nm, REF_K1, REF_TA_arcmin = 25, 100, 14.0, 3.1e4, 1.0
 REF_MOTOR_PEAK_Nm = 2.0

@@ -35,8 +35,7 @@ from . import structure as st
 from .axis_builder import Candidate, gear_friction, write_axis
 from .spec import Spec
 
-DEG = math.pi / 180.0
-ARCSEC = DEG / 3600.0
+from ..units import DEG  # noqa: E402
 #: relative cost of the gyro grades (cheapest first)
 GYRO_ORDER = ("gyro-mems-consumer", "gyro-mems-industrial", "gyro-fog-tactical", "gyro-fog-navigation")
 #: share of the positioning accuracy the output encoder's installed accuracy may take (p-p = 2 x +-acc)

@@ -55,8 +55,7 @@ from .. import sim
 from ..baseline import _toml_table
 from ..procedures import metrics as mt
 
-DEG = math.pi / 180.0
-ARCSEC = mt.ARCSEC
+from ..units import ARCSEC, DEG  # noqa: E402
 LOOP_S = 1e-4
 
 

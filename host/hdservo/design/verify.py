@@ -31,7 +31,6 @@ procedure's drive before it runs (:func:`configure`).
 from __future__ import annotations
 
 import json
-import math
 import os
 import subprocess
 import sys
@@ -47,7 +46,6 @@ from ..procedures import metrics as mt
 from ..procedures.results import Result
 from ..procedures.runner import DT, Bench, RigSetup, Target, open_bench
 
-TURN = 2.0 * math.pi
 #: flow gains that are drive parameters (the compensator parameters come from the identified model)
 GAIN_KEYS = ("vel_kp", "vel_ki", "f1_b0", "f1_b1", "f1_b2", "f1_a1", "f1_a2", "pos_kp", "pos_ki",
              "torque_limit", "traj_vmax", "traj_amax")

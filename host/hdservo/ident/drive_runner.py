@@ -48,9 +48,10 @@ import numpy as np
 from ..errors import UserError
 from . import experiments as ex
 
-LOOP_HZ = 10000
+from ..fw_const import LOOP_HZ  # noqa: E402
+from ..units import TURN  # noqa: E402
+
 DT = 1.0 / LOOP_HZ
-TURN = 2.0 * math.pi
 
 
 # ----------------------------------------------------------------- virtual drive process

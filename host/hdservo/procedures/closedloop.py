@@ -21,7 +21,7 @@ from .results import Result, figure, save_figure
 from .runner import DT, Bench, Progress, RigSetup
 
 AXIS_SETUP = RigSetup("axis", payload=True)
-TURN = 2 * math.pi
+from ..units import TURN  # noqa: E402
 #: capture frames of a three-signal record (8192-word buffer)
 CAPTURE_FRAMES_3 = 2700
 

@@ -24,7 +24,7 @@ from .results import Result, figure, save_figure
 from ..drive import DriveError
 from .runner import CAPTURE_WORDS, DT, SIG, Bench, Progress
 
-TURN = 2 * math.pi
+from ..units import TURN  # noqa: E402
 
 
 def _excitation(n: int, rms_Nm: float, f_hi_Hz: float, fs_Hz: float, seed: int) -> np.ndarray:

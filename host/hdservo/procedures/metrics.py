@@ -14,9 +14,7 @@ from typing import Any, Optional, Sequence
 
 import numpy as np
 
-ARCSEC = math.pi / 180.0 / 3600.0   #: one arc second in rad
-ARCMIN = 60.0 * ARCSEC             #: one arc minute in rad
-DEG = math.pi / 180.0              #: one degree in rad
+from ..units import ARCMIN, ARCSEC, DEG  # noqa: F401  (re-exported for the procedures)
 
 
 # ---- gear: stiffness curve, hysteresis loss, lost motion ------------------------------

@@ -37,14 +37,10 @@ from ..serve_proc import ServeProcess
 from ..drive import Drive, DriveError
 from ..params_gen import BY_NAME as PARAMS
 
-LOOP_HZ = 10000
-DT = 1.0 / LOOP_HZ
-TURN = 2.0 * math.pi
+from ..fw_const import LOOP_HZ, SIGNALS as SIG  # noqa: E402  (generated from the C headers)
+from ..units import TURN  # noqa: E402
 
-#: capture signal ids (firmware/app/hd_app.h hd_sig_t)
-SIG = {"tick": 0, "pos_out_lo": 1, "pos_out_hi": 2, "pos_mot_lo": 3, "pos_mot_hi": 4, "vel_out": 5,
-       "vel_mot": 6, "pos_ref_lo": 7, "pos_ref_hi": 8, "vel_ref": 9, "acc_ref": 10, "torque_cmd": 11,
-       "current": 12, "gyro": 13, "exc": 14, "pos_err": 15, "fault": 16}
+DT = 1.0 / LOOP_HZ
 CAPTURE_WORDS = 8192
 
 
