@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from hdservo import faults_can
+from oracles import faults_can
 from hdservo.drive import Drive, DriveError
 from hdservo.serve_proc import ServeError
 from vdrive import SIM

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdservo import compref
+from oracles import compref
 from hdservo.preisach_table import PreisachTable, everett_from_density, quantise_everett
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdservo import compref
+from oracles import compref
 
 ROOT = Path(__file__).resolve().parents[2]
 LIB = ROOT / "build" / "lib" / "libhdcomp.so"

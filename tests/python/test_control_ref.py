@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 
 from hdservo import filters
-from hdservo.refmodels import biquad as ref_bq
-from hdservo.refmodels import trajectory as ref_traj
-from hdservo.refmodels.observer import ObserverRef
-from hdservo.refmodels.pid import PidRef
+from oracles.refmodels import biquad as ref_bq
+from oracles.refmodels import trajectory as ref_traj
+from oracles.refmodels.observer import ObserverRef
+from oracles.refmodels.pid import PidRef
 
 from control_lib import BqCoef, BqState, Obs, ObsCfg, Pid, PidCfg, Traj, TrajCfg, load
 

@@ -11,7 +11,7 @@ from hdservo.analysis.axis import REFERENCE_AXIS, REFERENCE_GAINS
 from hdservo.analysis.catalogue import build
 from hdservo.analysis.limitcycle import find_limit_cycles, loop_metrics
 from hdservo.analysis.loop import LoopModel, equivalent_loop, freqresp
-from hdservo.analysis.timesim import measure_oscillation, simulate_lost_motion_loop
+from oracles.timesim import measure_oscillation, simulate_lost_motion_loop
 from hdservo.cli import main
 
 OMEGA = 2 * math.pi * np.logspace(-2, 3.5, 1500)

@@ -13,7 +13,7 @@ import pytest
 
 from hdservo.analysis.catalogue import build
 from hdservo.analysis.loop import LoopModel
-from hdservo.analysis.simcheck import ARCSEC_RAD, HuntingCase, check, predict, scenario_text, axis_file
+from oracles.simcheck import ARCSEC_RAD, HuntingCase, check, predict, scenario_text, axis_file
 from hdservo.analysis.axis import load_axis, load_gains
 
 pytest.importorskip("hdservo.sim")

@@ -7,7 +7,8 @@ from pathlib import Path
 import pytest
 
 from hdservo import cli
-from hdservo.discrepancy import EFFECT_NAMES, cases
+from hdservo.discrepancy import EFFECT_NAMES
+from oracles import discrepancy_cases as cases
 
 
 @pytest.fixture(scope="module")

@@ -7,7 +7,8 @@ from pathlib import Path
 import pytest
 
 from hdservo import logio
-from hdservo.discrepancy import cases, signals, workflow
+from hdservo.discrepancy import signals, workflow
+from oracles import discrepancy_cases as cases
 
 
 @pytest.mark.parametrize("effect,axis,loop,seed", [

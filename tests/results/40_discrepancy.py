@@ -32,10 +32,12 @@ for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "host"))
+sys.path.insert(0, str(REPO / "tests" / "python"))
 
 from hdservo import emps, logio  # noqa: E402
 from hdservo.cli import UserError  # noqa: E402
-from hdservo.discrepancy import EFFECT_NAMES, cases, realdata, signals, simerr, workflow  # noqa: E402
+from hdservo.discrepancy import EFFECT_NAMES, realdata, signals, simerr, workflow  # noqa: E402
+from oracles import discrepancy_cases as cases  # noqa: E402
 
 #: Seeds 1..HDSERVO_DISC_SEEDS, shifted by HDSERVO_DISC_SEED_OFFSET (an unseen seed set:
 #: offset 5 -> seeds 6..10, written to discrepancy_seeds6-10.json instead).

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Fault-injection table -> build/results/faults.json (host/hdservo/faults.py):
+"""Fault-injection table -> build/results/faults.json (tests/python/oracles/faults.py):
 encoder jumps and dropouts, current saturation, load-torque shocks,
 parameter-store corruption at boot and power loss in the middle of a save.
 Exit status 1 if any case shows a reaction other than the expected one."""
@@ -8,7 +8,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "host"))
+sys.path.insert(0, str(ROOT / "tests" / "python"))
 
-from hdservo.faults import main  # noqa: E402
+from oracles.faults import main  # noqa: E402
 
 sys.exit(main())

@@ -30,15 +30,15 @@ from typing import Any, Dict, List, Optional
 
 import numpy as np
 
-from .. import REPO_ROOT
-from ..tomltext import basic_string
-from .axis import load_axis, load_gains
-from .catalogue import build
-from .limitcycle import LimitCycle, find_limit_cycles
-from .loop import LoopModel
-from .timesim import measure_oscillation
+from hdservo import REPO_ROOT
+from hdservo.tomltext import basic_string
+from hdservo.analysis.axis import load_axis, load_gains
+from hdservo.analysis.catalogue import build
+from hdservo.analysis.limitcycle import LimitCycle, find_limit_cycles
+from hdservo.analysis.loop import LoopModel
+from oracles.timesim import measure_oscillation
 
-from ..units import ARCSEC as ARCSEC_RAD  # noqa: E402
+from hdservo.units import ARCSEC as ARCSEC_RAD  # noqa: E402
 
 #: Plant effects switched off so that the friction cycle is not blurred.
 QUIET_PLANT: Dict[str, bool] = {
@@ -186,7 +186,7 @@ t0_s = 0.05
 
 def run_simulation(case: HuntingCase) -> Dict[str, np.ndarray]:
     """Run a case in the C simulator; log columns (SI units, see docs/sim.md)."""
-    from .. import sim
+    from hdservo import sim
 
     with tempfile.TemporaryDirectory(prefix="hdservo-df-") as d:
         path = Path(d) / "hunting.toml"

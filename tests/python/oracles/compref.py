@@ -19,7 +19,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .fw_const import LOOP_HZ  # noqa: E402
+from hdservo.fw_const import LOOP_HZ  # noqa: E402
 TS = 1.0 / LOOP_HZ
 Q16, Q30, Q32, Q48 = 2.0**16, 2.0**30, 2.0**32, 2.0**48
 

@@ -41,8 +41,8 @@ from typing import Any
 
 import numpy as np
 
-from .. import REPO_ROOT, logio, sim
-from ..tomltext import basic_string
+from hdservo import REPO_ROOT, logio, sim
+from hdservo.tomltext import basic_string
 
 AXES = {"reference": "reference", "csf17_50": str(REPO_ROOT / "sim" / "axes" / "csf17_50.toml")}
 

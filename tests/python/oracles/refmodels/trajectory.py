@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 from fractions import Fraction
 
-from ..fw_const import LOOP_HZ  # noqa: E402
+from hdservo.fw_const import LOOP_HZ  # noqa: E402
 
 
 def rate_position_p48(k: int, v_raw: int, p0_p48: int = 0) -> int:

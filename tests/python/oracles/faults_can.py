@@ -43,7 +43,7 @@ class _VDrive:
     """The virtual drive as a subprocess with a rig channel on stdin/stdout (real-time pacing)."""
 
     def __init__(self, root: Path, *extra: str) -> None:
-        from .serve_proc import ServeProcess
+        from hdservo.serve_proc import ServeProcess
         sim = Path(os.environ.get("HDSERVO_SIM", root / "build" / "bin" / "hdservo-sim"))
         if not sim.exists():
             raise FileNotFoundError(f"{sim}: not built (make sim)")
@@ -55,7 +55,7 @@ class _VDrive:
 
 
 def _session(root: Path, *extra: str) -> contextlib.AbstractContextManager[tuple[_VDrive, Any]]:
-    from .serve_proc import connected
+    from hdservo.serve_proc import connected
     return connected(_VDrive(root, *extra), NODE)
 
 
@@ -71,7 +71,7 @@ def _pos_rad(d: Any) -> float:
 
 def _params(d: Any) -> dict[str, int]:
     """Every drive parameter (raw) by SDO."""
-    from .params_gen import BY_NAME
+    from hdservo.params_gen import BY_NAME
     return {n: d.read(p.index, p.sub) for n, p in sorted(BY_NAME.items())}
 
 
@@ -94,7 +94,7 @@ def _wait_emcy(d: Any, n0: int, code: int, timeout: float) -> bool:
 
 def _recover_and_enable(d: Any, mode: str) -> dict[str, Any]:
     """Fault reset if in FAULT, then enable; the drive must reach OPERATION ENABLED and stay there 0.2 s."""
-    from .drive import DriveError
+    from hdservo.drive import DriveError
     out: dict[str, Any] = {}
     try:
         if d.state() == "FAULT":
@@ -157,7 +157,7 @@ def _partial_block_download(d: Any, index: int, sub: int, blob: bytes, segments:
 
 
 def _everett_table(levels: int, version: int, scale: int) -> bytes:
-    from .preisach_table import PreisachTable
+    from hdservo.preisach_table import PreisachTable
     ent = [0] * (levels * (levels + 1) // 2)
     for i in range(levels):
         for j in range(i + 1):
@@ -346,7 +346,7 @@ def _cli_under_loss(root: Path, drop: float, seed: int) -> dict[str, Any]:
 
 def case_frame_loss(root: Path) -> dict[str, Any]:
     """20 % of the frames lost in both directions (seed 7) while enabled: SDO traffic and a host tool."""
-    from .drive import DriveError
+    from hdservo.drive import DriveError
     with _session(root) as (v, d):
         _hold_enabled(d)
         p_before = _params(d)
@@ -435,8 +435,8 @@ def case_table_download_bus_off(root: Path) -> dict[str, Any]:
 
 def case_power_loss_table(root: Path) -> dict[str, Any]:
     """Power loss (SIGKILL) in the middle of a TE group table download; the group and a Preisach table were saved."""
-    from .drive import TABLE_GROUPS, group_payload
-    from .params_gen import BY_NAME
+    from hdservo.drive import TABLE_GROUPS, group_payload
+    from hdservo.params_gen import BY_NAME
     _, names = TABLE_GROUPS[3]
     with tempfile.TemporaryDirectory() as tmp:
         nvm = str(Path(tmp) / "nvm.bin")

@@ -31,8 +31,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from .fw_const import FAULT_EMCY, FAULT_NAMES, PSTORE_STATUS
-from .tomltext import basic_string
+from hdservo.fw_const import FAULT_EMCY, FAULT_NAMES, PSTORE_STATUS
+from hdservo.tomltext import basic_string
 
 #: fault names, EMCY codes and store states of the firmware (generated from the C headers)
 EMCY = {0: None, **{code: f"0x{emcy:04x}" for code, emcy in FAULT_EMCY.items()}}
@@ -177,14 +177,14 @@ def run_nvm(root: Path) -> list[dict]:
 
 
 def build_table(root: Path) -> dict:
-    from .faults_can import run_can_cases
+    from oracles.faults_can import run_can_cases
     rows = [run_case(root, c) for c in CASES] + run_nvm(root) + run_can_cases(root)
     return {"cases": rows, "not_covered": NOT_COVERED,
             "passed": sum(r["pass"] for r in rows), "failed": sum(not r["pass"] for r in rows)}
 
 
 def main(argv: list[str] | None = None) -> int:
-    root = Path(__file__).resolve().parents[2]
+    root = Path(__file__).resolve().parents[3]
     out = root / "build" / "results" / "faults.json"
     table = build_table(root)
     out.parent.mkdir(parents=True, exist_ok=True)
