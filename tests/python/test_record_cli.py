@@ -1,4 +1,4 @@
-"""``hdservo record`` on the virtual drive: the log it writes is a DESIGN.md section 7 log
+"""``hdservo record`` on the virtual drive: the log it writes is an hdservo log (docs/sim.md)
 (format tag, gear ratio and encoder resolutions from the drive, the drive's parameters) that
 ``hdservo discrepancy`` reads as it is; bad arguments are one error line."""
 from __future__ import annotations
@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from hdservo import logio
@@ -44,7 +45,10 @@ def test_recorded_log_goes_into_discrepancy(tmp_path: Path, capsys) -> None:
     assert m["load_encoder_counts_per_rev"] == 2 ** BY_NAME["output_enc_bits"].default
     assert m["sample_period_s"] == 5e-4 and m["param_layout_hash"] == f"0x{TABLE_HASH:08X}"
     assert m["drive_params"]["pos_kp"] == 20.0 and len(m["drive_params"]) == len(BY_NAME)
-    assert log.t[0] == 0.0 and len(log.t) >= 5800 and m["lost_ticks"] == 0
+    # 3 s of wall time: a realtime-paced drive on a loaded machine may fall a little behind, so the
+    # row count is bounded below loosely; that no sample is lost is the exact check
+    assert log.t[0] == 0.0 and len(log.t) >= 4000 and m["lost_ticks"] == 0
+    assert np.allclose(np.diff(log.t), m["sample_period_s"])
     assert float(log["load_angle_rad"].max() - log["load_angle_rad"].min()) > 0.08     # it moved
     twist = log["motor_angle_rad"] / m["gear_ratio"] - log["load_angle_rad"]
     assert float(abs(twist).max()) < 5e-3        # the motor's whole turns match the load (align_motor_turns)
