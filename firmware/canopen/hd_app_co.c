@@ -154,9 +154,16 @@ static int32_t a_pget(void *c, uint16_t id)
     return hd_app_param_get(((hd_app_co_t *)c)->app, id);
 }
 
+static bool power_stage_on(const hd_app_co_t *ac);
+
 static uint32_t a_pset(void *c, uint16_t id, int32_t raw)
 {
-    return hd_app_param_set(((hd_app_co_t *)c)->app, id, raw) == 0 ? 0u : HD_CO_AB_VALUE;
+    hd_app_co_t *ac = c;
+    /* the feedback configuration changes only with the power stage off (0x08000022) */
+    if (id == (uint16_t)HD_P_FB_CONFIG && raw != hd_app_param_get(ac->app, id) && power_stage_on(ac)) {
+        return HD_CO_AB_STATE;
+    }
+    return hd_app_param_set(ac->app, id, raw) == 0 ? 0u : HD_CO_AB_VALUE;
 }
 
 static uint32_t a_dsize(void *c, uint16_t dom, uint32_t *size)

@@ -1,0 +1,99 @@
+/*
+ * hd_feedback.c - feedback configuration of the position loop (contract: hd_feedback.h).
+ */
+#include "hd_feedback.h"
+#include "hd_fixed.h"
+
+#define FB_TWO_PI_Q28 1686629713      /* round(2 pi 2^28) */
+
+int32_t hd_fb_design(hd_fb_cfg_t *c, int32_t kind, int32_t n, int32_t dual_fc_q16)
+{
+    if (kind < (int32_t)HD_FB_FULL_CLOSED || kind > (int32_t)HD_FB_DUAL_LOOP || n < 1 || dual_fc_q16 <= 0) {
+        return -1;
+    }
+    /* 1 - exp(-2 pi fc T) in Q30 (at least 1 LSB so that the blend moves) */
+    const int32_t x = hd_sat32(hd_div64_rnd(hd_mul64x32_q((int64_t)dual_fc_q16, FB_TWO_PI_Q28, 28u), HD_LOOP_HZ));
+    const int32_t a = HD_Q30_ONE - hd_exp_neg_q16(x);
+    c->kind = (uint32_t)kind;
+    c->n = n;
+    c->dual_alpha = (a < 1) ? 1 : a;
+    return 0;
+}
+
+void hd_fb_reset(hd_fb_t *s, const hd_fb_cfg_t *c, hd_angle_t pos_mot, hd_angle_t pos_out)
+{
+    /* floor division, remainder in [0, N): why the tracking is exact afterwards */
+    int64_t q = pos_mot / c->n;
+    int64_t r = pos_mot - q * c->n;
+    if (r < 0) {
+        q -= 1;
+        r += c->n;
+    }
+    s->mot_prev = pos_mot;
+    s->mo = q;
+    s->mo_rem = (int32_t)r;
+    s->offset = 0;
+    s->est = q;
+    s->corr = 0;
+    s->pos_fb = pos_out;
+}
+
+void hd_fb_motor(hd_fb_t *s, const hd_fb_cfg_t *c, hd_angle_t pos_mot)
+{
+    const int64_t d = hdf_sub64_sat(pos_mot, s->mot_prev);
+    const int64_t t = (int64_t)s->mo_rem + d;         /* pos_mot - N mo */
+    const uint32_t un = (uint32_t)c->n;
+    if (t > (int64_t)UINT32_MAX || t < -(int64_t)UINT32_MAX) {
+        hd_fb_reset(s, c, pos_mot, s->pos_fb);        /* not a per-period step */
+        return;
+    }
+    s->mot_prev = pos_mot;
+    if (t >= 0) {
+        const uint32_t ut = (uint32_t)t;
+        const uint32_t q = ut / un;
+        s->mo = hdf_add64_sat(s->mo, (int64_t)q);
+        s->mo_rem = (int32_t)(ut - q * un);
+    } else {
+        /* -(q N + r) = -(q + 1) N + (N - r) for r > 0 */
+        const uint32_t ut = (uint32_t)(-t);
+        const uint32_t q = ut / un;
+        const uint32_t r = ut - q * un;
+        if (r == 0u) {
+            s->mo = hdf_sub64_sat(s->mo, (int64_t)q);
+            s->mo_rem = 0;
+        } else {
+            s->mo = hdf_sub64_sat(s->mo, (int64_t)q + 1);
+            s->mo_rem = (int32_t)(un - r);
+        }
+    }
+}
+
+hd_angle_t hd_fb_enter(hd_fb_t *s, const hd_fb_cfg_t *c, hd_angle_t pos_out)
+{
+    s->est = hdf_sub64_sat(s->mo, s->offset);
+    if (c->kind == (uint32_t)HD_FB_SEMI_CLOSED) {
+        s->pos_fb = s->est;
+    } else {
+        /* full closed, dual loop: the output encoder; the blend starts at it */
+        s->corr = hdf_shl64_sat(hdf_sub64_sat(pos_out, s->est), 16u);
+        s->pos_fb = pos_out;
+    }
+    return s->pos_fb;
+}
+
+hd_angle_t hd_fb_step(hd_fb_t *s, const hd_fb_cfg_t *c, hd_angle_t pos_out, hd_angle_t offset)
+{
+    s->offset = offset;
+    s->est = hdf_sub64_sat(s->mo, offset);
+    if (c->kind == (uint32_t)HD_FB_SEMI_CLOSED) {
+        s->pos_fb = s->est;
+    } else if (c->kind == (uint32_t)HD_FB_DUAL_LOOP) {
+        /* corr += alpha (pos_out - est - corr): the output encoder at low frequency */
+        const int64_t inn = hdf_sub64_sat(hdf_shl64_sat(hdf_sub64_sat(pos_out, s->est), 16u), s->corr);
+        s->corr = hdf_add64_sat(s->corr, hdf_mul64x32_q(inn, c->dual_alpha, 30u));
+        s->pos_fb = hdf_add64_sat(s->est, hdf_asr64_rnd(s->corr, 16u));
+    } else {
+        s->pos_fb = pos_out;
+    }
+    return s->pos_fb;
+}
