@@ -36,6 +36,8 @@ void hd_fb_reset(hd_fb_t *s, const hd_fb_cfg_t *c, hd_angle_t pos_mot, hd_angle_
     s->est = q;
     s->corr = 0;
     s->pos_fb = pos_out;
+    s->bias = 0;
+    s->primed = 1u;
 }
 
 void hd_fb_motor(hd_fb_t *s, const hd_fb_cfg_t *c, hd_angle_t pos_mot)
@@ -70,7 +72,11 @@ void hd_fb_motor(hd_fb_t *s, const hd_fb_cfg_t *c, hd_angle_t pos_mot)
 
 hd_angle_t hd_fb_enter(hd_fb_t *s, const hd_fb_cfg_t *c, hd_angle_t pos_out)
 {
+    /* the offset the estimate holds now: the last prediction minus what of it still fades */
+    s->offset = hdf_sub64_sat(s->offset, hdf_asr64_rnd(s->bias, 16u));
     s->est = hdf_sub64_sat(s->mo, s->offset);
+    s->bias = 0;
+    s->primed = 0u;
     if (c->kind == (uint32_t)HD_FB_SEMI_CLOSED) {
         s->pos_fb = s->est;
     } else {
@@ -83,8 +89,14 @@ hd_angle_t hd_fb_enter(hd_fb_t *s, const hd_fb_cfg_t *c, hd_angle_t pos_out)
 
 hd_angle_t hd_fb_step(hd_fb_t *s, const hd_fb_cfg_t *c, hd_angle_t pos_out, hd_angle_t offset)
 {
+    if (s->primed == 0u) {
+        /* first period after an entry: keep the estimate where the entry put it */
+        s->bias = hdf_shl64_sat(hdf_sub64_sat(offset, s->offset), 16u);
+        s->primed = 1u;
+    }
     s->offset = offset;
-    s->est = hdf_sub64_sat(s->mo, offset);
+    s->est = hdf_add64_sat(hdf_sub64_sat(s->mo, offset), hdf_asr64_rnd(s->bias, 16u));
+    s->bias = hdf_sub64_sat(s->bias, hdf_asr64_rnd(s->bias, HD_FB_BIAS_SHIFT));
     if (c->kind == (uint32_t)HD_FB_SEMI_CLOSED) {
         s->pos_fb = s->est;
     } else if (c->kind == (uint32_t)HD_FB_DUAL_LOOP) {

@@ -15,6 +15,12 @@
  * compliance twist), so the estimate is the motor angle / N plus the predicted
  * output offset TE - twist - hysteresis.
  *
+ * Mode entry is bumpless: the references start at the feedback (hd_fb_enter), and
+ * the step between the offset the bank last predicted and its first prediction
+ * after the entry is held in a bias that fades with a time constant of
+ * 2^HD_FB_BIAS_SHIFT periods (102 ms), so the compensators' correction moves the
+ * axis smoothly instead of stepping the position error.
+ *
  * Formats (hd_units.h):
  *   pos_mot        Q32.32 motor turns;   mo, est, pos_fb, offset  Q32.32 output turns
  *   mo_rem         pos_mot - N mo in [0, N), 2^-32 motor turn (so mo tracks
@@ -30,6 +36,9 @@
 
 #include <stdint.h>
 #include "hd_units.h"
+
+/* fade of the entry bias: 2^-10 per period, time constant 1024 periods (102 ms) */
+#define HD_FB_BIAS_SHIFT 10u
 
 typedef enum {
     HD_FB_FULL_CLOSED = 0,
@@ -51,6 +60,8 @@ typedef struct {
     hd_angle_t est;          /* last motor-side output estimate mo - offset */
     int64_t    corr;         /* dual loop: low-passed pos_out - est, 2^-48 turn */
     hd_angle_t pos_fb;       /* last loop position feedback */
+    int64_t    bias;         /* entry bias (fading), 2^-48 turn */
+    uint32_t   primed;       /* 0 until the first hd_fb_step after an entry */
 } hd_fb_t;
 
 /** Config: kind (hd_fb_config_t), gear ratio n >= 1, dual-loop crossover fc (Q16 Hz, > 0).
