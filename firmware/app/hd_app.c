@@ -572,6 +572,11 @@ void hd_app_capture_trigger(hd_app_t *a)
     hd_capture_trigger(&a->cap);
 }
 
+hd_angle_t hd_app_entry_position(const hd_app_t *a)
+{
+    return hd_fb_entry_position(&a->fb, &a->fb_cfg, a->pos_out);
+}
+
 const hd_telemetry_t *hd_app_telemetry(const hd_app_t *a)
 {
     return &a->tel;

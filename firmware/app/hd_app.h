@@ -302,6 +302,11 @@ int32_t hd_app_store_all(hd_app_t *a);
  *  set, or a table in force other than the saved one), 0 if it would write nothing. */
 int32_t hd_app_store_pending(const hd_app_t *a);
 
+/** The position at which entering a closed-loop position mode now starts the references
+ *  (the loop's position feedback: the output encoder in full closed and dual-loop, the
+ *  motor-side estimate in semi-closed), Q32.32 turns; for bumpless targets of a master. */
+hd_angle_t hd_app_entry_position(const hd_app_t *a);
+
 /** Latest telemetry (also available as a->tel). */
 const hd_telemetry_t *hd_app_telemetry(const hd_app_t *a);
 

@@ -29,7 +29,8 @@
  *   dual_alpha     Q30, 1 - exp(-2 pi fc T)
  * Cost: full closed adds nothing to the period; semi-closed and dual-loop one
  * UDIV (hd_fb_motor) plus a few adds (and one 64x32 product for the dual blend).
- * The only 64-bit division is in hd_fb_reset (power-up, parameter change).
+ * No 64-bit division anywhere: motor / N is done in 16-bit chunks of 32-bit
+ * divisions (N < 2^16; gear_ratio <= 1000).
  */
 #ifndef HD_FEEDBACK_H
 #define HD_FEEDBACK_H
@@ -64,10 +65,10 @@ typedef struct {
     uint32_t   primed;       /* 0 until the first hd_fb_step after an entry */
 } hd_fb_t;
 
-/** Config: kind (hd_fb_config_t), gear ratio n >= 1, dual-loop crossover fc (Q16 Hz, > 0).
+/** Config: kind (hd_fb_config_t), gear ratio 1 <= n < 2^16, dual-loop crossover fc (Q16 Hz, > 0).
  *  0 ok, -1 bad (cfg untouched). */
 int32_t hd_fb_design(hd_fb_cfg_t *c, int32_t kind, int32_t n, int32_t dual_fc_q16);
-/** Restart the motor-side tracking at pos_mot (one 64-bit division), offset 0, the
+/** Restart the motor-side tracking at pos_mot, offset 0, the
  *  feedback at pos_out.  At power-up and when kind or N change. */
 void hd_fb_reset(hd_fb_t *s, const hd_fb_cfg_t *c, hd_angle_t pos_mot, hd_angle_t pos_out);
 /** Once per period (semi-closed and dual-loop): advance mo by the motor step since
@@ -77,6 +78,8 @@ void hd_fb_motor(hd_fb_t *s, const hd_fb_cfg_t *c, hd_angle_t pos_mot);
  *  the first position error is 0 (full closed: pos_out; semi-closed: the estimate with
  *  the last offset; dual-loop: pos_out, the blend state set to match).  Sets pos_fb. */
 hd_angle_t hd_fb_enter(hd_fb_t *s, const hd_fb_cfg_t *c, hd_angle_t pos_out);
+/** Where hd_fb_enter() would start the references now (no state change). */
+hd_angle_t hd_fb_entry_position(const hd_fb_t *s, const hd_fb_cfg_t *c, hd_angle_t pos_out);
 /** The loop's position feedback of this period from the output encoder and the
  *  predicted offset (Q32.32 turns). */
 hd_angle_t hd_fb_step(hd_fb_t *s, const hd_fb_cfg_t *c, hd_angle_t pos_out, hd_angle_t offset);

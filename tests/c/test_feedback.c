@@ -190,7 +190,7 @@ static void test_compliance_twist(void **st)
 static void test_fb_motor_exact(void **st)
 {
     (void)st;
-    static const int32_t ns[] = {1, 7, 50, 100, 161, 1000};
+    static const int32_t ns[] = {1, 7, 50, 100, 161, 1000, 65535};
     uint64_t x = 0x9E3779B97F4A7C15u;
     for (size_t k = 0; k < sizeof ns / sizeof ns[0]; k++) {
         hd_fb_cfg_t c;
@@ -198,10 +198,16 @@ static void test_fb_motor_exact(void **st)
         assert_int_equal(hd_fb_design(&c, HD_FB_SEMI_CLOSED, ns[k], 2 << 16), 0);
         hd_angle_t pm = -((hd_angle_t)3 << 32) + 12345;
         hd_fb_reset(&s, &c, pm, 0);
+        {
+            int64_t q0 = pm / ns[k], r0 = pm % ns[k];
+            if (r0 < 0) { q0 -= 1; r0 += ns[k]; }
+            assert_true(s.mo == q0 && s.mo_rem == r0);
+        }
         for (int i = 0; i < 20000; i++) {
             x ^= x << 13; x ^= x >> 7; x ^= x << 17;
-            /* steps from a few LSB up to the largest a period can bring (|d| < 2^31) */
-            const int32_t d = (int32_t)(x >> 32) >> ((x >> 8) & 31u);
+            /* steps from a few LSB up to the largest a period can bring (|d| < 2^31);
+             * every 64th a jump of up to 2^52 (the long form, e.g. after a re-home) */
+            const int64_t d = ((i & 63) == 63) ? (int64_t)x >> 12 : (int64_t)((int32_t)(x >> 32) >> ((x >> 8) & 31u));
             pm += d;
             hd_fb_motor(&s, &c, pm);
             int64_t q = pm / ns[k], r = pm % ns[k];
@@ -223,6 +229,7 @@ static void test_fb_motor_exact(void **st)
     /* bad configs refused */
     assert_int_equal(hd_fb_design(&c, 3, 100, 2 << 16), -1);
     assert_int_equal(hd_fb_design(&c, HD_FB_DUAL_LOOP, 0, 2 << 16), -1);
+    assert_int_equal(hd_fb_design(&c, HD_FB_DUAL_LOOP, 65536, 2 << 16), -1);
     assert_int_equal(hd_fb_design(&c, HD_FB_DUAL_LOOP, 100, 0), -1);
 }
 
