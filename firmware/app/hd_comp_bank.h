@@ -89,7 +89,7 @@
  * PTP moves (hd_trajectory.h, parameters appr_*), read by hd_app; the bank ignores it. */
 #define HD_CB_APPROACH  (1u << 7)
 /* cb_enable bit 8: the compliance twist (parameters cp_*), a position correction. */
-#define HD_CB_COMPLIANCE (1u << 8)
+#define HD_CB_COMPLIANCE 0x100u
 
 typedef struct {
     hd_stribeck_cfg_t str;
