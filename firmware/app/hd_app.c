@@ -9,7 +9,13 @@
  *   t       = PID_vel(vel_ref, vel_fb) + t_ff                 Q15.16 N.m, |.| <= torque_limit
  *   t_f     = biquad chain (notch, low-pass)(t), clamped to torque_limit
  *   motor torque = t_f / N ; current = motor torque / Kt
- * vel_fb = motor-encoder observer / N (vel_fb_src 0) or output-encoder observer (1).
+ * vel_fb = motor-encoder observer / N (vel_fb_src 0) or output-encoder observer (1);
+ * always the motor encoder in semi-closed and dual-loop (fb_config 1, 2).
+ * Position feedback (fb_config, hd_feedback.h): pos_out in full closed; in
+ * semi-closed / dual-loop the motor angle / N minus the bank's predicted offset
+ * dpos (alone, or blended with pos_out below fb_dual_fc), and the bank's inputs
+ * pos_out (LuGre, backstepping, position I) see the last period's feedback.
+ * STAB keeps the output encoder (its outer loop is the gyro).
  *
  * Standstill hunt breaker (hold_ticks > 0; position modes except STAB):
  * the reference is "at rest" when pos_ref (before the bank's corrections) equals last
@@ -131,6 +137,9 @@ int32_t hd_app_apply_params(hd_app_t *a)
     if (hd_comp_bank_config(&a->cb_cfg, a->param) != 0) {
         return -1;
     }
+    if (hd_fb_design(&a->fb_cfg, param_raw(a, HD_P_FB_CONFIG), n, param_raw(a, HD_P_FB_DUAL_FC)) != 0) {
+        return -1;
+    }
     return 0;
 }
 
@@ -162,6 +171,7 @@ void hd_app_init(hd_app_t *a)
     hd_velobs_reset(&a->obs_mot, 0);
     hd_velobs_reset(&a->obs_out, 0);
     hd_comp_bank_init(&a->cb, &a->cb_cfg);
+    hd_fb_reset(&a->fb, &a->fb_cfg, 0, 0);
     /* the saved Preisach table, read straight into the bank (no second image in RAM) */
     a->tstore_status = hd_tstore_load(&a->cb.table, &a->tstore_seq);
     if (a->tstore_status == HD_TSTORE_OK && hd_comp_bank_adopt_table(&a->cb) != HD_PREISACH_OK) {
@@ -315,6 +325,7 @@ static int32_t read_sensors(hd_app_t *a, hd_hal_sensors_t *sn)
         hd_velobs_reset(&a->obs_mot, a->pos_mot);
         hd_velobs_reset(&a->obs_out, a->pos_out);
         hd_traj_reset(&a->traj, a->pos_out);
+        hd_fb_reset(&a->fb, &a->fb_cfg, a->pos_mot, a->pos_out);
     } else {
         const int32_t dm = enc_step_q32(mraw, a->mot_raw_prev, mb);
         const int32_t dq = enc_step_q32(oraw, a->out_raw_prev, ob);
@@ -333,11 +344,16 @@ static int32_t read_sensors(hd_app_t *a, hd_hal_sensors_t *sn)
 
 static void enter_mode(hd_app_t *a, int32_t mode)
 {
+    /* the references start at the loop's position feedback (bumpless in every
+     * feedback configuration; the output encoder in full closed and in STAB) */
+    const hd_angle_t p0 = (a->fb_cfg.kind == (uint32_t)HD_FB_FULL_CLOSED || mode == HD_MODE_STAB) ?
+        a->pos_out : hd_fb_enter(&a->fb, &a->fb_cfg, a->pos_out);
     reset_loops(a);
-    a->pos_cmd = a->pos_out;
+    a->inpos_ref_prev = p0;
+    a->pos_cmd = p0;
     a->vel_cmd = 0;
-    hd_traj_reset(&a->traj, a->pos_out);
-    a->hold_pos = a->pos_out;
+    hd_traj_reset(&a->traj, p0);
+    a->hold_pos = p0;
     switch (mode) {
     case HD_MODE_TORQUE:
         break;
@@ -348,7 +364,7 @@ static void enter_mode(hd_app_t *a, int32_t mode)
         hd_traj_rate(&a->traj, &a->traj_cfg, a->rate_cmd);
         break;
     case HD_MODE_SINE:
-        (void)hd_traj_sine(&a->traj, a->pos_out, a->sine_amp, a->sine_f_q16);
+        (void)hd_traj_sine(&a->traj, p0, a->sine_amp, a->sine_f_q16);
         break;
     case HD_MODE_EXCITATION:
         (void)hd_exc_start(&a->exc, &a->exc_cfg);
@@ -457,6 +473,10 @@ int32_t hd_app_param_set(hd_app_t *a, uint32_t id, int32_t raw)
         return -1;
     }
     const int32_t old = a->param[id];
+    /* the loop's feedback source changes only with the power stage off */
+    if (id == (uint32_t)HD_P_FB_CONFIG && raw != old && (a->mode != HD_MODE_OFF || a->mode_req != HD_MODE_OFF)) {
+        return -1;
+    }
     a->param[id] = raw;
     if (hd_app_apply_params(a) != 0) {
         a->param[id] = old;
@@ -464,6 +484,10 @@ int32_t hd_app_param_set(hd_app_t *a, uint32_t id, int32_t raw)
         return -1;
     }
     hd_comp_bank_apply(&a->cb, &a->cb_cfg);   /* enable changes ramp (bumpless) */
+    if ((id == (uint32_t)HD_P_FB_CONFIG || id == (uint32_t)HD_P_GEAR_RATIO) && raw != old) {
+        /* motor / N restarts from the present angles (the next mode entry starts there) */
+        hd_fb_reset(&a->fb, &a->fb_cfg, a->pos_mot, a->pos_out);
+    }
     return 0;
 }
 
@@ -548,6 +572,11 @@ void hd_app_capture_trigger(hd_app_t *a)
     hd_capture_trigger(&a->cap);
 }
 
+hd_angle_t hd_app_entry_position(const hd_app_t *a)
+{
+    return hd_fb_entry_position(&a->fb, &a->fb_cfg, a->pos_out);
+}
+
 const hd_telemetry_t *hd_app_telemetry(const hd_app_t *a)
 {
     return &a->tel;
@@ -624,6 +653,7 @@ typedef struct {
     hd_vel_out_t       vel_ref;   /* velocity-loop reference, 2^-32 turn/s */
     int64_t            t_out;     /* torque before the limit, Q15.16 N.m */
     int32_t            pos_err;   /* 2^-32 turn, saturated */
+    hd_angle_t         pos_fb;    /* the loop's position feedback, Q32.32 turns */
     int32_t            t_cmd;     /* limited output torque command, Q15.16 N.m */
     hd_comp_bank_in_t  cbi;       /* the bank's inputs (pre and post) */
     hd_hal_command_t   cmd;
@@ -641,6 +671,9 @@ static void phase_sensors(hd_app_t *a, hd_period_t *p)
     if (sf == HD_FAULT_ENC_JUMP && (p->fen & HD_FCHK_ENC_JUMP)) {
         trip(a, sf);
     }
+    if (a->fb_cfg.kind != (uint32_t)HD_FB_FULL_CLOSED && a->started) {
+        hd_fb_motor(&a->fb, &a->fb_cfg, a->pos_mot);     /* motor / N of this sample */
+    }
     if (a->started && a->mode_changed) {
         a->mode_changed = 0;
         enter_mode(a, a->mode_req);
@@ -650,7 +683,8 @@ static void phase_sensors(hd_app_t *a, hd_period_t *p)
     p->n = param_raw(a, HD_P_GEAR_RATIO);
     const hd_vel_out_t v_mot_out = div_n_q16_rnd(hd_velobs_vel48(&a->obs_mot), p->n);
     p->v_out_enc = hd_velobs_vel_out(&a->obs_out);
-    p->v_fb = (param_raw(a, HD_P_VEL_FB_SRC) == 0) ? v_mot_out : p->v_out_enc;
+    p->v_fb = (param_raw(a, HD_P_VEL_FB_SRC) == 0 || a->fb_cfg.kind != (uint32_t)HD_FB_FULL_CLOSED) ?
+        v_mot_out : p->v_out_enc;
 }
 
 /* References of the mode in effect (trajectory, excitation, stabilisation)
@@ -731,10 +765,13 @@ static void phase_references(hd_app_t *a, hd_period_t *p)
  * then pos_err of the corrected reference. */
 static void phase_comp_bank(hd_app_t *a, hd_period_t *p)
 {
+    /* semi-closed / dual-loop outside STAB: the loop closes on the motor-side estimate */
+    const bool est = (a->fb_cfg.kind != (uint32_t)HD_FB_FULL_CLOSED) && p->mode != HD_MODE_STAB;
+    hd_angle_t pos_fb = a->pos_out;
     if (p->loops == HD_LOOPS_POS_VEL) {
         hd_comp_bank_out_t cbo;
         p->cbi.pos_ref = p->pos_ref;
-        p->cbi.pos_out = a->pos_out;
+        p->cbi.pos_out = est ? a->fb.pos_fb : a->pos_out;   /* last period's loop feedback */
         p->cbi.pos_mot = a->pos_mot;
         p->cbi.vel_ref = (p->mode == HD_MODE_STAB) ? a->stab.vff_db : p->v_ff;   /* friction FF without gyro-noise chatter */
         p->cbi.vel_fb = p->v_fb;
@@ -746,11 +783,16 @@ static void phase_comp_bank(hd_app_t *a, hd_period_t *p)
         a->vel_pid.integ = hdf_sub64_sat(a->vel_pid.integ, hdf_shl64_sat(
             (int64_t)hdf_mul_q(a->cb.str.tau_raw, a->cb.str.blend.w - w_str, 30u) +
             (int64_t)hdf_mul_q(a->cb.lug.tau_raw, a->cb.lug.blend.w - w_lug, 30u), a->vel_cfg.shift));
-        p->pos_ref = hdf_add64_sat(p->pos_ref, cbo.dpos);
+        if (est) {
+            pos_fb = hd_fb_step(&a->fb, &a->fb_cfg, a->pos_out, cbo.dpos);   /* motor / N - dpos (blend) */
+        } else if (a->fb_cfg.kind == (uint32_t)HD_FB_FULL_CLOSED) {
+            p->pos_ref = hdf_add64_sat(p->pos_ref, cbo.dpos);        /* 0 in full closed (dvel instead) */
+        }
         p->v_ff = hd_add_sat(p->v_ff, cbo.dvel);
         p->t_ff = hd_add_sat(p->t_ff, cbo.tff);
     }
-    p->pos_err = hdf_sat32(hdf_sub64_sat(p->pos_ref, a->pos_out));
+    p->pos_fb = pos_fb;
+    p->pos_err = hdf_sat32(hdf_sub64_sat(p->pos_ref, pos_fb));
 }
 
 /* Standstill hunt breaker (file header comment): at rest and hunting, the Stribeck
@@ -898,6 +940,7 @@ static void phase_telemetry(hd_app_t *a, const hd_period_t *p)
     t->gyro = p->sn.gyro_rate;
     t->exc = p->exc;
     t->pos_err = p->pos_err;
+    t->pos_fb = p->pos_fb;
 
     if (a->cap.state == HD_CAP_ARMED || a->cap.state == HD_CAP_TRIGGERED) {
         int32_t smp[HD_CAPTURE_MAX_CH];

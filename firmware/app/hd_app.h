@@ -70,6 +70,7 @@
 #include "hd_capture.h"
 #include "hd_comp_bank.h"
 #include "hd_stab.h"
+#include "hd_feedback.h"
 
 typedef enum {
     HD_MODE_OFF = 0,
@@ -155,7 +156,9 @@ typedef struct {
     hd_current_t current;     /* measured current, Q15.16 A */
     hd_vel_out_t gyro;        /* payload gyro, 2^-32 turn/s */
     int32_t      exc;         /* excitation value */
-    int32_t      pos_err;     /* pos_ref - pos_out, 2^-32 turn (saturated) */
+    int32_t      pos_err;     /* pos_ref - loop position feedback, 2^-32 turn (saturated) */
+    hd_angle_t   pos_fb;      /* loop position feedback (fb_config: output encoder, motor-side
+                               * estimate or their blend), Q32.32 turns */
 } hd_telemetry_t;
 
 typedef struct {
@@ -228,6 +231,10 @@ typedef struct {
     hd_stab_cfg_t stab_cfg;
     hd_stab_t stab;
     uint32_t stab_primed;         /* 0: hd_stab_start() at the next STAB period */
+
+    /* feedback configuration of the position loop (parameters fb_*; hd_feedback.h) */
+    hd_fb_cfg_t fb_cfg;
+    hd_fb_t fb;
 } hd_app_t;
 
 /** Power-up: load parameters (NVM or defaults), reset everything, mode OFF. */
@@ -266,7 +273,8 @@ void hd_app_fault_reset(hd_app_t *a);
  *  The first fault is kept.  -1 for code <= HD_FAULT_NONE or unknown. */
 int32_t hd_app_fault_raise(hd_app_t *a, int32_t code);
 
-/** Set one parameter (raw); applied at once. 0 ok, -1 unknown id / out of range (old value kept). */
+/** Set one parameter (raw); applied at once. 0 ok, -1 unknown id / out of range, or a
+ *  change of fb_config while the mode is not OFF (old value kept). */
 int32_t hd_app_param_set(hd_app_t *a, uint32_t id, int32_t raw);
 /** Get one raw parameter (0 for an unknown id). */
 int32_t hd_app_param_get(const hd_app_t *a, uint32_t id);
@@ -293,6 +301,11 @@ int32_t hd_app_store_all(hd_app_t *a);
 /** 1 if hd_app_store_all() would write anything (parameters other than the newest saved
  *  set, or a table in force other than the saved one), 0 if it would write nothing. */
 int32_t hd_app_store_pending(const hd_app_t *a);
+
+/** The position at which entering a closed-loop position mode now starts the references
+ *  (the loop's position feedback: the output encoder in full closed and dual-loop, the
+ *  motor-side estimate in semi-closed), Q32.32 turns; for bumpless targets of a master. */
+hd_angle_t hd_app_entry_position(const hd_app_t *a);
 
 /** Latest telemetry (also available as a->tel). */
 const hd_telemetry_t *hd_app_telemetry(const hd_app_t *a);

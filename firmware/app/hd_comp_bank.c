@@ -24,9 +24,10 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
 {
     const int32_t *p = param;
     uint32_t i;
-    c->enable = (uint32_t)prm(p, HD_P_CB_ENABLE) & HD_CB_ALL;
+    c->enable = (uint32_t)prm(p, HD_P_CB_ENABLE) & (HD_CB_ALL | HD_CB_COMPLIANCE);
     c->ramp_ticks = (uint32_t)prm(p, HD_P_CB_RAMP_TICKS);
-    c->pos_mode = (uint32_t)prm(p, HD_P_CB_POS_MODE);
+    /* full closed: the corrections lead the motor (dvel); else the feedback estimate uses them */
+    c->pos_mode = (prm(p, HD_P_FB_CONFIG) != 0) ? 1u : 0u;
     c->dpos_alpha = lpf_alpha(prm(p, HD_P_CB_DPOS_FC));
 
     /* Stribeck feed-forward */
@@ -94,6 +95,12 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
         return -1;
     }
 
+    /* compliance: three-slope twist (1/K computed here, not in the period) */
+    if (hd_compliance_design(&c->cp, prm(p, HD_P_CP_K1), prm(p, HD_P_CP_K2), prm(p, HD_P_CP_K3),
+                             prm(p, HD_P_CP_T1), prm(p, HD_P_CP_T2)) != 0) {
+        return -1;
+    }
+
     /* transmission error */
     {
         static const hd_param_id_t O[4] = {HD_P_TE_ORDER1, HD_P_TE_ORDER2, HD_P_TE_ORDER3, HD_P_TE_ORDER4};
@@ -153,6 +160,7 @@ static void set_blend_ramps(hd_comp_bank_t *b, uint32_t ramp)
     b->te.blend.ramp_ticks = ramp;
     b->bs.blend.ramp_ticks = ramp;
     b->dob_blend.ramp_ticks = ramp;
+    b->cp_blend.ramp_ticks = ramp;
 }
 
 void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
@@ -179,6 +187,7 @@ void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     hd_te_comp_init(&b->te, r, (en & HD_CB_TE) != 0u);
     hd_backstep_init(&b->bs, &c->bs, c->bs_th0, r, (en & HD_CB_BACKSTEP) != 0u);
     hd_blend_init(&b->dob_blend, r, (en & HD_CB_DOB) != 0u);
+    hd_blend_init(&b->cp_blend, r, (en & HD_CB_COMPLIANCE) != 0u);
     b->enabled = en;
     b->bs_preload = ((en & HD_CB_BACKSTEP) != 0u) ? 1u : 0u;
     b->dpos_f = 0;
@@ -195,6 +204,7 @@ void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     b->pki_i = 0;
     b->pki_w = 0;
     b->pr_test = 0;
+    b->cp_dth = 0;
 }
 
 void hd_comp_bank_apply(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
@@ -209,6 +219,7 @@ void hd_comp_bank_apply(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     if (ch & HD_CB_PREISACH) hd_preisach_inv_set_enabled(&b->pr, (en & HD_CB_PREISACH) != 0u);
     if (ch & HD_CB_TE) hd_te_comp_set_enabled(&b->te, (en & HD_CB_TE) != 0u);
     if (ch & HD_CB_DOB) hd_blend_set_enabled(&b->dob_blend, (en & HD_CB_DOB) != 0u);
+    if (ch & HD_CB_COMPLIANCE) hd_blend_set_enabled(&b->cp_blend, (en & HD_CB_COMPLIANCE) != 0u);
     if (ch & HD_CB_BACKSTEP) {
         const bool on = (en & HD_CB_BACKSTEP) != 0u;
         if (on && !hd_blend_active(&b->bs.blend)) {
@@ -300,6 +311,7 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
     int64_t dpos = 0;
     int32_t dv_i;
     const bool pr_on = running(b, HD_CB_PREISACH, &b->pr.blend);
+    const bool cp_on = running(b, HD_CB_COMPLIANCE, &b->cp_blend);
 
     if (b->dpos_primed == 0u) {
         b->pki_i = 0;           /* the loops were reset (app) or first period */
@@ -307,7 +319,7 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
     dv_i = pki_step(b, c, in);
 
     /* friction: Stribeck map (also the Preisach torque estimate's model) and LuGre */
-    if (running(b, HD_CB_STRIBECK, &b->str.blend) || pr_on) {
+    if (running(b, HD_CB_STRIBECK, &b->str.blend) || pr_on || cp_on) {
         tff = hdf_add_sat(tff, hd_stribeck_step(&b->str, &c->str, in->vel_ref, in->vel_fb));
     }
     if (running(b, HD_CB_LUGRE, &b->lug.blend)) {
@@ -334,8 +346,8 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
     if (running(b, HD_CB_MAXWELL, &b->mx.blend)) {
         dpos = hdf_add64_sat(dpos, hd_maxwell_step(&b->mx, &c->mx, in->pos_ref));
     }
-    if (pr_on) {
-        /* transmitted torque estimate, low-passed */
+    if (pr_on || cp_on) {
+        /* transmitted torque estimate, low-passed (Preisach inverse and compliance) */
         int32_t test;
         if (c->pr_t_src != 0u) {
             /* model: load-side friction (1 - share) F(v_ref) + J_L a_ref (2 pi J [Q16] acc [2^-24 turn/s^2]) */
@@ -350,16 +362,24 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
         const int64_t tg = hdf_shl64_sat((int64_t)test, 16u);
         b->pr_t = hdf_add64_sat(b->pr_t, hdf_mul64x32_q(hdf_sub64_sat(tg, b->pr_t), c->pr_alpha, 30u));
         const int32_t yd = hdf_sat32(hdf_asr64_rnd(b->pr_t, 16u));
-        int32_t u = 0;
-        (void)hd_blend_update(&b->pr.blend);
-        if (b->table_ok != 0u) {
-            const int32_t pl = hd_preisach_inv_step_p(&b->pr, &b->table, (int64_t)yd);
-            u = hd_preisach_dequantise(&b->table, pl);
+        if (pr_on) {
+            int32_t u = 0;
+            (void)hd_blend_update(&b->pr.blend);
+            if (b->table_ok != 0u) {
+                const int32_t pl = hd_preisach_inv_step_p(&b->pr, &b->table, (int64_t)yd);
+                u = hd_preisach_dequantise(&b->table, pl);
+            }
+            b->pr.u = u;
+            b->pr_dth = hd_blend_apply(&b->pr.blend, u);
+            b->pr.out = b->pr_dth;
+            dpos = hdf_add64_sat(dpos, (int64_t)b->pr_dth);
         }
-        b->pr.u = u;
-        b->pr_dth = hd_blend_apply(&b->pr.blend, u);
-        b->pr.out = b->pr_dth;
-        dpos = hdf_add64_sat(dpos, (int64_t)b->pr_dth);
+        if (cp_on) {
+            /* the gear's elastic twist at that torque: the output lags motor / N by it */
+            (void)hd_blend_update(&b->cp_blend);
+            b->cp_dth = hd_blend_apply(&b->cp_blend, hd_compliance_twist(&c->cp, yd));
+            dpos = hdf_add64_sat(dpos, (int64_t)b->cp_dth);
+        }
     }
     if (running(b, HD_CB_TE, &b->te.blend)) {
         dpos = hdf_add64_sat(dpos, hd_te_comp_step(&b->te, &c->te, in->pos_mot));
@@ -416,5 +436,5 @@ bool hd_comp_bank_active(const hd_comp_bank_t *b)
 {
     return hd_blend_active(&b->str.blend) || hd_blend_active(&b->lug.blend) || hd_blend_active(&b->mx.blend) ||
            hd_blend_active(&b->pr.blend) || hd_blend_active(&b->te.blend) || hd_blend_active(&b->bs.blend) ||
-           hd_blend_active(&b->dob_blend);
+           hd_blend_active(&b->dob_blend) || hd_blend_active(&b->cp_blend);
 }

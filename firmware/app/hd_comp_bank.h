@@ -6,8 +6,8 @@
  * Where each compensator acts (full-closed loop: position on the output
  * encoder, velocity on the motor encoder / N; docs/compensators.md section 8):
  *
- *   pos_ref --(+ dpos if cb_pos_mode = 1)--> position PI --> vel_ref
- *                              (+ dvel: d/dt of the position corrections if cb_pos_mode = 0)
+ *   pos_ref --> position PI (feedback: fb_config, hd_feedback.h) --> vel_ref
+ *                 (+ dvel: d/dt of the position corrections in full closed)
  *   vel_ref --> velocity PI --(+ tff: Stribeck / LuGre / DOB / TE torque)--> backstepping blend --> filters
  *
  *   Stribeck   torque FF, velocity = w_ref v_ref + (1 - w_ref) v_fb              -> tff
@@ -21,6 +21,9 @@
  *                           loop's own reaction; kept for comparison)       -> position correction
  *   TE         -TE(motor angle)                                                 -> position correction
  *              (+ optional torque FF -K1 TE -> tff)
+ *   compliance twist of the three-slope stiffness (hd_compliance.h) at the
+ *              transmitted-torque estimate of the Preisach inverse (same
+ *              pr_t_src / pr_fc; the estimate runs when either is on)   -> position correction
  *   backstep   replaces the PID's torque: u = u_pid + w (u_bs - u_pid); preloaded at engage
  *   DOB        d = Q(t_prev - J s v_fb), Q = g/(s+g) first order; torque FF + d
  *   pos. I     scheduled position integral (cb_pki > 0): a second integrator of the
@@ -36,12 +39,13 @@
  *              clears dpos_primed).
  *
  * The position corrections sum to dpos (Q32.32 turns, output-referred
- * motor-side lead).  With cb_pos_mode = 0 (default, output-encoder position
- * loop) dpos is low-passed at cb_dpos_fc and its per-period difference is the
- * velocity feed-forward dvel: the motor travels the lost motion / TE ahead of
- * the output while the position loop keeps the OUTPUT on the reference.  With
- * cb_pos_mode = 1 dpos is added to the position reference (for a position loop
- * closed on the motor encoder).
+ * motor-side lead = predicted motor angle / N - output angle).  In full closed
+ * (fb_config 0, the default) dpos is low-passed at cb_dpos_fc and its
+ * per-period difference is the velocity feed-forward dvel: the motor travels
+ * the lost motion / TE ahead of the output while the position loop keeps the
+ * OUTPUT on the reference.  In semi-closed and dual-loop (fb_config 1, 2) dpos
+ * is returned as it is (out.dpos) and the app subtracts it from the motor
+ * angle / N: the predicted output position the loop closes on (hd_feedback.h).
  *
  * Switching: cb_enable bits (HD_CB_*).  A change of a bit calls the
  * compensator's set_enabled(): its output weight ramps over cb_ramp_ticks
@@ -71,6 +75,7 @@
 #include "hd_te_comp.h"
 #include "hd_backstep.h"
 #include "hd_blend.h"
+#include "hd_compliance.h"
 
 #define HD_CB_STRIBECK  (1u << 0)
 #define HD_CB_LUGRE     (1u << 1)
@@ -83,6 +88,8 @@
 /* cb_enable bit 7 is not a bank compensator: the one-direction final approach of
  * PTP moves (hd_trajectory.h, parameters appr_*), read by hd_app; the bank ignores it. */
 #define HD_CB_APPROACH  (1u << 7)
+/* cb_enable bit 8: the compliance twist (parameters cp_*), a position correction. */
+#define HD_CB_COMPLIANCE 0x100u
 
 typedef struct {
     hd_stribeck_cfg_t str;
@@ -91,9 +98,10 @@ typedef struct {
     hd_te_cfg_t       te;
     hd_backstep_cfg_t bs;
     int32_t  bs_th0[HD_BS_NP];   /* Q15.16 initial estimates */
+    hd_compliance_cfg_t cp;
     uint32_t enable;             /* HD_CB_* */
     uint32_t ramp_ticks;
-    uint32_t pos_mode;           /* 0 velocity FF, 1 position reference */
+    uint32_t pos_mode;           /* 0 velocity FF (full closed), 1 raw dpos for the feedback estimate (fb_config 1, 2) */
     int32_t  dpos_alpha;         /* Q30, 1 - exp(-2 pi fc T) */
     uint32_t pr_deadband;
     int32_t  pr_alpha;           /* Q30 */
@@ -121,8 +129,8 @@ typedef struct {
 } hd_comp_bank_in_t;
 
 typedef struct {
-    hd_angle_t   dpos;           /* added to the position reference (cb_pos_mode 1), else 0 */
-    hd_vel_out_t dvel;           /* added to the velocity feed-forward (cb_pos_mode 0), else 0 */
+    hd_angle_t   dpos;           /* predicted motor / N - output (fb_config 1, 2), else 0 */
+    hd_vel_out_t dvel;           /* added to the velocity feed-forward (position corrections in full closed; scheduled position I) */
     hd_torque_t  tff;            /* torque feed-forward, Q15.16 N.m */
 } hd_comp_bank_out_t;
 
@@ -134,6 +142,7 @@ typedef struct {
     hd_te_comp_t      te;
     hd_backstep_t     bs;
     hd_blend_t        dob_blend;
+    hd_blend_t        cp_blend;
     hd_preisach_table_t table;   /* installed Preisach table (checked) */
     uint32_t table_ok;           /* 1 once a table passed the check */
     uint32_t enabled;            /* last applied enable bits */
@@ -150,6 +159,7 @@ typedef struct {
     int64_t  pki_i;              /* scheduled position integral, 2^-48 turn/s */
     int32_t  pki_w;              /* its last schedule weight, Q30 (telemetry) */
     int32_t  pr_test;            /* last Preisach torque estimate, Q15.16 N.m (telemetry) */
+    int32_t  cp_dth;             /* weighted compliance twist, 2^-32 turn */
 } hd_comp_bank_t;
 
 /** Configs from raw parameters. 0 ok, -1 inconsistent (bounds, sizes). */

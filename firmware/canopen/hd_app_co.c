@@ -154,9 +154,16 @@ static int32_t a_pget(void *c, uint16_t id)
     return hd_app_param_get(((hd_app_co_t *)c)->app, id);
 }
 
+static bool power_stage_on(const hd_app_co_t *ac);
+
 static uint32_t a_pset(void *c, uint16_t id, int32_t raw)
 {
-    return hd_app_param_set(((hd_app_co_t *)c)->app, id, raw) == 0 ? 0u : HD_CO_AB_VALUE;
+    hd_app_co_t *ac = c;
+    /* the feedback configuration changes only with the power stage off (0x08000022) */
+    if (id == (uint16_t)HD_P_FB_CONFIG && raw != hd_app_param_get(ac->app, id) && power_stage_on(ac)) {
+        return HD_CO_AB_STATE;
+    }
+    return hd_app_param_set(ac->app, id, raw) == 0 ? 0u : HD_CO_AB_VALUE;
 }
 
 static uint32_t a_dsize(void *c, uint16_t dom, uint32_t *size)
@@ -580,16 +587,18 @@ static uint32_t a_enable(void *c, int8_t mode, bool on)
         ac->mode = 0;
         return 0u;
     }
-    /* bumpless: the targets start at the actual values */
-    ac->co->od.target_position = ac->co->od.position_actual_value;
+    /* bumpless: the targets start at the actual values (the loop's position feedback:
+     * the output encoder, or in semi-closed the motor-side estimate, hd_feedback.h) */
+    const hd_angle_t p0 = hd_app_entry_position(ac->app);
+    ac->co->od.target_position = hd_sat32(hd_asr64_rnd(p0, 8u));
     ac->co->od.target_velocity = 0;
     ac->co->od.target_torque = 0;
-    hd_app_set_position(ac->app, ac->app->tel.pos_out);
+    hd_app_set_position(ac->app, p0);
     hd_app_set_velocity(ac->app, 0);
     hd_app_set_torque(ac->app, 0);
     /* PP: the entry move goes to where the axis is, not to the previous session's target
      * (a move nobody commanded; while it ran - 20 ms for 0.001 turn - set-points were refused) */
-    (void)hd_app_move_to(ac->app, ac->app->tel.pos_out);
+    (void)hd_app_move_to(ac->app, p0);
     if (hd_app_set_mode(ac->app, app_mode_for(mode)) != 0) {
         return 1u;
     }

@@ -162,7 +162,7 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x2000u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 3u, INT64_C(0), INT64_C(1073741823), INT64_C(0), NULL},  /* output_enc_zero */
     {0x2000u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 4u, INT64_C(66), INT64_C(6553600), INT64_C(6554), NULL},  /* kt */
     {0x2000u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 5u, INT64_C(0), INT64_C(1966080000), INT64_C(85197), NULL},  /* j_total */
-    {0x2100u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(16), NULL},  /* highest_sub_index_supported */
+    {0x2100u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(18), NULL},  /* highest_sub_index_supported */
     {0x2100u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 6u, INT64_C(0), INT64_C(655360000), INT64_C(2470707), NULL},  /* pos_kp */
     {0x2100u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 7u, INT64_C(0), INT64_C(1966080000), INT64_C(0), NULL},  /* pos_ki */
     {0x2100u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 8u, INT64_C(0), INT64_C(2104533975), INT64_C(1073741824), NULL},  /* pos_vlim */
@@ -179,152 +179,159 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x2100u, 14u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 19u, INT64_C(0), INT64_C(100000), INT64_C(0), NULL},  /* hold_ticks */
     {0x2100u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 20u, INT64_C(0), INT64_C(4294967), INT64_C(19884), NULL},  /* hold_hunt_win */
     {0x2100u, 16u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 21u, INT64_C(1), INT64_C(100000), INT64_C(300), NULL},  /* hold_fade_ticks */
+    {0x2100u, 17u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 22u, INT64_C(0), INT64_C(2), INT64_C(0), NULL},  /* fb_config */
+    {0x2100u, 18u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 23u, INT64_C(655), INT64_C(13107200), INT64_C(131072), NULL},  /* fb_dual_fc */
     {0x2200u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(11), NULL},  /* highest_sub_index_supported */
-    {0x2200u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 22u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(1061750748), NULL},  /* f1_b0 */
-    {0x2200u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 23u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(-2119790300), NULL},  /* f1_b1 */
-    {0x2200u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 24u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(1059086064), NULL},  /* f1_b2 */
-    {0x2200u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 25u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(-2119790300), NULL},  /* f1_a1 */
-    {0x2200u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 26u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(1047094988), NULL},  /* f1_a2 */
-    {0x2200u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 27u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(72429545), NULL},  /* f2_b0 */
-    {0x2200u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 28u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(144859100), NULL},  /* f2_b1 */
-    {0x2200u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 29u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(72429545), NULL},  /* f2_b2 */
-    {0x2200u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 30u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(-1227265967), NULL},  /* f2_a1 */
-    {0x2200u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 31u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(443242343), NULL},  /* f2_a2 */
-    {0x2200u, 11u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 32u, INT64_C(0), INT64_C(3), INT64_C(3), NULL},  /* filt_enable */
+    {0x2200u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 24u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(1061750748), NULL},  /* f1_b0 */
+    {0x2200u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 25u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(-2119790300), NULL},  /* f1_b1 */
+    {0x2200u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 26u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(1059086064), NULL},  /* f1_b2 */
+    {0x2200u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 27u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(-2119790300), NULL},  /* f1_a1 */
+    {0x2200u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 28u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(1047094988), NULL},  /* f1_a2 */
+    {0x2200u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 29u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(72429545), NULL},  /* f2_b0 */
+    {0x2200u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 30u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(144859100), NULL},  /* f2_b1 */
+    {0x2200u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 31u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(72429545), NULL},  /* f2_b2 */
+    {0x2200u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 32u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(-1227265967), NULL},  /* f2_a1 */
+    {0x2200u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 33u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(443242343), NULL},  /* f2_a2 */
+    {0x2200u, 11u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 34u, INT64_C(0), INT64_C(3), INT64_C(3), NULL},  /* filt_enable */
     {0x2300u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(8), NULL},  /* highest_sub_index_supported */
-    {0x2300u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 33u, INT64_C(0), INT64_C(65536000), INT64_C(3932160), NULL},  /* torque_limit */
-    {0x2300u, 2u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 34u, INT64_C(1), INT64_C(1000000), INT64_C(5000), NULL},  /* torque_sat_time */
-    {0x2300u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 35u, INT64_C(0), INT64_C(2104533975), INT64_C(858993459), NULL},  /* vel_trip */
-    {0x2300u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 36u, INT64_C(-2130706432), INT64_C(2130706432), INT64_C(-5033165), NULL},  /* travel_min */
-    {0x2300u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 37u, INT64_C(-2130706432), INT64_C(2130706432), INT64_C(5033165), NULL},  /* travel_max */
-    {0x2300u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 38u, INT64_C(0), INT64_C(2104533975), INT64_C(11930474), NULL},  /* follow_err_max */
-    {0x2300u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 39u, INT64_C(0), INT64_C(2104533975), INT64_C(4294967), NULL},  /* enc_jump_max */
-    {0x2300u, 8u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 40u, INT64_C(0), INT64_C(255), INT64_C(255), NULL},  /* fault_enable */
+    {0x2300u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 35u, INT64_C(0), INT64_C(65536000), INT64_C(3932160), NULL},  /* torque_limit */
+    {0x2300u, 2u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 36u, INT64_C(1), INT64_C(1000000), INT64_C(5000), NULL},  /* torque_sat_time */
+    {0x2300u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 37u, INT64_C(0), INT64_C(2104533975), INT64_C(858993459), NULL},  /* vel_trip */
+    {0x2300u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 38u, INT64_C(-2130706432), INT64_C(2130706432), INT64_C(-5033165), NULL},  /* travel_min */
+    {0x2300u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 39u, INT64_C(-2130706432), INT64_C(2130706432), INT64_C(5033165), NULL},  /* travel_max */
+    {0x2300u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 40u, INT64_C(0), INT64_C(2104533975), INT64_C(11930474), NULL},  /* follow_err_max */
+    {0x2300u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 41u, INT64_C(0), INT64_C(2104533975), INT64_C(4294967), NULL},  /* enc_jump_max */
+    {0x2300u, 8u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 42u, INT64_C(0), INT64_C(255), INT64_C(255), NULL},  /* fault_enable */
     {0x2400u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(7), NULL},  /* highest_sub_index_supported */
-    {0x2400u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 41u, INT64_C(43), INT64_C(2104533975), INT64_C(715827897), NULL},  /* traj_vmax */
-    {0x2400u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 42u, INT64_C(17), INT64_C(1677721600), INT64_C(4660338), NULL},  /* traj_amax */
-    {0x2400u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 43u, INT64_C(66), INT64_C(1966080000), INT64_C(182044), NULL},  /* traj_jmax */
-    {0x2400u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 44u, INT64_C(-1), INT64_C(1), INT64_C(1), NULL},  /* appr_dir */
-    {0x2400u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 45u, INT64_C(0), INT64_C(42949673), INT64_C(149131), NULL},  /* appr_dist */
-    {0x2400u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 46u, INT64_C(4295), INT64_C(2104533975), INT64_C(1193046), NULL},  /* appr_vmax */
-    {0x2400u, 7u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 47u, INT64_C(0), INT64_C(26214), INT64_C(0), NULL},  /* appr_dwell */
+    {0x2400u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 43u, INT64_C(43), INT64_C(2104533975), INT64_C(715827897), NULL},  /* traj_vmax */
+    {0x2400u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 44u, INT64_C(17), INT64_C(1677721600), INT64_C(4660338), NULL},  /* traj_amax */
+    {0x2400u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 45u, INT64_C(66), INT64_C(1966080000), INT64_C(182044), NULL},  /* traj_jmax */
+    {0x2400u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 46u, INT64_C(-1), INT64_C(1), INT64_C(1), NULL},  /* appr_dir */
+    {0x2400u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 47u, INT64_C(0), INT64_C(42949673), INT64_C(149131), NULL},  /* appr_dist */
+    {0x2400u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 48u, INT64_C(4295), INT64_C(2104533975), INT64_C(1193046), NULL},  /* appr_vmax */
+    {0x2400u, 7u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 49u, INT64_C(0), INT64_C(26214), INT64_C(0), NULL},  /* appr_dwell */
     {0x2500u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(8), NULL},  /* highest_sub_index_supported */
-    {0x2500u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 48u, INT64_C(0), INT64_C(655360000), INT64_C(2470707), NULL},  /* stab_kp */
-    {0x2500u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 49u, INT64_C(0), INT64_C(1966080000), INT64_C(0), NULL},  /* stab_ki */
-    {0x2500u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 50u, INT64_C(-42949673), INT64_C(42949673), INT64_C(0), NULL},  /* stab_gyro_bias */
-    {0x2500u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 51u, INT64_C(0), INT64_C(655), INT64_C(0), NULL},  /* stab_blend_fc */
-    {0x2500u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 52u, INT64_C(66), INT64_C(655360), INT64_C(3277), NULL},  /* stab_blend_fr */
-    {0x2500u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 53u, INT64_C(0), INT64_C(42949673), INT64_C(119305), NULL},  /* stab_bias_max */
-    {0x2500u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 54u, INT64_C(65536), INT64_C(65536000), INT64_C(6553600), NULL},  /* stab_base_bw */
-    {0x2500u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 55u, INT64_C(0), INT64_C(42949673), INT64_C(42950), NULL},  /* stab_ff_db */
+    {0x2500u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 50u, INT64_C(0), INT64_C(655360000), INT64_C(2470707), NULL},  /* stab_kp */
+    {0x2500u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 51u, INT64_C(0), INT64_C(1966080000), INT64_C(0), NULL},  /* stab_ki */
+    {0x2500u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 52u, INT64_C(-42949673), INT64_C(42949673), INT64_C(0), NULL},  /* stab_gyro_bias */
+    {0x2500u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 53u, INT64_C(0), INT64_C(655), INT64_C(0), NULL},  /* stab_blend_fc */
+    {0x2500u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 54u, INT64_C(66), INT64_C(655360), INT64_C(3277), NULL},  /* stab_blend_fr */
+    {0x2500u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 55u, INT64_C(0), INT64_C(42949673), INT64_C(119305), NULL},  /* stab_bias_max */
+    {0x2500u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 56u, INT64_C(65536), INT64_C(65536000), INT64_C(6553600), NULL},  /* stab_base_bw */
+    {0x2500u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 57u, INT64_C(0), INT64_C(42949673), INT64_C(42950), NULL},  /* stab_ff_db */
     {0x2800u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(9), NULL},  /* highest_sub_index_supported */
-    {0x2800u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 56u, INT64_C(0), INT64_C(255), INT64_C(0), NULL},  /* cb_enable */
-    {0x2800u, 2u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 57u, INT64_C(0), INT64_C(100000), INT64_C(2000), NULL},  /* cb_ramp_ticks */
-    {0x2800u, 3u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 58u, INT64_C(0), INT64_C(1), INT64_C(0), NULL},  /* cb_pos_mode */
-    {0x2800u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 59u, INT64_C(6554), INT64_C(131072000), INT64_C(3276800), NULL},  /* cb_dpos_fc */
-    {0x2800u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 60u, INT64_C(0), INT64_C(1966080000), INT64_C(0), NULL},  /* cb_pki */
-    {0x2800u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 61u, INT64_C(0), INT64_C(429496730), INT64_C(23861), NULL},  /* cb_pki_vlo */
-    {0x2800u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 62u, INT64_C(0), INT64_C(429496730), INT64_C(59652), NULL},  /* cb_pki_vhi */
-    {0x2800u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 63u, INT64_C(0), INT64_C(65536000), INT64_C(131072), NULL},  /* cb_pki_leak */
-    {0x2800u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 64u, INT64_C(0), INT64_C(1717986918), INT64_C(11930465), NULL},  /* cb_pki_max */
+    {0x2800u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 58u, INT64_C(0), INT64_C(511), INT64_C(0), NULL},  /* cb_enable */
+    {0x2800u, 2u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 59u, INT64_C(0), INT64_C(100000), INT64_C(2000), NULL},  /* cb_ramp_ticks */
+    {0x2800u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 60u, INT64_C(6554), INT64_C(131072000), INT64_C(3276800), NULL},  /* cb_dpos_fc */
+    {0x2800u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 61u, INT64_C(0), INT64_C(1966080000), INT64_C(0), NULL},  /* cb_pki */
+    {0x2800u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 62u, INT64_C(0), INT64_C(429496730), INT64_C(23861), NULL},  /* cb_pki_vlo */
+    {0x2800u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 63u, INT64_C(0), INT64_C(429496730), INT64_C(59652), NULL},  /* cb_pki_vhi */
+    {0x2800u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 64u, INT64_C(0), INT64_C(65536000), INT64_C(131072), NULL},  /* cb_pki_leak */
+    {0x2800u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 65u, INT64_C(0), INT64_C(1717986918), INT64_C(11930465), NULL},  /* cb_pki_max */
     {0x2810u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(13), NULL},  /* highest_sub_index_supported */
-    {0x2810u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 65u, INT64_C(0), INT64_C(65536000), INT64_C(484966), NULL},  /* str_fc_pos */
-    {0x2810u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 66u, INT64_C(0), INT64_C(65536000), INT64_C(694682), NULL},  /* str_fs_pos */
-    {0x2810u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 67u, INT64_C(4), INT64_C(2104533975), INT64_C(13671306), NULL},  /* str_vs_pos */
-    {0x2810u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 68u, INT64_C(0), INT64_C(1966080000), INT64_C(2182407), NULL},  /* str_fv_pos */
-    {0x2810u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 69u, INT64_C(0), INT64_C(65536000), INT64_C(459932), NULL},  /* str_fc_neg */
-    {0x2810u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 70u, INT64_C(0), INT64_C(65536000), INT64_C(658768), NULL},  /* str_fs_neg */
-    {0x2810u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 71u, INT64_C(4), INT64_C(2104533975), INT64_C(13671306), NULL},  /* str_vs_neg */
-    {0x2810u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 72u, INT64_C(0), INT64_C(1966080000), INT64_C(2182407), NULL},  /* str_fv_neg */
-    {0x2810u, 9u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 73u, INT64_C(1), INT64_C(2), INT64_C(2), NULL},  /* str_delta */
-    {0x2810u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 74u, INT64_C(0), INT64_C(429496730), INT64_C(6836), NULL},  /* str_eps_v */
-    {0x2810u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 75u, INT64_C(0), INT64_C(1073741824), INT64_C(1073741824), NULL},  /* str_w_ref */
-    {0x2810u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 76u, INT64_C(66), INT64_C(65536000), INT64_C(1966080), NULL},  /* str_tau_max */
-    {0x2810u, 13u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 77u, INT64_C(0), INT64_C(100000), INT64_C(0), NULL},  /* str_cruise_ticks */
+    {0x2810u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 66u, INT64_C(0), INT64_C(65536000), INT64_C(484966), NULL},  /* str_fc_pos */
+    {0x2810u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 67u, INT64_C(0), INT64_C(65536000), INT64_C(694682), NULL},  /* str_fs_pos */
+    {0x2810u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 68u, INT64_C(4), INT64_C(2104533975), INT64_C(13671306), NULL},  /* str_vs_pos */
+    {0x2810u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 69u, INT64_C(0), INT64_C(1966080000), INT64_C(2182407), NULL},  /* str_fv_pos */
+    {0x2810u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 70u, INT64_C(0), INT64_C(65536000), INT64_C(459932), NULL},  /* str_fc_neg */
+    {0x2810u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 71u, INT64_C(0), INT64_C(65536000), INT64_C(658768), NULL},  /* str_fs_neg */
+    {0x2810u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 72u, INT64_C(4), INT64_C(2104533975), INT64_C(13671306), NULL},  /* str_vs_neg */
+    {0x2810u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 73u, INT64_C(0), INT64_C(1966080000), INT64_C(2182407), NULL},  /* str_fv_neg */
+    {0x2810u, 9u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 74u, INT64_C(1), INT64_C(2), INT64_C(2), NULL},  /* str_delta */
+    {0x2810u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 75u, INT64_C(0), INT64_C(429496730), INT64_C(6836), NULL},  /* str_eps_v */
+    {0x2810u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 76u, INT64_C(0), INT64_C(1073741824), INT64_C(1073741824), NULL},  /* str_w_ref */
+    {0x2810u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 77u, INT64_C(66), INT64_C(65536000), INT64_C(1966080), NULL},  /* str_tau_max */
+    {0x2810u, 13u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 78u, INT64_C(0), INT64_C(100000), INT64_C(0), NULL},  /* str_cruise_ticks */
     {0x2820u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(10), NULL},  /* highest_sub_index_supported */
-    {0x2820u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 78u, INT64_C(0), INT64_C(65536000), INT64_C(472449), NULL},  /* lug_fc */
-    {0x2820u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 79u, INT64_C(0), INT64_C(65536000), INT64_C(676725), NULL},  /* lug_fs */
-    {0x2820u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 80u, INT64_C(4), INT64_C(2104533975), INT64_C(13671306), NULL},  /* lug_vs */
-    {0x2820u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 81u, INT64_C(1), INT64_C(2), INT64_C(2), NULL},  /* lug_delta */
-    {0x2820u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 82u, INT64_C(256), INT64_C(2048000000), INT64_C(1613665603), NULL},  /* lug_sigma0 */
-    {0x2820u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 83u, INT64_C(0), INT64_C(1966080000), INT64_C(420010329), NULL},  /* lug_sigma1 */
-    {0x2820u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 84u, INT64_C(0), INT64_C(1966080000), INT64_C(2182407), NULL},  /* lug_sigma2 */
-    {0x2820u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 85u, INT64_C(0), INT64_C(655360000), INT64_C(0), NULL},  /* lug_k_obs */
-    {0x2820u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 86u, INT64_C(66), INT64_C(65536000), INT64_C(1966080), NULL},  /* lug_tau_max */
-    {0x2820u, 10u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 87u, INT64_C(0), INT64_C(1), INT64_C(0), NULL},  /* lug_v_src */
+    {0x2820u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 79u, INT64_C(0), INT64_C(65536000), INT64_C(472449), NULL},  /* lug_fc */
+    {0x2820u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 80u, INT64_C(0), INT64_C(65536000), INT64_C(676725), NULL},  /* lug_fs */
+    {0x2820u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 81u, INT64_C(4), INT64_C(2104533975), INT64_C(13671306), NULL},  /* lug_vs */
+    {0x2820u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 82u, INT64_C(1), INT64_C(2), INT64_C(2), NULL},  /* lug_delta */
+    {0x2820u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 83u, INT64_C(256), INT64_C(2048000000), INT64_C(1613665603), NULL},  /* lug_sigma0 */
+    {0x2820u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 84u, INT64_C(0), INT64_C(1966080000), INT64_C(420010329), NULL},  /* lug_sigma1 */
+    {0x2820u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 85u, INT64_C(0), INT64_C(1966080000), INT64_C(2182407), NULL},  /* lug_sigma2 */
+    {0x2820u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 86u, INT64_C(0), INT64_C(655360000), INT64_C(0), NULL},  /* lug_k_obs */
+    {0x2820u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 87u, INT64_C(66), INT64_C(65536000), INT64_C(1966080), NULL},  /* lug_tau_max */
+    {0x2820u, 10u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 88u, INT64_C(0), INT64_C(1), INT64_C(0), NULL},  /* lug_v_src */
     {0x2830u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(19), NULL},  /* highest_sub_index_supported */
-    {0x2830u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 88u, INT64_C(0), INT64_C(8), INT64_C(4), NULL},  /* mx_n */
-    {0x2830u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 89u, INT64_C(2099200), INT64_C(2048000000), INT64_C(76001970), NULL},  /* mx_stiffness */
-    {0x2830u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 90u, INT64_C(66), INT64_C(65536000), INT64_C(1966080), NULL},  /* mx_tau_max */
-    {0x2830u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 91u, INT64_C(0), INT64_C(2048000000), INT64_C(11429961), NULL},  /* mx_k1 */
-    {0x2830u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 92u, INT64_C(0), INT64_C(2048000000), INT64_C(14726749), NULL},  /* mx_k2 */
-    {0x2830u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 93u, INT64_C(0), INT64_C(2048000000), INT64_C(12816006), NULL},  /* mx_k3 */
-    {0x2830u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 94u, INT64_C(0), INT64_C(2048000000), INT64_C(3723036), NULL},  /* mx_k4 */
-    {0x2830u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 95u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* mx_k5 */
-    {0x2830u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 96u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* mx_k6 */
-    {0x2830u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 97u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* mx_k7 */
-    {0x2830u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 98u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* mx_k8 */
-    {0x2830u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 99u, INT64_C(0), INT64_C(2104533975), INT64_C(3418), NULL},  /* mx_d1 */
-    {0x2830u, 13u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 100u, INT64_C(0), INT64_C(2104533975), INT64_C(8612), NULL},  /* mx_d2 */
-    {0x2830u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 101u, INT64_C(0), INT64_C(2104533975), INT64_C(21702), NULL},  /* mx_d3 */
-    {0x2830u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 102u, INT64_C(0), INT64_C(2104533975), INT64_C(54685), NULL},  /* mx_d4 */
-    {0x2830u, 16u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 103u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d5 */
-    {0x2830u, 17u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 104u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d6 */
-    {0x2830u, 18u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 105u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d7 */
-    {0x2830u, 19u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 106u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d8 */
+    {0x2830u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 89u, INT64_C(0), INT64_C(8), INT64_C(4), NULL},  /* mx_n */
+    {0x2830u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 90u, INT64_C(2099200), INT64_C(2048000000), INT64_C(76001970), NULL},  /* mx_stiffness */
+    {0x2830u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 91u, INT64_C(66), INT64_C(65536000), INT64_C(1966080), NULL},  /* mx_tau_max */
+    {0x2830u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 92u, INT64_C(0), INT64_C(2048000000), INT64_C(11429961), NULL},  /* mx_k1 */
+    {0x2830u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 93u, INT64_C(0), INT64_C(2048000000), INT64_C(14726749), NULL},  /* mx_k2 */
+    {0x2830u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 94u, INT64_C(0), INT64_C(2048000000), INT64_C(12816006), NULL},  /* mx_k3 */
+    {0x2830u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 95u, INT64_C(0), INT64_C(2048000000), INT64_C(3723036), NULL},  /* mx_k4 */
+    {0x2830u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 96u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* mx_k5 */
+    {0x2830u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 97u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* mx_k6 */
+    {0x2830u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 98u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* mx_k7 */
+    {0x2830u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 99u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* mx_k8 */
+    {0x2830u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 100u, INT64_C(0), INT64_C(2104533975), INT64_C(3418), NULL},  /* mx_d1 */
+    {0x2830u, 13u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 101u, INT64_C(0), INT64_C(2104533975), INT64_C(8612), NULL},  /* mx_d2 */
+    {0x2830u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 102u, INT64_C(0), INT64_C(2104533975), INT64_C(21702), NULL},  /* mx_d3 */
+    {0x2830u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 103u, INT64_C(0), INT64_C(2104533975), INT64_C(54685), NULL},  /* mx_d4 */
+    {0x2830u, 16u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 104u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d5 */
+    {0x2830u, 17u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 105u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d6 */
+    {0x2830u, 18u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 106u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d7 */
+    {0x2830u, 19u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 107u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d8 */
     {0x2840u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(5), NULL},  /* highest_sub_index_supported */
-    {0x2840u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 107u, INT64_C(0), INT64_C(64), INT64_C(1), NULL},  /* pr_deadband */
-    {0x2840u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 108u, INT64_C(6554), INT64_C(131072000), INT64_C(1310720), NULL},  /* pr_fc */
-    {0x2840u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 109u, INT64_C(0), INT64_C(1073741824), INT64_C(1015701725), NULL},  /* pr_motor_share */
-    {0x2840u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 110u, INT64_C(0), INT64_C(1), INT64_C(1), NULL},  /* pr_t_src */
-    {0x2840u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 111u, INT64_C(0), INT64_C(1966080000), INT64_C(32768), NULL},  /* pr_jl */
+    {0x2840u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 108u, INT64_C(0), INT64_C(64), INT64_C(1), NULL},  /* pr_deadband */
+    {0x2840u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 109u, INT64_C(6554), INT64_C(131072000), INT64_C(1310720), NULL},  /* pr_fc */
+    {0x2840u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 110u, INT64_C(0), INT64_C(1073741824), INT64_C(1015701725), NULL},  /* pr_motor_share */
+    {0x2840u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 111u, INT64_C(0), INT64_C(1), INT64_C(1), NULL},  /* pr_t_src */
+    {0x2840u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 112u, INT64_C(0), INT64_C(1966080000), INT64_C(32768), NULL},  /* pr_jl */
     {0x2850u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(15), NULL},  /* highest_sub_index_supported */
-    {0x2850u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 112u, INT64_C(0), INT64_C(4), INT64_C(3), NULL},  /* te_n */
-    {0x2850u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 113u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* te_k1 */
-    {0x2850u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 114u, INT64_C(66), INT64_C(65536000), INT64_C(655360), NULL},  /* te_tau_max */
-    {0x2850u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 115u, INT64_C(0), INT64_C(1000), INT64_C(2), NULL},  /* te_order1 */
-    {0x2850u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 116u, INT64_C(-42949673), INT64_C(42949673), INT64_C(59652), NULL},  /* te_amp1 */
-    {0x2850u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 117u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(273426110), NULL},  /* te_phase1 */
-    {0x2850u, 7u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 118u, INT64_C(0), INT64_C(1000), INT64_C(1), NULL},  /* te_order2 */
-    {0x2850u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 119u, INT64_C(-42949673), INT64_C(42949673), INT64_C(9942), NULL},  /* te_amp2 */
-    {0x2850u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 120u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(-820278331), NULL},  /* te_phase2 */
-    {0x2850u, 10u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 121u, INT64_C(0), INT64_C(1000), INT64_C(4), NULL},  /* te_order3 */
-    {0x2850u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 122u, INT64_C(-42949673), INT64_C(42949673), INT64_C(7954), NULL},  /* te_amp3 */
-    {0x2850u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 123u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(1367130551), NULL},  /* te_phase3 */
-    {0x2850u, 13u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 124u, INT64_C(0), INT64_C(1000), INT64_C(0), NULL},  /* te_order4 */
-    {0x2850u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 125u, INT64_C(-42949673), INT64_C(42949673), INT64_C(0), NULL},  /* te_amp4 */
-    {0x2850u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 126u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* te_phase4 */
+    {0x2850u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 113u, INT64_C(0), INT64_C(4), INT64_C(3), NULL},  /* te_n */
+    {0x2850u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 114u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* te_k1 */
+    {0x2850u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 115u, INT64_C(66), INT64_C(65536000), INT64_C(655360), NULL},  /* te_tau_max */
+    {0x2850u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 116u, INT64_C(0), INT64_C(1000), INT64_C(2), NULL},  /* te_order1 */
+    {0x2850u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 117u, INT64_C(-42949673), INT64_C(42949673), INT64_C(59652), NULL},  /* te_amp1 */
+    {0x2850u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 118u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(273426110), NULL},  /* te_phase1 */
+    {0x2850u, 7u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 119u, INT64_C(0), INT64_C(1000), INT64_C(1), NULL},  /* te_order2 */
+    {0x2850u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 120u, INT64_C(-42949673), INT64_C(42949673), INT64_C(9942), NULL},  /* te_amp2 */
+    {0x2850u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 121u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(-820278331), NULL},  /* te_phase2 */
+    {0x2850u, 10u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 122u, INT64_C(0), INT64_C(1000), INT64_C(4), NULL},  /* te_order3 */
+    {0x2850u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 123u, INT64_C(-42949673), INT64_C(42949673), INT64_C(7954), NULL},  /* te_amp3 */
+    {0x2850u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 124u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(1367130551), NULL},  /* te_phase3 */
+    {0x2850u, 13u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 125u, INT64_C(0), INT64_C(1000), INT64_C(0), NULL},  /* te_order4 */
+    {0x2850u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 126u, INT64_C(-42949673), INT64_C(42949673), INT64_C(0), NULL},  /* te_amp4 */
+    {0x2850u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 127u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* te_phase4 */
     {0x2860u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(24), NULL},  /* highest_sub_index_supported */
-    {0x2860u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 127u, INT64_C(0), INT64_C(655360000), INT64_C(3263666), NULL},  /* bs_c1 */
-    {0x2860u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 128u, INT64_C(0), INT64_C(655360000), INT64_C(3263666), NULL},  /* bs_c2 */
-    {0x2860u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 129u, INT64_C(66), INT64_C(1966080000), INT64_C(535307), NULL},  /* bs_j */
-    {0x2860u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 130u, INT64_C(0), INT64_C(2048000000), INT64_C(1296447), NULL},  /* bs_ke */
-    {0x2860u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 131u, INT64_C(0), INT64_C(429496730), INT64_C(6836), NULL},  /* bs_eps_w */
-    {0x2860u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 132u, INT64_C(4), INT64_C(2104533975), INT64_C(13671306), NULL},  /* bs_w_s */
-    {0x2860u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 133u, INT64_C(4295), INT64_C(2104533975), INT64_C(42949673), NULL},  /* bs_e1_max */
-    {0x2860u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 134u, INT64_C(66), INT64_C(65536000), INT64_C(3932160), NULL},  /* bs_u_max */
-    {0x2860u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 135u, INT64_C(0), INT64_C(2130706432), INT64_C(8388608), NULL},  /* bs_gamma1 */
-    {0x2860u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 136u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_min1 */
-    {0x2860u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 137u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(2084045), NULL},  /* bs_max1 */
-    {0x2860u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 138u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(484966), NULL},  /* bs_th0_1 */
-    {0x2860u, 13u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 139u, INT64_C(0), INT64_C(2130706432), INT64_C(8388608), NULL},  /* bs_gamma2 */
-    {0x2860u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 140u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_min2 */
-    {0x2860u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 141u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(2084045), NULL},  /* bs_max2 */
-    {0x2860u, 16u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 142u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(209715), NULL},  /* bs_th0_2 */
-    {0x2860u, 17u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 143u, INT64_C(0), INT64_C(2130706432), INT64_C(4194304), NULL},  /* bs_gamma3 */
-    {0x2860u, 18u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 144u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_min3 */
-    {0x2860u, 19u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 145u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(32736099), NULL},  /* bs_max3 */
-    {0x2860u, 20u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 146u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(2182407), NULL},  /* bs_th0_3 */
-    {0x2860u, 21u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 147u, INT64_C(0), INT64_C(2130706432), INT64_C(8388608), NULL},  /* bs_gamma4 */
-    {0x2860u, 22u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 148u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(-1310720), NULL},  /* bs_min4 */
-    {0x2860u, 23u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 149u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(1310720), NULL},  /* bs_max4 */
-    {0x2860u, 24u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 150u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_th0_4 */
+    {0x2860u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 128u, INT64_C(0), INT64_C(655360000), INT64_C(3263666), NULL},  /* bs_c1 */
+    {0x2860u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 129u, INT64_C(0), INT64_C(655360000), INT64_C(3263666), NULL},  /* bs_c2 */
+    {0x2860u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 130u, INT64_C(66), INT64_C(1966080000), INT64_C(535307), NULL},  /* bs_j */
+    {0x2860u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 131u, INT64_C(0), INT64_C(2048000000), INT64_C(1296447), NULL},  /* bs_ke */
+    {0x2860u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 132u, INT64_C(0), INT64_C(429496730), INT64_C(6836), NULL},  /* bs_eps_w */
+    {0x2860u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 133u, INT64_C(4), INT64_C(2104533975), INT64_C(13671306), NULL},  /* bs_w_s */
+    {0x2860u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 134u, INT64_C(4295), INT64_C(2104533975), INT64_C(42949673), NULL},  /* bs_e1_max */
+    {0x2860u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 135u, INT64_C(66), INT64_C(65536000), INT64_C(3932160), NULL},  /* bs_u_max */
+    {0x2860u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 136u, INT64_C(0), INT64_C(2130706432), INT64_C(8388608), NULL},  /* bs_gamma1 */
+    {0x2860u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 137u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_min1 */
+    {0x2860u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 138u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(2084045), NULL},  /* bs_max1 */
+    {0x2860u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 139u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(484966), NULL},  /* bs_th0_1 */
+    {0x2860u, 13u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 140u, INT64_C(0), INT64_C(2130706432), INT64_C(8388608), NULL},  /* bs_gamma2 */
+    {0x2860u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 141u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_min2 */
+    {0x2860u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 142u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(2084045), NULL},  /* bs_max2 */
+    {0x2860u, 16u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 143u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(209715), NULL},  /* bs_th0_2 */
+    {0x2860u, 17u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 144u, INT64_C(0), INT64_C(2130706432), INT64_C(4194304), NULL},  /* bs_gamma3 */
+    {0x2860u, 18u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 145u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_min3 */
+    {0x2860u, 19u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 146u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(32736099), NULL},  /* bs_max3 */
+    {0x2860u, 20u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 147u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(2182407), NULL},  /* bs_th0_3 */
+    {0x2860u, 21u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 148u, INT64_C(0), INT64_C(2130706432), INT64_C(8388608), NULL},  /* bs_gamma4 */
+    {0x2860u, 22u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 149u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(-1310720), NULL},  /* bs_min4 */
+    {0x2860u, 23u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 150u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(1310720), NULL},  /* bs_max4 */
+    {0x2860u, 24u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 151u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_th0_4 */
     {0x2870u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(2), NULL},  /* highest_sub_index_supported */
-    {0x2870u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 151u, INT64_C(6554), INT64_C(32768000), INT64_C(655360), NULL},  /* dob_fc */
-    {0x2870u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 152u, INT64_C(66), INT64_C(1966080000), INT64_C(85197), NULL},  /* dob_j */
+    {0x2870u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 152u, INT64_C(6554), INT64_C(32768000), INT64_C(655360), NULL},  /* dob_fc */
+    {0x2870u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 153u, INT64_C(66), INT64_C(1966080000), INT64_C(85197), NULL},  /* dob_j */
     {0x2880u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(2), NULL},  /* highest_sub_index_supported */
-    {0x2880u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 153u, INT64_C(0), INT64_C(2147483647), INT64_C(0), NULL},  /* tbl_fr_version */
-    {0x2880u, 2u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 154u, INT64_C(0), INT64_C(2147483647), INT64_C(0), NULL},  /* tbl_te_version */
+    {0x2880u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 154u, INT64_C(0), INT64_C(2147483647), INT64_C(0), NULL},  /* tbl_fr_version */
+    {0x2880u, 2u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 155u, INT64_C(0), INT64_C(2147483647), INT64_C(0), NULL},  /* tbl_te_version */
+    {0x2890u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(5), NULL},  /* highest_sub_index_supported */
+    {0x2890u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 156u, INT64_C(2099200), INT64_C(2048000000), INT64_C(49863359), NULL},  /* cp_k1 */
+    {0x2890u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 157u, INT64_C(2099200), INT64_C(2048000000), INT64_C(80424772), NULL},  /* cp_k2 */
+    {0x2890u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 158u, INT64_C(2099200), INT64_C(2048000000), INT64_C(91684240), NULL},  /* cp_k3 */
+    {0x2890u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 159u, INT64_C(0), INT64_C(1966080000), INT64_C(917504), NULL},  /* cp_t1 */
+    {0x2890u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 160u, INT64_C(0), INT64_C(1966080000), INT64_C(3145728), NULL},  /* cp_t2 */
     {0x5000u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(7), NULL},  /* highest_sub_index_supported */
     {0x5000u, 1u, 0x05u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(2), INT64_C(0), NULL},  /* capture_control */
     {0x5000u, 2u, 0x05u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(0), NULL},  /* capture_state */
@@ -418,8 +425,8 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x607Du, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(software_position_limit_min_position_limit), INT64_C(-2147483648), INT64_C(2147483647), INT64_C(-2147483648), NULL},  /* min_position_limit */
     {0x607Du, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(software_position_limit_max_position_limit), INT64_C(-2147483648), INT64_C(2147483647), INT64_C(2147483647), NULL},  /* max_position_limit */
     {0x6080u, 0u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(max_motor_speed), INT64_C(0), INT64_C(4294967295), INT64_C(6000), NULL},  /* max_motor_speed */
-    {0x6081u, 0u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_PARAM, 41u, INT64_C(43), INT64_C(2104533975), INT64_C(715827897), NULL},  /* profile_velocity */
-    {0x6083u, 0u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_PARAM, 42u, INT64_C(17), INT64_C(1677721600), INT64_C(4660338), NULL},  /* profile_acceleration */
+    {0x6081u, 0u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_PARAM, 43u, INT64_C(43), INT64_C(2104533975), INT64_C(715827897), NULL},  /* profile_velocity */
+    {0x6083u, 0u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_PARAM, 44u, INT64_C(17), INT64_C(1677721600), INT64_C(4660338), NULL},  /* profile_acceleration */
     {0x6085u, 0u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(quick_stop_deceleration), INT64_C(1), INT64_C(2147483647), INT64_C(9320676), NULL},  /* quick_stop_deceleration */
     {0x60B1u, 0u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_RPDO), HD_CO_K_VAR, OFF(velocity_offset), INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* velocity_offset */
     {0x60B2u, 0u, 0x03u, HD_CO_A_RW, (uint8_t)(HD_CO_F_RPDO), HD_CO_K_VAR, OFF(torque_offset), INT64_C(-32768), INT64_C(32767), INT64_C(0), NULL},  /* torque_offset */

@@ -52,7 +52,7 @@ PKI_V_HI_DEG_S = 0.005
 BS_F_INT_HZ = 25.0
 
 ENABLE_BITS: dict[str, int] = {"stribeck": 1, "lugre": 2, "maxwell": 4, "preisach": 8, "te": 16, "backstep": 32,
-                               "dob": 64, "approach": 128}
+                               "dob": 64, "approach": 128, "compliance": 256}
 # "approach" is not a bank compensator: the drive's one-direction final approach of PTP
 # moves (parameters appr_*, firmware/core/hd_trajectory.h, docs/control.md "Repeatability").
 
@@ -194,7 +194,7 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
         return base(key)
 
     n = get("gear.ratio")
-    out: dict[str, float] = {"cb_enable": 0, "cb_ramp_ticks": 2000, "cb_pos_mode": 0, "cb_dpos_fc": 50.0}
+    out: dict[str, float] = {"cb_enable": 0, "cb_ramp_ticks": 2000, "cb_dpos_fc": 50.0}
     # scheduled position integral (off here; the best combination sets cb_pki): full weight above
     # 0.005 deg/s, none below 0.002 deg/s and at standstill, where the friction side of the gear
     # is in presliding and an extra integrator makes the loop hunt (docs/compensators.md 8)
@@ -243,6 +243,14 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     # the firmware compliance (2^-44 turn/N.m, int32) needs K > 2^13 N.m/turn (1.3e3 N.m/rad)
     out["mx_stiffness"] = max(k_tan * TWO_PI, MX_STIFFNESS_MIN)   # N.m/turn
     out["mx_tau_max"] = 30.0
+    # compliance (cb_enable 256): the three-slope stiffness of the axis, N.m/turn and N.m
+    # (the cubic form is not in the firmware: its linear term stands in for K1)
+    k1 = get("stiffness.k1_Nm_per_rad") if get("stiffness.enabled") else get("stiffness_cubic.k1_Nm_per_rad")
+    k2 = get("stiffness.k2_Nm_per_rad") if get("stiffness.enabled") else k1
+    k3 = get("stiffness.k3_Nm_per_rad") if get("stiffness.enabled") else k1
+    out.update({"cp_k1": max(k1 * TWO_PI, MX_STIFFNESS_MIN), "cp_k2": max(k2 * TWO_PI, MX_STIFFNESS_MIN),
+                "cp_k3": max(k3 * TWO_PI, MX_STIFFNESS_MIN), "cp_t1": get("stiffness.t1_Nm"),
+                "cp_t2": max(get("stiffness.t2_Nm"), get("stiffness.t1_Nm"))})
     k_el, d_el = _maxwell_fit(ld["fsp"], z_l if z_l > 0 else 1e-5, n_maxwell) if fl else ([0.0] * n_maxwell,
                                                                                          [0.0] * n_maxwell)
     for i in range(8):

@@ -17,7 +17,7 @@ from typing import Any, Mapping
 from .errors import UserError
 
 #: parameters written by SDO one by one (the groups of 0x5100:2/3 go as tables)
-SDO_PREFIXES = ("cb_ramp_ticks", "cb_pos_mode", "cb_dpos_fc", "mx_", "pr_", "bs_", "dob_", "te_k1")
+SDO_PREFIXES = ("cb_ramp_ticks", "cb_dpos_fc", "cp_", "mx_", "pr_", "bs_", "dob_", "te_k1")
 
 
 # ----------------------------------------------------------------- model -> compsetup keys

@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 OD_VERSION = 1
-PARAM_HASH = 0xADB4A22B
+PARAM_HASH = 0x4A416ADE
 VENDOR_ID = 0x00000EDA
 PRODUCT_CODE = 0x00484453
 REVISION = 0x00010000
@@ -202,6 +202,8 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x2100, 14, 'hold_ticks', 'u32', 'rw', '', 'period', 1.0),
     OdEntry(0x2100, 15, 'hold_hunt_win', 'i32', 'rw', '', 'turn', 2.3283064365386963e-10),
     OdEntry(0x2100, 16, 'hold_fade_ticks', 'u32', 'rw', '', 'period', 1.0),
+    OdEntry(0x2100, 17, 'fb_config', 'u32', 'rw', '', '1', 1.0),
+    OdEntry(0x2100, 18, 'fb_dual_fc', 'i32', 'rw', '', 'Hz', 1.52587890625e-05),
     OdEntry(0x2200, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x2200, 1, 'f1_b0', 'i32', 'rw', '', '1', 9.313225746154785e-10),
     OdEntry(0x2200, 2, 'f1_b1', 'i32', 'rw', '', '1', 9.313225746154785e-10),
@@ -243,7 +245,6 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x2800, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x2800, 1, 'cb_enable', 'u32', 'rw', '', 'bits', 1.0),
     OdEntry(0x2800, 2, 'cb_ramp_ticks', 'u32', 'rw', '', 'period', 1.0),
-    OdEntry(0x2800, 3, 'cb_pos_mode', 'u32', 'rw', '', '1', 1.0),
     OdEntry(0x2800, 4, 'cb_dpos_fc', 'i32', 'rw', '', 'Hz', 1.52587890625e-05),
     OdEntry(0x2800, 5, 'cb_pki', 'i32', 'rw', '', '1/s^2', 1.52587890625e-05),
     OdEntry(0x2800, 6, 'cb_pki_vlo', 'i32', 'rw', '', 'turn/s', 2.3283064365386963e-10),
@@ -348,6 +349,12 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x2880, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x2880, 1, 'tbl_fr_version', 'u32', 'rw', '', '1', 1.0),
     OdEntry(0x2880, 2, 'tbl_te_version', 'u32', 'rw', '', '1', 1.0),
+    OdEntry(0x2890, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
+    OdEntry(0x2890, 1, 'cp_k1', 'i32', 'rw', '', 'N.m/turn', 0.00390625),
+    OdEntry(0x2890, 2, 'cp_k2', 'i32', 'rw', '', 'N.m/turn', 0.00390625),
+    OdEntry(0x2890, 3, 'cp_k3', 'i32', 'rw', '', 'N.m/turn', 0.00390625),
+    OdEntry(0x2890, 4, 'cp_t1', 'i32', 'rw', '', 'N.m', 1.52587890625e-05),
+    OdEntry(0x2890, 5, 'cp_t2', 'i32', 'rw', '', 'N.m', 1.52587890625e-05),
     OdEntry(0x5000, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x5000, 1, 'capture_control', 'u8', 'rw', '', '', 1.0),
     OdEntry(0x5000, 2, 'capture_state', 'u8', 'ro', '', '', 1.0),

@@ -184,14 +184,15 @@ static int set_param_si(hd_sim_t *s, const char *name, double v, const char *why
 static int setup_comp(hd_sim_t *s, char *err, size_t errlen)
 {
     static const char *const NAMES[] = {"stribeck", "lugre", "maxwell", "preisach", "te", "backstep", "dob",
-                                        "approach"};
+                                        "approach", "compliance"};
+    const uint32_t n_names = (uint32_t)(sizeof NAMES / sizeof NAMES[0]);
     uint32_t bits = 0;
     for (int32_t i = 0; i < s->sc.n_comp; i++) {
         uint32_t k = 0;
-        while (k < 8u && strcmp(s->sc.comp[i], NAMES[k]) != 0) k++;
-        if (k == 8u) {
+        while (k < n_names && strcmp(s->sc.comp[i], NAMES[k]) != 0) k++;
+        if (k == n_names) {
             sim_set_err(err, errlen, "%s: controller.compensators: unknown '%s'; expected stribeck, lugre, maxwell, "
-                    "preisach, te, backstep, dob or approach", s->sc.path, s->sc.comp[i]);
+                    "preisach, te, backstep, dob, approach or compliance", s->sc.path, s->sc.comp[i]);
             return -1;
         }
         bits |= 1u << k;

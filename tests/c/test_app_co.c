@@ -429,6 +429,27 @@ static void nmt(uint8_t cmd)
 
 /* 0x1010 saves parameters, the Preisach table and the communication / CiA 402 settings;
  * a power cycle, an NMT reset and 0x1011 restore (0x5101 reports what boot found) */
+/* fb_config (0x2100:17) over SDO: accepted with the power stage off, refused with
+ * 0x08000022 while it is on (the value in force kept); rewriting the same value is fine */
+static void test_fb_config_interlock(void **st)
+{
+    (void)st;
+    assert_int_equal(co.app.param_set(co.app.ctx, HD_P_FB_CONFIG, 1), 0u);
+    assert_int_equal(hd_app_param_get(&app, HD_P_FB_CONFIG), 1);
+    assert_int_equal(co.app.param_set(co.app.ctx, HD_P_FB_CONFIG, 3), HD_CO_AB_VALUE);   /* out of range */
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_VELOCITY), 0);
+    hd_app_step(&app);
+    assert_int_equal(co.app.param_set(co.app.ctx, HD_P_FB_CONFIG, 2), HD_CO_AB_STATE);
+    assert_int_equal(co.app.param_set(co.app.ctx, HD_P_FB_CONFIG, 0), HD_CO_AB_STATE);
+    assert_int_equal(hd_app_param_get(&app, HD_P_FB_CONFIG), 1);
+    assert_int_equal(app.fb_cfg.kind, 1u);
+    assert_int_equal(co.app.param_set(co.app.ctx, HD_P_FB_CONFIG, 1), 0u);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_OFF), 0);
+    hd_app_step(&app);
+    assert_int_equal(co.app.param_set(co.app.ctx, HD_P_FB_CONFIG, 2), 0u);
+    assert_int_equal(app.fb_cfg.kind, 2u);
+}
+
 static void test_store_objects(void **st)
 {
     static uint8_t back[sizeof img];
@@ -1065,6 +1086,7 @@ int main(void)
         cmocka_unit_test_setup(test_identical_save_erases_nothing, setup),
         cmocka_unit_test_setup(test_save_rate_limit, setup),
         cmocka_unit_test_setup(test_group_and_interlock, setup),
+        cmocka_unit_test_setup(test_fb_config_interlock, setup),
         cmocka_unit_test_setup(test_pp_halt, setup),
         cmocka_unit_test_setup(test_csv_halt, setup),
         cmocka_unit_test_setup(test_following_error_and_position_window, setup),

@@ -2,7 +2,10 @@
  * gv_comp_bank.c - golden vectors and Cortex-M4 cost of one full control
  * period with every compensator of the bank on (hd_app_step with cb_enable =
  * all: Stribeck, LuGre with observer, Maxwell-slip, Preisach inverse with a
- * table, TE, backstepping, DOB), kernel `control_step_full`.
+ * table, TE, backstepping, DOB), kernel `control_step_full`; kernels
+ * `control_step_semi` and `control_step_dual`: the same period in the semi-closed
+ * and dual-loop feedback configurations (fb_config 1, 2) with the compliance twist
+ * on as well, the position loop closed on the motor-side estimate of the output.
  * The hal stub is the one of gv_app.c (gv_app_stub_*).
  */
 #include "gv.h"
@@ -43,11 +46,13 @@ static void gen_full(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
     in[1] = (int32_t)(out_cnt & 0xFFFFFFu);
 }
 
-static void start(uint32_t mot, uint32_t out)
+static void start_fb(uint32_t mot, uint32_t out, int32_t fb, uint32_t enable)
 {
     gv_app_stub_sensors(mot, out);
     hd_app_init(&gv_full);
     (void)hd_app_param_set(&gv_full, HD_P_FAULT_ENABLE, 0);
+    (void)hd_app_param_set(&gv_full, HD_P_FB_CONFIG, fb);
+    (void)hd_app_param_set(&gv_full, HD_P_FB_DUAL_FC, 50 << 16);   /* fast blend: 256 periods see it act */
     (void)hd_app_param_set(&gv_full, HD_P_LUG_K_OBS, 30 << 16);
     (void)hd_app_param_set(&gv_full, HD_P_TE_K1, 1 << 20);
     (void)hd_app_param_set(&gv_full, HD_P_CB_RAMP_TICKS, 4);
@@ -56,7 +61,12 @@ static void start(uint32_t mot, uint32_t out)
     hd_app_step(&gv_full);
     (void)hd_app_move_to(&gv_full, gv_full.pos_out + ((hd_angle_t)1 << 24));
     (void)hd_app_set_mode(&gv_full, HD_MODE_PTP);
-    (void)hd_app_param_set(&gv_full, HD_P_CB_ENABLE, (int32_t)HD_CB_ALL);
+    (void)hd_app_param_set(&gv_full, HD_P_CB_ENABLE, (int32_t)enable);
+}
+
+static void start(uint32_t mot, uint32_t out)
+{
+    start_fb(mot, out, HD_FB_FULL_CLOSED, HD_CB_ALL);
 }
 
 static void run_full(const int32_t *in, int32_t *out, uint32_t count)
@@ -90,7 +100,62 @@ static void cost_full(void)
     hd_gv_cost_mark();
 }
 
+/* semi-closed / dual-loop: torque, position error, the loop's feedback (low word)
+ * and the bank's predicted offset (low word) */
+static void run_fb(const int32_t *in, int32_t *out, uint32_t count, int32_t fb)
+{
+    uint32_t k;
+    start_fb((uint32_t)in[0], (uint32_t)in[1], fb, HD_CB_ALL | HD_CB_COMPLIANCE);
+    for (k = 0; k < count; k++) {
+        gv_app_stub_sensors((uint32_t)in[2u * k], (uint32_t)in[2u * k + 1u]);
+        hd_app_step(&gv_full);
+        out[4u * k] = gv_app_stub_torque();
+        out[4u * k + 1u] = gv_full.tel.pos_err;
+        out[4u * k + 2u] = hd_gv_u2s((uint32_t)(uint64_t)gv_full.tel.pos_fb);
+        out[4u * k + 3u] = hd_gv_u2s((uint32_t)(uint64_t)gv_full.cb.out.dpos);
+    }
+}
+
+static void run_semi(const int32_t *in, int32_t *out, uint32_t count)
+{
+    run_fb(in, out, count, HD_FB_SEMI_CLOSED);
+}
+
+static void run_dual(const int32_t *in, int32_t *out, uint32_t count)
+{
+    run_fb(in, out, count, HD_FB_DUAL_LOOP);
+}
+
+static void cost_fb(int32_t fb)
+{
+    int32_t in[2 * 16];
+    int32_t out[4 * 16];
+    hd_gv_rng_t r;
+    uint32_t i;
+    r.s = 4242u;
+    for (i = 0; i < 16u; i++) {
+        gen_full(i, &r, &in[2u * i]);
+    }
+    run_fb(in, out, 16u, fb);
+    gv_app_stub_sensors((uint32_t)in[30] + 5u, (uint32_t)in[31] + 1u);
+    hd_gv_cost_mark();
+    hd_app_step(&gv_full);
+    hd_gv_cost_mark();
+}
+
+static void cost_semi(void)
+{
+    cost_fb(HD_FB_SEMI_CLOSED);
+}
+
+static void cost_dual(void)
+{
+    cost_fb(HD_FB_DUAL_LOOP);
+}
+
 const hd_gv_kernel_t hd_gv_comp_bank_kernels[] = {
     {"control_step_full", 2u, 4u, 256u, gen_full, run_full, cost_full},
+    {"control_step_semi", 2u, 4u, 256u, gen_full, run_semi, cost_semi},
+    {"control_step_dual", 2u, 4u, 256u, gen_full, run_dual, cost_dual},
 };
 const uint32_t hd_gv_comp_bank_count = sizeof hd_gv_comp_bank_kernels / sizeof hd_gv_comp_bank_kernels[0];

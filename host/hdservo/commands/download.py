@@ -51,7 +51,7 @@ def register(p: argparse.ArgumentParser) -> None:
                         "default: that is an error")
     p.add_argument("--enable", default=None, metavar="NAMES",
                    help="comma-separated compensators to switch on afterwards (stribeck,lugre,maxwell,preisach,"
-                        "te,backstep,dob); default: leave cb_enable")
+                        "te,backstep,dob,compliance); default: leave cb_enable")
     p.add_argument("--save", action="store_true",
                    help="store everything in the drive's NVM afterwards (0x1010; power stage off), verified by 0x5101:3")
     p.add_argument("--version", type=int, default=1, help="table version written into the groups (1..2147483647; the drive saves it with the parameters)")
