@@ -82,6 +82,9 @@ class DriveError(Exception):
 SIM_INTERFACE = "virtual-drive"
 #: built-in axes of the simulated drive (else an axis TOML file)
 SIM_AXES = ("reference", "minimal")
+#: object profiles of the simulated drive (``hdservo-sim serve --profile``): ``--sim generic:AXIS``
+#: (or ``--sim generic``, the reference axis) picks the generic CiA 402 one
+SIM_PROFILES = ("hdservo", "generic")
 #: python-can's configuration files, in its order (``can.util.CONFIG_FILES``)
 CAN_CONFIG_FILES = "~/can.conf, /etc/can.conf, ~/.can, ~/.canrc"
 
@@ -104,8 +107,9 @@ def add_bus_arguments(p: "argparse.ArgumentParser | argparse._ArgumentGroup", si
     if sim:
         p.add_argument("--sim", nargs="?", const="reference", default=None, metavar="AXIS",
                        help="talk to a simulated drive instead (a virtual drive started for this command, over "
-                            "CAN): axis 'reference' (default), 'minimal' or an axis TOML file; the same as "
-                            f"-i {SIM_INTERFACE}. Put it last or write --sim=AXIS")
+                            "CAN): axis 'reference' (default), 'minimal' or an axis TOML file; 'generic:AXIS' "
+                            "(or 'generic') the same axis as a generic CiA 402 drive (standard objects only); "
+                            f"the same as -i {SIM_INTERFACE}. Put it last or write --sim=AXIS")
 
 
 def bus_kwargs(args: argparse.Namespace) -> dict[str, Any]:
@@ -139,11 +143,15 @@ class DriveChoice:
         Simulated drive only: ``reference``, ``minimal`` or an absolute axis TOML path.
     origin : str
         Where the choice comes from (``--sim``, ``-i``, ``CAN_INTERFACE``, ``python-can config file``).
+    profile : str
+        Simulated drive only: its object profile, ``hdservo`` (every object) or ``generic``
+        (CiA 301/402 standard objects only, ``hdservo-sim serve --profile generic``).
     """
 
     bus: Optional[dict[str, Any]]
     axis: Optional[str]
     origin: str
+    profile: str = "hdservo"
 
     @property
     def virtual(self) -> bool:
@@ -153,9 +161,13 @@ class DriveChoice:
     def describe(self) -> str:
         """One phrase for logs and reports."""
         if self.bus is None:
-            return f"simulated drive (virtual drive, axis {self.axis_name})"
+            return f"simulated drive (virtual drive{self._profile_note}, axis {self.axis_name})"
         shown = {k: v for k, v in self.bus.items() if k in ("interface", "channel", "bitrate", "host", "port")}
         return f"drive {shown} ({self.origin})"
+
+    @property
+    def _profile_note(self) -> str:
+        return ", generic CiA 402 profile" if self.profile == "generic" else ""
 
     @property
     def axis_name(self) -> str:
@@ -166,7 +178,8 @@ class DriveChoice:
         """Say on stderr, in one line, that a simulated drive is started (nothing for a real one)."""
         if self.bus is None:
             import sys
-            print(f"hdservo {command}: using a simulated drive (virtual drive, axis {self.axis_name}); "
+            print(f"hdservo {command}: using a simulated drive (virtual drive{self._profile_note}, "
+                  f"axis {self.axis_name}); "
                   "your real drive is not touched", file=sys.stderr, flush=True)
 
 
@@ -226,12 +239,15 @@ def choose_drive(args: argparse.Namespace, sim_only: tuple[str, ...] = ()) -> Dr
             raise UserError(f"{', '.join(clash)}: bus options do not go with a simulated drive ({origin}); "
                              "give either the bus or --sim")
         axis = sim_axis or "reference"
+        profile = "hdservo"
+        if axis == "generic" or axis.startswith("generic:"):
+            profile, axis = "generic", axis[len("generic:"):] or "reference"
         if axis not in SIM_AXES:
             if not Path(axis).is_file():
-                raise UserError(f"--sim {axis}: no such axis file (expected {', '.join(SIM_AXES)} "
-                                 "or an axis TOML file)")
+                raise UserError(f"--sim {sim_axis}: no such axis file (expected {', '.join(SIM_AXES)}, "
+                                 "an axis TOML file, or generic:AXIS)")
             axis = str(Path(axis).resolve())
-        return DriveChoice(bus=None, axis=axis, origin=origin)
+        return DriveChoice(bus=None, axis=axis, origin=origin, profile=profile)
     for opt in sim_only:
         if getattr(args, opt, None) not in (None, False):
             raise UserError(f"--{opt.replace('_', '-')} is an option of the simulated drive: it goes with --sim")
