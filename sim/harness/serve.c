@@ -303,8 +303,11 @@ static uint32_t generic_pdos(srv_t *s, uint8_t node)
         uint32_t ab = hd_co_set_i64(co, (uint16_t)(0x1800u + i), 1u, (int64_t)(0x80000000u | cob));
         if (!ab) ab = hd_co_set_i64(co, (uint16_t)(0x1A00u + i), 0u, 0);
         uint8_t n = 0;
-        for (uint8_t k = 0; !ab && k < 3u && map[i][k]; k++, n++)
-            ab = hd_co_set_i64(co, (uint16_t)(0x1A00u + i), (uint8_t)(k + 1u), (int64_t)map[i][k]);
+        for (uint8_t k = 0; k < 3u && map[i][k]; k++) n++;
+        /* every entry, the unused ones 0: the stored image holds all of them, and an NMT
+         * reset puts it back through the mapping checks (a default 0x5F00 entry would fail) */
+        for (uint8_t k = 0; !ab && k < HD_CO_N_MAP; k++)
+            ab = hd_co_set_i64(co, (uint16_t)(0x1A00u + i), (uint8_t)(k + 1u), k < 3u ? (int64_t)map[i][k] : 0);
         if (!ab) ab = hd_co_set_i64(co, (uint16_t)(0x1A00u + i), 0u, n);
         if (!ab) ab = hd_co_set_i64(co, (uint16_t)(0x1800u + i), 2u, trans[i]);
         if (!ab && n) ab = hd_co_set_i64(co, (uint16_t)(0x1800u + i), 1u, cob);
