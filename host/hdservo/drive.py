@@ -454,6 +454,62 @@ class Drive:
         """Back to SWITCH ON DISABLED (power stage off)."""
         self._walk("SWITCH ON DISABLED")
 
+    # ---- any CiA 402 drive: python canopen's profile ------------------------------------
+    def capabilities(self) -> Any:
+        """What this drive offers (:func:`hdservo.drive_caps.probe`: identity, modes, objects, PDOs, SYNC).
+
+        Raises
+        ------
+        DriveError
+            The drive does not answer.
+        """
+        from . import drive_caps
+        try:
+            return drive_caps.probe(self.node.sdo)
+        except canopen.SdoCommunicationError as e:
+            raise DriveError(f"capability probe: {e}") from None
+
+    def enable_402(self, mode: str = "CYCLIC SYNCHRONOUS POSITION") -> None:
+        """Select a mode and reach OPERATION ENABLED through python canopen's CiA 402 profile.
+
+        The path for any CiA 402 drive (the generic one): :class:`canopen.BaseNode402`
+        checks the mode against 0x6502, writes 0x6060 (by RPDO when mapped), and walks the
+        CiA 402 graph from whatever state the drive is in (fault reset included), reading
+        the statusword from its TPDO when mapped, else by SDO.  Needs :meth:`start` first
+        (it loads the PDO configuration the profile reads) and a drive whose time runs
+        (realtime or fast pacing; in lock-step the periods come only with SYNCs).
+
+        Raises
+        ------
+        DriveError
+            The mode is not supported, not taken (0x6061 differs), or the state is not reached.
+        """
+        if mode not in MODES:
+            raise DriveError(f"mode must be one of {sorted(MODES)}")
+        node = self.node
+        try:
+            if not node.is_op_mode_supported(mode):
+                raise DriveError(f"mode {mode}: not among this drive's supported modes (0x6502)")
+            # python canopen logs a failed mode change instead of raising: 0x6061 is checked below
+            node.op_mode = mode
+            node.state = "OPERATION ENABLED"
+        except (RuntimeError, ValueError) as e:
+            raise DriveError(f"CiA 402 enable ({mode}): {e} (state {self.state()})") from None
+        except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
+            raise DriveError(f"CiA 402 enable ({mode}): {e}") from None
+        shown = int(self.read(0x6061))
+        if shown != MODES[mode]:
+            raise DriveError(f"CiA 402 enable: mode display 0x6061 = {shown}, expected {MODES[mode]} ({mode})")
+
+    def disable_402(self) -> None:
+        """SWITCH ON DISABLED (power stage off) through python canopen's CiA 402 profile."""
+        try:
+            self.node.state = "SWITCH ON DISABLED"
+        except (RuntimeError, ValueError) as e:
+            raise DriveError(f"CiA 402 disable: {e} (state {self.state()})") from None
+        except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
+            raise DriveError(f"CiA 402 disable: {e}") from None
+
     def fault_reset(self) -> None:
         """Rising edge of controlword bit 7, then wait for SWITCH ON DISABLED."""
         self.write(0x6040, 0, 0x00)

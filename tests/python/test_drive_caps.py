@@ -23,7 +23,7 @@ import pytest
 
 from hdservo import drive_caps
 from hdservo.cli import main
-from hdservo.drive import EDS_PATH, Drive
+from hdservo.drive import EDS_PATH, Drive, DriveError
 
 from vdrive import NODE, SIM, Server  # tests/python/vdrive.py
 
@@ -255,3 +255,34 @@ def test_require_names_each_missing_capability_once() -> None:
     with pytest.raises(KeyError):
         caps.has("warp_drive")
     assert math.isfinite(float(caps.device_type or 0))
+
+
+@pytest.mark.parametrize("mode", ["CYCLIC SYNCHRONOUS VELOCITY", "CYCLIC SYNCHRONOUS TORQUE"])
+def test_generic_drive_enabled_through_the_canopen_402_profile(mode: str) -> None:
+    srv = Server("--profile", "generic", "--pacing", "realtime", "-q")
+    try:
+        with Drive.connect(NODE, interface="socketcand", host="127.0.0.1", port=srv.port, channel="can0") as d:
+            d.start()
+            d.enable_402(mode)
+            enabled, shown = d.state(), int(d.read(0x6061))
+            d.disable_402()
+            disabled = d.state()
+    finally:
+        err = srv.stop()
+    assert enabled == "OPERATION ENABLED" and shown == {"CYCLIC SYNCHRONOUS VELOCITY": 9,
+                                                          "CYCLIC SYNCHRONOUS TORQUE": 10}[mode]
+    assert disabled == "SWITCH ON DISABLED"
+    assert _stats(err)["vendor_refused"] == 0
+
+
+def test_enable_402_refuses_a_mode_the_drive_lacks() -> None:
+    srv = Server("--profile", "generic", "--pacing", "realtime", "-q")
+    try:
+        with Drive.connect(NODE, interface="socketcand", host="127.0.0.1", port=srv.port, channel="can0") as d:
+            d.start()
+            with pytest.raises(DriveError, match="must be one of"):
+                d.enable_402("HOMING")
+            caps = d.capabilities()
+    finally:
+        srv.stop()
+    assert "HM" not in caps.modes and caps.profile == 402
