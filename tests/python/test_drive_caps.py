@@ -286,3 +286,25 @@ def test_enable_402_refuses_a_mode_the_drive_lacks() -> None:
     finally:
         srv.stop()
     assert "HM" not in caps.modes and caps.profile == 402
+
+
+def test_sim_generic_spelling(tmp_path: Path) -> None:
+    import argparse
+
+    from hdservo.cli import UserError
+    from hdservo.drive import add_bus_arguments, choose_drive
+
+    def choice(arg: str) -> Any:
+        p = argparse.ArgumentParser()
+        add_bus_arguments(p)
+        return choose_drive(p.parse_args([f"--sim={arg}"]))
+
+    axis = tmp_path / "a.toml"
+    axis.write_text("")
+    got = [(c.profile, c.axis) for c in (choice("generic"), choice("generic:minimal"), choice(f"generic:{axis}"),
+                                         choice("reference"))]
+    assert got == [("generic", "reference"), ("generic", "minimal"), ("generic", str(axis.resolve())),
+                   ("hdservo", "reference")]
+    assert "generic CiA 402 profile" in choice("generic").describe()
+    with pytest.raises(UserError, match="--sim generic:no/such.toml: no such axis file"):
+        choice("generic:no/such.toml")
