@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import math
 import subprocess
+import time
 from pathlib import Path
 from typing import Any
 
@@ -265,6 +266,14 @@ def test_generic_drive_enabled_through_the_canopen_402_profile(mode: str) -> Non
             d.start()
             d.enable_402(mode)
             enabled, shown = d.state(), int(d.read(0x6061))
+            if mode == "CYCLIC SYNCHRONOUS TORQUE":
+                # 0x6078 current actual (per mille of 0x6075) follows the torque (per mille of 0x6076):
+                # both ratings are the reference axis' (6.7 A = 67 N.m / (100 x 0.1 N.m/A))
+                d.write(0x6071, 0, 100)
+                time.sleep(0.3)
+                torque, current = int(d.read(0x6077)), int(d.read(0x6078))
+                d.write(0x6071, 0, 0)
+                assert torque == 100 and 80 <= current <= 120, (torque, current)
             d.disable_402()
             disabled = d.state()
     finally:
