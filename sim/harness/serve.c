@@ -280,7 +280,8 @@ static uint32_t a_object_filter(void *c, uint16_t index, uint8_t sub)
  * (every SYNC); TPDO3 additional position actual (the motor encoder, 0x60E4:1) and torque
  * actual (every SYNC); TPDO4 invalid.  The RPDO defaults are standard already.  Set
  * through the SDO write checks and kept as the stored image, so the NMT resets return to
- * them; 0 or the abort code of the write that failed. */
+ * them (and after a 0x1011 restore, generic_after_frame); 0 or the abort code of the
+ * write that failed. */
 static void generic_identity(srv_t *s)
 {
     /* the NMT resets load the defaults of 0x1000-0x1FFF: put the product code back after
@@ -315,6 +316,23 @@ static uint32_t generic_pdos(srv_t *s, uint8_t node)
     }
     hd_co_store_capture(co);
     return 0;
+}
+
+/* After each frame the stack processed: the generic identity (NMT resets), and the generic
+ * default PDOs when the firmware's defaults came back (0x1011 restore puts them in force,
+ * whose TPDOs map 0x5F00): the generic profile's defaults are its own. */
+static void generic_after_frame(srv_t *s)
+{
+    if (!s->generic) return;
+    generic_identity(s);
+    for (uint32_t i = 0; i < HD_CO_N_PDO; i++)
+        for (uint32_t k = 0; k < HD_CO_N_MAP; k++) {
+            const uint16_t t = (uint16_t)(s->co.od.tpdo_map[i][k] >> 16), r = (uint16_t)(s->co.od.rpdo_map[i][k] >> 16);
+            if ((t >= 0x2000u && t <= 0x5FFFu) || (r >= 0x2000u && r <= 0x5FFFu)) {
+                (void)generic_pdos(s, s->co.node_id);
+                return;
+            }
+        }
 }
 
 /* commit: the last 4 bytes are the CRC-32 of the rest; refused -> old data stays */
@@ -409,7 +427,7 @@ static int receive(srv_t *s, int32_t timeout_ms)
         if (!hd_host_can_rx_done(s->port)) { s->can_busoff_rx++; continue; }
         if (can_lost(s)) { s->can_lost_rx++; continue; }
         hd_co_process(&s->co, &rx[i]);
-        generic_identity(s);
+        generic_after_frame(s);
     }
     return r;
 }

@@ -119,11 +119,15 @@ def test_generic_nmt_reset_keeps_the_generic_identity_and_pdos() -> None:
             node.nmt.wait_for_bootup(5)
             product = int.from_bytes(node.sdo.upload(0x1018, 2), "little")
             tpdo2 = int.from_bytes(node.sdo.upload(0x1A01, 1), "little")
+            node.sdo.download(0x1011, 1, (0x64616F6C).to_bytes(4, "little"))     # 0x1011 restore: 'load'
+            tpdo1 = [int.from_bytes(node.sdo.upload(0x1A00, k), "little") for k in range(5)]
         finally:
             net.disconnect()
     finally:
         err = srv.stop()
     assert product == 0x0047454E and tpdo2 == 0x60640020
+    # the generic profile's own defaults, not the firmware's (whose TPDO1 maps the 0x5F00 loop tick)
+    assert tpdo1 == [3, 0x60410010, 0x60610008, 0x10010008, 0]
     assert _stats(err)["vendor_refused"] == 0
 
 
