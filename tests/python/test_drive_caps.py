@@ -321,3 +321,13 @@ def test_sim_generic_spelling(tmp_path: Path) -> None:
     assert "generic CiA 402 profile" in choice("generic").describe()
     with pytest.raises(UserError, match="--sim generic:no/such.toml: no such axis file"):
         choice("generic:no/such.toml")
+
+
+def test_generic_bench_rig_refuses_at_once() -> None:
+    from hdservo.procedures.runner import NoRig, RigError, RigSetup
+    rig = NoRig(RigSetup())
+    for act in (lambda: rig.brake(True), lambda: rig.load_torque(5.0), lambda: rig.load_torque_profile([(1.0, 2.0)])):
+        t0 = time.monotonic()
+        with pytest.raises(RigError, match="generic CiA 402 drive has no test rig"):
+            act()
+        assert time.monotonic() - t0 < 1.0          # not a rig command waiting for an answer
