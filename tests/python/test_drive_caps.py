@@ -44,6 +44,7 @@ def _node(port: int) -> tuple[canopen.Network, canopen.RemoteNode]:
     net = canopen.Network()
     net.connect(interface="socketcand", host="127.0.0.1", port=port, channel="can0")
     node = canopen.RemoteNode(NODE, str(EDS_PATH))
+    node.sdo.RESPONSE_TIMEOUT = 2.0         # a loaded machine (the drive answers in microseconds)
     net.add_node(node)
     return net, node
 
