@@ -273,6 +273,16 @@ def test_generic_drive_enabled_through_the_canopen_402_profile(mode: str) -> Non
             d.start()
             d.enable_402(mode)
             enabled, shown = d.state(), int(d.read(0x6061))
+            if mode == "CYCLIC SYNCHRONOUS VELOCITY":
+                # 0x60E4:1 (motor encoder / N) follows 0x6064 (output encoder) through a move of
+                # 10 deg/s: the same unit, apart by the twist and the TE only (< 1e-4 turn)
+                p0, m0 = int(d.read(0x6064)), int(d.read(0x60E4, 1))
+                d.write(0x60FF, 0, round(10.0 / 360.0 * 2 ** 32))
+                time.sleep(0.5)
+                p1, m1 = int(d.read(0x6064)), int(d.read(0x60E4, 1))
+                d.write(0x60FF, 0, 0)
+                assert p1 - p0 > 0.004 * 2 ** 24, (p0, p1)          # it moved (> 1.4 deg)
+                assert abs((m1 - m0) - (p1 - p0)) < 1e-4 * 2 ** 24, (m1 - m0, p1 - p0)
             if mode == "CYCLIC SYNCHRONOUS TORQUE":
                 # 0x6078 current actual (per mille of 0x6075) follows the torque (per mille of 0x6076):
                 # both ratings are the reference axis' (6.7 A = 67 N.m / (100 x 0.1 N.m/A))
