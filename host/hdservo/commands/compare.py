@@ -96,10 +96,13 @@ def run(args: argparse.Namespace) -> int:
         ctls = cmp.controllers_from_names(args.controllers.split(","), axis)
     seed = 1 if args.seed is None else args.seed
     choice.announce("compare")
+    from ..drive_caps import preflight
+    preflight(choice, args.node_id, "compare")
     try:
         doc = cmp.run_compare(args.out, ctls, procs, proc_extra=extra, bus=bus, node_id=args.node_id,
                               axis=axis, seed=seed, model=args.model, progress=not args.quiet,
-                              pdf=args.pdf, echo=(lambda s: None) if args.quiet else print)
+                              pdf=args.pdf, echo=(lambda s: None) if args.quiet else print,
+                              profile=choice.profile)
     except ValueError as e:
         raise UserError(str(e)) from None
     if args.json is not None:

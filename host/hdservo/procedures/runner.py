@@ -141,12 +141,15 @@ class VirtualDriveProcess(ServeProcess):
         Loop periods per SYNC (pacing ``sync``).
     seed : int
         Sensor-noise seed.
+    profile : str
+        ``hdservo``, or ``generic`` (standard objects only; no ``--rig``: the rig commands fail).
     """
 
     def __init__(self, axis: str = "reference", pacing: str = "fast", sets: Sequence[str] = (),
-                 sync_periods: int = 10, seed: int = 1, node_id: int = 1) -> None:
+                 sync_periods: int = 10, seed: int = 1, node_id: int = 1, profile: str = "hdservo") -> None:
         args = ["--node-id", str(node_id), "--axis", axis, "--pacing", pacing,
-                "--sync-periods", str(sync_periods), "--seed", str(seed), "--rig"]
+                "--sync-periods", str(sync_periods), "--seed", str(seed)]
+        args += ["--rig"] if profile == "hdservo" else ["--profile", profile]
         for s in sets:
             args += ["--set", s]
         super().__init__(find_sim(), args, error=RigError)
@@ -180,6 +183,31 @@ class Rig:
         """Record the reference instruments while the block runs; the dict is filled on exit."""
         raise RigError("this rig has no reference instruments to record")
         yield {}  # pragma: no cover
+
+
+class NoRig(Rig):
+    """The generic CiA 402 virtual drive (``--profile generic``): a drive without a bench.
+
+    Every rig action is refused at once, in one line (a drive from another vendor has no
+    brake, load or reference instruments reachable over CAN).
+    """
+
+    def __init__(self, setup: RigSetup) -> None:
+        self.setup = setup
+
+    def brake(self, on: bool) -> None:
+        raise RigError("the generic CiA 402 drive has no test rig (no output brake); "
+                       "run this procedure on a bench or the hdservo profile")
+
+    def load_torque(self, torque_Nm: float, rate_Nm_s: float = 0.0) -> None:
+        raise RigError("the generic CiA 402 drive has no test rig (no output torque loading); "
+                       "run this procedure on a bench or the hdservo profile")
+
+    def load_torque_profile(self, ramps: Sequence[tuple[float, float]]) -> None:
+        self.load_torque(0.0)
+
+    def close(self) -> None:
+        """Nothing to release."""
 
 
 class ManualRig(Rig):
@@ -534,6 +562,9 @@ class Target:
     download: Optional[Mapping[str, Any]] = None
     #: drive parameters by name (``--params KEY=VALUE``), written after the download, read back
     params: dict[str, float] = field(default_factory=dict)
+    #: virtual only: the object profile of the virtual drive (``hdservo`` or ``generic``: CiA 301/402
+    #: standard objects only, no test rig)
+    profile: str = "hdservo"
 
     @property
     def virtual(self) -> bool:
@@ -625,8 +656,9 @@ def open_bench(target: Target, setup: RigSetup, lockstep: bool = False,
         pacing = "sync" if lockstep else "fast"
         sets = setup.sets() + [f"{k}={v!r}" if not isinstance(v, bool) else f"{k}={'true' if v else 'false'}"
                                for k, v in target.plant.items()]
-        proc = VirtualDriveProcess(target.axis, pacing, sets, sync_periods, target.seed, target.node_id)
-        rig = VirtualRig(proc, setup)
+        proc = VirtualDriveProcess(target.axis, pacing, sets, sync_periods, target.seed, target.node_id,
+                                   target.profile)
+        rig: Rig = VirtualRig(proc, setup) if target.profile == "hdservo" else NoRig(setup)
         drive = None
         try:
             drive = Drive.connect(target.node_id, interface="socketcand", channel="can0", host="127.0.0.1",
@@ -667,4 +699,4 @@ def open_bench(target: Target, setup: RigSetup, lockstep: bool = False,
 
 
 __all__ = ["Bench", "ManualRig", "Progress", "Rig", "RigError", "RigSetup", "SIG", "Target", "VirtualDriveProcess",
-           "VirtualRig", "apply_compensators", "configure_drive", "open_bench"]
+           "VirtualRig", "NoRig", "apply_compensators", "configure_drive", "open_bench"]
