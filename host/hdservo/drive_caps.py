@@ -49,7 +49,7 @@ from pathlib import Path
 from typing import Any, Iterable, Mapping, Optional, Protocol, Sequence
 
 from . import od_gen
-from .cli import UserError
+from .errors import UserError
 
 #: SDO aborts that mean "this drive has no such object / sub-index"
 ABSENT_ABORTS = (0x06020000, 0x06090011)

@@ -14,7 +14,7 @@ import json
 import sys
 from pathlib import Path
 
-from ..cli import UserError
+from ..errors import UserError
 
 NAME = "drive"
 HELP = "what the drive offers: identity, CiA 402 modes, feedback and set-point objects, PDOs, SYNC, vendor extensions"
