@@ -378,7 +378,8 @@ class CupModel:
         -------
         dict
             ``stiffness_Nm_per_rad``; ``uniform_stiffness_Nm_per_rad`` (harmonic 0 alone);
-            ``wg_force_N`` (diametral force pair equivalent
+            ``ring_stiffness_Nm_per_rad`` (the tooth surface turned as a rigid ring: the rim of
+            the torsional modes); ``wg_force_N`` (diametral force pair equivalent
             to the bore pressure that holds the ellipse); ``dofs`` per harmonic.
         """
         g, mdl = self.g, self.model
@@ -399,7 +400,13 @@ class CupModel:
                 fn = mdl.traction(-n, 1, self.is_rim_outer, an)
                 xn = _solve(self.k(-n), fn, fixed)
                 work += float(fn @ xn)
+        # the rim's tooth surface turned as a rigid ring (the modal model's rim): U_theta = r
+        rim = mdl.dofs(self.is_rim_outer)
+        boss = mdl.dofs(self.is_boss)
+        xr = _solve(self.k(0), np.zeros(self.k(0).shape[0]), np.concatenate([boss, rim]),
+                    np.concatenate([np.zeros(len(boss)), mdl.locs(rim, vector=False)[0]]))
         out = {"stiffness_Nm_per_rad": 1.0 / work, "uniform_stiffness_Nm_per_rad": 1.0 / w_uniform,
+               "ring_stiffness_Nm_per_rad": float(xr @ (self.k(0) @ xr)),
                "zone_half_angle_deg": math.degrees(beta), "harmonics": int(harmonics) if zones else 0,
                "dofs": self.dof_count}
         # the imposed ellipse: family A, n = 2, U_r = w0 on the rim bore
