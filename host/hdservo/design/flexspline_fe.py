@@ -238,7 +238,7 @@ class AxiModel:
             return asm(k0, self.sca).tocsr()
 
         def strains(u, r):
-            ur, ut, uz = u.value
+            ur, ut, uz = np.asarray(u)
             gr = u.grad
             return ((gr[0][0], (ur + n * ut) / r, gr[2][1]),
                     (gr[0][1] + gr[2][0], gr[1][0] - ut / r - n * ur / r, gr[1][1] - n * uz / r))
@@ -265,8 +265,7 @@ class AxiModel:
 
         @BilinearForm
         def mn(u, v, w):
-            return math.pi * rho * w.x[0] * (u.value[0] * v.value[0] + u.value[1] * v.value[1]
-                                             + u.value[2] * v.value[2])
+            return math.pi * rho * w.x[0] * np.sum(np.asarray(u) * np.asarray(v), axis=0)
         return asm(mn, self.vec).tocsr()
 
     def traction(self, n: int, component: int, where: Callable[[np.ndarray], np.ndarray],
@@ -289,7 +288,7 @@ class AxiModel:
 
         @LinearForm
         def ln(v, w):
-            return w_ang * amplitude * w.x[0] * v.value[component]
+            return w_ang * amplitude * w.x[0] * np.asarray(v)[component]
         return asm(ln, fb)
 
     # ---- degrees of freedom
