@@ -204,3 +204,31 @@ def test_candidate_figures_keep_catalogue_k1() -> None:
     assert fig["torsional_Hz"] == pytest.approx(f_two_mass, rel=2e-3)
     assert fig["rim_spring_source"].startswith("catalogue")
     assert 0.0 < fig["tilting_Hz"] < fig["torsional_Hz"]
+
+
+# --------------------------------------------------------------------------- make results study, tiny grid
+def test_results_study_logic_on_a_tiny_grid(tmp_path: Path, cases) -> None:
+    from hdservo.design import fe_study as fs
+    s = st.structure_for(25, 100)
+    cf = fs.closed_forms(levels=(1,))
+    assert all(abs(cf[0][f"{k}_err"]) < 0.02 for k in ("torsion", "bending", "ring"))
+    conv = fs.convergence(s, 0.5, levels=(1, 2), harmonics=4)
+    assert conv[0]["dofs"] < conv[1]["dofs"] and conv[0]["stiffness_Nm_per_rad"] > conv[1]["stiffness_Nm_per_rad"]
+    sens = fs.sensitivity(s, 0.5, 5e4, names=("length", "wall"), step=0.1, level=1, harmonics=4)
+    sw = fs.sweep(s, 0.5, 5e4, "length", [0.9, 1.0, 1.1], level=1, harmonics=4)
+    # the elasticity is the log slope between the sweep's end points
+    slope = math.log(sw[2]["stiffness_Nm_per_rad"] / sw[0]["stiffness_Nm_per_rad"]) / math.log(1.1 / 0.9)
+    assert sens["length"]["stiffness_Nm_per_rad"] == pytest.approx(slope, rel=1e-9)
+    assert sens["length"]["stiffness_Nm_per_rad"] < 0 < sens["wall"]["stiffness_Nm_per_rad"]
+    # with a mesh spring in series the flexspline moves the mode less than it moves its own stiffness
+    assert 0 < sens["wall"]["torsional_Hz"] < 0.5 * sens["wall"]["stiffness_Nm_per_rad"]
+    small = [c for c in cases if c.row.ratio == 100 and c.row.size in (20, 25, 32)]
+    ho = fs.held_out(small)
+    assert len(ho["rows"]) == 3
+    for lv in fg.LEVELS:
+        errs = [abs(r[f"{lv}_err"]) for r in ho["rows"]]
+        assert ho["summary"][lv]["max_abs"] == pytest.approx(max(errs))
+        assert ho["summary"][lv]["per_size_max_abs"][25] == pytest.approx(errs[1])
+    doc = {"gear": "CSF-25-100", "convergence": conv, "sensitivity": sens, "sweeps": {"length": sw}}
+    files = fs.plot(doc, tmp_path)
+    assert all((tmp_path / f).stat().st_size > 1000 for f in files) and len(files) == 3
