@@ -152,9 +152,11 @@ def test_scale_and_parameter_directions(cup25: fe.CupGeometry) -> None:
 def test_bad_geometry_is_refused_in_one_line(cup25: fe.CupGeometry) -> None:
     with pytest.raises(UserError) as e:
         fe.CupModel(replace(cup25, boss_radius_m=cup25.bore_radius_m * 1.1), 1)
-    assert "boss radius" in str(e.value) and "\n" not in str(e.value)
-    with pytest.raises(UserError):
+    assert "bore_radius_m: expected above the boss radius" in str(e.value) and "\n" not in str(e.value)
+    with pytest.raises(UserError, match="wall_m: expected > 0"):
         fe.CupModel(replace(cup25, wall_m=-1e-3), 1)
+    with pytest.raises(UserError, match="length_m: expected a finite number"):
+        fe.CupModel(replace(cup25, length_m=float("nan")), 1)
 
 
 def test_rule_file_errors(tmp_path: Path) -> None:

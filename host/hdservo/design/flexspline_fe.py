@@ -32,7 +32,7 @@ finite-element model") describes the model as a designer uses it.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -125,25 +125,29 @@ def cup_geometry(s: Structure, density_kg_m3: float = STEEL_DENSITY_KG_M3) -> Cu
 
 
 def validate(g: CupGeometry) -> None:
-    """Refuse a geometry the mesh cannot represent (one line, what was expected)."""
+    """Refuse a geometry the mesh cannot represent: one line saying what was expected."""
     from ..cli import UserError
+    for f in g.__dataclass_fields__:
+        v = getattr(g, f)
+        if not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise UserError(f"flexspline FE geometry: {f}: expected a finite number, got {v!r}")
     checks = [
-        (g.boss_radius_m > 0, "boss radius must be > 0"),
-        (g.bore_radius_m > g.boss_radius_m, "bore radius must exceed the boss radius"),
-        (g.wall_m > 0 and g.diaphragm_m > 0, "wall and diaphragm thickness must be > 0"),
-        (g.rim_extra_m >= 0, "rim extra thickness must be >= 0"),
-        (0 < g.rim_width_m < g.length_m - g.diaphragm_m, "rim width must lie in (0, L - h)"),
-        (g.youngs_modulus_Pa > 0 and -1.0 < g.poisson_ratio < 0.5, "E > 0 and -1 < nu < 0.5 expected"),
-        (g.density_kg_m3 > 0, "density must be > 0"),
-        (0 < g.engaged_fraction <= 1, "engaged fraction must lie in (0, 1]"),
+        (g.boss_radius_m > 0, f"boss_radius_m: expected > 0, got {g.boss_radius_m:g}"),
+        (g.bore_radius_m > g.boss_radius_m,
+         f"bore_radius_m: expected above the boss radius {g.boss_radius_m:g} m, got {g.bore_radius_m:g}"),
+        (g.wall_m > 0, f"wall_m: expected > 0, got {g.wall_m:g}"),
+        (g.diaphragm_m > 0, f"diaphragm_m: expected > 0, got {g.diaphragm_m:g}"),
+        (g.rim_extra_m >= 0, f"rim_extra_m: expected >= 0, got {g.rim_extra_m:g}"),
+        (0 < g.rim_width_m < g.length_m - g.diaphragm_m,
+         f"rim_width_m: expected in (0, L - h = {g.length_m - g.diaphragm_m:g}) m, got {g.rim_width_m:g}"),
+        (g.youngs_modulus_Pa > 0, f"youngs_modulus_Pa: expected > 0, got {g.youngs_modulus_Pa:g}"),
+        (-1.0 < g.poisson_ratio < 0.5, f"poisson_ratio: expected in (-1, 0.5), got {g.poisson_ratio:g}"),
+        (g.density_kg_m3 > 0, f"density_kg_m3: expected > 0, got {g.density_kg_m3:g}"),
+        (0 < g.engaged_fraction <= 1, f"engaged_fraction: expected in (0, 1], got {g.engaged_fraction:g}"),
     ]
-    bad = [msg for ok, msg in checks if not (ok and all(math.isfinite(v) for v in _values(g)))]
-    if bad:
-        raise UserError(f"flexspline FE geometry: {bad[0]} (got {g})")
-
-
-def _values(g: CupGeometry) -> List[float]:
-    return [float(getattr(g, f)) for f in g.__dataclass_fields__]
+    for ok, msg in checks:
+        if not ok:
+            raise UserError(f"flexspline FE geometry: {msg}")
 
 
 # --------------------------------------------------------------------------- meshing

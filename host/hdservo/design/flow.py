@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
@@ -173,7 +174,10 @@ def resonance(spec: Spec, c: Candidate) -> Tuple[float, float]:
     return st.two_mass_resonance(c.gear.k1_Nm_per_rad, spec.load_inertia_kgm2, c.input_inertia_kgm2, c.gear.ratio)
 
 
-_FE_CACHE: Dict[Tuple[str, float, int], Dict[str, Any]] = {}
+@lru_cache(maxsize=64)
+def _fe_figures(gear: cat.GearRow, load_inertia_kgm2: float, level: int) -> Dict[str, Any]:
+    from . import fe_gear
+    return fe_gear.candidate_figures(gear, load_inertia_kgm2, level=level)
 
 
 def fe_resonance(spec: Spec, c: Candidate, level: Optional[int] = None) -> Dict[str, Any]:
@@ -184,13 +188,9 @@ def fe_resonance(spec: Spec, c: Candidate, level: Optional[int] = None) -> Dict[
     Evaluated once per gear and load (cached); ``level`` is the FE mesh level (default
     :data:`hdservo.design.flexspline_fe.DEFAULT_LEVEL`).
     """
-    from . import fe_gear
     from .flexspline_fe import DEFAULT_LEVEL
     lv = DEFAULT_LEVEL if level is None else int(level)
-    key = (c.gear.name, float(spec.load_inertia_kgm2), lv)
-    if key not in _FE_CACHE:
-        _FE_CACHE[key] = fe_gear.candidate_figures(c.gear, spec.load_inertia_kgm2, level=lv)
-    return dict(_FE_CACHE[key])
+    return dict(_fe_figures(c.gear, float(spec.load_inertia_kgm2), lv))
 
 
 def torque_limit(c: Candidate) -> float:
