@@ -234,3 +234,27 @@ def test_results_study_logic_on_a_tiny_grid(tmp_path: Path, cases) -> None:
     doc = {"gear": "CSF-25-100", "convergence": conv, "sensitivity": sens, "sweeps": {"length": sw}}
     files = fs.plot(doc, tmp_path)
     assert all((tmp_path / f).stat().st_size > 1000 for f in files) and len(files) == 3
+
+
+def test_flow_ranks_the_lower_of_two_mass_and_fe_resonance() -> None:
+    from hdservo.design import axis_builder as ab
+    from hdservo.design import flow as fl
+    from hdservo.design import spec as sp
+    spec = sp.load_spec(Path(__file__).resolve().parents[2] / "examples" / "pitch_drive" / "SPEC.toml")
+    sens = {x.name: x for x in cat.load_sensors()}
+    mot = {m.name: m for m in cat.load_motors()}
+    c = ab.Candidate(cat.find_gear(25, 80), mot["fl-050-class"], sens["enc-motor-17bit"],
+                     sens["ring-output-25bit"], sens["gyro-mems-industrial"])
+    fem = fl.fe_resonance(spec, c, level=1)
+    assert fl.fe_resonance(spec, c, level=1) == fem                     # cached, a copy each time
+    fa, _ = fl.resonance(spec, c)
+    assert fem["torsional_Hz"] < fa and fem["tilting_Hz"] > 0
+    # headline(): the ranked resonance is the design figure when present, else the two-mass value
+    figs = {"min_rate": {"min_smooth_rate_deg_s": 0.001, "ladder": [{"rate_deg_s": 0.001, "stability": 0.01}]},
+            "positioning": {"A_arcsec": 1.0, "A_with_encoder_arcsec": 7.0, "R_arcsec": 1.0},
+            "stabilisation": {"predicted_rms_arcsec": 7.0, "hold_rms_arcsec": 1000.0},
+            "peak_torque": {"peak_torque_Nm": 60.0}, "bandwidth": {"bandwidth_Hz": 20.0},
+            "resonance": {"locked_motor_Hz": fa, "design_Hz": min(fa, fem["torsional_Hz"])}}
+    assert fl.headline(figs)["resonance_Hz"] == fem["torsional_Hz"]
+    del figs["resonance"]["design_Hz"]
+    assert fl.headline(figs)["resonance_Hz"] == fa
