@@ -8,7 +8,14 @@ structure
     Analytic relations from flexspline / wave-generator structure to the model
     parameters (stiffness K1-K3, hysteresis, lost motion, friction, resonance).
 flexspline_fe
-    A 1-D finite-element model of the flexspline's torsional stiffness.
+    Finite-element model of the cup flexspline (scikit-fem, axisymmetric solid with Fourier
+    harmonics): torsional stiffness under the tooth load with the wave-generator ellipse
+    imposed, torsional and tilting modes with the load.
+fe_gear
+    The FE flexspline in series with the wave-generator bearing and the tooth mesh (a rule
+    validated on held-out sizes); the design flow's FE resonance figures.
+fe_study
+    The FE studies of ``make results`` (closed forms, convergence, sensitivities).
 sensitivity
     Normalised sensitivities of resonance and lost motion to structural parameters.
 """

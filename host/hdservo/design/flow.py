@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
@@ -170,6 +171,25 @@ def required_torques(spec: Spec, c: Candidate) -> Dict[str, float]:
 def resonance(spec: Spec, c: Candidate) -> Tuple[float, float]:
     """(locked-motor anti-resonance sqrt(K1/J_L), coupled two-mass resonance), Hz."""
     return st.two_mass_resonance(c.gear.k1_Nm_per_rad, spec.load_inertia_kgm2, c.input_inertia_kgm2, c.gear.ratio)
+
+
+@lru_cache(maxsize=64)
+def _fe_figures(gear: cat.GearRow, load_inertia_kgm2: float, level: int) -> Dict[str, Any]:
+    from . import fe_gear
+    return fe_gear.candidate_figures(gear, load_inertia_kgm2, level=level)
+
+
+def fe_resonance(spec: Spec, c: Candidate, level: Optional[int] = None) -> Dict[str, Any]:
+    """FE figures of the candidate's flexspline with the spec's load (:func:`hdservo.design.fe_gear.candidate_figures`):
+    flexspline stiffness, the first torsional mode (FE flexspline, the catalogue K1's remainder as the tooth-mesh
+    and WG-bearing spring, motor locked) and the first tilting mode of the load on the flexspline alone.
+
+    Evaluated once per gear and load (cached); ``level`` is the FE mesh level (default
+    :data:`hdservo.design.flexspline_fe.DEFAULT_LEVEL`).
+    """
+    from .flexspline_fe import DEFAULT_LEVEL
+    lv = DEFAULT_LEVEL if level is None else int(level)
+    return dict(_fe_figures(c.gear, float(spec.load_inertia_kgm2), lv))
 
 
 def torque_limit(c: Candidate) -> float:
@@ -420,7 +440,11 @@ def evaluate_option(spec: Spec, c: Candidate, axis_path: str, option: Optional[C
     f["peak_torque"] = pr.peak_torque(axis_path, ctl, torque_limit(c))
     f["bandwidth"] = pr.bandwidth(axis_path, ctl, periods=1 if quick else 2)
     fa, fr = resonance(spec, c)
-    f["resonance"] = {"locked_motor_Hz": fa, "coupled_Hz": fr, "source": "two-mass model, catalogue K1"}
+    fem = fe_resonance(spec, c)
+    f["resonance"] = {"locked_motor_Hz": fa, "coupled_Hz": fr, "source": "two-mass model, catalogue K1",
+                      "fe_torsional_Hz": fem["torsional_Hz"], "fe_tilting_Hz": fem["tilting_Hz"], "fe": fem,
+                      "design_Hz": min(fa, fem["torsional_Hz"]),
+                      "design_source": "lower of the two-mass and the FE torsional mode (motor locked)"}
     enc_acc = 2.0 * float(c.output_encoder.accuracy_arcsec or 0.0)
     f["positioning"]["A_with_encoder_arcsec"] = f["positioning"]["A_arcsec"] + enc_acc
     return {"option": (option.name if option else "flow"), "controller": ctl, "tuning": tuning, "figures": f,
@@ -488,7 +512,7 @@ def headline(f: Dict[str, Any]) -> Dict[str, Optional[float]]:
         "stabilisation_hold_rms_arcsec": stab["hold_rms_arcsec"],
         "peak_torque_Nm": f["peak_torque"]["peak_torque_Nm"],
         "bandwidth_Hz": f["bandwidth"]["bandwidth_Hz"],
-        "resonance_Hz": f["resonance"]["locked_motor_Hz"],
+        "resonance_Hz": f["resonance"].get("design_Hz", f["resonance"]["locked_motor_Hz"]),
     }
 
 
@@ -588,5 +612,5 @@ def run_flow(spec: Spec, workdir: "str | Path", *, quick: bool = False, candidat
 
 __all__ = ["COMPENSATORS", "Check", "ControllerOption", "Evaluated", "FlowResult", "controller_options", "cost_index",
            "enumerate_candidates", "evaluate", "evaluate_option", "feasibility", "headline", "margins", "option_key",
-           "rank", "required_torques", "resonance", "run_flow", "sensor_checks", "shortlist", "stab_mode",
+           "rank", "required_torques", "resonance", "fe_resonance", "run_flow", "sensor_checks", "shortlist", "stab_mode",
            "torque_limit", "tune"]

@@ -200,6 +200,21 @@ REQ_ROWS = [
 ]
 
 
+def _fe_rows(r: Dict[str, Any]) -> List[str]:
+    """Rows of the FE flexspline figures (docs/design-flow.md, "Flexspline finite-element model")."""
+    fe = r.get("fe")
+    if not fe:
+        return []
+    return [f"| FE flexspline (mesh level {fe['mesh_level']}): stiffness / share of catalogue K1 compliance | "
+            f"{fe['flexspline_stiffness_Nm_per_rad']:.4g} N·m/rad / "
+            f"{100 * fe['k1_catalogue_Nm_per_rad'] / fe['flexspline_stiffness_Nm_per_rad']:.0f} % |",
+            f"| FE torsional mode (motor locked; the design figure is the lower of it and the two-mass) | "
+            f"{fe['torsional_Hz']:.2f} Hz |",
+            f"| FE tilting mode of the load on the flexspline alone (no output bearing) | {fe['tilting_Hz']:.1f} Hz |",
+            f"| series rule K1 / K3 vs catalogue | {fe['k1_rule_Nm_per_rad']:.3g} / {fe['k3_rule_Nm_per_rad']:.3g} vs "
+            f"{fe['k1_catalogue_Nm_per_rad']:.3g} / {fe['k3_catalogue_Nm_per_rad']:.3g} N·m/rad |"]
+
+
 def markdown(res: FlowResult, doc: Dict[str, Any], plots: List[str]) -> str:
     """The Markdown report."""
     spec = res.spec
@@ -270,6 +285,7 @@ def markdown(res: FlowResult, doc: Dict[str, Any], plots: List[str]) -> str:
               f"| drive torque limit | {t['torque_limit_Nm']:.3g} N·m |",
               f"| resonance: locked motor / coupled (two-mass, K1) | {f['resonance']['locked_motor_Hz']:.1f} / "
               f"{f['resonance']['coupled_Hz']:.1f} Hz |",
+              *_fe_rows(f["resonance"]),
               f"| velocity PI: kp, ki | {t['vel_kp_Nms_per_rad']:.4g} N·m·s/rad, {t['vel_ki_Nm_per_rad']:.4g} N·m/rad "
               f"(crossover {t['vel_crossover_hz']:.1f} Hz, PM {t['vel_phase_margin_deg']:.0f}°, "
               f"GM {t['vel_gain_margin_db']:.1f} dB) |",
