@@ -61,6 +61,24 @@ DOMAIN_ATTEMPTS = 3
 #: time-out (0x05040000), unknown command specifier (0x05040001: a stale frame), block
 #: sequence / CRC errors (0x05040003 / 0x05040004); no response at all is repeated too
 PROTOCOL_ABORTS = (0x05040000, 0x05040001, 0x05040003, 0x05040004)
+
+
+def _patch_block_upload_abort() -> None:
+    """Give python canopen's block-upload stream the ``abort`` its end-of-upload path calls.
+
+    ``BlockUploadStream._end_upload`` answers a response time-out with ``self.abort(...)``, a
+    method the stream does not have (its other paths call ``self.sdo_client.abort``), so a
+    late answer at the end of a capture upload surfaced as ``AttributeError`` instead of the
+    SDO time-out it is.  The added method sends the same abort through the client.
+    """
+    from canopen.sdo.client import BlockUploadStream
+    if not hasattr(BlockUploadStream, "abort"):
+        def abort(self: Any, code: int) -> None:
+            self.sdo_client.abort(code)
+        BlockUploadStream.abort = abort  # type: ignore[attr-defined]
+
+
+_patch_block_upload_abort()
 #: the drive's SDO server time-out (firmware/canopen/hd_co.h HD_CO_SDO_TIMEOUT_MS): a transfer
 #: silent this long is discarded, so a repeat after it starts clean even if the client's abort
 #: frame was lost
