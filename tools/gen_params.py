@@ -258,7 +258,7 @@ def gen_markdown(version: int, params: list[Param]) -> str:
         "",
         f"Table version {version}, layout hash 0x{table_hash(params):08X}, {len(params)} parameters.",
         "Raw value = round(value x 2^frac) in a 32-bit word; defaults are the reference axis",
-        "(CSF-25-100 pitch axis, DESIGN.md section 2). The parameter store (NVM) keeps two",
+        "(CSF-25-100 pitch axis, docs/reference-axis.md). The parameter store (NVM) keeps two",
         "slots with sequence numbers and a CRC-32; a corrupt or incompatible store loads these defaults.",
         "",
         "| index:sub | name | type | unit | frac | min | max | default | description |",
