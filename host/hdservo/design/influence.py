@@ -1,0 +1,463 @@
+"""Influence laws: how each nonlinearity parameter moves each servo figure.
+
+Each parameter is scaled by ``1 +- h`` (default h = 0.2) on the axis file, every
+other parameter kept, and the figures are measured twice:
+
+* **simulation** -- the C simulator (firmware + plant in lock-step, every plant
+  effect on) through :mod:`hdservo.sim`, short scenarios, one process per
+  scaled axis (:mod:`concurrent.futures`);
+* **describing function** -- the quasi-linear loop of :mod:`hdservo.analysis`
+  with the parameter's own nonlinearity replaced by its describing function at
+  the amplitude the test scenario drives it to.
+
+The result is the normalised elasticity ``E = d ln(figure) / d ln(parameter)``
+by a central difference in logs, ``(ln y+ - ln y-) / (ln(1+h) - ln(1-h))``:
+E = 0.5 means +10 % parameter -> about +5 % figure.
+
+Figures (simulation scenario; describing-function counterpart):
+
+======================  ===============================================  ==========================
+figure                  simulation                                       describing function
+======================  ===============================================  ==========================
+low_rate_stability      ramp at 0.05 deg/s, 1 s settle, fixed-angle      none (sticking is not a
+                        windows of 0.025 deg on the true output angle:   harmonic balance)
+                        std / mean of the window rates (what the
+                        minimum smooth rate is judged by)
+positioning_arcsec      +-0.05 deg steps, mean |true angle - target|     none (static friction
+                        over the last 0.1 s of a 0.6 s dwell              band is not a DF effect)
+tracking_rms_arcsec     1 Hz, 0.1 deg sine, RMS of true angle - ref      |S(j w)| A / sqrt 2 of the
+                        after 0.5 s                                       equivalent loop
+stabilisation_arcsec    1 Hz, 0.5 deg base rocking, STAB mode with the   none (gyro loop not in the
+                        friction feed-forward, RMS inertial angle          DF loop model)
+                        after 1 s
+bandwidth_Hz            position multisine 1-80 Hz, 60 arcsec peak,      -3 dB of the equivalent
+                        -3 dB of true output / reference                   closed loop
+first_resonance_Hz      plant alone, motor-torque multisine 5-150 Hz,    two-mass resonance with
+                        peak of gear twist / torque                      the DF stiffness
+======================  ===============================================  ==========================
+"""
+from __future__ import annotations
+
+import concurrent.futures as cf
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ..cli import UserError
+
+ARCSEC = math.pi / (180.0 * 3600.0)
+DEG = math.pi / 180.0
+
+#: parameter name -> (axis keys scaled together, description)
+PARAMETERS: Dict[str, Tuple[Tuple[str, ...], str]] = {
+    "breakaway": (("friction_motor.fs_pos_Nm", "friction_motor.fs_neg_Nm",
+                   "friction_load.fs_pos_Nm", "friction_load.fs_neg_Nm"),
+                  "breakaway (static) friction level, motor and load side"),
+    "coulomb": (("friction_motor.fc_pos_Nm", "friction_motor.fc_neg_Nm",
+                 "friction_load.fc_pos_Nm", "friction_load.fc_neg_Nm"),
+                "Coulomb (running) friction level, motor and load side"),
+    "stribeck_velocity": (("friction_motor.vs_rad_s", "friction_load.vs_rad_s"),
+                          "Stribeck velocity, motor and load side"),
+    "k1": (("stiffness.k1_Nm_per_rad",), "gear stiffness below T1"),
+    "k2": (("stiffness.k2_Nm_per_rad",), "gear stiffness T1-T2"),
+    "k3": (("stiffness.k3_Nm_per_rad",), "gear stiffness above T2"),
+    "t1": (("stiffness.t1_Nm",), "first stiffness breakpoint"),
+    "t2": (("stiffness.t2_Nm",), "second stiffness breakpoint"),
+    "hysteresis_width": (tuple(f"hysteresis_maxwell.e{i}_w_Nm" for i in range(1, 5))
+                         + ("hysteresis_preisach.t_sat_Nm",),
+                         "hysteresis loop width (Maxwell-slip slip torques, Preisach saturation)"),
+    "te_amplitude": (tuple(f"transmission_error.wg{i}_amp_rad" for i in range(1, 4))
+                     + ("transmission_error.out1_amp_rad",),
+                     "transmission-error amplitude (all harmonics)"),
+}
+
+SIM_FIGURES = ("low_rate_stability", "positioning_arcsec", "tracking_rms_arcsec",
+               "stabilisation_arcsec", "bandwidth_Hz", "first_resonance_Hz")
+#: figures with a describing-function prediction
+DF_FIGURES = ("tracking_rms_arcsec", "bandwidth_Hz", "first_resonance_Hz")
+
+# test scenarios (short, so a full sweep runs in minutes)
+RAMP_RATE_DEG_S, RAMP_SETTLE_S, RAMP_WINDOW_S, RAMP_WINDOWS = 0.05, 1.0, 0.5, 4
+STEP_DEG, DWELL_S = 0.05, 0.6
+SINE_HZ, SINE_DEG, SINE_S = 1.0, 0.1, 2.0
+BASE_HZ, BASE_DEG, STAB_S = 1.0, 0.5, 3.0
+MS_AMP_ARCSEC, MS_F0, MS_F1, MS_LINES = 60.0, 1.0, 80.0, 17
+OL_F0, OL_F1, OL_DF, OL_TORQUE_NM = 5.0, 150.0, 0.5, 0.3
+DT = 1e-4
+
+
+def elasticity(y_minus: float, y_plus: float, h: float = 0.2) -> Optional[float]:
+    """Normalised elasticity d ln y / d ln p by a central difference in logs.
+
+    Parameters
+    ----------
+    y_minus, y_plus : float
+        Figure at parameter x (1 - h) and x (1 + h).
+    h : float
+        Relative step, 0 < h < 1.
+
+    Returns
+    -------
+    float or None
+        None if either figure is missing or not positive (no log).
+    """
+    if not 0.0 < h < 1.0:
+        raise UserError(f"elasticity step h = {h}: expected 0 < h < 1")
+    if y_minus is None or y_plus is None or not (y_minus > 0 and y_plus > 0):
+        return None
+    if not (math.isfinite(y_minus) and math.isfinite(y_plus)):
+        return None
+    return (math.log(y_plus) - math.log(y_minus)) / (math.log1p(h) - math.log1p(-h))
+
+
+def parameter_values(axis: str) -> Dict[str, float]:
+    """Values of every key of :data:`PARAMETERS` on an axis file, as the simulator reads it."""
+    from .. import sim
+    return {k: sim.axis_param(k, axis) for keys, _ in PARAMETERS.values() for k in keys}
+
+
+def scaled(axis: Mapping[str, float], parameter: str, factor: float) -> Dict[str, float]:
+    """Plant overrides ``{"section.key": value}`` scaling one parameter's keys by ``factor``."""
+    if parameter not in PARAMETERS:
+        raise UserError(f"influence parameter '{parameter}': expected one of {', '.join(PARAMETERS)}")
+    return {k: float(axis[k]) * factor for k in PARAMETERS[parameter][0]}
+
+
+# ------------------------------------------------------------------ simulation figures
+def _ctl(mode: str, compensators: Sequence[str] = ()) -> Dict[str, Any]:
+    return {"mode": mode, "gains": "defaults", "compensators": list(compensators)}
+
+
+def _run(axis: str, ctl: Mapping[str, Any], sp: Mapping[str, Any], dur: float, plant: Mapping[str, float],
+         seed: int, extra: Optional[Mapping[str, Any]] = None) -> Any:
+    from .predict import run
+    plant = {"base.enabled": 0.0, **plant, **(extra or {})}
+    return run(axis, ctl, sp, dur, decimation=1, seed=seed, plant=plant, name="influence")
+
+
+def sim_low_rate_stability(axis: str, plant: Mapping[str, float], seed: int = 1) -> float:
+    """Rate stability (std/mean of fixed-angle window rates) of a slow ramp, true angle."""
+    from ..procedures import metrics as mt
+    rate = RAMP_RATE_DEG_S * DEG
+    t0 = 0.05
+    r = _run(axis, _ctl("position"), {"type": "ramp", "initial_rad": 0.0, "rate_rad_s": rate, "t0_s": t0},
+             t0 + RAMP_SETTLE_S + RAMP_WINDOWS * RAMP_WINDOW_S, plant, seed)
+    t = np.asarray(r["t_s"])
+    m = t >= t0 + RAMP_SETTLE_S
+    s = mt.rate_stability(t[m], np.asarray(r["load_angle_true_rad"])[m], rate, rate * RAMP_WINDOW_S)
+    return float(s["stability"])
+
+
+def sim_positioning(axis: str, plant: Mapping[str, float], seed: int = 1) -> float:
+    """Mean |true angle - target| at the end of +-STEP_DEG steps, arcsec."""
+    errs = []
+    for sign in (1.0, -1.0):
+        a = sign * STEP_DEG * DEG
+        r = _run(axis, _ctl("position"), {"type": "step", "initial_rad": 0.0, "amplitude_rad": a, "t0_s": 0.02},
+                 0.02 + DWELL_S, plant, seed)
+        t = np.asarray(r["t_s"])
+        m = t >= t[-1] - 0.1
+        errs.append(abs(float(np.mean(np.asarray(r["load_angle_true_rad"])[m])) - a))
+    return float(np.mean(errs)) / ARCSEC
+
+
+def sim_tracking(axis: str, plant: Mapping[str, float], seed: int = 1) -> float:
+    """RMS of true output angle - reference during a sine, arcsec."""
+    r = _run(axis, _ctl("position"), {"type": "sine", "initial_rad": 0.0, "amplitude_rad": SINE_DEG * DEG,
+                                      "frequency_Hz": SINE_HZ, "phase_rad": 0.0, "t0_s": 0.0},
+             SINE_S, plant, seed)
+    t = np.asarray(r["t_s"])
+    m = t >= 0.5
+    e = np.asarray(r["load_angle_true_rad"])[m] - np.asarray(r["setpoint_rad"])[m]
+    return float(np.sqrt(np.mean(e ** 2))) / ARCSEC
+
+
+def sim_stabilisation(axis: str, plant: Mapping[str, float], seed: int = 1) -> float:
+    """RMS inertial payload angle under base rocking, STAB mode with friction feed-forward, arcsec."""
+    extra = {"base.enabled": 1.0, "base.amplitude_rad": BASE_DEG * DEG, "base.frequency_Hz": BASE_HZ}
+    r = _run(axis, _ctl("stabilise", ["stribeck"]), {"type": "constant", "initial_rad_s": 0.0}, STAB_S,
+             plant, seed, extra)
+    t = np.asarray(r["t_s"])
+    m = t >= 1.0
+    ang = np.asarray(r["load_angle_true_rad"])[m] + np.asarray(r["base_angle_true_rad"])[m]
+    ang = ang - np.polyval(np.polyfit(t[m], ang, 1), t[m])
+    return float(np.sqrt(np.mean(ang ** 2))) / ARCSEC
+
+
+def _lines(f0: float, f1: float, n: int, df: float) -> np.ndarray:
+    f = np.unique(np.round(np.logspace(math.log10(f0), math.log10(f1), n) / df) * df)
+    return f[f > 0]
+
+
+def _multisine(t: np.ndarray, freqs: np.ndarray, peak: float) -> np.ndarray:
+    k = np.arange(1, freqs.size + 1)
+    ph = -math.pi * k * (k - 1) / freqs.size  # Schroeder phases
+    x = np.sum(np.sin(2 * math.pi * freqs[:, None] * t[None, :] + ph[:, None]), axis=0)
+    return peak * x / np.max(np.abs(x))
+
+
+def _line_ratio(t: np.ndarray, y: np.ndarray, u: np.ndarray, freqs: np.ndarray) -> np.ndarray:
+    e = np.exp(-2j * math.pi * freqs[:, None] * t[None, :])
+    return (e @ y) / (e @ u)
+
+
+def _crossing_3db(freqs: np.ndarray, mag: np.ndarray) -> Optional[float]:
+    lo = 1.0 / math.sqrt(2.0)
+    below = np.where(mag < lo)[0]
+    if below.size == 0:
+        return None
+    i = int(below[0])
+    if i == 0:
+        return float(freqs[0])
+    x0, x1 = math.log(freqs[i - 1]), math.log(freqs[i])
+    y0, y1 = mag[i - 1], mag[i]
+    return float(math.exp(x0 + (lo - y0) / (y1 - y0) * (x1 - x0)))
+
+
+def sim_bandwidth(axis: str, plant: Mapping[str, float], seed: int = 1) -> Optional[float]:
+    """-3 dB of true output / reference for a position multisine (1 s period), Hz."""
+    freqs = _lines(MS_F0, MS_F1, MS_LINES, MS_F0)
+    r = _run(axis, _ctl("position"), {"type": "multisine", "initial_rad": 0.0,
+                                      "amplitude_rad": MS_AMP_ARCSEC * ARCSEC, "f0_Hz": MS_F0,
+                                      "f1_Hz": MS_F1, "lines": MS_LINES, "t0_s": 0.0}, 2.0, plant, seed)
+    t = np.asarray(r["t_s"])
+    m = t >= t[-1] - 1.0 / MS_F0 + 0.5 * DT
+    ref = np.asarray(r["setpoint_rad"])[m]
+    y = np.asarray(r["load_angle_true_rad"])[m]
+    h = _line_ratio(t[m], y - np.mean(y), ref - np.mean(ref), freqs)
+    return _crossing_3db(freqs, np.abs(h))
+
+
+def sim_first_resonance(axis: str, plant: Mapping[str, float], seed: int = 0) -> Optional[float]:
+    """Peak of gear twist / motor torque of the plant alone under a torque multisine, Hz."""
+    from .. import sim
+    n_per = int(round(1.0 / OL_DF / DT))
+    t = np.arange(2 * n_per) * DT
+    freqs = np.arange(OL_F0, OL_F1 + 0.5 * OL_DF, OL_DF)
+    u = _multisine(t, freqs, OL_TORQUE_NM)
+    out = sim.simulate_open_loop(u, params=dict(plant), axis=axis, dt_s=DT, seed=seed)
+    m = slice(n_per, 2 * n_per)
+    v = np.asarray(out["torsion_rad"])[m]
+    h = np.abs(_line_ratio(t[m], v - np.mean(v), u[m], freqs))
+    i = int(np.argmax(h))
+    if 0 < i < h.size - 1:  # parabolic peak in log magnitude
+        a, b, c = np.log(h[i - 1:i + 2])
+        den = a - 2 * b + c
+        d = 0.5 * (a - c) / den if den != 0 else 0.0
+        return float(freqs[i] + d * OL_DF)
+    return float(freqs[i])
+
+
+SIM_FUNCS: Dict[str, Callable[..., Optional[float]]] = {
+    "low_rate_stability": sim_low_rate_stability,
+    "positioning_arcsec": sim_positioning,
+    "tracking_rms_arcsec": sim_tracking,
+    "stabilisation_arcsec": sim_stabilisation,
+    "bandwidth_Hz": sim_bandwidth,
+    "first_resonance_Hz": sim_first_resonance,
+}
+
+
+def sim_figures(axis: str, plant: Mapping[str, float], figures: Sequence[str] = SIM_FIGURES,
+                seed: int = 1) -> Dict[str, Optional[float]]:
+    """Every requested simulated figure for one set of plant overrides."""
+    unknown = [f for f in figures if f not in SIM_FUNCS]
+    if unknown:
+        raise UserError(f"influence figure(s) {', '.join(unknown)}: expected some of {', '.join(SIM_FUNCS)}")
+    return {f: SIM_FUNCS[f](axis, plant, seed) for f in figures}
+
+
+# ------------------------------------------------------------------ describing-function figures
+def df_figures(axis_params: Mapping[str, float], gains: Mapping[str, float], parameter: str
+               ) -> Dict[str, Optional[float]]:
+    """Describing-function counterparts of the figures, with the nonlinearity that carries
+    ``parameter`` in the loop (TE has none: its figures are those of the linear loop).
+
+    Amplitudes are those of the test scenarios: the sine's velocity amplitude for the
+    friction, the twist of the inertial torque for stiffness and hysteresis.
+    """
+    from ..analysis import catalogue as dfcat
+    from ..analysis.limitcycle import loop_metrics
+    from ..analysis.loop import LoopModel, equivalent_loop, freqresp
+
+    ax = dict(axis_params)
+    model = LoopModel(ax, dict(gains))
+    jl, n, jm = float(ax["load.jl_kgm2"]), float(ax["gear.ratio"]), float(ax["motor.jm_kgm2"])
+    k1 = float(ax["stiffness.k1_Nm_per_rad"])
+    if parameter in ("breakaway", "coulomb", "stribeck_velocity"):
+        name, insertion = "stribeck_load", "load_friction"
+    elif parameter in ("k1", "k2", "k3", "t1", "t2"):
+        name, insertion = "three_slope", "torsion"
+    elif parameter == "hysteresis_width":
+        name, insertion = "maxwell_slip", "torsion"
+    else:
+        name, insertion = "", "torsion"
+    nl = dfcat.build(name, ax).nl if name else None
+
+    def gain(amp_vel: float, amp_twist: float) -> complex:
+        if nl is None:
+            return model.linear_gain(insertion)
+        return complex(nl.describing_function(amp_vel if insertion == "load_friction" else amp_twist))
+
+    out: Dict[str, Optional[float]] = {}
+    # tracking: sine at SINE_HZ
+    w = 2 * math.pi * SINE_HZ
+    a = SINE_DEG * DEG
+    om = np.array([w])
+    O = freqresp(model.open_system(insertion), om)
+    T = equivalent_loop(O, gain(w * a, jl * w * w * a / k1))["T"][0]
+    out["tracking_rms_arcsec"] = float(abs(1.0 - T) * a / math.sqrt(2.0)) / ARCSEC
+    # bandwidth: multisine peak amplitude, velocity/twist at the nominal crossover (~20 Hz)
+    omega = 2 * math.pi * np.logspace(-1, math.log10(500.0), 600)
+    O = freqresp(model.open_system(insertion), omega)
+    ab = MS_AMP_ARCSEC * ARCSEC / math.sqrt(MS_LINES)
+    wb = 2 * math.pi * 20.0
+    out["bandwidth_Hz"] = loop_metrics(O, omega, gain(wb * ab, jl * wb * wb * ab / k1))["bandwidth_Hz"]
+    # first resonance: two-mass with the DF stiffness at the open-loop test twist
+    t_out = OL_TORQUE_NM * n / math.sqrt(2.0)
+    tw = t_out / k1 * jl / (jl + n * n * jm)
+    if insertion == "torsion" and nl is not None:
+        k = float(gain(0.0, tw).real)
+    else:
+        k = k1
+    wr = math.sqrt(k * (1.0 / jl + 1.0 / (n * n * jm)))
+    out["first_resonance_Hz"] = wr / (2 * math.pi)
+    return out
+
+
+# ------------------------------------------------------------------ the sweep
+@dataclass(frozen=True)
+class Point:
+    """One scaled axis: parameter (``nominal`` for none) and factor."""
+
+    parameter: str
+    factor: float
+
+
+def _sim_point(axis: str, axis_params: Mapping[str, float], p: Point, figures: Sequence[str],
+               seed: int) -> Tuple[Point, Dict[str, Optional[float]]]:
+    plant = {} if p.parameter == "nominal" else scaled(axis_params, p.parameter, p.factor)
+    return p, sim_figures(axis, plant, figures, seed)
+
+
+def sweep(axis: str, parameters: Sequence[str] = tuple(PARAMETERS), figures: Sequence[str] = SIM_FIGURES,
+          h: float = 0.2, workers: int = 2, seed: int = 1,
+          progress: Optional[Callable[[str], None]] = None) -> Dict[str, Any]:
+    """Elasticities of every figure to every parameter, simulation and describing function.
+
+    Parameters
+    ----------
+    axis : str
+        Axis TOML path.
+    parameters : sequence of str
+        Names of :data:`PARAMETERS`.
+    figures : sequence of str
+        Names of :data:`SIM_FIGURES`.
+    h : float
+        Relative step (0.2 = +-20 %).
+    workers : int
+        Processes for the simulations.
+    seed : int
+        Sensor-noise seed (the same for every point, so noise does not enter the difference).
+
+    Returns
+    -------
+    dict
+        ``nominal`` (figures), ``points`` (per parameter, ``minus``/``plus`` figures),
+        ``elasticity`` ``{parameter: {figure: {"sim": E, "df": E}}}``.
+    """
+    from ..analysis.axis import load_axis, load_gains
+
+    ax, _ = load_axis(Path(axis))
+    ax = {**ax, **parameter_values(axis)}
+    gains, _ = load_gains(None)
+    for p in parameters:
+        scaled(ax, p, 1.0)  # validates the name
+    pts = [Point("nominal", 1.0)] + [Point(p, 1.0 + s * h) for p in parameters for s in (-1, 1)]
+    res: Dict[Point, Dict[str, Optional[float]]] = {}
+    with cf.ProcessPoolExecutor(max_workers=max(1, workers)) as ex:
+        futs = [ex.submit(_sim_point, axis, ax, p, list(figures), seed) for p in pts]
+        for fu in cf.as_completed(futs):
+            p, f = fu.result()
+            res[p] = f
+            if progress:
+                progress(f"influence: {p.parameter} x {p.factor:g} done")
+    el: Dict[str, Dict[str, Dict[str, Optional[float]]]] = {}
+    dfv: Dict[str, Dict[str, Dict[str, Optional[float]]]] = {}
+    for p in parameters:
+        lo, hi = res[Point(p, 1.0 - h)], res[Point(p, 1.0 + h)]
+        dlo = df_figures({**ax, **scaled(ax, p, 1.0 - h)}, gains, p)
+        dhi = df_figures({**ax, **scaled(ax, p, 1.0 + h)}, gains, p)
+        dfv[p] = {"minus": dlo, "plus": dhi}
+        el[p] = {f: {"sim": elasticity(lo[f], hi[f], h),  # type: ignore[arg-type]
+                     "df": elasticity(dlo[f], dhi[f], h) if f in DF_FIGURES else None}  # type: ignore[arg-type]
+                 for f in figures}
+    return {"axis": str(axis), "h": h, "seed": seed, "parameters": {p: PARAMETERS[p][1] for p in parameters},
+            "figures": list(figures), "nominal": res[Point("nominal", 1.0)],
+            "points": {p: {"minus": res[Point(p, 1.0 - h)], "plus": res[Point(p, 1.0 + h)]} for p in parameters},
+            "df_points": dfv, "elasticity": el}
+
+
+# ------------------------------------------------------------------ the shipped table
+TABLE_FILE = Path(__file__).resolve().parent.parent / "data" / "influence.json"
+
+#: which influence parameter a design requirement is bound by first (the structural lever)
+REQUIREMENT_FIGURE: Dict[str, str] = {
+    "min_smooth_rate": "low_rate_stability",
+    "positioning": "positioning_arcsec",
+    "tracking": "tracking_rms_arcsec",
+    "stabilisation": "stabilisation_arcsec",
+    "bandwidth": "bandwidth_Hz",
+    "resonance": "first_resonance_Hz",
+}
+
+
+def load_table(path: Path = TABLE_FILE) -> Dict[str, Any]:
+    """The influence table shipped as package data (``make results`` writes its source)."""
+    import json
+    try:
+        doc = json.loads(Path(path).read_text())
+    except OSError as e:
+        raise UserError(f"{path}: cannot read: {e.strerror}") from None
+    except ValueError as e:
+        raise UserError(f"{path}: not valid JSON: {e}") from None
+    if not isinstance(doc, dict) or not isinstance(doc.get("elasticity"), dict):
+        raise UserError(f"{path}: expected an object with an 'elasticity' table")
+    return doc
+
+
+def ranked_levers(table: Mapping[str, Any], figure: str, source: str = "sim", top: int = 3
+                  ) -> List[Tuple[str, float]]:
+    """Parameters that move ``figure`` most (largest |elasticity|), strongest first."""
+    el = table["elasticity"]
+    rows = [(p, v[figure][source]) for p, v in el.items()
+            if figure in v and v[figure].get(source) is not None]
+    rows.sort(key=lambda r: -abs(r[1]))
+    return [(p, float(e)) for p, e in rows[:top]]
+
+
+def requirement_influence(requirements: Sequence[str], table: Optional[Mapping[str, Any]] = None,
+                          top: int = 3) -> Dict[str, List[Dict[str, Any]]]:
+    """For each requirement, the parameters that move its figure most.
+
+    Returns
+    -------
+    dict
+        ``{requirement: [{"parameter", "elasticity_sim", "elasticity_df", "meaning"}, ...]}``.
+    """
+    tab = table if table is not None else load_table()
+    out: Dict[str, List[Dict[str, Any]]] = {}
+    for req in requirements:
+        fig = REQUIREMENT_FIGURE.get(req)
+        if fig is None:
+            continue
+        rows = []
+        for p, e in ranked_levers(tab, fig, "sim", top):
+            d = tab["elasticity"][p][fig].get("df")
+            rows.append({"parameter": p, "figure": fig, "elasticity_sim": e, "elasticity_df": d,
+                         "meaning": tab.get("parameters", {}).get(p, "")})
+        out[req] = rows
+    return out
