@@ -80,7 +80,7 @@ SIM_FIGURES = ("low_rate_stability", "positioning_arcsec", "tracking_rms_arcsec"
 DF_FIGURES = ("tracking_rms_arcsec", "bandwidth_Hz", "first_resonance_Hz")
 
 # test scenarios (short, so a full sweep runs in minutes)
-RAMP_RATE_DEG_S, RAMP_SETTLE_S, RAMP_WINDOW_S, RAMP_WINDOWS = 0.05, 1.0, 0.5, 4
+RAMP_RATE_DEG_S, RAMP_SETTLE_S, RAMP_WINDOW_S, RAMP_WINDOWS = 0.01, 1.0, 0.5, 4
 STEP_DEG, DWELL_S = 0.05, 0.6
 SINE_HZ, SINE_DEG, SINE_S = 1.0, 0.1, 2.0
 BASE_HZ, BASE_DEG, STAB_S = 1.0, 0.5, 3.0
@@ -119,6 +119,23 @@ def parameter_values(axis: str) -> Dict[str, float]:
     return {k: sim.axis_param(k, axis) for keys, _ in PARAMETERS.values() for k in keys}
 
 
+#: agreement rule of the describing function with the simulation: |E_df - E_sim| <= ABS + REL |E_sim|
+AGREE_ABS, AGREE_REL = 0.1, 0.25
+
+
+def agreement(e_sim: Optional[float], e_df: Optional[float]) -> str:
+    """Classify one cell: ``agrees``, ``differs``, ``no DF`` (no describing-function
+    prediction) or ``no sim`` (the simulated figure has no log, e.g. no -3 dB crossing).
+
+    Agreement means ``|E_df - E_sim| <= AGREE_ABS + AGREE_REL |E_sim|``.
+    """
+    if e_df is None:
+        return "no DF"
+    if e_sim is None:
+        return "no sim"
+    return "agrees" if abs(e_df - e_sim) <= AGREE_ABS + AGREE_REL * abs(e_sim) else "differs"
+
+
 def scaled(axis: Mapping[str, float], parameter: str, factor: float) -> Dict[str, float]:
     """Plant overrides ``{"section.key": value}`` scaling one parameter's keys by ``factor``."""
     if parameter not in PARAMETERS:
@@ -138,7 +155,14 @@ def _run(axis: str, ctl: Mapping[str, Any], sp: Mapping[str, Any], dur: float, p
     return run(axis, ctl, sp, dur, decimation=1, seed=seed, plant=plant, name="influence")
 
 
-def sim_low_rate_stability(axis: str, plant: Mapping[str, float], seed: int = 1) -> float:
+def _amp(x: np.ndarray) -> float:
+    """Equivalent sine amplitude sqrt(2) x RMS of a signal about its mean."""
+    x = np.asarray(x, dtype=float)
+    return float(math.sqrt(2.0) * np.std(x))
+
+
+def sim_low_rate_stability(axis: str, plant: Mapping[str, float], seed: int = 1,
+                           amps: Optional[Dict[str, float]] = None) -> float:
     """Rate stability (std/mean of fixed-angle window rates) of a slow ramp, true angle."""
     from ..procedures import metrics as mt
     rate = RAMP_RATE_DEG_S * DEG
@@ -151,7 +175,8 @@ def sim_low_rate_stability(axis: str, plant: Mapping[str, float], seed: int = 1)
     return float(s["stability"])
 
 
-def sim_positioning(axis: str, plant: Mapping[str, float], seed: int = 1) -> float:
+def sim_positioning(axis: str, plant: Mapping[str, float], seed: int = 1,
+                    amps: Optional[Dict[str, float]] = None) -> float:
     """Mean |true angle - target| at the end of +-STEP_DEG steps, arcsec."""
     errs = []
     for sign in (1.0, -1.0):
@@ -164,22 +189,29 @@ def sim_positioning(axis: str, plant: Mapping[str, float], seed: int = 1) -> flo
     return float(np.mean(errs)) / ARCSEC
 
 
-def sim_tracking(axis: str, plant: Mapping[str, float], seed: int = 1) -> float:
-    """RMS of true output angle - reference during a sine, arcsec."""
+def sim_tracking(axis: str, plant: Mapping[str, float], seed: int = 1,
+                 amps: Optional[Dict[str, float]] = None) -> float:
+    """RMS of true output angle - reference during a sine, arcsec.
+
+    ``amps`` (if given) receives the output velocity and twist amplitudes of the run.
+    """
     r = _run(axis, _ctl("position"), {"type": "sine", "initial_rad": 0.0, "amplitude_rad": SINE_DEG * DEG,
                                       "frequency_Hz": SINE_HZ, "phase_rad": 0.0, "t0_s": 0.0},
              SINE_S, plant, seed)
     t = np.asarray(r["t_s"])
     m = t >= 0.5
     e = np.asarray(r["load_angle_true_rad"])[m] - np.asarray(r["setpoint_rad"])[m]
+    if amps is not None:
+        amps["tracking_vel"] = _amp(np.asarray(r["load_velocity_rad_s"])[m])
+        amps["tracking_twist"] = _amp(np.asarray(r["torsion_rad"])[m])
     return float(np.sqrt(np.mean(e ** 2))) / ARCSEC
 
 
-def sim_stabilisation(axis: str, plant: Mapping[str, float], seed: int = 1) -> float:
-    """RMS inertial payload angle under base rocking, STAB mode with friction feed-forward, arcsec."""
+def sim_stabilisation(axis: str, plant: Mapping[str, float], seed: int = 1,
+                      amps: Optional[Dict[str, float]] = None) -> float:
+    """RMS inertial payload angle under base rocking, STAB mode, line removed, arcsec."""
     extra = {"base.enabled": 1.0, "base.amplitude_rad": BASE_DEG * DEG, "base.frequency_Hz": BASE_HZ}
-    r = _run(axis, _ctl("stabilise", ["stribeck"]), {"type": "constant", "initial_rad_s": 0.0}, STAB_S,
-             plant, seed, extra)
+    r = _run(axis, _ctl("stabilise"), {"type": "constant", "initial_rad_s": 0.0}, STAB_S, plant, seed, extra)
     t = np.asarray(r["t_s"])
     m = t >= 1.0
     ang = np.asarray(r["load_angle_true_rad"])[m] + np.asarray(r["base_angle_true_rad"])[m]
@@ -204,7 +236,8 @@ def _line_ratio(t: np.ndarray, y: np.ndarray, u: np.ndarray, freqs: np.ndarray) 
     return (e @ y) / (e @ u)
 
 
-def _crossing_3db(freqs: np.ndarray, mag: np.ndarray) -> Optional[float]:
+def crossing_3db(freqs: np.ndarray, mag: np.ndarray) -> Optional[float]:
+    """First frequency where ``mag`` falls below 1/sqrt(2), interpolated in log f, Hz."""
     lo = 1.0 / math.sqrt(2.0)
     below = np.where(mag < lo)[0]
     if below.size == 0:
@@ -217,7 +250,19 @@ def _crossing_3db(freqs: np.ndarray, mag: np.ndarray) -> Optional[float]:
     return float(math.exp(x0 + (lo - y0) / (y1 - y0) * (x1 - x0)))
 
 
-def sim_bandwidth(axis: str, plant: Mapping[str, float], seed: int = 1) -> Optional[float]:
+def peak_frequency(freqs: np.ndarray, mag: np.ndarray) -> float:
+    """Frequency of the largest ``mag``, refined by a parabola in log magnitude, Hz."""
+    i = int(np.argmax(mag))
+    if 0 < i < mag.size - 1:
+        a, b, c = np.log(mag[i - 1:i + 2])
+        den = a - 2 * b + c
+        d = 0.5 * (a - c) / den if den != 0 else 0.0
+        return float(freqs[i] + d * (freqs[i + 1] - freqs[i - 1]) / 2.0)
+    return float(freqs[i])
+
+
+def sim_bandwidth(axis: str, plant: Mapping[str, float], seed: int = 1,
+                  amps: Optional[Dict[str, float]] = None) -> Optional[float]:
     """-3 dB of true output / reference for a position multisine (1 s period), Hz."""
     freqs = _lines(MS_F0, MS_F1, MS_LINES, MS_F0)
     r = _run(axis, _ctl("position"), {"type": "multisine", "initial_rad": 0.0,
@@ -227,28 +272,28 @@ def sim_bandwidth(axis: str, plant: Mapping[str, float], seed: int = 1) -> Optio
     m = t >= t[-1] - 1.0 / MS_F0 + 0.5 * DT
     ref = np.asarray(r["setpoint_rad"])[m]
     y = np.asarray(r["load_angle_true_rad"])[m]
+    if amps is not None:
+        amps["bandwidth_vel"] = _amp(np.asarray(r["load_velocity_rad_s"])[m])
+        amps["bandwidth_twist"] = _amp(np.asarray(r["torsion_rad"])[m])
     h = _line_ratio(t[m], y - np.mean(y), ref - np.mean(ref), freqs)
-    return _crossing_3db(freqs, np.abs(h))
+    return crossing_3db(freqs, np.abs(h))
 
 
-def sim_first_resonance(axis: str, plant: Mapping[str, float], seed: int = 0) -> Optional[float]:
+def sim_first_resonance(axis: str, plant: Mapping[str, float], seed: int = 1,
+                        amps: Optional[Dict[str, float]] = None) -> Optional[float]:
     """Peak of gear twist / motor torque of the plant alone under a torque multisine, Hz."""
     from .. import sim
     n_per = int(round(1.0 / OL_DF / DT))
     t = np.arange(2 * n_per) * DT
     freqs = np.arange(OL_F0, OL_F1 + 0.5 * OL_DF, OL_DF)
     u = _multisine(t, freqs, OL_TORQUE_NM)
-    out = sim.simulate_open_loop(u, params=dict(plant), axis=axis, dt_s=DT, seed=seed)
+    out = sim.simulate_open_loop(u, params={"base.enabled": 0.0, **plant}, axis=axis, dt_s=DT, seed=seed)
     m = slice(n_per, 2 * n_per)
     v = np.asarray(out["torsion_rad"])[m]
-    h = np.abs(_line_ratio(t[m], v - np.mean(v), u[m], freqs))
-    i = int(np.argmax(h))
-    if 0 < i < h.size - 1:  # parabolic peak in log magnitude
-        a, b, c = np.log(h[i - 1:i + 2])
-        den = a - 2 * b + c
-        d = 0.5 * (a - c) / den if den != 0 else 0.0
-        return float(freqs[i] + d * OL_DF)
-    return float(freqs[i])
+    if amps is not None:
+        amps["resonance_vel"] = _amp(np.asarray(out["load_velocity_rad_s"])[m])
+        amps["resonance_twist"] = _amp(v)
+    return peak_frequency(freqs, np.abs(_line_ratio(t[m], v - np.mean(v), u[m], freqs)))
 
 
 SIM_FUNCS: Dict[str, Callable[..., Optional[float]]] = {
@@ -262,70 +307,125 @@ SIM_FUNCS: Dict[str, Callable[..., Optional[float]]] = {
 
 
 def sim_figures(axis: str, plant: Mapping[str, float], figures: Sequence[str] = SIM_FIGURES,
-                seed: int = 1) -> Dict[str, Optional[float]]:
-    """Every requested simulated figure for one set of plant overrides."""
+                seed: int = 1, amps: Optional[Dict[str, float]] = None) -> Dict[str, Optional[float]]:
+    """Every requested simulated figure for one set of plant overrides.
+
+    ``amps`` (if given) receives the velocity and twist amplitudes of the runs
+    (the describing functions are evaluated there).
+    """
     unknown = [f for f in figures if f not in SIM_FUNCS]
     if unknown:
         raise UserError(f"influence figure(s) {', '.join(unknown)}: expected some of {', '.join(SIM_FUNCS)}")
-    return {f: SIM_FUNCS[f](axis, plant, seed) for f in figures}
+    return {f: SIM_FUNCS[f](axis, plant, seed, amps) for f in figures}
 
 
 # ------------------------------------------------------------------ describing-function figures
-def df_figures(axis_params: Mapping[str, float], gains: Mapping[str, float], parameter: str
-               ) -> Dict[str, Optional[float]]:
-    """Describing-function counterparts of the figures, with the nonlinearity that carries
-    ``parameter`` in the loop (TE has none: its figures are those of the linear loop).
+#: the describing-function elements that carry each parameter; a parameter in two elements
+#: gets the sum of the two single-element elasticities (first-order superposition)
+DF_ELEMENTS: Dict[str, Tuple[str, ...]] = {
+    "breakaway": ("stribeck_motor", "stribeck_load"),
+    "coulomb": ("stribeck_motor", "stribeck_load"),
+    "stribeck_velocity": ("stribeck_motor", "stribeck_load"),
+    "k1": ("three_slope",), "k2": ("three_slope",), "k3": ("three_slope",),
+    "t1": ("three_slope",), "t2": ("three_slope",),
+    "hysteresis_width": ("maxwell_slip",),
+    "te_amplitude": (),  # an additive position disturbance, not a describing-function element
+}
+_INSERTION = {"stribeck_motor": "motor_friction", "stribeck_load": "load_friction",
+              "three_slope": "torsion", "maxwell_slip": "torsion"}
+DF_OMEGA = 2 * math.pi * np.logspace(-1, math.log10(500.0), 1500)
 
-    Amplitudes are those of the test scenarios: the sine's velocity amplitude for the
-    friction, the twist of the inertial torque for stiffness and hysteresis.
+
+def _closed(P: np.ndarray, N: complex, out: int, inp: int) -> np.ndarray:
+    """Response out <- inp of a system with extra input w (index 1) and output z (last),
+    closed by w = N z (the convention of :func:`hdservo.analysis.loop.equivalent_loop`)."""
+    iz, iw = P.shape[0] - 1, 1
+    return P[out, inp] + P[out, iw] * N * P[iz, inp] / (1.0 - N * P[iz, iw])
+
+
+def df_figures(axis_params: Mapping[str, float], gains: Mapping[str, float], element: str,
+               amps: Mapping[str, float]) -> Dict[str, Optional[float]]:
+    """Describing-function counterparts of the figures with one element in the loop.
+
+    Parameters
+    ----------
+    axis_params : mapping
+        Axis ``"section.key"`` -> value.
+    gains : mapping
+        Drive gains (:func:`hdservo.analysis.axis.load_gains`).
+    element : str
+        ``stribeck_motor``, ``stribeck_load``, ``three_slope`` or ``maxwell_slip``.
+    amps : mapping
+        Output velocity (rad/s) and twist (rad) amplitudes of the nominal runs
+        (``tracking_*``, ``bandwidth_*``, ``resonance_*``); the motor friction sees
+        N x the output velocity.
+
+    Returns
+    -------
+    dict
+        ``tracking_rms_arcsec``, ``bandwidth_Hz``, ``first_resonance_Hz``.
     """
     from ..analysis import catalogue as dfcat
-    from ..analysis.limitcycle import loop_metrics
     from ..analysis.loop import LoopModel, equivalent_loop, freqresp
 
     ax = dict(axis_params)
     model = LoopModel(ax, dict(gains))
-    jl, n, jm = float(ax["load.jl_kgm2"]), float(ax["gear.ratio"]), float(ax["motor.jm_kgm2"])
-    k1 = float(ax["stiffness.k1_Nm_per_rad"])
-    if parameter in ("breakaway", "coulomb", "stribeck_velocity"):
-        name, insertion = "stribeck_load", "load_friction"
-    elif parameter in ("k1", "k2", "k3", "t1", "t2"):
-        name, insertion = "three_slope", "torsion"
-    elif parameter == "hysteresis_width":
-        name, insertion = "maxwell_slip", "torsion"
-    else:
-        name, insertion = "", "torsion"
-    nl = dfcat.build(name, ax).nl if name else None
+    n = float(ax["gear.ratio"])
+    insertion = _INSERTION[element]
+    nl = dfcat.build(element, ax).nl
 
-    def gain(amp_vel: float, amp_twist: float) -> complex:
-        if nl is None:
-            return model.linear_gain(insertion)
-        return complex(nl.describing_function(amp_vel if insertion == "load_friction" else amp_twist))
+    def gain(which: str) -> complex:
+        if insertion == "torsion":
+            a = amps[f"{which}_twist"]
+        else:
+            a = amps[f"{which}_vel"] * (n if insertion == "motor_friction" else 1.0)
+        return complex(nl.describing_function(max(a, 1e-12)))
 
-    out: Dict[str, Optional[float]] = {}
-    # tracking: sine at SINE_HZ
-    w = 2 * math.pi * SINE_HZ
-    a = SINE_DEG * DEG
-    om = np.array([w])
-    O = freqresp(model.open_system(insertion), om)
-    T = equivalent_loop(O, gain(w * a, jl * w * w * a / k1))["T"][0]
-    out["tracking_rms_arcsec"] = float(abs(1.0 - T) * a / math.sqrt(2.0)) / ARCSEC
-    # bandwidth: multisine peak amplitude, velocity/twist at the nominal crossover (~20 Hz)
-    omega = 2 * math.pi * np.logspace(-1, math.log10(500.0), 600)
-    O = freqresp(model.open_system(insertion), omega)
-    ab = MS_AMP_ARCSEC * ARCSEC / math.sqrt(MS_LINES)
-    wb = 2 * math.pi * 20.0
-    out["bandwidth_Hz"] = loop_metrics(O, omega, gain(wb * ab, jl * wb * wb * ab / k1))["bandwidth_Hz"]
-    # first resonance: two-mass with the DF stiffness at the open-loop test twist
-    t_out = OL_TORQUE_NM * n / math.sqrt(2.0)
-    tw = t_out / k1 * jl / (jl + n * n * jm)
-    if insertion == "torsion" and nl is not None:
-        k = float(gain(0.0, tw).real)
-    else:
-        k = k1
-    wr = math.sqrt(k * (1.0 / jl + 1.0 / (n * n * jm)))
-    out["first_resonance_Hz"] = wr / (2 * math.pi)
+    def have(which: str) -> bool:
+        return f"{which}_vel" in amps and f"{which}_twist" in amps
+
+    out: Dict[str, Optional[float]] = {f: None for f in DF_FIGURES}
+    if have("tracking"):
+        w = 2 * math.pi * SINE_HZ
+        O = freqresp(model.open_system(insertion), np.array([w]))
+        T = equivalent_loop(O, gain("tracking"))["T"][0]
+        out["tracking_rms_arcsec"] = float(abs(1.0 - T) * SINE_DEG * DEG / math.sqrt(2.0)) / ARCSEC
+    if have("bandwidth"):
+        O = freqresp(model.open_system(insertion), DF_OMEGA)
+        out["bandwidth_Hz"] = crossing_3db(DF_OMEGA / (2 * math.pi),
+                                           np.abs(equivalent_loop(O, gain("bandwidth"))["T"]))
+    if have("resonance"):
+        # plant alone: twist / torque with the element closed by its DF; twist = (w_m - w_L) / (j w)
+        om = 2 * math.pi * np.linspace(OL_F0, OL_F1, 3000)
+        P = freqresp(model.plant(insertion), om)
+        N = gain("resonance")
+        twist = (_closed(P, N, 2, 0) - _closed(P, N, 3, 0)) / (1j * om)
+        out["first_resonance_Hz"] = peak_frequency(om / (2 * math.pi), np.abs(twist))
     return out
+
+
+def df_elasticities(axis_params: Mapping[str, float], gains: Mapping[str, float], parameter: str,
+                    amps: Mapping[str, float], h: float = 0.2) -> Dict[str, Any]:
+    """Describing-function elasticities of :data:`DF_FIGURES` to one parameter.
+
+    Returns
+    -------
+    dict
+        ``elasticity`` ``{figure: E or None}`` (None: the parameter is in no element)
+        and ``points`` ``{element: {"minus": figures, "plus": figures}}``.
+    """
+    els = DF_ELEMENTS[parameter]
+    pts: Dict[str, Dict[str, Dict[str, Optional[float]]]] = {}
+    tot: Dict[str, Optional[float]] = {f: (0.0 if els else None) for f in DF_FIGURES}
+    for el in els:
+        lo = df_figures({**axis_params, **scaled(axis_params, parameter, 1.0 - h)}, gains, el, amps)
+        hi = df_figures({**axis_params, **scaled(axis_params, parameter, 1.0 + h)}, gains, el, amps)
+        pts[el] = {"minus": lo, "plus": hi}
+        for f in DF_FIGURES:
+            e = elasticity(lo[f], hi[f], h)  # type: ignore[arg-type]
+            cur = tot[f]
+            tot[f] = None if (e is None or cur is None) else cur + e
+    return {"elasticity": tot, "points": pts}
 
 
 # ------------------------------------------------------------------ the sweep
@@ -338,9 +438,10 @@ class Point:
 
 
 def _sim_point(axis: str, axis_params: Mapping[str, float], p: Point, figures: Sequence[str],
-               seed: int) -> Tuple[Point, Dict[str, Optional[float]]]:
+               seed: int) -> Tuple[Point, Dict[str, Optional[float]], Dict[str, float]]:
     plant = {} if p.parameter == "nominal" else scaled(axis_params, p.parameter, p.factor)
-    return p, sim_figures(axis, plant, figures, seed)
+    amps: Dict[str, float] = {}
+    return p, sim_figures(axis, plant, figures, seed, amps), amps
 
 
 def sweep(axis: str, parameters: Sequence[str] = tuple(PARAMETERS), figures: Sequence[str] = SIM_FIGURES,
@@ -366,7 +467,8 @@ def sweep(axis: str, parameters: Sequence[str] = tuple(PARAMETERS), figures: Seq
     Returns
     -------
     dict
-        ``nominal`` (figures), ``points`` (per parameter, ``minus``/``plus`` figures),
+        ``nominal`` (figures), ``amplitudes`` (of the nominal runs, where the describing
+        functions are evaluated), ``points`` (per parameter, ``minus``/``plus`` figures),
         ``elasticity`` ``{parameter: {figure: {"sim": E, "df": E}}}``.
     """
     from ..analysis.axis import load_axis, load_gains
@@ -378,40 +480,60 @@ def sweep(axis: str, parameters: Sequence[str] = tuple(PARAMETERS), figures: Seq
         scaled(ax, p, 1.0)  # validates the name
     pts = [Point("nominal", 1.0)] + [Point(p, 1.0 + s * h) for p in parameters for s in (-1, 1)]
     res: Dict[Point, Dict[str, Optional[float]]] = {}
+    amps: Dict[str, float] = {}
     with cf.ProcessPoolExecutor(max_workers=max(1, workers)) as ex:
         futs = [ex.submit(_sim_point, axis, ax, p, list(figures), seed) for p in pts]
         for fu in cf.as_completed(futs):
-            p, f = fu.result()
+            p, f, a = fu.result()
             res[p] = f
+            if p.parameter == "nominal":
+                amps = a
             if progress:
                 progress(f"influence: {p.parameter} x {p.factor:g} done")
     el: Dict[str, Dict[str, Dict[str, Optional[float]]]] = {}
-    dfv: Dict[str, Dict[str, Dict[str, Optional[float]]]] = {}
+    dfp: Dict[str, Any] = {}
     for p in parameters:
         lo, hi = res[Point(p, 1.0 - h)], res[Point(p, 1.0 + h)]
-        dlo = df_figures({**ax, **scaled(ax, p, 1.0 - h)}, gains, p)
-        dhi = df_figures({**ax, **scaled(ax, p, 1.0 + h)}, gains, p)
-        dfv[p] = {"minus": dlo, "plus": dhi}
-        el[p] = {f: {"sim": elasticity(lo[f], hi[f], h),  # type: ignore[arg-type]
-                     "df": elasticity(dlo[f], dhi[f], h) if f in DF_FIGURES else None}  # type: ignore[arg-type]
-                 for f in figures}
+        d = df_elasticities(ax, gains, p, amps, h)
+        dfp[p] = d["points"]
+        el[p] = {}
+        for f in figures:
+            es = elasticity(lo[f], hi[f], h)  # type: ignore[arg-type]
+            ed = d["elasticity"].get(f)
+            el[p][f] = {"sim": es, "df": ed, "agreement": agreement(es, ed)}  # type: ignore[dict-item]
     return {"axis": str(axis), "h": h, "seed": seed, "parameters": {p: PARAMETERS[p][1] for p in parameters},
-            "figures": list(figures), "nominal": res[Point("nominal", 1.0)],
+            "figures": list(figures), "nominal": res[Point("nominal", 1.0)], "amplitudes": amps,
             "points": {p: {"minus": res[Point(p, 1.0 - h)], "plus": res[Point(p, 1.0 + h)]} for p in parameters},
-            "df_points": dfv, "elasticity": el}
+            "df_points": dfp, "elasticity": el}
 
 
 # ------------------------------------------------------------------ the shipped table
 TABLE_FILE = Path(__file__).resolve().parent.parent / "data" / "influence.json"
 
-#: which influence parameter a design requirement is bound by first (the structural lever)
+#: the influence figure behind each requirement of the design flow (its margin names);
+#: peak torque has none (motor and gear ratings set it, not a nonlinearity)
 REQUIREMENT_FIGURE: Dict[str, str] = {
     "min_smooth_rate": "low_rate_stability",
-    "positioning": "positioning_arcsec",
-    "tracking": "tracking_rms_arcsec",
+    "positioning_accuracy": "positioning_arcsec",
+    "repeatability": "positioning_arcsec",
     "stabilisation": "stabilisation_arcsec",
-    "bandwidth": "bandwidth_Hz",
     "resonance": "first_resonance_Hz",
+    "bandwidth": "bandwidth_Hz",
+    "tracking": "tracking_rms_arcsec",
+}
+
+#: what changes each parameter in the hardware (docs/design-structure.md)
+STRUCTURAL_LEVER: Dict[str, str] = {
+    "breakaway": "gear size and ratio (starting torque ~ d^3), lubricant, temperature",
+    "coulomb": "gear size and ratio, lubricant, temperature",
+    "stribeck_velocity": "lubricant viscosity, temperature",
+    "k1": "pitch diameter and face width (mesh ~70 % of the low-torque compliance)",
+    "k2": "pitch diameter and face width",
+    "k3": "pitch diameter, face width, cup wall",
+    "t1": "face width (T1 ~ d^2 b)",
+    "t2": "face width (T2 ~ d^2 b)",
+    "hysteresis_width": "mesh micro-slip: a stiffer (larger) gear, preload",
+    "te_amplitude": "gear accuracy grade, assembly (wave-generator and output bearing run-out)",
 }
 
 
@@ -458,6 +580,39 @@ def requirement_influence(requirements: Sequence[str], table: Optional[Mapping[s
         for p, e in ranked_levers(tab, fig, "sim", top):
             d = tab["elasticity"][p][fig].get("df")
             rows.append({"parameter": p, "figure": fig, "elasticity_sim": e, "elasticity_df": d,
-                         "meaning": tab.get("parameters", {}).get(p, "")})
+                         "agreement": agreement(e, d), "meaning": tab.get("parameters", {}).get(p, ""),
+                         "lever": STRUCTURAL_LEVER.get(p, "")})
         out[req] = rows
     return out
+
+
+def markdown_section(margins: Mapping[str, float], table: Optional[Mapping[str, Any]] = None) -> List[str]:
+    """Markdown lines of the design report: per requirement, its binding parameter
+    (the largest |elasticity| of its figure) and the runners-up.
+
+    Parameters
+    ----------
+    margins : mapping
+        Requirement -> relative margin of the chosen design (>= 0 = met).
+    table : mapping, optional
+        Influence table; default :func:`load_table`.
+    """
+    tab = table if table is not None else load_table()
+    inf = requirement_influence(list(margins), tab)
+    L = ["## Influence of the binding parameters", "",
+         f"Elasticities d ln(figure) / d ln(parameter) at +-{100 * float(tab.get('h', 0.2)):.0f} % on the "
+         f"`{tab.get('axis', 'reference')}` axis (simulation; describing function beside it where it has a "
+         "prediction). A parameter change of x % moves the figure by about E x %. Method and the full "
+         "table: `docs/design-flow.md`.", "",
+         "| requirement | margin | binding parameter | E sim | E DF | next | what changes it |",
+         "|---|---|---|---|---|---|---|"]
+    for req, rows in inf.items():
+        if not rows:
+            continue
+        top, rest = rows[0], rows[1:]
+        ed = "-" if top["elasticity_df"] is None else f"{top['elasticity_df']:+.2f}"
+        nxt = ", ".join(f"{r['parameter']} {r['elasticity_sim']:+.2f}" for r in rest) or "-"
+        L.append(f"| {req} | {100 * margins[req]:+.0f} % | {top['parameter']} | {top['elasticity_sim']:+.2f} | "
+                 f"{ed} | {nxt} | {top['lever']} |")
+    L.append("")
+    return L
