@@ -35,7 +35,7 @@ def plot(res: dict, path: Path) -> None:
     import numpy as np
 
     pars, figs = list(res["elasticity"]), res["figures"]
-    fig, axes = plt.subplots(1, 2, figsize=(13, 5.5))
+    fig, axes = plt.subplots(1, 2, figsize=(14, 6), constrained_layout=True)
     for ax, src in zip(axes, ("sim", "df")):
         m = np.array([[res["elasticity"][p][f][src] if res["elasticity"][p][f][src] is not None else np.nan
                        for f in figs] for p in pars], dtype=float)
@@ -47,7 +47,7 @@ def plot(res: dict, path: Path) -> None:
         ax.set_xticks(range(len(figs)))
         ax.set_xticklabels(figs, rotation=30, ha="right", fontsize=8)
         ax.set_yticks(range(len(pars)))
-        ax.set_yticklabels(pars, fontsize=8)
+        ax.set_yticklabels(pars if src == "sim" else [], fontsize=8)
         ax.set_title({"sim": "simulation", "df": "describing function"}[src]
                      + f": d ln(figure) / d ln(parameter), ±{100 * res['h']:.0f} %", fontsize=9)
     fig.colorbar(im, ax=axes, shrink=0.8)
