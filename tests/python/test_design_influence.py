@@ -108,3 +108,11 @@ def test_report_section_names_each_requirements_binding_parameter():
         row = next(ln for ln in lines if ln.startswith(f"| {req} |"))
         assert f"| {best} |" in row and f"{100 * margins[req]:+.0f} %" in row
     assert "| peak_torque |" not in text  # no nonlinearity lever for the torque rating
+
+
+def test_improving_direction_follows_the_figure_sense():
+    assert inf.improving_direction("first_resonance_Hz", 0.5) == "raise"      # stiffer -> higher
+    assert inf.improving_direction("positioning_arcsec", -0.8) == "raise"     # more -> smaller error
+    assert inf.improving_direction("min_smooth_rate_deg_s", 0.6) == "lower"
+    assert inf.improving_direction("bandwidth_Hz", -1.9) == "lower"
+    assert set(inf.FIGURE_BETTER) == set(inf.SIM_FIGURES)

@@ -14,27 +14,32 @@ The result is the normalised elasticity ``E = d ln(figure) / d ln(parameter)``
 by a central difference in logs, ``(ln y+ - ln y-) / (ln(1+h) - ln(1-h))``:
 E = 0.5 means +10 % parameter -> about +5 % figure.
 
-Figures (simulation scenario; describing-function counterpart):
+Figures (simulation scenario; describing-function counterpart). The drive keeps its
+default gains and runs no compensator; base rocking is off except for stabilisation:
 
 ======================  ===============================================  ==========================
 figure                  simulation                                       describing function
 ======================  ===============================================  ==========================
-low_rate_stability      ramp at 0.05 deg/s, 1 s settle, fixed-angle      none (sticking is not a
-                        windows of 0.025 deg on the true output angle:   harmonic balance)
-                        std / mean of the window rates (what the
-                        minimum smooth rate is judged by)
-positioning_arcsec      +-0.05 deg steps, mean |true angle - target|     none (static friction
-                        over the last 0.1 s of a 0.6 s dwell              band is not a DF effect)
-tracking_rms_arcsec     1 Hz, 0.1 deg sine, RMS of true angle - ref      |S(j w)| A / sqrt 2 of the
-                        after 0.5 s                                       equivalent loop
-stabilisation_arcsec    1 Hz, 0.5 deg base rocking, STAB mode with the   none (gyro loop not in the
-                        friction feed-forward, RMS inertial angle          DF loop model)
-                        after 1 s
+min_smooth_rate_deg_s   lowest smooth constant rate, bisected in log     none (sticking is not a
+                        rate over 1e-4-0.1 deg/s (10 steps, 0.7 %);      harmonic balance)
+                        a rung: 2 s settle, 6 fixed-angle windows of
+                        rate x 1 s on the output encoder, smooth =
+                        monotone, stability and accuracy <= 10 %
+positioning_arcsec      steps of +-0.02 and +-0.05 deg, mean |true       none (the static friction
+                        angle - target| over the last 0.1 s of 0.6 s    band is not a DF effect)
+tracking_rms_arcsec     1 Hz, 0.1 deg sine, RMS of true angle - ref      |1 - T(j w)| A / sqrt 2 of
+                        over 0.5-3 s                                     the equivalent loop
+stabilisation_arcsec    1 Hz, 0.5 deg base rocking, STAB mode, RMS       none (the gyro loop is not
+                        inertial angle over 1-5 s, line removed          in the DF loop model)
 bandwidth_Hz            position multisine 1-80 Hz, 60 arcsec peak,      -3 dB of the equivalent
-                        -3 dB of true output / reference                   closed loop
-first_resonance_Hz      plant alone, motor-torque multisine 5-150 Hz,    two-mass resonance with
-                        peak of gear twist / torque                      the DF stiffness
+                        -3 dB of true output / reference                 closed loop
+first_resonance_Hz      plant alone, motor-torque multisine 5-150 Hz     peak of twist / torque of
+                        (output peak 2 T1), peak of gear twist / torque  the two-mass plant with
+                                                                         the element's DF
 ======================  ===============================================  ==========================
+
+The describing functions are evaluated at the amplitudes of the nominal runs (sqrt 2 x RMS
+output velocity for friction, x N at the motor; twist for stiffness and hysteresis).
 """
 from __future__ import annotations
 
@@ -74,18 +79,22 @@ PARAMETERS: Dict[str, Tuple[Tuple[str, ...], str]] = {
                      "transmission-error amplitude (all harmonics)"),
 }
 
-SIM_FIGURES = ("low_rate_stability", "positioning_arcsec", "tracking_rms_arcsec",
+SIM_FIGURES = ("min_smooth_rate_deg_s", "positioning_arcsec", "tracking_rms_arcsec",
                "stabilisation_arcsec", "bandwidth_Hz", "first_resonance_Hz")
 #: figures with a describing-function prediction
 DF_FIGURES = ("tracking_rms_arcsec", "bandwidth_Hz", "first_resonance_Hz")
 
 # test scenarios (short, so a full sweep runs in minutes)
-RAMP_RATE_DEG_S, RAMP_SETTLE_S, RAMP_WINDOW_S, RAMP_WINDOWS = 0.01, 1.0, 0.5, 4
-STEP_DEG, DWELL_S = 0.05, 0.6
-SINE_HZ, SINE_DEG, SINE_S = 1.0, 0.1, 2.0
-BASE_HZ, BASE_DEG, STAB_S = 1.0, 0.5, 3.0
+#: min smooth rate: settle time, window duration (window angle = rate x duration), windows,
+#: smoothness bound, bisection bracket and steps
+RAMP_SETTLE_S, RAMP_WINDOW_S, RAMP_WINDOWS, SMOOTH_BOUND = 2.0, 1.0, 6, 0.1
+RATE_LO_DEG_S, RATE_HI_DEG_S, RATE_STEPS = 1e-4, 0.1, 10
+STEPS_DEG, DWELL_S = (0.02, -0.02, 0.05, -0.05), 0.6
+SINE_HZ, SINE_DEG, SINE_S = 1.0, 0.1, 3.0
+BASE_HZ, BASE_DEG, STAB_S = 1.0, 0.5, 5.0
 MS_AMP_ARCSEC, MS_F0, MS_F1, MS_LINES = 60.0, 1.0, 80.0, 17
-OL_F0, OL_F1, OL_DF, OL_TORQUE_NM = 5.0, 150.0, 0.5, 0.3
+#: resonance test: lines, spacing, and the output torque peak in units of the axis's T1
+OL_F0, OL_F1, OL_DF, OL_PEAK_OVER_T1 = 5.0, 150.0, 0.5, 2.0
 DT = 1e-4
 
 
@@ -161,26 +170,50 @@ def _amp(x: np.ndarray) -> float:
     return float(math.sqrt(2.0) * np.std(x))
 
 
-def sim_low_rate_stability(axis: str, plant: Mapping[str, float], seed: int = 1,
-                           amps: Optional[Dict[str, float]] = None) -> float:
-    """Rate stability (std/mean of fixed-angle window rates) of a slow ramp, true angle."""
+def rung_smooth(axis: str, plant: Mapping[str, float], rate_deg_s: float, seed: int = 1) -> bool:
+    """One constant-rate rung: monotone, stability and accuracy <= SMOOTH_BOUND (the
+    procedure's criterion, :func:`hdservo.procedures.metrics.min_smooth_rate`), on the
+    output encoder, ``RAMP_WINDOWS`` fixed-angle windows of ``rate x RAMP_WINDOW_S``."""
     from ..procedures import metrics as mt
-    rate = RAMP_RATE_DEG_S * DEG
+    rate = rate_deg_s * DEG
     t0 = 0.05
     r = _run(axis, _ctl("position"), {"type": "ramp", "initial_rad": 0.0, "rate_rad_s": rate, "t0_s": t0},
              t0 + RAMP_SETTLE_S + RAMP_WINDOWS * RAMP_WINDOW_S, plant, seed)
     t = np.asarray(r["t_s"])
     m = t >= t0 + RAMP_SETTLE_S
-    s = mt.rate_stability(t[m], np.asarray(r["load_angle_true_rad"])[m], rate, rate * RAMP_WINDOW_S)
-    return float(s["stability"])
+    s = mt.rate_stability(t[m], np.asarray(r["load_angle_rad"])[m], rate, rate * RAMP_WINDOW_S)
+    return bool(s["monotone"]) and s["stability"] <= SMOOTH_BOUND and s["accuracy"] <= SMOOTH_BOUND
+
+
+def sim_min_smooth_rate(axis: str, plant: Mapping[str, float], seed: int = 1,
+                        amps: Optional[Dict[str, float]] = None) -> Optional[float]:
+    """Lowest smooth rate by bisection in log rate between RATE_LO and RATE_HI, deg/s.
+
+    A continuous counterpart of the ladder's minimum smooth rate (a decade ladder moves in
+    steps of 2-2.5x, too coarse for an elasticity).  ``RATE_STEPS`` bisections give a
+    resolution of (RATE_HI / RATE_LO)^(2^-RATE_STEPS).  Returns RATE_LO if that rate is
+    smooth (the figure is then censored), None if RATE_HI is not.
+    """
+    lo, hi = math.log(RATE_LO_DEG_S), math.log(RATE_HI_DEG_S)
+    if not rung_smooth(axis, plant, RATE_HI_DEG_S, seed):
+        return None
+    if rung_smooth(axis, plant, RATE_LO_DEG_S, seed):
+        return RATE_LO_DEG_S
+    for _ in range(RATE_STEPS):
+        mid = 0.5 * (lo + hi)
+        if rung_smooth(axis, plant, math.exp(mid), seed):
+            hi = mid
+        else:
+            lo = mid
+    return float(math.exp(hi))
 
 
 def sim_positioning(axis: str, plant: Mapping[str, float], seed: int = 1,
                     amps: Optional[Dict[str, float]] = None) -> float:
-    """Mean |true angle - target| at the end of +-STEP_DEG steps, arcsec."""
+    """Mean |true angle - target| at the end of the STEPS_DEG steps, arcsec."""
     errs = []
-    for sign in (1.0, -1.0):
-        a = sign * STEP_DEG * DEG
+    for step in STEPS_DEG:
+        a = step * DEG
         r = _run(axis, _ctl("position"), {"type": "step", "initial_rad": 0.0, "amplitude_rad": a, "t0_s": 0.02},
                  0.02 + DWELL_S, plant, seed)
         t = np.asarray(r["t_s"])
@@ -261,6 +294,12 @@ def peak_frequency(freqs: np.ndarray, mag: np.ndarray) -> float:
     return float(freqs[i])
 
 
+def resonance_test_torque(axis: str) -> float:
+    """Motor-torque peak of the resonance test, ``OL_PEAK_OVER_T1 x T1 / N`` of the axis file, N·m."""
+    from .. import sim
+    return OL_PEAK_OVER_T1 * sim.axis_param("stiffness.t1_Nm", axis) / sim.axis_param("gear.ratio", axis)
+
+
 def sim_bandwidth(axis: str, plant: Mapping[str, float], seed: int = 1,
                   amps: Optional[Dict[str, float]] = None) -> Optional[float]:
     """-3 dB of true output / reference for a position multisine (1 s period), Hz."""
@@ -281,12 +320,16 @@ def sim_bandwidth(axis: str, plant: Mapping[str, float], seed: int = 1,
 
 def sim_first_resonance(axis: str, plant: Mapping[str, float], seed: int = 1,
                         amps: Optional[Dict[str, float]] = None) -> Optional[float]:
-    """Peak of gear twist / motor torque of the plant alone under a torque multisine, Hz."""
+    """Peak of gear twist / motor torque of the plant alone under a torque multisine, Hz.
+
+    The motor-torque peak is ``OL_PEAK_OVER_T1 x T1 / N`` of the nominal axis, so the test
+    spans the K1 region on every axis.
+    """
     from .. import sim
     n_per = int(round(1.0 / OL_DF / DT))
     t = np.arange(2 * n_per) * DT
     freqs = np.arange(OL_F0, OL_F1 + 0.5 * OL_DF, OL_DF)
-    u = _multisine(t, freqs, OL_TORQUE_NM)
+    u = _multisine(t, freqs, resonance_test_torque(axis))
     out = sim.simulate_open_loop(u, params={"base.enabled": 0.0, **plant}, axis=axis, dt_s=DT, seed=seed)
     m = slice(n_per, 2 * n_per)
     v = np.asarray(out["torsion_rad"])[m]
@@ -297,7 +340,7 @@ def sim_first_resonance(axis: str, plant: Mapping[str, float], seed: int = 1,
 
 
 SIM_FUNCS: Dict[str, Callable[..., Optional[float]]] = {
-    "low_rate_stability": sim_low_rate_stability,
+    "min_smooth_rate_deg_s": sim_min_smooth_rate,
     "positioning_arcsec": sim_positioning,
     "tracking_rms_arcsec": sim_tracking,
     "stabilisation_arcsec": sim_stabilisation,
@@ -513,7 +556,7 @@ TABLE_FILE = Path(__file__).resolve().parent.parent / "data" / "influence.json"
 #: the influence figure behind each requirement of the design flow (its margin names);
 #: peak torque has none (motor and gear ratings set it, not a nonlinearity)
 REQUIREMENT_FIGURE: Dict[str, str] = {
-    "min_smooth_rate": "low_rate_stability",
+    "min_smooth_rate": "min_smooth_rate_deg_s",
     "positioning_accuracy": "positioning_arcsec",
     "repeatability": "positioning_arcsec",
     "stabilisation": "stabilisation_arcsec",
@@ -521,6 +564,18 @@ REQUIREMENT_FIGURE: Dict[str, str] = {
     "bandwidth": "bandwidth_Hz",
     "tracking": "tracking_rms_arcsec",
 }
+
+#: +1 if a larger figure is better, -1 if a smaller one is
+FIGURE_BETTER: Dict[str, int] = {
+    "min_smooth_rate_deg_s": -1, "positioning_arcsec": -1, "tracking_rms_arcsec": -1,
+    "stabilisation_arcsec": -1, "bandwidth_Hz": +1, "first_resonance_Hz": +1,
+}
+
+
+def improving_direction(figure: str, e: float) -> str:
+    """``raise`` or ``lower``: which way the parameter improves the figure (sign of E)."""
+    return "raise" if e * FIGURE_BETTER[figure] > 0 else "lower"
+
 
 #: what changes each parameter in the hardware (docs/design-structure.md)
 STRUCTURAL_LEVER: Dict[str, str] = {
@@ -580,7 +635,8 @@ def requirement_influence(requirements: Sequence[str], table: Optional[Mapping[s
         for p, e in ranked_levers(tab, fig, "sim", top):
             d = tab["elasticity"][p][fig].get("df")
             rows.append({"parameter": p, "figure": fig, "elasticity_sim": e, "elasticity_df": d,
-                         "agreement": agreement(e, d), "meaning": tab.get("parameters", {}).get(p, ""),
+                         "agreement": agreement(e, d), "to_improve": improving_direction(fig, e),
+                         "meaning": tab.get("parameters", {}).get(p, ""),
                          "lever": STRUCTURAL_LEVER.get(p, "")})
         out[req] = rows
     return out
@@ -604,8 +660,8 @@ def markdown_section(margins: Mapping[str, float], table: Optional[Mapping[str, 
          f"`{tab.get('axis', 'reference')}` axis (simulation; describing function beside it where it has a "
          "prediction). A parameter change of x % moves the figure by about E x %. Method and the full "
          "table: `docs/design-flow.md`.", "",
-         "| requirement | margin | binding parameter | E sim | E DF | next | what changes it |",
-         "|---|---|---|---|---|---|---|"]
+         "| requirement | margin | binding parameter | E sim | E DF | to improve | next | what changes it |",
+         "|---|---|---|---|---|---|---|---|"]
     for req, rows in inf.items():
         if not rows:
             continue
@@ -613,6 +669,6 @@ def markdown_section(margins: Mapping[str, float], table: Optional[Mapping[str, 
         ed = "-" if top["elasticity_df"] is None else f"{top['elasticity_df']:+.2f}"
         nxt = ", ".join(f"{r['parameter']} {r['elasticity_sim']:+.2f}" for r in rest) or "-"
         L.append(f"| {req} | {100 * margins[req]:+.0f} % | {top['parameter']} | {top['elasticity_sim']:+.2f} | "
-                 f"{ed} | {nxt} | {top['lever']} |")
+                 f"{ed} | {top['to_improve']} {top['parameter']} | {nxt} | {top['lever']} |")
     L.append("")
     return L
