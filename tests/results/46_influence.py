@@ -24,6 +24,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "host"))
 
+from hdservo.cli import UserError  # noqa: E402
 from hdservo.design import influence as inf  # noqa: E402
 
 
@@ -63,8 +64,12 @@ def main() -> int:
     ap.add_argument("--store", action="store_true", help="also rewrite the package's influence table")
     a = ap.parse_args()
     out = Path(a.out)
+    try:
+        res = inf.sweep(a.axis, workers=a.workers, progress=lambda s: print(s, file=sys.stderr))
+    except UserError as e:
+        print(f"46_influence: {e}", file=sys.stderr)
+        return 2
     out.mkdir(parents=True, exist_ok=True)
-    res = inf.sweep(a.axis, workers=a.workers, progress=lambda s: print(s, file=sys.stderr))
     res["axis"] = Path(a.axis).name
     tmp = out / "influence.json.tmp"
     tmp.write_text(json.dumps(res, indent=1))

@@ -154,11 +154,13 @@ def scaled(axis: Mapping[str, float], parameter: str, factor: float) -> Dict[str
 
 # ------------------------------------------------------------------ simulation figures
 def _ctl(mode: str, compensators: Sequence[str] = ()) -> Dict[str, Any]:
+    """Scenario ``[controller]`` table: default gains, the given compensators."""
     return {"mode": mode, "gains": "defaults", "compensators": list(compensators)}
 
 
 def _run(axis: str, ctl: Mapping[str, Any], sp: Mapping[str, Any], dur: float, plant: Mapping[str, float],
          seed: int, extra: Optional[Mapping[str, Any]] = None) -> Any:
+    """One closed-loop run, base rocking off unless ``extra`` turns it on, every row logged."""
     from .predict import run
     plant = {"base.enabled": 0.0, **plant, **(extra or {})}
     return run(axis, ctl, sp, dur, decimation=1, seed=seed, plant=plant, name="influence")
@@ -514,9 +516,12 @@ def sweep(axis: str, parameters: Sequence[str] = tuple(PARAMETERS), figures: Seq
         functions are evaluated), ``points`` (per parameter, ``minus``/``plus`` figures),
         ``elasticity`` ``{parameter: {figure: {"sim": E, "df": E}}}``.
     """
-    from ..analysis.axis import load_axis, load_gains
+    from ..analysis.axis import AxisFileError, load_axis, load_gains
 
-    ax, _ = load_axis(Path(axis))
+    try:
+        ax, _ = load_axis(Path(axis))
+    except AxisFileError as e:
+        raise UserError(f"influence sweep: {e}") from None
     ax = {**ax, **parameter_values(axis)}
     gains, _ = load_gains(None)
     for p in parameters:
