@@ -663,8 +663,11 @@ def markdown_section(margins: Mapping[str, float], table: Optional[Mapping[str, 
     L = ["## Influence of the binding parameters", "",
          f"Elasticities d ln(figure) / d ln(parameter) at +-{100 * float(tab.get('h', 0.2)):.0f} % on the "
          f"`{tab.get('axis', 'reference')}` axis (simulation; describing function beside it where it has a "
-         "prediction). A parameter change of x % moves the figure by about E x %. Method and the full "
-         "table: `docs/design-flow.md`.", "",
+         "prediction). A parameter change of x % moves the figure by about E x %. The laws are local: on "
+         "another axis the stick-slip figures (minimum smooth rate, positioning) can change sign, so the "
+         "table names the parameter to examine, and a sweep on the chosen axis "
+         "(`tests/results/46_influence.py --axis`) gives its effect. Method and the full table: "
+         "`docs/design-flow.md`.", "",
          "| requirement | margin | binding parameter | E sim | E DF | to improve | next | what changes it |",
          "|---|---|---|---|---|---|---|---|"]
     for req, rows in inf.items():
