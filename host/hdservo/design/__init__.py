@@ -11,4 +11,9 @@ flexspline_fe
     A 1-D finite-element model of the flexspline's torsional stiffness.
 sensitivity
     Normalised sensitivities of resonance and lost motion to structural parameters.
+crossval
+    Leave-one-size-out / leave-one-ratio-out (held-out) errors of the structure relations.
+influence
+    Influence laws: elasticities of the servo figures to the nonlinearity parameters,
+    by simulation and by describing function.
 """
