@@ -46,7 +46,8 @@ def plot(res: dict, path: Path) -> None:
         for i in range(len(pars)):
             for j in range(len(figs)):
                 ax.text(j, i, "-" if math.isnan(m[i, j]) else f"{m[i, j]:+.2f}", ha="center",
-                        va="center", fontsize=7)
+                        va="center", fontsize=7,
+                        color="w" if not math.isnan(m[i, j]) and abs(m[i, j]) > 1.2 else "k")
         ax.set_xticks(range(len(figs)))
         ax.set_xticklabels(figs, rotation=30, ha="right", fontsize=8)
         ax.set_yticks(range(len(pars)))
@@ -54,6 +55,7 @@ def plot(res: dict, path: Path) -> None:
         ax.set_title({"sim": "simulation", "df": "describing function"}[src]
                      + f": d ln(figure) / d ln(parameter), ±{100 * res['h']:.0f} %", fontsize=9)
     fig.colorbar(im, ax=axes, shrink=0.8)
+    fig.suptitle(f"influence laws, axis {res['axis']}", fontsize=10)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
