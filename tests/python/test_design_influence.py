@@ -55,6 +55,14 @@ def test_mini_sweep_resonance_follows_k1_not_te():
     assert e["k1"]["first_resonance_Hz"]["sim"] == pytest.approx(
         inf.elasticity(pts["minus"]["first_resonance_Hz"], pts["plus"]["first_resonance_Hz"], 0.2))
     assert 30.0 < res["nominal"]["first_resonance_Hz"] < 100.0
+    # the stored table (design report) is this code's output on the same axis and seed: fresh
+    tab = inf.load_table()
+    assert tab["axis"] == Path(AXIS).name and tab["seed"] == res["seed"]
+    for p in ("k1", "te_amplitude"):
+        for src in ("sim", "df"):
+            stored = tab["elasticity"][p]["first_resonance_Hz"][src]
+            now = e[p]["first_resonance_Hz"][src]
+            assert (stored is None and now is None) or stored == pytest.approx(now, abs=1e-9), (p, src)
 
 
 def test_requirement_influence_ranks_by_magnitude():
