@@ -46,7 +46,9 @@ def test_mini_sweep_resonance_follows_k1_not_te():
     res = inf.sweep(AXIS, parameters=("k1", "te_amplitude"), figures=("first_resonance_Hz",), workers=2)
     e = res["elasticity"]
     assert set(e) == {"k1", "te_amplitude"}
-    assert e["k1"]["first_resonance_Hz"]["sim"] == pytest.approx(0.5, abs=0.15)
+    # two-mass theory: f ~ sqrt(K) -> 0.5 with K1 alone; the Maxwell-slip elements, while they
+    # stick, add 11.7e3 N m/rad in parallel that K1 does not scale -> 0.5 x 31/42.7 = 0.36
+    assert 0.3 <= e["k1"]["first_resonance_Hz"]["sim"] <= 0.6
     assert e["k1"]["first_resonance_Hz"]["df"] == pytest.approx(0.5, abs=0.05)
     assert abs(e["te_amplitude"]["first_resonance_Hz"]["sim"]) < 0.05
     assert e["te_amplitude"]["first_resonance_Hz"]["df"] is None  # TE is no DF element
