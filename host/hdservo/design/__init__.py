@@ -18,4 +18,9 @@ fe_study
     The FE studies of ``make results`` (closed forms, convergence, sensitivities).
 sensitivity
     Normalised sensitivities of resonance and lost motion to structural parameters.
+crossval
+    Leave-one-size-out / leave-one-ratio-out (held-out) errors of the structure relations.
+influence
+    Influence laws: elasticities of the servo figures to the nonlinearity parameters,
+    by simulation and by describing function.
 """

@@ -11,6 +11,7 @@ from typing import Any, Dict, List
 
 import numpy as np
 
+from . import influence
 from .flow import Evaluated, FlowResult, headline, required_torques
 
 DPI = 80
@@ -65,6 +66,8 @@ def document(res: FlowResult) -> Dict[str, Any]:
     }
     if res.chosen:
         doc["chosen"]["required_torques_Nm"] = required_torques(spec, res.chosen.candidate)
+        if res.chosen.margins:
+            doc["chosen"]["influence"] = influence.requirement_influence(list(res.chosen.margins))
     return _clean(doc)
 
 
@@ -315,6 +318,7 @@ def markdown(res: FlowResult, doc: Dict[str, Any], plots: List[str]) -> str:
               f"{'yes' if c.hard else 'no'} |" for c in ch.checks]
         if "chosen_figures.png" in plots:
             L += ["", "![chosen figures](chosen_figures.png)", ""]
+        L += influence.markdown_section(ch.margins)
     L += ["## Caveats", "",
           "* Stabilisation: the design figure is the drive's gyro stabilisation mode (STAB, CiA 402 mode -1, "
           "default stab_* gains) with the option's compensators, true inertial angle (line removed); holding the "

@@ -456,31 +456,50 @@ def calibration_cases(rows: Optional[Iterable[GearRow]] = None,
             if g.series == "CSF" and g.ratio in ratios]
 
 
-def calibrate(rows: Optional[Iterable[GearRow]] = None) -> Calibration:
-    """Fit the calibrated constants to the catalogue.
+def fit_mesh_constants(cases: Sequence[Tuple[Structure, GearRow]]) -> Calibration:
+    """Fit ``c_m``, ``e0``, ``g``, ``f0`` to the given (structure, catalogue row) pairs.
 
-    * ``c_m``, ``e0``, ``g``, ``f0``: least squares on log K1 (weight 1), log K2
-      and log K3 (weight :data:`W23`) of every CSF row (sizes 14-50, N = 50-160),
-      evaluated at the catalogue T1, T2.
-    * T1, T2 coefficients: geometric mean of T / (d² b) over the sizes.
-    * hysteresis fraction: CSF-25-100 hysteresis loss at rated torque = 1'.
-    * starting torque: (c, q) through CSF-17-100 and CSF-25-50.
+    Least squares on log K1 (weight 1), log K2 and log K3 (weight :data:`W23`), each
+    evaluated at the row's catalogue T1, T2.  Only ``cases`` enter the fit (the
+    cross-validation relies on this).  The other constants of the result are
+    placeholders; see :func:`calibrate`.
     """
     from scipy.optimize import least_squares
 
-    rows = list(rows) if rows is not None else load_gears()
-    cases = calibration_cases(rows)
+    if not cases:
+        raise UserError("stiffness fit: no catalogue rows to fit")
     base = Calibration(1e9, 0.05, 5e-6, 1.0, 1.0, 0.1, 0.1, 0.5, 0.0)
     x0 = np.array([math.log(2e8), math.log(2e-5), 0.5, 0.05])
     lo = [-np.inf, -np.inf, -2.0, 0.005]
     hi = [np.inf, np.inf, 2.0, 0.25]
-    fit = least_squares(_k_residuals, x0=x0, args=(base, cases), bounds=(lo, hi),
+    fit = least_squares(_k_residuals, x0=x0, args=(base, list(cases)), bounds=(lo, hi),
                         method="trf", x_scale=[1, 1, 0.3, 0.03], xtol=1e-12, ftol=1e-12)
-    cal = _with_x(base, fit.x)
+    return _with_x(base, fit.x)
+
+
+def fit_breakpoints(cases: Sequence[Tuple[Structure, GearRow]]) -> Tuple[float, float]:
+    """T1, T2 coefficients (N/m²): geometric mean of T / (d² b) over ``cases``."""
     c1 = [g.t1_Nm / (s.pitch_diameter_m ** 2 * s.face_width_m) for s, g in cases]
     c2 = [g.t2_Nm / (s.pitch_diameter_m ** 2 * s.face_width_m) for s, g in cases]
-    cal = replace(cal, t1_coefficient_N_per_m2=float(np.exp(np.mean(np.log(c1)))),
-                  t2_coefficient_N_per_m2=float(np.exp(np.mean(np.log(c2)))))
+    return float(np.exp(np.mean(np.log(c1)))), float(np.exp(np.mean(np.log(c2))))
+
+
+def calibrate(rows: Optional[Iterable[GearRow]] = None) -> Calibration:
+    """Fit the calibrated constants to the catalogue.
+
+    * ``c_m``, ``e0``, ``g``, ``f0``: :func:`fit_mesh_constants` on every CSF row
+      (sizes 14-50, N = 50-160).
+    * T1, T2 coefficients: :func:`fit_breakpoints` over the same rows.
+    * hysteresis fraction: CSF-25-100 hysteresis loss at rated torque = 1'.
+    * starting torque: (c, q) through CSF-17-100 and CSF-25-50.
+
+    :mod:`hdservo.design.crossval` gives the held-out errors of these fits.
+    """
+    rows = list(rows) if rows is not None else load_gears()
+    cases = calibration_cases(rows)
+    cal = fit_mesh_constants(cases)
+    t1c, t2c = fit_breakpoints(cases)
+    cal = replace(cal, t1_coefficient_N_per_m2=t1c, t2_coefficient_N_per_m2=t2c)
     # hysteresis: reference axis gear at rated torque -> 1 arcmin
     ref = next(g for g in rows if g.name == "CSF-25-100")
     s_ref = structure_for(25, 100)
