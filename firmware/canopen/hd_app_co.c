@@ -718,6 +718,8 @@ static void a_actual(void *c, hd_co_actual_t *a)
     a->tick = t->tick;
     a->load_angle = t->pos_out;
     a->motor_angle = t->pos_mot;
+    /* the motor encoder in output units (0x60E4:1), for a master that knows only 0x6064's unit */
+    a->motor_angle_out = hdf_div64_rnd_u16(t->pos_mot, (uint32_t)hd_app_param_get(ac->app, HD_P_GEAR_RATIO));
     a->setpoint_angle = t->pos_ref;
     a->load_velocity = t->vel_out;
     a->motor_velocity = t->vel_mot;
@@ -771,6 +773,13 @@ static void a_reset_node(void *c)
     ac->mode = 0;
 }
 
+/* the port's device profile (hd_app_co_port_t.object_filter) */
+static uint32_t a_object_filter(void *c, uint16_t index, uint8_t sub)
+{
+    const hd_app_co_t *ac = c;
+    return ac->port.object_filter(ac->port.ctx, index, sub);
+}
+
 void hd_app_co_init(hd_app_co_t *ac, hd_co_t *co, hd_app_t *app, uint8_t node_id,
                     const hd_app_co_port_t *port)
 {
@@ -812,6 +821,7 @@ void hd_app_co_init(hd_app_co_t *ac, hd_co_t *co, hd_app_t *app, uint8_t node_id
     ifc.drive_comm_fault = a_comm_fault;
     ifc.can_status = a_can_status;
     ifc.can_recover = a_can_recover;
+    ifc.object_filter = (port->object_filter != NULL) ? a_object_filter : NULL;
     hd_co_init(co, node_id, &ifc);
     /* the saved communication and CiA 402 settings (0x1010), over the defaults */
     {

@@ -99,6 +99,10 @@ typedef struct {
      * erased page (*max_page); 0 ok.  Without it 0x5102:1/2 read 0 and a save that
      * changes the NVM costs HD_APP_CO_SAVE_COST_UNKNOWN of the rate limit's credit. */
     int32_t (*nvm_wear)(void *ctx, uint32_t *total, uint32_t *max_page);
+    /* optional: the objects a master may reach (hd_co_app_if_t.object_filter): 0 or the
+     * abort code.  NULL (the STM32 image) = the whole object dictionary; the virtual
+     * drive's generic CiA 402 profile refuses the manufacturer objects with it. */
+    uint32_t (*object_filter)(void *ctx, uint16_t index, uint8_t sub);
 } hd_app_co_port_t;
 
 /* 0x1010 save rate limit: a token bucket of flash page erases in the drive's own time

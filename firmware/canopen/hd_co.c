@@ -202,6 +202,18 @@ static uint32_t lookup(const hd_co_t *co, uint16_t index, uint8_t sub, uint32_t 
     return HD_CO_AB_NO_OBJECT;
 }
 
+/* lookup for a master (SDO): the device profile's filter first (hd_co_app_if_t.object_filter) */
+static uint32_t sdo_lookup(const hd_co_t *co, uint16_t index, uint8_t sub, uint32_t *ent)
+{
+    if (co->app.object_filter != NULL) {
+        const uint32_t ab = co->app.object_filter(co->app.ctx, index, sub);
+        if (ab != 0u) {
+            return ab;
+        }
+    }
+    return lookup(co, index, sub, ent);
+}
+
 static uint32_t special_read(hd_co_t *co, const hd_co_entry_t *e, int64_t *v)
 {
     if (e->sub == 0u && e->index != 0x1003u && e->index != 0x5000u) {
@@ -284,6 +296,10 @@ static uint32_t map_check(const hd_co_t *co, bool tx, uint32_t v, uint32_t *bits
     *bits = 0u;
     if (v == 0u) {
         return 0u;
+    }
+    /* an object outside the device profile cannot be mapped (it is absent for the master) */
+    if (co->app.object_filter != NULL && co->app.object_filter(co->app.ctx, idx, sub) != 0u) {
+        return HD_CO_AB_NO_MAP;
     }
     int32_t i = hd_co_find(co, idx, sub);
     if (i < 0) {
@@ -1287,7 +1303,7 @@ static void sdo_initiate_download(hd_co_t *co, const uint8_t *d, uint16_t index,
 {
     hd_co_sdo_t *s = &co->sdo;
     uint32_t ent;
-    uint32_t ab = lookup(co, index, sub, &ent);
+    uint32_t ab = sdo_lookup(co, index, sub, &ent);
     if (ab == 0u) {
         ab = check_access(co, ent, true);
     }
@@ -1392,7 +1408,7 @@ static bool upload_open(hd_co_t *co, uint16_t index, uint8_t sub, uint32_t *size
 {
     hd_co_sdo_t *s = &co->sdo;
     uint32_t ent;
-    uint32_t ab = lookup(co, index, sub, &ent);
+    uint32_t ab = sdo_lookup(co, index, sub, &ent);
     if (ab == 0u) {
         ab = check_access(co, ent, false);
     }
@@ -1474,7 +1490,7 @@ static void sdo_block_download_init(hd_co_t *co, const uint8_t *d, uint16_t inde
         return;
     }
     uint32_t ent;
-    uint32_t ab = lookup(co, index, sub, &ent);
+    uint32_t ab = sdo_lookup(co, index, sub, &ent);
     if (ab == 0u) {
         ab = check_access(co, ent, true);
     }

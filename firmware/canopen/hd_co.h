@@ -127,6 +127,7 @@ typedef struct {
     uint32_t tick;            /* loop tick */
     int64_t  load_angle;      /* Q32.32 turns */
     int64_t  motor_angle;     /* Q32.32 motor turns */
+    int64_t  motor_angle_out; /* Q32.32 output turns: motor angle / gear ratio (0x60E4:1) */
     int64_t  setpoint_angle;  /* Q32.32 turns */
     int32_t  load_velocity;   /* 2^-32 turn/s */
     int32_t  motor_velocity;  /* 2^-24 turn/s */
@@ -179,6 +180,12 @@ typedef struct {
     void     (*can_status)(void *ctx, hd_hal_can_status_t *st);
     /* optional: start the controller's bus-off recovery (hal.h hd_hal_can_recover) */
     void     (*can_recover)(void *ctx);
+    /* optional: the objects a master may reach (a device profile narrower than the table,
+     * e.g. the virtual drive's generic CiA 402 profile).  Asked before every SDO access
+     * (upload, download, block) and every PDO mapping entry written; non-zero = the abort
+     * code (the object is absent for the master: 0x06020000, a mapping 0x06040041).
+     * NULL = every object of the table.  Local accesses (hd_co_get/set_i64) are not asked. */
+    uint32_t (*object_filter)(void *ctx, uint16_t index, uint8_t sub);
 } hd_co_app_if_t;
 
 typedef struct {

@@ -369,6 +369,9 @@ void hd_co402_tick(hd_co_t *co)
     co->od.position_actual_value = hd_sat32(hd_asr64_rnd(a->load_angle, 8u));
     co->od.velocity_actual_value = a->load_velocity;
     co->od.torque_actual_value = torque_q16_to_permille(a->output_torque, co->od.motor_rated_torque);
+    /* the same conversion: Q15.16 A -> 1/1000 of 0x6075 (mA) */
+    co->od.current_actual_value = torque_q16_to_permille(a->motor_current, co->od.motor_rated_current);
+    co->od.additional_position_actual_value_motor_encoder = hd_sat32(hd_asr64_rnd(a->motor_angle_out, 8u));
     co->od.following_error_actual_value = hd_sat32(hd_asr64_rnd(hd_sub64_sat(a->setpoint_angle, a->load_angle), 8u));
     windows(co);
 

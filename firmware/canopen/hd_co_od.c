@@ -411,8 +411,10 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x606Cu, 0u, 0x04u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO), HD_CO_K_VAR, OFF(velocity_actual_value), INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* velocity_actual_value */
     {0x6071u, 0u, 0x03u, HD_CO_A_RW, (uint8_t)(HD_CO_F_RPDO), HD_CO_K_VAR, OFF(target_torque), INT64_C(-32768), INT64_C(32767), INT64_C(0), NULL},  /* target_torque */
     {0x6072u, 0u, 0x06u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(max_torque), INT64_C(0), INT64_C(65535), INT64_C(4000), NULL},  /* max_torque */
+    {0x6075u, 0u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_VAR, OFF(motor_rated_current), INT64_C(0), INT64_C(4294967295), INT64_C(6700), NULL},  /* motor_rated_current */
     {0x6076u, 0u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_VAR, OFF(motor_rated_torque), INT64_C(0), INT64_C(4294967295), INT64_C(67000), NULL},  /* motor_rated_torque */
     {0x6077u, 0u, 0x03u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO), HD_CO_K_VAR, OFF(torque_actual_value), INT64_C(-32768), INT64_C(32767), INT64_C(0), NULL},  /* torque_actual_value */
+    {0x6078u, 0u, 0x03u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO), HD_CO_K_VAR, OFF(current_actual_value), INT64_C(-32768), INT64_C(32767), INT64_C(0), NULL},  /* current_actual_value */
     {0x607Au, 0u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_RPDO), HD_CO_K_VAR, OFF(target_position), INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* target_position */
     {0x607Du, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(2), NULL},  /* highest_sub_index_supported */
     {0x607Du, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(software_position_limit_min_position_limit), INT64_C(-2147483648), INT64_C(2147483647), INT64_C(-2147483648), NULL},  /* min_position_limit */
@@ -423,6 +425,8 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x6085u, 0u, 0x07u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_VAR, OFF(quick_stop_deceleration), INT64_C(1), INT64_C(2147483647), INT64_C(9320676), NULL},  /* quick_stop_deceleration */
     {0x60B1u, 0u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_RPDO), HD_CO_K_VAR, OFF(velocity_offset), INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* velocity_offset */
     {0x60B2u, 0u, 0x03u, HD_CO_A_RW, (uint8_t)(HD_CO_F_RPDO), HD_CO_K_VAR, OFF(torque_offset), INT64_C(-32768), INT64_C(32767), INT64_C(0), NULL},  /* torque_offset */
+    {0x60E4u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(1), NULL},  /* highest_sub_index_supported */
+    {0x60E4u, 1u, 0x04u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO), HD_CO_K_VAR, OFF(additional_position_actual_value_motor_encoder), INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* motor_encoder */
     {0x60F4u, 0u, 0x04u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO), HD_CO_K_VAR, OFF(following_error_actual_value), INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* following_error_actual_value */
     {0x60FFu, 0u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_RPDO), HD_CO_K_VAR, OFF(target_velocity), INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* target_velocity */
     {0x6502u, 0u, 0x07u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_VAR, OFF(supported_drive_modes), INT64_C(0), INT64_C(4294967295), INT64_C(66433), NULL},  /* supported_drive_modes */

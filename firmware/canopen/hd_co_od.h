@@ -12,7 +12,7 @@
 
 #define HD_CO_OD_VERSION 1u
 #define HD_CO_OD_PARAM_HASH 0xADB4A22Bu
-#define HD_CO_OD_COUNT 421u
+#define HD_CO_OD_COUNT 425u
 /* entries 0x1010 keeps in the stored-object record: hd_co_store_words() less
  * its layout word; the host's od_gen.STORED lists them for hdservo config */
 #define HD_CO_OD_STORED 124u
@@ -96,8 +96,10 @@ typedef struct {
     int32_t velocity_actual_value;  /* 0x606C:0 */
     int16_t target_torque;  /* 0x6071:0 */
     uint16_t max_torque;  /* 0x6072:0 */
+    uint32_t motor_rated_current;  /* 0x6075:0 */
     uint32_t motor_rated_torque;  /* 0x6076:0 */
     int16_t torque_actual_value;  /* 0x6077:0 */
+    int16_t current_actual_value;  /* 0x6078:0 */
     int32_t target_position;  /* 0x607A:0 */
     int32_t software_position_limit_min_position_limit;  /* 0x607D:1 */
     int32_t software_position_limit_max_position_limit;  /* 0x607D:2 */
@@ -105,6 +107,7 @@ typedef struct {
     uint32_t quick_stop_deceleration;  /* 0x6085:0 */
     int32_t velocity_offset;  /* 0x60B1:0 */
     int16_t torque_offset;  /* 0x60B2:0 */
+    int32_t additional_position_actual_value_motor_encoder;  /* 0x60E4:1 */
     int32_t following_error_actual_value;  /* 0x60F4:0 */
     int32_t target_velocity;  /* 0x60FF:0 */
     uint32_t supported_drive_modes;  /* 0x6502:0 */

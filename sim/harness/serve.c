@@ -6,7 +6,17 @@
  *   hdservo-sim serve [--axis AXIS.toml|reference|minimal] [--node-id N]
  *       [--transport socketcand|socketcan] [--port P] [--channel can0]
  *       [--pacing realtime|fast|sync] [--sync-periods K] [--bitrate B]
- *       [--duration S] [--seed N] [--set KEY=VALUE]... [--rig] [-q]
+ *       [--duration S] [--seed N] [--set KEY=VALUE]... [--rig] [--profile hdservo|generic] [-q]
+ *
+ * --profile generic: the same drive and plant seen as a generic CiA 402 servo drive.  A
+ * master reaches only the CiA 301 / 402 standard objects (0x1000-0x1FFF, 0x6000-0x9FFF);
+ * every SDO access to, or PDO mapping of, a manufacturer object (0x2000-0x5FFF: drive
+ * parameters, capture, excitation, tables, process data) is refused as absent (abort
+ * 0x06020000, a mapping 0x06040041), written as one stderr line "vendor-object access
+ * 0xIIII:S refused" (the first 100) and counted ("vendor_refused" in the exit statistics),
+ * so a test proves a host never relied on one.  The default TPDOs carry standard objects
+ * only (generic_pdos below); there is no test-rig channel (--rig is refused).  The filter
+ * is the port's (hd_app_co_port_t.object_filter): the flashed firmware has none.
  *
  * Test-rig features (not drive features; used by `hdservo test`, see
  * docs/procedures.md): --set KEY=VALUE overrides a plant key of the axis at
@@ -126,6 +136,10 @@ typedef struct {
     double can_drop;
     uint64_t can_rng;
     uint64_t can_lost_rx, can_lost_tx, can_busoff_rx, can_busoff_tx;
+    /* --profile generic: manufacturer objects refused; counted once a master can ask */
+    int generic;
+    int vendor_armed;
+    uint64_t vendor_refused;
 } srv_t;
 
 static volatile sig_atomic_t g_stop = 0;
@@ -237,6 +251,54 @@ static int32_t a_nvm_wear(void *c, uint32_t *total, uint32_t *max_page)
 {
     srv_t *s = c;
     hd_host_nvm_wear(s->port, total, max_page);
+    return 0;
+}
+
+#define VENDOR_LOG_LINES 100u   /* stderr lines of refused vendor accesses (the count goes on) */
+
+/* --profile generic: only the CiA 301 / 402 standard ranges exist for a master */
+static uint32_t a_object_filter(void *c, uint16_t index, uint8_t sub)
+{
+    srv_t *s = c;
+    if (index < 0x2000u || index > 0x5FFFu) return 0;
+    if (s->vendor_armed) {
+        s->vendor_refused++;
+        if (s->vendor_refused <= VENDOR_LOG_LINES)
+            fprintf(stderr, "hdservo-sim serve: vendor-object access 0x%04X:%u refused (--profile generic)\n",
+                    (unsigned)index, (unsigned)sub);
+    }
+    return HD_CO_AB_NO_OBJECT;
+}
+
+/* The generic profile's default PDOs (a CiA 402 drive's usual set): TPDO1 statusword,
+ * mode display, error register (event, 100 ms); TPDO2 position and velocity actual
+ * (every SYNC); TPDO3 additional position actual (the motor encoder, 0x60E4:1) and torque
+ * actual (every SYNC); TPDO4 invalid.  The RPDO defaults are standard already.  Set
+ * through the SDO write checks and kept as the stored image, so the NMT resets return to
+ * them; 0 or the abort code of the write that failed. */
+static uint32_t generic_pdos(srv_t *s, uint8_t node)
+{
+    static const uint32_t map[4][3] = {
+        {0x60410010u, 0x60610008u, 0x10010008u},
+        {0x60640020u, 0x606C0020u, 0u},
+        {0x60E40120u, 0x60770010u, 0u},
+        {0u, 0u, 0u},
+    };
+    static const uint8_t trans[4] = {255u, 1u, 1u, 255u};
+    hd_co_t *co = &s->co;
+    for (uint16_t i = 0; i < 4u; i++) {
+        const uint32_t cob = (0x180u + 0x100u * i + node);
+        uint32_t ab = hd_co_set_i64(co, (uint16_t)(0x1800u + i), 1u, (int64_t)(0x80000000u | cob));
+        if (!ab) ab = hd_co_set_i64(co, (uint16_t)(0x1A00u + i), 0u, 0);
+        uint8_t n = 0;
+        for (uint8_t k = 0; !ab && k < 3u && map[i][k]; k++, n++)
+            ab = hd_co_set_i64(co, (uint16_t)(0x1A00u + i), (uint8_t)(k + 1u), (int64_t)map[i][k]);
+        if (!ab) ab = hd_co_set_i64(co, (uint16_t)(0x1A00u + i), 0u, n);
+        if (!ab) ab = hd_co_set_i64(co, (uint16_t)(0x1800u + i), 2u, trans[i]);
+        if (!ab && n) ab = hd_co_set_i64(co, (uint16_t)(0x1800u + i), 1u, cob);
+        if (ab) return ab;
+    }
+    hd_co_store_capture(co);
     return 0;
 }
 
@@ -544,7 +606,7 @@ int hd_sim_serve_main(int argc, char **argv)
     double duration = 0.0, can_drop = 0.0, client_timeout = HD_SCD_STALL_MS / 1000.0;
     unsigned long can_seed_v = 1;
     const char *nvm_path = NULL;
-    int quiet = 0, rig = 0;
+    int quiet = 0, rig = 0, generic = 0;
     char msg[512];
     static char plant_set[4096];
     size_t plant_set_len = 0;
@@ -600,12 +662,21 @@ int hd_sim_serve_main(int argc, char **argv)
         else if (strcmp(a, "--can-seed") == 0) { NEEDV(); if (parse_u(v, 0, 0xFFFFFFFFul, &can_seed_v)) return usage_fail("--can-seed must be an integer 0..2^32-1"); }
         else if (strcmp(a, "--nvm") == 0) { NEEDV(); nvm_path = v; }
         else if (strcmp(a, "--rig") == 0) rig = 1;
+        else if (strcmp(a, "--profile") == 0) {
+            NEEDV();
+            if (strcmp(v, "generic") == 0) generic = 1;
+            else if (strcmp(v, "hdservo") == 0) generic = 0;
+            else {
+                snprintf(msg, sizeof msg, "--profile '%.100s': expected hdservo or generic", v);
+                return usage_fail(msg);
+            }
+        }
         else if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) quiet = 1;
         else if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
             printf("usage: hdservo-sim serve [--axis AXIS.toml|reference|minimal] [--node-id N] "
                    "[--transport socketcand|socketcan] [--port P] [--channel can0] "
                    "[--pacing realtime|fast|sync] [--sync-periods K] [--bitrate B] [--duration S] [--seed N] "
-                   "[--set KEY=VALUE]... [--rig] [--can-drop P] [--can-seed N] [--nvm PATH] [--client-timeout S] [-q]\n");
+                   "[--set KEY=VALUE]... [--rig] [--profile hdservo|generic] [--can-drop P] [--can-seed N] [--nvm PATH] [--client-timeout S] [-q]\n");
             return 0;
         } else {
             snprintf(msg, sizeof msg, "unknown option '%.100s'", a);
@@ -613,6 +684,8 @@ int hd_sim_serve_main(int argc, char **argv)
         }
 #undef NEEDV
     }
+    if (generic && rig)
+        return usage_fail("--rig is not available with --profile generic: a generic CiA 402 drive has no test-rig channel");
     int pace;
     if (strcmp(pacing, "realtime") == 0) pace = 0;
     else if (strcmp(pacing, "fast") == 0) pace = 1;
@@ -706,7 +779,19 @@ int hd_sim_serve_main(int argc, char **argv)
     pif.domain_write = a_dwrite;
     pif.domain_write_end = a_dend;
     pif.nvm_wear = a_nvm_wear;
+    s->generic = generic;
+    if (generic) pif.object_filter = a_object_filter;
     hd_app_co_init(&s->ac, &s->co, s->app, (uint8_t)node, &pif);
+    /* a record saved by the generic profile is in force as it is; otherwise its default PDOs */
+    if (generic && s->ac.cstore_status != HD_APP_CO_CSTORE_OK) {
+        const uint32_t ab = generic_pdos(s, (uint8_t)node);
+        if (ab) {
+            fprintf(stderr, "hdservo-sim serve: error: --profile generic: default PDO set-up refused (abort 0x%08X)\n",
+                    (unsigned)ab);
+            return 1;
+        }
+    }
+    s->vendor_armed = generic;
 
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
@@ -779,7 +864,7 @@ int hd_sim_serve_main(int argc, char **argv)
             "\"bus_dropped\": %llu, \"bus_load\": %.4f, \"stack_tx_dropped\": %u, \"rx_frames\": %u, "
             "\"rx_ignored\": %u, \"transport_dropped\": %u, \"can_lost_rx\": %llu, \"can_lost_tx\": %llu, "
             "\"can_busoff_rx\": %llu, \"can_busoff_tx\": %llu, \"can_bus_off\": %lu, \"can_recoveries\": %lu, "
-            "\"client_timeouts\": %u}\n",
+            "\"client_timeouts\": %u, \"profile\": \"%s\", \"vendor_refused\": %llu}\n",
             (long long)k, (double)k * dt, wall, (unsigned long long)s->bus_frames,
             (unsigned long long)s->bus_dropped,
             s->bitrate && k ? (double)s->bus_bits_total / ((double)s->bitrate * (double)k * dt) : 0.0,
@@ -788,7 +873,8 @@ int hd_sim_serve_main(int argc, char **argv)
             (unsigned long long)s->can_lost_rx, (unsigned long long)s->can_lost_tx,
             (unsigned long long)s->can_busoff_rx, (unsigned long long)s->can_busoff_tx,
             (unsigned long)s->port->can_ctrl.bus_off_count, (unsigned long)s->port->can_ctrl.recoveries,
-            s->use_scan ? 0u : s->scd->stalled);
+            s->use_scan ? 0u : s->scd->stalled, s->generic ? "generic" : "hdservo",
+            (unsigned long long)s->vendor_refused);
     if (s->use_scan) hd_scan_close(&s->scan);
     else hd_scd_close(s->scd);
     hd_sim_free(s->sim);

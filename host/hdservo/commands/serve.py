@@ -43,13 +43,17 @@ def register(p: argparse.ArgumentParser) -> None:
     p.add_argument("--sync-periods", type=int, default=10, help="loop periods per SYNC (pacing sync)")
     p.add_argument("--bitrate", type=int, default=0, help="bus model bitrate (0 = off)")
     p.add_argument("--duration", type=float, default=None, help="stop after this simulated time, s")
+    p.add_argument("--profile", choices=("hdservo", "generic"), default="hdservo",
+                   help="object profile: hdservo (every object) or generic (CiA 301/402 standard objects "
+                        "only; manufacturer objects refused and logged, no test rig)")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the virtual drive in the foreground until Ctrl-C."""
     cmd = [str(find_sim()), "serve", "--axis", args.axis, "--node-id", str(args.node_id),
            "--transport", args.transport, "--port", str(args.port), "--channel", args.channel,
-           "--pacing", args.pacing, "--sync-periods", str(args.sync_periods), "--bitrate", str(args.bitrate)]
+           "--pacing", args.pacing, "--sync-periods", str(args.sync_periods), "--bitrate", str(args.bitrate),
+           "--profile", args.profile]
     if args.duration is not None:
         cmd += ["--duration", str(args.duration)]
     try:
