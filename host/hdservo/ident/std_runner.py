@@ -175,9 +175,10 @@ class StdUnits:
     velocity_per_turn_s : float
         0x606C/0x60FF/0x60B1 counts per output turn/s (hdservo: 2^32).
     encoder2_per_turn : float
-        0x60E4:1 counts per turn of the shaft it measures (hdservo: 2^24 per motor turn).
-    encoder2_on_motor : bool
-        The second encoder measures the motor shaft (True) or the output (False).
+        0x60E4:1 counts per turn (hdservo and its virtual drive: 2^24).
+    encoder2_output_units : bool
+        0x60E4:1 is the motor angle divided by the gear ratio, in output turns (True, hdservo's
+        motor encoder in the unit of 0x6064), or counts per motor turn (False).
     torque_on_output : bool
         0x6071/0x6077/0x60B2 act on the output (True, hdservo) or on the motor shaft.
     """
@@ -185,7 +186,7 @@ class StdUnits:
     position_per_turn: float = 2.0 ** 24
     velocity_per_turn_s: float = 2.0 ** 32
     encoder2_per_turn: float = 2.0 ** 24
-    encoder2_on_motor: bool = True
+    encoder2_output_units: bool = True
     torque_on_output: bool = True
 
 
@@ -285,6 +286,7 @@ class StdRunner:
         self._rpdo_vars: dict[int, Any] = {}
         self._sp = {"pos": 0, "vel_off": 0, "vel": 0, "torque": 0, "t_off": 0}
         self._opened = False
+        self._active_rpdos: tuple[int, ...] = (2,)
 
     # -- SDO helpers ----------------------------------------------------------
     def _read(self, index: int, sub: int = 0) -> int:
@@ -388,7 +390,8 @@ class StdRunner:
             m.trans_type = 1
             m.save()
         self.tpdo_maps = sorted(tp)
-        self.frame_bytes = [node.tpdo[n].length // 8 for n in tp] + [node.rpdo[n].length // 8 for n in rp]
+        self.tpdo_bytes = [node.tpdo[n].length // 8 for n in tp]
+        self.rpdo_bytes = {n: node.rpdo[n].length // 8 for n in rp}
         node.nmt.state = "OPERATIONAL"
 
     def close(self) -> None:
@@ -437,7 +440,7 @@ class StdRunner:
         for idx, key in ((0x607A, "pos"), (0x60B1, "vel_off"), (0x60FF, "vel"), (0x6071, "torque"),
                          (0x60B2, "t_off")):
             self._rpdo_vars[idx].raw = sp[key]
-        for n in (1, 2):
+        for n in self._active_rpdos:
             self.node.rpdo[n].transmit()
 
     def _wait_rx(self, count: int, timeout: float = 10.0) -> None:
@@ -523,6 +526,8 @@ class StdRunner:
             self._set_controlword(0x80)
             self._advance(2)
         self._write(0x6060, 0, MODE_CODES[mode], 1)
+        # CSP needs RPDO1 (0x607A, 0x60B1) and RPDO2 (0x60B2); CSV and CST only RPDO2
+        self._active_rpdos = (1, 2) if mode == "CSP" else (2,)
         pos = self._last(1)[1]
         self._sp.update(pos=pos - (1 << 32) if pos >= 1 << 31 else pos, vel_off=0, vel=0, torque=0, t_off=0)
         for target in ("READY TO SWITCH ON", "SWITCHED ON", "OPERATION ENABLED"):
@@ -584,7 +589,7 @@ class StdRunner:
             cols["current_permille"] = rows[2][:, 2].astype(np.int16).astype(float)
         if self.has_encoder2:
             e2 = _unwrap32(rows[3][:, 0].astype(np.int32).astype(float)) / self.units.encoder2_per_turn * TURN
-            cols["motor_angle_rad"] = e2 if self.units.encoder2_on_motor else e2 * N
+            cols["motor_angle_rad"] = e2 * N if self.units.encoder2_output_units else e2
         return cols
 
     # -- experiments -------------------------------------------------------------
@@ -627,7 +632,7 @@ class StdRunner:
         if design.kind in ("te_rotation", "frf") and not self.has_encoder2:
             raise UserError(f"{design.kind}: needs the motor and the output position; the drive has no second "
                             "encoder object 0x60E4:1")
-        load = check_bus_load(self.frame_bytes, 1.0 / self.sync_period_s, self.bitrate)
+        load = check_bus_load(self.frame_bytes("CSV"), 1.0 / self.sync_period_s, self.bitrate)
         t_sync0 = len(self._sync_times)
         parts = []
         self.enable("CSV")
@@ -689,7 +694,7 @@ class StdRunner:
         """
         if feedforward is not None and "0x60B2" not in self.offsets():
             raise UserError("host feed-forward needs the torque offset 0x60B2")
-        check_bus_load(self.frame_bytes, 1.0 / self.sync_period_s, self.bitrate)
+        check_bus_load(self.frame_bytes("CSP"), 1.0 / self.sync_period_s, self.bitrate)
         first = len(self._sync_times)
         self.enable("CSP")
         try:
@@ -720,9 +725,103 @@ class StdRunner:
                 "rms_error_rad": float(np.sqrt(np.mean(e[m] ** 2))), "max_error_rad": float(np.max(np.abs(e[m]))),
                 "sync_stats": self.sync_stats(first)}
 
+    def frame_bytes(self, mode: str) -> list[int]:
+        """Data length of every PDO per SYNC in ``mode``: the TPDOs and the RPDOs the mode sends."""
+        rp = (1, 2) if mode == "CSP" else (2,)
+        return list(self.tpdo_bytes) + [self.rpdo_bytes[n] for n in rp]
+
     def offsets(self) -> list[str]:
         """Offset objects mapped in the RPDOs (host-side compensation needs 0x60B2)."""
         return [f"0x{i:04X}" for i in (0x60B1, 0x60B2) if i in self._rpdo_vars]
+
+
+# ----------------------------------------------------------------- session on the virtual drive
+
+
+class StdSession:
+    """Context manager: a :class:`StdRunner` on its own virtual drive (``hdservo-sim serve --pacing sync``),
+    or on a bus given by python-can settings; the virtual drive always stops.
+
+    Parameters
+    ----------
+    bus : dict, optional
+        python-can settings of a real drive (``interface``, ``channel``, ``bitrate``...); None =
+        start a virtual drive.
+    node_id : int
+        CANopen node id.
+    axis : str
+        Axis of the virtual drive (``reference``, ``minimal`` or a TOML path).
+    profile : str
+        Object dictionary of the virtual drive: ``generic`` (CiA 301/402 objects only, every
+        vendor access refused and logged) or ``hdservo``.
+    seed : int
+        Sensor-noise seed of the virtual drive.
+    sync_periods : int
+        Virtual drive: 100 us loop periods per SYNC (the SYNC period of the runner).
+    sets : sequence of str
+        ``SECTION.KEY=VALUE`` plant overrides of the virtual drive (default: base motion off).
+    runner_args : dict
+        Further :class:`StdRunner` arguments (``gear_ratio``, ``units``, ``bitrate``, ``progress``).
+    """
+
+    def __init__(self, bus: Optional[dict[str, Any]] = None, node_id: int = 1, axis: str = "reference",
+                 profile: str = "generic", seed: int = 1, sync_periods: int = 10,
+                 sets: Sequence[str] = ("base.enabled=false",), **runner_args: Any) -> None:
+        self.bus, self.node_id, self.axis, self.profile, self.seed = bus, node_id, axis, profile, seed
+        self.sync_periods, self.sets, self.runner_args = sync_periods, tuple(sets), runner_args
+        self.proc: Any = None
+        self.network: Any = None
+        self.runner: Optional[StdRunner] = None
+        #: the virtual drive's stderr once it stopped (vendor accesses are logged there)
+        self.server_log = ""
+
+    def __enter__(self) -> StdRunner:
+        import canopen
+        try:
+            args = dict(self.runner_args)
+            if self.bus is None:
+                from ..commands.serve import find_sim
+                from ..serve_proc import ServeError, ServeProcess
+                cmd = ["--node-id", str(self.node_id), "--axis", str(self.axis), "--pacing", "sync",
+                       "--sync-periods", str(self.sync_periods), "--seed", str(self.seed), "--profile", self.profile]
+                for s in self.sets:
+                    cmd += ["--set", s]
+                try:
+                    self.proc = ServeProcess(find_sim(), cmd)
+                except ServeError as e:
+                    raise UserError(str(e)) from None
+                bus: dict[str, Any] = {"interface": "socketcand", "channel": "can0", "host": "127.0.0.1",
+                                       "port": self.proc.port}
+                args.setdefault("sync_period_s", self.sync_periods * 1e-4)
+                args["lockstep"] = True
+            else:
+                bus = self.bus
+                args.setdefault("lockstep", False)
+            self.network = canopen.Network()
+            try:
+                self.network.connect(**bus)
+            except (OSError, ValueError) as e:
+                raise UserError(f"cannot open the CAN bus: {e}") from None
+            self.runner = StdRunner(self.network, self.node_id, **args)
+            self.runner.open()
+            return self.runner
+        except BaseException:
+            self.__exit__(None, None, None)
+            raise
+
+    def __exit__(self, *exc: object) -> None:
+        try:
+            if self.runner is not None:
+                self.runner.close()
+        finally:
+            try:
+                if self.network is not None:
+                    self.network.disconnect()
+                    self.network = None
+            finally:
+                if self.proc is not None:
+                    self.server_log = self.proc.stop()
+                    self.proc = None
 
 
 def _unwrap32(x: np.ndarray) -> np.ndarray:
@@ -749,5 +848,5 @@ def friction_gravity_feedforward(stribeck: Any, gravity: Any) -> Callable[[float
     return ff
 
 
-__all__ = ["BUS_LOAD_LIMIT", "SdoGuard", "StdRunner", "StdUnits", "bus_load", "check_bus_load", "frame_bits",
+__all__ = ["BUS_LOAD_LIMIT", "SdoGuard", "StdRunner", "StdSession", "StdUnits", "bus_load", "check_bus_load", "frame_bits",
            "friction_gravity_feedforward", "period_stats"]
