@@ -725,6 +725,24 @@ class StdRunner:
                 "rms_error_rad": float(np.sqrt(np.mean(e[m] ** 2))), "max_error_rad": float(np.max(np.abs(e[m]))),
                 "sync_stats": self.sync_stats(first)}
 
+    def torque_staircase(self, torque_Nm: np.ndarray, label: str = "torque staircase") -> dict[str, np.ndarray]:
+        """CST: one target torque 0x6071 (output N.m) per SYNC, then 0; the columns of those SYNCs
+        with ``torque_Nm`` = torque actual value 0x6077 on the output side."""
+        check_bus_load(self.frame_bytes("CST"), 1.0 / self.sync_period_s, self.bitrate)
+        self.enable("CST")
+        try:
+            self._say(label)
+            self._record_start()
+            self._stream([{"torque": self.torque_raw(float(t))} for t in torque_Nm])
+            cols = self._record_stop()
+            self._sp["torque"] = 0
+            self._advance(2)
+            self._check(label)
+        finally:
+            self.disable()
+        cols["torque_Nm"] = cols["motor_torque_Nm"] * float(self.gear_ratio or 1.0)
+        return cols
+
     def frame_bytes(self, mode: str) -> list[int]:
         """Data length of every PDO per SYNC in ``mode``: the TPDOs and the RPDOs the mode sends."""
         rp = (1, 2) if mode == "CSP" else (2,)
