@@ -125,26 +125,44 @@ def period_stats(times_s: Sequence[float]) -> dict[str, float]:
 
 
 class SdoGuard:
-    """Records the object of every SDO request sent to one node, read from the bus.
+    """Records the object of every SDO request the host sends to one node.
 
-    The initiate frames of expedited/segmented (client command 1 download, 2 upload)
-    and block transfers (5 upload, 6 download; sub-command 0 = initiate) carry the
-    index (bytes 1-2) and sub-index (byte 3); segment frames carry none.
+    It wraps the ``send`` of the python-can bus under the canopen network (every frame the
+    host puts on the bus passes it; a bus does not hand the host its own frames back, so a
+    receive listener would see none).  The initiate frames of expedited/segmented (client
+    command 1 download, 2 upload) and block transfers (5 upload, 6 download; sub-command 0 =
+    initiate) carry the index (bytes 1-2) and sub-index (byte 3); segment frames carry none.
     """
 
     def __init__(self, node_id: int) -> None:
-        import can
         self.cob = 0x600 + node_id
         self.accessed: list[tuple[int, int]] = []
         self._lock = threading.Lock()
-        outer = self
+        self._bus: Any = None
+        self._send: Any = None
 
-        class L(can.Listener):
-            def on_message_received(self, m: Any) -> None:
-                if m.arbitration_id == outer.cob and len(m.data) >= 4:
-                    outer.note(bytes(m.data))
+    def attach(self, bus: Any) -> None:
+        """Watch every frame sent on ``bus`` (a python-can bus) until :meth:`detach`."""
+        if self._bus is not None:
+            return
+        orig = bus.send
 
-        self.listener = L()
+        def send(msg: Any, *args: Any, **kw: Any) -> Any:
+            if msg.arbitration_id == self.cob and len(msg.data) >= 4:
+                self.note(bytes(msg.data))
+            return orig(msg, *args, **kw)
+
+        self._bus, self._send = bus, orig
+        bus.send = send
+
+    def detach(self) -> None:
+        """Stop watching (the bus's own ``send`` back)."""
+        if self._bus is not None:
+            try:
+                del self._bus.send
+            except AttributeError:
+                self._bus.send = self._send
+            self._bus = self._send = None
 
     def note(self, data: bytes) -> None:
         """Record the object of one client request frame (ignored unless it is an initiate)."""
@@ -272,7 +290,7 @@ class StdRunner:
         self.node = canopen.BaseNode402(self.node_id, self.eds or str(EDS_PATH))
         self.network.add_node(self.node)
         self.guard = SdoGuard(self.node_id)
-        self.network.notifier.add_listener(self.guard.listener)
+        self.guard.attach(self.network.bus)
         self._saved: dict[str, dict[int, PdoSnapshot]] = {}
         self._rx: dict[int, list[tuple[float, tuple[int, ...]]]] = {}
         self._cond = threading.Condition()
@@ -412,10 +430,7 @@ class StdRunner:
                 self.node.nmt.state = "OPERATIONAL"
                 self._opened = False
         finally:
-            try:
-                self.network.notifier.remove_listener(self.guard.listener)
-            except (ValueError, AttributeError):
-                pass
+            self.guard.detach()
 
     # -- TPDO reception, drive time -----------------------------------------
     def _on_tpdo(self, m: Any) -> None:
@@ -680,11 +695,13 @@ class StdRunner:
 
     # -- closed-loop tracking with host feed-forward --------------------------------
     def track(self, ref_rad: np.ndarray, feedforward: Optional[Callable[[float, float], float]] = None,
-              label: str = "tracking") -> dict[str, Any]:
+              label: str = "tracking", velocity_offset: bool = True) -> dict[str, Any]:
         """CSP tracking of ``ref_rad`` (output angle per SYNC, relative to where the axis is).
 
         ``feedforward(theta_ref_rad, omega_ref_rad_s) -> N.m`` (output side) is sent in the torque
         offset 0x60B2 with each set-point (host-side compensation); None = the drive's loop alone.
+        ``velocity_offset``: the reference's derivative goes in 0x60B1 (velocity feed-forward);
+        False = position set-points alone.
 
         Returns
         -------
@@ -703,7 +720,7 @@ class StdRunner:
             vel = np.gradient(ref_rad, self.sync_period_s)
             sps = []
             for th, w in zip(ref_rad, vel):
-                sp = {"pos": p0 + self.pos_raw(float(th)), "vel_off": self.vel_raw(float(w))}
+                sp = {"pos": p0 + self.pos_raw(float(th)), "vel_off": self.vel_raw(float(w)) if velocity_offset else 0}
                 sp["t_off"] = self.torque_raw(feedforward(theta0 + float(th), float(w))) if feedforward else 0
                 sps.append(sp)
             self._advance(int(round(0.05 / self.sync_period_s)))

@@ -160,14 +160,15 @@ def bandwidth(runner: Any, amplitude_arcsec: float = 60.0, period_samples: int =
               lines: Optional[Sequence[int]] = None, periods: int = 2) -> Result:
     """Closed-loop bandwidth: -3 dB of theta_out (0x6064) / theta_ref (0x607A) for a small multisine.
 
-    ``periods`` periods are streamed, the last one is analysed at its excited DFT lines.
+    ``periods`` periods are streamed, the last one is analysed at its excited DFT lines.  Position
+    set-points alone (no velocity offset 0x60B1), as :func:`hdservo.procedures.closedloop.bandwidth`.
     """
     fs = 1.0 / runner.sync_period_s
     if lines is None:
         lines = bandwidth_lines(period_samples, fs)
     sig = bandwidth_signal(amplitude_arcsec, period_samples, lines, fs)
     ref = np.concatenate([np.zeros(1), np.tile(sig, periods), np.zeros(1)])
-    tr = runner.track(ref, label="bandwidth")
+    tr = runner.track(ref, label="bandwidth", velocity_offset=False)
     # tr["ref_rad"][j] is the set-point in force at the sample tr["load_angle_rad"][j]
     r = tr["ref_rad"][1 + (periods - 1) * period_samples:1 + periods * period_samples]
     y = tr["load_angle_rad"][1 + (periods - 1) * period_samples:1 + periods * period_samples]
