@@ -292,7 +292,8 @@ class StdRunner:
         self.guard = SdoGuard(self.node_id)
         self.guard.attach(self.network.bus)
         self._saved: dict[str, dict[int, PdoSnapshot]] = {}
-        self._rx: dict[int, list[tuple[float, tuple[int, ...]]]] = {}
+        #: per TPDO: (host clock at reception, frame timestamp, mapped raw values), one per SYNC
+        self._rx: dict[int, list[tuple[float, float, tuple[int, ...]]]] = {}
         self._cond = threading.Condition()
         self._syncs = 0                      # SYNCs sent since the TPDOs were configured
         self._sync_times: list[float] = []   # host clock of each SYNC sent (s)
@@ -439,7 +440,7 @@ class StdRunner:
             return
         vals = tuple(int(v.raw) for v in m.map)
         with self._cond:
-            self._rx[n].append((time.perf_counter(), vals))
+            self._rx[n].append((time.perf_counter(), float(m.timestamp or 0.0), vals))
             self._cond.notify_all()
 
     def _received(self) -> int:
@@ -510,7 +511,7 @@ class StdRunner:
 
     def _last(self, n: int) -> tuple[int, ...]:
         with self._cond:
-            return self._rx[n][-1][1]
+            return self._rx[n][-1][2]
 
     # -- 402 state machine (canopen's profile tables) --------------------------
     def _set_controlword(self, cw: int) -> None:
@@ -591,11 +592,12 @@ class StdRunner:
         N = float(self.gear_ratio or 1.0)
         with self._cond:
             k0, k1 = self._rec_from, self._received()
-            rows = {n: np.array([v for _, v in self._rx[n][k0:k1]], dtype=np.int64) for n in self._rx}
+            rows = {n: np.array([v for _, _, v in self._rx[n][k0:k1]], dtype=np.int64) for n in self._rx}
+            stamps = np.array([ts for _, ts, _ in self._rx[1][k0:k1]], dtype=float)
         pos = rows[1][:, 1].astype(np.int32).astype(float)
         torque = rows[2][:, 1].astype(np.int16).astype(float) * self._rated_Nm / 1000.0
         out_torque = torque if self.units.torque_on_output else torque * N
-        cols = {"t_s": np.arange(k1 - k0) * self.sync_period_s,
+        cols = {"t_s": np.arange(k1 - k0) * self.sync_period_s, "_stamp_s": stamps,
                 "load_angle_rad": _unwrap32(pos) / self.units.position_per_turn * TURN,
                 "motor_torque_Nm": out_torque / N,
                 "load_velocity_rad_s": rows[2][:, 0].astype(np.int32).astype(float) / self.units.velocity_per_turn_s
@@ -607,6 +609,25 @@ class StdRunner:
             cols["motor_angle_rad"] = e2 * N if self.units.encoder2_output_units else e2
         return cols
 
+    def _uniform(self, cols: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Columns on a uniform grid of the SYNC period.
+
+        Lock-step: the k-th SYNC is k periods of drive time, nothing to do.  Free-running: the
+        host's SYNCs jitter, so every column (one value per SYNC) is interpolated from the
+        timestamps of the TPDO1 frames (the bus's receive time; the virtual drive stamps its
+        frames with its own time) onto the nominal period.
+        """
+        stamps = cols.pop("_stamp_s")
+        if self.lockstep or len(stamps) < 2 or np.any(np.diff(stamps) < 0):
+            return cols
+        # SYNCs that reached the drive together are answered in the same drive period: keep one
+        t, keep = np.unique(stamps[::-1] - stamps[0], return_index=True)
+        keep = len(stamps) - 1 - keep
+        grid = np.arange(int(t[-1] / self.sync_period_s) + 1) * self.sync_period_s
+        out = {k: np.interp(grid, t, np.asarray(v)[keep]) for k, v in cols.items() if k != "t_s"}
+        out["t_s"] = grid
+        return out
+
     # -- experiments -------------------------------------------------------------
     def _segment(self, vel_rad_s: np.ndarray, label: str) -> dict[str, np.ndarray]:
         """CSV: one target velocity per SYNC; the columns of those SYNCs."""
@@ -617,7 +638,7 @@ class StdRunner:
         cols = self._record_stop()
         cols["setpoint_velocity_rad_s"] = np.array(raw, dtype=float) / self.units.velocity_per_turn_s * TURN
         cols["torque_cmd_Nm"] = cols["motor_torque_Nm"] * float(self.gear_ratio or 1.0)
-        return cols
+        return self._uniform(cols)
 
     def _velocities(self, seg: Mapping[str, Any]) -> np.ndarray:
         dt = self.sync_period_s
@@ -728,14 +749,17 @@ class StdRunner:
             self._record_start()
             self._stream(sps)
             cols = self._record_stop()
+            cols["_ref_rad"] = np.asarray(ref_rad, dtype=float)[:len(cols["t_s"])]
             self._check(label)
             self._sp.update(vel_off=0, t_off=0)
             self._advance(int(round(0.05 / self.sync_period_s)))
         finally:
             self.disable()
         # the set-point sent before SYNC k is in force from SYNC k: the sample of SYNC k + 1 sees it
+        cols["_ref_rad"] = np.concatenate([[0.0], cols["_ref_rad"][:-1]])
+        cols = self._uniform(cols)
         y = cols["load_angle_rad"][1:] - theta0
-        r = np.asarray(ref_rad, dtype=float)[:-1]
+        r = cols["_ref_rad"][1:]
         e = r - y
         m = np.arange(len(e)) >= len(e) // 10
         return {"t_s": cols["t_s"][1:], "ref_rad": r, "load_angle_rad": y,
@@ -757,6 +781,7 @@ class StdRunner:
             self._check(label)
         finally:
             self.disable()
+        cols = self._uniform(cols)
         cols["torque_Nm"] = cols["motor_torque_Nm"] * float(self.gear_ratio or 1.0)
         return cols
 
@@ -793,6 +818,9 @@ class StdSession:
         Sensor-noise seed of the virtual drive.
     sync_periods : int
         Virtual drive: 100 us loop periods per SYNC (the SYNC period of the runner).
+    pacing : str
+        Virtual drive: ``sync`` (lock-step, reproducible) or ``realtime`` (the drive runs by
+        the clock and the host produces SYNC by its own clock, as with a real drive).
     sets : sequence of str
         ``SECTION.KEY=VALUE`` plant overrides of the virtual drive (default: base motion off).
     runner_args : dict
@@ -800,9 +828,12 @@ class StdSession:
     """
 
     def __init__(self, bus: Optional[dict[str, Any]] = None, node_id: int = 1, axis: str = "reference",
-                 profile: str = "generic", seed: int = 1, sync_periods: int = 10,
+                 profile: str = "generic", seed: int = 1, sync_periods: int = 10, pacing: str = "sync",
                  sets: Sequence[str] = ("base.enabled=false",), **runner_args: Any) -> None:
+        if pacing not in ("sync", "realtime"):
+            raise UserError(f"pacing must be sync or realtime, not {pacing!r}")
         self.bus, self.node_id, self.axis, self.profile, self.seed = bus, node_id, axis, profile, seed
+        self.pacing = pacing
         self.sync_periods, self.sets, self.runner_args = sync_periods, tuple(sets), runner_args
         self.proc: Any = None
         self.network: Any = None
@@ -817,7 +848,7 @@ class StdSession:
             if self.bus is None:
                 from ..commands.serve import find_sim
                 from ..serve_proc import ServeError, ServeProcess
-                cmd = ["--node-id", str(self.node_id), "--axis", str(self.axis), "--pacing", "sync",
+                cmd = ["--node-id", str(self.node_id), "--axis", str(self.axis), "--pacing", self.pacing,
                        "--sync-periods", str(self.sync_periods), "--seed", str(self.seed), "--profile", self.profile]
                 for s in self.sets:
                     cmd += ["--set", s]
@@ -828,7 +859,7 @@ class StdSession:
                 bus: dict[str, Any] = {"interface": "socketcand", "channel": "can0", "host": "127.0.0.1",
                                        "port": self.proc.port}
                 args.setdefault("sync_period_s", self.sync_periods * 1e-4)
-                args["lockstep"] = True
+                args["lockstep"] = self.pacing == "sync"
             else:
                 bus = self.bus
                 args.setdefault("lockstep", False)
