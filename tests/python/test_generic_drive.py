@@ -205,3 +205,23 @@ def test_experiment_refused_before_it_starts_when_the_bus_is_too_slow() -> None:
         # without a second encoder TE and the FRF are refused with one line; here it has one
         assert r.has_encoder2
     assert_no_vendor_access(s, r)
+
+
+@pytest.mark.parametrize("argv,msg", [
+    (("identify", "stiffness", "--sim", "--standard-objects", "--gear-ratio", "100"),
+     "identify stiffness: needs the output locked and a torque sensor (a test rig); --standard-objects identifies "
+     "friction, te, frf"),
+    (("identify", "friction", "--sim", "--gear-ratio", "100"), "--gear-ratio: options of --standard-objects"),
+    (("identify", "friction", "--sim", "--standard-objects"),
+     "--standard-objects: the generic virtual drive has no 0x6091: give --gear-ratio"),
+    (("identify", "friction", "--sim", "--standard-objects", "--gear-ratio", "-3"),
+     "--gear-ratio -3.0: expected a positive number"),
+    (("identify", "friction", "--sim", "--standard-objects", "--gear-ratio", "100", "--sync-period", "0.00015"),
+     "--sync-period 0.00015: the virtual drive needs a multiple of 0.0001 s"),
+])
+def test_identify_standard_objects_bad_arguments_one_line(argv: tuple[str, ...], msg: str,
+                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    from hdservo.cli import main
+    assert main(list(argv)) == 2
+    err = [ln for ln in capsys.readouterr().err.splitlines() if "error" in ln]
+    assert err == [f"hdservo identify: error: {msg}"]
