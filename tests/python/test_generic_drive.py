@@ -225,3 +225,39 @@ def test_identify_standard_objects_bad_arguments_one_line(argv: tuple[str, ...],
     assert main(list(argv)) == 2
     err = [ln for ln in capsys.readouterr().err.splitlines() if "error" in ln]
     assert err == [f"hdservo identify: error: {msg}"]
+
+
+def _results_script() -> Any:
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("generic_drive_results", ROOT / "tests" / "results" / "45_generic_drive.py")
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_results_tolerance_table_and_bus_table_logic() -> None:
+    """The make-results script's table logic on a tiny input (its full run is tests/results/45_generic_drive.py)."""
+    m = _results_script()
+    rows = m.tolerance_rows({"a": 0.05, "b": -0.09, "c": 0.5}, {"a": 0.01}, tol={"a": 0.03, "b": 0.05, "c": 0.1,
+                                                                                  "d": 0.1}, factor=2.0)
+    got = {r["parameter"]: (r["pass"], r["generic_tolerance"]) for r in rows}
+    assert got == {"a": (True, 0.06), "b": (True, 0.1), "c": (False, 0.2), "d": (False, 0.2)}
+    assert rows[0]["hdservo_error"] == 0.01 and rows[1]["hdservo_error"] is None
+    bt = m.bus_table(bitrates=(1e6,), sync_hz=1000.0)
+    csv = next(r for r in bt if r["mode"] == "CSV" and not r["encoder2"])
+    assert csv["bits_per_sync"] == 55 + 115 + 135 + 135
+    assert csv["load_at_sync_hz"] == pytest.approx(0.44)
+    assert csv["max_sync_hz"] == pytest.approx(0.7 * 1e6 / 440)
+    csp2 = next(r for r in bt if r["mode"] == "CSP" and r["encoder2"])
+    assert csp2["bits_per_sync"] == 55 + 115 + 135 + 95 + 135 + 135
+    # the same arithmetic as the runner's own check
+    assert csp2["load_at_sync_hz"] == pytest.approx(sr.bus_load([6, 8, 4, 8, 8], 1000.0, 1e6))
+    a = truth.axis("reference")
+    class _S:  # noqa: E306 - a Stribeck result with the truth: zero error
+        pass
+    s = _S()
+    for k, v in truth.friction_total(a).items():
+        setattr(s, k, v)
+    e = m.errors({"stribeck": s}, a)
+    assert all(abs(v) < 1e-12 for v in e.values()) and len(e) == 6
