@@ -659,7 +659,17 @@ class StdRunner:
         raise UserError(f"mode '{mode}' needs the output locked (a test rig): not on the standard-objects path")
 
     def run(self, design: Any) -> ex.ExperimentData:
-        """Run one design (CSV segments) and return its data (columns of :class:`~.experiments.SimRunner`)."""
+        """Run one design (CSV segments) and return its data (columns of :class:`~.experiments.SimRunner`).
+
+        An SDO exchange that fails half-way (abort, time-out) is one line (:class:`UserError`).
+        """
+        import canopen
+        try:
+            return self._run(design)
+        except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
+            raise UserError(f"{design.kind}: drive node {self.node_id}: {e}") from None
+
+    def _run(self, design: Any) -> ex.ExperimentData:
         N = float(self.gear_ratio or 1.0)
         plan = design.plan(N)
         if any(s["mode"] == "locked" for s in plan):
@@ -869,7 +879,10 @@ class StdSession:
             except (OSError, ValueError) as e:
                 raise UserError(f"cannot open the CAN bus: {e}") from None
             self.runner = StdRunner(self.network, self.node_id, **args)
-            self.runner.open()
+            try:
+                self.runner.open()
+            except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
+                raise UserError(f"drive node {self.node_id}: setting up the PDOs: {e}") from None
             return self.runner
         except BaseException:
             self.__exit__(None, None, None)
