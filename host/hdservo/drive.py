@@ -82,6 +82,9 @@ class DriveError(Exception):
 SIM_INTERFACE = "virtual-drive"
 #: built-in axes of the simulated drive (else an axis TOML file)
 SIM_AXES = ("reference", "minimal")
+#: object profiles of the simulated drive (``hdservo-sim serve --profile``): ``--sim generic:AXIS``
+#: (or ``--sim generic``, the reference axis) picks the generic CiA 402 one
+SIM_PROFILES = ("hdservo", "generic")
 #: python-can's configuration files, in its order (``can.util.CONFIG_FILES``)
 CAN_CONFIG_FILES = "~/can.conf, /etc/can.conf, ~/.can, ~/.canrc"
 
@@ -104,8 +107,9 @@ def add_bus_arguments(p: "argparse.ArgumentParser | argparse._ArgumentGroup", si
     if sim:
         p.add_argument("--sim", nargs="?", const="reference", default=None, metavar="AXIS",
                        help="talk to a simulated drive instead (a virtual drive started for this command, over "
-                            "CAN): axis 'reference' (default), 'minimal' or an axis TOML file; the same as "
-                            f"-i {SIM_INTERFACE}. Put it last or write --sim=AXIS")
+                            "CAN): axis 'reference' (default), 'minimal' or an axis TOML file; 'generic:AXIS' "
+                            "(or 'generic') the same axis as a generic CiA 402 drive (standard objects only); "
+                            f"the same as -i {SIM_INTERFACE}. Put it last or write --sim=AXIS")
 
 
 def bus_kwargs(args: argparse.Namespace) -> dict[str, Any]:
@@ -139,11 +143,15 @@ class DriveChoice:
         Simulated drive only: ``reference``, ``minimal`` or an absolute axis TOML path.
     origin : str
         Where the choice comes from (``--sim``, ``-i``, ``CAN_INTERFACE``, ``python-can config file``).
+    profile : str
+        Simulated drive only: its object profile, ``hdservo`` (every object) or ``generic``
+        (CiA 301/402 standard objects only, ``hdservo-sim serve --profile generic``).
     """
 
     bus: Optional[dict[str, Any]]
     axis: Optional[str]
     origin: str
+    profile: str = "hdservo"
 
     @property
     def virtual(self) -> bool:
@@ -153,9 +161,13 @@ class DriveChoice:
     def describe(self) -> str:
         """One phrase for logs and reports."""
         if self.bus is None:
-            return f"simulated drive (virtual drive, axis {self.axis_name})"
+            return f"simulated drive (virtual drive{self._profile_note}, axis {self.axis_name})"
         shown = {k: v for k, v in self.bus.items() if k in ("interface", "channel", "bitrate", "host", "port")}
         return f"drive {shown} ({self.origin})"
+
+    @property
+    def _profile_note(self) -> str:
+        return ", generic CiA 402 profile" if self.profile == "generic" else ""
 
     @property
     def axis_name(self) -> str:
@@ -166,7 +178,8 @@ class DriveChoice:
         """Say on stderr, in one line, that a simulated drive is started (nothing for a real one)."""
         if self.bus is None:
             import sys
-            print(f"hdservo {command}: using a simulated drive (virtual drive, axis {self.axis_name}); "
+            print(f"hdservo {command}: using a simulated drive (virtual drive{self._profile_note}, "
+                  f"axis {self.axis_name}); "
                   "your real drive is not touched", file=sys.stderr, flush=True)
 
 
@@ -226,12 +239,15 @@ def choose_drive(args: argparse.Namespace, sim_only: tuple[str, ...] = ()) -> Dr
             raise UserError(f"{', '.join(clash)}: bus options do not go with a simulated drive ({origin}); "
                              "give either the bus or --sim")
         axis = sim_axis or "reference"
+        profile = "hdservo"
+        if axis == "generic" or axis.startswith("generic:"):
+            profile, axis = "generic", axis[len("generic:"):] or "reference"
         if axis not in SIM_AXES:
             if not Path(axis).is_file():
-                raise UserError(f"--sim {axis}: no such axis file (expected {', '.join(SIM_AXES)} "
-                                 "or an axis TOML file)")
+                raise UserError(f"--sim {sim_axis}: no such axis file (expected {', '.join(SIM_AXES)}, "
+                                 "an axis TOML file, or generic:AXIS)")
             axis = str(Path(axis).resolve())
-        return DriveChoice(bus=None, axis=axis, origin=origin)
+        return DriveChoice(bus=None, axis=axis, origin=origin, profile=profile)
     for opt in sim_only:
         if getattr(args, opt, None) not in (None, False):
             raise UserError(f"--{opt.replace('_', '-')} is an option of the simulated drive: it goes with --sim")
@@ -437,6 +453,62 @@ class Drive:
     def disable(self) -> None:
         """Back to SWITCH ON DISABLED (power stage off)."""
         self._walk("SWITCH ON DISABLED")
+
+    # ---- any CiA 402 drive: python canopen's profile ------------------------------------
+    def capabilities(self) -> Any:
+        """What this drive offers (:func:`hdservo.drive_caps.probe`: identity, modes, objects, PDOs, SYNC).
+
+        Raises
+        ------
+        DriveError
+            The drive does not answer.
+        """
+        from . import drive_caps
+        try:
+            return drive_caps.probe(self.node.sdo)
+        except canopen.SdoCommunicationError as e:
+            raise DriveError(f"capability probe: {e}") from None
+
+    def enable_402(self, mode: str = "CYCLIC SYNCHRONOUS POSITION") -> None:
+        """Select a mode and reach OPERATION ENABLED through python canopen's CiA 402 profile.
+
+        The path for any CiA 402 drive (the generic one): :class:`canopen.BaseNode402`
+        checks the mode against 0x6502, writes 0x6060 (by RPDO when mapped), and walks the
+        CiA 402 graph from whatever state the drive is in (fault reset included), reading
+        the statusword from its TPDO when mapped, else by SDO.  Needs :meth:`start` first
+        (it loads the PDO configuration the profile reads) and a drive whose time runs
+        (realtime or fast pacing; in lock-step the periods come only with SYNCs).
+
+        Raises
+        ------
+        DriveError
+            The mode is not supported, not taken (0x6061 differs), or the state is not reached.
+        """
+        if mode not in MODES:
+            raise DriveError(f"mode must be one of {sorted(MODES)}")
+        node = self.node
+        try:
+            if not node.is_op_mode_supported(mode):
+                raise DriveError(f"mode {mode}: not among this drive's supported modes (0x6502)")
+            # python canopen logs a failed mode change instead of raising: 0x6061 is checked below
+            node.op_mode = mode
+            node.state = "OPERATION ENABLED"
+        except (RuntimeError, ValueError) as e:
+            raise DriveError(f"CiA 402 enable ({mode}): {e} (state {self.state()})") from None
+        except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
+            raise DriveError(f"CiA 402 enable ({mode}): {e}") from None
+        shown = int(self.read(0x6061))
+        if shown != MODES[mode]:
+            raise DriveError(f"CiA 402 enable: mode display 0x6061 = {shown}, expected {MODES[mode]} ({mode})")
+
+    def disable_402(self) -> None:
+        """SWITCH ON DISABLED (power stage off) through python canopen's CiA 402 profile."""
+        try:
+            self.node.state = "SWITCH ON DISABLED"
+        except (RuntimeError, ValueError) as e:
+            raise DriveError(f"CiA 402 disable: {e} (state {self.state()})") from None
+        except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
+            raise DriveError(f"CiA 402 disable: {e}") from None
 
     def fault_reset(self) -> None:
         """Rising edge of controlword bit 7, then wait for SWITCH ON DISABLED."""

@@ -14,7 +14,8 @@
  * parameters, capture, excitation, tables, process data) is refused as absent (abort
  * 0x06020000, a mapping 0x06040041), written as one stderr line "vendor-object access
  * 0xIIII:S refused" (the first 100) and counted ("vendor_refused" in the exit statistics),
- * so a test proves a host never relied on one.  The default TPDOs carry standard objects
+ * so a test proves a host never relied on one.  It identifies as another product
+ * (0x1018:2 = 0x0047454E, "GEN").  The default TPDOs carry standard objects
  * only (generic_pdos below); there is no test-rig channel (--rig is refused).  The filter
  * is the port's (hd_app_co_port_t.object_filter): the flashed firmware has none.
  *
@@ -254,7 +255,11 @@ static int32_t a_nvm_wear(void *c, uint32_t *total, uint32_t *max_page)
     return 0;
 }
 
-#define VENDOR_LOG_LINES 100u   /* stderr lines of refused vendor accesses (the count goes on) */
+#define VENDOR_LOG_LINES 100u
+/* 0x1018:2 of the generic profile, "GEN": another product than the hdservo firmware
+ * (0x00484453, "HDS"), so a host that keys its vendor extensions on the identity (as
+ * hdservo.drive_caps does) treats this drive as a third-party one and never probes them */
+#define GENERIC_PRODUCT_CODE 0x0047454Eu   /* stderr lines of refused vendor accesses (the count goes on) */
 
 /* --profile generic: only the CiA 301 / 402 standard ranges exist for a master */
 static uint32_t a_object_filter(void *c, uint16_t index, uint8_t sub)
@@ -275,7 +280,15 @@ static uint32_t a_object_filter(void *c, uint16_t index, uint8_t sub)
  * (every SYNC); TPDO3 additional position actual (the motor encoder, 0x60E4:1) and torque
  * actual (every SYNC); TPDO4 invalid.  The RPDO defaults are standard already.  Set
  * through the SDO write checks and kept as the stored image, so the NMT resets return to
- * them; 0 or the abort code of the write that failed. */
+ * them (and after a 0x1011 restore, generic_after_frame); 0 or the abort code of the
+ * write that failed. */
+static void generic_identity(srv_t *s)
+{
+    /* the NMT resets load the defaults of 0x1000-0x1FFF: put the product code back after
+     * each frame the stack processed, before any SDO can read it */
+    if (s->generic) s->co.od.identity_object_product_code = GENERIC_PRODUCT_CODE;
+}
+
 static uint32_t generic_pdos(srv_t *s, uint8_t node)
 {
     static const uint32_t map[4][3] = {
@@ -291,8 +304,11 @@ static uint32_t generic_pdos(srv_t *s, uint8_t node)
         uint32_t ab = hd_co_set_i64(co, (uint16_t)(0x1800u + i), 1u, (int64_t)(0x80000000u | cob));
         if (!ab) ab = hd_co_set_i64(co, (uint16_t)(0x1A00u + i), 0u, 0);
         uint8_t n = 0;
-        for (uint8_t k = 0; !ab && k < 3u && map[i][k]; k++, n++)
-            ab = hd_co_set_i64(co, (uint16_t)(0x1A00u + i), (uint8_t)(k + 1u), (int64_t)map[i][k]);
+        for (uint8_t k = 0; k < 3u && map[i][k]; k++) n++;
+        /* every entry, the unused ones 0: the stored image holds all of them, and an NMT
+         * reset puts it back through the mapping checks (a default 0x5F00 entry would fail) */
+        for (uint8_t k = 0; !ab && k < HD_CO_N_MAP; k++)
+            ab = hd_co_set_i64(co, (uint16_t)(0x1A00u + i), (uint8_t)(k + 1u), k < 3u ? (int64_t)map[i][k] : 0);
         if (!ab) ab = hd_co_set_i64(co, (uint16_t)(0x1A00u + i), 0u, n);
         if (!ab) ab = hd_co_set_i64(co, (uint16_t)(0x1800u + i), 2u, trans[i]);
         if (!ab && n) ab = hd_co_set_i64(co, (uint16_t)(0x1800u + i), 1u, cob);
@@ -300,6 +316,23 @@ static uint32_t generic_pdos(srv_t *s, uint8_t node)
     }
     hd_co_store_capture(co);
     return 0;
+}
+
+/* After each frame the stack processed: the generic identity (NMT resets), and the generic
+ * default PDOs when the firmware's defaults came back (0x1011 restore puts them in force,
+ * whose TPDOs map 0x5F00): the generic profile's defaults are its own. */
+static void generic_after_frame(srv_t *s)
+{
+    if (!s->generic) return;
+    generic_identity(s);
+    for (uint32_t i = 0; i < HD_CO_N_PDO; i++)
+        for (uint32_t k = 0; k < HD_CO_N_MAP; k++) {
+            const uint16_t t = (uint16_t)(s->co.od.tpdo_map[i][k] >> 16), r = (uint16_t)(s->co.od.rpdo_map[i][k] >> 16);
+            if ((t >= 0x2000u && t <= 0x5FFFu) || (r >= 0x2000u && r <= 0x5FFFu)) {
+                (void)generic_pdos(s, s->co.node_id);
+                return;
+            }
+        }
 }
 
 /* commit: the last 4 bytes are the CRC-32 of the rest; refused -> old data stays */
@@ -394,6 +427,7 @@ static int receive(srv_t *s, int32_t timeout_ms)
         if (!hd_host_can_rx_done(s->port)) { s->can_busoff_rx++; continue; }
         if (can_lost(s)) { s->can_lost_rx++; continue; }
         hd_co_process(&s->co, &rx[i]);
+        generic_after_frame(s);
     }
     return r;
 }
@@ -791,6 +825,7 @@ int hd_sim_serve_main(int argc, char **argv)
             return 1;
         }
     }
+    generic_identity(s);
     s->vendor_armed = generic;
 
     signal(SIGINT, on_signal);

@@ -33,6 +33,7 @@ typedef struct {
     uint32_t pp_news;            /* set-points handed over with pp_new */
     uint16_t app_fault;
     uint32_t tick;
+    uint32_t filtered;           /* accesses refused by t_filter */
 } ctx_t;
 
 static bool t_send(void *c, const hd_can_frame_t *f)
@@ -140,6 +141,17 @@ static void t_comm_fault(void *c, uint16_t code) { (void)code; ((ctx_t *)c)->com
 
 static ctx_t X;
 static hd_co_t CO;
+
+/* a device profile without the manufacturer range (the virtual drive's generic profile) */
+static uint32_t t_filter(void *c, uint16_t index, uint8_t sub)
+{
+    (void)sub;
+    if (index >= 0x2000u && index <= 0x5FFFu) {
+        ((ctx_t *)c)->filtered++;
+        return HD_CO_AB_NO_OBJECT;
+    }
+    return 0u;
+}
 
 static void setup_dev(void)
 {
@@ -723,6 +735,52 @@ static void test_heartbeat_consumer(void **st)
     assert_int_equal(statusword() & 0x4F, 0x40);
 }
 
+/* hd_co_app_if_t.object_filter: what a master may reach.  Every SDO path and every PDO
+ * mapping entry asks it; refused = absent (0x06020000, mapping 0x06040041); local
+ * accesses of the app do not ask it. */
+static void test_object_filter(void **st)
+{
+    (void)st;
+    uint32_t v = 0u;
+    int64_t w = 0;
+    setup_dev();
+    assert_int_equal(sdo_read(0x5F00u, 1u, &v), 0);              /* no filter: every object */
+    CO.app.object_filter = t_filter;
+    assert_int_equal(sdo_read(0x5F00u, 1u, &v), HD_CO_AB_NO_OBJECT);
+    assert_int_equal(sdo_write(0x2000u, 1u, 100u, 4u), HD_CO_AB_NO_OBJECT);
+    assert_int_equal(sdo_read(0x5000u, 99u, &v), HD_CO_AB_NO_OBJECT);   /* not "no sub-index" */
+    assert_int_equal(X.param[0], hd_param_table[0].def);                /* nothing written */
+    /* segmented and block transfers ask it too */
+    flush();
+    uint8_t seg[8] = {0x21u, 0x20u, 0x5Fu, 11u, 8u, 0u, 0u, 0u};       /* segmented download 0x5F20:11 */
+    rx(0x600u + NODE, 8u, seg);
+    const hd_can_frame_t *f = sdo_rsp();
+    assert_non_null(f);
+    assert_int_equal(f->data[0], 0x80u);
+    assert_int_equal(u32le(&f->data[4]), HD_CO_AB_NO_OBJECT);
+    flush();
+    uint8_t blk[8] = {0xA0u, 0x20u, 0x5Fu, 11u, 64u, 0u, 0u, 0u};      /* block upload 0x5F20:11 */
+    rx(0x600u + NODE, 8u, blk);
+    f = sdo_rsp();
+    assert_non_null(f);
+    assert_int_equal(f->data[0], 0x80u);
+    assert_int_equal(u32le(&f->data[4]), HD_CO_AB_NO_OBJECT);
+    assert_int_equal(X.filtered, 5u);
+    /* standard objects answer */
+    assert_int_equal(sdo_read(0x6041u, 0u, &v), 0);
+    assert_int_equal(sdo_read(0x1000u, 0u, &v), 0);
+    assert_int_equal(v, 0x00020192u);
+    /* a vendor object cannot be mapped; a standard one can */
+    assert_int_equal(sdo_write(0x1801u, 1u, 0x80000280u + NODE, 4u), 0);
+    assert_int_equal(sdo_write(0x1A01u, 0u, 0u, 1u), 0);
+    assert_int_equal(sdo_write(0x1A01u, 1u, 0x5F000120u, 4u), HD_CO_AB_NO_MAP);
+    assert_int_equal(sdo_write(0x1A01u, 1u, 0x60640020u, 4u), 0);
+    assert_int_equal(X.filtered, 6u);
+    /* the app's own access is not the master's */
+    assert_int_equal(hd_co_get_i64(&CO, 0x5F00u, 1u, &w), 0);
+    assert_int_equal(X.filtered, 6u);
+}
+
 static void test_pdo_mapping_and_stream(void **st)
 {
     (void)st;
@@ -1096,6 +1154,7 @@ int main(void)
         cmocka_unit_test(test_402_new_setpoint_edge_latched_at_write),
         cmocka_unit_test(test_heartbeat_consumer),
         cmocka_unit_test(test_pdo_mapping_and_stream),
+        cmocka_unit_test(test_object_filter),
         cmocka_unit_test(test_nmt_leaving_operational_applies_0x6007),
         cmocka_unit_test(test_nmt_without_reaction),
         cmocka_unit_test(test_cobid_rules),

@@ -399,7 +399,7 @@ static void check_boot(void)
 
 static void boot(int first)
 {
-    static const hd_app_co_port_t pif = {NULL, p_send, NULL, NULL, NULL, NULL, NULL, NULL, NULL};
+    static const hd_app_co_port_t pif = {NULL, p_send, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL};
     memcpy(nvm_keep, port.nvm, sizeof nvm_keep);
     hd_host_port_init(&port);
     if (!first) {

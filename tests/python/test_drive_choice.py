@@ -40,6 +40,7 @@ COMMANDS = {
     "compare": ["compare", "-q", "--procedures", "peak-torque"],
     "identify": ["identify", "friction", "-q"],
     "record": ["record", "--duration", "0.5"],
+    "drive info": ["drive", "info"],
 }
 
 

@@ -360,7 +360,7 @@ int main(void)
     hd_g474_nvic_enable(IRQ_FDCAN1_IT0, 1u);
     {
         /* CANopen: boot-up goes out now; the control period (PendSV) runs it */
-        static const hd_app_co_port_t co_port = {0, co_send, 0, 0, 0, 0, 0, 0, nvm_wear};
+        static const hd_app_co_port_t co_port = {0, co_send, 0, 0, 0, 0, 0, 0, nvm_wear, 0};   /* no object filter: every object */
         hd_app_co_init(&app_co, &co, &app, (uint8_t)HD_G474_NODE_ID, &co_port);
     }
     hd_g474_ssi_dma_init();                   /* from now on the output encoder is read by DMA */

@@ -92,6 +92,8 @@ def run(args: argparse.Namespace) -> int:
         from .download import plan_download
         plan_download(args.model, axis)
     choice.announce("compare")
+    from ..drive_caps import preflight
+    preflight(choice, args.node_id, "compare")
     try:
         doc = cmp.run_compare(args.out, ctls, procs, proc_extra=extra, bus=bus, node_id=args.node_id,
                               axis=axis, seed=seed, model=args.model, progress=not args.quiet,

@@ -213,10 +213,13 @@ def run(args: argparse.Namespace) -> int:
         bus = target.bus
         if bus is None:
             target.announce("config")
-            vd = VirtualDrive(axis=target.axis or "reference", rig=False, node_id=args.node_id, pacing="realtime")
+            vd = VirtualDrive(axis=target.axis or "reference", rig=False, node_id=args.node_id, pacing="realtime",
+                              profile=target.profile)
             bus = {"interface": "socketcand", "channel": "can0", "host": "127.0.0.1", "port": vd.port}
         try:
             drive = Drive.connect(args.node_id, **bus)
+            from ..drive_caps import check
+            check(drive, "config")
             drive.start()
             if args.action == "dump":
                 lines.append(_dump(drive, args))

@@ -301,10 +301,14 @@ def run(args: argparse.Namespace) -> int:
     try:
         if bus is None:
             target.announce("download")
-            vd = VirtualDrive(axis=target.axis or "reference", rig=False, node_id=args.node_id, pacing="realtime")
+            vd = VirtualDrive(axis=target.axis or "reference", rig=False, node_id=args.node_id, pacing="realtime",
+                              profile=target.profile)
             bus = {"interface": "socketcand", "channel": "can0", "host": "127.0.0.1", "port": vd.port}
         try:
             drive = Drive.connect(args.node_id, **bus)
+            from ..drive_caps import check
+            check(drive, "download", ("cia402", "hdservo.parameters")
+                  + (("hdservo.tables",) if not args.no_tables else ()))
             drive.start()
         except DriveError as e:
             raise UserError(f"drive: {e}") from None

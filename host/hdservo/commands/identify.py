@@ -170,7 +170,8 @@ def _run(args: argparse.Namespace) -> int:
                 source += ", standard objects"
         else:
             session = ex.drive_runner(bus=target.bus, node_id=args.node_id, axis=target.axis or "reference",
-                                      seed=seed, progress=progress, rig=not args.no_rig, gains=gains)
+                                      seed=seed, progress=progress, rig=not args.no_rig, gains=gains,
+                                      profile=target.profile)
     if session is not None:
         with session as runner:
             pl = _run_pipeline(args, runner, data, progress)

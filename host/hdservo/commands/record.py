@@ -75,7 +75,8 @@ def run(args: argparse.Namespace) -> int:
     if target.bus is None:
         from ..ident.drive_runner import VirtualDrive
         target.announce("record")
-        vd = VirtualDrive(axis=target.axis or "reference", rig=False, node_id=args.node_id, pacing="realtime")
+        vd = VirtualDrive(axis=target.axis or "reference", rig=False, node_id=args.node_id, pacing="realtime",
+                          profile=target.profile)
     try:
         return _record(args, out, target.bus if vd is None else
                        {"interface": "socketcand", "channel": "can0", "host": "127.0.0.1", "port": vd.port})
@@ -94,6 +95,8 @@ def _record(args: argparse.Namespace, out: Path, bus: dict[str, Any]) -> int:
     frames: list[can.Message] = []
     with drive:
         try:
+            from ..drive_caps import check
+            check(drive, "record")
             drive.start()
             info = drive_info(drive)
             drive.configure_stream(int(round(period)))

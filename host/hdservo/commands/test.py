@@ -197,8 +197,10 @@ def run(args: argparse.Namespace) -> int:
         plan = dict(plan_download(model, axis))
         plan["model_file"] = model.name
     target = Target(bus=choice.bus, node_id=args.node_id, axis=axis, seed=seed, compensators=comps,
-                    download=plan, params=params)
+                    download=plan, params=params, profile=choice.profile)
     choice.announce("test")
+    from ..drive_caps import preflight
+    preflight(choice, args.node_id, "test")
     names = sorted(PROCEDURES) if args.procedure == "all" else [args.procedure]
     results: list[Result] = []
     for name in names:

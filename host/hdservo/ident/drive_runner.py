@@ -75,11 +75,14 @@ class VirtualDrive:
         Ask for the test-rig interface (``--rig``: output brake, reference
         instruments on stdin/stdout).  If the program refuses it, the drive is
         started without and :attr:`rig` is False.
+    profile : str
+        ``hdservo`` (every object) or ``generic`` (``--profile generic``: CiA 301/402
+        standard objects only, vendor accesses refused and logged, never a rig).
     """
 
     def __init__(self, axis: str = "reference", seed: int = 1, sync_periods: int = 10,
                  sets: Sequence[str] = ("base.enabled=false",), rig: bool = True, node_id: int = 1,
-                 pacing: str = "sync") -> None:
+                 pacing: str = "sync", profile: str = "hdservo") -> None:
         from ..commands.serve import find_sim
         from ..serve_proc import ServeError, ServeProcess
         self.sim = find_sim()
@@ -89,6 +92,9 @@ class VirtualDrive:
                 "--sync-periods", str(sync_periods), "--seed", str(seed), "-q"]
         for s in sets:
             base += ["--set", s]
+        if profile != "hdservo":
+            base += ["--profile", profile]
+            rig = False
         self.rig = False
         self.proc: Optional[ServeProcess] = None
         err: Optional[ServeError] = None
@@ -662,8 +668,10 @@ class DriveSession:
 
     def __init__(self, bus: Optional[dict[str, Any]] = None, node_id: int = 1, axis: str = "reference", seed: int = 1,
                  progress: Optional[Callable[[str], None]] = None, rig: bool = True, sync_periods: int = 10,
-                 stream_ticks: int = 10, gains: Optional[Mapping[str, float]] = None) -> None:
+                 stream_ticks: int = 10, gains: Optional[Mapping[str, float]] = None,
+                 profile: str = "hdservo") -> None:
         self.bus, self.node_id, self.axis, self.seed = bus, node_id, axis, seed
+        self.profile = profile
         self.progress, self.rig, self.sync_periods, self.stream_ticks = progress, rig, sync_periods, stream_ticks
         self.gains = dict(gains or {})
         self.vd: Optional[VirtualDrive] = None
@@ -680,11 +688,13 @@ class DriveSession:
                 if axis not in ("reference", "minimal") and not Path(axis).is_file():
                     raise UserError(f"{self.axis}: axis file not found")
                 self.vd = VirtualDrive(axis=axis, seed=self.seed, sync_periods=self.sync_periods, rig=self.rig,
-                                       node_id=self.node_id)
+                                       node_id=self.node_id, profile=self.profile)
                 self.drive = Drive.connect(self.node_id, interface="socketcand", channel="can0", host="127.0.0.1",
                                            port=self.vd.port)
             else:
                 self.drive = Drive.connect(self.node_id, **self.bus)
+            from ..drive_caps import check
+            check(self.drive, "identify")
             fallback = None
             if self.bus is None:
                 fallback = ex.SimRunner(axis=self.axis, seed=self.seed, progress=self.progress, gains=self.gains)

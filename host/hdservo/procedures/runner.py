@@ -145,12 +145,15 @@ class VirtualDriveProcess(ServeProcess):
         Loop periods per SYNC (pacing ``sync``).
     seed : int
         Sensor-noise seed.
+    profile : str
+        ``hdservo``, or ``generic`` (standard objects only; no ``--rig``: the rig commands fail).
     """
 
     def __init__(self, axis: str = "reference", pacing: str = "fast", sets: Sequence[str] = (),
-                 sync_periods: int = 10, seed: int = 1, node_id: int = 1) -> None:
+                 sync_periods: int = 10, seed: int = 1, node_id: int = 1, profile: str = "hdservo") -> None:
         args = ["--node-id", str(node_id), "--axis", axis, "--pacing", pacing,
-                "--sync-periods", str(sync_periods), "--seed", str(seed), "--rig"]
+                "--sync-periods", str(sync_periods), "--seed", str(seed)]
+        args += ["--rig"] if profile == "hdservo" else ["--profile", profile]
         for s in sets:
             args += ["--set", s]
         super().__init__(find_sim(), args, error=RigError)
@@ -538,6 +541,9 @@ class Target:
     download: Optional[Mapping[str, Any]] = None
     #: drive parameters by name (``--params KEY=VALUE``), written after the download, read back
     params: dict[str, float] = field(default_factory=dict)
+    #: virtual only: the object profile of the virtual drive (``hdservo`` or ``generic``: CiA 301/402
+    #: standard objects only, no test rig)
+    profile: str = "hdservo"
 
     @property
     def virtual(self) -> bool:
@@ -629,7 +635,8 @@ def open_bench(target: Target, setup: RigSetup, lockstep: bool = False,
         pacing = "sync" if lockstep else "fast"
         sets = setup.sets() + [f"{k}={v!r}" if not isinstance(v, bool) else f"{k}={'true' if v else 'false'}"
                                for k, v in target.plant.items()]
-        proc = VirtualDriveProcess(target.axis, pacing, sets, sync_periods, target.seed, target.node_id)
+        proc = VirtualDriveProcess(target.axis, pacing, sets, sync_periods, target.seed, target.node_id,
+                                   target.profile)
         rig = VirtualRig(proc, setup)
         drive = None
         try:
