@@ -261,3 +261,28 @@ def test_results_tolerance_table_and_bus_table_logic() -> None:
         setattr(s, k, v)
     e = m.errors({"stribeck": s}, a)
     assert all(abs(v) < 1e-12 for v in e.values()) and len(e) == 6
+
+
+@needs_sim
+def test_identify_cli_on_the_generic_profile(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`identify frf --sim generic --standard-objects`: the FRF through standard objects, in the JSON report;
+    without --standard-objects the generic drive is refused in one line that names the option."""
+    from hdservo.cli import main
+    js = tmp_path / "frf.json"
+    assert main(["identify", "frf", "--sim", "generic", "--standard-objects", "--gear-ratio", str(RATIO),
+                 "--json", str(js), "-q"]) == 0
+    rep = json.loads(js.read_text())
+    assert rep["source"].endswith("standard objects")
+    assert rep["experiment_sources"] == {"frf": "CiA 402 standard objects"}
+    frf = rep["results"]["frf"]
+    assert len(frf) == 2
+    a = truth.axis("reference")
+    fa1, fr1 = truth.frf_truth(a)
+    fa, fres = truth.frf_small_signal_truth(a)
+    for f in frf:
+        assert fa1 < f["f_antiresonance_Hz"] < 1.02 * fa and fr1 < f["f_resonance_Hz"] < 1.02 * fres
+    capsys.readouterr()
+    assert main(["identify", "friction", "--sim", "generic", "-q"]) == 2
+    err = [ln for ln in capsys.readouterr().err.splitlines() if "error" in ln]
+    assert len(err) == 1 and err[0].endswith("--standard-objects identifies friction through the CiA 402 "
+                                             "standard objects")

@@ -173,9 +173,19 @@ def _run(args: argparse.Namespace) -> int:
                                       seed=seed, progress=progress, rig=not args.no_rig, gains=gains,
                                       profile=target.profile)
     if session is not None:
-        with session as runner:
+        from ..drive_caps import CapabilityError
+        try:
+            runner = session.__enter__()
+        except CapabilityError as e:
+            if args.standard_objects or args.target not in STD_TARGETS:
+                raise
+            raise UserError(f"{e}; --standard-objects identifies {args.target} through the CiA 402 standard "
+                            "objects") from None
+        try:
             pl = _run_pipeline(args, runner, data, progress)
             notes = list(runner.notes)
+        finally:
+            session.__exit__(None, None, None)
     else:
         pl = _run_pipeline(args, runner, data, progress)
         notes = []
