@@ -172,16 +172,19 @@ def feedforward(res: Mapping[str, Any]) -> list[dict[str, Any]]:
     return rows
 
 
-def host_timing(periods_s: Sequence[float]) -> list[dict[str, Any]]:
-    """Free-running: the virtual drive in real-time pacing, the host producing SYNC by its clock."""
+def host_timing(periods_s: Sequence[float], duration_s: float = 3.0) -> list[dict[str, Any]]:
+    """Free-running: the virtual drive in real-time pacing, the host producing SYNC by its clock.
+
+    The axis holds its position (CSP, zero reference) while the host streams ``duration_s`` of
+    set-points: the SYNC statistics are the host loop's; a stall cannot move the axis.
+    """
     rows = []
     for p in periods_s:
         s = sr.StdSession(axis="reference", seed=3, gear_ratio=truth.axis("reference")["gear"]["ratio"],
                           pacing="realtime", sync_periods=int(round(p / 1e-4)))
         with s as r:
-            d = r.run(ex.FrictionSweep(v_min_rad_s=0.05, v_max_rad_s=0.3, points=2, settle_s=0.5,
-                                       min_window_s=1.0, max_window_s=1.0))
-            rows.append({"sync_period_s": p, **d.meta["sync_stats"]})
+            tr = r.track(np.zeros(int(round(duration_s / p))), label="host timing")
+            rows.append({"sync_period_s": p, **tr["sync_stats"]})
     return rows
 
 

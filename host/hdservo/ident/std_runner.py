@@ -679,11 +679,11 @@ class StdRunner:
             raise UserError(f"{design.kind}: needs the motor and the output position; the drive has no second "
                             "encoder object 0x60E4:1")
         load = check_bus_load(self.frame_bytes("CSV"), 1.0 / self.sync_period_s, self.bitrate)
-        t_sync0 = len(self._sync_times)
         parts = []
         self.enable("CSV")
         try:
             self._advance(int(round(0.02 / self.sync_period_s)) + 1)
+            t_sync0 = len(self._sync_times)     # the statistics cover the experiment, not the enabling
             for i, seg in enumerate(plan):
                 if seg["mode"] == "velocity_multisine":
                     seg = {**seg, "bias_rad_s": float(seg["bias_rad_s"]) * (1 if i % 2 == 0 else -1)}
@@ -743,7 +743,6 @@ class StdRunner:
         if feedforward is not None and "0x60B2" not in self.offsets():
             raise UserError("host feed-forward needs the torque offset 0x60B2")
         check_bus_load(self.frame_bytes("CSP"), 1.0 / self.sync_period_s, self.bitrate)
-        first = len(self._sync_times)
         self.enable("CSP")
         try:
             p0 = self._sp["pos"]
@@ -757,6 +756,7 @@ class StdRunner:
             self._advance(int(round(0.05 / self.sync_period_s)))
             self._say(label)
             self._record_start()
+            first = len(self._sync_times)       # the statistics cover the stream, not the enabling
             self._stream(sps)
             cols = self._record_stop()
             cols["_ref_rad"] = np.asarray(ref_rad, dtype=float)[:len(cols["t_s"])]
