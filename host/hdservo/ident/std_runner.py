@@ -562,6 +562,7 @@ class StdRunner:
                 raise UserError(f"drive node {self.node_id}: did not reach {target} (state {self.state()})")
 
     def disable(self) -> None:
+        """Controlword 0 (disable voltage): SWITCH ON DISABLED, power stage off, at the next SYNC."""
         self._set_controlword(0x00)
         self._advance(2)
 
@@ -572,9 +573,11 @@ class StdRunner:
 
     # -- conversions ------------------------------------------------------------
     def vel_raw(self, rad_s: float) -> int:
+        """Output velocity (rad/s) in 0x60FF / 0x60B1 counts."""
         return int(round(rad_s / TURN * self.units.velocity_per_turn_s))
 
     def pos_raw(self, rad: float) -> int:
+        """Output angle (rad) in 0x607A counts."""
         return int(round(rad / TURN * self.units.position_per_turn))
 
     def torque_raw(self, out_Nm: float) -> int:
