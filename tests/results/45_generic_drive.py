@@ -204,6 +204,11 @@ def main() -> int:
     p = cache.over_can("reference")
     hd = errors(p.results, a)
     rows = tolerance_rows(gen, hd)
+    # the hdservo path runs the short designs of the test suite: the same designs on this path, side by side
+    same = gen if args.quick else errors(identify(dict(cache.CAN_DESIGNS["reference"]),
+                                                  cache.CAN_SEEDS["reference"])[0], a)
+    for r in rows:
+        r["generic_error_same_designs_as_hdservo"] = same.get(r["parameter"])
     print("procedures", flush=True)
     procs = {"generic": procedures_generic(args.quick), "hdservo": procedures_hdservo(args.quick)}
     print("feed-forward", flush=True)
@@ -211,6 +216,8 @@ def main() -> int:
     print("host timing", flush=True)
     timing = host_timing((1e-3, 2e-3, 5e-3))
     out = {"axis": "reference", "quick": args.quick, "factor": FACTOR, "tolerance_table": rows,
+           "designs": {"generic": {k: ex.describe(v) for k, v in designs.items()},
+                       "hdservo": "tests/python/ident_cache.py CAN_DESIGNS['reference']"},
            "all_pass": all(r["pass"] for r in rows), "identification_meta": meta,
            "gravity": {"mgl_Nm": res["gravity"].mgl_Nm, "truth_mgl_Nm": a["gravity"]["mgl_Nm"]},
            "procedures": procs, "feedforward": ffr, "host_timing_free_running": timing, "bus": bus_table()}
