@@ -286,3 +286,36 @@ def test_identify_cli_on_the_generic_profile(tmp_path: Path, capsys: pytest.Capt
     err = [ln for ln in capsys.readouterr().err.splitlines() if "error" in ln]
     assert len(err) == 1 and err[0].endswith("--standard-objects identifies friction through the CiA 402 "
                                              "standard objects")
+
+
+@needs_sim
+def test_test_cli_bandwidth_on_the_generic_profile(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`hdservo test bandwidth --sim generic --standard-objects`: the JSON names the path and the figure."""
+    from hdservo.cli import main
+    js = tmp_path / "bw.json"
+    assert main(["test", "bandwidth", "--sim", "generic", "--standard-objects", "--gear-ratio", str(RATIO),
+                 "--amplitude-arcsec", "1800", "--json", str(js), "-q"]) == 0
+    rep = json.loads(js.read_text())
+    assert rep["target"].endswith("standard objects")
+    assert "standard objects" in rep["results"]["bandwidth"]["conditions"]["path"]
+    bw = rep["headline"]["bandwidth_hz"]
+    assert 1.0 < bw < 80.0 and rep["results"]["bandwidth"]["figures"]["magnitude_dB"][0] > -1.0
+
+
+@pytest.mark.parametrize("argv,msg", [
+    (("test", "stiffness", "--sim", "generic", "--standard-objects", "--gear-ratio", "100"),
+     "test stiffness: not on the standard-objects path (needs hdservo's capture or a test rig); --standard-objects "
+     "runs bandwidth, min-rate, peak-torque, positioning"),
+    (("test", "peak-torque", "--sim", "generic", "--standard-objects", "--gear-ratio", "100"),
+     "peak-torque --standard-objects: needs --peak-request N.m and --output-locked (the operator locks the output; "
+     "the standard objects have no brake)"),
+    (("test", "bandwidth", "--sim", "--gear-ratio", "100"), "--gear-ratio: options of --standard-objects"),
+    (("test", "bandwidth", "--sim", "generic", "--standard-objects", "--params", "vel_kp=200", "--gear-ratio", "100"),
+     "--params: hdservo drive parameters, not on the standard-objects path"),
+])
+def test_test_standard_objects_bad_arguments_one_line(argv: tuple[str, ...], msg: str,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    from hdservo.cli import main
+    assert main(list(argv)) == 2
+    err = [ln for ln in capsys.readouterr().err.splitlines() if "error" in ln]
+    assert err == [f"hdservo test: error: {msg}"]
