@@ -53,6 +53,9 @@
  *         applied or none (old values restored); the version goes to the
  *         parameter tbl_fr_version / tbl_te_version (saved with the others).
  *   other domains (>= HD_APP_CO_DOM_PORT) and SYNC go to the port's callbacks.
+ *   the port's object filter (optional, hd_app_co_port_t.object_filter): the objects a
+ *     master may reach (the virtual drive's generic CiA 402 profile); none on the STM32.
+ *   the motor encoder in output units (motor angle / gear ratio) -> 0x60E4:1.
  */
 #ifndef HD_APP_CO_H
 #define HD_APP_CO_H

@@ -355,7 +355,7 @@ def _configure(drive: Any, ctl: Controller, plan: Optional[Mapping[str, Any]],
 
 def run_procedure(name: str, ctl: Controller, args: argparse.Namespace, *, bus: Optional[dict[str, Any]],
                   node_id: int, axis: str, seed: int, plan: Optional[Mapping[str, Any]],
-                  preisach_blob: Optional[bytes], progress_enabled: bool) -> Any:
+                  preisach_blob: Optional[bytes], progress_enabled: bool, profile: str = "hdservo") -> Any:
     """One procedure with one controller; returns its :class:`~hdservo.procedures.results.Result`.
 
     A drive fault or a procedure error is recorded in the result's notes
@@ -366,7 +366,7 @@ def run_procedure(name: str, ctl: Controller, args: argparse.Namespace, *, bus: 
     from .procedures.results import Result
     from .procedures.runner import Progress, Target, open_bench
     setup_f, lockstep, fn = tc.PROCEDURES[name]
-    target = Target(bus=bus, node_id=node_id, axis=axis, seed=seed, compensators=None)
+    target = Target(bus=bus, node_id=node_id, axis=axis, seed=seed, compensators=None, profile=profile)
     prog = Progress(f"{ctl.name}/{name}", enabled=progress_enabled)
     try:
         with open_bench(target, setup_f(args), lockstep=lockstep) as bench:
@@ -392,7 +392,7 @@ def run_compare(out_dir: Path, controllers: Sequence[Controller], procedures: Se
                 proc_extra: Sequence[str] = (), bus: Optional[dict[str, Any]] = None, node_id: int = 1,
                 axis: str = "reference", seed: int = 1, model: Optional[Path] = None,
                 progress: bool = True, pdf: bool = False,
-                echo: Callable[[str], None] = lambda s: None) -> dict[str, Any]:
+                echo: Callable[[str], None] = lambda s: None, profile: str = "hdservo") -> dict[str, Any]:
     """Run every procedure with every controller; write the outputs (module docstring); return the document.
 
     Parameters
@@ -413,6 +413,8 @@ def run_compare(out_dir: Path, controllers: Sequence[Controller], procedures: Se
         Progress bar and the procedures' progress lines on stderr.
     echo : callable
         Receives one human summary line per procedure run.
+    profile : str
+        Object profile of the virtual drive (``hdservo`` or ``generic``); unused for a real drive.
 
     Returns
     -------
@@ -453,7 +455,7 @@ def run_compare(out_dir: Path, controllers: Sequence[Controller], procedures: Se
         for name in procedures:
             bar.show(f"{ctl.name} / {name} ...")
             res = run_procedure(name, ctl, pargs[(ctl.name, name)], bus=bus, node_id=node_id, axis=axis, seed=seed, plan=plan,
-                                preisach_blob=blob, progress_enabled=progress)
+                                preisach_blob=blob, progress_enabled=progress, profile=profile)
             results.append(res)
             head = ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in res.headline.items())
             fails = [n for n in res.notes if n.startswith("failed:")]

@@ -477,7 +477,10 @@ class Drive:
         CiA 402 graph from whatever state the drive is in (fault reset included), reading
         the statusword from its TPDO when mapped, else by SDO.  Needs :meth:`start` first
         (it loads the PDO configuration the profile reads) and a drive whose time runs
-        (realtime or fast pacing; in lock-step the periods come only with SYNCs).
+        (realtime or fast pacing; in lock-step the periods come only with SYNCs).  With
+        0x6040/0x6060 mapped in an RPDO the profile sends that RPDO with its own copy of
+        the controlword: do not mix it with controlword writes by SDO (:meth:`halt`,
+        ``write(0x6040, ...)``, :meth:`enable`), which leave that copy stale.
 
         Raises
         ------

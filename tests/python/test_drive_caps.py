@@ -44,6 +44,7 @@ def _node(port: int) -> tuple[canopen.Network, canopen.RemoteNode]:
     net = canopen.Network()
     net.connect(interface="socketcand", host="127.0.0.1", port=port, channel="can0")
     node = canopen.RemoteNode(NODE, str(EDS_PATH))
+    node.sdo.RESPONSE_TIMEOUT = 2.0         # a loaded machine (the drive answers in microseconds)
     net.add_node(node)
     return net, node
 
@@ -115,8 +116,10 @@ def test_generic_nmt_reset_keeps_the_generic_identity_and_pdos() -> None:
     try:
         net, node = _node(srv.port)
         try:
-            node.nmt.send_command(0x82)         # reset communication: the defaults of 0x1000-0x1FFF
-            node.nmt.wait_for_bootup(5)
+            # reset communication: the defaults of 0x1000-0x1FFF.  The drive handles frames in
+            # order, so the uploads below see the reset done (waiting for the boot-up message
+            # instead would race with it: it can come before the wait starts)
+            node.nmt.send_command(0x82)
             product = int.from_bytes(node.sdo.upload(0x1018, 2), "little")
             tpdo2 = int.from_bytes(node.sdo.upload(0x1A01, 1), "little")
             node.sdo.download(0x1011, 1, (0x64616F6C).to_bytes(4, "little"))     # 0x1011 restore: 'load'
@@ -270,6 +273,16 @@ def test_generic_drive_enabled_through_the_canopen_402_profile(mode: str) -> Non
             d.start()
             d.enable_402(mode)
             enabled, shown = d.state(), int(d.read(0x6061))
+            if mode == "CYCLIC SYNCHRONOUS VELOCITY":
+                # 0x60E4:1 (motor encoder / N) follows 0x6064 (output encoder) through a move of
+                # 10 deg/s: the same unit, apart by the twist and the TE only (< 1e-4 turn)
+                p0, m0 = int(d.read(0x6064)), int(d.read(0x60E4, 1))
+                d.write(0x60FF, 0, round(10.0 / 360.0 * 2 ** 32))
+                time.sleep(0.5)
+                p1, m1 = int(d.read(0x6064)), int(d.read(0x60E4, 1))
+                d.write(0x60FF, 0, 0)
+                assert p1 - p0 > 0.004 * 2 ** 24, (p0, p1)          # it moved (> 1.4 deg)
+                assert abs((m1 - m0) - (p1 - p0)) < 1e-4 * 2 ** 24, (m1 - m0, p1 - p0)
             if mode == "CYCLIC SYNCHRONOUS TORQUE":
                 # 0x6078 current actual (per mille of 0x6075) follows the torque (per mille of 0x6076):
                 # both ratings are the reference axis' (6.7 A = 67 N.m / (100 x 0.1 N.m/A))
@@ -321,3 +334,13 @@ def test_sim_generic_spelling(tmp_path: Path) -> None:
     assert "generic CiA 402 profile" in choice("generic").describe()
     with pytest.raises(UserError, match="--sim generic:no/such.toml: no such axis file"):
         choice("generic:no/such.toml")
+
+
+def test_generic_bench_rig_refuses_at_once() -> None:
+    from hdservo.procedures.runner import NoRig, RigError, RigSetup
+    rig = NoRig(RigSetup())
+    for act in (lambda: rig.brake(True), lambda: rig.load_torque(5.0), lambda: rig.load_torque_profile([(1.0, 2.0)])):
+        t0 = time.monotonic()
+        with pytest.raises(RigError, match="generic CiA 402 drive has no test rig"):
+            act()
+        assert time.monotonic() - t0 < 1.0          # not a rig command waiting for an answer

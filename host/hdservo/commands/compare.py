@@ -97,7 +97,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         doc = cmp.run_compare(args.out, ctls, procs, proc_extra=extra, bus=bus, node_id=args.node_id,
                               axis=axis, seed=seed, model=args.model, progress=not args.quiet,
-                              pdf=args.pdf, echo=(lambda s: None) if args.quiet else print)
+                              pdf=args.pdf, echo=(lambda s: None) if args.quiet else print,
+                              profile=choice.profile)
     except ValueError as e:
         raise UserError(str(e)) from None
     if args.json is not None:

@@ -189,6 +189,31 @@ class Rig:
         yield {}  # pragma: no cover
 
 
+class NoRig(Rig):
+    """The generic CiA 402 virtual drive (``--profile generic``): a drive without a bench.
+
+    Every rig action is refused at once, in one line (a drive from another vendor has no
+    brake, load or reference instruments reachable over CAN).
+    """
+
+    def __init__(self, setup: RigSetup) -> None:
+        self.setup = setup
+
+    def brake(self, on: bool) -> None:
+        raise RigError("the generic CiA 402 drive has no test rig (no output brake); "
+                       "run this procedure on a bench or the hdservo profile")
+
+    def load_torque(self, torque_Nm: float, rate_Nm_s: float = 0.0) -> None:
+        raise RigError("the generic CiA 402 drive has no test rig (no output torque loading); "
+                       "run this procedure on a bench or the hdservo profile")
+
+    def load_torque_profile(self, ramps: Sequence[tuple[float, float]]) -> None:
+        self.load_torque(0.0)
+
+    def close(self) -> None:
+        """Nothing to release."""
+
+
 class ManualRig(Rig):
     """A real bench: prints what the operator must do (and waits for Enter on a terminal)."""
 
@@ -637,7 +662,7 @@ def open_bench(target: Target, setup: RigSetup, lockstep: bool = False,
                                for k, v in target.plant.items()]
         proc = VirtualDriveProcess(target.axis, pacing, sets, sync_periods, target.seed, target.node_id,
                                    target.profile)
-        rig = VirtualRig(proc, setup)
+        rig: Rig = VirtualRig(proc, setup) if target.profile == "hdservo" else NoRig(setup)
         drive = None
         try:
             drive = Drive.connect(target.node_id, interface="socketcand", channel="can0", host="127.0.0.1",
@@ -678,4 +703,4 @@ def open_bench(target: Target, setup: RigSetup, lockstep: bool = False,
 
 
 __all__ = ["Bench", "ManualRig", "Progress", "Rig", "RigError", "RigSetup", "SIG", "Target", "VirtualDriveProcess",
-           "VirtualRig", "apply_compensators", "configure_drive", "open_bench"]
+           "VirtualRig", "NoRig", "apply_compensators", "configure_drive", "open_bench"]
