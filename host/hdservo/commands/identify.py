@@ -19,10 +19,14 @@ Preisach table image beside the model (``MODEL.preisach.bin``).
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
 from ..errors import UserError
+
+#: what the standard-objects path identifies (the others need a locked output)
+STD_TARGETS = ("friction", "te", "frf")
 
 NAME = "identify"
 HELP = "identify friction, stiffness, hysteresis, transmission error and FRF of an axis"
@@ -42,6 +46,18 @@ def register(p: argparse.ArgumentParser) -> None:
     can.add_argument("--no-rig", action="store_true",
                      help="with --sim only: do not use the simulated drive's test-rig interface; the locked-output "
                           "experiments then run on the simulator binding (said in the JSON report)")
+    std = p.add_argument_group("any CiA 402 drive (docs/generic-drive.md)")
+    std.add_argument("--standard-objects", action="store_true",
+                     help="run the experiments through CiA 402 standard objects only (host-streamed CSV set-points, "
+                          "synchronous TPDOs of 0x6064/0x606C/0x6077 [+0x60E4:1]); targets friction, te, frf; with "
+                          "--sim the virtual drive runs its generic profile")
+    std.add_argument("--gear-ratio", type=float, metavar="N",
+                     help="with --standard-objects: gear ratio (motor turns per output turn) when the drive has no "
+                          "0x6091")
+    std.add_argument("--sync-period", type=float, metavar="S",
+                     help="with --standard-objects: SYNC period, s (default 0.001; --sim: 0.001)")
+    std.add_argument("--bus-bitrate", type=float, metavar="BIT_S", default=None,
+                     help="with --standard-objects: bitrate for the bus-load check (default: -b, else 1000000)")
     p.add_argument("--seed", type=int, default=None,
                    help="with --sim or --offline only: simulator noise seed (default 1)")
     p.add_argument("--gain", action="append", default=[], metavar="NAME=VALUE",
@@ -95,6 +111,23 @@ def _run(args: argparse.Namespace) -> int:
     if args.data and args.seed is not None:
         raise UserError("--seed is the simulator's noise seed: it goes with --sim or --offline, not --data")
     seed = 1 if args.seed is None else args.seed
+    std_opts = [f"--{k.replace('_', '-')}" for k in ("gear_ratio", "sync_period", "bus_bitrate")
+                if getattr(args, k) is not None]
+    if std_opts and not args.standard_objects:
+        raise UserError(f"{', '.join(std_opts)}: options of --standard-objects")
+    if args.standard_objects:
+        if args.offline is not None or args.data:
+            raise UserError("--standard-objects runs on a drive: it does not go with --offline or --data")
+        if args.target not in STD_TARGETS:
+            raise UserError(f"identify {args.target}: needs the output locked and a torque sensor (a test rig); "
+                            f"--standard-objects identifies {', '.join(STD_TARGETS)}")
+        if args.no_rig or args.gain:
+            raise UserError(f"{'--no-rig' if args.no_rig else '--gain'}: not an option of --standard-objects "
+                            "(no rig, no vendor parameters)")
+        for k in ("gear_ratio", "sync_period", "bus_bitrate"):
+            v = getattr(args, k)
+            if v is not None and not (math.isfinite(v) and v > 0):
+                raise UserError(f"--{k.replace('_', '-')} {v}: expected a positive number")
     session = None
     if args.data:
         for path in args.data:
@@ -111,17 +144,48 @@ def _run(args: argparse.Namespace) -> int:
     else:
         from ..drive import choose_drive
         target = choose_drive(args, sim_only=("seed", "no_rig"))
+        if args.standard_objects and target.virtual and args.gear_ratio is None:
+            raise UserError("--standard-objects: the generic virtual drive has no 0x6091: give --gear-ratio")
         if target.virtual:
             source = f"virtual drive over CAN (axis {target.axis_name})"
             target.announce("identify")
         else:
             source = f"{target.describe()} node {args.node_id}"
-        session = ex.drive_runner(bus=target.bus, node_id=args.node_id, axis=target.axis or "reference", seed=seed,
-                                  progress=progress, rig=not args.no_rig, gains=gains, profile=target.profile)
+        if args.standard_objects:
+            from ..ident.std_runner import StdSession
+            extra: dict = {"progress": progress, "gear_ratio": args.gear_ratio}
+            if args.sync_period is not None:
+                extra["sync_period_s"] = args.sync_period
+            bitrate = args.bus_bitrate or (target.bus or {}).get("bitrate") or 1e6
+            extra["bitrate"] = float(bitrate)
+            if target.virtual:
+                periods = 10 if args.sync_period is None else args.sync_period / 1e-4
+                if abs(periods - round(periods)) > 1e-9 or round(periods) < 1:
+                    raise UserError(f"--sync-period {args.sync_period}: the virtual drive needs a multiple of 0.0001 s")
+                session = StdSession(node_id=args.node_id, axis=target.axis or "reference", seed=seed,
+                                     sync_periods=int(round(periods)), **extra)
+                source = f"virtual drive, generic CiA 402 profile (axis {target.axis_name}), standard objects"
+            else:
+                session = StdSession(bus=target.bus, node_id=args.node_id, **extra)
+                source += ", standard objects"
+        else:
+            session = ex.drive_runner(bus=target.bus, node_id=args.node_id, axis=target.axis or "reference",
+                                      seed=seed, progress=progress, rig=not args.no_rig, gains=gains,
+                                      profile=target.profile)
     if session is not None:
-        with session as runner:
+        from ..drive_caps import CapabilityError
+        try:
+            runner = session.__enter__()
+        except CapabilityError as e:
+            if args.standard_objects or args.target not in STD_TARGETS:
+                raise
+            raise UserError(f"{e}; --standard-objects identifies {args.target} through the CiA 402 standard "
+                            "objects") from None
+        try:
             pl = _run_pipeline(args, runner, data, progress)
             notes = list(runner.notes)
+        finally:
+            session.__exit__(None, None, None)
     else:
         pl = _run_pipeline(args, runner, data, progress)
         notes = []

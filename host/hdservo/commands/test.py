@@ -33,6 +33,7 @@ from ..drive import DriveError, add_bus_arguments, choose_drive
 from ..procedures import closedloop as cl
 from ..procedures import frequency as fq
 from ..procedures import gear
+from ..procedures import standard as std
 from ..procedures.results import Result, write_json
 from ..procedures.runner import Progress, RigSetup, Target, open_bench
 
@@ -68,6 +69,17 @@ PROCEDURES: dict[str, Proc] = {
                     lambda b, a, p: cl.peak_torque(b, request_Nm=a.peak_request, progress=p)),
     "bandwidth": (lambda a: cl.AXIS_SETUP, True,
                   lambda b, a, p: cl.bandwidth(b, amplitude_arcsec=a.amplitude_arcsec, progress=p)),
+}
+
+
+#: procedures on the CiA 402 standard objects alone (``--standard-objects``, procedures/standard.py)
+STD_PROCEDURES: dict[str, Callable[..., Result]] = {
+    "min-rate": lambda r, a, p: std.min_rate(r, rates_deg_s=a.rates, bound=a.bound, windows=a.windows,
+                                             settle_s=a.settle, progress=p),
+    "positioning": lambda r, a, p: std.positioning(r, targets_deg=a.targets, runs=a.runs, progress=p),
+    "bandwidth": lambda r, a, p: std.bandwidth(r, amplitude_arcsec=a.amplitude_arcsec),
+    "peak-torque": lambda r, a, p: std.peak_torque(r, request_Nm=a.peak_request or 0.0,
+                                                   output_locked=a.output_locked),
 }
 
 
@@ -144,6 +156,17 @@ def register(p: argparse.ArgumentParser) -> None:
     g.add_argument("--peak-request", type=_positive, default=None, help="peak-torque request, N.m (torque_limit)")
     g.add_argument("--amplitude-arcsec", type=_positive, default=1800.0,
                    help="bandwidth multisine peak, arcsec (1800 = 0.5 deg)")
+    s = p.add_argument_group("any CiA 402 drive (docs/generic-drive.md)")
+    s.add_argument("--standard-objects", action="store_true",
+                   help="run min-rate, positioning, bandwidth or peak-torque through CiA 402 standard objects only "
+                        "(host-streamed CSP/CST set-points, 0x6064/0x6077 by synchronous TPDO); with --sim the "
+                        "virtual drive runs its generic profile")
+    s.add_argument("--gear-ratio", type=_positive, default=None, metavar="N",
+                   help="with --standard-objects: gear ratio when the drive has no 0x6091")
+    s.add_argument("--sync-period", type=_positive, default=None, metavar="S",
+                   help="with --standard-objects: SYNC period, s (default 0.001)")
+    s.add_argument("--output-locked", action="store_true",
+                   help="with --standard-objects peak-torque: the operator has locked the output")
 
 
 def _check_params(pairs: list[tuple[str, float]]) -> dict[str, float]:
@@ -193,6 +216,12 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--cycles must be >= 1")
     _check_out(args.json, "json")
     _check_out(args.plots, "plots")
+    if args.standard_objects:
+        return _run_standard(args)
+    std_opts = [o for o, v in (("--gear-ratio", args.gear_ratio), ("--sync-period", args.sync_period),
+                               ("--output-locked", args.output_locked or None)) if v is not None]
+    if std_opts:
+        raise UserError(f"{', '.join(std_opts)}: options of --standard-objects")
     comps = None if args.compensators is None else [c.strip() for c in args.compensators.split(",") if c.strip()]
     params = _check_params(getattr(args, "params", []) or [])
     # the user's files are checked before a drive is chosen: a bad file is the first error
@@ -231,6 +260,53 @@ def run(args: argparse.Namespace) -> int:
         for res in results:
             if res.plot is not None:
                 res.plot(res, args.plots, "pdf" if args.pdf else "png")
+    if args.json is not None:
+        write_json(args.json, results, meta)
+    return 0
+
+
+def _run_standard(args: argparse.Namespace) -> int:
+    """``--standard-objects``: the procedures of :mod:`hdservo.procedures.standard` on any CiA 402 drive."""
+    from ..ident.std_runner import StdSession
+    names = sorted(STD_PROCEDURES) if args.procedure == "all" else [args.procedure]
+    other = [n for n in names if n not in STD_PROCEDURES]
+    if other:
+        raise UserError(f"test {args.procedure}: not on the standard-objects path (needs hdservo's capture or a "
+                        f"test rig); --standard-objects runs {', '.join(sorted(STD_PROCEDURES))}")
+    vendor = [o for o, v in (("--model", args.model), ("--compensators", args.compensators),
+                             ("--params", args.params or None)) if v is not None]
+    if vendor:
+        raise UserError(f"{', '.join(vendor)}: hdservo drive parameters, not on the standard-objects path")
+    if "peak-torque" in names and (args.peak_request is None or not args.output_locked):
+        raise UserError("peak-torque --standard-objects: needs --peak-request N.m and --output-locked (the operator "
+                        "locks the output; the standard objects have no brake)")
+    choice = choose_drive(args, sim_only=("seed",))
+    if choice.virtual and args.gear_ratio is None:
+        raise UserError("--standard-objects: the generic virtual drive has no 0x6091: give --gear-ratio")
+    extra: dict[str, Any] = {"gear_ratio": args.gear_ratio}
+    if choice.virtual:
+        periods = 10 if args.sync_period is None else args.sync_period / 1e-4
+        if abs(periods - round(periods)) > 1e-9:
+            raise UserError(f"--sync-period {args.sync_period}: the virtual drive needs a multiple of 0.0001 s")
+        kw: dict[str, Any] = {"axis": choice.axis or "reference", "seed": 1 if args.seed is None else args.seed,
+                              "sync_periods": int(round(periods)), "sets": cl.AXIS_SETUP.sets()}
+    else:
+        kw = {"bus": choice.bus}
+        if args.sync_period is not None:
+            extra["sync_period_s"] = args.sync_period
+        if (choice.bus or {}).get("bitrate"):
+            extra["bitrate"] = float(choice.bus["bitrate"])
+    choice.announce("test")
+    results: list[Result] = []
+    for name in names:
+        prog = Progress(name, enabled=not args.quiet)
+        with StdSession(node_id=args.node_id, **kw, **extra) as r:
+            res = STD_PROCEDURES[name](r, args, prog)
+        results.append(res)
+        print(res.summary())
+    meta: dict[str, Any] = {"target": ("virtual drive (hdservo-sim serve --profile generic)" if choice.virtual
+                                       else choice.describe()) + ", standard objects",
+                            "axis": choice.axis_name if choice.virtual else None}
     if args.json is not None:
         write_json(args.json, results, meta)
     return 0
