@@ -150,10 +150,17 @@ static void pmean_table(hd_plant *p)
 static double preisach_mean(const hd_plant *p, const hd_plant_params *q, double phi)
 {
     const double M = q->preisach_u_max_rad, x = (sat(phi, M) + M) * p->preisach_inv_du;
-    int i = (int)x;
+    int i;
     double f;
-    if (i > HD_PLANT_PREISACH_L - 1) i = HD_PLANT_PREISACH_L - 1;
-    if (i < 0) i = 0;
+    /* a diverging state (NaN, or a range no table holds) must never reach the int cast:
+     * the table's end is used and the divergence check stops the run */
+    if (!(x >= 0.0)) {
+        i = 0;
+    } else if (x >= (double)(HD_PLANT_PREISACH_L - 1)) {
+        i = HD_PLANT_PREISACH_L - 1;
+    } else {
+        i = (int)x;
+    }
     f = x - (double)i;
     return p->preisach_pm[i] + f * (p->preisach_pm[i + 1] - p->preisach_pm[i]);
 }

@@ -35,7 +35,7 @@ from typing import Callable, Dict, Generic, Hashable, List, Optional, Sequence, 
 
 import numpy as np
 
-from ..cli import UserError
+from ..errors import UserError
 from . import structure as st
 from .catalogue import GearRow
 

@@ -52,7 +52,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..cli import UserError
+from ..errors import UserError
 
 ARCSEC = math.pi / (180.0 * 3600.0)
 DEG = math.pi / 180.0

@@ -52,7 +52,7 @@ from typing import Any, Callable, Mapping, Optional, Sequence
 
 import numpy as np
 
-from ..cli import UserError
+from ..errors import UserError
 from . import experiments as ex
 from .drive_runner import schroeder_multisine
 
@@ -859,7 +859,7 @@ class StdSession:
         try:
             args = dict(self.runner_args)
             if self.bus is None:
-                from ..commands.serve import find_sim
+                from ..serve_proc import find_sim
                 from ..serve_proc import ServeError, ServeProcess
                 cmd = ["--node-id", str(self.node_id), "--axis", str(self.axis), "--pacing", self.pacing,
                        "--sync-periods", str(self.sync_periods), "--seed", str(self.seed), "--profile", self.profile]

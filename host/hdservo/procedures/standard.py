@@ -27,7 +27,7 @@ from typing import Any, Callable, Optional, Sequence
 
 import numpy as np
 
-from ..cli import UserError
+from ..errors import UserError
 from . import metrics as mt
 from .closedloop import (MIN_WINDOW_ARCSEC, RATE_LADDER_DEG_S, RECORD_MARGIN_WINDOWS, bandwidth_lines,
                          bandwidth_signal, rate_window_rad, rung_settle_s)
