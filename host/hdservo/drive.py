@@ -21,14 +21,13 @@ import struct
 import time
 import zlib
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 from typing import Any, Callable, Iterator, Optional, TypeVar
 
 import can
 import canopen
 
-from . import od_gen
+from . import od_gen, resources
 from .errors import UserError
 from .params_gen import BY_NAME as PARAMS
 
@@ -40,7 +39,7 @@ logging.getLogger("can.interfaces.socketcand").setLevel(logging.ERROR)
 # error becomes the one DriveError line, so its log lines would only duplicate it
 logging.getLogger("canopen.sdo.client").setLevel(logging.CRITICAL)
 
-EDS_PATH = Path(str(resources.files("hdservo") / "data" / "hdservo.eds"))
+EDS_PATH = resources.eds_path()
 from .fw_const import LOOP_HZ, SIGNALS  # noqa: E402  (generated from the C headers)
 from .units import TURN  # noqa: E402
 
