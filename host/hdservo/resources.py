@@ -180,6 +180,29 @@ def axis_file(name: str) -> Path:
     return _named(axes_dir(), "axis file", name)
 
 
+def axis_arg(text: str) -> str:
+    """An ``--axis`` value for the simulator: a shipped axis name becomes its file.
+
+    Parameters
+    ----------
+    text : str
+        ``"reference"``/``"minimal"`` (built into the simulator), an axis file path, or the
+        name of a shipped axis file (``"csf17_50"``).
+
+    Returns
+    -------
+    str
+        ``text`` unchanged unless it names a shipped axis file and is not a file itself;
+        then the path of that file.
+    """
+    if text in ("reference", "minimal") or Path(text).is_file() or Path(text).parent != Path("."):
+        return text
+    try:
+        return str(axis_file(text))
+    except ResourceError:
+        return text          # the simulator names the bad value
+
+
 def scenario_file(name: str) -> Path:
     """A shipped simulation scenario by name (``"step"``, ``"faults"``, ...), ``.toml`` optional."""
     return _named(scenarios_dir(), "scenario", name)

@@ -2,7 +2,7 @@
 
 The simulated axis is served as a CANopen node over a socketcand-protocol TCP
 server on loopback (python-can ``interface="socketcand"``) or SocketCAN.
-Every option is passed through to ``build/bin/hdservo-sim serve``.
+Every option is passed through to ``hdservo-sim serve`` (found by :mod:`hdservo.resources`).
 """
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import subprocess
 from pathlib import Path
 
 from ..errors import UserError
+from .. import resources
 from ..serve_proc import find_sim
 
 NAME = "serve"
@@ -19,7 +20,8 @@ HELP = "serve the simulated axis as a CANopen drive (virtual drive)"
 
 def register(p: argparse.ArgumentParser) -> None:
     """Options of the virtual drive."""
-    p.add_argument("--axis", default="reference", help="axis TOML file, 'reference' or 'minimal'")
+    p.add_argument("--axis", default="reference",
+                   help="axis TOML file, 'reference' or 'minimal' (built in), or the name of a shipped axis file")
     p.add_argument("--node-id", type=int, default=1)
     p.add_argument("--transport", choices=("socketcand", "socketcan"), default="socketcand")
     p.add_argument("--port", type=int, default=29536, help="socketcand TCP port (0 = ephemeral)")
@@ -32,7 +34,7 @@ def register(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the virtual drive in the foreground until Ctrl-C."""
-    cmd = [str(find_sim()), "serve", "--axis", args.axis, "--node-id", str(args.node_id),
+    cmd = [str(find_sim()), "serve", "--axis", resources.axis_arg(args.axis), "--node-id", str(args.node_id),
            "--transport", args.transport, "--port", str(args.port), "--channel", args.channel,
            "--pacing", args.pacing, "--sync-periods", str(args.sync_periods), "--bitrate", str(args.bitrate)]
     if args.duration is not None:
