@@ -225,4 +225,4 @@ def dbc_path() -> Path:
 
 def example_log() -> Path:
     """The shipped example log CSV (its JSON sidecar lies beside it)."""
-    return data_path("examples", "chirp_cogging.csv")
+    return data_path("examples", "chirp_reference.csv")
