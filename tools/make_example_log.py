@@ -9,10 +9,11 @@ measured current), rounded to 1 nrad and 0.1 uN.m so that the file stays below 1
 
 Run from the checkout after ``make sim``::
 
-    .venv/bin/python tools/make_example_log.py
+    .venv/bin/python tools/make_example_log.py [--out OTHER.csv]
 """
 from __future__ import annotations
 
+import argparse
 import math
 import sys
 import tempfile
@@ -57,7 +58,10 @@ t1_s = {DURATION_S}
 """
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, default=OUT, help="log CSV to write (default: the shipped example)")
+    out = ap.parse_args(argv).out
     with tempfile.TemporaryDirectory() as td:
         scenario = Path(td) / "chirp_reference.toml"
         scenario.write_text(SCENARIO)
@@ -67,12 +71,12 @@ def main() -> int:
     meta.pop("columns", None)
     meta["scenario"] = "chirp_reference (tools/make_example_log.py)"
     kt = sim.axis_param("motor.kt_Nm_per_A")
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    logio.write_log(OUT, {"t_s": cols["t_s"],
+    out.parent.mkdir(parents=True, exist_ok=True)
+    logio.write_log(out, {"t_s": cols["t_s"],
                           "motor_angle_rad": np.round(cols["motor_angle_rad"], 9),
                           "load_angle_rad": np.round(cols["load_angle_rad"], 9),
                           "motor_torque_Nm": np.round(kt * cols["motor_current_A"], 7)}, meta)
-    print(f"wrote {OUT.relative_to(ROOT)} ({len(cols['t_s'])} rows, {OUT.stat().st_size} bytes)")
+    print(f"wrote {out} ({len(cols['t_s'])} rows, {out.stat().st_size} bytes)")
     return 0
 
 

@@ -95,3 +95,23 @@ def test_no_library_module_locates_files_by_itself() -> None:
 def test_sim_library_comes_from_the_locator(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     monkeypatch.setenv("HDSERVO_SIMLIB", str(tmp_path / "absent.so"))
     assert sim.library_path() == tmp_path / "absent.so"
+
+
+def test_shipped_example_log_is_what_its_generator_writes(tmp_path: Path) -> None:
+    """The example log comes from tools/make_example_log.py (same scenario, columns and rows);
+    regenerate it with that tool when the simulated axis changes."""
+    from hdservo import logio
+    out = tmp_path / "ex.csv"
+    p = subprocess.run([sys.executable, str(ROOT / "tools" / "make_example_log.py"), "--out", str(out)],
+                       cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-2000:]
+    new, shipped = logio.read_log(out), logio.read_log(resources.example_log())
+    assert list(new.columns) == list(shipped.columns)
+    for key in ("scenario", "scenario_name", "axis", "seed", "log_decimation", "duration_s", "gear_ratio"):
+        assert new.meta[key] == shipped.meta[key], key
+    import numpy as np
+    for name in new.columns:
+        a, b = np.asarray(new.columns[name]), np.asarray(shipped.columns[name])
+        assert a.shape == b.shape, name
+        scale = max(float(np.max(np.abs(b))), 1e-12)
+        assert float(np.max(np.abs(a - b))) <= 1e-3 * scale, name
