@@ -45,10 +45,7 @@ from . import structure as st
 from .catalogue import GearRow, MotorRow, SensorRow
 from .spec import Spec
 
-try:  # Python >= 3.11
-    import tomllib
-except ModuleNotFoundError:  # pragma: no cover
-    import tomli as tomllib  # type: ignore[no-redef]
+import tomllib
 
 from ..units import DEG  # noqa: E402
 #: reference gear and motor (the values of reference.toml were made for these)

@@ -27,10 +27,7 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Type, T
 from .. import resources
 from ..errors import UserError
 
-try:  # Python >= 3.11
-    import tomllib
-except ModuleNotFoundError:  # pragma: no cover - Python 3.9/3.10
-    import tomli as tomllib  # type: ignore[no-redef]
+import tomllib
 
 #: Directory of the catalogue data files (installed as package data).
 DATA_DIR: Path = resources.DATA_DIR
