@@ -41,8 +41,12 @@ class BuildWithSimulator(build_py):
     """build_py that also builds the simulator and copies the axis files and scenarios."""
 
     def run(self) -> None:
+        editable = getattr(self, "editable_mode", False)
+        if not editable:
+            # start from an empty build tree: a module removed from the source stays out of the wheel
+            shutil.rmtree(Path(self.build_lib) / "hdservo", ignore_errors=True)
         super().run()
-        if getattr(self, "editable_mode", False):
+        if editable:
             return
         if not (ROOT / "Makefile").is_file() or not (ROOT / "sim").is_dir():
             _fail(f"{ROOT}: expected the hdservo checkout (Makefile, sim/) around host/; "
