@@ -9,6 +9,7 @@ cleared environment, and each test checks that it used the installed package.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import select
@@ -124,7 +125,27 @@ def test_sim_runs_a_shipped_scenario(installed: dict[str, Path]) -> None:
     assert not (installed["work"] / "y.csv").exists()
 
 
-def test_serve_starts_listens_and_stops(installed: dict[str, Path]) -> None:
+def _children(pid: int) -> list[int]:
+    kids = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            kids.append(int(stat.parent.name))
+    return kids
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def test_serve_starts_listens_and_stops_on_sigterm(installed: dict[str, Path]) -> None:
     proc = subprocess.Popen([str(installed["hdservo"]), "serve", "--port", "0", "--axis", "csf17_50"],
                             cwd=installed["work"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             env=_env(installed["home"]), start_new_session=True)
@@ -139,15 +160,19 @@ def test_serve_starts_listens_and_stops(installed: dict[str, Path]) -> None:
                     break
         assert line.startswith("listening on 127.0.0.1:"), (line, proc.poll())
         assert int(line.strip().rsplit(":", 1)[1]) > 0
+        sims = _children(proc.pid)
+        assert len(sims) == 1, sims                      # hdservo-sim, started by the command
+        proc.send_signal(signal.SIGTERM)                  # to the command only, as a service manager does
+        proc.wait(timeout=20)
+        deadline = time.monotonic() + 10
+        while _alive(sims[0]) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not _alive(sims[0]), "hdservo-sim still serves after hdservo serve got SIGTERM"
+        assert proc.returncode in (0, 128 + signal.SIGTERM), proc.returncode
     finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGTERM)           # the command and the program it started
-        try:
-            proc.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait(timeout=20)
-    assert proc.returncode is not None
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)           # whatever is left of the command's session
+        proc.wait(timeout=20)
 
 
 def test_discrepancy_on_the_shipped_example_log(installed: dict[str, Path]) -> None:

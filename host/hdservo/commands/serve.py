@@ -7,7 +7,9 @@ Every option is passed through to ``hdservo-sim serve`` (found by :mod:`hdservo.
 from __future__ import annotations
 
 import argparse
+import signal
 import subprocess
+import threading
 from pathlib import Path
 
 from ..errors import UserError
@@ -33,13 +35,38 @@ def register(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the virtual drive in the foreground until Ctrl-C."""
+    """Run the virtual drive in the foreground until Ctrl-C or SIGTERM (both stop the program).
+
+    Returns
+    -------
+    int
+        The program's exit status; 128 + N when it ended on signal N.
+    """
     cmd = [str(find_sim()), "serve", "--axis", resources.axis_arg(args.axis), "--node-id", str(args.node_id),
            "--transport", args.transport, "--port", str(args.port), "--channel", args.channel,
            "--pacing", args.pacing, "--sync-periods", str(args.sync_periods), "--bitrate", str(args.bitrate)]
     if args.duration is not None:
         cmd += ["--duration", str(args.duration)]
     try:
-        return subprocess.call(cmd)
+        proc = subprocess.Popen(cmd)
+    except OSError as e:
+        raise UserError(f"{cmd[0]}: cannot start the virtual drive: {e.strerror or e}") from None
+    # SIGTERM (a service manager, `kill`) must stop the program too, not leave it serving
+    # without its parent; Ctrl-C reaches both through the terminal's process group.
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, lambda signum, _frame: proc.send_signal(signum)) if main else None
+    try:
+        rc = proc.wait()
     except KeyboardInterrupt:
-        return 130
+        rc = -signal.SIGINT
+    finally:
+        if proc.poll() is None:
+            proc.terminate()
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        if main:
+            signal.signal(signal.SIGTERM, previous)
+    return 128 - rc if rc < 0 else rc
