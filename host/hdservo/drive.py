@@ -103,7 +103,8 @@ def add_bus_arguments(p: "argparse.ArgumentParser | argparse._ArgumentGroup", si
     if sim:
         p.add_argument("--sim", nargs="?", const="reference", default=None, metavar="AXIS",
                        help="talk to a simulated drive instead (a virtual drive started for this command, over "
-                            "CAN): axis 'reference' (default), 'minimal' or an axis TOML file; the same as "
+                            "CAN): axis 'reference' (default), 'minimal', a shipped axis (e.g. csf17_50) or an axis TOML "
+                            "file; the same as "
                             f"-i {SIM_INTERFACE}. Put it last or write --sim=AXIS")
 
 
@@ -224,11 +225,11 @@ def choose_drive(args: argparse.Namespace, sim_only: tuple[str, ...] = ()) -> Dr
         if clash:
             raise UserError(f"{', '.join(clash)}: bus options do not go with a simulated drive ({origin}); "
                              "give either the bus or --sim")
-        axis = sim_axis or "reference"
+        axis = resources.axis_arg(sim_axis or "reference")      # a shipped axis by name, too
         if axis not in SIM_AXES:
             if not Path(axis).is_file():
-                raise UserError(f"--sim {axis}: no such axis file (expected {', '.join(SIM_AXES)} "
-                                 "or an axis TOML file)")
+                raise UserError(f"--sim {axis}: no such axis file (expected {', '.join(SIM_AXES)}, "
+                                 f"a shipped axis ({', '.join(resources.axis_names())}) or an axis TOML file)")
             axis = str(Path(axis).resolve())
         return DriveChoice(bus=None, axis=axis, origin=origin)
     for opt in sim_only:

@@ -115,3 +115,18 @@ def test_shipped_example_log_is_what_its_generator_writes(tmp_path: Path) -> Non
         assert a.shape == b.shape, name
         scale = max(float(np.max(np.abs(b))), 1e-12)
         assert float(np.max(np.abs(a - b))) <= 1e-3 * scale, name
+
+
+def test_sim_option_takes_a_shipped_axis_name(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    import argparse
+    from hdservo.drive import add_bus_arguments, choose_drive
+    monkeypatch.setenv("HOME", str(tmp_path))
+    for k in [k for k in __import__("os").environ if k.startswith("CAN_")]:
+        monkeypatch.delenv(k)
+    p = argparse.ArgumentParser()
+    add_bus_arguments(p)
+    c = choose_drive(p.parse_args(["--sim", "csf17_50"]))
+    assert c.virtual and c.axis == str(resources.axis_file("csf17_50"))
+    with pytest.raises(UserError, match="csf17_50") as e:
+        choose_drive(p.parse_args(["--sim", "csf99_1"]))
+    assert "\n" not in str(e.value)
