@@ -38,7 +38,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from . import REPO_ROOT, filters, sim
+from . import filters, resources, sim
 from .tomltext import basic_string
 
 #: arcsec per radian.
@@ -46,10 +46,11 @@ from .units import ARCSEC_PER_RAD  # noqa: E402
 #: rad per degree.
 RAD_PER_DEG = math.pi / 180.0
 
-#: Axes the baseline runs on: name -> axis spec ("reference" is built in).
+#: Axes the baseline runs on: name -> axis spec ("reference" is built in, the others are
+#: shipped axis files, see :func:`hdservo.resources.axis_file`).
 AXES: dict[str, str] = {
     "reference": "reference",
-    "csf17_50": str(Path("sim") / "axes" / "csf17_50.toml"),
+    "csf17_50": "csf17_50",
 }
 
 #: Constant-rate tracking speeds, deg/s (keys of the "tracking" figures).
@@ -202,11 +203,11 @@ def axis_controller(axis: str = "reference") -> dict[str, Any]:
 
 
 def _axis_spec(axis: str) -> str:
-    spec = AXES.get(axis, axis)
-    if spec in ("reference", "minimal"):
-        return spec
-    p = Path(spec)
-    return str(p if p.is_absolute() else (REPO_ROOT / p))
+    if axis in ("reference", "minimal"):
+        return axis
+    if axis in AXES:
+        return str(resources.axis_file(AXES[axis]))
+    return str(Path(axis).resolve())
 
 
 def _toml_value(v: Any) -> str:

@@ -21,14 +21,13 @@ import struct
 import time
 import zlib
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 from typing import Any, Callable, Iterator, Optional, TypeVar
 
 import can
 import canopen
 
-from . import od_gen
+from . import od_gen, resources
 from .errors import UserError
 from .params_gen import BY_NAME as PARAMS
 
@@ -40,7 +39,7 @@ logging.getLogger("can.interfaces.socketcand").setLevel(logging.ERROR)
 # error becomes the one DriveError line, so its log lines would only duplicate it
 logging.getLogger("canopen.sdo.client").setLevel(logging.CRITICAL)
 
-EDS_PATH = Path(str(resources.files("hdservo") / "data" / "hdservo.eds"))
+EDS_PATH = resources.eds_path()
 from .fw_const import LOOP_HZ, SIGNALS  # noqa: E402  (generated from the C headers)
 from .units import TURN  # noqa: E402
 
@@ -125,9 +124,9 @@ def add_bus_arguments(p: "argparse.ArgumentParser | argparse._ArgumentGroup", si
     if sim:
         p.add_argument("--sim", nargs="?", const="reference", default=None, metavar="AXIS",
                        help="talk to a simulated drive instead (a virtual drive started for this command, over "
-                            "CAN): axis 'reference' (default), 'minimal' or an axis TOML file; 'generic:AXIS' "
-                            "(or 'generic') the same axis as a generic CiA 402 drive (standard objects only); "
-                            f"the same as -i {SIM_INTERFACE}. Put it last or write --sim=AXIS")
+                            "CAN): axis 'reference' (default), 'minimal', a shipped axis (e.g. csf17_50) or an axis TOML "
+                            "file; 'generic:AXIS' (or 'generic') the same axis as a generic CiA 402 drive (standard "
+                            f"objects only); the same as -i {SIM_INTERFACE}. Put it last or write --sim=AXIS")
 
 
 def bus_kwargs(args: argparse.Namespace) -> dict[str, Any]:
@@ -260,10 +259,12 @@ def choose_drive(args: argparse.Namespace, sim_only: tuple[str, ...] = ()) -> Dr
         profile = "hdservo"
         if axis == "generic" or axis.startswith("generic:"):
             profile, axis = "generic", axis[len("generic:"):] or "reference"
+        axis = resources.axis_arg(axis)      # a shipped axis by name, too
         if axis not in SIM_AXES:
             if not Path(axis).is_file():
                 raise UserError(f"--sim {sim_axis}: no such axis file (expected {', '.join(SIM_AXES)}, "
-                                 "an axis TOML file, or generic:AXIS)")
+                                 f"a shipped axis ({', '.join(resources.axis_names())}), an axis TOML file, "
+                                 "or generic:AXIS)")
             axis = str(Path(axis).resolve())
         return DriveChoice(bus=None, axis=axis, origin=origin, profile=profile)
     for opt in sim_only:

@@ -32,12 +32,13 @@ import numpy as np
 import scipy.io
 import scipy.signal as sig
 
+from . import resources
 from .errors import UserError
 
 #: Environment variable that overrides the default data directory.
 ENV_DATA_DIR = "HDSERVO_EMPS_DIR"
 #: The EMPS records and their provenance, shipped as package data.
-DEFAULT_DATA_DIR = Path(__file__).resolve().parent / "data" / "emps"
+DEFAULT_DATA_DIR = resources.data_path("emps")
 #: Training (estimation) and test (validation) record names.
 TRAIN_RECORD = "DATA_EMPS"
 TEST_RECORD = "DATA_EMPS_PULSES"

@@ -9,32 +9,22 @@ SIGTERM then SIGKILL.  This module is that one piece; the callers only choose th
 from __future__ import annotations
 
 import contextlib
-import os
 import select
-import shutil
 import signal
 import subprocess
 import threading
 from pathlib import Path
 from typing import Any, Iterator, Optional, Protocol, Sequence, TypeVar
 
+from . import resources
 from .errors import UserError
 
 LISTENING = "listening on 127.0.0.1:"
 
 
 def find_sim() -> Path:
-    """Locate the hdservo-sim program: $HDSERVO_SIM, the build tree, then PATH."""
-    env = os.environ.get("HDSERVO_SIM")
-    if env:
-        return Path(env)
-    here = Path(__file__).resolve().parents[2] / "build" / "bin" / "hdservo-sim"
-    if here.exists():
-        return here
-    w = shutil.which("hdservo-sim")
-    if w:
-        return Path(w)
-    raise UserError("hdservo-sim not found (run `make sim` or set HDSERVO_SIM)")
+    """The hdservo-sim program (see :func:`hdservo.resources.sim_program`)."""
+    return resources.sim_program()
 
 
 class ServeError(UserError):

@@ -13,15 +13,14 @@ Three uses, all filled by the C side into numpy arrays (no per-sample Python loo
   effect on or off (``"section"`` -> ``section.enabled``,
   ``"section.x"`` -> ``section.x_enabled``).
 
-The library is located relative to the repository root and built with
-``make build/lib/libhdsim.so`` if it is missing.
+The library is found by :func:`hdservo.resources.sim_library` (inside the package when
+installed from a wheel, ``build/lib/libhdsim.so`` in a checkout after ``make sim``).
 """
 from __future__ import annotations
 
 import ctypes
 import json
 import os
-import subprocess
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,11 +28,9 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from . import REPO_ROOT
+from . import resources
 from .errors import UserError
 
-#: Where the shared library is built (relative to the repository root).
-LIB_RELPATH = Path("build") / "lib" / "libhdsim.so"
 #: Firmware loop period of the reference axis, s.
 LOOP_PERIOD_S = 1e-4
 
@@ -51,20 +48,8 @@ def _c_double_p(a: np.ndarray) -> Any:
 
 
 def library_path() -> Path:
-    """Path of ``libhdsim.so`` (``$HDSERVO_SIMLIB`` overrides the default)."""
-    env = os.environ.get("HDSERVO_SIMLIB")
-    return Path(env) if env else REPO_ROOT / LIB_RELPATH
-
-
-def _build() -> None:
-    try:
-        p = subprocess.run(["make", "--no-print-directory", "-j2", str(LIB_RELPATH)], cwd=REPO_ROOT,
-                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    except OSError as e:
-        raise SimError(f"cannot run make to build {LIB_RELPATH}: {e}") from None
-    if p.returncode != 0:
-        last = (p.stdout.strip().splitlines() or ["(no output)"])[-1]
-        raise SimError(f"building {LIB_RELPATH} failed: {last}")
+    """Path of ``libhdsim.so`` (see :func:`hdservo.resources.sim_library`)."""
+    return resources.sim_library()
 
 
 def load_library() -> ctypes.CDLL:
@@ -74,10 +59,8 @@ def load_library() -> ctypes.CDLL:
         if _lib is not None:
             return _lib
         path = library_path()
-        if not path.exists() and "HDSERVO_SIMLIB" not in os.environ:
-            _build()
-        if not path.exists():
-            raise SimError(f"{path}: simulator library not found (run: make {LIB_RELPATH})")
+        if not path.is_file():
+            raise SimError(f"{path}: simulator library not found (HDSERVO_SIMLIB names a missing file)")
         lib = ctypes.CDLL(str(path))
         vp, cp, sz = ctypes.c_void_p, ctypes.c_char_p, ctypes.c_size_t
         dp = ctypes.POINTER(ctypes.c_double)

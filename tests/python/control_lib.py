@@ -6,8 +6,10 @@ from __future__ import annotations
 
 import ctypes as C
 import subprocess
+from pathlib import Path
 
-from hdservo import REPO_ROOT
+#: The checkout these tests run in.
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 SO = REPO_ROOT / "build" / "lib" / "libhdcontrol.so"
 

@@ -10,12 +10,16 @@ the last 0.2 s of a 1.5 s dwell.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
-from hdservo import REPO_ROOT, baseline, compsetup
+from hdservo import baseline, compsetup
 from hdservo.design import predict
 from hdservo.procedures import metrics as mt
+
+#: The checkout these tests run in.
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 AXIS = str(REPO_ROOT / "sim" / "axes" / "reference.toml")
 DEG = math.pi / 180

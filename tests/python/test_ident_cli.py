@@ -8,11 +8,14 @@ from pathlib import Path
 
 import numpy as np
 
-from hdservo import REPO_ROOT, logio
+from hdservo import logio
 from hdservo.cli import main
 
 import ident_cache as cache
 from hdservo.ident import experiments as ex
+
+#: The checkout these tests run in.
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_missing_log_is_one_line(tmp_path: Path, capsys) -> None:

@@ -15,7 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from hdservo import REPO_ROOT
+#: The checkout these tests run in.
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 EXE = REPO_ROOT / "build" / "bin" / "hdservo-sim"
 

@@ -8,7 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdservo import REPO_ROOT, logio, sim
+from hdservo import logio, sim
+
+#: The checkout these tests run in.
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 SCEN = REPO_ROOT / "sim" / "scenarios"
 ARCSEC = math.pi / 180 / 3600

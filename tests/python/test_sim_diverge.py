@@ -9,7 +9,10 @@ from pathlib import Path
 
 import pytest
 
-from hdservo import REPO_ROOT, sim
+from hdservo import sim
+
+#: The checkout these tests run in.
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 STIFF = {"stiffness.k1_Nm_per_rad": 1e9, "stiffness.k2_Nm_per_rad": 1e9, "stiffness.k3_Nm_per_rad": 1e9,
          "stiffness_cubic.k1_Nm_per_rad": 1e9, "stiffness_cubic.k3_Nm_per_rad3": 1e9}

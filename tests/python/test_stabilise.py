@@ -14,7 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from hdservo import REPO_ROOT, sim
+from hdservo import sim
+
+#: The checkout these tests run in.
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 SCEN = REPO_ROOT / "sim" / "scenarios" / "stabilise.toml"
 ARCSEC = math.pi / 180 / 3600

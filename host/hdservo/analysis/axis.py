@@ -1,6 +1,7 @@
 """Axis parameters and controller gains for the describing-function analysis.
 
-Axis files are the simulator's TOML files (``sim/axes/*.toml``): tables
+Axis files are the simulator's TOML files (the shipped ones are found by
+:func:`hdservo.resources.axis_file`): tables
 ``[section]`` with SI-suffixed keys, addressed as ``"section.key"`` (see
 ``sim/plant/hd_plant.h``).  Only the keys the analysis needs are read; the rest
 are ignored.  Missing keys keep the built-in reference-axis values
@@ -23,7 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Dict, List, Mapping, Tuple
 
-from .. import REPO_ROOT
+from .. import resources
 from ..fw_const import LOOP_HZ
 from ..params_gen import BY_NAME as PARAM_DEFS
 
@@ -82,9 +83,6 @@ REFERENCE_GAINS: Dict[str, float] = {
     "loop_period_s": 1.0 / LOOP_HZ, "delay_periods": 1.5,
 }
 
-PARAMS_TOML = Path("firmware") / "params" / "params.toml"
-
-
 class AxisFileError(ValueError):
     """A bad axis or gains file: the message names the file, the place and what was expected."""
 
@@ -137,8 +135,9 @@ def load_axis(path: Path | None) -> Tuple[Dict[str, float], List[str]]:
     Parameters
     ----------
     path : pathlib.Path or None
-        Axis TOML (simulator format); None: ``sim/axes/reference.toml`` in the
-        repository if it exists, else the built-in reference axis.
+        Axis TOML (simulator format); None: the shipped ``reference`` axis file
+        (:func:`hdservo.resources.axis_file`) if it is installed, else the built-in
+        reference axis.
 
     Returns
     -------
@@ -150,15 +149,13 @@ def load_axis(path: Path | None) -> Tuple[Dict[str, float], List[str]]:
     params = dict(REFERENCE_AXIS)
     notes: List[str] = []
     if path is None:
-        cand = REPO_ROOT / "sim" / "axes" / "reference.toml"
-        if not cand.is_file():
-            notes.append("no axis file given and sim/axes/reference.toml not found: "
+        try:
+            path = resources.axis_file("reference")
+        except resources.ResourceError:
+            notes.append("no axis file given and the reference axis file is not installed: "
                          "using the built-in reference axis (docs/reference-axis.md)")
             return params, notes
-        path = cand.relative_to(REPO_ROOT)
-        doc = _flatten(read_toml(cand))
-    else:
-        doc = _flatten(read_toml(path))
+    doc = _flatten(read_toml(path))
     used = 0
     for key, v in doc.items():
         if key in params or key.startswith(("hysteresis_maxwell.e", "friction_")):
@@ -195,12 +192,7 @@ def load_gains(spec: List[str] | None) -> Tuple[Dict[str, float], List[str]]:
     """
     gains = dict(REFERENCE_GAINS)
     notes: List[str] = []
-    table = REPO_ROOT / PARAMS_TOML
-    if table.is_file():
-        _apply_params_toml(gains, table, read_toml(table))
-        notes.append(f"gains: defaults from {PARAMS_TOML}")
-    else:
-        notes.append("gains: built-in reference defaults (firmware/params/params.toml not found)")
+    notes.append("gains: the drive's parameter defaults (firmware/params/params.toml)")
     for item in spec or []:
         if "=" in item and not item.endswith(".toml"):
             name, _, val = item.partition("=")

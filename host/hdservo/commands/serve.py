@@ -2,15 +2,18 @@
 
 The simulated axis is served as a CANopen node over a socketcand-protocol TCP
 server on loopback (python-can ``interface="socketcand"``) or SocketCAN.
-Every option is passed through to ``build/bin/hdservo-sim serve``.
+Every option is passed through to ``hdservo-sim serve`` (found by :mod:`hdservo.resources`).
 """
 from __future__ import annotations
 
 import argparse
+import signal
 import subprocess
+import threading
 from pathlib import Path
 
 from ..errors import UserError
+from .. import resources
 from ..serve_proc import find_sim
 
 NAME = "serve"
@@ -19,7 +22,8 @@ HELP = "serve the simulated axis as a CANopen drive (virtual drive)"
 
 def register(p: argparse.ArgumentParser) -> None:
     """Options of the virtual drive."""
-    p.add_argument("--axis", default="reference", help="axis TOML file, 'reference' or 'minimal'")
+    p.add_argument("--axis", default="reference",
+                   help="axis TOML file, 'reference' or 'minimal' (built in), or the name of a shipped axis file")
     p.add_argument("--node-id", type=int, default=1)
     p.add_argument("--transport", choices=("socketcand", "socketcan"), default="socketcand")
     p.add_argument("--port", type=int, default=29536, help="socketcand TCP port (0 = ephemeral)")
@@ -34,14 +38,39 @@ def register(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the virtual drive in the foreground until Ctrl-C."""
-    cmd = [str(find_sim()), "serve", "--axis", args.axis, "--node-id", str(args.node_id),
+    """Run the virtual drive in the foreground until Ctrl-C or SIGTERM (both stop the program).
+
+    Returns
+    -------
+    int
+        The program's exit status; 128 + N when it ended on signal N.
+    """
+    cmd = [str(find_sim()), "serve", "--axis", resources.axis_arg(args.axis), "--node-id", str(args.node_id),
            "--transport", args.transport, "--port", str(args.port), "--channel", args.channel,
            "--pacing", args.pacing, "--sync-periods", str(args.sync_periods), "--bitrate", str(args.bitrate),
            "--profile", args.profile]
     if args.duration is not None:
         cmd += ["--duration", str(args.duration)]
     try:
-        return subprocess.call(cmd)
+        proc = subprocess.Popen(cmd)
+    except OSError as e:
+        raise UserError(f"{cmd[0]}: cannot start the virtual drive: {e.strerror or e}") from None
+    # SIGTERM (a service manager, `kill`) must stop the program too, not leave it serving
+    # without its parent; Ctrl-C reaches both through the terminal's process group.
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, lambda signum, _frame: proc.send_signal(signum)) if main else None
+    try:
+        rc = proc.wait()
     except KeyboardInterrupt:
-        return 130
+        rc = -signal.SIGINT
+    finally:
+        if proc.poll() is None:
+            proc.terminate()
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        if main:
+            signal.signal(signal.SIGTERM, previous)
+    return 128 - rc if rc < 0 else rc

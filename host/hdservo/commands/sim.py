@@ -2,7 +2,8 @@
 
 Runs the drive firmware against the simulated axis through the ctypes
 binding (:mod:`hdservo.sim`) and writes the log (CSV + JSON sidecar,
-the log format of docs/sim.md).  Same engine as ``build/bin/hdservo-sim run``.
+the log format of docs/sim.md).  Same engine as ``hdservo-sim run``.  SCENARIO is a file or the name of a
+shipped scenario (:func:`hdservo.resources.scenario_file`).
 """
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ import time
 from pathlib import Path
 
 from ..errors import UserError
-from .. import sim
+from .. import resources, sim
 
 NAME = "sim"
 HELP = "run a closed-loop simulation scenario and write its log (CSV + JSON sidecar)"
@@ -31,7 +32,8 @@ def _kv(text: str) -> tuple[str, float]:
 
 
 def register(p: argparse.ArgumentParser) -> None:
-    p.add_argument("scenario", type=Path, help="scenario TOML (see docs/sim.md)")
+    p.add_argument("scenario", type=Path,
+                   help="scenario TOML (see docs/sim.md), or the name of a shipped scenario (e.g. step)")
     p.add_argument("-o", "--output", type=Path, required=True, help="log CSV to write (sidecar .json beside it)")
     p.add_argument("--seed", type=int, help="noise seed (overrides the scenario)")
     p.add_argument("--duration", type=float, metavar="S", help="run length in s (overrides the scenario)")
@@ -42,7 +44,12 @@ def register(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if not args.scenario.is_file():
-        raise UserError(f"{args.scenario}: scenario file not found")
+        if args.scenario.parent != Path(".") or args.scenario.suffix == ".toml":
+            raise UserError(f"{args.scenario}: scenario file not found")
+        try:
+            args.scenario = resources.scenario_file(str(args.scenario))
+        except resources.ResourceError as e:
+            raise UserError(f"{args.scenario}: not a file, and {e}") from None
     for out in (args.output, args.json):
         if out is not None:
             try:

@@ -40,18 +40,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Dict, Mapping, Optional
 
-from .. import REPO_ROOT
+from .. import resources
 from . import structure as st
 from .catalogue import GearRow, MotorRow, SensorRow
 from .spec import Spec
 
-try:  # Python >= 3.11
-    import tomllib
-except ModuleNotFoundError:  # pragma: no cover
-    import tomli as tomllib  # type: ignore[no-redef]
+import tomllib
 
-#: The reference axis file every candidate starts from.
-REFERENCE_AXIS: Path = REPO_ROOT / "sim" / "axes" / "reference.toml"
 from ..units import DEG  # noqa: E402
 #: reference gear and motor (the values of reference.toml were made for these)
 REF_SIZE, REF_RATIO, REF_T1_Nm, REF_K1, REF_TA_arcmin = 25, 100, 14.0, 3.1e4, 1.0
@@ -99,9 +94,16 @@ class Candidate:
                 "output_encoder": self.output_encoder.name, "gyro": self.gyro.name}
 
 
-def reference_params(path: Path = REFERENCE_AXIS) -> Dict[str, Dict[str, Any]]:
-    """The reference axis file as ``{section: {key: value}}``."""
-    with open(path, "rb") as f:
+def reference_params(path: Optional[Path] = None) -> Dict[str, Dict[str, Any]]:
+    """The reference axis file every candidate starts from, as ``{section: {key: value}}``.
+
+    Parameters
+    ----------
+    path : pathlib.Path, optional
+        Axis file to read instead of the shipped ``reference`` axis
+        (:func:`hdservo.resources.axis_file`).
+    """
+    with open(path if path is not None else resources.axis_file("reference"), "rb") as f:
         return tomllib.load(f)
 
 
@@ -247,5 +249,5 @@ def write_axis(c: Candidate, spec: Spec, path: "str | os.PathLike[str]") -> Path
     return write_text_atomic(path, axis_toml(build_axis(c, spec), head))
 
 
-__all__ = ["Candidate", "REFERENCE_AXIS", "axis_toml", "build_axis", "flat", "gear_friction", "hysteresis_scale",
+__all__ = ["Candidate", "axis_toml", "build_axis", "flat", "gear_friction", "hysteresis_scale",
            "reference_params", "write_axis", "write_text_atomic"]

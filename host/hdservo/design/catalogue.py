@@ -24,15 +24,13 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Type, TypeVar
 
+from .. import resources
 from ..errors import UserError
 
-try:  # Python >= 3.11
-    import tomllib
-except ModuleNotFoundError:  # pragma: no cover - Python 3.9/3.10
-    import tomli as tomllib  # type: ignore[no-redef]
+import tomllib
 
 #: Directory of the catalogue data files (installed as package data).
-DATA_DIR: Path = Path(__file__).resolve().parent.parent / "data"
+DATA_DIR: Path = resources.DATA_DIR
 
 SOURCE_KINDS = ("catalogue", "derived", "estimated", "representative")
 

@@ -55,10 +55,7 @@ from typing import Any, Dict, List, Mapping, Optional, Tuple
 
 from ..errors import UserError
 
-try:  # Python >= 3.11
-    import tomllib
-except ModuleNotFoundError:  # pragma: no cover - Python 3.9/3.10
-    import tomli as tomllib  # type: ignore[no-redef]
+import tomllib
 
 
 class SpecError(UserError):

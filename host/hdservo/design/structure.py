@@ -35,10 +35,7 @@ import numpy as np
 from ..errors import UserError
 from .catalogue import DATA_DIR, GearRow, load_gears
 
-try:  # Python >= 3.11
-    import tomllib
-except ModuleNotFoundError:  # pragma: no cover
-    import tomli as tomllib  # type: ignore[no-redef]
+import tomllib
 
 ARCMIN = math.pi / (180.0 * 60.0)  #: one arcminute in rad
 GEOMETRY_FILE = DATA_DIR / "flexspline_geometry.toml"

@@ -41,8 +41,11 @@ from typing import Any
 
 import numpy as np
 
-from hdservo import REPO_ROOT, logio, sim
+from hdservo import logio, sim
 from hdservo.tomltext import basic_string
+
+#: The checkout these tests run in.
+REPO_ROOT = Path(__file__).resolve().parents[3]
 
 AXES = {"reference": "reference", "csf17_50": str(REPO_ROOT / "sim" / "axes" / "csf17_50.toml")}
 

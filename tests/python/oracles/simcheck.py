@@ -30,7 +30,6 @@ from typing import Any, Dict, List, Optional
 
 import numpy as np
 
-from hdservo import REPO_ROOT
 from hdservo.tomltext import basic_string
 from hdservo.analysis.axis import load_axis, load_gains
 from hdservo.analysis.catalogue import build
@@ -39,6 +38,9 @@ from hdservo.analysis.loop import LoopModel
 from oracles.timesim import measure_oscillation
 
 from hdservo.units import ARCSEC as ARCSEC_RAD  # noqa: E402
+
+#: The checkout these tests run in.
+REPO_ROOT = Path(__file__).resolve().parents[3]
 
 #: Plant effects switched off so that the friction cycle is not blurred.
 QUIET_PLANT: Dict[str, bool] = {
