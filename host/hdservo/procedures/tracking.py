@@ -196,7 +196,7 @@ def tracking(bench: Bench, rates_deg_s: Sequence[float] = TRACK_RATES_DEG_S, per
             a.grid(True)
             a.legend(fontsize=8, loc="upper right")
         ax[-1][0].set_xlabel("time (s)")
-        return save_figure(fig, dd, res.name, fmt)
+        return save_figure(fig, dd, res.name, fmt, label=res.label)
     r.plot = plot
     return r
 
@@ -295,7 +295,7 @@ def settling(bench: Bench, step_deg: float = SETTLE_STEP_DEG, moves: int = 4, ba
         a.set_title(f"settling after {step_deg:g} deg moves", fontsize=10)
         a.grid(True)
         a.legend(fontsize=8)
-        return save_figure(fig, dd, res.name, fmt)
+        return save_figure(fig, dd, res.name, fmt, label=res.label)
     r.plot = plot
     return r
 
