@@ -46,6 +46,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Optional, Sequence
 
+import numpy as np
+
 FORMAT = "hdservo-compare"
 VERSION = 1
 
@@ -852,11 +854,12 @@ def run_ablation(out_dir: Path, feedbacks: Sequence[str], procedures: Sequence[s
     for n, (r, same) in alias.items():
         doc_ctl[n] = {**doc_ctl[same], **r.to_json(), "plots": [], "measured_as": same,
                       "description": r.description + f" (the same configuration as row {same}: measured once)"}
-    order = [c.name for c in stage1 if c.kind != "extra"]
-    for fb in feedbacks:
-        order += [n for n, d in doc_ctl.items() if d.get("feedback") == fb and n not in order
-                  and d.get("kind") != "extra"]
-    order += [n for n in doc_ctl if n not in order]
+    rank = {"baseline": 0, "compensator": 1, "best": 2, "leave-one-out": 3, "strategy": 4}
+    pos = {n: i for i, n in enumerate(doc_ctl)}
+    fbi = {fb: i for i, fb in enumerate(feedbacks)}
+    order = sorted(doc_ctl, key=lambda n: (doc_ctl[n].get("kind") == "extra",
+                                           fbi.get(doc_ctl[n].get("feedback"), 99),
+                                           rank.get(doc_ctl[n].get("kind"), 9), pos[n]))
     doc_ctl = {n: doc_ctl[n] for n in order}
     for fb in feedbacks:
         info[fb]["rows"] = [n for n, d in doc_ctl.items() if d.get("feedback") == fb]
@@ -1020,10 +1023,57 @@ def comparison_plots(doc: Mapping[str, Any], out_dir: Path) -> list[Path]:
         a.set_xticklabels(names, rotation=20)
         a.set_xlabel("controller (-)")
         a.set_ylabel(f"{f.get('short', f['label'])} ({f['unit']})")
-        a.set_title(f"{f['label']}\ngreen = target met, red = not met", fontsize=10)
+        a.set_title(f"{f['label']}, every row (feedback configuration after '@', full-closed otherwise)\n"
+                    + ("green = target met, red = not met" if f["target"] is not None else
+                       "no absolute target: compare with the fair PID row 'pid'"), fontsize=9)
         a.grid(True, axis="y", which="both", alpha=0.4)
         fig.tight_layout()
         paths += [p for p in save_figure(fig, out_dir, f"compare_{key}") if p.suffix == ".png"]
+    paths += ablation_plots(doc, out_dir)
+    return paths
+
+
+def ablation_plots(doc: Mapping[str, Any], out_dir: Path) -> list[Path]:
+    """One chart per feedback configuration: each row's ratio to the fair PID per figure (log colour scale)."""
+    from .procedures.results import figure, save_figure
+    keys = [k for k in doc["figures"]]
+    fbs: list[str] = []
+    for d in doc["controllers"].values():
+        if d.get("feedback", "full-closed") not in fbs:
+            fbs.append(d.get("feedback", "full-closed"))
+    paths: list[Path] = []
+    for fb in fbs:
+        names = [n for n, d in doc["controllers"].items() if d.get("feedback", "full-closed") == fb]
+        if len(names) < 2 or not keys:
+            continue
+        m = np.full((len(names), len(keys)), np.nan)
+        for i, n in enumerate(names):
+            for j, k in enumerate(keys):
+                f = FIGURE_BY_KEY.get(k)
+                r = doc["figures"][k].get("ratio_to_pid", {}).get(n)
+                if r is not None and r > 0 and f is not None:
+                    m[i, j] = math.log10(r if f.lower_is_better else 1.0 / r)   # < 0: better than the PID
+        fig, ax = figure(size=(1.1 * len(keys) + 3.5, 0.42 * len(names) + 2.6))
+        a = ax[0][0]
+        im = a.imshow(np.clip(m, -1.5, 1.5), cmap="RdYlGn_r", vmin=-1.5, vmax=1.5, aspect="auto")
+        for i, n in enumerate(names):
+            for j, k in enumerate(keys):
+                r = doc["figures"][k].get("ratio_to_pid", {}).get(n)
+                v = doc["figures"][k]["values"].get(n)
+                a.text(j, i, "none" if v is None else (f"{r:.2g}x" if r is not None else "-"), ha="center",
+                       va="center", fontsize=7)
+        a.set_xticks(range(len(keys)))
+        a.set_xticklabels([f"{doc['figures'][k].get('short') or k} ({doc['figures'][k]['unit']})" for k in keys],
+                          rotation=35, ha="right", fontsize=7)
+        a.set_yticks(range(len(names)))
+        a.set_yticklabels(names, fontsize=8)
+        a.set_xlabel("figure (unit)")
+        a.set_ylabel("row (controller)")
+        a.set_title(f"ablation, {fb}: value / fair PID value per figure (green = better, red = worse)", fontsize=9)
+        cb = fig.colorbar(im, ax=a)
+        cb.set_label("log10 of the worse-factor (-)")
+        fig.tight_layout()
+        paths += [p for p in save_figure(fig, out_dir, f"ablation_{fb}") if p.suffix == ".png"]
     return paths
 
 

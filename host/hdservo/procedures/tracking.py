@@ -32,8 +32,9 @@ from .runner import DT, Bench, Progress
 TRACK_RATES_DEG_S: tuple[float, ...] = (0.01, 0.1)
 #: Period of the tracking sinusoids, s (two velocity reversals per period).
 TRACK_PERIOD_S = 4.0
-#: Reversal window: the glitch is looked for from the reversal to this fraction of a period after it.
-REVERSAL_WINDOW = 0.125
+#: Reversal window: the glitch is looked for from the reversal to this fraction of a period after it
+#: (a quarter period: until the next velocity peak; the stick after a slow reversal lasts that long).
+REVERSAL_WINDOW = 0.25
 #: Settling: move size (deg), band (arcsec), record after the reference's arrival (s).
 SETTLE_STEP_DEG = 1.0
 SETTLE_BAND_ARCSEC = 1.0
