@@ -595,7 +595,7 @@ def _configure(drive: Any, ctl: Controller, plan: Optional[Mapping[str, Any]],
     from .commands.download import write_verified
     from .procedures.runner import apply_compensators
     notes: list[str] = []
-    if ctl.compensators or ctl.gains:
+    if ctl.compensators:              # the model's parameters matter only with a compensator on
         if plan is not None:
             done = write_verified(drive, plan, tables=True)
             notes.append(f"model download: {done['params']} parameters, tables "
