@@ -74,6 +74,33 @@ def test_worse_factor_and_rule() -> None:
     assert best == []
 
 
+def test_rule_skips_unmeasured_and_settling_and_failures_run_again(monkeypatch: pytest.MonkeyPatch) -> None:
+    base = {"positioning_accuracy_arcsec": 2.0, "settling_1deg_s": None}
+    # the settling time is all-or-nothing near the band: reported, not judged
+    assert not cmp.qualifies({"positioning_accuracy_arcsec": 2.0, "settling_1deg_s": 3.0}, base,
+                             list(cmp.FIGURE_BY_KEY))[0]
+    # a figure a row did not measure (its procedure failed: no key) is not judged; None (no value) is the worst
+    row = {"positioning_accuracy_arcsec": 1.0}
+    assert cmp.qualifies(row, {**base, "min_smooth_rate_deg_s": 0.001}, list(cmp.FIGURE_BY_KEY))[0]
+    assert not cmp.qualifies({**row, "min_smooth_rate_deg_s": None}, {**base, "min_smooth_rate_deg_s": 0.001},
+                             list(cmp.FIGURE_BY_KEY))[0]
+    # a failed procedure runs once more before it is recorded as failed
+    tries: list[int] = []
+
+    def attempt(name: str, ctl: Any, *a: Any) -> Result:
+        tries.append(1)
+        return Result(name, notes=["failed: lost SDO answer"]) if len(tries) == 1 else Result(name, headline={"x": 1})
+    monkeypatch.setattr(cmp, "_attempt", attempt)
+    r = cmp.run_procedure("settling", cmp.fair_row([]), None, bus=None, node_id=1, axis="reference", seed=1,
+                          plan=None, preisach_blob=None, progress_enabled=False)
+    assert len(tries) == 2 and r.headline == {"x": 1} and "ran again after a failed attempt" in r.notes[-1]
+    tries.clear()
+    monkeypatch.setattr(cmp, "_attempt", lambda name, *a: (tries.append(1), Result(name, notes=["failed: x"]))[1])
+    r = cmp.run_procedure("settling", cmp.fair_row([]), None, bus=None, node_id=1, axis="reference", seed=1,
+                          plan=None, preisach_blob=None, progress_enabled=False)
+    assert len(tries) == 1 + cmp.PROCEDURE_RETRIES and r.notes == ["failed: x"]
+
+
 def _fake_figures(components: list[str], feedback: str, kind: str) -> dict[str, Any]:
     """A synthetic axis: friction compensators help tracking, TE helps positioning only in semi-closed."""
     acc = 2.0 if feedback == "full-closed" else 40.0
