@@ -676,6 +676,10 @@ def _attempt(name: str, ctl: Controller, args: argparse.Namespace, target: Any, 
         res = Result(name, notes=[f"failed: {e}"])
         res.conditions = {"controller": ctl.name, "feedback": ctl.feedback}
         return res
+    except Exception as e:     # noqa: BLE001 - a transport library's own error (e.g. a timed-out block upload) is one failed run
+        res = Result(name, notes=[f"failed: {type(e).__name__}: {e}"])
+        res.conditions = {"controller": ctl.name, "feedback": ctl.feedback}
+        return res
     res.notes.extend(notes + [n for n in target.notes if n not in notes])
     res.conditions = {**res.conditions, "controller": ctl.name, "feedback": ctl.feedback, "loop_gains": loop}
     res.label = f"{ctl.name} ({ctl.feedback})"

@@ -101,6 +101,21 @@ def test_rule_skips_unmeasured_and_settling_and_failures_run_again(monkeypatch: 
     assert len(tries) == 1 + cmp.PROCEDURE_RETRIES and r.notes == ["failed: x"]
 
 
+def test_a_transport_library_error_is_one_failed_run(monkeypatch: pytest.MonkeyPatch) -> None:
+    """An error of the CAN stack (canopen's block upload raised AttributeError) must not end the comparison."""
+    from contextlib import contextmanager
+
+    @contextmanager
+    def bench(*a: Any, **k: Any) -> Any:
+        raise AttributeError("'BlockUploadStream' object has no attribute 'abort'")
+        yield
+    monkeypatch.setattr("hdservo.procedures.runner.open_bench", bench)
+    r = cmp.run_procedure("settling", cmp.fair_row([]), None, bus=None, node_id=1, axis="reference", seed=1,
+                          plan=None, preisach_blob=None, progress_enabled=False)
+    assert r.notes == ["failed: AttributeError: 'BlockUploadStream' object has no attribute 'abort'"]
+    assert r.headline == {}
+
+
 def _fake_figures(components: list[str], feedback: str, kind: str) -> dict[str, Any]:
     """A synthetic axis: friction compensators help tracking, TE helps positioning only in semi-closed."""
     acc = 2.0 if feedback == "full-closed" else 40.0
