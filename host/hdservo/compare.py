@@ -652,6 +652,7 @@ PROCEDURE_RETRIES = 1
 def _attempt(name: str, ctl: Controller, args: argparse.Namespace, target: Any, setup_f: Any, lockstep: bool,
              fn: Any, prog: Any, plan: Optional[Mapping[str, Any]], preisach_blob: Optional[bytes]) -> Any:
     """One attempt of :func:`run_procedure`."""
+    from .cli import UserError
     from .drive import DriveError
     from .procedures.results import Result
     from .procedures.runner import open_bench
@@ -676,6 +677,8 @@ def _attempt(name: str, ctl: Controller, args: argparse.Namespace, target: Any, 
         res = Result(name, notes=[f"failed: {e}"])
         res.conditions = {"controller": ctl.name, "feedback": ctl.feedback}
         return res
+    except UserError:          # the bench cannot be set up at all (no simulator, a rig refused): stop with one line
+        raise
     except Exception as e:     # noqa: BLE001 - a transport library's own error (e.g. a timed-out block upload) is one failed run
         res = Result(name, notes=[f"failed: {type(e).__name__}: {e}"])
         res.conditions = {"controller": ctl.name, "feedback": ctl.feedback}

@@ -239,7 +239,12 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
                 "s1": get(f"{sec}.sigma1_Nms_per_rad") * scale_t * scale_v, "delta": get(f"{sec}.delta")}
     m = side("friction_motor", n, n, fm)
     ld = side("friction_load", 1.0, 1.0, fl)
-    ws = (m["fsp"] - m["fcp"], ld["fsp"] - ld["fcp"])
+    # Stribeck velocity: the mean of both sides weighted by their Stribeck hump Fs - Fc; a hump
+    # that is not there (an identified Fs <= Fc) weighs nothing, and with no hump on either
+    # side the enabled sides count equally (a negative weight sum made vs meaningless)
+    ws = (max(m["fsp"] - m["fcp"], 0.0) if fm else 0.0, max(ld["fsp"] - ld["fcp"], 0.0) if fl else 0.0)
+    if ws[0] + ws[1] <= 0.0:
+        ws = (1.0 if fm else 0.0, 1.0 if fl else 0.0)
     vs = (m["vs"] * ws[0] + ld["vs"] * ws[1]) / max(ws[0] + ws[1], 1e-12)      # rad/s, output
     vs_turn = vs / TWO_PI
     fv = (m["fv"] + ld["fv"]) * TWO_PI                                            # N.m/(turn/s)

@@ -212,3 +212,34 @@ def test_compare_and_demo_bad_input(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert len(err) == 1 and "unknown configuration 'half'" in err[0] and not out.exists()
     assert main(["compare", "--sim", "-q", "-o", str(out), "--jobs", "0"]) == 2
     assert "--jobs" in capsys.readouterr().err
+
+
+BAD_HUMP_MODEL = """[gear]
+ratio = 50.0
+[friction_total]
+fc_pos_Nm = 0.2426
+fc_neg_Nm = 0.127
+fs_pos_Nm = 0.02373
+fs_neg_Nm = 0.01727
+vs_rad_s = 0.0115
+delta = 2.0
+viscous_Nms_per_rad = 4.652
+[stiffness]
+k1_Nm_per_rad = 8116.0
+"""
+
+
+def test_stribeck_velocity_of_a_model_without_a_hump(tmp_path: Path) -> None:
+    """An identified Fs below Fc (the demo's identification on csf17_50) still gives the model's vs.
+
+    The torque-weighted mean of both sides' Stribeck velocities divided by a negative weight sum
+    (-4e8 turn/s), which the drive refused, so ``hdservo demo --axis sim/axes/csf17_50.toml`` stopped.
+    """
+    from hdservo.commands.download import plan_download
+    m = tmp_path / "model.toml"
+    m.write_text(BAD_HUMP_MODEL)
+    p = plan_download(m, str(Path(__file__).resolve().parents[2] / "sim" / "axes" / "csf17_50.toml"))
+    assert p["params"]["str_vs_pos"] == pytest.approx(0.0115 / (2 * math.pi))
+    assert p["params"]["lug_vs"] == pytest.approx(0.0115 / (2 * math.pi))
+    # an axis with a hump on both sides keeps its weighted mean
+    assert compsetup.compensator_params("reference")["str_vs_pos"] == pytest.approx(0.02 / (2 * math.pi))
