@@ -303,8 +303,22 @@ def feedback_gains(feedback: str) -> dict[str, float]:
     return {} if feedback == "full-closed" else {FEEDBACK_PARAM: float(FEEDBACKS[feedback])}
 
 
+def design_gains(axis: str = "reference") -> dict[str, float]:
+    """The axis' PID design (velocity PI at 25 Hz, notch at the coupled resonance; :func:`hdservo.baseline.axis_controller`).
+
+    Empty for the reference axis (the drive's defaults are its design) and for an axis the
+    baseline cannot read.
+    """
+    from . import baseline as bl
+    try:
+        g = bl.axis_controller(axis)["gains"]
+    except Exception:      # noqa: BLE001 - an axis the design rules cannot read keeps the drive's own gains
+        return {}
+    return {} if g == "defaults" else {k: float(v) for k, v in g.items()}
+
+
 def fair_row(parts: Sequence[str], feedback: str = "full-closed", kind: str = "custom",
-             name: Optional[str] = None) -> Controller:
+             name: Optional[str] = None, axis: str = "reference") -> Controller:
     """A row on the fair footing: the fair loop gains and procedure options plus ``parts``.
 
     Parameters
@@ -318,11 +332,13 @@ def fair_row(parts: Sequence[str], feedback: str = "full-closed", kind: str = "c
         Role (see :class:`Controller`).
     name : str, optional
         Row base name (default ``pid`` or the parts joined by ``+``).
+    axis : str
+        Axis spec: its PID design (:func:`design_gains`) is part of every row's gains.
 
     Returns
     -------
     Controller
-        Gains = fair gains + each part's settings + the feedback configuration.
+        Gains = the axis' PID design + fair gains + each part's settings + the feedback configuration.
 
     Raises
     ------
@@ -331,7 +347,8 @@ def fair_row(parts: Sequence[str], feedback: str = "full-closed", kind: str = "c
     """
     from . import compsetup as cs
     comps: list[str] = []
-    gains: dict[str, float] = {k: float(v) for k, v in cs.FAIR_GAINS.items()}
+    gains: dict[str, float] = design_gains(axis)
+    gains.update({k: float(v) for k, v in cs.FAIR_GAINS.items()})
     for part in parts:
         if part in cs.STRATEGIES:
             en, prm = cs.STRATEGIES[part]
@@ -354,9 +371,9 @@ def fair_row(parts: Sequence[str], feedback: str = "full-closed", kind: str = "c
                       feedback, kind, list(parts))
 
 
-def pid_hold_row() -> Controller:
-    """The PID of the drive's own design gains with the stabilisation in position hold: an extra, labelled row."""
-    return Controller("pid-hold", [], {}, "extra row, not a baseline: PID with the drive's design gains "
+def pid_hold_row(axis: str = "reference") -> Controller:
+    """The PID of the axis' design gains with the stabilisation in position hold: an extra, labelled row."""
+    return Controller("pid-hold", [], design_gains(axis), "extra row, not a baseline: PID with the axis' design gains "
                       "(position P of the PID design), stabilisation in position hold (CSP)", {}, "full-closed",
                       "extra", ["pid design gains", "position hold"])
 
@@ -386,10 +403,10 @@ def controllers_from_names(names: Sequence[str], axis: str = "reference",
             seen.add((n, fb))
             if n == "pid-hold":
                 if fb == "full-closed":
-                    out.append(pid_hold_row())
+                    out.append(pid_hold_row(axis))
                 continue
             if n == "pid":
-                out.append(fair_row([], fb, "baseline"))
+                out.append(fair_row([], fb, "baseline", axis=axis))
                 continue
             parts: list[str] = []
             for p in n.split("+"):
@@ -401,7 +418,7 @@ def controllers_from_names(names: Sequence[str], axis: str = "reference",
                                  f"{', '.join(cs.STRATEGIES)}")
             kind = "best" if n == "best" else ("strategy" if any(p in cs.STRATEGIES for p in parts) else
                                                "compensator")
-            out.append(fair_row(parts, fb, kind, name=n))
+            out.append(fair_row(parts, fb, kind, name=n, axis=axis))
     if not out:
         raise ValueError("no controllers given")
     return out
@@ -846,11 +863,12 @@ def run_ablation(out_dir: Path, feedbacks: Sequence[str], procedures: Sequence[s
         (:func:`ablation_doc`).
     """
     stage1: list[Controller] = []
+    ax = axis if bus is None else "reference"       # a real drive keeps its own design gains
     for fb in feedbacks:
-        stage1.append(fair_row([], fb, "baseline"))
-        stage1 += [fair_row([c], fb, "compensator") for c in SINGLES]
+        stage1.append(fair_row([], fb, "baseline", axis=ax))
+        stage1 += [fair_row([c], fb, "compensator", axis=ax) for c in SINGLES]
     if extras and "full-closed" in feedbacks:
-        stage1.append(pid_hold_row())
+        stage1.append(pid_hold_row(ax))
     for c in stage1:
         for p in procedures:
             procedure_args(p, [*proc_extra, *c.proc_args.get(p, [])])
@@ -872,11 +890,12 @@ def run_ablation(out_dir: Path, feedbacks: Sequence[str], procedures: Sequence[s
         base = doc_ctl[row_name("pid", fb)]["headline"]
         single = {c: doc_ctl[row_name("+".join([c]), fb)]["headline"] for c in SINGLES}
         parts, why = choose_best(single, base, keys)
-        rows = [fair_row(parts, fb, "best", name="best")]
+        rows = [fair_row(parts, fb, "best", name="best", axis=ax)]
         if len(parts) >= 2:
-            rows += [fair_row([x for x in parts if x != p], fb, "leave-one-out", name=f"best-{p}") for p in parts]
-        rows += [fair_row([*parts, "hold"], fb, "strategy", name="best+hold"),
-                 fair_row([*parts, "hold", "approach"], fb, "strategy", name="best+hold+approach")]
+            rows += [fair_row([x for x in parts if x != p], fb, "leave-one-out", name=f"best-{p}", axis=ax)
+                     for p in parts]
+        rows += [fair_row([*parts, "hold"], fb, "strategy", name="best+hold", axis=ax),
+                 fair_row([*parts, "hold", "approach"], fb, "strategy", name="best+hold+approach", axis=ax)]
         known = {tuple(sorted(d.get("components", []))): n for n, d in doc_ctl.items()
                  if d.get("feedback") == fb and d.get("kind") in ("baseline", "compensator")}
         for r in rows:

@@ -41,6 +41,15 @@ def test_fair_rows_share_gains_and_mode() -> None:
     assert cmp.FEEDBACK_PARAM not in cmp.fair_row(["te"], "full-closed").gains
     with pytest.raises(ValueError, match="unknown component"):
         cmp.fair_row(["nope"])
+    # any axis: the axis' own PID design (velocity PI, notch) under the fair position P, every row alike
+    csf = str(Path(__file__).resolve().parents[2] / "sim" / "axes" / "csf17_50.toml")
+    design = cmp.design_gains(csf)
+    assert design["vel_kp"] == pytest.approx(27.4889, rel=1e-4) and "f1_b0" in design
+    for r in (cmp.fair_row([], axis=csf), cmp.fair_row(["lugre"], axis=csf),
+              *cmp.controllers_from_names(["pid", "best", "pid-hold"], csf)):
+        assert {k: r.gains[k] for k in design} == design
+    assert cmp.controllers_from_names(["pid"], csf)[0].gains["pos_kp"] == 60.0
+    assert cmp.design_gains("reference") == {}
     assert cmp.feedback_names("full,semi,dual") == ["full-closed", "semi-closed", "dual-loop"]
     with pytest.raises(ValueError, match="unknown configuration 'half'"):
         cmp.feedback_names("full,half")

@@ -87,7 +87,8 @@ def run(args: argparse.Namespace) -> int:
     ablation = args.controllers.strip() == "ablation"
     try:
         fbs = cmp.feedback_names(args.feedback) if args.feedback is not None else cmp.default_feedbacks()
-        ctls = [] if ablation else cmp.controllers_from_names(args.controllers.split(","), axis, fbs)
+        ctls = [] if ablation else cmp.controllers_from_names(args.controllers.split(","),
+                                                              axis if bus is None else "reference", fbs)
         procs = [x.strip() for x in args.procedures.split(",") if x.strip()]
         if not procs:
             raise ValueError("--procedures: none given")
