@@ -213,7 +213,7 @@ def _headline_section(cmp: Mapping[str, Any]) -> str:
         cls.append(c)
     v = cmp.get("verdict", {})
     lines = ["<h2>Headline figures</h2>",
-             "<p>Targets from DESIGN.md section 2 (reference axis). Green &#10003; = target met, red &#10007; = not met; "
+             "<p>Targets: the requirements of the reference axis. Green &#10003; = target met, red &#10007; = not met; "
              "&lsquo;none&rsquo; = no value (e.g. no rung of the rate ladder was smooth, or the procedure failed). "
              f"The verdict column compares <b>{esc(best)}</b> (the compensated axis) with <b>{esc(ref)}</b>; "
              "&lsquo;best measured&rsquo; names the controller with the best value of each figure.</p>",
