@@ -1116,8 +1116,8 @@ def ablation_plots(doc: Mapping[str, Any], out_dir: Path) -> list[Path]:
             for j, k in enumerate(keys):
                 r = doc["figures"][k].get("ratio_to_pid", {}).get(n)
                 v = doc["figures"][k]["values"].get(n)
-                a.text(j, i, "none" if v is None else (f"{r:.2g}x" if r is not None else "-"), ha="center",
-                       va="center", fontsize=7)
+                a.text(j, i, "none" if v is None else (f"{r:.2g}x" if r is not None else _num(v)), ha="center",
+                       va="center", fontsize=7)      # a value against a PID without one: the value itself
         a.set_xticks(range(len(keys)))
         a.set_xticklabels([f"{doc['figures'][k].get('short') or k} ({doc['figures'][k]['unit']})" for k in keys],
                           rotation=35, ha="right", fontsize=7)
