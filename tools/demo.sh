@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# `make demo`: the end-to-end demo on the virtual reference axis (docs/demo.md).
+# `make demo`: the end-to-end demo on the virtual reference axis (docs/demo.md; --axis FILE: another axis).
 # Simulated by design (no real drive is touched; `hdservo demo` says so on stderr).
 # Starts the virtual drive, identifies the axis over CAN, downloads the compensator
 # parameters, runs the test procedures with the PID baseline and with compensation,

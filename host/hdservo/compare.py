@@ -17,8 +17,8 @@ their own defaults and option parser) once per *controller*:
 Each procedure opens its own bench (:func:`hdservo.procedures.runner.open_bench`:
 on the virtual drive a fresh ``hdservo-sim serve`` with the procedure's rig
 set-up).  With an identified model (``--model``) the compensator parameters
-and tables computed from it (:func:`hdservo.download.plan_download`)
-are written to the drive and read back (:func:`~hdservo.download.write_verified`)
+and tables computed from it (:func:`hdservo.commands.download.plan_download`)
+are written to the drive and read back (:func:`~hdservo.commands.download.write_verified`)
 before every compensated procedure, then the controller's gains, then
 ``cb_enable``; without a model the drive's own compensator defaults are used.
 
@@ -46,13 +46,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Optional, Sequence
 
+import numpy as np
+
 FORMAT = "hdservo-compare"
 VERSION = 1
 
 #: Compensators of the bank compared one by one (the experimental DOB is left out; docs/compensators.md 8).
 SINGLES: tuple[str, ...] = ("stribeck", "lugre", "maxwell", "preisach", "te", "backstep")
 #: Procedures run by default: the ones behind the headline figures.
-DEFAULT_PROCEDURES: tuple[str, ...] = ("min-rate", "positioning", "stabilisation", "bandwidth", "peak-torque")
+DEFAULT_PROCEDURES: tuple[str, ...] = ("min-rate", "positioning", "stabilisation", "bandwidth", "peak-torque",
+                                        "tracking", "settling")
 #: Best combination when hdservo.compsetup does not define one (docs/compensators.md section 8).
 BEST_NAMES_DEFAULT: tuple[str, ...] = ("lugre",)
 #: Retuned gains of the default best combination, table units (position P 1/s, scheduled position integral 1/s^2).
@@ -62,7 +65,7 @@ BEST_VEL_KI_RATIO = 12000.0 / 8019.0
 
 #: Shortened procedure options (``--quick``): parsed by ``hdservo test``'s option parser.
 QUICK_ARGS: tuple[str, ...] = ("--runs", "3", "--targets=-50,-20,10,40", "--windows", "5", "--settle", "3",
-                               "--duration", "4")
+                               "--duration", "4", "--moves", "2")
 
 
 @dataclass(frozen=True)
@@ -80,7 +83,7 @@ class Figure:
     lower_is_better : bool
         Direction of "better".
     target : float or None
-        Requirement of the reference axis (docs/reference-axis.md) (None: no target).
+        Requirement of DESIGN.md section 2 on the reference axis (None: no target).
     procedure : str
         The procedure that measures it.
     short : str
@@ -124,7 +127,7 @@ class Figure:
         return "better" if (value < ref) == self.lower_is_better else "worse"
 
 
-#: The headline figures of the comparison, summary and report (docs/reference-axis.md).
+#: The headline figures of the comparison, summary and report (issue 8; DESIGN.md section 2).
 FIGURES: tuple[Figure, ...] = (
     Figure("min_smooth_rate_deg_s", "minimum smooth rate", "deg/s", True, 0.001, "min-rate", "min. smooth rate"),
     Figure("positioning_accuracy_arcsec", "positioning accuracy (ISO 230-2 A)", "arcsec", True, 10.0, "positioning",
@@ -135,6 +138,18 @@ FIGURES: tuple[Figure, ...] = (
            "stabilisation", "inertial error RMS"),
     Figure("bandwidth_hz", "closed-loop bandwidth (-3 dB)", "Hz", False, None, "bandwidth", "bandwidth"),
     Figure("peak_torque_Nm", "peak output torque", "N.m", False, 30.0, "peak-torque", "peak torque"),
+    Figure("tracking_rms_0p01_arcsec", "tracking error RMS, sinusoid peak 0.01 deg/s", "arcsec", True, None,
+           "tracking", "tracking RMS 0.01 deg/s"),
+    Figure("tracking_peak_0p01_arcsec", "tracking error peak, sinusoid peak 0.01 deg/s", "arcsec", True, None,
+           "tracking", "tracking peak 0.01 deg/s"),
+    Figure("tracking_rms_0p1_arcsec", "tracking error RMS, sinusoid peak 0.1 deg/s", "arcsec", True, None,
+           "tracking", "tracking RMS 0.1 deg/s"),
+    Figure("tracking_peak_0p1_arcsec", "tracking error peak, sinusoid peak 0.1 deg/s", "arcsec", True, None,
+           "tracking", "tracking peak 0.1 deg/s"),
+    Figure("reversal_peak_arcsec", "reversal (quadrant) glitch peak", "arcsec", True, None, "tracking",
+           "reversal peak"),
+    Figure("settling_1deg_s", "settling time into +-1 arcsec after a 1 deg move", "s", True, None, "settling",
+           "settling 1 deg"),
 )
 FIGURE_BY_KEY: dict[str, Figure] = {f.key: f for f in FIGURES}
 
@@ -156,6 +171,14 @@ class Controller:
     proc_args : dict
         Extra ``hdservo test`` options per procedure for this controller (e.g. a drive mode the
         procedure offers), ``{"stabilisation": ["--opt", "value"]}``.
+    feedback : str
+        Feedback configuration (a key of :data:`FEEDBACKS`).
+    kind : str
+        Role in the ablation: ``baseline`` (the fair PID), ``compensator`` (fair PID + one),
+        ``best``, ``leave-one-out``, ``strategy`` (motion strategies on top of the best),
+        ``extra`` (labelled extra rows such as the PID in position hold) or ``custom``.
+    components : list of str
+        Compensators and motion strategies of the row (what the ablation reports).
     """
 
     name: str
@@ -163,10 +186,14 @@ class Controller:
     gains: dict[str, float] = field(default_factory=dict)
     description: str = ""
     proc_args: dict[str, list[str]] = field(default_factory=dict)
+    feedback: str = "full-closed"
+    kind: str = "custom"
+    components: list[str] = field(default_factory=list)
 
     def to_json(self) -> dict[str, Any]:
         return {"name": self.name, "compensators": list(self.compensators), "gains": dict(self.gains),
-                "description": self.description, "proc_args": {k: list(v) for k, v in self.proc_args.items()}}
+                "description": self.description, "proc_args": {k: list(v) for k, v in self.proc_args.items()},
+                "feedback": self.feedback, "kind": self.kind, "components": list(self.components)}
 
 
 def best_gains_default(axis: str = "reference") -> dict[str, float]:
@@ -212,41 +239,296 @@ def best_controller(axis: str = "reference") -> Controller:
     return Controller("best", list(names), gains, desc, pa)
 
 
-def controllers_from_names(names: Sequence[str], axis: str = "reference") -> list[Controller]:
-    """Controllers by name: ``pid``, ``best``, a compensator, or ``a+b`` (several compensators, PID gains).
+#: Feedback configurations of the drive: name -> value of the drive parameter :data:`FEEDBACK_PARAM`
+#: (0 position and velocity on the output side as wired today, 1 semi-closed: position and velocity on
+#: the motor encoder, 2 dual-loop: velocity on the motor encoder, position on the output encoder).
+FEEDBACKS: dict[str, int] = {"full-closed": 0, "semi-closed": 1, "dual-loop": 2}
+FEEDBACK_PARAM = "fb_config"
+#: Loop gains read back from the drive into each procedure's conditions (``loop_gains``).
+LOOP_GAIN_NAMES: tuple[str, ...] = ("pos_kp", "pos_ki", "vel_kp", "vel_ki")
+#: Rule of the best combination (:func:`choose_best`): a compensator qualifies when, on top of the fair
+#: PID in the same feedback configuration, it improves at least one figure by at least this fraction ...
+RULE_GAIN = 0.20
+#: ... and worsens none by more than this fraction.
+RULE_LOSS = 0.10
+#: Figures the rule does not judge: the settling time into +-1 arcsec is all-or-nothing near the band
+#: (a proportional position loop that ends 1.1 arcsec off never settles), so it is reported, not used.
+RULE_SKIP: tuple[str, ...] = ("settling_1deg_s",)
+
+
+def feedback_names(text: str) -> list[str]:
+    """Feedback configurations from ``full-closed,semi-closed`` (short forms ``full``, ``semi``, ``dual``).
+
+    Raises
+    ------
+    ValueError
+        An unknown name (message lists the valid ones).
+    """
+    short = {"full": "full-closed", "semi": "semi-closed", "dual": "dual-loop"}
+    out: list[str] = []
+    for raw in text.split(","):
+        n = short.get(raw.strip(), raw.strip())
+        if not n:
+            continue
+        if n not in FEEDBACKS:
+            raise ValueError(f"--feedback: unknown configuration '{raw.strip()}'; expected some of "
+                             f"{', '.join(FEEDBACKS)} (or full, semi, dual)")
+        if n not in out:
+            out.append(n)
+    if not out:
+        raise ValueError("--feedback: none given")
+    return out
+
+
+def drive_has_feedback_param() -> bool:
+    """True when the drive parameter table has :data:`FEEDBACK_PARAM` (the firmware offers configurations)."""
+    from .params_gen import BY_NAME
+    return FEEDBACK_PARAM in BY_NAME
+
+
+def default_feedbacks() -> list[str]:
+    """Feedback configurations compared by default: full-closed, and semi-closed when the drive has them."""
+    return ["full-closed", "semi-closed"] if drive_has_feedback_param() else ["full-closed"]
+
+
+def row_name(base: str, feedback: str = "full-closed") -> str:
+    """Row name: ``base`` in full-closed, ``base@feedback`` in the other configurations."""
+    return base if feedback == "full-closed" else f"{base}@{feedback}"
+
+
+def feedback_gains(feedback: str) -> dict[str, float]:
+    """Drive parameters of a feedback configuration (none for full-closed, the drive's default)."""
+    if feedback not in FEEDBACKS:
+        raise ValueError(f"unknown feedback configuration '{feedback}'; expected one of {', '.join(FEEDBACKS)}")
+    return {} if feedback == "full-closed" else {FEEDBACK_PARAM: float(FEEDBACKS[feedback])}
+
+
+def design_gains(axis: str = "reference") -> dict[str, float]:
+    """The axis' PID design (velocity PI at 25 Hz, notch at the coupled resonance; :func:`hdservo.baseline.axis_controller`).
+
+    Empty for the reference axis (the drive's defaults are its design) and for an axis the
+    baseline cannot read.
+    """
+    from . import baseline as bl
+    try:
+        g = bl.axis_controller(axis)["gains"]
+    except Exception:      # noqa: BLE001 - an axis the design rules cannot read keeps the drive's own gains
+        return {}
+    return {} if g == "defaults" else {k: float(v) for k, v in g.items()}
+
+
+def fair_row(parts: Sequence[str], feedback: str = "full-closed", kind: str = "custom",
+             name: Optional[str] = None, axis: str = "reference") -> Controller:
+    """A row on the fair footing: the fair loop gains and procedure options plus ``parts``.
+
+    Parameters
+    ----------
+    parts : sequence of str
+        Compensators (:data:`hdservo.compsetup.ENABLE_BITS`) and motion strategies
+        (:data:`hdservo.compsetup.STRATEGIES`); empty = the fair PID.
+    feedback : str
+        Feedback configuration.
+    kind : str
+        Role (see :class:`Controller`).
+    name : str, optional
+        Row base name (default ``pid`` or the parts joined by ``+``).
+    axis : str
+        Axis spec: its PID design (:func:`design_gains`) is part of every row's gains.
+
+    Returns
+    -------
+    Controller
+        Gains = the axis' PID design + fair gains + each part's settings + the feedback configuration.
+
+    Raises
+    ------
+    ValueError
+        An unknown part.
+    """
+    from . import compsetup as cs
+    comps: list[str] = []
+    gains: dict[str, float] = design_gains(axis)
+    gains.update({k: float(v) for k, v in cs.FAIR_GAINS.items()})
+    for part in parts:
+        if part in cs.STRATEGIES:
+            en, prm = cs.STRATEGIES[part]
+            comps += [c for c in en if c not in comps]
+            gains.update(prm)
+        elif part in cs.ENABLE_BITS:
+            if part not in comps:
+                comps.append(part)
+            gains.update(cs.COMPONENT_PARAMS.get(part, {}))
+        else:
+            raise ValueError(f"unknown component '{part}': expected compensators from "
+                             f"{', '.join(cs.ENABLE_BITS)} or motion strategies {', '.join(cs.STRATEGIES)}")
+    gains.update(feedback_gains(feedback))
+    base = name or ("pid" if not parts else "+".join(parts))
+    what = "fair PID" + ("".join(f" + {p}" for p in parts))
+    desc = (f"{what}, {feedback}; loop gains of the compensated set ("
+            + ", ".join(f"{k} = {v:g}" for k, v in cs.FAIR_GAINS.items())
+            + "), stabilisation in the gyro mode")
+    return Controller(row_name(base, feedback), comps, gains, desc, {k: list(v) for k, v in cs.FAIR_PROC_ARGS.items()},
+                      feedback, kind, list(parts))
+
+
+def pid_hold_row(axis: str = "reference") -> Controller:
+    """The PID of the axis' design gains with the stabilisation in position hold: an extra, labelled row."""
+    return Controller("pid-hold", [], design_gains(axis), "extra row, not a baseline: PID with the axis' design gains "
+                      "(position P of the PID design), stabilisation in position hold (CSP)", {}, "full-closed",
+                      "extra", ["pid design gains", "position hold"])
+
+
+def controllers_from_names(names: Sequence[str], axis: str = "reference",
+                           feedbacks: Sequence[str] = ("full-closed",)) -> list[Controller]:
+    """Controllers by name, on the fair footing, for each feedback configuration.
+
+    Names: ``pid`` (the fair PID), ``best`` (the default best combination,
+    :data:`hdservo.compsetup.DEFAULT_BEST`), ``pid-hold`` (extra row: the PID design in position
+    hold; full-closed only), or compensators / motion strategies joined by ``+`` (e.g.
+    ``stribeck+te``, ``best+hold+approach``; ``best`` inside a name stands for its parts).
 
     Raises
     ------
     ValueError
         An unknown name (message names it and the valid ones).
     """
-    from .compsetup import ENABLE_BITS
+    from . import compsetup as cs
     out: list[Controller] = []
     seen: set[str] = set()
-    for raw in names:
-        n = raw.strip()
-        if not n or n in seen:
-            continue
-        seen.add(n)
-        if n == "pid":
-            out.append(Controller("pid", [], {}, "PID baseline (cascaded PID, every compensator off)"))
-        elif n == "best":
-            out.append(best_controller(axis))
-        else:
-            parts = n.split("+")
-            bad = [p for p in parts if p not in ENABLE_BITS]
+    for fb in feedbacks:
+        for raw in names:
+            n = raw.strip()
+            if not n or (n, fb) in seen:
+                continue
+            seen.add((n, fb))
+            if n == "pid-hold":
+                if fb == "full-closed":
+                    out.append(pid_hold_row(axis))
+                continue
+            if n == "pid":
+                out.append(fair_row([], fb, "baseline", axis=axis))
+                continue
+            parts: list[str] = []
+            for p in n.split("+"):
+                parts += list(cs.DEFAULT_BEST) if p == "best" else [p]
+            bad = [p for p in parts if p not in cs.ENABLE_BITS and p not in cs.STRATEGIES]
             if bad:
-                raise ValueError(f"unknown controller '{n}': expected pid, best, or compensators joined by '+' "
-                                 f"from {', '.join(ENABLE_BITS)}")
-            out.append(Controller(n, parts, {}, f"PID + {' + '.join(parts)} (parameters from the model)"))
+                raise ValueError(f"unknown controller '{n}': expected pid, best, pid-hold, or compensators and "
+                                 f"motion strategies joined by '+' from {', '.join(cs.ENABLE_BITS)}, "
+                                 f"{', '.join(cs.STRATEGIES)}")
+            kind = "best" if n == "best" else ("strategy" if any(p in cs.STRATEGIES for p in parts) else
+                                               "compensator")
+            out.append(fair_row(parts, fb, kind, name=n, axis=axis))
     if not out:
         raise ValueError("no controllers given")
     return out
 
 
 def default_controller_names() -> list[str]:
-    """``pid``, each compensator of :data:`SINGLES`, ``best``."""
+    """The explicit equivalent of the ablation's first stage: ``pid``, each compensator of :data:`SINGLES`, ``best``."""
     return ["pid", *SINGLES, "best"]
+
+
+def ratio(f: Figure, value: Optional[float], base: Optional[float]) -> Optional[float]:
+    """``value / base`` of a figure (None when either is missing or the base is 0)."""
+    if value is None or base is None or base == 0:
+        return None
+    return float(value) / float(base)
+
+
+def worse_factor(f: Figure, value: Optional[float], base: Optional[float]) -> Optional[float]:
+    """How much worse than ``base`` ``value`` is, as a factor (< 1 better, > 1 worse; direction of ``f``).
+
+    A missing value against a present base is infinitely worse, the reverse infinitely better;
+    None when both are missing or the base is 0.
+    """
+    if value is None and base is None:
+        return None
+    if value is None:
+        return math.inf
+    if base is None:
+        return 0.0
+    if f.lower_is_better:
+        return None if base == 0 else (value / base if value > 0 or base > 0 else 1.0)
+    return None if value == 0 else base / value
+
+
+def qualifies(headline: Mapping[str, Any], base: Mapping[str, Any], keys: Sequence[str]) -> tuple[bool, str]:
+    """The rule of the best combination for one row against the fair PID (:data:`RULE_GAIN`, :data:`RULE_LOSS`).
+
+    A figure counts when both rows measured it (a key absent from a headline: the procedure
+    failed); None (measured, no value: e.g. no smooth rung) is the worst value.  The figures of
+    :data:`RULE_SKIP` are not judged.
+
+    Returns
+    -------
+    (bool, str)
+        Whether the row improves a figure by >= 20 % and worsens none by > 10 %, and why (one line).
+    """
+    w = {k: worse_factor(FIGURE_BY_KEY[k], headline.get(k), base.get(k)) for k in keys
+         if k in FIGURE_BY_KEY and k not in RULE_SKIP and k in headline and k in base}   # absent = not measured
+    w = {k: v for k, v in w.items() if v is not None}
+    gains = [k for k, v in w.items() if v <= 1.0 - RULE_GAIN]
+    losses = [k for k, v in w.items() if v > 1.0 + RULE_LOSS]
+    if not gains:
+        return False, "improves no figure by 20 %"
+    if losses:
+        return False, "worsens " + ", ".join(f"{k} (x{w[k]:.3g})" for k in losses) + " by more than 10 %"
+    return True, "improves " + ", ".join(f"{k} (x{w[k]:.3g})" for k in gains)
+
+
+def geo_mean_factor(headline: Mapping[str, Any], base: Mapping[str, Any], keys: Sequence[str]) -> float:
+    """Geometric mean of the finite worse-factors (:func:`worse_factor`; 1 = the PID, < 1 better)."""
+    w = [worse_factor(FIGURE_BY_KEY[k], headline.get(k), base.get(k)) for k in keys
+         if k in FIGURE_BY_KEY and k not in RULE_SKIP and k in headline and k in base]
+    fin = [max(x, 1e-6) for x in w if x is not None and math.isfinite(x)]
+    pen = sum(1 for x in w if x is not None and math.isinf(x))
+    return math.exp(sum(math.log(x) for x in fin) / max(1, len(fin))) * (10.0 ** pen)
+
+
+def choose_best(single: Mapping[str, Mapping[str, Any]], base: Mapping[str, Any],
+                keys: Sequence[str]) -> tuple[list[str], list[str]]:
+    """The best combination from measurements: the documented rule (docs/compensators.md).
+
+    Parameters
+    ----------
+    single : mapping
+        Compensator name -> headline of the fair PID + that compensator.
+    base : mapping
+        Headline of the fair PID (same feedback configuration).
+    keys : sequence of str
+        The figures judged.
+
+    Returns
+    -------
+    (list of str, list of str)
+        The chosen compensators (at most one per :data:`hdservo.compsetup.GROUPS` group: among
+        those that qualify, :func:`qualifies`, the smallest geometric-mean factor) and one reason
+        line per compensator.  When none qualifies, the single compensator with the smallest
+        geometric-mean factor below 1 (none when no compensator beats the PID on balance).
+    """
+    from . import compsetup as cs
+    why: list[str] = []
+    ok: dict[str, float] = {}
+    for c, h in single.items():
+        q, text = qualifies(h, base, keys)
+        g = geo_mean_factor(h, base, keys)
+        why.append(f"{c}: {'qualifies' if q else 'does not qualify'} ({text}; geometric-mean factor {g:.3g})")
+        if q:
+            ok[c] = g
+    chosen: list[str] = []
+    for _, members in cs.GROUPS.items():
+        cand = [c for c in members if c in ok]
+        if cand:
+            chosen.append(min(cand, key=lambda c: ok[c]))
+    if not chosen and single:
+        g = {c: geo_mean_factor(h, base, keys) for c, h in single.items()}
+        top = min(g, key=lambda c: g[c])
+        if g[top] < 1.0:
+            chosen = [top]
+            why.append(f"no compensator qualifies: the best on balance, {top}, is taken")
+    order = [c for c in SINGLES if c in chosen] + [c for c in chosen if c not in SINGLES]
+    return order, why
 
 
 # ---------------------------------------------------------------------------------- progress
@@ -336,10 +618,10 @@ def _write_json_atomic(path: Path, doc: Mapping[str, Any]) -> None:
 def _configure(drive: Any, ctl: Controller, plan: Optional[Mapping[str, Any]],
                preisach_blob: Optional[bytes]) -> list[str]:
     """Write the model's parameters/tables (compensated controllers) and ``cb_enable`` for ``ctl``; returns notes."""
-    from .download import write_verified
+    from .commands.download import write_verified
     from .procedures.runner import apply_compensators
     notes: list[str] = []
-    if ctl.compensators or ctl.gains:
+    if ctl.compensators:              # the model's parameters matter only with a compensator on
         if plan is not None:
             done = write_verified(drive, plan, tables=True)
             notes.append(f"model download: {done['params']} parameters, tables "
@@ -359,15 +641,39 @@ def run_procedure(name: str, ctl: Controller, args: argparse.Namespace, *, bus: 
     """One procedure with one controller; returns its :class:`~hdservo.procedures.results.Result`.
 
     A drive fault or a procedure error is recorded in the result's notes
-    (``failed: ...``, no headline) instead of being raised.
+    (``failed: ...``, no headline) instead of being raised.  The conditions carry the
+    controller, its feedback configuration and the loop gains read back from the drive.
     """
     from .commands import test as tc
+    from .procedures.runner import Progress, Target
+    setup_f, lockstep, fn = tc.PROCEDURES[name]
+    first_error: Optional[str] = None
+    for attempt in range(1 + PROCEDURE_RETRIES):
+        target = Target(bus=bus, node_id=node_id, axis=axis, seed=seed, compensators=None, profile=profile)
+        prog = Progress(f"{ctl.name}/{name}", enabled=progress_enabled)
+        res = _attempt(name, ctl, args, target, setup_f, lockstep, fn, prog, plan, preisach_blob)
+        failed = [n for n in res.notes if n.startswith("failed:")]
+        if not failed:
+            if first_error is not None:
+                res.notes.append(f"ran again after a failed attempt ({first_error})")
+            return res
+        first_error = first_error or failed[0]
+    return res
+
+
+#: A procedure that fails (a drive or transport error, e.g. an SDO answer lost on a loaded host) is run
+#: once more on a fresh drive before it is recorded as failed.
+PROCEDURE_RETRIES = 1
+
+
+def _attempt(name: str, ctl: Controller, args: argparse.Namespace, target: Any, setup_f: Any, lockstep: bool,
+             fn: Any, prog: Any, plan: Optional[Mapping[str, Any]], preisach_blob: Optional[bytes]) -> Any:
+    """One attempt of :func:`run_procedure`."""
+    from .cli import UserError
     from .drive import DriveError
     from .procedures.results import Result
-    from .procedures.runner import Progress, Target, open_bench
-    setup_f, lockstep, fn = tc.PROCEDURES[name]
-    target = Target(bus=bus, node_id=node_id, axis=axis, seed=seed, compensators=None, profile=profile)
-    prog = Progress(f"{ctl.name}/{name}", enabled=progress_enabled)
+    from .procedures.runner import open_bench
+    loop: dict[str, float] = {}
     try:
         with open_bench(target, setup_f(args), lockstep=lockstep) as bench:
             notes = _configure(bench.drive, ctl, plan, preisach_blob)
@@ -378,21 +684,111 @@ def run_procedure(name: str, ctl: Controller, args: argparse.Namespace, *, bus: 
                         raise RuntimeError(f"gain {k}: read back {back:.6g}, wrote {v:.6g}")
                 if ctl.gains:
                     notes.append("gains (read back): " + ", ".join(f"{k} = {v:.6g}" for k, v in ctl.gains.items()))
+                for k in LOOP_GAIN_NAMES:
+                    try:
+                        loop[k] = float(bench.drive.get_param(k))
+                    except (DriveError, KeyError, ValueError):
+                        pass
                 res = fn(bench, args, prog)
-    except (DriveError, RuntimeError, ValueError) as e:
+    except (DriveError, RuntimeError, ValueError, KeyError) as e:
         res = Result(name, notes=[f"failed: {e}"])
-        res.conditions = {"controller": ctl.name}
+        res.conditions = {"controller": ctl.name, "feedback": ctl.feedback}
+        return res
+    except UserError:          # the bench cannot be set up at all (no simulator, a rig refused): stop with one line
+        raise
+    except Exception as e:     # noqa: BLE001 - a transport library's own error (e.g. a timed-out block upload) is one failed run
+        res = Result(name, notes=[f"failed: {type(e).__name__}: {e}"])
+        res.conditions = {"controller": ctl.name, "feedback": ctl.feedback}
         return res
     res.notes.extend(notes + [n for n in target.notes if n not in notes])
-    res.conditions = {**res.conditions, "controller": ctl.name}
+    res.conditions = {**res.conditions, "controller": ctl.name, "feedback": ctl.feedback, "loop_gains": loop}
+    res.label = f"{ctl.name} ({ctl.feedback})"
     return res
+
+
+def _measure_row(ctl: Controller, procedures: Sequence[str], pargs: Mapping[str, argparse.Namespace],
+                 kw: Mapping[str, Any], bar: "StageBar", echo: Callable[[str], None]) -> list[Any]:
+    """Every procedure with one controller (no plotting: may run in a worker thread); returns the results."""
+    results = []
+    for name in procedures:
+        bar.show(f"{ctl.name} / {name} ...")
+        res = run_procedure(name, ctl, pargs[name], **kw)
+        results.append(res)
+        head = ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in res.headline.items())
+        fails = [n for n in res.notes if n.startswith("failed:")]
+        echo(f"{ctl.name:>10s} {name:<14s} {head or '; '.join(fails) or '(no headline)'}")
+        bar.step(f"{ctl.name} / {name} done")
+    return results
+
+
+def _write_row(out_dir: Path, ctl: Controller, results: Sequence[Any], kw: Mapping[str, Any],
+               pdf: bool) -> dict[str, Any]:
+    """A row's ``test.json`` and plots (main thread: matplotlib); returns its document entry."""
+    from .procedures.results import write_json
+    cdir = out_dir / ctl.name
+    plots: list[str] = []
+    pdir = cdir / "plots"
+    for res in results:
+        if res.plot is not None:
+            for p in res.plot(res, pdir, "pdf" if pdf else "png"):
+                if p.suffix == ".png":
+                    plots.append(str(p.relative_to(out_dir)))
+    bus = kw.get("bus")
+    meta = {"target": "virtual drive (hdservo-sim serve)" if bus is None else f"drive {bus}",
+            "axis": kw.get("axis") if bus is None else None, "seed": kw.get("seed") if bus is None else None,
+            "compensators": list(ctl.compensators), "controller": ctl.to_json(), "notes": []}
+    write_json(cdir / "test.json", list(results), meta)
+    headline: dict[str, Any] = {}
+    loop: dict[str, float] = {}
+    for r in results:
+        headline.update(json.loads(json.dumps(r.to_json()["headline"])))
+        if not loop and r.conditions.get("loop_gains"):
+            loop = dict(r.conditions["loop_gains"])
+    return {**ctl.to_json(), "headline": headline, "json": str((cdir / "test.json").relative_to(out_dir)),
+            "plots": plots, "loop_gains": loop,
+            "failures": {r.name: [n for n in r.notes if n.startswith("failed:")] for r in results
+                         if any(n.startswith("failed:") for n in r.notes)}}
+
+
+def _run_rows(out_dir: Path, rows: Sequence[Controller], procedures: Sequence[str], proc_extra: Sequence[str],
+              kw: Mapping[str, Any], bar: "StageBar", echo: Callable[[str], None], pdf: bool,
+              jobs: int) -> dict[str, dict[str, Any]]:
+    """Run ``rows`` (``jobs`` at a time, each row's procedures in turn); name -> document entry, in row order."""
+    from concurrent.futures import ThreadPoolExecutor
+    pargs = {c.name: {p: procedure_args(p, [*proc_extra, *c.proc_args.get(p, [])]) for p in procedures}
+             for c in rows}
+    if jobs <= 1 or len(rows) <= 1:
+        res = {c.name: _measure_row(c, procedures, pargs[c.name], kw, bar, echo) for c in rows}
+    else:
+        with ThreadPoolExecutor(max_workers=jobs) as ex:     # each procedure runs its own virtual drive process
+            futs = {c.name: ex.submit(_measure_row, c, procedures, pargs[c.name], kw, bar, echo) for c in rows}
+            res = {n: f.result() for n, f in futs.items()}
+    return {c.name: _write_row(out_dir, c, res[c.name], kw, pdf) for c in rows}
+
+
+def _prepare(procedures: Sequence[str], model: Optional[Path], axis: str, bus: Optional[dict[str, Any]],
+             need_preisach: bool) -> tuple[Optional[Mapping[str, Any]], Optional[bytes]]:
+    from .commands import test as tc
+    bad = [p for p in procedures if p not in tc.PROCEDURES]
+    if bad:
+        raise ValueError(f"unknown procedure '{bad[0]}'; expected some of {', '.join(sorted(tc.PROCEDURES))}")
+    plan = None
+    blob = None
+    if model is not None:
+        from .commands.download import plan_download
+        plan = plan_download(model, axis)
+    elif bus is None and need_preisach:
+        from . import compsetup
+        blob = compsetup.preisach_table(axis).to_bytes()
+    return plan, blob
 
 
 def run_compare(out_dir: Path, controllers: Sequence[Controller], procedures: Sequence[str], *,
                 proc_extra: Sequence[str] = (), bus: Optional[dict[str, Any]] = None, node_id: int = 1,
                 axis: str = "reference", seed: int = 1, model: Optional[Path] = None,
                 progress: bool = True, pdf: bool = False,
-                echo: Callable[[str], None] = lambda s: None, profile: str = "hdservo") -> dict[str, Any]:
+                echo: Callable[[str], None] = lambda s: None, jobs: int = 1,
+                profile: str = "hdservo") -> dict[str, Any]:
     """Run every procedure with every controller; write the outputs (module docstring); return the document.
 
     Parameters
@@ -400,7 +796,7 @@ def run_compare(out_dir: Path, controllers: Sequence[Controller], procedures: Se
     out_dir : Path
         Output directory (created).
     controllers : sequence of Controller
-        What to compare; ``pid`` first is the reference of the verdicts.
+        What to compare; ``pid`` (else the first) is the reference of the verdicts.
     procedures : sequence of str
         Names of :data:`hdservo.commands.test.PROCEDURES`.
     proc_extra : sequence of str
@@ -413,6 +809,8 @@ def run_compare(out_dir: Path, controllers: Sequence[Controller], procedures: Se
         Progress bar and the procedures' progress lines on stderr.
     echo : callable
         Receives one human summary line per procedure run.
+    jobs : int
+        Controllers run at the same time (each procedure on its own virtual drive; 1 on a real drive).
     profile : str
         Object profile of the virtual drive (``hdservo`` or ``generic``); unused for a real drive.
 
@@ -420,77 +818,139 @@ def run_compare(out_dir: Path, controllers: Sequence[Controller], procedures: Se
     -------
     dict
         The ``hdservo-compare`` document written to ``out_dir/compare.json``:
-        ``controllers`` (name -> description, compensators, gains, headline,
-        failures, ``json``, ``plots``), ``figures`` (key -> label, unit,
-        target, values per controller, met per controller, verdict vs PID),
-        ``comparison_plots``, ``best``, ``reference``, ``conditions``, ``run_time_s``.
+        ``controllers`` (name -> description, compensators, gains, feedback, kind, components,
+        headline, loop gains, failures, ``json``, ``plots``), ``figures`` (key -> label, unit,
+        target, values per controller, met per controller, verdict vs PID, ratio to the PID
+        of the same feedback configuration), ``comparison_plots``, ``best``, ``reference``,
+        ``conditions``, ``run_time_s``.
 
     Raises
     ------
     ValueError
         Bad procedure name or options (before anything runs).
     """
-    from .commands import test as tc
-    from .procedures.results import write_json
-    bad = [p for p in procedures if p not in tc.PROCEDURES]
-    if bad:
-        raise ValueError(f"unknown procedure '{bad[0]}'; expected some of {', '.join(sorted(tc.PROCEDURES))}")
-    pargs = {(c.name, p): procedure_args(p, [*proc_extra, *c.proc_args.get(p, [])])
-             for c in controllers for p in procedures}
-    plan = None
-    blob = None
-    if model is not None:
-        from .download import plan_download
-        plan = plan_download(model, axis)
-    elif bus is None and any("preisach" in c.compensators for c in controllers):
-        from . import compsetup
-        blob = compsetup.preisach_table(axis).to_bytes()
+    for c in controllers:
+        for p in procedures:
+            procedure_args(p, [*proc_extra, *c.proc_args.get(p, [])])
+    plan, blob = _prepare(procedures, model, axis, bus, any("preisach" in c.compensators for c in controllers))
     t0 = time.monotonic()
     out_dir.mkdir(parents=True, exist_ok=True)
     bar = StageBar("compare", len(controllers) * len(procedures), enabled=progress)
     bar.show("starting")
-    doc_ctl: dict[str, Any] = {}
-    for ctl in controllers:
-        results = []
-        for name in procedures:
-            bar.show(f"{ctl.name} / {name} ...")
-            res = run_procedure(name, ctl, pargs[(ctl.name, name)], bus=bus, node_id=node_id, axis=axis, seed=seed, plan=plan,
-                                preisach_blob=blob, progress_enabled=progress, profile=profile)
-            results.append(res)
-            head = ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in res.headline.items())
-            fails = [n for n in res.notes if n.startswith("failed:")]
-            echo(f"{ctl.name:>10s} {name:<14s} {head or '; '.join(fails) or '(no headline)'}")
-            bar.step(f"{ctl.name} / {name} done")
-        cdir = out_dir / ctl.name
-        plots: list[str] = []
-        pdir = cdir / "plots"
-        for res in results:
-            if res.plot is not None:
-                for p in res.plot(res, pdir, "pdf" if pdf else "png"):
-                    if p.suffix == ".png":
-                        plots.append(str(p.relative_to(out_dir)))
-        meta = {"target": "virtual drive (hdservo-sim serve)" if bus is None else f"drive {bus}",
-                "axis": axis if bus is None else None, "seed": seed if bus is None else None,
-                "compensators": list(ctl.compensators), "controller": ctl.to_json(), "notes": []}
-        write_json(cdir / "test.json", results, meta)
-        headline: dict[str, Any] = {}
-        for r in results:
-            headline.update(json.loads(json.dumps(r.to_json()["headline"])))
-        doc_ctl[ctl.name] = {**ctl.to_json(), "headline": headline, "json": str((cdir / "test.json").relative_to(out_dir)),
-                             "plots": plots,
-                             "failures": {r.name: [n for n in r.notes if n.startswith("failed:")] for r in results
-                                          if any(n.startswith("failed:") for n in r.notes)}}
-    ref_name = "pid" if "pid" in doc_ctl else controllers[0].name
-    best_name = "best" if "best" in doc_ctl else controllers[-1].name
+    kw = dict(bus=bus, node_id=node_id, axis=axis, seed=seed, plan=plan, preisach_blob=blob,
+              progress_enabled=progress, profile=profile)
+    doc_ctl = _run_rows(out_dir, controllers, procedures, proc_extra, kw, bar, echo, pdf,
+                        jobs if bus is None else 1)
+    return _finish(out_dir, doc_ctl, procedures, proc_extra, bus, axis, seed, model, plan, t0, None)
+
+
+def run_ablation(out_dir: Path, feedbacks: Sequence[str], procedures: Sequence[str], *,
+                 proc_extra: Sequence[str] = (), bus: Optional[dict[str, Any]] = None, node_id: int = 1,
+                 axis: str = "reference", seed: int = 1, model: Optional[Path] = None,
+                 progress: bool = True, pdf: bool = False, echo: Callable[[str], None] = lambda s: None,
+                 jobs: int = 1, extras: bool = True, profile: str = "hdservo") -> dict[str, Any]:
+    """The ablation per feedback configuration (docs/demo.md): fair PID, + each compensator, best, leave-one-out.
+
+    Stage 1, per configuration: the fair PID and the fair PID + each compensator of
+    :data:`SINGLES` (and, with ``extras``, the PID design in position hold, labelled).  The best
+    combination is then chosen from these measurements by :func:`choose_best`.  Stage 2: the best
+    combination, the best minus each of its parts (when it has two or more), and the motion
+    strategies on top of it (``best+hold``, ``best+hold+approach``), each its own row.  A row whose
+    configuration equals one already measured is not run again (``measured_as`` names it).
+
+    Returns
+    -------
+    dict
+        The ``hdservo-compare`` document (:func:`run_compare`) with ``ablation``: per configuration
+        the chosen parts, the rule's reasons and the rows; ``OUT/ablation.json`` is written too
+        (:func:`ablation_doc`).
+    """
+    stage1: list[Controller] = []
+    ax = axis if bus is None else "reference"       # a real drive keeps its own design gains
+    for fb in feedbacks:
+        stage1.append(fair_row([], fb, "baseline", axis=ax))
+        stage1 += [fair_row([c], fb, "compensator", axis=ax) for c in SINGLES]
+    if extras and "full-closed" in feedbacks:
+        stage1.append(pid_hold_row(ax))
+    for c in stage1:
+        for p in procedures:
+            procedure_args(p, [*proc_extra, *c.proc_args.get(p, [])])
+    plan, blob = _prepare(procedures, model, axis, bus, True)
+    t0 = time.monotonic()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    n_est = len(stage1) + 4 * len(feedbacks)
+    bar = StageBar("compare", n_est * len(procedures), enabled=progress)
+    bar.show("starting: fair PID and each compensator")
+    kw = dict(bus=bus, node_id=node_id, axis=axis, seed=seed, plan=plan, preisach_blob=blob,
+              progress_enabled=progress, profile=profile)
+    jb = jobs if bus is None else 1
+    doc_ctl = _run_rows(out_dir, stage1, procedures, proc_extra, kw, bar, echo, pdf, jb)
+    keys = [f.key for f in FIGURES if f.procedure in procedures]
+    info: dict[str, Any] = {}
+    stage2: list[Controller] = []
+    alias: dict[str, tuple[Controller, str]] = {}
+    for fb in feedbacks:
+        base = doc_ctl[row_name("pid", fb)]["headline"]
+        single = {c: doc_ctl[row_name("+".join([c]), fb)]["headline"] for c in SINGLES}
+        parts, why = choose_best(single, base, keys)
+        rows = [fair_row(parts, fb, "best", name="best", axis=ax)]
+        if len(parts) >= 2:
+            rows += [fair_row([x for x in parts if x != p], fb, "leave-one-out", name=f"best-{p}", axis=ax)
+                     for p in parts]
+        rows += [fair_row([*parts, "hold"], fb, "strategy", name="best+hold", axis=ax),
+                 fair_row([*parts, "hold", "approach"], fb, "strategy", name="best+hold+approach", axis=ax)]
+        known = {tuple(sorted(d.get("components", []))): n for n, d in doc_ctl.items()
+                 if d.get("feedback") == fb and d.get("kind") in ("baseline", "compensator")}
+        for r in rows:
+            same = known.get(tuple(sorted(r.components)))
+            if same is not None:
+                alias[r.name] = (r, same)
+            else:
+                stage2.append(r)
+        info[fb] = {"best": parts, "rule": why, "best_row": row_name("best", fb)}
+    bar.total = max(bar.done + len(stage2) * len(procedures), 1)
+    doc_ctl.update(_run_rows(out_dir, stage2, procedures, proc_extra, kw, bar, echo, pdf, jb))
+    for n, (r, same) in alias.items():
+        doc_ctl[n] = {**doc_ctl[same], **r.to_json(), "plots": [], "measured_as": same,
+                      "description": r.description + f" (the same configuration as row {same}: measured once)"}
+    rank = {"baseline": 0, "compensator": 1, "best": 2, "leave-one-out": 3, "strategy": 4}
+    pos = {n: i for i, n in enumerate(doc_ctl)}
+    fbi = {fb: i for i, fb in enumerate(feedbacks)}
+    order = sorted(doc_ctl, key=lambda n: (doc_ctl[n].get("kind") == "extra",
+                                           fbi.get(doc_ctl[n].get("feedback"), 99),
+                                           rank.get(doc_ctl[n].get("kind"), 9), pos[n]))
+    doc_ctl = {n: doc_ctl[n] for n in order}
+    for fb in feedbacks:
+        info[fb]["rows"] = [n for n, d in doc_ctl.items() if d.get("feedback") == fb]
+    doc = _finish(out_dir, doc_ctl, procedures, proc_extra, bus, axis, seed, model, plan, t0,
+                  {"baseline": "pid", "feedbacks": info,
+                   "rule": (f"best combination: the compensators that, on the fair PID in the same feedback "
+                            f"configuration, improve at least one figure by >= {RULE_GAIN:.0%} and worsen none by "
+                            f"more than {RULE_LOSS:.0%} (settling time reported, not judged); at most one per group (friction, lost motion / "
+                            f"hysteresis, transmission error), the smallest geometric-mean factor wins")})
+    _write_json_atomic(out_dir / "ablation.json", ablation_doc(doc))
+    return doc
+
+
+def _finish(out_dir: Path, doc_ctl: dict[str, Any], procedures: Sequence[str], proc_extra: Sequence[str],
+            bus: Optional[dict[str, Any]], axis: str, seed: int, model: Optional[Path],
+            plan: Optional[Mapping[str, Any]], t0: float, ablation: Optional[dict[str, Any]]) -> dict[str, Any]:
+    """Figures, verdicts, ratios and charts of the rows; writes ``compare.json``; returns the document."""
+    ref_name = "pid" if "pid" in doc_ctl else next(iter(doc_ctl))
+    best_name = "best" if "best" in doc_ctl else list(doc_ctl)[-1]
     figs: dict[str, Any] = {}
     for f in FIGURES:
         if f.procedure not in procedures:
             continue
         vals = {c: d["headline"].get(f.key) for c, d in doc_ctl.items()}
-        figs[f.key] = {"label": f.label, "short": f.short or f.label, "unit": f.unit, "lower_is_better": f.lower_is_better, "target": f.target,
+        base = {c: vals.get(row_name("pid", d.get("feedback", "full-closed")), vals.get(ref_name))
+                for c, d in doc_ctl.items()}
+        figs[f.key] = {"label": f.label, "short": f.short or f.label, "unit": f.unit,
+                       "lower_is_better": f.lower_is_better, "target": f.target,
                        "target_text": f.target_text(), "values": vals,
                        "meets_target": {c: f.meets(v) for c, v in vals.items()},
                        "vs_" + ref_name: {c: f.verdict(v, vals[ref_name]) for c, v in vals.items() if c != ref_name},
+                       "ratio_to_pid": {c: ratio(f, v, base[c]) for c, v in vals.items()},
                        "best_measured": best_measured(f, vals)}
     doc: dict[str, Any] = {
         "format": FORMAT, "version": VERSION, "reference": ref_name, "best": best_name,
@@ -500,13 +960,64 @@ def run_compare(out_dir: Path, controllers: Sequence[Controller], procedures: Se
                        "model": str(model) if model is not None else None,
                        "parameters": ("identified model, downloaded and read back before each compensated "
                                       "procedure" if model is not None else "the drive's compensator defaults"),
+                       "fair_baseline": ("every row runs with the loop gains of the compensated set and the "
+                                         "stabilisation in the gyro mode; ratios are to the fair PID of the same "
+                                         "feedback configuration"),
                        "model_notes": list(plan["notes"]) if plan else []},
         "controllers": doc_ctl, "figures": figs}
+    if ablation is not None:
+        doc["ablation"] = ablation
     doc["comparison_plots"] = [str(p.relative_to(out_dir)) for p in comparison_plots(doc, out_dir / "plots")]
     doc["verdict"] = verdict(doc)
     doc["run_time_s"] = round(time.monotonic() - t0, 1)
     _write_json_atomic(out_dir / "compare.json", doc)
     return doc
+
+
+def ablation_doc(doc: Mapping[str, Any]) -> dict[str, Any]:
+    """``{"baseline": "pid", "rows": [{"name", "feedback", "kind", "components", "figures", "ratio_to_baseline"}]}``.
+
+    ``figures``: every figure of the row (None = no value); ``ratio_to_baseline``: value / the
+    fair PID's value in the same feedback configuration (None when either is missing).
+    """
+    rows = []
+    for n, d in doc["controllers"].items():
+        fb = d.get("feedback", "full-closed")
+        figs = {k: f["values"].get(n) for k, f in doc["figures"].items()}
+        rows.append({"name": n, "feedback": fb, "kind": d.get("kind", "custom"),
+                     "components": list(d.get("components", d.get("compensators", []))),
+                     "baseline_row": row_name("pid", fb), "figures": figs,
+                     "ratio_to_baseline": {k: f.get("ratio_to_pid", {}).get(n) for k, f in doc["figures"].items()}})
+    ab = doc.get("ablation", {})
+    return {"baseline": "pid", "rule": ab.get("rule"),
+            "best": {fb: v.get("best") for fb, v in ab.get("feedbacks", {}).items()}, "rows": rows}
+
+
+def ablation_table(doc: Mapping[str, Any]) -> str:
+    """Per feedback configuration: one line per row, each figure's value and its ratio to the fair PID."""
+    keys = list(doc["figures"])
+    lines: list[str] = []
+    fbs: list[str] = []
+    for d in doc["controllers"].values():
+        if d.get("feedback", "full-closed") not in fbs:
+            fbs.append(d.get("feedback", "full-closed"))
+    w = 18
+    for fb in fbs:
+        names = [n for n, d in doc["controllers"].items() if d.get("feedback", "full-closed") == fb]
+        lines.append(f"ablation, {fb}: value (ratio to the fair PID {row_name('pid', fb)})")
+        head = f"{'row':<28s}" + "".join(f"{(doc['figures'][k].get('short') or k)[:w - 1]:>{w}s}" for k in keys)
+        units = f"{'':<28s}" + "".join(f"{'(' + doc['figures'][k]['unit'] + ')':>{w}s}" for k in keys)
+        lines += [head, units, "-" * len(head)]
+        for n in names:
+            row = f"{n[:27]:<28s}"
+            for k in keys:
+                v = doc["figures"][k]["values"].get(n)
+                r = doc["figures"][k].get("ratio_to_pid", {}).get(n)
+                cell = _num(v) + ("" if r is None or n == row_name("pid", fb) else f" ({r:.2g}x)")
+                row += f"{cell:>{w}s}"
+            lines.append(row)
+        lines.append("")
+    return "\n".join(lines)
 
 
 def best_measured(f: Figure, values: Mapping[str, Optional[float]]) -> Optional[str]:
@@ -571,10 +1082,57 @@ def comparison_plots(doc: Mapping[str, Any], out_dir: Path) -> list[Path]:
         a.set_xticklabels(names, rotation=20)
         a.set_xlabel("controller (-)")
         a.set_ylabel(f"{f.get('short', f['label'])} ({f['unit']})")
-        a.set_title(f"{f['label']}\ngreen = target met, red = not met", fontsize=10)
+        a.set_title(f"{f['label']}, every row (feedback configuration after '@', full-closed otherwise)\n"
+                    + ("green = target met, red = not met" if f["target"] is not None else
+                       "no absolute target: compare with the fair PID row 'pid'"), fontsize=9)
         a.grid(True, axis="y", which="both", alpha=0.4)
         fig.tight_layout()
         paths += [p for p in save_figure(fig, out_dir, f"compare_{key}") if p.suffix == ".png"]
+    paths += ablation_plots(doc, out_dir)
+    return paths
+
+
+def ablation_plots(doc: Mapping[str, Any], out_dir: Path) -> list[Path]:
+    """One chart per feedback configuration: each row's ratio to the fair PID per figure (log colour scale)."""
+    from .procedures.results import figure, save_figure
+    keys = [k for k in doc["figures"]]
+    fbs: list[str] = []
+    for d in doc["controllers"].values():
+        if d.get("feedback", "full-closed") not in fbs:
+            fbs.append(d.get("feedback", "full-closed"))
+    paths: list[Path] = []
+    for fb in fbs:
+        names = [n for n, d in doc["controllers"].items() if d.get("feedback", "full-closed") == fb]
+        if len(names) < 2 or not keys:
+            continue
+        m = np.full((len(names), len(keys)), np.nan)
+        for i, n in enumerate(names):
+            for j, k in enumerate(keys):
+                f = FIGURE_BY_KEY.get(k)
+                r = doc["figures"][k].get("ratio_to_pid", {}).get(n)
+                if r is not None and r > 0 and f is not None:
+                    m[i, j] = math.log10(r if f.lower_is_better else 1.0 / r)   # < 0: better than the PID
+        fig, ax = figure(size=(1.1 * len(keys) + 3.5, 0.42 * len(names) + 2.6))
+        a = ax[0][0]
+        im = a.imshow(np.clip(m, -1.5, 1.5), cmap="RdYlGn_r", vmin=-1.5, vmax=1.5, aspect="auto")
+        for i, n in enumerate(names):
+            for j, k in enumerate(keys):
+                r = doc["figures"][k].get("ratio_to_pid", {}).get(n)
+                v = doc["figures"][k]["values"].get(n)
+                a.text(j, i, "none" if v is None else (f"{r:.2g}x" if r is not None else _num(v)), ha="center",
+                       va="center", fontsize=7)      # a value against a PID without one: the value itself
+        a.set_xticks(range(len(keys)))
+        a.set_xticklabels([f"{doc['figures'][k].get('short') or k} ({doc['figures'][k]['unit']})" for k in keys],
+                          rotation=35, ha="right", fontsize=7)
+        a.set_yticks(range(len(names)))
+        a.set_yticklabels(names, fontsize=8)
+        a.set_xlabel("figure (unit)")
+        a.set_ylabel("row (controller)")
+        a.set_title(f"ablation, {fb}: value / fair PID value per figure (green = better, red = worse)", fontsize=9)
+        cb = fig.colorbar(im, ax=a)
+        cb.set_label("log10 of the worse-factor (-)")
+        fig.tight_layout()
+        paths += [p for p in save_figure(fig, out_dir, f"ablation_{fb}") if p.suffix == ".png"]
     return paths
 
 
@@ -603,7 +1161,7 @@ def summary_table(doc: Mapping[str, Any], columns: Optional[Sequence[str]] = Non
         bm = f.get("best_measured")
         row += f"  {bm} ({_num(f['values'].get(bm))})" if bm else "  -"
         lines.append(row)
-    lines.append("(* = meets the target of docs/reference-axis.md; 'none' = no value, e.g. no smooth rung)")
+    lines.append("(* = meets the target; 'none' = no value, e.g. no smooth rung)")
     return "\n".join(lines)
 
 
@@ -615,14 +1173,45 @@ def _num(v: Any) -> str:
     return str(v)
 
 
+#: Summary keys of the semi-closed ISO 230-2 figures -> the figure they take from the semi-closed rows.
+SEMI_CLOSED_SUMMARY: dict[str, str] = {"semi_closed_positioning_accuracy_arcsec": "positioning_accuracy_arcsec",
+                                       "semi_closed_repeatability_arcsec": "repeatability_arcsec"}
+
+
+def row_conditions(doc: Mapping[str, Any], name: Optional[str]) -> Optional[dict[str, Any]]:
+    """Feedback configuration, drive mode per procedure, loop gains and components of a row (None: no row)."""
+    d = doc["controllers"].get(name) if name else None
+    if d is None:
+        return None
+    pa = d.get("proc_args", {})
+    stab = "hold"
+    if "stabilisation" in pa and "--stab-mode" in pa["stabilisation"]:
+        stab = pa["stabilisation"][pa["stabilisation"].index("--stab-mode") + 1]
+    return {"row": name, "feedback": d.get("feedback", "full-closed"),
+            "mode": {"stabilisation": "gyro stabilisation mode (STAB, CiA 402 mode -1)" if stab == "stab"
+                     else "position hold (CSP)", "other procedures": "position control (profile / cyclic position)"},
+            "loop_gains": dict(d.get("loop_gains", {})), "gains_set": dict(d.get("gains", {})),
+            "components": list(d.get("components", d.get("compensators", [])))}
+
+
 def summary_doc(doc: Mapping[str, Any], compensated: Optional[str] = None) -> dict[str, Any]:
-    """``{figure: {"pid": value, "compensated": value}}`` for every figure of :data:`FIGURES` (None when not run)."""
+    """The demo summary: ``{figure: {"pid": value, "compensated": value}, ..., "conditions": {...}}``.
+
+    ``pid`` is the fair PID (full-closed), ``compensated`` the best combination without motion
+    strategies (full-closed); the semi-closed ISO 230-2 figures (:data:`SEMI_CLOSED_SUMMARY`) come
+    from the semi-closed rows.  Every figure of :data:`FIGURES` is present (None when not run);
+    ``conditions`` holds each one's feedback configuration, modes and loop gains.
+    """
     ref = doc["reference"]
     comp = compensated or doc["best"]
     out: dict[str, Any] = {}
     for f in FIGURES:
         d = doc["figures"].get(f.key, {}).get("values", {})
         out[f.key] = {"pid": d.get(ref), "compensated": d.get(comp)}
+    for key, src in SEMI_CLOSED_SUMMARY.items():
+        d = doc["figures"].get(src, {}).get("values", {})
+        out[key] = {"pid": d.get(row_name("pid", "semi-closed")), "compensated": d.get(row_name("best", "semi-closed"))}
+    out["conditions"] = {"pid": row_conditions(doc, ref), "compensated": row_conditions(doc, comp)}
     return out
 
 
@@ -636,7 +1225,9 @@ def parse_proc_args(text: Optional[str]) -> list[str]:
         raise ValueError(f"--proc-args: {e}") from None
 
 
-__all__ = ["BEST_NAMES_DEFAULT", "Controller", "DEFAULT_PROCEDURES", "FIGURES", "FIGURE_BY_KEY", "Figure", "FORMAT",
+__all__ = ["BEST_NAMES_DEFAULT", "FEEDBACKS", "RULE_GAIN", "RULE_LOSS", "SEMI_CLOSED_SUMMARY", "ablation_doc",
+           "ablation_table", "choose_best", "fair_row", "feedback_names", "pid_hold_row", "qualifies", "ratio",
+           "row_conditions", "row_name", "run_ablation", "worse_factor", "Controller", "DEFAULT_PROCEDURES", "FIGURES", "FIGURE_BY_KEY", "Figure", "FORMAT",
            "QUICK_ARGS", "SINGLES", "StageBar", "best_controller", "comparison_plots", "controllers_from_names",
            "default_controller_names", "parse_proc_args", "procedure_args", "run_compare", "summary_doc",
            "summary_table", "verdict"]

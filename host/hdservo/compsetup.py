@@ -76,6 +76,32 @@ BEST_PROC_ARGS: dict[str, list[str]] = {"stabilisation": ["--stab-mode", "stab"]
 BEST_GAINS: dict[str, float] = {"pos_kp": 60.0, "str_w_ref": 0.0, "str_cruise_ticks": 200.0, "hold_ticks": 2000.0}
 
 
+#: Fair-comparison rule (docs/compensators.md, "Fair baselines"): every row of a comparison -- the PID
+#: baseline, each compensator, the best combination, the leave-one-out rows -- runs with the loop gains
+#: of the compensated set: the velocity PI and filters of the axis' PID design (velocity loop at 25 Hz on
+#: every axis, :func:`hdservo.baseline.axis_controller`) and this position P, 60 1/s = 2 pi 25 Hz / 2.6
+#: (the position loop a factor 2.6 below the velocity loop, the same on every axis).
+FAIR_GAINS: dict[str, float] = {"pos_kp": 60.0}
+#: Every row runs each procedure in the same drive mode: the stabilisation test in the gyro mode (STAB).
+FAIR_PROC_ARGS: dict[str, list[str]] = {"stabilisation": ["--stab-mode", "stab"]}
+#: Settings a compensator carries when it is on (its configuration, the same on every axis): the
+#: Stribeck feed-forward on the measured velocity, on the reference velocity while the reference
+#: cruises at a constant rate (docs/compensators.md section 1).
+COMPONENT_PARAMS: dict[str, dict[str, float]] = {"stribeck": {"str_w_ref": 0.0, "str_cruise_ticks": 200.0}}
+#: Motion strategies, reported as their own rows: name -> (cb_enable names, drive parameters).
+#: ``hold``: the standstill hunt breaker (fades the friction feed-forward at rest); ``approach``: the
+#: one-direction final approach of PTP moves.
+STRATEGIES: dict[str, tuple[tuple[str, ...], dict[str, float]]] = {
+    "hold": ((), {"hold_ticks": 2000.0}), "approach": (("approach",), {})}
+#: Compensators that act on the same effect: the best combination takes at most one of each group.
+GROUPS: dict[str, tuple[str, ...]] = {"friction": ("stribeck", "lugre", "backstep"),
+                                      "lost motion / hysteresis": ("maxwell", "preisach"),
+                                      "transmission error": ("te",)}
+#: Best combination when no measurements choose one (``--controllers best``): the compensators of
+#: :data:`BEST_NAMES` without the motion strategies.
+DEFAULT_BEST: tuple[str, ...] = ("stribeck",)
+
+
 def best_gains(axis: str = "reference") -> dict[str, float]:
     """Drive parameters the best combination sets after the model download (table units; same for every axis)."""
     return dict(BEST_GAINS)
@@ -213,7 +239,12 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
                 "s1": get(f"{sec}.sigma1_Nms_per_rad") * scale_t * scale_v, "delta": get(f"{sec}.delta")}
     m = side("friction_motor", n, n, fm)
     ld = side("friction_load", 1.0, 1.0, fl)
-    ws = (m["fsp"] - m["fcp"], ld["fsp"] - ld["fcp"])
+    # Stribeck velocity: the mean of both sides weighted by their Stribeck hump Fs - Fc; a hump
+    # that is not there (an identified Fs <= Fc) weighs nothing, and with no hump on either
+    # side the enabled sides count equally (a negative weight sum made vs meaningless)
+    ws = (max(m["fsp"] - m["fcp"], 0.0) if fm else 0.0, max(ld["fsp"] - ld["fcp"], 0.0) if fl else 0.0)
+    if ws[0] + ws[1] <= 0.0:
+        ws = (1.0 if fm else 0.0, 1.0 if fl else 0.0)
     vs = (m["vs"] * ws[0] + ld["vs"] * ws[1]) / max(ws[0] + ws[1], 1e-12)      # rad/s, output
     vs_turn = vs / TWO_PI
     fv = (m["fv"] + ld["fv"]) * TWO_PI                                            # N.m/(turn/s)
@@ -372,5 +403,6 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
     return ctl
 
 
-__all__ = ["BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "ENABLE_BITS", "best_gains", "compensator_params", "controller", "enable_mask", "gear_everett", "preisach_table",
+__all__ = ["BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS",
+           "FAIR_GAINS", "FAIR_PROC_ARGS", "GROUPS", "STRATEGIES", "best_gains", "compensator_params", "controller", "enable_mask", "gear_everett", "preisach_table",
            "write_preisach_table"]

@@ -53,7 +53,9 @@ def test_figure_rules() -> None:
     assert rate.verdict(None, 0.1) == "worse" and rate.verdict(None, None) == "n/a"
     assert [x.key for x in cmp.FIGURES] == ["min_smooth_rate_deg_s", "positioning_accuracy_arcsec",
                                             "repeatability_arcsec", "stabilisation_rms_arcsec", "bandwidth_hz",
-                                            "peak_torque_Nm"]
+                                            "peak_torque_Nm", "tracking_rms_0p01_arcsec", "tracking_peak_0p01_arcsec",
+                                            "tracking_rms_0p1_arcsec", "tracking_peak_0p1_arcsec",
+                                            "reversal_peak_arcsec", "settling_1deg_s"]
 
 
 def test_controllers_and_best(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -64,19 +66,19 @@ def test_controllers_and_best(monkeypatch: pytest.MonkeyPatch) -> None:
         cmp.controllers_from_names(["pid", "bogus"])
     assert cmp.default_controller_names() == ["pid", "stribeck", "lugre", "maxwell", "preisach", "te", "backstep",
                                               "best"]
-    # the best combination comes from compsetup when it defines one
-    if not hasattr(compsetup, "BEST_NAMES"):
-        b = cmp.best_controller("reference")
-        assert b.compensators == ["lugre"] and b.gains["pos_kp"] == 60.0
-        assert b.gains["vel_ki"] == pytest.approx(12000.0)
-    else:   # the coherent drive configuration of docs/demo.md: the STAB mode for the stabilisation procedure
-        b = cmp.best_controller("reference")
-        assert b.compensators == ["stribeck", "approach"] and b.gains == {"pos_kp": 60.0, "str_w_ref": 0.0,
-                                                                          "str_cruise_ticks": 200.0,
-                                                                          "hold_ticks": 2000.0}
-        assert b.proc_args == {"stabilisation": ["--stab-mode", "stab"]}
-        assert "cb_pki" not in b.gains and not set(b.proc_args) - {"stabilisation"}
-        assert cmp.procedure_args("stabilisation", b.proc_args["stabilisation"]).stab_mode == "stab"
+    # every row on the fair footing: the compensated set's loop gains, stabilisation in the gyro mode
+    for x in c:
+        assert {k: x.gains[k] for k in compsetup.FAIR_GAINS} == compsetup.FAIR_GAINS
+        assert x.proc_args == {"stabilisation": ["--stab-mode", "stab"]}
+    b = c[3]      # best without motion strategies: no approach bit, no hold logic
+    assert b.compensators == list(compsetup.DEFAULT_BEST) and "hold_ticks" not in b.gains
+    assert "approach" not in b.compensators and b.gains["str_w_ref"] == 0.0
+    # the strategy rows: approach bit and hold logic as their own rows
+    s = cmp.controllers_from_names(["best+hold+approach"])[0]
+    assert s.kind == "strategy" and "approach" in s.compensators and s.gains["hold_ticks"] == 2000.0
+    # the full drive configuration of the design flow stays available
+    bb = cmp.best_controller("reference")
+    assert bb.compensators == list(compsetup.BEST_NAMES)
     monkeypatch.setattr(compsetup, "BEST_NAMES", ("stribeck", "te"), raising=False)
     monkeypatch.setattr(compsetup, "best_gains", lambda axis: {"pos_kp": 50.0}, raising=False)
     monkeypatch.setattr(compsetup, "BEST_PROC_ARGS", {"stabilisation": ["--duration", "2"]}, raising=False)
@@ -104,7 +106,7 @@ def test_verdict_summary_and_table() -> None:
     assert v["targets_met"] == {"min_smooth_rate_deg_s": True, "positioning_accuracy_arcsec": True}
     assert v["all_targets_met"] and v["better_everywhere"]
     s = cmp.summary_doc(doc)
-    assert list(s) == [f.key for f in cmp.FIGURES]
+    assert list(s) == [f.key for f in cmp.FIGURES] + list(cmp.SEMI_CLOSED_SUMMARY) + ["conditions"]
     assert s["min_smooth_rate_deg_s"] == {"pid": None, "compensated": 0.001}
     assert s["peak_torque_Nm"] == {"pid": None, "compensated": None}      # not run
     t = cmp.summary_table(doc)
@@ -117,14 +119,14 @@ def test_comparison_charts_have_units_on_every_axis(tmp_path: Path, monkeypatch:
     real = results.save_figure
 
     def spy(fig: Any, d: Path, stem: str, fmt: str = "png") -> list[Path]:
-        for a in fig.axes:
+        for a in fig.axes[:1]:          # the chart (a colour bar has one label)
             seen.append((a.get_xlabel(), a.get_ylabel()))
         return real(fig, d, stem, fmt)
 
     monkeypatch.setattr(results, "save_figure", spy)
     paths = cmp.comparison_plots(_doc(), tmp_path)
     assert [p.name for p in paths] == ["compare_min_smooth_rate_deg_s.png", "compare_positioning_accuracy_arcsec.png",
-                                       "compare_bandwidth_hz.png"]
+                                       "compare_bandwidth_hz.png", "ablation_full-closed.png"]
     assert seen[0] == ("controller (-)", "min. smooth rate (deg/s)")
     assert all(x.endswith(")") and y.endswith(")") for x, y in seen)
 
@@ -171,9 +173,10 @@ def test_compare_pid_and_best_on_the_virtual_axis(tmp_path: Path, capsys: pytest
         assert t["format"] == "hdservo-test" and set(t["results"]) == {"peak-torque", "stabilisation"}
         assert t["results"]["stabilisation"]["conditions"]["duration_s"] == 1.5
         notes = [n for r in t["results"].values() for n in r["notes"]]
-        if name == "pid":
+        if name == "pid":       # the fair PID: the compensated set's gains, no compensator, no model
             assert all("cb_enable = 0" in " ".join(r["notes"]) for r in t["results"].values())
             assert not any("model download" in n for n in notes)
+            assert sum("pos_kp = 60" in n for n in notes) == 2
         else:   # the identified model went to every drive, read back, then the gains, then the enables
             assert sum("model download" in n and "read back" in n for n in notes) == 2
             assert sum("pos_kp = 60" in n for n in notes) == 2
@@ -187,5 +190,10 @@ def test_compare_pid_and_best_on_the_virtual_axis(tmp_path: Path, capsys: pytest
     assert f["meets_target"] == {"pid": True, "best": True}
     assert f["vs_pid"]["best"] in ("better", "same", "worse")
     assert [Path(p).name for p in doc["comparison_plots"]] == ["compare_stabilisation_rms_arcsec.png",
-                                                               "compare_peak_torque_Nm.png"]
+                                                               "compare_peak_torque_Nm.png",
+                                                               "ablation_full-closed.png"]
+    for name, d in doc["controllers"].items():     # both in the gyro mode, same loop gains
+        t = json.loads((out / d["json"]).read_text())
+        assert t["results"]["stabilisation"]["conditions"]["drive_mode"].startswith("STAB")
+        assert d["loop_gains"]["pos_kp"] == pytest.approx(60.0)
     assert "peak_torque_Nm" in capsys.readouterr().out

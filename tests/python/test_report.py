@@ -112,7 +112,8 @@ def test_report_is_self_contained_and_embeds_every_plot(tmp_path: Path, capsys: 
     assert "script" not in p.tags and "link" not in p.tags
     # every plot on disk is in the page, once, with the same bytes; each holds a drawing
     on_disk = sorted(str(q.relative_to(tmp_path)) for q in out.rglob("*.png"))
-    assert len(on_disk) == 4 + 6          # 2 controllers x 2 procedures + one chart per headline figure
+    # 2 controllers x 2 procedures + one chart per headline figure + the ablation chart
+    assert len(on_disk) == 4 + len(cmp.FIGURES) + 1
     sources = sorted(i["data-source"] for i in p.imgs)       # relative to the HTML file
     assert sources == on_disk
     assert sorted(verify_report(page_path)) == sorted(tmp_path / s for s in on_disk)

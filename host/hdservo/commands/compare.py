@@ -8,7 +8,8 @@ on its own simulated axis (reference, or AXIS), exactly as ``hdservo test`` does
 (verified by read-back) before every compensated procedure.  Writes
 ``OUT/compare.json``, per-controller ``hdservo-test`` JSON and plots, and one
 comparison chart per headline figure (layout: :mod:`hdservo.compare`); prints
-a table with the targets of docs/reference-axis.md marked.  ``hdservo report
+a table with the targets of docs/reference-axis.md marked and the ablation table (each row's ratio to the fair PID of
+its feedback configuration); with ``--controllers ablation`` (default) also ``OUT/ablation.json``.  ``hdservo report
 OUT/compare.json`` turns it into one HTML file.
 """
 from __future__ import annotations
@@ -17,10 +18,11 @@ import argparse
 import os
 from pathlib import Path
 
-from ..errors import UserError
+from ..cli import UserError
 
 NAME = "compare"
-HELP = "run the test procedures with the PID baseline, each compensator and the best combination; compare"
+HELP = ("run the test procedures with the fair PID baseline, each compensator, the best combination and "
+        "leave-one-out rows, per feedback configuration; compare")
 
 
 def register(p: argparse.ArgumentParser) -> None:
@@ -29,9 +31,15 @@ def register(p: argparse.ArgumentParser) -> None:
     from ..drive import add_bus_arguments
     p.add_argument("-o", "--out", type=Path, default=Path("build") / "compare",
                    help="output directory (default build/compare)")
-    p.add_argument("--controllers", default=",".join(cmp.default_controller_names()),
-                   help="comma-separated: pid, best, a compensator, or compensators joined by '+' "
-                        "(default: pid, each compensator, best)")
+    p.add_argument("--controllers", default="ablation",
+                   help="'ablation' (default: per feedback configuration the fair PID, + each compensator, the "
+                        "best combination chosen by the documented rule, best minus each part, motion strategies) "
+                        "or comma-separated: pid, best, pid-hold, compensators / strategies joined by '+'")
+    p.add_argument("--feedback", default=None, metavar="CONFIGS",
+                   help="feedback configurations, comma-separated: full-closed, semi-closed, dual-loop "
+                        "(default: full-closed, plus semi-closed when the drive has fb_config)")
+    p.add_argument("--jobs", type=int, default=2,
+                   help="with --sim: controllers run at the same time, each on its own virtual drive (default 2)")
     p.add_argument("--procedures", default=",".join(cmp.DEFAULT_PROCEDURES),
                    help="comma-separated procedures of 'hdservo test' (default: the headline ones: "
                         f"{','.join(cmp.DEFAULT_PROCEDURES)})")
@@ -63,8 +71,10 @@ def run(args: argparse.Namespace) -> int:
     """Check the input, run the comparison, print the table."""
     from .. import compare as cmp
     from ..drive import choose_drive
-    # the user's files are checked before a drive is chosen: a bad file is the first error
-    axis = getattr(args, "sim", None) or "reference"
+    choice = choose_drive(args, sim_only=("seed",))
+    bus = choice.bus
+    axis = choice.axis or "reference"
+    seed = 1 if args.seed is None else args.seed
     if args.model is not None and not args.model.is_file():
         raise UserError(f"--model {args.model}: no such file")
     _check_dir(args.out, "--out")
@@ -72,8 +82,13 @@ def run(args: argparse.Namespace) -> int:
         if args.json.is_dir():
             raise UserError(f"--json {args.json}: is a directory")
         _check_dir(args.json.parent, "--json")
+    if args.jobs < 1:
+        raise UserError(f"--jobs {args.jobs}: must be >= 1")
+    ablation = args.controllers.strip() == "ablation"
     try:
-        ctls = cmp.controllers_from_names(args.controllers.split(","), axis)
+        fbs = cmp.feedback_names(args.feedback) if args.feedback is not None else cmp.default_feedbacks()
+        ctls = [] if ablation else cmp.controllers_from_names(args.controllers.split(","),
+                                                              axis if bus is None else "reference", fbs)
         procs = [x.strip() for x in args.procedures.split(",") if x.strip()]
         if not procs:
             raise ValueError("--procedures: none given")
@@ -84,30 +99,31 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"--procedures: unknown '{bad[0]}'; expected some of {', '.join(sorted(tc.PROCEDURES))}")
         for x in procs:
             cmp.procedure_args(x, extra)
+            for c in ctls:
+                cmp.procedure_args(x, [*extra, *c.proc_args.get(x, [])])
     except ValueError as e:
         raise UserError(str(e)) from None
     if args.model is not None:              # a bad model is refused before anything runs
-        from ..download import plan_download
+        from .download import plan_download
         plan_download(args.model, axis)
-    choice = choose_drive(args, sim_only=("seed",))
-    bus = choice.bus
-    if (choice.axis or "reference") != axis:
-        axis = choice.axis or "reference"
-        ctls = cmp.controllers_from_names(args.controllers.split(","), axis)
-    seed = 1 if args.seed is None else args.seed
     choice.announce("compare")
-    from ..drive_caps import preflight
-    preflight(choice, args.node_id, "compare")
     try:
-        doc = cmp.run_compare(args.out, ctls, procs, proc_extra=extra, bus=bus, node_id=args.node_id,
-                              axis=axis, seed=seed, model=args.model, progress=not args.quiet,
-                              pdf=args.pdf, echo=(lambda s: None) if args.quiet else print,
-                              profile=choice.profile)
+        kw = dict(proc_extra=extra, bus=bus, node_id=args.node_id, axis=axis, seed=seed, model=args.model,
+                  progress=not args.quiet, pdf=args.pdf, echo=(lambda s: None) if args.quiet else print,
+                  jobs=args.jobs, profile=choice.profile)
+        if ablation:
+            doc = cmp.run_ablation(args.out, fbs, procs, **kw)
+        else:
+            doc = cmp.run_compare(args.out, ctls, procs, **kw)
     except ValueError as e:
         raise UserError(str(e)) from None
     if args.json is not None:
         cmp._write_json_atomic(args.json, doc)
     print(cmp.summary_table(doc))
+    print()
+    print(cmp.ablation_table(doc))
+    for fb, info in doc.get("ablation", {}).get("feedbacks", {}).items():
+        print(f"best combination, {fb}: {' + '.join(info['best']) or 'none (no compensator pays)'}")
     v = doc["verdict"]
     if v["targets_met"]:
         met = [k for k, ok in v["targets_met"].items() if ok]

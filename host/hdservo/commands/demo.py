@@ -1,21 +1,24 @@
-"""``hdservo demo`` (``make demo``): the whole flow on the virtual reference axis, end to end.
+"""``hdservo demo`` (``make demo``): the whole flow on a virtual axis (the reference axis, or ``--axis FILE``), end to end.
 
-1. start the virtual reference axis (``hdservo-sim serve --rig`` on an ephemeral loopback port);
+1. start the virtual axis (``hdservo-sim serve --rig`` on an ephemeral loopback port);
 2. identify the axis over CAN (``hdservo identify all --sim``; the identification starts its own
    lock-step virtual drive with the test-rig channel it needs for the locked-output experiments);
 3. download the compensator parameters and tables computed from the identified model to the
    running virtual drive, every item read back (``hdservo download``);
-4. run the test procedures with the PID baseline and with compensation (``hdservo compare
-   --model``: each procedure starts a virtual drive with its rig set-up -- payload, base
-   rocking, output lock -- and the identified parameters are downloaded to it again, since a
-   virtual drive keeps no parameters between processes);
+4. run the test procedures in the ablation (``hdservo compare --model``, per feedback
+   configuration: the fair PID, + each compensator, the best combination chosen by the
+   documented rule, best minus each part, motion strategies; each procedure starts a virtual
+   drive with its rig set-up -- payload, base rocking, output lock -- and the identified
+   parameters are downloaded to it again, since a virtual drive keeps no parameters between
+   processes);
 5. write the HTML report (``hdservo report``);
-6. print where it is and a summary table, write ``OUT/summary.json``
-   (``{figure: {"pid": .., "compensated": ..}}``), stop the virtual drive, print the run time.
+6. print where it is, a summary table and the ablation table, write ``OUT/summary.json``
+   (``{figure: {"pid": .., "compensated": ..}, "conditions": ..}``) and ``OUT/ablation.json``,
+   stop the virtual drive, print the run time.
 
 Outputs under ``OUT`` (default ``build/demo``): ``model.toml`` (+ ``model.preisach.bin``),
 ``identify.json``, ``identify-plots/``, ``download.json``, ``compare/``, ``report.html``,
-``summary.json`` (:data:`OUTPUTS`; removed at the start, so nothing is reused from an earlier run).
+``summary.json``, ``ablation.json`` (:data:`OUTPUTS`; removed at the start, so nothing is reused from an earlier run).
 """
 from __future__ import annotations
 
@@ -30,20 +33,26 @@ from typing import Sequence
 from ..errors import UserError
 
 NAME = "demo"
-HELP = "end-to-end demo on the virtual reference axis: identify, download, compare PID vs compensation, report"
+HELP = ("end-to-end demo on a virtual axis (reference, or --axis FILE): identify, download, ablation of the fair PID "
+        "and the compensators, report")
 
 STEPS = 6
 #: What the demo writes into its output directory (removed first; nothing else there is touched).
 OUTPUTS = ("model.toml", "model.preisach.bin", "identify.json", "identify.txt", "identify-plots", "download.json",
-           "download.txt", "compare", "report.html", "summary.json")
+           "download.txt", "compare", "report.html", "summary.json", "ablation.json")
 
 
 def register(p: argparse.ArgumentParser) -> None:
     """Options of ``hdservo demo``."""
     from .. import compare as cmp
     p.add_argument("-o", "--out", type=Path, default=Path("build") / "demo", help="output directory (build/demo)")
-    p.add_argument("--controllers", default=",".join(cmp.default_controller_names()),
-                   help="controllers compared (default: pid, each compensator, best)")
+    p.add_argument("--axis", default="reference", metavar="FILE",
+                   help="axis file of the virtual axis (default: the reference axis)")
+    p.add_argument("--controllers", default="ablation",
+                   help="'ablation' (default) or controllers as in hdservo compare (e.g. pid,best)")
+    p.add_argument("--feedback", default=None, metavar="CONFIGS",
+                   help="feedback configurations (default: full-closed, plus semi-closed when the drive has them)")
+    p.add_argument("--jobs", type=int, default=2, help="controllers run at the same time (default 2)")
     p.add_argument("--procedures", default=",".join(cmp.DEFAULT_PROCEDURES), help="procedures run per controller")
     p.add_argument("--quick", action="store_true", help="shortened procedures (hdservo compare --quick)")
     p.add_argument("--seed", type=int, default=1, help="sensor-noise seed of the virtual drives")
@@ -75,8 +84,23 @@ def run(args: argparse.Namespace) -> int:
     from ..report import ReportError, build_report, verify_report
     t0 = time.monotonic()
     out: Path = args.out
+    axis = args.axis
+    if axis != "reference":
+        ap = Path(axis)
+        if not ap.is_file():
+            raise UserError(f"--axis {axis}: no such axis file")
+        from .. import sim
+        try:
+            sim.axis_param("gear.ratio", str(ap))
+        except Exception as e:       # noqa: BLE001 - any reader error is the file's fault
+            raise UserError(f"--axis {axis}: not a readable axis file ({e})") from None
+        axis = str(ap.resolve())
+    if args.jobs < 1:
+        raise UserError(f"--jobs {args.jobs}: must be >= 1")
+    ablation = args.controllers.strip() == "ablation"
     try:
-        ctls = cmp.controllers_from_names(args.controllers.split(","))
+        fbs = cmp.feedback_names(args.feedback) if args.feedback is not None else cmp.default_feedbacks()
+        ctls = [] if ablation else cmp.controllers_from_names(args.controllers.split(","), axis, fbs)
     except ValueError as e:
         raise UserError(str(e)) from None
     procs = [x.strip() for x in args.procedures.split(",") if x.strip()]
@@ -87,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--procedures: unknown '{bad[0] if bad else ''}'; expected some of "
                         f"{', '.join(sorted(tc.PROCEDURES))}")
     try:
-        for c in ctls:
+        for c in ctls or [cmp.fair_row([], "full-closed")]:
             for x in procs:
                 cmp.procedure_args(x, [*extra, *c.proc_args.get(x, [])])
     except ValueError as e:
@@ -102,18 +126,19 @@ def run(args: argparse.Namespace) -> int:
         elif q.exists() or q.is_symlink():
             q.unlink()
     model = out / "model.toml"
-    print(f"hdservo demo: reference axis, {len(ctls)} controllers x {len(procs)} procedures, outputs in {out}/",
-          flush=True)
+    aname = "reference" if axis == "reference" else Path(axis).name
+    what = (f"ablation over {', '.join(fbs)}" if ablation else f"{len(ctls)} controllers")
+    print(f"hdservo demo: axis {aname}, {what} x {len(procs)} procedures, outputs in {out}/", flush=True)
 
-    print("hdservo demo: using a simulated drive (virtual drive, axis reference); your real drive is not touched",
+    print(f"hdservo demo: using a simulated drive (virtual drive, axis {aname}); your real drive is not touched",
           file=sys.stderr, flush=True)
-    _say(1, "starting the virtual reference axis (hdservo-sim serve)", t0)
-    drive = VirtualDriveProcess("reference", pacing="fast", seed=args.seed)
+    _say(1, f"starting the virtual axis {aname} (hdservo-sim serve)", t0)
+    drive = VirtualDriveProcess(axis, pacing="fast", seed=args.seed)
     try:
         print(f"  virtual drive: CANopen node 1 on socketcand 127.0.0.1:{drive.port}", flush=True)
 
         _say(2, "identifying the axis over CAN (hdservo identify all)", t0)
-        _hdservo(["identify", "all", "--sim=reference", "-o", str(model), "--json", str(out / "identify.json"),
+        _hdservo(["identify", "all", f"--sim={axis}", "-o", str(model), "--json", str(out / "identify.json"),
                   "--plots", str(out / "identify-plots"), "--seed", str(args.seed)], "identification",
                  out / "identify.txt")
 
@@ -122,21 +147,26 @@ def run(args: argparse.Namespace) -> int:
                   "--port", str(drive.port), "--json", str(out / "download.json")], "download",
                  out / "download.txt")
 
-        _say(4, "running the procedures with PID and with compensation (hdservo compare)", t0)
+        _say(4, "running the procedures: fair PID, each compensator, best, leave-one-out (hdservo compare)", t0)
+        kw = dict(proc_extra=extra, axis=axis, seed=args.seed, model=model, jobs=args.jobs,
+                  echo=lambda s: print(f"  {s}", flush=True))
         try:
-            doc = cmp.run_compare(out / "compare", ctls, procs, proc_extra=extra, seed=args.seed, model=model,
-                                  echo=lambda s: print(f"  {s}", flush=True))
+            if ablation:
+                doc = cmp.run_ablation(out / "compare", fbs, procs, **kw)
+            else:
+                doc = cmp.run_compare(out / "compare", ctls, procs, **kw)
         except ValueError as e:
             raise UserError(str(e)) from None
 
         _say(5, "writing the report (hdservo report)", t0)
         summ = cmp.summary_doc(doc)
         cmp._write_json_atomic(out / "summary.json", summ)
+        cmp._write_json_atomic(out / "ablation.json", cmp.ablation_doc(doc))
         try:
             info = build_report(out / "report.html", compare=out / "compare" / "compare.json",
                                 identify=out / "identify.json", download=out / "download.json",
-                                title="hdservo demo: reference axis, PID baseline vs compensation",
-                                summary_lines=[f"hdservo demo on the virtual reference axis (seed {args.seed}); "
+                                title=f"hdservo demo: axis {aname}, fair PID baseline vs compensation",
+                                summary_lines=[f"hdservo demo on the virtual axis {aname} (seed {args.seed}); "
                                                f"compensated = '{doc['best']}': "
                                                f"{doc['controllers'][doc['best']]['description']}"])
             verified = verify_report(out / "report.html")     # every plot file exists, holds data, is embedded
@@ -148,6 +178,10 @@ def run(args: argparse.Namespace) -> int:
     el = time.monotonic() - t0
     print()
     print(cmp.summary_table(doc, [c for c in (doc["reference"], doc["best"]) if c in doc["controllers"]]))
+    print()
+    print(cmp.ablation_table(doc))
+    for fb, inf in doc.get("ablation", {}).get("feedbacks", {}).items():
+        print(f"best combination, {fb}: {' + '.join(inf['best']) or 'none (no compensator pays)'}")
     v = doc["verdict"]
     met = [k for k, ok in v["targets_met"].items() if ok]
     miss = [k for k, ok in v["targets_met"].items() if not ok]
@@ -160,6 +194,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"FAILED {c}/{proc}: {'; '.join(notes)}")
     print(f"report:  {out / 'report.html'} ({info['bytes'] / 1e6:.1f} MB, {len(verified)} plots embedded and "
           f"checked against their files)")
-    print(f"summary: {out / 'summary.json'}; all controllers: {out / 'compare' / 'compare.json'}")
+    print(f"summary: {out / 'summary.json'}; ablation: {out / 'ablation.json'}; all controllers: "
+          f"{out / 'compare' / 'compare.json'}")
     print(f"demo: done in {el:.0f} s ({int(el // 60)} min {int(el % 60)} s); virtual drive stopped")
     return 0

@@ -34,6 +34,7 @@ from ..procedures import closedloop as cl
 from ..procedures import frequency as fq
 from ..procedures import gear
 from ..procedures import standard as std
+from ..procedures import tracking as tr
 from ..procedures.results import Result, write_json
 from ..procedures.runner import Progress, RigSetup, Target, open_bench
 
@@ -69,6 +70,10 @@ PROCEDURES: dict[str, Proc] = {
                     lambda b, a, p: cl.peak_torque(b, request_Nm=a.peak_request, progress=p)),
     "bandwidth": (lambda a: cl.AXIS_SETUP, True,
                   lambda b, a, p: cl.bandwidth(b, amplitude_arcsec=a.amplitude_arcsec, progress=p)),
+    "tracking": (lambda a: cl.AXIS_SETUP, True,
+                 lambda b, a, p: tr.tracking(b, rates_deg_s=a.track_rates, period_s=a.track_period, progress=p)),
+    "settling": (lambda a: cl.AXIS_SETUP, False,
+                 lambda b, a, p: tr.settling(b, step_deg=a.step_deg, moves=a.moves, progress=p)),
 }
 
 
@@ -154,6 +159,14 @@ def register(p: argparse.ArgumentParser) -> None:
     g.add_argument("--targets", type=_floats, default=None, help="positioning targets, deg (12 over -55..55)")
     g.add_argument("--runs", type=int, default=5, help="positioning bidirectional runs (5)")
     g.add_argument("--peak-request", type=_positive, default=None, help="peak-torque request, N.m (torque_limit)")
+    g.add_argument("--track-rates", type=_floats, default=list(tr.TRACK_RATES_DEG_S),
+                   help="tracking: peak rates of the sinusoids, deg/s (default "
+                        + ",".join(f"{r:g}" for r in tr.TRACK_RATES_DEG_S) + ")")
+    g.add_argument("--track-period", type=_positive, default=tr.TRACK_PERIOD_S,
+                   help=f"tracking: period of the sinusoids, s (default {tr.TRACK_PERIOD_S:g})")
+    g.add_argument("--step-deg", type=_positive, default=tr.SETTLE_STEP_DEG,
+                   help=f"settling: move size, deg (default {tr.SETTLE_STEP_DEG:g})")
+    g.add_argument("--moves", type=int, default=4, help="settling: moves, alternating + and - (default 4)")
     g.add_argument("--amplitude-arcsec", type=_positive, default=1800.0,
                    help="bandwidth multisine peak, arcsec (1800 = 0.5 deg)")
     s = p.add_argument_group("any CiA 402 drive (docs/generic-drive.md)")
@@ -212,6 +225,10 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--windows must be >= 2")
     if min(args.rates) <= 0:
         raise UserError(f"--rates {','.join(f'{r:g}' for r in args.rates)}: every rate must be > 0 deg/s")
+    if min(args.track_rates) <= 0:
+        raise UserError(f"--track-rates {','.join(f'{r:g}' for r in args.track_rates)}: every rate must be > 0 deg/s")
+    if args.moves < 1:
+        raise UserError("--moves must be >= 1")
     if args.cycles is not None and args.cycles < 1:
         raise UserError("--cycles must be >= 1")
     _check_out(args.json, "json")

@@ -303,7 +303,7 @@ def min_rate(bench: Bench, rates_deg_s: Sequence[float] = RATE_LADDER_DEG_S, bou
         a.set_ylabel("window rate / commanded rate (-)")
         a.grid(True)
         a.legend()
-        return save_figure(fig, d, res.name, fmt)
+        return save_figure(fig, d, res.name, fmt, label=res.label)
     r.plot = plot
     return r
 
@@ -437,7 +437,7 @@ def stabilisation(bench: Bench, duration_s: float = 5.0, settle_s: float = 1.0,
         a.set_ylabel("inertial pointing error (arcsec)")
         a.grid(True)
         a.legend()
-        return save_figure(fig, d, res.name, fmt)
+        return save_figure(fig, d, res.name, fmt, label=res.label)
     r.plot = plot
     return r
 
@@ -523,7 +523,7 @@ def positioning(bench: Bench, targets_deg: Optional[Sequence[float]] = None, run
         a.set_title(f"A = {res.headline['positioning_accuracy_arcsec']:.3g}\", R = {res.headline['repeatability_arcsec']:.3g}\"")
         a.grid(True)
         a.legend()
-        return save_figure(fig, d, res.name, fmt)
+        return save_figure(fig, d, res.name, fmt, label=res.label)
     r.plot = plot
     return r
 
@@ -631,7 +631,7 @@ def peak_torque(bench: Bench, request_Nm: Optional[float] = None, steps: int = 6
         a.set_ylabel("output torque (N.m)")
         a.grid(True)
         a.legend()
-        return save_figure(fig, d, res.name, fmt)
+        return save_figure(fig, d, res.name, fmt, label=res.label)
     r.plot = plot
     return r
 
@@ -724,7 +724,7 @@ def bandwidth(bench: Bench, amplitude_arcsec: float = 60.0, period_samples: int 
         ax[1][0].set_xlabel("frequency (Hz)")
         for a in (ax[0][0], ax[1][0]):
             a.grid(True, which="both")
-        return save_figure(fig, d, res.name, fmt)
+        return save_figure(fig, d, res.name, fmt, label=res.label)
     r.plot = plot
     return r
 

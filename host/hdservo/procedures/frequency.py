@@ -203,7 +203,7 @@ def _plot(r: Result, d: Path, fmt: str) -> list[Path]:
     ax[1][0].set_xlabel("frequency (Hz)")
     for a in (ax[0][0], ax[1][0]):
         a.grid(True, which="both")
-    return save_figure(fig, d, r.name, fmt)
+    return save_figure(fig, d, r.name, fmt, label=r.label)
 
 
 def _summary(d: dict[str, Any], f_lo: float, f_hi: float) -> dict[str, Any]:

@@ -125,7 +125,7 @@ def _loop_plot(title: str) -> Any:
         a.set_title(title)
         a.grid(True)
         a.legend()
-        return save_figure(fig, out, r.name, fmt)
+        return save_figure(fig, out, r.name, fmt, label=r.label)
     return plot
 
 
@@ -254,7 +254,7 @@ def starting_torque(bench: Bench, step_permille: int = 1, step_s: float = 0.01, 
         a.set_ylabel("motor rotation (rad)")
         a.grid(True)
         a.legend()
-        return save_figure(fig, d, res.name, fmt)
+        return save_figure(fig, d, res.name, fmt, label=res.label)
     r.plot = plot
     return r
 
@@ -310,7 +310,7 @@ def transmission(bench: Bench, rate_deg_s: float = 10.0, revolutions: float = 1.
         a.set_ylabel("transmission error (arcsec)")
         a.set_title(f"transmission accuracy {res.figures['accuracy_arcmin']:.3f} arcmin p-p")
         a.grid(True)
-        return save_figure(fig, d, res.name, fmt)
+        return save_figure(fig, d, res.name, fmt, label=res.label)
     r.plot = plot
     return r
 

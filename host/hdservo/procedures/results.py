@@ -42,6 +42,8 @@ class Result:
     notes: list[str] = field(default_factory=list)
     series: dict[str, Any] = field(default_factory=dict)
     plot: Optional[Callable[["Result", Path, str], list[Path]]] = None
+    #: who measured it (controller and feedback configuration): the plots' overall title when set
+    label: str = ""
 
     def to_json(self) -> dict[str, Any]:
         """JSON-able dict (``series`` and ``plot`` left out)."""
@@ -101,10 +103,17 @@ def write_json(path: "str | os.PathLike[str]", results: list[Result], meta: dict
     return p
 
 
-def save_figure(fig: Any, out_dir: Path, stem: str, fmt: str = "png") -> list[Path]:
-    """Save a matplotlib figure as PNG (and PDF when fmt includes it) atomically; returns the paths."""
+def save_figure(fig: Any, out_dir: Path, stem: str, fmt: str = "png", label: str = "") -> list[Path]:
+    """Save a matplotlib figure as PNG (and PDF when fmt includes it) atomically; returns the paths.
+
+    ``label`` (e.g. the controller and feedback configuration that measured it) becomes the
+    figure's overall title.
+    """
     import matplotlib.pyplot as plt
     out_dir.mkdir(parents=True, exist_ok=True)
+    if label:
+        fig.suptitle(label, fontsize=10, fontweight="bold")
+        fig.tight_layout()
     paths = []
     for ext in ("png", "pdf") if fmt == "pdf" else ("png",):
         p = out_dir / f"{stem}.{ext}"

@@ -8,7 +8,7 @@
   ``hdservo download --json`` record,
 
 and writes one HTML file: tables of every headline figure (targets of
-docs/reference-axis.md marked met / not met, verdict against the PID baseline),
+DESIGN.md section 2 marked met / not met, verdict against the PID baseline),
 each procedure's conditions, figures and notes, and every plot embedded as a
 base64 PNG data URI (no external file, script or style sheet).  Every plot is
 checked before it is embedded: it must exist, be a PNG and not be blank
@@ -213,7 +213,7 @@ def _headline_section(cmp: Mapping[str, Any]) -> str:
         cls.append(c)
     v = cmp.get("verdict", {})
     lines = ["<h2>Headline figures</h2>",
-             "<p>Targets of the reference axis (docs/reference-axis.md). Green &#10003; = target met, red &#10007; = not met; "
+             "<p>Targets: the requirements of the reference axis. Green &#10003; = target met, red &#10007; = not met; "
              "&lsquo;none&rsquo; = no value (e.g. no rung of the rate ladder was smooth, or the procedure failed). "
              f"The verdict column compares <b>{esc(best)}</b> (the compensated axis) with <b>{esc(ref)}</b>; "
              "&lsquo;best measured&rsquo; names the controller with the best value of each figure.</p>",
@@ -226,6 +226,56 @@ def _headline_section(cmp: Mapping[str, Any]) -> str:
                      f"Better than {esc(ref)} on every figure: <b>{'yes' if v.get('better_everywhere') else 'no'}</b>"
                      f" (not worse anywhere: {'yes' if v.get('not_worse_anywhere') else 'no'}).</p>")
     return "\n".join(lines)
+
+
+def _ablation_section(cmp: Mapping[str, Any]) -> str:
+    """Per feedback configuration: every row's value and ratio to the fair PID of that configuration, per figure."""
+    keys = list(cmp["figures"])
+    fbs: list[str] = []
+    for d in cmp["controllers"].values():
+        if d.get("feedback", "full-closed") not in fbs:
+            fbs.append(d.get("feedback", "full-closed"))
+    ab = cmp.get("ablation", {})
+    out = ["<h2>Ablation: each row against the fair PID</h2>",
+           "<p>Every row runs with the loop gains of the compensated set and the stabilisation in the gyro mode "
+           "(the fair PID); the ratio is the row's value over the fair PID's value in the same feedback "
+           "configuration (for the bandwidth and the peak torque higher is better, for every other figure "
+           "lower). Motion strategies (hold logic, one-direction final approach) are their own rows; "
+           "&lsquo;pid-hold&rsquo; is an extra row (the PID design gains in position hold), not a baseline.</p>"]
+    if ab.get("rule"):
+        out.append(f"<p>Rule: {esc(ab['rule'])}.</p>")
+    for fb in fbs:
+        names = [n for n, d in cmp["controllers"].items() if d.get("feedback", "full-closed") == fb]
+        base = "pid" if fb == "full-closed" else f"pid@{fb}"
+        info = ab.get("feedbacks", {}).get(fb, {})
+        out.append(f"<h3>{esc(fb)}</h3>")
+        if info:
+            out.append(f"<p>Best combination: <b>{esc(' + '.join(info.get('best', [])) or 'none')}</b>.</p>"
+                       "<details><summary>why (the rule per compensator)</summary><ul>"
+                       + "".join(f"<li>{esc(w)}</li>" for w in info.get("rule", [])) + "</ul></details>")
+        header = ["row", "components"] + [f"{cmp['figures'][k].get('short') or k} ({cmp['figures'][k]['unit']})"
+                                          for k in keys]
+        rows, cls = [], []
+        for n in names:
+            d = cmp["controllers"][n]
+            row: list[Any] = [n, ", ".join(d.get("components", [])) or "none"]
+            c = ["", ""]
+            for k in keys:
+                f = cmp["figures"][k]
+                v = f["values"].get(n)
+                r = f.get("ratio_to_pid", {}).get(n)
+                txt = fmt(v) + ("" if r is None or n == base else f" ({r:.3g}x)")
+                row.append(txt)
+                good = None
+                if r is not None and n != base:
+                    better = r < 0.99 if f.get("lower_is_better", True) else r > 1.01
+                    worse = r > 1.01 if f.get("lower_is_better", True) else r < 0.99
+                    good = "better" if better else ("worse" if worse else None)
+                c.append(good or "")
+            rows.append(row)
+            cls.append(c)
+        out.append(table(header, rows, cls))
+    return "\n".join(out)
 
 
 def _controllers_section(cmp: Mapping[str, Any]) -> str:
@@ -343,6 +393,7 @@ def build_report(out: Path, compare: Optional[Path] = None, tests: Sequence[Path
                 raise ReportError(f"{compare}: no '{k}' (not written by hdservo compare)")
         base = compare.parent
         body.append(_headline_section(cmp))
+        body.append(_ablation_section(cmp))
         if cmp.get("comparison_plots"):
             body.append("<h2>Comparison charts</h2>")
             for rel in cmp["comparison_plots"]:

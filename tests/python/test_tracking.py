@@ -1,0 +1,84 @@
+"""Tracking (slow sinusoids, reversal glitch) and settling procedures (host/hdservo/procedures/tracking.py).
+
+The metrics on synthetic records with known answers; a short run of each procedure on the
+virtual reference axis (its headline keys, finite values, two reversals per period).
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hdservo.cli import main
+from hdservo.procedures import metrics as mt
+from hdservo.procedures import tracking as tr
+
+ROOT = Path(__file__).resolve().parents[2]
+SIM = Path(os.environ.get("HDSERVO_SIM", ROOT / "build" / "bin" / "hdservo-sim"))
+needs_sim = pytest.mark.skipif(not SIM.exists(), reason="hdservo-sim not built (make sim)")
+
+
+def test_sine_setpoints_start_at_rest_with_the_peak_rate() -> None:
+    pos, vel = tr.sine_setpoints(0.01, 4.0, 4001, 0.001)
+    assert pos[0] == 0.0 and vel[0] == 0.0
+    assert np.max(np.abs(vel)) == pytest.approx(math.radians(0.01), rel=1e-6)
+    assert np.max(pos) == pytest.approx(2 * math.radians(0.01) * 4.0 / (2 * math.pi), rel=1e-6)
+    assert np.allclose(np.gradient(pos, 0.001), vel, atol=1e-3 * math.radians(0.01))
+    assert tr.rate_tag(0.01) == "0p01" and tr.rate_tag(0.1) == "0p1" and tr.rate_tag(1.0) == "1"
+
+
+def test_tracking_metrics_known_answers() -> None:
+    t = np.arange(4000) * 0.001
+    vel = np.sin(2 * np.pi * (t + 1.0) / 4.0)        # reversals at t = 1 s and t = 3 s
+    err = np.full(t.size, 1.0) * mt.ARCSEC            # 1 arcsec everywhere ...
+    err[(t > 1.1) & (t < 1.2)] = 5.0 * mt.ARCSEC      # ... a glitch after the first reversal ...
+    err[(t > 2.0) & (t < 2.05)] = -7.0 * mt.ARCSEC    # ... and a larger error away from any reversal
+    m = tr.tracking_metrics(t, err, vel, window_s=0.5)
+    assert m["reversals"] == 2 and m["reversal_t_s"] == pytest.approx([1.0, 3.0], abs=2e-3)
+    assert m["peak_arcsec"] == pytest.approx(7.0) and m["reversal_peak_arcsec"] == pytest.approx(5.0)
+    e = err / mt.ARCSEC
+    assert m["rms_arcsec"] == pytest.approx(float(np.sqrt(np.mean(e * e))))
+    assert tr.tracking_metrics(t, err, np.ones(t.size), 0.5)["reversal_peak_arcsec"] is None
+
+
+def test_align_lag_finds_the_delay() -> None:
+    cmd = np.cumsum(np.linspace(0.0, 1.0, 500))
+    for d in (0, 1, 3):
+        ref = np.concatenate([np.full(d, cmd[0]), cmd[:cmd.size - d]])
+        assert tr.align_lag(ref, cmd, max_lag=4) == d
+
+
+def test_settling_time_known_answers() -> None:
+    t = np.arange(3000) * 0.001
+    err = 10.0 * np.exp(-(t - 0.5).clip(0) / 0.1)       # arrival at 0.5 s, decays from 10 arcsec
+    ts = tr.settling_time(t, err, 0.5, 1.0)
+    assert ts == pytest.approx(0.1 * math.log(10.0), abs=2e-3)
+    assert tr.settling_time(t, np.zeros(t.size), 0.5, 1.0) == 0.0
+    late = err.copy()
+    late[-1] = 2.0                                     # out of the band at the very end: never settled
+    assert tr.settling_time(t, late, 0.5, 1.0) is None
+
+
+@needs_sim
+def test_tracking_and_settling_on_the_virtual_axis(tmp_path: Path) -> None:
+    js = tmp_path / "t.json"
+    assert main(["test", "tracking", "--sim", "-q", "--track-rates", "0.1", "--track-period", "1",
+                 "--json", str(js), "--plots", str(tmp_path / "p")]) == 0
+    r = json.loads(js.read_text())["results"]["tracking"]
+    h = r["headline"]
+    assert set(h) == {"tracking_rms_0p1_arcsec", "tracking_peak_0p1_arcsec", "reversal_peak_arcsec"}
+    assert 0 < h["tracking_rms_0p1_arcsec"] <= h["tracking_peak_0p1_arcsec"]
+    assert h["reversal_peak_arcsec"] <= h["tracking_peak_0p1_arcsec"]
+    run = r["figures"]["runs"][0]
+    assert run["reversals"] == 2 and 0 <= run["lag_setpoints"] <= 4
+    assert (tmp_path / "p" / "tracking.png").stat().st_size > 1000
+    js2 = tmp_path / "s.json"
+    assert main(["test", "settling", "--sim", "-q", "--moves", "1", "--step-deg", "0.2", "--json", str(js2)]) == 0
+    s = json.loads(js2.read_text())["results"]["settling"]
+    assert "settling_0p2deg_s" in s["headline"]
+    mv = s["figures"]["moves"][0]
+    assert mv["arrival_s"] > 0 and abs(mv["final_error_arcsec"]) < 20.0
