@@ -17,8 +17,8 @@ their own defaults and option parser) once per *controller*:
 Each procedure opens its own bench (:func:`hdservo.procedures.runner.open_bench`:
 on the virtual drive a fresh ``hdservo-sim serve`` with the procedure's rig
 set-up).  With an identified model (``--model``) the compensator parameters
-and tables computed from it (:func:`hdservo.commands.download.plan_download`)
-are written to the drive and read back (:func:`~hdservo.commands.download.write_verified`)
+and tables computed from it (:func:`hdservo.download.plan_download`)
+are written to the drive and read back (:func:`~hdservo.download.write_verified`)
 before every compensated procedure, then the controller's gains, then
 ``cb_enable``; without a model the drive's own compensator defaults are used.
 
@@ -618,7 +618,7 @@ def _write_json_atomic(path: Path, doc: Mapping[str, Any]) -> None:
 def _configure(drive: Any, ctl: Controller, plan: Optional[Mapping[str, Any]],
                preisach_blob: Optional[bytes]) -> list[str]:
     """Write the model's parameters/tables (compensated controllers) and ``cb_enable`` for ``ctl``; returns notes."""
-    from .commands.download import write_verified
+    from .download import write_verified
     from .procedures.runner import apply_compensators
     notes: list[str] = []
     if ctl.compensators:              # the model's parameters matter only with a compensator on
@@ -669,7 +669,7 @@ PROCEDURE_RETRIES = 1
 def _attempt(name: str, ctl: Controller, args: argparse.Namespace, target: Any, setup_f: Any, lockstep: bool,
              fn: Any, prog: Any, plan: Optional[Mapping[str, Any]], preisach_blob: Optional[bytes]) -> Any:
     """One attempt of :func:`run_procedure`."""
-    from .cli import UserError
+    from .errors import UserError
     from .drive import DriveError
     from .procedures.results import Result
     from .procedures.runner import open_bench
@@ -775,7 +775,7 @@ def _prepare(procedures: Sequence[str], model: Optional[Path], axis: str, bus: O
     plan = None
     blob = None
     if model is not None:
-        from .commands.download import plan_download
+        from .download import plan_download
         plan = plan_download(model, axis)
     elif bus is None and need_preisach:
         from . import compsetup

@@ -18,7 +18,7 @@ import argparse
 import os
 from pathlib import Path
 
-from ..cli import UserError
+from ..errors import UserError
 
 NAME = "compare"
 HELP = ("run the test procedures with the fair PID baseline, each compensator, the best combination and "
