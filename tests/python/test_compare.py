@@ -160,7 +160,7 @@ def test_compare_pid_and_best_on_the_virtual_axis(tmp_path: Path, capsys: pytest
     model = tmp_path / "model.toml"
     model.write_text(MODEL)
     out = tmp_path / "cmp"
-    rc = main(["compare", "--sim", "-o", str(out), "-q", "--controllers", "pid,best", "--procedures", "peak-torque,stabilisation",
+    rc = main(["compare", "--sim", "-o", str(out), "-q", "--controllers", "pid,best", "--feedback", "full-closed", "--procedures", "peak-torque,stabilisation",
                "--model", str(model), "--proc-args", "--duration 1.5"])
     assert rc == 0
     doc = json.loads((out / "compare.json").read_text())

@@ -71,12 +71,16 @@ def run(args: argparse.Namespace) -> int:
     """Check the input, run the comparison, print the table."""
     from .. import compare as cmp
     from ..drive import choose_drive
+    # the user's files are checked before a drive is chosen: a bad file is the first error
+    if args.model is not None and not args.model.is_file():
+        raise UserError(f"--model {args.model}: no such file")
+    if args.model is not None:              # a bad model is refused before anything runs
+        from ..download import plan_download
+        plan_download(args.model, getattr(args, "sim", None) or "reference")
     choice = choose_drive(args, sim_only=("seed",))
     bus = choice.bus
     axis = choice.axis or "reference"
     seed = 1 if args.seed is None else args.seed
-    if args.model is not None and not args.model.is_file():
-        raise UserError(f"--model {args.model}: no such file")
     _check_dir(args.out, "--out")
     if args.json is not None:
         if args.json.is_dir():
@@ -103,9 +107,6 @@ def run(args: argparse.Namespace) -> int:
                 cmp.procedure_args(x, [*extra, *c.proc_args.get(x, [])])
     except ValueError as e:
         raise UserError(str(e)) from None
-    if args.model is not None:              # a bad model is refused before anything runs
-        from .download import plan_download
-        plan_download(args.model, axis)
     choice.announce("compare")
     try:
         kw = dict(proc_extra=extra, bus=bus, node_id=args.node_id, axis=axis, seed=seed, model=args.model,
