@@ -16,7 +16,8 @@
  * 0xIIII:S refused" (the first 100) and counted ("vendor_refused" in the exit statistics),
  * so a test proves a host never relied on one.  It identifies as another product
  * (0x1018:2 = 0x0047454E, "GEN").  The default TPDOs carry standard objects
- * only (generic_pdos below); there is no test-rig channel (--rig is refused).  The filter
+ * only (generic_pdos below).  --rig works with either profile: the test rig is the simulated
+ * bench around the drive (brake, load), not an object of the drive.  The filter
  * is the port's (hd_app_co_port_t.object_filter): the flashed firmware has none.
  *
  * Test-rig features (not drive features; used by `hdservo test`, see
@@ -718,8 +719,6 @@ int hd_sim_serve_main(int argc, char **argv)
         }
 #undef NEEDV
     }
-    if (generic && rig)
-        return usage_fail("--rig is not available with --profile generic: a generic CiA 402 drive has no test-rig channel");
     int pace;
     if (strcmp(pacing, "realtime") == 0) pace = 0;
     else if (strcmp(pacing, "fast") == 0) pace = 1;

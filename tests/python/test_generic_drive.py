@@ -111,6 +111,21 @@ def test_experiment_metadata_states_bus_load_and_host_sync_timing() -> None:
 
 
 @needs_sim
+def test_peak_torque_into_the_locked_output_on_the_generic_profile() -> None:
+    """The bench locks the output (its brake, not a drive object); a CST staircase on 0x6071 up to
+    40 N.m is delivered as 0x6077 reports it, and no vendor object is touched."""
+    s = sr.StdSession(axis="reference", seed=5, gear_ratio=RATIO, output_locked=True)
+    with s as r:
+        res = sp.peak_torque(r, 40.0, output_locked=True)
+    assert_no_vendor_access(s, r)
+    cmd, got = res.figures["commanded_Nm"], res.figures["delivered_Nm"]
+    assert len(cmd) == len(got) == 6
+    for c, g in zip(cmd, got):
+        assert abs(g - c) < 0.1 * c, (c, g)          # below the limit the drive delivers the request
+    assert res.headline["peak_torque_Nm"] == pytest.approx(40.0, rel=0.1)
+
+
+@needs_sim
 def test_closed_loop_procedures_on_the_generic_profile() -> None:
     s = sr.StdSession(axis="reference", seed=5, gear_ratio=RATIO)
     with s as r:

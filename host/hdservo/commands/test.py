@@ -306,7 +306,9 @@ def _run_standard(args: argparse.Namespace) -> int:
         if abs(periods - round(periods)) > 1e-9:
             raise UserError(f"--sync-period {args.sync_period}: the virtual drive needs a multiple of 0.0001 s")
         kw: dict[str, Any] = {"axis": choice.axis or "reference", "seed": 1 if args.seed is None else args.seed,
-                              "sync_periods": int(round(periods)), "sets": cl.AXIS_SETUP.sets()}
+                              "sync_periods": int(round(periods)), "sets": cl.AXIS_SETUP.sets(),
+                              # the simulated bench locks the output, as the operator does on a real axis
+                              "output_locked": bool(args.output_locked)}
     else:
         kw = {"bus": choice.bus}
         if args.sync_period is not None:

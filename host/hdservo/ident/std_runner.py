@@ -836,17 +836,22 @@ class StdSession:
         the clock and the host produces SYNC by its own clock, as with a real drive).
     sets : sequence of str
         ``SECTION.KEY=VALUE`` plant overrides of the virtual drive (default: base motion off).
+    output_locked : bool
+        Virtual drive: the simulated bench locks the output with its brake (the test-rig channel
+        of the simulator, not an object of the drive), as an operator locks a real axis for the
+        peak-torque test.
     runner_args : dict
         Further :class:`StdRunner` arguments (``gear_ratio``, ``units``, ``bitrate``, ``progress``).
     """
 
     def __init__(self, bus: Optional[dict[str, Any]] = None, node_id: int = 1, axis: str = "reference",
                  profile: str = "generic", seed: int = 1, sync_periods: int = 10, pacing: str = "sync",
-                 sets: Sequence[str] = ("base.enabled=false",), **runner_args: Any) -> None:
+                 sets: Sequence[str] = ("base.enabled=false",), output_locked: bool = False,
+                 **runner_args: Any) -> None:
         if pacing not in ("sync", "realtime"):
             raise UserError(f"pacing must be sync or realtime, not {pacing!r}")
         self.bus, self.node_id, self.axis, self.profile, self.seed = bus, node_id, axis, profile, seed
-        self.pacing = pacing
+        self.pacing, self.output_locked = pacing, output_locked
         self.sync_periods, self.sets, self.runner_args = sync_periods, tuple(sets), runner_args
         self.proc: Any = None
         self.network: Any = None
@@ -865,8 +870,12 @@ class StdSession:
                        "--sync-periods", str(self.sync_periods), "--seed", str(self.seed), "--profile", self.profile]
                 for s in self.sets:
                     cmd += ["--set", s]
+                if self.output_locked:
+                    cmd.append("--rig")
                 try:
                     self.proc = ServeProcess(find_sim(), cmd)
+                    if self.output_locked:
+                        self.proc.rig("brake 1")
                 except ServeError as e:
                     raise UserError(str(e)) from None
                 bus: dict[str, Any] = {"interface": "socketcand", "channel": "can0", "host": "127.0.0.1",
