@@ -83,7 +83,7 @@ class Figure:
     lower_is_better : bool
         Direction of "better".
     target : float or None
-        Requirement of DESIGN.md section 2 on the reference axis (None: no target).
+        Requirement of the reference axis (docs/reference-axis.md) (None: no target).
     procedure : str
         The procedure that measures it.
     short : str
@@ -127,7 +127,7 @@ class Figure:
         return "better" if (value < ref) == self.lower_is_better else "worse"
 
 
-#: The headline figures of the comparison, summary and report (issue 8; DESIGN.md section 2).
+#: The headline figures of the comparison, summary and report (docs/reference-axis.md).
 FIGURES: tuple[Figure, ...] = (
     Figure("min_smooth_rate_deg_s", "minimum smooth rate", "deg/s", True, 0.001, "min-rate", "min. smooth rate"),
     Figure("positioning_accuracy_arcsec", "positioning accuracy (ISO 230-2 A)", "arcsec", True, 10.0, "positioning",

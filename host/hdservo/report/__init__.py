@@ -8,7 +8,7 @@
   ``hdservo download --json`` record,
 
 and writes one HTML file: tables of every headline figure (targets of
-DESIGN.md section 2 marked met / not met, verdict against the PID baseline),
+docs/reference-axis.md marked met / not met, verdict against the PID baseline),
 each procedure's conditions, figures and notes, and every plot embedded as a
 base64 PNG data URI (no external file, script or style sheet).  Every plot is
 checked before it is embedded: it must exist, be a PNG and not be blank
