@@ -125,6 +125,34 @@ uint32_t hd_isqrt64(uint64_t x);
  * with complements (never `>>` on a signed type). */
 #define HD_FX_INLINE static inline __attribute__((always_inline))
 
+/* Cortex-M4 bodies.  On ARMv7E-M with the DSP extension (the STM32G474 and the
+ * emulated mps2-an386) the helpers marked "M4:" below run a short inline-assembly
+ * body that computes the same bits as the portable C body: QADD / QSUB are the
+ * 32-bit saturating add / sub; the 64-bit saturating add / sub use the overflow
+ * flag of ADDS/ADCS; the saturation 64 -> 32 compares the high word with the
+ * sign of the low word; the rounding shift by a constant 1..31 uses an
+ * arithmetic shift of the high word (logical when the rounding offset
+ * overflowed a positive value).  The golden vectors prove the identity: the
+ * kernels hdf_* of tests/golden/gv_fixed_inline.c compare these bodies on the
+ * Cortex-M4 with the portable bodies on the host over edges and random
+ * arguments (every shift count).  Define HD_FX_PORTABLE to use the C bodies on
+ * the M4 as well. */
+#if defined(__ARM_ARCH_7EM__) && defined(__ARM_FEATURE_DSP) && !defined(HD_FX_PORTABLE)
+#define HD_FX_M4 1
+#else
+#define HD_FX_M4 0
+#endif
+
+/* the two words of an int64 bit pattern and back (no implementation-defined conversion) */
+HD_FX_INLINE uint32_t hdf__lo(int64_t x)
+{
+    return (uint32_t)((uint64_t)x & 0xFFFFFFFFu);
+}
+HD_FX_INLINE uint32_t hdf__hi(int64_t x)
+{
+    return (uint32_t)((uint64_t)x >> 32);
+}
+
 /* bit pattern -> int64 without an implementation-defined conversion */
 HD_FX_INLINE int64_t hdf__u2s64(uint64_t u)
 {
@@ -135,9 +163,19 @@ HD_FX_INLINE int64_t hdf__floor_shr(uint64_t u, uint64_t m, uint32_t s)
 {
     return hdf__u2s64(((u ^ m) >> s) ^ m);
 }
+/* M4: CMP + conditional EOR, the limit from the sign of the high word */
 HD_FX_INLINE int32_t hdf_sat32(int64_t x)
 {
+#if HD_FX_M4
+    uint32_t r = hdf__lo(x);
+    __asm__("cmp %[hi], %[r], asr #31\n\t"
+            "it ne\n\t"
+            "eorne %[r], %[m], %[hi], asr #31"
+            : [r] "+r"(r) : [hi] "r"(hdf__hi(x)), [m] "r"((uint32_t)INT32_MAX) : "cc");
+    return (r > (uint32_t)INT32_MAX) ? (-(int32_t)(~r) - 1) : (int32_t)r;
+#else
     return (x > (int64_t)INT32_MAX) ? INT32_MAX : ((x < (int64_t)INT32_MIN) ? INT32_MIN : (int32_t)x);
+#endif
 }
 HD_FX_INLINE int32_t hdf_clamp32(int32_t x, int32_t lo, int32_t hi)
 {
@@ -147,17 +185,27 @@ HD_FX_INLINE int64_t hdf_clamp64(int64_t x, int64_t lo, int64_t hi)
 {
     return (x < lo) ? lo : ((x > hi) ? hi : x);
 }
+/* M4: QADD */
 HD_FX_INLINE int32_t hdf_add_sat(int32_t a, int32_t b)
 {
     int32_t r;
+#if HD_FX_M4
+    __asm__("qadd %0, %1, %2" : "=r"(r) : "r"(a), "r"(b));
+    return r;
+#endif
     if (__builtin_add_overflow(a, b, &r)) {
         r = (b > 0) ? INT32_MAX : INT32_MIN;
     }
     return r;
 }
+/* M4: QSUB */
 HD_FX_INLINE int32_t hdf_sub_sat(int32_t a, int32_t b)
 {
     int32_t r;
+#if HD_FX_M4
+    __asm__("qsub %0, %1, %2" : "=r"(r) : "r"(a), "r"(b));
+    return r;
+#endif
     if (__builtin_sub_overflow(a, b, &r)) {
         r = (b < 0) ? INT32_MAX : INT32_MIN;
     }
@@ -171,17 +219,45 @@ HD_FX_INLINE int32_t hdf_abs_sat(int32_t x)
 {
     return (x == INT32_MIN) ? INT32_MAX : ((x < 0) ? -x : x);
 }
+/* M4: ADDS/ADCS; on overflow (V) the limit opposite to the wrapped sign */
 HD_FX_INLINE int64_t hdf_add64_sat(int64_t a, int64_t b)
 {
     int64_t r;
+#if HD_FX_M4
+    {
+        uint32_t lo = hdf__lo(a);
+        uint32_t hi = hdf__hi(a);
+        __asm__("adds %[lo], %[lo], %[blo]\n\t"
+                "adcs %[hi], %[hi], %[bhi]\n\t"
+                "itt vs\n\t"
+                "asrvs %[lo], %[hi], #31\n\t"
+                "eorvs %[hi], %[lo], #0x80000000"
+                : [lo] "+&r"(lo), [hi] "+&r"(hi) : [blo] "r"(hdf__lo(b)), [bhi] "r"(hdf__hi(b)) : "cc");
+        return hdf__u2s64(((uint64_t)hi << 32) | lo);
+    }
+#endif
     if (__builtin_add_overflow(a, b, &r)) {
         r = (b > 0) ? INT64_MAX : INT64_MIN;
     }
     return r;
 }
+/* M4: SUBS/SBCS; on overflow (V) the limit opposite to the wrapped sign */
 HD_FX_INLINE int64_t hdf_sub64_sat(int64_t a, int64_t b)
 {
     int64_t r;
+#if HD_FX_M4
+    {
+        uint32_t lo = hdf__lo(a);
+        uint32_t hi = hdf__hi(a);
+        __asm__("subs %[lo], %[lo], %[blo]\n\t"
+                "sbcs %[hi], %[hi], %[bhi]\n\t"
+                "itt vs\n\t"
+                "asrvs %[lo], %[hi], #31\n\t"
+                "eorvs %[hi], %[lo], #0x80000000"
+                : [lo] "+&r"(lo), [hi] "+&r"(hi) : [blo] "r"(hdf__lo(b)), [bhi] "r"(hdf__hi(b)) : "cc");
+        return hdf__u2s64(((uint64_t)hi << 32) | lo);
+    }
+#endif
     if (__builtin_sub_overflow(a, b, &r)) {
         r = (b < 0) ? INT64_MAX : INT64_MIN;
     }
@@ -199,8 +275,32 @@ HD_FX_INLINE int64_t hdf_asr64_floor(int64_t x, uint32_t s)
 {
     return hdf__floor_shr((uint64_t)x, (x < 0) ? UINT64_MAX : (uint64_t)0, (s > 63u) ? 63u : s);
 }
+/* M4 (constant s in 1..31): y = x + 2^(s-1) - [x < 0] by ADDS/ADCS, then the
+ * shift; the high word shifts arithmetically, logically when ADCS overflowed
+ * (a positive x within 2^(s-1) of INT64_MAX: y is then an unsigned value) */
 HD_FX_INLINE int64_t hdf_asr64_rnd(int64_t x, uint32_t s)
 {
+#if HD_FX_M4
+    if (__builtin_constant_p(s) && s >= 1u && s <= 31u) {
+        uint32_t lo = hdf__lo(x);
+        uint32_t yh;
+        uint32_t t;
+        __asm__("lsr %[t], %[hi], #31\n\t"
+                "rsb %[t], %[t], %[h]\n\t"
+                "adds %[lo], %[lo], %[t]\n\t"
+                "adcs %[yh], %[hi], #0\n\t"
+                "lsr %[lo], %[lo], %[s]\n\t"
+                "orr %[lo], %[lo], %[yh], lsl %[s2]\n\t"
+                "ite vs\n\t"
+                "lsrvs %[yh], %[yh], %[s]\n\t"
+                "asrvc %[yh], %[yh], %[s]"
+                : [lo] "+&r"(lo), [yh] "=&r"(yh), [t] "=&r"(t)
+                : [hi] "r"(hdf__hi(x)), [h] "i"((uint32_t)1 << ((s - 1u) & 31u)), [s] "i"(s),
+                  [s2] "i"(32u - s)
+                : "cc");
+        return hdf__u2s64(((uint64_t)yh << 32) | lo);
+    }
+#endif
     if (s > 63u) {
         s = 63u;
     }
