@@ -275,9 +275,9 @@ HD_FX_INLINE int64_t hdf_asr64_floor(int64_t x, uint32_t s)
 {
     return hdf__floor_shr((uint64_t)x, (x < 0) ? UINT64_MAX : (uint64_t)0, (s > 63u) ? 63u : s);
 }
-/* M4 (constant s in 1..31): y = x + 2^(s-1) - [x < 0] by ADDS/ADCS, then the
- * shift; the high word shifts arithmetically, logically when ADCS overflowed
- * (a positive x within 2^(s-1) of INT64_MAX: y is then an unsigned value) */
+/* M4: (constant s in 1..62): y = x + 2^(s-1) - [x < 0] by ADDS/ADCS, then the
+ * shift; y shifts arithmetically, logically when the rounding offset overflowed
+ * a positive x (within 2^(s-1) of INT64_MAX: y is then an unsigned value) */
 HD_FX_INLINE int64_t hdf_asr64_rnd(int64_t x, uint32_t s)
 {
 #if HD_FX_M4
@@ -300,6 +300,44 @@ HD_FX_INLINE int64_t hdf_asr64_rnd(int64_t x, uint32_t s)
                 : "cc");
         return hdf__u2s64(((uint64_t)yh << 32) | lo);
     }
+    if (__builtin_constant_p(s) && s == 32u) {
+        /* the high word of y is the low word of the result; the sign word follows */
+        uint32_t yh;
+        uint32_t rh;
+        uint32_t t;
+        __asm__("lsr %[t], %[hi], #31\n\t"
+                "rsb %[t], %[t], #0x80000000\n\t"
+                "adds %[t], %[lo], %[t]\n\t"
+                "adcs %[yh], %[hi], #0\n\t"
+                "ite vs\n\t"
+                "movvs %[rh], #0\n\t"
+                "asrvc %[rh], %[yh], #31"
+                : [yh] "=&r"(yh), [rh] "=&r"(rh), [t] "=&r"(t)
+                : [lo] "r"(hdf__lo(x)), [hi] "r"(hdf__hi(x))
+                : "cc");
+        return hdf__u2s64(((uint64_t)rh << 32) | yh);
+    }
+    if (__builtin_constant_p(s) && s >= 33u && s <= 62u) {
+        /* y = x - [x < 0] + 2^(s-1) (mod 2^64); the sign of x chooses the shift */
+        uint32_t yh;
+        uint32_t rl;
+        uint32_t rh;
+        uint32_t t;
+        __asm__("adds %[t], %[lo], %[hi], asr #31\n\t"
+                "adc %[yh], %[hi], %[hi], asr #31\n\t"
+                "add %[yh], %[yh], %[h]\n\t"
+                "cmp %[hi], #0\n\t"
+                "itete lt\n\t"
+                "asrlt %[rl], %[yh], %[k]\n\t"
+                "lsrge %[rl], %[yh], %[k]\n\t"
+                "asrlt %[rh], %[yh], #31\n\t"
+                "movge %[rh], #0"
+                : [yh] "=&r"(yh), [rl] "=&r"(rl), [rh] "=&r"(rh), [t] "=&r"(t)
+                : [lo] "r"(hdf__lo(x)), [hi] "r"(hdf__hi(x)), [h] "i"((uint32_t)1 << ((s - 33u) & 31u)),
+                  [k] "i"(s - 32u)
+                : "cc");
+        return hdf__u2s64(((uint64_t)rh << 32) | rl);
+    }
 #endif
     if (s > 63u) {
         s = 63u;
@@ -319,8 +357,29 @@ HD_FX_INLINE int32_t hdf_asr32_rnd(int64_t x, uint32_t s)
 {
     return hdf_sat32(hdf_asr64_rnd(x, s));
 }
+/* M4: (constant s in 1..31) the shifted words; SSAT of the high word to 32 - s
+ * bits tells whether x * 2^s fits (else the limit of the sign of x) */
 HD_FX_INLINE int64_t hdf_shl64_sat(int64_t x, uint32_t s)
 {
+#if HD_FX_M4
+    if (__builtin_constant_p(s) && s >= 1u && s <= 31u) {
+        uint32_t rl;
+        uint32_t rh;
+        uint32_t t;
+        __asm__("ssat %[t], %[n], %[hi]\n\t"
+                "lsl %[rh], %[hi], %[s]\n\t"
+                "orr %[rh], %[rh], %[lo], lsr %[s2]\n\t"
+                "lsl %[rl], %[lo], %[s]\n\t"
+                "cmp %[t], %[hi]\n\t"
+                "itt ne\n\t"
+                "mvnne %[rl], %[hi], asr #31\n\t"
+                "eorne %[rh], %[rl], #0x80000000"
+                : [rl] "=&r"(rl), [rh] "=&r"(rh), [t] "=&r"(t)
+                : [lo] "r"(hdf__lo(x)), [hi] "r"(hdf__hi(x)), [n] "i"(32u - s), [s] "i"(s), [s2] "i"(32u - s)
+                : "cc");
+        return hdf__u2s64(((uint64_t)rh << 32) | rl);
+    }
+#endif
     if (x == 0) {
         return 0;
     }
@@ -344,8 +403,47 @@ HD_FX_INLINE int32_t hdf_mul_q(int32_t a, int32_t b, uint32_t q)
 }
 /* a * b / 2^q rounded half away, saturated, for any int64 a (96-bit product as
  * t 2^32 + l with 0 <= l < 2^32, |t| < 2^63 after the rounding offset); q <= 62 */
+/* M4: (constant q in 1..31) P = a b as (p2:p1:p0) by UMULL (low word x b as
+ * unsigned), a correction for b < 0 and SMLAL (high word x b); P + 2^(q-1) -
+ * [P < 0] shifted right by q; the limit of the sign of P when the bits above
+ * the result are not its sign */
 HD_FX_INLINE int64_t hdf__mul96_q(int64_t a, int32_t b, uint32_t q)
 {
+#if HD_FX_M4
+    if (__builtin_constant_p(q) && q >= 1u && q <= 31u) {
+        uint32_t p0;
+        uint32_t p1;
+        uint32_t p2;
+        uint32_t n;
+        uint32_t rl;
+        uint32_t rh;
+        __asm__("umull %[p0], %[p1], %[al], %[b]\n\t"
+                "and %[n], %[al], %[b], asr #31\n\t"
+                "subs %[p1], %[p1], %[n]\n\t"
+                "sbc %[p2], %[p1], %[p1]\n\t"
+                "smlal %[p1], %[p2], %[ah], %[b]\n\t"
+                "asr %[n], %[p2], #31\n\t"
+                "add %[rl], %[n], %[h]\n\t"
+                "adds %[p0], %[p0], %[rl]\n\t"
+                "adcs %[p1], %[p1], #0\n\t"
+                "adc %[p2], %[p2], #0\n\t"
+                "lsr %[rl], %[p0], %[q]\n\t"
+                "orr %[rl], %[rl], %[p1], lsl %[q2]\n\t"
+                "lsr %[rh], %[p1], %[q]\n\t"
+                "orr %[rh], %[rh], %[p2], lsl %[q2]\n\t"
+                "asr %[p0], %[p2], %[q]\n\t"
+                "cmp %[p0], %[rh], asr #31\n\t"
+                "itt ne\n\t"
+                "mvnne %[rl], %[n]\n\t"
+                "eorne %[rh], %[rl], #0x80000000"
+                : [p0] "=&r"(p0), [p1] "=&r"(p1), [p2] "=&r"(p2), [n] "=&r"(n), [rl] "=&r"(rl), [rh] "=&r"(rh)
+                : [al] "r"(hdf__lo(a)), [ah] "r"(hdf__hi(a)), [b] "r"(b), [h] "i"((uint32_t)1 << ((q - 1u) & 31u)),
+                  [q] "i"(q), [q2] "i"(32u - q)
+                : "cc");
+        return hdf__u2s64(((uint64_t)rh << 32) | rl);
+    }
+#endif
+    {
     const int64_t hi = hdf_asr64_floor(a, 32u) * (int64_t)b;                     /* |.| <= 2^62 */
     const int64_t lo = (int64_t)((uint64_t)a & 0xFFFFFFFFu) * (int64_t)b;         /* |.| < 2^63 */
     int64_t t = hi + hdf_asr64_floor(lo, 32u);
@@ -378,12 +476,21 @@ HD_FX_INLINE int64_t hdf__mul96_q(int64_t a, int32_t b, uint32_t q)
             return t * ((int64_t)1 << sh) + (int64_t)(l2 >> q);
         }
     }
+    }
 }
 HD_FX_INLINE int64_t hdf_mul64x32_q(int64_t a, int32_t b, uint32_t q)
 {
     const uint32_t qq = (q > 62u) ? 62u : q;
     if (a >= (int64_t)INT32_MIN && a <= (int64_t)INT32_MAX) {
+#if HD_FX_M4
+        /* SMULL: the compiler would multiply the sign-extended a as 64 x 64 bits */
+        uint32_t l;
+        uint32_t h;
+        __asm__("smull %0, %1, %2, %3" : "=&r"(l), "=&r"(h) : "r"(hdf__lo(a)), "r"(b));
+        return hdf_asr64_rnd(hdf__u2s64(((uint64_t)h << 32) | l), qq);
+#else
         return hdf_asr64_rnd((int64_t)(int32_t)a * (int64_t)b, qq);
+#endif
     }
     return hdf__mul96_q(a, b, qq);
 }

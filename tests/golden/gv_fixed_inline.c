@@ -83,6 +83,19 @@ static void gen_mul_q(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
     in[2] = (int32_t)((idx < 63u) ? idx : hd_gv_rand32(r) % 63u);
 }
 
+/* a: one in two a full 64-bit value (the 96-bit product path), else edge-biased;
+ * q 0..62 (idx < 63 walks every q once) */
+static void gen_mul64x32_q(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    int64_t a = hd_gv_rand_edge64(r);
+    if ((idx % 2u) == 0u) {
+        a = hdf__u2s64(hd_gv_rand64(r));
+    }
+    hd_gv_put64(in, a);
+    in[2] = hd_gv_rand_edge32(r);
+    in[3] = (int32_t)((idx < 63u) ? idx : hd_gv_rand32(r) % 63u);
+}
+
 /* ---- constant-shift dispatch ------------------------------------------ */
 
 #define CASES8(F, x, b) F(x, b + 0u) F(x, b + 1u) F(x, b + 2u) F(x, b + 3u) \
@@ -115,6 +128,23 @@ static int32_t mul_q_const(const int32_t *in, uint32_t q)
     }
 }
 
+#define SHL_CASE(x, k) case (k): return hdf_shl64_sat((x), (k));
+static int64_t shl64_sat_const(int64_t x, uint32_t s)
+{
+    switch (s) {
+    CASES64(SHL_CASE, x)
+    default: return hdf_shl64_sat(x, 63u);
+    }
+}
+#define M96_CASE(x, k) case (k): return hdf_mul64x32_q(hd_gv_get64(x), (x)[2], (k));
+static int64_t mul64x32_q_const(const int32_t *in, uint32_t q)
+{
+    switch (q) {
+    CASES64(M96_CASE, in)
+    default: return hdf_mul64x32_q(hd_gv_get64(in), in[2], 62u);
+    }
+}
+
 /* ---- runners --------------------------------------------------------- */
 
 #define RUN_BEGIN(fn, nin, nout) \
@@ -131,6 +161,8 @@ RUN_BEGIN(run_add64_sat, 4, 2) hd_gv_put64(out, hdf_add64_sat(hd_gv_get64(in), h
 RUN_BEGIN(run_sub64_sat, 4, 2) hd_gv_put64(out, hdf_sub64_sat(hd_gv_get64(in), hd_gv_get64(in + 2))); RUN_END
 RUN_BEGIN(run_asr64_rnd, 3, 2) hd_gv_put64(out, asr64_rnd_const(hd_gv_get64(in), hd_gv_s2u(in[2]))); RUN_END
 RUN_BEGIN(run_asr32_rnd, 3, 1) out[0] = asr32_rnd_const(hd_gv_get64(in), hd_gv_s2u(in[2])); RUN_END
+RUN_BEGIN(run_shl64_sat, 3, 2) hd_gv_put64(out, shl64_sat_const(hd_gv_get64(in), hd_gv_s2u(in[2]))); RUN_END
+RUN_BEGIN(run_mul64x32_q, 4, 2) hd_gv_put64(out, mul64x32_q_const(in, hd_gv_s2u(in[3]))); RUN_END
 RUN_BEGIN(run_mul_q, 3, 1) out[0] = mul_q_const(in, hd_gv_s2u(in[2])); RUN_END
 
 /* ---- cost: one representative call each ------------------------------- */
@@ -153,6 +185,8 @@ COST(cost_sub64_sat, sink64, hdf_sub64_sat(a64, b64))
 COST(cost_asr64_rnd, sink64, hdf_asr64_rnd(b64, 16u))
 COST(cost_asr32_rnd, sink32, hdf_asr32_rnd(b64, 16u))
 COST(cost_mul_q, sink32, hdf_mul_q(a, b, 30u))
+COST(cost_shl64_sat, sink64, hdf_shl64_sat(b64, 16u))
+COST(cost_mul64x32_q, sink64, hdf_mul64x32_q(a64, b, 30u))
 
 /* ---- registry -------------------------------------------------------- */
 
@@ -165,5 +199,7 @@ const hd_gv_kernel_t hd_gv_fixed_inline_kernels[] = {
     {"hdf_asr64_rnd", 3, 2, 2u * GV_N, gen_e64_s63, run_asr64_rnd, cost_asr64_rnd},
     {"hdf_asr32_rnd", 3, 1, 2u * GV_N, gen_e64_s63, run_asr32_rnd, cost_asr32_rnd},
     {"hdf_mul_q", 3, 1, GV_N, gen_mul_q, run_mul_q, cost_mul_q},
+    {"hdf_shl64_sat", 3, 2, 2u * GV_N, gen_e64_s63, run_shl64_sat, cost_shl64_sat},
+    {"hdf_mul64x32_q", 4, 2, 2u * GV_N, gen_mul64x32_q, run_mul64x32_q, cost_mul64x32_q},
 };
 const uint32_t hd_gv_fixed_inline_count = sizeof hd_gv_fixed_inline_kernels / sizeof hd_gv_fixed_inline_kernels[0];
