@@ -275,7 +275,7 @@ HD_FX_INLINE int64_t hdf_asr64_floor(int64_t x, uint32_t s)
 {
     return hdf__floor_shr((uint64_t)x, (x < 0) ? UINT64_MAX : (uint64_t)0, (s > 63u) ? 63u : s);
 }
-/* M4: (constant s in 1..62): y = x + 2^(s-1) - [x < 0] by ADDS/ADCS, then the
+/* M4: (constant s in 1..62, or s in 1..31 at run time) y = x + 2^(s-1) - [x < 0] by ADDS/ADCS, then the
  * shift; y shifts arithmetically, logically when the rounding offset overflowed
  * a positive x (within 2^(s-1) of INT64_MAX: y is then an unsigned value) */
 HD_FX_INLINE int64_t hdf_asr64_rnd(int64_t x, uint32_t s)
@@ -337,6 +337,29 @@ HD_FX_INLINE int64_t hdf_asr64_rnd(int64_t x, uint32_t s)
                   [k] "i"(s - 32u)
                 : "cc");
         return hdf__u2s64(((uint64_t)rh << 32) | rl);
+    }
+    if (!__builtin_constant_p(s) && s - 1u < 31u) {
+        /* a shift count known at run time only, 1..31: the same with register shifts */
+        uint32_t lo = hdf__lo(x);
+        uint32_t yh;
+        uint32_t t;
+        uint32_t u;
+        __asm__("sub %[u], %[s], #1\n\t"
+                "lsl %[u], %[one], %[u]\n\t"
+                "sub %[t], %[u], %[hi], lsr #31\n\t"
+                "adds %[lo], %[lo], %[t]\n\t"
+                "adcs %[yh], %[hi], #0\n\t"
+                "lsr %[lo], %[lo], %[s]\n\t"
+                "rsb %[u], %[s], #32\n\t"
+                "lsl %[t], %[yh], %[u]\n\t"
+                "orr %[lo], %[lo], %[t]\n\t"
+                "ite vs\n\t"
+                "lsrvs %[yh], %[yh], %[s]\n\t"
+                "asrvc %[yh], %[yh], %[s]"
+                : [lo] "+&r"(lo), [yh] "=&r"(yh), [t] "=&r"(t), [u] "=&r"(u)
+                : [hi] "r"(hdf__hi(x)), [s] "r"(s), [one] "r"(1u)
+                : "cc");
+        return hdf__u2s64(((uint64_t)yh << 32) | lo);
     }
 #endif
     if (s > 63u) {

@@ -4,7 +4,8 @@
  * (QADD, QSUB, flag-based 64-bit saturation, rounding shift by a constant);
  * the host runs the portable C bodies, so these kernels prove that both
  * bodies give the same bits.  Shift counts must be constants for the M4
- * bodies: the runners dispatch every count 0..63 to a call with a literal.
+ * bodies: the runners dispatch every count 0..63 to a call with a literal
+ * (hdf_asr64_rnd_var: the count known at run time only).
  */
 #include "gv.h"
 #include "hd_fixed.h"
@@ -160,6 +161,7 @@ RUN_BEGIN(run_sub_sat, 2, 1) out[0] = hdf_sub_sat(in[0], in[1]); RUN_END
 RUN_BEGIN(run_add64_sat, 4, 2) hd_gv_put64(out, hdf_add64_sat(hd_gv_get64(in), hd_gv_get64(in + 2))); RUN_END
 RUN_BEGIN(run_sub64_sat, 4, 2) hd_gv_put64(out, hdf_sub64_sat(hd_gv_get64(in), hd_gv_get64(in + 2))); RUN_END
 RUN_BEGIN(run_asr64_rnd, 3, 2) hd_gv_put64(out, asr64_rnd_const(hd_gv_get64(in), hd_gv_s2u(in[2]))); RUN_END
+RUN_BEGIN(run_asr64_rnd_var, 3, 2) hd_gv_put64(out, hdf_asr64_rnd(hd_gv_get64(in), hd_gv_s2u(in[2]))); RUN_END
 RUN_BEGIN(run_asr32_rnd, 3, 1) out[0] = asr32_rnd_const(hd_gv_get64(in), hd_gv_s2u(in[2])); RUN_END
 RUN_BEGIN(run_shl64_sat, 3, 2) hd_gv_put64(out, shl64_sat_const(hd_gv_get64(in), hd_gv_s2u(in[2]))); RUN_END
 RUN_BEGIN(run_mul64x32_q, 4, 2) hd_gv_put64(out, mul64x32_q_const(in, hd_gv_s2u(in[3]))); RUN_END
@@ -183,6 +185,14 @@ COST(cost_sub_sat, sink32, hdf_sub_sat(a, b))
 COST(cost_add64_sat, sink64, hdf_add64_sat(a64, b64))
 COST(cost_sub64_sat, sink64, hdf_sub64_sat(a64, b64))
 COST(cost_asr64_rnd, sink64, hdf_asr64_rnd(b64, 16u))
+static void cost_asr64_rnd_var(void)
+{
+    const int64_t b64 = cv_b64;
+    const uint32_t sh = (uint32_t)(cv_a & 15);
+    hd_gv_cost_mark();
+    sink64 = hdf_asr64_rnd(b64, sh);
+    hd_gv_cost_mark();
+}
 COST(cost_asr32_rnd, sink32, hdf_asr32_rnd(b64, 16u))
 COST(cost_mul_q, sink32, hdf_mul_q(a, b, 30u))
 COST(cost_shl64_sat, sink64, hdf_shl64_sat(b64, 16u))
@@ -197,6 +207,7 @@ const hd_gv_kernel_t hd_gv_fixed_inline_kernels[] = {
     {"hdf_add64_sat", 4, 2, GV_N, gen_e64x2, run_add64_sat, cost_add64_sat},
     {"hdf_sub64_sat", 4, 2, GV_N, gen_e64x2, run_sub64_sat, cost_sub64_sat},
     {"hdf_asr64_rnd", 3, 2, 2u * GV_N, gen_e64_s63, run_asr64_rnd, cost_asr64_rnd},
+    {"hdf_asr64_rnd_var", 3, 2, 2u * GV_N, gen_e64_s63, run_asr64_rnd_var, cost_asr64_rnd_var},
     {"hdf_asr32_rnd", 3, 1, 2u * GV_N, gen_e64_s63, run_asr32_rnd, cost_asr32_rnd},
     {"hdf_mul_q", 3, 1, GV_N, gen_mul_q, run_mul_q, cost_mul_q},
     {"hdf_shl64_sat", 3, 2, 2u * GV_N, gen_e64_s63, run_shl64_sat, cost_shl64_sat},
