@@ -271,8 +271,20 @@ HD_FX_INLINE int64_t hdf_abs64_sat(int64_t x)
 {
     return (x == INT64_MIN) ? INT64_MAX : ((x < 0) ? -x : x);
 }
+/* M4: (constant s in 1..31) the two words shifted, the high one arithmetically */
 HD_FX_INLINE int64_t hdf_asr64_floor(int64_t x, uint32_t s)
 {
+#if HD_FX_M4
+    if (__builtin_constant_p(s) && s >= 1u && s <= 31u) {
+        uint32_t lo = hdf__lo(x);
+        uint32_t hi = hdf__hi(x);
+        __asm__("lsr %[lo], %[lo], %[s]\n\t"
+                "orr %[lo], %[lo], %[hi], lsl %[s2]\n\t"
+                "asr %[hi], %[hi], %[s]"
+                : [lo] "+&r"(lo), [hi] "+&r"(hi) : [s] "i"(s), [s2] "i"(32u - s));
+        return hdf__u2s64(((uint64_t)hi << 32) | lo);
+    }
+#endif
     return hdf__floor_shr((uint64_t)x, (x < 0) ? UINT64_MAX : (uint64_t)0, (s > 63u) ? 63u : s);
 }
 /* M4: (constant s in 1..62, or s in 1..31 at run time) y = x + 2^(s-1) - [x < 0] by ADDS/ADCS, then the

@@ -112,6 +112,14 @@ static int64_t asr64_rnd_const(int64_t x, uint32_t s)
     default: return hdf_asr64_rnd(x, 63u);
     }
 }
+#define FLOOR_CASE(x, k) case (k): return hdf_asr64_floor((x), (k));
+static int64_t asr64_floor_const(int64_t x, uint32_t s)
+{
+    switch (s) {
+    CASES64(FLOOR_CASE, x)
+    default: return hdf_asr64_floor(x, 63u);
+    }
+}
 #define RND32_CASE(x, k) case (k): return hdf_asr32_rnd((x), (k));
 static int32_t asr32_rnd_const(int64_t x, uint32_t s)
 {
@@ -161,6 +169,7 @@ RUN_BEGIN(run_sub_sat, 2, 1) out[0] = hdf_sub_sat(in[0], in[1]); RUN_END
 RUN_BEGIN(run_add64_sat, 4, 2) hd_gv_put64(out, hdf_add64_sat(hd_gv_get64(in), hd_gv_get64(in + 2))); RUN_END
 RUN_BEGIN(run_sub64_sat, 4, 2) hd_gv_put64(out, hdf_sub64_sat(hd_gv_get64(in), hd_gv_get64(in + 2))); RUN_END
 RUN_BEGIN(run_asr64_rnd, 3, 2) hd_gv_put64(out, asr64_rnd_const(hd_gv_get64(in), hd_gv_s2u(in[2]))); RUN_END
+RUN_BEGIN(run_asr64_floor, 3, 2) hd_gv_put64(out, asr64_floor_const(hd_gv_get64(in), hd_gv_s2u(in[2]))); RUN_END
 RUN_BEGIN(run_asr64_rnd_var, 3, 2) hd_gv_put64(out, hdf_asr64_rnd(hd_gv_get64(in), hd_gv_s2u(in[2]))); RUN_END
 RUN_BEGIN(run_asr32_rnd, 3, 1) out[0] = asr32_rnd_const(hd_gv_get64(in), hd_gv_s2u(in[2])); RUN_END
 RUN_BEGIN(run_shl64_sat, 3, 2) hd_gv_put64(out, shl64_sat_const(hd_gv_get64(in), hd_gv_s2u(in[2]))); RUN_END
@@ -193,6 +202,7 @@ static void cost_asr64_rnd_var(void)
     sink64 = hdf_asr64_rnd(b64, sh);
     hd_gv_cost_mark();
 }
+COST(cost_asr64_floor, sink64, hdf_asr64_floor(b64, 16u))
 COST(cost_asr32_rnd, sink32, hdf_asr32_rnd(b64, 16u))
 COST(cost_mul_q, sink32, hdf_mul_q(a, b, 30u))
 COST(cost_shl64_sat, sink64, hdf_shl64_sat(b64, 16u))
@@ -207,6 +217,7 @@ const hd_gv_kernel_t hd_gv_fixed_inline_kernels[] = {
     {"hdf_add64_sat", 4, 2, GV_N, gen_e64x2, run_add64_sat, cost_add64_sat},
     {"hdf_sub64_sat", 4, 2, GV_N, gen_e64x2, run_sub64_sat, cost_sub64_sat},
     {"hdf_asr64_rnd", 3, 2, 2u * GV_N, gen_e64_s63, run_asr64_rnd, cost_asr64_rnd},
+    {"hdf_asr64_floor", 3, 2, 2u * GV_N, gen_e64_s63, run_asr64_floor, cost_asr64_floor},
     {"hdf_asr64_rnd_var", 3, 2, 2u * GV_N, gen_e64_s63, run_asr64_rnd_var, cost_asr64_rnd_var},
     {"hdf_asr32_rnd", 3, 1, 2u * GV_N, gen_e64_s63, run_asr32_rnd, cost_asr32_rnd},
     {"hdf_mul_q", 3, 1, GV_N, gen_mul_q, run_mul_q, cost_mul_q},
