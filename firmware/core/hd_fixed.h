@@ -438,7 +438,7 @@ HD_FX_INLINE int32_t hdf_mul_q(int32_t a, int32_t b, uint32_t q)
 }
 /* a * b / 2^q rounded half away, saturated, for any int64 a (96-bit product as
  * t 2^32 + l with 0 <= l < 2^32, |t| < 2^63 after the rounding offset); q <= 62 */
-/* M4: (constant q in 1..62) P = a b as (p2:p1:p0) by UMULL (low word x b as
+/* M4: (constant q in 0..62) P = a b as (p2:p1:p0) by UMULL (low word x b as
  * unsigned), a correction for b < 0 and SMLAL (high word x b); P + 2^(q-1) -
  * [P < 0] shifted right by q; the limit of the sign of P when the bits above
  * the result are not its sign */
@@ -476,6 +476,26 @@ HD_FX_INLINE int64_t hdf__mul96_q(int64_t a, int32_t b, uint32_t q)
                   [q] "i"(q), [q2] "i"(32u - q)
                 : "cc");
         return hdf__u2s64(((uint64_t)rh << 32) | rl);
+    }
+    if (__builtin_constant_p(q) && q == 0u) {
+        /* the product itself, saturated when (p2:p1) is not an int32 */
+        uint32_t p0;
+        uint32_t p1;
+        uint32_t p2;
+        uint32_t n;
+        __asm__("umull %[p0], %[p1], %[al], %[b]\n\t"
+                "and %[n], %[al], %[b], asr #31\n\t"
+                "subs %[p1], %[p1], %[n]\n\t"
+                "sbc %[p2], %[p1], %[p1]\n\t"
+                "smlal %[p1], %[p2], %[ah], %[b]\n\t"
+                "cmp %[p2], %[p1], asr #31\n\t"
+                "itt ne\n\t"
+                "mvnne %[p0], %[p2], asr #31\n\t"
+                "eorne %[p1], %[p0], #0x80000000"
+                : [p0] "=&r"(p0), [p1] "=&r"(p1), [p2] "=&r"(p2), [n] "=&r"(n)
+                : [al] "r"(hdf__lo(a)), [ah] "r"(hdf__hi(a)), [b] "r"(b)
+                : "cc");
+        return hdf__u2s64(((uint64_t)p1 << 32) | p0);
     }
     if (__builtin_constant_p(q) && q >= 32u && q <= 62u) {
         /* P + 2^(q-1) - [P < 0]: the offset's words are (2^(q-33), 0) + [P < 0] x (-1, -1, -1)
