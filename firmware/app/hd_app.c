@@ -780,9 +780,11 @@ static void phase_comp_bank(hd_app_t *a, hd_period_t *p)
          * this period, (w_k - w_k-1) x raw torque, is taken off the integrator (bumpless) */
         const int32_t w_str = a->cb.str.blend.w, w_lug = a->cb.lug.blend.w;
         hd_comp_bank_pre(&a->cb, &a->cb_cfg, &p->cbi, &cbo);
-        a->vel_pid.integ = hdf_sub64_sat(a->vel_pid.integ, hdf_shl64_sat(
-            (int64_t)hdf_mul_q(a->cb.str.tau_raw, a->cb.str.blend.w - w_str, 30u) +
-            (int64_t)hdf_mul_q(a->cb.lug.tau_raw, a->cb.lug.blend.w - w_lug, 30u), a->vel_cfg.shift));
+        if (a->cb.str.blend.w != w_str || a->cb.lug.blend.w != w_lug) {    /* else the part is exactly 0 */
+            a->vel_pid.integ = hdf_sub64_sat(a->vel_pid.integ, hdf_shl64_sat(
+                (int64_t)hdf_mul_q(a->cb.str.tau_raw, a->cb.str.blend.w - w_str, 30u) +
+                (int64_t)hdf_mul_q(a->cb.lug.tau_raw, a->cb.lug.blend.w - w_lug, 30u), a->vel_cfg.shift));
+        }
         if (est) {
             pos_fb = hd_fb_step(&a->fb, &a->fb_cfg, a->pos_out, cbo.dpos);   /* motor / N - dpos (blend) */
         } else if (a->fb_cfg.kind == (uint32_t)HD_FB_FULL_CLOSED) {
