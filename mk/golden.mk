@@ -98,6 +98,15 @@ $(B)/bite/%/hd_fixed.o: $(B)/bite/%/hd_fixed.c
 $(B)/bite/%/gv_m4.elf: $(B)/bite/%/hd_fixed.o $(QM4_BASE_OBJ) $(B)/m4/obj/$(QM4_DIR)/gv_main.o $(GV_M4_OBJ) $(GV_DIR)/m4/gv_data.o $(M4_FW_LIB) $(QM4_LD)
 	$(M4_CC) $(M4_LDFLAGS) -o $@ $(filter %.o,$^) $(M4_FW_LIB) -lgcc
 
+# ---- bite check of the Cortex-M4 bodies: the hdf_* kernels compiled against a
+# mutated copy of hd_fixed.h (build/bite/<mutant>/hd_fixed.h, searched first);
+# the host outputs stay those of the portable bodies.
+GV_INLINE_M4_OBJ := $(B)/m4/obj/tests/golden/gv_fixed_inline.o
+$(B)/bite/%/gv_fixed_inline.o: $(B)/bite/%/hd_fixed.h tests/golden/gv_fixed_inline.c
+	$(M4_CC) -I$(B)/bite/$* $(M4_CFLAGS) $(GV_INC) -c tests/golden/gv_fixed_inline.c -o $@
+$(B)/bite/%/gv_m4_h.elf: $(B)/bite/%/gv_fixed_inline.o $(QM4_BASE_OBJ) $(B)/m4/obj/$(QM4_DIR)/gv_main.o $(filter-out $(GV_INLINE_M4_OBJ),$(GV_M4_OBJ)) $(GV_DIR)/m4/gv_data.o $(M4_FW_LIB) $(QM4_LD)
+	$(M4_CC) $(M4_LDFLAGS) -o $@ $(filter %.o,$^) $(M4_FW_LIB) -lgcc
+
 # ---- QEMU TCG plugin (instruction counts for make bench) --------------------------
 $(INSNCOUNT_SO): tools/qemu-insncount/insncount.c
 	@mkdir -p $(@D)

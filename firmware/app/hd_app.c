@@ -732,7 +732,7 @@ static void phase_references(hd_app_t *a, hd_period_t *p)
             p->loops = HD_LOOPS_VEL;
         } else if (a->exc_inj == HD_INJ_TORQUE_FF) {
             p->pos_ref = a->hold_pos;
-            p->t_ff = hd_add_sat(p->t_ff, p->exc);
+            p->t_ff = hdf_add_sat(p->t_ff, p->exc);
             p->loops = HD_LOOPS_POS_VEL;
         } else {
             p->pos_ref = hdf_add64_sat(a->hold_pos, p->exc);
@@ -780,16 +780,18 @@ static void phase_comp_bank(hd_app_t *a, hd_period_t *p)
          * this period, (w_k - w_k-1) x raw torque, is taken off the integrator (bumpless) */
         const int32_t w_str = a->cb.str.blend.w, w_lug = a->cb.lug.blend.w;
         hd_comp_bank_pre(&a->cb, &a->cb_cfg, &p->cbi, &cbo);
-        a->vel_pid.integ = hdf_sub64_sat(a->vel_pid.integ, hdf_shl64_sat(
-            (int64_t)hdf_mul_q(a->cb.str.tau_raw, a->cb.str.blend.w - w_str, 30u) +
-            (int64_t)hdf_mul_q(a->cb.lug.tau_raw, a->cb.lug.blend.w - w_lug, 30u), a->vel_cfg.shift));
+        if (a->cb.str.blend.w != w_str || a->cb.lug.blend.w != w_lug) {    /* else the part is exactly 0 */
+            a->vel_pid.integ = hdf_sub64_sat(a->vel_pid.integ, hdf_shl64_sat(
+                (int64_t)hdf_mul_q(a->cb.str.tau_raw, a->cb.str.blend.w - w_str, 30u) +
+                (int64_t)hdf_mul_q(a->cb.lug.tau_raw, a->cb.lug.blend.w - w_lug, 30u), a->vel_cfg.shift));
+        }
         if (est) {
             pos_fb = hd_fb_step(&a->fb, &a->fb_cfg, a->pos_out, cbo.dpos);   /* motor / N - dpos (blend) */
         } else if (a->fb_cfg.kind == (uint32_t)HD_FB_FULL_CLOSED) {
             p->pos_ref = hdf_add64_sat(p->pos_ref, cbo.dpos);        /* 0 in full closed (dvel instead) */
         }
-        p->v_ff = hd_add_sat(p->v_ff, cbo.dvel);
-        p->t_ff = hd_add_sat(p->t_ff, cbo.tff);
+        p->v_ff = hdf_add_sat(p->v_ff, cbo.dvel);
+        p->t_ff = hdf_add_sat(p->t_ff, cbo.tff);
     }
     p->pos_fb = pos_fb;
     p->pos_err = hdf_sat32(hdf_sub64_sat(p->pos_ref, pos_fb));
@@ -820,13 +822,13 @@ static void phase_hunt_breaker(hd_app_t *a, hd_period_t *p)
             }
         } else if (a->inpos_w < HD_Q30_ONE) {
             a->inpos_w = (a->inpos_w < HD_Q30_ONE - a->inpos_dw) ? a->inpos_w + a->inpos_dw : HD_Q30_ONE;
-        } else if (a->inpos_n >= hold_ticks && hd_abs_sat(p->pos_err) > param_raw(a, HD_P_HOLD_HUNT_WIN)) {
+        } else if (a->inpos_n >= hold_ticks && hdf_abs_sat(p->pos_err) > param_raw(a, HD_P_HOLD_HUNT_WIN)) {
             a->inpos_on = 1u;                   /* hunting at rest */
         }
         if (a->inpos_w < HD_Q30_ONE) {
             /* the Stribeck FF (already in t_ff) -> mean + w (FF - mean) */
             const int32_t mean = hdf_sat32(hdf_asr64_rnd(a->inpos_tau, 16u));
-            p->t_ff = hd_sub_sat(p->t_ff, hdf_mul_q(hd_sub_sat(a->cb.str.tau, mean), HD_Q30_ONE - a->inpos_w, 30u));
+            p->t_ff = hdf_sub_sat(p->t_ff, hdf_mul_q(hdf_sub_sat(a->cb.str.tau, mean), HD_Q30_ONE - a->inpos_w, 30u));
         } else {
             const int64_t d = hdf_sub64_sat(hdf_shl64_sat((int64_t)a->cb.str.tau, 16u), a->inpos_tau);
             a->inpos_tau = hdf_add64_sat(a->inpos_tau, hdf_asr64_rnd(d, HD_INPOS_TAU_SHIFT));
@@ -856,7 +858,7 @@ static void phase_loops(hd_app_t *a, hd_period_t *p)
             const int64_t ja = hdf_mul64x32_q((int64_t)param_raw(a, HD_P_J_TOTAL), p->acc_ref, 24u);
             const int64_t jaw = hdf_mul64x32_q(ja, TWO_PI_Q28, 28u);
             const int32_t aff = hdf_mul_q(hdf_sat32(jaw), param_raw(a, HD_P_AFF_GAIN), 30u);
-            p->t_ff = hd_add_sat(p->t_ff, aff);
+            p->t_ff = hdf_add_sat(p->t_ff, aff);
         }
         int32_t t = hd_pid_step(&a->vel_pid, &a->vel_cfg, p->vel_ref, p->v_fb, p->t_ff);
         if (p->loops == HD_LOOPS_POS_VEL) {
@@ -865,7 +867,7 @@ static void phase_loops(hd_app_t *a, hd_period_t *p)
         p->t_out = hd_biquad_chain_step(&a->filt, &a->filt_cfg, t);
     }
     const int32_t tlim = param_raw(a, HD_P_TORQUE_LIMIT);
-    p->t_cmd = hd_clamp32(hdf_sat32(p->t_out), hd_neg_sat(tlim), tlim);
+    p->t_cmd = hdf_clamp32(hdf_sat32(p->t_out), hdf_neg_sat(tlim), tlim);
 }
 
 /* Limits and faults (latched; each check enabled by its fault_enable bit). */
@@ -876,7 +878,7 @@ static void phase_limits_faults(hd_app_t *a, const hd_period_t *p)
     }
     const uint32_t fen = p->fen;
     const int32_t tlim = param_raw(a, HD_P_TORQUE_LIMIT);
-    if (hd_abs_sat(p->t_cmd) >= tlim || (p->loops != HD_LOOPS_NONE && a->vel_pid.saturated)) {
+    if (hdf_abs_sat(p->t_cmd) >= tlim || (p->loops != HD_LOOPS_NONE && a->vel_pid.saturated)) {
         a->sat_count++;
     } else {
         a->sat_count = 0;
@@ -884,7 +886,7 @@ static void phase_limits_faults(hd_app_t *a, const hd_period_t *p)
     if ((fen & HD_FCHK_TORQUE_SAT) && a->sat_count > (uint32_t)param_raw(a, HD_P_TORQUE_SAT_TIME)) {
         trip(a, HD_FAULT_TORQUE_SAT);
     }
-    if ((fen & HD_FCHK_OVERSPEED) && hd_abs_sat(p->v_fb) > param_raw(a, HD_P_VEL_TRIP)) {
+    if ((fen & HD_FCHK_OVERSPEED) && hdf_abs_sat(p->v_fb) > param_raw(a, HD_P_VEL_TRIP)) {
         trip(a, HD_FAULT_OVERSPEED);
     }
     if ((fen & HD_FCHK_TRAVEL) &&
@@ -892,7 +894,7 @@ static void phase_limits_faults(hd_app_t *a, const hd_period_t *p)
         trip(a, HD_FAULT_TRAVEL);
     }
     if ((fen & HD_FCHK_FOLLOWING) && p->loops == HD_LOOPS_POS_VEL &&
-        hd_abs_sat(p->pos_err) > param_raw(a, HD_P_FOLLOW_ERR_MAX)) {
+        hdf_abs_sat(p->pos_err) > param_raw(a, HD_P_FOLLOW_ERR_MAX)) {
         trip(a, HD_FAULT_FOLLOWING);
     }
 }

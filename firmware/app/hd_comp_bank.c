@@ -398,10 +398,14 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
             b->dpos_f = target;
             b->dpos_primed = 1u;
         }
-        const int64_t step = hdf_mul64x32_q(hdf_sub64_sat(target, b->dpos_f), c->dpos_alpha, 30u);
-        b->dpos_f = hdf_add64_sat(b->dpos_f, step);
         out->dpos = 0;
-        out->dvel = hdf_add_sat(hdf_sat32(hdf_asr64_rnd(hdf_mul64x32_q(step, HD_LOOP_HZ, 0u), 16u)), dv_i);
+        if (target == b->dpos_f) {
+            out->dvel = dv_i;           /* settled (or every correction off): the step is exactly 0 */
+        } else {
+            const int64_t step = hdf_mul64x32_q(hdf_sub64_sat(target, b->dpos_f), c->dpos_alpha, 30u);
+            b->dpos_f = hdf_add64_sat(b->dpos_f, step);
+            out->dvel = hdf_add_sat(hdf_sat32(hdf_asr64_rnd(hdf_mul64x32_q(step, HD_LOOP_HZ, 0u), 16u)), dv_i);
+        }
     }
     b->out = *out;
 }

@@ -125,6 +125,34 @@ uint32_t hd_isqrt64(uint64_t x);
  * with complements (never `>>` on a signed type). */
 #define HD_FX_INLINE static inline __attribute__((always_inline))
 
+/* Cortex-M4 bodies.  On ARMv7E-M with the DSP extension (the STM32G474 and the
+ * emulated mps2-an386) the helpers marked "M4:" below run a short inline-assembly
+ * body that computes the same bits as the portable C body: QADD / QSUB are the
+ * 32-bit saturating add / sub; the 64-bit saturating add / sub use the overflow
+ * flag of ADDS/ADCS; the saturation 64 -> 32 compares the high word with the
+ * sign of the low word; the rounding shift by a constant 1..31 uses an
+ * arithmetic shift of the high word (logical when the rounding offset
+ * overflowed a positive value).  The golden vectors prove the identity: the
+ * kernels hdf_* of tests/golden/gv_fixed_inline.c compare these bodies on the
+ * Cortex-M4 with the portable bodies on the host over edges and random
+ * arguments (every shift count).  Define HD_FX_PORTABLE to use the C bodies on
+ * the M4 as well. */
+#if defined(__ARM_ARCH_7EM__) && defined(__ARM_FEATURE_DSP) && !defined(HD_FX_PORTABLE)
+#define HD_FX_M4 1
+#else
+#define HD_FX_M4 0
+#endif
+
+/* the two words of an int64 bit pattern and back (no implementation-defined conversion) */
+HD_FX_INLINE uint32_t hdf__lo(int64_t x)
+{
+    return (uint32_t)((uint64_t)x & 0xFFFFFFFFu);
+}
+HD_FX_INLINE uint32_t hdf__hi(int64_t x)
+{
+    return (uint32_t)((uint64_t)x >> 32);
+}
+
 /* bit pattern -> int64 without an implementation-defined conversion */
 HD_FX_INLINE int64_t hdf__u2s64(uint64_t u)
 {
@@ -135,9 +163,19 @@ HD_FX_INLINE int64_t hdf__floor_shr(uint64_t u, uint64_t m, uint32_t s)
 {
     return hdf__u2s64(((u ^ m) >> s) ^ m);
 }
+/* M4: CMP + conditional EOR, the limit from the sign of the high word */
 HD_FX_INLINE int32_t hdf_sat32(int64_t x)
 {
+#if HD_FX_M4
+    uint32_t r = hdf__lo(x);
+    __asm__("cmp %[hi], %[r], asr #31\n\t"
+            "it ne\n\t"
+            "eorne %[r], %[m], %[hi], asr #31"
+            : [r] "+r"(r) : [hi] "r"(hdf__hi(x)), [m] "r"((uint32_t)INT32_MAX) : "cc");
+    return (r > (uint32_t)INT32_MAX) ? (-(int32_t)(~r) - 1) : (int32_t)r;
+#else
     return (x > (int64_t)INT32_MAX) ? INT32_MAX : ((x < (int64_t)INT32_MIN) ? INT32_MIN : (int32_t)x);
+#endif
 }
 HD_FX_INLINE int32_t hdf_clamp32(int32_t x, int32_t lo, int32_t hi)
 {
@@ -147,17 +185,27 @@ HD_FX_INLINE int64_t hdf_clamp64(int64_t x, int64_t lo, int64_t hi)
 {
     return (x < lo) ? lo : ((x > hi) ? hi : x);
 }
+/* M4: QADD */
 HD_FX_INLINE int32_t hdf_add_sat(int32_t a, int32_t b)
 {
     int32_t r;
+#if HD_FX_M4
+    __asm__("qadd %0, %1, %2" : "=r"(r) : "r"(a), "r"(b));
+    return r;
+#endif
     if (__builtin_add_overflow(a, b, &r)) {
         r = (b > 0) ? INT32_MAX : INT32_MIN;
     }
     return r;
 }
+/* M4: QSUB */
 HD_FX_INLINE int32_t hdf_sub_sat(int32_t a, int32_t b)
 {
     int32_t r;
+#if HD_FX_M4
+    __asm__("qsub %0, %1, %2" : "=r"(r) : "r"(a), "r"(b));
+    return r;
+#endif
     if (__builtin_sub_overflow(a, b, &r)) {
         r = (b < 0) ? INT32_MAX : INT32_MIN;
     }
@@ -171,17 +219,45 @@ HD_FX_INLINE int32_t hdf_abs_sat(int32_t x)
 {
     return (x == INT32_MIN) ? INT32_MAX : ((x < 0) ? -x : x);
 }
+/* M4: ADDS/ADCS; on overflow (V) the limit opposite to the wrapped sign */
 HD_FX_INLINE int64_t hdf_add64_sat(int64_t a, int64_t b)
 {
     int64_t r;
+#if HD_FX_M4
+    {
+        uint32_t lo = hdf__lo(a);
+        uint32_t hi = hdf__hi(a);
+        __asm__("adds %[lo], %[lo], %[blo]\n\t"
+                "adcs %[hi], %[hi], %[bhi]\n\t"
+                "itt vs\n\t"
+                "asrvs %[lo], %[hi], #31\n\t"
+                "eorvs %[hi], %[lo], #0x80000000"
+                : [lo] "+&r"(lo), [hi] "+&r"(hi) : [blo] "r"(hdf__lo(b)), [bhi] "r"(hdf__hi(b)) : "cc");
+        return hdf__u2s64(((uint64_t)hi << 32) | lo);
+    }
+#endif
     if (__builtin_add_overflow(a, b, &r)) {
         r = (b > 0) ? INT64_MAX : INT64_MIN;
     }
     return r;
 }
+/* M4: SUBS/SBCS; on overflow (V) the limit opposite to the wrapped sign */
 HD_FX_INLINE int64_t hdf_sub64_sat(int64_t a, int64_t b)
 {
     int64_t r;
+#if HD_FX_M4
+    {
+        uint32_t lo = hdf__lo(a);
+        uint32_t hi = hdf__hi(a);
+        __asm__("subs %[lo], %[lo], %[blo]\n\t"
+                "sbcs %[hi], %[hi], %[bhi]\n\t"
+                "itt vs\n\t"
+                "asrvs %[lo], %[hi], #31\n\t"
+                "eorvs %[hi], %[lo], #0x80000000"
+                : [lo] "+&r"(lo), [hi] "+&r"(hi) : [blo] "r"(hdf__lo(b)), [bhi] "r"(hdf__hi(b)) : "cc");
+        return hdf__u2s64(((uint64_t)hi << 32) | lo);
+    }
+#endif
     if (__builtin_sub_overflow(a, b, &r)) {
         r = (b < 0) ? INT64_MAX : INT64_MIN;
     }
@@ -195,12 +271,109 @@ HD_FX_INLINE int64_t hdf_abs64_sat(int64_t x)
 {
     return (x == INT64_MIN) ? INT64_MAX : ((x < 0) ? -x : x);
 }
+/* M4: (constant s in 1..31) the two words shifted, the high one arithmetically */
 HD_FX_INLINE int64_t hdf_asr64_floor(int64_t x, uint32_t s)
 {
+#if HD_FX_M4
+    if (__builtin_constant_p(s) && s >= 1u && s <= 31u) {
+        uint32_t lo = hdf__lo(x);
+        uint32_t hi = hdf__hi(x);
+        __asm__("lsr %[lo], %[lo], %[s]\n\t"
+                "orr %[lo], %[lo], %[hi], lsl %[s2]\n\t"
+                "asr %[hi], %[hi], %[s]"
+                : [lo] "+&r"(lo), [hi] "+&r"(hi) : [s] "i"(s), [s2] "i"(32u - s));
+        return hdf__u2s64(((uint64_t)hi << 32) | lo);
+    }
+#endif
     return hdf__floor_shr((uint64_t)x, (x < 0) ? UINT64_MAX : (uint64_t)0, (s > 63u) ? 63u : s);
 }
+/* M4: (constant s in 1..62, or s in 1..31 at run time) y = x + 2^(s-1) - [x < 0] by ADDS/ADCS, then the
+ * shift; y shifts arithmetically, logically when the rounding offset overflowed
+ * a positive x (within 2^(s-1) of INT64_MAX: y is then an unsigned value) */
 HD_FX_INLINE int64_t hdf_asr64_rnd(int64_t x, uint32_t s)
 {
+#if HD_FX_M4
+    if (__builtin_constant_p(s) && s >= 1u && s <= 31u) {
+        uint32_t lo = hdf__lo(x);
+        uint32_t yh;
+        uint32_t t;
+        __asm__("lsr %[t], %[hi], #31\n\t"
+                "rsb %[t], %[t], %[h]\n\t"
+                "adds %[lo], %[lo], %[t]\n\t"
+                "adcs %[yh], %[hi], #0\n\t"
+                "lsr %[lo], %[lo], %[s]\n\t"
+                "orr %[lo], %[lo], %[yh], lsl %[s2]\n\t"
+                "ite vs\n\t"
+                "lsrvs %[yh], %[yh], %[s]\n\t"
+                "asrvc %[yh], %[yh], %[s]"
+                : [lo] "+&r"(lo), [yh] "=&r"(yh), [t] "=&r"(t)
+                : [hi] "r"(hdf__hi(x)), [h] "i"((uint32_t)1 << ((s - 1u) & 31u)), [s] "i"(s),
+                  [s2] "i"(32u - s)
+                : "cc");
+        return hdf__u2s64(((uint64_t)yh << 32) | lo);
+    }
+    if (__builtin_constant_p(s) && s == 32u) {
+        /* the high word of y is the low word of the result; the sign word follows */
+        uint32_t yh;
+        uint32_t rh;
+        uint32_t t;
+        __asm__("lsr %[t], %[hi], #31\n\t"
+                "rsb %[t], %[t], #0x80000000\n\t"
+                "adds %[t], %[lo], %[t]\n\t"
+                "adcs %[yh], %[hi], #0\n\t"
+                "ite vs\n\t"
+                "movvs %[rh], #0\n\t"
+                "asrvc %[rh], %[yh], #31"
+                : [yh] "=&r"(yh), [rh] "=&r"(rh), [t] "=&r"(t)
+                : [lo] "r"(hdf__lo(x)), [hi] "r"(hdf__hi(x))
+                : "cc");
+        return hdf__u2s64(((uint64_t)rh << 32) | yh);
+    }
+    if (__builtin_constant_p(s) && s >= 33u && s <= 62u) {
+        /* y = x - [x < 0] + 2^(s-1) (mod 2^64); the sign of x chooses the shift */
+        uint32_t yh;
+        uint32_t rl;
+        uint32_t rh;
+        uint32_t t;
+        __asm__("adds %[t], %[lo], %[hi], asr #31\n\t"
+                "adc %[yh], %[hi], %[hi], asr #31\n\t"
+                "add %[yh], %[yh], %[h]\n\t"
+                "cmp %[hi], #0\n\t"
+                "itete lt\n\t"
+                "asrlt %[rl], %[yh], %[k]\n\t"
+                "lsrge %[rl], %[yh], %[k]\n\t"
+                "asrlt %[rh], %[yh], #31\n\t"
+                "movge %[rh], #0"
+                : [yh] "=&r"(yh), [rl] "=&r"(rl), [rh] "=&r"(rh), [t] "=&r"(t)
+                : [lo] "r"(hdf__lo(x)), [hi] "r"(hdf__hi(x)), [h] "i"((uint32_t)1 << ((s - 33u) & 31u)),
+                  [k] "i"(s - 32u)
+                : "cc");
+        return hdf__u2s64(((uint64_t)rh << 32) | rl);
+    }
+    if (!__builtin_constant_p(s) && s - 1u < 31u) {
+        /* a shift count known at run time only, 1..31: the same with register shifts */
+        uint32_t lo = hdf__lo(x);
+        uint32_t yh;
+        uint32_t t;
+        uint32_t u;
+        __asm__("sub %[u], %[s], #1\n\t"
+                "lsl %[u], %[one], %[u]\n\t"
+                "sub %[t], %[u], %[hi], lsr #31\n\t"
+                "adds %[lo], %[lo], %[t]\n\t"
+                "adcs %[yh], %[hi], #0\n\t"
+                "lsr %[lo], %[lo], %[s]\n\t"
+                "rsb %[u], %[s], #32\n\t"
+                "lsl %[t], %[yh], %[u]\n\t"
+                "orr %[lo], %[lo], %[t]\n\t"
+                "ite vs\n\t"
+                "lsrvs %[yh], %[yh], %[s]\n\t"
+                "asrvc %[yh], %[yh], %[s]"
+                : [lo] "+&r"(lo), [yh] "=&r"(yh), [t] "=&r"(t), [u] "=&r"(u)
+                : [hi] "r"(hdf__hi(x)), [s] "r"(s), [one] "r"(1u)
+                : "cc");
+        return hdf__u2s64(((uint64_t)yh << 32) | lo);
+    }
+#endif
     if (s > 63u) {
         s = 63u;
     }
@@ -219,8 +392,29 @@ HD_FX_INLINE int32_t hdf_asr32_rnd(int64_t x, uint32_t s)
 {
     return hdf_sat32(hdf_asr64_rnd(x, s));
 }
+/* M4: (constant s in 1..31) the shifted words; SSAT of the high word to 32 - s
+ * bits tells whether x * 2^s fits (else the limit of the sign of x) */
 HD_FX_INLINE int64_t hdf_shl64_sat(int64_t x, uint32_t s)
 {
+#if HD_FX_M4
+    if (__builtin_constant_p(s) && s >= 1u && s <= 31u) {
+        uint32_t rl;
+        uint32_t rh;
+        uint32_t t;
+        __asm__("ssat %[t], %[n], %[hi]\n\t"
+                "lsl %[rh], %[hi], %[s]\n\t"
+                "orr %[rh], %[rh], %[lo], lsr %[s2]\n\t"
+                "lsl %[rl], %[lo], %[s]\n\t"
+                "cmp %[t], %[hi]\n\t"
+                "itt ne\n\t"
+                "mvnne %[rl], %[hi], asr #31\n\t"
+                "eorne %[rh], %[rl], #0x80000000"
+                : [rl] "=&r"(rl), [rh] "=&r"(rh), [t] "=&r"(t)
+                : [lo] "r"(hdf__lo(x)), [hi] "r"(hdf__hi(x)), [n] "i"(32u - s), [s] "i"(s), [s2] "i"(32u - s)
+                : "cc");
+        return hdf__u2s64(((uint64_t)rh << 32) | rl);
+    }
+#endif
     if (x == 0) {
         return 0;
     }
@@ -244,8 +438,112 @@ HD_FX_INLINE int32_t hdf_mul_q(int32_t a, int32_t b, uint32_t q)
 }
 /* a * b / 2^q rounded half away, saturated, for any int64 a (96-bit product as
  * t 2^32 + l with 0 <= l < 2^32, |t| < 2^63 after the rounding offset); q <= 62 */
+/* M4: (constant q in 0..62) P = a b as (p2:p1:p0) by UMULL (low word x b as
+ * unsigned), a correction for b < 0 and SMLAL (high word x b); P + 2^(q-1) -
+ * [P < 0] shifted right by q; the limit of the sign of P when the bits above
+ * the result are not its sign */
 HD_FX_INLINE int64_t hdf__mul96_q(int64_t a, int32_t b, uint32_t q)
 {
+#if HD_FX_M4
+    if (__builtin_constant_p(q) && q >= 1u && q <= 31u) {
+        uint32_t p0;
+        uint32_t p1;
+        uint32_t p2;
+        uint32_t n;
+        uint32_t rl;
+        uint32_t rh;
+        __asm__("umull %[p0], %[p1], %[al], %[b]\n\t"
+                "and %[n], %[al], %[b], asr #31\n\t"
+                "subs %[p1], %[p1], %[n]\n\t"
+                "sbc %[p2], %[p1], %[p1]\n\t"
+                "smlal %[p1], %[p2], %[ah], %[b]\n\t"
+                "asr %[n], %[p2], #31\n\t"
+                "add %[rl], %[n], %[h]\n\t"
+                "adds %[p0], %[p0], %[rl]\n\t"
+                "adcs %[p1], %[p1], #0\n\t"
+                "adc %[p2], %[p2], #0\n\t"
+                "lsr %[rl], %[p0], %[q]\n\t"
+                "orr %[rl], %[rl], %[p1], lsl %[q2]\n\t"
+                "lsr %[rh], %[p1], %[q]\n\t"
+                "orr %[rh], %[rh], %[p2], lsl %[q2]\n\t"
+                "asr %[p0], %[p2], %[q]\n\t"
+                "cmp %[p0], %[rh], asr #31\n\t"
+                "itt ne\n\t"
+                "mvnne %[rl], %[n]\n\t"
+                "eorne %[rh], %[rl], #0x80000000"
+                : [p0] "=&r"(p0), [p1] "=&r"(p1), [p2] "=&r"(p2), [n] "=&r"(n), [rl] "=&r"(rl), [rh] "=&r"(rh)
+                : [al] "r"(hdf__lo(a)), [ah] "r"(hdf__hi(a)), [b] "r"(b), [h] "i"((uint32_t)1 << ((q - 1u) & 31u)),
+                  [q] "i"(q), [q2] "i"(32u - q)
+                : "cc");
+        return hdf__u2s64(((uint64_t)rh << 32) | rl);
+    }
+    if (__builtin_constant_p(q) && q == 0u) {
+        /* the product itself, saturated when (p2:p1) is not an int32 */
+        uint32_t p0;
+        uint32_t p1;
+        uint32_t p2;
+        uint32_t n;
+        __asm__("umull %[p0], %[p1], %[al], %[b]\n\t"
+                "and %[n], %[al], %[b], asr #31\n\t"
+                "subs %[p1], %[p1], %[n]\n\t"
+                "sbc %[p2], %[p1], %[p1]\n\t"
+                "smlal %[p1], %[p2], %[ah], %[b]\n\t"
+                "cmp %[p2], %[p1], asr #31\n\t"
+                "itt ne\n\t"
+                "mvnne %[p0], %[p2], asr #31\n\t"
+                "eorne %[p1], %[p0], #0x80000000"
+                : [p0] "=&r"(p0), [p1] "=&r"(p1), [p2] "=&r"(p2), [n] "=&r"(n)
+                : [al] "r"(hdf__lo(a)), [ah] "r"(hdf__hi(a)), [b] "r"(b)
+                : "cc");
+        return hdf__u2s64(((uint64_t)p1 << 32) | p0);
+    }
+    if (__builtin_constant_p(q) && q >= 32u && q <= 62u) {
+        /* P + 2^(q-1) - [P < 0]: the offset's words are (2^(q-33), 0) + [P < 0] x (-1, -1, -1)
+         * (q = 32: 2^31 - [P < 0] in the low word); the result is (p2:p1) >> (q - 32), no saturation */
+        uint32_t p0;
+        uint32_t p1;
+        uint32_t p2;
+        uint32_t n;
+        uint32_t rl;
+        uint32_t rh;
+        if (q == 32u) {
+            __asm__("umull %[p0], %[p1], %[al], %[b]\n\t"
+                    "and %[n], %[al], %[b], asr #31\n\t"
+                    "subs %[p1], %[p1], %[n]\n\t"
+                    "sbc %[p2], %[p1], %[p1]\n\t"
+                    "smlal %[p1], %[p2], %[ah], %[b]\n\t"
+                    "lsr %[n], %[p2], #31\n\t"
+                    "rsb %[n], %[n], #0x80000000\n\t"
+                    "adds %[p0], %[p0], %[n]\n\t"
+                    "adcs %[rl], %[p1], #0\n\t"
+                    "adc %[rh], %[p2], #0"
+                    : [p0] "=&r"(p0), [p1] "=&r"(p1), [p2] "=&r"(p2), [n] "=&r"(n), [rl] "=&r"(rl), [rh] "=&r"(rh)
+                    : [al] "r"(hdf__lo(a)), [ah] "r"(hdf__hi(a)), [b] "r"(b)
+                    : "cc");
+        } else {
+            __asm__("umull %[p0], %[p1], %[al], %[b]\n\t"
+                    "and %[n], %[al], %[b], asr #31\n\t"
+                    "subs %[p1], %[p1], %[n]\n\t"
+                    "sbc %[p2], %[p1], %[p1]\n\t"
+                    "smlal %[p1], %[p2], %[ah], %[b]\n\t"
+                    "asr %[n], %[p2], #31\n\t"
+                    "adds %[p0], %[p0], %[n]\n\t"
+                    "adcs %[p1], %[p1], %[n]\n\t"
+                    "adc %[p2], %[p2], %[n]\n\t"
+                    "adds %[p1], %[p1], %[h]\n\t"
+                    "adc %[p2], %[p2], #0\n\t"
+                    "lsr %[rl], %[p1], %[k]\n\t"
+                    "orr %[rl], %[rl], %[p2], lsl %[k2]\n\t"
+                    "asr %[rh], %[p2], %[k]"
+                    : [p0] "=&r"(p0), [p1] "=&r"(p1), [p2] "=&r"(p2), [n] "=&r"(n), [rl] "=&r"(rl), [rh] "=&r"(rh)
+                    : [al] "r"(hdf__lo(a)), [ah] "r"(hdf__hi(a)), [b] "r"(b),
+                      [h] "i"((uint32_t)1 << ((q - 33u) & 31u)), [k] "i"((q - 32u) & 31u), [k2] "i"(64u - q)
+                    : "cc");
+        }
+        return hdf__u2s64(((uint64_t)rh << 32) | rl);
+    }
+#endif
+    {
     const int64_t hi = hdf_asr64_floor(a, 32u) * (int64_t)b;                     /* |.| <= 2^62 */
     const int64_t lo = (int64_t)((uint64_t)a & 0xFFFFFFFFu) * (int64_t)b;         /* |.| < 2^63 */
     int64_t t = hi + hdf_asr64_floor(lo, 32u);
@@ -278,12 +576,21 @@ HD_FX_INLINE int64_t hdf__mul96_q(int64_t a, int32_t b, uint32_t q)
             return t * ((int64_t)1 << sh) + (int64_t)(l2 >> q);
         }
     }
+    }
 }
 HD_FX_INLINE int64_t hdf_mul64x32_q(int64_t a, int32_t b, uint32_t q)
 {
     const uint32_t qq = (q > 62u) ? 62u : q;
     if (a >= (int64_t)INT32_MIN && a <= (int64_t)INT32_MAX) {
+#if HD_FX_M4
+        /* SMULL: the compiler would multiply the sign-extended a as 64 x 64 bits */
+        uint32_t l;
+        uint32_t h;
+        __asm__("smull %0, %1, %2, %3" : "=&r"(l), "=&r"(h) : "r"(hdf__lo(a)), "r"(b));
+        return hdf_asr64_rnd(hdf__u2s64(((uint64_t)h << 32) | l), qq);
+#else
         return hdf_asr64_rnd((int64_t)(int32_t)a * (int64_t)b, qq);
+#endif
     }
     return hdf__mul96_q(a, b, qq);
 }

@@ -12,13 +12,10 @@
  * the same arithmetic). */
 
 /* round(x / 2^q) (half up), saturated to int32, for |x| < 2^62 and 1 <= q <= 30:
- * biased by 2^62 so that the shift acts on a non-negative number (modulo-2^64
- * sum, no overflow: x + 2^62 + 2^(q-1) < 2^63 + 2^29). */
+ * floor((x + 2^(q-1)) / 2^q), the sum cannot overflow in that range. */
 static inline int32_t foc_rnd_sat(int64_t x, uint32_t q)
 {
-    const uint64_t u = ((uint64_t)x + ((uint64_t)1 << 62) + ((uint64_t)1 << (q - 1u))) >> q;
-    const int64_t r = (int64_t)u - ((int64_t)1 << (62u - q));
-    return (r > (int64_t)INT32_MAX) ? INT32_MAX : ((r < (int64_t)INT32_MIN) ? INT32_MIN : (int32_t)r);
+    return hdf_sat32(hdf_asr64_floor(x + ((int64_t)1 << (q - 1u)), q));
 }
 
 static inline int32_t foc_clarke_beta(int32_t ia, int32_t ib)

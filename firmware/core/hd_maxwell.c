@@ -26,15 +26,16 @@ hd_angle_t hd_maxwell_step(hd_maxwell_t *s, const hd_maxwell_cfg_t *c, hd_angle_
     const uint32_t n = (c->n < HD_MAXWELL_N_MAX) ? c->n : HD_MAXWELL_N_MAX;
     const int32_t tmax = (c->tau_max > 0) ? c->tau_max : INT32_MAX;
     /* input increment, saturated to +-0.5 turn per period (far beyond any rate) */
-    const int64_t dx = s->primed ? hdf_clamp64(hdf_sub64_sat(x, s->x_prev), INT32_MIN, INT32_MAX) : 0;
+    const int32_t dx = s->primed ? hdf_sat32(hdf_sub64_sat(x, s->x_prev)) : 0;
     int64_t acc = 0;
     uint32_t i;
 
     for (i = 0; i < n; i++) {
-        const int64_t d = (c->d[i] > 0) ? (int64_t)c->d[i] : 0;
-        /* s_i + dx, clamped to the slip limit: the anchor follows beyond it */
-        const int64_t si = hdf_clamp64((int64_t)s->s[i] + dx, -d, d);
-        s->s[i] = (int32_t)si;
+        const int32_t d = (c->d[i] > 0) ? c->d[i] : 0;
+        /* s_i + dx, clamped to the slip limit: the anchor follows beyond it.  In 32 bits:
+         * 0 <= d <= INT32_MAX, so saturating the sum to int32 first changes nothing
+         * after the clamp to [-d, d] */
+        s->s[i] = hdf_clamp32(hdf_add_sat(s->s[i], dx), -d, d);
         acc = hdf_mac64(acc, c->k[i], s->s[i]);                     /* Q8 * Q32 = Q40 */
     }
     s->x_prev = x;

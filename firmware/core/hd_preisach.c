@@ -191,19 +191,21 @@ static int32_t hd__everett_k(const hd_preisach_table_t *t, int32_t a, int32_t b,
     fb = ub & (n - 1u);
     if (ia == ib) {
         /* diagonal cell: fa > fb, linear on the triangle, zero on the diagonal */
-        acc = (int64_t)(fa - fb) * hd__e(t, ia + 1u, ia);
+        acc = (int64_t)(int32_t)(fa - fb) * hd__e(t, ia + 1u, ia);      /* < 2^8: a 32 x 32 product */
         return hdf_asr32_rnd(acc, sb);
     }
-    /* off-diagonal cell (ia > ib): bilinear; a corner with weight 0 is not read */
-    acc = (int64_t)((n - fa) * (n - fb)) * hd__e(t, ia, ib);
+    /* off-diagonal cell (ia > ib): bilinear; a corner with weight 0 is not read.
+     * The weights are <= 2^(2 sb) <= 2^16 (sb <= HD_PREISACH_SUB_MAX): int32, so each
+     * term is a 32 x 32 -> 64 product (SMULL / SMLAL on the M4) */
+    acc = (int64_t)(int32_t)((n - fa) * (n - fb)) * hd__e(t, ia, ib);
     if (fa != 0u) {
-        acc += (int64_t)(fa * (n - fb)) * hd__e(t, ia + 1u, ib);
+        acc += (int64_t)(int32_t)(fa * (n - fb)) * hd__e(t, ia + 1u, ib);
         if (fb != 0u) {
-            acc += (int64_t)(fa * fb) * hd__e(t, ia + 1u, ib + 1u);
+            acc += (int64_t)(int32_t)(fa * fb) * hd__e(t, ia + 1u, ib + 1u);
         }
     }
     if (fb != 0u) {
-        acc += (int64_t)((n - fa) * fb) * hd__e(t, ia, ib + 1u);
+        acc += (int64_t)(int32_t)((n - fa) * fb) * hd__e(t, ia, ib + 1u);
     }
     return hdf_asr32_rnd(acc, 2u * sb);
 }

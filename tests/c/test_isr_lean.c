@@ -6,6 +6,8 @@
  *   hd_app: motor current    vs hd_div_q(motor torque, Kt, 16) over the Kt range
  *   hd_app: encoder steps    vs the wrapped counter difference x 2^(32 - bits)
  *   hd_app: travel limits    follow a parameter change (precomputed at apply)
+ *   hd_foc: Clarke / Park    rounding floor((x + 2^(q-1)) / 2^q) vs the 2^62-biased
+ *                            unsigned shift (round half up, saturated)
  * The hal is a stub: the sensor sample is set by the test, the command recorded,
  * NVM blank (defaults) and read-only.
  */
@@ -19,6 +21,7 @@
 #include "hd_app.h"
 #include "hd_fixed.h"
 #include "hd_blend.h"
+#include "hd_foc.h"
 
 /* ---- stub hal ------------------------------------------------------------ */
 
@@ -273,6 +276,56 @@ static void test_app_travel_limit_follows_parameter(void **state)
     assert_int_equal(app.fault, HD_FAULT_TRAVEL);
 }
 
+/* round(x / 2^q) half up, saturated, by a shift of x + 2^62 + 2^(q-1) as an unsigned
+ * value (the general form the FOC's rounding replaces); |x| < 2^62 */
+static int32_t ref_rnd_sat(int64_t x, uint32_t q)
+{
+    const uint64_t u = ((uint64_t)x + ((uint64_t)1 << 62) + ((uint64_t)1 << (q - 1u))) >> q;
+    const int64_t r = (int64_t)u - ((int64_t)1 << (62u - q));
+    return (r > (int64_t)INT32_MAX) ? INT32_MAX : ((r < (int64_t)INT32_MIN) ? INT32_MIN : (int32_t)r);
+}
+
+static uint64_t xs_state = 0x9E3779B97F4A7C15ull;
+static uint32_t xs32(void)
+{
+    xs_state ^= xs_state << 13;
+    xs_state ^= xs_state >> 7;
+    xs_state ^= xs_state << 17;
+    return (uint32_t)(xs_state >> 32);
+}
+
+static void test_foc_rounding_matches_biased_form(void **st)
+{
+    (void)st;
+    static const int32_t edge[] = {INT32_MIN, INT32_MIN + 1, -65537, -65536, -32768, -1, 0, 1, 32767, 32768,
+                                   65536, INT32_MAX - 1, INT32_MAX};
+    const int64_t inv_sqrt3 = 619925131;            /* 1/sqrt(3), Q30, as in hd_foc.c */
+    uint32_t i;
+    for (i = 0; i < 200000u + 169u; i++) {
+        const int32_t a = (i < 169u) ? edge[i / 13u] : (int32_t)xs32();
+        const int32_t b = (i < 169u) ? edge[i % 13u] : (int32_t)xs32();
+        int32_t al;
+        int32_t be;
+        int32_t d;
+        int32_t q;
+        const uint32_t ang = xs32();
+        int32_t sn;
+        int32_t cs;
+        hd_foc_clarke(a, b, &al, &be);
+        assert_int_equal(al, a);
+        assert_int_equal(be, ref_rnd_sat(((int64_t)a + 2 * (int64_t)b) * inv_sqrt3, 30u));
+        hd_sincos_turn_fast(ang, &sn, &cs);        /* |sn|, |cs| <= 2^30 */
+        if ((i % 4u) == 0u) {
+            /* +-0.5: every odd sum is a tie (half up, not half away) */
+            sn = ((i % 8u) == 0u) ? (1 << 29) : -(1 << 29);
+            cs = 1 << 29;
+        }
+        hd_foc_park(a, b, sn, cs, &d, &q);
+        assert_int_equal(d, ref_rnd_sat((int64_t)a * cs - (int64_t)b * (int64_t)(-sn), 30u));
+        assert_int_equal(q, ref_rnd_sat((int64_t)a * (int64_t)(-sn) + (int64_t)b * cs, 30u));
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -281,6 +334,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_app_current_is_div_q, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_app_encoder_steps, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_app_travel_limit_follows_parameter, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_foc_rounding_matches_biased_form, setUp, tearDown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

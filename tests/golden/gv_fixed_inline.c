@@ -1,0 +1,227 @@
+/*
+ * gv_fixed_inline.c - golden-vector kernels of the inline fast paths hdf_* of
+ * hd_fixed.h.  On the Cortex-M4 several of them have an inline-assembly body
+ * (QADD, QSUB, flag-based 64-bit saturation, rounding shift by a constant);
+ * the host runs the portable C bodies, so these kernels prove that both
+ * bodies give the same bits.  Shift counts must be constants for the M4
+ * bodies: the runners dispatch every count 0..63 to a call with a literal
+ * (hdf_asr64_rnd_var: the count known at run time only).
+ */
+#include "gv.h"
+#include "hd_fixed.h"
+
+#define GV_N 1024u
+
+static volatile int32_t cv_a = 0x12345678;
+static volatile int32_t cv_b = -0x2468ACE;
+static volatile int64_t cv_a64 = 0x0123456789ABCDEFLL;
+static volatile int64_t cv_b64 = -0x00000A5A5A5A5A5ALL;
+static volatile int32_t sink32;
+static volatile int64_t sink64;
+
+/* ---- generators ------------------------------------------------------ */
+
+static void gen_e32x2(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    (void)idx;
+    in[0] = hd_gv_rand_edge32(r);
+    in[1] = hd_gv_rand_edge32(r);
+}
+/* one in four near a 32-bit limit (the saturation boundary), else edge-biased */
+static void gen_sat32(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    int64_t x = hd_gv_rand_edge64(r);
+    if ((idx % 4u) == 0u) {
+        const int64_t d = (int64_t)(hd_gv_rand32(r) % 5u) - 2;
+        x = ((idx % 8u) == 0u) ? (int64_t)INT32_MAX + d : (int64_t)INT32_MIN + d;
+    }
+    hd_gv_put64(in, x);
+}
+/* one in four at the overflow boundary: a + b (idx % 16 < 8) or a - b near
+ * INT64_MAX / INT64_MIN, +-2 */
+static void gen_e64x2(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    const int64_t a = hd_gv_rand_edge64(r);
+    int64_t b = hd_gv_rand_edge64(r);
+    if ((idx % 4u) == 0u) {
+        const int64_t d = (int64_t)(hd_gv_rand32(r) % 5u) - 2;
+        const bool to_max = (idx % 8u) == 0u;
+        const bool add = (idx % 16u) < 8u;
+        if (add && to_max && a >= 0) {
+            b = INT64_MAX - a;                  /* a + b = INT64_MAX */
+        } else if (add && !to_max && a < 0) {
+            b = INT64_MIN - a;                  /* a + b = INT64_MIN */
+        } else if (!add && to_max && a >= 0) {
+            b = a - INT64_MAX;                  /* a - b = INT64_MAX */
+        } else if (!add && !to_max && a < 0) {
+            b = a - INT64_MIN;                  /* a - b = INT64_MIN */
+        }
+        if ((d > 0 && b <= INT64_MAX - d) || (d < 0 && b >= INT64_MIN - d)) {
+            b += d;
+        }
+    }
+    hd_gv_put64(in, a);
+    hd_gv_put64(in + 2, b);
+}
+/* shift 0..63 (idx < 64 walks every shift once); one in four x within 2^s of
+ * INT64_MAX (the rounding offset overflows) or of INT64_MIN */
+static void gen_e64_s63(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    const uint32_t s = (idx < 64u) ? idx : hd_gv_rand32(r) % 64u;
+    int64_t x = hd_gv_rand_edge64(r);
+    if ((idx % 4u) == 1u) {
+        const uint64_t m = (s >= 63u) ? (uint64_t)INT64_MAX : (((uint64_t)1 << s) - 1u);
+        const int64_t d = (int64_t)(hd_gv_rand64(r) & m);
+        x = ((idx % 8u) == 1u) ? INT64_MAX - d : INT64_MIN + d;
+    }
+    hd_gv_put64(in, x);
+    in[2] = (int32_t)s;
+}
+static void gen_mul_q(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    in[0] = hd_gv_rand_edge32(r);
+    in[1] = hd_gv_rand_edge32(r);
+    in[2] = (int32_t)((idx < 63u) ? idx : hd_gv_rand32(r) % 63u);
+}
+
+/* a: one in two a full 64-bit value (the 96-bit product path), else edge-biased;
+ * q 0..62 (idx < 63 walks every q once) */
+static void gen_mul64x32_q(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    int64_t a = hd_gv_rand_edge64(r);
+    if ((idx % 2u) == 0u) {
+        a = hdf__u2s64(hd_gv_rand64(r));
+    }
+    hd_gv_put64(in, a);
+    in[2] = hd_gv_rand_edge32(r);
+    in[3] = (int32_t)((idx < 63u) ? idx : hd_gv_rand32(r) % 63u);
+}
+
+/* ---- constant-shift dispatch ------------------------------------------ */
+
+#define CASES8(F, x, b) F(x, b + 0u) F(x, b + 1u) F(x, b + 2u) F(x, b + 3u) \
+                        F(x, b + 4u) F(x, b + 5u) F(x, b + 6u) F(x, b + 7u)
+#define CASES64(F, x) CASES8(F, x, 0u) CASES8(F, x, 8u) CASES8(F, x, 16u) CASES8(F, x, 24u) \
+                      CASES8(F, x, 32u) CASES8(F, x, 40u) CASES8(F, x, 48u) CASES8(F, x, 56u)
+
+#define RND_CASE(x, k) case (k): return hdf_asr64_rnd((x), (k));
+static int64_t asr64_rnd_const(int64_t x, uint32_t s)
+{
+    switch (s) {
+    CASES64(RND_CASE, x)
+    default: return hdf_asr64_rnd(x, 63u);
+    }
+}
+#define FLOOR_CASE(x, k) case (k): return hdf_asr64_floor((x), (k));
+static int64_t asr64_floor_const(int64_t x, uint32_t s)
+{
+    switch (s) {
+    CASES64(FLOOR_CASE, x)
+    default: return hdf_asr64_floor(x, 63u);
+    }
+}
+#define RND32_CASE(x, k) case (k): return hdf_asr32_rnd((x), (k));
+static int32_t asr32_rnd_const(int64_t x, uint32_t s)
+{
+    switch (s) {
+    CASES64(RND32_CASE, x)
+    default: return hdf_asr32_rnd(x, 63u);
+    }
+}
+#define MULQ_CASE(x, k) case (k): return hdf_mul_q((x)[0], (x)[1], (k));
+static int32_t mul_q_const(const int32_t *in, uint32_t q)
+{
+    switch (q) {
+    CASES64(MULQ_CASE, in)
+    default: return hdf_mul_q(in[0], in[1], 62u);
+    }
+}
+
+#define SHL_CASE(x, k) case (k): return hdf_shl64_sat((x), (k));
+static int64_t shl64_sat_const(int64_t x, uint32_t s)
+{
+    switch (s) {
+    CASES64(SHL_CASE, x)
+    default: return hdf_shl64_sat(x, 63u);
+    }
+}
+#define M96_CASE(x, k) case (k): return hdf_mul64x32_q(hd_gv_get64(x), (x)[2], (k));
+static int64_t mul64x32_q_const(const int32_t *in, uint32_t q)
+{
+    switch (q) {
+    CASES64(M96_CASE, in)
+    default: return hdf_mul64x32_q(hd_gv_get64(in), in[2], 62u);
+    }
+}
+
+/* ---- runners --------------------------------------------------------- */
+
+#define RUN_BEGIN(fn, nin, nout) \
+    static void fn(const int32_t *in, int32_t *out, uint32_t count) \
+    { \
+        uint32_t i; \
+        for (i = 0; i < count; i++, in += (nin), out += (nout)) {
+#define RUN_END }}
+
+RUN_BEGIN(run_sat32, 2, 1) out[0] = hdf_sat32(hd_gv_get64(in)); RUN_END
+RUN_BEGIN(run_add_sat, 2, 1) out[0] = hdf_add_sat(in[0], in[1]); RUN_END
+RUN_BEGIN(run_sub_sat, 2, 1) out[0] = hdf_sub_sat(in[0], in[1]); RUN_END
+RUN_BEGIN(run_add64_sat, 4, 2) hd_gv_put64(out, hdf_add64_sat(hd_gv_get64(in), hd_gv_get64(in + 2))); RUN_END
+RUN_BEGIN(run_sub64_sat, 4, 2) hd_gv_put64(out, hdf_sub64_sat(hd_gv_get64(in), hd_gv_get64(in + 2))); RUN_END
+RUN_BEGIN(run_asr64_rnd, 3, 2) hd_gv_put64(out, asr64_rnd_const(hd_gv_get64(in), hd_gv_s2u(in[2]))); RUN_END
+RUN_BEGIN(run_asr64_floor, 3, 2) hd_gv_put64(out, asr64_floor_const(hd_gv_get64(in), hd_gv_s2u(in[2]))); RUN_END
+RUN_BEGIN(run_asr64_rnd_var, 3, 2) hd_gv_put64(out, hdf_asr64_rnd(hd_gv_get64(in), hd_gv_s2u(in[2]))); RUN_END
+RUN_BEGIN(run_asr32_rnd, 3, 1) out[0] = asr32_rnd_const(hd_gv_get64(in), hd_gv_s2u(in[2])); RUN_END
+RUN_BEGIN(run_shl64_sat, 3, 2) hd_gv_put64(out, shl64_sat_const(hd_gv_get64(in), hd_gv_s2u(in[2]))); RUN_END
+RUN_BEGIN(run_mul64x32_q, 4, 2) hd_gv_put64(out, mul64x32_q_const(in, hd_gv_s2u(in[3]))); RUN_END
+RUN_BEGIN(run_mul_q, 3, 1) out[0] = mul_q_const(in, hd_gv_s2u(in[2])); RUN_END
+
+/* ---- cost: one representative call each ------------------------------- */
+
+#define COST(fn, sink, call) \
+    static void fn(void) \
+    { \
+        const int32_t a = cv_a, b = cv_b; \
+        const int64_t a64 = cv_a64, b64 = cv_b64; \
+        (void)a; (void)b; (void)a64; (void)b64; \
+        hd_gv_cost_mark(); \
+        sink = (call); \
+        hd_gv_cost_mark(); \
+    }
+COST(cost_sat32, sink32, hdf_sat32(a64))
+COST(cost_add_sat, sink32, hdf_add_sat(a, b))
+COST(cost_sub_sat, sink32, hdf_sub_sat(a, b))
+COST(cost_add64_sat, sink64, hdf_add64_sat(a64, b64))
+COST(cost_sub64_sat, sink64, hdf_sub64_sat(a64, b64))
+COST(cost_asr64_rnd, sink64, hdf_asr64_rnd(b64, 16u))
+static void cost_asr64_rnd_var(void)
+{
+    const int64_t b64 = cv_b64;
+    const uint32_t sh = (uint32_t)(cv_a & 15);
+    hd_gv_cost_mark();
+    sink64 = hdf_asr64_rnd(b64, sh);
+    hd_gv_cost_mark();
+}
+COST(cost_asr64_floor, sink64, hdf_asr64_floor(b64, 16u))
+COST(cost_asr32_rnd, sink32, hdf_asr32_rnd(b64, 16u))
+COST(cost_mul_q, sink32, hdf_mul_q(a, b, 30u))
+COST(cost_shl64_sat, sink64, hdf_shl64_sat(b64, 16u))
+COST(cost_mul64x32_q, sink64, hdf_mul64x32_q(a64, b, 30u))
+
+/* ---- registry -------------------------------------------------------- */
+
+const hd_gv_kernel_t hd_gv_fixed_inline_kernels[] = {
+    {"hdf_sat32", 2, 1, GV_N, gen_sat32, run_sat32, cost_sat32},
+    {"hdf_add_sat", 2, 1, GV_N, gen_e32x2, run_add_sat, cost_add_sat},
+    {"hdf_sub_sat", 2, 1, GV_N, gen_e32x2, run_sub_sat, cost_sub_sat},
+    {"hdf_add64_sat", 4, 2, GV_N, gen_e64x2, run_add64_sat, cost_add64_sat},
+    {"hdf_sub64_sat", 4, 2, GV_N, gen_e64x2, run_sub64_sat, cost_sub64_sat},
+    {"hdf_asr64_rnd", 3, 2, 2u * GV_N, gen_e64_s63, run_asr64_rnd, cost_asr64_rnd},
+    {"hdf_asr64_floor", 3, 2, 2u * GV_N, gen_e64_s63, run_asr64_floor, cost_asr64_floor},
+    {"hdf_asr64_rnd_var", 3, 2, 2u * GV_N, gen_e64_s63, run_asr64_rnd_var, cost_asr64_rnd_var},
+    {"hdf_asr32_rnd", 3, 1, 2u * GV_N, gen_e64_s63, run_asr32_rnd, cost_asr32_rnd},
+    {"hdf_mul_q", 3, 1, GV_N, gen_mul_q, run_mul_q, cost_mul_q},
+    {"hdf_shl64_sat", 3, 2, 2u * GV_N, gen_e64_s63, run_shl64_sat, cost_shl64_sat},
+    {"hdf_mul64x32_q", 4, 2, 2u * GV_N, gen_mul64x32_q, run_mul64x32_q, cost_mul64x32_q},
+};
+const uint32_t hd_gv_fixed_inline_count = sizeof hd_gv_fixed_inline_kernels / sizeof hd_gv_fixed_inline_kernels[0];
