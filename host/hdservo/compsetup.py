@@ -38,6 +38,7 @@ import numpy as np
 
 from . import preisach_table as pt
 from . import sim
+from .params_gen import BY_NAME as PARAM_DEFS
 
 TWO_PI = 2.0 * math.pi
 #: Smallest Maxwell-slip stiffness the firmware format holds, N.m/turn (above 2^52 / 2^31 / 2^8 = 2^13,
@@ -289,7 +290,10 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     # T_load adaptation is the law's integral action on e2: Gamma_4 = J (2 pi f_i)^2 with f_i = 25 Hz,
     # the velocity-loop bandwidth of the PID design (baseline.axis_controller); the slower
     # friction adaptations keep the section 6 values.  Gamma T in Q7.24 (Gamma_4 T = 20.2 here).
-    g4 = j_turn * (TWO_PI * BS_F_INT_HZ) ** 2 / 10000.0
+    # A heavy load (J_L of several kg m^2) asks for more than the drive's Q7.24 range holds: the
+    # gain is held at the table maximum (slower integral action) so that the parameter set of the
+    # whole bank stays one the drive accepts, whether or not backstepping is enabled.
+    g4 = min(j_turn * (TWO_PI * BS_F_INT_HZ) ** 2 / 10000.0, PARAM_DEFS["bs_gamma4"].max)
     gam = (0.5 * scale, 0.5 * scale, 0.25 * scale, g4)
     fmax = max(out["str_fs_pos"], 1e-3)
     lo = (0.0, 0.0, 0.0, -20.0 * min(1.0, fmax / 10.6))

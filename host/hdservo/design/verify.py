@@ -635,6 +635,75 @@ def annotate(out: Path, notes: Sequence[str]) -> dict[str, Any]:
     return res
 
 
+def example_main(here: Path, argv: Optional[Sequence[str]] = None, description: str = "") -> int:
+    """Command line of an example's ``verify.py`` (``examples/*/verify.py``).
+
+    Parameters
+    ----------
+    here : Path
+        The example directory: ``design.json`` and ``report/axis_chosen.toml`` are read from it,
+        ``verify/`` (or ``verify_OPTION/``) is written into it.
+    argv : sequence of str, optional
+        Arguments (default ``sys.argv[1:]``).
+    description : str
+        Help text (the script's docstring).
+
+    Returns
+    -------
+    int
+        0 when every judged figure passes, 1 when one fails, 2 on bad arguments.
+    """
+    import argparse
+    name = f"{here.name}/verify.py"
+    p = argparse.ArgumentParser(prog=name, description=description,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--procedures", default="min-rate,positioning,stabilisation,peak-torque,bandwidth")
+    p.add_argument("--identify", default="all", help="hdservo identify target (default all)")
+    p.add_argument("--option", default=None,
+                   help="controller option of the chosen design to verify (flow, best; default: the one the flow kept)")
+    p.add_argument("--out", type=Path, default=None, help="output directory (default verify/, or verify_OPTION/)")
+    p.add_argument("--note", action="append", default=None,
+                   help="with --annotate: a note for verify.md (repeatable)")
+    p.add_argument("--annotate", action="store_true",
+                   help="measure nothing: set the notes (--note) of the finished run in the output directory "
+                        "and render its verify.md again")
+    p.add_argument("--tolerance", type=float, default=0.2)
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--scatter-seeds", default="",
+                   help="further sensor-noise seeds for the positioning, e.g. 2,3: predicted and measured per seed "
+                        "(lock-step), A and R judged on the median over the seeds; the seed band is reported")
+    a = p.parse_args(argv)
+    out = a.out or (here / ("verify" if a.option is None else f"verify_{a.option}"))
+    if a.annotate:
+        if not (out / "verify.json").is_file():
+            print(f"{name}: --annotate: no finished run in {out} (verify.json missing)", file=sys.stderr)
+            return 2
+        res = annotate(out, a.note or [])
+        print(markdown(res))
+        return 0
+    try:
+        seeds = [int(x) for x in a.scatter_seeds.split(",") if x.strip()]
+    except ValueError:
+        print(f"{name}: --scatter-seeds: expected comma-separated integers, got '{a.scatter_seeds}'",
+              file=sys.stderr)
+        return 2
+    if a.seed in seeds:
+        print(f"{name}: --scatter-seeds: seed {a.seed} is the base run (--seed); give the others", file=sys.stderr)
+        return 2
+    plan = Plan(axis=here / "report" / "axis_chosen.toml", design=here / "design.json", out=out,
+                procedures=[x for x in a.procedures.split(",") if x], identify_target=a.identify,
+                tolerance=a.tolerance, seed=a.seed, option=a.option, scatter_seeds=seeds,
+                script=f"examples/{here.name}/verify.py")
+    try:
+        select_option(json.loads(plan.design.read_text()), a.option)
+    except ValueError as e:
+        print(f"{name}: --option {e}", file=sys.stderr)
+        return 2
+    res = verify(plan)
+    print(markdown(res))
+    return 0 if res["passed"] == res["judged"] else 1
+
+
 def predicted_headline(flow: Mapping[str, Any], figure: str) -> Optional[float]:
     """The headline of a (re-)predicted figure of the chosen candidate: ``bandwidth`` Hz,
     ``peak_torque`` N.m, ``positioning`` A arcsec (the plan's seed), ``stabilisation`` true
