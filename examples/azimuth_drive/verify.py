@@ -10,7 +10,7 @@ the drive's STAB mode) and compares every predicted figure with the measured one
 procedure in lock-step with the same sensor seed).  Writes verify/{model.toml, verify.json,
 verify.md} beside this file.
 
-    .venv/bin/python examples/azimuth_drive/verify.py            # about 5 min on 2 loaded cores
+    .venv/bin/python examples/azimuth_drive/verify.py            # about 3 min on 2 loaded cores
     .venv/bin/python examples/azimuth_drive/verify.py --procedures peak-torque,stabilisation
     .venv/bin/python examples/azimuth_drive/verify.py --option flow   # the other controller option -> verify_flow/
     .venv/bin/python examples/azimuth_drive/verify.py --scatter-seeds 2,3   # positioning per seed, A/R on the median
