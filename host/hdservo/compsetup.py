@@ -38,6 +38,7 @@ import numpy as np
 
 from . import preisach_table as pt
 from . import sim
+from .params_gen import BY_NAME as PARAM_DEFS
 
 TWO_PI = 2.0 * math.pi
 #: Smallest Maxwell-slip stiffness the firmware format holds, N.m/turn (above 2^52 / 2^31 / 2^8 = 2^13,
@@ -259,9 +260,12 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     z_l = ld["fsp"] / ld["s0"] if ld["s0"] > 0 else 0.0
     zbar = (m["fsp"] * z_m + ld["fsp"] * z_l) / max(g_s, 1e-12)
     sigma0 = g_s / zbar if zbar > 0 else 1e6
+    # sigma1 carries the motor's bristle damping times N^2: at N = 160 an identified model can
+    # exceed the drive's range, and the bank is held inside it (as sigma0 above) so that the
+    # download is accepted whether or not LuGre is enabled.
     out.update({"lug_fc": 0.5 * (m["fcp"] + m["fcn"] + ld["fcp"] + ld["fcn"]),
                 "lug_fs": 0.5 * (m["fsp"] + m["fsn"] + ld["fsp"] + ld["fsn"]), "lug_vs": vs_turn, "lug_delta": 2,
-                "lug_sigma0": min(sigma0 * TWO_PI, 8.0e6), "lug_sigma1": (m["s1"] + ld["s1"]) * TWO_PI,
+                "lug_sigma0": min(sigma0 * TWO_PI, 8.0e6), "lug_sigma1": min((m["s1"] + ld["s1"]) * TWO_PI, PARAM_DEFS["lug_sigma1"].max),
                 "lug_sigma2": fv, "lug_k_obs": 0.0, "lug_tau_max": 30.0, "lug_v_src": 0})
     # tangent stiffness of the gear after a reversal (K1 + hysteresis elements), N.m/rad
     k_tan = get("stiffness.k1_Nm_per_rad")
@@ -320,7 +324,10 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     # T_load adaptation is the law's integral action on e2: Gamma_4 = J (2 pi f_i)^2 with f_i = 25 Hz,
     # the velocity-loop bandwidth of the PID design (baseline.axis_controller); the slower
     # friction adaptations keep the section 6 values.  Gamma T in Q7.24 (Gamma_4 T = 20.2 here).
-    g4 = j_turn * (TWO_PI * BS_F_INT_HZ) ** 2 / 10000.0
+    # A heavy load (J_L of several kg m^2) asks for more than the drive's Q7.24 range holds: the
+    # gain is held at the table maximum (slower integral action) so that the parameter set of the
+    # whole bank stays one the drive accepts, whether or not backstepping is enabled.
+    g4 = min(j_turn * (TWO_PI * BS_F_INT_HZ) ** 2 / 10000.0, PARAM_DEFS["bs_gamma4"].max)
     gam = (0.5 * scale, 0.5 * scale, 0.25 * scale, g4)
     fmax = max(out["str_fs_pos"], 1e-3)
     lo = (0.0, 0.0, 0.0, -20.0 * min(1.0, fmax / 10.6))

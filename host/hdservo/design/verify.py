@@ -81,6 +81,9 @@ class Plan:
         once per seed, both in lock-step; A and R are then judged on the median over
         ``seed`` and these seeds (plain rule), the seed band (:func:`band_pass`) is
         reported.  () = the one seed.
+    script : str
+        The example script that runs the chain, named in ``verify.md`` (a path relative
+        to the repository).
     """
 
     axis: Path
@@ -106,6 +109,7 @@ class Plan:
     #: the served simulator with the plan's seed, the measurement's protocol); () = the JSON as it is
     repredict: Sequence[str] = ("bandwidth", "peak_torque", "positioning", "stabilisation")
     scatter_seeds: Sequence[int] = ()
+    script: str = "examples/pitch_drive/verify.py"
 
 
 def _say(msg: str) -> None:
@@ -424,7 +428,7 @@ def compare(flow: Mapping[str, Any], measured: Mapping[str, Mapping[str, Any]], 
     if "positioning" in measured:
         iso = measured["positioning"]["figures"]["iso230_2_arcsec"]
         p = f["positioning"]
-        d = "ISO 230-2, true output angle, 12 targets, bidirectional"
+        d = f"ISO 230-2, true output angle, {len(p.get('targets_deg') or []) or 12} targets, bidirectional"
         ps, ms = p.get("scatter"), measured["positioning"].get("scatter")
         if ps and ms:
             seeds = ", ".join(str(int(r["seed"])) for r in ms)
@@ -444,8 +448,10 @@ def compare(flow: Mapping[str, Any], measured: Mapping[str, Mapping[str, Any]], 
         s = f["stabilisation"]
         m = measured["stabilisation"]["figures"]
         tag = "hold" if s.get("design_mode") == "hold" else "stab"
+        base = flow.get("spec", {})
+        amp, freq = float(base.get("base_amplitude_deg", 0.5)), float(base.get("base_frequency_Hz", 1.0))
         row("stabilisation RMS (true inertial)", "arcsec", s.get(f"{tag}_true_rms_arcsec"), m.get("true_rms_arcsec"),
-            f"{'STAB mode' if tag == 'stab' else 'CSP hold'}, base 0.5 deg at 1 Hz, 5 s, line removed; rig / "
+            f"{'STAB mode' if tag == 'stab' else 'CSP hold'}, base {amp:g} deg at {freq:g} Hz, 5 s, line removed; rig / "
             "simulator true inertial angle")
         row("stabilisation RMS (integrated gyro)", "arcsec", s.get(f"{tag}_rms_arcsec"), m.get("gyro_rms_arcsec"),
             "same, payload gyro integrated (the procedure's headline)")
@@ -462,11 +468,60 @@ def compare(flow: Mapping[str, Any], measured: Mapping[str, Mapping[str, Any]], 
     return rows
 
 
+def resonance_rows(flow: Mapping[str, Any], ident: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """Informative rows: the flow's first resonance against what the identification measured.
+
+    Parameters
+    ----------
+    flow : mapping
+        The flow's JSON; ``chosen.figures.resonance`` holds the design figure (Hz, the
+        lower of the two-mass locked-motor value and the FE torsional mode) and the FE
+        figures.
+    ident : mapping
+        The identification report (``model.ident.json``); its ``results.stiffness``
+        (K1, N·m/rad, from the locked-output torque cycle) and ``results.frf`` (two-mass
+        fits of the velocity FRF per excitation amplitude: load inertia j2 in kg·m²,
+        anti-resonance in Hz) are used.
+
+    Returns
+    -------
+    list of dict
+        Rows as :func:`compare` makes them, ``pass`` None (reported, not judged):
+        the locked-motor resonance sqrt(K1/J_L)/2π with the identified K1 and the FRF's
+        load inertia, and the anti-resonance of the motor-side FRF at the smallest
+        excitation (the locked-motor mode seen from the motor).  Empty when the
+        identification did not produce the stiffness or the FRF (``identify friction``).
+    """
+    res = flow["chosen"]["figures"].get("resonance", {})
+    pred = res.get("design_Hz", res.get("locked_motor_Hz"))
+    r = ident.get("results", {}) or {}
+    frf = sorted(r.get("frf") or [], key=lambda x: float(x.get("amplitude_rad_s", 0.0)))
+    k1 = (r.get("stiffness") or {}).get("k1_Nm_per_rad")
+    rows: list[dict[str, Any]] = []
+    if pred is None or not frf:
+        return rows
+
+    def row(fig: str, m: Optional[float], definition: str) -> None:
+        rel = None if m is None or not pred else m / pred - 1.0
+        rows.append({"figure": fig, "unit": "Hz", "predicted": float(pred), "measured": m, "rel_error": rel,
+                     "pass": None, "definition": definition})
+    jl = float(frf[0]["j2_kgm2"])
+    if k1 is not None and jl > 0:
+        row("first resonance, identified K1 and J_L", float(np.sqrt(float(k1) / jl) / (2 * np.pi)),
+            "sqrt(K1/J_L)/2pi, K1 from the locked-output torque cycle, J_L from the two-mass FRF fit; predicted: "
+            "the flow's design figure (lower of two-mass and FE torsional mode, catalogue K1)")
+    row("first resonance, FRF anti-resonance", float(frf[0]["f_antiresonance_Hz"]),
+        f"anti-resonance of the motor-side velocity FRF at {float(frf[0]['amplitude_rad_s']):g} rad/s excitation "
+        "(the locked-motor mode at small amplitude, where the gear is stiffer than its secant K1)")
+    return rows
+
+
 def markdown(result: Mapping[str, Any]) -> str:
     """Markdown report of :func:`verify`'s result."""
     tol = result["tolerance"]
     lines = [f"# Prediction vs measurement: {result['candidate']}", "",
-             "Generated by `examples/pitch_drive/verify.py` (host/hdservo/design/verify.py): the chosen axis "
+             f"Generated by `{result.get('script', 'examples/pitch_drive/verify.py')}` "
+             "(host/hdservo/design/verify.py): the chosen axis "
              "served as a virtual drive, identified over CAN (`hdservo identify "
              f"{result['identify_target']}`), the identified compensator parameters downloaded "
              "(`hdservo download` code, read back), the procedures of `hdservo test` run with the flow's gains and "
@@ -547,10 +602,11 @@ def verify(plan: Plan, progress: Callable[[str], None] = _say) -> dict[str, Any]
     measured = measure(plan, flow, dlp, progress)
     for k, v in measured.items():
         wall[k] = v["wall_s"]
-    rows = compare(flow, measured, plan.tolerance)
+    rows = compare(flow, measured, plan.tolerance) + resonance_rows(flow, ident)
     judged = [r for r in rows if r["pass"] is not None]
     result: dict[str, Any] = {
         "format": "hdservo-design-verify", "version": 1, "candidate": flow["chosen"]["name"],
+        "script": plan.script,
         "axis": plan.axis.name, "design": plan.design.name, "identify_target": plan.identify_target,
         "identify_notes": ident.get("notes", []), "download_notes": dlp["notes"],
         "compensators": list(ctl.get("compensators", [])), "option": option_of(flow)["name"],
@@ -577,6 +633,75 @@ def annotate(out: Path, notes: Sequence[str]) -> dict[str, Any]:
     (out / "verify.json").write_text(json.dumps(res, indent=1, default=_jsonable) + "\n")
     (out / "verify.md").write_text(markdown(res))
     return res
+
+
+def example_main(here: Path, argv: Optional[Sequence[str]] = None, description: str = "") -> int:
+    """Command line of an example's ``verify.py`` (``examples/*/verify.py``).
+
+    Parameters
+    ----------
+    here : Path
+        The example directory: ``design.json`` and ``report/axis_chosen.toml`` are read from it,
+        ``verify/`` (or ``verify_OPTION/``) is written into it.
+    argv : sequence of str, optional
+        Arguments (default ``sys.argv[1:]``).
+    description : str
+        Help text (the script's docstring).
+
+    Returns
+    -------
+    int
+        0 when every judged figure passes, 1 when one fails, 2 on bad arguments.
+    """
+    import argparse
+    name = f"{here.name}/verify.py"
+    p = argparse.ArgumentParser(prog=name, description=description,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--procedures", default="min-rate,positioning,stabilisation,peak-torque,bandwidth")
+    p.add_argument("--identify", default="all", help="hdservo identify target (default all)")
+    p.add_argument("--option", default=None,
+                   help="controller option of the chosen design to verify (flow, best; default: the one the flow kept)")
+    p.add_argument("--out", type=Path, default=None, help="output directory (default verify/, or verify_OPTION/)")
+    p.add_argument("--note", action="append", default=None,
+                   help="with --annotate: a note for verify.md (repeatable)")
+    p.add_argument("--annotate", action="store_true",
+                   help="measure nothing: set the notes (--note) of the finished run in the output directory "
+                        "and render its verify.md again")
+    p.add_argument("--tolerance", type=float, default=0.2)
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--scatter-seeds", default="",
+                   help="further sensor-noise seeds for the positioning, e.g. 2,3: predicted and measured per seed "
+                        "(lock-step), A and R judged on the median over the seeds; the seed band is reported")
+    a = p.parse_args(argv)
+    out = a.out or (here / ("verify" if a.option is None else f"verify_{a.option}"))
+    if a.annotate:
+        if not (out / "verify.json").is_file():
+            print(f"{name}: --annotate: no finished run in {out} (verify.json missing)", file=sys.stderr)
+            return 2
+        res = annotate(out, a.note or [])
+        print(markdown(res))
+        return 0
+    try:
+        seeds = [int(x) for x in a.scatter_seeds.split(",") if x.strip()]
+    except ValueError:
+        print(f"{name}: --scatter-seeds: expected comma-separated integers, got '{a.scatter_seeds}'",
+              file=sys.stderr)
+        return 2
+    if a.seed in seeds:
+        print(f"{name}: --scatter-seeds: seed {a.seed} is the base run (--seed); give the others", file=sys.stderr)
+        return 2
+    plan = Plan(axis=here / "report" / "axis_chosen.toml", design=here / "design.json", out=out,
+                procedures=[x for x in a.procedures.split(",") if x], identify_target=a.identify,
+                tolerance=a.tolerance, seed=a.seed, option=a.option, scatter_seeds=seeds,
+                script=f"examples/{here.name}/verify.py")
+    try:
+        select_option(json.loads(plan.design.read_text()), a.option)
+    except ValueError as e:
+        print(f"{name}: --option {e}", file=sys.stderr)
+        return 2
+    res = verify(plan)
+    print(markdown(res))
+    return 0 if res["passed"] == res["judged"] else 1
 
 
 def predicted_headline(flow: Mapping[str, Any], figure: str) -> Optional[float]:
