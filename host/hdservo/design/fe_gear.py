@@ -26,7 +26,7 @@ from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..cli import UserError
+from ..errors import UserError
 from . import flexspline_fe as fe
 from . import structure as st
 from .catalogue import DATA_DIR, GearRow, load_gears

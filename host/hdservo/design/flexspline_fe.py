@@ -126,7 +126,7 @@ def cup_geometry(s: Structure, density_kg_m3: float = STEEL_DENSITY_KG_M3) -> Cu
 
 def validate(g: CupGeometry) -> None:
     """Refuse a geometry the mesh cannot represent: one line saying what was expected."""
-    from ..cli import UserError
+    from ..errors import UserError
     for f in g.__dataclass_fields__:
         v = getattr(g, f)
         if not isinstance(v, (int, float)) or not math.isfinite(v):
