@@ -36,7 +36,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from . import preisach_table as pt
+from . import preisach, preisach_table as pt
 from . import sim
 
 TWO_PI = 2.0 * math.pi
@@ -114,13 +114,11 @@ def gear_everett(get: Callable[[str], float], u_grid: np.ndarray) -> np.ndarray:
     e = np.zeros_like(d)
     if get("hysteresis_preisach.enabled"):
         umax, tsat = get("hysteresis_preisach.u_max_rad"), get("hysteresis_preisach.t_sat_Nm")
-        r0, s = get("hysteresis_preisach.r0_rad"), get("hysteresis_preisach.s_rad")
-
-        def mu(al: np.ndarray, be: np.ndarray) -> np.ndarray:
-            return np.exp(-(al - be) / 2 / r0) * np.exp(-((al + be) / 2) ** 2 / (2 * s * s))
-        full = pt.everett_from_density(mu, np.array([-umax, umax]), n_sub=200)[1, 0]
+        mu = preisach.preisach_exponential_gaussian_density(get("hysteresis_preisach.r0_rad"),
+                                                            get("hysteresis_preisach.s_rad"))
+        full = preisach.everett_from_density(mu, np.array([-umax, umax]), n_sub=200)[1, 0]
         ug = np.clip(u, -umax, umax)
-        ep = pt.everett_from_density(mu, ug, n_sub=6) * (tsat / full)
+        ep = preisach.everett_from_density(mu, ug, n_sub=6) * (tsat / full)
         e -= np.tril(ep)
         k_lin += tsat / umax
     e += k_lin * d / 2
