@@ -39,6 +39,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from . import REPO_ROOT, filters, sim
+from .fileio import json_ready
 from .tomltext import basic_string
 
 #: arcsec per radian.
@@ -676,18 +677,8 @@ def run_cases(controller: Mapping[str, Any] | None = None, axis: str = "referenc
         runs.append(analyse(c, run_case(c, ctl, axis, seed, effects, params)))
     figs = collect(runs)
     figs["axis"] = axis
-    figs["controller"] = _jsonable(ctl)
+    figs["controller"] = json_ready(ctl)
     return figs, runs
-
-
-def _jsonable(x: Any) -> Any:
-    if isinstance(x, Mapping):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, (np.floating, np.integer)):
-        return x.item()
-    return x
 
 
 def improvement(baseline: Mapping[str, Any], other: Mapping[str, Any], speed: str = "0.01") -> dict[str, float]:

@@ -38,6 +38,7 @@ import numpy as np
 
 from . import preisach, preisach_table as pt
 from . import sim
+from .fileio import write_bytes_atomic
 
 TWO_PI = 2.0 * math.pi
 #: Smallest Maxwell-slip stiffness the firmware format holds, N.m/turn (above 2^52 / 2^31 / 2^8 = 2^13,
@@ -318,10 +319,7 @@ def write_preisach_table(axis: str, path: "str | os.PathLike[str]") -> Path:
     """Write the axis' Preisach table image (:func:`preisach_table`) to ``path``; returns the path."""
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    tmp = p.with_name(p.name + ".tmp")
-    tmp.write_bytes(preisach_table(axis).to_bytes())
-    os.replace(tmp, p)
-    return p
+    return write_bytes_atomic(p, preisach_table(axis).to_bytes())
 
 
 def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[str, Any] | None = None,

@@ -12,10 +12,7 @@ Writes build/results/baseline.json and build/results/baseline_<axis>_*.png.
 """
 from __future__ import annotations
 
-import json
-import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -24,6 +21,7 @@ sys.path.insert(0, str(ROOT / "host"))
 
 from hdservo import baseline as bl  # noqa: E402
 from hdservo import sim  # noqa: E402
+from hdservo.fileio import write_json_atomic  # noqa: E402
 
 OUT = ROOT / "build" / "results"
 SEED = 1
@@ -31,11 +29,7 @@ SEED = 1
 
 def _write_json(path: Path, obj: object) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    with os.fdopen(fd, "w") as f:
-        json.dump(obj, f, indent=1)
-        f.write("\n")
-    os.replace(tmp, path)
+    write_json_atomic(path, obj, indent=1)
 
 
 def _n(x: float | None, fmt: str = ".3g") -> str:

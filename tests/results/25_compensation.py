@@ -20,10 +20,7 @@ Writes build/results/compensation.json and build/results/compensation_<axis>_*.p
 from __future__ import annotations
 
 import dataclasses
-import json
-import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -33,6 +30,7 @@ sys.path.insert(0, str(ROOT / "host"))
 
 from hdservo import baseline as bl  # noqa: E402
 from hdservo import compsetup as cs  # noqa: E402
+from hdservo.fileio import write_json_atomic  # noqa: E402
 
 OUT = ROOT / "build" / "results"
 SEED = 1
@@ -83,11 +81,7 @@ def reduce(figs: dict[str, Any]) -> dict[str, Any]:
 
 def _write_json(path: Path, obj: object) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    with os.fdopen(fd, "w") as f:
-        json.dump(obj, f, indent=1)
-        f.write("\n")
-    os.replace(tmp, path)
+    write_json_atomic(path, obj, indent=1)
 
 
 def plot(axis: str, res: dict[str, Any], traces: dict[str, Any]) -> list[Path]:

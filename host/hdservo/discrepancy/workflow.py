@@ -32,6 +32,7 @@ import scipy.stats as st
 
 from . import baseline as bl
 from . import effects as fx
+from ..fileio import json_ready
 from .residuals import effective_n, ljung_box
 from . import simerr
 from .simerr import region_mask, side_error, simulation_error
@@ -614,7 +615,7 @@ class Result:
     def to_json(self) -> dict[str, Any]:
         # JSON has no inf/NaN: a figure that does not exist (a biased baseline's simulation
         # error) is null
-        return _jsonable({"baseline": self.baseline, "baseline_relative_error_pct": self.base_rel_pct, "iterations": self.iterations, "named_effects": self.named,
+        return json_ready({"baseline": self.baseline, "baseline_relative_error_pct": self.base_rel_pct, "iterations": self.iterations, "named_effects": self.named,
                 "final_model": self.final_model, "residual_unit": "N.m at the motor (N for a linear axis)",
                 "rms_history": self.rms_history, "sim_rms_history_rad": self.sim_rms_history,
                 "sim_signal": SIM_TEXT, "first_ranking": self.ranking_first,
@@ -748,7 +749,7 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
     for _ in range(s.max_iter):
         eq_only = not is_physical(st_.fit.params())
         ranked = rank(st_, lib, s, simulate=not eq_only)
-        last_rank = [_jsonable({"effect": c.effect.name, **c.evidence, "hyper": c.variant.hyper,
+        last_rank = [json_ready({"effect": c.effect.name, **c.evidence, "hyper": c.variant.hyper,
                                 "significant": significant(c, s)}) for c in ranked]
         if first_rank is None:
             first_rank = last_rank
@@ -775,10 +776,10 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
         loc_after = (_region_rms(st_.design, st_.fit, top.variant, reg_eq), _masked_rms(st_.sim, reg_sim))
         iterations.append({
             "named_effect": top.effect.name,
-            "evidence": {**_jsonable(top.evidence), "runner_up": runner.effect.name if runner else None,
+            "evidence": {**json_ready(top.evidence), "runner_up": runner.effect.name if runner else None,
                          "runner_up_delta_bic": runner.evidence["delta_bic"] if runner else None,
-                         "runner_up_total_delta_bic": _jsonable(runner.evidence.get("total_delta_bic")) if runner else None,
-                         "runner_up_score": _jsonable(runner.evidence.get("score")) if runner else None},
+                         "runner_up_total_delta_bic": json_ready(runner.evidence.get("total_delta_bic")) if runner else None,
+                         "runner_up_score": json_ready(runner.evidence.get("score")) if runner else None},
             "rms_before": rms_before, "rms_after": st_.fit.rms, "signal": SIGNAL_TEXT,
             "acting_equations": _acting(top.variant, st_.design),
             "rms_acting_before": eq_before, "rms_acting_after": _eq_rms(st_.fit, top.variant),
@@ -789,7 +790,7 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
             "rms_region_before": loc_before[0], "rms_region_after": loc_after[0],
             "sim_rms_region_before_rad": loc_before[1], "sim_rms_region_after_rad": loc_after[1],
             "relative_error_pct_before": rel_before, "relative_error_pct_after": relative_error_pct(st_),
-            "params": _jsonable(top.effect.params(st_.fit, top.variant)),
+            "params": json_ready(top.effect.params(st_.fit, top.variant)),
             "signature": top.effect.signature, "coordinate": top.effect.coordinate,
         })
         snapshots.append(st_.fit)
@@ -844,7 +845,7 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
                 it[f"sim_rms_gap_region_{when}_rad"] = rms_b
                 it[f"noise_floor_sim_region_{when}_rad"] = fl_b
                 it[f"gap_sim_{when}"] = systematic_gap(rms_b, fl_b)
-        it["rms_gap"] = _jsonable(rms_gap(it))
+        it["rms_gap"] = json_ready(rms_gap(it))
     notes = [zero_note] if zero_note else []
     if biased:
         notes.append(f"the baseline fit is not a mechanical axis ({', '.join(unphysical(baseline))}): it cannot be simulated, so "
@@ -1166,15 +1167,3 @@ def relative_error_pct(state: State) -> float:
     y = state.design.lhs(state.design.sig.tau if tau is None else tau, key)
     r = np.concatenate(list(state.fit.resid.values()))
     return float(100.0 * np.linalg.norm(r) / max(np.linalg.norm(y), 1e-300))
-
-
-def _jsonable(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {k: _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, (np.floating, np.integer)):
-        x = x.item()
-    if isinstance(x, float) and not np.isfinite(x):
-        return None
-    return x
