@@ -39,7 +39,8 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from . import REPO_ROOT, filters, sim
-from .fileio import json_ready
+from .fileio import json_ready, save_figure_atomic
+from .plotting import pyplot
 from .tomltext import basic_string
 
 #: arcsec per radian.
@@ -723,9 +724,7 @@ def plot_axis(name: str, runs: Sequence[CaseRun], outdir: str | os.PathLike[str]
     list of Path
         Files written.
     """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
@@ -758,7 +757,7 @@ def plot_axis(name: str, runs: Sequence[CaseRun], outdir: str | os.PathLike[str]
                 a.grid(True, alpha=0.3)
         fig.tight_layout()
         p = out / f"baseline_{name}_steps.png"
-        fig.savefig(p, dpi=110)
+        save_figure_atomic(fig, p, dpi=110)
         plt.close(fig)
         files.append(p)
 
@@ -778,7 +777,7 @@ def plot_axis(name: str, runs: Sequence[CaseRun], outdir: str | os.PathLike[str]
         axs[-1, 0].set_xlabel("time [s]")
         fig.tight_layout()
         p = out / f"baseline_{name}_tracking.png"
-        fig.savefig(p, dpi=110)
+        save_figure_atomic(fig, p, dpi=110)
         plt.close(fig)
         files.append(p)
 
@@ -802,7 +801,7 @@ def plot_axis(name: str, runs: Sequence[CaseRun], outdir: str | os.PathLike[str]
             a.grid(True, alpha=0.3)
         fig.tight_layout()
         p = out / f"baseline_{name}_reversal.png"
-        fig.savefig(p, dpi=110)
+        save_figure_atomic(fig, p, dpi=110)
         plt.close(fig)
         files.append(p)
 
@@ -829,7 +828,7 @@ def plot_axis(name: str, runs: Sequence[CaseRun], outdir: str | os.PathLike[str]
             a.grid(True, alpha=0.3)
         fig.tight_layout()
         p = out / f"baseline_{name}_ptp.png"
-        fig.savefig(p, dpi=110)
+        save_figure_atomic(fig, p, dpi=110)
         plt.close(fig)
         files.append(p)
     return files

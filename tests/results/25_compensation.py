@@ -85,9 +85,8 @@ def _write_json(path: Path, obj: object) -> None:
 
 
 def plot(axis: str, res: dict[str, Any], traces: dict[str, Any]) -> list[Path]:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from hdservo.plotting import pyplot
+    plt = pyplot()
     import numpy as np
     files = []
     ctls = list(res)

@@ -126,9 +126,8 @@ def main() -> int:
         res = list(ex.map(lambda j: rung(*j), jobs))
     floor = {f"{r:g}": encoder_floor(r) for r in rates}
     a.out.mkdir(parents=True, exist_ok=True)
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from hdservo.plotting import pyplot
+    plt = pyplot()
     fig, ax = plt.subplots(2, len(rates), figsize=(4 * len(rates), 6), squeeze=False)
     for k, r in enumerate(rates):
         for x in res:

@@ -4,13 +4,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Dict, List, Sequence
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from ..fileio import save_figure_atomic
+from ..plotting import pyplot
 
-from ..fileio import save_figure_atomic  # noqa: E402
+plt = pyplot()
 
 
 def _save(fig: Any, path: Path) -> None:

@@ -17,13 +17,11 @@ import numpy as np
 if TYPE_CHECKING:
     from .workflow import Result
 
-import matplotlib
+from ..fileio import save_figure_atomic
+from ..plotting import pyplot
+from .residuals import order_spectrum, spectrum
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-from ..fileio import save_figure_atomic  # noqa: E402
-from .residuals import order_spectrum, spectrum  # noqa: E402
+plt = pyplot()
 
 
 def _save(fig: "plt.Figure", path: Path) -> None:

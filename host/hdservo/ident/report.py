@@ -9,14 +9,13 @@ from typing import Any
 import numpy as np
 
 from ..fileio import save_figure_atomic
+from ..plotting import pyplot
 
 ARCMIN = math.pi / 180 / 60
 
 
 def _fig(nrows: int = 2):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     fig, ax = plt.subplots(nrows, 1, figsize=(7, 2.6 * nrows + 0.6), squeeze=False,
                            gridspec_kw={"height_ratios": [2] + [1] * (nrows - 1)})
     return plt, fig, ax[:, 0]
