@@ -446,9 +446,9 @@ class Hysteresis(Effect):
     signature = "residual vs twist depends on the direction of twist change (loops, return-point memory)"
     #: Stop thresholds in units of the twist span (99th percentile of abs(phi)): geometric,
     #: sqrt(2) apart, from 2 % to 90 %.  In closed loop the span is often no more than
-    #: twice an element's slip twist, and a grid 2x apart that stopped at 64 % left the
-    #: elements slipping near the span's top between grid points (round 6 in
-    #: docs/discrepancy.md: equation-error gap shrink 1.7-2.4 -> 5.5-7.6 on those logs).
+    #: twice an element's slip twist, and a grid 2x apart that stops at 64 % leaves the
+    #: elements slipping near the span's top between grid points (on such logs this grid
+    #: shrinks the equation-error gap 5.5-7.6 times, the coarser one 1.7-2.4 times).
     fractions = tuple(float(x) for x in np.geomspace(0.02, 0.905, 12))
 
     def applicable(self, d: Design) -> bool:

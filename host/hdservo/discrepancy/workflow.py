@@ -390,7 +390,7 @@ REFIT_LEVEL_STEPS = 3
 #: (:func:`band_sim_figures`): twice :data:`simerr.SUBSTEPS`.  At 4 sub-steps the Karnopp
 #: breakaway of the Stribeck hump is not converged: on csf17_50 closed loop s3 the plant's
 #: own friction law simulates to 3.36e-5 rad over the band against 3.45e-5 for a fit far
-#: from it; at 8 sub-steps to 1.83e-5 (docs/discrepancy.md, sessions 6 and 11).
+#: from it; at 8 sub-steps to 1.83e-5 (docs/discrepancy.md).
 FINE_SUBSTEPS = 8
 #: Window of the re-fit's simulations, s: short segments (as in multiple shooting).
 #: Through the Stribeck hump the replayed motor side is unstable (e-folding time about
@@ -995,8 +995,8 @@ def integration_image(state: State, fit: bl.Fit, added: list[tuple[fx.Effect, fx
     (aligned with :func:`simulation_error`).
 
     The Euler/Karnopp integration at :data:`simerr.SUBSTEPS` sub-steps is not converged
-    (null logs: most of the baseline's simulation error is this error, docs/discrepancy.md
-    round 5); its error is estimated as the difference from an ``INTEGRATION_REF`` times
+    (null logs: most of the baseline's simulation error is this error, docs/discrepancy.md);
+    its error is estimated as the difference from an ``INTEGRATION_REF`` times
     finer integration of the model ``base + added`` with ``fit``'s coefficients (32
     sub-steps: within 5 % of 64 on the null logs).  Like the sensor noise it is not
     caused by the model mismatch and no effect removes it.  ``sim0``: the model's
@@ -1054,7 +1054,7 @@ def band_sim_figures(state: State, fit: bl.Fit, added: list[tuple[fx.Effect, fx.
     in the band, at stops and reversals: a few ms to a few tens of ms (csf17_50 closed
     loop s3: median 6 ms, upper quartile 31 ms).  A 50 ms window that starts there spends
     most of its length outside the band, where the simulated breakaway's timing (a
-    chaotic stick-slip, docs/discrepancy.md rounds 6-7) decides the error, not the
+    chaotic stick-slip, docs/discrepancy.md) decides the error, not the
     friction law.  So its gap is measured on windows of ``BAND_GAP_HORIZON_S`` starting in
     the band (:func:`region_mask`), integrated at :data:`FINE_SUBSTEPS`, against the floor
     of the same windows: the sensor noise's image (:func:`noise_images`) and the
