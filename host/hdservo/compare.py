@@ -182,7 +182,7 @@ def best_gains_default(axis: str = "reference") -> dict[str, float]:
     dict
         ``pos_kp`` (1/s), ``cb_pki`` (1/s^2), ``vel_ki`` (N.m/rad): 1.5x the axis' PID design.
     """
-    from . import baseline as bl
+    from . import closedloop_cases as bl
     try:
         base = bl.axis_controller(axis)["gains"]
     except Exception:   # noqa: BLE001 - an axis the baseline cannot read: the reference design

@@ -331,7 +331,7 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
     Parameters
     ----------
     axis : str
-        Axis spec (as :func:`hdservo.baseline.axis_controller` takes it).
+        Axis spec (as :func:`hdservo.closedloop_cases.axis_controller` takes it).
     names : sequence of str
         Compensators to switch on (keys of :data:`ENABLE_BITS`).
     base : mapping, optional
@@ -349,7 +349,7 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
         ``mode``, ``gains`` (the baseline's plus every compensator parameter),
         ``compensators``, and ``preisach_table`` when needed.
     """
-    from . import baseline as bl
+    from . import closedloop_cases as bl
     ctl = dict(bl.axis_controller(axis) if base is None else base)
     spec = bl._axis_spec(axis)
     gains: dict[str, float] = {} if ctl.get("gains", "defaults") == "defaults" else dict(ctl["gains"])

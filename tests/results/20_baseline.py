@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Closed-loop PID baseline in the simulator (issue 4, "proof", closed-loop part).
 
-Runs the standard cases of hdservo.baseline (steps, 1 deg/s ramp, constant-rate
+Runs the standard cases of hdservo.closedloop_cases (steps, 1 deg/s ramp, constant-rate
 tracking at 0.001 / 0.01 / 0.1 deg/s, 1 deg 0.1 Hz reversals, 12 point-to-point
 moves) on the reference axis and on the CSF-17-50 class axis, every plant
 effect of the axis files on, PID baseline gains; repeats the tracking and
@@ -19,7 +19,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "host"))
 
-from hdservo import baseline as bl  # noqa: E402
+from hdservo import closedloop_cases as bl  # noqa: E402
 from hdservo import sim  # noqa: E402
 from hdservo.fileio import write_json_atomic  # noqa: E402
 

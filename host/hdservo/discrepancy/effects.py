@@ -4,7 +4,7 @@ Every candidate contributes extra regression columns to the baseline equations (
 for the current-loop lag, a filter on the measured torque) and has at most one
 nonlinear hyper-parameter searched on a grid (Stribeck velocity, stop thresholds,
 backlash half-gap, cogging order, lag time constant); the linear coefficients are
-re-fitted jointly with the baseline by :func:`hdservo.discrepancy.baseline.solve`.
+re-fitted jointly with the baseline by :func:`hdservo.discrepancy.regression.solve`.
 
 Signatures (research/harmonic-drive.md 10.5) are what the columns encode and what the
 plots show: the coordinate in :attr:`Effect.coordinate` reveals the effect.
@@ -30,7 +30,7 @@ from typing import Any, Iterator
 import numpy as np
 import scipy.signal as sps
 
-from .baseline import Column, Design, Fit, smooth_sign
+from .regression import Column, Design, Fit, smooth_sign
 
 
 @dataclass

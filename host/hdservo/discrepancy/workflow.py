@@ -30,7 +30,7 @@ from typing import Any, Callable
 import numpy as np
 import scipy.stats as st
 
-from . import baseline as bl
+from . import regression as bl
 from . import effects as fx
 from ..fileio import json_ready
 from .residuals import effective_n, ljung_box
@@ -1031,7 +1031,7 @@ def _eq_region_rows(d: bl.Design, v: fx.Variant, bands: dict[str, float] | None)
     An effect with a speed band (Stribeck friction) is measured in its band
     (:func:`eq_region`), stops and reversals included: that is where it acts.  An effect
     that acts over the whole record is measured away from velocity reversals
-    (:func:`hdservo.discrepancy.baseline.away_from_reversals`): the static friction's
+    (:func:`hdservo.discrepancy.regression.away_from_reversals`): the static friction's
     stick transient there is outside the library and would be counted as a gap no such
     effect can close (all rows if none is away from a reversal)."""
     n = int(d.mask.sum())

@@ -1,4 +1,4 @@
-"""Closed-loop baseline figures in the simulator (standard cases, figures, plots).
+"""The standard closed-loop cases in the simulator: runs, figures and plots of any controller configuration.
 
 The standard cases are the closed-loop part of the "proof" that a compensator
 helps: every case runs the firmware application against the simulated axis
