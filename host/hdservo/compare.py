@@ -209,7 +209,7 @@ def best_gains_default(axis: str = "reference") -> dict[str, float]:
     dict
         ``pos_kp`` (1/s), ``cb_pki`` (1/s^2), ``vel_ki`` (N.m/rad): 1.5x the axis' PID design.
     """
-    from . import baseline as bl
+    from . import closedloop_cases as bl
     try:
         base = bl.axis_controller(axis)["gains"]
     except Exception:   # noqa: BLE001 - an axis the baseline cannot read: the reference design
@@ -304,12 +304,12 @@ def feedback_gains(feedback: str) -> dict[str, float]:
 
 
 def design_gains(axis: str = "reference") -> dict[str, float]:
-    """The axis' PID design (velocity PI at 25 Hz, notch at the coupled resonance; :func:`hdservo.baseline.axis_controller`).
+    """The axis' PID design (velocity PI at 25 Hz, notch at the coupled resonance; :func:`hdservo.closedloop_cases.axis_controller`).
 
     Empty for the reference axis (the drive's defaults are its design) and for an axis the
     baseline cannot read.
     """
-    from . import baseline as bl
+    from . import closedloop_cases as bl
     try:
         g = bl.axis_controller(axis)["gains"]
     except Exception:      # noqa: BLE001 - an axis the design rules cannot read keeps the drive's own gains

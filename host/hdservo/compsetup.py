@@ -36,8 +36,9 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from . import preisach_table as pt
+from . import preisach, preisach_table as pt
 from . import sim
+from .fileio import write_bytes_atomic
 from .params_gen import BY_NAME as PARAM_DEFS
 
 TWO_PI = 2.0 * math.pi
@@ -80,7 +81,7 @@ BEST_GAINS: dict[str, float] = {"pos_kp": 60.0, "str_w_ref": 0.0, "str_cruise_ti
 #: Fair-comparison rule (docs/compensators.md, "Fair baselines"): every row of a comparison -- the PID
 #: baseline, each compensator, the best combination, the leave-one-out rows -- runs with the loop gains
 #: of the compensated set: the velocity PI and filters of the axis' PID design (velocity loop at 25 Hz on
-#: every axis, :func:`hdservo.baseline.axis_controller`) and this position P, 60 1/s = 2 pi 25 Hz / 2.6
+#: every axis, :func:`hdservo.closedloop_cases.axis_controller`) and this position P, 60 1/s = 2 pi 25 Hz / 2.6
 #: (the position loop a factor 2.6 below the velocity loop, the same on every axis).
 FAIR_GAINS: dict[str, float] = {"pos_kp": 60.0}
 #: Every row runs each procedure in the same drive mode: the stabilisation test in the gyro mode (STAB).
@@ -141,13 +142,11 @@ def gear_everett(get: Callable[[str], float], u_grid: np.ndarray) -> np.ndarray:
     e = np.zeros_like(d)
     if get("hysteresis_preisach.enabled"):
         umax, tsat = get("hysteresis_preisach.u_max_rad"), get("hysteresis_preisach.t_sat_Nm")
-        r0, s = get("hysteresis_preisach.r0_rad"), get("hysteresis_preisach.s_rad")
-
-        def mu(al: np.ndarray, be: np.ndarray) -> np.ndarray:
-            return np.exp(-(al - be) / 2 / r0) * np.exp(-((al + be) / 2) ** 2 / (2 * s * s))
-        full = pt.everett_from_density(mu, np.array([-umax, umax]), n_sub=200)[1, 0]
+        mu = preisach.preisach_exponential_gaussian_density(get("hysteresis_preisach.r0_rad"),
+                                                            get("hysteresis_preisach.s_rad"))
+        full = preisach.everett_from_density(mu, np.array([-umax, umax]), n_sub=200)[1, 0]
         ug = np.clip(u, -umax, umax)
-        ep = pt.everett_from_density(mu, ug, n_sub=6) * (tsat / full)
+        ep = preisach.everett_from_density(mu, ug, n_sub=6) * (tsat / full)
         e -= np.tril(ep)
         k_lin += tsat / umax
     e += k_lin * d / 2
@@ -358,10 +357,7 @@ def write_preisach_table(axis: str, path: "str | os.PathLike[str]") -> Path:
     """Write the axis' Preisach table image (:func:`preisach_table`) to ``path``; returns the path."""
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    tmp = p.with_name(p.name + ".tmp")
-    tmp.write_bytes(preisach_table(axis).to_bytes())
-    os.replace(tmp, p)
-    return p
+    return write_bytes_atomic(p, preisach_table(axis).to_bytes())
 
 
 def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[str, Any] | None = None,
@@ -373,7 +369,7 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
     Parameters
     ----------
     axis : str
-        Axis spec (as :func:`hdservo.baseline.axis_controller` takes it).
+        Axis spec (as :func:`hdservo.closedloop_cases.axis_controller` takes it).
     names : sequence of str
         Compensators to switch on (keys of :data:`ENABLE_BITS`).
     base : mapping, optional
@@ -391,7 +387,7 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
         ``mode``, ``gains`` (the baseline's plus every compensator parameter),
         ``compensators``, and ``preisach_table`` when needed.
     """
-    from . import baseline as bl
+    from . import closedloop_cases as bl
     ctl = dict(bl.axis_controller(axis) if base is None else base)
     spec = bl._axis_spec(axis)
     gains: dict[str, float] = {} if ctl.get("gains", "defaults") == "defaults" else dict(ctl["gains"])

@@ -23,7 +23,6 @@ import csv
 import json
 import math
 import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence, Tuple
@@ -34,6 +33,7 @@ import scipy.signal as sig
 
 from . import resources
 from .errors import UserError
+from .fileio import write_json_atomic, write_text_atomic
 
 #: Environment variable that overrides the default data directory.
 ENV_DATA_DIR = "HDSERVO_EMPS_DIR"
@@ -436,24 +436,10 @@ def log_sidecar(rec: EmpsRecord) -> Dict[str, Any]:
     }
 
 
-def _atomic_write_text(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-
-
 def write_json(path: Path | str, obj: Any) -> None:
-    """Write ``obj`` as indented JSON through a temporary file and a rename."""
-    _atomic_write_text(Path(path), json.dumps(obj, indent=2) + "\n")
+    """Write ``obj`` as strict indented JSON (:func:`hdservo.fileio.write_json_atomic`), making its directory."""
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(path, obj)
 
 
 def write_log(rec: EmpsRecord, csv_path: Path | str) -> None:
@@ -463,7 +449,8 @@ def write_log(rec: EmpsRecord, csv_path: Path | str) -> None:
     names = list(cols)
     mat = np.column_stack([cols[c] for c in names])
     lines = [",".join(names)] + [",".join(repr(float(v)) for v in row) for row in mat]
-    _atomic_write_text(csv_path, "\n".join(lines) + "\n")
+    csv_path.parent.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(csv_path, "\n".join(lines) + "\n", newline="")
     write_json(csv_path.with_suffix(".json"), log_sidecar(rec))
 
 

@@ -20,15 +20,14 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import sys
-import tempfile
 from dataclasses import asdict, dataclass
 
 import control as ct
 import numpy as np
 
 from hdservo import filters
+from hdservo.fileio import write_json_atomic
 
 T_S = 1e-4
 
@@ -142,10 +141,7 @@ def main(argv: list[str] | None = None) -> int:
               f"PM {d.pos_phase_margin_deg:.1f} deg, GM {d.pos_gain_margin_db:.1f} dB, "
               f"closed-loop -3 dB {d.pos_bandwidth_hz:.1f} Hz")
     if a.json:
-        fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(a.json)) or ".")
-        with os.fdopen(fd, "w") as f:
-            json.dump([asdict(d) for d in res], f, indent=2)
-        os.replace(tmp, a.json)
+        write_json_atomic(a.json, [asdict(d) for d in res])
     return 0
 
 

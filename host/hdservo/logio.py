@@ -17,7 +17,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Mapping
@@ -25,6 +24,7 @@ from typing import Any, Iterable, Mapping
 import numpy as np
 
 from .errors import UserError
+from .fileio import write_json_atomic, write_text_atomic
 
 #: Format tag and version written into (and required in) every sidecar.
 FORMAT = "hdservo-log"
@@ -356,21 +356,6 @@ def read_log(path: str | os.PathLike[str], require_sidecar: bool = True) -> Log:
 
 # ---------------------------------------------------------------------------- writing
 
-def _atomic_write(path: Path, text: str) -> None:
-    d = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=d)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-
-
 def format_csv(columns: Mapping[str, Iterable[float]]) -> str:
     """The CSV text of a log (header + one row per sample, round-trip floats)."""
     names = list(columns)
@@ -423,5 +408,5 @@ def write_log(path: str | os.PathLike[str], columns: Mapping[str, Iterable[float
     for key, want in REQUIRED_META.items():
         if key not in full or not _type_ok(full[key], want):
             raise LogError(f"{p}: sidecar key \"{key}\": expected {_TYPE_WORD[want]}")
-    _atomic_write(p, format_csv(arrays))
-    _atomic_write(sidecar_path(p), json.dumps(full, indent=2, sort_keys=False) + "\n")
+    write_text_atomic(p, format_csv(arrays))
+    write_json_atomic(sidecar_path(p), full)

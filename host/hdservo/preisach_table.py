@@ -1,5 +1,8 @@
 """Everett table for the discrete Preisach model: quantisation, CRC and version.
 
+The firmware image of a quantised Everett grid; the grid itself (density
+integration, interpolation, the operator) comes from :mod:`hdservo.preisach`.
+
 The image is shared with the firmware (``firmware/core/hd_preisach.h``):
 
 =====  ============  =====================================================
@@ -28,8 +31,6 @@ import struct
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
-
 import numpy as np
 
 from .errors import UserError
@@ -188,43 +189,3 @@ def quantise_everett(everett: np.ndarray, scale: float, **kw: int) -> PreisachTa
             r = np.sign(x) * np.floor(abs(x) + 0.5)
             ent[tri_index(i, j)] = int(np.clip(r, -2**31, 2**31 - 1))
     return PreisachTable(levels=levels, entries=ent, **kw).seal()
-
-
-def everett_from_density(mu: Callable[[np.ndarray, np.ndarray], np.ndarray],
-                         u_grid: np.ndarray, n_sub: int = 16) -> np.ndarray:
-    """Everett grid E(alpha_i, beta_j) = integral of mu over {beta_j <= b <= a <= alpha_i}.
-
-    Parameters
-    ----------
-    mu : callable
-        Preisach density mu(alpha, beta) >= 0 (output units per input unit squared).
-    u_grid : numpy.ndarray
-        The L increasing input grid levels (input units).
-    n_sub : int
-        Midpoint-rule sub-samples per grid cell and axis.
-
-    Returns
-    -------
-    numpy.ndarray
-        L x L array (lower triangle filled, output units).
-    """
-    u = np.asarray(u_grid, dtype=float)
-    levels = len(u)
-    cell = np.zeros((levels, levels))          # mass of grid cell (i, j): alpha in cell i-1..i, beta in j..j+1
-    for i in range(1, levels):
-        for j in range(i):
-            a = u[i - 1] + (np.arange(n_sub) + 0.5) / n_sub * (u[i] - u[i - 1])
-            b = u[j] + (np.arange(n_sub) + 0.5) / n_sub * (u[j + 1] - u[j])
-            aa, bb = np.meshgrid(a, b, indexing="ij")
-            w = (aa >= bb).astype(float) if i - 1 == j else 1.0
-            cell[i, j] = np.sum(mu(aa, bb) * w) * (u[i] - u[i - 1]) * (u[j + 1] - u[j]) / n_sub**2
-    e = np.zeros((levels, levels))
-    # cell (ia, jb) lies in T(alpha_i, beta_j) iff j <= jb < ia <= i
-    for i in range(levels):
-        for j in range(i):
-            s = 0.0
-            for ia in range(j + 1, i + 1):
-                for jb in range(j, ia):
-                    s += cell[ia, jb]
-            e[i, j] = s
-    return e

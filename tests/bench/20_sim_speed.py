@@ -8,9 +8,7 @@ Writes build/bench/sim_speed.json.  Never fails on time.
 from __future__ import annotations
 
 import json
-import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -18,6 +16,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "host"))
 
 from hdservo import sim  # noqa: E402
+from hdservo.fileio import write_json_atomic  # noqa: E402
 
 DURATION_S = 5.0
 TARGET = 200.0
@@ -75,11 +74,7 @@ def main() -> int:
     out["open_loop_realtime_factor"] = DURATION_S / ol
     dest = ROOT / "build" / "bench" / "sim_speed.json"
     dest.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=dest.parent, suffix=".tmp")
-    with os.fdopen(fd, "w") as f:
-        json.dump(out, f, indent=2)
-        f.write("\n")
-    os.replace(tmp, dest)
+    write_json_atomic(dest, out)
     print(f"sim speed: {out['realtime_factor']:.0f}x real time, {out['realtime_factor_cpu']:.0f}x per CPU second "
           f"(target {TARGET:.0f}x); per period "
           f"plant {plant_us:.2f} us + app {app_us:.2f} us; open-loop plant {out['open_loop_realtime_factor']:.0f}x"

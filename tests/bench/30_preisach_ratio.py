@@ -15,6 +15,10 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "host"))
+
+from hdservo.fileio import write_json_atomic  # noqa: E402
+
 SRC = ROOT / "build" / "bench" / "cm4_cost.json"
 DST = ROOT / "build" / "bench" / "preisach_ratio.json"
 
@@ -39,9 +43,7 @@ def main() -> int:
                              "ratio_bruteforce_over_online": bf / on if on > 0 else float("nan")}
         print(f"preisach L={levels}: online {on:.0f} instr/step, brute force {bf:.0f} "
               f"instr/step, ratio {bf / on:.0f}x")
-    tmp = DST.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(out, indent=2) + "\n")
-    tmp.replace(DST)
+    write_json_atomic(DST, out)
     return 0
 
 

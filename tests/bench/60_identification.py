@@ -15,7 +15,7 @@ sys.path.insert(0, str(ROOT / "host"))
 
 from hdservo.ident import experiments as ex  # noqa: E402
 from hdservo.ident import pipeline  # noqa: E402
-from hdservo.ident.report import write_json  # noqa: E402
+from hdservo.fileio import write_json_atomic as write_json  # noqa: E402
 
 
 def main() -> int:

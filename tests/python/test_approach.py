@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hdservo import baseline, compsetup
+from hdservo import closedloop_cases, compsetup
 from hdservo.design import predict
 from hdservo.procedures import metrics as mt
 
@@ -28,7 +28,7 @@ APPR_DIST = 45.0          # arcsec, parameter default (appr_dist)
 
 
 def _ctl(compensators: list[str]) -> dict:
-    c = dict(baseline.axis_controller("reference"))
+    c = dict(closedloop_cases.axis_controller("reference"))
     c["compensators"] = compensators
     return c
 

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from oracles import compref
-from hdservo.preisach_table import PreisachTable, everett_from_density, quantise_everett
+from hdservo.preisach import everett_from_density
+from hdservo.preisach_table import PreisachTable, quantise_everett
 
 ROOT = Path(__file__).resolve().parents[2]
 LIB = ROOT / "build" / "lib" / "libhdcomp.so"

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdservo import baseline as bl
+from hdservo import closedloop_cases as bl
 from hdservo import compsetup as cs
 from hdservo import preisach_table as pt
 from hdservo import sim

@@ -10,8 +10,8 @@ import pytest
 from hdservo.analysis.friction import CoulombFriction, FrictionOnPosition, StribeckFriction
 from hdservo.analysis.catalogue import build
 from hdservo.analysis.hysteresis import LostMotion, MaxwellSlip, PreisachHysteresis
-from hdservo.analysis.preisach import (EverettTable, PreisachModel, everett_table_from_density,
-                                       everett_table_plant, preisach_exponential_gaussian_density)
+from hdservo.preisach import (EverettTable, PreisachModel, everett_table_from_density,
+                              everett_table_plant, preisach_exponential_gaussian_density)
 from hdservo.analysis.stiffness import CubicStiffness, ThreeSlopeStiffness
 
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from hdservo import logio
-from hdservo.discrepancy import baseline as bl, signals, simerr, workflow
+from hdservo.discrepancy import regression as bl, signals, simerr, workflow
 from oracles import discrepancy_cases as cases
 
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Closed-loop PID baseline in the simulator (issue 4, "proof", closed-loop part).
 
-Runs the standard cases of hdservo.baseline (steps, 1 deg/s ramp, constant-rate
+Runs the standard cases of hdservo.closedloop_cases (steps, 1 deg/s ramp, constant-rate
 tracking at 0.001 / 0.01 / 0.1 deg/s, 1 deg 0.1 Hz reversals, 12 point-to-point
 moves) on the reference axis and on the CSF-17-50 class axis, every plant
 effect of the axis files on, PID baseline gains; repeats the tracking and
@@ -12,18 +12,16 @@ Writes build/results/baseline.json and build/results/baseline_<axis>_*.png.
 """
 from __future__ import annotations
 
-import json
-import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "host"))
 
-from hdservo import baseline as bl  # noqa: E402
+from hdservo import closedloop_cases as bl  # noqa: E402
 from hdservo import sim  # noqa: E402
+from hdservo.fileio import write_json_atomic  # noqa: E402
 
 OUT = ROOT / "build" / "results"
 SEED = 1
@@ -31,11 +29,7 @@ SEED = 1
 
 def _write_json(path: Path, obj: object) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    with os.fdopen(fd, "w") as f:
-        json.dump(obj, f, indent=1)
-        f.write("\n")
-    os.replace(tmp, path)
+    write_json_atomic(path, obj, indent=1)
 
 
 def _n(x: float | None, fmt: str = ".3g") -> str:

@@ -2,7 +2,7 @@
 """Compensators in closed loop against the PID baseline (issue 5, second half).
 
 Both axis files (reference, csf17_50), every plant effect on.  Controllers: the
-PID baseline (hdservo.baseline.axis_controller), each compensator of the bank
+PID baseline (hdservo.closedloop_cases.axis_controller), each compensator of the bank
 alone on top of it (parameters from hdservo.compsetup, i.e. the axis model),
 and the best combination (BEST below: the LuGre friction model on the
 reference velocity, plus the loop retuning the compensation allows: position
@@ -10,7 +10,7 @@ P 60 1/s, velocity integral 1.5x the axis design (12000 N.m/rad on the
 reference axis), and a position integral of 900 1/s^2 scheduled on the
 reference speed (the bank's cb_pki: full above 0.005 deg/s, none below
 0.002 deg/s and at standstill, where it made the loop hunt in presliding).
-Cases (hdservo.baseline, durations shortened to keep the run to a few minutes):
+Cases (hdservo.closedloop_cases, durations shortened to keep the run to a few minutes):
 constant-rate tracking at 0.001 / 0.01 / 0.1 deg/s (RMS and max error after the
 start transient), 1 deg 0.1 Hz sinusoid (peak error at the reversals), 12
 point-to-point moves (final error).
@@ -20,10 +20,7 @@ Writes build/results/compensation.json and build/results/compensation_<axis>_*.p
 from __future__ import annotations
 
 import dataclasses
-import json
-import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -31,8 +28,9 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "host"))
 
-from hdservo import baseline as bl  # noqa: E402
+from hdservo import closedloop_cases as bl  # noqa: E402
 from hdservo import compsetup as cs  # noqa: E402
+from hdservo.fileio import write_json_atomic  # noqa: E402
 
 OUT = ROOT / "build" / "results"
 SEED = 1
@@ -83,17 +81,12 @@ def reduce(figs: dict[str, Any]) -> dict[str, Any]:
 
 def _write_json(path: Path, obj: object) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    with os.fdopen(fd, "w") as f:
-        json.dump(obj, f, indent=1)
-        f.write("\n")
-    os.replace(tmp, path)
+    write_json_atomic(path, obj, indent=1)
 
 
 def plot(axis: str, res: dict[str, Any], traces: dict[str, Any]) -> list[Path]:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from hdservo.plotting import pyplot
+    plt = pyplot()
     import numpy as np
     files = []
     ctls = list(res)

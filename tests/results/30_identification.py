@@ -23,7 +23,7 @@ import ident_truth as truth  # noqa: E402
 from hdservo.ident import experiments as ex  # noqa: E402
 from hdservo.ident import frf as frfm  # noqa: E402
 from hdservo.ident import pipeline, stiffness as stf  # noqa: E402
-from hdservo.ident.report import write_json  # noqa: E402
+from hdservo.fileio import write_json_atomic as write_json  # noqa: E402
 
 
 def rel(a: float, b: float) -> float:

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import concurrent.futures as cf
-import json
 import math
 import sys
 from pathlib import Path
@@ -34,6 +33,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "host"))
 
 from hdservo import compsetup as cs  # noqa: E402
+from hdservo.fileio import write_json_atomic  # noqa: E402
 from hdservo.procedures import closedloop as cl  # noqa: E402
 from hdservo.procedures import metrics as mt  # noqa: E402
 from hdservo.procedures.runner import DT, Bench, Target, open_bench  # noqa: E402
@@ -126,9 +126,8 @@ def main() -> int:
         res = list(ex.map(lambda j: rung(*j), jobs))
     floor = {f"{r:g}": encoder_floor(r) for r in rates}
     a.out.mkdir(parents=True, exist_ok=True)
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from hdservo.plotting import pyplot
+    plt = pyplot()
     fig, ax = plt.subplots(2, len(rates), figsize=(4 * len(rates), 6), squeeze=False)
     for k, r in enumerate(rates):
         for x in res:
@@ -149,9 +148,7 @@ def main() -> int:
     for x in res:
         del x["_trace"]
     doc = {"axis": "reference", "seed": 1, "rungs": res, "encoder_floor_stability": floor}
-    tmp = a.out / "min_rate_below_ladder.json.tmp"
-    tmp.write_text(json.dumps(doc, indent=1))
-    tmp.replace(a.out / "min_rate_below_ladder.json")
+    write_json_atomic(a.out / "min_rate_below_ladder.json", doc, indent=1)
     print(f"{'rate deg/s':>10} {'ctrl':>5} {'enc stab':>9} {'floor p95':>9} {'true stab':>9} {'enc acc':>8} "
           f"{'ref err':>8} {FINE_HDR:>14} {'torque mean/std N.m':>20}")
     for x in res:

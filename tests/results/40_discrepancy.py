@@ -35,6 +35,7 @@ sys.path.insert(0, str(REPO / "host"))
 sys.path.insert(0, str(REPO / "tests" / "python"))
 
 from hdservo import emps, logio  # noqa: E402
+from hdservo.fileio import write_json_atomic  # noqa: E402
 from hdservo.cli import UserError  # noqa: E402
 from hdservo.discrepancy import EFFECT_NAMES, realdata, signals, simerr, workflow  # noqa: E402
 from oracles import discrepancy_cases as cases  # noqa: E402
@@ -240,7 +241,7 @@ def main() -> int:
         print(f"EMPS: named {r.named}, IDIM relative error {chk['relative_error_pct']:.3f} %")
     except UserError as e:
         result["emps"] = {"skipped": str(e)}
-    logio._atomic_write(out_dir / OUT_NAME, json.dumps(result, indent=2) + "\n")
+    write_json_atomic(out_dir / OUT_NAME, result)
     for eff, s in summary.items():
         print(f"{eff:24s} {s['correct']}/{s['cases']} named correctly; min shrink all/acting/sim/gap "
               f"{s['min_shrink_when_named']} / {s['min_shrink_acting_when_named']} / {s['min_shrink_sim_when_named']}"

@@ -26,7 +26,7 @@ import numpy as np
 from .dfbase import HdNonlinearity
 from .friction import CoulombFriction, StribeckFriction
 from .hysteresis import LostMotion, MaxwellSlip, PreisachHysteresis
-from .preisach import PreisachModel, everett_table_plant
+from ..preisach import PreisachModel, everett_table_plant
 from .stiffness import CubicStiffness, ThreeSlopeStiffness
 
 NAMES = ("coulomb_motor", "stribeck_motor", "coulomb_load", "stribeck_load", "three_slope", "cubic",

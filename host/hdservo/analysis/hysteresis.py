@@ -13,7 +13,7 @@
   (positive imaginary part: the loop area W(A) = pi A^2 Im N is dissipated).
 * Maxwell-slip: a parallel sum of Jenkins elements, ``N = sum_i N_J,i``.
 * Preisach: no closed form; first harmonic of the steady symmetric cycle of a
-  :class:`~hdservo.analysis.preisach.PreisachModel` (reset per amplitude).  As in
+  :class:`~hdservo.preisach.PreisachModel` (reset per amplitude).  As in
   the simulated plant (docs/plant.md) the torque is ``P_mean(phi) - P[phi]``:
   a relay's output lags its input, so ``P`` alone (positive density) has
   ``Im N < 0`` and, used as a torque, would deliver energy every cycle;
@@ -27,7 +27,7 @@ from typing import Any, Dict, Sequence
 import numpy as np
 
 from .dfbase import HdNonlinearity, backlash_df
-from .preisach import PreisachModel
+from ..preisach import PreisachModel
 
 
 class LostMotion(HdNonlinearity):

@@ -1,30 +1,24 @@
 """Plots of the describing-function analysis (PNG or PDF, units on every axis)."""
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 from typing import Any, Dict, List, Sequence
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from ..fileio import save_figure_atomic
+from ..plotting import pyplot
+
+plt = pyplot()
 
 
 def _save(fig: Any, path: Path) -> None:
     """Write atomically (temp file + rename) and close the figure."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
     try:
-        fig.savefig(tmp, dpi=110, format=path.suffix.lstrip("."))
-        os.replace(tmp, path)
+        save_figure_atomic(fig, path, dpi=110)
     finally:
         plt.close(fig)
-        if os.path.exists(tmp):
-            os.unlink(tmp)
 
 
 def nyquist_plot(path: Path, name: str, H_vals: np.ndarray, N_vals: np.ndarray, cycles: Sequence[Dict[str, Any]],

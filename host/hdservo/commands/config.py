@@ -32,6 +32,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ..errors import UserError
+from ..fileio import write_text_atomic
 
 NAME = "config"
 HELP = ("drive parameters and CANopen settings over CAN: dump to a TOML file, restore it (checked, read back), "
@@ -126,9 +127,7 @@ def _dump(drive: Any, args: argparse.Namespace) -> str:
     if args.out is None:
         sys.stdout.write(text)
         return ""
-    tmp = args.out.with_name(args.out.name + ".tmp")
-    tmp.write_text(text)
-    tmp.replace(args.out)           # no half-written file
+    write_text_atomic(args.out, text)           # no half-written file
     return f"wrote {len(raw)} parameters and {len(objects)} CANopen settings to {args.out}"
 
 

@@ -12,14 +12,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
-import os
 import sys
-import tempfile
 from pathlib import Path
 from typing import Any, Dict
 
 from ..errors import UserError
+from ..fileio import write_json_atomic
 
 NAME = "df"
 HELP = "describing-function analysis: N(A), limit cycles, margins against amplitude"
@@ -42,31 +40,10 @@ def register(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress output")
 
 
-def _clean(x: Any) -> Any:
-    """Make numpy scalars and non-finite floats JSON-safe."""
-    if isinstance(x, dict):
-        return {k: _clean(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_clean(v) for v in x]
-    if hasattr(x, "item") and not isinstance(x, (str, bytes)):
-        x = x.item()
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
-
-
 def write_json(path: Path, data: Dict[str, Any]) -> None:
-    """Write JSON atomically (temp file in the same directory + rename)."""
+    """Write strict JSON atomically (numpy and non-finite values handled), making the directory."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".json", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(_clean(data), f, indent=1)
-            f.write("\n")
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    write_json_atomic(path, data, indent=1)
 
 
 def run(args: argparse.Namespace) -> int:

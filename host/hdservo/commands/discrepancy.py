@@ -66,6 +66,7 @@ MIN_VALIDATED_RATE_HZ = 2000.0
 
 def run(args: argparse.Namespace) -> int:
     from .. import logio
+    from ..fileio import write_json_atomic
     from ..discrepancy import signals, workflow
     model = read_model(args.model) if args.model else {"structure": None, "offset": None}
     log = logio.read_log(args.log)
@@ -82,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plots:
         from ..discrepancy.plots import write_plots
         out["plots"] = [str(p) for p in write_plots(res, args.plots)]
-    logio._atomic_write(args.json, json.dumps(out, indent=2, allow_nan=False) + "\n")
+    write_json_atomic(args.json, out)
     u = sig.units["torque"]
     au = sig.units["angle"]
     sim0 = res.sim_rms_history[0]

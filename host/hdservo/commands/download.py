@@ -131,8 +131,8 @@ def run(args: argparse.Namespace) -> int:
                "notes": plan["notes"], "cb_enable": enable,
                "params": plan["params"], "groups": {str(k): v for k, v in plan["groups"].items()}}
     if args.json is not None:
-        from ..ident.report import write_json
-        write_json(args.json, summary)
+        from ..fileio import write_json_atomic
+        write_json_atomic(args.json, summary)
     print(f"downloaded {done['params']} parameters and tables "
           f"{', '.join(f'0x5100:{s}' for s in done['tables']) or '(none)'}; every item read back and verified; "
           + ("saved to NVM" if saved is not None else "in RAM only (--save keeps it over a power cycle)"))

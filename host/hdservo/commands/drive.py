@@ -15,6 +15,7 @@ import sys
 from pathlib import Path
 
 from ..errors import UserError
+from ..fileio import write_json_atomic
 
 NAME = "drive"
 HELP = "what the drive offers: identity, CiA 402 modes, feedback and set-point objects, PDOs, SYNC, vendor extensions"
@@ -71,9 +72,7 @@ def run(args: argparse.Namespace) -> int:
     if caps.device_type is None:
         raise UserError(f"node {args.node_id}: no device type 0x1000: not a CANopen device")
     if args.json is not None:
-        tmp = args.json.with_name(f".{args.json.name}.tmp")
-        tmp.write_text(json.dumps({"node_id": args.node_id, **caps.to_json()}, indent=2) + "\n")
-        tmp.replace(args.json)
+        write_json_atomic(args.json, {"node_id": args.node_id, **caps.to_json()})
     for line in caps.lines():
         print(line)
     sys.stdout.flush()

@@ -219,6 +219,7 @@ def _run_pipeline(args: argparse.Namespace, runner: object, data: dict, progress
 
 
 def _write_outputs(args: argparse.Namespace, pl, source: str, notes: list[str]) -> None:
+    from ..fileio import write_bytes_atomic, write_json_atomic
     from ..ident import model_toml, pipeline, report
     summ = pipeline.summary(pl.results)
     ratio = next(iter(pl.data.values())).gear_ratio if pl.data else 0.0
@@ -230,9 +231,7 @@ def _write_outputs(args: argparse.Namespace, pl, source: str, notes: list[str]) 
         pz = pl.results.get("preisach")
         if pz is not None:
             binp = args.output.with_suffix(".preisach.bin")
-            tmp = binp.with_name(f".{binp.name}.tmp")
-            tmp.write_bytes(pz["table"].to_bytes())
-            tmp.replace(binp)
+            write_bytes_atomic(binp, pz["table"].to_bytes())
             pz["file"] = binp.name
         model_toml.write_toml(args.output, model_toml.model_sections(pl.results, ratio),
                               header=f"Identified by hdservo identify {args.target} "
@@ -240,7 +239,7 @@ def _write_outputs(args: argparse.Namespace, pl, source: str, notes: list[str]) 
                                      "Units in the key names (SI). friction_total is output-referred.")
     plots = report.plot_all(pl.results, args.plots) if args.plots else []
     if args.json:
-        report.write_json(args.json, {"target": args.target, "source": source, "notes": notes,
+        write_json_atomic(args.json, {"target": args.target, "source": source, "notes": notes,
                                       "experiment_sources": {k: d.meta.get("source") for k, d in pl.data.items()},
                                       "results": summ, "timings_s": pl.timings, "plots": plots})
     for n in notes:

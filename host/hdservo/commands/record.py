@@ -27,8 +27,8 @@ import can
 
 from .. import logio
 from ..errors import UserError
-from ..drive import (LOOP_HZ, TURN, Drive, DriveError, add_bus_arguments, align_motor_turns, choose_drive,
-                     unwrap_phase, unwrap_tick)
+from ..drive import LOOP_HZ, TURN, Drive, DriveError, add_bus_arguments, align_motor_turns, choose_drive
+from ..phase import unwrap_phase, unwrap_tick
 
 NAME = "record"
 HELP = "record streamed process data to CSV (+ raw candump log)"

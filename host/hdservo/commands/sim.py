@@ -73,6 +73,6 @@ def run(args: argparse.Namespace) -> int:
     print(f"{args.scenario}: {simulated:g} s simulated in {wall:.3g} s, {n} rows -> {args.output}"
           + (f" (drive faults: {faults})" if faults else ""))
     if args.json:
-        from ..logio import _atomic_write
-        _atomic_write(args.json, json.dumps(summary, indent=2) + "\n")
+        from ..fileio import write_json_atomic
+        write_json_atomic(args.json, summary)
     return 0

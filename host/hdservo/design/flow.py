@@ -366,7 +366,7 @@ def tune(spec: Spec, c: Candidate, axis_path: str,
     (no position integrator: with the gear's lost motion and stick-slip it
     hunts in a +-35..50 arcsec limit cycle in the simulator) from :func:`hdservo.gains.design` (which also
     gives the margins); notch at the coupled resonance
-    (:func:`hdservo.baseline.axis_controller`); torque limit
+    (:func:`hdservo.closedloop_cases.axis_controller`); torque limit
     :func:`torque_limit`; trajectory limits = spec max rate / accel;
     compensators of ``option`` (default the flow's own, :data:`COMPENSATORS`) with parameters from
     :func:`hdservo.compsetup.compensator_params` of the axis, then the option's ``extra_gains``.
@@ -381,7 +381,7 @@ def tune(spec: Spec, c: Candidate, axis_path: str,
     """
     from dataclasses import asdict
 
-    from .. import baseline, compsetup, gains
+    from .. import closedloop_cases as baseline, compsetup, gains
     opt = option or ControllerOption("flow", tuple(COMPENSATORS))
     fa, fr = resonance(spec, c)
     f_v = min(25.0, 0.5 * fr)

@@ -52,7 +52,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence
 import numpy as np
 
 from .. import sim
-from ..baseline import _toml_table
+from ..closedloop_cases import _toml_table
 from ..procedures import metrics as mt
 
 from ..units import ARCSEC, DEG  # noqa: E402

@@ -4,7 +4,7 @@ Every candidate contributes extra regression columns to the baseline equations (
 for the current-loop lag, a filter on the measured torque) and has at most one
 nonlinear hyper-parameter searched on a grid (Stribeck velocity, stop thresholds,
 backlash half-gap, cogging order, lag time constant); the linear coefficients are
-re-fitted jointly with the baseline by :func:`hdservo.discrepancy.baseline.solve`.
+re-fitted jointly with the baseline by :func:`hdservo.discrepancy.regression.solve`.
 
 Signatures (research/harmonic-drive.md 10.5) are what the columns encode and what the
 plots show: the coordinate in :attr:`Effect.coordinate` reveals the effect.
@@ -30,7 +30,7 @@ from typing import Any, Iterator
 import numpy as np
 import scipy.signal as sps
 
-from .baseline import Column, Design, Fit, smooth_sign
+from .regression import Column, Design, Fit, smooth_sign
 
 
 @dataclass
@@ -446,9 +446,9 @@ class Hysteresis(Effect):
     signature = "residual vs twist depends on the direction of twist change (loops, return-point memory)"
     #: Stop thresholds in units of the twist span (99th percentile of abs(phi)): geometric,
     #: sqrt(2) apart, from 2 % to 90 %.  In closed loop the span is often no more than
-    #: twice an element's slip twist, and a grid 2x apart that stopped at 64 % left the
-    #: elements slipping near the span's top between grid points (round 6 in
-    #: docs/discrepancy.md: equation-error gap shrink 1.7-2.4 -> 5.5-7.6 on those logs).
+    #: twice an element's slip twist, and a grid 2x apart that stops at 64 % leaves the
+    #: elements slipping near the span's top between grid points (on such logs this grid
+    #: shrinks the equation-error gap 5.5-7.6 times, the coarser one 1.7-2.4 times).
     fractions = tuple(float(x) for x in np.geomspace(0.02, 0.905, 12))
 
     def applicable(self, d: Design) -> bool:

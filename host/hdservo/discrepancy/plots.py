@@ -9,7 +9,6 @@
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -18,19 +17,18 @@ import numpy as np
 if TYPE_CHECKING:
     from .workflow import Result
 
-import matplotlib
+from ..fileio import save_figure_atomic
+from ..plotting import pyplot
+from .residuals import order_spectrum, spectrum
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-from .residuals import order_spectrum, spectrum  # noqa: E402
+plt = pyplot()
 
 
 def _save(fig: "plt.Figure", path: Path) -> None:
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    os.replace(tmp, path)
+    try:
+        save_figure_atomic(fig, path, dpi=110)
+    finally:
+        plt.close(fig)
 
 
 def _coord(res: "Result", effect: str) -> tuple[np.ndarray, str, bool]:

@@ -2,7 +2,7 @@
 
 * Equation error: measured motor torque minus the model's torque computed from the
   measured (filtered) states, per equation (M, R), N.m at the motor
-  (:func:`hdservo.discrepancy.baseline.solve`).  Valid for open- and closed-loop data
+  (:func:`hdservo.discrepancy.regression.solve`).  Valid for open- and closed-loop data
   alike: it never integrates, so it cannot drift under feedback.
 * Simulation error: :mod:`hdservo.discrepancy.simerr`.
 * Spectra (Welch), order spectrum of a residual against an angle (bin means over one
@@ -18,7 +18,7 @@ import scipy.signal as sps
 import scipy.stats as st
 
 if TYPE_CHECKING:
-    from .baseline import Design
+    from .regression import Design
 
 
 def order_spectrum(d: "Design", resid: np.ndarray, angle: np.ndarray, max_order: int = 200,

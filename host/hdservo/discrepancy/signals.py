@@ -158,7 +158,7 @@ def hf_noise_std(x: np.ndarray, fc: float, fs: float) -> float:
     above f_lo.  In closed loop the measured current also carries real current up to
     the current loop's bandwidth (the loops feed the encoder noise back): between fc
     and ~1 kHz the torque's spectrum of a closed-loop simulator log is up to 4x its
-    white level, flat above (docs/discrepancy.md, round 5).  So the level is taken from
+    white level, flat above (docs/discrepancy.md).  So the level is taken from
     the upper half of the spectrum, above fs/4 (above any current-loop bandwidth of a
     drive sampled at fs), where only the sensor's noise is left.  Same unit as ``x``.
     """

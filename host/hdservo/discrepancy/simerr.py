@@ -1,6 +1,6 @@
 """Simulation error: the fitted model simulated with the measured inputs, compared with the log.
 
-The equation error (:mod:`hdservo.discrepancy.baseline`) judges the model on measured,
+The equation error (:mod:`hdservo.discrepancy.regression`) judges the model on measured,
 twice-differentiated states; the simulation error judges what the model *does* when it
 is driven by the measured input: it integrates the accelerations, so it weighs slow
 disagreements (a friction force that holds the axis longer, a softer spring that lets
@@ -35,7 +35,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .baseline import Column, Design
+from .regression import Column, Design
 
 #: Simulation window, s.
 HORIZON_S = 0.05

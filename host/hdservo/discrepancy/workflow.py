@@ -25,13 +25,14 @@ additions, or when the residual of the motor equation passes the Ljung-Box test.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import scipy.stats as st
 
-from . import baseline as bl
+from . import regression as bl
 from . import effects as fx
+from ..fileio import json_ready
 from .residuals import effective_n, ljung_box
 from . import simerr
 from .simerr import region_mask, side_error, simulation_error
@@ -209,99 +210,33 @@ def oe_fit(state: State, v: fx.Variant, s: Settings | None = None, refine: int =
     if no admissible level lowers the simulation error.
     """
     assert state.fit is not None and state.sim is not None and v.oe_levels
-    s = s or Settings()
-    d = state.design
-    tau, key = state.tau(v)
-    base_cols = state.columns()
-    coef = dict(zip(state.fit.names, state.fit.theta))
-    cols = base_cols + v.columns
-    theta0 = np.array([coef.get(c.name, 0.0) for c in base_cols] + [0.0] * len(v.columns))
-    n_eff = _neff(state.fit, state.weights)
-    n_sim = effective_n(state.sim)
-    rss0 = state.fit.rss_w
-    sse_tot0 = float(np.sum(state.sim ** 2))
+    prob = _OeProblem.of(state, v, s or Settings(), admit)
     fixed: dict[str, float] = {c.name: 0.0 for c in v.columns}
-    sse_side: dict[str, float] = {}
+    sse_side: dict[str, float] = {}         # each side's SSE with the variant's coefficients at 0
     sse_now: dict[str, float] = {}          # each side's SSE with the levels chosen so far
     best_score = 0.0
+    levels = sorted(v.oe_levels)
     for j, c in enumerate(v.columns):
         side = c.fric or "m"
         fc = _fc_of(state.fit, side)
         if fc <= 0:
             continue
         if side not in sse_side:
-            sse_side[side] = float(np.sum(side_error(d, base_cols, theta0[: len(base_cols)], side, tau, key,
-                                                     horizon_s=state.horizon_s, substeps=state.substeps) ** 2))
+            sse_side[side] = prob.side_sse(side)
             sse_now[side] = sse_side[side]
-
         # the whole record's SSE with the levels chosen so far (the other sides' gains
         # count: the score is the joint score of all the variant's levels)
-        sse_tot_now = sse_tot0 + sum(sse_now[k] - sse_side[k] for k in sse_side)
-        th_now = np.concatenate([theta0[: len(base_cols)], [fixed[ci.name] for ci in v.columns]])
+        sse_tot_now = prob.sse_tot0 + sum(sse_now[k] - sse_side[k] for k in sse_side)
+        th_now = np.concatenate([prob.theta0[: len(prob.base_cols)], [fixed[ci.name] for ci in v.columns]])
 
-        def judge(g: float) -> tuple[bool, float, float]:
-            """(admissible and lowers this side's SSE, joint score, side SSE) of level g."""
-            th = th_now.copy()
-            th[len(base_cols) + j] = g * fc
-            e = side_error(d, cols, th, side, tau, key, horizon_s=state.horizon_s, substeps=state.substeps)
-            sse = _sse(e)
-            fx_ = dict(fixed)
-            fx_[c.name] = g * fc
-            try:
-                f = state.solve(fx.Variant(dict(v.hyper), v.columns, v.tau, v.tau_key, v.n_hyper, fixed=fx_))
-            except np.linalg.LinAlgError:
-                return False, -np.inf, sse
-            sse_all = sse_tot_now - sse_now[side] + sse
-            if not (np.isfinite(sse_all) and sse_all > 0 and f.rss_w > 0):
-                return False, -np.inf, sse
-            ev = {"n_eff": n_eff, "explained_fraction": 1.0 - f.rss_w / rss0,
-                  "sim_n_eff": n_sim, "sim_explained_fraction": 1.0 - sse_all / sse_tot0}
-            sc = float(np.log(rss0 / f.rss_w) + np.log(sse_tot0 / sse_all))
-            return bool((admissible(ev, s) or not admit) and sse < sse_now[side]), sc, sse
+        def judge(g: float, j: int = j, name: str = c.name, side: str = side, fc: float = fc,
+                  th_now: np.ndarray = th_now, sse_tot_now: float = sse_tot_now) -> Judged:
+            return prob.judge(g * fc, j, name, side, th_now, fixed, sse_tot_now, sse_now[side])
 
-        lv = sorted(v.oe_levels)
-        tried = {g: judge(g) for g in (0.5, 1.0) if g in lv}
+        tried = _oe_search_levels(judge, levels, refine, by_sim)
         if not tried:
             continue
-
-        def key_(g: float) -> tuple[bool, float]:
-            return tried[g][0], tried[g][1]
-        up = key_(1.0) > key_(0.5) if (1.0 in tried and 0.5 in tried) else 1.0 in tried
-        nxt = [g for g in lv if (g > 1.0 if up else g < 0.5)]
-        if nxt:
-            g2 = min(nxt) if up else max(nxt)
-            tried[g2] = judge(g2)
-        g_best = max(tried, key=key_)
-        for g in (g_best / np.sqrt(2.0), g_best * np.sqrt(2.0)):
-            if g not in tried:
-                tried[g] = judge(g)
-        g_best = max(tried, key=key_)
-        # the best-scoring level is not admissible: move towards it from the best
-        # admissible one (or from below) while staying admissible
-        g_top = max(tried, key=lambda g: tried[g][1])
-        if not tried[g_top][0]:
-            lo = g_best if tried[g_best][0] else g_top / 8.0
-            hi = g_top
-            if lo == g_top / 8.0:
-                tried[lo] = judge(lo)
-            for _ in range(OE_BISECT):
-                mid = float(np.sqrt(lo * hi))
-                tried[mid] = judge(mid)
-                if tried[mid][0]:
-                    lo = mid
-                else:
-                    hi = mid
-            g_best = max(tried, key=key_)
-        def key_sim(g: float) -> tuple[bool, float]:
-            return tried[g][0], -tried[g][2]
-        kf = key_sim if by_sim else key_
-        g_best = max(tried, key=kf)
-        for r in range(refine):
-            step = 2.0 ** (0.5 ** (r + 2))
-            for g in (g_best / step, g_best * step):
-                if g not in tried:
-                    tried[g] = judge(g)
-            g_best = max(tried, key=kf)
+        g_best = max(tried, key=(_oe_key_sim if by_sim else _oe_key)(tried))
         ok, sc, sse = tried[g_best]
         if ok:
             fixed[c.name] = g_best * fc
@@ -311,6 +246,144 @@ def oe_fit(state: State, v: fx.Variant, s: Settings | None = None, refine: int =
         return None
     return fx.Variant(dict(v.hyper), v.columns, v.tau, v.tau_key, v.n_hyper, fixed=fixed,
                       oe_levels=v.oe_levels, oe_gain=float(best_score))
+
+
+#: One judged output-error level: (admissible and lowers its side's SSE, joint score, side SSE).
+Judged = tuple[bool, float, float]
+
+
+@dataclass
+class _OeProblem:
+    """What every level of one output-error fit (:func:`oe_fit`) is judged against."""
+
+    state: State
+    v: fx.Variant
+    s: Settings
+    admit: bool
+    tau: np.ndarray | None
+    key: str
+    base_cols: list[bl.Column]
+    cols: list[bl.Column]
+    theta0: np.ndarray
+    n_eff: float
+    n_sim: float
+    rss0: float
+    sse_tot0: float
+
+    @classmethod
+    def of(cls, state: State, v: fx.Variant, s: Settings, admit: bool) -> "_OeProblem":
+        """The current fit's coefficients, residual sizes and effective sample counts."""
+        assert state.fit is not None and state.sim is not None
+        tau, key = state.tau(v)
+        base_cols = state.columns()
+        coef = dict(zip(state.fit.names, state.fit.theta))
+        theta0 = np.array([coef.get(c.name, 0.0) for c in base_cols] + [0.0] * len(v.columns))
+        return cls(state=state, v=v, s=s, admit=admit, tau=tau, key=key, base_cols=base_cols,
+                   cols=base_cols + v.columns, theta0=theta0, n_eff=_neff(state.fit, state.weights),
+                   n_sim=effective_n(state.sim), rss0=state.fit.rss_w,
+                   sse_tot0=float(np.sum(state.sim ** 2)))
+
+    def side_sse(self, side: str) -> float:
+        """One side's simulation-error SSE with the variant's coefficients at 0."""
+        st_ = self.state
+        e = side_error(st_.design, self.base_cols, self.theta0[: len(self.base_cols)], side, self.tau, self.key,
+                       horizon_s=st_.horizon_s, substeps=st_.substeps)
+        return float(np.sum(e ** 2))
+
+    def judge(self, coef: float, j: int, name: str, side: str, th_now: np.ndarray, fixed: dict[str, float],
+              sse_tot_now: float, sse_side_now: float) -> Judged:
+        """Column ``j`` (``name``, acting on ``side``) at ``coef``, the others as in ``th_now`` / ``fixed``."""
+        st_, v = self.state, self.v
+        th = th_now.copy()
+        th[len(self.base_cols) + j] = coef
+        e = side_error(st_.design, self.cols, th, side, self.tau, self.key, horizon_s=st_.horizon_s,
+                       substeps=st_.substeps)
+        sse = _sse(e)
+        fx_ = dict(fixed)
+        fx_[name] = coef
+        try:
+            f = st_.solve(fx.Variant(dict(v.hyper), v.columns, v.tau, v.tau_key, v.n_hyper, fixed=fx_))
+        except np.linalg.LinAlgError:
+            return False, -np.inf, sse
+        sse_all = sse_tot_now - sse_side_now + sse
+        if not (np.isfinite(sse_all) and sse_all > 0 and f.rss_w > 0):
+            return False, -np.inf, sse
+        ev = {"n_eff": self.n_eff, "explained_fraction": 1.0 - f.rss_w / self.rss0,
+              "sim_n_eff": self.n_sim, "sim_explained_fraction": 1.0 - sse_all / self.sse_tot0}
+        sc = float(np.log(self.rss0 / f.rss_w) + np.log(self.sse_tot0 / sse_all))
+        return bool((admissible(ev, self.s) or not self.admit) and sse < sse_side_now), sc, sse
+
+
+def _oe_key(tried: dict[float, Judged]) -> Callable[[float], tuple[bool, float]]:
+    """Order of levels by (admissible, joint score)."""
+    return lambda g: (tried[g][0], tried[g][1])
+
+
+def _oe_key_sim(tried: dict[float, Judged]) -> Callable[[float], tuple[bool, float]]:
+    """Order of levels by (admissible, lowest simulation error)."""
+    return lambda g: (tried[g][0], -tried[g][2])
+
+
+def _oe_bracket(judge: Callable[[float], Judged], levels: list[float]) -> dict[float, Judged]:
+    """Levels 0.5 and 1, then 2 or 0.25 in the better direction, then the geometric
+    midpoints either side of the best (:func:`oe_fit`); empty if neither 0.5 nor 1 is a level."""
+    tried = {g: judge(g) for g in (0.5, 1.0) if g in levels}
+    if not tried:
+        return tried
+    key_ = _oe_key(tried)
+    up = key_(1.0) > key_(0.5) if (1.0 in tried and 0.5 in tried) else 1.0 in tried
+    nxt = [g for g in levels if (g > 1.0 if up else g < 0.5)]
+    if nxt:
+        g2 = min(nxt) if up else max(nxt)
+        tried[g2] = judge(g2)
+    g_best = max(tried, key=key_)
+    for g in (g_best / np.sqrt(2.0), g_best * np.sqrt(2.0)):
+        if g not in tried:
+            tried[g] = judge(g)
+    return tried
+
+
+def _oe_bisect_to_admissible(judge: Callable[[float], Judged], tried: dict[float, Judged]) -> None:
+    """When the best-scoring level is not admissible, move towards it from the best
+    admissible one (or from an eighth of it) by ``OE_BISECT`` log-bisections, staying admissible."""
+    g_best = max(tried, key=_oe_key(tried))
+    g_top = max(tried, key=lambda g: tried[g][1])
+    if tried[g_top][0]:
+        return
+    lo = g_best if tried[g_best][0] else g_top / 8.0
+    hi = g_top
+    if lo == g_top / 8.0:
+        tried[lo] = judge(lo)
+    for _ in range(OE_BISECT):
+        mid = float(np.sqrt(lo * hi))
+        tried[mid] = judge(mid)
+        if tried[mid][0]:
+            lo = mid
+        else:
+            hi = mid
+
+
+def _oe_refine(judge: Callable[[float], Judged], tried: dict[float, Judged], refine: int, by_sim: bool) -> None:
+    """``refine`` halvings of the log step around the best level (2^(1/4), 2^(1/8), ...)."""
+    kf = (_oe_key_sim if by_sim else _oe_key)(tried)
+    g_best = max(tried, key=kf)
+    for r in range(refine):
+        step = 2.0 ** (0.5 ** (r + 2))
+        for g in (g_best / step, g_best * step):
+            if g not in tried:
+                tried[g] = judge(g)
+        g_best = max(tried, key=kf)
+
+
+def _oe_search_levels(judge: Callable[[float], Judged], levels: list[float], refine: int,
+                      by_sim: bool) -> dict[float, Judged]:
+    """Every level the search of :func:`oe_fit` judges, in the order judged: bracket, bisect
+    towards admissibility, refine."""
+    tried = _oe_bracket(judge, levels)
+    if tried:
+        _oe_bisect_to_admissible(judge, tried)
+        _oe_refine(judge, tried, refine, by_sim)
+    return tried
 
 
 def rank(state: State, lib: list[fx.Effect], s: Settings | None = None,
@@ -389,7 +462,7 @@ REFIT_LEVEL_STEPS = 3
 #: (:func:`band_sim_figures`): twice :data:`simerr.SUBSTEPS`.  At 4 sub-steps the Karnopp
 #: breakaway of the Stribeck hump is not converged: on csf17_50 closed loop s3 the plant's
 #: own friction law simulates to 3.36e-5 rad over the band against 3.45e-5 for a fit far
-#: from it; at 8 sub-steps to 1.83e-5 (docs/discrepancy.md, sessions 6 and 11).
+#: from it; at 8 sub-steps to 1.83e-5 (docs/discrepancy.md).
 FINE_SUBSTEPS = 8
 #: Window of the re-fit's simulations, s: short segments (as in multiple shooting).
 #: Through the Stribeck hump the replayed motor side is unstable (e-folding time about
@@ -614,7 +687,7 @@ class Result:
     def to_json(self) -> dict[str, Any]:
         # JSON has no inf/NaN: a figure that does not exist (a biased baseline's simulation
         # error) is null
-        return _jsonable({"baseline": self.baseline, "baseline_relative_error_pct": self.base_rel_pct, "iterations": self.iterations, "named_effects": self.named,
+        return json_ready({"baseline": self.baseline, "baseline_relative_error_pct": self.base_rel_pct, "iterations": self.iterations, "named_effects": self.named,
                 "final_model": self.final_model, "residual_unit": "N.m at the motor (N for a linear axis)",
                 "rms_history": self.rms_history, "sim_rms_history_rad": self.sim_rms_history,
                 "sim_signal": SIM_TEXT, "first_ranking": self.ranking_first,
@@ -709,6 +782,45 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
     """
     s = settings or Settings()
     lib = lib if lib is not None else fx.library()
+    sig, d, cols, zero_note = _prepare(sig, offset)
+    st_ = State.start(d, cols)
+    base_fit = st_.fit
+    baseline = base_fit.params()
+    # A missing effect can bias the baseline into a negative inertia or spring (held-out
+    # CSF-14-30 axis, closed loop, fc_neg = 0.5 fc_pos: the unmodelled direction offset
+    # drives J_m to -8e-8 kg.m^2; with the asymmetry's columns it is 1.7e-5, plant 1.5e-5).
+    # Such a model cannot be simulated, so the first effect is then ranked and named on the
+    # equation error alone, among the effects whose fit is a mechanical axis; only if none
+    # is significant is the log refused (check_physical).
+    biased = not is_physical(baseline)
+    base_rel = relative_error_pct(st_)
+    path = _name_effects(st_, lib, s)
+    white = ljung_box(next(iter(st_.fit.resid.values())))
+    floor, sim_floor, imgs_sim = _model_floors(st_, path)
+    for k, it in enumerate(path.iterations):
+        _gap_figures(st_, path, k, imgs_sim, floor)
+    notes = [zero_note] if zero_note else []
+    if biased:
+        notes.append(f"the baseline fit is not a mechanical axis ({', '.join(unphysical(baseline))}): it cannot be simulated, so "
+                     f"{path.iterations[0]['named_effect']} was named on the equation error alone (its simulation-error "
+                     "figures before are null)")
+    final = {"structure": sig.kind, "params": st_.fit.params(),
+             "relative_error_pct": relative_error_pct(st_),
+             "effects": {it["named_effect"]: it["params"] for it in path.iterations}}
+    return Result(baseline=baseline, iterations=path.iterations, named=[i["named_effect"] for i in path.iterations],
+                  final_model=final, rms_history=path.rms, state=st_, base_fit=base_fit, snapshots=path.snapshots,
+                  ranking_last=path.last_rank, whiteness=white, base_rel_pct=base_rel,
+                  ranking_first=path.first_rank or [], sim_rms_history=path.sim_rms, sims=path.sims, floor=floor,
+                  sim_floor=sim_floor, notes=notes)
+
+
+def _prepare(sig: Signals, offset: bool | None) -> tuple[Signals, bl.Design, list[bl.Column], str | None]:
+    """The regression design and baseline columns of a log, the encoders' zeros reconciled.
+
+    Refuses a log with fewer than 50 moving samples.  When the encoders' zeros differ
+    (:func:`encoder_zero_offset`) the twist offset is removed from the motor angle and
+    the design rebuilt; the note says so (None otherwise).
+    """
     d = bl.make_design(sig)
     if int(d.mask.sum()) < 50:
         from ..errors import UserError
@@ -726,138 +838,175 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
                      "no spring can (it would hold more torque than the motor ever applied); removed from the motor "
                      "angle before the fit")
     d._baseline_names = {c.name for c in cols}  # type: ignore[attr-defined]
-    st_ = State.start(d, cols)
-    base_fit = st_.fit
-    baseline = base_fit.params()
-    # A missing effect can bias the baseline into a negative inertia or spring (held-out
-    # CSF-14-30 axis, closed loop, fc_neg = 0.5 fc_pos: the unmodelled direction offset
-    # drives J_m to -8e-8 kg.m^2; with the asymmetry's columns it is 1.7e-5, plant 1.5e-5).
-    # Such a model cannot be simulated, so the first effect is then ranked and named on the
-    # equation error alone, among the effects whose fit is a mechanical axis; only if none
-    # is significant is the log refused (check_physical).
-    biased = not is_physical(baseline)
-    base_rel = relative_error_pct(st_)
-    iterations: list[dict[str, Any]] = []
-    snapshots = [base_fit]
-    rms_hist = [base_fit.rms]
-    sim_hist = [_rms(st_.sim)]
-    sims = [st_.sim]
-    last_rank: list[dict[str, Any]] = []
+    return sig, d, cols, zero_note
+
+
+#: Where a named effect acts: equation-error rows, simulation-error samples, its variant, speed bands.
+Region = tuple[np.ndarray, np.ndarray, fx.Variant, "dict[str, float] | None"]
+
+
+@dataclass
+class _Path:
+    """The models along the way: the baseline (index 0), then one per named effect."""
+
+    snapshots: list[bl.Fit]
+    rms: list[float]
+    sim_rms: list[float]
+    sims: list[np.ndarray]
+    iterations: list[dict[str, Any]] = field(default_factory=list)
+    regions: list[Region] = field(default_factory=list)
     first_rank: list[dict[str, Any]] | None = None
-    regions: list[tuple[np.ndarray, np.ndarray, fx.Variant, dict[str, float] | None]] = []
+    last_rank: list[dict[str, Any]] = field(default_factory=list)
+
+    @classmethod
+    def start(cls, st_: State) -> "_Path":
+        assert st_.fit is not None
+        return cls(snapshots=[st_.fit], rms=[st_.fit.rms], sim_rms=[_rms(st_.sim)], sims=[st_.sim])
+
+
+def _ranking_json(ranked: list[Candidate], s: Settings) -> list[dict[str, Any]]:
+    """The ranking as reported (effect, evidence, hyper-parameters, significant)."""
+    return [json_ready({"effect": c.effect.name, **c.evidence, "hyper": c.variant.hyper,
+                        "significant": significant(c, s)}) for c in ranked]
+
+
+def _name_effects(st_: State, lib: list[fx.Effect], s: Settings) -> _Path:
+    """Rank the library, name the best significant effect, add it; repeat until none is
+    significant, the residual is white or ``s.max_iter`` effects are named.
+
+    A model that is not a mechanical axis is ranked on the equation error alone; if then
+    no effect is significant the log is refused (:func:`check_physical`).
+    """
+    path = _Path.start(st_)
     for _ in range(s.max_iter):
         eq_only = not is_physical(st_.fit.params())
         ranked = rank(st_, lib, s, simulate=not eq_only)
-        last_rank = [_jsonable({"effect": c.effect.name, **c.evidence, "hyper": c.variant.hyper,
-                                "significant": significant(c, s)}) for c in ranked]
-        if first_rank is None:
-            first_rank = last_rank
+        path.last_rank = _ranking_json(ranked, s)
+        if path.first_rank is None:
+            path.first_rank = path.last_rank
         # the best-ranked candidate that passes the significance and size rules
         top = next((c for c in ranked if significant(c, s)), None)
         if top is None:
             if eq_only:
-                check_physical(st_.fit.params(), d, library_tried=True)
+                check_physical(st_.fit.params(), st_.design, library_tried=True)
             break
         runner = next((c for c in ranked if c is not top), None)
-        top = refit_named(st_, top, s)
-        rms_before = st_.fit.rms
-        rel_before = relative_error_pct(st_)
-        sim_before = _rms(st_.sim)
-        eq_before = _eq_rms(st_.fit, top.variant)
-        bands = top.effect.region_bands(st_.design, top.variant)
-        reg_eq = _eq_region_rows(st_.design, top.variant, bands)
-        reg_sim = region_mask(st_.design, bands)
-        loc_before = (_region_rms(st_.design, st_.fit, top.variant, reg_eq), _masked_rms(st_.sim, reg_sim))
-        regions.append((reg_eq, reg_sim, top.variant, bands))
-        st_.added.append((top.effect, top.variant))
-        st_.fit = st_.solve()
-        st_.sim = st_.simulate(st_.fit)
-        loc_after = (_region_rms(st_.design, st_.fit, top.variant, reg_eq), _masked_rms(st_.sim, reg_sim))
-        iterations.append({
-            "named_effect": top.effect.name,
-            "evidence": {**_jsonable(top.evidence), "runner_up": runner.effect.name if runner else None,
-                         "runner_up_delta_bic": runner.evidence["delta_bic"] if runner else None,
-                         "runner_up_total_delta_bic": _jsonable(runner.evidence.get("total_delta_bic")) if runner else None,
-                         "runner_up_score": _jsonable(runner.evidence.get("score")) if runner else None},
-            "rms_before": rms_before, "rms_after": st_.fit.rms, "signal": SIGNAL_TEXT,
-            "acting_equations": _acting(top.variant, st_.design),
-            "rms_acting_before": eq_before, "rms_acting_after": _eq_rms(st_.fit, top.variant),
-            "sim_rms_before_rad": sim_before, "sim_rms_after_rad": _rms(st_.sim),
-            # the same figures over the region where the effect acts (local_evidence)
-            "region": {"speed_bands": bands, "equation_share": float(reg_eq.mean()) if len(reg_eq) else 0.0,
-                       "simulation_share": float(reg_sim.mean()) if len(reg_sim) else 0.0},
-            "rms_region_before": loc_before[0], "rms_region_after": loc_after[0],
-            "sim_rms_region_before_rad": loc_before[1], "sim_rms_region_after_rad": loc_after[1],
-            "relative_error_pct_before": rel_before, "relative_error_pct_after": relative_error_pct(st_),
-            "params": _jsonable(top.effect.params(st_.fit, top.variant)),
-            "signature": top.effect.signature, "coordinate": top.effect.coordinate,
-        })
-        snapshots.append(st_.fit)
-        rms_hist.append(st_.fit.rms)
-        sim_hist.append(_rms(st_.sim))
-        sims.append(st_.sim)
+        it, region = _add_effect(st_, refit_named(st_, top, s), runner)
+        path.iterations.append(it)
+        path.regions.append(region)
+        path.snapshots.append(st_.fit)
+        path.rms.append(st_.fit.rms)
+        path.sim_rms.append(_rms(st_.sim))
+        path.sims.append(st_.sim)
         wm = ljung_box(next(iter(st_.fit.resid.values())))
         if wm["p_value"] > s.whiteness_p:
             break
-    white = ljung_box(next(iter(st_.fit.resid.values())))
-    # What no change of a model removes from its residuals (the sensor noise's image and,
-    # in the simulation error, the integration error) is a property of that model: an
-    # added effect can bring a noise source of its own (a rigid model's compliance column
-    # carries the load encoder's twice-differentiated noise). So every model along the
-    # way (baseline, then each added effect) gets its own floor, the before-figure of an
-    # iteration is judged against the model before it, the after-figure against the model after.
+    return path
+
+
+def _add_effect(st_: State, top: Candidate, runner: Candidate | None) -> tuple[dict[str, Any], Region]:
+    """Add the named effect to the model (re-fit, re-simulate); its iteration record (the
+    figures before and after, overall and where it acts) and its region."""
+    rms_before = st_.fit.rms
+    rel_before = relative_error_pct(st_)
+    sim_before = _rms(st_.sim)
+    eq_before = _eq_rms(st_.fit, top.variant)
+    bands = top.effect.region_bands(st_.design, top.variant)
+    reg_eq = _eq_region_rows(st_.design, top.variant, bands)
+    reg_sim = region_mask(st_.design, bands)
+    loc_before = (_region_rms(st_.design, st_.fit, top.variant, reg_eq), _masked_rms(st_.sim, reg_sim))
+    st_.added.append((top.effect, top.variant))
+    st_.fit = st_.solve()
+    st_.sim = st_.simulate(st_.fit)
+    loc_after = (_region_rms(st_.design, st_.fit, top.variant, reg_eq), _masked_rms(st_.sim, reg_sim))
+    it = {
+        "named_effect": top.effect.name,
+        "evidence": {**json_ready(top.evidence), "runner_up": runner.effect.name if runner else None,
+                     "runner_up_delta_bic": runner.evidence["delta_bic"] if runner else None,
+                     "runner_up_total_delta_bic": json_ready(runner.evidence.get("total_delta_bic")) if runner else None,
+                     "runner_up_score": json_ready(runner.evidence.get("score")) if runner else None},
+        "rms_before": rms_before, "rms_after": st_.fit.rms, "signal": SIGNAL_TEXT,
+        "acting_equations": _acting(top.variant, st_.design),
+        "rms_acting_before": eq_before, "rms_acting_after": _eq_rms(st_.fit, top.variant),
+        "sim_rms_before_rad": sim_before, "sim_rms_after_rad": _rms(st_.sim),
+        # the same figures over the region where the effect acts (local_evidence)
+        "region": {"speed_bands": bands, "equation_share": float(reg_eq.mean()) if len(reg_eq) else 0.0,
+                   "simulation_share": float(reg_sim.mean()) if len(reg_sim) else 0.0},
+        "rms_region_before": loc_before[0], "rms_region_after": loc_after[0],
+        "sim_rms_region_before_rad": loc_before[1], "sim_rms_region_after_rad": loc_after[1],
+        "relative_error_pct_before": rel_before, "relative_error_pct_after": relative_error_pct(st_),
+        "params": json_ready(top.effect.params(st_.fit, top.variant)),
+        "signature": top.effect.signature, "coordinate": top.effect.coordinate,
+    }
+    return it, (reg_eq, reg_sim, top.variant, bands)
+
+
+def _model_floors(st_: State, path: _Path) -> tuple[dict[str, float], dict[str, float],
+                                                    list[tuple[np.ndarray, np.ndarray]]]:
+    """The log's noise floors and every model's floor images.
+
+    What no change of a model removes from its residuals (the sensor noise's image and,
+    in the simulation error, the integration error) is a property of that model: an
+    added effect can bring a noise source of its own (a rigid model's compliance column
+    carries the load encoder's twice-differentiated noise). So every model along the
+    way (baseline, then each added effect) gets its own floor, the before-figure of an
+    iteration is judged against the model before it, the after-figure against the model after.
+
+    Returns
+    -------
+    floor, sim_floor, images
+        The equation error's floor per equation (N.m) and the simulation error's floor
+        (``noise``, ``integration``, ``total``, rad) of the baseline, or of the first model
+        that is a mechanical axis when the baseline is biased; per model, the equation
+        error's floor image and the simulation error's (noise and integration in quadrature).
+    """
     n_used = int(st_.design.mask.sum())
-    imgs = [model_floor_images(st_, f, st_.added[:k], sims[k]) for k, f in enumerate(snapshots)]
-    physical = [k for k, f in enumerate(snapshots) if is_physical(f.params())]
-    # the log's floors (Result.floor, sim_floor): the baseline's, or through the first
-    # model that is a mechanical axis when the baseline is biased
+    imgs = [model_floor_images(st_, f, st_.added[:k], path.sims[k]) for k, f in enumerate(path.snapshots)]
+    physical = [k for k, f in enumerate(path.snapshots) if is_physical(f.params())]
     k0 = physical[0] if physical else 0
     img_eq0, img_n0, img_i0 = imgs[k0]
     floor = {e: _rms(img_eq0[i * n_used:(i + 1) * n_used]) for i, e in enumerate(st_.design.equations)}
     sim_floor = {"noise": _rms(img_n0), "integration": _rms(img_i0), "total": _rms(np.sqrt(img_n0 ** 2 + img_i0 ** 2))}
     imgs_sim = [(e, np.sqrt(n ** 2 + i ** 2)) for e, n, i in imgs]
-    for k, (it, (reg_eq, reg_sim, v, bands)) in enumerate(zip(iterations, regions)):
-        acting = set(_acting(v, st_.design))
-        eqs = [e for e in it["acting_equations"] if e in floor] or list(floor)
-        for when, (img_eq, img_sim), rms_act, rms_eq, rms_sim in (
-                ("before", imgs_sim[k], it["rms_acting_before"], it["rms_region_before"], it["sim_rms_region_before_rad"]),
-                ("after", imgs_sim[k + 1], it["rms_acting_after"], it["rms_region_after"], it["sim_rms_region_after_rad"])):
-            per_eq = {e: _rms(img_eq[i * n_used:(i + 1) * n_used]) for i, e in enumerate(st_.design.equations)}
-            fl = float(np.sqrt(np.mean([per_eq[e] ** 2 for e in eqs])))
-            it[f"noise_floor_acting_{when}"] = fl
-            it[f"gap_acting_{when}"] = systematic_gap(rms_act, fl)
-            # the same over the region where the effect acts, both residuals (rms_gap)
-            img_act = np.concatenate([img_eq[i * n_used:(i + 1) * n_used]
-                                      for i, e in enumerate(st_.design.equations) if e in acting])
-            fl_eq, fl_sim = _masked_rms(img_act, reg_eq), _masked_rms(img_sim, reg_sim)
-            it[f"noise_floor_eq_region_{when}"] = fl_eq
-            it[f"noise_floor_sim_region_{when}_rad"] = fl_sim
-            it[f"gap_eq_{when}"] = systematic_gap(rms_eq, fl_eq)
-            it[f"gap_sim_{when}"] = systematic_gap(rms_sim, fl_sim)
-            it[f"sim_rms_gap_region_{when}_rad"] = rms_sim
-        it["sim_gap_horizon_s"] = simerr.HORIZON_S
-        if bands is not None:
-            # a banded effect's simulation-error gap: short windows in its band (band_sim_figures)
-            it["sim_gap_horizon_s"] = BAND_GAP_HORIZON_S
-            for when, j in (("before", k), ("after", k + 1)):
-                rms_b, fl_b = band_sim_figures(st_, snapshots[j], st_.added[:j], bands)
-                it[f"sim_rms_gap_region_{when}_rad"] = rms_b
-                it[f"noise_floor_sim_region_{when}_rad"] = fl_b
-                it[f"gap_sim_{when}"] = systematic_gap(rms_b, fl_b)
-        it["rms_gap"] = _jsonable(rms_gap(it))
-    notes = [zero_note] if zero_note else []
-    if biased:
-        notes.append(f"the baseline fit is not a mechanical axis ({', '.join(unphysical(baseline))}): it cannot be simulated, so "
-                     f"{iterations[0]['named_effect']} was named on the equation error alone (its simulation-error "
-                     "figures before are null)")
-    final = {"structure": sig.kind, "params": st_.fit.params(),
-             "relative_error_pct": relative_error_pct(st_),
-             "effects": {it["named_effect"]: it["params"] for it in iterations}}
-    return Result(baseline=baseline, iterations=iterations, named=[i["named_effect"] for i in iterations],
-                  final_model=final, rms_history=rms_hist, state=st_, base_fit=base_fit, snapshots=snapshots,
-                  ranking_last=last_rank, whiteness=white, base_rel_pct=base_rel,
-                  ranking_first=first_rank or [], sim_rms_history=sim_hist, sims=sims, floor=floor,
-                  sim_floor=sim_floor, notes=notes)
+    return floor, sim_floor, imgs_sim
+
+
+def _gap_figures(st_: State, path: _Path, k: int, imgs_sim: list[tuple[np.ndarray, np.ndarray]],
+                 floor: dict[str, float]) -> None:
+    """Iteration ``k``'s noise floors and systematic gaps before and after (overall, and
+    where the effect acts in both residuals; a banded effect's simulation gap on short
+    windows in its band, :func:`band_sim_figures`) and its :func:`rms_gap`, into its record."""
+    it = path.iterations[k]
+    reg_eq, reg_sim, v, bands = path.regions[k]
+    n_used = int(st_.design.mask.sum())
+    acting = set(_acting(v, st_.design))
+    eqs = [e for e in it["acting_equations"] if e in floor] or list(floor)
+    for when, (img_eq, img_sim), rms_act, rms_eq, rms_sim in (
+            ("before", imgs_sim[k], it["rms_acting_before"], it["rms_region_before"], it["sim_rms_region_before_rad"]),
+            ("after", imgs_sim[k + 1], it["rms_acting_after"], it["rms_region_after"], it["sim_rms_region_after_rad"])):
+        per_eq = {e: _rms(img_eq[i * n_used:(i + 1) * n_used]) for i, e in enumerate(st_.design.equations)}
+        fl = float(np.sqrt(np.mean([per_eq[e] ** 2 for e in eqs])))
+        it[f"noise_floor_acting_{when}"] = fl
+        it[f"gap_acting_{when}"] = systematic_gap(rms_act, fl)
+        # the same over the region where the effect acts, both residuals (rms_gap)
+        img_act = np.concatenate([img_eq[i * n_used:(i + 1) * n_used]
+                                  for i, e in enumerate(st_.design.equations) if e in acting])
+        fl_eq, fl_sim = _masked_rms(img_act, reg_eq), _masked_rms(img_sim, reg_sim)
+        it[f"noise_floor_eq_region_{when}"] = fl_eq
+        it[f"noise_floor_sim_region_{when}_rad"] = fl_sim
+        it[f"gap_eq_{when}"] = systematic_gap(rms_eq, fl_eq)
+        it[f"gap_sim_{when}"] = systematic_gap(rms_sim, fl_sim)
+        it[f"sim_rms_gap_region_{when}_rad"] = rms_sim
+    it["sim_gap_horizon_s"] = simerr.HORIZON_S
+    if bands is not None:
+        # a banded effect's simulation-error gap: short windows in its band (band_sim_figures)
+        it["sim_gap_horizon_s"] = BAND_GAP_HORIZON_S
+        for when, j in (("before", k), ("after", k + 1)):
+            rms_b, fl_b = band_sim_figures(st_, path.snapshots[j], st_.added[:j], bands)
+            it[f"sim_rms_gap_region_{when}_rad"] = rms_b
+            it[f"noise_floor_sim_region_{when}_rad"] = fl_b
+            it[f"gap_sim_{when}"] = systematic_gap(rms_b, fl_b)
+    it["rms_gap"] = json_ready(rms_gap(it))
 
 
 SIM_TEXT = ("simulation error: the model driven by the measured torque from the measured state over 50 ms "
@@ -882,7 +1031,7 @@ def _eq_region_rows(d: bl.Design, v: fx.Variant, bands: dict[str, float] | None)
     An effect with a speed band (Stribeck friction) is measured in its band
     (:func:`eq_region`), stops and reversals included: that is where it acts.  An effect
     that acts over the whole record is measured away from velocity reversals
-    (:func:`hdservo.discrepancy.baseline.away_from_reversals`): the static friction's
+    (:func:`hdservo.discrepancy.regression.away_from_reversals`): the static friction's
     stick transient there is outside the library and would be counted as a gap no such
     effect can close (all rows if none is away from a reversal)."""
     n = int(d.mask.sum())
@@ -994,8 +1143,8 @@ def integration_image(state: State, fit: bl.Fit, added: list[tuple[fx.Effect, fx
     (aligned with :func:`simulation_error`).
 
     The Euler/Karnopp integration at :data:`simerr.SUBSTEPS` sub-steps is not converged
-    (null logs: most of the baseline's simulation error is this error, docs/discrepancy.md
-    round 5); its error is estimated as the difference from an ``INTEGRATION_REF`` times
+    (null logs: most of the baseline's simulation error is this error, docs/discrepancy.md);
+    its error is estimated as the difference from an ``INTEGRATION_REF`` times
     finer integration of the model ``base + added`` with ``fit``'s coefficients (32
     sub-steps: within 5 % of 64 on the null logs).  Like the sensor noise it is not
     caused by the model mismatch and no effect removes it.  ``sim0``: the model's
@@ -1053,7 +1202,7 @@ def band_sim_figures(state: State, fit: bl.Fit, added: list[tuple[fx.Effect, fx.
     in the band, at stops and reversals: a few ms to a few tens of ms (csf17_50 closed
     loop s3: median 6 ms, upper quartile 31 ms).  A 50 ms window that starts there spends
     most of its length outside the band, where the simulated breakaway's timing (a
-    chaotic stick-slip, docs/discrepancy.md rounds 6-7) decides the error, not the
+    chaotic stick-slip, docs/discrepancy.md) decides the error, not the
     friction law.  So its gap is measured on windows of ``BAND_GAP_HORIZON_S`` starting in
     the band (:func:`region_mask`), integrated at :data:`FINE_SUBSTEPS`, against the floor
     of the same windows: the sensor noise's image (:func:`noise_images`) and the
@@ -1166,15 +1315,3 @@ def relative_error_pct(state: State) -> float:
     y = state.design.lhs(state.design.sig.tau if tau is None else tau, key)
     r = np.concatenate(list(state.fit.resid.values()))
     return float(100.0 * np.linalg.norm(r) / max(np.linalg.norm(y), 1e-300))
-
-
-def _jsonable(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {k: _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, (np.floating, np.integer)):
-        x = x.item()
-    if isinstance(x, float) and not np.isfinite(x):
-        return None
-    return x

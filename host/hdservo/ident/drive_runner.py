@@ -49,6 +49,7 @@ from ..errors import UserError
 from . import experiments as ex
 
 from ..fw_const import LOOP_HZ  # noqa: E402
+from ..phase import unwrap_turns  # noqa: E402
 from ..units import TURN  # noqa: E402
 
 DT = 1.0 / LOOP_HZ
@@ -194,17 +195,6 @@ class _Stream:
                     return False
                 self.cond.wait(min(left, 0.2))
         return True
-
-
-def unwrap_turns(words: np.ndarray) -> np.ndarray:
-    """Continuous angle (turns) from wrapped unsigned 2^-32-turn phases (first sample in [-0.5, 0.5))."""
-    w = np.asarray(words, dtype=np.int64)
-    if w.size == 0:
-        return np.zeros(0)
-    d = np.diff(w)
-    d = ((d + 2 ** 31) % 2 ** 32) - 2 ** 31
-    first = w[0] if w[0] < 2 ** 31 else w[0] - 2 ** 32
-    return (first + np.concatenate([[0], np.cumsum(d)])) / 2.0 ** 32
 
 
 def schroeder_multisine(t: np.ndarray, f0: float, f1: float, lines: int) -> np.ndarray:

@@ -20,7 +20,8 @@ density: the cell masses mu_ij >= 0 are found by NNLS so that
 ``E(a_i, b_j) = sum of mu over {b_j <= b < a <= a_i}``; positivity and
 monotonicity (E rises with alpha, falls with beta) follow.  Prediction uses
 the recursive memory (stack of alternating extrema, wiping-out) with the
-firmware's interpolation (bilinear; linear on diagonal cells).
+firmware's interpolation (bilinear; linear on diagonal cells), both from
+:mod:`hdservo.preisach`.
 """
 from __future__ import annotations
 
@@ -31,7 +32,9 @@ from typing import Any, Sequence
 import numpy as np
 from scipy.optimize import nnls
 
+from .. import preisach_table as pt
 from ..errors import UserError
+from ..preisach import PreisachModel, cell_sum_matrix, everett_at
 
 #: Twist LSB of the firmware output format: 2^-32 turn, rad.
 TWIST_LSB_RAD = 2.0 * math.pi / 2.0 ** 32
@@ -110,19 +113,6 @@ def maxwell_from_weights(k: np.ndarray, thresholds: np.ndarray, rel_tol: float =
 # ----------------------------------------------------------------- Preisach / Everett
 
 
-def _tri_cells(levels: int) -> tuple[np.ndarray, list[tuple[int, int]], list[tuple[int, int]]]:
-    """0/1 matrix mapping cell masses (ia > jb) to Everett grid values E(i, j), i > j."""
-    cells = [(ia, jb) for ia in range(1, levels) for jb in range(ia)]
-    pts = [(i, j) for i in range(1, levels) for j in range(i)]
-    A = np.zeros((len(pts), len(cells)))
-    ci = {c: n for n, c in enumerate(cells)}
-    for r, (i, j) in enumerate(pts):
-        for ia in range(j + 1, i + 1):
-            for jb in range(j, ia):
-                A[r, ci[(ia, jb)]] = 1.0
-    return A, cells, pts
-
-
 @dataclass
 class Everett:
     """Everett function on a uniform grid (input N.m, output rad).
@@ -152,52 +142,12 @@ class Everett:
 
     def __call__(self, a: float, b: float) -> float:
         """E(a, b) with the firmware interpolation (bilinear; linear on diagonal cells)."""
-        if a <= b:
-            return 0.0
-        L = self.levels
-        xa = min(max((a - self.u0_Nm) / self.step_Nm, 0.0), L - 1.0)
-        xb = min(max((b - self.u0_Nm) / self.step_Nm, 0.0), L - 1.0)
-        ia = min(int(xa), L - 2)
-        ib = min(int(xb), L - 2)
-        fa, fb = xa - ia, xb - ib
-        E = self.table
-        if ia < ib:
-            return 0.0
-        if ia == ib:
-            return float(E[ia + 1, ia] * (fa - fb)) if fa > fb else 0.0
-        return float((1 - fa) * (1 - fb) * E[ia, ib] + fa * (1 - fb) * E[ia + 1, ib]
-                     + (1 - fa) * fb * E[ia, ib + 1] + fa * fb * E[ia + 1, ib + 1])
+        return everett_at(self.table, self.u0_Nm, self.step_Nm, a, b)
 
     def simulate(self, u: Sequence[float]) -> np.ndarray:
         """Output (rad) for an input sequence (N.m), memory starting at negative saturation."""
-        lo, hi = self.u0_Nm, self.u_max_Nm
-        ytot = float(self.table[-1, 0])
-        mins = [(lo, -ytot)]
-        maxs = [(math.inf, ytot)]
-        up, prev, y = True, lo, -ytot
-        out = np.empty(len(u))
-        for k, x in enumerate(u):
-            x = min(max(float(x), lo), hi)
-            if x != prev:
-                d_up = x > prev
-                if d_up != up:
-                    (maxs if not d_up else mins).append((prev, y))
-                    up = d_up
-                if d_up:
-                    while x >= maxs[-1][0]:
-                        maxs.pop()
-                        mins.pop()
-                    m, ym = mins[-1]
-                    y = ym + 2.0 * self(x, m)
-                else:
-                    while len(mins) > 1 and x <= mins[-1][0]:
-                        mins.pop()
-                        maxs.pop()
-                    M, yM = maxs[-1]
-                    y = yM - 2.0 * self(M, x)
-                prev = x
-            out[k] = y
-        return out + self.offset_rad
+        model = PreisachModel(self, self.u_max_Nm, u_min=self.u0_Nm, y_sat=float(self.table[-1, 0]))
+        return model.run(u) + self.offset_rad
 
     def to_dict(self) -> dict[str, Any]:
         return {"levels": self.levels, "u0_Nm": self.u0_Nm, "step_Nm": self.step_Nm, "offset_rad": self.offset_rad,
@@ -281,7 +231,7 @@ def everett_from_forcs(T: np.ndarray, phi: np.ndarray, cmd: np.ndarray, levels: 
             srt = np.argsort(x)
             target[i, j] = float(np.interp(grid[i], x[srt], y[srt]))
             weight[i, j] = 1.0 if grid[i] <= al[ok].max() + 0.5 * step_Nm else 0.2
-    A, cells, pts = _tri_cells(levels)
+    A, cells, pts = cell_sum_matrix(levels)
     w = np.array([weight[i, j] for i, j in pts])
     b = np.array([target[i, j] for i, j in pts])
     mu, _ = nnls(A * w[:, None], b * w, maxiter=50 * A.shape[1])
@@ -306,13 +256,12 @@ def grid_for(torque_range_Nm: float, levels: int) -> tuple[float, float]:
     return -0.5 * (levels - 1) * step, step
 
 
-def quantise_table(ev: Everett, version: int = 1) -> Any:
+def quantise_table(ev: Everett, version: int = 1) -> pt.PreisachTable:
     """Firmware image (magic, CRC) of an Everett table via :mod:`hdservo.preisach_table`.
 
     Input Q15.16 N.m (lattice = grid, sub_bits 0, in_shift = log2(step/LSB)),
     output 2^-32 turn.
     """
-    from .. import preisach_table as pt
     shift = int(round(math.log2(ev.step_Nm / TORQUE_LSB_NM)))
     if not (0 <= shift <= pt.SHIFT_MAX) or abs(2.0 ** shift * TORQUE_LSB_NM - ev.step_Nm) > 1e-12:
         raise UserError(f"preisach: grid step {ev.step_Nm} N.m is not a power of two of the Q15.16 LSB")
@@ -321,7 +270,7 @@ def quantise_table(ev: Everett, version: int = 1) -> Any:
                                unit=pt.UNIT_TORQUE_TWIST, version=version)
 
 
-def dequantise_table(tab: Any, offset_rad: float = 0.0) -> Everett:
+def dequantise_table(tab: pt.PreisachTable, offset_rad: float = 0.0) -> Everett:
     """Back from the firmware image (for checking the quantised model)."""
     g = tab.grid().astype(float) * TWIST_LSB_RAD
     step = 2.0 ** (tab.in_shift + tab.sub_bits) * TORQUE_LSB_NM

@@ -23,10 +23,10 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 from pathlib import Path
 from typing import Any, Mapping
 
+from ..fileio import write_text_atomic
 from ..tomltext import basic_string
 
 
@@ -62,15 +62,7 @@ def format_toml(sections: Mapping[str, Mapping[str, Any]], header: str = "") -> 
 def write_toml(path: str | os.PathLike[str], sections: Mapping[str, Mapping[str, Any]], header: str = "") -> None:
     """Write atomically."""
     p = Path(path)
-    text = format_toml(sections, header)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", dir=str(p.parent or Path(".")))
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, p)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_text_atomic(p, format_toml(sections, header))
 
 
 def model_sections(results: Mapping[str, Any], ratio: float) -> dict[str, dict[str, Any]]:

@@ -1,42 +1,21 @@
 """Plots (PNG, units on every axis, residual panels) and the JSON report of an identification."""
 from __future__ import annotations
 
-import json
 import math
 import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..fileio import save_figure_atomic
+from ..plotting import pyplot
+
 ARCMIN = math.pi / 180 / 60
 
 
-def write_json(path: str | os.PathLike[str], obj: Any) -> None:
-    """Atomic JSON write (numpy scalars/arrays converted)."""
-    def conv(o: Any) -> Any:
-        if isinstance(o, np.ndarray):
-            return o.tolist()
-        if isinstance(o, (np.floating, np.integer)):
-            return o.item()
-        raise TypeError(type(o).__name__)
-    p = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", dir=str(p.parent or Path(".")))
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(obj, f, indent=2, default=conv)
-            f.write("\n")
-        os.replace(tmp, p)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def _fig(nrows: int = 2):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     fig, ax = plt.subplots(nrows, 1, figsize=(7, 2.6 * nrows + 0.6), squeeze=False,
                            gridspec_kw={"height_ratios": [2] + [1] * (nrows - 1)})
     return plt, fig, ax[:, 0]
@@ -44,14 +23,10 @@ def _fig(nrows: int = 2):
 
 def _save(plt: Any, fig: Any, path: Path) -> str:
     fig.tight_layout()
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=str(path.parent))
-    os.close(fd)
     try:
-        fig.savefig(tmp, dpi=110)
-        os.replace(tmp, path)
+        save_figure_atomic(fig, path, dpi=110)
     finally:
         plt.close(fig)
-        Path(tmp).unlink(missing_ok=True)
     return str(path)
 
 

@@ -1,4 +1,4 @@
-"""Closed-loop baseline figures (hdservo.baseline): figure arithmetic on known
+"""Closed-loop baseline figures (hdservo.closedloop_cases): figure arithmetic on known
 signals, the case definitions, and short closed-loop runs that show the figures
 respond to the plant effects they are meant to expose."""
 from __future__ import annotations
@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdservo import baseline as bl
+from hdservo import closedloop_cases as bl
 
 ALL_OFF = {e: False for e in ("cogging", "transmission_error", "hysteresis_maxwell", "hysteresis_preisach",
                               "friction_motor", "friction_load", "gravity", "base", "encoder_load",

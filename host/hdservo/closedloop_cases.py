@@ -1,4 +1,4 @@
-"""Closed-loop baseline figures in the simulator (standard cases, figures, plots).
+"""The standard closed-loop cases in the simulator: runs, figures and plots of any controller configuration.
 
 The standard cases are the closed-loop part of the "proof" that a compensator
 helps: every case runs the firmware application against the simulated axis
@@ -39,6 +39,8 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from . import filters, resources, sim
+from .fileio import json_ready, save_figure_atomic
+from .plotting import pyplot
 from .tomltext import basic_string
 
 #: arcsec per radian.
@@ -677,18 +679,8 @@ def run_cases(controller: Mapping[str, Any] | None = None, axis: str = "referenc
         runs.append(analyse(c, run_case(c, ctl, axis, seed, effects, params)))
     figs = collect(runs)
     figs["axis"] = axis
-    figs["controller"] = _jsonable(ctl)
+    figs["controller"] = json_ready(ctl)
     return figs, runs
-
-
-def _jsonable(x: Any) -> Any:
-    if isinstance(x, Mapping):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, (np.floating, np.integer)):
-        return x.item()
-    return x
 
 
 def improvement(baseline: Mapping[str, Any], other: Mapping[str, Any], speed: str = "0.01") -> dict[str, float]:
@@ -733,9 +725,7 @@ def plot_axis(name: str, runs: Sequence[CaseRun], outdir: str | os.PathLike[str]
     list of Path
         Files written.
     """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
@@ -768,7 +758,7 @@ def plot_axis(name: str, runs: Sequence[CaseRun], outdir: str | os.PathLike[str]
                 a.grid(True, alpha=0.3)
         fig.tight_layout()
         p = out / f"baseline_{name}_steps.png"
-        fig.savefig(p, dpi=110)
+        save_figure_atomic(fig, p, dpi=110)
         plt.close(fig)
         files.append(p)
 
@@ -788,7 +778,7 @@ def plot_axis(name: str, runs: Sequence[CaseRun], outdir: str | os.PathLike[str]
         axs[-1, 0].set_xlabel("time [s]")
         fig.tight_layout()
         p = out / f"baseline_{name}_tracking.png"
-        fig.savefig(p, dpi=110)
+        save_figure_atomic(fig, p, dpi=110)
         plt.close(fig)
         files.append(p)
 
@@ -812,7 +802,7 @@ def plot_axis(name: str, runs: Sequence[CaseRun], outdir: str | os.PathLike[str]
             a.grid(True, alpha=0.3)
         fig.tight_layout()
         p = out / f"baseline_{name}_reversal.png"
-        fig.savefig(p, dpi=110)
+        save_figure_atomic(fig, p, dpi=110)
         plt.close(fig)
         files.append(p)
 
@@ -839,7 +829,7 @@ def plot_axis(name: str, runs: Sequence[CaseRun], outdir: str | os.PathLike[str]
             a.grid(True, alpha=0.3)
         fig.tight_layout()
         p = out / f"baseline_{name}_ptp.png"
-        fig.savefig(p, dpi=110)
+        save_figure_atomic(fig, p, dpi=110)
         plt.close(fig)
         files.append(p)
     return files
