@@ -39,7 +39,7 @@ from hdservo.ident import friction as fr  # noqa: E402
 from hdservo.ident import frf as frfm  # noqa: E402
 from hdservo.ident import std_runner as sr  # noqa: E402
 from hdservo.ident import te as tem  # noqa: E402
-from hdservo.ident.report import write_json  # noqa: E402
+from hdservo.fileio import write_json_atomic as write_json  # noqa: E402
 
 #: tolerances of the hdservo-firmware path on the reference axis (tests/python/test_ident_drive.py)
 HDSERVO_TOL = {"fc_pos_Nm": 0.03, "fc_neg_Nm": 0.03, "fs_pos_Nm": 0.03, "fs_neg_Nm": 0.03,
