@@ -9,8 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdservo import REPO_ROOT, sim
+from hdservo import sim
 
+REPO_ROOT = Path(__file__).resolve().parents[2]
 SCEN = REPO_ROOT / "sim" / "scenarios" / "semi_closed.toml"
 ARCSEC = math.pi / 180 / 3600
 TARGETS_RAD = (0.0637, 0.1096, -0.1346)
