@@ -483,22 +483,10 @@ def preflight(choice: Any, node_id: int, command: str, needs: Optional[Sequence[
     UserError
         The drive does not answer.
     """
-    from .drive import Drive, DriveError
-    vd = None
-    drive = None
+    from .drive import DriveError
+    from .ident.drive_runner import chosen_drive
     try:
-        bus = choice.bus
-        if bus is None:
-            from .ident.drive_runner import VirtualDrive
-            vd = VirtualDrive(axis=choice.axis or "reference", rig=False, node_id=node_id, pacing="realtime",
-                              profile=choice.profile)
-            bus = {"interface": "socketcand", "channel": "can0", "host": "127.0.0.1", "port": vd.port}
-        drive = Drive.connect(node_id, **bus)
-        return check(drive, command, needs)
+        with chosen_drive(choice, node_id) as drive:
+            return check(drive, command, needs)
     except DriveError as e:
         raise UserError(f"drive: {e}") from None
-    finally:
-        if drive is not None:
-            drive.close()
-        if vd is not None:
-            vd.stop()

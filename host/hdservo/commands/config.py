@@ -188,10 +188,42 @@ def _pairs(pairs: list[str]) -> dict[str, int]:
     return raw
 
 
-def run(args: argparse.Namespace) -> int:
-    from ..drive import Drive, DriveError, choose_drive
+def _act(drive: Any, args: argparse.Namespace, pairs: dict[str, float],
+         progress: Callable[[str], None]) -> list[str]:
+    """Carry out the action on a started drive; the lines to print."""
     from ..driveconfig import read_nvm_wear, si_of
-    from ..ident.drive_runner import VirtualDrive
+    from ..params_gen import BY_NAME
+    lines: list[str] = []
+    if args.action == "dump":
+        lines.append(_dump(drive, args))
+    elif args.action == "restore":
+        lines.append(_restore(drive, args, progress))
+    elif args.action == "get":
+        for n in args.names:
+            p = BY_NAME[n]
+            lines.append(f"{n} = {si_of(p, int(drive.read(p.index, p.sub)))!r}  # {p.unit}")
+    elif args.action == "set":
+        lines.append(f"set {_write_verified(drive, pairs)} parameters, read back")
+        if args.save:
+            lines.append(_save(drive))
+    elif args.action == "save":
+        lines.append(_save(drive))
+    else:
+        st = drive.store_status()
+        lines.append(f"parameters: {st['params']}; Preisach table: {st['table']} "
+                     f"({'saved' if st['table_saved'] else 'in force but not saved'}); "
+                     f"CANopen settings: {st['objects']}")
+        refused = int(drive.read(0x5101, 6))
+        if refused:
+            lines.append(f"CANopen settings refused at boot by 0x{refused >> 8:04X}:{refused & 0xFF} "
+                         f"(the drive runs the defaults)")
+        lines.append(read_nvm_wear(drive).line())
+    return lines
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..drive import DriveError, choose_drive
+    from ..ident.drive_runner import chosen_drive
     from ..params_gen import BY_NAME
 
     def progress(msg: str) -> None:
@@ -205,52 +237,16 @@ def run(args: argparse.Namespace) -> int:
             raise UserError(f"not drive parameters: {', '.join(bad)} (docs/parameters.md)")
     pairs = _pairs(args.pairs) if args.action == "set" else {}
     target = choose_drive(args)
-    vd = None
-    drive = None
-    lines: list[str] = []
+    if target.bus is None:
+        target.announce("config")
     try:
-        bus = target.bus
-        if bus is None:
-            target.announce("config")
-            vd = VirtualDrive(axis=target.axis or "reference", rig=False, node_id=args.node_id, pacing="realtime",
-                              profile=target.profile)
-            bus = {"interface": "socketcand", "channel": "can0", "host": "127.0.0.1", "port": vd.port}
-        try:
-            drive = Drive.connect(args.node_id, **bus)
+        with chosen_drive(target, args.node_id) as drive:
             from ..drive_caps import check
             check(drive, "config")
             drive.start()
-            if args.action == "dump":
-                lines.append(_dump(drive, args))
-            elif args.action == "restore":
-                lines.append(_restore(drive, args, progress))
-            elif args.action == "get":
-                for n in args.names:
-                    p = BY_NAME[n]
-                    lines.append(f"{n} = {si_of(p, int(drive.read(p.index, p.sub)))!r}  # {p.unit}")
-            elif args.action == "set":
-                lines.append(f"set {_write_verified(drive, pairs)} parameters, read back")
-                if args.save:
-                    lines.append(_save(drive))
-            elif args.action == "save":
-                lines.append(_save(drive))
-            else:
-                st = drive.store_status()
-                lines.append(f"parameters: {st['params']}; Preisach table: {st['table']} "
-                             f"({'saved' if st['table_saved'] else 'in force but not saved'}); "
-                             f"CANopen settings: {st['objects']}")
-                refused = int(drive.read(0x5101, 6))
-                if refused:
-                    lines.append(f"CANopen settings refused at boot by 0x{refused >> 8:04X}:{refused & 0xFF} "
-                                 f"(the drive runs the defaults)")
-                lines.append(read_nvm_wear(drive).line())
-        except DriveError as e:
-            raise UserError(f"drive: {e}") from None
-    finally:
-        if drive is not None:
-            drive.close()
-        if vd is not None:
-            vd.stop()
+            lines = _act(drive, args, pairs, progress)
+    except DriveError as e:
+        raise UserError(f"drive: {e}") from None
     for line in lines:
         if line:
             print(line)

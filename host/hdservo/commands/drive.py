@@ -36,9 +36,9 @@ def run(args: argparse.Namespace) -> int:
     """Probe the drive and print (and optionally write) its capabilities."""
     import canopen
 
-    from ..drive import Drive, DriveError, choose_drive
+    from ..drive import DriveError, choose_drive
     from ..drive_caps import probe
-    from ..ident.drive_runner import VirtualDrive
+    from ..ident.drive_runner import chosen_drive
 
     if args.json is not None and not args.json.parent.exists():
         raise UserError(f"--json {args.json}: directory {args.json.parent} does not exist")
@@ -50,25 +50,13 @@ def run(args: argparse.Namespace) -> int:
         except Exception as e:          # noqa: BLE001 - any parse failure of a user file is one line
             raise UserError(f"--eds {args.eds}: not a readable EDS ({type(e).__name__}: {str(e)[:100]})") from None
     target = choose_drive(args)
-    vd = None
-    drive = None
+    if target.bus is None:
+        target.announce("drive")
     try:
-        bus = target.bus
-        if bus is None:
-            target.announce("drive")
-            vd = VirtualDrive(axis=target.axis or "reference", rig=False, node_id=args.node_id, pacing="realtime",
-                              profile=target.profile)
-            bus = {"interface": "socketcand", "channel": "can0", "host": "127.0.0.1", "port": vd.port}
-        try:
-            drive = Drive.connect(args.node_id, **bus)
+        with chosen_drive(target, args.node_id) as drive:
             caps = probe(drive.node.sdo, eds=args.eds)
-        except (DriveError, canopen.SdoCommunicationError) as e:
-            raise UserError(f"drive: {e}") from None
-    finally:
-        if drive is not None:
-            drive.close()
-        if vd is not None:
-            vd.stop()
+    except (DriveError, canopen.SdoCommunicationError) as e:
+        raise UserError(f"drive: {e}") from None
     if caps.device_type is None:
         raise UserError(f"node {args.node_id}: no device type 0x1000: not a CANopen device")
     if args.json is not None:

@@ -33,6 +33,7 @@ load.  On a real drive (free-running) it waits for the streamed loop tick.
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import struct
@@ -41,7 +42,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping, Optional, Sequence
+from typing import Any, Callable, Iterator, Mapping, Optional, Sequence
 
 import numpy as np
 
@@ -132,6 +133,36 @@ class VirtualDrive:
             self._tmp.cleanup()
             self._tmp = None
         return out
+
+
+@contextlib.contextmanager
+def chosen_drive(choice: Any, node_id: int) -> Iterator[Any]:
+    """The drive a :class:`hdservo.drive.DriveChoice` names, connected; closed afterwards.
+
+    Without a bus in the choice a simulated drive of its axis and profile is started
+    (realtime pacing, no test rig) and stopped again, whatever happens inside.
+
+    Raises
+    ------
+    hdservo.drive.DriveError
+        The drive does not answer.
+    """
+    from ..drive import Drive
+    vd = None
+    drive = None
+    try:
+        bus = choice.bus
+        if bus is None:
+            vd = VirtualDrive(axis=choice.axis or "reference", rig=False, node_id=node_id, pacing="realtime",
+                              profile=choice.profile)
+            bus = {"interface": "socketcand", "channel": "can0", "host": "127.0.0.1", "port": vd.port}
+        drive = Drive.connect(node_id, **bus)
+        yield drive
+    finally:
+        if drive is not None:
+            drive.close()
+        if vd is not None:
+            vd.stop()
 
 
 # ----------------------------------------------------------------- stream collector
