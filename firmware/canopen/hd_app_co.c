@@ -394,12 +394,12 @@ static uint32_t excitation_control(hd_app_co_t *ac, int64_t v)
 {
     const hd_co_od_data_t *od = &ac->co->od;
     if (v == 0) {
-        if (ac->app->mode == HD_MODE_EXCITATION && ac->co->p402.state == HD_CO402_OP_ENABLED) {
+        if (ac->app->mode == HD_MODE_EXCITATION && hd_co402_state(&ac->p402) == HD_CO402_OP_ENABLED) {
             return a_enable(ac, ac->mode, true) == 0u ? 0u : HD_CO_AB_STATE;
         }
         return 0u;
     }
-    if (ac->co->p402.state != HD_CO402_OP_ENABLED || ac->mode == HD_APP_CO_MODE_QSTOP ||
+    if (hd_co402_state(&ac->p402) != HD_CO402_OP_ENABLED || ac->mode == HD_APP_CO_MODE_QSTOP ||
         ac->app->fault != HD_FAULT_NONE || ac->app->mode == HD_MODE_OFF) {
         return HD_CO_AB_STATE;
     }
@@ -831,6 +831,7 @@ void hd_app_co_init(hd_app_co_t *ac, hd_co_t *co, hd_app_t *app, uint8_t node_id
     ifc.can_status = a_can_status;
     ifc.can_recover = a_can_recover;
     ifc.object_filter = (port->object_filter != NULL) ? a_object_filter : NULL;
+    hd_co402_use(&ac->p402, &ifc);
     hd_co_init(co, node_id, &ifc);
     /* the saved communication and CiA 402 settings (0x1010), over the defaults */
     {

@@ -65,6 +65,7 @@
 #include "hal.h"
 #include "hd_app.h"
 #include "hd_co.h"
+#include "hd_co_402.h"
 #include "hd_rec_store.h"
 
 #define HD_APP_CO_DOM_CAPTURE   0u
@@ -126,6 +127,7 @@ typedef struct {
 
 typedef struct {
     hd_co_t *co;
+    hd_co402_t p402;               /* the CiA 402 profile on top of co (hd_co402_use) */
     hd_app_t *app;
     hd_app_co_port_t port;
     int8_t   mode;                 /* 402 mode the app was enabled in (HD_APP_CO_MODE_QSTOP: quick stop) */

@@ -1,8 +1,20 @@
 /*
- * hd_co.h - the drive's CANopen device: CiA 301 (NMT slave, heartbeat
+ * hd_co.h - the drive's CANopen device, CiA 301: NMT slave, heartbeat
  * producer/consumer, SDO server with expedited / segmented / block transfer,
- * EMCY, SYNC, TPDO/RPDO with configurable mapping, identity, store/restore)
- * and the CiA 402 drive profile (hd_co_402.c).
+ * EMCY, SYNC, TPDO/RPDO with configurable mapping, identity, store/restore.
+ * A device profile plugs in on top through hd_co_profile_if_t; the drive's is
+ * CiA 402 (hd_co_402.h).
+ *
+ * One service per file (docs/firmware.md, "The CANopen device"):
+ *   hd_co.c          entry points: init, frame dispatch, the tick's order, frames out
+ *   hd_co_od_access.c object dictionary access: lookup, read, write, object rules, defaults
+ *   hd_co_cobid.c    COB-ID rules (SYNC, EMCY, PDO)
+ *   hd_co_sdo.c      SDO server (expedited, segmented, block; CRC-16)
+ *   hd_co_pdo.c      PDO mapping checks, TPDO/RPDO runtime, SYNC consumer
+ *   hd_co_emcy.c     EMCY producer, error register, 0x1003 history
+ *   hd_co_errors.c   communication errors: CAN controller state, bus-off, 0x1029
+ *   hd_co_nmt.c      NMT slave, boot-up, heartbeat producer and consumer
+ *   hd_co_store.c    stored objects (0x1010 image, NMT resets return to it)
  *
  * One device = one hd_co_t (no globals, no malloc).  The object dictionary
  * is the generated const table hd_co_od[] (hd_co_od.h); its data lives in
@@ -85,29 +97,13 @@
 #define HD_CO_EMCY_COMM         0x8100u  /* communication, generic: an NMT command ended the
                                           * master's connection with the power stage on */
 
-/* ---- CiA 402 ------------------------------------------------------------ */
-#define HD_CO402_NOT_READY      0u
-#define HD_CO402_SO_DISABLED    1u
-#define HD_CO402_READY          2u
-#define HD_CO402_SWITCHED_ON    3u
-#define HD_CO402_OP_ENABLED     4u
-#define HD_CO402_QUICK_STOP     5u
-#define HD_CO402_FAULT_REACTION 6u
-#define HD_CO402_FAULT          7u
-
-#define HD_CO402_MODE_NONE  0
-#define HD_CO402_MODE_PP    1
-#define HD_CO402_MODE_CSP   8
-#define HD_CO402_MODE_CSV   9
-#define HD_CO402_MODE_CST   10
-#define HD_CO402_MODE_STAB  (-1)   /* manufacturer-specific: inertial stabilisation (app mode STAB) */
-
-/** Setpoints handed to the app every period in OPERATION ENABLED / QUICK STOP. */
 /** Words of the stored-object image at most (hd_co_store_*, below). */
 #define HD_CO_STORE_MAX 192u
 
+/** Setpoints a profile hands to the app every period (CiA 402: in OPERATION ENABLED /
+ *  QUICK STOP). */
 typedef struct {
-    int8_t   mode;            /* HD_CO402_MODE_* */
+    int8_t   mode;            /* HD_CO402_MODE_* (hd_co_402.h) */
     uint8_t  quick_stop;      /* 1: decelerate to standstill with quick_stop_decel */
     uint8_t  pp_new;          /* PP: a new set-point was latched this period */
     uint8_t  halt;            /* controlword bit 8 */
@@ -142,6 +138,35 @@ typedef struct {
                                * other modes 1): bit 10 also needs the 0x6067/0x6068 window */
     uint8_t  internal_limit;
 } hd_co_actual_t;
+
+typedef struct hd_co_s hd_co_t;
+
+/*
+ * A device profile on top of the 301 services (CiA 402: hd_co_402.h).  The services call
+ * it at these points only; it reaches the device through the public functions of this
+ * header and the device's object data (co->od), never through the services' internals.
+ * Every member is required; ctx is hd_co_app_if_t.profile_ctx.
+ */
+typedef struct {
+    /* the profile's state from the start (hd_co_init, after the defaults, before the boot-up) */
+    void     (*init)(void *ctx, hd_co_t *co);
+    /* the profile's rules for a value about to be written to index:sub: 0 or an abort code */
+    uint32_t (*check_write)(void *ctx, const hd_co_t *co, uint16_t index, uint8_t sub, int64_t v);
+    /* index:sub was written (SDO, RPDO, local write) */
+    void     (*after_write)(void *ctx, hd_co_t *co, uint16_t index, uint8_t sub);
+    /* one control period (hd_co_tick, after the SDO server, before the TPDOs) */
+    void     (*tick)(void *ctx, hd_co_t *co);
+    /* a communication error (host heartbeat lost, bus-off): the profile's reaction */
+    void     (*comm_error)(void *ctx, hd_co_t *co, uint16_t emcy_code);
+    /* an NMT command ends the master's connection (stop, pre-operational from OPERATIONAL,
+     * either reset): the profile's reaction; true when it is a fault whose EMCY the NMT
+     * service sends after the transition */
+    bool     (*nmt_leave)(void *ctx, hd_co_t *co);
+    /* NMT reset node: the application restarts */
+    void     (*restart)(void *ctx, hd_co_t *co);
+    /* a profile fault is active (the communication error bit stays set while it is) */
+    bool     (*faulted)(void *ctx, const hd_co_t *co);
+} hd_co_profile_if_t;
 
 typedef struct {
     void *ctx;
@@ -186,6 +211,9 @@ typedef struct {
      * code (the object is absent for the master: 0x06020000, a mapping 0x06040041).
      * NULL = every object of the table.  Local accesses (hd_co_get/set_i64) are not asked. */
     uint32_t (*object_filter)(void *ctx, uint16_t index, uint8_t sub);
+    /* optional: the device profile on top (CiA 402: hd_co402_use); NULL = CiA 301 only */
+    const hd_co_profile_if_t *profile;
+    void *profile_ctx;
 } hd_co_app_if_t;
 
 typedef struct {
@@ -228,33 +256,12 @@ typedef struct {
 } hd_co_sdo_t;
 
 typedef struct {
-    uint8_t  state;          /* HD_CO402_* */
-    uint8_t  mode_active;    /* 0x6061 (int8 stored unsigned) */
-    uint8_t  comm_fault;     /* latched stack-side fault */
-    uint8_t  fault_pending_reset;
-    uint16_t cw_prev;        /* last controlword written (edges of bits 4 and 7) */
-    uint8_t  sp_pending;     /* a new-set-point edge written in OPERATION ENABLED, not yet handed
-                              * to the app (latched at the write: several controlword writes
-                              * can arrive within one control period) */
-    uint16_t fault_code;     /* EMCY code of the active fault */
-    uint32_t standstill_ticks;
-    /* windows of 0x6065/0x6066 and 0x6067/0x6068: since when (hd_co_t.now_us) the
-     * following error has been outside / inside, 0 = not */
-    uint64_t fe_out_since_us;
-    uint64_t win_in_since_us;
-    uint8_t  fe_out;            /* the error is outside 0x6065 (since fe_out_since_us) */
-    uint8_t  win_in;            /* the error is inside 0x6067 at rest (since win_in_since_us) */
-    uint8_t  following_error;   /* statusword bit 13 (PP, CSP) */
-    uint8_t  target_reached;    /* statusword bit 10 */
-} hd_co402_t;
-
-typedef struct {
     uint32_t rx_frames, rx_ignored, tx_frames, tx_dropped;
     uint32_t sdo_aborts_sent, emcy_sent, pdo_len_errors;
     uint32_t can_passive, can_bus_off, can_recovered;   /* controller state changes seen */
 } hd_co_stats_t;
 
-typedef struct {
+struct hd_co_s {
     const hd_co_entry_t *table;
     uint32_t count;
     hd_co_od_data_t od;
@@ -278,8 +285,7 @@ typedef struct {
     hd_co_sdo_t sdo;
     hd_co_pdo_rt_t tpdo[HD_CO_N_PDO];
     hd_co_pdo_rt_t rpdo[HD_CO_N_PDO];
-    hd_co402_t p402;
-    hd_co_actual_t act;
+    hd_co_actual_t act;       /* the app's actual values (a profile fills them every tick) */
     hd_co_stats_t stats;
     /* the stored objects' saved image (hd_co_store_*, HD_CO_STORE_MAX words): NMT
      * resets go back to it */
@@ -289,7 +295,7 @@ typedef struct {
     uint16_t store_refused_index;
     uint8_t  store_refused_sub;
     uint32_t store_refused_abort;
-} hd_co_t;
+};
 
 /*
  * Stored objects: every VAR entry flagged HD_CO_F_STORE (communication and CiA 402
@@ -367,20 +373,5 @@ uint32_t hd_co_set_i64(hd_co_t *co, uint16_t index, uint8_t sub, int64_t v);
 
 /** CRC-16/XMODEM (SDO block transfer): poly 0x1021, init as given (0). */
 uint16_t hd_co_crc16(uint16_t crc, const uint8_t *p, uint32_t len);
-
-/* CiA 402 (hd_co_402.c), called by hd_co.c. */
-void hd_co402_init(hd_co_t *co);
-void hd_co402_controlword(hd_co_t *co);
-void hd_co402_tick(hd_co_t *co);
-void hd_co402_comm_fault(hd_co_t *co, uint16_t emcy_code);
-/** CiA 402 0x6007 reaction to a communication error (heartbeat lost, bus-off) or to an NMT
- *  command that ends the master's connection with the power stage on (hd_co.c nmt_process). */
-void hd_co402_abort_connection(hd_co_t *co, uint16_t emcy_code);
-/** The power stage is on (OPERATION ENABLED, QUICK STOP ACTIVE, FAULT REACTION ACTIVE). */
-bool hd_co402_powered(const hd_co_t *co);
-/** NMT reset node (the application restarts): the power stage off now, the state machine
- *  from NOT READY TO SWITCH ON; a fault the stack latched (0x6007 = 1) stays latched. */
-void hd_co402_restart(hd_co_t *co);
-uint32_t hd_co402_check_mode(int64_t mode);
 
 #endif /* HD_CO_H */

@@ -1,5 +1,5 @@
 /*
- * hd_co_402.c - CiA 402 drive profile on top of hd_co.c.
+ * hd_co_402.c - CiA 402 drive profile on top of the CiA 301 services (hd_co.h).
  *
  * State machine (controlword 0x6040 -> statusword 0x6041):
  *   NOT READY -> SWITCH ON DISABLED (automatic at init)
@@ -22,9 +22,14 @@
  *
  * Units: position 2^-24 turn at the output (i32), velocity 2^-32 turn/s,
  * torque 1/1000 of 0x6076 (mN.m, output side).
+ *
+ * The layer sits on top of the CiA 301 services: they call it only through the
+ * hd_co_profile_if_t hooks at the end of this file, and it uses only hd_co.h (the
+ * device's object data co->od, the app callbacks, hd_co_emcy / hd_co_emcy_clear).  Its
+ * state is a hd_co402_t of the caller's (hd_co402_use).
  */
 #include "hd_co_util.h"
-#include "hd_co.h"
+#include "hd_co_402.h"
 #include "hd_fixed.h"
 
 #define CW_SO      0x0001u
@@ -48,7 +53,7 @@
 #define SW_OMS1    0x1000u
 #define SW_OMS2    0x2000u
 
-uint32_t hd_co402_check_mode(int64_t mode)
+static uint32_t check_mode(int64_t mode)
 {
     switch (mode) {
     case HD_CO402_MODE_NONE:
@@ -80,9 +85,8 @@ static void power_off(hd_co_t *co)
     }
 }
 
-static void enter(hd_co_t *co, uint8_t st)
+static void enter(hd_co402_t *p, hd_co_t *co, uint8_t st)
 {
-    hd_co402_t *p = &co->p402;
     uint8_t old = p->state;
     bool was_on = old == HD_CO402_OP_ENABLED || old == HD_CO402_QUICK_STOP;
     bool on = st == HD_CO402_OP_ENABLED || st == HD_CO402_QUICK_STOP;
@@ -99,29 +103,27 @@ static void enter(hd_co_t *co, uint8_t st)
     p->standstill_ticks = 0u;
 }
 
-static void fault(hd_co_t *co, uint16_t code)
+static void fault(hd_co402_t *p, hd_co_t *co, uint16_t code)
 {
-    hd_co402_t *p = &co->p402;
     if (p->state == HD_CO402_FAULT || p->state == HD_CO402_FAULT_REACTION) {
         return;
     }
     p->fault_code = code;
     co->od.error_code = code;
-    enter(co, HD_CO402_FAULT_REACTION);
+    enter(p, co, HD_CO402_FAULT_REACTION);
 }
 
-void hd_co402_comm_fault(hd_co_t *co, uint16_t emcy_code)
+static void comm_fault(hd_co402_t *p, hd_co_t *co, uint16_t emcy_code)
 {
-    co->p402.comm_fault = 1u;
-    fault(co, emcy_code);
+    p->comm_fault = 1u;
+    fault(p, co, emcy_code);
 }
 
-void hd_co402_abort_connection(hd_co_t *co, uint16_t emcy_code)
+static void abort_connection(hd_co402_t *p, hd_co_t *co, uint16_t emcy_code)
 {
-    hd_co402_t *p = &co->p402;
     switch (co->od.abort_connection_option_code) {
     case 1:                                   /* fault signal: fault reaction, app fault COMM */
-        hd_co402_comm_fault(co, emcy_code);
+        comm_fault(p, co, emcy_code);
         if (co->app.drive_comm_fault != NULL) {
             co->app.drive_comm_fault(co->app.ctx, emcy_code);
         }
@@ -129,14 +131,14 @@ void hd_co402_abort_connection(hd_co_t *co, uint16_t emcy_code)
     case 2:                                   /* disable voltage command */
         if (p->state == HD_CO402_READY || p->state == HD_CO402_SWITCHED_ON ||
             p->state == HD_CO402_OP_ENABLED || p->state == HD_CO402_QUICK_STOP) {
-            enter(co, HD_CO402_SO_DISABLED);
+            enter(p, co, HD_CO402_SO_DISABLED);
         }
         break;
     case 3:                                   /* quick stop command */
         if (p->state == HD_CO402_OP_ENABLED) {
-            enter(co, co->od.quick_stop_option_code == 0 ? HD_CO402_SO_DISABLED : HD_CO402_QUICK_STOP);
+            enter(p, co, co->od.quick_stop_option_code == 0 ? HD_CO402_SO_DISABLED : HD_CO402_QUICK_STOP);
         } else if (p->state == HD_CO402_READY || p->state == HD_CO402_SWITCHED_ON) {
-            enter(co, HD_CO402_SO_DISABLED);
+            enter(p, co, HD_CO402_SO_DISABLED);
         } else {
             /* already stopping, disabled or in fault */
         }
@@ -146,38 +148,22 @@ void hd_co402_abort_connection(hd_co_t *co, uint16_t emcy_code)
     }
 }
 
-bool hd_co402_powered(const hd_co_t *co)
+static bool powered(const hd_co402_t *p)
 {
-    const uint8_t st = co->p402.state;
+    const uint8_t st = p->state;
     return st == HD_CO402_OP_ENABLED || st == HD_CO402_QUICK_STOP || st == HD_CO402_FAULT_REACTION;
 }
 
-void hd_co402_restart(hd_co_t *co)
+static void init(hd_co402_t *p, hd_co_t *co)
 {
-    /* the fault latched by 0x6007 = 1 (or a lost heartbeat) is the host's to reset: a
-     * restart of the application does not clear it */
-    const bool latched = co->p402.comm_fault != 0u;
-    const uint16_t code = co->p402.fault_code;
-    if (hd_co402_powered(co)) {
-        power_off(co);                      /* no quick stop ramp survives a restart */
-    }
-    hd_co402_init(co);
-    if (latched) {
-        hd_co402_comm_fault(co, code);
-    }
-}
-
-void hd_co402_init(hd_co_t *co)
-{
-    hd_co_fill(&co->p402, 0u, sizeof co->p402);
-    co->p402.state = HD_CO402_NOT_READY;
+    hd_co_fill(p, 0u, sizeof *p);
+    p->state = HD_CO402_NOT_READY;
     co->od.modes_of_operation_display = HD_CO402_MODE_NONE;
     co->od.statusword = 0u;
 }
 
-void hd_co402_controlword(hd_co_t *co)
+static void controlword(hd_co402_t *p, hd_co_t *co)
 {
-    hd_co402_t *p = &co->p402;
     uint16_t cw = co->od.controlword;
     bool fr_edge = (cw & CW_FR) != 0u && (p->cw_prev & CW_FR) == 0u;
     bool sp_edge = (cw & CW_NEW_SP) != 0u && (p->cw_prev & CW_NEW_SP) == 0u;
@@ -200,46 +186,46 @@ void hd_co402_controlword(hd_co_t *co)
         break;
     case HD_CO402_SO_DISABLED:
         if (shutdown) {
-            enter(co, HD_CO402_READY);
+            enter(p, co, HD_CO402_READY);
         }
         break;
     case HD_CO402_READY:
         if (disable_voltage || quick_stop) {
-            enter(co, HD_CO402_SO_DISABLED);
+            enter(p, co, HD_CO402_SO_DISABLED);
         } else if (switch_on) {
-            enter(co, HD_CO402_SWITCHED_ON);
+            enter(p, co, HD_CO402_SWITCHED_ON);
         } else if (enable_op) {
-            enter(co, HD_CO402_SWITCHED_ON);
-            enter(co, HD_CO402_OP_ENABLED);
+            enter(p, co, HD_CO402_SWITCHED_ON);
+            enter(p, co, HD_CO402_OP_ENABLED);
         }
         break;
     case HD_CO402_SWITCHED_ON:
         if (disable_voltage || quick_stop) {
-            enter(co, HD_CO402_SO_DISABLED);
+            enter(p, co, HD_CO402_SO_DISABLED);
         } else if (shutdown) {
-            enter(co, HD_CO402_READY);
+            enter(p, co, HD_CO402_READY);
         } else if (enable_op) {
-            enter(co, HD_CO402_OP_ENABLED);
+            enter(p, co, HD_CO402_OP_ENABLED);
         }
         break;
     case HD_CO402_OP_ENABLED:
         if (disable_voltage) {
-            enter(co, HD_CO402_SO_DISABLED);
+            enter(p, co, HD_CO402_SO_DISABLED);
         } else if (quick_stop) {
             if (co->od.quick_stop_option_code == 0) {
-                enter(co, HD_CO402_SO_DISABLED);
+                enter(p, co, HD_CO402_SO_DISABLED);
             } else {
-                enter(co, HD_CO402_QUICK_STOP);
+                enter(p, co, HD_CO402_QUICK_STOP);
             }
         } else if (shutdown) {
-            enter(co, HD_CO402_READY);
+            enter(p, co, HD_CO402_READY);
         } else if (switch_on) {
-            enter(co, HD_CO402_SWITCHED_ON);
+            enter(p, co, HD_CO402_SWITCHED_ON);
         }
         break;
     case HD_CO402_QUICK_STOP:
         if (disable_voltage) {
-            enter(co, HD_CO402_SO_DISABLED);
+            enter(p, co, HD_CO402_SO_DISABLED);
         }
         break;
     default:
@@ -297,9 +283,8 @@ static bool held(const hd_co_t *co, bool cond, uint8_t *on, uint64_t *since_us, 
  * once the error has been above the window for the time-out, in OPERATION ENABLED.
  * Target reached (0x6067 window, 0x6068 time): bit 10 once the generator is at rest
  * and the error has stayed within the window for the time. */
-static void windows(hd_co_t *co)
+static void windows(hd_co402_t *p, hd_co_t *co)
 {
-    hd_co402_t *p = &co->p402;
     const uint32_t e = fe_abs(co);
     const bool fe_on = co->od.following_error_window != 0xFFFFFFFFu && p->state == HD_CO402_OP_ENABLED &&
                        e > co->od.following_error_window;
@@ -308,9 +293,8 @@ static void windows(hd_co_t *co)
                              &p->win_in_since_us, co->od.position_window_time) ? 1u : 0u;
 }
 
-static uint16_t statusword(const hd_co_t *co)
+static uint16_t statusword(const hd_co402_t *p, const hd_co_t *co)
 {
-    const hd_co402_t *p = &co->p402;
     uint16_t sw;
     switch (p->state) {
     case HD_CO402_SO_DISABLED:   sw = SW_SOD; break;
@@ -346,9 +330,8 @@ static uint16_t statusword(const hd_co_t *co)
     return sw;
 }
 
-void hd_co402_tick(hd_co_t *co)
+static void tick(hd_co402_t *p, hd_co_t *co)
 {
-    hd_co402_t *p = &co->p402;
     hd_co_actual_t *a = &co->act;
     if (co->app.drive_actual != NULL) {
         co->app.drive_actual(co->app.ctx, a);
@@ -373,16 +356,16 @@ void hd_co402_tick(hd_co_t *co)
     co->od.current_actual_value = torque_q16_to_permille(a->motor_current, co->od.motor_rated_current);
     co->od.additional_position_actual_value_motor_encoder = hd_sat32(hd_asr64_rnd(a->motor_angle_out, 8u));
     co->od.following_error_actual_value = hd_sat32(hd_asr64_rnd(hd_sub64_sat(a->setpoint_angle, a->load_angle), 8u));
-    windows(co);
+    windows(p, co);
 
     if (p->state == HD_CO402_NOT_READY) {
-        enter(co, HD_CO402_SO_DISABLED);
+        enter(p, co, HD_CO402_SO_DISABLED);
     }
     /* app fault -> fault reaction */
     if (a->fault_code != 0u && p->state != HD_CO402_FAULT && p->state != HD_CO402_FAULT_REACTION) {
         uint8_t mfr[5] = {(uint8_t)(a->fault_code & 0xFFu), 0u, 0u, 0u, 0u};
         uint16_t code = a->fault_emcy != 0u ? a->fault_emcy : 0x1000u;
-        fault(co, code);
+        fault(p, co, code);
         hd_co_emcy(co, code, HD_CO_ER_MFR, mfr);
     }
     if (p->state == HD_CO402_FAULT_REACTION) {
@@ -395,7 +378,7 @@ void hd_co402_tick(hd_co_t *co)
             p->fault_pending_reset = 0u;
             p->fault_code = 0u;
             co->od.error_code = 0u;
-            enter(co, HD_CO402_SO_DISABLED);
+            enter(p, co, HD_CO402_SO_DISABLED);
             hd_co_emcy_clear(co, (uint8_t)(HD_CO_ER_MFR | HD_CO_ER_COMM | HD_CO_ER_PROFILE));
         }
     }
@@ -431,11 +414,97 @@ void hd_co402_tick(hd_co_t *co)
         if (p->state == HD_CO402_QUICK_STOP) {
             p->standstill_ticks = a->standstill ? p->standstill_ticks + 1u : 0u;
             if (p->standstill_ticks >= 10u) {
-                enter(co, HD_CO402_SO_DISABLED);
+                enter(p, co, HD_CO402_SO_DISABLED);
             }
         }
     } else {
         p->sp_pending = 0u;              /* left OPERATION ENABLED (fault): the edge is void */
     }
-    co->od.statusword = statusword(co);
+    co->od.statusword = statusword(p, co);
+}
+
+/* ---- the hooks the CiA 301 services call (hd_co_profile_if_t) --------------------- */
+
+static void h_init(void *ctx, hd_co_t *co)
+{
+    init((hd_co402_t *)ctx, co);
+}
+
+static uint32_t h_check_write(void *ctx, const hd_co_t *co, uint16_t index, uint8_t sub, int64_t v)
+{
+    (void)ctx;
+    (void)co;
+    (void)sub;
+    return (index == 0x6060u) ? check_mode(v) : 0u;
+}
+
+static void h_after_write(void *ctx, hd_co_t *co, uint16_t index, uint8_t sub)
+{
+    (void)sub;
+    if (index == 0x6040u) {
+        controlword((hd_co402_t *)ctx, co);
+    }
+}
+
+static void h_tick(void *ctx, hd_co_t *co)
+{
+    tick((hd_co402_t *)ctx, co);
+}
+
+/* 0x6007 reaction to a communication error (heartbeat lost, bus-off) */
+static void h_comm_error(void *ctx, hd_co_t *co, uint16_t emcy_code)
+{
+    abort_connection((hd_co402_t *)ctx, co, emcy_code);
+}
+
+/* 0x6007 reaction to an NMT command that ends the master's connection, with the power
+ * stage on only; true when the reaction was the fault */
+static bool h_nmt_leave(void *ctx, hd_co_t *co)
+{
+    hd_co402_t *p = ctx;
+    if (p->state == HD_CO402_FAULT_REACTION || !powered(p)) {
+        return false;
+    }
+    abort_connection(p, co, HD_CO_EMCY_COMM);
+    return p->state == HD_CO402_FAULT_REACTION || p->state == HD_CO402_FAULT;
+}
+
+/* NMT reset node: the power stage off now, the state machine from NOT READY TO SWITCH ON */
+static void h_restart(void *ctx, hd_co_t *co)
+{
+    hd_co402_t *p = ctx;
+    /* the fault latched by 0x6007 = 1 (or a lost heartbeat) is the host's to reset: a
+     * restart of the application does not clear it */
+    const bool latched = p->comm_fault != 0u;
+    const uint16_t code = p->fault_code;
+    if (powered(p)) {
+        power_off(co);                      /* no quick stop ramp survives a restart */
+    }
+    init(p, co);
+    if (latched) {
+        comm_fault(p, co, code);
+    }
+}
+
+static bool h_faulted(void *ctx, const hd_co_t *co)
+{
+    const hd_co402_t *p = ctx;
+    (void)co;
+    return p->state == HD_CO402_FAULT || p->state == HD_CO402_FAULT_REACTION;
+}
+
+static const hd_co_profile_if_t profile_402 = {
+    h_init, h_check_write, h_after_write, h_tick, h_comm_error, h_nmt_leave, h_restart, h_faulted
+};
+
+void hd_co402_use(hd_co402_t *p, hd_co_app_if_t *app)
+{
+    hd_co_fill(p, 0u, sizeof *p);
+    app->profile = &profile_402;
+    app->profile_ctx = p;
+}
+
+uint8_t hd_co402_state(const hd_co402_t *p)
+{
+    return p->state;
 }

@@ -342,8 +342,7 @@ static void period(void)
 
 static void cw_write(uint16_t v)
 {
-    co.od.controlword = v;
-    hd_co402_controlword(&co);
+    assert_int_equal(hd_co_set_i64(&co, 0x6040u, 0u, v), 0);
 }
 
 /* tracking axis, fault checks off (the stub power stage moves nothing), OPERATION ENABLED in mode */
@@ -357,7 +356,7 @@ static void enable_402(int8_t mode)
     cw_write(0x06u);
     cw_write(CW_ENABLE);
     period();
-    assert_int_equal(co.p402.state, HD_CO402_OP_ENABLED);
+    assert_int_equal(hd_co402_state(&ac.p402), HD_CO402_OP_ENABLED);
     assert_int_equal(ac.mode, mode);
 }
 
@@ -922,7 +921,7 @@ static void test_stop_options(void **st)
     assert_int_equal(app.vel_cmd, v);
     cw_write(0x000Bu);                                    /* enable operation, quick stop bit clear */
     period();
-    assert_int_equal(co.p402.state, HD_CO402_QUICK_STOP);
+    assert_int_equal(hd_co402_state(&ac.p402), HD_CO402_QUICK_STOP);
     prev = app.vel_cmd;
     assert_true(prev > 0);                                /* a ramp, not a step to 0 */
     for (i = 0u; i < 5000u && app.vel_cmd > 0; i++) {
@@ -936,7 +935,7 @@ static void test_stop_options(void **st)
     for (i = 0u; i < 20u; i++) {
         period();
     }
-    assert_int_equal(co.p402.state, HD_CO402_SO_DISABLED); /* then switch-on disabled */
+    assert_int_equal(hd_co402_state(&ac.p402), HD_CO402_SO_DISABLED); /* then switch-on disabled */
 }
 
 /* PP halt with 0x605D = 2: the move ramps to rest at 0x6085, stopping in v0^2 / (2 qs) */

@@ -10,6 +10,7 @@
 #include <cmocka.h>
 
 #include "hd_co.h"
+#include "hd_co_402.h"
 #include "hd_param_table.h"
 
 
@@ -141,6 +142,7 @@ static void t_comm_fault(void *c, uint16_t code) { (void)code; ((ctx_t *)c)->com
 
 static ctx_t X;
 static hd_co_t CO;
+static hd_co402_t P402;     /* the CiA 402 profile on top of CO */
 
 /* a device profile without the manufacturer range (the virtual drive's generic profile) */
 static uint32_t t_filter(void *c, uint16_t index, uint8_t sub)
@@ -177,6 +179,7 @@ static void setup_dev(void)
     ifc.drive_actual = t_actual;
     ifc.drive_fault_reset = t_fault_reset;
     ifc.drive_comm_fault = t_comm_fault;
+    hd_co402_use(&P402, &ifc);
     hd_co_init(&CO, NODE, &ifc);
 }
 

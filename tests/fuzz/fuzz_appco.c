@@ -90,6 +90,7 @@ static hd_app_t app;
 static hd_app_co_t ac;
 static hd_co_t CO;
 static hd_co_t scratch;                   /* applies a stored image for the "never a mix" check */
+static hd_co402_t scratch402;              /* its CiA 402 profile */
 static uint8_t nvm_keep[HD_HOST_NVM_SIZE];
 
 typedef struct {
@@ -191,7 +192,7 @@ static void check_always(void)
     for (uint32_t i = 0u; i < HD_PARAM_COUNT; i++) {
         FUZZ_ASSERT(hd_params_check(i, app.param[i]) == 0);
     }
-    if (H.nmt_req && CO.p402.state != HD_CO402_OP_ENABLED && CO.p402.state != HD_CO402_QUICK_STOP) {
+    if (H.nmt_req && hd_co402_state(&ac.p402) != HD_CO402_OP_ENABLED && hd_co402_state(&ac.p402) != HD_CO402_QUICK_STOP) {
         H.nmt_req = 0;                      /* the reaction happened */
     }
     check_rpdo_maps();
@@ -281,7 +282,7 @@ static void period(uint32_t how, uint32_t rnd)
         se.valid = rnd & 0xFu;
     }
     hd_host_port_latch(&port, &se);
-    const uint8_t st = CO.p402.state;
+    const uint8_t st = hd_co402_state(&ac.p402);
     hd_app_step(&app);
     const hd_hal_command_t *c = hd_host_port_command(&port);
     if (c->enable != 0u) {
@@ -381,6 +382,7 @@ static void check_boot(void)
             hd_co_app_if_t ifc;
             memset(&ifc, 0, sizeof ifc);
             ifc.send = scratch_send;
+            hd_co402_use(&scratch402, &ifc);
             hd_co_init(&scratch, NODE, &ifc);
             if (hd_co_store_apply(&scratch, img, n, 0x1000u, 0xFFFFu) == 0) {
                 for (uint32_t w = 0u; w < n; w++) {
@@ -842,7 +844,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         const uint8_t op = fz_u8(&s);
 #ifdef FUZZ_TRACE
         fprintf(stderr, "op %2u: nmt %02x 402 %u app mode %d fault %d enable %u table %u fr %d 6007 %d\n", op % 16u, CO.nmt,
-                CO.p402.state, (int)app.mode, (int)app.fault, (unsigned)H.last_enable, (unsigned)app.cb.table_ok,
+                hd_co402_state(&ac.p402), (int)app.mode, (int)app.fault, (unsigned)H.last_enable, (unsigned)app.cb.table_ok,
                 (int)app.param[HD_P_TBL_FR_VERSION],
                 (int)CO.od.abort_connection_option_code);
 #endif

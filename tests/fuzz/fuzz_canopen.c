@@ -26,6 +26,7 @@
 #include <string.h>
 #include "fuzz_common.h"
 #include "hd_co.h"
+#include "hd_co_402.h"
 #include "hd_param_store.h"
 #include "hd_preisach.h"
 #include "hal.h"
@@ -50,6 +51,7 @@ typedef struct {
 
 static ctx_t X;
 static hd_co_t CO;
+static hd_co402_t P402;     /* the CiA 402 profile on top of CO */
 
 /* hd_param_store.o (range checks) also holds the NVM code: no NVM here. */
 uint32_t hd_hal_nvm_size(void) { return 0u; }
@@ -229,6 +231,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     ifc.drive_comm_fault = f_comm_fault;
     ifc.can_status = f_can_status;
     ifc.can_recover = f_can_recover;
+    hd_co402_use(&P402, &ifc);
     hd_co_init(&CO, NODE, &ifc);
 
     for (uint32_t k = 0; k < 1024u && fz_left(&s) >= 4u; k++) {
