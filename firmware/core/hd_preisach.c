@@ -2,26 +2,23 @@
 #include "hd_preisach.h"
 #include <stddef.h>
 #include "hd_fixed.h"
+#include "hd_crc32.h"
+#include "hd_le32.h"
 
 /* ---- table ------------------------------------------------------------------ */
 
+/* the table's CRC-32 (hd_crc32.h) continued over one word, little endian like the image */
 static uint32_t hd__crc_word(uint32_t crc, uint32_t w)
 {
-    uint32_t k;
-    uint32_t b;
-    for (b = 0; b < 4u; b++) {
-        crc ^= (w >> (8u * b)) & 0xFFu;
-        for (k = 0; k < 8u; k++) {
-            crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
-        }
-    }
-    return crc;
+    uint8_t b[4];
+    hd_put_le32(b, w);
+    return hd_crc32(crc, b, 4u);
 }
 
 uint32_t hd_preisach_crc(const hd_preisach_table_t *t)
 {
     const uint32_t n = (t->n_entries < HD_PREISACH_N_MAX) ? t->n_entries : HD_PREISACH_N_MAX;
-    uint32_t crc = 0xFFFFFFFFu;
+    uint32_t crc = 0u;
     uint32_t i;
     crc = hd__crc_word(crc, t->magic);
     crc = hd__crc_word(crc, t->format);
@@ -35,7 +32,7 @@ uint32_t hd_preisach_crc(const hd_preisach_table_t *t)
     for (i = 0; i < n; i++) {
         crc = hd__crc_word(crc, (uint32_t)t->e[i]);
     }
-    return crc ^ 0xFFFFFFFFu;
+    return crc;
 }
 
 uint32_t *hd_preisach_word(hd_preisach_table_t *t, uint32_t w)

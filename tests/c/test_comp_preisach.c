@@ -352,6 +352,40 @@ static void test_bad_table_refused(void **state)
     assert_int_equal(active.version, 3);
 }
 
+/* bit-serial CRC-32 (reflected 0xEDB88320, init / xorout all ones), independent of hd_crc32 */
+static uint32_t ref_crc32(const uint8_t *p, uint32_t n)
+{
+    uint32_t c = 0xFFFFFFFFu;
+    for (uint32_t i = 0; i < n; i++) {
+        c ^= p[i];
+        for (uint32_t k = 0; k < 8u; k++) {
+            c = (c & 1u) ? (c >> 1) ^ 0xEDB88320u : c >> 1;
+        }
+    }
+    return ~c;
+}
+
+/* the table's CRC is the CRC-32 of its image: words 0..8 and the entries, little endian
+ * (the bytes a host sends, zlib.crc32 of them), for every size and content */
+static void test_table_crc_is_crc32_of_image(void **state)
+{
+    fx_t *f = *state;
+    static uint8_t img[4u * (HD_PREISACH_HDR_WORDS + HD_PREISACH_N_MAX)];
+    static const uint32_t lv[3] = {2u, 16u, 64u};
+    for (uint32_t c = 0; c < 3u; c++) {
+        build(f, lv[c], c, 7u + c);
+        uint32_t n = 0;
+        for (uint32_t w = 0; w < HD_PREISACH_HDR_WORDS + f->t.n_entries; w++) {
+            const uint32_t v = (w < HD_PREISACH_HDR_WORDS) ? *hd_preisach_word(&f->t, w) : (uint32_t)f->t.e[w - HD_PREISACH_HDR_WORDS];
+            for (uint32_t b = 0; b < 4u; b++) {
+                img[n++] = (uint8_t)(v >> (8u * b));
+            }
+        }
+        assert_int_equal(hd_preisach_crc(&f->t), ref_crc32(img, n));
+        assert_int_equal(f->t.crc, ref_crc32(img, n));
+    }
+}
+
 static void test_stack_overflow_merges(void **state)
 {
     fx_t *f = *state;
@@ -380,6 +414,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_inverse_equals_peek_bisection, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_bad_table_refused, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_stack_overflow_merges, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_table_crc_is_crc32_of_image, setUp, tearDown),
     };
     return cmocka_run_group_tests_name("comp_preisach", tests, NULL, NULL);
 }
