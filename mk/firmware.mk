@@ -6,7 +6,7 @@
 # Objects: firmware/{core,app,canopen}/*.c + firmware/port/stm32g474/*.c, built
 # for the G474 ABI (hard float, FPv4-SP; the code is integer-only) with the
 # firmware warning flags and -Werror; linked with --gc-sections, no C library
-# (g474_libc.c has memcpy & co.), libgcc for the 64-bit division helpers.
+# (firmware/port/common/mini_libc.c has memcpy & co.), libgcc for the 64-bit division helpers.
 # Budget (issue 11): flash (text + data) <= 128 KiB, RAM (data + bss + CCM bss
 # + stack) <= 48 KiB.
 
@@ -19,7 +19,7 @@ G4_ARCH   := -mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16
 G4_CAPTURE_WORDS := 4096u
 G4_CFLAGS := $(G4_ARCH) $(FW_STD) $(FW_WARN) -O2 -g -ffunction-sections -fdata-sections -ffreestanding -fstack-usage \
              -DHD_CAPTURE_WORDS=$(G4_CAPTURE_WORDS) $(FW_INC) -I$(G4_DIR)
-G4_SRC    := $(FW_SRC) $(wildcard $(G4_DIR)/*.c)
+G4_SRC    := $(FW_SRC) $(wildcard $(G4_DIR)/*.c) firmware/port/common/mini_libc.c
 G4_OBJ    := $(patsubst %.c,$(G4_OUT)/obj/%.o,$(G4_SRC))
 G4_FLASH_MAX := 131072
 G4_RAM_MAX   := 49152
@@ -43,7 +43,7 @@ firmware: $(G4_ELF) $(G4_OUT)/hdservo-g474.bin $(G4_OUT)/hdservo-g474.hex
 $(G4_OUT)/obj/%.o: %.c
 	@mkdir -p $(@D)
 	$(M4_CC) $(G4_CFLAGS) -MMD -MP -c $< -o $@
-$(G4_OUT)/obj/$(G4_DIR)/g474_libc.o: G4_CFLAGS += -fno-tree-loop-distribute-patterns
+$(G4_OUT)/obj/firmware/port/common/mini_libc.o: G4_CFLAGS += -fno-tree-loop-distribute-patterns
 
 $(G4_ELF): $(G4_OBJ) $(G4_LD)
 	@mkdir -p $(@D)

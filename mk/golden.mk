@@ -19,8 +19,10 @@ GV_HOST_OBJ := $(patsubst %.c,$(B)/host/obj/%.o,$(GV_SRC) $(GV_LIB_SRC)) $(GV_DI
 GV_M4_OBJ   := $(patsubst %.c,$(B)/m4/obj/%.o,$(GV_SRC) $(GV_LIB_SRC)) $(GV_DIR)/m4/gv_registry.o
 
 QM4_DIR     := firmware/port/qemu-m4
+# the C library shim of every Cortex-M4 image (mk/firmware.mk links it too)
+M4_LIBC_SRC := firmware/port/common/mini_libc.c
 QM4_LD      := $(QM4_DIR)/mps2-an386.ld
-QM4_BASE_OBJ := $(patsubst %.c,$(B)/m4/obj/%.o,$(QM4_DIR)/startup.c $(QM4_DIR)/semihost.c $(QM4_DIR)/mini_libc.c)
+QM4_BASE_OBJ := $(patsubst %.c,$(B)/m4/obj/%.o,$(QM4_DIR)/startup.c $(QM4_DIR)/semihost.c $(M4_LIBC_SRC))
 QM4_ALL_OBJ := $(patsubst %.c,$(B)/m4/obj/%.o,$(wildcard $(QM4_DIR)/*.c))
 M4_FW_LIB   := $(B)/m4/libhdfw.a
 M4_LDFLAGS  := $(M4_ARCH) -nostdlib -nostartfiles -T $(QM4_LD) -Wl,--gc-sections
@@ -39,7 +41,7 @@ FORCE:
 $(QM4_ALL_OBJ) $(GV_M4_OBJ) $(GV_HOST_OBJ) $(GV_DIR)/m4/gv_data.o: M4_CFLAGS += $(GV_INC)
 $(GV_HOST_OBJ): HOST_FW_CFLAGS += $(GV_INC)
 # mini_libc must not be turned back into calls to memcpy/memset.
-$(B)/m4/obj/$(QM4_DIR)/mini_libc.o: M4_CFLAGS += -fno-tree-loop-distribute-patterns
+$(patsubst %.c,$(B)/m4/obj/%.o,$(M4_LIBC_SRC)): M4_CFLAGS += -fno-tree-loop-distribute-patterns
 
 # ---- registry: regenerated on every make, replaced only when it changes ----
 $(GV_DIR)/gv_registry.c: FORCE

@@ -22,7 +22,7 @@ INC="-Ifirmware/core -Ifirmware/app -Ifirmware/canopen -Ifirmware/hal -Ifirmware
 $CC $CFLAGS $INC -DHD_APP_PHASE_PROBE -Dhd_app_phase_mark=hd_gv_cost_mark -c firmware/app/hd_app.c -o "$d/hd_app_probe.o" \
   || { echo "phase_cost: probe build of hd_app.c failed"; exit 1; }
 q=build/m4/obj/firmware/port/qemu-m4
-objs=("$q/startup.o" "$q/semihost.o" "$q/mini_libc.o" build/m4/obj/tests/golden/*.o build/golden/m4/gv_registry.o)
+objs=("$q/startup.o" "$q/semihost.o" build/m4/obj/firmware/port/common/mini_libc.o build/m4/obj/tests/golden/*.o build/golden/m4/gv_registry.o)
 PY=.venv/bin/python; [ -x "$PY" ] || PY=python3
 args=()
 for k in control_step_baseline control_step_full isr_worst_case; do

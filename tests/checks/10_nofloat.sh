@@ -11,7 +11,7 @@ unset MAKEFLAGS MFLAGS MAKELEVEL
 RE='__aeabi_(c?[fd](add|sub|mul|div|cmp|rcmp|neg|rsub)|[a-z0-9]*2[fd]|[fd]2)|__(add|sub|mul|div|neg)[sd]f3|__(float|fix|extend|trunc)[a-z]*[sd]f|__(eq|ne|lt|le|gt|ge|unord|cmp)[sd]f2'
 
 shopt -s nullglob
-srcs=(firmware/core/*.c firmware/app/*.c firmware/canopen/*.c firmware/port/qemu-m4/*.c)
+srcs=(firmware/core/*.c firmware/app/*.c firmware/canopen/*.c firmware/port/qemu-m4/*.c firmware/port/common/*.c)
 objs=()
 for s in "${srcs[@]}"; do objs+=("build/m4/obj/${s%.c}.o"); done
 if [ ${#objs[@]} -gt 0 ] && ! make --no-print-directory -s "${objs[@]}" >build/nofloat-make.log 2>&1; then

@@ -1,9 +1,11 @@
 /*
  * mini_libc.c - the four functions gcc may emit calls to even with
  * -ffreestanding (struct copies, large initialisers): memcpy, memmove,
- * memset, memcmp.  The QEMU images link no libc.  Byte loops; build this
- * file with -fno-tree-loop-distribute-patterns (mk/golden.mk) so gcc does
- * not turn them back into calls to themselves.
+ * memset, memcmp.  The one C library shim of the Cortex-M4 images: the QEMU
+ * images (mk/golden.mk) and the STM32G474 image (mk/firmware.mk) link no libc.
+ * Byte loops; both builds compile this file with
+ * -fno-tree-loop-distribute-patterns so gcc does not turn them back into
+ * calls to themselves.
  */
 #include <stddef.h>
 #include <stdint.h>
