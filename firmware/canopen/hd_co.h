@@ -23,9 +23,10 @@
  * the same code serves the real drive and the virtual drive.
  *
  * Use:
+ *   hd_co402_use(&p402, &app_if);            the CiA 402 profile on top (optional)
  *   hd_co_init(&co, node_id, &app_if);       boot-up message goes out at once
  *   per received frame:  hd_co_process(&co, &frame);
- *   per control period:  hd_co_tick(&co, HD_CO_TICK_US);   (timers, PDOs, 402)
+ *   per control period:  hd_co_tick(&co, HD_CO_TICK_US);   (timers, PDOs, the profile)
  * Frames go out through app_if.send (false = TX queue full: the stack retries
  * what it can, e.g. block-upload segments, and counts the rest in tx_dropped).
  *
@@ -238,7 +239,7 @@ typedef struct {
 } hd_co_pdo_rt_t;
 
 typedef struct {
-    uint8_t  state;          /* HD_CO_SDO_* (hd_co.c) */
+    uint8_t  state;          /* SDO server state (hd_co_sdo.c) */
     uint8_t  toggle;
     uint8_t  crc_on;
     uint8_t  blksize;

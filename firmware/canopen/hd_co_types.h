@@ -1,6 +1,6 @@
 /*
  * hd_co_types.h - object dictionary entry layout shared by the generated
- * table (hd_co_od.c) and the CANopen stack (hd_co.c).
+ * table (hd_co_od.c) and the CANopen services (hd_co_od_access.c and the others, hd_co.h).
  *
  * An entry is {index, sub, type, access, flags, kind, arg, min, max, def, str}.
  * The table is const and sorted by (index, sub); the data it describes lives

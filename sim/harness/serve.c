@@ -44,7 +44,7 @@
  *                              frames lost by injection and while bus-off
  * The same injection from the start: --can-drop P [--can-seed N].  The drive's CAN
  * controller is the host port's model (hal_host.h hd_host_can_ctrl_t): bus-off means no
- * frame in or out until the stack's recovery request (hd_co.c, every 100 ms) and
+ * frame in or out until the stack's recovery request (hd_co_errors.c, every 100 ms) and
  * 128 x 11 bit times at --bitrate (1 Mbit/s without a bus model) have passed.
  * --nvm PATH backs the drive's NVM with a file (flash semantics, hal_host.h): a drive
  * restarted on the same file boots with the parameters saved there (0x1010), like a
