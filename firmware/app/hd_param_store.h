@@ -4,20 +4,19 @@
  * Values live in an int32 array indexed by hd_param_id_t (raw = round(SI *
  * 2^frac), see the generated hd_param_table.h and docs/parameters.md).
  *
- * NVM layout (through hal.h): two slots, each at a page boundary and
- * page-aligned in size, slot s at offset s * slot_size.  A slot is
- *     header { magic 'HDPS', format 1, table version, table hash,
- *              sequence number, count }  (6 x uint32, little-endian words)
- *     values[count]                      (int32)
- *     crc32                              (IEEE 802.3 CRC-32 over header+values)
- * padded to a multiple of 8 bytes.  Load picks the valid slot with the
- * higher sequence number (serial-number arithmetic); save erases and writes
- * the OTHER slot with sequence + 1, so a power loss during save leaves the
- * old set or the new set, never a mix.  A slot whose magic, CRC, format,
- * table version, hash or count disagrees is ignored; if no slot is usable the
- * defaults are loaded and the status says why.  Each loaded value is range
- * checked too (out of range -> whole set rejected, defaults).  A save of the values
- * the newest valid slot already holds writes nothing (no erase, no flash wear).
+ * NVM layout (through hal.h): one record of the two-slot record store
+ * (hd_rec_store.h) from offset 0, magic 'HDPS'.  A slot is
+ *     header { magic 'HDPS', format 1, sequence number, words = 2 + count }
+ *     payload { table version, table hash, values[count] (int32) }
+ *     crc32   (IEEE 802.3 CRC-32 over header + payload)
+ * all little-endian 32-bit words, padded to a multiple of 8 bytes.  Load picks
+ * the valid slot with the newer sequence number (serial-number arithmetic); save
+ * erases and writes the OTHER slot with a newer sequence and reads it back, so a
+ * power loss during save leaves the old set or the new set, never a mix.  A slot
+ * whose magic, CRC, format, table version, hash or count disagrees is ignored,
+ * and so is one with a value out of its range; if no slot is usable the defaults
+ * are loaded and the status says why.  A save of the values the newest valid
+ * slot already holds writes nothing (no erase, no flash wear).
  */
 #ifndef HD_PARAM_STORE_H
 #define HD_PARAM_STORE_H

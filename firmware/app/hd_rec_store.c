@@ -33,10 +33,20 @@ static int region_ok(const hd_rstore_t *s)
            s->slot <= (size - s->offset) / 2u;
 }
 
-typedef enum { RSLOT_EMPTY, RSLOT_BAD, RSLOT_OK, RSLOT_IOERR } rslot_t;
+typedef enum { RSLOT_EMPTY, RSLOT_BAD, RSLOT_OK, RSLOT_IOERR, RSLOT_OTHER } rslot_t;
+
+/* the owner's verdict so far, with the one on word w of v added (OTHER outweighs BAD) */
+static int32_t verdict(const hd_rstore_t *s, int32_t so_far, uint32_t words, uint32_t w, uint32_t v)
+{
+    const int32_t r = (s->check != NULL) ? s->check(words, w, v) : (int32_t)HD_RSTORE_WORD_OK;
+    if (so_far == (int32_t)HD_RSTORE_WORD_OTHER || r == (int32_t)HD_RSTORE_WORD_OTHER) {
+        return (int32_t)HD_RSTORE_WORD_OTHER;
+    }
+    return (so_far != (int32_t)HD_RSTORE_WORD_OK) ? so_far : r;
+}
 
 /* Read slot k: header, payload and CRC, streamed; put (if not NULL) gets the payload
- * words.  *seq and *words are set when the slot is OK. */
+ * words, the owner's check sees them.  *seq and *words are set when the slot is OK. */
 static rslot_t scan_slot(const hd_rstore_t *s, uint32_t k, void *ctx, hd_rstore_put_fn put,
                          uint32_t *seq, uint32_t *words)
 {
@@ -44,6 +54,7 @@ static rslot_t scan_slot(const hd_rstore_t *s, uint32_t k, void *ctx, hd_rstore_
     uint32_t i, w, n, crc;
     const uint32_t base = s->offset + k * s->slot;
     int blank = 1;
+    int32_t vd;
     if (hd_hal_nvm_read(base, b, HDR_BYTES) != 0) {
         return RSLOT_IOERR;
     }
@@ -61,23 +72,29 @@ static rslot_t scan_slot(const hd_rstore_t *s, uint32_t k, void *ctx, hd_rstore_
     }
     *seq = hd_get_le32(&b[8]);
     crc = hd_crc32(0u, b, HDR_BYTES);
+    vd = verdict(s, (int32_t)HD_RSTORE_WORD_OK, n, n, 0u);
     for (w = 0u; w < n; w += CHUNK / 4u) {
         const uint32_t m = (n - w < CHUNK / 4u) ? n - w : CHUNK / 4u;
         if (hd_hal_nvm_read(base + HDR_BYTES + 4u * w, b, 4u * m) != 0) {
             return RSLOT_IOERR;
         }
         crc = hd_crc32(crc, b, 4u * m);
-        if (put != NULL) {
-            for (i = 0u; i < m; i++) {
-                put(ctx, w + i, hd_get_le32(&b[4u * i]));
+        for (i = 0u; i < m; i++) {
+            const uint32_t v = hd_get_le32(&b[4u * i]);
+            vd = verdict(s, vd, n, w + i, v);
+            if (put != NULL) {
+                put(ctx, w + i, v);
             }
         }
     }
     if (hd_hal_nvm_read(base + HDR_BYTES + 4u * n, b, 4u) != 0) {
         return RSLOT_IOERR;
     }
-    if (hd_get_le32(b) != crc) {
+    if (hd_get_le32(b) != crc || vd == (int32_t)HD_RSTORE_WORD_BAD) {
         return RSLOT_BAD;
+    }
+    if (vd == (int32_t)HD_RSTORE_WORD_OTHER) {
+        return RSLOT_OTHER;
     }
     *words = n;
     return RSLOT_OK;
@@ -110,6 +127,9 @@ int32_t hd_rstore_load(const hd_rstore_t *s, void *ctx, hd_rstore_put_fn put, ui
         if (r0 == RSLOT_IOERR || r1 == RSLOT_IOERR) {
             return HD_RSTORE_NVM_ERROR;
         }
+        if (r0 == RSLOT_OTHER || r1 == RSLOT_OTHER) {
+            return HD_RSTORE_OTHER;
+        }
         return (r0 == RSLOT_BAD || r1 == RSLOT_BAD) ? HD_RSTORE_CORRUPT : HD_RSTORE_BLANK;
     }
     if (((k == 0) ? n0 : n1) == 0u) {
@@ -118,7 +138,7 @@ int32_t hd_rstore_load(const hd_rstore_t *s, void *ctx, hd_rstore_put_fn put, ui
     }
     r = scan_slot(s, (uint32_t)k, ctx, put, &sq, &nw);
     if (r != RSLOT_OK) {
-        return (r == RSLOT_BAD) ? HD_RSTORE_CORRUPT : HD_RSTORE_NVM_ERROR;   /* it read fine a moment ago */
+        return (r == RSLOT_IOERR) ? HD_RSTORE_NVM_ERROR : HD_RSTORE_CORRUPT;   /* it read fine a moment ago */
     }
     *seq = sq;
     *words = nw;

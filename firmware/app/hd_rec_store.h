@@ -1,7 +1,7 @@
 /*
  * hd_rec_store.h - an atomic two-slot store of one record of 32-bit words in the hal
- * NVM region: the machinery under the Preisach table store (hd_table_store.h) and the
- * CANopen object store (hd_co_store.h).
+ * NVM region: the one implementation under the parameter store (hd_param_store.h), the
+ * Preisach table store (hd_table_store.h) and the CANopen object store (hd_app_co.h).
  *
  * A store owns two slots of `slot` bytes (a page multiple) from `offset`.  A slot is
  *     header  { magic, format 1, sequence number, words }  4 x uint32 LE
@@ -14,17 +14,34 @@
  * per KiB: one flash page erase per KiB on the STM32G474), and reads it back: a power loss during a save leaves the old record or the new one, never a mix.
  * A save of the words the newest valid record already holds writes nothing (no erase):
  * repeated saves of unchanged settings cost no flash wear.
+ * An owner with rules of its own for the payload (the parameter store: its table
+ * version, and every value in range) gives a check: a record it does not accept counts
+ * as not valid, so load, same and save see the newest ACCEPTED record, and a load that
+ * finds only records it refuses says whether one was of another kind (OTHER).
  */
 #ifndef HD_REC_STORE_H
 #define HD_REC_STORE_H
 
 #include <stdint.h>
 
+/** The owner's verdict on a record (hd_rstore_t.check). */
+typedef enum {
+    HD_RSTORE_WORD_OK = 0,     /* nothing against it */
+    HD_RSTORE_WORD_OTHER = 1,  /* a record of another kind (e.g. another table version) */
+    HD_RSTORE_WORD_BAD = 2     /* a value the owner never writes (e.g. out of range) */
+} hd_rstore_verdict_t;
+
+/** The owner's check of a record of `words` payload words: called with w = words
+ *  (the length alone, v = 0), then with each payload word v at w = 0 .. words - 1;
+ *  returns hd_rstore_verdict_t.  OTHER outweighs BAD. */
+typedef int32_t (*hd_rstore_check_fn)(uint32_t words, uint32_t w, uint32_t v);
+
 typedef struct {
     uint32_t offset;      /* hal NVM offset of slot 0 (slot 1 follows) */
     uint32_t slot;        /* bytes per slot, a page multiple (hd_rstore_slot_bytes) */
     uint32_t magic;       /* record magic */
     uint32_t words_max;   /* payload words at most */
+    hd_rstore_check_fn check;   /* NULL: every valid record is accepted */
 } hd_rstore_t;
 
 typedef enum {
@@ -32,7 +49,8 @@ typedef enum {
     HD_RSTORE_BLANK = 1,       /* nothing saved yet */
     HD_RSTORE_CORRUPT = 2,     /* slot(s) present but none valid */
     HD_RSTORE_EMPTY = 3,       /* the newest valid record has no words */
-    HD_RSTORE_NVM_ERROR = 4    /* region outside the NVM, or a hal call failed */
+    HD_RSTORE_NVM_ERROR = 4,   /* region outside the NVM, or a hal call failed */
+    HD_RSTORE_OTHER = 5        /* no record accepted, one (at least) of another kind (check) */
 } hd_rstore_status_t;
 
 /** Payload word w of the record being saved. */

@@ -26,6 +26,7 @@ static hd_rstore_t store(void)
     s.slot = hd_tstore_slot_size();
     s.magic = HD_TSTORE_MAGIC;
     s.words_max = WORDS_MAX;
+    s.check = NULL;             /* the table's own check runs on the loaded image */
     return s;
 }
 

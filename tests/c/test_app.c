@@ -217,7 +217,7 @@ static void test_params_incompatible(void **st)
     /* rewrite slot 0 as if written by another table version, with a valid CRC */
     uint8_t rec[NVM_PAGE];
     memcpy(rec, P.nvm, NVM_PAGE);
-    rec[8] ^= 0x40;                                          /* table version word */
+    rec[16] ^= 0x40;                                         /* table version (payload word 0) */
     const uint32_t rec_bytes = (6u + HD_PARAM_COUNT + 1u) * 4u;
     uint32_t crc = hd_crc32(0, rec, rec_bytes - 4u);
     for (int i = 0; i < 4; i++) rec[rec_bytes - 4u + (uint32_t)i] = (uint8_t)(crc >> (8 * i));

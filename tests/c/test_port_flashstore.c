@@ -504,6 +504,7 @@ static void test_erases_per_save_on_the_drive_geometry(void **st)
     co.slot = hd_rstore_slot_bytes(192u);
     co.magic = 0x53434448u;
     co.words_max = 192u;
+    co.check = NULL;
     e = V.erases;
     assert_int_equal(hd_rstore_save(&co, &base, w_get, 125u, &cseq), 0);
     assert_int_equal(V.erases - e, 1u);

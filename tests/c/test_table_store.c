@@ -1,5 +1,6 @@
 /*
- * test_table_store.c - the Preisach table's two-slot NVM store (hd_table_store.h)
+ * test_table_store.c - the Preisach table's two-slot NVM store (hd_table_store.h),
+ * and the parameter store as a record of the same two-slot store (hd_rec_store.h),
  * against a stub hal NVM with flash semantics (erase to 0xFF, program only erased
  * bytes, 8-byte granularity) and injected faults: a power cut after any number of
  * programmed bytes, an interrupted erase that leaves garbage, read errors.
@@ -16,6 +17,7 @@
 #include "hd_crc32.h"
 #include "hd_le32.h"
 #include "hd_param_store.h"
+#include "hd_rec_store.h"
 #include "hd_table_store.h"
 #include "support/test_tables.h"
 
@@ -336,6 +338,102 @@ static void test_nvm_too_small_or_unreadable(void **state)
     assert_int_equal(hd_tstore_load(&f->got, &seq), HD_TSTORE_NVM_ERROR);
 }
 
+/* ---- the parameter store: one record of the two-slot record store ---------------- */
+
+/* a parameter record written by the record store itself: {version, hash, values} */
+typedef struct {
+    uint32_t version, hash;
+    const int32_t *v;
+    uint32_t bad_at;            /* value index written out of its range (HD_PARAM_COUNT: none) */
+} prec_t;
+
+static uint32_t prec_get(const void *ctx, uint32_t w)
+{
+    const prec_t *r = ctx;
+    if (w == 0u) return r->version;
+    if (w == 1u) return r->hash;
+    if (w - 2u == r->bad_at) return (uint32_t)hd_param_table[w - 2u].max + 1u;
+    return (uint32_t)r->v[w - 2u];
+}
+
+/* the parameter store's two slots as a record store that accepts every valid record */
+static hd_rstore_t raw_pstore(void)
+{
+    hd_rstore_t s;
+    s.offset = 0u;
+    s.slot = hd_pstore_region() / 2u;
+    s.magic = HD_PSTORE_MAGIC;
+    s.words_max = 2u + HD_PARAM_COUNT;
+    s.check = NULL;
+    return s;
+}
+
+static void test_param_record_is_a_record_store_record(void **state)
+{
+    static int32_t a[HD_PARAM_COUNT], got[HD_PARAM_COUNT];
+    const hd_rstore_t raw = raw_pstore();
+    prec_t r;
+    uint32_t seq = 0u, n = 0u;
+    (void)state;
+    hd_params_defaults(a);
+    a[HD_P_POS_KP] = hd_param_table[HD_P_POS_KP].min;
+    r.version = HD_PARAM_VERSION;
+    r.hash = HD_PARAM_TABLE_HASH;
+    r.v = a;
+    r.bad_at = HD_PARAM_COUNT;
+    assert_int_equal(hd_pstore_region(), 2u * hd_rstore_slot_bytes(2u + HD_PARAM_COUNT));
+    assert_int_equal(hd_rstore_save(&raw, &r, prec_get, 2u + HD_PARAM_COUNT, &seq), 0);
+    assert_int_equal(hd_pstore_load(got, &n), HD_PSTORE_OK);
+    assert_int_equal(n, seq);
+    assert_memory_equal(got, a, sizeof a);
+    assert_int_equal(hd_pstore_same(a), 1);
+    /* and the other way round: a parameter save is a record the record store reads */
+    a[HD_P_POS_KP] = hd_param_table[HD_P_POS_KP].max;
+    assert_int_equal(hd_pstore_save(a, &n), 0);
+    assert_int_equal(hd_rstore_same(&raw, &r, prec_get, 2u + HD_PARAM_COUNT), 1);
+}
+
+/* a valid record the parameter table refuses (another version, a value out of range)
+ * is passed over: the older set loads; none left: INCOMPATIBLE before CORRUPT */
+static void test_param_record_refused_by_the_table_falls_back(void **state)
+{
+    static int32_t a[HD_PARAM_COUNT], b[HD_PARAM_COUNT], got[HD_PARAM_COUNT];
+    const hd_rstore_t raw = raw_pstore();
+    prec_t r;
+    uint32_t seq = 0u, rseq = 0u, n = 0u;
+    (void)state;
+    hd_params_defaults(a);
+    hd_params_defaults(b);
+    b[HD_P_POS_KP] = hd_param_table[HD_P_POS_KP].max;
+    assert_int_equal(hd_pstore_save(a, &seq), 0);          /* slot 0 */
+    assert_int_equal(hd_pstore_save(b, &seq), 0);          /* slot 1, newest */
+    r.version = HD_PARAM_VERSION ^ 0x40u;                   /* another table version */
+    r.hash = HD_PARAM_TABLE_HASH;
+    r.v = a;
+    r.bad_at = HD_PARAM_COUNT;
+    rseq = seq;
+    assert_int_equal(hd_rstore_save(&raw, &r, prec_get, 2u + HD_PARAM_COUNT, &rseq), 0);   /* over a: newest */
+    assert_true(rseq - seq - 1u < 0x7FFFFFFFu);
+    assert_int_equal(hd_pstore_load(got, &n), HD_PSTORE_OK);
+    assert_int_equal(n, seq);
+    assert_memory_equal(got, b, sizeof b);
+    assert_int_equal(hd_pstore_same(b), 1);
+    /* the newest value out of its range, the other slot of another version */
+    r.version = HD_PARAM_VERSION;
+    r.bad_at = HD_P_POS_KP;
+    assert_int_equal(hd_rstore_save(&raw, &r, prec_get, 2u + HD_PARAM_COUNT, &rseq), 0);   /* over b */
+    assert_int_equal(hd_pstore_load(got, &n), HD_PSTORE_INCOMPATIBLE);
+    assert_int_equal(n, 0u);
+    hd_params_defaults(a);
+    assert_memory_equal(got, a, sizeof a);
+    assert_int_equal(hd_pstore_same(a), 0);
+    /* a save then numbers after the records it passed over, and loads back */
+    assert_int_equal(hd_pstore_save(b, &n), 0);
+    assert_int_equal(hd_pstore_load(got, &seq), HD_PSTORE_OK);
+    assert_int_equal(seq, n);
+    assert_memory_equal(got, b, sizeof b);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -353,6 +451,8 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_sequence_newer_than_the_survivor_after_a_default_boot, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_identical_save_costs_no_erase, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_nvm_too_small_or_unreadable, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_param_record_is_a_record_store_record, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_param_record_refused_by_the_table_falls_back, setUp, tearDown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

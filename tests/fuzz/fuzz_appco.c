@@ -319,6 +319,7 @@ static hd_rstore_t co_store(void)
     s.slot = hd_rstore_slot_bytes(HD_CO_STORE_MAX);
     s.magic = HD_APP_CO_CSTORE_MAGIC;
     s.words_max = HD_CO_STORE_MAX;
+    s.check = NULL;
     return s;
 }
 

@@ -74,10 +74,11 @@ def seeds_pstore() -> None:
     write("pstore", "flip_slot1_crc", b"\x00\x05" + struct.pack("<HB", 1024 + 20, 0x01))
     write("pstore", "flip_slot1_resealed", b"\x04\x05" + struct.pack("<HB", 1024 + 30, 0x80))
     write("pstore", "seq_wrap", b"\x10\x01" + struct.pack("<I", 0xFFFFFFFF))
-    write("pstore", "seq_half", b"\x16\x07" + struct.pack("<I", 0x7FFFFFFF) + struct.pack("<HB", 16, 0x80) + struct.pack("<HB", 1024 + 16, 0x01))
+    write("pstore", "seq_half", b"\x16\x07" + struct.pack("<I", 0x7FFFFFFF) + struct.pack("<HB", 8, 0x80) + struct.pack("<HB", 1024 + 8, 0x01))
     write("pstore", "read_fail", b"\x08\x00")
     write("pstore", "raw_blank", b"\x01" + b"\xff" * 64)
-    write("pstore", "raw_magic_only", b"\x01" + struct.pack("<6I", 0x53504448, 1, 1, 0, 1, 41))
+    # a record header of the record store (magic, format, sequence, words) and two payload words
+    write("pstore", "raw_magic_only", b"\x01" + struct.pack("<6I", 0x53504448, 1, 1, 2, 1, 0))
 
 
 def rec(op: int, arg: int, val: int) -> bytes:
