@@ -83,7 +83,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 #define MAX_OPS     192u
 #define MAX_PERIODS 1500u
 #define DBUF        (4u * HD_APP_CO_STAGE_WORDS + 16u)
-#define PS_REC      ((6u + HD_PARAM_COUNT + 1u) * 4u)   /* parameter record bytes (hd_param_store.c) */
+#define PS_REC      ((6u + HD_PARAM_COUNT + 1u) * 4u)   /* parameter record bytes (hd_param_store.h) */
+#define PS_SEQ      8u                                  /* its sequence number's byte offset */
 
 static hd_host_port_t port;
 static hd_app_t app;
@@ -440,9 +441,9 @@ static void crafted(fz_stream_t *s)
         if (hd_pstore_save(app.param, &seq) != 0) {
             return;
         }
-        uint32_t k = (hd_get_le32(&port.nvm[16]) == seq) ? 0u : 1u;
+        uint32_t k = (hd_get_le32(&port.nvm[PS_SEQ]) == seq) ? 0u : 1u;
         uint8_t *r = &port.nvm[k * ss];
-        FUZZ_ASSERT(hd_get_le32(&r[16]) == seq);
+        FUZZ_ASSERT(hd_get_le32(&r[PS_SEQ]) == seq);
         for (uint32_t m = 0u; m < nmut; m++) {
             const uint8_t how = fz_u8(s);
             const uint32_t id = fz_u8(s) % HD_PARAM_COUNT;
