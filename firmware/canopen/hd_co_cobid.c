@@ -6,7 +6,13 @@
 #include "hd_co_internal.h"
 
 /* The COB-ID objects, in one order: 0 SYNC, 1 EMCY, 2.. RPDOs, then TPDOs; -1 for none. */
-enum { COB_SYNC = 0, COB_EMCY = 1, COB_RPDO = 2, COB_TPDO = 2 + (int)HD_CO_N_PDO, COB_COUNT = 2 + 2 * (int)HD_CO_N_PDO };
+typedef enum {
+    COB_SYNC = 0,
+    COB_EMCY = 1,
+    COB_RPDO = 2,
+    COB_TPDO = 2 + (int)HD_CO_N_PDO,
+    COB_COUNT = 2 + 2 * (int)HD_CO_N_PDO
+} hd_co_cob_slot_t;
 
 static int32_t cob_slot(uint16_t index, uint8_t sub)
 {

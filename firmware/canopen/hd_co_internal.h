@@ -9,6 +9,7 @@
 #define HD_CO_INTERNAL_H
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 #include "hd_co.h"
 

@@ -8,8 +8,8 @@
 #include "hd_co_internal.h"
 #include "hd_le32.h"
 
-/* SDO server states. */
-enum {
+/* SDO server states (hd_co_sdo_t.state). */
+typedef enum {
     SDO_IDLE = 0,
     SDO_DL_SEG,
     SDO_UL_SEG,
@@ -19,7 +19,7 @@ enum {
     SDO_BLK_UL_SEND,
     SDO_BLK_UL_ACK,
     SDO_BLK_UL_END
-};
+} hd_co_sdo_state_t;
 
 uint16_t hd_co_crc16(uint16_t crc, const uint8_t *p, uint32_t len)
 {
