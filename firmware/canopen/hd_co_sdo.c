@@ -34,15 +34,22 @@ uint16_t hd_co_crc16(uint16_t crc, const uint8_t *p, uint32_t len)
     return (uint16_t)c;
 }
 
-static uint32_t sdo_lookup(const hd_co_t *co, uint16_t index, uint8_t sub, uint32_t *ent)
+/* The entry of index:sub for a master (SDO): the device profile's filter first
+ * (hd_co_app_if_t.object_filter), then the table, then the access right (write or read).
+ * 0 and *ent, or the abort code. */
+static uint32_t sdo_entry(const hd_co_t *co, uint16_t index, uint8_t sub, bool write, uint32_t *ent)
 {
+    uint32_t ab = 0u;
     if (co->app.object_filter != NULL) {
-        const uint32_t ab = co->app.object_filter(co->app.ctx, index, sub);
-        if (ab != 0u) {
-            return ab;
-        }
+        ab = co->app.object_filter(co->app.ctx, index, sub);
     }
-    return hd_co__lookup(co, index, sub, ent);
+    if (ab == 0u) {
+        ab = hd_co__lookup(co, index, sub, ent);
+    }
+    if (ab == 0u) {
+        ab = hd_co__check_access(co, *ent, write);
+    }
+    return ab;
 }
 
 static uint32_t sdo_tx_id(const hd_co_t *co) { return 0x580u + co->node_id; }
@@ -184,10 +191,7 @@ static void sdo_initiate_download(hd_co_t *co, const uint8_t *d, uint16_t index,
 {
     hd_co_sdo_t *s = &co->sdo;
     uint32_t ent;
-    uint32_t ab = sdo_lookup(co, index, sub, &ent);
-    if (ab == 0u) {
-        ab = hd_co__check_access(co, ent, true);
-    }
+    uint32_t ab = sdo_entry(co, index, sub, true, &ent);
     if (ab != 0u) {
         sdo_abort(co, index, sub, ab);
         return;
@@ -289,10 +293,7 @@ static bool upload_open(hd_co_t *co, uint16_t index, uint8_t sub, uint32_t *size
 {
     hd_co_sdo_t *s = &co->sdo;
     uint32_t ent;
-    uint32_t ab = sdo_lookup(co, index, sub, &ent);
-    if (ab == 0u) {
-        ab = hd_co__check_access(co, ent, false);
-    }
+    uint32_t ab = sdo_entry(co, index, sub, false, &ent);
     hd_co__sdo_reset(co, false);
     *size = 0u;
     if (ab == 0u) {
@@ -371,10 +372,7 @@ static void sdo_block_download_init(hd_co_t *co, const uint8_t *d, uint16_t inde
         return;
     }
     uint32_t ent;
-    uint32_t ab = sdo_lookup(co, index, sub, &ent);
-    if (ab == 0u) {
-        ab = hd_co__check_access(co, ent, true);
-    }
+    uint32_t ab = sdo_entry(co, index, sub, true, &ent);
     uint32_t size = (d[0] & 0x02u) != 0u ? hd_get_le32(&d[4]) : 0u;
     if (ab == 0u) {
         if (is_domain(co, ent)) {
