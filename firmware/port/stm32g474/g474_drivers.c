@@ -22,6 +22,7 @@
 #include "g474_config.h"
 #include "g474_port.h"
 #include "hd_bittiming.h"
+#include "hd_le32.h"
 
 #define WAIT_LIMIT 1000000u
 
@@ -442,10 +443,8 @@ int32_t hd_g474_flash_prog(uint32_t off, const void *buf, uint32_t len)
     }
     HD_REG(FLASH_CR) = 1u;                                    /* PG */
     for (i = 0u; i < len && rc == 0; i += 8u) {
-        const uint32_t lo = (uint32_t)s[i] | ((uint32_t)s[i + 1u] << 8) | ((uint32_t)s[i + 2u] << 16) |
-                            ((uint32_t)s[i + 3u] << 24);
-        const uint32_t hi = (uint32_t)s[i + 4u] | ((uint32_t)s[i + 5u] << 8) | ((uint32_t)s[i + 6u] << 16) |
-                            ((uint32_t)s[i + 7u] << 24);
+        const uint32_t lo = hd_get_le32(&s[i]);
+        const uint32_t hi = hd_get_le32(&s[i + 4u]);
         HD_REG(HD_G474_NVM_ADDR + off + i) = lo;               /* a dword (64 bit): two word writes */
         HD_REG(HD_G474_NVM_ADDR + off + i + 4u) = hi;
         rc = flash_wait();
