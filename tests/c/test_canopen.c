@@ -143,6 +143,7 @@ static void t_comm_fault(void *c, uint16_t code) { (void)code; ((ctx_t *)c)->com
 static ctx_t X;
 static hd_co_t CO;
 static hd_co402_t P402;     /* the CiA 402 profile on top of CO */
+static bool no_profile;     /* setup_dev: a plain CiA 301 device (no profile plugged in) */
 
 /* a device profile without the manufacturer range (the virtual drive's generic profile) */
 static uint32_t t_filter(void *c, uint16_t index, uint8_t sub)
@@ -179,7 +180,9 @@ static void setup_dev(void)
     ifc.drive_actual = t_actual;
     ifc.drive_fault_reset = t_fault_reset;
     ifc.drive_comm_fault = t_comm_fault;
-    hd_co402_use(&P402, &ifc);
+    if (!no_profile) {
+        hd_co402_use(&P402, &ifc);
+    }
     hd_co_init(&CO, NODE, &ifc);
 }
 
@@ -1067,6 +1070,42 @@ static void test_nmt_without_reaction(void **st)
 
 /* CiA 301 restricted CAN-IDs and the node's own service IDs are refused with 0x06090030,
  * the old value kept; the disable / change / enable sequence works. */
+/* The CiA 402 layer is a profile plugged in on top: with it the mode rule, the state
+ * machine and the statusword; without it the same device is plain CiA 301 (the 402
+ * objects are plain values, the 301 services unchanged). */
+static void test_profile_plugged_in_or_plain_301(void **st)
+{
+    uint32_t v = 0u;
+    (void)st;
+    setup_dev();
+    tick(1);
+    assert_int_equal(hd_co402_state(&P402), HD_CO402_SO_DISABLED);
+    assert_int_equal(sdo_write(0x6060u, 0u, 3u, 1u), HD_CO_AB_VALUE);     /* no mode 3 in this drive */
+    cw(0x06);
+    assert_int_equal(hd_co402_state(&P402), HD_CO402_READY);
+    assert_int_equal(statusword() & 0x6F, 0x21);
+
+    no_profile = true;
+    setup_dev();
+    no_profile = false;
+    assert_null(CO.app.profile);
+    tick(3);
+    assert_int_equal(sdo_write(0x6060u, 0u, 3u, 1u), 0u);                 /* a plain value */
+    cw(0x06);
+    tick(3);
+    assert_int_equal(statusword(), 0u);                                  /* nobody drives it */
+    assert_false(X.on);
+    assert_int_equal(sdo_read(0x1017u, 0u, &v), 0u);                      /* 301 as before */
+    assert_int_equal(sdo_write(0x1017u, 0u, 100u, 2u), 0u);
+    flush();
+    const uint8_t reset_comm[2] = {0x82u, (uint8_t)NODE};
+    rx(0u, 2u, reset_comm);
+    const hd_can_frame_t *f = next_tx();
+    assert_non_null(f);
+    assert_int_equal(f->id, 0x700u + NODE);                               /* boot-up */
+    assert_int_equal(f->data[0], 0u);
+}
+
 static void test_cobid_rules(void **st)
 {
     static const uint32_t restricted[] = {0x001, 0x07F, 0x101, 0x17F, 0x180, 0x581, 0x580 + NODE, 0x5FF,
@@ -1161,6 +1200,7 @@ int main(void)
         cmocka_unit_test(test_nmt_leaving_operational_applies_0x6007),
         cmocka_unit_test(test_nmt_without_reaction),
         cmocka_unit_test(test_cobid_rules),
+        cmocka_unit_test(test_profile_plugged_in_or_plain_301),
         cmocka_unit_test(test_fuzz_random_frames),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
