@@ -48,7 +48,7 @@ SIM_SRC     := $(wildcard sim/plant/*.c)
 SIM_INC     := -Isim/plant -Isim/harness
 SIM_WARN    := -Wall -Wextra -Wshadow -Werror
 HOST_SIM_CFLAGS := -std=c99 -D_POSIX_C_SOURCE=200809L $(SIM_WARN) -O1 -g $(SAN) $(SIM_INC)
-OPT_SIM_CFLAGS  := -std=c99 -D_POSIX_C_SOURCE=200809L $(SIM_WARN) -O2 -g -fPIC $(SIM_INC)
+OPT_SIM_CFLAGS  := -std=c99 -D_POSIX_C_SOURCE=200809L $(SIM_WARN) -O2 -g -fPIC -fno-semantic-interposition $(SIM_INC)
 HOST_SIM_OBJ := $(patsubst %.c,$(B)/host/obj/%.o,$(SIM_SRC))
 OPT_SIM_OBJ  := $(patsubst %.c,$(B)/opt/obj/%.o,$(SIM_SRC))
 

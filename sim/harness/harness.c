@@ -481,17 +481,21 @@ int hd_sim_check_diverged(const hd_sim_t *s, char *err, size_t errlen)
     return -1;
 }
 
-int hd_sim_run(hd_sim_t *s, double *rows, char *err, size_t errlen)
+/* Every period; logged row j goes to out[j * row_stride + c * col_stride], c = column
+ * (row-major: HD_SIM_NCOL, 1; column-major: 1, n_rows).  A row is built in a local
+ * buffer, checked, then stored, so both layouts run the same code. */
+static int sim_run(hd_sim_t *s, double *out, int64_t row_stride, int64_t col_stride, char *err, size_t errlen)
 {
     int64_t D = s->sc.log_decimation, j = 0, m = s->k % D;   /* m = k mod D, counted (no division per period) */
+    double r[HD_SIM_NCOL];
     while (s->k < s->n_periods) {
         int log = m == 0;
         if (++m == D) m = 0;
-        hd_sim_step(s, log ? rows + j * HD_SIM_NCOL : NULL);
+        hd_sim_step(s, log ? r : NULL);
         /* every period, not only logged rows: a diverged plant must stop the run at once */
         if (hd_sim_check_diverged(s, err, errlen)) return -1;
         if (log) {
-            const double *r = rows + j * HD_SIM_NCOL;
+            double *o = out + j * row_stride;
             /* one check per row: the sum of the columns is finite unless a column is
              * (or the sum overflows, which the column scan below then tells apart) */
             double sum = 0.0;
@@ -503,10 +507,21 @@ int hd_sim_run(hd_sim_t *s, double *rows, char *err, size_t errlen)
                     return -1;
                 }
             }
+            for (int32_t c = 0; c < HD_SIM_NCOL; c++) o[c * col_stride] = r[c];
             j++;
         }
     }
     return 0;
+}
+
+int hd_sim_run(hd_sim_t *s, double *rows, char *err, size_t errlen)
+{
+    return sim_run(s, rows, HD_SIM_NCOL, 1, err, errlen);
+}
+
+int hd_sim_run_columns(hd_sim_t *s, double *cols, char *err, size_t errlen)
+{
+    return sim_run(s, cols, 1, hd_sim_n_rows(s), err, errlen);
 }
 
 size_t hd_sim_meta_json(const hd_sim_t *s, char *buf, size_t cap)

@@ -111,11 +111,13 @@ static inline void rot_small(double c0, double s0, double x, double d, double *c
         *s = s0 + (s0 * cm1 + c0 * sd);
     } else if (ad < 0.1) {
         double d2 = d * d;
-        /* Taylor terms to d^11 / d^12 (Horner, reciprocal factorial ratios) */
-        double sd = d * (1.0 - d2 * (1.0 / 6.0) * (1.0 - d2 * (1.0 / 20.0) * (1.0 - d2 * (1.0 / 42.0)
-                    * (1.0 - d2 * (1.0 / 72.0) * (1.0 - d2 * (1.0 / 110.0))))));
-        double cm1 = -0.5 * d2 * (1.0 - d2 * (1.0 / 12.0) * (1.0 - d2 * (1.0 / 30.0) * (1.0 - d2 * (1.0 / 56.0)
-                     * (1.0 - d2 * (1.0 / 90.0) * (1.0 - d2 * (1.0 / 132.0))))));
+        /* Taylor terms to d^11 / d^12 in Estrin's form (powers d^2, d^4, d^8; the
+         * coefficients are 1/(2k+1)! and 1/(2k+2)!): a short dependency chain */
+        const double d4 = d2 * d2, d8 = d4 * d4;
+        double sd = d * (((1.0 - d2 * (1.0 / 6.0)) + d4 * (1.0 / 120.0 - d2 * (1.0 / 5040.0)))
+                         + d8 * (1.0 / 362880.0 - d2 * (1.0 / 39916800.0)));
+        double cm1 = d2 * (((-1.0 / 2.0 + d2 * (1.0 / 24.0)) + d4 * (-1.0 / 720.0 + d2 * (1.0 / 40320.0)))
+                           + d8 * (-1.0 / 3628800.0 + d2 * (1.0 / 479001600.0)));
         *c = c0 + (c0 * cm1 - s0 * sd);
         *s = s0 + (s0 * cm1 + c0 * sd);
     } else {
@@ -377,9 +379,13 @@ static double cogging_energy(const hd_plant_params *q, double th_m)
 static double stribeck_exp(hd_plant *p, int side, double y)
 {
     const double d = y - p->fr_ya[side];
-    if (d <= STRIBECK_DY && d >= -STRIBECK_DY)
-        return p->fr_ea[side] * (1.0 + d * (-1.0 + d * (1.0 / 2.0 + d * (-1.0 / 6.0 + d * (1.0 / 24.0
-                                 + d * (-1.0 / 120.0 + d * (1.0 / 720.0)))))));
+    if (d <= STRIBECK_DY && d >= -STRIBECK_DY) {
+        /* the same polynomial in Estrin's form (pairs of terms, then d^2 and d^4): shorter
+         * dependency chain than Horner's, same truncation */
+        const double d2 = d * d, d4 = d2 * d2;
+        return p->fr_ea[side] * (((1.0 - d) + d2 * (1.0 / 2.0 - d * (1.0 / 6.0)))
+                                 + d4 * ((1.0 / 24.0 - d * (1.0 / 120.0)) + d2 * (1.0 / 720.0)));
+    }
     if (y > 700.0) return 0.0;                                   /* avoid the slow underflow path */
     p->fr_ya[side] = y;
     p->fr_ea[side] = exp(-y);
@@ -421,8 +427,11 @@ static double lugre_z(const hd_plant_friction_params *f, double z0, double v, do
     if (s == 0.0) return z0;
     x = -f->sigma0_Nm_per_rad * fabs(v) * s * ig;
     if (x >= -LUGRE_XPOLY) {
-        const double ph = 1.0 + x * (1.0 / 2.0 + x * (1.0 / 6.0 + x * (1.0 / 24.0 + x * (1.0 / 120.0
-                          + x * (1.0 / 720.0 + x * (1.0 / 5040.0 + x * (1.0 / 40320.0)))))));
+        /* Estrin's form of the series (pairs of terms, then x^2 and x^4): same terms as
+         * Horner's, half the dependency chain */
+        const double x2 = x * x, x4 = x2 * x2;
+        const double ph = ((1.0 + x * (1.0 / 2.0)) + x2 * (1.0 / 6.0 + x * (1.0 / 24.0)))
+                          + x4 * ((1.0 / 120.0 + x * (1.0 / 720.0)) + x2 * (1.0 / 5040.0 + x * (1.0 / 40320.0)));
         return z0 * (1.0 + x * ph) + v * s * ph;
     }
     em1 = x < -40.0 ? -1.0 : (x < -0.7 ? exp(x) - 1.0 : expm1(x));
@@ -583,7 +592,7 @@ static void accel_eval(hd_plant *p, const substep_ctx *c, double s, int bi, cons
         dx->th_m = 0.0; dx->w_m = 0.0;
     } else {
         dx->th_m = x->w_m;
-        dx->w_m = (appl_m - Fm) / q->jm_kgm2;
+        dx->w_m = (appl_m - Fm) * p->inv_jm;
     }
     /* load side */
     if (p->brake) {
@@ -598,7 +607,7 @@ static void accel_eval(hd_plant *p, const substep_ctx *c, double s, int bi, cons
             dx->th_l = 0.0; dx->w_l = 0.0;
         } else {
             dx->th_l = x->w_l;
-            dx->w_l = (appl_l - Fl) / q->jl_kgm2;
+            dx->w_l = (appl_l - Fl) * p->inv_jl;
         }
     }
     if (dg != NULL) {
@@ -693,12 +702,12 @@ static void k1_from_cache(const hd_plant *p, const substep_ctx *c, const xstate 
     const double appl_m = c->tq_m + p->k1_rest_m - q->jm_kgm2 * a_b;
     const double appl_l = p->k1_rest_l + c->t_ext - q->jl_kgm2 * a_b;
     dx->th_m = x->w_m;
-    dx->w_m = (appl_m - p->k1_Fm) / q->jm_kgm2;
+    dx->w_m = (appl_m - p->k1_Fm) * p->inv_jm;
     if (p->brake) {
         dx->th_l = 0.0; dx->w_l = 0.0;
     } else {
         dx->th_l = x->w_l;
-        dx->w_l = (appl_l - p->k1_Fl) / q->jl_kgm2;
+        dx->w_l = (appl_l - p->k1_Fl) * p->inv_jl;
     }
 }
 
@@ -779,6 +788,8 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
     }
     p->tau_i = 1.0 / (TWO_PI * prm->current_bandwidth_Hz);
     p->inv_ratio = 1.0 / prm->ratio;      /* the RK stages multiply, they do not divide */
+    p->inv_jm = 1.0 / prm->jm_kgm2;
+    p->inv_jl = 1.0 / prm->jl_kgm2;
     for (k = 0; k < HD_PLANT_MAX_HARM; k++) {
         int l;
         const double *ord[3], *ph[3];

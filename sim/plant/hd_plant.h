@@ -242,6 +242,7 @@ typedef struct {
     double   phi1, phi2;              /* three-slope breakpoints */
     double   tau_i;                   /* current-loop time constant */
     double   inv_ratio;               /* 1/N */
+    double   inv_jm, inv_jl;          /* 1/J of the motor and load sides (stages multiply) */
     double   harm_cp[3][HD_PLANT_MAX_HARM], harm_sp[3][HD_PLANT_MAX_HARM]; /* cos/sin of phases */
     int32_t  harm_int[3][HD_PLANT_MAX_HARM];  /* integer order: evaluated by powers of one sincos */
     int32_t  has_te_out;
