@@ -38,7 +38,7 @@ struct hd_sim {
     double load_dist_Nm;        /* external load torque applied in the last period */
     int timing;
     double t_app_s, t_plant_s;
-    int64_t timed;              /* periods actually timed (every 8th) */
+    int64_t timed;              /* periods actually timed (every 32nd) */
     int64_t periods_run;        /* periods run with timing on */
     int ptp_started;            /* setpoint "ptp": drive mode PTP entered */
 };
@@ -420,8 +420,8 @@ void hd_sim_step(hd_sim_t *s, double *row)
 
     /* 3. firmware */
     /* timing: clock reads cost about as much as a tenth of a period, so only every
-     * 8th period is timed and the sums are scaled to all periods (hd_sim_timing) */
-    const int timed = s->timing && (s->k & 7) == 0;
+     * 32nd period is timed and the sums are scaled to all periods (hd_sim_timing) */
+    const int timed = s->timing && (s->k & 31) == 0;
     double t0 = 0.0, t1 = 0.0, t2 = 0.0;
     if (timed) t0 = now_s();
     hd_app_step(&s->app);

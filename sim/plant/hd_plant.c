@@ -99,7 +99,7 @@ static double rng_gauss(hd_plant *p)
 
 /* cos/sin(x0 + d) from c0 = cos x0, s0 = sin x0: angle addition with a Taylor
  * polynomial of cos/sin d for small |d| (truncation < 1e-22), libm otherwise. */
-static inline void rot_small(double c0, double s0, double x, double d, double *c, double *s)
+static inline void rot_poly(double c0, double s0, double d, double *c, double *s)
 {
     double ad = fabs(d);
     if (ad < 2e-3) {
@@ -109,7 +109,7 @@ static inline void rot_small(double c0, double s0, double x, double d, double *c
         double cm1 = -0.5 * d2 * (1.0 - d2 * (1.0 / 12.0));
         *c = c0 + (c0 * cm1 - s0 * sd);
         *s = s0 + (s0 * cm1 + c0 * sd);
-    } else if (ad < 0.1) {
+    } else {                               /* 2e-3 <= |d| < ROT_MAX (callers check) */
         double d2 = d * d;
         /* Taylor terms to d^11 / d^12 in Estrin's form (powers d^2, d^4, d^8; the
          * coefficients are 1/(2k+1)! and 1/(2k+2)!): a short dependency chain */
@@ -120,6 +120,15 @@ static inline void rot_small(double c0, double s0, double x, double d, double *c
                            + d8 * (-1.0 / 3628800.0 + d2 * (1.0 / 479001600.0)));
         *c = c0 + (c0 * cm1 - s0 * sd);
         *s = s0 + (s0 * cm1 + c0 * sd);
+    }
+}
+
+#define ROT_MAX 0.1   /* rot_poly's range: |d| < ROT_MAX */
+
+static inline void rot_small(double c0, double s0, double x, double d, double *c, double *s)
+{
+    if (fabs(d) < ROT_MAX) {
+        rot_poly(c0, s0, d, c, s);
     } else {
         *c = cos(x);
         *s = sin(x);
@@ -244,6 +253,7 @@ static void harm_plan(hd_plant *p)
         p->pw_n[ch] = 1;
         p->pw_ord[ch][0] = 1u;
         p->pw_a[ch][0] = p->pw_b[ch][0] = 0;
+        p->hmax[ch] = 0.0;
     }
     for (l = 0; l < 3; l++) {
         const double *ord = l == 0 ? q->cog_order : (l == 1 ? q->te_wg_order : q->te_out_order);
@@ -267,6 +277,8 @@ static void harm_plan(hd_plant *p)
         }
         p->hn[l] = n;
         if (p->hn_int[l] < n) p->h_libm = 1;
+        for (k = 0; k < p->hn_int[l]; k++)
+            if (p->hfo[l][k] > p->hmax[ch]) p->hmax[ch] = p->hfo[l][k];
     }
 }
 
@@ -305,7 +317,8 @@ static double harm_sum_libm(const hd_plant *p, int l, double th, double *dsum)
  * One power chain per angle serves every list on it; written out in one function
  * (no calls on the integer-order path) because it runs at every RK stage. */
 static double harm_eval(const hd_plant *p, double th_m, double cm, double sm, double th_l, double cl, double sl,
-                        double *de_m, double *de_l, double *tcog)
+                        double *de_m, double *de_l, double *tcog, double (*hc)[HD_PLANT_MAX_HARM],
+                        double (*hs)[HD_PLANT_MAX_HARM])
 {
     double pc[HD_PLANT_POW_MAX], ps[HD_PLANT_POW_MAX], e = 0.0, d = 0.0, dl = 0.0, cg = 0.0;
     const int te = p->prm.te_enabled != 0, cog = p->prm.cogging_enabled != 0;
@@ -329,6 +342,11 @@ static double harm_eval(const hd_plant *p, double th_m, double cm, double sm, do
             for (k = 0; k < n; k++)
                 cg += amp[k] * (ps[idx[k]] * cp[k] + pc[idx[k]] * sp[k]);
         }
+        if (hc != NULL) {
+            int l;
+            for (l = 0; l < 2; l++)
+                for (k = 0; k < p->hn_int[l]; k++) { hc[l][k] = pc[p->hidx[l][k]]; hs[l][k] = ps[p->hidx[l][k]]; }
+        }
     }
     if (te && p->has_te_out) {
         const int32_t *idx = p->hidx[2];
@@ -339,6 +357,7 @@ static double harm_eval(const hd_plant *p, double th_m, double cm, double sm, do
             const double c = pc[idx[k]], s = ps[idx[k]];
             e += amp[k] * (s * cp[k] + c * sp[k]);
             dl += ampn[k] * (c * cp[k] - s * sp[k]);
+            if (hc != NULL) { hc[2][k] = c; hs[2][k] = s; }
         }
     }
     if (p->h_libm) {                     /* some order is not an integer */
@@ -355,7 +374,46 @@ static double harm_eval(const hd_plant *p, double th_m, double cm, double sm, do
 static double te_eval1(const hd_plant *p, double th_m, double th_l, double *de_m, double *de_l)
 {
     double tcog;
-    return harm_eval(p, th_m, cos(th_m), sin(th_m), th_l, cos(th_l), sin(th_l), de_m, de_l, &tcog);
+    return harm_eval(p, th_m, cos(th_m), sin(th_m), th_l, cos(th_l), sin(th_l), de_m, de_l, &tcog, NULL, NULL);
+}
+
+/* The same sums at an RK stage, theta_m = end_th_m + dm and theta_l = end_th_l + dl, from the
+ * cos/sin(n theta) that the last end evaluation stored per harmonic (hc0, hs0): each harmonic
+ * is rotated by n*dm (n*dl) with rot_poly, independently of the others, so the stage has no
+ * chain of products whose length grows with the order (36, 72: seven dependent complex
+ * products).  Every value is one rotation (about one ulp) from a chain value and none is
+ * carried on, so nothing accumulates.  Returns 0 (caller uses harm_eval) when a rotation
+ * angle n*d reaches ROT_MAX or an order is not an integer. */
+static int harm_eval_rot(const hd_plant *p, double dm, double dl, double *te, double *de_m, double *de_l,
+                         double *tcog)
+{
+    const int te_on = p->prm.te_enabled != 0, cog = p->prm.cogging_enabled != 0;
+    double e = 0.0, d = 0.0, d_l = 0.0, cg = 0.0, c, s;
+    int32_t k;
+    if (!p->h_rot_ok || p->h_libm || !(fabs(dm) * p->hmax[0] < ROT_MAX) || !(fabs(dl) * p->hmax[1] < ROT_MAX)) return 0;
+    if (te_on) {
+        for (k = 0; k < p->hn_int[1]; k++) {
+            rot_poly(p->hc0[1][k], p->hs0[1][k], p->hfo[1][k] * dm, &c, &s);
+            e += p->hamp[1][k] * (s * p->hcp[1][k] + c * p->hsp[1][k]);
+            d += p->hampn[1][k] * (c * p->hcp[1][k] - s * p->hsp[1][k]);
+        }
+        if (p->has_te_out)
+            for (k = 0; k < p->hn_int[2]; k++) {
+                rot_poly(p->hc0[2][k], p->hs0[2][k], p->hfo[2][k] * dl, &c, &s);
+                e += p->hamp[2][k] * (s * p->hcp[2][k] + c * p->hsp[2][k]);
+                d_l += p->hampn[2][k] * (c * p->hcp[2][k] - s * p->hsp[2][k]);
+            }
+    }
+    if (cog)
+        for (k = 0; k < p->hn_int[0]; k++) {
+            rot_poly(p->hc0[0][k], p->hs0[0][k], p->hfo[0][k] * dm, &c, &s);
+            cg += p->hamp[0][k] * (s * p->hcp[0][k] + c * p->hsp[0][k]);
+        }
+    *te = e;
+    *de_m = d;
+    *de_l = d_l;
+    *tcog = cg;
+    return 1;
 }
 
 static double cogging_energy(const hd_plant_params *q, double th_m)
@@ -541,13 +599,12 @@ static void base_cache(hd_plant *p, substep_ctx *c)
 static int need_trig_m(const hd_plant_params *q) { return q->te_enabled || q->cogging_enabled; }
 static int need_trig_l(const hd_plant *p) { return (p->prm.te_enabled && p->has_te_out) || p->prm.gravity_enabled; }
 
-/* Spring + hysteresis (from the committed memory) + TE + cogging at angles x with
- * cos/sin of theta_m (cm, sm) and theta_l (cl, sl). */
-static void pos_eval(const hd_plant *p, const xstate *x, double cm, double sm, double cl, double sl, pos_part *pp)
+/* Spring + hysteresis (from the committed memory) at angles x, with TE and cogging
+ * already in pp (te, de_m, de_l, Tcog) and cos/sin of theta_l (cl, sl). */
+static void pos_eval(const hd_plant *p, const xstate *x, double cl, double sl, pos_part *pp)
 {
     const hd_plant_params *q = &p->prm;
     double Th = 0.0, phi;
-    pp->te = harm_eval(p, x->th_m, cm, sm, x->th_l, cl, sl, &pp->de_m, &pp->de_l, &pp->Tcog);
     phi = x->th_m * p->inv_ratio + pp->te - x->th_l;
     pp->phi = phi;
     if (q->maxwell_enabled) {
@@ -623,10 +680,14 @@ static void stage(hd_plant *p, const substep_ctx *c, double s, const xstate *x0,
                   const double *t0, xstate *dx, eval_diag *dg)
 {
     double cm = 1.0, sm = 0.0, cl = 1.0, sl = 0.0;
+    const double dm = xt->th_m - x0->th_m, dl = xt->th_l - x0->th_l;
     pos_part pp;
-    if (need_trig_m(&p->prm)) rot_small(t0[0], t0[1], xt->th_m, xt->th_m - x0->th_m, &cm, &sm);
-    if (need_trig_l(p)) rot_small(t0[2], t0[3], xt->th_l, xt->th_l - x0->th_l, &cl, &sl);
-    pos_eval(p, xt, cm, sm, cl, sl, &pp);
+    if (need_trig_l(p)) rot_small(t0[2], t0[3], xt->th_l, dl, &cl, &sl);
+    if (!harm_eval_rot(p, dm, dl, &pp.te, &pp.de_m, &pp.de_l, &pp.Tcog)) {
+        if (need_trig_m(&p->prm)) rot_small(t0[0], t0[1], xt->th_m, dm, &cm, &sm);
+        pp.te = harm_eval(p, xt->th_m, cm, sm, xt->th_l, cl, sl, &pp.de_m, &pp.de_l, &pp.Tcog, NULL, NULL);
+    }
+    pos_eval(p, xt, cl, sl, &pp);
     accel_eval(p, c, s, s < c->h ? 1 : 2, xt, &pp, dx, dg);
 }
 
@@ -650,7 +711,7 @@ static void end_eval(hd_plant *p)
         if (need_trig_l(p)) { cl = cos(x.th_l); sl = sin(x.th_l); }
         p->trig_n = 0;
     }
-    te = harm_eval(p, x.th_m, cm, sm, x.th_l, cl, sl, &de_m, &de_l, &p->end_Tcog);
+    te = harm_eval(p, x.th_m, cm, sm, x.th_l, cl, sl, &de_m, &de_l, &p->end_Tcog, p->hc0, p->hs0);
     phi = x.th_m * p->inv_ratio + te - x.th_l;
     if (q->maxwell_enabled) {
         for (k = 0; k < q->maxwell_n; k++) {
@@ -803,6 +864,7 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
         if (prm->te_out_order[k] != 0.0 && prm->te_out_amp_rad[k] != 0.0) p->has_te_out = 1;
     }
     harm_plan(p);
+    p->h_rot_ok = 1;
     if (prm->preisach_enabled) {
         hd_plant_preisach_everett(p->everett, prm->preisach_u_max_rad, prm->preisach_t_sat_Nm,
                             prm->preisach_r0_rad, prm->preisach_s_rad);

@@ -277,6 +277,10 @@ typedef struct {
     int32_t  pw_n[2], pw_a[2][HD_PLANT_POW_MAX], pw_b[2][HD_PLANT_POW_MAX]; /* chains: theta_m, theta_l */
     uint32_t pw_ord[2][HD_PLANT_POW_MAX];
     double   hfo[3][HD_PLANT_MAX_HARM], hamp[3][HD_PLANT_MAX_HARM], hampn[3][HD_PLANT_MAX_HARM];
+    double   hc0[3][HD_PLANT_MAX_HARM], hs0[3][HD_PLANT_MAX_HARM]; /* cos/sin(n theta) of each integer-order
+                                                                     harmonic at the last end evaluation */
+    double   hmax[2];                 /* largest integer order on chain 0 (theta_m) and 1 (theta_l) */
+    int32_t  h_rot_ok;                /* 1: stages rotate the end evaluation's harmonics (tests set 0) */
     double   hcp[3][HD_PLANT_MAX_HARM], hsp[3][HD_PLANT_MAX_HARM], hph[3][HD_PLANT_MAX_HARM];
     double   k_dt, k_h, k_inv_h, k_E, k_Efac, k_gyro_a, k_gyro_sd, k_rot_c, k_rot_s, k_rot2_c, k_rot2_s; /* per-dt */
     double   enc_scale[2];
