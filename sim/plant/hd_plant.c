@@ -74,13 +74,13 @@ static void zig_init(double *x, double *r)
     for (i = 0; i < ZIG_C; i++) r[i] = x[i + 1] / x[i];
 }
 
-static double rng_gauss(hd_plant *p)
+/* The rare part of a draw (wedge, tail; about 1 % of the calls), out of line so that the
+ * common path needs no registers saved around libm calls. */
+__attribute__((noinline)) static double rng_gauss_slow(hd_plant *p, int i, double u)
 {
     for (;;) {
-        uint64_t b = rng_next(p->rng);
-        int i = (int)(b & 0x7Fu);                                        /* layer: low 7 bits */
-        double u = 2.0 * (((double)(b >> 11) + 0.5) * (1.0 / 9007199254740992.0)) - 1.0; /* top 53 bits */
         double xx, f0, f1;
+        uint64_t b;
         if (fabs(u) < p->zig_r[i]) return u * p->zig_x[i];
         if (i == 0) {                                                    /* tail beyond R */
             double t, y;
@@ -94,7 +94,19 @@ static double rng_gauss(hd_plant *p)
         f0 = exp(-0.5 * (p->zig_x[i] * p->zig_x[i] - xx * xx));
         f1 = exp(-0.5 * (p->zig_x[i + 1] * p->zig_x[i + 1] - xx * xx));
         if (f1 + rng_uniform(p->rng) * (f0 - f1) < 1.0) return xx;
+        b = rng_next(p->rng);
+        i = (int)(b & 0x7Fu);
+        u = 2.0 * (((double)(b >> 11) + 0.5) * (1.0 / 9007199254740992.0)) - 1.0;
     }
+}
+
+static double rng_gauss(hd_plant *p)
+{
+    const uint64_t b = rng_next(p->rng);
+    const int i = (int)(b & 0x7Fu);                                      /* layer: low 7 bits */
+    const double u = 2.0 * (((double)(b >> 11) + 0.5) * (1.0 / 9007199254740992.0)) - 1.0; /* top 53 bits */
+    if (fabs(u) < p->zig_r[i]) return u * p->zig_x[i];
+    return rng_gauss_slow(p, i, u);
 }
 
 /* cos/sin(x0 + d) from c0 = cos x0, s0 = sin x0: angle addition with a Taylor
@@ -345,7 +357,11 @@ static double harm_eval(const hd_plant *p, double th_m, double cm, double sm, do
         if (hc != NULL) {
             int l;
             for (l = 0; l < 2; l++)
-                for (k = 0; k < p->hn_int[l]; k++) { hc[l][k] = pc[p->hidx[l][k]]; hs[l][k] = ps[p->hidx[l][k]]; }
+                for (k = 0; k < p->hn_int[l]; k++) {          /* cos/sin(n theta + phase) */
+                    const double c = pc[p->hidx[l][k]], s = ps[p->hidx[l][k]];
+                    hc[l][k] = c * p->hcp[l][k] - s * p->hsp[l][k];
+                    hs[l][k] = s * p->hcp[l][k] + c * p->hsp[l][k];
+                }
         }
     }
     if (te && p->has_te_out) {
@@ -357,7 +373,7 @@ static double harm_eval(const hd_plant *p, double th_m, double cm, double sm, do
             const double c = pc[idx[k]], s = ps[idx[k]];
             e += amp[k] * (s * cp[k] + c * sp[k]);
             dl += ampn[k] * (c * cp[k] - s * sp[k]);
-            if (hc != NULL) { hc[2][k] = c; hs[2][k] = s; }
+            if (hc != NULL) { hc[2][k] = c * cp[k] - s * sp[k]; hs[2][k] = s * cp[k] + c * sp[k]; }
         }
     }
     if (p->h_libm) {                     /* some order is not an integer */
@@ -377,42 +393,46 @@ static double te_eval1(const hd_plant *p, double th_m, double th_l, double *de_m
     return harm_eval(p, th_m, cos(th_m), sin(th_m), th_l, cos(th_l), sin(th_l), de_m, de_l, &tcog, NULL, NULL);
 }
 
-/* The same sums at an RK stage, theta_m = end_th_m + dm and theta_l = end_th_l + dl, from the
- * cos/sin(n theta) that the last end evaluation stored per harmonic (hc0, hs0): each harmonic
- * is rotated by n*dm (n*dl) with rot_poly, independently of the others, so the stage has no
+/* The same sums at theta_m = end_th_m + dm and theta_l = end_th_l + dl, from the
+ * cos/sin(n theta + phase) that the last end evaluation stored per harmonic (hc0, hs0): each
+ * harmonic is rotated by n*dm (n*dl) with rot_poly, independently of the others, so there is no
  * chain of products whose length grows with the order (36, 72: seven dependent complex
- * products).  Every value is one rotation (about one ulp) from a chain value and none is
- * carried on, so nothing accumulates.  Returns 0 (caller uses harm_eval) when a rotation
- * angle n*d reaches ROT_MAX or an order is not an integer. */
+ * products).  The RK stages use it (nothing carried on: every value one rotation, about one
+ * ulp, from the stored one); the end evaluation too, storing the rotated values (hc, hs not
+ * NULL) for the next sub-step, between the refreshes from libm every TRIG_SYNC sub-steps
+ * (end_eval), so rounding cannot accumulate beyond TRIG_SYNC rotations.  Returns 0 (caller
+ * uses harm_eval) when a rotation angle n*d reaches ROT_MAX or an order is not an integer. */
 static int harm_eval_rot(const hd_plant *p, double dm, double dl, double *te, double *de_m, double *de_l,
-                         double *tcog)
+                         double *tcog, double (*hc)[HD_PLANT_MAX_HARM], double (*hs)[HD_PLANT_MAX_HARM])
 {
     const int te_on = p->prm.te_enabled != 0, cog = p->prm.cogging_enabled != 0;
     double e = 0.0, d = 0.0, d_l = 0.0, cg = 0.0, c, s;
     int32_t k;
     if (!p->h_rot_ok || p->h_libm || !(fabs(dm) * p->hmax[0] < ROT_MAX) || !(fabs(dl) * p->hmax[1] < ROT_MAX)) return 0;
-    if (te_on) {
+    if (te_on || hc != NULL) {
         for (k = 0; k < p->hn_int[1]; k++) {
             rot_poly(p->hc0[1][k], p->hs0[1][k], p->hfo[1][k] * dm, &c, &s);
-            e += p->hamp[1][k] * (s * p->hcp[1][k] + c * p->hsp[1][k]);
-            d += p->hampn[1][k] * (c * p->hcp[1][k] - s * p->hsp[1][k]);
+            e += p->hamp[1][k] * s;
+            d += p->hampn[1][k] * c;
+            if (hc != NULL) { hc[1][k] = c; hs[1][k] = s; }
         }
-        if (p->has_te_out)
-            for (k = 0; k < p->hn_int[2]; k++) {
-                rot_poly(p->hc0[2][k], p->hs0[2][k], p->hfo[2][k] * dl, &c, &s);
-                e += p->hamp[2][k] * (s * p->hcp[2][k] + c * p->hsp[2][k]);
-                d_l += p->hampn[2][k] * (c * p->hcp[2][k] - s * p->hsp[2][k]);
-            }
+        for (k = 0; k < p->hn_int[2]; k++) {
+            rot_poly(p->hc0[2][k], p->hs0[2][k], p->hfo[2][k] * dl, &c, &s);
+            e += p->hamp[2][k] * s;
+            d_l += p->hampn[2][k] * c;
+            if (hc != NULL) { hc[2][k] = c; hs[2][k] = s; }
+        }
     }
-    if (cog)
+    if (cog || hc != NULL)
         for (k = 0; k < p->hn_int[0]; k++) {
             rot_poly(p->hc0[0][k], p->hs0[0][k], p->hfo[0][k] * dm, &c, &s);
-            cg += p->hamp[0][k] * (s * p->hcp[0][k] + c * p->hsp[0][k]);
+            cg += p->hamp[0][k] * s;
+            if (hc != NULL) { hc[0][k] = c; hs[0][k] = s; }
         }
-    *te = e;
-    *de_m = d;
-    *de_l = d_l;
-    *tcog = cg;
+    *te = te_on ? e : 0.0;
+    *de_m = te_on ? d : 0.0;
+    *de_l = te_on ? d_l : 0.0;
+    *tcog = cog ? cg : 0.0;
     return 1;
 }
 
@@ -683,7 +703,7 @@ static void stage(hd_plant *p, const substep_ctx *c, double s, const xstate *x0,
     const double dm = xt->th_m - x0->th_m, dl = xt->th_l - x0->th_l;
     pos_part pp;
     if (need_trig_l(p)) rot_small(t0[2], t0[3], xt->th_l, dl, &cl, &sl);
-    if (!harm_eval_rot(p, dm, dl, &pp.te, &pp.de_m, &pp.de_l, &pp.Tcog)) {
+    if (!harm_eval_rot(p, dm, dl, &pp.te, &pp.de_m, &pp.de_l, &pp.Tcog, NULL, NULL)) {
         if (need_trig_m(&p->prm)) rot_small(t0[0], t0[1], xt->th_m, dm, &cm, &sm);
         pp.te = harm_eval(p, xt->th_m, cm, sm, xt->th_l, cl, sl, &pp.de_m, &pp.de_l, &pp.Tcog, NULL, NULL);
     }
@@ -698,27 +718,30 @@ static void end_eval(hd_plant *p)
     const hd_plant_params *q = &p->prm;
     xstate x = { p->th_m, p->w_m, p->th_l, p->w_l };
     double cm = 1.0, sm = 0.0, cl = 1.0, sl = 0.0, de_m, de_l, te, phi, Th = 0.0;
-    int k;
+    int k, rotated = 0;
     /* cos/sin at the end of the sub-step: a small rotation from the start (the last end
      * evaluation), refreshed from libm every TRIG_SYNC evaluations so that rounding
-     * cannot accumulate (each rotation is good to about one ulp) */
+     * cannot accumulate (each rotation is good to about one ulp); the harmonics likewise
+     * (harm_eval_rot), refreshed from the powers of the libm values at the same time */
     if (p->end_valid && p->trig_n < TRIG_SYNC) {
-        if (need_trig_m(q)) rot_small(p->end_cm, p->end_sm, x.th_m, x.th_m - p->end_th_m, &cm, &sm);
-        if (need_trig_l(p)) rot_small(p->end_cl, p->end_sl, x.th_l, x.th_l - p->end_th_l, &cl, &sl);
+        const double dm = x.th_m - p->end_th_m, dl = x.th_l - p->end_th_l;
+        if (need_trig_m(q)) rot_small(p->end_cm, p->end_sm, x.th_m, dm, &cm, &sm);
+        if (need_trig_l(p)) rot_small(p->end_cl, p->end_sl, x.th_l, dl, &cl, &sl);
+        rotated = harm_eval_rot(p, dm, dl, &te, &de_m, &de_l, &p->end_Tcog, p->hc0, p->hs0);
         p->trig_n++;
     } else {
         if (need_trig_m(q)) { cm = cos(x.th_m); sm = sin(x.th_m); }
         if (need_trig_l(p)) { cl = cos(x.th_l); sl = sin(x.th_l); }
         p->trig_n = 0;
     }
-    te = harm_eval(p, x.th_m, cm, sm, x.th_l, cl, sl, &de_m, &de_l, &p->end_Tcog, p->hc0, p->hs0);
+    if (!rotated) te = harm_eval(p, x.th_m, cm, sm, x.th_l, cl, sl, &de_m, &de_l, &p->end_Tcog, p->hc0, p->hs0);
     phi = x.th_m * p->inv_ratio + te - x.th_l;
     if (q->maxwell_enabled) {
         for (k = 0; k < q->maxwell_n; k++) {
             double kk = q->maxwell_k_Nm_per_rad[k], w = q->maxwell_w_Nm[k];
             if (kk <= 0.0) continue;
-            if (kk * (phi - p->xi[k]) > w) p->xi[k] = phi - w / kk;
-            else if (kk * (phi - p->xi[k]) < -w) p->xi[k] = phi + w / kk;
+            if (kk * (phi - p->xi[k]) > w) p->xi[k] = phi - p->mx_slip[k];
+            else if (kk * (phi - p->xi[k]) < -w) p->xi[k] = phi + p->mx_slip[k];
         }
         for (k = 0; k < q->maxwell_n; k++)
             Th += sat(q->maxwell_k_Nm_per_rad[k] * (phi - p->xi[k]), q->maxwell_w_Nm[k]);
@@ -850,6 +873,8 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
     p->tau_i = 1.0 / (TWO_PI * prm->current_bandwidth_Hz);
     p->inv_ratio = 1.0 / prm->ratio;      /* the RK stages multiply, they do not divide */
     p->inv_jm = 1.0 / prm->jm_kgm2;
+    for (k = 0; k < HD_PLANT_MAX_MAXWELL; k++)      /* slip deflection w/k of each element */
+        p->mx_slip[k] = prm->maxwell_k_Nm_per_rad[k] > 0.0 ? prm->maxwell_w_Nm[k] / prm->maxwell_k_Nm_per_rad[k] : 0.0;
     p->inv_jl = 1.0 / prm->jl_kgm2;
     for (k = 0; k < HD_PLANT_MAX_HARM; k++) {
         int l;
