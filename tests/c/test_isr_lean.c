@@ -8,6 +8,8 @@
  *   hd_app: travel limits    follow a parameter change (precomputed at apply)
  *   hd_foc: Clarke / Park    rounding floor((x + 2^(q-1)) / 2^q) vs the 2^62-biased
  *                            unsigned shift (round half up, saturated)
+ *   hd_pid: limits and the   int32 x 2^s (s <= 32) and the measurement step x 2^16 vs
+ *           derivative step  the saturating shift hd_shl64_sat
  * The hal is a stub: the sensor sample is set by the test, the command recorded,
  * NVM blank (defaults) and read-only.
  */
@@ -294,6 +296,32 @@ static uint32_t xs32(void)
     return (uint32_t)(xs_state >> 32);
 }
 
+/* The PID's integrator limits out_max / out_min x 2^shift (shift <= 32) and its
+ * derivative target dmeas x 2^16 (|dmeas| < 2^32) are plain products: equal to the
+ * saturating shift for every shift, at the int32 edges and for random words. */
+static void test_pid_shift_products_match_shl64_sat(void **state)
+{
+    static const int32_t edge[] = {INT32_MIN, INT32_MIN + 1, -65536, -1, 0, 1, 65535, INT32_MAX - 1, INT32_MAX};
+    uint32_t sh;
+    int k;
+    (void)state;
+    for (sh = 0u; sh <= 32u; sh++) {
+        for (k = 0; k < (int)(sizeof edge / sizeof edge[0]); k++) {
+            assert_true((int64_t)edge[k] * ((int64_t)1 << sh) == hd_shl64_sat((int64_t)edge[k], sh));
+        }
+        for (k = 0; k < 2000; k++) {
+            const int32_t x = s32((uint32_t)rnd64());
+            assert_true((int64_t)x * ((int64_t)1 << sh) == hd_shl64_sat((int64_t)x, sh));
+        }
+    }
+    for (k = 0; k < 20000; k++) {
+        const int32_t a = (k < 2) ? ((k == 0) ? INT32_MIN : INT32_MAX) : s32((uint32_t)rnd64());
+        const int32_t b = (k < 2) ? ((k == 0) ? INT32_MAX : INT32_MIN) : s32((uint32_t)rnd64());
+        const int64_t dmeas = (int64_t)a - (int64_t)b;
+        assert_true(dmeas * 65536 == hd_shl64_sat(dmeas, 16u));
+    }
+}
+
 static void test_foc_rounding_matches_biased_form(void **st)
 {
     (void)st;
@@ -334,6 +362,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_app_current_is_div_q, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_app_encoder_steps, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_app_travel_limit_follows_parameter, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_pid_shift_products_match_shl64_sat, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_foc_rounding_matches_biased_form, setUp, tearDown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
