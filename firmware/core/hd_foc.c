@@ -102,10 +102,11 @@ int32_t hd_foc_inv_vbus(int32_t vbus)
     /* 2^46 / d for 2^16 <= d < 2^23 by long division in 32-bit words: the first digit from
      * 2^28, then two 9-bit digits (a remainder r < d < 2^23 shifted by 9 stays below 2^32);
      * the quotient is <= 2^30.  Rounded half away from zero like hd_div_q (d > 0). */
-    if (vbus >= HD_Q16_ONE && vbus < (1 << 23)) {
+    if (vbus >= HD_Q16_ONE && vbus < 0x800000) {                     /* 1 V .. 2^23 (128 V) */
         const uint32_t d = (uint32_t)vbus;
-        uint32_t q = (1u << 28) / d;
-        uint32_t r = (1u << 28) - q * d;
+        const uint32_t n28 = 0x10000000u;                               /* 2^28 */
+        uint32_t q = n28 / d;
+        uint32_t r = n28 - q * d;
         uint32_t t = r << 9;
         uint32_t qd = t / d;
         r = t - qd * d;
