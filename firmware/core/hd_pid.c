@@ -38,7 +38,7 @@ HD_FX_INLINE int32_t pid_core(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t ref, i
     }
     s->meas_prev = meas;
     s->primed = 1;
-    {
+    if (dmeas != 0 || s->dfilt != 0) {     /* else the update leaves dfilt at 0 exactly */
         /* |dmeas| < 2^32, so dmeas * 2^16 < 2^48: the saturating shift is the product */
         const int64_t target = dmeas * 65536;
         const int64_t diff = hdf_sub64_sat(target, s->dfilt);
