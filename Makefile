@@ -30,7 +30,7 @@ SAN      := -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-fra
 HOST_CC  := gcc
 HOST_FW_CFLAGS := $(FW_STD) $(FW_WARN) -O1 -g $(SAN) $(FW_INC)
 # Host, optimised (simulator, virtual drive, Python binding): same code, no sanitizer.
-OPT_FW_CFLAGS  := $(FW_STD) $(FW_WARN) -O2 -g -fPIC $(FW_INC)
+OPT_FW_CFLAGS  := $(FW_STD) $(FW_WARN) -O2 -g -fPIC -fno-semantic-interposition $(FW_INC)
 
 # Cortex-M4 (emulated for bit-exactness and instruction counts; STM32G474 ABI is hard-float
 # but the core is integer-only, so soft-float objects prove no FP helper is called).
@@ -48,7 +48,7 @@ SIM_SRC     := $(wildcard sim/plant/*.c)
 SIM_INC     := -Isim/plant -Isim/harness
 SIM_WARN    := -Wall -Wextra -Wshadow -Werror
 HOST_SIM_CFLAGS := -std=c99 -D_POSIX_C_SOURCE=200809L $(SIM_WARN) -O1 -g $(SAN) $(SIM_INC)
-OPT_SIM_CFLAGS  := -std=c99 -D_POSIX_C_SOURCE=200809L $(SIM_WARN) -O2 -g -fPIC $(SIM_INC)
+OPT_SIM_CFLAGS  := -std=c99 -D_POSIX_C_SOURCE=200809L $(SIM_WARN) -O2 -g -fPIC -fno-semantic-interposition $(SIM_INC)
 HOST_SIM_OBJ := $(patsubst %.c,$(B)/host/obj/%.o,$(SIM_SRC))
 OPT_SIM_OBJ  := $(patsubst %.c,$(B)/opt/obj/%.o,$(SIM_SRC))
 

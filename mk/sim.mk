@@ -45,7 +45,7 @@ $(HDSIM_BIN): $(HARNESS_MAIN_OBJ) $(HARNESS_OPT_OBJ) $(PORT_OPT_OBJ) $(B)/opt/li
 
 $(HDSIM_SO): $(HARNESS_OPT_OBJ) $(PORT_OPT_OBJ) $(B)/opt/libhdfw.a $(B)/opt/libhdplant.a
 	@mkdir -p $(@D)
-	$(HOST_CC) -shared -O2 -o $@ $(HARNESS_OPT_OBJ) $(PORT_OPT_OBJ) $(B)/opt/libhdfw.a $(B)/opt/libhdplant.a $(PORT_LIBS)
+	$(HOST_CC) -shared -O2 -Wl,-Bsymbolic -o $@ $(HARNESS_OPT_OBJ) $(PORT_OPT_OBJ) $(B)/opt/libhdfw.a $(B)/opt/libhdplant.a $(PORT_LIBS)
 
 $(HARNESS_HOST_LIB): $(HARNESS_HOST_OBJ) $(PORT_HOST_OBJ)
 	@mkdir -p $(@D); rm -f $@; ar rcs $@ $^

@@ -280,12 +280,13 @@ static int32_t pki_weight(const hd_comp_bank_cfg_t *c, hd_vel_out_t v)
 static int32_t pki_step(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in)
 {
     const int32_t w = (c->pki > 0) ? pki_weight(c, in->vel_ref) : 0;
-    const int64_t imax = hdf_shl64_sat((int64_t)((c->pki_max > 0) ? c->pki_max : 0), 16u);
     int64_t i = b->pki_i;
     b->pki_w = w;
     if (w == 0 && i == 0) {
         return 0;
     }
+    /* an int32 x 2^16 cannot saturate: the product is the saturating shift */
+    const int64_t imax = (int64_t)((c->pki_max > 0) ? c->pki_max : 0) * 65536;
     if (w > 0) {
         /* w Ki T e: e [2^-32 turn] * Ki [Q16 1/s^2] = 2^-48 turn/s^2; x w (Q30); x T */
         const int32_t e = hdf_sat32(hdf_sub64_sat(in->pos_ref, in->pos_out));

@@ -29,6 +29,15 @@ void hd_backstep_init(hd_backstep_t *s, const hd_backstep_cfg_t *c, const int32_
     s->u_bs = 0;
     s->u = 0;
     s->saturated = 0u;
+    hd_divinv_init(&s->inv_ws, 0u);
+}
+
+/* the reciprocal of w_s, recomputed only when the parameter changed */
+static void hd__inv_ws(hd_backstep_t *s, const hd_backstep_cfg_t *c)
+{
+    if (c->w_s > 0 && s->inv_ws.d != (uint32_t)c->w_s) {
+        hd_divinv_init(&s->inv_ws, (uint32_t)c->w_s);
+    }
 }
 
 void hd_backstep_set_enabled(hd_backstep_t *s, bool enabled)
@@ -38,7 +47,7 @@ void hd_backstep_set_enabled(hd_backstep_t *s, bool enabled)
 
 /* Errors, regressor and the law; fills e1, e2, phi. */
 static int64_t hd__law(int32_t *e1o, int32_t *e2o, int32_t phi[HD_BS_NP], const int64_t th[HD_BS_NP],
-                       const hd_backstep_cfg_t *c, const hd_backstep_in_t *in)
+                       const hd_divinv_t *inv_ws, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in)
 {
     const int64_t e1max = (c->e1_max > 0) ? (int64_t)c->e1_max : (int64_t)INT32_MAX;
     const int32_t e1 = (int32_t)hdf_clamp64(hdf_sub64_sat(in->theta, in->theta_d), -e1max, e1max);
@@ -50,7 +59,9 @@ static int64_t hd__law(int32_t *e1o, int32_t *e2o, int32_t phi[HD_BS_NP], const 
     uint32_t i;
 
     phi[0] = sg;
-    phi[1] = hdf_mul_q(hd_stribeck_shape_q30(in->omega, c->w_s, 2u), sg, 30u);
+    /* |omega| / w_s by the reciprocal when it is set up for this w_s (the same value) */
+    phi[1] = hdf_mul_q((c->w_s > 0 && inv_ws->d == (uint32_t)c->w_s) ? hd_stribeck_shape_inv_q30(in->omega, c->w_s, 2u, inv_ws)
+                                                                     : hd_stribeck_shape_q30(in->omega, c->w_s, 2u), sg, 30u);
     phi[2] = hdf_asr32_rnd((int64_t)in->omega, 2u);       /* 2^-32 turn/s -> Q30 turn/s */
     phi[3] = HD_Q30_ONE;
     /* J (alpha1' - c2 e2) - ke e1 */
@@ -71,16 +82,17 @@ int32_t hd_backstep_law(const hd_backstep_t *s, const hd_backstep_cfg_t *c, cons
     int32_t e1;
     int32_t e2;
     int32_t phi[HD_BS_NP];
-    return hdf_sat32(hd__law(&e1, &e2, phi, s->th, c, in));
+    return hdf_sat32(hd__law(&e1, &e2, phi, s->th, &s->inv_ws, c, in));
 }
 
 void hd_backstep_preload(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in,
                          int32_t u_now)
 {
-    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, c, in);
+    hd__inv_ws(s, c);
+    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, &s->inv_ws, c, in);
     const int64_t du = hdf_sub64_sat((int64_t)u_now, u);              /* Q16; phi_3 = 1 */
     s->th[3] = hdf_clamp64(hdf_add64_sat(s->th[3], hdf_shl64_sat(du, 32u)), hd__th_lo(c, 3u), hd__th_hi(c, 3u));
-    s->u_bs = hdf_sat32(hd__law(&s->e1, &s->e2, s->phi, s->th, c, in));
+    s->u_bs = hdf_sat32(hd__law(&s->e1, &s->e2, s->phi, s->th, &s->inv_ws, c, in));
     s->u = u_now;
 }
 
@@ -88,8 +100,9 @@ int32_t hd_backstep_step(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
                          int32_t u_base)
 {
     const int32_t umax = (c->u_max > 0) ? c->u_max : INT32_MAX;
-    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, c, in);
     uint32_t i;
+    hd__inv_ws(s, c);
+    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, &s->inv_ws, c, in);
 
     s->u_bs = (int32_t)hdf_clamp64(u, -(int64_t)umax, (int64_t)umax);
     s->saturated = ((int64_t)s->u_bs != u) ? 1u : 0u;

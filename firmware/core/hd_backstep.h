@@ -40,6 +40,7 @@
 #include <stdbool.h>
 #include "hd_units.h"
 #include "hd_blend.h"
+#include "hd_fixed.h"
 
 #define HD_BS_NP 4u
 
@@ -74,6 +75,7 @@ typedef struct {
     int32_t u_bs;                  /* last backstepping output (unweighted, clamped) */
     int32_t u;                     /* last blended output */
     uint32_t saturated;            /* 1 if u_bs was clamped */
+    hd_divinv_t inv_ws;            /* reciprocal of cfg w_s (refreshed by step / preload when it changes) */
 } hd_backstep_t;
 
 /** Parameters start at th0 (Q15.16, clamped into the bounds). */

@@ -417,6 +417,46 @@ int64_t hd_div64_rnd(int64_t num, int64_t den)
     return hd__signed_sat64(quo, neg);
 }
 
+void hd_divinv_init(hd_divinv_t *v, uint32_t d)
+{
+    v->d = d;
+    v->m = (d == 0u) ? 0u : (UINT64_MAX / d);
+}
+
+/* the high word of the 128-bit product a b (four 32x32 products) */
+static uint64_t hd__mulhi64(uint64_t a, uint64_t b)
+{
+    const uint64_t al = a & 0xFFFFFFFFu;
+    const uint64_t ah = a >> 32;
+    const uint64_t bl = b & 0xFFFFFFFFu;
+    const uint64_t bh = b >> 32;
+    const uint64_t ll = al * bl;
+    const uint64_t lh = al * bh;
+    const uint64_t hl = ah * bl;
+    const uint64_t mid = (ll >> 32) + (lh & 0xFFFFFFFFu) + (hl & 0xFFFFFFFFu);   /* < 3 * 2^32 */
+    return ah * bh + (lh >> 32) + (hl >> 32) + (mid >> 32);
+}
+
+int64_t hd_divinv_rnd(int64_t num, const hd_divinv_t *v)
+{
+    /* |num| m / 2^64 = (|num| / d)(1 - (1 + e) / 2^64), e = (2^64 - 1) mod d < d, and
+     * |num| < 2^64: it lies in (|num| / d - 1, |num| / d], so its floor is the quotient
+     * or one less; the remainder r = |num| - q d < 2 d then tells (d <= 2^32: no overflow) */
+    const bool neg = num < 0;
+    const uint64_t un = hd__mag64(num);
+    const uint64_t d = v->d;
+    uint64_t q = hd__mulhi64(un, v->m);
+    uint64_t r = un - q * d;
+    if (r >= d) {
+        q += 1u;
+        r -= d;
+    }
+    if (r >= d - r) {           /* half away, as hd_div64_rnd */
+        q += 1u;
+    }
+    return hd__signed_sat64(q, neg);
+}
+
 /* ---- nonlinear functions -------------------------------------------- */
 
 /*

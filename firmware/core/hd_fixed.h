@@ -89,6 +89,21 @@ int32_t hd_div_q(int32_t num, int32_t den, uint32_t q);
  *  den == 0 returns INT64_MAX, INT64_MIN or 0 by the sign of num. */
 int64_t hd_div64_rnd(int64_t num, int64_t den);
 
+/** A divisor d > 0 that stays the same over many divisions (a parameter) with its
+ *  reciprocal m = floor((2^64 - 1) / d): hd_divinv_rnd divides by two 64-bit
+ *  multiplications and one correction instead of a long division. */
+typedef struct {
+    uint32_t d;         /* the divisor, >= 1 (0: not set up) */
+    uint64_t m;         /* floor((2^64 - 1) / d) */
+} hd_divinv_t;
+/** Set v up for divisor d (d >= 1; d == 0 leaves v unset, d = 0).  One 64-bit
+ *  division: call it where the divisor changes, not per period. */
+void hd_divinv_init(hd_divinv_t *v, uint32_t d);
+/** hd_div64_rnd(num, v->d) (v set up, d >= 1), the same value for every num:
+ *  q = floor(|num| m / 2^64) is floor(|num| / d) or one less (m d > 2^64 - 1 - d),
+ *  so one remainder check corrects it. */
+int64_t hd_divinv_rnd(int64_t num, const hd_divinv_t *v);
+
 /* ---- nonlinear functions -------------------------------------------- */
 
 /** exp(-x) for x >= 0 given in Q16 (x < 0 is treated as 0, returns 1.0);

@@ -97,6 +97,32 @@ static void foc_svm_inv(int32_t v_alpha, int32_t v_beta, int32_t inv_q30, int32_
     }
 }
 
+int32_t hd_foc_inv_vbus(int32_t vbus)
+{
+    /* 2^46 / d for 2^16 <= d < 2^23 by long division in 32-bit words: the first digit from
+     * 2^28, then two 9-bit digits (a remainder r < d < 2^23 shifted by 9 stays below 2^32);
+     * the quotient is <= 2^30.  Rounded half away from zero like hd_div_q (d > 0). */
+    if (vbus >= HD_Q16_ONE && vbus < 0x800000) {                     /* 1 V .. 2^23 (128 V) */
+        const uint32_t d = (uint32_t)vbus;
+        const uint32_t n28 = 0x10000000u;                               /* 2^28 */
+        uint32_t q = n28 / d;
+        uint32_t r = n28 - q * d;
+        uint32_t t = r << 9;
+        uint32_t qd = t / d;
+        r = t - qd * d;
+        q = (q << 9) + qd;
+        t = r << 9;
+        qd = t / d;
+        r = t - qd * d;
+        q = (q << 9) + qd;
+        if (r >= d - r) {
+            q += 1u;
+        }
+        return (int32_t)q;
+    }
+    return hd_div_q(HD_Q16_ONE, vbus, 30u);
+}
+
 void hd_foc_svm(int32_t v_alpha, int32_t v_beta, int32_t vbus, int32_t duty[3])
 {
     if (vbus <= 0) {
@@ -105,7 +131,7 @@ void hd_foc_svm(int32_t v_alpha, int32_t v_beta, int32_t vbus, int32_t duty[3])
         duty[2] = HD_FOC_DUTY_ONE / 2;
         return;
     }
-    foc_svm_inv(v_alpha, v_beta, hd_div_q(HD_Q16_ONE, vbus, 30u), duty);
+    foc_svm_inv(v_alpha, v_beta, hd_foc_inv_vbus(vbus), duty);
 }
 
 void hd_foc_reset(hd_foc_t *s)
@@ -178,7 +204,7 @@ void hd_foc_step(hd_foc_t *s, const hd_foc_cfg_t *c, const hd_foc_in_t *in, hd_f
     s->vq = vq;
     s->limited = hit;
     foc_rot(vd, vq, sn, cs, &val, &vbe);                      /* inverse Park */
-    foc_svm_inv(val, vbe, hd_div_q(HD_Q16_ONE, in->vbus, 30u), out->duty);
+    foc_svm_inv(val, vbe, hd_foc_inv_vbus(in->vbus), out->duty);
 }
 
 int32_t hd_foc_design(hd_foc_cfg_t *c, int32_t r_mohm, int32_t l_nh, int32_t fc_hz, int32_t fs_hz)

@@ -81,6 +81,10 @@ void hd_foc_clarke(int32_t ia, int32_t ib, int32_t *i_alpha, int32_t *i_beta);
 void hd_foc_park(int32_t a, int32_t b, int32_t sin_q30, int32_t cos_q30, int32_t *d, int32_t *q);
 /** Inverse Park: (d, q) -> (alpha, beta). */
 void hd_foc_ipark(int32_t d, int32_t q, int32_t sin_q30, int32_t cos_q30, int32_t *a, int32_t *b);
+/** 1 / vbus for the modulation: round(2^46 / vbus) (Q30 per Q15.16 V), the same value as
+ *  hd_div_q(HD_Q16_ONE, vbus, 30) for every vbus; for 1 V <= vbus < 128 V (the bus range)
+ *  by three 32-bit divisions instead of a 64-bit one. */
+int32_t hd_foc_inv_vbus(int32_t vbus);
 /** Space-vector modulation: (v_alpha, v_beta) Q15.16 V and vbus -> three Q16 duties. */
 void hd_foc_svm(int32_t v_alpha, int32_t v_beta, int32_t vbus, int32_t duty[3]);
 

@@ -9,6 +9,8 @@ void hd_lugre_init(hd_lugre_t *s, uint32_t ramp_ticks, bool enabled)
     s->dz = 0;
     s->tau_raw = 0;
     s->tau = 0;
+    hd_divinv_init(&s->inv_sigma0, 0u);
+    hd_divinv_init(&s->inv_vs, 0u);
 }
 
 void hd_lugre_set_enabled(hd_lugre_t *s, bool enabled)
@@ -88,16 +90,25 @@ int32_t hd_lugre_step(hd_lugre_t *s, const hd_lugre_cfg_t *c, hd_vel_out_t v, hd
 {
     const int32_t sigma0 = (c->sigma0 > 0) ? c->sigma0 : 1;
     const int32_t tmax = (c->tau_max > 0) ? c->tau_max : INT32_MAX;
-    int32_t g = hd_stribeck_g(&c->g, c->delta, v);
     int64_t z1 = s->z;
     int64_t t;
+    int32_t g;
+
+    /* reciprocals of the parameters: recomputed only when one changed */
+    if (s->inv_sigma0.d != (uint32_t)sigma0) {
+        hd_divinv_init(&s->inv_sigma0, (uint32_t)sigma0);
+    }
+    if (c->g.vs > 0 && s->inv_vs.d != (uint32_t)c->g.vs) {
+        hd_divinv_init(&s->inv_vs, (uint32_t)c->g.vs);
+    }
+    g = hd_stribeck_g_inv(&c->g, c->delta, v, &s->inv_vs);
 
     if (g < 1) {
         g = 1;
     }
     if (v != 0) {
         /* z_ss = g / sigma0 in Q48: g_Q16 * 2^40 / sigma0_Q8 */
-        const int64_t zmag = hd_div64_rnd(hdf_shl64_sat((int64_t)g, 40u), (int64_t)sigma0);
+        const int64_t zmag = hd_divinv_rnd(hdf_shl64_sat((int64_t)g, 40u), &s->inv_sigma0);
         const int64_t zss = (v > 0) ? zmag : -zmag;
         /* a = sigma0 |v| T / g = sigma0_Q8 |v| / (g_Q16 f_s 2^24);
          * z' = z + (z_ss - z) (1 - exp(-a)) */

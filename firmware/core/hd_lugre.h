@@ -28,6 +28,9 @@
  *   sigma1, sigma2       Q15.16 N.m/(turn/s)
  *   k_obs                Q15.16 1/s
  *   1 - exp(-a)          Q46, full relative precision at small a (see hd_lugre.c)
+ * The divisions by the parameters sigma0 and g.vs go through reciprocals kept in the
+ * state (hd_divinv_t, recomputed only when the parameter changed): the same values
+ * as the divisions, without a 64-bit long division per period.
  *   tau, tau_max         Q15.16 N.m
  */
 #ifndef HD_LUGRE_H
@@ -38,6 +41,7 @@
 #include "hd_units.h"
 #include "hd_blend.h"
 #include "hd_stribeck.h"
+#include "hd_fixed.h"
 
 typedef struct {
     hd_stribeck_dir_t g;   /* Stribeck curve g(v) (symmetric); g.fv ignored */
@@ -55,6 +59,8 @@ typedef struct {
     int64_t dz;            /* last increment, Q16.48 turns per period */
     int32_t tau_raw;       /* last unweighted friction estimate, Q15.16 N.m */
     int32_t tau;           /* last weighted output, Q15.16 N.m */
+    hd_divinv_t inv_sigma0; /* reciprocal of cfg sigma0 (refreshed when it changes) */
+    hd_divinv_t inv_vs;    /* reciprocal of cfg g.vs (refreshed when it changes) */
 } hd_lugre_t;
 
 void hd_lugre_init(hd_lugre_t *s, uint32_t ramp_ticks, bool enabled);

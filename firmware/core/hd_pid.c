@@ -38,8 +38,9 @@ HD_FX_INLINE int32_t pid_core(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t ref, i
     }
     s->meas_prev = meas;
     s->primed = 1;
-    {
-        const int64_t target = hdf_shl64_sat(dmeas, 16);
+    if (dmeas != 0 || s->dfilt != 0) {     /* else the update leaves dfilt at 0 exactly */
+        /* |dmeas| < 2^32, so dmeas * 2^16 < 2^48: the saturating shift is the product */
+        const int64_t target = dmeas * 65536;
         const int64_t diff = hdf_sub64_sat(target, s->dfilt);
         /* |diff| < 2^49 so the 64x32 product fits the helper's 96-bit intermediate */
         /* d_alpha == 1.0 (no filter): the product is diff itself, exactly */
@@ -53,8 +54,12 @@ HD_FX_INLINE int32_t pid_core(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t ref, i
                       : hdf_neg_sat((int32_t)hdf_sat32(hdf_mul64x32_q(s->dfilt, c->kd_fs, shift + 16u)));
 
     /* conditional integration: tentative update, kept unless it deepens saturation */
-    const int64_t lim_hi = hdf_shl64_sat((int64_t)c->out_max, shift);
-    const int64_t lim_lo = hdf_shl64_sat((int64_t)c->out_min, shift);
+    /* an int32 times 2^shift, shift <= 32, stays within int64 (-2^63 at the least):
+     * the saturating shift is the product (the drive's shifts 16 and 32 fold it) */
+    const int64_t lim_hi = (shift <= 32u) ? (int64_t)c->out_max * ((int64_t)1 << shift)
+                                          : hdf_shl64_sat((int64_t)c->out_max, shift);
+    const int64_t lim_lo = (shift <= 32u) ? (int64_t)c->out_min * ((int64_t)1 << shift)
+                                          : hdf_shl64_sat((int64_t)c->out_min, shift);
     int64_t integ_new = hdf_mac64(s->integ, c->ki_dt, e);
     integ_new = hdf_clamp64(integ_new, lim_lo, lim_hi);
     int32_t i_new = hdf_asr32_rnd(integ_new, shift);

@@ -29,6 +29,21 @@ int32_t hd_stribeck_g(const hd_stribeck_dir_t *p, uint32_t delta, int32_t v)
     return hdf_add_sat(p->fc, hdf_mul_q(dfs, e, 30u));
 }
 
+int32_t hd_stribeck_shape_inv_q30(int32_t v, int32_t vs, uint32_t delta, const hd_divinv_t *inv_vs)
+{
+    if (vs <= 0) {
+        return 0;
+    }
+    /* hd_div_q(|v|, vs, 24): round(|v| 2^24 / vs) (|v| 2^24 < 2^55), saturated to int32 */
+    return shape_from_r24(hdf_sat32(hd_divinv_rnd((int64_t)hdf_abs_sat(v) * 16777216, inv_vs)), delta);
+}
+
+int32_t hd_stribeck_g_inv(const hd_stribeck_dir_t *p, uint32_t delta, int32_t v, const hd_divinv_t *inv_vs)
+{
+    const int32_t e = hd_stribeck_shape_inv_q30(v, p->vs, delta, inv_vs);
+    return hdf_add_sat(p->fc, hdf_mul_q(hdf_sub_sat(p->fs, p->fc), e, 30u));
+}
+
 void hd_stribeck_recip(hd_stribeck_recip_t *r, int32_t vs)
 {
     r->vs = vs;

@@ -56,6 +56,7 @@
 #include <stdbool.h>
 #include "hd_units.h"
 #include "hd_blend.h"
+#include "hd_fixed.h"
 
 /** Largest per-period change of v_ref that still counts as cruising, 2^-32 turn/s
  *  (64 LSB per 0.1 ms = 1.5e-4 turn/s^2 = 0.054 deg/s^2; the trajectory generator's
@@ -102,6 +103,12 @@ typedef struct {
 int32_t hd_stribeck_shape_q30(int32_t v, int32_t vs, uint32_t delta);
 /** g(v) = fc + (fs - fc) * exp(-|v/vs|^delta), Q15.16 N.m (division form). */
 int32_t hd_stribeck_g(const hd_stribeck_dir_t *p, uint32_t delta, int32_t v);
+/** hd_stribeck_shape_q30 with the division by vs through its reciprocal inv_vs (set up
+ *  for vs when vs > 0, hd_divinv_init): the same value for every v. */
+int32_t hd_stribeck_shape_inv_q30(int32_t v, int32_t vs, uint32_t delta, const hd_divinv_t *inv_vs);
+/** hd_stribeck_g with the division by vs through its reciprocal inv_vs (set up for
+ *  p->vs when p->vs > 0, hd_divinv_init): the same value for every v. */
+int32_t hd_stribeck_g_inv(const hd_stribeck_dir_t *p, uint32_t delta, int32_t v, const hd_divinv_t *inv_vs);
 
 /** The reciprocal of vs (call when vs changes; contains a 64-bit division). */
 void hd_stribeck_recip(hd_stribeck_recip_t *r, int32_t vs);

@@ -74,6 +74,7 @@ def load_library() -> ctypes.CDLL:
             "hd_simlib_ncol": (i32, []),
             "hd_simlib_column": (cp, [vp, i32]),
             "hd_simlib_run": (i32, [vp, dp, cp, sz]),
+            "hd_simlib_run_columns": (i32, [vp, dp, cp, sz]),
             "hd_simlib_meta": (cp, [vp]),
             "hd_simlib_write_log": (i32, [vp, dp, i64, cp, cp, sz]),
             "hd_simlib_timing": (None, [vp, dp, dp]),
@@ -254,11 +255,13 @@ def run_scenario(scenario: str | os.PathLike[str], *, params: Mapping[str, float
             _raise(err)
         ncol = lib.hd_simlib_ncol()
         names = [lib.hd_simlib_column(h, j).decode() for j in range(ncol)]
-        rows = np.empty((n, ncol), dtype=np.float64)
-        if lib.hd_simlib_run(h, _c_double_p(rows), err, _ERRLEN) != 0:
+        # column-major: each column is a contiguous block handed on without a copy
+        data = np.empty((ncol, n), dtype=np.float64)
+        if lib.hd_simlib_run_columns(h, _c_double_p(data), err, _ERRLEN) != 0:
             _raise(err)
         meta = json.loads(lib.hd_simlib_meta(h).decode())
         if log_path is not None:
+            rows = np.ascontiguousarray(data.T)
             if lib.hd_simlib_write_log(h, _c_double_p(rows), n, os.fsencode(os.fspath(log_path)), err,
                                        _ERRLEN) != 0:
                 _raise(err)
@@ -266,7 +269,7 @@ def run_scenario(scenario: str | os.PathLike[str], *, params: Mapping[str, float
         lib.hd_simlib_timing(h, ctypes.byref(ta), ctypes.byref(tp))
     finally:
         lib.hd_simlib_close(h)
-    cols = {name: np.ascontiguousarray(rows[:, j]) for j, name in enumerate(names)}
+    cols = {name: data[j] for j, name in enumerate(names)}
     return SimResult(columns=cols, meta=meta, app_time_s=ta.value, plant_time_s=tp.value)
 
 

@@ -38,7 +38,7 @@ struct hd_sim {
     double load_dist_Nm;        /* external load torque applied in the last period */
     int timing;
     double t_app_s, t_plant_s;
-    int64_t timed;              /* periods actually timed (every 8th) */
+    int64_t timed;              /* periods actually timed (every 32nd) */
     int64_t periods_run;        /* periods run with timing on */
     int ptp_started;            /* setpoint "ptp": drive mode PTP entered */
 };
@@ -373,7 +373,8 @@ static void apply_faults(hd_sim_t *s, double tau)
     }
 }
 
-void hd_sim_step(hd_sim_t *s, double *row)
+/* One period; row (if not NULL) receives column c at row[c * stride]. */
+static void sim_step(hd_sim_t *s, double *row, int64_t stride)
 {
     const hd_scenario_t *sc = &s->sc;
     const double dt = sc->dt_s;
@@ -420,8 +421,8 @@ void hd_sim_step(hd_sim_t *s, double *row)
 
     /* 3. firmware */
     /* timing: clock reads cost about as much as a tenth of a period, so only every
-     * 8th period is timed and the sums are scaled to all periods (hd_sim_timing) */
-    const int timed = s->timing && (s->k & 7) == 0;
+     * 32nd period is timed and the sums are scaled to all periods (hd_sim_timing) */
+    const int timed = s->timing && (s->k & 31) == 0;
     double t0 = 0.0, t1 = 0.0, t2 = 0.0;
     if (timed) t0 = now_s();
     hd_app_step(&s->app);
@@ -430,25 +431,25 @@ void hd_sim_step(hd_sim_t *s, double *row)
 
     /* 6 (first half). log row: sample + truth at the start of the period */
     if (row) {
-        row[HD_COL_T] = tau;
-        row[HD_COL_MOTOR_ANGLE] = (double)o->enc_motor_count * s->motor_count_to_rad;
-        row[HD_COL_LOAD_ANGLE] = (double)o->enc_load_count * s->load_count_to_rad;
-        row[HD_COL_MOTOR_VEL] = o->motor_velocity_rad_s;
-        row[HD_COL_LOAD_VEL] = o->load_velocity_rad_s;
-        row[HD_COL_MOTOR_TORQUE] = o->motor_torque_Nm;
-        row[HD_COL_MOTOR_CURRENT] = o->current_meas_A;
-        row[HD_COL_SETPOINT] = (sc->mode == HD_SC_MODE_OFF) ? 0.0
+        row[HD_COL_T * stride] = tau;
+        row[HD_COL_MOTOR_ANGLE * stride] = (double)o->enc_motor_count * s->motor_count_to_rad;
+        row[HD_COL_LOAD_ANGLE * stride] = (double)o->enc_load_count * s->load_count_to_rad;
+        row[HD_COL_MOTOR_VEL * stride] = o->motor_velocity_rad_s;
+        row[HD_COL_LOAD_VEL * stride] = o->load_velocity_rad_s;
+        row[HD_COL_MOTOR_TORQUE * stride] = o->motor_torque_Nm;
+        row[HD_COL_MOTOR_CURRENT * stride] = o->current_meas_A;
+        row[HD_COL_SETPOINT * stride] = (sc->mode == HD_SC_MODE_OFF) ? 0.0
                                : (sc->sp.type == HD_SP_PTP && s->ptp_started) ? hd_bridge_q32_turns_to_rad(s->app.tel.pos_ref)
                                : r;
-        row[HD_COL_TORQUE_CMD] = cmd->enable ? hd_bridge_from_q16(cmd->torque) : 0.0;
-        row[HD_COL_TORSION] = o->twist_rad;
-        row[HD_COL_GYRO] = o->gyro_rad_s;
-        row[HD_COL_MOTOR_TRUE] = o->motor_angle_rad;
-        row[HD_COL_LOAD_TRUE] = o->load_angle_rad;
-        row[HD_COL_LOAD_VEL_EST] = hd_bridge_vel_out_to_rad_s(s->app.tel.vel_out);
-        row[HD_COL_VALID] = (double)sens.valid;
-        row[HD_COL_FAULT] = (double)s->app.tel.fault;
-        row[HD_COL_BASE_TRUE] = o->base_angle_rad;
+        row[HD_COL_TORQUE_CMD * stride] = cmd->enable ? hd_bridge_from_q16(cmd->torque) : 0.0;
+        row[HD_COL_TORSION * stride] = o->twist_rad;
+        row[HD_COL_GYRO * stride] = o->gyro_rad_s;
+        row[HD_COL_MOTOR_TRUE * stride] = o->motor_angle_rad;
+        row[HD_COL_LOAD_TRUE * stride] = o->load_angle_rad;
+        row[HD_COL_LOAD_VEL_EST * stride] = hd_bridge_vel_out_to_rad_s(s->app.tel.vel_out);
+        row[HD_COL_VALID * stride] = (double)sens.valid;
+        row[HD_COL_FAULT * stride] = (double)s->app.tel.fault;
+        row[HD_COL_BASE_TRUE * stride] = o->base_angle_rad;
     }
 
     /* 4. faults due now, 5. plant period */
@@ -459,7 +460,7 @@ void hd_sim_step(hd_sim_t *s, double *row)
     in.load_torque_Nm = sc->load_torque_Nm;
     if (sc->load_step_t_s > 0.0 || sc->load_step_Nm != 0.0)
         if (tau + 0.5 * dt >= sc->load_step_t_s) in.load_torque_Nm += sc->load_step_Nm;
-    if (row) row[HD_COL_LOAD_DIST] = in.load_torque_Nm + s->plant.faults.load_step_Nm;
+    if (row) row[HD_COL_LOAD_DIST * stride] = in.load_torque_Nm + s->plant.faults.load_step_Nm;
     if (timed) t1 = now_s();
     hd_plant_step(&s->plant, &in, dt);
     if (timed) {
@@ -473,6 +474,11 @@ void hd_sim_step(hd_sim_t *s, double *row)
     s->k++;
 }
 
+void hd_sim_step(hd_sim_t *s, double *row)
+{
+    sim_step(s, row, 1);
+}
+
 int hd_sim_check_diverged(const hd_sim_t *s, char *err, size_t errlen)
 {
     if (!hd_plant_diverged(&s->plant)) return 0;
@@ -481,25 +487,27 @@ int hd_sim_check_diverged(const hd_sim_t *s, char *err, size_t errlen)
     return -1;
 }
 
-int hd_sim_run(hd_sim_t *s, double *rows, char *err, size_t errlen)
+/* Every period; logged row j goes to out[j * row_stride + c * col_stride], c = column
+ * (row-major: HD_SIM_NCOL, 1; column-major: 1, n_rows), written in place. */
+static int sim_run(hd_sim_t *s, double *out, int64_t row_stride, int64_t col_stride, char *err, size_t errlen)
 {
     int64_t D = s->sc.log_decimation, j = 0, m = s->k % D;   /* m = k mod D, counted (no division per period) */
     while (s->k < s->n_periods) {
         int log = m == 0;
+        double *r = out + j * row_stride;
         if (++m == D) m = 0;
-        hd_sim_step(s, log ? rows + j * HD_SIM_NCOL : NULL);
+        sim_step(s, log ? r : NULL, col_stride);
         /* every period, not only logged rows: a diverged plant must stop the run at once */
         if (hd_sim_check_diverged(s, err, errlen)) return -1;
         if (log) {
-            const double *r = rows + j * HD_SIM_NCOL;
             /* one check per row: the sum of the columns is finite unless a column is
              * (or the sum overflows, which the column scan below then tells apart) */
             double sum = 0.0;
-            for (int32_t c = 0; c < HD_SIM_NCOL; c++) sum += r[c];
+            for (int32_t c = 0; c < HD_SIM_NCOL; c++) sum += r[c * col_stride];
             for (int32_t c = 0; c < HD_SIM_NCOL && !isfinite(sum); c++) {
-                if (!isfinite(r[c])) {
+                if (!isfinite(r[c * col_stride])) {
                     sim_set_err(err, errlen, "%s: the simulation diverged at t = %.6g s (%s is not finite)",
-                            s->sc.path, r[HD_COL_T], hd_sim_column_name(c, (int32_t)s->sc.mode));
+                            s->sc.path, r[HD_COL_T * col_stride], hd_sim_column_name(c, (int32_t)s->sc.mode));
                     return -1;
                 }
             }
@@ -507,6 +515,16 @@ int hd_sim_run(hd_sim_t *s, double *rows, char *err, size_t errlen)
         }
     }
     return 0;
+}
+
+int hd_sim_run(hd_sim_t *s, double *rows, char *err, size_t errlen)
+{
+    return sim_run(s, rows, HD_SIM_NCOL, 1, err, errlen);
+}
+
+int hd_sim_run_columns(hd_sim_t *s, double *cols, char *err, size_t errlen)
+{
+    return sim_run(s, cols, 1, hd_sim_n_rows(s), err, errlen);
 }
 
 size_t hd_sim_meta_json(const hd_sim_t *s, char *buf, size_t cap)

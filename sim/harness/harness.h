@@ -83,6 +83,9 @@ void hd_sim_step(hd_sim_t *s, double *row);
 int hd_sim_check_diverged(const hd_sim_t *s, char *err, size_t errlen);
 /* Run every period, writing hd_sim_n_rows() rows (row-major) into rows. 0 ok. */
 int hd_sim_run(hd_sim_t *s, double *rows, char *err, size_t errlen);
+/* The same run, column-major: column c of the log is cols[c * n_rows ... (c + 1) * n_rows - 1]
+ * (each column contiguous, so a caller can hand it on without a copy). 0 ok. */
+int hd_sim_run_columns(hd_sim_t *s, double *cols, char *err, size_t errlen);
 
 /* Sidecar JSON (complete object) into buf; returns its length (truncated if cap small). */
 size_t hd_sim_meta_json(const hd_sim_t *s, char *buf, size_t cap);

@@ -97,6 +97,12 @@ int32_t hd_simlib_run(hd_simlib_t *h, double *rows, char *err, size_t errlen)
     return hd_sim_run(h->sim, rows, err, errlen) ? -1 : 0;
 }
 
+int32_t hd_simlib_run_columns(hd_simlib_t *h, double *cols, char *err, size_t errlen)
+{
+    if (!h->sim) { sim_set_err(err, errlen, "hd_simlib_run_columns before hd_simlib_prepare"); return -1; }
+    return hd_sim_run_columns(h->sim, cols, err, errlen) ? -1 : 0;
+}
+
 const char *hd_simlib_meta(hd_simlib_t *h) { return h->meta; }
 
 int32_t hd_simlib_write_log(hd_simlib_t *h, const double *rows, int64_t n_rows, const char *csv_path,

@@ -25,6 +25,8 @@ int32_t hd_simlib_ncol(void);
 const char *hd_simlib_column(const hd_simlib_t *h, int32_t col);
 /* Run to the end; rows = n_rows x ncol doubles, row-major. 0 ok. */
 int32_t hd_simlib_run(hd_simlib_t *h, double *rows, char *err, size_t errlen);
+/* The same, column-major: cols = ncol x n_rows doubles, one contiguous column each. 0 ok. */
+int32_t hd_simlib_run_columns(hd_simlib_t *h, double *cols, char *err, size_t errlen);
 /* Sidecar JSON of the prepared run (valid until close). */
 const char *hd_simlib_meta(hd_simlib_t *h);
 int32_t hd_simlib_write_log(hd_simlib_t *h, const double *rows, int64_t n_rows, const char *csv_path,

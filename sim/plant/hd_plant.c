@@ -74,13 +74,13 @@ static void zig_init(double *x, double *r)
     for (i = 0; i < ZIG_C; i++) r[i] = x[i + 1] / x[i];
 }
 
-static double rng_gauss(hd_plant *p)
+/* The rare part of a draw (wedge, tail; about 1 % of the calls), out of line so that the
+ * common path needs no registers saved around libm calls. */
+__attribute__((noinline)) static double rng_gauss_slow(hd_plant *p, int i, double u)
 {
     for (;;) {
-        uint64_t b = rng_next(p->rng);
-        int i = (int)(b & 0x7Fu);                                        /* layer: low 7 bits */
-        double u = 2.0 * (((double)(b >> 11) + 0.5) * (1.0 / 9007199254740992.0)) - 1.0; /* top 53 bits */
         double xx, f0, f1;
+        uint64_t b;
         if (fabs(u) < p->zig_r[i]) return u * p->zig_x[i];
         if (i == 0) {                                                    /* tail beyond R */
             double t, y;
@@ -94,12 +94,24 @@ static double rng_gauss(hd_plant *p)
         f0 = exp(-0.5 * (p->zig_x[i] * p->zig_x[i] - xx * xx));
         f1 = exp(-0.5 * (p->zig_x[i + 1] * p->zig_x[i + 1] - xx * xx));
         if (f1 + rng_uniform(p->rng) * (f0 - f1) < 1.0) return xx;
+        b = rng_next(p->rng);
+        i = (int)(b & 0x7Fu);
+        u = 2.0 * (((double)(b >> 11) + 0.5) * (1.0 / 9007199254740992.0)) - 1.0;
     }
+}
+
+static double rng_gauss(hd_plant *p)
+{
+    const uint64_t b = rng_next(p->rng);
+    const int i = (int)(b & 0x7Fu);                                      /* layer: low 7 bits */
+    const double u = 2.0 * (((double)(b >> 11) + 0.5) * (1.0 / 9007199254740992.0)) - 1.0; /* top 53 bits */
+    if (fabs(u) < p->zig_r[i]) return u * p->zig_x[i];
+    return rng_gauss_slow(p, i, u);
 }
 
 /* cos/sin(x0 + d) from c0 = cos x0, s0 = sin x0: angle addition with a Taylor
  * polynomial of cos/sin d for small |d| (truncation < 1e-22), libm otherwise. */
-static inline void rot_small(double c0, double s0, double x, double d, double *c, double *s)
+static inline void rot_poly(double c0, double s0, double d, double *c, double *s)
 {
     double ad = fabs(d);
     if (ad < 2e-3) {
@@ -109,15 +121,26 @@ static inline void rot_small(double c0, double s0, double x, double d, double *c
         double cm1 = -0.5 * d2 * (1.0 - d2 * (1.0 / 12.0));
         *c = c0 + (c0 * cm1 - s0 * sd);
         *s = s0 + (s0 * cm1 + c0 * sd);
-    } else if (ad < 0.1) {
+    } else {                               /* 2e-3 <= |d| < ROT_MAX (callers check) */
         double d2 = d * d;
-        /* Taylor terms to d^11 / d^12 (Horner, reciprocal factorial ratios) */
-        double sd = d * (1.0 - d2 * (1.0 / 6.0) * (1.0 - d2 * (1.0 / 20.0) * (1.0 - d2 * (1.0 / 42.0)
-                    * (1.0 - d2 * (1.0 / 72.0) * (1.0 - d2 * (1.0 / 110.0))))));
-        double cm1 = -0.5 * d2 * (1.0 - d2 * (1.0 / 12.0) * (1.0 - d2 * (1.0 / 30.0) * (1.0 - d2 * (1.0 / 56.0)
-                     * (1.0 - d2 * (1.0 / 90.0) * (1.0 - d2 * (1.0 / 132.0))))));
+        /* Taylor terms to d^11 / d^12 in Estrin's form (powers d^2, d^4, d^8; the
+         * coefficients are 1/(2k+1)! and 1/(2k+2)!): a short dependency chain */
+        const double d4 = d2 * d2, d8 = d4 * d4;
+        double sd = d * (((1.0 - d2 * (1.0 / 6.0)) + d4 * (1.0 / 120.0 - d2 * (1.0 / 5040.0)))
+                         + d8 * (1.0 / 362880.0 - d2 * (1.0 / 39916800.0)));
+        double cm1 = d2 * (((-1.0 / 2.0 + d2 * (1.0 / 24.0)) + d4 * (-1.0 / 720.0 + d2 * (1.0 / 40320.0)))
+                           + d8 * (-1.0 / 3628800.0 + d2 * (1.0 / 479001600.0)));
         *c = c0 + (c0 * cm1 - s0 * sd);
         *s = s0 + (s0 * cm1 + c0 * sd);
+    }
+}
+
+#define ROT_MAX 0.1   /* rot_poly's range: |d| < ROT_MAX */
+
+static inline void rot_small(double c0, double s0, double x, double d, double *c, double *s)
+{
+    if (fabs(d) < ROT_MAX) {
+        rot_poly(c0, s0, d, c, s);
     } else {
         *c = cos(x);
         *s = sin(x);
@@ -242,6 +265,7 @@ static void harm_plan(hd_plant *p)
         p->pw_n[ch] = 1;
         p->pw_ord[ch][0] = 1u;
         p->pw_a[ch][0] = p->pw_b[ch][0] = 0;
+        p->hmax[ch] = 0.0;
     }
     for (l = 0; l < 3; l++) {
         const double *ord = l == 0 ? q->cog_order : (l == 1 ? q->te_wg_order : q->te_out_order);
@@ -265,6 +289,8 @@ static void harm_plan(hd_plant *p)
         }
         p->hn[l] = n;
         if (p->hn_int[l] < n) p->h_libm = 1;
+        for (k = 0; k < p->hn_int[l]; k++)
+            if (p->hfo[l][k] > p->hmax[ch]) p->hmax[ch] = p->hfo[l][k];
     }
 }
 
@@ -303,7 +329,8 @@ static double harm_sum_libm(const hd_plant *p, int l, double th, double *dsum)
  * One power chain per angle serves every list on it; written out in one function
  * (no calls on the integer-order path) because it runs at every RK stage. */
 static double harm_eval(const hd_plant *p, double th_m, double cm, double sm, double th_l, double cl, double sl,
-                        double *de_m, double *de_l, double *tcog)
+                        double *de_m, double *de_l, double *tcog, double (*hc)[HD_PLANT_MAX_HARM],
+                        double (*hs)[HD_PLANT_MAX_HARM])
 {
     double pc[HD_PLANT_POW_MAX], ps[HD_PLANT_POW_MAX], e = 0.0, d = 0.0, dl = 0.0, cg = 0.0;
     const int te = p->prm.te_enabled != 0, cog = p->prm.cogging_enabled != 0;
@@ -327,6 +354,15 @@ static double harm_eval(const hd_plant *p, double th_m, double cm, double sm, do
             for (k = 0; k < n; k++)
                 cg += amp[k] * (ps[idx[k]] * cp[k] + pc[idx[k]] * sp[k]);
         }
+        if (hc != NULL) {
+            int l;
+            for (l = 0; l < 2; l++)
+                for (k = 0; k < p->hn_int[l]; k++) {          /* cos/sin(n theta + phase) */
+                    const double c = pc[p->hidx[l][k]], s = ps[p->hidx[l][k]];
+                    hc[l][k] = c * p->hcp[l][k] - s * p->hsp[l][k];
+                    hs[l][k] = s * p->hcp[l][k] + c * p->hsp[l][k];
+                }
+        }
     }
     if (te && p->has_te_out) {
         const int32_t *idx = p->hidx[2];
@@ -337,6 +373,7 @@ static double harm_eval(const hd_plant *p, double th_m, double cm, double sm, do
             const double c = pc[idx[k]], s = ps[idx[k]];
             e += amp[k] * (s * cp[k] + c * sp[k]);
             dl += ampn[k] * (c * cp[k] - s * sp[k]);
+            if (hc != NULL) { hc[2][k] = c * cp[k] - s * sp[k]; hs[2][k] = s * cp[k] + c * sp[k]; }
         }
     }
     if (p->h_libm) {                     /* some order is not an integer */
@@ -353,7 +390,50 @@ static double harm_eval(const hd_plant *p, double th_m, double cm, double sm, do
 static double te_eval1(const hd_plant *p, double th_m, double th_l, double *de_m, double *de_l)
 {
     double tcog;
-    return harm_eval(p, th_m, cos(th_m), sin(th_m), th_l, cos(th_l), sin(th_l), de_m, de_l, &tcog);
+    return harm_eval(p, th_m, cos(th_m), sin(th_m), th_l, cos(th_l), sin(th_l), de_m, de_l, &tcog, NULL, NULL);
+}
+
+/* The same sums at theta_m = end_th_m + dm and theta_l = end_th_l + dl, from the
+ * cos/sin(n theta + phase) that the last end evaluation stored per harmonic (hc0, hs0): each
+ * harmonic is rotated by n*dm (n*dl) with rot_poly, independently of the others, so there is no
+ * chain of products whose length grows with the order (36, 72: seven dependent complex
+ * products).  The RK stages use it (nothing carried on: every value one rotation, about one
+ * ulp, from the stored one); the end evaluation too, storing the rotated values (hc, hs not
+ * NULL) for the next sub-step, between the refreshes from libm every TRIG_SYNC sub-steps
+ * (end_eval), so rounding cannot accumulate beyond TRIG_SYNC rotations.  Returns 0 (caller
+ * uses harm_eval) when a rotation angle n*d reaches ROT_MAX or an order is not an integer. */
+static int harm_eval_rot(const hd_plant *p, double dm, double dl, double *te, double *de_m, double *de_l,
+                         double *tcog, double (*hc)[HD_PLANT_MAX_HARM], double (*hs)[HD_PLANT_MAX_HARM])
+{
+    const int te_on = p->prm.te_enabled != 0, cog = p->prm.cogging_enabled != 0;
+    double e = 0.0, d = 0.0, d_l = 0.0, cg = 0.0, c, s;
+    int32_t k;
+    if (!p->h_rot_ok || p->h_libm || !(fabs(dm) * p->hmax[0] < ROT_MAX) || !(fabs(dl) * p->hmax[1] < ROT_MAX)) return 0;
+    if (te_on || hc != NULL) {
+        for (k = 0; k < p->hn_int[1]; k++) {
+            rot_poly(p->hc0[1][k], p->hs0[1][k], p->hfo[1][k] * dm, &c, &s);
+            e += p->hamp[1][k] * s;
+            d += p->hampn[1][k] * c;
+            if (hc != NULL) { hc[1][k] = c; hs[1][k] = s; }
+        }
+        for (k = 0; k < p->hn_int[2]; k++) {
+            rot_poly(p->hc0[2][k], p->hs0[2][k], p->hfo[2][k] * dl, &c, &s);
+            e += p->hamp[2][k] * s;
+            d_l += p->hampn[2][k] * c;
+            if (hc != NULL) { hc[2][k] = c; hs[2][k] = s; }
+        }
+    }
+    if (cog || hc != NULL)
+        for (k = 0; k < p->hn_int[0]; k++) {
+            rot_poly(p->hc0[0][k], p->hs0[0][k], p->hfo[0][k] * dm, &c, &s);
+            cg += p->hamp[0][k] * s;
+            if (hc != NULL) { hc[0][k] = c; hs[0][k] = s; }
+        }
+    *te = te_on ? e : 0.0;
+    *de_m = te_on ? d : 0.0;
+    *de_l = te_on ? d_l : 0.0;
+    *tcog = cog ? cg : 0.0;
+    return 1;
 }
 
 static double cogging_energy(const hd_plant_params *q, double th_m)
@@ -377,9 +457,13 @@ static double cogging_energy(const hd_plant_params *q, double th_m)
 static double stribeck_exp(hd_plant *p, int side, double y)
 {
     const double d = y - p->fr_ya[side];
-    if (d <= STRIBECK_DY && d >= -STRIBECK_DY)
-        return p->fr_ea[side] * (1.0 + d * (-1.0 + d * (1.0 / 2.0 + d * (-1.0 / 6.0 + d * (1.0 / 24.0
-                                 + d * (-1.0 / 120.0 + d * (1.0 / 720.0)))))));
+    if (d <= STRIBECK_DY && d >= -STRIBECK_DY) {
+        /* the same polynomial in Estrin's form (pairs of terms, then d^2 and d^4): shorter
+         * dependency chain than Horner's, same truncation */
+        const double d2 = d * d, d4 = d2 * d2;
+        return p->fr_ea[side] * (((1.0 - d) + d2 * (1.0 / 2.0 - d * (1.0 / 6.0)))
+                                 + d4 * ((1.0 / 24.0 - d * (1.0 / 120.0)) + d2 * (1.0 / 720.0)));
+    }
     if (y > 700.0) return 0.0;                                   /* avoid the slow underflow path */
     p->fr_ya[side] = y;
     p->fr_ea[side] = exp(-y);
@@ -421,8 +505,11 @@ static double lugre_z(const hd_plant_friction_params *f, double z0, double v, do
     if (s == 0.0) return z0;
     x = -f->sigma0_Nm_per_rad * fabs(v) * s * ig;
     if (x >= -LUGRE_XPOLY) {
-        const double ph = 1.0 + x * (1.0 / 2.0 + x * (1.0 / 6.0 + x * (1.0 / 24.0 + x * (1.0 / 120.0
-                          + x * (1.0 / 720.0 + x * (1.0 / 5040.0 + x * (1.0 / 40320.0)))))));
+        /* Estrin's form of the series (pairs of terms, then x^2 and x^4): same terms as
+         * Horner's, half the dependency chain */
+        const double x2 = x * x, x4 = x2 * x2;
+        const double ph = ((1.0 + x * (1.0 / 2.0)) + x2 * (1.0 / 6.0 + x * (1.0 / 24.0)))
+                          + x4 * ((1.0 / 120.0 + x * (1.0 / 720.0)) + x2 * (1.0 / 5040.0 + x * (1.0 / 40320.0)));
         return z0 * (1.0 + x * ph) + v * s * ph;
     }
     em1 = x < -40.0 ? -1.0 : (x < -0.7 ? exp(x) - 1.0 : expm1(x));
@@ -532,13 +619,12 @@ static void base_cache(hd_plant *p, substep_ctx *c)
 static int need_trig_m(const hd_plant_params *q) { return q->te_enabled || q->cogging_enabled; }
 static int need_trig_l(const hd_plant *p) { return (p->prm.te_enabled && p->has_te_out) || p->prm.gravity_enabled; }
 
-/* Spring + hysteresis (from the committed memory) + TE + cogging at angles x with
- * cos/sin of theta_m (cm, sm) and theta_l (cl, sl). */
-static void pos_eval(const hd_plant *p, const xstate *x, double cm, double sm, double cl, double sl, pos_part *pp)
+/* Spring + hysteresis (from the committed memory) at angles x, with TE and cogging
+ * already in pp (te, de_m, de_l, Tcog) and cos/sin of theta_l (cl, sl). */
+static void pos_eval(const hd_plant *p, const xstate *x, double cl, double sl, pos_part *pp)
 {
     const hd_plant_params *q = &p->prm;
     double Th = 0.0, phi;
-    pp->te = harm_eval(p, x->th_m, cm, sm, x->th_l, cl, sl, &pp->de_m, &pp->de_l, &pp->Tcog);
     phi = x->th_m * p->inv_ratio + pp->te - x->th_l;
     pp->phi = phi;
     if (q->maxwell_enabled) {
@@ -583,7 +669,7 @@ static void accel_eval(hd_plant *p, const substep_ctx *c, double s, int bi, cons
         dx->th_m = 0.0; dx->w_m = 0.0;
     } else {
         dx->th_m = x->w_m;
-        dx->w_m = (appl_m - Fm) / q->jm_kgm2;
+        dx->w_m = (appl_m - Fm) * p->inv_jm;
     }
     /* load side */
     if (p->brake) {
@@ -598,7 +684,7 @@ static void accel_eval(hd_plant *p, const substep_ctx *c, double s, int bi, cons
             dx->th_l = 0.0; dx->w_l = 0.0;
         } else {
             dx->th_l = x->w_l;
-            dx->w_l = (appl_l - Fl) / q->jl_kgm2;
+            dx->w_l = (appl_l - Fl) * p->inv_jl;
         }
     }
     if (dg != NULL) {
@@ -614,10 +700,14 @@ static void stage(hd_plant *p, const substep_ctx *c, double s, const xstate *x0,
                   const double *t0, xstate *dx, eval_diag *dg)
 {
     double cm = 1.0, sm = 0.0, cl = 1.0, sl = 0.0;
+    const double dm = xt->th_m - x0->th_m, dl = xt->th_l - x0->th_l;
     pos_part pp;
-    if (need_trig_m(&p->prm)) rot_small(t0[0], t0[1], xt->th_m, xt->th_m - x0->th_m, &cm, &sm);
-    if (need_trig_l(p)) rot_small(t0[2], t0[3], xt->th_l, xt->th_l - x0->th_l, &cl, &sl);
-    pos_eval(p, xt, cm, sm, cl, sl, &pp);
+    if (need_trig_l(p)) rot_small(t0[2], t0[3], xt->th_l, dl, &cl, &sl);
+    if (!harm_eval_rot(p, dm, dl, &pp.te, &pp.de_m, &pp.de_l, &pp.Tcog, NULL, NULL)) {
+        if (need_trig_m(&p->prm)) rot_small(t0[0], t0[1], xt->th_m, dm, &cm, &sm);
+        pp.te = harm_eval(p, xt->th_m, cm, sm, xt->th_l, cl, sl, &pp.de_m, &pp.de_l, &pp.Tcog, NULL, NULL);
+    }
+    pos_eval(p, xt, cl, sl, &pp);
     accel_eval(p, c, s, s < c->h ? 1 : 2, xt, &pp, dx, dg);
 }
 
@@ -628,27 +718,30 @@ static void end_eval(hd_plant *p)
     const hd_plant_params *q = &p->prm;
     xstate x = { p->th_m, p->w_m, p->th_l, p->w_l };
     double cm = 1.0, sm = 0.0, cl = 1.0, sl = 0.0, de_m, de_l, te, phi, Th = 0.0;
-    int k;
+    int k, rotated = 0;
     /* cos/sin at the end of the sub-step: a small rotation from the start (the last end
      * evaluation), refreshed from libm every TRIG_SYNC evaluations so that rounding
-     * cannot accumulate (each rotation is good to about one ulp) */
+     * cannot accumulate (each rotation is good to about one ulp); the harmonics likewise
+     * (harm_eval_rot), refreshed from the powers of the libm values at the same time */
     if (p->end_valid && p->trig_n < TRIG_SYNC) {
-        if (need_trig_m(q)) rot_small(p->end_cm, p->end_sm, x.th_m, x.th_m - p->end_th_m, &cm, &sm);
-        if (need_trig_l(p)) rot_small(p->end_cl, p->end_sl, x.th_l, x.th_l - p->end_th_l, &cl, &sl);
+        const double dm = x.th_m - p->end_th_m, dl = x.th_l - p->end_th_l;
+        if (need_trig_m(q)) rot_small(p->end_cm, p->end_sm, x.th_m, dm, &cm, &sm);
+        if (need_trig_l(p)) rot_small(p->end_cl, p->end_sl, x.th_l, dl, &cl, &sl);
+        rotated = harm_eval_rot(p, dm, dl, &te, &de_m, &de_l, &p->end_Tcog, p->hc0, p->hs0);
         p->trig_n++;
     } else {
         if (need_trig_m(q)) { cm = cos(x.th_m); sm = sin(x.th_m); }
         if (need_trig_l(p)) { cl = cos(x.th_l); sl = sin(x.th_l); }
         p->trig_n = 0;
     }
-    te = harm_eval(p, x.th_m, cm, sm, x.th_l, cl, sl, &de_m, &de_l, &p->end_Tcog);
+    if (!rotated) te = harm_eval(p, x.th_m, cm, sm, x.th_l, cl, sl, &de_m, &de_l, &p->end_Tcog, p->hc0, p->hs0);
     phi = x.th_m * p->inv_ratio + te - x.th_l;
     if (q->maxwell_enabled) {
         for (k = 0; k < q->maxwell_n; k++) {
             double kk = q->maxwell_k_Nm_per_rad[k], w = q->maxwell_w_Nm[k];
             if (kk <= 0.0) continue;
-            if (kk * (phi - p->xi[k]) > w) p->xi[k] = phi - w / kk;
-            else if (kk * (phi - p->xi[k]) < -w) p->xi[k] = phi + w / kk;
+            if (kk * (phi - p->xi[k]) > w) p->xi[k] = phi - p->mx_slip[k];
+            else if (kk * (phi - p->xi[k]) < -w) p->xi[k] = phi + p->mx_slip[k];
         }
         for (k = 0; k < q->maxwell_n; k++)
             Th += sat(q->maxwell_k_Nm_per_rad[k] * (phi - p->xi[k]), q->maxwell_w_Nm[k]);
@@ -693,12 +786,12 @@ static void k1_from_cache(const hd_plant *p, const substep_ctx *c, const xstate 
     const double appl_m = c->tq_m + p->k1_rest_m - q->jm_kgm2 * a_b;
     const double appl_l = p->k1_rest_l + c->t_ext - q->jl_kgm2 * a_b;
     dx->th_m = x->w_m;
-    dx->w_m = (appl_m - p->k1_Fm) / q->jm_kgm2;
+    dx->w_m = (appl_m - p->k1_Fm) * p->inv_jm;
     if (p->brake) {
         dx->th_l = 0.0; dx->w_l = 0.0;
     } else {
         dx->th_l = x->w_l;
-        dx->w_l = (appl_l - p->k1_Fl) / q->jl_kgm2;
+        dx->w_l = (appl_l - p->k1_Fl) * p->inv_jl;
     }
 }
 
@@ -779,6 +872,10 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
     }
     p->tau_i = 1.0 / (TWO_PI * prm->current_bandwidth_Hz);
     p->inv_ratio = 1.0 / prm->ratio;      /* the RK stages multiply, they do not divide */
+    p->inv_jm = 1.0 / prm->jm_kgm2;
+    for (k = 0; k < HD_PLANT_MAX_MAXWELL; k++)      /* slip deflection w/k of each element */
+        p->mx_slip[k] = prm->maxwell_k_Nm_per_rad[k] > 0.0 ? prm->maxwell_w_Nm[k] / prm->maxwell_k_Nm_per_rad[k] : 0.0;
+    p->inv_jl = 1.0 / prm->jl_kgm2;
     for (k = 0; k < HD_PLANT_MAX_HARM; k++) {
         int l;
         const double *ord[3], *ph[3];
@@ -792,6 +889,7 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
         if (prm->te_out_order[k] != 0.0 && prm->te_out_amp_rad[k] != 0.0) p->has_te_out = 1;
     }
     harm_plan(p);
+    p->h_rot_ok = 1;
     if (prm->preisach_enabled) {
         hd_plant_preisach_everett(p->everett, prm->preisach_u_max_rad, prm->preisach_t_sat_Nm,
                             prm->preisach_r0_rad, prm->preisach_s_rad);

@@ -234,6 +234,7 @@ typedef struct {
     int32_t  n_min, n_max;            /* stack depths (>= 1, bottoms are sentinels) */
     int32_t  dir;                     /* +1 ascending, -1 descending */
     double   u_prev, y;
+    double   inv_du;                  /* L / (2 u_max): grid cells per rad (set by the reset) */
 } hd_plant_preisach_state;
 
 typedef struct {
@@ -242,6 +243,8 @@ typedef struct {
     double   phi1, phi2;              /* three-slope breakpoints */
     double   tau_i;                   /* current-loop time constant */
     double   inv_ratio;               /* 1/N */
+    double   inv_jm, inv_jl;          /* 1/J of the motor and load sides (stages multiply) */
+    double   mx_slip[HD_PLANT_MAX_MAXWELL]; /* w/k: deflection at which a Maxwell-slip element slips */
     double   harm_cp[3][HD_PLANT_MAX_HARM], harm_sp[3][HD_PLANT_MAX_HARM]; /* cos/sin of phases */
     int32_t  harm_int[3][HD_PLANT_MAX_HARM];  /* integer order: evaluated by powers of one sincos */
     int32_t  has_te_out;
@@ -276,6 +279,10 @@ typedef struct {
     int32_t  pw_n[2], pw_a[2][HD_PLANT_POW_MAX], pw_b[2][HD_PLANT_POW_MAX]; /* chains: theta_m, theta_l */
     uint32_t pw_ord[2][HD_PLANT_POW_MAX];
     double   hfo[3][HD_PLANT_MAX_HARM], hamp[3][HD_PLANT_MAX_HARM], hampn[3][HD_PLANT_MAX_HARM];
+    double   hc0[3][HD_PLANT_MAX_HARM], hs0[3][HD_PLANT_MAX_HARM]; /* cos/sin(n theta + phase) of each integer-
+                                                                     order harmonic at the last end evaluation */
+    double   hmax[2];                 /* largest integer order on chain 0 (theta_m) and 1 (theta_l) */
+    int32_t  h_rot_ok;                /* 1: stages rotate the end evaluation's harmonics (tests set 0) */
     double   hcp[3][HD_PLANT_MAX_HARM], hsp[3][HD_PLANT_MAX_HARM], hph[3][HD_PLANT_MAX_HARM];
     double   k_dt, k_h, k_inv_h, k_E, k_Efac, k_gyro_a, k_gyro_sd, k_rot_c, k_rot_s, k_rot2_c, k_rot2_s; /* per-dt */
     double   enc_scale[2];

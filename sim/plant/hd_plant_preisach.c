@@ -37,9 +37,10 @@ void hd_plant_preisach_everett(double *E, double u_max, double t_sat, double r0,
     for (i = 0; i < W * W; i++) E[i] *= scale;
 }
 
-double hd_preisach_E(const double *E, double u_max, double alpha, double beta)
+/* E(alpha, beta) with the grid's cells per rad inv_du = L / (2 u_max) given (the operator
+ * keeps it in its state: no division per evaluation). */
+static double everett(const double *E, double u_max, double inv_du, double alpha, double beta)
 {
-    const double inv_du = (double)L / (2.0 * u_max);   /* one division instead of two */
     double xa = (alpha + u_max) * inv_du, xb = (beta + u_max) * inv_du, fa, fb;
     int ia, ib;
     /* a diverged plant hands in NaN: no table cell belongs to it, and converting
@@ -59,6 +60,11 @@ double hd_preisach_E(const double *E, double u_max, double alpha, double beta)
     if (ia == ib) return fa > fb ? E[(ia + 1) * W + ia] * (fa - fb) : 0.0;
     return (1.0 - fa) * (1.0 - fb) * E[ia * W + ib] + fa * (1.0 - fb) * E[(ia + 1) * W + ib]
            + (1.0 - fa) * fb * E[ia * W + ib + 1] + fa * fb * E[(ia + 1) * W + ib + 1];
+}
+
+double hd_preisach_E(const double *E, double u_max, double alpha, double beta)
+{
+    return everett(E, u_max, (double)L / (2.0 * u_max), alpha, beta);
 }
 
 /* Drop the oldest (max, min) pair above the sentinels when a stack is full. */
@@ -94,7 +100,7 @@ double hd_plant_preisach_eval(const hd_plant_preisach_state *s, const double *E,
             if (virt == 1) virt = 0; else nmin--;
         }
         if (virt == 1) { m = vu; ym = vy; } else { m = s->min_u[nmin - 1]; ym = s->min_y[nmin - 1]; }
-        y = ym + 2.0 * hd_preisach_E(E, u_max, u, m);
+        y = ym + 2.0 * everett(E, u_max, s->inv_du, u, m);
     } else {
         double M, yM;
         while (u <= (virt == 1 ? vu : s->min_u[nmin - 1]) && (virt == 1 || nmin > 1)) {
@@ -103,7 +109,7 @@ double hd_plant_preisach_eval(const hd_plant_preisach_state *s, const double *E,
             if (virt == -1) virt = 0; else nmax--;
         }
         if (virt == -1) { M = vu; yM = vy; } else { M = s->max_u[nmax - 1]; yM = s->max_y[nmax - 1]; }
-        y = yM - 2.0 * hd_preisach_E(E, u_max, M, u);
+        y = yM - 2.0 * everett(E, u_max, s->inv_du, M, u);
     }
     if (commit != NULL) {
         if (commit != s) *commit = *s;
@@ -129,6 +135,7 @@ void hd_plant_preisach_reset(hd_plant_preisach_state *s, const double *E, double
     int k;
     const int cycles = 24;
     memset(s, 0, sizeof *s);
+    s->inv_du = (double)L / (2.0 * u_max);
     s->min_u[0] = -u_max;
     s->min_y[0] = -E[L * W + 0];
     s->n_min = 1;

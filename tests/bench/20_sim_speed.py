@@ -63,7 +63,7 @@ def main() -> int:
         "realtime_factor_app_only": 1e6 * sim.LOOP_PERIOD_S / app_us,
         "plant_substeps": sim.axis_param("integrator.substeps"),
         "note": ("timings are wall clock on a shared machine (realtime_factor_cpu: process CPU time, less "
-                 "sensitive to other jobs); the plant/app split is sampled every 8th period"),
+                 "sensitive to other jobs); the plant/app split is sampled every 32nd period"),
     }
     # also the open-loop plant alone (the fitting path), same inputs length
     import numpy as np

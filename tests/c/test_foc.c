@@ -32,6 +32,27 @@ static uint64_t rs = 88172645463325252ull;
 static uint32_t rnd(void) { rs ^= rs << 13; rs ^= rs >> 7; rs ^= rs << 17; return (uint32_t)(rs >> 16); }
 static int32_t rnd_range(int32_t lo, int32_t hi) { return lo + (int32_t)(rnd() % (uint32_t)(hi - lo + 1)); }
 
+/* The modulation's 1 / vbus by 32-bit long division equals the general 64-bit division
+ * hd_div_q(1.0, vbus, 30) for every vbus of the fast range (1 V .. 128 V, all 7.3e6
+ * values) and at and around its edges, zero and negative values included. */
+static void test_inv_vbus(void **st)
+{
+    static const int32_t edge[] = {INT32_MIN, -65536, -1, 0, 1, 2, 65535, 65536, 65537, (1 << 23) - 1,
+                                   1 << 23, (1 << 23) + 1, 48 * 65536, INT32_MAX};
+    long n = 0;
+    (void)st;
+    for (int32_t v = 65536; v < (1 << 23); v++) {
+        if (hd_foc_inv_vbus(v) != hd_div_q(HD_Q16_ONE, v, 30u)) {
+            fail_msg("vbus %d: %d, expected %d", (int)v, (int)hd_foc_inv_vbus(v), (int)hd_div_q(HD_Q16_ONE, v, 30u));
+        }
+        n++;
+    }
+    for (size_t k = 0; k < sizeof edge / sizeof edge[0]; k++) {
+        assert_int_equal(hd_foc_inv_vbus(edge[k]), hd_div_q(HD_Q16_ONE, edge[k], 30u));
+    }
+    assert_int_equal(n, (1 << 23) - 65536);
+}
+
 static void test_transforms(void **st)
 {
     double worst_c = 0, worst_p = 0, worst_i = 0;
@@ -302,6 +323,7 @@ static void test_anti_windup(void **st)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_inv_vbus),
         cmocka_unit_test(test_transforms),
         cmocka_unit_test(test_svm),
         cmocka_unit_test(test_design),

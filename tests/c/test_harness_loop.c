@@ -77,6 +77,38 @@ static void test_rerun_is_bit_identical(void **state)
     free(b);
 }
 
+/* hd_sim_run_columns: the same log as hd_sim_run, column-major (every value equal, bits
+ * included), with log decimation and noise on. */
+static void test_run_columns_is_transposed_run(void **state)
+{
+    static const char *NOISY =
+        "[scenario]\nduration_s = 0.05\nseed = 9\nlog_decimation = 3\n"
+        "[controller]\nmode = \"position\"\n"
+        "[setpoint]\ntype = \"step\"\namplitude_rad = 1e-3\nt0_s = 0.005\n";
+    (void)state;
+    int64_t n;
+    double *r = run(NOISY, NULL, &n);
+    hd_scenario_t *sc = malloc(sizeof *sc);
+    hd_plant_params prm;
+    char err[512];
+    assert_int_equal(hd_scenario_parse(NOISY, strlen(NOISY), "loop.toml", sc, err, sizeof err), 0);
+    assert_int_equal(hd_sim_scenario_params(sc, &prm, err, sizeof err), 0);
+    hd_sim_t *s = hd_sim_new(sc, &prm, err, sizeof err);
+    assert_non_null(s);
+    assert_int_equal(hd_sim_n_rows(s), n);
+    assert_true(n > 100);
+    double *c = calloc((size_t)n * HD_SIM_NCOL, sizeof *c);
+    assert_int_equal(hd_sim_run_columns(s, c, err, sizeof err), 0);
+    for (int64_t j = 0; j < n; j++)
+        for (int32_t k = 0; k < HD_SIM_NCOL; k++)
+            assert_memory_equal(&c[k * n + j], &r[j * HD_SIM_NCOL + k], sizeof(double));
+    assert_true(c[HD_COL_T * n + 2] == 2 * 3 * 1e-4);   /* decimated: t = j * D * dt */
+    hd_sim_free(s);
+    free(sc);
+    free(c);
+    free(r);
+}
+
 static void test_glitch_reaches_app(void **state)
 {
     (void)state;
@@ -157,6 +189,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_lockstep_contract_and_response),
         cmocka_unit_test(test_rerun_is_bit_identical),
+        cmocka_unit_test(test_run_columns_is_transposed_run),
         cmocka_unit_test(test_glitch_reaches_app),
         cmocka_unit_test(test_bridge_rounds_and_saturates),
         cmocka_unit_test(test_run_decimation_and_divergence),

@@ -8,6 +8,10 @@
  *   hd_app: travel limits    follow a parameter change (precomputed at apply)
  *   hd_foc: Clarke / Park    rounding floor((x + 2^(q-1)) / 2^q) vs the 2^62-biased
  *                            unsigned shift (round half up, saturated)
+ *   hd_pid: limits and the   int32 x 2^s (s <= 32) and the measurement step x 2^16 vs
+ *           derivative step  the saturating shift hd_shl64_sat
+ *   hd_divinv_rnd            vs hd_div64_rnd (division by a parameter via its reciprocal)
+ *   hd_stribeck_g_inv        vs hd_stribeck_g (LuGre's g(v))
  * The hal is a stub: the sensor sample is set by the test, the command recorded,
  * NVM blank (defaults) and read-only.
  */
@@ -22,6 +26,7 @@
 #include "hd_fixed.h"
 #include "hd_blend.h"
 #include "hd_foc.h"
+#include "hd_stribeck.h"
 
 /* ---- stub hal ------------------------------------------------------------ */
 
@@ -294,6 +299,88 @@ static uint32_t xs32(void)
     return (uint32_t)(xs_state >> 32);
 }
 
+/* The PID's integrator limits out_max / out_min x 2^shift (shift <= 32) and its
+ * derivative target dmeas x 2^16 (|dmeas| < 2^32) are plain products: equal to the
+ * saturating shift for every shift, at the int32 edges and for random words. */
+static void test_pid_shift_products_match_shl64_sat(void **state)
+{
+    static const int32_t edge[] = {INT32_MIN, INT32_MIN + 1, -65536, -1, 0, 1, 65535, INT32_MAX - 1, INT32_MAX};
+    uint32_t sh;
+    int k;
+    (void)state;
+    for (sh = 0u; sh <= 32u; sh++) {
+        for (k = 0; k < (int)(sizeof edge / sizeof edge[0]); k++) {
+            assert_true((int64_t)edge[k] * ((int64_t)1 << sh) == hd_shl64_sat((int64_t)edge[k], sh));
+        }
+        for (k = 0; k < 2000; k++) {
+            const int32_t x = s32((uint32_t)rnd64());
+            assert_true((int64_t)x * ((int64_t)1 << sh) == hd_shl64_sat((int64_t)x, sh));
+        }
+    }
+    for (k = 0; k < 20000; k++) {
+        const int32_t a = (k < 2) ? ((k == 0) ? INT32_MIN : INT32_MAX) : s32((uint32_t)rnd64());
+        const int32_t b = (k < 2) ? ((k == 0) ? INT32_MAX : INT32_MIN) : s32((uint32_t)rnd64());
+        const int64_t dmeas = (int64_t)a - (int64_t)b;
+        assert_true(dmeas * 65536 == hd_shl64_sat(dmeas, 16u));
+    }
+}
+
+/* Division by a fixed divisor through its reciprocal: the value of hd_div64_rnd for every
+ * divisor scale (1, powers of two and their neighbours, 16-bit, 32-bit edges, random) and
+ * dividends at the edges (0, +-1, multiples of d and half-way points, INT64_MIN / MAX) and
+ * random of every magnitude. */
+static void test_divinv_matches_div64_rnd(void **state)
+{
+    static const uint32_t dl[] = {1u, 2u, 3u, 7u, 10u, 255u, 256u, 257u, 10000u, 65535u, 65536u, 65537u,
+                                  0x7FFFFFFFu, 0x80000000u, 0x80000001u, 0xFFFFFFFEu, 0xFFFFFFFFu};
+    hd_divinv_t v;
+    uint32_t i;
+    int k;
+    (void)state;
+    for (i = 0; i < sizeof dl / sizeof dl[0] + 400u; i++) {
+        const uint32_t d = (i < sizeof dl / sizeof dl[0]) ? dl[i]
+                           : (uint32_t)(rnd64() >> (32u + (uint32_t)(rnd64() % 32u))) | 1u;
+        const int64_t dd = (int64_t)d;
+        const int64_t e[] = {0, 1, -1, dd, -dd, dd - 1, dd + 1, dd / 2, dd / 2 + 1, -(dd / 2), -(dd / 2) - 1,
+                             3 * dd + dd / 2, INT64_MAX, INT64_MIN, INT64_MAX - 1, INT64_MIN + 1,
+                             (INT64_MAX / dd) * dd, -(INT64_MAX / dd) * dd};
+        hd_divinv_init(&v, d);
+        for (k = 0; k < (int)(sizeof e / sizeof e[0]); k++) {
+            assert_true(hd_divinv_rnd(e[k], &v) == hd_div64_rnd(e[k], dd));
+        }
+        for (k = 0; k < 500; k++) {
+            const int64_t n = s64(rnd64()) >> (rnd64() % 64u);
+            assert_true(hd_divinv_rnd(n, &v) == hd_div64_rnd(n, dd));
+        }
+    }
+}
+
+/* LuGre's Stribeck level with the reciprocal of vs equals the division form for every
+ * vs scale and velocity (both exponents). */
+static void test_stribeck_g_inv_matches_g(void **state)
+{
+    static const int32_t vs_list[] = {1, 2, 3, 1000, 65535, 65536, 65537, 1 << 20, 0x40000000, INT32_MAX};
+    hd_stribeck_dir_t p;
+    hd_divinv_t v;
+    uint32_t i, d;
+    int k;
+    (void)state;
+    p.fc = 5 << 16;
+    p.fs = 8 << 16;
+    p.fv = 0;
+    for (i = 0; i < sizeof vs_list / sizeof vs_list[0]; i++) {
+        p.vs = vs_list[i];
+        hd_divinv_init(&v, (uint32_t)p.vs);
+        for (d = 1u; d <= 2u; d++) {
+            for (k = 0; k < 3000; k++) {
+                const int32_t vel = (k == 0) ? INT32_MIN : ((k == 1) ? INT32_MAX : (k == 2) ? 0
+                                    : (int32_t)(s32((uint32_t)rnd64()) >> (rnd64() % 32u)));
+                assert_int_equal(hd_stribeck_g_inv(&p, d, vel, &v), hd_stribeck_g(&p, d, vel));
+            }
+        }
+    }
+}
+
 static void test_foc_rounding_matches_biased_form(void **st)
 {
     (void)st;
@@ -334,6 +421,9 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_app_current_is_div_q, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_app_encoder_steps, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_app_travel_limit_follows_parameter, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_pid_shift_products_match_shl64_sat, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_divinv_matches_div64_rnd, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_stribeck_g_inv_matches_g, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_foc_rounding_matches_biased_form, setUp, tearDown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

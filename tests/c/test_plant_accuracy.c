@@ -135,7 +135,7 @@ static void test_stribeck_matches_libm(void **state)
 /* TE and cogging over a long run at high motor speed (angles of hundreds of rad): the
  * harmonic sums from powers of one cos/sin equal the libm formulas, including a
  * non-integer order (its libm path) next to integer ones. */
-static void test_harmonics_match_libm(void **state)
+static void harmonics_match_libm(long spin_periods, int with_non_integer, double min_angle)
 {
     hd_plant_params prm;
     hd_plant_input in;
@@ -143,14 +143,15 @@ static void test_harmonics_match_libm(void **state)
     double worst_cog = 0.0, worst_te = 0.0, amp_cog = 0.0, amp_te = 0.0;
     long k;
     int j;
-    (void)state;
     hd_plant_defaults_reference(&prm);
     prm.fric_m.enabled = 0;
     prm.fric_l.enabled = 0;
     prm.gravity_enabled = 0;
-    prm.cog_order[2] = 2.5;
-    prm.cog_amp_Nm[2] = 5e-4;
-    prm.cog_phase_rad[2] = -0.7;
+    if (with_non_integer) {
+        prm.cog_order[2] = 2.5;
+        prm.cog_amp_Nm[2] = 5e-4;
+        prm.cog_phase_rad[2] = -0.7;
+    }
     p = new_plant(&prm, 5u);
     for (j = 0; j < HD_PLANT_MAX_HARM; j++) {
         amp_cog += fabs(prm.cog_amp_Nm[j]);
@@ -160,7 +161,7 @@ static void test_harmonics_match_libm(void **state)
     for (k = 0; k < 100000; k++) {
         const hd_plant_output *o;
         double cog = 0.0, te = 0.0;
-        in.current_cmd_A = k < 500 ? 1.0 : 0.0;       /* spin up to ~40 rad/s, then coast */
+        in.current_cmd_A = k < spin_periods ? 1.0 : 0.0;  /* spin up (500: to ~40 rad/s), then coast */
         o = hd_plant_step(p, &in, 1e-4);
         for (j = 0; j < HD_PLANT_MAX_HARM; j++) {
             if (prm.cog_order[j] != 0.0)
@@ -173,13 +174,69 @@ static void test_harmonics_match_libm(void **state)
         if (fabs(o->cogging_torque_Nm - cog) > worst_cog) worst_cog = fabs(o->cogging_torque_Nm - cog);
         if (fabs(o->te_rad - te) > worst_te) worst_te = fabs(o->te_rad - te);
     }
-    printf("# harmonics vs libm, motor at %.0f rad after 10 s at ~40 rad/s: cogging %.2e of its amplitude, TE %.2e\n",
-           p->out.motor_angle_rad, worst_cog / amp_cog, worst_te / amp_te);
-    assert_true(fabs(p->out.motor_angle_rad) > 100.0);
+    printf("# harmonics vs libm, motor at %.0f rad after 10 s at %.1f rad/s: cogging %.2e of its amplitude, TE %.2e\n",
+           p->out.motor_angle_rad, p->out.motor_velocity_rad_s, worst_cog / amp_cog, worst_te / amp_te);
+    assert_true(fabs(p->out.motor_angle_rad) > min_angle);
     /* angles of a few hundred rad carry ~1e-13 rad of rounding, times orders up to 72 */
     assert_true(worst_cog / amp_cog < 1e-10);
     assert_true(worst_te / amp_te < 1e-10);
     free(p);
+}
+
+static void test_harmonics_match_libm(void **state)
+{
+    (void)state;
+    harmonics_match_libm(500, 1, 100.0);
+}
+
+/* The same at ~4 rad/s with integer orders only: 72 x the angle step stays below the
+ * rotation's 0.1 rad, so the end evaluations rotate the stored harmonics (refreshed from
+ * libm every 64 periods) instead of forming the powers. */
+static void test_harmonics_rotated_match_libm(void **state)
+{
+    (void)state;
+    harmonics_match_libm(50, 0, 20.0);
+}
+
+/* The RK stages take TE and cogging from the end evaluation's cos/sin(n theta), each harmonic
+ * rotated by n * (stage angle - start angle) with a Taylor polynomial; with that switched off
+ * (h_rot_ok = 0, an internal flag) every stage forms the powers of cos/sin theta again.  A
+ * spin-up through 0..~150 rad/s (rotation angles 72 * dtheta below and above the polynomial's
+ * 0.1 rad range, so both paths run) and reversals: both runs agree to rounding (documented
+ * tolerance 1e-12 of the peak), and they are not bit-identical (the rotation path ran). */
+static void test_stage_harmonics_rotation(void **state)
+{
+    hd_plant_params prm;
+    hd_plant_input in;
+    hd_plant *a, *b;
+    double worst_th = 0.0, worst_w = 0.0, pk_th = 0.0, pk_w = 0.0;
+    long k;
+    (void)state;
+    every_effect(&prm);
+    a = new_plant(&prm, 4u);
+    b = new_plant(&prm, 4u);
+    b->h_rot_ok = 0;
+    memset(&in, 0, sizeof in);
+    for (k = 0; k < 20000; k++) {
+        const double t = (double)k * 1e-4;
+        in.current_cmd_A = k < 3000 ? 4.0 * sin(2.0 * PI * 3.0 * t) : (k < 6000 ? 6.0 : -2.0);
+        hd_plant_step(a, &in, 1e-4);
+        hd_plant_step(b, &in, 1e-4);
+        if (fabs(b->out.motor_angle_rad) > pk_th) pk_th = fabs(b->out.motor_angle_rad);
+        if (fabs(b->out.motor_velocity_rad_s) > pk_w) pk_w = fabs(b->out.motor_velocity_rad_s);
+        if (fabs(a->out.motor_angle_rad - b->out.motor_angle_rad) > worst_th)
+            worst_th = fabs(a->out.motor_angle_rad - b->out.motor_angle_rad);
+        if (fabs(a->out.motor_velocity_rad_s - b->out.motor_velocity_rad_s) > worst_w)
+            worst_w = fabs(a->out.motor_velocity_rad_s - b->out.motor_velocity_rad_s);
+    }
+    printf("# stage harmonics by rotation vs by powers: motor angle %.2e of peak %.3g rad, velocity %.2e of peak %.3g rad/s\n",
+           worst_th / pk_th, pk_th, worst_w / pk_w, pk_w);
+    assert_true(pk_w > 0.1 / (72.0 * 1e-4));        /* fast enough for the power fallback */
+    assert_true(worst_th > 0.0 || worst_w > 0.0);   /* the rotation path ran */
+    assert_true(worst_th / pk_th < 1e-12);
+    assert_true(worst_w / pk_w < 1e-12);
+    free(a);
+    free(b);
 }
 
 /* The first RK stage of a period reuses the end-of-period evaluation (same state); with
@@ -230,7 +287,9 @@ int main(void)
         cmocka_unit_test(test_one_substep_vs_reference),
         cmocka_unit_test(test_stribeck_matches_libm),
         cmocka_unit_test(test_harmonics_match_libm),
+        cmocka_unit_test(test_harmonics_rotated_match_libm),
         cmocka_unit_test(test_first_stage_reuse),
+        cmocka_unit_test(test_stage_harmonics_rotation),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
