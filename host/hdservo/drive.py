@@ -121,6 +121,7 @@ def add_bus_arguments(p: "argparse.ArgumentParser | argparse._ArgumentGroup", si
     p.add_argument("--host", default=None, help="socketcand server host (interface socketcand)")
     p.add_argument("--port", type=int, default=None, help="socketcand server port (interface socketcand)")
     p.add_argument("--node-id", type=int, default=1, help="CANopen node id of the drive (default 1)")
+    p.add_argument("--node", dest="node_id", type=int, help=argparse.SUPPRESS)   # older spelling of --node-id
     if sim:
         p.add_argument("--sim", nargs="?", const="reference", default=None, metavar="AXIS",
                        help="talk to a simulated drive instead (a virtual drive started for this command, over "

@@ -29,7 +29,7 @@ def register(p: argparse.ArgumentParser) -> None:
     """Options of ``hdservo compare``."""
     from .. import compare as cmp
     from ..drive import add_bus_arguments
-    p.add_argument("-o", "--out", type=Path, default=Path("build") / "compare",
+    p.add_argument("--out-dir", type=Path, default=Path("build") / "compare", metavar="DIR",
                    help="output directory (default build/compare)")
     p.add_argument("--controllers", default="ablation",
                    help="'ablation' (default: per feedback configuration the fair PID, + each compensator, the "
@@ -54,7 +54,6 @@ def register(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=None, help="with --sim only: sensor-noise seed (default 1)")
     p.add_argument("--json", type=Path, help="also write the comparison document here")
     p.add_argument("--pdf", action="store_true", help="also write PDF plots")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
 
 def _check_dir(path: Path, what: str) -> None:
@@ -81,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     bus = choice.bus
     axis = choice.axis or "reference"
     seed = 1 if args.seed is None else args.seed
-    _check_dir(args.out, "--out")
+    _check_dir(args.out_dir, "--out-dir")
     if args.json is not None:
         if args.json.is_dir():
             raise UserError(f"--json {args.json}: is a directory")
@@ -113,9 +112,9 @@ def run(args: argparse.Namespace) -> int:
                   progress=not args.quiet, pdf=args.pdf, echo=(lambda s: None) if args.quiet else print,
                   jobs=args.jobs, profile=choice.profile)
         if ablation:
-            doc = cmp.run_ablation(args.out, fbs, procs, **kw)
+            doc = cmp.run_ablation(args.out_dir, fbs, procs, **kw)
         else:
-            doc = cmp.run_compare(args.out, ctls, procs, **kw)
+            doc = cmp.run_compare(args.out_dir, ctls, procs, **kw)
     except ValueError as e:
         raise UserError(str(e)) from None
     if args.json is not None:
@@ -136,5 +135,5 @@ def run(args: argparse.Namespace) -> int:
     for c, f in fails.items():
         for proc, notes in f.items():
             print(f"FAILED {c}/{proc}: {'; '.join(notes)}")
-    print(f"wrote {args.out / 'compare.json'} ({doc['run_time_s']:.0f} s)")
+    print(f"wrote {args.out_dir / 'compare.json'} ({doc['run_time_s']:.0f} s)")
     return 0

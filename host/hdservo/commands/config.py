@@ -43,7 +43,8 @@ def register(p: argparse.ArgumentParser) -> None:
     from ..drive import add_bus_arguments
     sub = p.add_subparsers(dest="action", metavar="ACTION", required=True)
     d = sub.add_parser("dump", help="write every drive parameter (SI units) and CANopen setting as TOML")
-    d.add_argument("-o", "--out", type=Path, metavar="FILE.toml", help="file to write (default: stdout)")
+    d.add_argument("-o", "--output", type=Path, metavar="FILE.toml", help="file to write (default: stdout)")
+    d.add_argument("--out", dest="output", type=Path, help=argparse.SUPPRESS)   # older spelling
     r = sub.add_parser("restore", help="write a dumped file back (checked first, read back)")
     r.add_argument("file", type=Path, metavar="FILE.toml")
     r.add_argument("--force", action="store_true",
@@ -124,11 +125,11 @@ def _dump(drive: Any, args: argparse.Namespace) -> str:
     text = to_toml(raw, h, f"hdservo drive configuration (hdservo config dump), {stamp}\n"
                            f"drive: {name}, node {args.node_id}; {len(raw)} parameters, SI units; "
                            f"{len(objects)} CANopen settings", objects, args.node_id)
-    if args.out is None:
+    if args.output is None:
         sys.stdout.write(text)
         return ""
-    write_text_atomic(args.out, text)           # no half-written file
-    return f"wrote {len(raw)} parameters and {len(objects)} CANopen settings to {args.out}"
+    write_text_atomic(args.output, text)           # no half-written file
+    return f"wrote {len(raw)} parameters and {len(objects)} CANopen settings to {args.output}"
 
 
 def _restore(drive: Any, args: argparse.Namespace, progress: Callable[[str], None]) -> str:
@@ -229,8 +230,8 @@ def run(args: argparse.Namespace) -> int:
     def progress(msg: str) -> None:
         print(f"[config] {msg}", file=sys.stderr, flush=True)
 
-    if args.action == "dump" and args.out is not None and not args.out.parent.exists():
-        raise UserError(f"{args.out}: directory {args.out.parent} does not exist")
+    if args.action == "dump" and args.output is not None and not args.output.parent.exists():
+        raise UserError(f"{args.output}: directory {args.output.parent} does not exist")
     if args.action == "get":
         bad = [n for n in args.names if n not in BY_NAME]
         if bad:

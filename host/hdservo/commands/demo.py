@@ -45,7 +45,8 @@ OUTPUTS = ("model.toml", "model.preisach.bin", "identify.json", "identify.txt", 
 def register(p: argparse.ArgumentParser) -> None:
     """Options of ``hdservo demo``."""
     from .. import compare as cmp
-    p.add_argument("-o", "--out", type=Path, default=Path("build") / "demo", help="output directory (build/demo)")
+    p.add_argument("--out-dir", type=Path, default=Path("build") / "demo", metavar="DIR",
+                   help="output directory (default build/demo)")
     p.add_argument("--axis", default="reference", metavar="FILE",
                    help="axis file of the virtual axis (default: the reference axis)")
     p.add_argument("--controllers", default="ablation",
@@ -83,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     from ..procedures.runner import VirtualDriveProcess
     from ..report import ReportError, build_report, verify_report
     t0 = time.monotonic()
-    out: Path = args.out
+    out: Path = args.out_dir
     axis = args.axis
     if axis != "reference":
         ap = Path(axis)
@@ -117,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as e:
         raise UserError(str(e)) from None
     if out.exists() and not out.is_dir():
-        raise UserError(f"--out {out}: not a directory")
+        raise UserError(f"--out-dir {out}: not a directory")
     out.mkdir(parents=True, exist_ok=True)
     for name in OUTPUTS:                         # a fresh run: nothing stale in the report (only our own files)
         q = out / name
@@ -139,7 +140,7 @@ def run(args: argparse.Namespace) -> int:
 
         _say(2, "identifying the axis over CAN (hdservo identify all)", t0)
         _hdservo(["identify", "all", f"--sim={axis}", "-o", str(model), "--json", str(out / "identify.json"),
-                  "--plots", str(out / "identify-plots"), "--seed", str(args.seed)], "identification",
+                  "--out-dir", str(out / "identify-plots"), "--seed", str(args.seed)], "identification",
                  out / "identify.txt")
 
         _say(3, f"downloading the compensator parameters to the virtual drive (port {drive.port})", t0)

@@ -40,7 +40,7 @@ def register(p: argparse.ArgumentParser) -> None:
     p.add_argument("--rate", type=float, default=2000.0,
                    help="samples per second (divides 10 kHz; default 2000: hdservo discrepancy wants >= 2 kHz)")
     p.add_argument("--duration", type=float, default=2.0, help="seconds to record")
-    p.add_argument("-o", "--out", required=True, help="CSV to write (also OUT.json, OUT.log)")
+    p.add_argument("-o", "--output", required=True, metavar="LOG.csv", help="CSV to write (also LOG.json, LOG.log)")
 
 
 def drive_info(drive: Drive) -> dict[str, object]:
@@ -69,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--rate {args.rate}: expected 10000/n Hz for an integer n (e.g. 2000, 1000, 500)")
     if args.duration <= 0:
         raise UserError("--duration must be positive")
-    out = Path(args.out)
+    out = Path(args.output)
     target = choose_drive(args)
     vd = None
     if target.bus is None:

@@ -122,7 +122,7 @@ def identify(axis: Path, gains: Mapping[str, float], model: Path, target: str = 
              quiet: bool = True) -> dict[str, Any]:
     """``hdservo identify TARGET --sim AXIS -o MODEL --json`` on the virtual drive over CAN.
 
-    The flow's velocity-loop gains are passed with ``--gain`` (the drive's
+    The flow's velocity-loop gains are passed with ``--set`` (the drive's
     defaults are tuned for the reference axis).  Returns the identification
     JSON report; raises RuntimeError on a failure.
     """
@@ -133,7 +133,7 @@ def identify(axis: Path, gains: Mapping[str, float], model: Path, target: str = 
     cmd = [sys.executable, "-m", "hdservo.cli", "identify", target, f"--sim={ax}", "-o", model.name,
            "--json", rep.name, "--seed", str(seed)]
     for k in ("vel_kp", "vel_ki"):
-        cmd += ["--gain", f"{k}={gains[k]!r}"]
+        cmd += ["--set", f"{k}={gains[k]!r}"]
     if quiet:
         cmd.append("-q")
     r = subprocess.run(cmd, capture_output=True, text=True, cwd=cwd)

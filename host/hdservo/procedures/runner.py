@@ -560,7 +560,7 @@ class Target:
     #: compensator download (:func:`hdservo.download.plan_download`), written and read back
     #: into the drive before each procedure (the virtual drive keeps no parameters)
     download: Optional[Mapping[str, Any]] = None
-    #: drive parameters by name (``--params KEY=VALUE``), written after the download, read back
+    #: drive parameters by name (``--set NAME=VALUE``), written after the download, read back
     params: dict[str, float] = field(default_factory=dict)
     #: virtual only: the object profile of the virtual drive (``hdservo`` or ``generic``: CiA 301/402
     #: standard objects only, no test rig)
@@ -620,16 +620,16 @@ def configure_drive(drive: Drive, target: Target) -> list[str]:
         for name, v in target.params.items():
             p = PARAMS.get(name)
             if p is None:
-                raise UserError(f"--params: unknown drive parameter '{name}'")
+                raise UserError(f"--set: unknown drive parameter '{name}'")
             if not p.min <= float(v) <= p.max:
-                raise UserError(f"--params: {name} = {v:g} outside [{p.min:g}, {p.max:g}] {p.unit}")
+                raise UserError(f"--set: {name} = {v:g} outside [{p.min:g}, {p.max:g}] {p.unit}")
             try:
                 drive.set_param(name, float(v))
                 back = float(drive.get_param(name))
             except DriveError as e:
-                raise UserError(f"--params: {name}: {e}") from None
+                raise UserError(f"--set: {name}: {e}") from None
             if abs(back - float(v)) > 2.0 ** -p.frac * 1.01 + 1e-12 * abs(float(v)):
-                raise UserError(f"--params: {name}: read back {back:g}, wrote {float(v):g}")
+                raise UserError(f"--set: {name}: read back {back:g}, wrote {float(v):g}")
         notes.append("params: " + ", ".join(f"{k}={v:g}" for k, v in target.params.items()))
     note = apply_compensators(drive, target.compensators)
     if note:
