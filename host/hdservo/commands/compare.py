@@ -19,6 +19,7 @@ import os
 from pathlib import Path
 
 from ..errors import UserError
+from .. import progress
 
 NAME = "compare"
 HELP = ("run the test procedures with the fair PID baseline, each compensator, the best combination and "
@@ -109,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
     choice.announce("compare")
     try:
         kw = dict(proc_extra=extra, bus=bus, node_id=args.node_id, axis=axis, seed=seed, model=args.model,
-                  progress=not args.quiet, pdf=args.pdf, echo=(lambda s: None) if args.quiet else print,
+                  progress=not args.quiet, pdf=args.pdf, echo=(lambda s: None) if args.quiet else progress.echo,
                   jobs=args.jobs, profile=choice.profile)
         if ablation:
             doc = cmp.run_ablation(args.out_dir, fbs, procs, **kw)

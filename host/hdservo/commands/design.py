@@ -6,11 +6,11 @@ output file is written unless the whole flow succeeded.
 from __future__ import annotations
 
 import argparse
-import sys
 import tempfile
 from pathlib import Path
 
 from ..errors import UserError
+from . import progress_lines
 
 NAME = "design"
 HELP = "design a harmonic-drive axis from requirements: feasible parts, simulated figures, ranking, report"
@@ -37,9 +37,7 @@ def run(args: argparse.Namespace) -> int:
     if args.candidates is not None and not 1 <= args.candidates <= 20:
         raise UserError(f"--candidates: expected 1-20, got {args.candidates}")
 
-    def progress(msg: str) -> None:
-        if not args.quiet:
-            print(f"[design] {msg}", file=sys.stderr, flush=True)
+    progress = progress_lines("design")
 
     with tempfile.TemporaryDirectory(prefix="hdservo-design-") as work:
         if args.feasibility_only:

@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 from typing import Any, Dict
 
 from ..errors import UserError
+from . import progress_lines
 from ..fileio import write_json_atomic
 
 NAME = "df"
@@ -67,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(str(e)) from None
     except (KeyError, ValueError) as e:
         raise UserError(f"{args.axis or 'reference axis'}: {e}") from None
-    say = (lambda s: None) if args.quiet else (lambda s: print(f"  {s}", file=sys.stderr, flush=True))
+    say = progress_lines("df")
     for line in notes + gnotes:
         print(f"note: {line}")
     model = LoopModel(axis, gains)

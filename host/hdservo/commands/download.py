@@ -28,11 +28,11 @@ the command ends).
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from ..download import plan_download, write_verified
 from ..errors import UserError
+from . import progress_lines
 
 NAME = "download"
 HELP = "write compensator parameters and tables computed from an identified model to a drive (verified)"
@@ -62,9 +62,7 @@ def run(args: argparse.Namespace) -> int:
     from ..drive import Drive, DriveError, choose_drive
     from ..ident.drive_runner import VirtualDrive
 
-    def progress(msg: str) -> None:
-        if not args.quiet:
-            print(f"[download] {msg}", file=sys.stderr, flush=True)
+    progress = progress_lines("download")
 
     if args.json is not None and not args.json.parent.exists():
         raise UserError(f"{args.json}: directory {args.json.parent} does not exist")

@@ -20,10 +20,10 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 from pathlib import Path
 
 from ..errors import UserError
+from . import progress_lines
 
 #: what the standard-objects path identifies (the others need a locked output)
 STD_TARGETS = ("friction", "te", "frf")
@@ -84,9 +84,7 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     from ..ident import experiments as ex
 
-    def progress(msg: str) -> None:
-        if not args.quiet:
-            print(f"[identify] {msg}", file=sys.stderr, flush=True)
+    progress = progress_lines("identify")
 
     for out in (args.output, args.json):
         if out is not None and not out.parent.exists():

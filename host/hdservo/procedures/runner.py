@@ -33,6 +33,7 @@ import can
 import numpy as np
 
 from ..errors import UserError
+from ..progress import Fraction
 from ..serve_proc import ServeProcess
 from ..drive import Drive, DriveError
 from ..params_gen import BY_NAME as PARAMS
@@ -94,28 +95,8 @@ class RigSetup:
 
 # ---- progress ---------------------------------------------------------------------------
 
-class Progress:
-    """A one-line text progress indicator on stderr (``\\r``-updated on a terminal)."""
-
-    def __init__(self, name: str, enabled: bool = True) -> None:
-        self.name = name
-        self.enabled = enabled
-        self.tty = sys.stderr.isatty()
-        self._last = -1.0
-
-    def __call__(self, frac: float, text: str = "") -> None:
-        if not self.enabled:
-            return
-        pct = max(0.0, min(1.0, frac)) * 100.0
-        if not self.tty and pct < 100.0 and pct - self._last < 10.0:
-            return
-        self._last = pct
-        line = f"[{self.name}] {pct:5.1f}% {text}"
-        if self.tty:
-            sys.stderr.write("\r" + line[:100].ljust(100) + ("\n" if pct >= 100.0 else ""))
-        else:
-            sys.stderr.write(line + "\n")
-        sys.stderr.flush()
+#: a procedure's progress indicator, ``progress(frac, text)`` (:class:`hdservo.progress.Fraction`)
+Progress = Fraction
 
 
 # ---- the virtual drive process -------------------------------------------------------------
