@@ -17,7 +17,7 @@ import importlib
 import logging
 import pkgutil
 import sys
-from typing import Sequence
+from typing import Sequence, TextIO
 
 from . import __version__, commands
 from .errors import UserError  # noqa: F401  (re-exported: the one error type the CLI prints)
@@ -65,16 +65,26 @@ def verbosity(args: argparse.Namespace) -> int:
     return -1 if getattr(args, "quiet", False) else min(int(getattr(args, "verbose", 0) or 0), 1)
 
 
+class _StderrHandler(logging.StreamHandler):  # type: ignore[type-arg]
+    """A stream handler on whatever ``sys.stderr`` is when a record is written (tests swap it)."""
+
+    @property  # type: ignore[override]
+    def stream(self) -> TextIO:
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value: TextIO) -> None:
+        pass
+
+
 def setup_logging(level: int) -> None:
     """Messages of the ``hdservo`` loggers on stderr, bare (the library reports progress through them)."""
     log = logging.getLogger("hdservo")
     log.setLevel(level)
-    if not any(getattr(h, "_hdservo_cli", False) for h in log.handlers):
-        h = logging.StreamHandler(sys.stderr)
+    if not any(isinstance(h, _StderrHandler) for h in log.handlers):
+        h = _StderrHandler()
         h.setFormatter(logging.Formatter("%(message)s"))
-        h._hdservo_cli = True  # type: ignore[attr-defined]
         log.addHandler(h)
-        log.propagate = False
 
 
 def main(argv: Sequence[str] | None = None) -> int:
