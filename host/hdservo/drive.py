@@ -30,6 +30,7 @@ import canopen
 from . import od_gen, resources
 from .errors import UserError
 from .params_gen import BY_NAME as PARAMS
+from .pdo import STREAM_PDOS, Frame, PdoDecoder
 
 T = TypeVar("T")
 
@@ -311,6 +312,8 @@ class Drive:
         self.node.sdo.MAX_RETRIES = SDO_ATTEMPTS
         network.add_node(self.node)
         self.node_id = node_id
+        #: the PDOs as the EDS maps them (decoding TPDOs, encoding set-point RPDOs)
+        self.pdo = PdoDecoder(node_id, self.node.object_dictionary)
         self._own_network = False
 
     # ---- connection ----------------------------------------------------------
@@ -746,14 +749,14 @@ class Drive:
     # ---- streaming ----------------------------------------------------------------
     def configure_stream(self, period_ticks: int) -> None:
         """Default stream: TPDO2..4 = tick + load phase / motor phase / motor torque every period_ticks."""
-        for n in (2, 3, 4):
+        for n in STREAM_PDOS:
             self.write(0x1800 + n - 1, 2, 254)
             self.write(0x5F10, n, period_ticks)
 
-    def stream(self, duration_s: float) -> Iterator[tuple[int, int, bytes]]:
-        """Yield (cob_id, tick, data) of every streamed TPDO for duration_s of wall-clock time."""
+    def stream(self, duration_s: float) -> Iterator[Frame]:
+        """Yield every streamed TPDO (:data:`hdservo.pdo.STREAM_PDOS`), decoded by the EDS's PDO maps
+        (:class:`hdservo.pdo.Frame`: raw values by object name), for duration_s of wall-clock time."""
         q: list[can.Message] = []
-        cobs = {0x280 + self.node_id, 0x380 + self.node_id, 0x480 + self.node_id}
         listener = _Collector(q)
         self.network.notifier.add_listener(listener)
         try:
@@ -762,8 +765,9 @@ class Drive:
                 time.sleep(0.01)
                 while q:
                     m = q.pop(0)
-                    if m.arbitration_id in cobs and len(m.data) >= 4:
-                        yield m.arbitration_id, struct.unpack_from("<I", m.data, 0)[0], bytes(m.data)
+                    fr = self.pdo.decode(m.arbitration_id, bytes(m.data))
+                    if fr is not None and fr.pdo in STREAM_PDOS:
+                        yield fr
         finally:
             self.network.notifier.remove_listener(listener)
 

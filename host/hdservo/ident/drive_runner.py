@@ -36,7 +36,6 @@ from __future__ import annotations
 import contextlib
 import math
 import os
-import struct
 import tempfile
 import threading
 import time
@@ -47,6 +46,7 @@ from typing import Any, Callable, Iterator, Mapping, Optional, Sequence
 import numpy as np
 
 from ..errors import UserError
+from ..pdo import PdoDecoder
 from . import experiments as ex
 
 from ..fw_const import LOOP_HZ  # noqa: E402
@@ -169,12 +169,17 @@ def chosen_drive(choice: Any, node_id: int) -> Iterator[Any]:
 
 
 class _Stream:
-    """Collects the default stream (TPDO2 load phase, TPDO3 motor phase, TPDO4 motor torque) by tick."""
+    """Collects the default stream (load phase, motor phase, motor torque, each with the loop tick) by tick.
 
-    def __init__(self, node_id: int) -> None:
+    Frames are decoded by the EDS's TPDO maps (:class:`hdservo.pdo.PdoDecoder`).
+    """
+
+    #: streamed object (EDS name) -> column of the collected data
+    SIGNALS = {"load_phase": "load", "motor_phase": "motor", "motor_torque": "torque"}
+
+    def __init__(self, decoder: "PdoDecoder") -> None:
         import can
-        self.cobs = {0x280 + node_id: "load", 0x380 + node_id: "motor", 0x480 + node_id: "torque"}
-        self.data: dict[str, list[tuple[int, int]]] = {k: [] for k in self.cobs.values()}
+        self.data: dict[str, list[tuple[int, int]]] = {k: [] for k in self.SIGNALS.values()}
         self.last_tick = -1
         self.cond = threading.Condition()
         self.on = False
@@ -182,10 +187,14 @@ class _Stream:
 
         class L(can.Listener):
             def on_message_received(self, m: Any) -> None:
-                name = outer.cobs.get(m.arbitration_id)
-                if name is None or len(m.data) < 8:
+                fr = decoder.decode(m.arbitration_id, bytes(m.data))
+                if fr is None:
                     return
-                tick, val = struct.unpack_from("<II", m.data, 0)
+                hit = [(col, fr.values[obj]) for obj, col in outer.SIGNALS.items() if obj in fr.values]
+                if not hit:
+                    return
+                name, val = hit[0]
+                tick = fr.tick
                 with outer.cond:
                     if outer.on:
                         outer.data[name].append((tick, val))
@@ -283,7 +292,7 @@ class DriveRunner:
     notes: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
-        self._stream = _Stream(self.drive.node_id)
+        self._stream = _Stream(self.drive.pdo)
         self.drive.network.notifier.add_listener(self._stream.listener)
         self._tick = 0          # the drive's loop tick the host believes in (lock-step: exact)
         self._ratio: Optional[float] = None
@@ -397,7 +406,7 @@ class DriveRunner:
         vraw = int(round(vel_rad_s / TURN * 2 ** 32))
         rated = self._rated or 67.0
         pm = max(-32768, min(32767, int(round(torque_Nm / rated * 1000.0))))
-        self.drive.network.send_message(0x400 + self.drive.node_id, struct.pack("<ihh", vraw, pm, 0))
+        self.drive.network.send_message(*self.drive.pdo.encode(3, target_velocity=vraw, target_torque=pm))
         return vraw * TURN / 2 ** 32, pm * rated / 1000.0
 
     def _profile(self, values: Sequence[float], every_ticks: int, send: Callable[[float], tuple[float, float]],

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import contextlib
 import math
-import struct
 import sys
 import tempfile
 import threading
@@ -33,6 +32,7 @@ import can
 import numpy as np
 
 from ..errors import UserError
+from ..pdo import STATUS_PDO
 from ..progress import Fraction
 from ..serve_proc import ServeProcess
 from ..drive import Drive, DriveError
@@ -288,23 +288,27 @@ class Bench:
 
     # -- time --
     def _attach_sync(self) -> None:
-        cob = 0x180 + self.node_id
+        pdo = self.drive.pdo
+        cob = pdo.cob_id(STATUS_PDO)
         ev = self._ev
         cv = self._cv
         bench = self
 
         class L(can.Listener):
             def on_message_received(self, m: can.Message) -> None:
-                if m.arbitration_id == cob and len(m.data) >= 8:
+                if m.arbitration_id != cob:
+                    return
+                fr = pdo.decode(cob, bytes(m.data))
+                if fr is not None:
                     with cv:
-                        bench._tick = struct.unpack_from("<I", m.data, 4)[0]
+                        bench._tick = fr.tick
                         bench._answers += 1
                         cv.notify_all()
                     ev.set()
 
         self._listener = L()
         self.drive.network.notifier.add_listener(self._listener)
-        self.drive.write(0x1800, 2, 1)   # TPDO1 synchronous: one answer per SYNC
+        self.drive.write(0x1800 + STATUS_PDO - 1, 2, 1)   # the status TPDO synchronous: one answer per SYNC
 
     #: SYNCs sent at once by :meth:`wait` and :meth:`capture` in lock-step (the drive queues the
     #: credit; the host waits for every answer before its next request, so drive time stays exact)
@@ -421,13 +425,13 @@ class Bench:
 
     def rpdo_position(self, rad: float, vel_rad_s: float = 0.0) -> None:
         """RPDO2: target position (2^-24 turn) + velocity offset (2^-32 turn/s)."""
-        data = struct.pack("<ii", self.target_position_raw(rad), int(round(vel_rad_s / TURN * 2 ** 32)))
-        self.drive.network.send_message(0x300 + self.node_id, data)
+        self.drive.network.send_message(*self.drive.pdo.encode(
+            2, target_position=self.target_position_raw(rad), velocity_offset=int(round(vel_rad_s / TURN * 2 ** 32))))
 
     def rpdo_torque(self, torque_Nm: float, rated_Nm: float) -> None:
         """RPDO3: target velocity 0, target torque (per mille of the rated torque), offset 0."""
         pm = max(-32768, min(32767, int(round(torque_Nm / rated_Nm * 1000.0))))
-        self.drive.network.send_message(0x400 + self.node_id, struct.pack("<ihh", 0, pm, 0))
+        self.drive.network.send_message(*self.drive.pdo.encode(3, target_torque=pm))
 
     def stream(self, values: Sequence[float], send: Callable[[float], None],
                progress: Optional[Callable[[float], None]] = None) -> None:
