@@ -466,16 +466,22 @@ class Drive:
                 self.node.nmt.state = "OPERATIONAL"
         return out
 
-    def enable(self, mode: str = "CYCLIC SYNCHRONOUS POSITION") -> None:
-        """Select a mode and walk the 402 state machine to OPERATION ENABLED."""
+    def enable(self, mode: str = "CYCLIC SYNCHRONOUS POSITION", settle: Optional[Callable[[], None]] = None,
+               timeout: float = 1.0) -> None:
+        """Select a mode and walk the 402 state machine to OPERATION ENABLED (:meth:`walk`).
+
+        The power stage is switched on afresh (through READY TO SWITCH ON, also from
+        OPERATION ENABLED), so the drive's targets start at the actual values (bumpless).
+        ``settle`` and ``timeout`` as for :meth:`walk`.
+        """
         if mode not in MODES:
             raise DriveError(f"mode must be one of {sorted(MODES)}")
         self.write(0x6060, 0, MODES[mode])
-        self._walk("OPERATION ENABLED")
+        self.walk("OPERATION ENABLED", settle=settle, timeout=timeout)
 
-    def disable(self) -> None:
-        """Back to SWITCH ON DISABLED (power stage off)."""
-        self._walk("SWITCH ON DISABLED")
+    def disable(self, settle: Optional[Callable[[], None]] = None) -> None:
+        """Back to SWITCH ON DISABLED (power stage off; :meth:`walk`)."""
+        self.walk("SWITCH ON DISABLED", settle=settle)
 
     # ---- any CiA 402 drive: python canopen's profile ------------------------------------
     def capabilities(self) -> Any:
@@ -558,16 +564,45 @@ class Drive:
             time.sleep(0.002)
         raise DriveError(f"drive did not reach {target} (state {self.state()})")
 
-    def _walk(self, target: str) -> None:
-        path = {
-            "OPERATION ENABLED": [0x06, 0x07, 0x0F],
-            "SWITCH ON DISABLED": [0x00],
-        }[target]
-        if self.state() == "FAULT":
+    def walk(self, target: str, settle: Optional[Callable[[], None]] = None, timeout: float = 1.0) -> None:
+        """Take the drive to the CiA 402 state ``target`` along python canopen's 402 state machine.
+
+        The controlwords are planned by :func:`plan_402` from the state read once (by SDO), written
+        by SDO one after the other, and the statusword is then polled (by SDO) until ``target``
+        is reached.  The controlword is written by SDO, never by RPDO, so it does not mix with
+        :class:`canopen.BaseNode402`'s own RPDO copy (:meth:`enable_402`) or :meth:`halt`.
+
+        Parameters
+        ----------
+        target
+            ``OPERATION ENABLED`` (through READY TO SWITCH ON, see :meth:`enable`),
+            ``SWITCH ON DISABLED`` or another state canopen's graph reaches.
+        settle
+            Called after each controlword and between two polls, e.g. a SYNC that lets a
+            lock-step drive run its loop; None for a drive whose time runs by itself.
+        timeout
+            Seconds of polling (without ``settle``); with ``settle``: ``timeout`` x 50 polls.
+
+        Raises
+        ------
+        DriveError
+            The drive is in FAULT (:meth:`fault_reset` first), or does not reach ``target``.
+        """
+        now = self.state()
+        if now in ("FAULT", "FAULT REACTION ACTIVE"):
             raise DriveError("drive is in FAULT: fault_reset() first")
-        for cw in path:
+        for cw in plan_402(now, target):
             self.write(0x6040, 0, cw)
-        self._wait_state(target, 1.0)
+            if settle is not None:
+                settle()
+        if settle is None:
+            self._wait_state(target, timeout)
+            return
+        for _ in range(int(round(50 * timeout))):
+            if self.state() == target:
+                return
+            settle()
+        raise DriveError(f"drive did not reach {target} (state {self.state()})")
 
     # ---- setpoints (SI, output side) ----------------------------------------------
     def set_position(self, rad: float) -> None:
@@ -772,6 +807,44 @@ class Drive:
             self.network.notifier.remove_listener(listener)
 
 
+# ---- CiA 402 state machine (python canopen's profile) -----------------------------------
+def plan_402(state: str, target: str) -> list[int]:
+    """The controlwords that take a drive from ``state`` to ``target`` along canopen's CiA 402 graph.
+
+    Each step is the transition python canopen's :class:`canopen.BaseNode402` takes
+    (:class:`canopen.profiles.p402.State402`: a direct transition when the table has one,
+    else the next state towards OPERATION ENABLED).  OPERATION ENABLED is reached through
+    READY TO SWITCH ON (shutdown, then switch on, then enable operation) from every state,
+    so an enable always switches the power stage on afresh.
+
+    Raises
+    ------
+    DriveError
+        ``target`` cannot be commanded (FAULT, NOT READY TO SWITCH ON) or is not reached.
+    """
+    from canopen.profiles.p402 import State402
+    if target not in State402.SW_MASK or target in ("FAULT", "FAULT REACTION ACTIVE", "NOT READY TO SWITCH ON"):
+        raise DriveError(f"CiA 402 state {target!r} cannot be commanded")
+    if target == "OPERATION ENABLED":
+        return _path_402(state, "READY TO SWITCH ON") + _path_402("READY TO SWITCH ON", target)
+    return _path_402(state, target)
+
+
+def _path_402(state: str, target: str) -> list[int]:
+    """Controlwords from ``state`` to ``target``, each step as :class:`canopen.BaseNode402` takes it."""
+    from canopen.profiles.p402 import State402
+    out: list[int] = []
+    seen = {state}
+    while state != target:
+        nxt = target if (state, target) in State402.TRANSITIONTABLE else State402.next_state_indirect(state)
+        if nxt is None or (state, nxt) not in State402.TRANSITIONTABLE or nxt in seen:
+            raise DriveError(f"CiA 402: no way from {state} to {target}")
+        out.append(State402.TRANSITIONTABLE[(state, nxt)])
+        seen.add(nxt)
+        state = nxt
+    return out
+
+
 # ---- table domains 0x5100 (firmware/canopen/hd_app_co.h) --------------------------------
 #: capture signal ids: SIGNALS (hd_sig_t), from fw_const
 
@@ -854,4 +927,4 @@ def unwrap_tick(prev: Optional[int], tick_u32: int) -> int:
 
 __all__ = ["Drive", "DriveError", "DriveChoice", "add_bus_arguments", "bus_kwargs", "choose_drive",
            "SIM_INTERFACE", "SIM_AXES", "unwrap_phase", "unwrap_tick", "align_motor_turns",
-           "EDS_PATH", "MODES", "SIGNALS", "TABLE_GROUPS", "EXC_TYPES", "EXC_INJECTION", "EXC_SCALE", "group_payload", "od_gen"]
+           "EDS_PATH", "MODES", "plan_402", "SIGNALS", "TABLE_GROUPS", "EXC_TYPES", "EXC_INJECTION", "EXC_SCALE", "group_payload", "od_gen"]

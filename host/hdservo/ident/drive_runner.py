@@ -375,15 +375,14 @@ class DriveRunner:
                          f"{int(self.drive.read(0x5F00, 10))})")
 
     def _enable(self, mode: str) -> None:
-        from ..drive import MODES
+        from ..drive import DriveError
         d = self.drive
         if d.state() == "FAULT":
             d.fault_reset() if not self.lockstep else self._fault_reset()
-        d.write(0x6060, 0, MODES[mode])
-        for cw in (0x06, 0x07, 0x0F):
-            d.write(0x6040, 0, cw)
-            self._advance(self.sync_periods)
-        self._wait_state("OPERATION ENABLED")
+        try:        # drive time passes after each controlword and between the polls (200 at most)
+            d.enable(mode, settle=lambda: self._advance(self.sync_periods), timeout=4.0)
+        except DriveError as e:
+            raise DriveError(f"{e}, fault {int(d.read(0x5F00, 10))}") from None
 
     def _fault_reset(self) -> None:
         self.drive.write(0x6040, 0, 0x00)

@@ -381,16 +381,7 @@ class Bench:
                 self.drive.fault_reset()
             self.drive.enable(mode)
             return
-        from ..drive import MODES
-        self.drive.write(0x6060, 0, MODES[mode])
-        for cw in (0x06, 0x07, 0x0F):
-            self.drive.write(0x6040, 0, cw)
-            self.sync()
-        for _ in range(50):
-            if self.drive.state() == "OPERATION ENABLED":
-                return
-            self.sync()
-        raise DriveError(f"drive did not enable (state {self.drive.state()})")
+        self.drive.enable(mode, settle=self.sync)      # a SYNC after each controlword and between polls
 
     def disable(self) -> None:
         """Power stage off."""
