@@ -67,7 +67,7 @@ def _run(argv: list[str], cwd: Path, env: dict[str, str], timeout: float = 120.0
 def _argv(name: str, tmp_path: Path) -> list[str]:
     argv = list(COMMANDS[name])
     if name == "compare":
-        argv += ["-o", str(tmp_path / "cmp")]
+        argv += ["--out-dir", str(tmp_path / "cmp")]
     if name == "record":
         argv += ["-o", str(tmp_path / "rec.csv")]
     return argv

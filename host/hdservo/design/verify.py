@@ -31,6 +31,7 @@ procedure's drive before it runs (:func:`configure`).
 from __future__ import annotations
 
 import json
+import logging
 import os
 import subprocess
 import sys
@@ -113,7 +114,8 @@ class Plan:
 
 
 def _say(msg: str) -> None:
-    print(f"[verify] {msg}", file=sys.stderr, flush=True)
+    """The default progress report: an INFO line of the ``hdservo.verify`` logger."""
+    logging.getLogger("hdservo.verify").info("[verify] %s", msg)
 
 
 # ------------------------------------------------------------------ steps 1 and 2
@@ -699,6 +701,7 @@ def example_main(here: Path, argv: Optional[Sequence[str]] = None, description: 
     except ValueError as e:
         print(f"{name}: --option {e}", file=sys.stderr)
         return 2
+    logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stderr)   # the progress lines
     res = verify(plan)
     print(markdown(res))
     return 0 if res["passed"] == res["judged"] else 1
