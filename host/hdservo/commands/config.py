@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ..errors import UserError
-from ..fileio import write_text_atomic
+from ..fileio import write_json_atomic, write_text_atomic
 
 NAME = "config"
 HELP = ("drive parameters and CANopen settings over CAN: dump to a TOML file, restore it (checked, read back), "
@@ -56,7 +56,9 @@ def register(p: argparse.ArgumentParser) -> None:
     s.add_argument("pairs", nargs="+", metavar="NAME=VALUE")
     s.add_argument("--save", action="store_true", help="store in NVM afterwards (0x1010)")
     sub.add_parser("save", help="store parameters, Preisach table and CANopen settings in NVM (0x1010)")
-    sub.add_parser("status", help="what the drive's last boot loaded from NVM (0x5101) and its flash wear (0x5102)")
+    st = sub.add_parser("status", help="what the drive's last boot loaded from NVM (0x5101) and its flash wear (0x5102)")
+    for x in (g, st):
+        x.add_argument("--json", type=Path, metavar="PATH", help="also write what is printed as JSON")
     for x in sub.choices.values():
         add_bus_arguments(x)
 
@@ -190,8 +192,10 @@ def _pairs(pairs: list[str]) -> dict[str, int]:
 
 
 def _act(drive: Any, args: argparse.Namespace, pairs: dict[str, float],
-         progress: Callable[[str], None]) -> list[str]:
-    """Carry out the action on a started drive; the lines to print."""
+         progress: Callable[[str], None], doc: dict[str, Any]) -> list[str]:
+    """Carry out the action on a started drive; the lines to print (``get`` / ``status`` also fill ``doc``,
+    their ``--json`` document)."""
+    from dataclasses import asdict
     from ..driveconfig import read_nvm_wear, si_of
     from ..params_gen import BY_NAME
     lines: list[str] = []
@@ -202,7 +206,9 @@ def _act(drive: Any, args: argparse.Namespace, pairs: dict[str, float],
     elif args.action == "get":
         for n in args.names:
             p = BY_NAME[n]
-            lines.append(f"{n} = {si_of(p, int(drive.read(p.index, p.sub)))!r}  # {p.unit}")
+            v = si_of(p, int(drive.read(p.index, p.sub)))
+            lines.append(f"{n} = {v!r}  # {p.unit}")
+            doc.setdefault("params", {})[n] = {"value": v, "unit": p.unit}
     elif args.action == "set":
         lines.append(f"set {_write_verified(drive, pairs)} parameters, read back")
         if args.save:
@@ -218,7 +224,10 @@ def _act(drive: Any, args: argparse.Namespace, pairs: dict[str, float],
         if refused:
             lines.append(f"CANopen settings refused at boot by 0x{refused >> 8:04X}:{refused & 0xFF} "
                          f"(the drive runs the defaults)")
-        lines.append(read_nvm_wear(drive).line())
+        wear = read_nvm_wear(drive)
+        lines.append(wear.line())
+        doc.update({"store": st, "objects_refused_by": f"0x{refused >> 8:04X}:{refused & 0xFF}" if refused else None,
+                    "nvm_wear": asdict(wear)})
     return lines
 
 
@@ -232,6 +241,10 @@ def run(args: argparse.Namespace) -> int:
 
     if args.action == "dump" and args.output is not None and not args.output.parent.exists():
         raise UserError(f"{args.output}: directory {args.output.parent} does not exist")
+    json_out = getattr(args, "json", None)
+    if json_out is not None and (json_out.is_dir() or not json_out.parent.exists()):
+        raise UserError(f"--json {json_out}: " + ("is a directory" if json_out.is_dir()
+                                                   else f"directory {json_out.parent} does not exist"))
     if args.action == "get":
         bad = [n for n in args.names if n not in BY_NAME]
         if bad:
@@ -245,10 +258,13 @@ def run(args: argparse.Namespace) -> int:
             from ..drive_caps import check
             check(drive, "config")
             drive.start()
-            lines = _act(drive, args, pairs, progress)
+            doc: dict[str, Any] = {}
+            lines = _act(drive, args, pairs, progress, doc)
     except DriveError as e:
         raise UserError(f"drive: {e}") from None
     for line in lines:
         if line:
             print(line)
+    if json_out is not None:
+        write_json_atomic(json_out, {"action": args.action, "node_id": args.node_id, **doc})
     return 0
