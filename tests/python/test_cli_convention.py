@@ -228,6 +228,33 @@ def test_disabled_progress_says_nothing(caplog: pytest.LogCaptureFixture) -> Non
     assert not [r for r in caplog.records if r.name == "hdservo.progress"]
 
 
+def test_identification_segments_draw_a_bar_or_log_lines(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A segment of a drive experiment: ``label: N %`` lines off a terminal (the command's progress
+    callback, as before), a tqdm bar on one, off when the progress logger is above INFO (-q)."""
+    from hdservo.ident.drive_runner import DriveRunner
+    r = DriveRunner.__new__(DriveRunner)
+    said: list[str] = []
+    r.progress = said.append
+    monkeypatch.setattr(progress, "on_terminal", lambda stream=None: False)
+    bar = r._segment_progress("frf: segment 1/2")
+    for k in range(1, 10):
+        bar((100 * k // 10) / 100.0)
+    r._segment_done(bar)
+    assert said == [f"frf: segment 1/2: {10 * k} %" for k in range(1, 10)]
+    monkeypatch.setattr(progress, "on_terminal", lambda stream=None: True)
+    old = progress.LOG.level
+    try:
+        for level, shown in ((logging.INFO, True), (logging.WARNING, False)):
+            progress.LOG.setLevel(level)
+            bar = r._segment_progress("frf")
+            assert isinstance(bar, progress.Fraction) and bar.enabled is shown
+    finally:
+        progress.LOG.setLevel(old)
+    r.progress = None
+    r._segment_progress("x")(0.5)          # no callback: nothing at all
+    assert len(said) == 9
+
+
 def test_procedure_and_compare_progress_are_tqdm_based() -> None:
     from hdservo import compare
     from hdservo.procedures import runner

@@ -34,6 +34,7 @@ load.  On a real drive (free-running) it waits for the streamed loop tick.
 from __future__ import annotations
 
 import contextlib
+import logging
 import math
 import os
 import tempfile
@@ -46,6 +47,7 @@ from typing import Any, Callable, Iterator, Mapping, Optional, Sequence
 import numpy as np
 
 from ..errors import UserError
+from .. import progress as progress_mod
 from ..pdo import PdoDecoder
 from . import experiments as ex
 
@@ -334,6 +336,23 @@ class DriveRunner:
         if self.progress:
             self.progress(msg)
 
+    def _segment_progress(self, label: str) -> Callable[[float], None]:
+        """Progress through one segment, ``f(fraction)``: a tqdm bar on a terminal (while the
+        ``hdservo.progress`` logger shows INFO, i.e. not under ``-q``), else ``label: N %`` lines
+        through the progress callback."""
+        if not self.progress:
+            return lambda frac: None
+        if progress_mod.on_terminal():
+            return progress_mod.Fraction(f"identify {label}",
+                                         enabled=progress_mod.LOG.isEnabledFor(logging.INFO))
+        return lambda frac: self._say(f"{label}: {int(round(100 * frac))} %")
+
+    @staticmethod
+    def _segment_done(bar: Callable[[float], None]) -> None:
+        """End a terminal bar of :meth:`_segment_progress` (the log lines have no end line)."""
+        if isinstance(bar, progress_mod.Fraction):
+            bar(1.0)
+
     def ratio(self) -> float:
         assert self._ratio is not None, "open() first"
         return self._ratio
@@ -416,6 +435,7 @@ class DriveRunner:
         t0 = time.monotonic()
         n = len(values)
         step = max(1, n // 10)
+        bar = self._segment_progress(label)
         for k, v in enumerate(values):
             if not self.lockstep:
                 due = t0 + k * every * DT
@@ -426,7 +446,8 @@ class DriveRunner:
             rows[k] = (self._tick, vq, tq)
             self._advance(every, burst=every // self.sync_periods)
             if k % step == 0 and k:
-                self._say(f"{label}: {100 * k // n} %")
+                bar((100 * k // n) / 100.0)
+        self._segment_done(bar)
         return rows
 
     # -- experiments -----------------------------------------------------------------------
@@ -456,12 +477,14 @@ class DriveRunner:
         total = int(round(dur * LOOP_HZ))
         chunk = max(1, int(round(0.25 * total)))
         done = 0
+        bar = self._segment_progress(label)
         while done < total:
             k = min(chunk, total - done)
             self._advance(k)
             done += k
             if done < total:
-                self._say(f"{label}: {100 * done // total} %")
+                bar((100 * done // total) / 100.0)
+        self._segment_done(bar)
         raw = self._stream.stop()
         cols = self._columns(raw, start)
         cols["torque_cmd_Nm"] = cols["motor_torque_Nm"] * self.ratio()
