@@ -141,7 +141,7 @@ class Fraction:
         pct = max(0.0, min(1.0, float(frac))) * 100.0
         if self._bar is None and on_terminal(self._stream):
             self._bar = tqdm(total=100.0, desc=self.name, file=self._stream if self._stream is not None else _stream(),
-                             bar_format="{desc}: {percentage:5.1f}%|{bar}| {elapsed}<{remaining} {postfix}",
+                             bar_format="{desc}: {percentage:5.1f}%|{bar}| {elapsed}<{remaining}{postfix}",
                              dynamic_ncols=True, leave=True)
         if self._bar is not None:
             self._bar.set_postfix_str(text, refresh=False)
