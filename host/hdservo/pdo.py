@@ -5,7 +5,11 @@ from which the EDS (``hdservo/data/hdservo.eds``) and the DBC are generated.  Th
 module reads the EDS's PDO communication and mapping objects with canopen's
 :meth:`canopen.pdo.PdoMap.read` (``from_od=True``) and decodes frames with the
 map's variables (and encodes the set-point RPDOs the same way), so no COB-ID, byte
-offset or data type is written here.  With the shipped EDS:
+offset or data type is written here.  A byte-aligned map (all of the drive's) is compiled
+once into a :class:`struct.Struct` from the offsets of canopen's map and the EDS data
+types (about 4 us a frame against 17 us through canopen's variables on the development
+machine; the stream's three TPDOs come at up to 3 x 10 kHz); a map with bit fields is
+decoded by canopen itself.  With the shipped EDS:
 
 =====  ==============  ===================================================================
 PDO    COB-ID          mapped objects (names as in the EDS)
@@ -155,7 +159,6 @@ class PdoDecoder:
             m.data = bytearray(data)
             values = {_short(v.name): int(v.raw) for v in m}
         return Frame(n, values)
-
 
     def encode(self, pdo: int, **values: int) -> tuple[int, bytes]:
         """COB-ID and data of RPDO ``pdo`` with raw ``values`` by object name (an object left out is 0).
