@@ -37,16 +37,16 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import shlex
-import sys
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Optional, Sequence
 
 import numpy as np
+
+from .fileio import write_json_atomic
+from .progress import Bar
 
 FORMAT = "hdservo-compare"
 VERSION = 1
@@ -533,43 +533,8 @@ def choose_best(single: Mapping[str, Mapping[str, Any]], base: Mapping[str, Any]
 
 # ---------------------------------------------------------------------------------- progress
 
-class StageBar:
-    """A text progress bar over a known number of steps (stderr; ``\\r`` on a terminal, lines otherwise).
-
-    Parameters
-    ----------
-    label : str
-        Prefix, e.g. ``compare``.
-    total : int
-        Number of steps.
-    enabled : bool
-        False: print nothing.
-    """
-
-    def __init__(self, label: str, total: int, enabled: bool = True) -> None:
-        self.label = label
-        self.total = max(1, total)
-        self.enabled = enabled
-        self.t0 = time.monotonic()
-        self.done = 0
-
-    def show(self, text: str) -> None:
-        """Print the bar at the current step with ``text``."""
-        if not self.enabled:
-            return
-        frac = self.done / self.total
-        width = 24
-        fill = int(round(frac * width))
-        el = time.monotonic() - self.t0
-        eta = f", ~{el / frac * (1 - frac):.0f} s left" if 0 < frac < 1 else ""
-        line = (f"[{self.label}] [{'#' * fill}{'.' * (width - fill)}] {self.done}/{self.total} {text} "
-                f"({el:.0f} s{eta})")
-        print(line, file=sys.stderr, flush=True)
-
-    def step(self, text: str = "") -> None:
-        """One step done."""
-        self.done += 1
-        self.show(text)
+#: the comparison's progress over rows x procedures (:class:`hdservo.progress.Bar`: tqdm on a terminal)
+StageBar = Bar
 
 
 # ---------------------------------------------------------------------------------- running
@@ -602,17 +567,9 @@ def procedure_args(procedure: str, extra: Sequence[str] = ()) -> argparse.Namesp
 
 
 def _write_json_atomic(path: Path, doc: Mapping[str, Any]) -> None:
+    """Write ``doc`` as JSON (the directory made first) with :func:`hdservo.fileio.write_json_atomic`."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(doc, f, indent=2, allow_nan=False)
-            f.write("\n")
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    write_json_atomic(path, doc)
 
 
 def _configure(drive: Any, ctl: Controller, plan: Optional[Mapping[str, Any]],
@@ -645,12 +602,13 @@ def run_procedure(name: str, ctl: Controller, args: argparse.Namespace, *, bus: 
     controller, its feedback configuration and the loop gains read back from the drive.
     """
     from .commands import test as tc
-    from .procedures.runner import Progress, Target
+    from .progress import Fraction
+    from .procedures.runner import Target
     setup_f, lockstep, fn = tc.PROCEDURES[name]
     first_error: Optional[str] = None
     for attempt in range(1 + PROCEDURE_RETRIES):
         target = Target(bus=bus, node_id=node_id, axis=axis, seed=seed, compensators=None, profile=profile)
-        prog = Progress(f"{ctl.name}/{name}", enabled=progress_enabled)
+        prog = Fraction(f"{ctl.name}/{name}", enabled=progress_enabled)
         res = _attempt(name, ctl, args, target, setup_f, lockstep, fn, prog, plan, preisach_blob)
         failed = [n for n in res.notes if n.startswith("failed:")]
         if not failed:
@@ -839,8 +797,11 @@ def run_compare(out_dir: Path, controllers: Sequence[Controller], procedures: Se
     bar.show("starting")
     kw = dict(bus=bus, node_id=node_id, axis=axis, seed=seed, plan=plan, preisach_blob=blob,
               progress_enabled=progress, profile=profile)
-    doc_ctl = _run_rows(out_dir, controllers, procedures, proc_extra, kw, bar, echo, pdf,
-                        jobs if bus is None else 1)
+    try:
+        doc_ctl = _run_rows(out_dir, controllers, procedures, proc_extra, kw, bar, echo, pdf,
+                            jobs if bus is None else 1)
+    finally:
+        bar.close()
     return _finish(out_dir, doc_ctl, procedures, proc_extra, bus, axis, seed, model, plan, t0, None)
 
 
@@ -909,7 +870,10 @@ def run_ablation(out_dir: Path, feedbacks: Sequence[str], procedures: Sequence[s
                 stage2.append(r)
         info[fb] = {"best": parts, "rule": why, "best_row": row_name("best", fb)}
     bar.total = max(bar.done + len(stage2) * len(procedures), 1)
-    doc_ctl.update(_run_rows(out_dir, stage2, procedures, proc_extra, kw, bar, echo, pdf, jb))
+    try:
+        doc_ctl.update(_run_rows(out_dir, stage2, procedures, proc_extra, kw, bar, echo, pdf, jb))
+    finally:
+        bar.close()
     for n, (r, same) in alias.items():
         doc_ctl[n] = {**doc_ctl[same], **r.to_json(), "plots": [], "measured_as": same,
                       "description": r.description + f" (the same configuration as row {same}: measured once)"}

@@ -30,6 +30,7 @@ import canopen
 from . import od_gen, resources
 from .errors import UserError
 from .params_gen import BY_NAME as PARAMS
+from .pdo import STREAM_PDOS, Frame, PdoDecoder
 
 T = TypeVar("T")
 
@@ -121,6 +122,7 @@ def add_bus_arguments(p: "argparse.ArgumentParser | argparse._ArgumentGroup", si
     p.add_argument("--host", default=None, help="socketcand server host (interface socketcand)")
     p.add_argument("--port", type=int, default=None, help="socketcand server port (interface socketcand)")
     p.add_argument("--node-id", type=int, default=1, help="CANopen node id of the drive (default 1)")
+    p.add_argument("--node", dest="node_id", type=int, help=argparse.SUPPRESS)   # older spelling of --node-id
     if sim:
         p.add_argument("--sim", nargs="?", const="reference", default=None, metavar="AXIS",
                        help="talk to a simulated drive instead (a virtual drive started for this command, over "
@@ -310,6 +312,8 @@ class Drive:
         self.node.sdo.MAX_RETRIES = SDO_ATTEMPTS
         network.add_node(self.node)
         self.node_id = node_id
+        #: the PDOs as the EDS maps them (decoding TPDOs, encoding set-point RPDOs)
+        self.pdo = PdoDecoder(node_id, self.node.object_dictionary)
         self._own_network = False
 
     # ---- connection ----------------------------------------------------------
@@ -462,16 +466,22 @@ class Drive:
                 self.node.nmt.state = "OPERATIONAL"
         return out
 
-    def enable(self, mode: str = "CYCLIC SYNCHRONOUS POSITION") -> None:
-        """Select a mode and walk the 402 state machine to OPERATION ENABLED."""
+    def enable(self, mode: str = "CYCLIC SYNCHRONOUS POSITION", settle: Optional[Callable[[], None]] = None,
+               timeout: float = 1.0) -> None:
+        """Select a mode and walk the 402 state machine to OPERATION ENABLED (:meth:`walk`).
+
+        The power stage is switched on afresh (through READY TO SWITCH ON, also from
+        OPERATION ENABLED), so the drive's targets start at the actual values (bumpless).
+        ``settle`` and ``timeout`` as for :meth:`walk`.
+        """
         if mode not in MODES:
             raise DriveError(f"mode must be one of {sorted(MODES)}")
         self.write(0x6060, 0, MODES[mode])
-        self._walk("OPERATION ENABLED")
+        self.walk("OPERATION ENABLED", settle=settle, timeout=timeout)
 
-    def disable(self) -> None:
-        """Back to SWITCH ON DISABLED (power stage off)."""
-        self._walk("SWITCH ON DISABLED")
+    def disable(self, settle: Optional[Callable[[], None]] = None) -> None:
+        """Back to SWITCH ON DISABLED (power stage off; :meth:`walk`)."""
+        self.walk("SWITCH ON DISABLED", settle=settle)
 
     # ---- any CiA 402 drive: python canopen's profile ------------------------------------
     def capabilities(self) -> Any:
@@ -554,16 +564,45 @@ class Drive:
             time.sleep(0.002)
         raise DriveError(f"drive did not reach {target} (state {self.state()})")
 
-    def _walk(self, target: str) -> None:
-        path = {
-            "OPERATION ENABLED": [0x06, 0x07, 0x0F],
-            "SWITCH ON DISABLED": [0x00],
-        }[target]
-        if self.state() == "FAULT":
+    def walk(self, target: str, settle: Optional[Callable[[], None]] = None, timeout: float = 1.0) -> None:
+        """Take the drive to the CiA 402 state ``target`` along python canopen's 402 state machine.
+
+        The controlwords are planned by :func:`plan_402` from the state read once (by SDO), written
+        by SDO one after the other, and the statusword is then polled (by SDO) until ``target``
+        is reached.  The controlword is written by SDO, never by RPDO, so it does not mix with
+        :class:`canopen.BaseNode402`'s own RPDO copy (:meth:`enable_402`) or :meth:`halt`.
+
+        Parameters
+        ----------
+        target
+            ``OPERATION ENABLED`` (through READY TO SWITCH ON, see :meth:`enable`),
+            ``SWITCH ON DISABLED`` or another state canopen's graph reaches.
+        settle
+            Called after each controlword and between two polls, e.g. a SYNC that lets a
+            lock-step drive run its loop; None for a drive whose time runs by itself.
+        timeout
+            Seconds of polling (without ``settle``); with ``settle``: ``timeout`` x 50 polls.
+
+        Raises
+        ------
+        DriveError
+            The drive is in FAULT (:meth:`fault_reset` first), or does not reach ``target``.
+        """
+        now = self.state()
+        if now in ("FAULT", "FAULT REACTION ACTIVE"):
             raise DriveError("drive is in FAULT: fault_reset() first")
-        for cw in path:
+        for cw in plan_402(now, target):
             self.write(0x6040, 0, cw)
-        self._wait_state(target, 1.0)
+            if settle is not None:
+                settle()
+        if settle is None:
+            self._wait_state(target, timeout)
+            return
+        for _ in range(int(round(50 * timeout))):
+            if self.state() == target:
+                return
+            settle()
+        raise DriveError(f"drive did not reach {target} (state {self.state()})")
 
     # ---- setpoints (SI, output side) ----------------------------------------------
     def set_position(self, rad: float) -> None:
@@ -745,14 +784,14 @@ class Drive:
     # ---- streaming ----------------------------------------------------------------
     def configure_stream(self, period_ticks: int) -> None:
         """Default stream: TPDO2..4 = tick + load phase / motor phase / motor torque every period_ticks."""
-        for n in (2, 3, 4):
+        for n in STREAM_PDOS:
             self.write(0x1800 + n - 1, 2, 254)
             self.write(0x5F10, n, period_ticks)
 
-    def stream(self, duration_s: float) -> Iterator[tuple[int, int, bytes]]:
-        """Yield (cob_id, tick, data) of every streamed TPDO for duration_s of wall-clock time."""
+    def stream(self, duration_s: float) -> Iterator[Frame]:
+        """Yield every streamed TPDO (:data:`hdservo.pdo.STREAM_PDOS`), decoded by the EDS's PDO maps
+        (:class:`hdservo.pdo.Frame`: raw values by object name), for duration_s of wall-clock time."""
         q: list[can.Message] = []
-        cobs = {0x280 + self.node_id, 0x380 + self.node_id, 0x480 + self.node_id}
         listener = _Collector(q)
         self.network.notifier.add_listener(listener)
         try:
@@ -761,10 +800,49 @@ class Drive:
                 time.sleep(0.01)
                 while q:
                     m = q.pop(0)
-                    if m.arbitration_id in cobs and len(m.data) >= 4:
-                        yield m.arbitration_id, struct.unpack_from("<I", m.data, 0)[0], bytes(m.data)
+                    fr = self.pdo.decode(m.arbitration_id, bytes(m.data))
+                    if fr is not None and fr.pdo in STREAM_PDOS:
+                        yield fr
         finally:
             self.network.notifier.remove_listener(listener)
+
+
+# ---- CiA 402 state machine (python canopen's profile) -----------------------------------
+def plan_402(state: str, target: str) -> list[int]:
+    """The controlwords that take a drive from ``state`` to ``target`` along canopen's CiA 402 graph.
+
+    Each step is the transition python canopen's :class:`canopen.BaseNode402` takes
+    (:class:`canopen.profiles.p402.State402`: a direct transition when the table has one,
+    else the next state towards OPERATION ENABLED).  OPERATION ENABLED is reached through
+    READY TO SWITCH ON (shutdown, then switch on, then enable operation) from every state,
+    so an enable always switches the power stage on afresh.
+
+    Raises
+    ------
+    DriveError
+        ``target`` cannot be commanded (FAULT, NOT READY TO SWITCH ON) or is not reached.
+    """
+    from canopen.profiles.p402 import State402
+    if target not in State402.SW_MASK or target in ("FAULT", "FAULT REACTION ACTIVE", "NOT READY TO SWITCH ON"):
+        raise DriveError(f"CiA 402 state {target!r} cannot be commanded")
+    if target == "OPERATION ENABLED":
+        return _path_402(state, "READY TO SWITCH ON") + _path_402("READY TO SWITCH ON", target)
+    return _path_402(state, target)
+
+
+def _path_402(state: str, target: str) -> list[int]:
+    """Controlwords from ``state`` to ``target``, each step as :class:`canopen.BaseNode402` takes it."""
+    from canopen.profiles.p402 import State402
+    out: list[int] = []
+    seen = {state}
+    while state != target:
+        nxt = target if (state, target) in State402.TRANSITIONTABLE else State402.next_state_indirect(state)
+        if nxt is None or (state, nxt) not in State402.TRANSITIONTABLE or nxt in seen:
+            raise DriveError(f"CiA 402: no way from {state} to {target}")
+        out.append(State402.TRANSITIONTABLE[(state, nxt)])
+        seen.add(nxt)
+        state = nxt
+    return out
 
 
 # ---- table domains 0x5100 (firmware/canopen/hd_app_co.h) --------------------------------
@@ -849,4 +927,4 @@ def unwrap_tick(prev: Optional[int], tick_u32: int) -> int:
 
 __all__ = ["Drive", "DriveError", "DriveChoice", "add_bus_arguments", "bus_kwargs", "choose_drive",
            "SIM_INTERFACE", "SIM_AXES", "unwrap_phase", "unwrap_tick", "align_motor_turns",
-           "EDS_PATH", "MODES", "SIGNALS", "TABLE_GROUPS", "EXC_TYPES", "EXC_INJECTION", "EXC_SCALE", "group_payload", "od_gen"]
+           "EDS_PATH", "MODES", "plan_402", "SIGNALS", "TABLE_GROUPS", "EXC_TYPES", "EXC_INJECTION", "EXC_SCALE", "group_payload", "od_gen"]

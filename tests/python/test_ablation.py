@@ -213,13 +213,13 @@ def test_run_ablation_rows_ratios_and_files(tmp_path: Path, monkeypatch: pytest.
 
 def test_compare_and_demo_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     out = tmp_path / "d"
-    assert main(["demo", "-o", str(out), "--axis", str(tmp_path / "no.toml")]) == 2
+    assert main(["demo", "--out-dir", str(out), "--axis", str(tmp_path / "no.toml")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--axis" in err[0] and "no such axis file" in err[0] and not out.exists()
-    assert main(["compare", "--sim", "-q", "-o", str(out), "--feedback", "full,half"]) == 2
+    assert main(["compare", "--sim", "-q", "--out-dir", str(out), "--feedback", "full,half"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "unknown configuration 'half'" in err[0] and not out.exists()
-    assert main(["compare", "--sim", "-q", "-o", str(out), "--jobs", "0"]) == 2
+    assert main(["compare", "--sim", "-q", "--out-dir", str(out), "--jobs", "0"]) == 2
     assert "--jobs" in capsys.readouterr().err
 
 

@@ -206,7 +206,7 @@ def test_emps_bad_import(tmp_path: Path, case: str) -> None:
             "Ts,0.001,s,t\nvir_saturation,10,V,s\n")
     (d / "DATA_EMPS.csv").write_text(EMPS[case])
     out = tmp_path / "emps.csv"
-    p = _cli(["emps", "export", "--data", str(d), "--format", "csv", "--out", str(out)], tmp_path)
+    p = _cli(["emps", "export", "--data", str(d), "--format", "csv", "-o", str(out)], tmp_path)
     _assert_one_line_error(p, "DATA_EMPS", [out, tmp_path / "emps.json"])
 
 
@@ -277,7 +277,7 @@ def test_download_bad_model(tmp_path: Path, case: str, no_drive: list) -> None:
 def test_compare_and_test_bad_model(tmp_path: Path, case: str, no_drive: list) -> None:
     m, key = _bad_model(tmp_path, case)
     out = tmp_path / "out.json"
-    for args in (["compare", "--model", str(m), "--out", str(tmp_path / "cmp"), "--json", str(out), "-q",
+    for args in (["compare", "--model", str(m), "--out-dir", str(tmp_path / "cmp"), "--json", str(out), "-q",
                   "--procedures", "positioning", "--controllers", "pid"],
                  ["test", "positioning", "--model", str(m), "--json", str(out), "-q"]):
         p = _cli(args, tmp_path)

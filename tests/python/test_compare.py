@@ -149,7 +149,7 @@ def test_procedure_args_use_hdservo_test_defaults() -> None:
 def test_bad_input_one_line_nothing_written(tmp_path: Path, capsys: pytest.CaptureFixture, argv: list[str],
                                            words: str) -> None:
     out = tmp_path / "cmp"
-    assert main(["compare", "-o", str(out), "-q", *argv, "--sim"]) == 2
+    assert main(["compare", "--out-dir", str(out), "-q", *argv, "--sim"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("hdservo compare: error:") and words in err[0]
     assert not out.exists()
@@ -160,7 +160,7 @@ def test_compare_pid_and_best_on_the_virtual_axis(tmp_path: Path, capsys: pytest
     model = tmp_path / "model.toml"
     model.write_text(MODEL)
     out = tmp_path / "cmp"
-    rc = main(["compare", "--sim", "-o", str(out), "-q", "--controllers", "pid,best", "--feedback", "full-closed", "--procedures", "peak-torque,stabilisation",
+    rc = main(["compare", "--sim", "--out-dir", str(out), "-q", "--controllers", "pid,best", "--feedback", "full-closed", "--procedures", "peak-torque,stabilisation",
                "--model", str(model), "--proc-args", "--duration 1.5"])
     assert rc == 0
     doc = json.loads((out / "compare.json").read_text())

@@ -246,3 +246,27 @@ def test_bad_arguments_are_one_line(tmp_path: Path, capsys) -> None:
         assert main(argv) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and msg in err[0], err
+
+
+def test_get_and_status_write_json(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``config get`` / ``config status`` take ``--json PATH`` like every command with a result."""
+    import json
+    srv = Server("--pacing", "realtime", "-q", "--nvm", str(tmp_path / "nvm.bin"))
+    try:
+        g, s = tmp_path / "get.json", tmp_path / "status.json"
+        assert main(["config", "get", "pos_kp", "vel_kp", "--json", str(g), *_bus(srv.port)]) == 0
+        printed = capsys.readouterr().out
+        doc = json.loads(g.read_text())
+        assert doc["action"] == "get" and set(doc["params"]) == {"pos_kp", "vel_kp"}
+        for n, v in doc["params"].items():
+            assert f"{n} = {v['value']!r}" in printed and v["unit"] == BY_NAME[n].unit
+        assert main(["config", "status", "--json", str(s), *_bus(srv.port)]) == 0
+        st = json.loads(s.read_text())
+        from hdservo.drive import PARAM_STORE_STATUS
+        assert st["store"]["params"] in PARAM_STORE_STATUS.values() and isinstance(st["store"]["table_saved"], bool)
+        assert set(st["nvm_wear"]) == {"erases_total", "erases_max_page", "saves_refused", "save_credit"}
+        assert "NVM wear:" in capsys.readouterr().out
+        assert main(["config", "get", "pos_kp", "--json", str(tmp_path / "no" / "x.json"), *_bus(srv.port)]) == 2
+        assert "--json" in capsys.readouterr().err
+    finally:
+        srv.stop()

@@ -61,7 +61,7 @@ def test_bad_spec_is_one_line_naming_file_and_key(tmp_path: Path, capsys: pytest
     bad = tmp_path / "SPEC.toml"
     bad.write_text(text.replace(edit[0], edit[1], 1))
     out_json = tmp_path / "out.json"
-    rc = cli_main(["design", str(bad), "--json", str(out_json), "--report", str(tmp_path / "rep")])
+    rc = cli_main(["design", str(bad), "--json", str(out_json), "--out-dir", str(tmp_path / "rep")])
     err = capsys.readouterr().err.strip()
     assert rc == 2
     assert len(err.splitlines()) == 1 and "SPEC.toml" in err and words in err, err

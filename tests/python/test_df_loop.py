@@ -63,8 +63,8 @@ def test_no_limit_cycle_without_integral_action():
 
 def test_cli_writes_json_and_plots(tmp_path, capsys):
     out = tmp_path / "df.json"
-    rc = main(["df", "--nonlinearity", "cubic", "lost_motion", "--gains", "pos_ki=2000",
-               "--json", str(out), "--plots", str(tmp_path / "plots"), "--quiet"])
+    rc = main(["df", "--nonlinearity", "cubic", "lost_motion", "--set", "pos_ki=2000",
+               "--json", str(out), "--out-dir", str(tmp_path / "plots"), "--quiet"])
     assert rc == 0
     data = json.loads(out.read_text())
     r = data["results"]

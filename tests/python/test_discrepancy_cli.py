@@ -96,7 +96,7 @@ def test_low_log_rate_gets_a_note(tmp_path: Path, cog_log: Path, capsys) -> None
 
 def test_cogging_case_json_and_plots(tmp_path: Path, cog_log: Path) -> None:
     out = tmp_path / "o.json"
-    assert cli.main(["discrepancy", str(cog_log), "--json", str(out), "--plots", str(tmp_path / "p")]) == 0
+    assert cli.main(["discrepancy", str(cog_log), "--json", str(out), "--out-dir", str(tmp_path / "p")]) == 0
     res = json.loads(out.read_text())
     assert set(res) >= {"baseline", "iterations", "named_effects", "final_model"}
     assert res["named_effects"] and res["named_effects"][0] == "cogging_torque"

@@ -23,7 +23,7 @@ def test_emps_names_asymmetric_friction_and_reaches_published_error(emps_train, 
     log = tmp_path / "emps.csv"
     emps.write_log(emps_train, log)
     out = tmp_path / "out.json"
-    assert cli.main(["discrepancy", str(log), "--json", str(out), "--plots", str(tmp_path / "plots")]) == 0
+    assert cli.main(["discrepancy", str(log), "--json", str(out), "--out-dir", str(tmp_path / "plots")]) == 0
     res = json.loads(out.read_text())
     assert res["structure"] == "rigid"
     # the rigid baseline is the symmetric inverse model: close to the published IDIM-LS values

@@ -67,7 +67,7 @@ def _run(argv: list[str], cwd: Path, env: dict[str, str], timeout: float = 120.0
 def _argv(name: str, tmp_path: Path) -> list[str]:
     argv = list(COMMANDS[name])
     if name == "compare":
-        argv += ["-o", str(tmp_path / "cmp")]
+        argv += ["--out-dir", str(tmp_path / "cmp")]
     if name == "record":
         argv += ["-o", str(tmp_path / "rec.csv")]
     return argv
@@ -203,7 +203,7 @@ def test_demo_says_it_is_simulated(tmp_path: Path) -> None:
     prog, mark = _fake_sim(tmp_path)
     home = tmp_path / "home"
     home.mkdir()
-    p = _run(["demo", "-o", str(tmp_path / "demo"), "--quick", "--controllers", "pid", "--procedures", "peak-torque"],
+    p = _run(["demo", "--out-dir", str(tmp_path / "demo"), "--quick", "--controllers", "pid", "--procedures", "peak-torque"],
              tmp_path, _env(home, HDSERVO_SIM=str(prog)))
     err = p.stderr.splitlines()
     assert err and err[0] == ("hdservo demo: using a simulated drive (virtual drive, axis reference); "

@@ -325,8 +325,8 @@ def test_test_cli_bandwidth_on_the_generic_profile(tmp_path: Path, capsys: pytes
      "peak-torque --standard-objects: needs --peak-request N.m and --output-locked (the operator locks the output; "
      "the standard objects have no brake)"),
     (("test", "bandwidth", "--sim", "--gear-ratio", "100"), "--gear-ratio: options of --standard-objects"),
-    (("test", "bandwidth", "--sim", "generic", "--standard-objects", "--params", "vel_kp=200", "--gear-ratio", "100"),
-     "--params: hdservo drive parameters, not on the standard-objects path"),
+    (("test", "bandwidth", "--sim", "generic", "--standard-objects", "--set", "vel_kp=200", "--gear-ratio", "100"),
+     "--set: hdservo drive parameters, not on the standard-objects path"),
 ])
 def test_test_standard_objects_bad_arguments_one_line(argv: tuple[str, ...], msg: str,
                                                       capsys: pytest.CaptureFixture[str]) -> None:

@@ -1,5 +1,5 @@
 """``hdservo test`` pre-loading and modes: ``--model`` (compensator download, read back),
-``--params KEY=VALUE``, ``--stab-mode``, the peak-torque definition shared with the design
+``--set NAME=VALUE``, ``--stab-mode``, the peak-torque definition shared with the design
 prediction, and the bandwidth excitation shared with it.  Short runs on the virtual drive."""
 from __future__ import annotations
 
@@ -49,7 +49,7 @@ def test_stab_mode_auto_uses_the_drives_stabilisation_mode() -> None:
 @needs_sim
 def test_cli_params_and_peak_torque_definition(tmp_path: Path) -> None:
     out = tmp_path / "r.json"
-    p = subprocess.run(CLI + ["peak-torque", *SIM_ARGS, "--params", "torque_limit=40", "-q", "--json", str(out)],
+    p = subprocess.run(CLI + ["peak-torque", *SIM_ARGS, "--set", "torque_limit=40", "-q", "--json", str(out)],
                        capture_output=True, text=True, env=ENV, timeout=300)
     assert p.returncode == 0, p.stderr
     doc = json.loads(out.read_text())
@@ -64,7 +64,7 @@ def test_cli_params_and_peak_torque_definition(tmp_path: Path) -> None:
     assert 0.7 * 40.0 < r["headline"]["peak_torque_Nm"] <= 1.05 * 40.0
     assert r["headline"]["peak_torque_Nm"] == pytest.approx(r["figures"]["delivered_Nm"][-1])
     assert any("torque_limit=40" in n for n in doc["notes"])
-    for bad in (["--params", "no_such_param=1"], ["--params", "torque_limit"], ["--params", "vel_kp=-5"],
+    for bad in (["--set", "no_such_param=1"], ["--set", "torque_limit"], ["--set", "vel_kp=-5"],
                 ["--model", str(tmp_path / "none.toml")]):
         q = subprocess.run(CLI + ["peak-torque", *SIM_ARGS, "--json", str(tmp_path / "x.json")] + bad,
                            capture_output=True, text=True, env=ENV, timeout=60)

@@ -176,7 +176,7 @@ def test_cli_json_and_bad_input(tmp_path: Path) -> None:
     env_py = [sys.executable, "-m", "hdservo.cli", "test"]
     env = {"PYTHONPATH": str(ROOT / "host"), "PATH": "/usr/bin:/bin"}
     out = tmp_path / "r.json"
-    p = subprocess.run(env_py + ["stabilisation", "--sim", "--duration", "1", "-q", "--json", str(out), "--plots",
+    p = subprocess.run(env_py + ["stabilisation", "--sim", "--duration", "1", "-q", "--json", str(out), "--out-dir",
                                  str(tmp_path / "plots")], capture_output=True, text=True, env=env, timeout=300)
     assert p.returncode == 0, p.stderr
     doc = json.loads(out.read_text())

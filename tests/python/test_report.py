@@ -138,7 +138,7 @@ def test_report_is_self_contained_and_embeds_every_plot(tmp_path: Path, capsys: 
 def test_report_of_a_single_test_run(tmp_path: Path) -> None:
     out = _compare_dir(tmp_path)
     page = tmp_path / "one.html"
-    assert main(["report", "--test", str(out / "pid" / "test.json"), "--plots", str(out / "pid" / "plots"),
+    assert main(["report", "--test", str(out / "pid" / "test.json"), "--test-plots", str(out / "pid" / "plots"),
                  "-o", str(page)]) == 0
     p = _Page()
     p.feed(page.read_text())

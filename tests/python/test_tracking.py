@@ -67,7 +67,7 @@ def test_settling_time_known_answers() -> None:
 def test_tracking_and_settling_on_the_virtual_axis(tmp_path: Path) -> None:
     js = tmp_path / "t.json"
     assert main(["test", "tracking", "--sim", "-q", "--track-rates", "0.1", "--track-period", "1",
-                 "--json", str(js), "--plots", str(tmp_path / "p")]) == 0
+                 "--json", str(js), "--out-dir", str(tmp_path / "p")]) == 0
     r = json.loads(js.read_text())["results"]["tracking"]
     h = r["headline"]
     assert set(h) == {"tracking_rms_0p1_arcsec", "tracking_peak_0p1_arcsec", "reversal_peak_arcsec"}

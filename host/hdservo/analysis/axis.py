@@ -198,12 +198,12 @@ def load_gains(spec: List[str] | None) -> Tuple[Dict[str, float], List[str]]:
             name, _, val = item.partition("=")
             name = name.strip()
             if name not in REFERENCE_GAINS:
-                raise AxisFileError(f"--gains {item}: unknown gain '{name}' "
+                raise AxisFileError(f"--set {item}: unknown gain '{name}' "
                                     f"(expected one of: {', '.join(sorted(REFERENCE_GAINS))})")
             try:
                 gains[name] = float(val)
             except ValueError:
-                raise AxisFileError(f"--gains {item}: expected NAME=NUMBER") from None
+                raise AxisFileError(f"--set {item}: expected NAME=NUMBER") from None
             notes.append(f"gains: {name} = {gains[name]:g} (command line)")
         else:
             p = Path(item)

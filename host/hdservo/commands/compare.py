@@ -19,6 +19,7 @@ import os
 from pathlib import Path
 
 from ..errors import UserError
+from .. import progress
 
 NAME = "compare"
 HELP = ("run the test procedures with the fair PID baseline, each compensator, the best combination and "
@@ -29,7 +30,7 @@ def register(p: argparse.ArgumentParser) -> None:
     """Options of ``hdservo compare``."""
     from .. import compare as cmp
     from ..drive import add_bus_arguments
-    p.add_argument("-o", "--out", type=Path, default=Path("build") / "compare",
+    p.add_argument("--out-dir", type=Path, default=Path("build") / "compare", metavar="DIR",
                    help="output directory (default build/compare)")
     p.add_argument("--controllers", default="ablation",
                    help="'ablation' (default: per feedback configuration the fair PID, + each compensator, the "
@@ -54,7 +55,6 @@ def register(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=None, help="with --sim only: sensor-noise seed (default 1)")
     p.add_argument("--json", type=Path, help="also write the comparison document here")
     p.add_argument("--pdf", action="store_true", help="also write PDF plots")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
 
 def _check_dir(path: Path, what: str) -> None:
@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
     bus = choice.bus
     axis = choice.axis or "reference"
     seed = 1 if args.seed is None else args.seed
-    _check_dir(args.out, "--out")
+    _check_dir(args.out_dir, "--out-dir")
     if args.json is not None:
         if args.json.is_dir():
             raise UserError(f"--json {args.json}: is a directory")
@@ -110,12 +110,12 @@ def run(args: argparse.Namespace) -> int:
     choice.announce("compare")
     try:
         kw = dict(proc_extra=extra, bus=bus, node_id=args.node_id, axis=axis, seed=seed, model=args.model,
-                  progress=not args.quiet, pdf=args.pdf, echo=(lambda s: None) if args.quiet else print,
+                  progress=not args.quiet, pdf=args.pdf, echo=(lambda s: None) if args.quiet else progress.echo,
                   jobs=args.jobs, profile=choice.profile)
         if ablation:
-            doc = cmp.run_ablation(args.out, fbs, procs, **kw)
+            doc = cmp.run_ablation(args.out_dir, fbs, procs, **kw)
         else:
-            doc = cmp.run_compare(args.out, ctls, procs, **kw)
+            doc = cmp.run_compare(args.out_dir, ctls, procs, **kw)
     except ValueError as e:
         raise UserError(str(e)) from None
     if args.json is not None:
@@ -136,5 +136,5 @@ def run(args: argparse.Namespace) -> int:
     for c, f in fails.items():
         for proc, notes in f.items():
             print(f"FAILED {c}/{proc}: {'; '.join(notes)}")
-    print(f"wrote {args.out / 'compare.json'} ({doc['run_time_s']:.0f} s)")
+    print(f"wrote {args.out_dir / 'compare.json'} ({doc['run_time_s']:.0f} s)")
     return 0

@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ..errors import UserError
-from ..fileio import write_text_atomic
+from ..fileio import write_json_atomic, write_text_atomic
 
 NAME = "config"
 HELP = ("drive parameters and CANopen settings over CAN: dump to a TOML file, restore it (checked, read back), "
@@ -43,7 +43,8 @@ def register(p: argparse.ArgumentParser) -> None:
     from ..drive import add_bus_arguments
     sub = p.add_subparsers(dest="action", metavar="ACTION", required=True)
     d = sub.add_parser("dump", help="write every drive parameter (SI units) and CANopen setting as TOML")
-    d.add_argument("-o", "--out", type=Path, metavar="FILE.toml", help="file to write (default: stdout)")
+    d.add_argument("-o", "--output", type=Path, metavar="FILE.toml", help="file to write (default: stdout)")
+    d.add_argument("--out", dest="output", type=Path, help=argparse.SUPPRESS)   # older spelling
     r = sub.add_parser("restore", help="write a dumped file back (checked first, read back)")
     r.add_argument("file", type=Path, metavar="FILE.toml")
     r.add_argument("--force", action="store_true",
@@ -55,7 +56,9 @@ def register(p: argparse.ArgumentParser) -> None:
     s.add_argument("pairs", nargs="+", metavar="NAME=VALUE")
     s.add_argument("--save", action="store_true", help="store in NVM afterwards (0x1010)")
     sub.add_parser("save", help="store parameters, Preisach table and CANopen settings in NVM (0x1010)")
-    sub.add_parser("status", help="what the drive's last boot loaded from NVM (0x5101) and its flash wear (0x5102)")
+    st = sub.add_parser("status", help="what the drive's last boot loaded from NVM (0x5101) and its flash wear (0x5102)")
+    for x in (g, st):
+        x.add_argument("--json", type=Path, metavar="PATH", help="also write what is printed as JSON")
     for x in sub.choices.values():
         add_bus_arguments(x)
 
@@ -124,11 +127,11 @@ def _dump(drive: Any, args: argparse.Namespace) -> str:
     text = to_toml(raw, h, f"hdservo drive configuration (hdservo config dump), {stamp}\n"
                            f"drive: {name}, node {args.node_id}; {len(raw)} parameters, SI units; "
                            f"{len(objects)} CANopen settings", objects, args.node_id)
-    if args.out is None:
+    if args.output is None:
         sys.stdout.write(text)
         return ""
-    write_text_atomic(args.out, text)           # no half-written file
-    return f"wrote {len(raw)} parameters and {len(objects)} CANopen settings to {args.out}"
+    write_text_atomic(args.output, text)           # no half-written file
+    return f"wrote {len(raw)} parameters and {len(objects)} CANopen settings to {args.output}"
 
 
 def _restore(drive: Any, args: argparse.Namespace, progress: Callable[[str], None]) -> str:
@@ -189,8 +192,10 @@ def _pairs(pairs: list[str]) -> dict[str, int]:
 
 
 def _act(drive: Any, args: argparse.Namespace, pairs: dict[str, float],
-         progress: Callable[[str], None]) -> list[str]:
-    """Carry out the action on a started drive; the lines to print."""
+         progress: Callable[[str], None], doc: dict[str, Any]) -> list[str]:
+    """Carry out the action on a started drive; the lines to print (``get`` / ``status`` also fill ``doc``,
+    their ``--json`` document)."""
+    from dataclasses import asdict
     from ..driveconfig import read_nvm_wear, si_of
     from ..params_gen import BY_NAME
     lines: list[str] = []
@@ -201,7 +206,9 @@ def _act(drive: Any, args: argparse.Namespace, pairs: dict[str, float],
     elif args.action == "get":
         for n in args.names:
             p = BY_NAME[n]
-            lines.append(f"{n} = {si_of(p, int(drive.read(p.index, p.sub)))!r}  # {p.unit}")
+            v = si_of(p, int(drive.read(p.index, p.sub)))
+            lines.append(f"{n} = {v!r}  # {p.unit}")
+            doc.setdefault("params", {})[n] = {"value": v, "unit": p.unit}
     elif args.action == "set":
         lines.append(f"set {_write_verified(drive, pairs)} parameters, read back")
         if args.save:
@@ -217,7 +224,10 @@ def _act(drive: Any, args: argparse.Namespace, pairs: dict[str, float],
         if refused:
             lines.append(f"CANopen settings refused at boot by 0x{refused >> 8:04X}:{refused & 0xFF} "
                          f"(the drive runs the defaults)")
-        lines.append(read_nvm_wear(drive).line())
+        wear = read_nvm_wear(drive)
+        lines.append(wear.line())
+        doc.update({"store": st, "objects_refused_by": f"0x{refused >> 8:04X}:{refused & 0xFF}" if refused else None,
+                    "nvm_wear": asdict(wear)})
     return lines
 
 
@@ -229,8 +239,12 @@ def run(args: argparse.Namespace) -> int:
     def progress(msg: str) -> None:
         print(f"[config] {msg}", file=sys.stderr, flush=True)
 
-    if args.action == "dump" and args.out is not None and not args.out.parent.exists():
-        raise UserError(f"{args.out}: directory {args.out.parent} does not exist")
+    if args.action == "dump" and args.output is not None and not args.output.parent.exists():
+        raise UserError(f"{args.output}: directory {args.output.parent} does not exist")
+    json_out = getattr(args, "json", None)
+    if json_out is not None and (json_out.is_dir() or not json_out.parent.exists()):
+        raise UserError(f"--json {json_out}: " + ("is a directory" if json_out.is_dir()
+                                                   else f"directory {json_out.parent} does not exist"))
     if args.action == "get":
         bad = [n for n in args.names if n not in BY_NAME]
         if bad:
@@ -244,10 +258,13 @@ def run(args: argparse.Namespace) -> int:
             from ..drive_caps import check
             check(drive, "config")
             drive.start()
-            lines = _act(drive, args, pairs, progress)
+            doc: dict[str, Any] = {}
+            lines = _act(drive, args, pairs, progress, doc)
     except DriveError as e:
         raise UserError(f"drive: {e}") from None
     for line in lines:
         if line:
             print(line)
+    if json_out is not None:
+        write_json_atomic(json_out, {"action": args.action, "node_id": args.node_id, **doc})
     return 0

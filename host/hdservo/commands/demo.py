@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Sequence
 
 from ..errors import UserError
+from ..progress import Bar, echo
 
 NAME = "demo"
 HELP = ("end-to-end demo on a virtual axis (reference, or --axis FILE): identify, download, ablation of the fair PID "
@@ -45,7 +46,8 @@ OUTPUTS = ("model.toml", "model.preisach.bin", "identify.json", "identify.txt", 
 def register(p: argparse.ArgumentParser) -> None:
     """Options of ``hdservo demo``."""
     from .. import compare as cmp
-    p.add_argument("-o", "--out", type=Path, default=Path("build") / "demo", help="output directory (build/demo)")
+    p.add_argument("--out-dir", type=Path, default=Path("build") / "demo", metavar="DIR",
+                   help="output directory (default build/demo)")
     p.add_argument("--axis", default="reference", metavar="FILE",
                    help="axis file of the virtual axis (default: the reference axis)")
     p.add_argument("--controllers", default="ablation",
@@ -58,9 +60,9 @@ def register(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=1, help="sensor-noise seed of the virtual drives")
 
 
-def _say(step: int, text: str, t0: float) -> None:
-    bar = "#" * step + "." * (STEPS - step)
-    print(f"[demo] [{bar}] step {step}/{STEPS}: {text} ({time.monotonic() - t0:.0f} s)", file=sys.stderr, flush=True)
+def _say(bar: Bar, text: str) -> None:
+    """Enter the next of the demo's steps: the bar shows it (a log line off a terminal)."""
+    bar.step(text)
 
 
 def _hdservo(argv: Sequence[str], what: str, log: Path) -> None:
@@ -71,7 +73,7 @@ def _hdservo(argv: Sequence[str], what: str, log: Path) -> None:
         assert p.stdout is not None
         for line in p.stdout:
             f.write(line)
-            print(f"  {line}", end="", flush=True)
+            echo(f"  {line.rstrip()}")
         rc = p.wait()
     if rc != 0:
         raise UserError(f"{what} failed (exit {rc}; command: hdservo {' '.join(argv)})")
@@ -83,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
     from ..procedures.runner import VirtualDriveProcess
     from ..report import ReportError, build_report, verify_report
     t0 = time.monotonic()
-    out: Path = args.out
+    out: Path = args.out_dir
     axis = args.axis
     if axis != "reference":
         ap = Path(axis)
@@ -117,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as e:
         raise UserError(str(e)) from None
     if out.exists() and not out.is_dir():
-        raise UserError(f"--out {out}: not a directory")
+        raise UserError(f"--out-dir {out}: not a directory")
     out.mkdir(parents=True, exist_ok=True)
     for name in OUTPUTS:                         # a fresh run: nothing stale in the report (only our own files)
         q = out / name
@@ -132,24 +134,25 @@ def run(args: argparse.Namespace) -> int:
 
     print(f"hdservo demo: using a simulated drive (virtual drive, axis {aname}); your real drive is not touched",
           file=sys.stderr, flush=True)
-    _say(1, f"starting the virtual axis {aname} (hdservo-sim serve)", t0)
+    bar = Bar("demo", STEPS, enabled=not args.quiet)
+    _say(bar, f"starting the virtual axis {aname} (hdservo-sim serve)")
     drive = VirtualDriveProcess(axis, pacing="fast", seed=args.seed)
     try:
         print(f"  virtual drive: CANopen node 1 on socketcand 127.0.0.1:{drive.port}", flush=True)
 
-        _say(2, "identifying the axis over CAN (hdservo identify all)", t0)
+        _say(bar, "identifying the axis over CAN (hdservo identify all)")
         _hdservo(["identify", "all", f"--sim={axis}", "-o", str(model), "--json", str(out / "identify.json"),
-                  "--plots", str(out / "identify-plots"), "--seed", str(args.seed)], "identification",
+                  "--out-dir", str(out / "identify-plots"), "--seed", str(args.seed)], "identification",
                  out / "identify.txt")
 
-        _say(3, f"downloading the compensator parameters to the virtual drive (port {drive.port})", t0)
+        _say(bar, f"downloading the compensator parameters to the virtual drive (port {drive.port})")
         _hdservo(["download", str(model), "-i", "socketcand", "-c", "can0", "--host", "127.0.0.1",
                   "--port", str(drive.port), "--json", str(out / "download.json")], "download",
                  out / "download.txt")
 
-        _say(4, "running the procedures: fair PID, each compensator, best, leave-one-out (hdservo compare)", t0)
+        _say(bar, "running the procedures: fair PID, each compensator, best, leave-one-out (hdservo compare)")
         kw = dict(proc_extra=extra, axis=axis, seed=args.seed, model=model, jobs=args.jobs,
-                  echo=lambda s: print(f"  {s}", flush=True))
+                  progress=not args.quiet, echo=lambda s: echo(f"  {s}"))
         try:
             if ablation:
                 doc = cmp.run_ablation(out / "compare", fbs, procs, **kw)
@@ -158,7 +161,7 @@ def run(args: argparse.Namespace) -> int:
         except ValueError as e:
             raise UserError(str(e)) from None
 
-        _say(5, "writing the report (hdservo report)", t0)
+        _say(bar, "writing the report (hdservo report)")
         summ = cmp.summary_doc(doc)
         cmp._write_json_atomic(out / "summary.json", summ)
         cmp._write_json_atomic(out / "ablation.json", cmp.ablation_doc(doc))
@@ -172,9 +175,10 @@ def run(args: argparse.Namespace) -> int:
             verified = verify_report(out / "report.html")     # every plot file exists, holds data, is embedded
         except ReportError as e:
             raise UserError(f"report: {e}") from None
-        _say(6, "stopping the virtual drive", t0)
+        _say(bar, "stopping the virtual drive")
     finally:
         drive.stop()
+        bar.close()
     el = time.monotonic() - t0
     print()
     print(cmp.summary_table(doc, [c for c in (doc["reference"], doc["best"]) if c in doc["controllers"]]))

@@ -1,4 +1,4 @@
-"""``hdservo design SPEC.toml --json OUT.json --report DIR``: requirements -> ranked axis designs.
+"""``hdservo design SPEC.toml --json OUT.json --out-dir DIR``: requirements -> ranked axis designs.
 
 See docs/design-flow.md.  Exit status 2 and one line on a bad SPEC.toml; no
 output file is written unless the whole flow succeeded.
@@ -6,11 +6,11 @@ output file is written unless the whole flow succeeded.
 from __future__ import annotations
 
 import argparse
-import sys
 import tempfile
 from pathlib import Path
 
 from ..errors import UserError
+from . import progress_lines
 
 NAME = "design"
 HELP = "design a harmonic-drive axis from requirements: feasible parts, simulated figures, ranking, report"
@@ -19,27 +19,25 @@ HELP = "design a harmonic-drive axis from requirements: feasible parts, simulate
 def register(p: argparse.ArgumentParser) -> None:
     p.add_argument("spec", type=Path, metavar="SPEC.toml", help="requirements file (docs/design-flow.md)")
     p.add_argument("--json", type=Path, metavar="OUT.json", help="write the design report as JSON")
-    p.add_argument("--report", type=Path, metavar="DIR", help="write report.md, PNG plots, axis_chosen.toml, "
+    p.add_argument("--out-dir", type=Path, metavar="DIR", help="write report.md, PNG plots, axis_chosen.toml, "
                    "drive_params.json and the candidates' axis files here")
+    p.add_argument("--report", type=Path, dest="out_dir", help=argparse.SUPPRESS)   # older spelling
     p.add_argument("--candidates", type=int, metavar="N", help="simulate the best N (default: SPEC [design])")
     p.add_argument("--quick", action="store_true", help="short simulations (smoke tests; not design figures)")
     p.add_argument("--feasibility-only", action="store_true", help="enumerate and check, no simulation")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
 
 def run(args: argparse.Namespace) -> int:
     from ..design import flow, report, spec as sp
 
     spec = sp.load_spec(args.spec)
-    for out in (args.json, args.report):
+    for out in (args.json, args.out_dir):
         if out is not None and not out.resolve().parent.is_dir():
             raise UserError(f"{out}: directory {out.resolve().parent} does not exist")
     if args.candidates is not None and not 1 <= args.candidates <= 20:
         raise UserError(f"--candidates: expected 1-20, got {args.candidates}")
 
-    def progress(msg: str) -> None:
-        if not args.quiet:
-            print(f"[design] {msg}", file=sys.stderr, flush=True)
+    progress = progress_lines("design")
 
     with tempfile.TemporaryDirectory(prefix="hdservo-design-") as work:
         if args.feasibility_only:
@@ -48,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
         else:
             res = flow.run_flow(spec, work, quick=args.quick, candidates=args.candidates, progress=progress)
         axis_files = {e.candidate.slug: Path(e.axis_path) for e in res.simulated if e.axis_path}
-        doc = report.write_report(res, args.json, args.report, axis_files)
+        doc = report.write_report(res, args.json, args.out_dir, axis_files)
     feas = doc["feasible"]
     print(f"{spec.name}: {feas} of {doc['enumerated']} gear x motor pairs feasible")
     for i, e in enumerate(res.simulated):

@@ -1,7 +1,7 @@
 """``hdservo df``: describing-function analysis of the axis's nonlinearities.
 
-``hdservo df [--axis AXIS.toml] [--nonlinearity NAME ...] [--gains ITEM ...]
-[--json OUT] [--plots DIR] [--format png|pdf]``
+``hdservo df [--axis AXIS.toml] [--nonlinearity NAME ...] [--gains FILE.toml ...] [--set NAME=VALUE ...]
+[--json OUT] [--out-dir DIR] [--format png|pdf]``
 
 For each nonlinearity: N(A) table, predicted limit cycles (amplitude,
 frequency, Loeb stability) and the margins / bandwidth of the equivalently
@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 from typing import Any, Dict
 
 from ..errors import UserError
+from . import progress_lines
 from ..fileio import write_json_atomic
 
 NAME = "df"
@@ -31,13 +31,15 @@ def register(parser: argparse.ArgumentParser) -> None:
                              "else the built-in reference axis")
     parser.add_argument("--nonlinearity", metavar="NAME", nargs="+", default=None,
                         help=f"which ones (default all): {', '.join(NAMES)}")
-    parser.add_argument("--gains", metavar="ITEM", nargs="+", default=None,
-                        help="gains TOML file(s) and/or NAME=VALUE overrides of the drive's "
-                             "parameter-table gains (pos_kp, pos_ki, vel_kp, vel_ki, ...)")
-    parser.add_argument("--json", metavar="OUT", default=None, help="write the results as JSON here")
-    parser.add_argument("--plots", metavar="DIR", default=None, help="write the plots into this directory")
+    parser.add_argument("--gains", metavar="FILE.toml", nargs="+", action="extend", default=[],
+                        help="gains TOML file(s) (a [gains] table or a model's [controller.gains])")
+    parser.add_argument("--set", metavar="NAME=VALUE", action="append", default=[],
+                        help="override one of the drive's parameter-table gains (pos_kp, pos_ki, vel_kp, vel_ki, "
+                             "...; repeatable, after the files)")
+    parser.add_argument("--json", metavar="PATH", default=None, help="write the results as JSON here")
+    parser.add_argument("--out-dir", metavar="DIR", default=None, help="write the plots into this directory")
+    parser.add_argument("--plots", dest="out_dir", help=argparse.SUPPRESS)   # older spelling
     parser.add_argument("--format", choices=("png", "pdf"), default="png", help="plot format (default png)")
-    parser.add_argument("--quiet", action="store_true", help="no progress output")
 
 
 def write_json(path: Path, data: Dict[str, Any]) -> None:
@@ -59,17 +61,17 @@ def run(args: argparse.Namespace) -> int:
             raise UserError(f"--nonlinearity {n}: unknown name (expected one of: {', '.join(NAMES)})")
     try:
         axis, notes = load_axis(Path(args.axis) if args.axis else None)
-        gains, gnotes = load_gains(args.gains)
+        gains, gnotes = load_gains([*args.gains, *args.set] or None)
         entries = [build(n, axis) for n in names]
     except AxisFileError as e:
         raise UserError(str(e)) from None
     except (KeyError, ValueError) as e:
         raise UserError(f"{args.axis or 'reference axis'}: {e}") from None
-    say = (lambda s: None) if args.quiet else (lambda s: print(f"  {s}", file=sys.stderr, flush=True))
+    say = progress_lines("df")
     for line in notes + gnotes:
         print(f"note: {line}")
     model = LoopModel(axis, gains)
-    plot_dir = Path(args.plots) if args.plots else None
+    plot_dir = Path(args.out_dir) if args.out_dir else None
     results: Dict[str, Any] = {}
     for k, e in enumerate(entries):
         say(f"[{k + 1}/{len(entries)}] {e.name} ({e.insertion})")

@@ -1,4 +1,4 @@
-"""``hdservo discrepancy LOG.csv [--model MODEL.toml] --json OUT.json --plots DIR``.
+"""``hdservo discrepancy LOG.csv [--model MODEL.toml] --json OUT.json --out-dir DIR``.
 
 Fits the baseline axis model to a log (or takes its structure from MODEL.toml), then
 names the missing effects one at a time, most evident first, while they are
@@ -28,7 +28,8 @@ def register(p: argparse.ArgumentParser) -> None:
     p.add_argument("log", type=Path, help="log CSV (the log format of docs/sim.md) with its JSON sidecar")
     p.add_argument("--model", type=Path, help="baseline model TOML ([model] structure, offset)")
     p.add_argument("--json", type=Path, required=True, metavar="OUT.json", help="result JSON to write")
-    p.add_argument("--plots", type=Path, metavar="DIR", help="directory for the PNG plots")
+    p.add_argument("--out-dir", type=Path, metavar="DIR", help="directory for the PNG plots")
+    p.add_argument("--plots", dest="out_dir", type=Path, help=argparse.SUPPRESS)   # older spelling
 
 
 def read_model(path: Path) -> dict[str, Any]:
@@ -80,9 +81,9 @@ def run(args: argparse.Namespace) -> int:
         notes.append(f"log sampled at {1.0 / sig.dt:.0f} Hz, below the {MIN_VALIDATED_RATE_HZ:.0f} Hz the workflow is "
                      "validated at: Stribeck friction and small effects are less reliable (docs/discrepancy.md)")
     out["notes"] = notes
-    if args.plots:
+    if args.out_dir:
         from ..discrepancy.plots import write_plots
-        out["plots"] = [str(p) for p in write_plots(res, args.plots)]
+        out["plots"] = [str(p) for p in write_plots(res, args.out_dir)]
     write_json_atomic(args.json, out)
     u = sig.units["torque"]
     au = sig.units["angle"]

@@ -28,11 +28,11 @@ the command ends).
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from ..download import plan_download, write_verified
 from ..errors import UserError
+from . import progress_lines
 
 NAME = "download"
 HELP = "write compensator parameters and tables computed from an identified model to a drive (verified)"
@@ -54,23 +54,20 @@ def register(p: argparse.ArgumentParser) -> None:
                         "te,backstep,dob,compliance); default: leave cb_enable")
     p.add_argument("--save", action="store_true",
                    help="store everything in the drive's NVM afterwards (0x1010; power stage off), verified by 0x5101:3")
-    p.add_argument("--version", type=int, default=1, help="table version written into the groups (1..2147483647; the drive saves it with the parameters)")
+    p.add_argument("--table-version", type=int, default=1, metavar="N", help="table version written into the groups (1..2147483647; the drive saves it with the parameters)")
     p.add_argument("--json", type=Path, metavar="PATH", help="write what was downloaded as JSON")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
 
 def run(args: argparse.Namespace) -> int:
     from ..drive import Drive, DriveError, choose_drive
     from ..ident.drive_runner import VirtualDrive
 
-    def progress(msg: str) -> None:
-        if not args.quiet:
-            print(f"[download] {msg}", file=sys.stderr, flush=True)
+    progress = progress_lines("download")
 
     if args.json is not None and not args.json.parent.exists():
         raise UserError(f"{args.json}: directory {args.json.parent} does not exist")
-    if not 0 < args.version <= 0x7FFFFFFF:
-        raise UserError(f"--version {args.version}: expected 1..2147483647")
+    if not 0 < args.table_version <= 0x7FFFFFFF:
+        raise UserError(f"--table-version {args.table_version}: expected 1..2147483647")
     enable = None
     if args.enable is not None:
         from ..compsetup import enable_mask
@@ -78,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
             enable = enable_mask([x for x in args.enable.split(",") if x])
         except ValueError as e:
             raise UserError(f"--enable: {e}") from None
-    plan = plan_download(args.model, args.axis, args.preisach, args.version)
+    plan = plan_download(args.model, args.axis, args.preisach, args.table_version)
     target = choose_drive(args)
     for n in plan["notes"]:
         progress(f"note: {n}")

@@ -7,7 +7,7 @@
     every relative error within 0.1 percentage point of the published value, 1
     otherwise (the JSON is written in both cases), 2 on bad input.
 
-``hdservo emps export [--data DIR] [--record NAME] --out CSV``
+``hdservo emps export [--data DIR] [--record NAME] -o LOG.csv``
     Write a record as an hdservo log (CSV + ``.json`` sidecar, see docs/emps.md).
 """
 from __future__ import annotations
@@ -36,7 +36,7 @@ def register(parser: argparse.ArgumentParser) -> None:
     e = sub.add_parser("export", parents=[common], help="write a record as an hdservo log")
     e.add_argument("--record", default=emps.TRAIN_RECORD,
                    choices=(emps.TRAIN_RECORD, emps.TEST_RECORD), help="which record")
-    e.add_argument("--out", metavar="CSV", required=True,
+    e.add_argument("-o", "--output", metavar="LOG.csv", required=True,
                    help="log CSV to write (sidecar <name>.json beside it)")
 
 
@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     data_dir = emps.resolve_data_dir(args.data)
     if args.emps_command == "export":
         rec = emps.load_benchmark_record(data_dir, args.record, args.format)
-        out = Path(args.out)
+        out = Path(args.output)
         emps.write_log(rec, out)
         print(f"wrote {out} and {out.with_suffix('.json')} ({rec.meta['n_samples']} samples)")
         return 0

@@ -13,17 +13,17 @@ Sources (one of):
 ``--data LOG.csv``    recorded experiment logs (repeatable; each sidecar names its experiment)
 
 Outputs: ``-o MODEL.toml`` (axis/model, SI keys), ``--json REPORT.json``,
-``--plots DIR`` (PNG per fit), ``--save-data DIR`` (experiment logs), the
+``--out-dir DIR`` (PNG per fit), ``--save-data DIR`` (experiment logs), the
 Preisach table image beside the model (``MODEL.preisach.bin``).
 """
 from __future__ import annotations
 
 import argparse
 import math
-import sys
 from pathlib import Path
 
 from ..errors import UserError
+from . import progress_lines
 
 #: what the standard-objects path identifies (the others need a locked output)
 STD_TARGETS = ("friction", "te", "frf")
@@ -60,16 +60,17 @@ def register(p: argparse.ArgumentParser) -> None:
                      help="with --standard-objects: bitrate for the bus-load check (default: -b, else 1000000)")
     p.add_argument("--seed", type=int, default=None,
                    help="with --sim or --offline only: simulator noise seed (default 1)")
-    p.add_argument("--gain", action="append", default=[], metavar="NAME=VALUE",
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="drive gain override for the closed-loop experiments (repeatable), e.g. vel_kp=27.5")
+    p.add_argument("--gain", dest="set", action="append", help=argparse.SUPPRESS)   # older spelling
     p.add_argument("--torque-max", type=float, default=67.0, metavar="NM",
                    help="stiffness-cycle amplitude, N.m output (>= 1.3 T2; default 67)")
     p.add_argument("--rated-torque", type=float, metavar="NM", help="rated torque for lost motion (+-4 %%)")
     p.add_argument("-o", "--output", type=Path, metavar="MODEL.toml", help="write the identified model")
     p.add_argument("--json", type=Path, metavar="PATH", help="write the JSON report")
-    p.add_argument("--plots", type=Path, metavar="DIR", help="write PNG plots here")
+    p.add_argument("--out-dir", type=Path, metavar="DIR", help="write PNG plots here")
+    p.add_argument("--plots", dest="out_dir", type=Path, help=argparse.SUPPRESS)   # older spelling
     p.add_argument("--save-data", type=Path, metavar="DIR", help="write the experiment logs here")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -83,9 +84,7 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     from ..ident import experiments as ex
 
-    def progress(msg: str) -> None:
-        if not args.quiet:
-            print(f"[identify] {msg}", file=sys.stderr, flush=True)
+    progress = progress_lines("identify")
 
     for out in (args.output, args.json):
         if out is not None and not out.parent.exists():
@@ -93,14 +92,14 @@ def _run(args: argparse.Namespace) -> int:
     runner = None
     data: dict[str, ex.ExperimentData] = {}
     gains = {}
-    for g in args.gain:
+    for g in args.set:
         k, sep, v = g.partition("=")
         try:
             gains[k] = float(v)
         except ValueError:
-            raise UserError(f"--gain {g}: expected NAME=NUMBER") from None
+            raise UserError(f"--set {g}: expected NAME=NUMBER") from None
         if not sep or not k:
-            raise UserError(f"--gain {g}: expected NAME=NUMBER")
+            raise UserError(f"--set {g}: expected NAME=NUMBER")
     bus_given = [f"--{a}" for a in ("interface", "channel", "bitrate", "host", "port", "sim")
                  if getattr(args, a) is not None] + (["--no-rig"] if args.no_rig else [])
     if args.offline is not None and args.data:
@@ -121,8 +120,8 @@ def _run(args: argparse.Namespace) -> int:
         if args.target not in STD_TARGETS:
             raise UserError(f"identify {args.target}: needs the output locked and a torque sensor (a test rig); "
                             f"--standard-objects identifies {', '.join(STD_TARGETS)}")
-        if args.no_rig or args.gain:
-            raise UserError(f"{'--no-rig' if args.no_rig else '--gain'}: not an option of --standard-objects "
+        if args.no_rig or args.set:
+            raise UserError(f"{'--no-rig' if args.no_rig else '--set'}: not an option of --standard-objects "
                             "(no rig, no vendor parameters)")
         for k in ("gear_ratio", "sync_period", "bus_bitrate"):
             v = getattr(args, k)
@@ -237,7 +236,7 @@ def _write_outputs(args: argparse.Namespace, pl, source: str, notes: list[str]) 
                               header=f"Identified by hdservo identify {args.target} "
                                      f"(source: {source}).\n"
                                      "Units in the key names (SI). friction_total is output-referred.")
-    plots = report.plot_all(pl.results, args.plots) if args.plots else []
+    plots = report.plot_all(pl.results, args.out_dir) if args.out_dir else []
     if args.json:
         write_json_atomic(args.json, {"target": args.target, "source": source, "notes": notes,
                                       "experiment_sources": {k: d.meta.get("source") for k, d in pl.data.items()},

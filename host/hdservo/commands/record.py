@@ -19,7 +19,6 @@ The drive is the one python-can's settings name (``-i/-c/-b``, else its config f
 from __future__ import annotations
 
 import argparse
-import struct
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +30,8 @@ from ..drive import LOOP_HZ, TURN, Drive, DriveError, add_bus_arguments, align_m
 from ..phase import unwrap_phase, unwrap_tick
 
 NAME = "record"
+#: the streamed objects a sample needs (EDS names; decoded by the EDS's TPDO maps)
+STREAMED = ("load_phase", "motor_phase", "motor_torque")
 HELP = "record streamed process data to CSV (+ raw candump log)"
 
 
@@ -40,7 +41,7 @@ def register(p: argparse.ArgumentParser) -> None:
     p.add_argument("--rate", type=float, default=2000.0,
                    help="samples per second (divides 10 kHz; default 2000: hdservo discrepancy wants >= 2 kHz)")
     p.add_argument("--duration", type=float, default=2.0, help="seconds to record")
-    p.add_argument("-o", "--out", required=True, help="CSV to write (also OUT.json, OUT.log)")
+    p.add_argument("-o", "--output", required=True, metavar="LOG.csv", help="CSV to write (also LOG.json, LOG.log)")
 
 
 def drive_info(drive: Drive) -> dict[str, object]:
@@ -69,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--rate {args.rate}: expected 10000/n Hz for an integer n (e.g. 2000, 1000, 500)")
     if args.duration <= 0:
         raise UserError("--duration must be positive")
-    out = Path(args.out)
+    out = Path(args.output)
     target = choose_drive(args)
     vd = None
     if target.bus is None:
@@ -108,11 +109,11 @@ def _record(args: argparse.Namespace, out: Path, bus: dict[str, Any]) -> int:
 
             raw = _Raw()
             drive.network.notifier.add_listener(raw)
-            by_tick: dict[int, dict[int, bytes]] = {}
+            by_tick: dict[int, dict[str, int]] = {}
             last = None
-            for cob, tick, data in drive.stream(args.duration):
-                last = unwrap_tick(last, tick)      # a recording across the tick's wrap stays in order
-                by_tick.setdefault(last, {})[cob - drive.node_id] = data
+            for fr in drive.stream(args.duration):
+                last = unwrap_tick(last, fr.tick)      # a recording across the tick's wrap stays in order
+                by_tick.setdefault(last, {}).update(fr.values)
             drive.network.notifier.remove_listener(raw)
             drive.configure_stream(0)
         except DriveError as e:
@@ -126,14 +127,14 @@ def _record(args: argparse.Namespace, out: Path, bus: dict[str, Any]) -> int:
         d = by_tick[t]
         if i and (t - ticks[i - 1]) != step:
             lost += (t - ticks[i - 1]) // step - 1
-        if 0x280 not in d or 0x380 not in d or 0x480 not in d:
+        if not all(k in d for k in STREAMED):
             continue
         first = ma is None
-        la = unwrap_phase(la, struct.unpack_from("<I", d[0x280], 4)[0])
-        ma = unwrap_phase(ma, struct.unpack_from("<I", d[0x380], 4)[0])
+        la = unwrap_phase(la, d["load_phase"])
+        ma = unwrap_phase(ma, d["motor_phase"])
         if first:       # the motor's whole turns since power-on are not in the PDO
             ma = align_motor_turns(ma, la, float(info["gear_ratio"]))
-        tq = struct.unpack_from("<i", d[0x480], 4)[0] / 65536.0
+        tq = d["motor_torque"] / 65536.0
         rows.append([t, la * TURN, ma * TURN, tq])
     if len(rows) < 2:
         raise UserError(f"{len(rows)} complete samples received in {args.duration} s: nothing to write to {out}")

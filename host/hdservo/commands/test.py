@@ -5,14 +5,14 @@ its config file and ``CAN_*`` variables; without any of them the command
 refuses), and the rig steps are printed for the operator.  ``--sim [AXIS]`` (or
 ``-i virtual-drive``) runs them on a simulated axis instead (the reference axis,
 or AXIS; a virtual drive per procedure, said on stderr, stopped afterwards).
-Every run prints a summary, ``--json PATH`` writes the figures, ``--plots DIR``
+Every run prints a summary, ``--json PATH`` writes the figures, ``--out-dir DIR``
 the PNG plots (``--pdf`` adds PDFs).
 
 ``--model MODEL.toml`` downloads the compensator parameters and tables of an
 identified model (the code of ``hdservo download``: ``plan_download`` +
 ``write_verified``, every item read back) into the drive before each
 procedure (the virtual drive is a new process per procedure and keeps no
-parameters), ``--params KEY=VALUE`` writes drive parameters by name after it,
+parameters), ``--set NAME=VALUE`` writes drive parameters by name after it,
 ``--compensators`` sets ``cb_enable`` last, so that
 ``serve -> identify -> download -> test`` is a plain CLI chain.
 ``--stab-mode`` chooses how the stabilisation test drives the axis: ``hold``
@@ -99,7 +99,7 @@ def _floats(text: str) -> list[float]:
 
 
 def _param(text: str) -> tuple[str, float]:
-    """``KEY=VALUE`` of ``--params`` (a drive parameter name and a finite number)."""
+    """``NAME=VALUE`` of ``--set`` (a drive parameter name and a finite number)."""
     key, sep, val = text.partition("=")
     try:
         v = float(val)
@@ -131,13 +131,14 @@ def register(p: argparse.ArgumentParser) -> None:
                    help="identified model (hdservo identify -o): download its compensator parameters and tables "
                         "into the drive before each procedure, read back (keys it lacks from the --sim axis, else the "
                         "reference axis)")
-    p.add_argument("--params", type=_param, action="append", default=[], metavar="KEY=VALUE",
+    p.add_argument("--set", dest="params", type=_param, action="append", default=[], metavar="NAME=VALUE",
                    help="drive parameter by name, written (and read back) before each procedure after --model; "
-                        "repeatable, e.g. --params vel_kp=200 --params torque_limit=90")
-    p.add_argument("--json", type=Path, help="write the results as JSON")
-    p.add_argument("--plots", type=Path, help="write PNG plots into this directory")
+                        "repeatable, e.g. --set vel_kp=200 --set torque_limit=90")
+    p.add_argument("--params", dest="params", type=_param, action="append", help=argparse.SUPPRESS)  # older spelling
+    p.add_argument("--json", type=Path, metavar="PATH", help="write the results as JSON")
+    p.add_argument("--out-dir", type=Path, metavar="DIR", help="write PNG plots into this directory")
+    p.add_argument("--plots", dest="out_dir", type=Path, help=argparse.SUPPRESS)   # older spelling
     p.add_argument("--pdf", action="store_true", help="also write PDF plots")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     g = p.add_argument_group("procedure options")
     g.add_argument("--cycles", type=int, default=None, help="torque-loop cycles (stiffness 2, hysteresis 3, lost motion 3)")
     g.add_argument("--te-rate", type=_positive, default=10.0, help="transmission test rate, deg/s (default 10)")
@@ -183,15 +184,15 @@ def register(p: argparse.ArgumentParser) -> None:
 
 
 def _check_params(pairs: list[tuple[str, float]]) -> dict[str, float]:
-    """``--params`` pairs -> {name: value}; unknown names and out-of-range values are errors."""
+    """``--set`` pairs -> {name: value}; unknown names and out-of-range values are errors."""
     from ..params_gen import BY_NAME as PARAMS
     out: dict[str, float] = {}
     for k, v in pairs:
         p = PARAMS.get(k)
         if p is None:
-            raise UserError(f"--params {k}: not a drive parameter (docs/parameters.md)")
+            raise UserError(f"--set {k}: not a drive parameter (docs/parameters.md)")
         if not p.min <= v <= p.max:
-            raise UserError(f"--params {k}={v:g}: outside [{p.min:g}, {p.max:g}] {p.unit}")
+            raise UserError(f"--set {k}={v:g}: outside [{p.min:g}, {p.max:g}] {p.unit}")
         out[k] = v
     return out
 
@@ -232,7 +233,7 @@ def run(args: argparse.Namespace) -> int:
     if args.cycles is not None and args.cycles < 1:
         raise UserError("--cycles must be >= 1")
     _check_out(args.json, "json")
-    _check_out(args.plots, "plots")
+    _check_out(args.out_dir, "out-dir")
     if args.standard_objects:
         return _run_standard(args)
     std_opts = [o for o, v in (("--gear-ratio", args.gear_ratio), ("--sync-period", args.sync_period),
@@ -273,10 +274,10 @@ def run(args: argparse.Namespace) -> int:
                             "axis": choice.axis_name if target.virtual else None, "seed": seed if target.virtual else None,
                             "compensators": comps, "model": str(model) if model is not None else None,
                             "params": params or None, "notes": target.notes}
-    if args.plots is not None:
+    if args.out_dir is not None:
         for res in results:
             if res.plot is not None:
-                res.plot(res, args.plots, "pdf" if args.pdf else "png")
+                res.plot(res, args.out_dir, "pdf" if args.pdf else "png")
     if args.json is not None:
         write_json(args.json, results, meta)
     return 0
@@ -291,7 +292,7 @@ def _run_standard(args: argparse.Namespace) -> int:
         raise UserError(f"test {args.procedure}: not on the standard-objects path (needs hdservo's capture or a "
                         f"test rig); --standard-objects runs {', '.join(sorted(STD_PROCEDURES))}")
     vendor = [o for o, v in (("--model", args.model), ("--compensators", args.compensators),
-                             ("--params", args.params or None)) if v is not None]
+                             ("--set", args.params or None)) if v is not None]
     if vendor:
         raise UserError(f"{', '.join(vendor)}: hdservo drive parameters, not on the standard-objects path")
     if "peak-torque" in names and (args.peak_request is None or not args.output_locked):

@@ -31,6 +31,7 @@ procedure's drive before it runs (:func:`configure`).
 from __future__ import annotations
 
 import json
+import logging
 import os
 import subprocess
 import sys
@@ -113,7 +114,8 @@ class Plan:
 
 
 def _say(msg: str) -> None:
-    print(f"[verify] {msg}", file=sys.stderr, flush=True)
+    """The default progress report: an INFO line of the ``hdservo.verify`` logger."""
+    logging.getLogger("hdservo.verify").info("[verify] %s", msg)
 
 
 # ------------------------------------------------------------------ steps 1 and 2
@@ -122,7 +124,7 @@ def identify(axis: Path, gains: Mapping[str, float], model: Path, target: str = 
              quiet: bool = True) -> dict[str, Any]:
     """``hdservo identify TARGET --sim AXIS -o MODEL --json`` on the virtual drive over CAN.
 
-    The flow's velocity-loop gains are passed with ``--gain`` (the drive's
+    The flow's velocity-loop gains are passed with ``--set`` (the drive's
     defaults are tuned for the reference axis).  Returns the identification
     JSON report; raises RuntimeError on a failure.
     """
@@ -133,7 +135,7 @@ def identify(axis: Path, gains: Mapping[str, float], model: Path, target: str = 
     cmd = [sys.executable, "-m", "hdservo.cli", "identify", target, f"--sim={ax}", "-o", model.name,
            "--json", rep.name, "--seed", str(seed)]
     for k in ("vel_kp", "vel_ki"):
-        cmd += ["--gain", f"{k}={gains[k]!r}"]
+        cmd += ["--set", f"{k}={gains[k]!r}"]
     if quiet:
         cmd.append("-q")
     r = subprocess.run(cmd, capture_output=True, text=True, cwd=cwd)
@@ -699,6 +701,7 @@ def example_main(here: Path, argv: Optional[Sequence[str]] = None, description: 
     except ValueError as e:
         print(f"{name}: --option {e}", file=sys.stderr)
         return 2
+    logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stderr)   # the progress lines
     res = verify(plan)
     print(markdown(res))
     return 0 if res["passed"] == res["judged"] else 1

@@ -34,9 +34,9 @@ load.  On a real drive (free-running) it waits for the streamed loop tick.
 from __future__ import annotations
 
 import contextlib
+import logging
 import math
 import os
-import struct
 import tempfile
 import threading
 import time
@@ -47,6 +47,8 @@ from typing import Any, Callable, Iterator, Mapping, Optional, Sequence
 import numpy as np
 
 from ..errors import UserError
+from .. import progress as progress_mod
+from ..pdo import PdoDecoder
 from . import experiments as ex
 
 from ..fw_const import LOOP_HZ  # noqa: E402
@@ -169,12 +171,17 @@ def chosen_drive(choice: Any, node_id: int) -> Iterator[Any]:
 
 
 class _Stream:
-    """Collects the default stream (TPDO2 load phase, TPDO3 motor phase, TPDO4 motor torque) by tick."""
+    """Collects the default stream (load phase, motor phase, motor torque, each with the loop tick) by tick.
 
-    def __init__(self, node_id: int) -> None:
+    Frames are decoded by the EDS's TPDO maps (:class:`hdservo.pdo.PdoDecoder`).
+    """
+
+    #: streamed object (EDS name) -> column of the collected data
+    SIGNALS = {"load_phase": "load", "motor_phase": "motor", "motor_torque": "torque"}
+
+    def __init__(self, decoder: "PdoDecoder") -> None:
         import can
-        self.cobs = {0x280 + node_id: "load", 0x380 + node_id: "motor", 0x480 + node_id: "torque"}
-        self.data: dict[str, list[tuple[int, int]]] = {k: [] for k in self.cobs.values()}
+        self.data: dict[str, list[tuple[int, int]]] = {k: [] for k in self.SIGNALS.values()}
         self.last_tick = -1
         self.cond = threading.Condition()
         self.on = False
@@ -182,10 +189,14 @@ class _Stream:
 
         class L(can.Listener):
             def on_message_received(self, m: Any) -> None:
-                name = outer.cobs.get(m.arbitration_id)
-                if name is None or len(m.data) < 8:
+                fr = decoder.decode(m.arbitration_id, bytes(m.data))
+                if fr is None:
                     return
-                tick, val = struct.unpack_from("<II", m.data, 0)
+                hit = [(col, fr.values[obj]) for obj, col in outer.SIGNALS.items() if obj in fr.values]
+                if not hit:
+                    return
+                name, val = hit[0]
+                tick = fr.tick
                 with outer.cond:
                     if outer.on:
                         outer.data[name].append((tick, val))
@@ -283,7 +294,7 @@ class DriveRunner:
     notes: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
-        self._stream = _Stream(self.drive.node_id)
+        self._stream = _Stream(self.drive.pdo)
         self.drive.network.notifier.add_listener(self._stream.listener)
         self._tick = 0          # the drive's loop tick the host believes in (lock-step: exact)
         self._ratio: Optional[float] = None
@@ -324,6 +335,23 @@ class DriveRunner:
     def _say(self, msg: str) -> None:
         if self.progress:
             self.progress(msg)
+
+    def _segment_progress(self, label: str) -> Callable[[float], None]:
+        """Progress through one segment, ``f(fraction)``: a tqdm bar on a terminal (while the
+        ``hdservo.progress`` logger shows INFO, i.e. not under ``-q``), else ``label: N %`` lines
+        through the progress callback."""
+        if not self.progress:
+            return lambda frac: None
+        if progress_mod.on_terminal():
+            return progress_mod.Fraction(f"identify {label}",
+                                         enabled=progress_mod.LOG.isEnabledFor(logging.INFO))
+        return lambda frac: self._say(f"{label}: {int(round(100 * frac))} %")
+
+    @staticmethod
+    def _segment_done(bar: Callable[[float], None]) -> None:
+        """End a terminal bar of :meth:`_segment_progress` (the log lines have no end line)."""
+        if isinstance(bar, progress_mod.Fraction):
+            bar(1.0)
 
     def ratio(self) -> float:
         assert self._ratio is not None, "open() first"
@@ -366,15 +394,14 @@ class DriveRunner:
                          f"{int(self.drive.read(0x5F00, 10))})")
 
     def _enable(self, mode: str) -> None:
-        from ..drive import MODES
+        from ..drive import DriveError
         d = self.drive
         if d.state() == "FAULT":
             d.fault_reset() if not self.lockstep else self._fault_reset()
-        d.write(0x6060, 0, MODES[mode])
-        for cw in (0x06, 0x07, 0x0F):
-            d.write(0x6040, 0, cw)
-            self._advance(self.sync_periods)
-        self._wait_state("OPERATION ENABLED")
+        try:        # drive time passes after each controlword and between the polls (200 at most)
+            d.enable(mode, settle=lambda: self._advance(self.sync_periods), timeout=4.0)
+        except DriveError as e:
+            raise DriveError(f"{e}, fault {int(d.read(0x5F00, 10))}") from None
 
     def _fault_reset(self) -> None:
         self.drive.write(0x6040, 0, 0x00)
@@ -397,7 +424,7 @@ class DriveRunner:
         vraw = int(round(vel_rad_s / TURN * 2 ** 32))
         rated = self._rated or 67.0
         pm = max(-32768, min(32767, int(round(torque_Nm / rated * 1000.0))))
-        self.drive.network.send_message(0x400 + self.drive.node_id, struct.pack("<ihh", vraw, pm, 0))
+        self.drive.network.send_message(*self.drive.pdo.encode(3, target_velocity=vraw, target_torque=pm))
         return vraw * TURN / 2 ** 32, pm * rated / 1000.0
 
     def _profile(self, values: Sequence[float], every_ticks: int, send: Callable[[float], tuple[float, float]],
@@ -408,6 +435,7 @@ class DriveRunner:
         t0 = time.monotonic()
         n = len(values)
         step = max(1, n // 10)
+        bar = self._segment_progress(label)
         for k, v in enumerate(values):
             if not self.lockstep:
                 due = t0 + k * every * DT
@@ -418,7 +446,8 @@ class DriveRunner:
             rows[k] = (self._tick, vq, tq)
             self._advance(every, burst=every // self.sync_periods)
             if k % step == 0 and k:
-                self._say(f"{label}: {100 * k // n} %")
+                bar((100 * k // n) / 100.0)
+        self._segment_done(bar)
         return rows
 
     # -- experiments -----------------------------------------------------------------------
@@ -448,12 +477,14 @@ class DriveRunner:
         total = int(round(dur * LOOP_HZ))
         chunk = max(1, int(round(0.25 * total)))
         done = 0
+        bar = self._segment_progress(label)
         while done < total:
             k = min(chunk, total - done)
             self._advance(k)
             done += k
             if done < total:
-                self._say(f"{label}: {100 * done // total} %")
+                bar((100 * done // total) / 100.0)
+        self._segment_done(bar)
         raw = self._stream.stop()
         cols = self._columns(raw, start)
         cols["torque_cmd_Nm"] = cols["motor_torque_Nm"] * self.ratio()

@@ -17,15 +17,15 @@ through a temporary file (no half-written output).
 """
 from __future__ import annotations
 
-import json
 import math
 import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Optional
 
 import numpy as np
+
+from ..fileio import save_figure_atomic, write_json_atomic
 
 FORMAT = "hdservo-test"
 VERSION = 1
@@ -91,16 +91,7 @@ def write_json(path: "str | os.PathLike[str]", results: list[Result], meta: dict
            "results": {r.name: r.to_json() for r in results},
            "headline": _clean({k: v for r in results for k, v in r.headline.items()})}
     p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=".test.", suffix=".json")
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(doc, f, indent=2, allow_nan=False)
-            f.write("\n")
-        os.replace(tmp, p)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return p
+    return write_json_atomic(p, doc)
 
 
 def save_figure(fig: Any, out_dir: Path, stem: str, fmt: str = "png", label: str = "") -> list[Path]:
@@ -116,16 +107,7 @@ def save_figure(fig: Any, out_dir: Path, stem: str, fmt: str = "png", label: str
         fig.tight_layout()
     paths = []
     for ext in ("png", "pdf") if fmt == "pdf" else ("png",):
-        p = out_dir / f"{stem}.{ext}"
-        fd, tmp = tempfile.mkstemp(dir=out_dir, prefix=".plot.", suffix=f".{ext}")
-        os.close(fd)
-        try:
-            fig.savefig(tmp, dpi=110, format=ext)
-            os.replace(tmp, p)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-        paths.append(p)
+        paths.append(save_figure_atomic(fig, out_dir / f"{stem}.{ext}", dpi=110))
     plt.close(fig)
     return paths
 

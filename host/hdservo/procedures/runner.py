@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import contextlib
 import math
-import struct
 import sys
 import tempfile
 import threading
@@ -33,6 +32,8 @@ import can
 import numpy as np
 
 from ..errors import UserError
+from ..pdo import STATUS_PDO
+from ..progress import Fraction
 from ..serve_proc import ServeProcess
 from ..drive import Drive, DriveError
 from ..params_gen import BY_NAME as PARAMS
@@ -94,28 +95,8 @@ class RigSetup:
 
 # ---- progress ---------------------------------------------------------------------------
 
-class Progress:
-    """A one-line text progress indicator on stderr (``\\r``-updated on a terminal)."""
-
-    def __init__(self, name: str, enabled: bool = True) -> None:
-        self.name = name
-        self.enabled = enabled
-        self.tty = sys.stderr.isatty()
-        self._last = -1.0
-
-    def __call__(self, frac: float, text: str = "") -> None:
-        if not self.enabled:
-            return
-        pct = max(0.0, min(1.0, frac)) * 100.0
-        if not self.tty and pct < 100.0 and pct - self._last < 10.0:
-            return
-        self._last = pct
-        line = f"[{self.name}] {pct:5.1f}% {text}"
-        if self.tty:
-            sys.stderr.write("\r" + line[:100].ljust(100) + ("\n" if pct >= 100.0 else ""))
-        else:
-            sys.stderr.write(line + "\n")
-        sys.stderr.flush()
+#: a procedure's progress indicator, ``progress(frac, text)`` (:class:`hdservo.progress.Fraction`)
+Progress = Fraction
 
 
 # ---- the virtual drive process -------------------------------------------------------------
@@ -307,23 +288,27 @@ class Bench:
 
     # -- time --
     def _attach_sync(self) -> None:
-        cob = 0x180 + self.node_id
+        pdo = self.drive.pdo
+        cob = pdo.cob_id(STATUS_PDO)
         ev = self._ev
         cv = self._cv
         bench = self
 
         class L(can.Listener):
             def on_message_received(self, m: can.Message) -> None:
-                if m.arbitration_id == cob and len(m.data) >= 8:
+                if m.arbitration_id != cob:
+                    return
+                fr = pdo.decode(cob, bytes(m.data))
+                if fr is not None:
                     with cv:
-                        bench._tick = struct.unpack_from("<I", m.data, 4)[0]
+                        bench._tick = fr.tick
                         bench._answers += 1
                         cv.notify_all()
                     ev.set()
 
         self._listener = L()
         self.drive.network.notifier.add_listener(self._listener)
-        self.drive.write(0x1800, 2, 1)   # TPDO1 synchronous: one answer per SYNC
+        self.drive.write(0x1800 + STATUS_PDO - 1, 2, 1)   # the status TPDO synchronous: one answer per SYNC
 
     #: SYNCs sent at once by :meth:`wait` and :meth:`capture` in lock-step (the drive queues the
     #: credit; the host waits for every answer before its next request, so drive time stays exact)
@@ -396,16 +381,7 @@ class Bench:
                 self.drive.fault_reset()
             self.drive.enable(mode)
             return
-        from ..drive import MODES
-        self.drive.write(0x6060, 0, MODES[mode])
-        for cw in (0x06, 0x07, 0x0F):
-            self.drive.write(0x6040, 0, cw)
-            self.sync()
-        for _ in range(50):
-            if self.drive.state() == "OPERATION ENABLED":
-                return
-            self.sync()
-        raise DriveError(f"drive did not enable (state {self.drive.state()})")
+        self.drive.enable(mode, settle=self.sync)      # a SYNC after each controlword and between polls
 
     def disable(self) -> None:
         """Power stage off."""
@@ -440,13 +416,13 @@ class Bench:
 
     def rpdo_position(self, rad: float, vel_rad_s: float = 0.0) -> None:
         """RPDO2: target position (2^-24 turn) + velocity offset (2^-32 turn/s)."""
-        data = struct.pack("<ii", self.target_position_raw(rad), int(round(vel_rad_s / TURN * 2 ** 32)))
-        self.drive.network.send_message(0x300 + self.node_id, data)
+        self.drive.network.send_message(*self.drive.pdo.encode(
+            2, target_position=self.target_position_raw(rad), velocity_offset=int(round(vel_rad_s / TURN * 2 ** 32))))
 
     def rpdo_torque(self, torque_Nm: float, rated_Nm: float) -> None:
         """RPDO3: target velocity 0, target torque (per mille of the rated torque), offset 0."""
         pm = max(-32768, min(32767, int(round(torque_Nm / rated_Nm * 1000.0))))
-        self.drive.network.send_message(0x400 + self.node_id, struct.pack("<ihh", 0, pm, 0))
+        self.drive.network.send_message(*self.drive.pdo.encode(3, target_torque=pm))
 
     def stream(self, values: Sequence[float], send: Callable[[float], None],
                progress: Optional[Callable[[float], None]] = None) -> None:
@@ -560,7 +536,7 @@ class Target:
     #: compensator download (:func:`hdservo.download.plan_download`), written and read back
     #: into the drive before each procedure (the virtual drive keeps no parameters)
     download: Optional[Mapping[str, Any]] = None
-    #: drive parameters by name (``--params KEY=VALUE``), written after the download, read back
+    #: drive parameters by name (``--set NAME=VALUE``), written after the download, read back
     params: dict[str, float] = field(default_factory=dict)
     #: virtual only: the object profile of the virtual drive (``hdservo`` or ``generic``: CiA 301/402
     #: standard objects only, no test rig)
@@ -620,16 +596,16 @@ def configure_drive(drive: Drive, target: Target) -> list[str]:
         for name, v in target.params.items():
             p = PARAMS.get(name)
             if p is None:
-                raise UserError(f"--params: unknown drive parameter '{name}'")
+                raise UserError(f"--set: unknown drive parameter '{name}'")
             if not p.min <= float(v) <= p.max:
-                raise UserError(f"--params: {name} = {v:g} outside [{p.min:g}, {p.max:g}] {p.unit}")
+                raise UserError(f"--set: {name} = {v:g} outside [{p.min:g}, {p.max:g}] {p.unit}")
             try:
                 drive.set_param(name, float(v))
                 back = float(drive.get_param(name))
             except DriveError as e:
-                raise UserError(f"--params: {name}: {e}") from None
+                raise UserError(f"--set: {name}: {e}") from None
             if abs(back - float(v)) > 2.0 ** -p.frac * 1.01 + 1e-12 * abs(float(v)):
-                raise UserError(f"--params: {name}: read back {back:g}, wrote {float(v):g}")
+                raise UserError(f"--set: {name}: read back {back:g}, wrote {float(v):g}")
         notes.append("params: " + ", ".join(f"{k}={v:g}" for k, v in target.params.items()))
     note = apply_compensators(drive, target.compensators)
     if note:

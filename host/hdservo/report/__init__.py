@@ -24,11 +24,12 @@ import html
 import html.parser
 import json
 import os
-import tempfile
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Optional, Sequence
 
 import numpy as np
+
+from ..fileio import write_text_atomic
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -425,15 +426,7 @@ def build_report(out: Path, compare: Optional[Path] = None, tests: Sequence[Path
             f"<title>{esc(title)}</title><style>{CSS}</style></head><body>\n" + "\n".join(body)
             + "\n</body></html>\n")
     out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(page)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, out)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    write_text_atomic(out, page)            # no half-written page; the user's umask
     return {"path": out, "plots": [str(p) for p in imgs.used], "bytes": len(page.encode("utf-8"))}
 
 
