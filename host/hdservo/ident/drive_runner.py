@@ -290,6 +290,7 @@ class DriveRunner:
         self._rated: Optional[float] = None
         self._cal: Optional[tuple[float, float]] = None
         self._last_torque = 0.0   # the last locked torque set-point sent (N.m, output side)
+        self._gains_before: dict[str, float] = {}   # the drive's own gains, restored by close()
 
     # -- lifecycle ----------------------------------------------------------
     def open(self) -> None:
@@ -309,13 +310,29 @@ class DriveRunner:
         self._ratio = float(d.get_param("gear_ratio"))
         self._rated = float(d.read(0x6076)) / 1000.0
 
+    def commissioned_inertia_kgm2(self) -> float:
+        """The drive's commissioned total inertia ``j_total`` (J_L + N^2 J_m), kg.m^2."""
+        return float(self.drive.get_param("j_total"))
+
+    def set_gains(self, gains: Mapping[str, float]) -> None:
+        """Set drive gains for the following experiments; :meth:`close` restores the drive's own values."""
+        for k, v in gains.items():
+            if k not in self._gains_before:
+                self._gains_before[k] = float(self.drive.get_param(k))
+            self.drive.set_param(k, float(v))
+
     def close(self) -> None:
-        """Power stage off and detach (the caller closes the bus)."""
+        """Power stage off, the drive's own gains back, detach (the caller closes the bus)."""
         try:
             self.drive.write(0x6040, 0, 0x00)
             self._advance(self.sync_periods)
         except Exception:       # noqa: BLE001 - best effort on the way out
             pass
+        for k, v in self._gains_before.items():
+            try:
+                self.drive.set_param(k, v)
+            except Exception:   # noqa: BLE001 - best effort on the way out
+                pass
         try:
             self.drive.network.notifier.remove_listener(self._stream.listener)
         except (ValueError, AttributeError):
