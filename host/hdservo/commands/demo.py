@@ -55,7 +55,11 @@ def register(p: argparse.ArgumentParser) -> None:
     p.add_argument("--jobs", type=int, default=2, help="controllers run at the same time (default 2)")
     p.add_argument("--procedures", default=",".join(cmp.DEFAULT_PROCEDURES), help="procedures run per controller")
     p.add_argument("--quick", action="store_true", help="shortened procedures (hdservo compare --quick)")
-    p.add_argument("--seed", type=int, default=1, help="sensor-noise seed of the virtual drives")
+    p.add_argument("--seed", type=int, default=None, help="sensor-noise seed of the virtual drives (default 1)")
+    p.add_argument("--seeds", default=None, metavar="LIST",
+                   help="sensor-noise seeds, e.g. 1,2,3: the comparison runs once per seed (parallel processes, "
+                        "--jobs at a time) and summary.json / ablation.json hold the medians with every seed's "
+                        "values; the identification runs with the first seed")
 
 
 def _say(step: int, text: str, t0: float) -> None:
@@ -97,6 +101,14 @@ def run(args: argparse.Namespace) -> int:
         axis = str(ap.resolve())
     if args.jobs < 1:
         raise UserError(f"--jobs {args.jobs}: must be >= 1")
+    from .. import seeds as sd
+    if args.seeds is not None and args.seed is not None:
+        raise UserError("--seed and --seeds: give one (--seeds N is one seed)")
+    try:
+        seeds = sd.parse_seeds(args.seeds) if args.seeds is not None else [1 if args.seed is None else args.seed]
+    except ValueError as e:
+        raise UserError(str(e)) from None
+    seed = seeds[0]
     ablation = args.controllers.strip() == "ablation"
     try:
         fbs = cmp.feedback_names(args.feedback) if args.feedback is not None else cmp.default_feedbacks()
@@ -133,13 +145,13 @@ def run(args: argparse.Namespace) -> int:
     print(f"hdservo demo: using a simulated drive (virtual drive, axis {aname}); your real drive is not touched",
           file=sys.stderr, flush=True)
     _say(1, f"starting the virtual axis {aname} (hdservo-sim serve)", t0)
-    drive = VirtualDriveProcess(axis, pacing="fast", seed=args.seed)
+    drive = VirtualDriveProcess(axis, pacing="fast", seed=seed)
     try:
         print(f"  virtual drive: CANopen node 1 on socketcand 127.0.0.1:{drive.port}", flush=True)
 
         _say(2, "identifying the axis over CAN (hdservo identify all)", t0)
         _hdservo(["identify", "all", f"--sim={axis}", "-o", str(model), "--json", str(out / "identify.json"),
-                  "--plots", str(out / "identify-plots"), "--seed", str(args.seed)], "identification",
+                  "--plots", str(out / "identify-plots"), "--seed", str(seed)], "identification",
                  out / "identify.txt")
 
         _say(3, f"downloading the compensator parameters to the virtual drive (port {drive.port})", t0)
@@ -148,25 +160,35 @@ def run(args: argparse.Namespace) -> int:
                  out / "download.txt")
 
         _say(4, "running the procedures: fair PID, each compensator, best, leave-one-out (hdservo compare)", t0)
-        kw = dict(proc_extra=extra, axis=axis, seed=args.seed, model=model, jobs=args.jobs,
-                  echo=lambda s: print(f"  {s}", flush=True))
-        try:
-            if ablation:
-                doc = cmp.run_ablation(out / "compare", fbs, procs, **kw)
-            else:
-                doc = cmp.run_compare(out / "compare", ctls, procs, **kw)
-        except ValueError as e:
-            raise UserError(str(e)) from None
+        if len(seeds) == 1:
+            kw = dict(proc_extra=extra, axis=axis, seed=seed, model=model, jobs=args.jobs,
+                      echo=lambda s: print(f"  {s}", flush=True))
+            try:
+                if ablation:
+                    doc = cmp.run_ablation(out / "compare", fbs, procs, **kw)
+                else:
+                    doc = cmp.run_compare(out / "compare", ctls, procs, **kw)
+            except ValueError as e:
+                raise UserError(str(e)) from None
+            compare_json = out / "compare" / "compare.json"
+            summ, abl = cmp.summary_doc(doc), cmp.ablation_doc(doc)
+        else:
+            docs = _compare_per_seed(out / "compare", seeds, axis, model, args, fbs, procs)
+            doc = docs[0]
+            compare_json = out / "compare" / f"seed-{seed}" / "compare.json"
+            summ = sd.merge_summaries([cmp.summary_doc(d) for d in docs], seeds)
+            abl = sd.merge_ablations([cmp.ablation_doc(d) for d in docs], seeds)
 
         _say(5, "writing the report (hdservo report)", t0)
-        summ = cmp.summary_doc(doc)
         cmp._write_json_atomic(out / "summary.json", summ)
-        cmp._write_json_atomic(out / "ablation.json", cmp.ablation_doc(doc))
+        cmp._write_json_atomic(out / "ablation.json", abl)
+        seed_line = (f"seed {seed}" if len(seeds) == 1 else
+                     f"seed {seed} shown; summary.json / ablation.json: medians of seeds {','.join(map(str, seeds))}")
         try:
-            info = build_report(out / "report.html", compare=out / "compare" / "compare.json",
+            info = build_report(out / "report.html", compare=compare_json,
                                 identify=out / "identify.json", download=out / "download.json",
                                 title=f"hdservo demo: axis {aname}, fair PID baseline vs compensation",
-                                summary_lines=[f"hdservo demo on the virtual axis {aname} (seed {args.seed}); "
+                                summary_lines=[f"hdservo demo on the virtual axis {aname} ({seed_line}); "
                                                f"compensated = '{doc['best']}': "
                                                f"{doc['controllers'][doc['best']]['description']}"])
             verified = verify_report(out / "report.html")     # every plot file exists, holds data, is embedded
@@ -194,7 +216,67 @@ def run(args: argparse.Namespace) -> int:
             print(f"FAILED {c}/{proc}: {'; '.join(notes)}")
     print(f"report:  {out / 'report.html'} ({info['bytes'] / 1e6:.1f} MB, {len(verified)} plots embedded and "
           f"checked against their files)")
+    if len(seeds) > 1:
+        print()
+        print(median_table(summ))
     print(f"summary: {out / 'summary.json'}; ablation: {out / 'ablation.json'}; all controllers: "
-          f"{out / 'compare' / 'compare.json'}")
+          f"{compare_json}")
     print(f"demo: done in {el:.0f} s ({int(el // 60)} min {int(el % 60)} s); virtual drive stopped")
     return 0
+
+
+def _compare_per_seed(root: Path, seeds: Sequence[int], axis: str, model: Path, args: argparse.Namespace,
+                      fbs: Sequence[str], procs: Sequence[str]) -> list[dict]:
+    """One ``hdservo compare`` process per seed (``--jobs`` at a time, one row at a time each), in seed order.
+
+    Each writes ``ROOT/seed-S/`` (its log ``compare.txt`` beside); a process that fails is one error
+    line naming the seed and its log.
+    """
+    import json
+    root.mkdir(parents=True, exist_ok=True)
+    base = [sys.executable, "-m", "hdservo.cli", "compare", f"--sim={axis}", "--model", str(model),
+            "--controllers", args.controllers, "--feedback", ",".join(fbs), "--procedures", ",".join(procs),
+            "--jobs", "1", "-q"] + (["--quick"] if args.quick else [])
+    pending = list(seeds)
+    running: list[tuple[int, subprocess.Popen, object]] = []
+    failed: list[str] = []
+    while pending or running:
+        while pending and len(running) < args.jobs:
+            s = pending.pop(0)
+            d = root / f"seed-{s}"
+            d.mkdir(parents=True, exist_ok=True)
+            log = open(d / "compare.txt", "w")
+            print(f"  seed {s}: hdservo compare -o {d} (log {d / 'compare.txt'})", flush=True)
+            running.append((s, subprocess.Popen([*base, "--seed", str(s), "-o", str(d)], stdout=log,
+                                                stderr=subprocess.STDOUT), log))
+        time.sleep(0.5)
+        for item in list(running):
+            s, p, log = item
+            if p.poll() is None:
+                continue
+            log.close()             # type: ignore[attr-defined]
+            running.remove(item)
+            print(f"  seed {s}: done (exit {p.returncode})", flush=True)
+            if p.returncode != 0:
+                failed.append(f"seed {s} (exit {p.returncode}, log {root / f'seed-{s}' / 'compare.txt'})")
+    if failed:
+        raise UserError(f"comparison failed for {', '.join(failed)}")
+    return [json.loads((root / f"seed-{s}" / "compare.json").read_text()) for s in seeds]
+
+
+def median_table(summ: dict) -> str:
+    """Medians over the seeds: figure, fair PID, compensated, ratio, and the per-seed values."""
+    lines = [f"medians over seeds {','.join(map(str, summ['seeds']))} (per seed in brackets):",
+             f"{'figure':<44s}{'fair PID':>12s}{'compensated':>14s}{'ratio':>8s}  per seed (pid / compensated)"]
+    for k, v in summ.items():
+        if k == "conditions" or not isinstance(v, dict) or "per_seed" not in v:
+            continue
+        p, c = v["pid"], v["compensated"]
+        r = f"{c / p:.3g}" if p not in (None, 0) and c is not None else "-"
+        per = ", ".join(f"{_g(a)} / {_g(b)}" for a, b in zip(v["per_seed"]["pid"], v["per_seed"]["compensated"]))
+        lines.append(f"{k:<44s}{_g(p):>12s}{_g(c):>14s}{r:>8s}  [{per}]")
+    return "\n".join(lines)
+
+
+def _g(v: object) -> str:
+    return "-" if v is None else f"{float(v):.4g}"  # type: ignore[arg-type]
