@@ -145,7 +145,7 @@ def _draw(rng: np.random.Generator, base: Mapping[str, Mapping[str, Any]]) -> tu
                                 * (k1 / base["stiffness_cubic"]["k1_Nm_per_rad"]) ** 3 / (t1 / REF_T1) ** 2)
     p["load"]["jl_kgm2"] = jl
     # friction: both sides share the output-referred Stribeck velocity and the exponent
-    vs_out = _lu(rng, 0.005, 0.05)
+    vs_out = round(_lu(rng, 0.005, 0.05), 6)     # 6 decimals: N x vs_out stays exact in the axis file's 10 digits
     delta = u(1.5, 2.5)
     sides = {"friction_motor": (0.1 * s ** 2, base["friction_motor"]["viscous_Nms_per_rad"] * s ** 2, vs_out * ratio),
              "friction_load": (0.6 * s ** 3, base["friction_load"]["viscous_Nms_per_rad"] * s ** 3, vs_out)}
