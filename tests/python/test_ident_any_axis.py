@@ -113,3 +113,21 @@ def test_unusable_frf_inertia_is_ignored() -> None:
     assert tun.frf_inertia([_FRF(0.02, -0.1, 0.3)]) is None
     assert tun.frf_inertia([_FRF(0.02, float("nan"), 0.3)]) is None
     assert tun.frf_inertia([_FRF(0.02, 0.1, 0.3)]) == pytest.approx(0.4)
+
+
+def test_locked_setpoints_reverse_only_at_the_turning_points() -> None:
+    """Turning points half a CAN step off the grid (a median of an even number of samples): the
+    set-points the drive receives (rounded to 1/1000 of rated, as RPDO3) reverse only at the
+    turning points, so the stretch through T = 0 stays one stretch for the hysteresis-loss fit."""
+    import numpy as np
+
+    from hdservo.ident import drive_runner as dr
+    from hdservo.ident.hysteresis import split_reversals
+    lsb = 67.0 / 1000.0
+    for k in range(-40, 40):
+        for a in (68.407, 68.4, 30.1234):
+            pts = [a, (k + 0.5) * lsb, -a, (k + 0.5) * lsb]
+            prof = dr.locked_setpoints(pts, 60.0, 0.002, lsb)
+            sent = np.array([round(x / lsb) for x in prof], dtype=float) * lsb     # as DriveRunner._rpdo3
+            # 0 -> a up, a -> b -> -a down (one stretch through T = 0), -a -> b up: three stretches
+            assert len(split_reversals(sent)) == 3, (a, k)
