@@ -63,7 +63,8 @@ def test_parse_seeds() -> None:
 def test_demo_seed_options_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     out = tmp_path / "d"
     for argv, word in ((["--seeds", "1,a"], "'a' is not an integer"), (["--seeds", "2,2"], "twice"),
-                       (["--seed", "1", "--seeds", "1,2"], "--seed and --seeds")):
+                       (["--seed", "1", "--seeds", "1,2"], "--seed and --seeds"),
+                       (["--torque-max", "-1"], "--torque-max -1.0: expected a positive number")):
         assert main(["demo", "-o", str(out), *argv]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and word in err[0] and not out.exists(), err

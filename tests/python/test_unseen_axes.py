@@ -59,3 +59,4 @@ def test_headline_factors_and_relaxed_targets() -> None:
     assert t["tracking_rms_0p01_arcsec"]["met"] is False       # 1.5 < 3 / 1.5
     assert t["reversal_peak_arcsec"]["met"] is None and t["stabilisation_rms_arcsec"]["met"] is None
     assert m.targets(h, factor=1.0)["positioning_accuracy_arcsec"]["met"] is False
+    assert m.cycle_amplitude(48.0) == 63.0 and m.cycle_amplitude(10.0) == 13.0

@@ -8,6 +8,8 @@ download, the ablation, report) under ``build/results/unseen_axes/<axis>/``, the
 * the identification error of every identified quantity against the axis file
   (:func:`ident_errors`: total friction Fs/Fc/vs/viscous, K1..K3, T1/T2, the 2x WG TE line,
   the motor-side LuGre sigma0, the inertias);
+* the stiffness cycle at 1.3 T2 of the drawn gear (``--torque-max``: catalogue data a user gives,
+  as for csf17_50 in docs/identification.md);
 * the headline ratios fair PID / compensated per figure (:func:`headline`, from the demo's
   ``summary.json``) and the issue's targets relaxed by :data:`UNSEEN_FACTOR` (:func:`targets`).
 
@@ -119,9 +121,15 @@ def targets(head: Mapping[str, Mapping[str, Optional[float]]], factor: float = U
     return out
 
 
-def run_axis(path: Path, out: Path, quick: bool) -> dict[str, Any]:
-    """``hdservo demo --axis PATH -o OUT``; returns its summary, identification errors and run time."""
-    cmd = [str(ROOT / ".venv" / "bin" / "python"), "-m", "hdservo.cli", "demo", "--axis", str(path), "-o", str(out)]
+def cycle_amplitude(t2_Nm: float) -> float:
+    """Stiffness-cycle amplitude from the gear's catalogue T2, N.m: 1.3 T2 rounded up (docs/identification.md)."""
+    return float(math.ceil(1.3 * t2_Nm))
+
+
+def run_axis(path: Path, out: Path, quick: bool, torque_max_Nm: float) -> dict[str, Any]:
+    """``hdservo demo --axis PATH -o OUT --torque-max T``; returns its summary, identification errors and run time."""
+    cmd = [str(ROOT / ".venv" / "bin" / "python"), "-m", "hdservo.cli", "demo", "--axis", str(path), "-o", str(out),
+           "--torque-max", repr(torque_max_Nm)]
     if quick:
         cmd.append("--quick")
     t0 = time.monotonic()
@@ -133,6 +141,7 @@ def run_axis(path: Path, out: Path, quick: bool) -> dict[str, Any]:
     with open(path, "rb") as f:
         axis = tomllib.load(f)
     res: dict[str, Any] = {"axis_file": os.path.relpath(path, ROOT), "demo_exit": rc, "run_time_s": el,
+                           "torque_max_Nm": torque_max_Nm,
                            "log": os.path.relpath(out / "demo.log", ROOT)}
     if (out / "model.toml").is_file():
         with open(out / "model.toml", "rb") as f:
@@ -161,7 +170,8 @@ def main(argv: Optional[list[str]] = None) -> int:
     for p in paths:
         name = p.stem
         print(f"unseen axis {name}: hdservo demo --axis {p}", flush=True)
-        r = run_axis(p, work / name, a.quick)
+        # the cycle amplitude is the gear's catalogue rating, as a user reads it off the data sheet
+        r = run_axis(p, work / name, a.quick, cycle_amplitude(gen[name].params["stiffness"]["t2_Nm"]))
         r["axis"] = gen[name].summary()
         doc["axes"][name] = r
         worst = max((abs(v) for v in r.get("identification_error", {}).values() if v is not None), default=None)

@@ -23,6 +23,7 @@ Outputs under ``OUT`` (default ``build/demo``): ``model.toml`` (+ ``model.preisa
 from __future__ import annotations
 
 import argparse
+import math
 import shutil
 import subprocess
 import sys
@@ -56,6 +57,9 @@ def register(p: argparse.ArgumentParser) -> None:
     p.add_argument("--procedures", default=",".join(cmp.DEFAULT_PROCEDURES), help="procedures run per controller")
     p.add_argument("--quick", action="store_true", help="shortened procedures (hdservo compare --quick)")
     p.add_argument("--seed", type=int, default=None, help="sensor-noise seed of the virtual drives (default 1)")
+    p.add_argument("--torque-max", type=float, default=None, metavar="NM",
+                   help="stiffness-cycle amplitude of the identification, N.m output (catalogue: >= 1.3 T2 of the "
+                        "gear; default that of hdservo identify, 67)")
     p.add_argument("--seeds", default=None, metavar="LIST",
                    help="sensor-noise seeds, e.g. 1,2,3: the comparison runs once per seed (parallel processes, "
                         "--jobs at a time) and summary.json / ablation.json hold the medians with every seed's "
@@ -109,6 +113,9 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as e:
         raise UserError(str(e)) from None
     seed = seeds[0]
+    if args.torque_max is not None and not (math.isfinite(args.torque_max) and args.torque_max > 0):
+        raise UserError(f"--torque-max {args.torque_max}: expected a positive number of N.m")
+    tmax = [] if args.torque_max is None else ["--torque-max", repr(float(args.torque_max))]
     ablation = args.controllers.strip() == "ablation"
     try:
         fbs = cmp.feedback_names(args.feedback) if args.feedback is not None else cmp.default_feedbacks()
@@ -151,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
 
         _say(2, "identifying the axis over CAN (hdservo identify all)", t0)
         _hdservo(["identify", "all", f"--sim={axis}", "-o", str(model), "--json", str(out / "identify.json"),
-                  "--plots", str(out / "identify-plots"), "--seed", str(seed)], "identification",
+                  "--plots", str(out / "identify-plots"), "--seed", str(seed), *tmax], "identification",
                  out / "identify.txt")
 
         _say(3, f"downloading the compensator parameters to the virtual drive (port {drive.port})", t0)
