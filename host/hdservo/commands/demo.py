@@ -16,6 +16,10 @@
    (``{figure: {"pid": .., "compensated": ..}, "conditions": ..}``) and ``OUT/ablation.json``,
    stop the virtual drive, print the run time.
 
+``--seeds 1,2,3``: step 4 runs one ``hdservo compare`` process per sensor-noise seed (``--jobs``
+at a time) into ``OUT/compare/seed-S/``, and ``summary.json`` / ``ablation.json`` hold the medians
+over the seeds with every seed's values (:mod:`hdservo.seeds`); the report shows the first seed.
+
 Outputs under ``OUT`` (default ``build/demo``): ``model.toml`` (+ ``model.preisach.bin``),
 ``identify.json``, ``identify-plots/``, ``download.json``, ``compare/``, ``report.html``,
 ``summary.json``, ``ablation.json`` (:data:`OUTPUTS`; removed at the start, so nothing is reused from an earlier run).
