@@ -251,6 +251,37 @@ def schroeder_multisine(t: np.ndarray, f0: float, f1: float, lines: int) -> np.n
 # ----------------------------------------------------------------- the runner
 
 
+def locked_setpoints(turning_points: Sequence[float], rate_Nm_s: float, dt_s: float, lsb_Nm: float,
+                     dwell_s: float = 0.05) -> np.ndarray:
+    """Torque set-points of a locked-output profile, turning points on the CAN set-point grid.
+
+    The target torque travels in steps of ``lsb_Nm`` (1/1000 of the rated torque).  A turning
+    point between two steps -- half a step is common: the friction shift is a median of an even
+    number of samples -- lets the last ramp sample and the dwell at the same point round to
+    neighbouring steps, and the command reverses by one step at the turning point; the fits
+    (``hysteresis.split_reversals``) then see an extra reversal and the stretch through T = 0 is cut
+    in two.  On the grid, every ramp sample rounds between its two turning points.
+
+    Parameters
+    ----------
+    turning_points : sequence of float
+        Turning points, N.m (output side), the profile starting from 0.
+    rate_Nm_s, dt_s : float
+        Ramp rate (N.m/s) and set-point period (s).
+    lsb_Nm : float
+        Set-point step, N.m (> 0).
+    dwell_s : float
+        Hold at each turning point, s.
+
+    Returns
+    -------
+    numpy.ndarray
+        Set-points, one per ``dt_s``.
+    """
+    pts = [round(float(p) / lsb_Nm) * lsb_Nm for p in turning_points]
+    return ex.triangle_profile(pts, rate_Nm_s, dt_s, dwell_s=dwell_s)
+
+
 @dataclass
 class DriveRunner:
     """Run experiment designs on a drive (real or virtual) over CAN.
@@ -301,6 +332,7 @@ class DriveRunner:
         self._rated: Optional[float] = None
         self._cal: Optional[tuple[float, float]] = None
         self._last_torque = 0.0   # the last locked torque set-point sent (N.m, output side)
+        self._gains_before: dict[str, float] = {}   # the drive's own gains, restored by close()
 
     # -- lifecycle ----------------------------------------------------------
     def open(self) -> None:
@@ -320,13 +352,29 @@ class DriveRunner:
         self._ratio = float(d.get_param("gear_ratio"))
         self._rated = float(d.read(0x6076)) / 1000.0
 
+    def commissioned_inertia_kgm2(self) -> float:
+        """The drive's commissioned total inertia ``j_total`` (J_L + N^2 J_m), kg.m^2."""
+        return float(self.drive.get_param("j_total"))
+
+    def set_gains(self, gains: Mapping[str, float]) -> None:
+        """Set drive gains for the following experiments; :meth:`close` restores the drive's own values."""
+        for k, v in gains.items():
+            if k not in self._gains_before:
+                self._gains_before[k] = float(self.drive.get_param(k))
+            self.drive.set_param(k, float(v))
+
     def close(self) -> None:
-        """Power stage off and detach (the caller closes the bus)."""
+        """Power stage off, the drive's own gains back, detach (the caller closes the bus)."""
         try:
             self.drive.write(0x6040, 0, 0x00)
             self._advance(self.sync_periods)
         except Exception:       # noqa: BLE001 - best effort on the way out
             pass
+        for k, v in self._gains_before.items():
+            try:
+                self.drive.set_param(k, v)
+            except Exception:   # noqa: BLE001 - best effort on the way out
+                pass
         try:
             self.drive.network.notifier.remove_listener(self._stream.listener)
         except (ValueError, AttributeError):
@@ -612,7 +660,7 @@ class DriveRunner:
                         prev = float(p)
                 every = self.setpoint_ticks_locked
                 self._ramp_to_zero(float(seg["rate_Nm_s"]))
-                prof = ex.triangle_profile(shifted, float(seg["rate_Nm_s"]), every * DT, dwell_s=0.05)
+                prof = locked_setpoints(shifted, float(seg["rate_Nm_s"]), every * DT, (self._rated or 67.0) / 1000.0)
                 parts.append((self._locked_profile(prof, every, label, seed), seg))
                 self._check_fault(design.kind)
             self._ramp_to_zero(float(plan[-1]["rate_Nm_s"]))
@@ -781,4 +829,4 @@ class DriveSession:
                 self.vd = None
 
 
-__all__ = ["DriveRunner", "DriveSession", "VirtualDrive", "schroeder_multisine", "unwrap_turns"]
+__all__ = ["DriveRunner", "DriveSession", "VirtualDrive", "locked_setpoints", "schroeder_multisine", "unwrap_turns"]

@@ -477,6 +477,18 @@ class SimRunner:
         from .. import sim
         return float(self.params.get("gear.ratio", sim.axis_param("gear.ratio", self._axis_ref())))
 
+    def commissioned_inertia_kgm2(self) -> float:
+        """Total inertia J_L + N^2 J_m the simulated drive is commissioned with (its ``j_total``), kg.m^2."""
+        from .. import sim
+        ax = self._axis_ref()
+        val = {k: float(self.params.get(k, sim.axis_param(k, ax))) for k in ("gear.ratio", "motor.jm_kgm2",
+                                                                              "load.jl_kgm2")}
+        return val["load.jl_kgm2"] + val["gear.ratio"] ** 2 * val["motor.jm_kgm2"]
+
+    def set_gains(self, gains: Mapping[str, float]) -> None:
+        """Drive gains for the following closed-loop experiments (by parameter name, table units)."""
+        self.gains = {**dict(self.gains), **{k: float(v) for k, v in gains.items()}}
+
     def _bench(self) -> dict[str, float | bool]:
         return {"base.enabled": False, **dict(self.params)}
 

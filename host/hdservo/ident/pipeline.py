@@ -22,6 +22,7 @@ from . import hysteresis as hy
 from . import stiffness as stf
 from . import stribeck_online as so
 from . import te as tem
+from . import tuning as tun
 
 TARGETS = ("friction", "stiffness", "hysteresis", "te", "frf", "presliding", "all")
 
@@ -34,6 +35,10 @@ class Settings:
     rated_torque_Nm: float | None = None  # for lost motion (+-4 %); default torque_max
     preisach_levels: int = 32
     maxwell_elements: int = 8
+    #: set the velocity PI from the axis' inertia before the closed-loop experiments (ident/tuning.py)
+    tune_velocity_loop: bool = True
+    #: gain names the user fixed (``--gain``): never retuned
+    fixed_gains: tuple[str, ...] = ()
 
 
 @dataclass
@@ -58,6 +63,8 @@ class Pipeline:
             return self.data[design.kind]
         if self.runner is None:
             raise UserError(f"no '{design.kind}' data given and no simulator/drive to run the experiment")
+        if "tuning" not in self.results:
+            self._tune_commissioned()
         t0 = time.perf_counter()
         d = self.runner.run(design)
         self.timings[f"run_{design.kind}_s"] = time.perf_counter() - t0
@@ -69,6 +76,31 @@ class Pipeline:
         out = fn()
         self.timings[f"fit_{name}_s"] = time.perf_counter() - t0
         return out
+
+    def _tune(self, j_kgm2: float, source: str) -> None:
+        """Velocity PI of the design rule for the inertia ``j_kgm2`` (user-fixed gains kept), recorded."""
+        g = tun.without(tun.velocity_pi(j_kgm2), self.settings.fixed_gains)
+        if g:
+            self.runner.set_gains(g)
+            self.progress(f"velocity loop for J = {j_kgm2:.4g} kg.m^2 ({source}): "
+                          + ", ".join(f"{k} {v:.4g}" for k, v in g.items()))
+        self.results.setdefault("tuning", []).append({"j_total_kgm2": j_kgm2, "source": source, "gains": g})
+
+    def _tune_commissioned(self) -> None:
+        """Before the first experiment: the loop for the inertia the drive is commissioned with."""
+        if not self.settings.tune_velocity_loop or not hasattr(self.runner, "set_gains"):
+            self.results["tuning"] = []
+            return
+        self._tune(float(self.runner.commissioned_inertia_kgm2()), "commissioned j_total")
+
+    def _retune_from_frf(self) -> None:
+        """After the FRF: the loop for the identified J1 + J2 when it differs from the one in use."""
+        done = self.results.get("tuning") or []
+        if self.runner is None or not done:
+            return
+        j = tun.frf_inertia(self.results.get("frf"))
+        if j is not None and tun.needs_retune(done[-1]["j_total_kgm2"], j):
+            self._tune(j, "identified by the FRF")
 
     def te(self) -> tem.TEResult:
         if "te" not in self.results:
@@ -83,6 +115,7 @@ class Pipeline:
             d = self._get(ex.FRFExcitation())
             self.progress("fit: frequency response")
             self.results["frf"] = self._timed("frf", lambda: frfm.fit_frf(d))
+            self._retune_from_frf()
         return self.results["frf"]
 
     def friction(self) -> fr.StribeckResult:
@@ -173,6 +206,8 @@ class Pipeline:
 def summary(results: dict[str, Any]) -> dict[str, Any]:
     """JSON-ready view of every result."""
     out: dict[str, Any] = {}
+    if results.get("tuning"):
+        out["velocity_loop_tuning"] = list(results["tuning"])
     for k in ("te", "gravity", "stribeck", "stiffness", "presliding"):
         if k in results:
             out[k] = results[k].to_dict()
