@@ -670,6 +670,7 @@ def _attempt(name: str, ctl: Controller, args: argparse.Namespace, target: Any, 
              fn: Any, prog: Any, plan: Optional[Mapping[str, Any]], preisach_blob: Optional[bytes]) -> Any:
     """One attempt of :func:`run_procedure`."""
     from .errors import UserError
+    from .download import DownloadTransportError
     from .drive import DriveError
     from .procedures.results import Result
     from .procedures.runner import open_bench
@@ -691,6 +692,10 @@ def _attempt(name: str, ctl: Controller, args: argparse.Namespace, target: Any, 
                         pass
                 res = fn(bench, args, prog)
     except (DriveError, RuntimeError, ValueError, KeyError) as e:
+        res = Result(name, notes=[f"failed: {e}"])
+        res.conditions = {"controller": ctl.name, "feedback": ctl.feedback}
+        return res
+    except DownloadTransportError as e:    # a table transfer broke off on a loaded host: one failed attempt
         res = Result(name, notes=[f"failed: {e}"])
         res.conditions = {"controller": ctl.name, "feedback": ctl.feedback}
         return res
