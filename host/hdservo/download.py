@@ -21,6 +21,7 @@ class DownloadTransportError(UserError):
     """A download broken off at the protocol level on every repeat (time-outs, stale frames on a
     loaded host): the drive refused nothing, so the same download on a fresh connection may succeed."""
 
+
 #: parameters written by SDO one by one (the groups of 0x5100:2/3 go as tables)
 SDO_PREFIXES = ("cb_ramp_ticks", "cb_dpos_fc", "cp_", "mx_", "pr_", "bs_", "dob_", "te_k1")
 

@@ -854,6 +854,6 @@ def unwrap_tick(prev: Optional[int], tick_u32: int) -> int:
     return prev + ((int(tick_u32) - prev + 2 ** 31) % 2 ** 32) - 2 ** 31
 
 
-__all__ = ["Drive", "DriveError", "DriveChoice", "add_bus_arguments", "bus_kwargs", "choose_drive",
+__all__ = ["Drive", "DriveError", "DriveProtocolError", "DriveChoice", "add_bus_arguments", "bus_kwargs", "choose_drive",
            "SIM_INTERFACE", "SIM_AXES", "unwrap_phase", "unwrap_tick", "align_motor_turns",
            "EDS_PATH", "MODES", "SIGNALS", "TABLE_GROUPS", "EXC_TYPES", "EXC_INJECTION", "EXC_SCALE", "group_payload", "od_gen"]
