@@ -210,6 +210,22 @@ def tracking(bench: Bench, rates_deg_s: Sequence[float] = TRACK_RATES_DEG_S, per
     return r
 
 
+def moving_mean(t_s: np.ndarray, x: np.ndarray, avg_s: float) -> np.ndarray:
+    """Causal moving mean of ``x`` over ``avg_s`` (uniform samples ``t_s``; shorter at the start).
+
+    ``avg_s`` <= 0 or a single sample: ``x`` itself (as float).
+    """
+    e = np.asarray(x, float)
+    t = np.asarray(t_s, float)
+    if avg_s <= 0 or e.size < 2:
+        return e
+    n = max(1, int(round(avg_s / float(t[1] - t[0]))))
+    c = np.concatenate([[0.0], np.cumsum(e)])
+    idx = np.arange(e.size)
+    lo = np.maximum(idx + 1 - n, 0)
+    return (c[idx + 1] - c[lo]) / (idx + 1 - lo)
+
+
 def settling_time(t_s: np.ndarray, err_arcsec: np.ndarray, t_arrive_s: float, band_arcsec: float,
                   avg_s: float = 0.0, hold_s: float = 0.0) -> Optional[float]:
     """Time from ``t_arrive_s`` until ``|err|`` stays within ``band_arcsec`` to the end, s (None: never).
@@ -237,15 +253,8 @@ def settling_time(t_s: np.ndarray, err_arcsec: np.ndarray, t_arrive_s: float, ba
     float or None
         0 when the error is inside the band from the arrival on; None when it never settles.
     """
-    e = np.asarray(err_arcsec, float)
     t = np.asarray(t_s, float)
-    if avg_s > 0 and e.size > 1:
-        n = max(1, int(round(avg_s / float(t[1] - t[0]))))
-        c = np.concatenate([[0.0], np.cumsum(e)])
-        idx = np.arange(e.size)
-        lo = np.maximum(idx + 1 - n, 0)
-        e = (c[idx + 1] - c[lo]) / (idx + 1 - lo)
-    e = np.abs(e)
+    e = np.abs(moving_mean(t, err_arcsec, avg_s))
     after = t >= t_arrive_s
     if not np.any(after):
         return None
@@ -326,14 +335,15 @@ def settling(bench: Bench, step_deg: float = SETTLE_STEP_DEG, moves: int = 4, ba
             tt = x["t_s"] - x["arrival_s"]
             lab = f"move {i + 1} ({'+' if x['direction'] > 0 else '-'}): " + (
                 "not settled" if x["settling_s"] is None else f"{x['settling_s']:.3g} s")
-            a.plot(tt, x["err_arcsec"], lw=0.8, label=lab)
+            ln = a.plot(tt, moving_mean(x["t_s"], x["err_arcsec"], SETTLE_AVG_S), lw=1.0, label=lab)
+            a.plot(tt, x["err_arcsec"], lw=0.4, alpha=0.3, color=ln[0].get_color())
         b = res.series["band"]
         a.axhspan(-b, b, color="0.85", label=f"+-{b:g} arcsec band")
         a.set_ylim(-10 * b, 10 * b)
         a.set_xlim(-0.2, None)
         a.set_xlabel("time after the reference's arrival (s)")
         a.set_ylabel("output - target (arcsec)")
-        a.set_title(f"settling after {step_deg:g} deg moves (band judged on the {SETTLE_AVG_S * 1e3:g} ms mean)",
+        a.set_title(f"settling after {step_deg:g} deg moves: {SETTLE_AVG_S * 1e3:g} ms mean (faint: samples)",
                     fontsize=10)
         a.grid(True)
         a.legend(fontsize=8)
@@ -343,4 +353,4 @@ def settling(bench: Bench, step_deg: float = SETTLE_STEP_DEG, moves: int = 4, ba
 
 
 __all__ = ["REVERSAL_WINDOW", "SETTLE_AVG_S", "SETTLE_BAND_ARCSEC", "SETTLE_HOLD_S", "SETTLE_STEP_DEG",
-           "TRACK_PERIOD_S", "TRACK_RATES_DEG_S", "align_lag", "rate_tag", "settling", "settling_time", "sine_setpoints", "tracking", "tracking_metrics"]
+           "TRACK_PERIOD_S", "TRACK_RATES_DEG_S", "align_lag", "moving_mean", "rate_tag", "settling", "settling_time", "sine_setpoints", "tracking", "tracking_metrics"]
