@@ -97,7 +97,7 @@ void hd_stribeck_init(hd_stribeck_t *s, uint32_t ramp_ticks, bool enabled)
     s->v = 0;
     s->tau_raw = 0;
     s->tau = 0;
-    s->v_ref_prev = 0;
+    s->v_anchor = 0;
     s->cruise_n = 0u;
     s->cruise = 0u;
     hd_stribeck_recip(&s->rp, 0);
@@ -117,18 +117,20 @@ int32_t hd_stribeck_step(hd_stribeck_t *s, const hd_stribeck_cfg_t *c,
     const int64_t dv = (int64_t)v_ref - (int64_t)v_est;
     const int32_t tmax = (c->tau_max > 0) ? c->tau_max : INT32_MAX;
 
-    /* cruise: v_ref non-zero, same sign and within HD_STRIBECK_CRUISE_DV of the last period */
+    /* cruise: v_ref non-zero, of the anchor's sign and within HD_STRIBECK_CRUISE_DV of the anchor
+     * (v_ref at the start of the run).  Against the anchor, not the last period: a slow sinusoid
+     * changes by a few LSB per period near its peak and would pass a per-period test there */
     if (c->cruise_ticks > 0u) {
-        const int64_t step = (int64_t)v_ref - (int64_t)s->v_ref_prev;
-        const bool same = ((v_ref > 0) && (s->v_ref_prev > 0)) || ((v_ref < 0) && (s->v_ref_prev < 0));
-        if (same && step <= HD_STRIBECK_CRUISE_DV && step >= -HD_STRIBECK_CRUISE_DV) {
+        const int64_t dev = (int64_t)v_ref - (int64_t)s->v_anchor;
+        const bool same = ((v_ref > 0) && (s->v_anchor > 0)) || ((v_ref < 0) && (s->v_anchor < 0));
+        if (same && dev <= HD_STRIBECK_CRUISE_DV && dev >= -HD_STRIBECK_CRUISE_DV) {
             if (s->cruise_n < c->cruise_ticks) {
                 s->cruise_n++;
             }
         } else {
             s->cruise_n = 0u;
+            s->v_anchor = v_ref;            /* a new run starts here */
         }
-        s->v_ref_prev = v_ref;
         s->cruise = (s->cruise_n >= c->cruise_ticks) ? 1u : 0u;
         if (s->cruise != 0u) {
             w = HD_Q30_ONE;

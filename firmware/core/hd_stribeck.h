@@ -19,8 +19,8 @@
  * reference axis) that dithers the axis onto its target, and it makes a slow
  * constant rate (0.001 deg/s) jerky.  With cruise_ticks > 0 the source is chosen
  * by the reference itself: the reference "cruises" when it is non-zero and has
- * kept its sign and value (|v_ref(k) - v_ref(k-1)| <= HD_STRIBECK_CRUISE_DV) for
- * cruise_ticks consecutive periods - the constant-rate phase of a move or a
+ * kept its sign and value (|v_ref(k) - v_ref(k0)| <= HD_STRIBECK_CRUISE_DV, k0 the
+ * first period of the run) for cruise_ticks consecutive periods - the constant-rate phase of a move or a
  * constant-rate command, when the friction state is known to be sliding in the
  * direction of v_ref - and then w = 1 (reference velocity) and the sign is the
  * hard sign of v_ref (no zero crossing in a cruise, so no smooth-sign reduction of
@@ -58,10 +58,11 @@
 #include "hd_blend.h"
 #include "hd_fixed.h"
 
-/** Largest per-period change of v_ref that still counts as cruising, 2^-32 turn/s
- *  (64 LSB per 0.1 ms = 1.5e-4 turn/s^2 = 0.054 deg/s^2; the trajectory generator's
- *  cruise velocity moves by at most 1 LSB). */
-#define HD_STRIBECK_CRUISE_DV 64
+/** Largest deviation of v_ref from its value at the start of a run that still counts as
+ *  cruising, 2^-32 turn/s (2 LSB = 1.7e-7 deg/s: the trajectory generator's cruise velocity
+ *  moves by at most 1 LSB, a constant-rate command not at all; the peak of a 0.01 deg/s
+ *  sinusoid of 4 s period leaves +-2 LSB within 4 ms). */
+#define HD_STRIBECK_CRUISE_DV 2
 
 typedef struct {
     int32_t fc;   /* Coulomb torque, Q15.16 N.m, >= 0 */
@@ -92,7 +93,7 @@ typedef struct {
     int32_t v;              /* last velocity used, 2^-32 turn/s */
     int32_t tau_raw;        /* last unweighted torque, Q15.16 N.m */
     int32_t tau;            /* last output (weighted), Q15.16 N.m */
-    int32_t v_ref_prev;     /* v_ref of the previous period, 2^-32 turn/s */
+    int32_t v_anchor;       /* v_ref at the start of the current run, 2^-32 turn/s */
     uint32_t cruise_n;      /* consecutive cruising periods (saturates at cruise_ticks) */
     uint32_t cruise;        /* 1 = this period used the reference velocity (cruise) */
     hd_stribeck_recip_t rp; /* reciprocal of cfg pos.vs (refreshed when it changes) */

@@ -486,6 +486,37 @@ def geo_mean_factor(headline: Mapping[str, Any], base: Mapping[str, Any], keys: 
     return math.exp(sum(math.log(x) for x in fin) / max(1, len(fin))) * (10.0 ** pen)
 
 
+def part_pays(best: Mapping[str, Any], without: Mapping[str, Any], keys: Sequence[str]) -> tuple[bool, str]:
+    """Whether one part of the best combination pays in it: the leave-one-out judgement.
+
+    Parameters
+    ----------
+    best : mapping
+        Headline of the best combination.
+    without : mapping
+        Headline of the best combination minus the part.
+    keys : sequence of str
+        The figures judged (:data:`RULE_SKIP` figures are not).
+
+    Returns
+    -------
+    (bool, str)
+        True when the combination is at least :data:`RULE_GAIN` better on one figure than the
+        combination without the part (the part's own gain, beyond the run-to-run scatter of a
+        single figure), and why: the figures it buys and those it costs, as factors of the
+        combination against the combination without it (< 1 better).
+    """
+    w = {k: worse_factor(FIGURE_BY_KEY[k], best.get(k), without.get(k)) for k in keys
+         if k in FIGURE_BY_KEY and k not in RULE_SKIP and k in best and k in without}
+    w = {k: v for k, v in w.items() if v is not None}
+    gains = [k for k, v in w.items() if v <= 1.0 - RULE_GAIN]
+    losses = [k for k, v in w.items() if v > 1.0 + RULE_LOSS]
+    cost = ("; costs " + ", ".join(f"{k} (x{w[k]:.3g})" for k in losses)) if losses else ""
+    if not gains:
+        return False, f"adds no figure by 20 % to the rest of the combination{cost}"
+    return True, "buys " + ", ".join(f"{k} (x{w[k]:.3g})" for k in gains) + cost
+
+
 def choose_best(single: Mapping[str, Mapping[str, Any]], base: Mapping[str, Any],
                 keys: Sequence[str]) -> tuple[list[str], list[str]]:
     """The best combination from measurements: the documented rule (docs/compensators.md).
@@ -628,6 +659,7 @@ def _attempt(name: str, ctl: Controller, args: argparse.Namespace, target: Any, 
              fn: Any, prog: Any, plan: Optional[Mapping[str, Any]], preisach_blob: Optional[bytes]) -> Any:
     """One attempt of :func:`run_procedure`."""
     from .errors import UserError
+    from .download import DownloadTransportError
     from .drive import DriveError
     from .procedures.results import Result
     from .procedures.runner import open_bench
@@ -649,6 +681,10 @@ def _attempt(name: str, ctl: Controller, args: argparse.Namespace, target: Any, 
                         pass
                 res = fn(bench, args, prog)
     except (DriveError, RuntimeError, ValueError, KeyError) as e:
+        res = Result(name, notes=[f"failed: {e}"])
+        res.conditions = {"controller": ctl.name, "feedback": ctl.feedback}
+        return res
+    except DownloadTransportError as e:    # a table transfer broke off on a loaded host: one failed attempt
         res = Result(name, notes=[f"failed: {e}"])
         res.conditions = {"controller": ctl.name, "feedback": ctl.feedback}
         return res
@@ -886,6 +922,18 @@ def run_ablation(out_dir: Path, feedbacks: Sequence[str], procedures: Sequence[s
     doc_ctl = {n: doc_ctl[n] for n in order}
     for fb in feedbacks:
         info[fb]["rows"] = [n for n, d in doc_ctl.items() if d.get("feedback") == fb]
+        parts = info[fb]["best"]
+        best_h = doc_ctl.get(row_name("best", fb), {}).get("headline")
+        if len(parts) >= 2 and best_h is not None:
+            loo: dict[str, dict[str, Any]] = {}
+            for p in parts:
+                minus = doc_ctl.get(row_name(f"best-{p}", fb), {}).get("headline")
+                if minus is None:
+                    continue
+                ok, text = part_pays(best_h, minus, keys)
+                loo[p] = {"pays": ok, "text": text}
+                info[fb]["rule"].append(f"leave-one-out, {p}: {text}")
+            info[fb]["leave_one_out"] = loo
     doc = _finish(out_dir, doc_ctl, procedures, proc_extra, bus, axis, seed, model, plan, t0,
                   {"baseline": "pid", "feedbacks": info,
                    "rule": (f"best combination: the compensators that, on the fair PID in the same feedback "
@@ -941,6 +989,10 @@ def _finish(out_dir: Path, doc_ctl: dict[str, Any], procedures: Sequence[str], p
 def ablation_doc(doc: Mapping[str, Any]) -> dict[str, Any]:
     """``{"baseline": "pid", "rows": [{"name", "feedback", "kind", "components", "figures", "ratio_to_baseline"}]}``.
 
+    Also ``best`` (the chosen parts per feedback configuration) and ``leave_one_out`` (per
+    configuration with a combination of two or more parts: per part ``{"pays", "text"}``,
+    :func:`part_pays`).
+
     ``figures``: every figure of the row (None = no value); ``ratio_to_baseline``: value / the
     fair PID's value in the same feedback configuration (None when either is missing).
     """
@@ -954,7 +1006,9 @@ def ablation_doc(doc: Mapping[str, Any]) -> dict[str, Any]:
                      "ratio_to_baseline": {k: f.get("ratio_to_pid", {}).get(n) for k, f in doc["figures"].items()}})
     ab = doc.get("ablation", {})
     return {"baseline": "pid", "rule": ab.get("rule"),
-            "best": {fb: v.get("best") for fb, v in ab.get("feedbacks", {}).items()}, "rows": rows}
+            "best": {fb: v.get("best") for fb, v in ab.get("feedbacks", {}).items()},
+            "leave_one_out": {fb: v["leave_one_out"] for fb, v in ab.get("feedbacks", {}).items()
+                              if "leave_one_out" in v}, "rows": rows}
 
 
 def ablation_table(doc: Mapping[str, Any]) -> str:
@@ -1190,7 +1244,7 @@ def parse_proc_args(text: Optional[str]) -> list[str]:
 
 
 __all__ = ["BEST_NAMES_DEFAULT", "FEEDBACKS", "RULE_GAIN", "RULE_LOSS", "SEMI_CLOSED_SUMMARY", "ablation_doc",
-           "ablation_table", "choose_best", "fair_row", "feedback_names", "pid_hold_row", "qualifies", "ratio",
+           "ablation_table", "choose_best", "fair_row", "feedback_names", "part_pays", "pid_hold_row", "qualifies", "ratio",
            "row_conditions", "row_name", "run_ablation", "worse_factor", "Controller", "DEFAULT_PROCEDURES", "FIGURES", "FIGURE_BY_KEY", "Figure", "FORMAT",
            "QUICK_ARGS", "SINGLES", "StageBar", "best_controller", "comparison_plots", "controllers_from_names",
            "default_controller_names", "parse_proc_args", "procedure_args", "run_compare", "summary_doc",

@@ -16,6 +16,12 @@ from typing import Any, Mapping
 
 from .errors import UserError
 
+
+class DownloadTransportError(UserError):
+    """A download broken off at the protocol level on every repeat (time-outs, stale frames on a
+    loaded host): the drive refused nothing, so the same download on a fresh connection may succeed."""
+
+
 #: parameters written by SDO one by one (the groups of 0x5100:2/3 go as tables)
 SDO_PREFIXES = ("cb_ramp_ticks", "cb_dpos_fc", "cp_", "mx_", "pr_", "bs_", "dob_", "te_k1")
 
@@ -183,8 +189,10 @@ def write_verified(drive: Any, plan: Mapping[str, Any], tables: bool = True,
     UserError
         The drive refuses a write (SDO abort: range, table check, power on) or
         a read-back differs.
+    DownloadTransportError
+        (a UserError) A table transfer broke at the protocol level on every repeat.
     """
-    from .drive import DriveError
+    from .drive import DriveError, DriveProtocolError
     from .params_gen import BY_NAME as PARAMS
     done: dict[str, Any] = {"params": 0, "tables": [], "missing": []}
     try:
@@ -221,6 +229,8 @@ def write_verified(drive: Any, plan: Mapping[str, Any], tables: bool = True,
                 progress("0x5100:1 Preisach/Everett table")
                 drive.download_table(1, plan["preisach"])
                 done["tables"].append(1)
+    except DriveProtocolError as e:
+        raise DownloadTransportError(f"download broken off at the protocol level (not refused): {e}") from None
     except DriveError as e:
         raise UserError(f"download refused by the drive: {e}") from None
     except ValueError as e:        # raw value does not fit the object's type (python canopen)

@@ -96,6 +96,13 @@ class DriveError(Exception):
     """A drive-side failure reported in one line (SDO abort, time-out, refused transition)."""
 
 
+class DriveProtocolError(DriveError):
+    """A transfer that broke at the protocol level (time-out, stale frame) on every repeat.
+
+    The drive did not refuse the content; the same transfer on a fresh connection may succeed.
+    """
+
+
 #: python-can-like interface name of the simulated drive (``-i virtual-drive``, ``CAN_INTERFACE``, config file)
 SIM_INTERFACE = "virtual-drive"
 #: built-in axes of the simulated drive (else an axis TOML file)
@@ -664,7 +671,7 @@ class Drive:
                 if protocol and attempt + 1 < DOMAIN_ATTEMPTS:
                     time.sleep(DRIVE_SDO_TIMEOUT_S + self.node.sdo.RESPONSE_TIMEOUT)
                     continue
-                raise DriveError(f"{what}: {e}") from None
+                raise (DriveProtocolError if protocol else DriveError)(f"{what}: {e}") from None
         raise AssertionError("unreachable")
 
     def write_domain(self, index: int, sub: int, blob: bytes) -> None:
@@ -925,6 +932,6 @@ def unwrap_tick(prev: Optional[int], tick_u32: int) -> int:
     return prev + ((int(tick_u32) - prev + 2 ** 31) % 2 ** 32) - 2 ** 31
 
 
-__all__ = ["Drive", "DriveError", "DriveChoice", "add_bus_arguments", "bus_kwargs", "choose_drive",
+__all__ = ["Drive", "DriveError", "DriveProtocolError", "DriveChoice", "add_bus_arguments", "bus_kwargs", "choose_drive",
            "SIM_INTERFACE", "SIM_AXES", "unwrap_phase", "unwrap_tick", "align_motor_turns",
            "EDS_PATH", "MODES", "plan_402", "SIGNALS", "TABLE_GROUPS", "EXC_TYPES", "EXC_INJECTION", "EXC_SCALE", "group_payload", "od_gen"]

@@ -7,6 +7,7 @@
 #include <setjmp.h>
 #include <stdint.h>
 #include <stdlib.h>
+#include <math.h>
 #include <cmocka.h>
 
 #include "hd_fixed.h"
@@ -85,6 +86,39 @@ static void test_stribeck_recip_matches_division(void **state)
     }
     hd_stribeck_recip(&r, 0);
     assert_int_equal(hd_stribeck_shape_recip_q30(DEGS, &r, 2u), 0);
+}
+
+/* A slow sinusoid near its velocity peak is not a cruise: the tracking procedure streams
+ * v = 0.01 deg/s x sin(2 pi t / 4 s) with one set-point per SYNC (10 periods).  Near the peak
+ * v_ref moves by far less than 64 LSB per period, but by hundreds of LSB over a 20 ms window;
+ * taking it for a cruise switched the feed-forward from the estimate to the reference and back
+ * (a 60 arcsec error spike at each velocity peak).  A constant rate with the trajectory
+ * generator's 1 LSB jitter still cruises after cruise_ticks periods. */
+static void test_stribeck_sinusoid_peak_is_no_cruise(void **state)
+{
+    hd_stribeck_cfg_t c = { { NM(5), NM(8), DEGS, NM(100) }, { NM(5), NM(8), DEGS, NM(100) },
+                            2u, DEGS / 1000, 0, NM(100), 200u };
+    hd_stribeck_t s;
+    const double vpk = 0.01 * DEGS, w = 2.0 * 3.14159265358979 / 4.0;
+    uint32_t k, n_cruise = 0u;
+    int32_t v = 0;
+    (void)state;
+    hd_stribeck_init(&s, 0u, true);
+    for (k = 0; k < 20000u; k++) {                    /* 2 s centred on the velocity peak (t = 1 s) */
+        if (k % 10u == 0u) {
+            v = (int32_t)lround(vpk * sin(w * (0.5 + 1e-4 * (double)k)));
+        }
+        (void)hd_stribeck_step(&s, &c, v, -DEGS);
+        n_cruise += s.cruise;
+    }
+    assert_int_equal(n_cruise, 0u);
+    /* constant 0.01 deg/s with +-1 LSB jitter: a cruise from period 201 of the run on */
+    hd_stribeck_init(&s, 0u, true);
+    for (k = 0; k < 1000u; k++) {
+        (void)hd_stribeck_step(&s, &c, DEGS / 100 + (int32_t)(k & 1u), -DEGS);
+        assert_int_equal(s.cruise, (k >= 200u) ? 1u : 0u);
+    }
+    assert_true(s.tau > 0);                          /* the reference's direction, not the estimate's */
 }
 
 /* cruise detection: the reference velocity after cruise_ticks constant periods, the estimate
@@ -251,6 +285,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_stribeck_odd_and_breakaway, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_stribeck_recip_matches_division, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_stribeck_cruise_and_vs_change, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_stribeck_sinusoid_peak_is_no_cruise, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_lugre_steady_state_and_hold, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_maxwell_saturation, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_te_single_harmonic, setUp, tearDown),

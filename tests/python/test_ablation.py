@@ -125,6 +125,27 @@ def test_a_transport_library_error_is_one_failed_run(monkeypatch: pytest.MonkeyP
     assert r.headline == {}
 
 
+def test_part_pays_on_measured_leave_one_out_rows() -> None:
+    """The leave-one-out judgement on the full-closed rows of a reference-axis demo (seed 1): the
+    Stribeck feed-forward is what the combination buys; the Preisach inverse, chosen by the rule
+    from its single row's positioning figures, adds nothing beyond 20 % on top of it."""
+    keys = [f.key for f in cmp.FIGURES]
+    best = {"positioning_accuracy_arcsec": 0.144, "repeatability_arcsec": 0.114, "stabilisation_rms_arcsec": 8.49,
+            "bandwidth_hz": 27.4, "peak_torque_Nm": 60.7, "tracking_rms_0p01_arcsec": 1.20,
+            "tracking_peak_0p01_arcsec": 2.55, "reversal_peak_arcsec": 3.63, "settling_1deg_s": 0.32}
+    no_preisach = {**best, "positioning_accuracy_arcsec": 0.132, "repeatability_arcsec": 0.0847,
+                   "stabilisation_rms_arcsec": 9.27, "tracking_peak_0p01_arcsec": 2.24, "reversal_peak_arcsec": 3.86,
+                   "settling_1deg_s": 0.16}
+    no_stribeck = {**best, "positioning_accuracy_arcsec": 2.10, "repeatability_arcsec": 2.04,
+                   "stabilisation_rms_arcsec": 47.3, "bandwidth_hz": 25.9, "tracking_rms_0p01_arcsec": 7.49,
+                   "tracking_peak_0p01_arcsec": 18.8, "reversal_peak_arcsec": 44.9, "settling_1deg_s": None}
+    ok, text = cmp.part_pays(best, no_preisach, keys)
+    assert not ok and text.startswith("adds no figure by 20 %")
+    assert "repeatability_arcsec (x1.35)" in text                  # what it costs is named
+    ok, text = cmp.part_pays(best, no_stribeck, keys)
+    assert ok and "positioning_accuracy_arcsec (x0.0686)" in text and "settling" not in text
+
+
 def _fake_figures(components: list[str], feedback: str, kind: str) -> dict[str, Any]:
     """A synthetic axis: friction compensators help tracking, TE helps positioning only in semi-closed."""
     acc = 2.0 if feedback == "full-closed" else 40.0
@@ -173,12 +194,19 @@ def test_run_ablation_rows_ratios_and_files(tmp_path: Path, monkeypatch: pytest.
     # best minus te in semi-closed is lugre@semi-closed: measured once
     assert doc["controllers"]["best-te@semi-closed"]["measured_as"] == "lugre@semi-closed"
     assert ("best@semi-closed", "positioning") in calls
+    # leave-one-out judgement of each part of the semi-closed combination (lugre + te)
+    loo = ab["semi-closed"]["leave_one_out"]
+    assert loo["te"]["pays"] and "positioning_accuracy_arcsec (x0.125)" in loo["te"]["text"]
+    assert loo["lugre"]["pays"] and "tracking_rms_0p01_arcsec (x0.1)" in loo["lugre"]["text"]
+    assert any(w.startswith("leave-one-out, te: buys") for w in ab["semi-closed"]["rule"])
+    assert "leave_one_out" not in ab["full-closed"]                 # one part: nothing to leave out
     f = doc["figures"]["positioning_accuracy_arcsec"]
     assert f["ratio_to_pid"]["te@semi-closed"] == pytest.approx(1 / 8)        # against pid@semi-closed
     assert f["ratio_to_pid"]["best+hold+approach"] == pytest.approx(0.5)
     assert f["ratio_to_pid"]["pid-hold"] == pytest.approx(1.4)
     a = json.loads((tmp_path / "ablation.json").read_text())
     assert a["baseline"] == "pid" and a["best"] == {"full-closed": ["lugre"], "semi-closed": ["lugre", "te"]}
+    assert set(a["leave_one_out"]) == {"semi-closed"} and a["leave_one_out"]["semi-closed"]["te"]["pays"]
     rows = {r["name"]: r for r in a["rows"]}
     assert set(rows) == set(names)
     r = rows["best@semi-closed"]

@@ -63,6 +63,30 @@ def test_settling_time_known_answers() -> None:
     assert tr.settling_time(t, late, 0.5, 1.0) is None
 
 
+def test_settling_judges_the_position_not_noise_or_dither() -> None:
+    """The procedure's settling rule (10 ms mean, 0.5 s in the band) on records like the measured ones.
+
+    A friction feed-forward's ~107 Hz dither of +-2 arcsec about the target and encoder noise
+    about a 0.85 arcsec stop are inside the +-1 arcsec band as positions; judged sample by sample
+    they never settled (every row of the comparison had no settling time).  A move that enters
+    the band only in the last 0.2 s of the record has not settled.
+    """
+    rng = np.random.default_rng(3)
+    t = np.arange(3500) * 0.001                       # 1 ms samples, arrival at 0.5 s
+    decay = 20.0 * np.exp(-(t - 0.5).clip(0) / 0.05)
+    dither = decay + 2.0 * np.sin(2 * np.pi * 107.0 * t)
+    ts = tr.settling_time(t, dither, 0.5, 1.0, tr.SETTLE_AVG_S, tr.SETTLE_HOLD_S)
+    assert ts is not None and 0.05 * math.log(20.0) <= ts <= 0.05 * math.log(20.0) + 0.03
+    stop = decay + 0.85 + rng.normal(0.0, 0.1, t.size)
+    assert np.max(np.abs(stop[t > 1.0])) > 1.0         # samples beyond the band: noise
+    ts2 = tr.settling_time(t, stop, 0.5, 1.0, tr.SETTLE_AVG_S, tr.SETTLE_HOLD_S)
+    assert ts2 is not None and ts2 < 0.3
+    late = np.where(t < 3.3, 3.0, 0.0)                 # in the band for the last 0.2 s only
+    assert tr.settling_time(t, late, 0.5, 1.0, tr.SETTLE_AVG_S, tr.SETTLE_HOLD_S) is None
+    # judged sample by sample (no mean) the dither never settles: the rule is what makes it settle
+    assert tr.settling_time(t, dither, 0.5, 1.0, 0.0, tr.SETTLE_HOLD_S) is None
+
+
 @needs_sim
 def test_tracking_and_settling_on_the_virtual_axis(tmp_path: Path) -> None:
     js = tmp_path / "t.json"

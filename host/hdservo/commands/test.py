@@ -66,7 +66,9 @@ PROCEDURES: dict[str, Proc] = {
                                                        mode=getattr(a, "stab_mode", "hold"))),
     "positioning": (lambda a: cl.AXIS_SETUP, False,
                     lambda b, a, p: cl.positioning(b, targets_deg=a.targets, runs=a.runs, progress=p)),
-    "peak-torque": (lambda a: cl.AXIS_SETUP, False,
+    # lock-step on the virtual drive: the saturated step lasts its drive time whatever the host's latency
+    # (with fast pacing a slow capture upload let the drive run on past torque_sat_time: a TORQUE_SAT fault)
+    "peak-torque": (lambda a: cl.AXIS_SETUP, True,
                     lambda b, a, p: cl.peak_torque(b, request_Nm=a.peak_request, progress=p)),
     "bandwidth": (lambda a: cl.AXIS_SETUP, True,
                   lambda b, a, p: cl.bandwidth(b, amplitude_arcsec=a.amplitude_arcsec, progress=p)),

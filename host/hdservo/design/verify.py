@@ -212,7 +212,8 @@ def _procedure(name: str, plan: Plan, flow: Mapping[str, Any]) -> tuple[RigSetup
         mode = stab_mode_of(flow)
         return setup, True, lambda b: cl.stabilisation(b, duration_s=plan.stab_duration_s, mode=mode)
     if name == "peak-torque":
-        return cl.AXIS_SETUP, False, lambda b: cl.peak_torque(b)
+        # lock-step: the saturated step lasts its drive time, however late the host answers
+        return cl.AXIS_SETUP, True, lambda b: cl.peak_torque(b)
     if name == "bandwidth":
         return cl.AXIS_SETUP, True, lambda b: cl.bandwidth(b, amplitude_arcsec=plan.bw_amplitude_arcsec)
     raise ValueError(f"unknown procedure '{name}'")

@@ -9,8 +9,9 @@
   largest |error| within :data:`REVERSAL_WINDOW` of a period after each velocity reversal, over
   both rates.
 * :func:`settling` -- profile-position moves of +-1 deg (the drive's own trajectory); the
-  settling time is the time from the reference's arrival until the output encoder stays within
-  +-1 arcsec of the target for the rest of the record.  Headline: the slowest move.
+  settling time is the time from the reference's arrival until the output encoder, averaged over
+  :data:`SETTLE_AVG_S`, stays within +-1 arcsec of the target for the rest of the record (at least
+  :data:`SETTLE_HOLD_S`).  Headline: the slowest move.
 
 The metrics (:func:`tracking_metrics`, :func:`settling_time`) are pure functions of the
 records, tested on synthetic signals in ``tests/python/test_tracking.py``.
@@ -39,6 +40,13 @@ REVERSAL_WINDOW = 0.25
 SETTLE_STEP_DEG = 1.0
 SETTLE_BAND_ARCSEC = 1.0
 SETTLE_RECORD_S = 2.5
+#: Settling: the band is judged on the output's moving mean over this window, s (10 ms: the encoder
+#: noise and vibration above 100 Hz -- a friction feed-forward's dither at rest -- are not a position
+#: error here; the stabilisation and hold figures report them).
+SETTLE_AVG_S = 0.01
+#: Settling: the output must stay in the band at least this long before the record ends, s (a
+#: move whose error enters the band only in the last samples has not settled).
+SETTLE_HOLD_S = 0.5
 
 
 def rate_tag(rate_deg_s: float) -> str:
@@ -202,22 +210,61 @@ def tracking(bench: Bench, rates_deg_s: Sequence[float] = TRACK_RATES_DEG_S, per
     return r
 
 
-def settling_time(t_s: np.ndarray, err_arcsec: np.ndarray, t_arrive_s: float, band_arcsec: float) -> Optional[float]:
+def moving_mean(t_s: np.ndarray, x: np.ndarray, avg_s: float) -> np.ndarray:
+    """Causal moving mean of ``x`` over ``avg_s`` (uniform samples ``t_s``; shorter at the start).
+
+    ``avg_s`` <= 0 or a single sample: ``x`` itself (as float).
+    """
+    e = np.asarray(x, float)
+    t = np.asarray(t_s, float)
+    if avg_s <= 0 or e.size < 2:
+        return e
+    n = max(1, int(round(avg_s / float(t[1] - t[0]))))
+    c = np.concatenate([[0.0], np.cumsum(e)])
+    idx = np.arange(e.size)
+    lo = np.maximum(idx + 1 - n, 0)
+    return (c[idx + 1] - c[lo]) / (idx + 1 - lo)
+
+
+def settling_time(t_s: np.ndarray, err_arcsec: np.ndarray, t_arrive_s: float, band_arcsec: float,
+                  avg_s: float = 0.0, hold_s: float = 0.0) -> Optional[float]:
     """Time from ``t_arrive_s`` until ``|err|`` stays within ``band_arcsec`` to the end, s (None: never).
 
-    0 when the error is inside the band from the arrival on.
+    Parameters
+    ----------
+    t_s : array
+        Sample times, s (uniform).
+    err_arcsec : array
+        Output - target, arcsec.
+    t_arrive_s : float
+        The reference's arrival, s.
+    band_arcsec : float
+        Half width of the band, arcsec.
+    avg_s : float
+        The band is judged on the error's moving mean over this window, s (0: the samples
+        themselves).  The window ends at each sample (causal), so it delays the settling time by
+        at most ``avg_s``.
+    hold_s : float
+        The error must stay in the band at least this long before the end of the record, s;
+        otherwise the move has not settled within the record (None).
+
+    Returns
+    -------
+    float or None
+        0 when the error is inside the band from the arrival on; None when it never settles.
     """
-    e = np.abs(np.asarray(err_arcsec, float))
-    after = np.asarray(t_s) >= t_arrive_s
+    t = np.asarray(t_s, float)
+    e = np.abs(moving_mean(t, err_arcsec, avg_s))
+    after = t >= t_arrive_s
     if not np.any(after):
         return None
     outside = np.flatnonzero(after & (e > band_arcsec))
     if outside.size == 0:
         return 0.0
     last = int(outside[-1])
-    if last + 1 >= e.size:
+    if last + 1 >= e.size or t[-1] - t[last + 1] < hold_s:
         return None
-    return float(t_s[last + 1] - t_arrive_s)
+    return float(t[last + 1] - t_arrive_s)
 
 
 def settling(bench: Bench, step_deg: float = SETTLE_STEP_DEG, moves: int = 4, band_arcsec: float = SETTLE_BAND_ARCSEC,
@@ -255,7 +302,7 @@ def settling(bench: Bench, step_deg: float = SETTLE_STEP_DEG, moves: int = 4, ba
         moving = np.flatnonzero(np.abs(ref - final) >= 0.5 / 2 ** 32 * TURN + 1e-15)
         i_arr = int(moving[-1] + 1) if moving.size else int(arr[0])
         err = (out - final) / mt.ARCSEC
-        ts = settling_time(t, err, float(t[min(i_arr, t.size - 1)]), band_arcsec)
+        ts = settling_time(t, err, float(t[min(i_arr, t.size - 1)]), band_arcsec, SETTLE_AVG_S, SETTLE_HOLD_S)
         out_moves.append({"direction": int(sgn), "settling_s": ts, "arrival_s": float(t[min(i_arr, t.size - 1)]),
                           "final_error_arcsec": float(np.mean(err[-max(1, err.size // 10):])),
                           "t_s": t, "err_arcsec": err})
@@ -272,6 +319,8 @@ def settling(bench: Bench, step_deg: float = SETTLE_STEP_DEG, moves: int = 4, ba
     worst = None if any(v is None for v in vals) else max(vals)
     key = "settling_1deg_s" if step_deg == 1.0 else f"settling_{rate_tag(step_deg)}deg_s"
     r = Result("settling", conditions={"step_deg": step_deg, "moves": moves, "band_arcsec": band_arcsec,
+                                       "band_judged_on": f"moving mean over {SETTLE_AVG_S * 1e3:g} ms",
+                                       "min_time_in_band_s": SETTLE_HOLD_S,
                                        "record_after_move_s": record_s, "measured_by": "output encoder",
                                        "profile": "drive trajectory (traj_vmax, traj_amax, traj_jmax)",
                                        "setup": AXIS_SETUP.name})
@@ -286,14 +335,16 @@ def settling(bench: Bench, step_deg: float = SETTLE_STEP_DEG, moves: int = 4, ba
             tt = x["t_s"] - x["arrival_s"]
             lab = f"move {i + 1} ({'+' if x['direction'] > 0 else '-'}): " + (
                 "not settled" if x["settling_s"] is None else f"{x['settling_s']:.3g} s")
-            a.plot(tt, x["err_arcsec"], lw=0.8, label=lab)
+            ln = a.plot(tt, moving_mean(x["t_s"], x["err_arcsec"], SETTLE_AVG_S), lw=1.0, label=lab)
+            a.plot(tt, x["err_arcsec"], lw=0.4, alpha=0.3, color=ln[0].get_color())
         b = res.series["band"]
         a.axhspan(-b, b, color="0.85", label=f"+-{b:g} arcsec band")
         a.set_ylim(-10 * b, 10 * b)
         a.set_xlim(-0.2, None)
         a.set_xlabel("time after the reference's arrival (s)")
         a.set_ylabel("output - target (arcsec)")
-        a.set_title(f"settling after {step_deg:g} deg moves", fontsize=10)
+        a.set_title(f"settling after {step_deg:g} deg moves: {SETTLE_AVG_S * 1e3:g} ms mean (faint: samples)",
+                    fontsize=10)
         a.grid(True)
         a.legend(fontsize=8)
         return save_figure(fig, dd, res.name, fmt, label=res.label)
@@ -301,5 +352,5 @@ def settling(bench: Bench, step_deg: float = SETTLE_STEP_DEG, moves: int = 4, ba
     return r
 
 
-__all__ = ["REVERSAL_WINDOW", "SETTLE_BAND_ARCSEC", "SETTLE_STEP_DEG", "TRACK_PERIOD_S", "TRACK_RATES_DEG_S",
-           "align_lag", "rate_tag", "settling", "settling_time", "sine_setpoints", "tracking", "tracking_metrics"]
+__all__ = ["REVERSAL_WINDOW", "SETTLE_AVG_S", "SETTLE_BAND_ARCSEC", "SETTLE_HOLD_S", "SETTLE_STEP_DEG",
+           "TRACK_PERIOD_S", "TRACK_RATES_DEG_S", "align_lag", "moving_mean", "rate_tag", "settling", "settling_time", "sine_setpoints", "tracking", "tracking_metrics"]
