@@ -35,18 +35,17 @@ Paths inside ``compare.json`` are relative to ``OUT``.
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import os
 import shlex
 import sys
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Optional, Sequence
 
 import numpy as np
+
+from .fileio import write_json_atomic
 
 FORMAT = "hdservo-compare"
 VERSION = 1
@@ -602,17 +601,9 @@ def procedure_args(procedure: str, extra: Sequence[str] = ()) -> argparse.Namesp
 
 
 def _write_json_atomic(path: Path, doc: Mapping[str, Any]) -> None:
+    """Write ``doc`` to ``path`` (strict JSON, atomic), creating its directory."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(doc, f, indent=2, allow_nan=False)
-            f.write("\n")
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    write_json_atomic(path, doc)
 
 
 def _configure(drive: Any, ctl: Controller, plan: Optional[Mapping[str, Any]],
@@ -741,7 +732,7 @@ def _write_row(out_dir: Path, ctl: Controller, results: Sequence[Any], kw: Mappi
     headline: dict[str, Any] = {}
     loop: dict[str, float] = {}
     for r in results:
-        headline.update(json.loads(json.dumps(r.to_json()["headline"])))
+        headline.update(r.to_json()["headline"])
         if not loop and r.conditions.get("loop_gains"):
             loop = dict(r.conditions["loop_gains"])
     return {**ctl.to_json(), "headline": headline, "json": str((cdir / "test.json").relative_to(out_dir)),

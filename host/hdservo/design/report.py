@@ -1,16 +1,15 @@
 """Design report of the flow: JSON document, Markdown page and PNG plots (units on every axis)."""
 from __future__ import annotations
 
-import json
-import math
 import os
 import shutil
-import tempfile
 from pathlib import Path
 from typing import Any, Dict, List
 
 import numpy as np
 
+from ..fileio import files_into, json_ready, write_json_atomic, write_text_atomic
+from ..plotting import pyplot
 from . import influence
 from .flow import Evaluated, FlowResult, headline, required_torques
 
@@ -18,18 +17,9 @@ DPI = 80
 
 
 def _clean(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {str(k): _clean(v) for k, v in x.items() if not str(k).endswith("_trace")}
-    if isinstance(x, (list, tuple)):
-        return [_clean(v) for v in x]
-    if isinstance(x, (np.floating, float)):
-        v = float(x)
-        return v if math.isfinite(v) else None
-    if isinstance(x, (np.integer,)):
-        return int(x)
-    if isinstance(x, np.bool_):
-        return bool(x)
-    return x
+    """``x`` JSON-ready (:func:`hdservo.fileio.json_ready`) without the ``*_trace`` time series
+    (they are drawn in the plots, not kept in the document)."""
+    return json_ready(x, drop_suffix="_trace")
 
 
 def candidate_doc(e: Evaluated) -> Dict[str, Any]:
@@ -83,9 +73,7 @@ def _rejections(evals: List[Evaluated]) -> Dict[str, int]:
 # ------------------------------------------------------------------ plots
 
 def _plots(res: FlowResult, d: Path) -> List[str]:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     files: List[str] = []
 
     fig, ax = plt.subplots(figsize=(7, 4))
@@ -358,27 +346,16 @@ def write_report(res: FlowResult, json_path: "str | os.PathLike[str] | None",
     """
     doc = document(res)
     if report_dir is not None:
-        rd = Path(report_dir)
-        rd.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{rd.name}.", dir=rd.parent))
-        try:
+        with files_into(report_dir) as tmp:
             plots = _plots(res, tmp)
-            (tmp / "report.md").write_text(markdown(res, doc, plots))
+            write_text_atomic(tmp / "report.md", markdown(res, doc, plots))
             for slug, p in axis_files.items():
                 shutil.copy(p, tmp / Path(p).name)
             if res.chosen and res.chosen.axis_path:
                 shutil.copy(res.chosen.axis_path, tmp / "axis_chosen.toml")
-                (tmp / "drive_params.json").write_text(json.dumps(_clean(res.chosen.controller), indent=1) + "\n")
-            rd.mkdir(exist_ok=True)
-            for p in tmp.iterdir():
-                os.replace(p, rd / p.name)
-        finally:
-            shutil.rmtree(tmp, ignore_errors=True)
+                write_json_atomic(tmp / "drive_params.json", _clean(res.chosen.controller), indent=1)
     if json_path is not None:
-        jp = Path(json_path)
-        t = jp.with_name(f".{jp.name}.tmp{os.getpid()}")
-        t.write_text(json.dumps(doc, indent=1) + "\n")
-        os.replace(t, jp)
+        write_json_atomic(json_path, doc, indent=1)
     return doc
 
 

@@ -41,6 +41,7 @@ from typing import Any, Callable, Mapping, Optional, Sequence
 
 import numpy as np
 
+from ..fileio import write_json_atomic, write_text_atomic
 from ..procedures import closedloop as cl
 from ..procedures import metrics as mt
 from ..procedures.results import Result
@@ -617,8 +618,8 @@ def verify(plan: Plan, progress: Callable[[str], None] = _say) -> dict[str, Any]
                      "measured": measured["positioning"]["scatter"]}
                     if "scatter" in measured.get("positioning", {}) else None),
         "repredicted": {k: {"design_json": v, "now": predicted_headline(flow, k)} for k, v in repredicted.items()}}
-    (plan.out / "verify.json").write_text(json.dumps(result, indent=1, default=_jsonable) + "\n")
-    (plan.out / "verify.md").write_text(markdown(result))
+    write_json_atomic(plan.out / "verify.json", result, indent=1, default=str)
+    write_text_atomic(plan.out / "verify.md", markdown(result))
     return result
 
 
@@ -630,8 +631,8 @@ def annotate(out: Path, notes: Sequence[str]) -> dict[str, Any]:
     """
     res = json.loads((out / "verify.json").read_text())
     res["notes"] = [str(n) for n in notes]
-    (out / "verify.json").write_text(json.dumps(res, indent=1, default=_jsonable) + "\n")
-    (out / "verify.md").write_text(markdown(res))
+    write_json_atomic(out / "verify.json", res, indent=1, default=str)
+    write_text_atomic(out / "verify.md", markdown(res))
     return res
 
 
@@ -719,14 +720,6 @@ def predicted_headline(flow: Mapping[str, Any], figure: str) -> Optional[float]:
         s = f["stabilisation"]
         return s.get(f"{'hold' if s.get('design_mode') == 'hold' else 'stab'}_true_rms_arcsec")
     raise ValueError(f"predicted_headline: unknown figure '{figure}'")
-
-
-def _jsonable(x: Any) -> Any:
-    if isinstance(x, np.generic):
-        return x.item()
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    return str(x)
 
 
 __all__ = ["GAIN_KEYS", "Plan", "annotate", "band_pass", "compare", "configure", "download_plan", "identify", "markdown", "measure",

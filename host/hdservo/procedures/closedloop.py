@@ -19,6 +19,7 @@ import numpy as np
 from . import metrics as mt
 from .results import Result, figure, save_figure
 from .runner import DT, Bench, Progress, RigSetup
+from ..phase import unwrap_turns
 
 AXIS_SETUP = RigSetup("axis", payload=True)
 from ..units import TURN  # noqa: E402
@@ -125,7 +126,7 @@ def reference_moved_throughout(ref_lo: np.ndarray) -> bool:
     A reference that stood still for a sample (the profile move had arrived at its target)
     means the record is not a constant-rate run.
     """
-    r = Bench.unwrap_turns(ref_lo)
+    r = unwrap_turns(ref_lo, centred=False)
     d = np.diff(r)
     return bool(d.size > 0 and (np.all(d > 0) or np.all(d < 0)))
 
@@ -204,11 +205,11 @@ def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, set
         # end of the rung: halt (controlword bit 8) stops the move where it is, at traj_amax (the
         # reference never reverses; a new profile set-point would be refused while the move runs)
         pp_halt(bench)
-    ang = Bench.unwrap_turns(cap["pos_out_lo"]) * TURN
+    ang = unwrap_turns(cap["pos_out_lo"], centred=False) * TURN
     t = np.arange(ang.size) * decim * DT
     st = mt.rate_stability(t, ang, rate, win)
     # the drive's own reference over the record: its rate error is the profile generator's, not the axis'
-    ref = Bench.unwrap_turns(cap["pos_ref_lo"]) * TURN
+    ref = unwrap_turns(cap["pos_ref_lo"], centred=False) * TURN
     ref_rate = float(np.polyfit(t, ref, 1)[0]) if ref.size > 1 else float("nan")
     return {"rate_deg_s": rate_deg_s, "window_arcsec": win / mt.ARCSEC, "window_s": win / rate, **st,
             "reference_accuracy": abs(ref_rate - rate) / rate,
@@ -699,8 +700,8 @@ def bandwidth(bench: Bench, amplitude_arcsec: float = 60.0, period_samples: int 
     bench.disable()
     if fault:
         raise RuntimeError(f"the drive faulted during the bandwidth test (fault code {fault})")
-    ref = Bench.unwrap_turns(cap["pos_ref_lo"]) * TURN
-    out = Bench.unwrap_turns(cap["pos_out_lo"]) * TURN
+    ref = unwrap_turns(cap["pos_ref_lo"], centred=False) * TURN
+    out = unwrap_turns(cap["pos_out_lo"], centred=False) * TURN
     n = frames
     h = mt.line_response(ref[:n], out[:n], lines)
     f = np.asarray(lines, float) / (period_samples * k * DT)

@@ -24,11 +24,13 @@ import html
 import html.parser
 import json
 import os
-import tempfile
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Optional, Sequence
 
 import numpy as np
+
+from ..fileio import write_text_atomic
+from ..plotting import pyplot
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -76,8 +78,7 @@ def check_png(path: Path) -> tuple[int, int]:
     if not data.startswith(PNG_MAGIC):
         raise ReportError(f"{path}: not a PNG file")
     try:
-        import matplotlib
-        matplotlib.use("Agg")
+        pyplot()                                  # the backend, before any matplotlib module
         import matplotlib.image as mpimg
         img = np.asarray(mpimg.imread(path))
     except Exception as e:   # noqa: BLE001 - any decoder failure is a bad file
@@ -425,15 +426,7 @@ def build_report(out: Path, compare: Optional[Path] = None, tests: Sequence[Path
             f"<title>{esc(title)}</title><style>{CSS}</style></head><body>\n" + "\n".join(body)
             + "\n</body></html>\n")
     out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(page)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, out)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    write_text_atomic(out, page)
     return {"path": out, "plots": [str(p) for p in imgs.used], "bytes": len(page.encode("utf-8"))}
 
 
