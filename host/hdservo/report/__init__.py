@@ -122,14 +122,15 @@ PLOT_CAPTIONS: dict[str, str] = {
                  "(the bandwidth is the -3 dB frequency)",
     "tracking": "tracking error over time, one panel per sinusoidal rate",
     "settling": "output minus target after each move's reference arrives, with the settling band",
-    "frf": "frequency response motor angle per motor torque, magnitude and coherence against frequency",
-    "stiffness": "gear torque against output twist with the output locked (torsional stiffness)",
+    "frf": "frequency response from motor torque to motor angle against frequency",
+    "stiffness": "torque against output twist with the output locked (torsional stiffness), with the fit "
+                 "where one was made",
     "hysteresis": "gear torque against output twist over full torque cycles (hysteresis loop)",
     "lost-motion": "gear torque against output twist around zero torque (lost motion)",
     "starting-torque": "motor rotation against the input torque command steps (starting torque)",
     "transmission": "transmission error against output angle over the revolutions",
     "friction_stribeck": "friction torque against velocity with the fitted Stribeck curve, and the fit residual",
-    "presliding": "presliding friction against displacement with the fitted model, and the residual",
+    "presliding": "input friction against motor angle with the LuGre presliding fit, and the residual",
     "te": "transmission error against wave-generator angle with the fitted harmonics, and the residual",
     "preisach_minor_loops": "minor hysteresis loops not used in the fit: measured and predicted by the "
                             "Preisach model, and the error",
