@@ -184,23 +184,26 @@ def tracking(bench: Bench, rates_deg_s: Sequence[float] = TRACK_RATES_DEG_S, per
     r.headline = head
     r.series = {"runs": runs}
 
-    def plot(res: Result, dd: Path, fmt: str) -> list[Path]:
-        rr = res.series["runs"]
-        fig, ax = figure(len(rr), 1, (8.0, 3.0 * len(rr)))
-        for i, x in enumerate(rr):
-            a = ax[i][0]
-            a.plot(x["t_s"], x["err_arcsec"], lw=0.7, color="C0", label="tracking error (output - set-point)")
-            for tr in x["reversal_t_s"]:
-                a.axvline(tr, color="k", ls=":", lw=0.8)
-            a.set_title(f"sinusoid, peak {x['rate_deg_s']:g} deg/s: RMS {x['rms_arcsec']:.3g}\", "
-                        f"peak {x['peak_arcsec']:.3g}\" (dotted: velocity reversals)", fontsize=9)
-            a.set_ylabel("error (arcsec)")
-            a.grid(True)
-            a.legend(fontsize=8, loc="upper right")
-        ax[-1][0].set_xlabel("time (s)")
-        return save_figure(fig, dd, res.name, fmt, label=res.label)
-    r.plot = plot
+    r.plot = _plot_tracking
     return r
+
+
+def _plot_tracking(res: Result, dd: Path, fmt: str) -> list[Path]:
+    """Tracking error over time, one panel per sinusoidal rate, velocity reversals dotted."""
+    rr = res.series["runs"]
+    fig, ax = figure(len(rr), 1, (8.0, 3.0 * len(rr)))
+    for i, x in enumerate(rr):
+        a = ax[i][0]
+        a.plot(x["t_s"], x["err_arcsec"], lw=0.7, color="C0", label="tracking error (output - set-point)")
+        for tr in x["reversal_t_s"]:
+            a.axvline(tr, color="k", ls=":", lw=0.8)
+        a.set_title(f"sinusoid, peak {x['rate_deg_s']:g} deg/s: RMS {x['rms_arcsec']:.3g}\", "
+                    f"peak {x['peak_arcsec']:.3g}\" (dotted: velocity reversals)", fontsize=9)
+        a.set_ylabel("error (arcsec)")
+        a.grid(True)
+        a.legend(fontsize=8, loc="upper right")
+    ax[-1][0].set_xlabel("time (s)")
+    return save_figure(fig, dd, res.name, fmt, label=res.label)
 
 
 def settling_time(t_s: np.ndarray, err_arcsec: np.ndarray, t_arrive_s: float, band_arcsec: float) -> Optional[float]:
@@ -280,27 +283,31 @@ def settling(bench: Bench, step_deg: float = SETTLE_STEP_DEG, moves: int = 4, ba
     r.headline = {key: worst}
     r.series = {"moves": out_moves, "band": band_arcsec}
 
-    def plot(res: Result, dd: Path, fmt: str) -> list[Path]:
-        fig, ax = figure(size=(8.0, 4.5))
-        a = ax[0][0]
-        for i, x in enumerate(res.series["moves"]):
-            tt = x["t_s"] - x["arrival_s"]
-            lab = f"move {i + 1} ({'+' if x['direction'] > 0 else '-'}): " + (
-                "not settled" if x["settling_s"] is None else f"{x['settling_s']:.3g} s")
-            a.plot(tt, x["err_arcsec"], lw=0.8, label=lab)
-        b = res.series["band"]
-        a.axhspan(-b, b, color="0.85", label=f"+-{b:g} arcsec band")
-        a.set_ylim(-10 * b, 10 * b)
-        a.set_xlim(-0.2, None)
-        a.set_xlabel("time after the reference's arrival (s)")
-        a.set_ylabel("output - target (arcsec)")
-        a.set_title(f"settling after {step_deg:g} deg moves", fontsize=10)
-        a.grid(True)
-        a.legend(fontsize=8)
-        return save_figure(fig, dd, res.name, fmt, label=res.label)
-    r.plot = plot
+    r.plot = _plot_settling
     return r
 
 
 __all__ = ["REVERSAL_WINDOW", "SETTLE_BAND_ARCSEC", "SETTLE_STEP_DEG", "TRACK_PERIOD_S", "TRACK_RATES_DEG_S",
            "align_lag", "rate_tag", "settling", "settling_time", "sine_setpoints", "tracking", "tracking_metrics"]
+
+
+
+def _plot_settling(res: Result, dd: Path, fmt: str) -> list[Path]:
+    """Output minus target after each move's reference arrives, with the settling band."""
+    fig, ax = figure(size=(8.0, 4.5))
+    a = ax[0][0]
+    for i, x in enumerate(res.series["moves"]):
+        tt = x["t_s"] - x["arrival_s"]
+        lab = f"move {i + 1} ({'+' if x['direction'] > 0 else '-'}): " + (
+            "not settled" if x["settling_s"] is None else f"{x['settling_s']:.3g} s")
+        a.plot(tt, x["err_arcsec"], lw=0.8, label=lab)
+    b = res.series["band"]
+    a.axhspan(-b, b, color="0.85", label=f"+-{b:g} arcsec band")
+    a.set_ylim(-10 * b, 10 * b)
+    a.set_xlim(-0.2, None)
+    a.set_xlabel("time after the reference's arrival (s)")
+    a.set_ylabel("output - target (arcsec)")
+    a.set_title(f"settling after {res.conditions['step_deg']:g} deg moves", fontsize=10)
+    a.grid(True)
+    a.legend(fontsize=8)
+    return save_figure(fig, dd, res.name, fmt, label=res.label)
