@@ -72,10 +72,9 @@ def _rejections(evals: List[Evaluated]) -> Dict[str, int]:
 
 # ------------------------------------------------------------------ plots
 
-def _plots(res: FlowResult, d: Path) -> List[str]:
+def _plot_feasibility(res: FlowResult) -> Any:
+    """``feasibility.png``: smallest feasibility margin against cost of every gear x motor pair."""
     plt = pyplot()
-    files: List[str] = []
-
     fig, ax = plt.subplots(figsize=(7, 4))
     feas = [e for e in res.all_candidates if e.feasible]
     bad = [e for e in res.all_candidates if not e.feasible]
@@ -92,82 +91,108 @@ def _plots(res: FlowResult, d: Path) -> List[str]:
     ax.set_title("gear x motor pairs (star: simulated, red: chosen)", fontsize=9)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(d / "feasibility.png", dpi=DPI)
-    plt.close(fig)
-    files.append("feasibility.png")
+    return fig
 
+
+def _plot_margins(res: FlowResult) -> Any:
+    """``margins.png``: each simulated candidate's margin against each requirement."""
+    plt = pyplot()
+    keys = list(res.simulated[0].margins)
+    fig, ax = plt.subplots(figsize=(7, 3.6))
+    w = 0.8 / len(res.simulated)
+    for i, e in enumerate(res.simulated):
+        ax.bar(np.arange(len(keys)) + i * w, [max(e.margins[k], -1.0) * 100 for k in keys], width=w,
+               label=e.candidate.gear.name + " / " + e.candidate.motor.name)
+    ax.axhline(0, color="k", lw=0.8)
+    ax.set_xticks(np.arange(len(keys)) + 0.4 - w / 2)
+    ax.set_xticklabels([k.replace("_", "\n") for k in keys], fontsize=7)
+    ax.set_ylabel("margin vs requirement [%] (clipped at -100)")
+    ax.set_title("simulated margins (>= 0: requirement met)", fontsize=9)
+    ax.grid(True, axis="y", alpha=0.3)
+    ax.legend(fontsize=7)
+    return fig
+
+
+def _panel_min_rate(a: Any, f: Dict[str, Any]) -> None:
+    """Window rate over commanded rate per rung of the chosen design's prediction."""
+    for rate, w in f["min_rate"]["series"].items():
+        if w:
+            a.plot(np.arange(len(w)) + 1, w, "o-", ms=3, label=f"{rate} deg/s")
+    a.axhspan(1 - f["min_rate"]["bound"], 1 + f["min_rate"]["bound"], color="0.9")
+    a.set_xlabel("fixed-angle window [-]")
+    a.set_ylabel("window rate / commanded rate [-]")
+    a.set_title("minimum smooth rate (band: +-10 %)", fontsize=9)
+    a.legend(fontsize=7)
+    a.grid(True, alpha=0.3)
+
+
+def _panel_positioning(a: Any, f: Dict[str, Any]) -> None:
+    """Positional deviation per target and approach direction of the chosen design's prediction."""
+    p = f["positioning"]
+    tg = np.asarray(p["targets_deg"])
+    for j, (u, dn) in enumerate(zip(p["up_arcsec"], p["down_arcsec"])):
+        a.plot(tg, u, "^-", color="C0", ms=3, lw=0.5, label="approach +" if j == 0 else None)
+        a.plot(tg, dn, "v-", color="C1", ms=3, lw=0.5, label="approach -" if j == 0 else None)
+    a.set_xlabel("target [deg]")
+    a.set_ylabel("positional deviation [arcsec]")
+    a.set_title(f"positioning: A = {p['A_arcsec']:.3g}\", R = {p['R_arcsec']:.3g}\" (encoder accuracy "
+                "not included)", fontsize=9)
+    a.legend(fontsize=7)
+    a.grid(True, alpha=0.3)
+
+
+def _panel_stabilisation(a: Any, f: Dict[str, Any]) -> None:
+    """Inertial pointing error over time in STAB mode, with an ideal reference and the encoder hold."""
+    s = f["stabilisation"]
+    for tag, lab in (("stab", "STAB mode"), ("inertial", "ideal inertial reference"), ("hold", "encoder hold (/100)")):
+        tr = s.get(f"{tag}_trace")
+        if tr:
+            scale = 0.01 if tag == "hold" else 1.0
+            a.plot(tr["t_s"], np.asarray(tr["angle_arcsec"]) * scale, lw=0.7,
+                   label=f"{lab}: {s[f'{tag}_rms_arcsec']:.3g}\" RMS")
+    a.set_xlabel("time [s]")
+    a.set_ylabel("inertial pointing error [arcsec]")
+    a.set_title("stabilisation, base rocking (gyro integrated)", fontsize=9)
+    a.legend(fontsize=7)
+    a.grid(True, alpha=0.3)
+
+
+def _panel_bandwidth(a: Any, f: Dict[str, Any]) -> None:
+    """Closed-loop position response magnitude against frequency, with the -3 dB line."""
+    b = f["bandwidth"]
+    a.semilogx(b["f_Hz"], b["magnitude_dB"], "o-", ms=3)
+    a.axhline(-3, color="k", ls=":")
+    a.set_xlabel("frequency [Hz]")
+    a.set_ylabel("|theta_L / theta_ref| [dB]")
+    a.set_title(f"position response, 60\" multisine: -3 dB at {_f(b['bandwidth_Hz'], 'Hz')}", fontsize=9)
+    a.grid(True, which="both", alpha=0.3)
+
+
+def _plot_chosen(res: FlowResult) -> Any:
+    """``chosen_figures.png``: the chosen design's predicted min rate, positioning, stabilisation and bandwidth."""
+    assert res.chosen is not None
+    fig, axs = pyplot().subplots(2, 2, figsize=(9, 6.5))
+    for a, panel in zip(axs.flat, (_panel_min_rate, _panel_positioning, _panel_stabilisation, _panel_bandwidth)):
+        panel(a, res.chosen.sim)
+    fig.suptitle(f"chosen: {res.chosen.candidate.name}", fontsize=9)
+    return fig
+
+
+def _plots(res: FlowResult, d: Path) -> List[str]:
+    """Draw the report's plots into ``d``; returns their file names."""
+    plt = pyplot()
+    figures = [("feasibility.png", _plot_feasibility)]
     if res.simulated:
-        keys = list(res.simulated[0].margins)
-        fig, ax = plt.subplots(figsize=(7, 3.6))
-        w = 0.8 / len(res.simulated)
-        for i, e in enumerate(res.simulated):
-            ax.bar(np.arange(len(keys)) + i * w, [max(e.margins[k], -1.0) * 100 for k in keys], width=w,
-                   label=e.candidate.gear.name + " / " + e.candidate.motor.name)
-        ax.axhline(0, color="k", lw=0.8)
-        ax.set_xticks(np.arange(len(keys)) + 0.4 - w / 2)
-        ax.set_xticklabels([k.replace("_", "\n") for k in keys], fontsize=7)
-        ax.set_ylabel("margin vs requirement [%] (clipped at -100)")
-        ax.set_title("simulated margins (>= 0: requirement met)", fontsize=9)
-        ax.grid(True, axis="y", alpha=0.3)
-        ax.legend(fontsize=7)
+        figures.append(("margins.png", _plot_margins))
+    if res.chosen and res.chosen.sim:
+        figures.append(("chosen_figures.png", _plot_chosen))
+    files: List[str] = []
+    for name, draw in figures:
+        fig = draw(res)
         fig.tight_layout()
-        fig.savefig(d / "margins.png", dpi=DPI)
+        fig.savefig(d / name, dpi=DPI)
         plt.close(fig)
-        files.append("margins.png")
-
-    ch = res.chosen
-    if ch and ch.sim:
-        f = ch.sim
-        fig, axs = plt.subplots(2, 2, figsize=(9, 6.5))
-        a = axs[0, 0]
-        for rate, w in f["min_rate"]["series"].items():
-            if w:
-                a.plot(np.arange(len(w)) + 1, w, "o-", ms=3, label=f"{rate} deg/s")
-        a.axhspan(1 - f["min_rate"]["bound"], 1 + f["min_rate"]["bound"], color="0.9")
-        a.set_xlabel("fixed-angle window [-]")
-        a.set_ylabel("window rate / commanded rate [-]")
-        a.set_title("minimum smooth rate (band: +-10 %)", fontsize=9)
-        a.legend(fontsize=7)
-        a.grid(True, alpha=0.3)
-        a = axs[0, 1]
-        p = f["positioning"]
-        tg = np.asarray(p["targets_deg"])
-        for j, (u, dn) in enumerate(zip(p["up_arcsec"], p["down_arcsec"])):
-            a.plot(tg, u, "^-", color="C0", ms=3, lw=0.5, label="approach +" if j == 0 else None)
-            a.plot(tg, dn, "v-", color="C1", ms=3, lw=0.5, label="approach -" if j == 0 else None)
-        a.set_xlabel("target [deg]")
-        a.set_ylabel("positional deviation [arcsec]")
-        a.set_title(f"positioning: A = {p['A_arcsec']:.3g}\", R = {p['R_arcsec']:.3g}\" (encoder accuracy "
-                    "not included)", fontsize=9)
-        a.legend(fontsize=7)
-        a.grid(True, alpha=0.3)
-        a = axs[1, 0]
-        s = f["stabilisation"]
-        for tag, lab in (("stab", "STAB mode"), ("inertial", "ideal inertial reference"), ("hold", "encoder hold (/100)")):
-            tr = s.get(f"{tag}_trace")
-            if tr:
-                scale = 0.01 if tag == "hold" else 1.0
-                a.plot(tr["t_s"], np.asarray(tr["angle_arcsec"]) * scale, lw=0.7,
-                       label=f"{lab}: {s[f'{tag}_rms_arcsec']:.3g}\" RMS")
-        a.set_xlabel("time [s]")
-        a.set_ylabel("inertial pointing error [arcsec]")
-        a.set_title("stabilisation, base rocking (gyro integrated)", fontsize=9)
-        a.legend(fontsize=7)
-        a.grid(True, alpha=0.3)
-        a = axs[1, 1]
-        b = f["bandwidth"]
-        a.semilogx(b["f_Hz"], b["magnitude_dB"], "o-", ms=3)
-        a.axhline(-3, color="k", ls=":")
-        a.set_xlabel("frequency [Hz]")
-        a.set_ylabel("|theta_L / theta_ref| [dB]")
-        a.set_title(f"position response, 60\" multisine: -3 dB at {_f(b['bandwidth_Hz'], 'Hz')}", fontsize=9)
-        a.grid(True, which="both", alpha=0.3)
-        fig.suptitle(f"chosen: {ch.candidate.name}", fontsize=9)
-        fig.tight_layout()
-        fig.savefig(d / "chosen_figures.png", dpi=DPI)
-        plt.close(fig)
-        files.append("chosen_figures.png")
+        files.append(name)
     return files
 
 
