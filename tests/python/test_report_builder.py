@@ -23,6 +23,8 @@ def test_readable_keys() -> None:
     assert readable("per_target.10.A_arcsec") == "per target / 10 / A [arcsec]"
     assert readable("min_smooth_rate_deg_s") == "min smooth rate [deg/s]"
     assert readable("k1_Nm_per_rad") == "k1 [N.m/rad]"
+    assert readable("max_accel_deg_s2") == "max accel [deg/s^2]"
+    assert readable("stabilisation_arcsec_rms") == "stabilisation [arcsec RMS]"
     assert readable("s") == "s"                        # a lone unit-like word stays a word
 
 

@@ -17,7 +17,8 @@ from typing import Any, Iterable, Mapping, Optional, Sequence, Union
 
 #: Key suffixes naming a unit (longest first): ``positioning_accuracy_arcsec`` -> ``[arcsec]``.
 UNIT_SUFFIXES: tuple[tuple[str, str], ...] = (
-    ("_Nm_per_rad", "N.m/rad"), ("_Nms_per_rad", "N.m.s/rad"), ("_kgm2", "kg.m^2"), ("_deg_s", "deg/s"),
+    ("_Nm_per_rad", "N.m/rad"), ("_Nms_per_rad", "N.m.s/rad"), ("_kgm2", "kg.m^2"), ("_arcsec_rms", "arcsec RMS"),
+    ("_deg_s2", "deg/s^2"), ("_deg_s", "deg/s"),
     ("_rad_s", "rad/s"), ("_Nm_s", "N.m/s"), ("_arcsec", "arcsec"), ("_arcmin", "arcmin"), ("_permille", "per mille"),
     ("_pct", "%"), ("_deg", "deg"), ("_rad", "rad"), ("_Nm", "N.m"), ("_Hz", "Hz"), ("_hz", "Hz"), ("_dB", "dB"),
     ("_db", "dB"), ("_ms", "ms"), ("_s", "s"),
