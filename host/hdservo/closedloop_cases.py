@@ -709,6 +709,99 @@ def improvement(baseline: Mapping[str, Any], other: Mapping[str, Any], speed: st
 
 # ------------------------------------------------------------------ plots
 
+def _plot_steps(name: str, steps: Sequence[CaseRun]) -> Any:
+    """Step responses (setpoint and true output) and their error, one column per step case."""
+    plt = pyplot()
+    fig, axs = plt.subplots(2, len(steps), figsize=(5.5 * len(steps), 6.5), squeeze=False)
+    for j, r in enumerate(steps):
+        tr = r.trace
+        t0 = float(r.case.setpoint["t0_s"])
+        axs[0, j].plot(tr["t_s"] - t0, tr["setpoint_rad"] * ARCSEC_PER_RAD, "k--", lw=1, label="setpoint")
+        axs[0, j].plot(tr["t_s"] - t0, tr["y_rad"] * ARCSEC_PER_RAD, lw=1, label="output (true)")
+        axs[0, j].set_ylabel("output angle [arcsec]")
+        f = r.figures
+        axs[0, j].set_title(f"{name}: {r.case.label}\nrise {_fmt(f['rise_time_s'], 's')}, "
+                            f"overshoot {f['overshoot_pct']:.1f} %, "
+                            f"ts(2\") {_fmt(f['settling_time_s_2arcsec'], 's')}", fontsize=9)
+        axs[0, j].legend(fontsize=8)
+        axs[1, j].plot(tr["t_s"] - t0, tr["e_arcsec"], lw=1)
+        for b in (2.0, 10.0):
+            axs[1, j].axhline(b, color="grey", lw=0.5, ls=":")
+            axs[1, j].axhline(-b, color="grey", lw=0.5, ls=":")
+        lim = max(15.0, 1.2 * abs(f["final_error_arcsec"]) + 5)
+        axs[1, j].set_ylim(-lim, lim)
+        axs[1, j].set_ylabel("error [arcsec]")
+        axs[1, j].set_xlabel("time after step [s]")
+        for a in axs[:, j]:
+            a.grid(True, alpha=0.3)
+    return fig
+
+
+def _plot_tracking(name: str, trk: Sequence[CaseRun]) -> Any:
+    """Tracking error over time, one row per speed (the transient shaded)."""
+    plt = pyplot()
+    fig, axs = plt.subplots(len(trk), 1, figsize=(9, 2.4 * len(trk)), squeeze=False)
+    for i, r in enumerate(trk):
+        a = axs[i, 0]
+        tr = r.trace
+        a.plot(tr["t_s"], tr["e_arcsec"], lw=0.7)
+        w0 = r.figures["window_s"][0]
+        a.axvspan(tr["t_s"][0], w0, color="grey", alpha=0.15, lw=0)
+        a.set_ylabel("error [arcsec]")
+        a.set_title(f"{name}: {r.case.label}: RMS {r.figures['rms_arcsec']:.3g} arcsec, "
+                    f"max {r.figures['max_arcsec']:.3g} arcsec (shaded: transient, excluded)", fontsize=9)
+        a.grid(True, alpha=0.3)
+    axs[-1, 0].set_xlabel("time [s]")
+    return fig
+
+
+def _plot_reversal(name: str, r: CaseRun) -> Any:
+    """Setpoint and true output through the reversals, and the error (reversals dotted)."""
+    plt = pyplot()
+    tr = r.trace
+    fig, axs = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True)
+    axs[0].plot(tr["t_s"], tr["setpoint_rad"] / RAD_PER_DEG, "k--", lw=1, label="setpoint")
+    axs[0].plot(tr["t_s"], tr["y_rad"] / RAD_PER_DEG, lw=1, label="output (true)")
+    axs[0].set_ylabel("output angle [deg]")
+    axs[0].legend(fontsize=8)
+    axs[1].plot(tr["t_s"], tr["e_arcsec"], lw=0.7)
+    for trv in r.figures["t_reversal_s"]:
+        for a in axs:
+            a.axvline(trv, color="r", lw=0.6, ls=":")
+    axs[1].set_ylabel("error [arcsec]")
+    axs[1].set_xlabel("time [s]")
+    axs[0].set_title(f"{name}: {r.case.label}: peak error at reversals {r.figures['peak_arcsec']:.3g} arcsec "
+                     "(dotted: reversals)", fontsize=9)
+    for a in axs:
+        a.grid(True, alpha=0.3)
+    return fig
+
+
+def _plot_ptp(name: str, ptp: Sequence[CaseRun]) -> Any:
+    """Final error per point-to-point target, and the error after the end of each move."""
+    plt = pyplot()
+    fig, axs = plt.subplots(2, 1, figsize=(9, 6))
+    tg = [r.figures["target_deg"] for r in ptp]
+    fe = [r.figures["final_error_arcsec"] for r in ptp]
+    axs[0].bar(tg, fe, width=6.0)
+    for b in (10.0, -10.0):
+        axs[0].axhline(b, color="r", lw=0.6, ls=":")
+    axs[0].set_xlabel("target [deg]")
+    axs[0].set_ylabel("final error [arcsec]")
+    axs[0].set_title(f"{name}: 12-position moves from 0, final error (dotted: 10 arcsec requirement)",
+                     fontsize=9)
+    for r in ptp:
+        tr = r.trace
+        te = move_end_s(tr["t_s"], tr["setpoint_rad"])
+        axs[1].plot(tr["t_s"] - te, tr["e_arcsec"], lw=0.7)
+    axs[1].set_ylim(-30, 30)
+    axs[1].set_xlabel("time after end of move [s]")
+    axs[1].set_ylabel("error [arcsec]")
+    for a in axs:
+        a.grid(True, alpha=0.3)
+    return fig
+
+
 def plot_axis(name: str, runs: Sequence[CaseRun], outdir: str | os.PathLike[str]) -> list[Path]:
     """PNG plots of one axis: step responses, tracking error per speed, ramp and
     reversal error, point-to-point final errors.
@@ -726,109 +819,26 @@ def plot_axis(name: str, runs: Sequence[CaseRun], outdir: str | os.PathLike[str]
         Files written.
     """
     plt = pyplot()
-
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
-    files: list[Path] = []
     by = {r.case.name: r for r in runs}
-
     steps = [r for r in runs if r.case.kind == "step"]
-    if steps:
-        fig, axs = plt.subplots(2, len(steps), figsize=(5.5 * len(steps), 6.5), squeeze=False)
-        for j, r in enumerate(steps):
-            tr = r.trace
-            t0 = float(r.case.setpoint["t0_s"])
-            axs[0, j].plot(tr["t_s"] - t0, tr["setpoint_rad"] * ARCSEC_PER_RAD, "k--", lw=1, label="setpoint")
-            axs[0, j].plot(tr["t_s"] - t0, tr["y_rad"] * ARCSEC_PER_RAD, lw=1, label="output (true)")
-            axs[0, j].set_ylabel("output angle [arcsec]")
-            f = r.figures
-            axs[0, j].set_title(f"{name}: {r.case.label}\nrise {_fmt(f['rise_time_s'], 's')}, "
-                                f"overshoot {f['overshoot_pct']:.1f} %, "
-                                f"ts(2\") {_fmt(f['settling_time_s_2arcsec'], 's')}", fontsize=9)
-            axs[0, j].legend(fontsize=8)
-            axs[1, j].plot(tr["t_s"] - t0, tr["e_arcsec"], lw=1)
-            for b in (2.0, 10.0):
-                axs[1, j].axhline(b, color="grey", lw=0.5, ls=":")
-                axs[1, j].axhline(-b, color="grey", lw=0.5, ls=":")
-            lim = max(15.0, 1.2 * abs(f["final_error_arcsec"]) + 5)
-            axs[1, j].set_ylim(-lim, lim)
-            axs[1, j].set_ylabel("error [arcsec]")
-            axs[1, j].set_xlabel("time after step [s]")
-            for a in axs[:, j]:
-                a.grid(True, alpha=0.3)
-        fig.tight_layout()
-        p = out / f"baseline_{name}_steps.png"
-        save_figure_atomic(fig, p, dpi=110)
-        plt.close(fig)
-        files.append(p)
-
     trk = [r for r in runs if r.case.kind == "tracking"]
-    if trk:
-        fig, axs = plt.subplots(len(trk), 1, figsize=(9, 2.4 * len(trk)), squeeze=False)
-        for i, r in enumerate(trk):
-            a = axs[i, 0]
-            tr = r.trace
-            a.plot(tr["t_s"], tr["e_arcsec"], lw=0.7)
-            w0 = r.figures["window_s"][0]
-            a.axvspan(tr["t_s"][0], w0, color="grey", alpha=0.15, lw=0)
-            a.set_ylabel("error [arcsec]")
-            a.set_title(f"{name}: {r.case.label}: RMS {r.figures['rms_arcsec']:.3g} arcsec, "
-                        f"max {r.figures['max_arcsec']:.3g} arcsec (shaded: transient, excluded)", fontsize=9)
-            a.grid(True, alpha=0.3)
-        axs[-1, 0].set_xlabel("time [s]")
-        fig.tight_layout()
-        p = out / f"baseline_{name}_tracking.png"
-        save_figure_atomic(fig, p, dpi=110)
-        plt.close(fig)
-        files.append(p)
-
-    if "reversal" in by:
-        r = by["reversal"]
-        tr = r.trace
-        fig, axs = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True)
-        axs[0].plot(tr["t_s"], tr["setpoint_rad"] / RAD_PER_DEG, "k--", lw=1, label="setpoint")
-        axs[0].plot(tr["t_s"], tr["y_rad"] / RAD_PER_DEG, lw=1, label="output (true)")
-        axs[0].set_ylabel("output angle [deg]")
-        axs[0].legend(fontsize=8)
-        axs[1].plot(tr["t_s"], tr["e_arcsec"], lw=0.7)
-        for trv in r.figures["t_reversal_s"]:
-            for a in axs:
-                a.axvline(trv, color="r", lw=0.6, ls=":")
-        axs[1].set_ylabel("error [arcsec]")
-        axs[1].set_xlabel("time [s]")
-        axs[0].set_title(f"{name}: {r.case.label}: peak error at reversals {r.figures['peak_arcsec']:.3g} arcsec "
-                         "(dotted: reversals)", fontsize=9)
-        for a in axs:
-            a.grid(True, alpha=0.3)
-        fig.tight_layout()
-        p = out / f"baseline_{name}_reversal.png"
-        save_figure_atomic(fig, p, dpi=110)
-        plt.close(fig)
-        files.append(p)
-
     ptp = [r for r in runs if r.case.kind == "ptp"]
+    figures: list[tuple[str, Callable[[], Any]]] = []
+    if steps:
+        figures.append(("steps", lambda: _plot_steps(name, steps)))
+    if trk:
+        figures.append(("tracking", lambda: _plot_tracking(name, trk)))
+    if "reversal" in by:
+        figures.append(("reversal", lambda: _plot_reversal(name, by["reversal"])))
     if ptp:
-        fig, axs = plt.subplots(2, 1, figsize=(9, 6))
-        tg = [r.figures["target_deg"] for r in ptp]
-        fe = [r.figures["final_error_arcsec"] for r in ptp]
-        axs[0].bar(tg, fe, width=6.0)
-        for b in (10.0, -10.0):
-            axs[0].axhline(b, color="r", lw=0.6, ls=":")
-        axs[0].set_xlabel("target [deg]")
-        axs[0].set_ylabel("final error [arcsec]")
-        axs[0].set_title(f"{name}: 12-position moves from 0, final error (dotted: 10 arcsec requirement)",
-                         fontsize=9)
-        for r in ptp:
-            tr = r.trace
-            te = move_end_s(tr["t_s"], tr["setpoint_rad"])
-            axs[1].plot(tr["t_s"] - te, tr["e_arcsec"], lw=0.7)
-        axs[1].set_ylim(-30, 30)
-        axs[1].set_xlabel("time after end of move [s]")
-        axs[1].set_ylabel("error [arcsec]")
-        for a in axs:
-            a.grid(True, alpha=0.3)
+        figures.append(("ptp", lambda: _plot_ptp(name, ptp)))
+    files: list[Path] = []
+    for kind, draw in figures:
+        fig = draw()
         fig.tight_layout()
-        p = out / f"baseline_{name}_ptp.png"
+        p = out / f"baseline_{name}_{kind}.png"
         save_figure_atomic(fig, p, dpi=110)
         plt.close(fig)
         files.append(p)

@@ -35,9 +35,9 @@ Paths inside ``compare.json`` are relative to ``OUT``.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import shlex
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -735,7 +735,7 @@ def _write_row(out_dir: Path, ctl: Controller, results: Sequence[Any], kw: Mappi
     headline: dict[str, Any] = {}
     loop: dict[str, float] = {}
     for r in results:
-        headline.update(json.loads(json.dumps(r.to_json()["headline"])))
+        headline.update(r.to_json()["headline"])
         if not loop and r.conditions.get("loop_gains"):
             loop = dict(r.conditions["loop_gains"])
     return {**ctl.to_json(), "headline": headline, "json": str((cdir / "test.json").relative_to(out_dir)),

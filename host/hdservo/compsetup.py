@@ -193,6 +193,129 @@ def preisach_table(axis: str = "reference", levels: int = 48, sub_bits: int = 3,
                                unit=pt.UNIT_GENERIC, version=version)
 
 
+def _friction_sides(get: Callable[[str], float], n: float) -> tuple[dict[str, float], dict[str, float], bool, bool]:
+    """Motor-side (scaled to the output by N) and load-side friction of the model:
+    (motor, load, motor enabled, load enabled); a disabled side is all zero."""
+    fm, fl = bool(get("friction_motor.enabled")), bool(get("friction_load.enabled"))
+
+    def side(sec: str, scale_t: float, scale_v: float, on: bool) -> dict[str, float]:
+        if not on:
+            return {"fcp": 0.0, "fcn": 0.0, "fsp": 0.0, "fsn": 0.0, "vs": 1.0, "fv": 0.0, "s0": 0.0, "s1": 0.0,
+                    "delta": 2.0}
+        return {"fcp": get(f"{sec}.fc_pos_Nm") * scale_t, "fcn": get(f"{sec}.fc_neg_Nm") * scale_t,
+                "fsp": get(f"{sec}.fs_pos_Nm") * scale_t, "fsn": get(f"{sec}.fs_neg_Nm") * scale_t,
+                "vs": get(f"{sec}.vs_rad_s") / scale_v, "fv": get(f"{sec}.viscous_Nms_per_rad") * scale_t * scale_v,
+                "s0": (get(f"{sec}.sigma0_Nm_per_rad") * scale_t * scale_v) if get(f"{sec}.lugre_enabled") else 0.0,
+                "s1": get(f"{sec}.sigma1_Nms_per_rad") * scale_t * scale_v, "delta": get(f"{sec}.delta")}
+    return side("friction_motor", n, n, fm), side("friction_load", 1.0, 1.0, fl), fm, fl
+
+
+def _stribeck_params(m: dict[str, float], ld: dict[str, float], fm: bool, fl: bool,
+                     eps_rad: float) -> tuple[dict[str, float], float, float]:
+    """The Stribeck feed-forward (both sides summed): (parameters, vs turn/s, viscous N.m/(turn/s))."""
+    # Stribeck velocity: the mean of both sides weighted by their Stribeck hump Fs - Fc; a hump
+    # that is not there (an identified Fs <= Fc) weighs nothing, and with no hump on either
+    # side the enabled sides count equally (a negative weight sum made vs meaningless)
+    ws = (max(m["fsp"] - m["fcp"], 0.0) if fm else 0.0, max(ld["fsp"] - ld["fcp"], 0.0) if fl else 0.0)
+    if ws[0] + ws[1] <= 0.0:
+        ws = (1.0 if fm else 0.0, 1.0 if fl else 0.0)
+    vs = (m["vs"] * ws[0] + ld["vs"] * ws[1]) / max(ws[0] + ws[1], 1e-12)      # rad/s, output
+    vs_turn = vs / TWO_PI
+    fv = (m["fv"] + ld["fv"]) * TWO_PI                                            # N.m/(turn/s)
+    return ({"str_fc_pos": m["fcp"] + ld["fcp"], "str_fs_pos": m["fsp"] + ld["fsp"], "str_vs_pos": vs_turn,
+             "str_fv_pos": fv, "str_fc_neg": m["fcn"] + ld["fcn"], "str_fs_neg": m["fsn"] + ld["fsn"],
+             "str_vs_neg": vs_turn, "str_fv_neg": fv, "str_delta": 2, "str_eps_v": eps_rad / TWO_PI,
+             "str_w_ref": 1.0, "str_tau_max": 30.0}, vs_turn, fv)
+
+
+def _lugre_params(m: dict[str, float], ld: dict[str, float], vs_turn: float, fv: float) -> tuple[dict[str, float], float]:
+    """LuGre with one bristle state for both sides (sigma0 from the torque-weighted presliding
+    distance): (parameters, the load side's presliding distance rad, 0 without one)."""
+    g_s = m["fsp"] + ld["fsp"]
+    z_m = m["fsp"] / m["s0"] if m["s0"] > 0 else 0.0
+    z_l = ld["fsp"] / ld["s0"] if ld["s0"] > 0 else 0.0
+    zbar = (m["fsp"] * z_m + ld["fsp"] * z_l) / max(g_s, 1e-12)
+    sigma0 = g_s / zbar if zbar > 0 else 1e6
+    # sigma1 carries the motor's bristle damping times N^2: at N = 160 an identified model can
+    # exceed the drive's range, and the bank is held inside it (as sigma0 above) so that the
+    # download is accepted whether or not LuGre is enabled.
+    return ({"lug_fc": 0.5 * (m["fcp"] + m["fcn"] + ld["fcp"] + ld["fcn"]),
+             "lug_fs": 0.5 * (m["fsp"] + m["fsn"] + ld["fsp"] + ld["fsn"]), "lug_vs": vs_turn, "lug_delta": 2,
+             "lug_sigma0": min(sigma0 * TWO_PI, 8.0e6),
+             "lug_sigma1": min((m["s1"] + ld["s1"]) * TWO_PI, PARAM_DEFS["lug_sigma1"].max),
+             "lug_sigma2": fv, "lug_k_obs": 0.0, "lug_tau_max": 30.0, "lug_v_src": 0}, z_l)
+
+
+def _tangent_stiffness(get: Callable[[str], float]) -> float:
+    """Tangent stiffness of the gear after a reversal (K1 + hysteresis elements), N.m/rad."""
+    k_tan = get("stiffness.k1_Nm_per_rad")
+    if get("hysteresis_maxwell.enabled"):
+        k_tan += sum(get(f"hysteresis_maxwell.e{i}_k_Nm_per_rad")
+                     for i in range(1, int(get("hysteresis_maxwell.n_elements")) + 1))
+    if get("hysteresis_preisach.enabled"):
+        k_tan += get("hysteresis_preisach.t_sat_Nm") / get("hysteresis_preisach.u_max_rad")
+    return k_tan
+
+
+def _compliance_params(get: Callable[[str], float]) -> dict[str, float]:
+    """Compliance (cb_enable 256): the three-slope stiffness of the axis, N.m/turn and N.m (the cubic
+    form is not in the firmware: its linear term stands in for K1)."""
+    k1 = get("stiffness.k1_Nm_per_rad") if get("stiffness.enabled") else get("stiffness_cubic.k1_Nm_per_rad")
+    k2 = get("stiffness.k2_Nm_per_rad") if get("stiffness.enabled") else k1
+    k3 = get("stiffness.k3_Nm_per_rad") if get("stiffness.enabled") else k1
+    return {"cp_k1": max(k1 * TWO_PI, MX_STIFFNESS_MIN), "cp_k2": max(k2 * TWO_PI, MX_STIFFNESS_MIN),
+            "cp_k3": max(k3 * TWO_PI, MX_STIFFNESS_MIN), "cp_t1": get("stiffness.t1_Nm"),
+            "cp_t2": max(get("stiffness.t2_Nm"), get("stiffness.t1_Nm"))}
+
+
+def _te_params(get: Callable[[str], float]) -> dict[str, float]:
+    """TE: wave-generator harmonics (plant: a sin(n theta_m + p), theta_m rad) -> amp turn, phase turn."""
+    te = []
+    if get("transmission_error.enabled"):
+        for i in range(1, 5):
+            o, a, p = (get(f"transmission_error.wg{i}_order"), get(f"transmission_error.wg{i}_amp_rad"),
+                       get(f"transmission_error.wg{i}_phase_rad"))
+            if o > 0 and a != 0.0:
+                te.append((o, a / TWO_PI, ((p / TWO_PI + 0.5) % 1.0) - 0.5))
+    out: dict[str, float] = {"te_n": len(te), "te_k1": 0.0, "te_tau_max": 10.0}
+    for i in range(4):
+        o, a, p = te[i] if i < len(te) else (0, 0.0, 0.0)
+        out[f"te_order{i + 1}"], out[f"te_amp{i + 1}"], out[f"te_phase{i + 1}"] = o, a, p
+    return out
+
+
+def _backstepping_params(get: Callable[[str], float], n: float, vs_turn: float, fv: float, eps_rad: float,
+                         str_fc: float, str_fs: float) -> dict[str, float]:
+    """Backstepping (docs/compensators.md 6): c = 2 pi f_bs, f_bs = f_a / 5, ke = J c1 c2 / 4, and
+    the adaptation gains and bounds."""
+    jl, jm = get("load.jl_kgm2"), get("motor.jm_kgm2")
+    jt = jl + n * n * jm
+    f_a = math.sqrt(get("stiffness.k1_Nm_per_rad") / jl) / TWO_PI
+    c = TWO_PI * min(8.0, f_a / 5.0)
+    j_turn = TWO_PI * jt
+    scale = jt / 1.3
+    out = {"bs_c1": c, "bs_c2": c, "bs_j": j_turn, "bs_ke": j_turn * c * c / 4, "bs_eps_w": eps_rad / TWO_PI,
+           "bs_w_s": vs_turn, "bs_e1_max": 0.01, "bs_u_max": 60.0}
+    # T_load adaptation is the law's integral action on e2: Gamma_4 = J (2 pi f_i)^2 with f_i = 25 Hz,
+    # the velocity-loop bandwidth of the PID design (baseline.axis_controller); the slower
+    # friction adaptations keep the section 6 values.  Gamma T in Q7.24 (Gamma_4 T = 20.2 here).
+    # A heavy load (J_L of several kg m^2) asks for more than the drive's Q7.24 range holds: the
+    # gain is held at the table maximum (slower integral action) so that the parameter set of the
+    # whole bank stays one the drive accepts, whether or not backstepping is enabled.
+    g4 = min(j_turn * (TWO_PI * BS_F_INT_HZ) ** 2 / 10000.0, PARAM_DEFS["bs_gamma4"].max)
+    gam = (0.5 * scale, 0.5 * scale, 0.25 * scale, g4)
+    fmax = max(str_fs, 1e-3)
+    lo = (0.0, 0.0, 0.0, -20.0 * min(1.0, fmax / 10.6))
+    hi = (3.0 * fmax, 3.0 * fmax, 15.0 * max(fv, 1.0), 20.0 * min(1.0, fmax / 10.6))
+    th0 = (str_fc, str_fs - str_fc, fv, 0.0)
+    for i in range(4):
+        out[f"bs_gamma{i + 1}"] = gam[i]
+        out[f"bs_min{i + 1}"] = lo[i]
+        out[f"bs_max{i + 1}"] = hi[i]
+        out[f"bs_th0_{i + 1}"] = min(max(th0[i], lo[i]), hi[i])
+    return out
+
+
 def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
                        model: Mapping[str, float] | None = None) -> dict[str, float]:
     """Compensator-bank parameters of an axis (table units; docs/parameters.md).
@@ -226,65 +349,17 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     # is in presliding and an extra integrator makes the loop hunt (docs/compensators.md 8)
     out.update({"cb_pki": 0.0, "cb_pki_vlo": PKI_V_LO_DEG_S / 360.0, "cb_pki_vhi": PKI_V_HI_DEG_S / 360.0,
                 "cb_pki_leak": 2.0, "cb_pki_max": 1.0 / 360.0})
-    fm, fl = bool(get("friction_motor.enabled")), bool(get("friction_load.enabled"))
-
-    def side(sec: str, scale_t: float, scale_v: float, on: bool) -> dict[str, float]:
-        if not on:
-            return {"fcp": 0.0, "fcn": 0.0, "fsp": 0.0, "fsn": 0.0, "vs": 1.0, "fv": 0.0, "s0": 0.0, "s1": 0.0,
-                    "delta": 2.0}
-        return {"fcp": get(f"{sec}.fc_pos_Nm") * scale_t, "fcn": get(f"{sec}.fc_neg_Nm") * scale_t,
-                "fsp": get(f"{sec}.fs_pos_Nm") * scale_t, "fsn": get(f"{sec}.fs_neg_Nm") * scale_t,
-                "vs": get(f"{sec}.vs_rad_s") / scale_v, "fv": get(f"{sec}.viscous_Nms_per_rad") * scale_t * scale_v,
-                "s0": (get(f"{sec}.sigma0_Nm_per_rad") * scale_t * scale_v) if get(f"{sec}.lugre_enabled") else 0.0,
-                "s1": get(f"{sec}.sigma1_Nms_per_rad") * scale_t * scale_v, "delta": get(f"{sec}.delta")}
-    m = side("friction_motor", n, n, fm)
-    ld = side("friction_load", 1.0, 1.0, fl)
-    # Stribeck velocity: the mean of both sides weighted by their Stribeck hump Fs - Fc; a hump
-    # that is not there (an identified Fs <= Fc) weighs nothing, and with no hump on either
-    # side the enabled sides count equally (a negative weight sum made vs meaningless)
-    ws = (max(m["fsp"] - m["fcp"], 0.0) if fm else 0.0, max(ld["fsp"] - ld["fcp"], 0.0) if fl else 0.0)
-    if ws[0] + ws[1] <= 0.0:
-        ws = (1.0 if fm else 0.0, 1.0 if fl else 0.0)
-    vs = (m["vs"] * ws[0] + ld["vs"] * ws[1]) / max(ws[0] + ws[1], 1e-12)      # rad/s, output
-    vs_turn = vs / TWO_PI
-    fv = (m["fv"] + ld["fv"]) * TWO_PI                                            # N.m/(turn/s)
+    m, ld, fm, fl = _friction_sides(get, n)
     eps_rad = 1e-5                                                                # smooth-sign half width, rad/s
-    out.update({"str_fc_pos": m["fcp"] + ld["fcp"], "str_fs_pos": m["fsp"] + ld["fsp"], "str_vs_pos": vs_turn,
-                "str_fv_pos": fv, "str_fc_neg": m["fcn"] + ld["fcn"], "str_fs_neg": m["fsn"] + ld["fsn"],
-                "str_vs_neg": vs_turn, "str_fv_neg": fv, "str_delta": 2, "str_eps_v": eps_rad / TWO_PI,
-                "str_w_ref": 1.0, "str_tau_max": 30.0})
-    # LuGre: one bristle state for both sides (sigma0 from the torque-weighted presliding distance)
-    g_s = m["fsp"] + ld["fsp"]
-    z_m = m["fsp"] / m["s0"] if m["s0"] > 0 else 0.0
-    z_l = ld["fsp"] / ld["s0"] if ld["s0"] > 0 else 0.0
-    zbar = (m["fsp"] * z_m + ld["fsp"] * z_l) / max(g_s, 1e-12)
-    sigma0 = g_s / zbar if zbar > 0 else 1e6
-    # sigma1 carries the motor's bristle damping times N^2: at N = 160 an identified model can
-    # exceed the drive's range, and the bank is held inside it (as sigma0 above) so that the
-    # download is accepted whether or not LuGre is enabled.
-    out.update({"lug_fc": 0.5 * (m["fcp"] + m["fcn"] + ld["fcp"] + ld["fcn"]),
-                "lug_fs": 0.5 * (m["fsp"] + m["fsn"] + ld["fsp"] + ld["fsn"]), "lug_vs": vs_turn, "lug_delta": 2,
-                "lug_sigma0": min(sigma0 * TWO_PI, 8.0e6), "lug_sigma1": min((m["s1"] + ld["s1"]) * TWO_PI, PARAM_DEFS["lug_sigma1"].max),
-                "lug_sigma2": fv, "lug_k_obs": 0.0, "lug_tau_max": 30.0, "lug_v_src": 0})
-    # tangent stiffness of the gear after a reversal (K1 + hysteresis elements), N.m/rad
-    k_tan = get("stiffness.k1_Nm_per_rad")
-    if get("hysteresis_maxwell.enabled"):
-        k_tan += sum(get(f"hysteresis_maxwell.e{i}_k_Nm_per_rad")
-                     for i in range(1, int(get("hysteresis_maxwell.n_elements")) + 1))
-    if get("hysteresis_preisach.enabled"):
-        k_tan += get("hysteresis_preisach.t_sat_Nm") / get("hysteresis_preisach.u_max_rad")
+    stribeck, vs_turn, fv = _stribeck_params(m, ld, fm, fl, eps_rad)
+    out.update(stribeck)
+    lugre, z_l = _lugre_params(m, ld, vs_turn, fv)
+    out.update(lugre)
     out["mx_n"] = n_maxwell
     # the firmware compliance (2^-44 turn/N.m, int32) needs K > 2^13 N.m/turn (1.3e3 N.m/rad)
-    out["mx_stiffness"] = max(k_tan * TWO_PI, MX_STIFFNESS_MIN)   # N.m/turn
+    out["mx_stiffness"] = max(_tangent_stiffness(get) * TWO_PI, MX_STIFFNESS_MIN)   # N.m/turn
     out["mx_tau_max"] = 30.0
-    # compliance (cb_enable 256): the three-slope stiffness of the axis, N.m/turn and N.m
-    # (the cubic form is not in the firmware: its linear term stands in for K1)
-    k1 = get("stiffness.k1_Nm_per_rad") if get("stiffness.enabled") else get("stiffness_cubic.k1_Nm_per_rad")
-    k2 = get("stiffness.k2_Nm_per_rad") if get("stiffness.enabled") else k1
-    k3 = get("stiffness.k3_Nm_per_rad") if get("stiffness.enabled") else k1
-    out.update({"cp_k1": max(k1 * TWO_PI, MX_STIFFNESS_MIN), "cp_k2": max(k2 * TWO_PI, MX_STIFFNESS_MIN),
-                "cp_k3": max(k3 * TWO_PI, MX_STIFFNESS_MIN), "cp_t1": get("stiffness.t1_Nm"),
-                "cp_t2": max(get("stiffness.t2_Nm"), get("stiffness.t1_Nm"))})
+    out.update(_compliance_params(get))
     k_el, d_el = _maxwell_fit(ld["fsp"], z_l if z_l > 0 else 1e-5, n_maxwell) if fl else ([0.0] * n_maxwell,
                                                                                          [0.0] * n_maxwell)
     for i in range(8):
@@ -297,49 +372,11 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     out["pr_motor_share"] = (m["fcp"] / max(m["fcp"] + ld["fcp"], 1e-12)) if fm else 0.0
     out["pr_t_src"] = 1
     out["pr_jl"] = get("load.jl_kgm2")
-    # TE: wave-generator harmonics (plant: a sin(n theta_m + p), theta_m rad) -> amp turn, phase turn
-    te = []
-    if get("transmission_error.enabled"):
-        for i in range(1, 5):
-            o, a, p = (get(f"transmission_error.wg{i}_order"), get(f"transmission_error.wg{i}_amp_rad"),
-                       get(f"transmission_error.wg{i}_phase_rad"))
-            if o > 0 and a != 0.0:
-                te.append((o, a / TWO_PI, ((p / TWO_PI + 0.5) % 1.0) - 0.5))
-    out["te_n"] = len(te)
-    out["te_k1"] = 0.0
-    out["te_tau_max"] = 10.0
-    for i in range(4):
-        o, a, p = te[i] if i < len(te) else (0, 0.0, 0.0)
-        out[f"te_order{i + 1}"], out[f"te_amp{i + 1}"], out[f"te_phase{i + 1}"] = o, a, p
-    # backstepping (docs/compensators.md 6): c = 2 pi f_bs, f_bs = f_a / 5, ke = J c1 c2 / 4
-    jl, jm = get("load.jl_kgm2"), get("motor.jm_kgm2")
-    jt = jl + n * n * jm
-    f_a = math.sqrt(get("stiffness.k1_Nm_per_rad") / jl) / TWO_PI
-    c = TWO_PI * min(8.0, f_a / 5.0)
-    j_turn = TWO_PI * jt
-    scale = jt / 1.3
-    out.update({"bs_c1": c, "bs_c2": c, "bs_j": j_turn, "bs_ke": j_turn * c * c / 4, "bs_eps_w": eps_rad / TWO_PI,
-                "bs_w_s": vs_turn, "bs_e1_max": 0.01, "bs_u_max": 60.0})
-    # T_load adaptation is the law's integral action on e2: Gamma_4 = J (2 pi f_i)^2 with f_i = 25 Hz,
-    # the velocity-loop bandwidth of the PID design (baseline.axis_controller); the slower
-    # friction adaptations keep the section 6 values.  Gamma T in Q7.24 (Gamma_4 T = 20.2 here).
-    # A heavy load (J_L of several kg m^2) asks for more than the drive's Q7.24 range holds: the
-    # gain is held at the table maximum (slower integral action) so that the parameter set of the
-    # whole bank stays one the drive accepts, whether or not backstepping is enabled.
-    g4 = min(j_turn * (TWO_PI * BS_F_INT_HZ) ** 2 / 10000.0, PARAM_DEFS["bs_gamma4"].max)
-    gam = (0.5 * scale, 0.5 * scale, 0.25 * scale, g4)
-    fmax = max(out["str_fs_pos"], 1e-3)
-    lo = (0.0, 0.0, 0.0, -20.0 * min(1.0, fmax / 10.6))
-    hi = (3.0 * fmax, 3.0 * fmax, 15.0 * max(fv, 1.0), 20.0 * min(1.0, fmax / 10.6))
-    th0 = (out["str_fc_pos"], out["str_fs_pos"] - out["str_fc_pos"], fv, 0.0)
-    for i in range(4):
-        out[f"bs_gamma{i + 1}"] = gam[i]
-        out[f"bs_min{i + 1}"] = lo[i]
-        out[f"bs_max{i + 1}"] = hi[i]
-        out[f"bs_th0_{i + 1}"] = min(max(th0[i], lo[i]), hi[i])
+    out.update(_te_params(get))
+    out.update(_backstepping_params(get, n, vs_turn, fv, eps_rad, out["str_fc_pos"], out["str_fs_pos"]))
     # disturbance observer: Q-filter bandwidth (Hz) and nominal inertia
     out["dob_fc"] = 10.0
-    out["dob_j"] = jt
+    out["dob_j"] = get("load.jl_kgm2") + n * n * get("motor.jm_kgm2")
     return out
 
 

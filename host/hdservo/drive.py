@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import math
 import struct
 import time
 import zlib
@@ -31,6 +30,7 @@ from . import od_gen, resources
 from .errors import UserError
 from .params_gen import BY_NAME as PARAMS
 from .pdo import STREAM_PDOS, Frame, PdoDecoder
+from .phase import unwrap_phase, unwrap_tick  # the stream decoding of docs/sim.md; one home: hdservo.phase
 
 T = TypeVar("T")
 
@@ -898,16 +898,6 @@ class _Collector(can.Listener):
 
 
 # ---- decoding of the default stream into the log columns (docs/sim.md) ------------
-def unwrap_phase(prev_turns: Optional[float], phase_u32: int) -> float:
-    """Continue a multi-turn angle (turns) from a wrapped 2^32-per-turn phase."""
-    frac = phase_u32 / 2.0 ** 32
-    if prev_turns is None:
-        return frac if frac < 0.5 else frac - 1.0
-    base = math.floor(prev_turns)
-    cands = (base - 1 + frac, base + frac, base + 1 + frac)
-    return min(cands, key=lambda c: abs(c - prev_turns))
-
-
 def align_motor_turns(motor_turns: float, load_turns: float, ratio: float) -> float:
     """The motor's multi-turn angle (turns) that matches the load angle through the gear.
 
@@ -919,17 +909,6 @@ def align_motor_turns(motor_turns: float, load_turns: float, ratio: float) -> fl
     ``motor_turns / ratio`` nearest ``load_turns``.
     """
     return motor_turns + round(ratio * load_turns - motor_turns)
-
-
-def unwrap_tick(prev: Optional[int], tick_u32: int) -> int:
-    """Continue a loop-tick count from the drive's wrapping 32-bit tick (0x5F00, TPDO byte 0-3).
-
-    The tick wraps every 2^32 periods (5 days at 10 kHz); the unwrapped count is the one
-    nearest ``prev`` (frames of a stream are at most 2^31 ticks apart).
-    """
-    if prev is None:
-        return int(tick_u32)
-    return prev + ((int(tick_u32) - prev + 2 ** 31) % 2 ** 32) - 2 ** 31
 
 
 __all__ = ["Drive", "DriveError", "DriveProtocolError", "DriveChoice", "add_bus_arguments", "bus_kwargs", "choose_drive",

@@ -37,7 +37,7 @@ Use
 ...     caps.has("hdservo.capture"), caps.missing(["second_encoder"])
 
 :func:`require` / :meth:`DriveCaps.require` raise :class:`CapabilityError` (a
-:class:`~hdservo.cli.UserError`: the CLI prints one line, exit 2) naming every missing
+:class:`~hdservo.errors.UserError`: the CLI prints one line, exit 2) naming every missing
 capability and the object or bit that provides it.  :data:`NEEDS` describes each
 capability name; :data:`COMMAND_NEEDS` lists what each drive command checks before it
 starts (:func:`check`).

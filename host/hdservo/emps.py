@@ -14,7 +14,7 @@ source, checksums, citation).  This module
 * reproduces the published IDIM-LS results with the authors' processing
   (zero-phase Butterworth, central differences, MATLAB-style ``decimate``).
 
-Every problem with an input file raises :class:`hdservo.cli.UserError` with one
+Every problem with an input file raises :class:`hdservo.errors.UserError` with one
 line naming the file, the line and what was expected.
 """
 from __future__ import annotations

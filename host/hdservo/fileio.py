@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
 import tempfile
 from pathlib import Path
 from contextlib import contextmanager
@@ -63,6 +64,40 @@ def _atomic(path: "str | os.PathLike[str]", suffix: str = ".tmp") -> Iterator[st
         raise
 
 
+@contextmanager
+def files_into(directory: "str | os.PathLike[str]") -> Iterator[Path]:
+    """A temporary directory beside ``directory`` whose files move into it when the block ends.
+
+    For a result made of several files (a report and its plots): nothing appears in
+    ``directory`` until all of them are written, and a block that raises leaves
+    ``directory`` as it was.  ``directory`` is created if missing; files of the same name
+    in it are replaced one by one (each by a rename), others are kept.
+
+    Parameters
+    ----------
+    directory : path-like
+        The target directory; its parent is created if missing.
+
+    Yields
+    ------
+    pathlib.Path
+        The temporary directory to write into (removed afterwards).
+    """
+    target = Path(directory)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
+    try:
+        yield tmp
+        target.mkdir(exist_ok=True)
+        mode = file_mode()
+        for p in sorted(tmp.iterdir()):
+            if p.is_file():
+                os.chmod(p, mode)
+            os.replace(p, target / p.name)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
 def write_bytes_atomic(path: "str | os.PathLike[str]", data: bytes) -> Path:
     """Write ``data`` to ``path`` atomically with the user's umask; returns the path."""
     with _atomic(path) as tmp:
@@ -89,13 +124,33 @@ def write_text_atomic(path: "str | os.PathLike[str]", text: str, newline: str = 
     return Path(path)
 
 
-def json_ready(x: Any) -> Any:
-    """``x`` with numpy scalars/arrays as Python numbers/lists, tuples as lists and
-    non-finite floats as ``None`` (recursively through dicts and lists)."""
+def _json_key(k: Any) -> str:
+    """A dict key as JSON writes it (``1`` -> ``"1"``, ``True`` -> ``"true"``, ``None`` -> ``"null"``)."""
+    if isinstance(k, str):
+        return k
+    if isinstance(k, np.generic):
+        k = k.item()
+    return json.dumps(k) if isinstance(k, (bool, int, float)) or k is None else str(k)
+
+
+def json_ready(x: Any, drop_suffix: "str | None" = None) -> Any:
+    """``x`` as JSON reads it back: numpy scalars/arrays as Python numbers/lists, tuples as
+    lists, dict keys as strings and non-finite floats as ``None`` (recursively through dicts
+    and lists).
+
+    Parameters
+    ----------
+    x : Any
+        The object.
+    drop_suffix : str, optional
+        Dict entries whose key ends with it are left out at every depth (e.g. ``"_trace"``
+        for time series that belong in plots, not in a summary document).
+    """
     if isinstance(x, dict):
-        return {(k.item() if isinstance(k, np.generic) else k): json_ready(v) for k, v in x.items()}
+        return {_json_key(k): json_ready(v, drop_suffix) for k, v in x.items()
+                if drop_suffix is None or not _json_key(k).endswith(drop_suffix)}
     if isinstance(x, (list, tuple)):
-        return [json_ready(v) for v in x]
+        return [json_ready(v, drop_suffix) for v in x]
     if isinstance(x, np.ndarray):
         return json_ready(x.tolist())
     if isinstance(x, np.generic):
@@ -133,7 +188,8 @@ def write_json_atomic(path: "str | os.PathLike[str]", obj: Any, indent: "int | N
 
 
 def save_figure_atomic(fig: Any, path: "str | os.PathLike[str]", **savefig: Any) -> Path:
-    """Save a matplotlib figure atomically with the user's umask (format from the suffix).
+    """Save a matplotlib figure atomically with the user's umask (format from the suffix
+    unless ``format`` is given).
 
     Parameters
     ----------
@@ -142,14 +198,14 @@ def save_figure_atomic(fig: Any, path: "str | os.PathLike[str]", **savefig: Any)
     path : path-like
         Target file, e.g. ``plot.png`` or ``plot.pdf``.
     **savefig
-        Passed to ``fig.savefig`` (``dpi`` ...).
+        Passed to ``fig.savefig`` (``dpi``, ``format`` ...).
     """
     p = Path(path)
-    fmt = p.suffix.lstrip(".") or "png"
+    fmt = savefig.pop("format", None) or p.suffix.lstrip(".") or "png"
     with _atomic(p, suffix=f".{fmt}") as tmp:
         fig.savefig(tmp, format=fmt, **savefig)
     return p
 
 
-__all__ = ["dumps_json", "file_mode", "json_ready", "save_figure_atomic", "write_bytes_atomic",
+__all__ = ["dumps_json", "file_mode", "files_into", "json_ready", "save_figure_atomic", "write_bytes_atomic",
            "write_json_atomic", "write_text_atomic"]

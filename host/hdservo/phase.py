@@ -3,9 +3,10 @@
 The drive sends each encoder angle as an unsigned 32-bit phase (2^32 per turn)
 and its loop tick as an unsigned 32-bit count; both wrap.  Consecutive samples
 are taken to be less than half a wrap apart (half a turn, 2^31 ticks), so each
-step is the signed difference modulo 2^32.  :func:`unwrap_turns` does a whole
-capture at once, :func:`unwrap_phase` and :func:`unwrap_tick` continue a
-stream one frame at a time; all three follow the same rule.
+step is the signed difference modulo 2^32.  :func:`unwrap_count` continues a
+whole capture of 32-bit counts (in counts), :func:`unwrap_turns` a whole capture
+of phases (in turns), :func:`unwrap_phase` and :func:`unwrap_tick` continue a
+stream one frame at a time; all four follow the same rule.
 """
 from __future__ import annotations
 
@@ -23,6 +24,33 @@ def _signed_step(d: "np.ndarray | int") -> "np.ndarray | int":
     return ((d + HALF) % WRAP) - HALF
 
 
+def unwrap_count(words: np.ndarray, centred: bool = True) -> np.ndarray:
+    """Continuous count from a wrapping 32-bit count (signed or unsigned words).
+
+    Parameters
+    ----------
+    words : numpy.ndarray
+        The counts as read: unsigned (0 .. 2^32 - 1) or signed (-2^31 .. 2^31 - 1)
+        32-bit words, integer-valued (a float array of whole numbers is taken as is).
+    centred : bool
+        The first sample in [-2^31, 2^31) (True) or in [0, 2^32) (False); a signed
+        first word stays as it is with True.
+
+    Returns
+    -------
+    numpy.ndarray
+        The count (same unit as the words), float; empty for an empty input.
+    """
+    w = np.asarray(words).astype(np.int64)
+    if w.size == 0:
+        return np.zeros(0)
+    d = _signed_step(np.diff(w))
+    first = w[0] % WRAP
+    if centred and first >= HALF:
+        first -= WRAP
+    return (first + np.concatenate([[0], np.cumsum(d)])).astype(float)
+
+
 def unwrap_turns(words: np.ndarray, centred: bool = True) -> np.ndarray:
     """Continuous angle (turns) from wrapped unsigned 2^-32-turn phases.
 
@@ -38,12 +66,7 @@ def unwrap_turns(words: np.ndarray, centred: bool = True) -> np.ndarray:
     numpy.ndarray
         Angle (turns), float; empty for an empty input.
     """
-    w = np.asarray(words, dtype=np.int64)
-    if w.size == 0:
-        return np.zeros(0)
-    d = _signed_step(np.diff(w))
-    first = w[0] - WRAP if centred and w[0] >= HALF else w[0]
-    return (first + np.concatenate([[0], np.cumsum(d)])) / float(WRAP)
+    return unwrap_count(words, centred) / float(WRAP)
 
 
 def unwrap_phase(prev_turns: Optional[float], phase_u32: int) -> float:
@@ -81,4 +104,4 @@ def unwrap_tick(prev: Optional[int], tick_u32: int) -> int:
     return prev + int(_signed_step(int(tick_u32) - prev))
 
 
-__all__ = ["unwrap_phase", "unwrap_tick", "unwrap_turns"]
+__all__ = ["HALF", "WRAP", "unwrap_count", "unwrap_phase", "unwrap_tick", "unwrap_turns"]

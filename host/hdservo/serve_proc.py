@@ -43,7 +43,7 @@ class ServeProcess:
     start_timeout_s : float
         Wall time allowed for the ``listening on`` line, s.
     error : type
-        Exception class raised on failure (a :class:`~hdservo.cli.UserError` subclass, so the
+        Exception class raised on failure (a :class:`~hdservo.errors.UserError` subclass, so the
         CLI prints one line).
 
     Attributes

@@ -1,4 +1,4 @@
-"""TOML text the host generates (scenarios, models, configuration files).
+"""TOML text the host generates (scenarios, models, configuration files), and reading a TOML data file.
 
 Every string the host pastes into a TOML document -- file paths above all, which
 may hold quotes, backslashes (``C:\\axes\\x.toml``) or other odd characters --
@@ -7,6 +7,16 @@ string both in Python (``tomllib``) and in the simulator's C reader
 (``sim/harness/toml_lite.c``, which knows the escapes ``\\" \\\\ \\n \\t \\r``).
 """
 from __future__ import annotations
+
+import os
+from typing import Any
+
+try:
+    import tomllib
+except ModuleNotFoundError:      # Python < 3.11
+    import tomli as tomllib  # type: ignore[no-redef]
+
+from .errors import UserError
 
 #: Escapes both readers understand.
 _ESCAPES = {"\\": "\\\\", '"': '\\"', "\n": "\\n", "\t": "\\t", "\r": "\\r"}
@@ -43,4 +53,24 @@ def basic_string(s: str) -> str:
     return '"' + "".join(out) + '"'
 
 
-__all__ = ["basic_string"]
+def read_toml_file(path: "str | os.PathLike[str]", error: type[UserError] = UserError) -> dict[str, Any]:
+    """The document of a TOML file; an unreadable or invalid file raises ``error`` with one line.
+
+    Parameters
+    ----------
+    path : path-like
+        The file.
+    error : type
+        The :class:`~hdservo.errors.UserError` subclass raised (``"PATH: cannot read: ..."`` or
+        ``"PATH: not valid TOML: ..."``, with the parser's line and column).
+    """
+    try:
+        with open(path, "rb") as f:
+            return tomllib.load(f)
+    except OSError as e:
+        raise error(f"{path}: cannot read: {e.strerror}") from None
+    except tomllib.TOMLDecodeError as e:
+        raise error(f"{path}: not valid TOML: {e}") from None
+
+
+__all__ = ["basic_string", "read_toml_file"]

@@ -235,7 +235,7 @@ def test_run_ablation_rows_ratios_and_files(tmp_path: Path, monkeypatch: pytest.
     from hdservo.report import build_report
     build_report(tmp_path / "r.html", compare=tmp_path / "compare.json")
     page = (tmp_path / "r.html").read_text()
-    assert "Ablation: each row against the fair PID" in page and "<h3>semi-closed</h3>" in page
+    assert "Ablation: each row against the fair PID" in page and ">Ablation, semi-closed feedback</h3>" in page
     assert "te@semi-closed" in page and "(0.125x)" in page and "pid-hold" in page
 
 

@@ -238,3 +238,20 @@ def test_rank_tie_breaks() -> None:
     t3 = ev("CSF-25-120", {"resonance": 0.132, "positioning_accuracy": 0.374}, 1.94)
     assert [x.option for x in fl.rank([t1, t2, t3])] == ["CSF-25-80", "CSF-25-100", "CSF-25-120"]
     assert [x.option for x in fl.rank([t3, t1, t2])] == ["CSF-25-120", "CSF-25-80", "CSF-25-100"]
+
+
+def test_design_report_has_contents_captions_and_readable_requirements(tmp_path: Path) -> None:
+    """The Markdown report is built by the report builder: contents linking to anchors, every
+    plot with a caption, requirement names as labels with units."""
+    import re
+    rep = tmp_path / "rep"
+    assert cli_main(["design", str(SPEC), "--feasibility-only", "-q", "--report", str(rep)]) == 0
+    md = (rep / "report.md").read_text()
+    links = re.findall(r"^\s*- \[[^\]]+\]\(#([\w-]+)\)$", md, re.M)
+    anchors = re.findall(r'<a id="([\w-]+)"></a>', md)
+    assert "requirements" in links and len(links) >= 4 and set(links) == set(anchors)
+    images = re.findall(r"!\[([^\]]*)\]\(([^)]+)\)", md)
+    assert [p for _, p in images] == ["feasibility.png"] and all(len(c.split()) >= 5 for c, _ in images)
+    req = md.split("## Requirements")[1].split("##")[0]
+    labels = [ln.split("|")[1].strip() for ln in req.splitlines() if ln.startswith("| ") and "---" not in ln][1:]
+    assert "load inertia [kg.m^2]" in labels and not any("_" in x for x in labels), labels

@@ -125,8 +125,23 @@ def test_annotate_renders_notes_without_measuring(tmp_path: Path) -> None:
     out = vf.annotate(tmp_path, ["positioning: the measurement scatters between runs"])
     assert out["notes"] == ["positioning: the measurement scatters between runs"]
     md = (tmp_path / "verify.md").read_text()
-    assert "Notes:" in md and "* positioning: the measurement scatters between runs" in md
+    assert "## Notes" in md and "* positioning: the measurement scatters between runs" in md
     assert json.loads((tmp_path / "verify.json").read_text())["notes"] == out["notes"]
+
+
+def test_markdown_tables_keep_their_columns_and_contents_resolve() -> None:
+    """A definition holding a pipe (``mean |gear torque|``) stays inside its cell, and the contents
+    link to the sections' anchors."""
+    import re
+    res = json.loads((EX / "verify" / "verify.json").read_text())
+    assert any("|" in r["definition"] for r in res["rows"])
+    md = vf.markdown(res)
+    table = [ln for ln in md.split("## Predicted and measured figures")[1].split("##")[0].splitlines()
+             if ln.startswith("|")]
+    cells = [len(re.split(r"(?<!\\)\|", ln)) - 2 for ln in table]
+    assert len(table) == len(res["rows"]) + 2 and set(cells) == {6}, cells
+    links = re.findall(r"^\s*- \[[^\]]+\]\(#([\w-]+)\)$", md, re.M)
+    assert links and set(links) == set(re.findall(r'<a id="([\w-]+)"></a>', md))
 
 
 def test_stabilisation_procedure_repeats_bit_for_bit() -> None:

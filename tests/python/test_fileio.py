@@ -86,3 +86,28 @@ def test_log_sidecar_is_strict_json(tmp_path: Path) -> None:
     logio.write_log(log, {"t_s": [0.0, 1e-4]}, {"gear_ratio": 100.0, "sample_period_s": 1e-4, "gain": np.float64(math.nan)})
     text = logio.sidecar_path(log).read_text()
     assert "NaN" not in text and json.loads(text)["gain"] is None
+
+
+def test_json_ready_reads_as_json_reads_back() -> None:
+    """Keys become strings as JSON writes them; ``drop_suffix`` leaves time series out at every depth."""
+    obj = {1: "a", False: "b", None: "c", 2.5: [{"x_trace": [1, 2], "x": np.float64(3.0)}], "y_trace": np.ones(3)}
+    ready = fileio.json_ready(obj)
+    assert ready == json.loads(json.dumps(ready)) == json.loads(fileio.dumps_json(obj))
+    assert set(ready) == {"1", "false", "null", "2.5", "y_trace"}
+    assert fileio.json_ready(obj, drop_suffix="_trace") == {"1": "a", "false": "b", "null": "c", "2.5": [{"x": 3.0}]}
+
+
+def test_files_into_publishes_all_or_nothing(tmp_path: Path, umask_027: None) -> None:
+    out = tmp_path / "report"
+    with fileio.files_into(out) as d:
+        (d / "a.md").write_text("a\n")
+        fileio.write_json_atomic(d / "b.json", {"v": 1})
+        assert not out.exists()                               # nothing appears before the end
+    assert sorted(p.name for p in out.iterdir()) == ["a.md", "b.json"]
+    assert _mode(out / "a.md") == 0o640
+    with pytest.raises(RuntimeError):
+        with fileio.files_into(out) as d:
+            (d / "a.md").write_text("half\n")
+            raise RuntimeError("plot failed")
+    assert (out / "a.md").read_text() == "a\n"                # the old report stays
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report"]   # no temporary directory left

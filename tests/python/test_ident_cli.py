@@ -40,12 +40,16 @@ def test_te_from_saved_log(tmp_path: Path, capsys) -> None:
     log = tmp_path / "te.csv"
     d.save(log)
     out, js = tmp_path / "model.toml", tmp_path / "r.json"
-    rc = main(["identify", "te", "--data", str(log), "-o", str(out), "--json", str(js), "-q"])
+    rc = main(["identify", "te", "--data", str(log), "-o", str(out), "--json", str(js), "-q",
+               "--plots", str(tmp_path / "plots")])
     assert rc == 0
     text = out.read_text()
     assert "[transmission_error]" in text and "wg2_amp_rad" in text
     rep = json.loads(js.read_text())
     assert rep["results"]["te"]["wg_orders"][1] == 2
+    # the TE fit's plot (and only it: no other experiment ran) is drawn and listed
+    assert [p.name for p in (tmp_path / "plots").iterdir()] == ["te.png"]
+    assert (tmp_path / "plots" / "te.png").stat().st_size > 5000
 
 
 def test_sources_exclude_each_other(tmp_path: Path, capsys) -> None:

@@ -39,3 +39,20 @@ def test_a_library_import_of_the_cli_breaks_the_contract(tmp_path: Path) -> None
                        timeout=300, env={"PYTHONPATH": str(tmp_path), "PATH": "/usr/bin:/bin"})
     assert p.returncode != 0
     assert "hdservo.logio" in p.stdout
+
+
+def test_an_upward_import_breaks_the_layers(tmp_path: Path) -> None:
+    """The check can fail: the package's own contracts on a copy whose simulator binding imports the CAN
+    client (a layer above it) and whose report builder imports a drive."""
+    pkg = tmp_path / "hdservo"
+    shutil.copytree(ROOT / "host" / "hdservo", pkg, ignore=shutil.ignore_patterns("__pycache__", "data", "_native"))
+    with open(pkg / "sim.py", "a", encoding="utf-8") as f:
+        f.write("\nfrom . import driveconfig  # noqa: E402,F401\n")
+    with open(pkg / "report" / "builder.py", "a", encoding="utf-8") as f:
+        f.write("\nfrom .. import drive  # noqa: E402,F401\n")
+    p = subprocess.run([_lint_imports(), "--no-cache", str(ROOT / "host" / "pyproject.toml")], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=300,
+                       env={"PYTHONPATH": str(tmp_path), "PATH": "/usr/bin:/bin"})
+    assert p.returncode != 0
+    assert "hdservo.sim -> hdservo.driveconfig" in p.stdout
+    assert "hdservo.report.builder -> hdservo.drive" in p.stdout

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hdservo.phase import unwrap_phase, unwrap_tick, unwrap_turns
+from hdservo.phase import unwrap_count, unwrap_phase, unwrap_tick, unwrap_turns
 
 
 def _wrapped(turns: np.ndarray) -> np.ndarray:
@@ -42,3 +42,24 @@ def test_tick_continues_over_its_wrap() -> None:
         out.append(prev)
     assert out == [2 ** 32 - 2, 2 ** 32 - 1, 2 ** 32, 2 ** 32 + 1, 2 ** 32 + 5]
     assert unwrap_tick(10, 4) == 4                     # a frame a little older stays behind
+
+
+def test_signed_count_continues_across_the_int32_wrap() -> None:
+    """The drive's signed 32-bit position count (CiA 402 0x6064) runs past 2^31 - 1 into -2^31."""
+    true = np.array([2 ** 31 - 3, 2 ** 31 - 1, 2 ** 31 + 4, 2 ** 31 + 100, 2 ** 31 - 50], dtype=np.int64)
+    signed = ((true + 2 ** 31) % 2 ** 32) - 2 ** 31                   # as the int32 field reads
+    assert signed[2] < 0
+    assert unwrap_count(signed).tolist() == true.astype(float).tolist()
+    assert unwrap_count(signed.astype(float)).tolist() == true.astype(float).tolist()
+    neg = np.array([-7, -2 ** 31, 2 ** 31 - 1], dtype=np.int64)      # down through -2^31
+    assert unwrap_count(neg).tolist() == [-7.0, -2.0 ** 31, -2.0 ** 31 - 1]
+    assert unwrap_count(np.array([], dtype=np.int64)).size == 0
+
+
+def test_signed_and_unsigned_views_of_a_word_agree() -> None:
+    rng = np.random.default_rng(3)
+    true = np.cumsum(rng.integers(-2 ** 30, 2 ** 30, 500))
+    unsigned = np.mod(true, 2 ** 32)
+    signed = ((true + 2 ** 31) % 2 ** 32) - 2 ** 31
+    assert np.array_equal(unwrap_count(unsigned), unwrap_count(signed))
+    assert np.array_equal(unwrap_turns(unsigned), unwrap_count(signed) / 2.0 ** 32)

@@ -11,7 +11,8 @@ import pytest
 
 from hdservo import logio
 from hdservo.cli import main
-from hdservo.drive import Drive, align_motor_turns, unwrap_tick
+from hdservo.drive import Drive, align_motor_turns
+from hdservo.phase import unwrap_tick
 from hdservo.params_gen import BY_NAME, TABLE_HASH
 
 from vdrive import SIM, Server  # tests/python/vdrive.py

@@ -47,7 +47,8 @@ def _compare_dir(tmp: Path) -> Path:
         plots = []
         for proc, keys in (("positioning", ("positioning_accuracy_arcsec", "repeatability_arcsec")),
                            ("stabilisation", ("stabilisation_rms_arcsec",))):
-            r = Result(proc, headline={k: VALUES[k][i] for k in keys}, figures={"runs": 5, "f_Hz": [1.0, 2.0]},
+            r = Result(proc, headline={k: VALUES[k][i] for k in keys}, figures={"runs": 5, "f_Hz": [1.0, 2.0],
+                                                                       "per_target": {"10": {"A_arcsec": 1.5}}},
                        conditions={"setup": "axis"}, notes=[f"note of {name}/{proc}"])
             results.append(r)
             plots.append(str(_plot(out / name / "plots", proc, 1 + i).relative_to(out)))
@@ -55,6 +56,7 @@ def _compare_dir(tmp: Path) -> Path:
         head = {k: v for r in results for k, v in r.headline.items()}
         head.update({k: VALUES[k][i] for k in ("min_smooth_rate_deg_s", "bandwidth_hz", "peak_torque_Nm")})
         ctl[name] = {"name": name, "compensators": [] if name == "pid" else ["lugre"], "gains": {},
+                     "feedback": "full-closed", "components": [] if name == "pid" else ["lugre"],
                      "description": f"{name} controller", "headline": head, "json": f"{name}/test.json",
                      "plots": plots, "failures": {}}
     figs = {}
@@ -86,7 +88,7 @@ class _Page(html.parser.HTMLParser):
         if tag == "img":
             self.imgs.append(a)
         for k in ("href", "src"):
-            if k in a and not a[k].startswith("data:"):
+            if k in a and not a[k].startswith(("data:", "#")):
                 raise AssertionError(f"external reference {k}={a[k]!r}")
         self._in_td = tag == "td"
         if self._in_td:
@@ -189,3 +191,78 @@ def test_check_png_rejects_blank_and_accepts_a_plot(tmp_path: Path) -> None:
     mpimg.imsave(blank, np.ones((50, 80, 3)))
     with pytest.raises(ReportError, match="blank"):
         check_png(blank)
+
+
+class _Structure(html.parser.HTMLParser):
+    """Anchors, contents links, figures with their captions, and the text of every table cell."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.ids: list[str] = []
+        self.links: list[str] = []
+        self.figures: list[dict[str, str]] = []
+        self.headings: list[str] = []
+        self.cells: list[str] = []
+        self._where: list[str] = []
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        a = {k: v or "" for k, v in attrs}
+        if "id" in a:
+            self.ids.append(a["id"])
+        if tag == "a" and a.get("href", "").startswith("#"):
+            self.links.append(a["href"][1:])
+        if tag == "figure":
+            self.figures.append({"caption": "", "alt": ""})
+        if tag == "img" and self.figures:
+            self.figures[-1]["alt"] = a.get("alt", "")
+        if tag in ("td", "th", "figcaption", "h2", "h3"):
+            self._where.append(tag)
+            if tag in ("td", "th"):
+                self.cells.append("")
+            if tag in ("h2", "h3"):
+                self.headings.append("")
+
+    def handle_endtag(self, tag: str) -> None:
+        if self._where and self._where[-1] == tag:
+            self._where.pop()
+
+    def handle_data(self, data: str) -> None:
+        if not self._where:
+            return
+        if self._where[-1] in ("td", "th"):
+            self.cells[-1] += data
+        elif self._where[-1] == "figcaption":
+            self.figures[-1]["caption"] += data
+        else:
+            self.headings[-1] += data
+
+
+def test_report_has_contents_captions_titles_and_readable_tables(tmp_path: Path) -> None:
+    out = _compare_dir(tmp_path)
+    page = tmp_path / "report.html"
+    assert main(["report", str(out / "compare.json"), "-o", str(page)]) == 0
+    s = _Structure()
+    s.feed(page.read_text())
+    # a table of contents whose every link lands on an anchor of the page, and every section is listed
+    assert len(s.links) >= 8
+    assert set(s.links) <= set(s.ids), set(s.links) - set(s.ids)
+    assert len(s.ids) == len(set(s.ids))                                  # anchors are unique
+    assert {"headline-figures", "controllers-and-conditions"} <= set(s.links)
+    # every figure has a caption that says what the plot shows (more than its file name)
+    assert len(s.figures) == 4 + len(cmp.FIGURES) + 1
+    for f in s.figures:
+        words = f["caption"].split("(")[0].split()
+        assert len(words) >= 5, f["caption"]
+        assert f["alt"].strip()
+    caps = " ".join(f["caption"] for f in s.figures)
+    assert "positional deviation at each target" in caps.lower()
+    # section titles name the controller and its feedback configuration
+    assert any(h.startswith("best: PID + lugre, full-closed feedback") for h in s.headings), s.headings
+    assert any(h.startswith("pid: PID alone, full-closed feedback") for h in s.headings), s.headings
+    # tables: readable labels, no raw dotted or snake_case keys
+    import re
+    raw_key = re.compile(r"\b[a-z]\w+\.\w+|\b[a-z]+_[A-Za-z_]+\b")      # per_target.10, A_arcsec (not N.m)
+    offenders = [c for c in s.cells if raw_key.search(c)]
+    assert offenders == []
+    assert "per target / 10 / A [arcsec]" in s.cells
+    assert "positioning accuracy [arcsec]" in s.cells

@@ -64,3 +64,20 @@ def test_model_names_any_table_file(tmp_path: Path, name: str) -> None:
 def test_control_characters_are_refused_in_one_line() -> None:
     with pytest.raises(ValueError, match="U\\+0001"):
         basic_string("a\x01b")
+
+
+def test_read_toml_file_one_line_errors(tmp_path: Path) -> None:
+    """The design data files, the spec and the catalogue sources share one reader with one-line errors."""
+    from hdservo.design.spec import SpecError, load_spec
+    from hdservo.tomltext import read_toml_file
+    good = tmp_path / "g.toml"
+    good.write_text("[a]\nx = 1\n")
+    assert read_toml_file(good) == {"a": {"x": 1}}
+    bad = tmp_path / "b.toml"
+    bad.write_text("[a]\nx = = 1\n")
+    with pytest.raises(SpecError) as e:
+        load_spec(bad)
+    assert str(e.value).startswith(f"{bad}: not valid TOML:") and "line 2" in str(e.value)
+    assert "\n" not in str(e.value)
+    with pytest.raises(SpecError, match="cannot read"):
+        load_spec(tmp_path / "missing.toml")

@@ -37,6 +37,7 @@ from hdservo.fileio import write_json_atomic  # noqa: E402
 from hdservo.procedures import closedloop as cl  # noqa: E402
 from hdservo.procedures import metrics as mt  # noqa: E402
 from hdservo.procedures.runner import DT, Bench, Target, open_bench  # noqa: E402
+from hdservo.phase import unwrap_turns  # noqa: E402
 
 TURN = 2 * math.pi
 #: output encoder of the reference axis (sim/axes/reference.toml): bits, noise in counts RMS
@@ -73,8 +74,8 @@ def rung(ctrl: str, rate_deg_s: float) -> dict[str, Any]:
                 cap = b.capture(["tick", "pos_out_lo", "pos_ref_lo", "torque_cmd"], frames, decim)
     tick = cap["tick"].astype(float)
     t = (tick - tick[0]) * DT
-    enc = Bench.unwrap_turns(cap["pos_out_lo"]) * TURN
-    ref = Bench.unwrap_turns(cap["pos_ref_lo"]) * TURN
+    enc = unwrap_turns(cap["pos_out_lo"], centred=False) * TURN
+    ref = unwrap_turns(cap["pos_ref_lo"], centred=False) * TURN
     true = np.interp(tick, rec["tick"], rec["load_angle_true_rad"])
     gear = np.interp(tick, rec["tick"], rec["gear_torque_Nm"])
     tq = cap["torque_cmd"].astype(float) / 2 ** 16

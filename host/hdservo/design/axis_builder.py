@@ -41,6 +41,7 @@ from pathlib import Path
 from typing import Any, Dict, Mapping, Optional
 
 from .. import resources
+from ..fileio import write_text_atomic
 from . import structure as st
 from .catalogue import GearRow, MotorRow, SensorRow
 from .spec import Spec
@@ -231,15 +232,6 @@ def axis_toml(p: Mapping[str, Mapping[str, Any]], header: str = "") -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_text_atomic(path: "str | os.PathLike[str]", text: str) -> Path:
-    """Write ``text`` to ``path`` through a temporary file and a rename."""
-    out = Path(path)
-    tmp = out.with_name(f".{out.name}.tmp{os.getpid()}")
-    tmp.write_text(text)
-    os.replace(tmp, out)
-    return out
-
-
 def write_axis(c: Candidate, spec: Spec, path: "str | os.PathLike[str]") -> Path:
     """Write the candidate's axis TOML (usable by ``hdservo serve --axis`` and scenarios)."""
     head = (f"Axis of the design candidate {c.name}\n"
@@ -250,4 +242,4 @@ def write_axis(c: Candidate, spec: Spec, path: "str | os.PathLike[str]") -> Path
 
 
 __all__ = ["Candidate", "axis_toml", "build_axis", "flat", "gear_friction", "hysteresis_scale",
-           "reference_params", "write_axis", "write_text_atomic"]
+           "reference_params", "write_axis"]

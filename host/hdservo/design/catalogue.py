@@ -13,7 +13,7 @@ Every row names, per value group, a key of ``sources.toml`` which cites the
 catalogue table or states the rule by which a value was derived or estimated.
 
 Lines starting with ``#`` are comments.  A bad file raises
-:class:`CatalogueError` (a :class:`hdservo.cli.UserError`) whose message is one
+:class:`CatalogueError` (a :class:`hdservo.errors.UserError`) whose message is one
 line naming the file, the line, the row and the field.
 """
 from __future__ import annotations
@@ -26,8 +26,7 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Type, T
 
 from .. import resources
 from ..errors import UserError
-
-import tomllib
+from ..tomltext import read_toml_file
 
 #: Directory of the catalogue data files (installed as package data).
 DATA_DIR: Path = resources.DATA_DIR
@@ -75,13 +74,7 @@ def load_sources(path: Optional[Path] = None) -> Dict[str, Source]:
     dict of str to Source
     """
     path = Path(path) if path is not None else DATA_DIR / "sources.toml"
-    try:
-        with open(path, "rb") as f:
-            doc = tomllib.load(f)
-    except OSError as e:
-        raise CatalogueError(f"{path}: cannot read: {e.strerror}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise CatalogueError(f"{path}: not valid TOML: {e}") from None
+    doc = read_toml_file(path, CatalogueError)
     out: Dict[str, Source] = {}
     for key, entry in doc.items():
         if not isinstance(entry, dict):

@@ -27,14 +27,10 @@ from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..errors import UserError
+from ..tomltext import read_toml_file
 from . import flexspline_fe as fe
 from . import structure as st
 from .catalogue import DATA_DIR, GearRow, load_gears
-
-try:  # Python >= 3.11
-    import tomllib
-except ModuleNotFoundError:  # pragma: no cover
-    import tomli as tomllib  # type: ignore[no-redef]
 
 RULE_FILE = DATA_DIR / "flexspline_fe.toml"
 #: stiffness levels of the rule
@@ -62,13 +58,7 @@ class MeshRule:
 
 def load_rule(path: Path = RULE_FILE) -> MeshRule:
     """Read the ``[mesh_rule]`` constants (one error line for a bad file)."""
-    try:
-        with open(path, "rb") as f:
-            doc = tomllib.load(f)
-    except OSError as e:
-        raise UserError(f"{path}: cannot read: {e.strerror}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise UserError(f"{path}: not valid TOML: {e}") from None
+    doc = read_toml_file(path)
     sec = doc.get("mesh_rule")
     if not isinstance(sec, dict):
         raise UserError(f"{path}: missing table [mesh_rule]")

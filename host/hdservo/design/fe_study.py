@@ -151,10 +151,11 @@ def held_out(cases: Optional[Sequence[fg.Case]] = None) -> Dict[str, Any]:
 
 def plot(doc: Dict[str, Any], out_dir: Any) -> List[str]:
     """Convergence, sensitivity bars and frequency-vs-parameter plots (PNG) into ``out_dir``."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from pathlib import Path
+
+    from ..fileio import save_figure_atomic
+    from ..plotting import pyplot
+    plt = pyplot()
     out = Path(out_dir)
     files = []
     conv = doc["convergence"]
@@ -168,7 +169,7 @@ def plot(doc: Dict[str, Any], out_dir: Any) -> List[str]:
         a.grid(True, which="both", alpha=0.3)
     fig.suptitle(f"FE convergence, {doc['gear']}")
     fig.tight_layout()
-    fig.savefig(out / "flexspline_fe_convergence.png", dpi=110)
+    save_figure_atomic(fig, out / "flexspline_fe_convergence.png", dpi=110)
     plt.close(fig)
     files.append("flexspline_fe_convergence.png")
     sens = doc["sensitivity"]
@@ -181,7 +182,7 @@ def plot(doc: Dict[str, Any], out_dir: Any) -> List[str]:
         a.set_title(f"d ln({lab}) / d ln(p)", fontsize=9)
         a.grid(True, axis="x", alpha=0.3)
     fig.tight_layout()
-    fig.savefig(out / "flexspline_fe_sensitivity.png", dpi=110)
+    save_figure_atomic(fig, out / "flexspline_fe_sensitivity.png", dpi=110)
     plt.close(fig)
     files.append("flexspline_fe_sensitivity.png")
     fig, ax = plt.subplots(1, 2, figsize=(10, 3.8))
@@ -196,7 +197,7 @@ def plot(doc: Dict[str, Any], out_dir: Any) -> List[str]:
         a.grid(True, alpha=0.3)
     ax[1].legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(out / "flexspline_fe_modes.png", dpi=110)
+    save_figure_atomic(fig, out / "flexspline_fe_modes.png", dpi=110)
     plt.close(fig)
     files.append("flexspline_fe_modes.png")
     return files

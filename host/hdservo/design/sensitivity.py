@@ -18,6 +18,8 @@ from pathlib import Path
 from typing import Dict, List, Optional, Tuple
 
 from ..errors import UserError
+from ..fileio import save_figure_atomic
+from ..plotting import pyplot
 from .structure import (Calibration, Structure, breakpoints, lost_motion, three_slope,
                         two_mass_resonance)
 
@@ -116,10 +118,7 @@ def plot_sensitivities(sens: Dict[str, Dict[str, float]], path: Path,
     title : str, optional
         Figure title.
     """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     path = Path(path)
     names = {"resonance": "first resonance f_r", "lost_motion": "lost motion (+-4 % rated)"}
     fig, axes = plt.subplots(1, len(sens), figsize=(6.0 * len(sens), 5.5), sharey=False)
@@ -136,8 +135,8 @@ def plot_sensitivities(sens: Dict[str, Dict[str, float]], path: Path,
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    tmp = path.with_name(path.name + ".tmp")
-    fig.savefig(tmp, format=fmt or (path.suffix.lstrip(".") or "png"), dpi=110)
-    plt.close(fig)
-    tmp.replace(path)
+    try:
+        save_figure_atomic(fig, path, format=fmt or None, dpi=110)
+    finally:
+        plt.close(fig)
     return path

@@ -3,7 +3,7 @@
 Every number carries its unit in its key name.  Angles are in the units the
 requirements are usually written in (deg, deg/s, arcsec), torques in N·m,
 inertias in kg·m², frequencies in Hz.  A bad file raises :class:`SpecError`
-(a :class:`hdservo.cli.UserError`) whose message is one line naming the file,
+(a :class:`hdservo.errors.UserError`) whose message is one line naming the file,
 the key and what was expected, e.g.::
 
     SPEC.toml: [load] inertia_kgm2: expected a positive number, got 'heavy'
@@ -54,8 +54,7 @@ from pathlib import Path
 from typing import Any, Dict, List, Mapping, Optional, Tuple
 
 from ..errors import UserError
-
-import tomllib
+from ..tomltext import read_toml_file
 
 
 class SpecError(UserError):
@@ -270,14 +269,7 @@ def load_spec(path: "str | Path") -> Spec:
         Unreadable file, invalid TOML (with line/column) or a bad value.
     """
     p = Path(path)
-    try:
-        with open(p, "rb") as f:
-            doc = tomllib.load(f)
-    except OSError as e:
-        raise SpecError(f"{p}: cannot read: {e.strerror}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise SpecError(f"{p}: not valid TOML: {e}") from None
-    return parse_spec(doc, str(p))
+    return parse_spec(read_toml_file(p, SpecError), str(p))
 
 
 __all__ = ["DesignOptions", "Spec", "SpecError", "load_spec", "parse_spec"]

@@ -33,9 +33,8 @@ from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..errors import UserError
+from ..tomltext import read_toml_file
 from .catalogue import DATA_DIR, GearRow, load_gears
-
-import tomllib
 
 ARCMIN = math.pi / (180.0 * 60.0)  #: one arcminute in rad
 GEOMETRY_FILE = DATA_DIR / "flexspline_geometry.toml"
@@ -146,13 +145,7 @@ class Structure:
 
 
 def _read_geometry_file(path: Path = GEOMETRY_FILE) -> Dict[str, Dict[str, float]]:
-    try:
-        with open(path, "rb") as f:
-            doc = tomllib.load(f)
-    except OSError as e:
-        raise UserError(f"{path}: cannot read: {e.strerror}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise UserError(f"{path}: not valid TOML: {e}") from None
+    doc = read_toml_file(path)
     for sec in ("geometry", "material", "calibrated"):
         if not isinstance(doc.get(sec), dict):
             raise UserError(f"{path}: missing table [{sec}]")

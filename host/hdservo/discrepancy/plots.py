@@ -53,17 +53,17 @@ def _coord(res: "Result", effect: str) -> tuple[np.ndarray, str, bool]:
     return take(s.t), "time (s)", False
 
 
-def write_plots(res: "Result", out_dir: str | Path) -> list[Path]:
-    """Write every plot of a result into ``out_dir`` (created); returns the paths."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+def _time(res: "Result") -> np.ndarray:
+    """Time (s) of the used decimated samples."""
     d = res.state.design
     s = d.sig
-    tu = s.units["torque"]
-    t = (s.t[:: s.q][: len(d.mask)] if s.q > 1 else s.t)[d.mask]
-    eq0 = next(iter(res.base_fit.resid))
-    paths: list[Path] = []
+    return (s.t[:: s.q][: len(d.mask)] if s.q > 1 else s.t)[d.mask]
 
+
+def _plot_residual_time(res: "Result") -> "plt.Figure":
+    """``residual_time.png``: equation error of the baseline and the final model against time."""
+    tu = res.state.design.sig.units["torque"]
+    t = _time(res)
     fig, ax = plt.subplots(len(res.base_fit.resid), 1, figsize=(9, 3 + 2 * len(res.base_fit.resid)), squeeze=False)
     for i, e in enumerate(res.base_fit.resid):
         a = ax[i, 0]
@@ -74,74 +74,81 @@ def write_plots(res: "Result", out_dir: str | Path) -> list[Path]:
         a.legend(loc="upper right")
         a.grid(alpha=0.3)
     ax[0, 0].set_title("equation error of the measured motor torque")
-    fig.tight_layout()
-    p = out / "residual_time.png"
-    _save(fig, p)
-    paths.append(p)
+    return fig
 
-    for k, it in enumerate(res.iterations):
-        name = it["named_effect"]
-        x, label, periodic = _coord(res, name)
-        before, after = res.snapshots[k], res.snapshots[k + 1]
-        eqs = list(before.resid)
-        ncol = 2 if periodic else 1
-        fig, ax = plt.subplots(len(eqs), ncol, figsize=(6 * ncol, 3 + 2 * len(eqs)), squeeze=False)
-        for i, e in enumerate(eqs):
-            a = ax[i, 0]
-            a.plot(x, before.resid[e], ".", ms=1.5, alpha=0.5, label=f"before (iteration {k})")
-            a.plot(x, after.resid[e], ".", ms=1.5, alpha=0.5, label=f"after adding {name}")
-            a.set_xlabel(label)
-            a.set_ylabel(f"residual, eq. {e} ({tu})")
-            a.legend(loc="upper right", markerscale=6)
-            a.grid(alpha=0.3)
-            if periodic:
-                b = ax[i, 1]
-                for fit, lab in ((before, "before"), (after, "after")):
-                    o, amp = order_spectrum(d, fit.resid[e], s.raw_th_m, 120)
-                    b.semilogy(o, np.maximum(amp, 1e-12), lw=0.8, label=lab)
-                b.set_xlabel("order (cycles per motor revolution)")
-                b.set_ylabel(f"amplitude ({tu})")
-                b.legend()
-                b.grid(alpha=0.3)
-        ax[0, 0].set_title(f"iteration {k + 1}: {name}")
-        fig.tight_layout()
-        p = out / f"residual_{k + 1}_{name}.png"
-        _save(fig, p)
-        paths.append(p)
 
+def _plot_iteration(res: "Result", k: int) -> "plt.Figure":
+    """``residual_<k+1>_<effect>.png``: the residual before/after iteration ``k`` against the
+    coordinate that reveals its effect, with the order spectrum for angle-periodic effects."""
+    d = res.state.design
+    s = d.sig
+    tu = s.units["torque"]
+    name = res.iterations[k]["named_effect"]
+    x, label, periodic = _coord(res, name)
+    before, after = res.snapshots[k], res.snapshots[k + 1]
+    eqs = list(before.resid)
+    ncol = 2 if periodic else 1
+    fig, ax = plt.subplots(len(eqs), ncol, figsize=(6 * ncol, 3 + 2 * len(eqs)), squeeze=False)
+    for i, e in enumerate(eqs):
+        a = ax[i, 0]
+        a.plot(x, before.resid[e], ".", ms=1.5, alpha=0.5, label=f"before (iteration {k})")
+        a.plot(x, after.resid[e], ".", ms=1.5, alpha=0.5, label=f"after adding {name}")
+        a.set_xlabel(label)
+        a.set_ylabel(f"residual, eq. {e} ({tu})")
+        a.legend(loc="upper right", markerscale=6)
+        a.grid(alpha=0.3)
+        if periodic:
+            b = ax[i, 1]
+            for fit, lab in ((before, "before"), (after, "after")):
+                o, amp = order_spectrum(d, fit.resid[e], s.raw_th_m, 120)
+                b.semilogy(o, np.maximum(amp, 1e-12), lw=0.8, label=lab)
+            b.set_xlabel("order (cycles per motor revolution)")
+            b.set_ylabel(f"amplitude ({tu})")
+            b.legend()
+            b.grid(alpha=0.3)
+    ax[0, 0].set_title(f"iteration {k + 1}: {name}")
+    return fig
+
+
+def _plot_gap(res: "Result") -> "plt.Figure":
+    """``gap.png``: RMS equation error (and simulation error) after each iteration."""
+    s = res.state.design.sig
     fig, ax = plt.subplots(figsize=(6, 4))
     labels = ["baseline"] + [it["named_effect"] for it in res.iterations]
     ax.semilogy(range(len(res.rms_history)), res.rms_history, "o-")
     ax.set_xticks(range(len(labels)))
     ax.set_xticklabels(labels, rotation=20, fontsize=8)
     ax.set_xlabel("iteration (effect added)")
-    ax.set_ylabel(f"RMS equation error ({tu})")
+    ax.set_ylabel(f"RMS equation error ({s.units['torque']})")
     ax.set_title("gap between model and measurement")
     ax.grid(alpha=0.3)
     if res.sim_rms_history:
         ax2 = ax.twinx()
         ax2.semilogy(range(len(res.sim_rms_history)), res.sim_rms_history, "s--", color="C1")
         ax2.set_ylabel(f"RMS simulation error ({s.units['angle']} at the output)", color="C1")
-    fig.tight_layout()
-    p = out / "gap.png"
-    _save(fig, p)
-    paths.append(p)
+    return fig
 
-    if len(res.sims) >= 1:
-        fig, ax = plt.subplots(figsize=(9, 4))
-        base_lab = "baseline" if np.all(np.isfinite(res.sims[0])) else "baseline (gaps: not simulable, inertia <= 0)"
-        for e, lab in ((res.sims[0], base_lab), (res.sims[-1], "final model")):
-            ax.plot(np.arange(len(e)) * s.dt * max(s.q, 1), e, lw=0.6, label=lab)
-        ax.set_xlabel("time (s; two-mass: motor side, then load side)")
-        ax.set_ylabel(f"simulated - measured ({s.units['angle']} at the output)")
-        ax.set_title("simulation error over 50 ms windows from the measured state")
-        ax.legend(loc="upper right")
-        ax.grid(alpha=0.3)
-        fig.tight_layout()
-        p = out / "simulation_time.png"
-        _save(fig, p)
-        paths.append(p)
 
+def _plot_simulation_time(res: "Result") -> "plt.Figure":
+    """``simulation_time.png``: simulated minus measured angle of the baseline and the final model."""
+    s = res.state.design.sig
+    fig, ax = plt.subplots(figsize=(9, 4))
+    base_lab = "baseline" if np.all(np.isfinite(res.sims[0])) else "baseline (gaps: not simulable, inertia <= 0)"
+    for e, lab in ((res.sims[0], base_lab), (res.sims[-1], "final model")):
+        ax.plot(np.arange(len(e)) * s.dt * max(s.q, 1), e, lw=0.6, label=lab)
+    ax.set_xlabel("time (s; two-mass: motor side, then load side)")
+    ax.set_ylabel(f"simulated - measured ({s.units['angle']} at the output)")
+    ax.set_title("simulation error over 50 ms windows from the measured state")
+    ax.legend(loc="upper right")
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def _plot_spectrum(res: "Result") -> "plt.Figure":
+    """``spectrum.png``: amplitude spectral density of the first equation's residual before/after."""
+    s = res.state.design.sig
+    tu = s.units["torque"]
+    eq0 = next(iter(res.base_fit.resid))
     fig, ax = plt.subplots(figsize=(7, 4))
     fs = 1.0 / (s.dt * s.q)
     for fit, lab in ((res.base_fit, "baseline"), (res.snapshots[-1], "final model")):
@@ -151,8 +158,25 @@ def write_plots(res: "Result", out_dir: str | Path) -> list[Path]:
     ax.set_ylabel(f"residual ASD, eq. {eq0} ({tu}/√Hz)")
     ax.legend()
     ax.grid(alpha=0.3, which="both")
-    fig.tight_layout()
-    p = out / "spectrum.png"
-    _save(fig, p)
-    paths.append(p)
+    return fig
+
+
+def write_plots(res: "Result", out_dir: str | Path) -> list[Path]:
+    """Write every plot of a result into ``out_dir`` (created); returns the paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    figures = [("residual_time.png", lambda: _plot_residual_time(res))]
+    figures += [(f"residual_{k + 1}_{it['named_effect']}.png", lambda k=k: _plot_iteration(res, k))
+                for k, it in enumerate(res.iterations)]
+    figures.append(("gap.png", lambda: _plot_gap(res)))
+    if len(res.sims) >= 1:
+        figures.append(("simulation_time.png", lambda: _plot_simulation_time(res)))
+    figures.append(("spectrum.png", lambda: _plot_spectrum(res)))
+    paths: list[Path] = []
+    for name, draw in figures:
+        fig = draw()
+        fig.tight_layout()
+        p = out / name
+        _save(fig, p)
+        paths.append(p)
     return paths

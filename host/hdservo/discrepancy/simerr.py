@@ -89,6 +89,119 @@ def window_samples(d: Design, horizon_s: float) -> int:
     return max(2, int(round(horizon_s / (d.sig.dt * max(d.sig.q, 1)))))
 
 
+def _acting_terms(cols: Sequence[Column], theta: np.ndarray, side: str, rigid: bool) -> list[tuple[Column, float]]:
+    """The (column, coefficient) pairs that act on ``side``'s equation.
+
+    Left out: the inertia columns (they are the side's J), zero coefficients, columns
+    without a motor-equation part (motor side), the same series in both equations (load
+    side: R - M = 0) and columns without an R part (rigid).
+    """
+    terms = []
+    for c, a in zip(cols, theta):
+        if c.role or a == 0.0:
+            continue
+        if rigid and c.R is None:
+            continue
+        if not rigid and side == "m" and c.M is None:
+            continue
+        if not rigid and side == "l" and c.M is c.R:
+            continue
+        terms.append((c, float(a)))
+    return terms
+
+
+class _SideEquation:
+    """One side's equation of motion in the windows: what acts on it, evaluated at the
+    simulated state of this side and the measured state of the other.
+
+    Parameters
+    ----------
+    d : Design
+        The design (decimated columns).
+    x : dict
+        Measured state at the decimated samples (:func:`_state`).
+    side : str
+        ``"m"`` (motor, or the rigid axis) or ``"l"`` (load).
+    terms : list
+        :func:`_acting_terms` of this side.
+    """
+
+    def __init__(self, d: Design, x: dict[str, np.ndarray], side: str, terms: list[tuple[Column, float]]) -> None:
+        self.d, self.x, self.side, self.terms = d, x, side, terms
+        self.rigid = d.sig.kind == "rigid"
+        self.fr = "m" if side == "m" else "l"
+
+    def other(self, key: str, k: np.ndarray, lam: float) -> np.ndarray:
+        """The other side's measured state at k + lam (linear between the decimated samples)."""
+        v = self.x[key]
+        return v[k] if lam == 0.0 else v[k] + lam * (v[k + 1] - v[k])
+
+    def value(self, c: Column, th_: np.ndarray, w_: np.ndarray, k: np.ndarray, lam: float = 0.0) -> np.ndarray:
+        """The column's value in this side's equation (motor: M, rigid: R, load: R - M)."""
+        side, rigid = self.side, self.rigid
+        if c.fn is not None:
+            if side == "m":
+                m, r = c.fn(th_, w_, self.other("thl", k, lam), self.other("wl", k, lam))
+            else:
+                m, r = c.fn(self.other("thm", k, lam), self.other("wm", k, lam), th_, w_)
+            if rigid:
+                return np.zeros_like(th_) if r is None else np.asarray(r, dtype=float) * np.ones_like(th_)
+            if side == "m":
+                return np.zeros_like(th_) if m is None else np.asarray(m, dtype=float) * np.ones_like(th_)
+            rr = 0.0 if r is None else r
+            mm = 0.0 if m is None else m
+            return (rr - mm) * np.ones_like(th_)
+        mm = self.d.dec(f"{c.key or c.name}:M", c.M)[k] if c.M is not None else 0.0
+        rr = self.d.dec(f"{c.key or c.name}:R", c.R)[k] if c.R is not None else 0.0
+        if rigid:
+            return rr * np.ones_like(th_)
+        return (mm if side == "m" else rr - mm) * np.ones_like(th_)
+
+    def forces(self, th: np.ndarray, w: np.ndarray, k: np.ndarray, lam: float,
+               f_k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(external force, friction force) on this side, in its own unit."""
+        ext = f_k * (1.0 if self.side == "m" else 0.0)
+        fric = np.zeros_like(th)
+        for c, a in self.terms:
+            v = self.value(c, th, w, k, lam)
+            if c.fric == self.fr:
+                fric = fric + a * v
+            else:
+                ext = ext - a * v
+        return ext, fric
+
+    def static_band(self, th: np.ndarray, k: np.ndarray, lam: float, eps: float) -> tuple[np.ndarray, np.ndarray]:
+        """The friction just above zero speed in each direction (the static friction band)."""
+        tiny = 1e-3 * eps * np.ones_like(th)
+        fp = sum((a * self.value(c, th, tiny, k, lam) for c, a in self.terms if c.fric == self.fr), np.zeros_like(th))
+        fn_ = sum((a * self.value(c, th, -tiny, k, lam) for c, a in self.terms if c.fric == self.fr),
+                  np.zeros_like(th))
+        return fp, fn_
+
+
+def _karnopp_step(eq: _SideEquation, th: np.ndarray, w: np.ndarray, k: np.ndarray, lam: float, f_k: np.ndarray,
+                  eps: float, J: float, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """One sub-step ``h`` (s) of this side's angle and speed with Karnopp stick/slip.
+
+    Below ``eps`` the side sticks while the other forces stay inside the static friction;
+    a velocity sign change inside a step ends at zero (the next step decides).
+    """
+    ext, fric = eq.forces(th, w, k, lam, f_k)
+    slow = np.abs(w) < eps
+    if np.any(slow):
+        fp, fn_ = eq.static_band(th, k, lam, eps)
+        stuck = slow & (ext <= fp) & (ext >= fn_)
+        brk = slow & ~stuck
+        fric = np.where(brk, np.where(ext > fp, fp, fn_), fric)
+    else:
+        stuck = slow
+    acc = (ext - fric) / J
+    w_new = w + acc * h
+    w_new = np.where((np.sign(w_new) * np.sign(w) < 0), 0.0, w_new)
+    w_new = np.where(stuck, 0.0, w_new)
+    return th + w_new * h, w_new
+
+
 def _side_sim(d: Design, cols: Sequence[Column], theta: np.ndarray, force: np.ndarray, side: str,
               horizon_s: float, substeps: int | None = None, phase: int = 0) -> np.ndarray:
     """Simulate one side over windows; returns simulated-minus-measured angle at the dec rate (own unit)."""
@@ -109,48 +222,7 @@ def _side_sim(d: Design, cols: Sequence[Column], theta: np.ndarray, force: np.nd
         J = J / s.ratio
     if not J > 0:
         return np.full(n, np.inf)
-    rigid = s.kind == "rigid"
-    # per column: coefficient, evaluator(th, w, k) -> contribution in this side's equation
-    terms = []
-    for c, a in zip(cols, theta):
-        # skip what cannot act on this side: no motor-equation part (motor side), the
-        # same series in both equations (load side: R - M = 0), no R part (rigid)
-        if c.role or a == 0.0:
-            continue
-        if rigid and c.R is None:
-            continue
-        if not rigid and side == "m" and c.M is None:
-            continue
-        if not rigid and side == "l" and c.M is c.R:
-            continue
-        terms.append((c, float(a)))
-
-    def other(key: str, k: np.ndarray, lam: float) -> np.ndarray:
-        """The other side's measured state at k + lam (linear between the decimated samples)."""
-        v = x[key]
-        return v[k] if lam == 0.0 else v[k] + lam * (v[k + 1] - v[k])
-
-    def value(c: Column, th_: np.ndarray, w_: np.ndarray, k: np.ndarray, lam: float = 0.0) -> np.ndarray:
-        """The column's value in this side's equation (motor: M, rigid: R, load: R - M)."""
-        if c.fn is not None:
-            if side == "m":
-                m, r = c.fn(th_, w_, other("thl", k, lam), other("wl", k, lam))
-            else:
-                m, r = c.fn(other("thm", k, lam), other("wm", k, lam), th_, w_)
-            if rigid:
-                return np.zeros_like(th_) if r is None else np.asarray(r, dtype=float) * np.ones_like(th_)
-            if side == "m":
-                return np.zeros_like(th_) if m is None else np.asarray(m, dtype=float) * np.ones_like(th_)
-            rr = 0.0 if r is None else r
-            mm = 0.0 if m is None else m
-            return (rr - mm) * np.ones_like(th_)
-        mm = d.dec(f"{c.key or c.name}:M", c.M)[k] if c.M is not None else 0.0
-        rr = d.dec(f"{c.key or c.name}:R", c.R)[k] if c.R is not None else 0.0
-        if rigid:
-            return rr * np.ones_like(th_)
-        return (mm if side == "m" else rr - mm) * np.ones_like(th_)
-
-    fr = "m" if side == "m" else "l"
+    eq = _SideEquation(d, x, side, _acting_terms(cols, theta, side, s.kind == "rigid"))
     meas = x["thm"] if side == "m" else x["thl"]
     S = max(1, int(SUBSTEPS if substeps is None else substeps))
     h = dt / S
@@ -162,33 +234,7 @@ def _side_sim(d: Design, cols: Sequence[Column], theta: np.ndarray, force: np.nd
         for i in range(S):
             lam = i / S
             f_k = force[k] if lam == 0.0 else force[k] + lam * (force[k + 1] - force[k])
-            ext = f_k * (1.0 if side == "m" else 0.0)
-            fric = np.zeros_like(th)
-            for c, a in terms:
-                v = value(c, th, w, k, lam)
-                if c.fric == fr:
-                    fric = fric + a * v
-                else:
-                    ext = ext - a * v
-            # Karnopp: below eps the side sticks while the other forces stay inside the
-            # static friction (the friction terms evaluated just above zero speed)
-            slow = np.abs(w) < eps
-            if np.any(slow):
-                tiny = 1e-3 * eps * np.ones_like(th)
-                fp = sum((a * value(c, th, tiny, k, lam) for c, a in terms if c.fric == fr), np.zeros_like(th))
-                fn_ = sum((a * value(c, th, -tiny, k, lam) for c, a in terms if c.fric == fr), np.zeros_like(th))
-                stuck = slow & (ext <= fp) & (ext >= fn_)
-                brk = slow & ~stuck
-                fric = np.where(brk, np.where(ext > fp, fp, fn_), fric)
-            else:
-                stuck = slow
-            acc = (ext - fric) / J
-            w_new = w + acc * h
-            # a velocity sign change inside a step ends at zero (the next step decides)
-            w_new = np.where((np.sign(w_new) * np.sign(w) < 0), 0.0, w_new)
-            w_new = np.where(stuck, 0.0, w_new)
-            w = w_new
-            th = th + w * h
+            th, w = _karnopp_step(eq, th, w, k, lam, f_k, eps, J, h)
         err[k + 1] = th - meas[k + 1]
     return err
 

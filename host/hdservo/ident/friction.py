@@ -389,6 +389,71 @@ def lugre_presliding(s_legs: list[np.ndarray], dirs: list[int], sigma0: float, g
     return out
 
 
+def _presliding_legs(data: ExperimentData, k: int) -> tuple[list[np.ndarray], list[np.ndarray], list[int],
+                                                            list[np.ndarray]]:
+    """Each monotone leg of the torque command: (travel past the reversal rad, motor-side friction
+    N.m, direction, smoothed motor angle rad) per leg; the motor angle is averaged over ``k`` samples.
+
+    The travel is the running maximum of the motor angle past the reversal point, so encoder noise
+    never counts as travel; legs shorter than 5 samples are left out.
+    """
+    N = data.gear_ratio
+    s_legs, f_legs, dirs, x_legs = [], [], [], []
+    for seg in data.segments:
+        c = data.segment(seg["index"])
+        fm = c["motor_torque_Nm"] - c["load_torque_Nm"] / N
+        th = c["motor_angle_rad"]
+        if len(th) > 2 * k:
+            pad = np.concatenate([np.full(k // 2, th[0]), th, np.full(k - 1 - k // 2, th[-1])])
+            th = np.convolve(pad, np.ones(k) / k, mode="valid")
+        cmd = c["torque_cmd_Nm"]
+        for a, b, d in _legs(cmd):
+            if b - a < 5:
+                continue
+            x = d * (th[a:b] - th[a])
+            # reversal point: the motion may run on for a few samples after the command turns
+            head = max(1, (b - a) // 5)
+            x = x - min(0.0, float(np.min(x[:head])))
+            s_legs.append(np.maximum.accumulate(np.maximum(x, 0.0)))
+            f_legs.append(fm[a:b])
+            x_legs.append(th[a:b])
+            dirs.append(d)
+    return s_legs, f_legs, dirs, x_legs
+
+
+def _sigma0_start(s_legs: list[np.ndarray], f_legs: list[np.ndarray], dirs: list[int], g0: float) -> float:
+    """Start value of sigma0 (N.m/rad): half the initial slope of the longest reversal."""
+    j = int(np.argmax([float(np.ptp(f)) for f in f_legs]))
+    sj, fj = s_legs[j], f_legs[j]
+    m = (np.abs(fj - fj[0]) < 0.5 * g0) & (sj > 0)
+    slope = float(np.polyfit(sj[m], fj[m], 1)[0]) * dirs[j] if m.sum() > 3 else 0.0
+    sig0 = max(abs(slope) / 2.0, 1e-6 * g0 / max(float(np.max(sj)), 1e-12), 1e-9)
+    if not math.isfinite(sig0) or sig0 <= 0:
+        sig0 = 3 * g0 / max(float(np.max(sj)), 1e-9)
+    return sig0
+
+
+def _fit_lugre_legs(s_legs: list[np.ndarray], dirs: list[int], f_all: np.ndarray, sig0: float, g0: float) -> Any:
+    """Least-squares fit of the chained quasi-static LuGre legs: log sigma0, log g+, log g-, the
+    initial bristle state (tanh-bounded) and a torque offset; the best of three starts of the state."""
+    def model(p: np.ndarray) -> np.ndarray:
+        s0, gp, gn = math.exp(p[0]), math.exp(p[1]), math.exp(p[2])
+        z0 = math.tanh(p[3]) * max(gp, gn) / s0
+        return np.concatenate(lugre_presliding(s_legs, dirs, s0, gp, gn, z0)) + p[4]
+
+    def resid(p: np.ndarray) -> np.ndarray:
+        return model(p) - f_all
+
+    best = None
+    for z_start in (-2.0, 0.0, 2.0):
+        p0 = np.array([math.log(sig0), math.log(g0), math.log(g0), z_start, 0.0])
+        sol = least_squares(resid, p0, x_scale="jac", max_nfev=400)
+        if best is None or sol.cost < best.cost:
+            best = sol
+    assert best is not None
+    return best
+
+
 def fit_presliding(data: ExperimentData, jm_kgm2: float | None = None, smooth_s: float = 0.01
                    ) -> PreslidingResult:
     """Motor-side LuGre sigma0 and breakaway from a locked-output ``presliding`` experiment.
@@ -416,57 +481,13 @@ def fit_presliding(data: ExperimentData, jm_kgm2: float | None = None, smooth_s:
     """
     if data.kind not in ("presliding", "locked_cycle", "forc", "minor_loops"):
         raise UserError(f"presliding: expected presliding (locked-output) data, found '{data.kind}'")
-    N = data.gear_ratio
     dt = float(data.meta["sample_period_s"])
-    k = max(1, int(round(smooth_s / dt)))
-    s_legs, f_legs, dirs, x_legs = [], [], [], []
-    for seg in data.segments:
-        c = data.segment(seg["index"])
-        fm = c["motor_torque_Nm"] - c["load_torque_Nm"] / N
-        th = c["motor_angle_rad"]
-        if len(th) > 2 * k:
-            pad = np.concatenate([np.full(k // 2, th[0]), th, np.full(k - 1 - k // 2, th[-1])])
-            th = np.convolve(pad, np.ones(k) / k, mode="valid")
-        cmd = c["torque_cmd_Nm"]
-        for a, b, d in _legs(cmd):
-            if b - a < 5:
-                continue
-            x = d * (th[a:b] - th[a])
-            # reversal point: the motion may run on for a few samples after the command turns
-            head = max(1, (b - a) // 5)
-            x = x - min(0.0, float(np.min(x[:head])))
-            s_legs.append(np.maximum.accumulate(np.maximum(x, 0.0)))
-            f_legs.append(fm[a:b])
-            x_legs.append(th[a:b])
-            dirs.append(d)
+    s_legs, f_legs, dirs, x_legs = _presliding_legs(data, max(1, int(round(smooth_s / dt))))
     if len(dirs) < 3:
         raise UserError("presliding: fewer than 3 torque reversals in the data")
     f_all = np.concatenate(f_legs)
     g0 = float(np.percentile(np.abs(f_all), 98))
-    # start for sigma0: initial slope 2 sigma0 of the longest reversal
-    j = int(np.argmax([float(np.ptp(f)) for f in f_legs]))
-    sj, fj = s_legs[j], f_legs[j]
-    m = (np.abs(fj - fj[0]) < 0.5 * g0) & (sj > 0)
-    slope = float(np.polyfit(sj[m], fj[m], 1)[0]) * dirs[j] if m.sum() > 3 else 0.0
-    sig0 = max(abs(slope) / 2.0, 1e-6 * g0 / max(float(np.max(sj)), 1e-12), 1e-9)
-    if not math.isfinite(sig0) or sig0 <= 0:
-        sig0 = 3 * g0 / max(float(np.max(sj)), 1e-9)
-
-    def model(p: np.ndarray) -> np.ndarray:
-        s0, gp, gn = math.exp(p[0]), math.exp(p[1]), math.exp(p[2])
-        z0 = math.tanh(p[3]) * max(gp, gn) / s0
-        return np.concatenate(lugre_presliding(s_legs, dirs, s0, gp, gn, z0)) + p[4]
-
-    def resid(p: np.ndarray) -> np.ndarray:
-        return model(p) - f_all
-
-    best = None
-    for z_start in (-2.0, 0.0, 2.0):
-        p0 = np.array([math.log(sig0), math.log(g0), math.log(g0), z_start, 0.0])
-        sol = least_squares(resid, p0, x_scale="jac", max_nfev=400)
-        if best is None or sol.cost < best.cost:
-            best = sol
-    assert best is not None
+    best = _fit_lugre_legs(s_legs, dirs, f_all, _sigma0_start(s_legs, f_legs, dirs, g0), g0)
     s0, gp, gn = (math.exp(float(v)) for v in best.x[:3])
     s1 = math.sqrt(s0 * jm_kgm2) if jm_kgm2 else None
     src = ("rule sqrt(sigma0*J_m) (J_m from the FRF), not measured" if s1 else

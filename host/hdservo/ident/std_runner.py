@@ -53,6 +53,7 @@ from typing import Any, Callable, Mapping, Optional, Sequence
 import numpy as np
 
 from ..errors import UserError
+from ..phase import unwrap_count
 from . import experiments as ex
 from .drive_runner import schroeder_multisine
 
@@ -601,14 +602,14 @@ class StdRunner:
         torque = rows[2][:, 1].astype(np.int16).astype(float) * self._rated_Nm / 1000.0
         out_torque = torque if self.units.torque_on_output else torque * N
         cols = {"t_s": np.arange(k1 - k0) * self.sync_period_s, "_stamp_s": stamps,
-                "load_angle_rad": _unwrap32(pos) / self.units.position_per_turn * TURN,
+                "load_angle_rad": unwrap_count(pos) / self.units.position_per_turn * TURN,
                 "motor_torque_Nm": out_torque / N,
                 "load_velocity_rad_s": rows[2][:, 0].astype(np.int32).astype(float) / self.units.velocity_per_turn_s
                 * TURN}
         if self.has_current:
             cols["current_permille"] = rows[2][:, 2].astype(np.int16).astype(float)
         if self.has_encoder2:
-            e2 = _unwrap32(rows[3][:, 0].astype(np.int32).astype(float)) / self.units.encoder2_per_turn * TURN
+            e2 = unwrap_count(rows[3][:, 0].astype(np.int32)) / self.units.encoder2_per_turn * TURN
             cols["motor_angle_rad"] = e2 * N if self.units.encoder2_output_units else e2
         return cols
 
@@ -913,15 +914,6 @@ class StdSession:
                 if self.proc is not None:
                     self.server_log = self.proc.stop()
                     self.proc = None
-
-
-def _unwrap32(x: np.ndarray) -> np.ndarray:
-    """Continue a wrapping signed 32-bit count."""
-    if len(x) == 0:
-        return x
-    d = np.diff(x)
-    d = ((d + 2.0 ** 31) % 2.0 ** 32) - 2.0 ** 31
-    return x[0] + np.concatenate([[0.0], np.cumsum(d)])
 
 
 def friction_gravity_feedforward(stribeck: Any, gravity: Any) -> Callable[[float, float], float]:

@@ -163,6 +163,69 @@ def odd_hats(phi: np.ndarray, direction: np.ndarray, half_width: float, n: int) 
     return direction[:, None] * np.column_stack(cols)
 
 
+def _fit_knots(ph: np.ndarray, Tm: np.ndarray, stops: np.ndarray, odd: np.ndarray, span: float,
+               nK: int) -> tuple[float, float, float, np.ndarray]:
+    """The three-slope knots (rad of twist) with the spring, Maxwell-slip and odd-band weights.
+
+    Coarse grid over the knot fractions of ``span``, then Nelder-Mead in log space; each trial
+    solves the bounded linear least squares (NNLS).  Returns (SSE, phi1, phi2, weights).
+    """
+    def solve(knots: tuple[float, float]) -> tuple[float, np.ndarray]:
+        A = np.column_stack([_design(ph, knots, stops)[:, :nK], odd])
+        # free columns split into +/- parts so that plain NNLS handles the bounds (fast active set)
+        B = np.column_stack([A, -A, stops])
+        nf = A.shape[1]
+        sc = np.linalg.norm(B, axis=0) + 1e-300
+        z, rn = nnls(B / sc, Tm, maxiter=20 * B.shape[1])
+        z = z / sc
+        x = np.r_[z[:nK] - z[nf:nf + nK], z[2 * nf:]]
+        xo = z[nK:nf] - z[nf + nK:2 * nf]
+        return float(rn ** 2), np.r_[x, xo]
+
+    # knots: coarse grid then Nelder-Mead (log space, ordered)
+    best = (math.inf, (0.0, 0.0))
+    for f1 in np.linspace(0.1, 0.6, 8):
+        for f2 in np.linspace(f1 + 0.1, 0.95, 6):
+            sse, _ = solve((f1 * span, f2 * span))
+            if sse < best[0]:
+                best = (sse, (f1 * span, f2 * span))
+
+    def obj(x: np.ndarray) -> float:
+        p1 = math.exp(x[0])
+        p2 = p1 + math.exp(x[1])
+        if p2 >= span:
+            return 1e30
+        return solve((p1, p2))[0]
+
+    x0 = np.array([math.log(best[1][0]), math.log(best[1][1] - best[1][0])])
+    opt = minimize(obj, x0, method="Nelder-Mead", options={"xatol": 1e-4, "fatol": 1e-9, "maxiter": 400})
+    p1 = math.exp(opt.x[0])
+    p2 = p1 + math.exp(opt.x[1])
+    sse, x = solve((p1, p2))
+    return sse, p1, p2, x
+
+
+def _centred_twist(T: np.ndarray, phi: np.ndarray, cmd: np.ndarray, t_max: float) -> np.ndarray:
+    """The twist (rad) shifted so that the loop's centre line crosses T = 0 at zero twist.
+
+    The encoders' zero is arbitrary: the centre is the mean of the descending and ascending
+    zero crossings, where the odd-symmetric three-slope spring has its origin (an offset of a
+    few % of phi1 moves the knots, T1, asymmetrically).
+    """
+    st0 = split_reversals(cmd)
+    a0 = st0[1][0] if len(st0) > 1 else 0
+    desc, asc = zero_crossing_twists(T[a0:], phi[a0:], cmd[a0:], 0.03 * t_max)
+    return phi - 0.5 * (float(np.mean(desc)) + float(np.mean(asc)))
+
+
+def _cubic_fit(ph: np.ndarray, Tm: np.ndarray, odd: np.ndarray, stops: np.ndarray) -> tuple[Any, np.ndarray]:
+    """Cubic spring + the same odd band and stop grid (stop weights >= 0); returns (solution, residual N.m)."""
+    Ac = np.column_stack([ph, ph ** 3, np.ones_like(ph), odd, stops])
+    lo = np.r_[-np.inf, -np.inf, -np.inf, np.full(odd.shape[1], -np.inf), np.zeros(stops.shape[1])]
+    solc = lsq_linear(Ac, Tm, bounds=(lo, np.full(Ac.shape[1], np.inf)), method="bvls")
+    return solc, Tm - Ac @ solc.x
+
+
 def fit_stiffness(data: ExperimentData, te: TEResult | None = None,
                   thresholds_rad: np.ndarray | None = None, max_elements: int = 8,
                   odd_fractions: tuple[float, ...] = ODD_FRACTIONS, odd_count: int = 16,
@@ -200,13 +263,7 @@ def fit_stiffness(data: ExperimentData, te: TEResult | None = None,
     t_max = float(np.max(np.abs(T)))
     loss = hysteresis_loss(T, phi, cmd, t_max)
     if centre:
-        # the encoders' zero is arbitrary: centre the twist on the loop's centre line at T = 0 (mean of
-        # the descending and ascending zero crossings), where the odd-symmetric three-slope spring
-        # has its origin; an offset of a few % of phi1 moves the knots (T1) asymmetrically
-        st0 = split_reversals(cmd)
-        a0 = st0[1][0] if len(st0) > 1 else 0
-        desc, asc = zero_crossing_twists(T[a0:], phi[a0:], cmd[a0:], 0.03 * t_max)
-        phi = phi - 0.5 * (float(np.mean(desc)) + float(np.mean(asc)))
+        phi = _centred_twist(T, phi, cmd, t_max)
     lm = None
     if len(data.segments) > 1:
         s1 = data.segment(1)
@@ -226,45 +283,10 @@ def fit_stiffness(data: ExperimentData, te: TEResult | None = None,
 
     direction = branch_direction(cmd)[start::k]
 
-    def fit_band(odd: np.ndarray) -> tuple[float, float, float, np.ndarray]:
-        def solve(knots: tuple[float, float]) -> tuple[float, np.ndarray]:
-            A = np.column_stack([_design(ph, knots, stops)[:, :nK], odd])
-            # free columns split into +/- parts so that plain NNLS handles the bounds (fast active set)
-            B = np.column_stack([A, -A, stops])
-            nf = A.shape[1]
-            sc = np.linalg.norm(B, axis=0) + 1e-300
-            z, rn = nnls(B / sc, Tm, maxiter=20 * B.shape[1])
-            z = z / sc
-            x = np.r_[z[:nK] - z[nf:nf + nK], z[2 * nf:]]
-            xo = z[nK:nf] - z[nf + nK:2 * nf]
-            return float(rn ** 2), np.r_[x, xo]
-
-        # knots: coarse grid then Nelder-Mead (log space, ordered)
-        best = (math.inf, (0.0, 0.0))
-        for f1 in np.linspace(0.1, 0.6, 8):
-            for f2 in np.linspace(f1 + 0.1, 0.95, 6):
-                sse, _ = solve((f1 * span, f2 * span))
-                if sse < best[0]:
-                    best = (sse, (f1 * span, f2 * span))
-
-        def obj(x: np.ndarray) -> float:
-            p1 = math.exp(x[0])
-            p2 = p1 + math.exp(x[1])
-            if p2 >= span:
-                return 1e30
-            return solve((p1, p2))[0]
-
-        x0 = np.array([math.log(best[1][0]), math.log(best[1][1] - best[1][0])])
-        opt = minimize(obj, x0, method="Nelder-Mead", options={"xatol": 1e-4, "fatol": 1e-9, "maxiter": 400})
-        p1 = math.exp(opt.x[0])
-        p2 = p1 + math.exp(opt.x[1])
-        sse, x = solve((p1, p2))
-        return sse, p1, p2, x
-
     fits = []
     for fo in (odd_fractions or (0.0,)):
         odd = odd_hats(ph, direction, fo * span, odd_count) if fo > 0 else np.zeros((len(ph), 0))
-        fits.append((fit_band(odd), odd, fo))
+        fits.append((_fit_knots(ph, Tm, stops, odd, span, nK), odd, fo))
     (sse, p1, p2, x), odd, odd_frac = min(fits, key=lambda f: f[0][0])
     k3 = x[0]
     k2 = k3 + x[2]
@@ -277,11 +299,7 @@ def fit_stiffness(data: ExperimentData, te: TEResult | None = None,
     if len(mw.k_Nm_per_rad) > max_elements:
         mw = mw.reduce(max_elements)
     resid = Tm - _design(ph, (p1, p2), stops) @ x - odd @ x_odd
-    # cubic + the same stop grid
-    Ac = np.column_stack([ph, ph ** 3, np.ones_like(ph), odd, stops])
-    lo = np.r_[-np.inf, -np.inf, -np.inf, np.full(odd.shape[1], -np.inf), np.zeros(stops.shape[1])]
-    solc = lsq_linear(Ac, Tm, bounds=(lo, np.full(Ac.shape[1], np.inf)), method="bvls")
-    rc = Tm - Ac @ solc.x
+    solc, rc = _cubic_fit(ph, Tm, odd, stops)
     r = StiffnessResult(k1_Nm_per_rad=float(k1), k2_Nm_per_rad=float(k2), k3_Nm_per_rad=float(k3), t1_Nm=float(t1),
                         t2_Nm=float(t2), cubic_k1_Nm_per_rad=float(solc.x[0]), cubic_k3_Nm_per_rad3=float(solc.x[1]),
                         hysteresis_loss_rad=loss, lost_motion_rad=lm, maxwell=mw,

@@ -81,6 +81,56 @@ class TEResult:
                 "samples": self.samples}
 
 
+def _steady_rows(data: ExperimentData) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray],
+                                                list[np.ndarray], list[float]]:
+    """Per segment past its ``settle_s`` (segments with fewer than 20 such samples left out): the
+    kinematic error theta_L - theta_M / N (rad), theta_M, theta_L (rad), the segment index per
+    sample and the output speed (rad/s, slope of theta_L)."""
+    N = data.gear_ratio
+    rows_y, rows_m, rows_l, seg_id = [], [], [], []
+    speeds = []
+    for seg in data.segments:
+        c = data.segment(seg["index"])
+        t = c["t_s"]
+        m = t >= t[0] + float(seg.get("settle_s", 0.0))
+        if m.sum() < 20:
+            continue
+        th_m, th_l = c["motor_angle_rad"][m], c["load_angle_rad"][m]
+        rows_y.append(th_l - th_m / N)
+        rows_m.append(th_m)
+        rows_l.append(th_l)
+        seg_id.append(np.full(m.sum(), len(seg_id)))
+        speeds.append(abs(np.polyfit(t[m], th_l, 1)[0]))
+    return rows_y, rows_m, rows_l, seg_id, speeds
+
+
+def _te_design(th_m: np.ndarray, th_l: np.ndarray, sid: np.ndarray, wg_orders: Sequence[int],
+               out_orders: Sequence[int]) -> tuple[np.ndarray, int]:
+    """Regressors of the TE fit: a quadratic drift per segment (in its normalised motor angle),
+    then sin/cos of each WG order of theta_M and each output order of theta_L; returns (A, segments)."""
+    cols = []
+    nseg = int(sid.max()) + 1
+    for s in range(nseg):
+        msk = (sid == s).astype(float)
+        x = (th_m - th_m[sid == s].mean()) / max(np.ptp(th_m[sid == s]), 1e-12)
+        cols += [msk, msk * x, msk * x * x]
+    for n in wg_orders:
+        cols += [np.sin(n * th_m), np.cos(n * th_m)]
+    for n in out_orders:
+        cols += [np.sin(n * th_l), np.cos(n * th_l)]
+    return np.column_stack(cols), nseg
+
+
+def _harmonics(h: np.ndarray, count: int, offset: int) -> tuple[list[float], list[float]]:
+    """Amplitude (rad) and phase (rad, sin reference) of ``count`` sin/cos pairs of ``h`` from ``offset``."""
+    amp, ph = [], []
+    for k in range(count):
+        s_, c_ = h[offset + 2 * k], h[offset + 2 * k + 1]
+        amp.append(math.hypot(s_, c_))
+        ph.append(math.atan2(c_, s_))
+    return amp, ph
+
+
 def fit_te(data: ExperimentData, wg_orders: Sequence[int] = (1, 2, 3, 4, 6), out_orders: Sequence[int] = (1, 2),
            f_antiresonance_Hz: float | None = None) -> TEResult:
     """Fit the TE harmonics from a slow constant-rotation experiment.
@@ -102,20 +152,7 @@ def fit_te(data: ExperimentData, wg_orders: Sequence[int] = (1, 2, 3, 4, 6), out
     if data.kind != "te_rotation":
         raise UserError(f"te: expected te_rotation data, found '{data.kind}'")
     N = data.gear_ratio
-    rows_y, rows_m, rows_l, seg_id = [], [], [], []
-    speeds = []
-    for seg in data.segments:
-        c = data.segment(seg["index"])
-        t = c["t_s"]
-        m = t >= t[0] + float(seg.get("settle_s", 0.0))
-        if m.sum() < 20:
-            continue
-        th_m, th_l = c["motor_angle_rad"][m], c["load_angle_rad"][m]
-        rows_y.append(th_l - th_m / N)
-        rows_m.append(th_m)
-        rows_l.append(th_l)
-        seg_id.append(np.full(m.sum(), len(seg_id)))
-        speeds.append(abs(np.polyfit(t[m], th_l, 1)[0]))
+    rows_y, rows_m, rows_l, seg_id, speeds = _steady_rows(data)
     if not rows_y:
         raise UserError("te: no steady-state samples (segments too short)")
     y = np.concatenate(rows_y)
@@ -124,37 +161,16 @@ def fit_te(data: ExperimentData, wg_orders: Sequence[int] = (1, 2, 3, 4, 6), out
     sid = np.concatenate(seg_id)
     span_l = max(float(np.ptp(r)) for r in rows_l)
     use_out = [n for n in out_orders if span_l >= 2 * math.pi / n]
-    cols = []
-    nseg = int(sid.max()) + 1
-    for s in range(nseg):
-        msk = (sid == s).astype(float)
-        x = (th_m - th_m[sid == s].mean()) / max(np.ptp(th_m[sid == s]), 1e-12)
-        cols += [msk, msk * x, msk * x * x]
-    for n in wg_orders:
-        cols += [np.sin(n * th_m), np.cos(n * th_m)]
-    for n in use_out:
-        cols += [np.sin(n * th_l), np.cos(n * th_l)]
-    A = np.column_stack(cols)
+    A, nseg = _te_design(th_m, th_l, sid, wg_orders, use_out)
     coef, *_ = np.linalg.lstsq(A, y, rcond=None)
     res = y - A @ coef
     h = coef[3 * nseg:]
-    gain_f = 1.0
-    wg_amp, wg_ph = [], []
     v = float(np.mean(speeds))
-    for k, n in enumerate(wg_orders):
-        s_, c_ = h[2 * k], h[2 * k + 1]
-        a = math.hypot(s_, c_)
-        if f_antiresonance_Hz:
-            f = n * N * v / (2 * math.pi)
-            gain_f = 1.0 / abs(1.0 - (f / f_antiresonance_Hz) ** 2)
-        wg_amp.append(a / gain_f)
-        wg_ph.append(math.atan2(c_, s_))
-    out_amp, out_ph = [], []
-    off = 2 * len(wg_orders)
-    for k, n in enumerate(use_out):
-        s_, c_ = h[off + 2 * k], h[off + 2 * k + 1]
-        out_amp.append(math.hypot(s_, c_))
-        out_ph.append(math.atan2(c_, s_))
+    gains = [1.0 / abs(1.0 - (n * N * v / (2 * math.pi) / f_antiresonance_Hz) ** 2) if f_antiresonance_Hz else 1.0
+             for n in wg_orders]
+    wg_amp, wg_ph = _harmonics(h, len(wg_orders), 0)
+    wg_amp = [a_ / g_ for a_, g_ in zip(wg_amp, gains)]
+    out_amp, out_ph = _harmonics(h, len(use_out), 2 * len(wg_orders))
     r = TEResult(wg_orders=list(wg_orders), wg_amp_rad=wg_amp, wg_phase_rad=wg_ph, out_orders=use_out,
                  out_amp_rad=out_amp, out_phase_rad=out_ph, residual_rms_rad=float(np.sqrt(np.mean(res ** 2))),
                  samples=int(len(y)))

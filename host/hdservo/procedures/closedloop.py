@@ -19,6 +19,7 @@ import numpy as np
 from . import metrics as mt
 from .results import Result, figure, save_figure
 from .runner import DT, Bench, Progress, RigSetup
+from ..phase import unwrap_turns
 
 AXIS_SETUP = RigSetup("axis", payload=True)
 from ..units import TURN  # noqa: E402
@@ -125,7 +126,7 @@ def reference_moved_throughout(ref_lo: np.ndarray) -> bool:
     A reference that stood still for a sample (the profile move had arrived at its target)
     means the record is not a constant-rate run.
     """
-    r = Bench.unwrap_turns(ref_lo)
+    r = unwrap_turns(ref_lo, centred=False)
     d = np.diff(r)
     return bool(d.size > 0 and (np.all(d > 0) or np.all(d < 0)))
 
@@ -204,11 +205,11 @@ def rate_run(bench: Bench, rate_deg_s: float, windows: int, window_s: float, set
         # end of the rung: halt (controlword bit 8) stops the move where it is, at traj_amax (the
         # reference never reverses; a new profile set-point would be refused while the move runs)
         pp_halt(bench)
-    ang = Bench.unwrap_turns(cap["pos_out_lo"]) * TURN
+    ang = unwrap_turns(cap["pos_out_lo"], centred=False) * TURN
     t = np.arange(ang.size) * decim * DT
     st = mt.rate_stability(t, ang, rate, win)
     # the drive's own reference over the record: its rate error is the profile generator's, not the axis'
-    ref = Bench.unwrap_turns(cap["pos_ref_lo"]) * TURN
+    ref = unwrap_turns(cap["pos_ref_lo"], centred=False) * TURN
     ref_rate = float(np.polyfit(t, ref, 1)[0]) if ref.size > 1 else float("nan")
     return {"rate_deg_s": rate_deg_s, "window_arcsec": win / mt.ARCSEC, "window_s": win / rate, **st,
             "reference_accuracy": abs(ref_rate - rate) / rate,
@@ -291,21 +292,25 @@ def min_rate(bench: Bench, rates_deg_s: Sequence[float] = RATE_LADDER_DEG_S, bou
     r.headline = {"min_smooth_rate_deg_s": best}
     r.series = {"ladder": ladder}
 
-    def plot(res: Result, d: Path, fmt: str) -> list[Path]:
-        fig, ax = figure()
-        a = ax[0][0]
-        for x in res.series["ladder"]:
-            w = mt.fixed_angle_rates(x["t_s"], x["angle_rad"], x["window_arcsec"] * mt.ARCSEC)
-            if w.size:
-                a.plot(np.arange(w.size) + 1, np.degrees(w) / x["rate_deg_s"], "o-", ms=3, label=f"{x['rate_deg_s']:g} deg/s")
-        a.axhspan(1 - bound, 1 + bound, color="0.9")
-        a.set_xlabel("fixed-angle window (-)")
-        a.set_ylabel("window rate / commanded rate (-)")
-        a.grid(True)
-        a.legend()
-        return save_figure(fig, d, res.name, fmt, label=res.label)
-    r.plot = plot
+    r.plot = _plot_min_rate
     return r
+
+
+def _plot_min_rate(res: Result, d: Path, fmt: str) -> list[Path]:
+    """Window rate over commanded rate per fixed-angle window, one line per rung, with the bound."""
+    fig, ax = figure()
+    a = ax[0][0]
+    for x in res.series["ladder"]:
+        w = mt.fixed_angle_rates(x["t_s"], x["angle_rad"], x["window_arcsec"] * mt.ARCSEC)
+        if w.size:
+            a.plot(np.arange(w.size) + 1, np.degrees(w) / x["rate_deg_s"], "o-", ms=3, label=f"{x['rate_deg_s']:g} deg/s")
+    bound = res.conditions["bound"]
+    a.axhspan(1 - bound, 1 + bound, color="0.9")
+    a.set_xlabel("fixed-angle window (-)")
+    a.set_ylabel("window rate / commanded rate (-)")
+    a.grid(True)
+    a.legend()
+    return save_figure(fig, d, res.name, fmt, label=res.label)
 
 
 # ---- stabilisation ------------------------------------------------------------------------
@@ -426,20 +431,23 @@ def stabilisation(bench: Bench, duration_s: float = 5.0, settle_s: float = 1.0,
         r.series["true_angle_rad"] = ti
     r.headline = {"stabilisation_rms_arcsec": pe["rms_arcsec"], "stabilisation_peak_arcsec": pe["peak_arcsec"]}
 
-    def plot(res: Result, d: Path, fmt: str) -> list[Path]:
-        fig, ax = figure()
-        a = ax[0][0]
-        s = res.series
-        a.plot(s["t_s"], s["gyro_angle_rad"] / mt.ARCSEC, lw=0.8, label="gyro (integrated)")
-        if "true_angle_rad" in s:
-            a.plot(s["t_s"], s["true_angle_rad"] / mt.ARCSEC, lw=0.6, ls="--", label="true inertial (rig)")
-        a.set_xlabel("time (s)")
-        a.set_ylabel("inertial pointing error (arcsec)")
-        a.grid(True)
-        a.legend()
-        return save_figure(fig, d, res.name, fmt, label=res.label)
-    r.plot = plot
+    r.plot = _plot_stabilisation
     return r
+
+
+def _plot_stabilisation(res: Result, d: Path, fmt: str) -> list[Path]:
+    """Inertial pointing error over time: integrated gyro, and the rig's true angle where there is one."""
+    fig, ax = figure()
+    a = ax[0][0]
+    s = res.series
+    a.plot(s["t_s"], s["gyro_angle_rad"] / mt.ARCSEC, lw=0.8, label="gyro (integrated)")
+    if "true_angle_rad" in s:
+        a.plot(s["t_s"], s["true_angle_rad"] / mt.ARCSEC, lw=0.6, ls="--", label="true inertial (rig)")
+    a.set_xlabel("time (s)")
+    a.set_ylabel("inertial pointing error (arcsec)")
+    a.grid(True)
+    a.legend()
+    return save_figure(fig, d, res.name, fmt, label=res.label)
 
 
 # ---- positioning (ISO 230-2) ------------------------------------------------------------------
@@ -511,21 +519,24 @@ def positioning(bench: Bench, targets_deg: Optional[Sequence[float]] = None, run
                   "reversal_arcsec": iso["B"], "systematic_deviation_arcsec": iso["E"]}
     r.series = {"targets_deg": np.asarray(targets_deg, float), "up": (up - tg) / mt.ARCSEC, "down": (dn - tg) / mt.ARCSEC}
 
-    def plot(res: Result, d: Path, fmt: str) -> list[Path]:
-        fig, ax = figure()
-        a = ax[0][0]
-        s = res.series
-        for j in range(s["up"].shape[0]):
-            a.plot(s["targets_deg"], s["up"][j], "^-", color="C0", ms=3, lw=0.5, label="approach +" if j == 0 else None)
-            a.plot(s["targets_deg"], s["down"][j], "v-", color="C1", ms=3, lw=0.5, label="approach -" if j == 0 else None)
-        a.set_xlabel("target (deg)")
-        a.set_ylabel("positional deviation (arcsec)")
-        a.set_title(f"A = {res.headline['positioning_accuracy_arcsec']:.3g}\", R = {res.headline['repeatability_arcsec']:.3g}\"")
-        a.grid(True)
-        a.legend()
-        return save_figure(fig, d, res.name, fmt, label=res.label)
-    r.plot = plot
+    r.plot = _plot_positioning
     return r
+
+
+def _plot_positioning(res: Result, d: Path, fmt: str) -> list[Path]:
+    """Positional deviation at each target, every run, per approach direction."""
+    fig, ax = figure()
+    a = ax[0][0]
+    s = res.series
+    for j in range(s["up"].shape[0]):
+        a.plot(s["targets_deg"], s["up"][j], "^-", color="C0", ms=3, lw=0.5, label="approach +" if j == 0 else None)
+        a.plot(s["targets_deg"], s["down"][j], "v-", color="C1", ms=3, lw=0.5, label="approach -" if j == 0 else None)
+    a.set_xlabel("target (deg)")
+    a.set_ylabel("positional deviation (arcsec)")
+    a.set_title(f"A = {res.headline['positioning_accuracy_arcsec']:.3g}\", R = {res.headline['repeatability_arcsec']:.3g}\"")
+    a.grid(True)
+    a.legend()
+    return save_figure(fig, d, res.name, fmt, label=res.label)
 
 
 # ---- peak output torque ------------------------------------------------------------------------
@@ -561,46 +572,11 @@ def peak_torque(bench: Bench, request_Nm: Optional[float] = None, steps: int = 6
     """
     rated = bench.rated_torque_Nm()
     limit = float(bench.drive.get_param("torque_limit"))
-    if request_Nm is None:
-        definition = "limit"
-        req = overdrive * limit
-        levels = np.append(np.linspace(limit / steps, limit, steps)[:-1], req)
-        # the saturated step lasts hold_s of drive time plus the capture upload (drive time runs on in fast
-        # pacing): the saturation-time fault is widened to 5 s for the test, the command zeroed right after
-        params: dict[str, float] = {"torque_sat_time": max(float(bench.drive.get_param("torque_sat_time")), 50000.0)}
-    else:
-        definition = "request"
-        req = float(request_Nm)
-        levels = np.linspace(req / steps, req, steps)
-        params = {"torque_limit": max(1.1 * req, 1.0)}
+    definition, req, levels, params = _peak_levels(bench, limit, request_Nm, steps, overdrive)
     bench.rig.brake(True)
-    delivered = []
-    from_current = []
-    w0, w1 = PEAK_WINDOW
     with bench.params(params):
         bench.enable("CYCLIC SYNCHRONOUS TORQUE")
-        for k, lev in enumerate(levels):
-            bench.drive.write(0x6071, 0, int(round(lev / rated * 1000)))
-            bench.wait(hold_s * w0)
-            frames = max(4, int(hold_s * (w1 - w0) / (10 * DT)))
-            if bench.rig.virtual:
-                with bench.rig.record(10) as rec:
-                    cap = bench.capture(["current"], frames, 10)
-                delivered.append(float(np.mean(np.abs(rec["gear_torque_Nm"]))))
-            else:
-                cap = bench.capture(["current"], frames, 10)
-            if k + 1 == len(levels):
-                bench.drive.write(0x6071, 0, 0)          # leave the saturated (last) step at once
-            i = float(np.mean(np.abs(cap["current"]))) / 2 ** 16
-            from_current.append(i * bench.kt * bench.ratio)
-            if not bench.rig.virtual:
-                delivered.append(from_current[-1])
-            if progress:
-                progress((k + 1) / len(levels), f"{lev:.3g} N.m commanded: {delivered[-1]:.3g} N.m delivered")
-            if bench.fault():
-                break
-            if k + 1 < len(levels):
-                bench.wait(hold_s * (1.0 - w1))
+        delivered, from_current = _torque_staircase(bench, levels, rated, hold_s, progress)
         bench.drive.write(0x6071, 0, 0)
         bench.wait(0.1)
         fault = bench.fault()
@@ -619,21 +595,69 @@ def peak_torque(bench: Bench, request_Nm: Optional[float] = None, steps: int = 6
                  "from_current_Nm": from_current, "fault_code": fault}
     r.headline = {"peak_torque_Nm": peak}
     r.series = {"cmd": levels[:n], "delivered": np.array(delivered), "current": np.array(from_current)}
-
-    def plot(res: Result, d: Path, fmt: str) -> list[Path]:
-        fig, ax = figure()
-        a = ax[0][0]
-        s = res.series
-        a.plot(s["cmd"], s["delivered"], "o-", label="delivered (load cell)")
-        a.plot(s["cmd"], s["current"], "s--", label="N Kt i")
-        a.plot(s["cmd"], s["cmd"], "k:", label="commanded")
-        a.set_xlabel("commanded output torque (N.m)")
-        a.set_ylabel("output torque (N.m)")
-        a.grid(True)
-        a.legend()
-        return save_figure(fig, d, res.name, fmt, label=res.label)
-    r.plot = plot
+    r.plot = _plot_peak_torque
     return r
+
+
+def _peak_levels(bench: Bench, limit: float, request_Nm: Optional[float], steps: int,
+                 overdrive: float) -> tuple[str, float, np.ndarray, dict[str, float]]:
+    """The staircase of :func:`peak_torque`: (definition, request N.m, step levels N.m, drive parameters
+    set for the test)."""
+    if request_Nm is None:
+        req = overdrive * limit
+        levels = np.append(np.linspace(limit / steps, limit, steps)[:-1], req)
+        # the saturated step lasts hold_s of drive time plus the capture upload (drive time runs on in fast
+        # pacing): the saturation-time fault is widened to 5 s for the test, the command zeroed right after
+        return "limit", req, levels, {"torque_sat_time": max(float(bench.drive.get_param("torque_sat_time")), 50000.0)}
+    req = float(request_Nm)
+    return "request", req, np.linspace(req / steps, req, steps), {"torque_limit": max(1.1 * req, 1.0)}
+
+
+def _torque_staircase(bench: Bench, levels: np.ndarray, rated: float, hold_s: float,
+                      progress: Optional[Progress]) -> tuple[list[float], list[float]]:
+    """Hold each CST level ``hold_s`` and average |output torque| over :data:`PEAK_WINDOW` of the hold;
+    returns (delivered N.m: load cell on the virtual rig, else N Kt i; N Kt i N.m).  Stops at a fault."""
+    delivered: list[float] = []
+    from_current: list[float] = []
+    w0, w1 = PEAK_WINDOW
+    for k, lev in enumerate(levels):
+        bench.drive.write(0x6071, 0, int(round(lev / rated * 1000)))
+        bench.wait(hold_s * w0)
+        frames = max(4, int(hold_s * (w1 - w0) / (10 * DT)))
+        if bench.rig.virtual:
+            with bench.rig.record(10) as rec:
+                cap = bench.capture(["current"], frames, 10)
+            delivered.append(float(np.mean(np.abs(rec["gear_torque_Nm"]))))
+        else:
+            cap = bench.capture(["current"], frames, 10)
+        if k + 1 == len(levels):
+            bench.drive.write(0x6071, 0, 0)          # leave the saturated (last) step at once
+        i = float(np.mean(np.abs(cap["current"]))) / 2 ** 16
+        from_current.append(i * bench.kt * bench.ratio)
+        if not bench.rig.virtual:
+            delivered.append(from_current[-1])
+        if progress:
+            progress((k + 1) / len(levels), f"{lev:.3g} N.m commanded: {delivered[-1]:.3g} N.m delivered")
+        if bench.fault():
+            break
+        if k + 1 < len(levels):
+            bench.wait(hold_s * (1.0 - w1))
+    return delivered, from_current
+
+
+def _plot_peak_torque(res: Result, d: Path, fmt: str) -> list[Path]:
+    """Delivered output torque (load cell and N Kt i) against the commanded output torque."""
+    fig, ax = figure()
+    a = ax[0][0]
+    s = res.series
+    a.plot(s["cmd"], s["delivered"], "o-", label="delivered (load cell)")
+    a.plot(s["cmd"], s["current"], "s--", label="N Kt i")
+    a.plot(s["cmd"], s["cmd"], "k:", label="commanded")
+    a.set_xlabel("commanded output torque (N.m)")
+    a.set_ylabel("output torque (N.m)")
+    a.grid(True)
+    a.legend()
+    return save_figure(fig, d, res.name, fmt, label=res.label)
 
 
 # ---- closed-loop bandwidth ----------------------------------------------------------------------
@@ -699,8 +723,8 @@ def bandwidth(bench: Bench, amplitude_arcsec: float = 60.0, period_samples: int 
     bench.disable()
     if fault:
         raise RuntimeError(f"the drive faulted during the bandwidth test (fault code {fault})")
-    ref = Bench.unwrap_turns(cap["pos_ref_lo"]) * TURN
-    out = Bench.unwrap_turns(cap["pos_out_lo"]) * TURN
+    ref = unwrap_turns(cap["pos_ref_lo"], centred=False) * TURN
+    out = unwrap_turns(cap["pos_out_lo"], centred=False) * TURN
     n = frames
     h = mt.line_response(ref[:n], out[:n], lines)
     f = np.asarray(lines, float) / (period_samples * k * DT)

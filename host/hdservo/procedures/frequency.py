@@ -23,6 +23,7 @@ from .closedloop import AXIS_SETUP
 from .results import Result, figure, save_figure
 from ..drive import DriveError
 from .runner import CAPTURE_WORDS, DT, SIG, Bench, Progress
+from ..phase import unwrap_turns
 
 from ..units import TURN  # noqa: E402
 
@@ -60,8 +61,8 @@ def measure_frf(bench: Bench, rms_Nm: float = 6.0, blocks: int = 3, f_hi_Hz: flo
         cap = bench.capture(["torque_cmd", "pos_mot_lo", "pos_out_lo"], frames, decim,
                             action=lambda seg=seg: bench.stream(seg, send))
         us.append(cap["torque_cmd"].astype(float) / 2 ** 16)
-        ym.append(Bench.unwrap_turns(cap["pos_mot_lo"]) * TURN / bench.ratio)
-        yl.append(Bench.unwrap_turns(cap["pos_out_lo"]) * TURN)
+        ym.append(unwrap_turns(cap["pos_mot_lo"], centred=False) * TURN / bench.ratio)
+        yl.append(unwrap_turns(cap["pos_out_lo"], centred=False) * TURN)
         if progress:
             progress((b + 1) / blocks, f"block {b + 1}/{blocks}")
     send(0.0)
@@ -165,8 +166,8 @@ def measure_frf_drive(bench: Bench, rms_Nm: float = 6.0, blocks: int = 3, lines:
                 continue
             rs.append(w[skip:, 0].astype(float) / 2 ** 16)
             us.append(w[skip:, 1].astype(float) / 2 ** 16)
-            ym.append(Bench.unwrap_turns(w[skip:, 2] & 0xFFFFFFFF) * TURN / bench.ratio)
-            yl.append(Bench.unwrap_turns(w[skip:, 3] & 0xFFFFFFFF) * TURN)
+            ym.append(unwrap_turns(w[skip:, 2] & 0xFFFFFFFF, centred=False) * TURN / bench.ratio)
+            yl.append(unwrap_turns(w[skip:, 3] & 0xFFFFFFFF, centred=False) * TURN)
             if progress:
                 progress((b + 1) / blocks, f"block {b + 1}/{blocks}")
     finally:

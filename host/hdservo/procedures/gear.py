@@ -22,6 +22,7 @@ import numpy as np
 from . import metrics as mt
 from .results import Result, figure, save_figure
 from .runner import Bench, Progress, RigSetup
+from ..phase import unwrap_turns
 
 GEAR_SETUP = RigSetup("gear", payload=False)
 RATED_NM = 67.0          #: reference axis rated torque (0x6076 is read from the drive)
@@ -66,8 +67,8 @@ def torque_loop(bench: Bench, peak_Nm: float, cycles: int, rate_Nm_s: float,
     if fault:
         raise RuntimeError(f"the drive faulted during the torque loop (fault code {fault})")
     tick = cap["tick"].astype(float)
-    mot = Bench.unwrap_turns(cap["pos_mot_lo"]) * 2 * math.pi
-    out = Bench.unwrap_turns(cap["pos_out_lo"]) * 2 * math.pi
+    mot = unwrap_turns(cap["pos_mot_lo"], centred=False) * 2 * math.pi
+    out = unwrap_turns(cap["pos_out_lo"], centred=False) * 2 * math.pi
     phi = mot / bench.ratio - out
     phi -= phi[0]
     res = {"t_s": (tick - tick[0]) * 1e-4, "twist_rad": phi}
@@ -287,8 +288,8 @@ def transmission(bench: Bench, rate_deg_s: float = 10.0, revolutions: float = 1.
         bench.disable()
     if fault:
         raise RuntimeError(f"the drive faulted during the transmission test (fault code {fault})")
-    mot = Bench.unwrap_turns(cap["pos_mot_lo"]) * 2 * math.pi
-    out = Bench.unwrap_turns(cap["pos_out_lo"]) * 2 * math.pi
+    mot = unwrap_turns(cap["pos_mot_lo"], centred=False) * 2 * math.pi
+    out = unwrap_turns(cap["pos_out_lo"], centred=False) * 2 * math.pi
     # the motor phase word is the motor angle within a motor turn: the whole turns follow from the output angle
     mot += 2 * math.pi * np.round((out[0] * bench.ratio - mot[0]) / (2 * math.pi))
     keep = np.abs(out - out[0]) <= span

@@ -23,9 +23,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Optional
 
-import numpy as np
-
-from ..fileio import save_figure_atomic, write_json_atomic
+from ..fileio import json_ready, save_figure_atomic, write_json_atomic
+from ..plotting import pyplot
 
 FORMAT = "hdservo-test"
 VERSION = 1
@@ -47,8 +46,8 @@ class Result:
 
     def to_json(self) -> dict[str, Any]:
         """JSON-able dict (``series`` and ``plot`` left out)."""
-        return {"procedure": self.name, "headline": _clean(self.headline), "figures": _clean(self.figures),
-                "conditions": _clean(self.conditions), "notes": list(self.notes)}
+        return {"procedure": self.name, "headline": json_ready(self.headline), "figures": json_ready(self.figures),
+                "conditions": json_ready(self.conditions), "notes": list(self.notes)}
 
     def summary(self) -> str:
         """One human line per headline figure."""
@@ -66,32 +65,15 @@ def _fmt(v: Any) -> str:
     return str(v)
 
 
-def _clean(x: Any) -> Any:
-    """numpy -> python, non-finite floats -> None (strict JSON)."""
-    if isinstance(x, dict):
-        return {str(k): _clean(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_clean(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _clean(x.tolist())
-    if isinstance(x, (np.floating, float)):
-        v = float(x)
-        return v if math.isfinite(v) else None
-    if isinstance(x, (np.integer,)):
-        return int(x)
-    if isinstance(x, (np.bool_,)):
-        return bool(x)
-    return x
-
-
 def write_json(path: "str | os.PathLike[str]", results: list[Result], meta: dict[str, Any]) -> Path:
-    """Write all results (atomic: temp file + rename)."""
+    """Write all results (atomic, strict JSON: :func:`hdservo.fileio.write_json_atomic`)."""
     p = Path(path)
-    doc = {"format": FORMAT, "version": VERSION, **_clean(meta),
+    doc = {"format": FORMAT, "version": VERSION, **json_ready(meta),
            "results": {r.name: r.to_json() for r in results},
-           "headline": _clean({k: v for r in results for k, v in r.headline.items()})}
+           "headline": json_ready({k: v for r in results for k, v in r.headline.items()})}
     p.parent.mkdir(parents=True, exist_ok=True)
-    return write_json_atomic(p, doc)
+    write_json_atomic(p, doc)
+    return p
 
 
 def save_figure(fig: Any, out_dir: Path, stem: str, fmt: str = "png", label: str = "") -> list[Path]:
@@ -100,7 +82,7 @@ def save_figure(fig: Any, out_dir: Path, stem: str, fmt: str = "png", label: str
     ``label`` (e.g. the controller and feedback configuration that measured it) becomes the
     figure's overall title.
     """
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     out_dir.mkdir(parents=True, exist_ok=True)
     if label:
         fig.suptitle(label, fontsize=10, fontweight="bold")
@@ -114,10 +96,7 @@ def save_figure(fig: Any, out_dir: Path, stem: str, fmt: str = "png", label: str
 
 def figure(rows: int = 1, cols: int = 1, size: tuple[float, float] = (8.0, 5.0)) -> tuple[Any, Any]:
     """A matplotlib figure with the non-interactive backend."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt.subplots(rows, cols, figsize=size, squeeze=False)
+    return pyplot().subplots(rows, cols, figsize=size, squeeze=False)
 
 
 __all__ = ["FORMAT", "VERSION", "Result", "figure", "save_figure", "write_json"]

@@ -501,15 +501,7 @@ class Bench:
             out[s] = (w & 0xFFFFFFFF) if s.endswith("_lo") else w
         return out
 
-    # -- conversions of captured words --
-    @staticmethod
-    def unwrap_turns(lo: np.ndarray) -> np.ndarray:
-        """Continuous angle in turns from wrapped 2^-32-turn words (first sample in [0, 1))."""
-        lo = np.asarray(lo, np.int64)
-        d = np.diff(lo)
-        d = ((d + 2 ** 31) % 2 ** 32) - 2 ** 31
-        return (lo[0] + np.concatenate([[0], np.cumsum(d)])) / 2.0 ** 32
-
+    # -- conversions of captured words (angles: hdservo.phase.unwrap_turns) --
     def load_angle_rad(self) -> float:
         """Output angle by SDO (0x5F00:9, Q32.32 turns), rad."""
         return float(self.read(0x5F00, 9)) / 2.0 ** 32 * TURN

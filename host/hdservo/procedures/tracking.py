@@ -28,6 +28,7 @@ from . import metrics as mt
 from .closedloop import AXIS_SETUP, TURN, pp_move_start
 from .results import Result, figure, save_figure
 from .runner import DT, Bench, Progress
+from ..phase import unwrap_turns
 
 #: Peak rates of the tracking sinusoids, deg/s.
 TRACK_RATES_DEG_S: tuple[float, ...] = (0.01, 0.1)
@@ -156,8 +157,8 @@ def tracking(bench: Bench, rates_deg_s: Sequence[float] = TRACK_RATES_DEG_S, per
         if fault:
             raise RuntimeError(f"the drive faulted tracking {rate:g} deg/s (fault code {fault})")
         step = decim // k
-        ref = Bench.unwrap_turns(cap["pos_ref_lo"]) * TURN
-        out = Bench.unwrap_turns(cap["pos_out_lo"]) * TURN
+        ref = unwrap_turns(cap["pos_ref_lo"], centred=False) * TURN
+        out = unwrap_turns(cap["pos_out_lo"], centred=False) * TURN
         # the captured words are the low 32 bits: put them on the set-points' turn
         off = TURN * round((cmd[lead] - ref[0]) / TURN)
         ref, out = ref + off, out + off
@@ -191,23 +192,26 @@ def tracking(bench: Bench, rates_deg_s: Sequence[float] = TRACK_RATES_DEG_S, per
     r.headline = head
     r.series = {"runs": runs}
 
-    def plot(res: Result, dd: Path, fmt: str) -> list[Path]:
-        rr = res.series["runs"]
-        fig, ax = figure(len(rr), 1, (8.0, 3.0 * len(rr)))
-        for i, x in enumerate(rr):
-            a = ax[i][0]
-            a.plot(x["t_s"], x["err_arcsec"], lw=0.7, color="C0", label="tracking error (output - set-point)")
-            for tr in x["reversal_t_s"]:
-                a.axvline(tr, color="k", ls=":", lw=0.8)
-            a.set_title(f"sinusoid, peak {x['rate_deg_s']:g} deg/s: RMS {x['rms_arcsec']:.3g}\", "
-                        f"peak {x['peak_arcsec']:.3g}\" (dotted: velocity reversals)", fontsize=9)
-            a.set_ylabel("error (arcsec)")
-            a.grid(True)
-            a.legend(fontsize=8, loc="upper right")
-        ax[-1][0].set_xlabel("time (s)")
-        return save_figure(fig, dd, res.name, fmt, label=res.label)
-    r.plot = plot
+    r.plot = _plot_tracking
     return r
+
+
+def _plot_tracking(res: Result, dd: Path, fmt: str) -> list[Path]:
+    """Tracking error over time, one panel per sinusoidal rate, velocity reversals dotted."""
+    rr = res.series["runs"]
+    fig, ax = figure(len(rr), 1, (8.0, 3.0 * len(rr)))
+    for i, x in enumerate(rr):
+        a = ax[i][0]
+        a.plot(x["t_s"], x["err_arcsec"], lw=0.7, color="C0", label="tracking error (output - set-point)")
+        for tr in x["reversal_t_s"]:
+            a.axvline(tr, color="k", ls=":", lw=0.8)
+        a.set_title(f"sinusoid, peak {x['rate_deg_s']:g} deg/s: RMS {x['rms_arcsec']:.3g}\", "
+                    f"peak {x['peak_arcsec']:.3g}\" (dotted: velocity reversals)", fontsize=9)
+        a.set_ylabel("error (arcsec)")
+        a.grid(True)
+        a.legend(fontsize=8, loc="upper right")
+    ax[-1][0].set_xlabel("time (s)")
+    return save_figure(fig, dd, res.name, fmt, label=res.label)
 
 
 def moving_mean(t_s: np.ndarray, x: np.ndarray, avg_s: float) -> np.ndarray:
@@ -293,8 +297,8 @@ def settling(bench: Bench, step_deg: float = SETTLE_STEP_DEG, moves: int = 4, ba
         sgn = 1.0 if j % 2 == 0 else -1.0
         target = start + sgn * step if j % 2 == 0 else start
         cap = bench.capture(["pos_ref_lo", "pos_out_lo"], frames, decim, action=lambda: pp_move_start(bench, target))
-        ref = Bench.unwrap_turns(cap["pos_ref_lo"]) * TURN
-        out = Bench.unwrap_turns(cap["pos_out_lo"]) * TURN
+        ref = unwrap_turns(cap["pos_ref_lo"], centred=False) * TURN
+        out = unwrap_turns(cap["pos_out_lo"], centred=False) * TURN
         t = np.arange(ref.size) * decim * DT
         final = ref[-1]
         arr = np.flatnonzero(np.abs(ref - final) < 0.5 / 2 ** 32 * TURN + 1e-15)
@@ -328,29 +332,33 @@ def settling(bench: Bench, step_deg: float = SETTLE_STEP_DEG, moves: int = 4, ba
     r.headline = {key: worst}
     r.series = {"moves": out_moves, "band": band_arcsec}
 
-    def plot(res: Result, dd: Path, fmt: str) -> list[Path]:
-        fig, ax = figure(size=(8.0, 4.5))
-        a = ax[0][0]
-        for i, x in enumerate(res.series["moves"]):
-            tt = x["t_s"] - x["arrival_s"]
-            lab = f"move {i + 1} ({'+' if x['direction'] > 0 else '-'}): " + (
-                "not settled" if x["settling_s"] is None else f"{x['settling_s']:.3g} s")
-            ln = a.plot(tt, moving_mean(x["t_s"], x["err_arcsec"], SETTLE_AVG_S), lw=1.0, label=lab)
-            a.plot(tt, x["err_arcsec"], lw=0.4, alpha=0.3, color=ln[0].get_color())
-        b = res.series["band"]
-        a.axhspan(-b, b, color="0.85", label=f"+-{b:g} arcsec band")
-        a.set_ylim(-10 * b, 10 * b)
-        a.set_xlim(-0.2, None)
-        a.set_xlabel("time after the reference's arrival (s)")
-        a.set_ylabel("output - target (arcsec)")
-        a.set_title(f"settling after {step_deg:g} deg moves: {SETTLE_AVG_S * 1e3:g} ms mean (faint: samples)",
-                    fontsize=10)
-        a.grid(True)
-        a.legend(fontsize=8)
-        return save_figure(fig, dd, res.name, fmt, label=res.label)
-    r.plot = plot
+    r.plot = _plot_settling
     return r
 
 
+def _plot_settling(res: Result, dd: Path, fmt: str) -> list[Path]:
+    """Output minus target after each move's reference arrives: the judged mean, the samples faint, the band."""
+    fig, ax = figure(size=(8.0, 4.5))
+    a = ax[0][0]
+    for i, x in enumerate(res.series["moves"]):
+        tt = x["t_s"] - x["arrival_s"]
+        lab = f"move {i + 1} ({'+' if x['direction'] > 0 else '-'}): " + (
+            "not settled" if x["settling_s"] is None else f"{x['settling_s']:.3g} s")
+        ln = a.plot(tt, moving_mean(x["t_s"], x["err_arcsec"], SETTLE_AVG_S), lw=1.0, label=lab)
+        a.plot(tt, x["err_arcsec"], lw=0.4, alpha=0.3, color=ln[0].get_color())
+    b = res.series["band"]
+    a.axhspan(-b, b, color="0.85", label=f"+-{b:g} arcsec band")
+    a.set_ylim(-10 * b, 10 * b)
+    a.set_xlim(-0.2, None)
+    a.set_xlabel("time after the reference's arrival (s)")
+    a.set_ylabel("output - target (arcsec)")
+    a.set_title(f"settling after {res.conditions['step_deg']:g} deg moves: {SETTLE_AVG_S * 1e3:g} ms mean "
+                f"(faint: samples)", fontsize=10)
+    a.grid(True)
+    a.legend(fontsize=8)
+    return save_figure(fig, dd, res.name, fmt, label=res.label)
+
+
 __all__ = ["REVERSAL_WINDOW", "SETTLE_AVG_S", "SETTLE_BAND_ARCSEC", "SETTLE_HOLD_S", "SETTLE_STEP_DEG",
-           "TRACK_PERIOD_S", "TRACK_RATES_DEG_S", "align_lag", "moving_mean", "rate_tag", "settling", "settling_time", "sine_setpoints", "tracking", "tracking_metrics"]
+           "TRACK_PERIOD_S", "TRACK_RATES_DEG_S", "align_lag", "moving_mean", "rate_tag", "settling", "settling_time",
+           "sine_setpoints", "tracking", "tracking_metrics"]
