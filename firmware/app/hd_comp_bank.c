@@ -365,7 +365,12 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
         if (pr_on) {
             int32_t u = 0;
             (void)hd_blend_update(&b->pr.blend);
-            if (b->table_ok != 0u) {
+            if (b->table_ok != 0u && b->table.unit == HD_PREISACH_UNIT_TORQUE_TWIST) {
+                /* an identified image (hdservo identify) is the gear's torque -> twist
+                 * operator itself: its forward output at the torque is the twist */
+                u = hdf_sat32(hd_preisach_step_p(&b->pr.fwd, &b->table, hd_preisach_quantise(&b->table, yd)));
+            } else if (b->table_ok != 0u) {
+                /* a twist -> torque image (compsetup): the twist is its inverse at the torque */
                 const int32_t pl = hd_preisach_inv_step_p(&b->pr, &b->table, (int64_t)yd);
                 u = hd_preisach_dequantise(&b->table, pl);
             }

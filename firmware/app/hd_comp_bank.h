@@ -13,8 +13,11 @@
  *   Stribeck   torque FF, velocity = w_ref v_ref + (1 - w_ref) v_fb              -> tff
  *   LuGre      torque FF/observer, v = v_ref or v_fb, e = pos_out - pos_ref      -> tff
  *   Maxwell    x = pos_ref; lost-motion twist F / K                             -> position correction
- *   Preisach   inverse of the gear twist -> torque hysteresis (table), input the
- *              transmitted-torque estimate, low-passed at pr_fc:
+ *   Preisach   the gear twist at the transmitted-torque estimate from the table:
+ *              a torque -> twist image (HD_PREISACH_UNIT_TORQUE_TWIST, what
+ *              hdservo identify writes) runs forward, a twist -> torque image
+ *              (other units, compsetup's) through its inverse; the estimate is
+ *              low-passed at pr_fc:
  *                pr_t_src 1 (model): (1 - share) Stribeck(v_ref) + J_L a_ref (load-side
  *                           friction and load inertia: what the gear must transmit)
  *                pr_t_src 0 (command): t_prev - share Stribeck(v_ref) (contains the

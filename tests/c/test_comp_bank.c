@@ -291,6 +291,65 @@ static void test_preisach_model_torque(void **st)
     assert_true(fabs(b.pr_test / 65536.0 - expect) < 1e-3);
 }
 
+
+/* The bank's Preisach twist at a transmitted torque of 3 N.m (J_L a_ref; semi-closed, so
+ * dpos is the twist itself) from a linear gear spring K = 31000 N.m/rad given as either
+ * image direction: a torque -> twist table (HD_PREISACH_UNIT_TORQUE_TWIST, the image
+ * hdservo identify writes) runs forward, a twist -> torque table through its inverse; both
+ * must predict T / K within half a lattice step.  (Running the inverse of a torque -> twist
+ * image returns a torque lattice value as a "twist": 8 N.m of Q15.16 instead of 20".) */
+static int64_t preisach_dpos_at_3nm(const hd_preisach_table_t *t)
+{
+    int32_t p[HD_PARAM_COUNT];
+    static hd_comp_bank_cfg_t c;
+    static hd_comp_bank_t b;
+    hd_comp_bank_in_t in;
+    hd_comp_bank_out_t o;
+    hd_params_defaults(p);
+    p[HD_P_CB_ENABLE] = (int32_t)HD_CB_PREISACH;
+    p[HD_P_FB_CONFIG] = 1;                                               /* semi-closed: raw dpos */
+    p[HD_P_PR_JL] = 1 << 16;                                             /* J_L 1 kg m^2 */
+    p[HD_P_CB_RAMP_TICKS] = 1;
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    hd_comp_bank_init(&b, &c);
+    assert_int_equal(hd_comp_bank_install_table(&b, t), HD_PREISACH_OK);
+    memset(&in, 0, sizeof in);
+    in.acc_ref = (hd_acc_t)llround(3.0 / (2.0 * TEST_PI) * 16777216.0);  /* 3 rad/s^2: 3 N.m */
+    for (int k = 0; k < 4000; k++) hd_comp_bank_pre(&b, &c, &in, &o);   /* 0.4 s: the pr_fc low-pass settles */
+    assert_true(llabs(b.pr_test - (3 << 16)) < 64);
+    return o.dpos;
+}
+
+static void test_preisach_twist_both_directions(void **st)
+{
+    (void)st;
+    static hd_preisach_table_t t;
+    const double k_rad = 31000.0;
+    const double lsb_per_nm = 1.0 / k_rad / (2.0 * TEST_PI) * 4294967296.0;   /* twist 2^-32 turn per N.m */
+    const double expect = 3.0 * lsb_per_nm;
+    /* torque -> twist: 17 levels of 1 N.m (in_shift 16) from -8 N.m, E = c (a - b) / 2 */
+    memset(&t, 0, sizeof t);
+    t.version = 1u; t.levels = 17u; t.sub_bits = 0u; t.in_shift = 16u; t.u0 = -(8 << 16);
+    t.unit = HD_PREISACH_UNIT_TORQUE_TWIST;
+    for (uint32_t i = 0; i < t.levels; i++)
+        for (uint32_t j = 0; j < i; j++) t.e[i * (i + 1u) / 2u + j] = (int32_t)llround(lsb_per_nm * (double)(i - j) / 2.0);
+    hd_preisach_seal(&t);
+    const int64_t fwd = preisach_dpos_at_3nm(&t);
+    print_message("torque -> twist image: dpos %lld LSB, expected %.0f\n", (long long)fwd, expect);
+    assert_true(fabs((double)fwd - expect) <= 0.5 * lsb_per_nm);
+    /* twist -> torque: 33 levels of 2^14 LSB of twist from -2^18, E = K' (a - b) / 2 */
+    memset(&t, 0, sizeof t);
+    t.version = 1u; t.levels = 33u; t.sub_bits = 0u; t.in_shift = 14u; t.u0 = -(1 << 18);
+    t.unit = HD_PREISACH_UNIT_GENERIC;
+    for (uint32_t i = 0; i < t.levels; i++)
+        for (uint32_t j = 0; j < i; j++)
+            t.e[i * (i + 1u) / 2u + j] = (int32_t)llround(65536.0 / lsb_per_nm * 16384.0 * (double)(i - j) / 2.0);
+    hd_preisach_seal(&t);
+    const int64_t inv = preisach_dpos_at_3nm(&t);
+    print_message("twist -> torque image: dpos %lld LSB, expected %.0f\n", (long long)inv, expect);
+    assert_true(fabs((double)inv - expect) <= 8192.0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -301,6 +360,7 @@ int main(void)
         cmocka_unit_test(test_maxwell_stiffness_range),
         cmocka_unit_test(test_pki_schedule),
         cmocka_unit_test(test_preisach_model_torque),
+        cmocka_unit_test(test_preisach_twist_both_directions),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
