@@ -84,6 +84,8 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
     c->pr_share = prm(p, HD_P_PR_MOTOR_SHARE);
     c->pr_t_src = (uint32_t)prm(p, HD_P_PR_T_SRC);
     c->pr_jl = prm(p, HD_P_PR_JL);
+    c->pr_mgl = prm(p, HD_P_PR_MGL);
+    c->pr_g_off = (uint32_t)prm(p, HD_P_PR_G_OFF);
 
     /* scheduled position integral: leak T in Q30 from the leak rate in Q16 1/s */
     c->pki = prm(p, HD_P_CB_PKI);
@@ -350,10 +352,18 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
         /* transmitted torque estimate, low-passed (Preisach inverse and compliance) */
         int32_t test;
         if (c->pr_t_src != 0u) {
-            /* model: load-side friction (1 - share) F(v_ref) + J_L a_ref (2 pi J [Q16] acc [2^-24 turn/s^2]) */
+            /* model: load-side friction (1 - share) F(v_ref) + J_L a_ref (2 pi J [Q16] acc [2^-24 turn/s^2])
+             * + the unbalance */
             const int32_t fl = hdf_mul_q(b->str.tau_raw, hdf_sub_sat(HD_Q30_ONE, c->pr_share), 30u);
             const int64_t ja = hdf_mul64x32_q(hdf_mul64x32_q((int64_t)c->pr_jl, in->acc_ref, 24u), CB_TWO_PI_Q28, 28u);
             test = hdf_add_sat(fl, hdf_sat32(ja));
+            if (c->pr_mgl != 0) {
+                /* the unbalance the gear holds, mgl cos(output angle + offset): at rest it is the
+                 * whole transmitted torque, so without it a position hold predicts no twist */
+                int32_t sn, cs;
+                hd_sincos_turn_fast((uint32_t)((uint64_t)in->pos_out & 0xFFFFFFFFu) + c->pr_g_off, &sn, &cs);
+                test = hdf_add_sat(test, hdf_mul_q(c->pr_mgl, cs, 30u));
+            }
         } else {
             /* command: t_prev - share F(v_ref) (includes the loop's reaction) */
             test = hdf_sub_sat(b->t_prev, hdf_mul_q(b->str.tau_raw, c->pr_share, 30u));

@@ -18,8 +18,9 @@
  *              hdservo identify writes) runs forward, a twist -> torque image
  *              (other units, compsetup's) through its inverse; the estimate is
  *              low-passed at pr_fc:
- *                pr_t_src 1 (model): (1 - share) Stribeck(v_ref) + J_L a_ref (load-side
- *                           friction and load inertia: what the gear must transmit)
+ *                pr_t_src 1 (model): (1 - share) Stribeck(v_ref) + J_L a_ref
+ *                           + mgl cos(2 pi (pos_out + g_off)) (load-side friction, load
+ *                           inertia and the unbalance it holds: what the gear must transmit)
  *                pr_t_src 0 (command): t_prev - share Stribeck(v_ref) (contains the
  *                           loop's own reaction; kept for comparison)       -> position correction
  *   TE         -TE(motor angle)                                                 -> position correction
@@ -114,6 +115,8 @@ typedef struct {
     int32_t  dob_gj;             /* g J: N.m per (turn/s), Q15.16 */
     uint32_t pr_t_src;           /* Preisach torque estimate: 0 command - share F, 1 model (1 - share) F + J_L a */
     int32_t  pr_jl;              /* load inertia for pr_t_src 1, Q15.16 kg m^2 */
+    int32_t  pr_mgl;             /* unbalance for pr_t_src 1, Q15.16 N.m (0 = none) */
+    uint32_t pr_g_off;           /* its angle offset, 2^-32 turn (wraps) */
     int32_t  pki;                /* scheduled position integral gain, Q15.16 1/s^2 (0 = off) */
     int32_t  pki_vlo;            /* schedule: weight 0 at |v_ref| <= vlo, 2^-32 turn/s */
     int32_t  pki_vhi;            /* schedule: weight 1 at |v_ref| >= vhi, 2^-32 turn/s */

@@ -115,6 +115,8 @@ const hd_param_desc_t hd_param_table[HD_PARAM_COUNT] = {
     {"pr_motor_share", 0x2840u, 3u, HD_PTYPE_I32, 30u, 0, 1073741824, 1015701725, "1"},
     {"pr_t_src", 0x2840u, 4u, HD_PTYPE_U32, 0u, 0, 1, 1, "1"},
     {"pr_jl", 0x2840u, 5u, HD_PTYPE_I32, 16u, 0, 1966080000, 32768, "kg.m^2"},
+    {"pr_mgl", 0x2840u, 6u, HD_PTYPE_I32, 16u, 0, 1966080000, 0, "N.m"},
+    {"pr_g_off", 0x2840u, 7u, HD_PTYPE_I32, 32u, INT32_MIN, 2147483219, 0, "turn"},
     {"te_n", 0x2850u, 1u, HD_PTYPE_U32, 0u, 0, 4, 3, "1"},
     {"te_k1", 0x2850u, 2u, HD_PTYPE_I32, 8u, 0, 2048000000, 0, "N.m/turn"},
     {"te_tau_max", 0x2850u, 3u, HD_PTYPE_I32, 16u, 66, 65536000, 655360, "N.m"},

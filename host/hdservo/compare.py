@@ -6,7 +6,7 @@ their own defaults and option parser) once per *controller*:
 
 * ``pid`` -- the drive's PID baseline, every compensator off (``cb_enable`` 0);
 * one controller per compensator of the bank (``stribeck``, ``lugre``,
-  ``maxwell``, ``preisach``, ``te``, ``backstep``): that compensator alone on
+  ``maxwell``, ``preisach``, ``te``, ``compliance``, ``backstep``): that compensator alone on
   top of the PID;
 * ``best`` -- the best combination (docs/compensators.md section 8): its
   compensators plus the loop retuning it allows.  Taken from
@@ -52,7 +52,7 @@ FORMAT = "hdservo-compare"
 VERSION = 1
 
 #: Compensators of the bank compared one by one (the experimental DOB is left out; docs/compensators.md 8).
-SINGLES: tuple[str, ...] = ("stribeck", "lugre", "maxwell", "preisach", "te", "backstep")
+SINGLES: tuple[str, ...] = ("stribeck", "lugre", "maxwell", "preisach", "te", "compliance", "backstep")
 #: Procedures run by default: the ones behind the headline figures.
 DEFAULT_PROCEDURES: tuple[str, ...] = ("min-rate", "positioning", "stabilisation", "bandwidth", "peak-torque",
                                         "tracking", "settling")
@@ -503,7 +503,8 @@ def choose_best(single: Mapping[str, Mapping[str, Any]], base: Mapping[str, Any]
     -------
     (list of str, list of str)
         The chosen compensators (at most one per :data:`hdservo.compsetup.GROUPS` group: among
-        those that qualify, :func:`qualifies`, the smallest geometric-mean factor) and one reason
+        those that qualify, :func:`qualifies`, the smallest geometric-mean factor; of a pair in
+        :data:`hdservo.compsetup.EXCLUSIVE` only the one with the smaller factor) and one reason
         line per compensator.  When none qualifies, the single compensator with the smallest
         geometric-mean factor below 1 (none when no compensator beats the PID on balance).
     """
@@ -521,6 +522,11 @@ def choose_best(single: Mapping[str, Mapping[str, Any]], base: Mapping[str, Any]
         cand = [c for c in members if c in ok]
         if cand:
             chosen.append(min(cand, key=lambda c: ok[c]))
+    for a, b in cs.EXCLUSIVE:
+        if a in chosen and b in chosen:
+            drop = a if ok[a] > ok[b] else b
+            chosen.remove(drop)
+            why.append(f"{drop}: left out next to {b if drop == a else a} (they predict the same twist)")
     if not chosen and single:
         g = {c: geo_mean_factor(h, base, keys) for c, h in single.items()}
         top = min(g, key=lambda c: g[c])

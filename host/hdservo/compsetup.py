@@ -98,7 +98,12 @@ STRATEGIES: dict[str, tuple[tuple[str, ...], dict[str, float]]] = {
 #: Compensators that act on the same effect: the best combination takes at most one of each group.
 GROUPS: dict[str, tuple[str, ...]] = {"friction": ("stribeck", "lugre", "backstep"),
                                       "lost motion / hysteresis": ("maxwell", "preisach"),
-                                      "transmission error": ("te",)}
+                                      "transmission error": ("te",),
+                                      "compliance": ("compliance",)}
+#: Compensators that predict the same part of the output error although they sit in different groups:
+#: the Preisach operator is the gear's whole torque -> twist curve, its elastic twist included, so it
+#: is not combined with the compliance twist (the one of a chosen pair with the larger factor is left out).
+EXCLUSIVE: tuple[tuple[str, str], ...] = (("preisach", "compliance"),)
 #: Best combination when no measurements choose one (``--controllers best``): the compensators of
 #: :data:`BEST_NAMES` without the motion strategies.
 DEFAULT_BEST: tuple[str, ...] = ("stribeck",)
@@ -113,6 +118,15 @@ def _reader(axis: str) -> Callable[[str], float]:
     def get(key: str) -> float:
         return float(sim.axis_param(key, axis))
     return get
+
+
+def _has(get: Callable[[str], float], key: str) -> bool:
+    """Whether ``get`` knows ``key`` (an axis file or model without it raises KeyError / ValueError)."""
+    try:
+        get(key)
+    except (KeyError, ValueError):
+        return False
+    return True
 
 
 def _maxwell_fit(fs: float, x0: float, n: int) -> tuple[list[float], list[float]]:
@@ -297,6 +311,14 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     out["pr_motor_share"] = (m["fcp"] / max(m["fcp"] + ld["fcp"], 1e-12)) if fm else 0.0
     out["pr_t_src"] = 1
     out["pr_jl"] = get("load.jl_kgm2")
+    # ... and the unbalance the gear holds, mgl cos(theta + offset) (identified: [gravity]); at rest it
+    # is the whole transmitted torque, so the twist of a position hold (Preisach, compliance) needs it
+    grav = bool(get("gravity.enabled")) if _has(get, "gravity.enabled") else True
+    out["pr_mgl"] = abs(get("gravity.mgl_Nm")) if grav and _has(get, "gravity.mgl_Nm") else 0.0
+    off = get("gravity.offset_rad") if _has(get, "gravity.offset_rad") else 0.0
+    if grav and _has(get, "gravity.mgl_Nm") and get("gravity.mgl_Nm") < 0:
+        off += math.pi                                     # -m cos(x) = m cos(x + pi)
+    out["pr_g_off"] = ((off / TWO_PI + 0.5) % 1.0) - 0.5
     # TE: wave-generator harmonics (plant: a sin(n theta_m + p), theta_m rad) -> amp turn, phase turn
     te = []
     if get("transmission_error.enabled"):
@@ -406,6 +428,6 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
     return ctl
 
 
-__all__ = ["BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS",
+__all__ = ["BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE",
            "FAIR_GAINS", "FAIR_PROC_ARGS", "GROUPS", "STRATEGIES", "best_gains", "compensator_params", "controller", "enable_mask", "gear_everett", "preisach_table",
            "write_preisach_table"]

@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 OD_VERSION = 1
-PARAM_HASH = 0x4A416ADE
+PARAM_HASH = 0x1EF4E366
 VENDOR_ID = 0x00000EDA
 PRODUCT_CODE = 0x00484453
 REVISION = 0x00010000
@@ -302,6 +302,8 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x2840, 3, 'pr_motor_share', 'i32', 'rw', '', '1', 9.313225746154785e-10),
     OdEntry(0x2840, 4, 'pr_t_src', 'u32', 'rw', '', '1', 1.0),
     OdEntry(0x2840, 5, 'pr_jl', 'i32', 'rw', '', 'kg.m^2', 1.52587890625e-05),
+    OdEntry(0x2840, 6, 'pr_mgl', 'i32', 'rw', '', 'N.m', 1.52587890625e-05),
+    OdEntry(0x2840, 7, 'pr_g_off', 'i32', 'rw', '', 'turn', 2.3283064365386963e-10),
     OdEntry(0x2850, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x2850, 1, 'te_n', 'u32', 'rw', '', '1', 1.0),
     OdEntry(0x2850, 2, 'te_k1', 'i32', 'rw', '', 'N.m/turn', 0.00390625),

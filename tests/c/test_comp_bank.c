@@ -350,6 +350,40 @@ static void test_preisach_twist_both_directions(void **st)
     assert_true(fabs((double)inv - expect) <= 8192.0);
 }
 
+/* The model torque estimate holds the unbalance: at rest at an output angle of 60 deg with
+ * pr_mgl 2 N.m it is 2 cos(60 deg) = 1 N.m (offset 0) and 2 cos(150 deg) (offset 0.25 turn), and the
+ * compliance twist follows it (semi-closed: dpos = the twist).  Without pr_mgl the estimate
+ * at rest is 0 and a position hold predicts no twist. */
+static void test_twist_estimate_unbalance(void **st)
+{
+    (void)st;
+    int32_t p[HD_PARAM_COUNT];
+    static hd_comp_bank_cfg_t c;
+    static hd_comp_bank_t b;
+    hd_comp_bank_in_t in;
+    hd_comp_bank_out_t o;
+    static const double off_turn[2] = {0.0, 0.25};
+    for (int i = 0; i < 2; i++) {
+        hd_params_defaults(p);
+        p[HD_P_CB_ENABLE] = (int32_t)HD_CB_COMPLIANCE;
+        p[HD_P_FB_CONFIG] = 1;
+        p[HD_P_CB_RAMP_TICKS] = 1;
+        p[HD_P_PR_MGL] = 2 << 16;
+        p[HD_P_PR_G_OFF] = (int32_t)llround(off_turn[i] * 4294967296.0);
+        assert_int_equal(hd_comp_bank_config(&c, p), 0);
+        hd_comp_bank_init(&b, &c);
+        memset(&in, 0, sizeof in);
+        in.pos_out = (hd_angle_t)llround(60.0 / 360.0 * 4294967296.0);
+        for (int k = 0; k < 4000; k++) hd_comp_bank_pre(&b, &c, &in, &o);
+        const double expect = 2.0 * cos((60.0 / 360.0 + off_turn[i]) * 2.0 * TEST_PI);
+        const double twist = (double)hd_compliance_twist(&c.cp, (int32_t)llround(expect * 65536.0));
+        print_message("offset %.2f turn: torque estimate %.4f N.m (expected %.4f), dpos %lld LSB (twist %.0f)\n",
+                      off_turn[i], b.pr_test / 65536.0, expect, (long long)o.dpos, twist);
+        assert_true(fabs(b.pr_test / 65536.0 - expect) < 1e-4);
+        assert_true(fabs((double)o.dpos - twist) <= 2.0 && fabs(twist) > 1000.0);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -361,6 +395,7 @@ int main(void)
         cmocka_unit_test(test_pki_schedule),
         cmocka_unit_test(test_preisach_model_torque),
         cmocka_unit_test(test_preisach_twist_both_directions),
+        cmocka_unit_test(test_twist_estimate_unbalance),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

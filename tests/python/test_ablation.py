@@ -81,6 +81,16 @@ def test_worse_factor_and_rule() -> None:
     assert best == ["te"] and "no compensator qualifies" in why[-1]
     best, _ = cmp.choose_best({"backstep": single["backstep"]}, base, KEYS)
     assert best == []
+    # compliance is its own group, but not combined with the Preisach twist (it holds the elastic part)
+    single["compliance"] = {**base, "positioning_accuracy_arcsec": 0.8}
+    best, why = cmp.choose_best(single, base, KEYS)
+    assert best == ["lugre", "compliance"] and "preisach: left out next to compliance" in why[-1]
+    single["compliance"] = {**base, "positioning_accuracy_arcsec": 1.2}       # x0.6 vs the Preisach's x0.5
+    best, _ = cmp.choose_best(single, base, KEYS)
+    assert best == ["lugre", "preisach"]
+    best, _ = cmp.choose_best({"maxwell": {**base, "positioning_accuracy_arcsec": 1.0}, "te": single["te"],
+                               "compliance": single["compliance"]}, base, KEYS)
+    assert best == ["maxwell", "compliance"]                                  # lost motion + elastic twist
 
 
 def test_rule_skips_unmeasured_and_settling_and_failures_run_again(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -163,7 +173,7 @@ def test_run_ablation_rows_ratios_and_files(tmp_path: Path, monkeypatch: pytest.
     assert ab["semi-closed"]["best"] == ["lugre", "te"]
     names = list(doc["controllers"])
     full = [n for n in names if "@" not in n and n != "pid-hold"]
-    assert full == ["pid", "stribeck", "lugre", "maxwell", "preisach", "te", "backstep", "best", "best+hold",
+    assert full == ["pid", "stribeck", "lugre", "maxwell", "preisach", "te", "compliance", "backstep", "best", "best+hold",
                     "best+hold+approach"]
     semi = [n for n in names if n.endswith("@semi-closed")]
     assert semi[:1] == ["pid@semi-closed"] and "best-te@semi-closed" in semi and "best-lugre@semi-closed" in semi
