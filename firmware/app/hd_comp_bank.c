@@ -232,11 +232,20 @@ void hd_comp_bank_apply(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     b->enabled = en;
 }
 
+/* A new table's memory: the gear demagnetised at rest (input 0: no torque, no twist), not
+ * negative saturation, which the torques of normal motion never reach again, so its
+ * remanence would offset every predicted twist. */
+static void table_memory(hd_comp_bank_t *b)
+{
+    hd_preisach_demagnetise(&b->pr.fwd, &b->table, hd_preisach_quantise(&b->table, 0));
+}
+
 int32_t hd_comp_bank_install_table(hd_comp_bank_t *b, const hd_preisach_table_t *t)
 {
     const int32_t rc = hd_preisach_install(&b->table, t);
     if (rc == HD_PREISACH_OK) {
         b->table_ok = 1u;
+        table_memory(b);
     }
     return rc;
 }
@@ -245,6 +254,9 @@ int32_t hd_comp_bank_adopt_table(hd_comp_bank_t *b)
 {
     const int32_t rc = hd_preisach_check(&b->table);
     b->table_ok = (rc == HD_PREISACH_OK) ? 1u : 0u;
+    if (rc == HD_PREISACH_OK) {
+        table_memory(b);
+    }
     return rc;
 }
 

@@ -384,6 +384,49 @@ static void test_twist_estimate_unbalance(void **st)
     }
 }
 
+/* A hysteretic torque -> twist image (spring + relays 2 N.m wide, positive density): a newly
+ * installed table predicts no twist at no torque (the gear demagnetised at rest), within two
+ * lattice steps; from negative saturation the memory would keep that extreme's remanence at
+ * every later torque above it (here -1 N.m of twist at 0 N.m). */
+static void test_preisach_memory_starts_demagnetised(void **st)
+{
+    (void)st;
+    static hd_preisach_table_t t;
+    int32_t p[HD_PARAM_COUNT];
+    static hd_comp_bank_cfg_t c;
+    static hd_comp_bank_t b;
+    hd_comp_bank_in_t in;
+    hd_comp_bank_out_t o;
+    const double lsb_per_nm = 1.0 / 31000.0 / (2.0 * TEST_PI) * 4294967296.0;
+    memset(&t, 0, sizeof t);
+    t.version = 1u; t.levels = 17u; t.sub_bits = 2u; t.in_shift = 14u; t.u0 = -(8 << 16);
+    t.unit = HD_PREISACH_UNIT_TORQUE_TWIST;
+    for (uint32_t i = 0; i < t.levels; i++)
+        for (uint32_t j = 0; j < i; j++)
+            t.e[i * (i + 1u) / 2u + j] = (int32_t)llround(lsb_per_nm * ((double)(i - j) + fmax((double)(i - j) - 2.0, 0.0)) / 2.0);
+    hd_preisach_seal(&t);
+    hd_params_defaults(p);
+    p[HD_P_CB_ENABLE] = (int32_t)HD_CB_PREISACH;
+    p[HD_P_FB_CONFIG] = 1;
+    p[HD_P_CB_RAMP_TICKS] = 1;
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    hd_comp_bank_init(&b, &c);
+    assert_int_equal(hd_comp_bank_install_table(&b, &t), HD_PREISACH_OK);
+    memset(&in, 0, sizeof in);
+    for (int k = 0; k < 100; k++) hd_comp_bank_pre(&b, &c, &in, &o);
+    print_message("twist at 0 N.m after the install: %lld LSB (lattice step %.0f)\n", (long long)o.dpos,
+                  lsb_per_nm / 4.0);
+    assert_true(fabs((double)o.dpos) <= lsb_per_nm / 2.0);
+    /* the loop still has its width: +3 N.m and back to 0 leaves a positive remanence */
+    in.acc_ref = (hd_acc_t)llround(3.0 / (2.0 * TEST_PI * 0.5) * 16777216.0);   /* pr_jl 0.5: 3 N.m */
+    for (int k = 0; k < 4000; k++) hd_comp_bank_pre(&b, &c, &in, &o);
+    const int64_t at3 = o.dpos;
+    in.acc_ref = 0;
+    for (int k = 0; k < 4000; k++) hd_comp_bank_pre(&b, &c, &in, &o);
+    print_message("twist at 3 N.m %lld, back at 0 N.m %lld LSB\n", (long long)at3, (long long)o.dpos);
+    assert_true(at3 > (int64_t)(3.0 * lsb_per_nm) && o.dpos > (int64_t)(0.5 * lsb_per_nm) && o.dpos < at3);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -396,6 +439,7 @@ int main(void)
         cmocka_unit_test(test_preisach_model_torque),
         cmocka_unit_test(test_preisach_twist_both_directions),
         cmocka_unit_test(test_twist_estimate_unbalance),
+        cmocka_unit_test(test_preisach_memory_starts_demagnetised),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
