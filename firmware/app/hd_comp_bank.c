@@ -116,6 +116,26 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
             c->te.amp[i] = (i < 4u) ? prm(p, A[i]) : 0;
             c->te.phase[i] = (i < 4u) ? (uint32_t)prm(p, F[i]) : 0u;   /* modulo 2^32: a turn fraction */
         }
+        /* output-side lines: the same harmonic model on the output angle (orders per output turn) */
+        static const hd_param_id_t OO[2] = {HD_P_TE_OUT_ORDER1, HD_P_TE_OUT_ORDER2};
+        static const hd_param_id_t OA[2] = {HD_P_TE_OUT_AMP1, HD_P_TE_OUT_AMP2};
+        static const hd_param_id_t OF[2] = {HD_P_TE_OUT_PHASE1, HD_P_TE_OUT_PHASE2};
+        c->te_out.n = 0u;
+        c->te_out.k1 = 0;
+        c->te_out.tau_max = 1;
+        for (i = 0; i < HD_TE_N_MAX; i++) {
+            c->te_out.order[i] = 0u;
+            c->te_out.amp[i] = 0;
+            c->te_out.phase[i] = 0u;
+        }
+        for (i = 0; i < 2u; i++) {
+            if (prm(p, OO[i]) > 0 && prm(p, OA[i]) != 0) {
+                c->te_out.order[c->te_out.n] = (uint32_t)prm(p, OO[i]);
+                c->te_out.amp[c->te_out.n] = prm(p, OA[i]);
+                c->te_out.phase[c->te_out.n] = (uint32_t)prm(p, OF[i]);
+                c->te_out.n++;
+            }
+        }
     }
 
     /* backstepping */
@@ -195,6 +215,7 @@ void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     b->dpos_f = 0;
     b->dpos_primed = 0u;
     b->pr_t = 0;
+    b->te_out = 0;
     b->pr_dth = 0;
     b->dob_x = 0;
     b->dob_d = 0;
@@ -411,6 +432,12 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
     if (running(b, HD_CB_TE, &b->te.blend)) {
         dpos = hdf_add64_sat(dpos, hd_te_comp_step(&b->te, &c->te, in->pos_mot));
         tff = hdf_add_sat(tff, b->te.tau);
+        if (c->te_out.n > 0u) {
+            /* output-side lines at the output position the loop knows (semi-closed: the estimate;
+             * a line of one per output turn moves by far less than an LSB between the two) */
+            b->te_out = hd_te_model(&c->te_out, in->pos_out);
+            dpos = hdf_add64_sat(dpos, hd_blend_mix64(&b->te.blend, 0, hdf_neg64_sat(b->te_out)));
+        }
     }
 
     out->tff = tff;

@@ -23,7 +23,8 @@
  *                           inertia and the unbalance it holds: what the gear must transmit)
  *                pr_t_src 0 (command): t_prev - share Stribeck(v_ref) (contains the
  *                           loop's own reaction; kept for comparison)       -> position correction
- *   TE         -TE(motor angle)                                                 -> position correction
+ *   TE         -TE(motor angle) - TE_out(pos_out: the loop's output position, in
+ *              semi-closed the motor-side estimate)                             -> position correction
  *              (+ optional torque FF -K1 TE -> tff)
  *   compliance twist of the three-slope stiffness (hd_compliance.h) at the
  *              transmitted-torque estimate of the Preisach inverse (same
@@ -100,6 +101,7 @@ typedef struct {
     hd_lugre_cfg_t    lug;
     hd_maxwell_cfg_t  mx;
     hd_te_cfg_t       te;
+    hd_te_cfg_t       te_out;    /* output-side TE lines (per output revolution; k1 0) */
     hd_backstep_cfg_t bs;
     int32_t  bs_th0[HD_BS_NP];   /* Q15.16 initial estimates */
     hd_compliance_cfg_t cp;
@@ -156,6 +158,7 @@ typedef struct {
     int64_t  dpos_f;             /* low-passed position correction, 2^-48 turn (int64) */
     uint32_t dpos_primed;
     int64_t  pr_t;               /* torque estimate state, Q15.16 x 2^16 */
+    int64_t  te_out;             /* last output-side TE model value, 2^-32 turn (unweighted) */
     int32_t  pr_dth;             /* weighted Preisach twist, 2^-32 turn */
     int64_t  dob_x;              /* DOB state, Q15.16 x 2^16 */
     int32_t  dob_d;              /* weighted DOB torque, Q15.16 */

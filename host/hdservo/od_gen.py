@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 OD_VERSION = 1
-PARAM_HASH = 0x1EF4E366
+PARAM_HASH = 0x5C3D9EE7
 VENDOR_ID = 0x00000EDA
 PRODUCT_CODE = 0x00484453
 REVISION = 0x00010000
@@ -320,6 +320,12 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x2850, 13, 'te_order4', 'u32', 'rw', '', '1/rev', 1.0),
     OdEntry(0x2850, 14, 'te_amp4', 'i32', 'rw', '', 'turn', 2.3283064365386963e-10),
     OdEntry(0x2850, 15, 'te_phase4', 'i32', 'rw', '', 'turn', 2.3283064365386963e-10),
+    OdEntry(0x2850, 16, 'te_out_order1', 'u32', 'rw', '', '1/rev', 1.0),
+    OdEntry(0x2850, 17, 'te_out_amp1', 'i32', 'rw', '', 'turn', 2.3283064365386963e-10),
+    OdEntry(0x2850, 18, 'te_out_phase1', 'i32', 'rw', '', 'turn', 2.3283064365386963e-10),
+    OdEntry(0x2850, 19, 'te_out_order2', 'u32', 'rw', '', '1/rev', 1.0),
+    OdEntry(0x2850, 20, 'te_out_amp2', 'i32', 'rw', '', 'turn', 2.3283064365386963e-10),
+    OdEntry(0x2850, 21, 'te_out_phase2', 'i32', 'rw', '', 'turn', 2.3283064365386963e-10),
     OdEntry(0x2860, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x2860, 1, 'bs_c1', 'i32', 'rw', '', '1/s', 1.52587890625e-05),
     OdEntry(0x2860, 2, 'bs_c2', 'i32', 'rw', '', '1/s', 1.52587890625e-05),

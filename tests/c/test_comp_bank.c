@@ -427,6 +427,44 @@ static void test_preisach_memory_starts_demagnetised(void **st)
     assert_true(at3 > (int64_t)(3.0 * lsb_per_nm) && o.dpos > (int64_t)(0.5 * lsb_per_nm) && o.dpos < at3);
 }
 
+/* Output-side TE lines (te_out_*): in semi-closed the correction is -a sin(2 pi (n x + p)) at the
+ * output position x the loop knows, on top of the wave-generator lines (here none), and it ramps
+ * with the TE weight. */
+static void test_te_output_lines(void **st)
+{
+    (void)st;
+    int32_t p[HD_PARAM_COUNT];
+    static hd_comp_bank_cfg_t c;
+    static hd_comp_bank_t b;
+    hd_comp_bank_in_t in;
+    hd_comp_bank_out_t o;
+    const double amp = 6.0 / 1296000.0, ph = 0.11;                       /* 6 arcsec, turn */
+    hd_params_defaults(p);
+    p[HD_P_CB_ENABLE] = (int32_t)HD_CB_TE;
+    p[HD_P_FB_CONFIG] = 1;
+    p[HD_P_CB_RAMP_TICKS] = 1;
+    p[HD_P_TE_N] = 0;
+    p[HD_P_TE_OUT_ORDER1] = 1;
+    p[HD_P_TE_OUT_AMP1] = (int32_t)llround(amp * 4294967296.0);
+    p[HD_P_TE_OUT_PHASE1] = (int32_t)llround(ph * 4294967296.0);
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    assert_int_equal(c.te_out.n, 1u);
+    hd_comp_bank_init(&b, &c);
+    memset(&in, 0, sizeof in);
+    for (int deg = -170; deg <= 180; deg += 35) {
+        in.pos_out = (hd_angle_t)llround(deg / 360.0 * 4294967296.0) + ((hd_angle_t)3 << 32);   /* 3 turns on */
+        in.pos_mot = in.pos_out * N_RATIO;
+        for (int k = 0; k < 3; k++) hd_comp_bank_pre(&b, &c, &in, &o);
+        const double expect = -amp * sin(2.0 * TEST_PI * (deg / 360.0 + ph)) * 4294967296.0;
+        assert_true(fabs((double)o.dpos - expect) <= 2.0);
+    }
+    /* switched off: the correction ramps out with the wave-generator lines */
+    c.enable = 0u;
+    hd_comp_bank_apply(&b, &c);
+    for (int k = 0; k < 3; k++) hd_comp_bank_pre(&b, &c, &in, &o);
+    assert_int_equal(o.dpos, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -440,6 +478,7 @@ int main(void)
         cmocka_unit_test(test_preisach_twist_both_directions),
         cmocka_unit_test(test_twist_estimate_unbalance),
         cmocka_unit_test(test_preisach_memory_starts_demagnetised),
+        cmocka_unit_test(test_te_output_lines),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
