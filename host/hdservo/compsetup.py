@@ -23,8 +23,8 @@ Models (output-referred; docs/compensators.md section 8):
 * Preisach: the gear's static twist -> transmitted-torque operator (linear K1,
   the Maxwell-slip elements of the plant and its Preisach part), its Everett
   function evaluated in closed form / by density integration, quantised;
-* TE: the wave-generator harmonics (per motor revolution); output-side
-  harmonics are not functions of the motor angle and are left to the loop;
+* TE: the wave-generator harmonics (per motor revolution) and the two largest
+  output-side harmonics (per output revolution, evaluated at the loop's output position);
 * backstepping: the gains of docs/compensators.md section 6, scaled by J.
 """
 from __future__ import annotations
@@ -333,6 +333,21 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     for i in range(4):
         o, a, p = te[i] if i < len(te) else (0, 0.0, 0.0)
         out[f"te_order{i + 1}"], out[f"te_amp{i + 1}"], out[f"te_phase{i + 1}"] = o, a, p
+    # output-side lines (per output revolution): functions of the output angle, which a motor-encoder
+    # loop knows as motor / N; the two largest
+    te_o = []
+    if get("transmission_error.enabled"):
+        for i in range(1, 5):
+            if not _has(get, f"transmission_error.out{i}_order"):
+                break
+            o, a, p = (get(f"transmission_error.out{i}_order"), get(f"transmission_error.out{i}_amp_rad"),
+                       get(f"transmission_error.out{i}_phase_rad"))
+            if o > 0 and a != 0.0:
+                te_o.append((abs(a), int(o), a / TWO_PI, ((p / TWO_PI + 0.5) % 1.0) - 0.5))
+    te_o.sort(reverse=True)
+    for i in range(2):
+        _, o, a, p = te_o[i] if i < len(te_o) else (0.0, 0, 0.0, 0.0)
+        out[f"te_out_order{i + 1}"], out[f"te_out_amp{i + 1}"], out[f"te_out_phase{i + 1}"] = o, a, p
     # backstepping (docs/compensators.md 6): c = 2 pi f_bs, f_bs = f_a / 5, ke = J c1 c2 / 4
     jl, jm = get("load.jl_kgm2"), get("motor.jm_kgm2")
     jt = jl + n * n * jm

@@ -252,7 +252,7 @@ class GravitySine:
 
 @dataclass
 class TERotation:
-    """Slow constant rotation, both directions, whole WG revolutions (velocity mode).
+    """Slow constant rotation, both directions, whole WG revolutions over an output span (velocity mode).
 
     The speed keeps the 2x-WG line far below the anti-resonance (the load
     follows the kinematic error through the spring without amplification).
@@ -260,11 +260,17 @@ class TERotation:
 
     velocity_rad_s: float = 0.05
     wg_revs: int = 4
+    #: output span of each window, rad (0: the WG revolutions alone).  The output-side lines (per
+    #: output revolution) need a large part of a turn; a pitch axis has no whole one (the drive's
+    #: travel limits, +-0.3 turn = +-1.88 rad by default), so the windows go +span then -span from
+    #: the start, whole WG revolutions each
+    output_span_rad: float = 1.6
     settle_s: float = 1.0
     kind: str = "te_rotation"
 
     def plan(self, ratio: float) -> list[dict[str, Any]]:
-        win = self.wg_revs * 2.0 * math.pi / ratio / self.velocity_rad_s
+        wg = max(float(self.wg_revs), math.floor(self.output_span_rad * ratio / (2.0 * math.pi)))
+        win = wg * 2.0 * math.pi / ratio / self.velocity_rad_s
         return [{"mode": "velocity", "velocity_rad_s": s * self.velocity_rad_s, "settle_s": self.settle_s,
                  "window_s": win} for s in (1.0, -1.0)]
 

@@ -4,14 +4,15 @@ Measured TE (harmonic-drive.md 3.1): ``y = theta_l - theta_m / N = e - phi``
 with ``e`` the kinematic error and ``phi`` the twist, which is constant in a
 steady constant-speed window apart from slow gravity/friction drifts.  Per
 window the fit removes an offset and a linear + quadratic drift in the
-motor angle; the WG orders ``n`` (cycles per motor = WG revolution) are
+motor angle (only the offset when the windows span a large part of an
+output revolution); the WG orders ``n`` (cycles per motor = WG revolution) are
 shared by all windows (both directions)::
 
     e(theta_m) = sum_n a_n sin(n theta_m + p_n)           (rad at the output)
 
 the same form as the plant's ``transmission_error.wgK_*`` keys.  Orders per
-output revolution are fitted too when the windows span at least one output
-revolution.  Amplitudes are divided by the gain with which the load follows
+output revolution are fitted too when a window spans at least
+:data:`OUT_SPAN_MIN_TURN` of their period.  Amplitudes are divided by the gain with which the load follows
 a kinematic error through the spring, ``1/(1 - (f/f_a)^2)``, when the
 anti-resonance ``f_a`` is known (FRF); at the default 0.05 rad/s this is a
 0.2 % correction on the reference axis.
@@ -20,12 +21,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any, Callable, Optional, Sequence
 
 import numpy as np
 
 from ..errors import UserError
 from .experiments import ExperimentData
+
+
+#: Output-side lines are fitted when a window spans at least this part of their period (turn): a line
+#: per output revolution over a fifth of a turn is told apart from the windows' offsets.
+OUT_SPAN_MIN_TURN = 0.2
 
 
 @dataclass
@@ -82,7 +88,8 @@ class TEResult:
 
 
 def fit_te(data: ExperimentData, wg_orders: Sequence[int] = (1, 2, 3, 4, 6), out_orders: Sequence[int] = (1, 2),
-           f_antiresonance_Hz: float | None = None) -> TEResult:
+           f_antiresonance_Hz: float | None = None,
+           twist_model: Optional[Callable[[np.ndarray], np.ndarray]] = None) -> TEResult:
     """Fit the TE harmonics from a slow constant-rotation experiment.
 
     Parameters
@@ -94,6 +101,11 @@ def fit_te(data: ExperimentData, wg_orders: Sequence[int] = (1, 2, 3, 4, 6), out
         Candidate orders per WG / output revolution.
     f_antiresonance_Hz : float, optional
         Anti-resonance (Hz) for the spring-following correction.
+    twist_model : callable, optional
+        Predicted twist (rad) of a segment from its output angles (rad), e.g. the hysteresis
+        model at the unbalance the gear holds.  Over an output revolution the twist of the
+        unbalance is itself a line per output revolution, which the fit would otherwise take
+        for kinematic error; it is added back (``e = y + phi``) before the fit.
 
     Returns
     -------
@@ -111,7 +123,7 @@ def fit_te(data: ExperimentData, wg_orders: Sequence[int] = (1, 2, 3, 4, 6), out
         if m.sum() < 20:
             continue
         th_m, th_l = c["motor_angle_rad"][m], c["load_angle_rad"][m]
-        rows_y.append(th_l - th_m / N)
+        rows_y.append(th_l - th_m / N + (twist_model(th_l) if twist_model is not None else 0.0))
         rows_m.append(th_m)
         rows_l.append(th_l)
         seg_id.append(np.full(m.sum(), len(seg_id)))
@@ -123,13 +135,17 @@ def fit_te(data: ExperimentData, wg_orders: Sequence[int] = (1, 2, 3, 4, 6), out
     th_l = np.concatenate(rows_l)
     sid = np.concatenate(seg_id)
     span_l = max(float(np.ptp(r)) for r in rows_l)
-    use_out = [n for n in out_orders if span_l >= 2 * math.pi / n]
+    use_out = [n for n in out_orders if span_l >= OUT_SPAN_MIN_TURN * 2 * math.pi / n]
+    # per window an offset and a linear + quadratic drift; over a whole output revolution only the
+    # offset (a drift polynomial there would take part of the output-side lines; the unbalance's
+    # twist, the drift it stood for, is then a line itself: see twist_model)
+    n_drift = 1 if use_out else 3
     cols = []
     nseg = int(sid.max()) + 1
     for s in range(nseg):
         msk = (sid == s).astype(float)
         x = (th_m - th_m[sid == s].mean()) / max(np.ptp(th_m[sid == s]), 1e-12)
-        cols += [msk, msk * x, msk * x * x]
+        cols += [msk, msk * x, msk * x * x][:n_drift]
     for n in wg_orders:
         cols += [np.sin(n * th_m), np.cos(n * th_m)]
     for n in use_out:
@@ -137,7 +153,7 @@ def fit_te(data: ExperimentData, wg_orders: Sequence[int] = (1, 2, 3, 4, 6), out
     A = np.column_stack(cols)
     coef, *_ = np.linalg.lstsq(A, y, rcond=None)
     res = y - A @ coef
-    h = coef[3 * nseg:]
+    h = coef[n_drift * nseg:]
     gain_f = 1.0
     wg_amp, wg_ph = [], []
     v = float(np.mean(speeds))
@@ -161,6 +177,6 @@ def fit_te(data: ExperimentData, wg_orders: Sequence[int] = (1, 2, 3, 4, 6), out
     g = np.linspace(0, 2 * math.pi, 721)
     r.peak_to_peak_rad = float(np.ptp(r.evaluate(g)))
     # angle-domain plot data: TE minus the drift terms, vs WG angle mod 2 pi
-    drift = A[:, :3 * nseg] @ coef[:3 * nseg]
+    drift = A[:, :n_drift * nseg] @ coef[:n_drift * nseg]
     r.plot_data = {"wg_angle_rad": np.mod(th_m, 2 * math.pi), "te_rad": y - drift, "residual_rad": res}
     return r
