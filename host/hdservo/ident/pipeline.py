@@ -94,11 +94,25 @@ class Pipeline:
         if not te.out_orders or grav is None or pz is None or "te_rotation" not in self.data:
             return te
         ev = pz["everett"]
+        d = self.data["te_rotation"]
+        segs = [int(sg["index"]) for sg in d.segments]
+        angles = [np.asarray(d.segment(i)["load_angle_rad"], dtype=float) for i in segs]
 
-        def twist(th_l: np.ndarray) -> np.ndarray:
-            k = max(1, len(th_l) // 4000)              # the torque changes slowly: every k-th sample
+        def model(th_l: np.ndarray) -> np.ndarray:
+            k = max(1, len(th_l) // 8000)              # the torque changes slowly: every k-th sample
             idx = np.arange(0, len(th_l), k)
             return np.interp(np.arange(len(th_l)), idx, ev.simulate(grav.holding_torque(th_l[idx])))
+        # the hysteresis memory runs through the whole experiment on a drive (one motion); the
+        # simulator binding starts every segment on a fresh plant
+        if d.meta.get("source") == "simulator":
+            tw = {i: model(a) for i, a in zip(segs, angles)}
+        else:
+            whole = model(np.concatenate(angles))
+            cut = np.cumsum([0] + [len(a) for a in angles])
+            tw = {i: whole[cut[j]:cut[j + 1]] for j, i in enumerate(segs)}
+
+        def twist(index: int) -> np.ndarray:
+            return tw[int(index)]
         fa = self.results["frf"][-1].f_antiresonance_Hz if self.results.get("frf") else None
         self.progress("fit: transmission error, output-side lines without the unbalance's twist")
         self.results["te"] = self._timed("te_output", lambda: tem.fit_te(self.data["te_rotation"],

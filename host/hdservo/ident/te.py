@@ -11,8 +11,8 @@ shared by all windows (both directions)::
     e(theta_m) = sum_n a_n sin(n theta_m + p_n)           (rad at the output)
 
 the same form as the plant's ``transmission_error.wgK_*`` keys.  Orders per
-output revolution are fitted too when a window spans at least
-:data:`OUT_SPAN_MIN_TURN` of their period.  Amplitudes are divided by the gain with which the load follows
+output revolution are fitted too when a window spans enough of a turn
+(:data:`OUT_SPAN_MIN_TURN`).  Amplitudes are divided by the gain with which the load follows
 a kinematic error through the spring, ``1/(1 - (f/f_a)^2)``, when the
 anti-resonance ``f_a`` is known (FRF); at the default 0.05 rad/s this is a
 0.2 % correction on the reference axis.
@@ -29,8 +29,9 @@ from ..errors import UserError
 from .experiments import ExperimentData
 
 
-#: Output-side lines are fitted when a window spans at least this part of their period (turn): a line
-#: per output revolution over a fifth of a turn is told apart from the windows' offsets.
+#: Output-side line n is fitted when a window spans at least n times this part of a turn: over a fifth
+#: of a turn a line per output revolution is told apart from the windows' offsets, a second order
+#: beside it needs twice that (over a short span the low orders and the offset look alike).
 OUT_SPAN_MIN_TURN = 0.2
 
 
@@ -89,7 +90,7 @@ class TEResult:
 
 def fit_te(data: ExperimentData, wg_orders: Sequence[int] = (1, 2, 3, 4, 6), out_orders: Sequence[int] = (1, 2),
            f_antiresonance_Hz: float | None = None,
-           twist_model: Optional[Callable[[np.ndarray], np.ndarray]] = None) -> TEResult:
+           twist_model: Optional[Callable[[int], np.ndarray]] = None) -> TEResult:
     """Fit the TE harmonics from a slow constant-rotation experiment.
 
     Parameters
@@ -102,8 +103,8 @@ def fit_te(data: ExperimentData, wg_orders: Sequence[int] = (1, 2, 3, 4, 6), out
     f_antiresonance_Hz : float, optional
         Anti-resonance (Hz) for the spring-following correction.
     twist_model : callable, optional
-        Predicted twist (rad) of a segment from its output angles (rad), e.g. the hysteresis
-        model at the unbalance the gear holds.  Over an output revolution the twist of the
+        Predicted twist (rad) of every sample of segment ``index``, e.g. the hysteresis model
+        at the unbalance the gear holds.  Over an output revolution the twist of the
         unbalance is itself a line per output revolution, which the fit would otherwise take
         for kinematic error; it is added back (``e = y + phi``) before the fit.
 
@@ -123,7 +124,7 @@ def fit_te(data: ExperimentData, wg_orders: Sequence[int] = (1, 2, 3, 4, 6), out
         if m.sum() < 20:
             continue
         th_m, th_l = c["motor_angle_rad"][m], c["load_angle_rad"][m]
-        rows_y.append(th_l - th_m / N + (twist_model(th_l) if twist_model is not None else 0.0))
+        rows_y.append(th_l - th_m / N + (twist_model(seg["index"])[m] if twist_model is not None else 0.0))
         rows_m.append(th_m)
         rows_l.append(th_l)
         seg_id.append(np.full(m.sum(), len(seg_id)))
@@ -135,7 +136,7 @@ def fit_te(data: ExperimentData, wg_orders: Sequence[int] = (1, 2, 3, 4, 6), out
     th_l = np.concatenate(rows_l)
     sid = np.concatenate(seg_id)
     span_l = max(float(np.ptp(r)) for r in rows_l)
-    use_out = [n for n in out_orders if span_l >= OUT_SPAN_MIN_TURN * 2 * math.pi / n]
+    use_out = [n for n in out_orders if span_l >= n * OUT_SPAN_MIN_TURN * 2 * math.pi]
     # per window an offset and a linear + quadratic drift; over a whole output revolution only the
     # offset (a drift polynomial there would take part of the output-side lines; the unbalance's
     # twist, the drift it stood for, is then a line itself: see twist_model)
