@@ -98,12 +98,21 @@ STRATEGIES: dict[str, tuple[tuple[str, ...], dict[str, float]]] = {
 #: Compensators that act on the same effect: the best combination takes at most one of each group.
 GROUPS: dict[str, tuple[str, ...]] = {"friction": ("stribeck", "lugre", "backstep"),
                                       "lost motion / hysteresis": ("maxwell", "preisach"),
-                                      "transmission error": ("te",),
+                                      "transmission error": ("te", "te+maxwell", "te+preisach", "te+compliance"),
                                       "compliance": ("compliance",)}
-#: Compensators that predict the same part of the output error although they sit in different groups:
-#: the Preisach operator is the gear's whole torque -> twist curve, its elastic twist included, so it
-#: is not combined with the compliance twist (the one of a chosen pair with the larger factor is left out).
-EXCLUSIVE: tuple[tuple[str, str], ...] = (("preisach", "compliance"),)
+#: Semi-closed and dual-loop: TE, lost motion / hysteresis and compliance each predict one part of the
+#: same quantity, the output's offset from the motor angle / N, and the loop holds their sum.  One part
+#: alone moves that offset at a start position as much as it removes elsewhere (TE without the twist
+#: leaves the twist, which the TE partly cancelled), so these pairs are measured as rows of their own
+#: and compete with TE alone in its group.
+MOTOR_SIDE_PAIRS: tuple[tuple[str, str], ...] = (("te", "maxwell"), ("te", "preisach"), ("te", "compliance"))
+#: Compensators that predict the same part of the output error although they may be chosen in
+#: different groups (a measured pair of :data:`MOTOR_SIDE_PAIRS` sits in the TE group): the Preisach
+#: operator is the gear's whole torque -> twist curve, its elastic twist and its lost motion included,
+#: so it is combined with neither the compliance twist nor the Maxwell-slip lost motion (of two chosen
+#: candidates the one with the larger factor is left out, and the next one of its group without the
+#: conflicting part takes its place).
+EXCLUSIVE: tuple[tuple[str, str], ...] = (("preisach", "compliance"), ("preisach", "maxwell"))
 #: Best combination when no measurements choose one (``--controllers best``): the compensators of
 #: :data:`BEST_NAMES` without the motion strategies.
 DEFAULT_BEST: tuple[str, ...] = ("stribeck",)
@@ -443,6 +452,6 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
     return ctl
 
 
-__all__ = ["BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE",
+__all__ = ["BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
            "FAIR_GAINS", "FAIR_PROC_ARGS", "GROUPS", "STRATEGIES", "best_gains", "compensator_params", "controller", "enable_mask", "gear_everett", "preisach_table",
            "write_preisach_table"]

@@ -93,6 +93,28 @@ def test_worse_factor_and_rule() -> None:
     assert best == ["maxwell", "compliance"]                                  # lost motion + elastic twist
 
 
+def test_motor_side_pair_competes_with_te() -> None:
+    """Semi-closed: TE alone and the Preisach alone each move the tracking offset (worse by 20 %), their
+    pair improves every figure; the pair wins the TE group and stands for its parts."""
+    base = {"positioning_accuracy_arcsec": 30.0, "tracking_rms_0p01_arcsec": 8.0, "bandwidth_hz": 20.0}
+    single = {"te": {**base, "positioning_accuracy_arcsec": 4.0, "tracking_rms_0p01_arcsec": 9.7},
+              "preisach": {**base, "positioning_accuracy_arcsec": 29.0, "tracking_rms_0p01_arcsec": 13.0},
+              "lugre": {**base, "tracking_rms_0p01_arcsec": 4.0},
+              "te+preisach": {**base, "positioning_accuracy_arcsec": 2.4, "tracking_rms_0p01_arcsec": 7.0},
+              "te+compliance": {**base, "positioning_accuracy_arcsec": 4.0, "tracking_rms_0p01_arcsec": 9.6}}
+    best, why = cmp.choose_best(single, base, KEYS)
+    assert best == ["lugre", "preisach", "te"]
+    assert any(w.startswith("te: does not qualify") for w in why)
+    # a pair and a single of another group that hold the same twist: the one with the larger factor goes
+    single["compliance"] = {**base, "positioning_accuracy_arcsec": 1.0}
+    best, why = cmp.choose_best(single, base, KEYS)
+    assert best == ["lugre", "compliance"] and "te+preisach: left out next to compliance" in why[-1]
+    # ... and the group's next candidate without the conflicting part takes its place
+    single["te+maxwell"] = {**base, "positioning_accuracy_arcsec": 3.0, "tracking_rms_0p01_arcsec": 7.5}
+    best, _ = cmp.choose_best(single, base, KEYS)
+    assert best == ["lugre", "maxwell", "te", "compliance"]
+
+
 def test_rule_skips_unmeasured_and_settling_and_failures_run_again(monkeypatch: pytest.MonkeyPatch) -> None:
     base = {"positioning_accuracy_arcsec": 2.0, "settling_1deg_s": None}
     # the settling time is all-or-nothing near the band: reported, not judged
