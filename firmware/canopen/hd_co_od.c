@@ -279,7 +279,7 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x2840u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 110u, INT64_C(0), INT64_C(1073741824), INT64_C(1015701725), NULL},  /* pr_motor_share */
     {0x2840u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 111u, INT64_C(0), INT64_C(1), INT64_C(1), NULL},  /* pr_t_src */
     {0x2840u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 112u, INT64_C(0), INT64_C(1966080000), INT64_C(32768), NULL},  /* pr_jl */
-    {0x2840u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 113u, INT64_C(0), INT64_C(1966080000), INT64_C(131072), NULL},  /* pr_mgl */
+    {0x2840u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 113u, INT64_C(0), INT64_C(1966080000), INT64_C(0), NULL},  /* pr_mgl */
     {0x2840u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 114u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* pr_g_off */
     {0x2850u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(21), NULL},  /* highest_sub_index_supported */
     {0x2850u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 115u, INT64_C(0), INT64_C(4), INT64_C(3), NULL},  /* te_n */
@@ -297,9 +297,9 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x2850u, 13u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 127u, INT64_C(0), INT64_C(1000), INT64_C(0), NULL},  /* te_order4 */
     {0x2850u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 128u, INT64_C(-42949673), INT64_C(42949673), INT64_C(0), NULL},  /* te_amp4 */
     {0x2850u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 129u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* te_phase4 */
-    {0x2850u, 16u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 130u, INT64_C(0), INT64_C(64), INT64_C(1), NULL},  /* te_out_order1 */
-    {0x2850u, 17u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 131u, INT64_C(-42949673), INT64_C(42949673), INT64_C(19884), NULL},  /* te_out_amp1 */
-    {0x2850u, 18u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 132u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(478495693), NULL},  /* te_out_phase1 */
+    {0x2850u, 16u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 130u, INT64_C(0), INT64_C(64), INT64_C(0), NULL},  /* te_out_order1 */
+    {0x2850u, 17u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 131u, INT64_C(-42949673), INT64_C(42949673), INT64_C(0), NULL},  /* te_out_amp1 */
+    {0x2850u, 18u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 132u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* te_out_phase1 */
     {0x2850u, 19u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 133u, INT64_C(0), INT64_C(64), INT64_C(0), NULL},  /* te_out_order2 */
     {0x2850u, 20u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 134u, INT64_C(-42949673), INT64_C(42949673), INT64_C(0), NULL},  /* te_out_amp2 */
     {0x2850u, 21u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 135u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* te_out_phase2 */
