@@ -952,7 +952,9 @@ def run_ablation(out_dir: Path, feedbacks: Sequence[str], procedures: Sequence[s
                    "rule": (f"best combination: the compensators that, on the fair PID in the same feedback "
                             f"configuration, improve at least one figure by >= {RULE_GAIN:.0%} and worsen none by "
                             f"more than {RULE_LOSS:.0%} (settling time reported, not judged); at most one per group (friction, lost motion / "
-                            f"hysteresis, transmission error), the smallest geometric-mean factor wins")})
+                            f"hysteresis, transmission error with the measured TE pairs of semi-closed and dual-loop, "
+                            f"compliance), the smallest geometric-mean factor wins; the Preisach twist is combined "
+                            f"with neither compliance nor Maxwell-slip")})
     _write_json_atomic(out_dir / "ablation.json", ablation_doc(doc))
     return doc
 
