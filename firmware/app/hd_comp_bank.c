@@ -84,6 +84,8 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
     c->pr_share = prm(p, HD_P_PR_MOTOR_SHARE);
     c->pr_t_src = (uint32_t)prm(p, HD_P_PR_T_SRC);
     c->pr_jl = prm(p, HD_P_PR_JL);
+    c->pr_mgl = prm(p, HD_P_PR_MGL);
+    c->pr_g_off = (uint32_t)prm(p, HD_P_PR_G_OFF);
 
     /* scheduled position integral: leak T in Q30 from the leak rate in Q16 1/s */
     c->pki = prm(p, HD_P_CB_PKI);
@@ -113,6 +115,26 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
             c->te.order[i] = (i < 4u) ? (uint32_t)prm(p, O[i]) : 0u;
             c->te.amp[i] = (i < 4u) ? prm(p, A[i]) : 0;
             c->te.phase[i] = (i < 4u) ? (uint32_t)prm(p, F[i]) : 0u;   /* modulo 2^32: a turn fraction */
+        }
+        /* output-side lines: the same harmonic model on the output angle (orders per output turn) */
+        static const hd_param_id_t OO[2] = {HD_P_TE_OUT_ORDER1, HD_P_TE_OUT_ORDER2};
+        static const hd_param_id_t OA[2] = {HD_P_TE_OUT_AMP1, HD_P_TE_OUT_AMP2};
+        static const hd_param_id_t OF[2] = {HD_P_TE_OUT_PHASE1, HD_P_TE_OUT_PHASE2};
+        c->te_out.n = 0u;
+        c->te_out.k1 = 0;
+        c->te_out.tau_max = 1;
+        for (i = 0; i < HD_TE_N_MAX; i++) {
+            c->te_out.order[i] = 0u;
+            c->te_out.amp[i] = 0;
+            c->te_out.phase[i] = 0u;
+        }
+        for (i = 0; i < 2u; i++) {
+            if (prm(p, OO[i]) > 0 && prm(p, OA[i]) != 0) {
+                c->te_out.order[c->te_out.n] = (uint32_t)prm(p, OO[i]);
+                c->te_out.amp[c->te_out.n] = prm(p, OA[i]);
+                c->te_out.phase[c->te_out.n] = (uint32_t)prm(p, OF[i]);
+                c->te_out.n++;
+            }
         }
     }
 
@@ -193,6 +215,7 @@ void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     b->dpos_f = 0;
     b->dpos_primed = 0u;
     b->pr_t = 0;
+    b->te_out = 0;
     b->pr_dth = 0;
     b->dob_x = 0;
     b->dob_d = 0;
@@ -230,11 +253,20 @@ void hd_comp_bank_apply(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     b->enabled = en;
 }
 
+/* A new table's memory: the gear demagnetised at rest (input 0: no torque, no twist), not
+ * negative saturation, which the torques of normal motion never reach again, so its
+ * remanence would offset every predicted twist. */
+static void table_memory(hd_comp_bank_t *b)
+{
+    hd_preisach_demagnetise(&b->pr.fwd, &b->table, hd_preisach_quantise(&b->table, 0));
+}
+
 int32_t hd_comp_bank_install_table(hd_comp_bank_t *b, const hd_preisach_table_t *t)
 {
     const int32_t rc = hd_preisach_install(&b->table, t);
     if (rc == HD_PREISACH_OK) {
         b->table_ok = 1u;
+        table_memory(b);
     }
     return rc;
 }
@@ -243,6 +275,9 @@ int32_t hd_comp_bank_adopt_table(hd_comp_bank_t *b)
 {
     const int32_t rc = hd_preisach_check(&b->table);
     b->table_ok = (rc == HD_PREISACH_OK) ? 1u : 0u;
+    if (rc == HD_PREISACH_OK) {
+        table_memory(b);
+    }
     return rc;
 }
 
@@ -351,10 +386,18 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
         /* transmitted torque estimate, low-passed (Preisach inverse and compliance) */
         int32_t test;
         if (c->pr_t_src != 0u) {
-            /* model: load-side friction (1 - share) F(v_ref) + J_L a_ref (2 pi J [Q16] acc [2^-24 turn/s^2]) */
+            /* model: load-side friction (1 - share) F(v_ref) + J_L a_ref (2 pi J [Q16] acc [2^-24 turn/s^2])
+             * + the unbalance */
             const int32_t fl = hdf_mul_q(b->str.tau_raw, hdf_sub_sat(HD_Q30_ONE, c->pr_share), 30u);
             const int64_t ja = hdf_mul64x32_q(hdf_mul64x32_q((int64_t)c->pr_jl, in->acc_ref, 24u), CB_TWO_PI_Q28, 28u);
             test = hdf_add_sat(fl, hdf_sat32(ja));
+            if (c->pr_mgl != 0) {
+                /* the unbalance the gear holds, mgl cos(output angle + offset): at rest it is the
+                 * whole transmitted torque, so without it a position hold predicts no twist */
+                int32_t sn, cs;
+                hd_sincos_turn_fast((uint32_t)((uint64_t)in->pos_out & 0xFFFFFFFFu) + c->pr_g_off, &sn, &cs);
+                test = hdf_add_sat(test, hdf_mul_q(c->pr_mgl, cs, 30u));
+            }
         } else {
             /* command: t_prev - share F(v_ref) (includes the loop's reaction) */
             test = hdf_sub_sat(b->t_prev, hdf_mul_q(b->str.tau_raw, c->pr_share, 30u));
@@ -366,7 +409,12 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
         if (pr_on) {
             int32_t u = 0;
             (void)hd_blend_update(&b->pr.blend);
-            if (b->table_ok != 0u) {
+            if (b->table_ok != 0u && b->table.unit == HD_PREISACH_UNIT_TORQUE_TWIST) {
+                /* an identified image (hdservo identify) is the gear's torque -> twist
+                 * operator itself: its forward output at the torque is the twist */
+                u = hdf_sat32(hd_preisach_step_p(&b->pr.fwd, &b->table, hd_preisach_quantise(&b->table, yd)));
+            } else if (b->table_ok != 0u) {
+                /* a twist -> torque image (compsetup): the twist is its inverse at the torque */
                 const int32_t pl = hd_preisach_inv_step_p(&b->pr, &b->table, (int64_t)yd);
                 u = hd_preisach_dequantise(&b->table, pl);
             }
@@ -385,6 +433,12 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
     if (running(b, HD_CB_TE, &b->te.blend)) {
         dpos = hdf_add64_sat(dpos, hd_te_comp_step(&b->te, &c->te, in->pos_mot));
         tff = hdf_add_sat(tff, b->te.tau);
+        if (c->te_out.n > 0u) {
+            /* output-side lines at the output position the loop knows (semi-closed: the estimate;
+             * a line of one per output turn moves by far less than an LSB between the two) */
+            b->te_out = hd_te_model(&c->te_out, in->pos_out);
+            dpos = hdf_add64_sat(dpos, hd_blend_mix64(&b->te.blend, 0, hdf_neg64_sat(b->te_out)));
+        }
     }
 
     out->tff = tff;

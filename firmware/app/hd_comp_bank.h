@@ -13,13 +13,18 @@
  *   Stribeck   torque FF, velocity = w_ref v_ref + (1 - w_ref) v_fb              -> tff
  *   LuGre      torque FF/observer, v = v_ref or v_fb, e = pos_out - pos_ref      -> tff
  *   Maxwell    x = pos_ref; lost-motion twist F / K                             -> position correction
- *   Preisach   inverse of the gear twist -> torque hysteresis (table), input the
- *              transmitted-torque estimate, low-passed at pr_fc:
- *                pr_t_src 1 (model): (1 - share) Stribeck(v_ref) + J_L a_ref (load-side
- *                           friction and load inertia: what the gear must transmit)
+ *   Preisach   the gear twist at the transmitted-torque estimate from the table:
+ *              a torque -> twist image (HD_PREISACH_UNIT_TORQUE_TWIST, what
+ *              hdservo identify writes) runs forward, a twist -> torque image
+ *              (other units, compsetup's) through its inverse; the estimate is
+ *              low-passed at pr_fc:
+ *                pr_t_src 1 (model): (1 - share) Stribeck(v_ref) + J_L a_ref
+ *                           + mgl cos(2 pi (pos_out + g_off)) (load-side friction, load
+ *                           inertia and the unbalance it holds: what the gear must transmit)
  *                pr_t_src 0 (command): t_prev - share Stribeck(v_ref) (contains the
  *                           loop's own reaction; kept for comparison)       -> position correction
- *   TE         -TE(motor angle)                                                 -> position correction
+ *   TE         -TE(motor angle) - TE_out(pos_out: the loop's output position, in
+ *              semi-closed the motor-side estimate)                             -> position correction
  *              (+ optional torque FF -K1 TE -> tff)
  *   compliance twist of the three-slope stiffness (hd_compliance.h) at the
  *              transmitted-torque estimate of the Preisach inverse (same
@@ -96,6 +101,7 @@ typedef struct {
     hd_lugre_cfg_t    lug;
     hd_maxwell_cfg_t  mx;
     hd_te_cfg_t       te;
+    hd_te_cfg_t       te_out;    /* output-side TE lines (per output revolution; k1 0) */
     hd_backstep_cfg_t bs;
     int32_t  bs_th0[HD_BS_NP];   /* Q15.16 initial estimates */
     hd_compliance_cfg_t cp;
@@ -111,6 +117,8 @@ typedef struct {
     int32_t  dob_gj;             /* g J: N.m per (turn/s), Q15.16 */
     uint32_t pr_t_src;           /* Preisach torque estimate: 0 command - share F, 1 model (1 - share) F + J_L a */
     int32_t  pr_jl;              /* load inertia for pr_t_src 1, Q15.16 kg m^2 */
+    int32_t  pr_mgl;             /* unbalance for pr_t_src 1, Q15.16 N.m (0 = none) */
+    uint32_t pr_g_off;           /* its angle offset, 2^-32 turn (wraps) */
     int32_t  pki;                /* scheduled position integral gain, Q15.16 1/s^2 (0 = off) */
     int32_t  pki_vlo;            /* schedule: weight 0 at |v_ref| <= vlo, 2^-32 turn/s */
     int32_t  pki_vhi;            /* schedule: weight 1 at |v_ref| >= vhi, 2^-32 turn/s */
@@ -150,6 +158,7 @@ typedef struct {
     int64_t  dpos_f;             /* low-passed position correction, 2^-48 turn (int64) */
     uint32_t dpos_primed;
     int64_t  pr_t;               /* torque estimate state, Q15.16 x 2^16 */
+    int64_t  te_out;             /* last output-side TE model value, 2^-32 turn (unweighted) */
     int32_t  pr_dth;             /* weighted Preisach twist, 2^-32 turn */
     int64_t  dob_x;              /* DOB state, Q15.16 x 2^16 */
     int32_t  dob_d;              /* weighted DOB torque, Q15.16 */

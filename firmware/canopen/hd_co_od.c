@@ -273,65 +273,73 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x2830u, 17u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 105u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d6 */
     {0x2830u, 18u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 106u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d7 */
     {0x2830u, 19u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 107u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d8 */
-    {0x2840u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(5), NULL},  /* highest_sub_index_supported */
+    {0x2840u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(7), NULL},  /* highest_sub_index_supported */
     {0x2840u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 108u, INT64_C(0), INT64_C(64), INT64_C(1), NULL},  /* pr_deadband */
     {0x2840u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 109u, INT64_C(6554), INT64_C(131072000), INT64_C(1310720), NULL},  /* pr_fc */
     {0x2840u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 110u, INT64_C(0), INT64_C(1073741824), INT64_C(1015701725), NULL},  /* pr_motor_share */
     {0x2840u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 111u, INT64_C(0), INT64_C(1), INT64_C(1), NULL},  /* pr_t_src */
     {0x2840u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 112u, INT64_C(0), INT64_C(1966080000), INT64_C(32768), NULL},  /* pr_jl */
-    {0x2850u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(15), NULL},  /* highest_sub_index_supported */
-    {0x2850u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 113u, INT64_C(0), INT64_C(4), INT64_C(3), NULL},  /* te_n */
-    {0x2850u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 114u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* te_k1 */
-    {0x2850u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 115u, INT64_C(66), INT64_C(65536000), INT64_C(655360), NULL},  /* te_tau_max */
-    {0x2850u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 116u, INT64_C(0), INT64_C(1000), INT64_C(2), NULL},  /* te_order1 */
-    {0x2850u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 117u, INT64_C(-42949673), INT64_C(42949673), INT64_C(59652), NULL},  /* te_amp1 */
-    {0x2850u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 118u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(273426110), NULL},  /* te_phase1 */
-    {0x2850u, 7u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 119u, INT64_C(0), INT64_C(1000), INT64_C(1), NULL},  /* te_order2 */
-    {0x2850u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 120u, INT64_C(-42949673), INT64_C(42949673), INT64_C(9942), NULL},  /* te_amp2 */
-    {0x2850u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 121u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(-820278331), NULL},  /* te_phase2 */
-    {0x2850u, 10u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 122u, INT64_C(0), INT64_C(1000), INT64_C(4), NULL},  /* te_order3 */
-    {0x2850u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 123u, INT64_C(-42949673), INT64_C(42949673), INT64_C(7954), NULL},  /* te_amp3 */
-    {0x2850u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 124u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(1367130551), NULL},  /* te_phase3 */
-    {0x2850u, 13u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 125u, INT64_C(0), INT64_C(1000), INT64_C(0), NULL},  /* te_order4 */
-    {0x2850u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 126u, INT64_C(-42949673), INT64_C(42949673), INT64_C(0), NULL},  /* te_amp4 */
-    {0x2850u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 127u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* te_phase4 */
+    {0x2840u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 113u, INT64_C(0), INT64_C(1966080000), INT64_C(0), NULL},  /* pr_mgl */
+    {0x2840u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 114u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* pr_g_off */
+    {0x2850u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(21), NULL},  /* highest_sub_index_supported */
+    {0x2850u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 115u, INT64_C(0), INT64_C(4), INT64_C(3), NULL},  /* te_n */
+    {0x2850u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 116u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* te_k1 */
+    {0x2850u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 117u, INT64_C(66), INT64_C(65536000), INT64_C(655360), NULL},  /* te_tau_max */
+    {0x2850u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 118u, INT64_C(0), INT64_C(1000), INT64_C(2), NULL},  /* te_order1 */
+    {0x2850u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 119u, INT64_C(-42949673), INT64_C(42949673), INT64_C(59652), NULL},  /* te_amp1 */
+    {0x2850u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 120u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(273426110), NULL},  /* te_phase1 */
+    {0x2850u, 7u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 121u, INT64_C(0), INT64_C(1000), INT64_C(1), NULL},  /* te_order2 */
+    {0x2850u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 122u, INT64_C(-42949673), INT64_C(42949673), INT64_C(9942), NULL},  /* te_amp2 */
+    {0x2850u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 123u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(-820278331), NULL},  /* te_phase2 */
+    {0x2850u, 10u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 124u, INT64_C(0), INT64_C(1000), INT64_C(4), NULL},  /* te_order3 */
+    {0x2850u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 125u, INT64_C(-42949673), INT64_C(42949673), INT64_C(7954), NULL},  /* te_amp3 */
+    {0x2850u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 126u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(1367130551), NULL},  /* te_phase3 */
+    {0x2850u, 13u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 127u, INT64_C(0), INT64_C(1000), INT64_C(0), NULL},  /* te_order4 */
+    {0x2850u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 128u, INT64_C(-42949673), INT64_C(42949673), INT64_C(0), NULL},  /* te_amp4 */
+    {0x2850u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 129u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* te_phase4 */
+    {0x2850u, 16u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 130u, INT64_C(0), INT64_C(64), INT64_C(0), NULL},  /* te_out_order1 */
+    {0x2850u, 17u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 131u, INT64_C(-42949673), INT64_C(42949673), INT64_C(0), NULL},  /* te_out_amp1 */
+    {0x2850u, 18u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 132u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* te_out_phase1 */
+    {0x2850u, 19u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 133u, INT64_C(0), INT64_C(64), INT64_C(0), NULL},  /* te_out_order2 */
+    {0x2850u, 20u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 134u, INT64_C(-42949673), INT64_C(42949673), INT64_C(0), NULL},  /* te_out_amp2 */
+    {0x2850u, 21u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 135u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* te_out_phase2 */
     {0x2860u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(24), NULL},  /* highest_sub_index_supported */
-    {0x2860u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 128u, INT64_C(0), INT64_C(655360000), INT64_C(3263666), NULL},  /* bs_c1 */
-    {0x2860u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 129u, INT64_C(0), INT64_C(655360000), INT64_C(3263666), NULL},  /* bs_c2 */
-    {0x2860u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 130u, INT64_C(66), INT64_C(1966080000), INT64_C(535307), NULL},  /* bs_j */
-    {0x2860u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 131u, INT64_C(0), INT64_C(2048000000), INT64_C(1296447), NULL},  /* bs_ke */
-    {0x2860u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 132u, INT64_C(0), INT64_C(429496730), INT64_C(6836), NULL},  /* bs_eps_w */
-    {0x2860u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 133u, INT64_C(4), INT64_C(2104533975), INT64_C(13671306), NULL},  /* bs_w_s */
-    {0x2860u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 134u, INT64_C(4295), INT64_C(2104533975), INT64_C(42949673), NULL},  /* bs_e1_max */
-    {0x2860u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 135u, INT64_C(66), INT64_C(65536000), INT64_C(3932160), NULL},  /* bs_u_max */
-    {0x2860u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 136u, INT64_C(0), INT64_C(2130706432), INT64_C(8388608), NULL},  /* bs_gamma1 */
-    {0x2860u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 137u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_min1 */
-    {0x2860u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 138u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(2084045), NULL},  /* bs_max1 */
-    {0x2860u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 139u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(484966), NULL},  /* bs_th0_1 */
-    {0x2860u, 13u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 140u, INT64_C(0), INT64_C(2130706432), INT64_C(8388608), NULL},  /* bs_gamma2 */
-    {0x2860u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 141u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_min2 */
-    {0x2860u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 142u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(2084045), NULL},  /* bs_max2 */
-    {0x2860u, 16u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 143u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(209715), NULL},  /* bs_th0_2 */
-    {0x2860u, 17u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 144u, INT64_C(0), INT64_C(2130706432), INT64_C(4194304), NULL},  /* bs_gamma3 */
-    {0x2860u, 18u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 145u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_min3 */
-    {0x2860u, 19u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 146u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(32736099), NULL},  /* bs_max3 */
-    {0x2860u, 20u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 147u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(2182407), NULL},  /* bs_th0_3 */
-    {0x2860u, 21u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 148u, INT64_C(0), INT64_C(2130706432), INT64_C(8388608), NULL},  /* bs_gamma4 */
-    {0x2860u, 22u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 149u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(-1310720), NULL},  /* bs_min4 */
-    {0x2860u, 23u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 150u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(1310720), NULL},  /* bs_max4 */
-    {0x2860u, 24u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 151u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_th0_4 */
+    {0x2860u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 136u, INT64_C(0), INT64_C(655360000), INT64_C(3263666), NULL},  /* bs_c1 */
+    {0x2860u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 137u, INT64_C(0), INT64_C(655360000), INT64_C(3263666), NULL},  /* bs_c2 */
+    {0x2860u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 138u, INT64_C(66), INT64_C(1966080000), INT64_C(535307), NULL},  /* bs_j */
+    {0x2860u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 139u, INT64_C(0), INT64_C(2048000000), INT64_C(1296447), NULL},  /* bs_ke */
+    {0x2860u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 140u, INT64_C(0), INT64_C(429496730), INT64_C(6836), NULL},  /* bs_eps_w */
+    {0x2860u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 141u, INT64_C(4), INT64_C(2104533975), INT64_C(13671306), NULL},  /* bs_w_s */
+    {0x2860u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 142u, INT64_C(4295), INT64_C(2104533975), INT64_C(42949673), NULL},  /* bs_e1_max */
+    {0x2860u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 143u, INT64_C(66), INT64_C(65536000), INT64_C(3932160), NULL},  /* bs_u_max */
+    {0x2860u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 144u, INT64_C(0), INT64_C(2130706432), INT64_C(8388608), NULL},  /* bs_gamma1 */
+    {0x2860u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 145u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_min1 */
+    {0x2860u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 146u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(2084045), NULL},  /* bs_max1 */
+    {0x2860u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 147u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(484966), NULL},  /* bs_th0_1 */
+    {0x2860u, 13u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 148u, INT64_C(0), INT64_C(2130706432), INT64_C(8388608), NULL},  /* bs_gamma2 */
+    {0x2860u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 149u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_min2 */
+    {0x2860u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 150u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(2084045), NULL},  /* bs_max2 */
+    {0x2860u, 16u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 151u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(209715), NULL},  /* bs_th0_2 */
+    {0x2860u, 17u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 152u, INT64_C(0), INT64_C(2130706432), INT64_C(4194304), NULL},  /* bs_gamma3 */
+    {0x2860u, 18u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 153u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_min3 */
+    {0x2860u, 19u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 154u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(32736099), NULL},  /* bs_max3 */
+    {0x2860u, 20u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 155u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(2182407), NULL},  /* bs_th0_3 */
+    {0x2860u, 21u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 156u, INT64_C(0), INT64_C(2130706432), INT64_C(8388608), NULL},  /* bs_gamma4 */
+    {0x2860u, 22u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 157u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(-1310720), NULL},  /* bs_min4 */
+    {0x2860u, 23u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 158u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(1310720), NULL},  /* bs_max4 */
+    {0x2860u, 24u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 159u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_th0_4 */
     {0x2870u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(2), NULL},  /* highest_sub_index_supported */
-    {0x2870u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 152u, INT64_C(6554), INT64_C(32768000), INT64_C(655360), NULL},  /* dob_fc */
-    {0x2870u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 153u, INT64_C(66), INT64_C(1966080000), INT64_C(85197), NULL},  /* dob_j */
+    {0x2870u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 160u, INT64_C(6554), INT64_C(32768000), INT64_C(655360), NULL},  /* dob_fc */
+    {0x2870u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 161u, INT64_C(66), INT64_C(1966080000), INT64_C(85197), NULL},  /* dob_j */
     {0x2880u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(2), NULL},  /* highest_sub_index_supported */
-    {0x2880u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 154u, INT64_C(0), INT64_C(2147483647), INT64_C(0), NULL},  /* tbl_fr_version */
-    {0x2880u, 2u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 155u, INT64_C(0), INT64_C(2147483647), INT64_C(0), NULL},  /* tbl_te_version */
+    {0x2880u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 162u, INT64_C(0), INT64_C(2147483647), INT64_C(0), NULL},  /* tbl_fr_version */
+    {0x2880u, 2u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 163u, INT64_C(0), INT64_C(2147483647), INT64_C(0), NULL},  /* tbl_te_version */
     {0x2890u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(5), NULL},  /* highest_sub_index_supported */
-    {0x2890u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 156u, INT64_C(2099200), INT64_C(2048000000), INT64_C(49863359), NULL},  /* cp_k1 */
-    {0x2890u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 157u, INT64_C(2099200), INT64_C(2048000000), INT64_C(80424772), NULL},  /* cp_k2 */
-    {0x2890u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 158u, INT64_C(2099200), INT64_C(2048000000), INT64_C(91684240), NULL},  /* cp_k3 */
-    {0x2890u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 159u, INT64_C(0), INT64_C(1966080000), INT64_C(917504), NULL},  /* cp_t1 */
-    {0x2890u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 160u, INT64_C(0), INT64_C(1966080000), INT64_C(3145728), NULL},  /* cp_t2 */
+    {0x2890u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 164u, INT64_C(2099200), INT64_C(2048000000), INT64_C(49863359), NULL},  /* cp_k1 */
+    {0x2890u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 165u, INT64_C(2099200), INT64_C(2048000000), INT64_C(80424772), NULL},  /* cp_k2 */
+    {0x2890u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 166u, INT64_C(2099200), INT64_C(2048000000), INT64_C(91684240), NULL},  /* cp_k3 */
+    {0x2890u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 167u, INT64_C(0), INT64_C(1966080000), INT64_C(917504), NULL},  /* cp_t1 */
+    {0x2890u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 168u, INT64_C(0), INT64_C(1966080000), INT64_C(3145728), NULL},  /* cp_t2 */
     {0x5000u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(7), NULL},  /* highest_sub_index_supported */
     {0x5000u, 1u, 0x05u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(2), INT64_C(0), NULL},  /* capture_control */
     {0x5000u, 2u, 0x05u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(0), NULL},  /* capture_state */

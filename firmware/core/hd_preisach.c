@@ -241,6 +241,26 @@ void hd_preisach_init(hd_preisach_t *s, const hd_preisach_table_t *t, uint32_t d
     hd__pz_reset(s, t);
 }
 
+void hd_preisach_demagnetise(hd_preisach_t *s, const hd_preisach_table_t *t, int32_t p_c)
+{
+    /* from negative saturation, reversals of decaying amplitude about p_c, as an axis whose
+     * hysteresis was cycled down to rest there: the memory sits in the middle of the loop,
+     * where a gear at rest is, not on the branch of the last extreme (whose remanence would
+     * stay in every later minor loop that does not reach that extreme again) */
+    const int32_t n = (int32_t)HD_PREISACH_DEMAG_CYCLES;
+    int32_t k;
+    hd__pz_reset(s, t);
+    p_c = hdf_clamp32(p_c, 0, s->p_top);
+    const int32_t span = (p_c > s->p_top - p_c) ? p_c : s->p_top - p_c;
+    for (k = 0; k < n; k++) {
+        const int32_t a = (int32_t)(((int64_t)span * (int64_t)(n - k)) / (int64_t)n);
+        const int32_t b = (int32_t)(((int64_t)a * (int64_t)(2 * n - 1)) / (int64_t)(2 * n));
+        (void)hd_preisach_step_p(s, t, hdf_clamp32(p_c + a, 0, s->p_top));
+        (void)hd_preisach_step_p(s, t, hdf_clamp32(p_c - b, 0, s->p_top));
+    }
+    (void)hd_preisach_step_p(s, t, p_c);
+}
+
 void hd_preisach_set_enabled(hd_preisach_t *s, bool enabled)
 {
     hd_blend_set_enabled(&s->blend, enabled);

@@ -77,6 +77,8 @@
 #define HD_PREISACH_BF_WORDS  ((HD_PREISACH_BF_PMAX * (HD_PREISACH_BF_PMAX + 1u) / 2u + 31u) / 32u)
 
 /* Units documentation codes (input -> output). */
+/* reversals of hd_preisach_demagnetise (fewer than the stack depth) */
+#define HD_PREISACH_DEMAG_CYCLES 24u
 #define HD_PREISACH_UNIT_GENERIC      0u
 #define HD_PREISACH_UNIT_TORQUE_TWIST 1u   /* Q15.16 N.m -> 2^-32 turn */
 #define HD_PREISACH_UNIT_POS_POS      2u   /* 2^-32 turn -> 2^-32 turn */
@@ -171,6 +173,10 @@ int32_t hd_preisach_everett(const hd_preisach_table_t *t, int32_t a, int32_t b);
 /** Negative saturation (y = -E(P, 0)), memory empty. */
 void hd_preisach_init(hd_preisach_t *s, const hd_preisach_table_t *t, uint32_t deadband,
                       uint32_t ramp_ticks, bool enabled);
+/** Memory of a demagnetised axis at rest at lattice index p_c: from negative saturation,
+ *  HD_PREISACH_DEMAG_CYCLES reversals of decaying amplitude about p_c, then p_c (the stacks
+ *  hold them; not for the control period: about 2 x HD_PREISACH_DEMAG_CYCLES forward steps). */
+void hd_preisach_demagnetise(hd_preisach_t *s, const hd_preisach_table_t *t, int32_t p_c);
 void hd_preisach_set_enabled(hd_preisach_t *s, bool enabled);
 /** One sample given as lattice index; returns y (table units, int64).  If the
  *  table changed since the memory was built (other CRC) the memory restarts

@@ -6,7 +6,7 @@ their own defaults and option parser) once per *controller*:
 
 * ``pid`` -- the drive's PID baseline, every compensator off (``cb_enable`` 0);
 * one controller per compensator of the bank (``stribeck``, ``lugre``,
-  ``maxwell``, ``preisach``, ``te``, ``backstep``): that compensator alone on
+  ``maxwell``, ``preisach``, ``te``, ``compliance``, ``backstep``): that compensator alone on
   top of the PID;
 * ``best`` -- the best combination (docs/compensators.md section 8): its
   compensators plus the loop retuning it allows.  Taken from
@@ -52,7 +52,7 @@ FORMAT = "hdservo-compare"
 VERSION = 1
 
 #: Compensators of the bank compared one by one (the experimental DOB is left out; docs/compensators.md 8).
-SINGLES: tuple[str, ...] = ("stribeck", "lugre", "maxwell", "preisach", "te", "backstep")
+SINGLES: tuple[str, ...] = ("stribeck", "lugre", "maxwell", "preisach", "te", "compliance", "backstep")
 #: Procedures run by default: the ones behind the headline figures.
 DEFAULT_PROCEDURES: tuple[str, ...] = ("min-rate", "positioning", "stabilisation", "bandwidth", "peak-torque",
                                         "tracking", "settling")
@@ -534,7 +534,9 @@ def choose_best(single: Mapping[str, Mapping[str, Any]], base: Mapping[str, Any]
     -------
     (list of str, list of str)
         The chosen compensators (at most one per :data:`hdservo.compsetup.GROUPS` group: among
-        those that qualify, :func:`qualifies`, the smallest geometric-mean factor) and one reason
+        those that qualify, :func:`qualifies`, the smallest geometric-mean factor; of a pair in
+        :data:`hdservo.compsetup.EXCLUSIVE` only the one with the smaller factor; a measured
+        pair such as ``te+preisach`` stands for its parts) and one reason
         line per compensator.  When none qualifies, the single compensator with the smallest
         geometric-mean factor below 1 (none when no compensator beats the PID on balance).
     """
@@ -552,13 +554,29 @@ def choose_best(single: Mapping[str, Mapping[str, Any]], base: Mapping[str, Any]
         cand = [c for c in members if c in ok]
         if cand:
             chosen.append(min(cand, key=lambda c: ok[c]))
+    for a, b in cs.EXCLUSIVE:
+        ca = next((c for c in chosen if a in c.split("+")), None)
+        cb = next((c for c in chosen if b in c.split("+")), None)
+        if ca is not None and cb is not None and ca != cb:
+            drop, keep, other = (ca, cb, a) if ok[ca] > ok[cb] else (cb, ca, b)
+            i = chosen.index(drop)
+            chosen.remove(drop)
+            why.append(f"{drop}: left out next to {keep} (they predict the same twist)")
+            # the next candidate of the dropped one's group without the conflicting part
+            grp = next((m for m in cs.GROUPS.values() if drop in m), ())
+            alt = [c for c in grp if c in ok and other not in c.split("+")]
+            if alt:
+                chosen.insert(i, min(alt, key=lambda c: ok[c]))
     if not chosen and single:
         g = {c: geo_mean_factor(h, base, keys) for c, h in single.items()}
         top = min(g, key=lambda c: g[c])
         if g[top] < 1.0:
             chosen = [top]
             why.append(f"no compensator qualifies: the best on balance, {top}, is taken")
-    order = [c for c in SINGLES if c in chosen] + [c for c in chosen if c not in SINGLES]
+    parts: list[str] = []
+    for c in chosen:                         # a measured pair (cs.MOTOR_SIDE_PAIRS) stands for its parts
+        parts += [x for x in c.split("+") if x not in parts]
+    order = [c for c in SINGLES if c in parts] + [c for c in parts if c not in SINGLES]
     return order, why
 
 
@@ -849,7 +867,9 @@ def run_ablation(out_dir: Path, feedbacks: Sequence[str], procedures: Sequence[s
     """The ablation per feedback configuration (docs/demo.md): fair PID, + each compensator, best, leave-one-out.
 
     Stage 1, per configuration: the fair PID and the fair PID + each compensator of
-    :data:`SINGLES` (and, with ``extras``, the PID design in position hold, labelled).  The best
+    :data:`SINGLES`, in semi-closed and dual-loop also the pairs of
+    :data:`hdservo.compsetup.MOTOR_SIDE_PAIRS` (and, with ``extras``, the PID design in position
+    hold, labelled).  The best
     combination is then chosen from these measurements by :func:`choose_best`.  Stage 2: the best
     combination, the best minus each of its parts (when it has two or more), and the motion
     strategies on top of it (``best+hold``, ``best+hold+approach``), each its own row.  A row whose
@@ -864,9 +884,12 @@ def run_ablation(out_dir: Path, feedbacks: Sequence[str], procedures: Sequence[s
     """
     stage1: list[Controller] = []
     ax = axis if bus is None else "reference"       # a real drive keeps its own design gains
+    from . import compsetup as cs
     for fb in feedbacks:
         stage1.append(fair_row([], fb, "baseline", axis=ax))
         stage1 += [fair_row([c], fb, "compensator", axis=ax) for c in SINGLES]
+        if fb != "full-closed":             # the motor-side output predictors also in pairs (cs.MOTOR_SIDE_PAIRS)
+            stage1 += [fair_row(list(p), fb, "compensator", axis=ax) for p in cs.MOTOR_SIDE_PAIRS]
     if extras and "full-closed" in feedbacks:
         stage1.append(pid_hold_row(ax))
     for c in stage1:
@@ -889,6 +912,8 @@ def run_ablation(out_dir: Path, feedbacks: Sequence[str], procedures: Sequence[s
     for fb in feedbacks:
         base = doc_ctl[row_name("pid", fb)]["headline"]
         single = {c: doc_ctl[row_name("+".join([c]), fb)]["headline"] for c in SINGLES}
+        single.update({"+".join(p): doc_ctl[row_name("+".join(p), fb)]["headline"] for p in cs.MOTOR_SIDE_PAIRS
+                       if row_name("+".join(p), fb) in doc_ctl})
         parts, why = choose_best(single, base, keys)
         rows = [fair_row(parts, fb, "best", name="best", axis=ax)]
         if len(parts) >= 2:
@@ -939,7 +964,9 @@ def run_ablation(out_dir: Path, feedbacks: Sequence[str], procedures: Sequence[s
                    "rule": (f"best combination: the compensators that, on the fair PID in the same feedback "
                             f"configuration, improve at least one figure by >= {RULE_GAIN:.0%} and worsen none by "
                             f"more than {RULE_LOSS:.0%} (settling time reported, not judged); at most one per group (friction, lost motion / "
-                            f"hysteresis, transmission error), the smallest geometric-mean factor wins")})
+                            f"hysteresis, transmission error with the measured TE pairs of semi-closed and dual-loop, "
+                            f"compliance), the smallest geometric-mean factor wins; the Preisach twist is combined "
+                            f"with neither compliance nor Maxwell-slip")})
     _write_json_atomic(out_dir / "ablation.json", ablation_doc(doc))
     return doc
 

@@ -23,8 +23,8 @@ Models (output-referred; docs/compensators.md section 8):
 * Preisach: the gear's static twist -> transmitted-torque operator (linear K1,
   the Maxwell-slip elements of the plant and its Preisach part), its Everett
   function evaluated in closed form / by density integration, quantised;
-* TE: the wave-generator harmonics (per motor revolution); output-side
-  harmonics are not functions of the motor angle and are left to the loop;
+* TE: the wave-generator harmonics (per motor revolution) and the two largest
+  output-side harmonics (per output revolution, evaluated at the loop's output position);
 * backstepping: the gains of docs/compensators.md section 6, scaled by J.
 """
 from __future__ import annotations
@@ -98,7 +98,21 @@ STRATEGIES: dict[str, tuple[tuple[str, ...], dict[str, float]]] = {
 #: Compensators that act on the same effect: the best combination takes at most one of each group.
 GROUPS: dict[str, tuple[str, ...]] = {"friction": ("stribeck", "lugre", "backstep"),
                                       "lost motion / hysteresis": ("maxwell", "preisach"),
-                                      "transmission error": ("te",)}
+                                      "transmission error": ("te", "te+maxwell", "te+preisach", "te+compliance"),
+                                      "compliance": ("compliance",)}
+#: Semi-closed and dual-loop: TE, lost motion / hysteresis and compliance each predict one part of the
+#: same quantity, the output's offset from the motor angle / N, and the loop holds their sum.  One part
+#: alone moves that offset at a start position as much as it removes elsewhere (TE without the twist
+#: leaves the twist, which the TE partly cancelled), so these pairs are measured as rows of their own
+#: and compete with TE alone in its group.
+MOTOR_SIDE_PAIRS: tuple[tuple[str, str], ...] = (("te", "maxwell"), ("te", "preisach"), ("te", "compliance"))
+#: Compensators that predict the same part of the output error although they may be chosen in
+#: different groups (a measured pair of :data:`MOTOR_SIDE_PAIRS` sits in the TE group): the Preisach
+#: operator is the gear's whole torque -> twist curve, its elastic twist and its lost motion included,
+#: so it is combined with neither the compliance twist nor the Maxwell-slip lost motion (of two chosen
+#: candidates the one with the larger factor is left out, and the next one of its group without the
+#: conflicting part takes its place).
+EXCLUSIVE: tuple[tuple[str, str], ...] = (("preisach", "compliance"), ("preisach", "maxwell"))
 #: Best combination when no measurements choose one (``--controllers best``): the compensators of
 #: :data:`BEST_NAMES` without the motion strategies.
 DEFAULT_BEST: tuple[str, ...] = ("stribeck",)
@@ -113,6 +127,15 @@ def _reader(axis: str) -> Callable[[str], float]:
     def get(key: str) -> float:
         return float(sim.axis_param(key, axis))
     return get
+
+
+def _has(get: Callable[[str], float], key: str) -> bool:
+    """Whether ``get`` knows ``key`` (an axis file or model without it raises KeyError / ValueError)."""
+    try:
+        get(key)
+    except (KeyError, ValueError):
+        return False
+    return True
 
 
 def _maxwell_fit(fs: float, x0: float, n: int) -> tuple[list[float], list[float]]:
@@ -281,7 +304,40 @@ def _te_params(get: Callable[[str], float]) -> dict[str, float]:
     for i in range(4):
         o, a, p = te[i] if i < len(te) else (0, 0.0, 0.0)
         out[f"te_order{i + 1}"], out[f"te_amp{i + 1}"], out[f"te_phase{i + 1}"] = o, a, p
+    out.update(_te_output_lines(get))
     return out
+
+
+def _te_output_lines(get: Callable[[str], float]) -> dict[str, float]:
+    """The two largest output-side TE lines (per output revolution): functions of the output angle,
+    which a motor-encoder loop knows as motor / N; amp turn, phase turn."""
+    te_o = []
+    if get("transmission_error.enabled"):
+        for i in range(1, 5):
+            if not _has(get, f"transmission_error.out{i}_order"):
+                break
+            o, a, p = (get(f"transmission_error.out{i}_order"), get(f"transmission_error.out{i}_amp_rad"),
+                       get(f"transmission_error.out{i}_phase_rad"))
+            if o > 0 and a != 0.0:
+                te_o.append((abs(a), int(o), a / TWO_PI, ((p / TWO_PI + 0.5) % 1.0) - 0.5))
+    te_o.sort(reverse=True)
+    out: dict[str, float] = {}
+    for i in range(2):
+        _, o, a, p = te_o[i] if i < len(te_o) else (0.0, 0, 0.0, 0.0)
+        out[f"te_out_order{i + 1}"], out[f"te_out_amp{i + 1}"], out[f"te_out_phase{i + 1}"] = o, a, p
+    return out
+
+
+def _unbalance_params(get: Callable[[str], float]) -> dict[str, float]:
+    """The unbalance the gear holds, mgl cos(theta + offset) (identified: [gravity]): at rest it is the
+    whole transmitted torque, so the twist of a position hold (Preisach, compliance) needs it."""
+    grav = bool(get("gravity.enabled")) if _has(get, "gravity.enabled") else True
+    has_mgl = _has(get, "gravity.mgl_Nm")
+    off = get("gravity.offset_rad") if _has(get, "gravity.offset_rad") else 0.0
+    if grav and has_mgl and get("gravity.mgl_Nm") < 0:
+        off += math.pi                                     # -m cos(x) = m cos(x + pi)
+    return {"pr_mgl": abs(get("gravity.mgl_Nm")) if grav and has_mgl else 0.0,
+            "pr_g_off": ((off / TWO_PI + 0.5) % 1.0) - 0.5}
 
 
 def _backstepping_params(get: Callable[[str], float], n: float, vs_turn: float, fv: float, eps_rad: float,
@@ -372,6 +428,7 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     out["pr_motor_share"] = (m["fcp"] / max(m["fcp"] + ld["fcp"], 1e-12)) if fm else 0.0
     out["pr_t_src"] = 1
     out["pr_jl"] = get("load.jl_kgm2")
+    out.update(_unbalance_params(get))
     out.update(_te_params(get))
     out.update(_backstepping_params(get, n, vs_turn, fv, eps_rad, out["str_fc_pos"], out["str_fs_pos"]))
     # disturbance observer: Q-filter bandwidth (Hz) and nominal inertia
@@ -443,6 +500,6 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
     return ctl
 
 
-__all__ = ["BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS",
+__all__ = ["BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
            "FAIR_GAINS", "FAIR_PROC_ARGS", "GROUPS", "STRATEGIES", "best_gains", "compensator_params", "controller", "enable_mask", "gear_everett", "preisach_table",
            "write_preisach_table"]

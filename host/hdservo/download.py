@@ -23,7 +23,7 @@ class DownloadTransportError(UserError):
 
 
 #: parameters written by SDO one by one (the groups of 0x5100:2/3 go as tables)
-SDO_PREFIXES = ("cb_ramp_ticks", "cb_dpos_fc", "cp_", "mx_", "pr_", "bs_", "dob_", "te_k1")
+SDO_PREFIXES = ("cb_ramp_ticks", "cb_dpos_fc", "cp_", "mx_", "pr_", "bs_", "dob_", "te_k1", "te_out_")
 
 
 # ----------------------------------------------------------------- model -> compsetup keys
@@ -76,6 +76,9 @@ def model_overrides(model: Mapping[str, Mapping[str, Any]], axis_get) -> tuple[d
     if st and "k1_Nm_per_rad" in st:        # an FRF-only model has the damping alone: K1 from --axis
         o["stiffness.enabled"] = 1.0
         o["stiffness.k1_Nm_per_rad"] = float(st["k1_Nm_per_rad"])
+        for k in ("k2_Nm_per_rad", "k3_Nm_per_rad", "t1_Nm", "t2_Nm"):   # the three-slope curve (compliance)
+            if k in st:
+                o[f"stiffness.{k}"] = float(st[k])
     hm = model.get("hysteresis_maxwell")
     if hm:
         o["hysteresis_maxwell.enabled"] = 1.0
@@ -102,6 +105,20 @@ def model_overrides(model: Mapping[str, Mapping[str, Any]], axis_get) -> tuple[d
             o[f"transmission_error.wg{j + 1}_phase_rad"] = ph
         if len(harm) > 4:
             notes.append(f"TE: the 4 largest of {len(harm)} harmonics (firmware holds 4)")
+        i = 1
+        while f"out{i}_order" in te:            # output-side lines (the axis file's are not the model's)
+            for k in ("order", "amp_rad", "phase_rad"):
+                o[f"transmission_error.out{i}_{k}"] = float(te[f"out{i}_{k}"])
+            i += 1
+        for j in range(i, 5):
+            o[f"transmission_error.out{j}_order"] = 0.0
+            o[f"transmission_error.out{j}_amp_rad"] = 0.0
+            o[f"transmission_error.out{j}_phase_rad"] = 0.0
+    g = model.get("gravity")
+    if g and "mgl_Nm" in g:
+        o["gravity.enabled"] = 1.0
+        o["gravity.mgl_Nm"] = float(g["mgl_Nm"])
+        o["gravity.offset_rad"] = float(g.get("offset_rad", 0.0))
     if "jl_kgm2" in model.get("load", {}):
         o["load.jl_kgm2"] = float(model["load"]["jl_kgm2"])
     if "jm_kgm2" in model.get("motor", {}):

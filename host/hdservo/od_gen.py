@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 OD_VERSION = 1
-PARAM_HASH = 0x4A416ADE
+PARAM_HASH = 0x5C3D9EE7
 VENDOR_ID = 0x00000EDA
 PRODUCT_CODE = 0x00484453
 REVISION = 0x00010000
@@ -302,6 +302,8 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x2840, 3, 'pr_motor_share', 'i32', 'rw', '', '1', 9.313225746154785e-10),
     OdEntry(0x2840, 4, 'pr_t_src', 'u32', 'rw', '', '1', 1.0),
     OdEntry(0x2840, 5, 'pr_jl', 'i32', 'rw', '', 'kg.m^2', 1.52587890625e-05),
+    OdEntry(0x2840, 6, 'pr_mgl', 'i32', 'rw', '', 'N.m', 1.52587890625e-05),
+    OdEntry(0x2840, 7, 'pr_g_off', 'i32', 'rw', '', 'turn', 2.3283064365386963e-10),
     OdEntry(0x2850, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x2850, 1, 'te_n', 'u32', 'rw', '', '1', 1.0),
     OdEntry(0x2850, 2, 'te_k1', 'i32', 'rw', '', 'N.m/turn', 0.00390625),
@@ -318,6 +320,12 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x2850, 13, 'te_order4', 'u32', 'rw', '', '1/rev', 1.0),
     OdEntry(0x2850, 14, 'te_amp4', 'i32', 'rw', '', 'turn', 2.3283064365386963e-10),
     OdEntry(0x2850, 15, 'te_phase4', 'i32', 'rw', '', 'turn', 2.3283064365386963e-10),
+    OdEntry(0x2850, 16, 'te_out_order1', 'u32', 'rw', '', '1/rev', 1.0),
+    OdEntry(0x2850, 17, 'te_out_amp1', 'i32', 'rw', '', 'turn', 2.3283064365386963e-10),
+    OdEntry(0x2850, 18, 'te_out_phase1', 'i32', 'rw', '', 'turn', 2.3283064365386963e-10),
+    OdEntry(0x2850, 19, 'te_out_order2', 'u32', 'rw', '', '1/rev', 1.0),
+    OdEntry(0x2850, 20, 'te_out_amp2', 'i32', 'rw', '', 'turn', 2.3283064365386963e-10),
+    OdEntry(0x2850, 21, 'te_out_phase2', 'i32', 'rw', '', 'turn', 2.3283064365386963e-10),
     OdEntry(0x2860, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x2860, 1, 'bs_c1', 'i32', 'rw', '', '1/s', 1.52587890625e-05),
     OdEntry(0x2860, 2, 'bs_c2', 'i32', 'rw', '', '1/s', 1.52587890625e-05),

@@ -291,6 +291,180 @@ static void test_preisach_model_torque(void **st)
     assert_true(fabs(b.pr_test / 65536.0 - expect) < 1e-3);
 }
 
+
+/* The bank's Preisach twist at a transmitted torque of 3 N.m (J_L a_ref; semi-closed, so
+ * dpos is the twist itself) from a linear gear spring K = 31000 N.m/rad given as either
+ * image direction: a torque -> twist table (HD_PREISACH_UNIT_TORQUE_TWIST, the image
+ * hdservo identify writes) runs forward, a twist -> torque table through its inverse; both
+ * must predict T / K within half a lattice step.  (Running the inverse of a torque -> twist
+ * image returns a torque lattice value as a "twist": 8 N.m of Q15.16 instead of 20".) */
+static int64_t preisach_dpos_at_3nm(const hd_preisach_table_t *t)
+{
+    int32_t p[HD_PARAM_COUNT];
+    static hd_comp_bank_cfg_t c;
+    static hd_comp_bank_t b;
+    hd_comp_bank_in_t in;
+    hd_comp_bank_out_t o;
+    hd_params_defaults(p);
+    p[HD_P_CB_ENABLE] = (int32_t)HD_CB_PREISACH;
+    p[HD_P_FB_CONFIG] = 1;                                               /* semi-closed: raw dpos */
+    p[HD_P_PR_JL] = 1 << 16;                                             /* J_L 1 kg m^2 */
+    p[HD_P_CB_RAMP_TICKS] = 1;
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    hd_comp_bank_init(&b, &c);
+    assert_int_equal(hd_comp_bank_install_table(&b, t), HD_PREISACH_OK);
+    memset(&in, 0, sizeof in);
+    in.acc_ref = (hd_acc_t)llround(3.0 / (2.0 * TEST_PI) * 16777216.0);  /* 3 rad/s^2: 3 N.m */
+    for (int k = 0; k < 4000; k++) hd_comp_bank_pre(&b, &c, &in, &o);   /* 0.4 s: the pr_fc low-pass settles */
+    assert_true(llabs(b.pr_test - (3 << 16)) < 64);
+    return o.dpos;
+}
+
+static void test_preisach_twist_both_directions(void **st)
+{
+    (void)st;
+    static hd_preisach_table_t t;
+    const double k_rad = 31000.0;
+    const double lsb_per_nm = 1.0 / k_rad / (2.0 * TEST_PI) * 4294967296.0;   /* twist 2^-32 turn per N.m */
+    const double expect = 3.0 * lsb_per_nm;
+    /* torque -> twist: 17 levels of 1 N.m (in_shift 16) from -8 N.m, E = c (a - b) / 2 */
+    memset(&t, 0, sizeof t);
+    t.version = 1u; t.levels = 17u; t.sub_bits = 0u; t.in_shift = 16u; t.u0 = -(8 << 16);
+    t.unit = HD_PREISACH_UNIT_TORQUE_TWIST;
+    for (uint32_t i = 0; i < t.levels; i++)
+        for (uint32_t j = 0; j < i; j++) t.e[i * (i + 1u) / 2u + j] = (int32_t)llround(lsb_per_nm * (double)(i - j) / 2.0);
+    hd_preisach_seal(&t);
+    const int64_t fwd = preisach_dpos_at_3nm(&t);
+    print_message("torque -> twist image: dpos %lld LSB, expected %.0f\n", (long long)fwd, expect);
+    assert_true(fabs((double)fwd - expect) <= 0.5 * lsb_per_nm);
+    /* twist -> torque: 33 levels of 2^14 LSB of twist from -2^18, E = K' (a - b) / 2 */
+    memset(&t, 0, sizeof t);
+    t.version = 1u; t.levels = 33u; t.sub_bits = 0u; t.in_shift = 14u; t.u0 = -(1 << 18);
+    t.unit = HD_PREISACH_UNIT_GENERIC;
+    for (uint32_t i = 0; i < t.levels; i++)
+        for (uint32_t j = 0; j < i; j++)
+            t.e[i * (i + 1u) / 2u + j] = (int32_t)llround(65536.0 / lsb_per_nm * 16384.0 * (double)(i - j) / 2.0);
+    hd_preisach_seal(&t);
+    const int64_t inv = preisach_dpos_at_3nm(&t);
+    print_message("twist -> torque image: dpos %lld LSB, expected %.0f\n", (long long)inv, expect);
+    assert_true(fabs((double)inv - expect) <= 8192.0);
+}
+
+/* The model torque estimate holds the unbalance: at rest at an output angle of 60 deg with
+ * pr_mgl 2 N.m it is 2 cos(60 deg) = 1 N.m (offset 0) and 2 cos(150 deg) (offset 0.25 turn), and the
+ * compliance twist follows it (semi-closed: dpos = the twist).  Without pr_mgl the estimate
+ * at rest is 0 and a position hold predicts no twist. */
+static void test_twist_estimate_unbalance(void **st)
+{
+    (void)st;
+    int32_t p[HD_PARAM_COUNT];
+    static hd_comp_bank_cfg_t c;
+    static hd_comp_bank_t b;
+    hd_comp_bank_in_t in;
+    hd_comp_bank_out_t o;
+    static const double off_turn[2] = {0.0, 0.25};
+    for (int i = 0; i < 2; i++) {
+        hd_params_defaults(p);
+        p[HD_P_CB_ENABLE] = (int32_t)HD_CB_COMPLIANCE;
+        p[HD_P_FB_CONFIG] = 1;
+        p[HD_P_CB_RAMP_TICKS] = 1;
+        p[HD_P_PR_MGL] = 2 << 16;
+        p[HD_P_PR_G_OFF] = (int32_t)llround(off_turn[i] * 4294967296.0);
+        assert_int_equal(hd_comp_bank_config(&c, p), 0);
+        hd_comp_bank_init(&b, &c);
+        memset(&in, 0, sizeof in);
+        in.pos_out = (hd_angle_t)llround(60.0 / 360.0 * 4294967296.0);
+        for (int k = 0; k < 4000; k++) hd_comp_bank_pre(&b, &c, &in, &o);
+        const double expect = 2.0 * cos((60.0 / 360.0 + off_turn[i]) * 2.0 * TEST_PI);
+        const double twist = (double)hd_compliance_twist(&c.cp, (int32_t)llround(expect * 65536.0));
+        print_message("offset %.2f turn: torque estimate %.4f N.m (expected %.4f), dpos %lld LSB (twist %.0f)\n",
+                      off_turn[i], b.pr_test / 65536.0, expect, (long long)o.dpos, twist);
+        assert_true(fabs(b.pr_test / 65536.0 - expect) < 1e-4);
+        assert_true(fabs((double)o.dpos - twist) <= 2.0 && fabs(twist) > 1000.0);
+    }
+}
+
+/* A hysteretic torque -> twist image (spring + relays 2 N.m wide, positive density): a newly
+ * installed table predicts no twist at no torque (the gear demagnetised at rest), within two
+ * lattice steps; from negative saturation the memory would keep that extreme's remanence at
+ * every later torque above it (here -1 N.m of twist at 0 N.m). */
+static void test_preisach_memory_starts_demagnetised(void **st)
+{
+    (void)st;
+    static hd_preisach_table_t t;
+    int32_t p[HD_PARAM_COUNT];
+    static hd_comp_bank_cfg_t c;
+    static hd_comp_bank_t b;
+    hd_comp_bank_in_t in;
+    hd_comp_bank_out_t o;
+    const double lsb_per_nm = 1.0 / 31000.0 / (2.0 * TEST_PI) * 4294967296.0;
+    memset(&t, 0, sizeof t);
+    t.version = 1u; t.levels = 17u; t.sub_bits = 2u; t.in_shift = 14u; t.u0 = -(8 << 16);
+    t.unit = HD_PREISACH_UNIT_TORQUE_TWIST;
+    for (uint32_t i = 0; i < t.levels; i++)
+        for (uint32_t j = 0; j < i; j++)
+            t.e[i * (i + 1u) / 2u + j] = (int32_t)llround(lsb_per_nm * ((double)(i - j) + fmax((double)(i - j) - 2.0, 0.0)) / 2.0);
+    hd_preisach_seal(&t);
+    hd_params_defaults(p);
+    p[HD_P_CB_ENABLE] = (int32_t)HD_CB_PREISACH;
+    p[HD_P_FB_CONFIG] = 1;
+    p[HD_P_CB_RAMP_TICKS] = 1;
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    hd_comp_bank_init(&b, &c);
+    assert_int_equal(hd_comp_bank_install_table(&b, &t), HD_PREISACH_OK);
+    memset(&in, 0, sizeof in);
+    for (int k = 0; k < 100; k++) hd_comp_bank_pre(&b, &c, &in, &o);
+    print_message("twist at 0 N.m after the install: %lld LSB (lattice step %.0f)\n", (long long)o.dpos,
+                  lsb_per_nm / 4.0);
+    assert_true(fabs((double)o.dpos) <= lsb_per_nm / 2.0);
+    /* the loop still has its width: +3 N.m and back to 0 leaves a positive remanence */
+    in.acc_ref = (hd_acc_t)llround(3.0 / (2.0 * TEST_PI * 0.5) * 16777216.0);   /* pr_jl 0.5: 3 N.m */
+    for (int k = 0; k < 4000; k++) hd_comp_bank_pre(&b, &c, &in, &o);
+    const int64_t at3 = o.dpos;
+    in.acc_ref = 0;
+    for (int k = 0; k < 4000; k++) hd_comp_bank_pre(&b, &c, &in, &o);
+    print_message("twist at 3 N.m %lld, back at 0 N.m %lld LSB\n", (long long)at3, (long long)o.dpos);
+    assert_true(at3 > (int64_t)(3.0 * lsb_per_nm) && o.dpos > (int64_t)(0.5 * lsb_per_nm) && o.dpos < at3);
+}
+
+/* Output-side TE lines (te_out_*): in semi-closed the correction is -a sin(2 pi (n x + p)) at the
+ * output position x the loop knows, on top of the wave-generator lines (here none), and it ramps
+ * with the TE weight. */
+static void test_te_output_lines(void **st)
+{
+    (void)st;
+    int32_t p[HD_PARAM_COUNT];
+    static hd_comp_bank_cfg_t c;
+    static hd_comp_bank_t b;
+    hd_comp_bank_in_t in;
+    hd_comp_bank_out_t o;
+    const double amp = 6.0 / 1296000.0, ph = 0.11;                       /* 6 arcsec, turn */
+    hd_params_defaults(p);
+    p[HD_P_CB_ENABLE] = (int32_t)HD_CB_TE;
+    p[HD_P_FB_CONFIG] = 1;
+    p[HD_P_CB_RAMP_TICKS] = 1;
+    p[HD_P_TE_N] = 0;
+    p[HD_P_TE_OUT_ORDER1] = 1;
+    p[HD_P_TE_OUT_AMP1] = (int32_t)llround(amp * 4294967296.0);
+    p[HD_P_TE_OUT_PHASE1] = (int32_t)llround(ph * 4294967296.0);
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    assert_int_equal(c.te_out.n, 1u);
+    hd_comp_bank_init(&b, &c);
+    memset(&in, 0, sizeof in);
+    for (int deg = -170; deg <= 180; deg += 35) {
+        in.pos_out = (hd_angle_t)llround(deg / 360.0 * 4294967296.0) + ((hd_angle_t)3 << 32);   /* 3 turns on */
+        in.pos_mot = in.pos_out * N_RATIO;
+        for (int k = 0; k < 3; k++) hd_comp_bank_pre(&b, &c, &in, &o);
+        const double expect = -amp * sin(2.0 * TEST_PI * (deg / 360.0 + ph)) * 4294967296.0;
+        assert_true(fabs((double)o.dpos - expect) <= 2.0);
+    }
+    /* switched off: the correction ramps out with the wave-generator lines */
+    c.enable = 0u;
+    hd_comp_bank_apply(&b, &c);
+    for (int k = 0; k < 3; k++) hd_comp_bank_pre(&b, &c, &in, &o);
+    assert_int_equal(o.dpos, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -301,6 +475,10 @@ int main(void)
         cmocka_unit_test(test_maxwell_stiffness_range),
         cmocka_unit_test(test_pki_schedule),
         cmocka_unit_test(test_preisach_model_torque),
+        cmocka_unit_test(test_preisach_twist_both_directions),
+        cmocka_unit_test(test_twist_estimate_unbalance),
+        cmocka_unit_test(test_preisach_memory_starts_demagnetised),
+        cmocka_unit_test(test_te_output_lines),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

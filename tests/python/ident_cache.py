@@ -60,7 +60,7 @@ def stiffness(name: str) -> stf.StiffnessResult:
 SIM_BIN = Path(os.environ.get("HDSERVO_SIM", truth.ROOT / "build" / "bin" / "hdservo-sim"))
 
 CAN_SHORT = {
-    "te_rotation": ex.TERotation(wg_revs=2, settle_s=0.5),
+    "te_rotation": ex.TERotation(wg_revs=2, output_span_rad=0.0, settle_s=0.5),
     "gravity_sine": ex.GravitySine(amplitudes_rad=(0.8, 0.4), frequencies_Hz=(0.2, 0.4)),
     "friction_sweep": ex.FrictionSweep(v_min_rad_s=1e-3, v_max_rad_s=0.3, points=8, settle_s=0.3,
                                        min_window_s=0.2, max_window_s=1.0),

@@ -81,6 +81,38 @@ def test_worse_factor_and_rule() -> None:
     assert best == ["te"] and "no compensator qualifies" in why[-1]
     best, _ = cmp.choose_best({"backstep": single["backstep"]}, base, KEYS)
     assert best == []
+    # compliance is its own group, but not combined with the Preisach twist (it holds the elastic part)
+    single["compliance"] = {**base, "positioning_accuracy_arcsec": 0.8}
+    best, why = cmp.choose_best(single, base, KEYS)
+    assert best == ["lugre", "compliance"] and "preisach: left out next to compliance" in why[-1]
+    single["compliance"] = {**base, "positioning_accuracy_arcsec": 1.2}       # x0.6 vs the Preisach's x0.5
+    best, _ = cmp.choose_best(single, base, KEYS)
+    assert best == ["lugre", "preisach"]
+    best, _ = cmp.choose_best({"maxwell": {**base, "positioning_accuracy_arcsec": 1.0}, "te": single["te"],
+                               "compliance": single["compliance"]}, base, KEYS)
+    assert best == ["maxwell", "compliance"]                                  # lost motion + elastic twist
+
+
+def test_motor_side_pair_competes_with_te() -> None:
+    """Semi-closed: TE alone and the Preisach alone each move the tracking offset (worse by 20 %), their
+    pair improves every figure; the pair wins the TE group and stands for its parts."""
+    base = {"positioning_accuracy_arcsec": 30.0, "tracking_rms_0p01_arcsec": 8.0, "bandwidth_hz": 20.0}
+    single = {"te": {**base, "positioning_accuracy_arcsec": 4.0, "tracking_rms_0p01_arcsec": 9.7},
+              "preisach": {**base, "positioning_accuracy_arcsec": 29.0, "tracking_rms_0p01_arcsec": 13.0},
+              "lugre": {**base, "tracking_rms_0p01_arcsec": 4.0},
+              "te+preisach": {**base, "positioning_accuracy_arcsec": 2.4, "tracking_rms_0p01_arcsec": 7.0},
+              "te+compliance": {**base, "positioning_accuracy_arcsec": 4.0, "tracking_rms_0p01_arcsec": 9.6}}
+    best, why = cmp.choose_best(single, base, KEYS)
+    assert best == ["lugre", "preisach", "te"]
+    assert any(w.startswith("te: does not qualify") for w in why)
+    # a pair and a single of another group that hold the same twist: the one with the larger factor goes
+    single["compliance"] = {**base, "positioning_accuracy_arcsec": 1.0}
+    best, why = cmp.choose_best(single, base, KEYS)
+    assert best == ["lugre", "compliance"] and "te+preisach: left out next to compliance" in why[-1]
+    # ... and the group's next candidate without the conflicting part takes its place
+    single["te+maxwell"] = {**base, "positioning_accuracy_arcsec": 3.0, "tracking_rms_0p01_arcsec": 7.5}
+    best, _ = cmp.choose_best(single, base, KEYS)
+    assert best == ["lugre", "maxwell", "te", "compliance"]
 
 
 def test_rule_skips_unmeasured_and_settling_and_failures_run_again(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -184,7 +216,7 @@ def test_run_ablation_rows_ratios_and_files(tmp_path: Path, monkeypatch: pytest.
     assert ab["semi-closed"]["best"] == ["lugre", "te"]
     names = list(doc["controllers"])
     full = [n for n in names if "@" not in n and n != "pid-hold"]
-    assert full == ["pid", "stribeck", "lugre", "maxwell", "preisach", "te", "backstep", "best", "best+hold",
+    assert full == ["pid", "stribeck", "lugre", "maxwell", "preisach", "te", "compliance", "backstep", "best", "best+hold",
                     "best+hold+approach"]
     semi = [n for n in names if n.endswith("@semi-closed")]
     assert semi[:1] == ["pid@semi-closed"] and "best-te@semi-closed" in semi and "best-lugre@semi-closed" in semi

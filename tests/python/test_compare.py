@@ -64,8 +64,8 @@ def test_controllers_and_best(monkeypatch: pytest.MonkeyPatch) -> None:
     assert c[0].compensators == [] and c[2].compensators == ["stribeck", "te"]
     with pytest.raises(ValueError, match="unknown controller 'bogus'"):
         cmp.controllers_from_names(["pid", "bogus"])
-    assert cmp.default_controller_names() == ["pid", "stribeck", "lugre", "maxwell", "preisach", "te", "backstep",
-                                              "best"]
+    assert cmp.default_controller_names() == ["pid", "stribeck", "lugre", "maxwell", "preisach", "te", "compliance",
+                                              "backstep", "best"]
     # every row on the fair footing: the compensated set's loop gains, stabilisation in the gyro mode
     for x in c:
         assert {k: x.gains[k] for k in compsetup.FAIR_GAINS} == compsetup.FAIR_GAINS

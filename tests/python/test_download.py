@@ -2,6 +2,7 @@
 verified by read-back; a corrupted table is refused (locally and by the drive) and the old one stays."""
 from __future__ import annotations
 
+import math
 import struct
 import zlib
 from pathlib import Path
@@ -181,3 +182,22 @@ def test_download_save_survives_a_restart(tmp_path: Path, capsys) -> None:
                 assert d.read(p.index, p.sub) == p.raw_default       # the restored default, saved
     finally:
         srv.stop()
+
+
+def test_plan_carries_unbalance_output_te_and_three_slope(tmp_path: Path) -> None:
+    """The identified unbalance, output-side TE lines and three-slope curve reach the drive parameters
+    (the twist estimate's pr_mgl / pr_g_off, te_out_*, cp_*), not the axis file's values."""
+    from hdservo.download import plan_download
+    m, _ = _model(tmp_path)
+    text = MODEL.replace("[identified]", "out1_order = 1\nout1_amp_rad = 3.0e-5\nout1_phase_rad = 0.7\n"
+                                          "[gravity]\nmgl_Nm = 1.5\noffset_rad = -0.2\n[identified]")
+    text = text.replace("k2_Nm_per_rad = 50000.0", "k2_Nm_per_rad = 45000.0")
+    m.write_text(text)
+    p = plan_download(m, "reference")["params"]
+    assert p["pr_mgl"] == pytest.approx(1.5) and p["pr_g_off"] == pytest.approx(-0.2 / (2 * math.pi))
+    assert p["te_out_order1"] == 1 and p["te_out_amp1"] == pytest.approx(3.0e-5 / (2 * math.pi))
+    assert p["te_out_phase1"] == pytest.approx(0.7 / (2 * math.pi)) and p["te_out_amp2"] == 0.0
+    assert p["cp_k2"] == pytest.approx(45000.0 * 2 * math.pi)
+    # a model without output-side lines: none (the axis file's line is not the model's)
+    m.write_text(MODEL)
+    assert plan_download(m, "reference")["params"]["te_out_amp1"] == 0.0

@@ -36,7 +36,7 @@ def test_log_without_experiment_key(tmp_path: Path, capsys) -> None:
 
 
 def test_te_from_saved_log(tmp_path: Path, capsys) -> None:
-    d = cache.runner("reference").run(ex.TERotation(wg_revs=2))
+    d = cache.runner("reference").run(ex.TERotation(wg_revs=2, output_span_rad=0.0))
     log = tmp_path / "te.csv"
     d.save(log)
     out, js = tmp_path / "model.toml", tmp_path / "r.json"

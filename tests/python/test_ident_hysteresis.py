@@ -44,6 +44,31 @@ def test_preisach_predicts_held_out_minor_loops(name: str) -> None:
     assert q.rms_over_width <= 0.05
 
 
+def test_identified_table_resolves_torque_inside_a_grid_cell() -> None:
+    """The drive's twist from the identified torque -> twist image follows the torque between grid levels.
+
+    A linear gear spring (K = 31000 N.m/rad) on the identification's grid (32 levels of 2 N.m from
+    -31 N.m): on the ascending branch from negative saturation the firmware output is
+    -E(P, 0) + 2 E(p, 0) at the lattice index p of the torque (rounded as hd_preisach_quantise), so
+    holding 1.3 and 1.9 N.m must predict twists 0.6 N.m / K apart.
+    """
+    from oracles.compref import everett_lattice
+    k, levels, step, u0 = 31000.0, 32, 2.0, -31.0
+    grid = u0 + step * np.arange(levels)
+    ev = hy.Everett(u0_Nm=u0, step_Nm=step, table=np.tril(np.subtract.outer(grid, grid)) / (2.0 * k))
+    tab = hy.quantise_table(ev)
+    g = tab.grid()
+    p_top = (levels - 1) << tab.sub_bits
+
+    def twist(t_nm: float) -> float:
+        p = min(max(int(np.floor((round(t_nm * 65536) - tab.u0) / 2 ** tab.in_shift + 0.5)), 0), p_top)
+        y = -everett_lattice(g, tab.sub_bits, p_top, 0) + 2.0 * everett_lattice(g, tab.sub_bits, p, 0)
+        return y * hy.TWIST_LSB_RAD
+    d = twist(1.9) - twist(1.3)
+    assert d == pytest.approx(0.6 / k, rel=0.15)
+    assert twist(1.3) == pytest.approx(1.3 / k, abs=0.0625 / k + 1e-9)
+
+
 def test_stop_operator_and_masing_loop() -> None:
     phi = np.concatenate([np.linspace(0, 1, 50), np.linspace(1, -1, 100), np.linspace(-1, 1, 100)])
     s = hy.stop_operators(phi, np.array([0.25]))[:, 0]

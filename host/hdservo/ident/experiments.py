@@ -252,7 +252,7 @@ class GravitySine:
 
 @dataclass
 class TERotation:
-    """Slow constant rotation, both directions, whole WG revolutions (velocity mode).
+    """Slow constant rotation, both directions, whole WG revolutions over an output span (velocity mode).
 
     The speed keeps the 2x-WG line far below the anti-resonance (the load
     follows the kinematic error through the spring without amplification).
@@ -260,13 +260,23 @@ class TERotation:
 
     velocity_rad_s: float = 0.05
     wg_revs: int = 4
+    #: output span of the rotation, rad (0: the WG revolutions alone, +v then -v).  The output-side
+    #: lines (per output revolution) need a large part of a turn; a pitch axis has no whole one (the
+    #: drive's travel limits, +-0.3 turn = +-1.88 rad by default), so the windows go +span/2, -span,
+    #: +span/2 (on a drive: about the start and back to it; the simulator starts each window at 0),
+    #: whole WG revolutions each
+    output_span_rad: float = 1.7
     settle_s: float = 1.0
     kind: str = "te_rotation"
 
     def plan(self, ratio: float) -> list[dict[str, Any]]:
-        win = self.wg_revs * 2.0 * math.pi / ratio / self.velocity_rad_s
+        def win(span: float) -> float:
+            wg = max(float(self.wg_revs), math.floor(span * ratio / (2.0 * math.pi)))   # whole WG revolutions
+            return wg * 2.0 * math.pi / ratio / self.velocity_rad_s
+        legs = ((1.0, 0.0), (-1.0, 0.0)) if self.output_span_rad <= 0 else \
+            ((1.0, 0.5 * self.output_span_rad), (-1.0, self.output_span_rad), (1.0, 0.5 * self.output_span_rad))
         return [{"mode": "velocity", "velocity_rad_s": s * self.velocity_rad_s, "settle_s": self.settle_s,
-                 "window_s": win} for s in (1.0, -1.0)]
+                 "window_s": win(span)} for s, span in legs]
 
 
 @dataclass

@@ -256,17 +256,26 @@ def grid_for(torque_range_Nm: float, levels: int) -> tuple[float, float]:
     return -0.5 * (levels - 1) * step, step
 
 
-def quantise_table(ev: Everett, version: int = 1) -> pt.PreisachTable:
+#: Lattice steps per grid cell of the identified table, as a power of two: the drive interpolates the
+#: Everett function between the grid levels, so its torque input moves in steps of 1/16 of a grid step
+#: (0.125 N.m on a 2 N.m grid).  With the input on the grid alone (0) a held torque anywhere inside one
+#: 2 N.m cell gave one twist, and a slow change of the torque stepped the predicted twist by the whole
+#: cell (13 arcsec on the reference axis).
+TABLE_SUB_BITS = 4
+
+
+def quantise_table(ev: Everett, version: int = 1, sub_bits: int = TABLE_SUB_BITS) -> pt.PreisachTable:
     """Firmware image (magic, CRC) of an Everett table via :mod:`hdservo.preisach_table`.
 
-    Input Q15.16 N.m (lattice = grid, sub_bits 0, in_shift = log2(step/LSB)),
-    output 2^-32 turn.
+    Input Q15.16 N.m (grid levels every 2^sub_bits lattice steps, in_shift = log2(step/LSB) -
+    sub_bits), output 2^-32 turn.
     """
     shift = int(round(math.log2(ev.step_Nm / TORQUE_LSB_NM)))
     if not (0 <= shift <= pt.SHIFT_MAX) or abs(2.0 ** shift * TORQUE_LSB_NM - ev.step_Nm) > 1e-12:
         raise UserError(f"preisach: grid step {ev.step_Nm} N.m is not a power of two of the Q15.16 LSB")
+    sub = max(0, min(int(sub_bits), shift))
     u0 = int(round(ev.u0_Nm / TORQUE_LSB_NM))
-    return pt.quantise_everett(ev.table, 1.0 / TWIST_LSB_RAD, sub_bits=0, in_shift=shift, u0=u0,
+    return pt.quantise_everett(ev.table, 1.0 / TWIST_LSB_RAD, sub_bits=sub, in_shift=shift - sub, u0=u0,
                                unit=pt.UNIT_TORQUE_TWIST, version=version)
 
 

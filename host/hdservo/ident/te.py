@@ -4,14 +4,15 @@ Measured TE (harmonic-drive.md 3.1): ``y = theta_l - theta_m / N = e - phi``
 with ``e`` the kinematic error and ``phi`` the twist, which is constant in a
 steady constant-speed window apart from slow gravity/friction drifts.  Per
 window the fit removes an offset and a linear + quadratic drift in the
-motor angle; the WG orders ``n`` (cycles per motor = WG revolution) are
+motor angle (only the offset when the windows span a large part of an
+output revolution); the WG orders ``n`` (cycles per motor = WG revolution) are
 shared by all windows (both directions)::
 
     e(theta_m) = sum_n a_n sin(n theta_m + p_n)           (rad at the output)
 
 the same form as the plant's ``transmission_error.wgK_*`` keys.  Orders per
-output revolution are fitted too when the windows span at least one output
-revolution.  Amplitudes are divided by the gain with which the load follows
+output revolution are fitted too when a window spans enough of a turn
+(:data:`OUT_SPAN_MIN_TURN`).  Amplitudes are divided by the gain with which the load follows
 a kinematic error through the spring, ``1/(1 - (f/f_a)^2)``, when the
 anti-resonance ``f_a`` is known (FRF); at the default 0.05 rad/s this is a
 0.2 % correction on the reference axis.
@@ -20,12 +21,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any, Callable, Optional, Sequence
 
 import numpy as np
 
 from ..errors import UserError
 from .experiments import ExperimentData
+
+
+#: Output-side line n is fitted when a window spans at least n times this part of a turn: over a fifth
+#: of a turn a line per output revolution is told apart from the windows' offsets, a second order
+#: beside it needs twice that (over a short span the low orders and the offset look alike).
+OUT_SPAN_MIN_TURN = 0.2
 
 
 @dataclass
@@ -81,7 +88,8 @@ class TEResult:
                 "samples": self.samples}
 
 
-def _steady_rows(data: ExperimentData) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray],
+def _steady_rows(data: ExperimentData,
+                 twist_model: Optional[Callable[[int], np.ndarray]] = None) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray],
                                                 list[np.ndarray], list[float]]:
     """Per segment past its ``settle_s`` (segments with fewer than 20 such samples left out): the
     kinematic error theta_L - theta_M / N (rad), theta_M, theta_L (rad), the segment index per
@@ -96,7 +104,7 @@ def _steady_rows(data: ExperimentData) -> tuple[list[np.ndarray], list[np.ndarra
         if m.sum() < 20:
             continue
         th_m, th_l = c["motor_angle_rad"][m], c["load_angle_rad"][m]
-        rows_y.append(th_l - th_m / N)
+        rows_y.append(th_l - th_m / N + (twist_model(seg["index"])[m] if twist_model is not None else 0.0))
         rows_m.append(th_m)
         rows_l.append(th_l)
         seg_id.append(np.full(m.sum(), len(seg_id)))
@@ -105,15 +113,16 @@ def _steady_rows(data: ExperimentData) -> tuple[list[np.ndarray], list[np.ndarra
 
 
 def _te_design(th_m: np.ndarray, th_l: np.ndarray, sid: np.ndarray, wg_orders: Sequence[int],
-               out_orders: Sequence[int]) -> tuple[np.ndarray, int]:
-    """Regressors of the TE fit: a quadratic drift per segment (in its normalised motor angle),
+               out_orders: Sequence[int], n_drift: int = 3) -> tuple[np.ndarray, int]:
+    """Regressors of the TE fit: a drift per segment (offset, linear, quadratic: the first ``n_drift``,
+    in its normalised motor angle),
     then sin/cos of each WG order of theta_M and each output order of theta_L; returns (A, segments)."""
     cols = []
     nseg = int(sid.max()) + 1
     for s in range(nseg):
         msk = (sid == s).astype(float)
         x = (th_m - th_m[sid == s].mean()) / max(np.ptp(th_m[sid == s]), 1e-12)
-        cols += [msk, msk * x, msk * x * x]
+        cols += [msk, msk * x, msk * x * x][:n_drift]
     for n in wg_orders:
         cols += [np.sin(n * th_m), np.cos(n * th_m)]
     for n in out_orders:
@@ -132,7 +141,8 @@ def _harmonics(h: np.ndarray, count: int, offset: int) -> tuple[list[float], lis
 
 
 def fit_te(data: ExperimentData, wg_orders: Sequence[int] = (1, 2, 3, 4, 6), out_orders: Sequence[int] = (1, 2),
-           f_antiresonance_Hz: float | None = None) -> TEResult:
+           f_antiresonance_Hz: float | None = None,
+           twist_model: Optional[Callable[[int], np.ndarray]] = None) -> TEResult:
     """Fit the TE harmonics from a slow constant-rotation experiment.
 
     Parameters
@@ -144,6 +154,11 @@ def fit_te(data: ExperimentData, wg_orders: Sequence[int] = (1, 2, 3, 4, 6), out
         Candidate orders per WG / output revolution.
     f_antiresonance_Hz : float, optional
         Anti-resonance (Hz) for the spring-following correction.
+    twist_model : callable, optional
+        Predicted twist (rad) of every sample of segment ``index``, e.g. the hysteresis model
+        at the unbalance the gear holds.  Over an output revolution the twist of the
+        unbalance is itself a line per output revolution, which the fit would otherwise take
+        for kinematic error; it is added back (``e = y + phi``) before the fit.
 
     Returns
     -------
@@ -152,7 +167,7 @@ def fit_te(data: ExperimentData, wg_orders: Sequence[int] = (1, 2, 3, 4, 6), out
     if data.kind != "te_rotation":
         raise UserError(f"te: expected te_rotation data, found '{data.kind}'")
     N = data.gear_ratio
-    rows_y, rows_m, rows_l, seg_id, speeds = _steady_rows(data)
+    rows_y, rows_m, rows_l, seg_id, speeds = _steady_rows(data, twist_model)
     if not rows_y:
         raise UserError("te: no steady-state samples (segments too short)")
     y = np.concatenate(rows_y)
@@ -160,11 +175,15 @@ def fit_te(data: ExperimentData, wg_orders: Sequence[int] = (1, 2, 3, 4, 6), out
     th_l = np.concatenate(rows_l)
     sid = np.concatenate(seg_id)
     span_l = max(float(np.ptp(r)) for r in rows_l)
-    use_out = [n for n in out_orders if span_l >= 2 * math.pi / n]
-    A, nseg = _te_design(th_m, th_l, sid, wg_orders, use_out)
+    use_out = [n for n in out_orders if span_l >= n * OUT_SPAN_MIN_TURN * 2 * math.pi]
+    # per window an offset and a linear + quadratic drift; over a whole output revolution only the
+    # offset (a drift polynomial there would take part of the output-side lines; the unbalance's
+    # twist, the drift it stood for, is then a line itself: see twist_model)
+    n_drift = 1 if use_out else 3
+    A, nseg = _te_design(th_m, th_l, sid, wg_orders, use_out, n_drift)
     coef, *_ = np.linalg.lstsq(A, y, rcond=None)
     res = y - A @ coef
-    h = coef[3 * nseg:]
+    h = coef[n_drift * nseg:]
     v = float(np.mean(speeds))
     gains = [1.0 / abs(1.0 - (n * N * v / (2 * math.pi) / f_antiresonance_Hz) ** 2) if f_antiresonance_Hz else 1.0
              for n in wg_orders]
@@ -177,6 +196,6 @@ def fit_te(data: ExperimentData, wg_orders: Sequence[int] = (1, 2, 3, 4, 6), out
     g = np.linspace(0, 2 * math.pi, 721)
     r.peak_to_peak_rad = float(np.ptp(r.evaluate(g)))
     # angle-domain plot data: TE minus the drift terms, vs WG angle mod 2 pi
-    drift = A[:, :3 * nseg] @ coef[:3 * nseg]
+    drift = A[:, :n_drift * nseg] @ coef[:n_drift * nseg]
     r.plot_data = {"wg_angle_rad": np.mod(th_m, 2 * math.pi), "te_rad": y - drift, "residual_rad": res}
     return r
