@@ -162,3 +162,52 @@ def test_encoder_zeros_that_differ(tmp_path: Path, cog_log: Path, capsys) -> Non
     assert res["named_effects"] == want["named_effects"] and res["named_effects"][:1] == ["cogging_torque"]
     assert abs(res["baseline"]["K_Nm_per_rad"] / want["baseline"]["K_Nm_per_rad"] - 1) < 0.02
     assert any("zeros differ" in n and "0.0188" in n for n in res["notes"]), res["notes"]
+
+
+def test_users_log_with_minimal_sidecar_and_coarse_encoder(tmp_path: Path, cog_log: Path, capsys) -> None:
+    """A user's log: the documented columns, a sidecar with only gear_ratio and sample_period_s
+    (no format tag), a 13-bit motor encoder: analysed, with one warning line on the range."""
+    import numpy as np
+    from hdservo import logio
+    log = logio.read_log(cog_log)
+    q = 2 * np.pi / 2 ** 13
+    cols = {"t_s": log.t, "motor_angle_rad": np.round(log["motor_angle_rad"] / q) * q,
+            "load_angle_rad": log["load_angle_rad"], "motor_torque_Nm": log["motor_torque_Nm"]}
+    p = tmp_path / "user.csv"
+    p.write_text(logio.format_csv(cols))
+    p.with_suffix(".json").write_text(json.dumps({"gear_ratio": log.meta["gear_ratio"],
+                                                  "sample_period_s": log.meta["sample_period_s"]}))
+    out = tmp_path / "o.json"
+    capsys.readouterr()
+    assert cli.main(["discrepancy", str(p), "--json", str(out)]) == 0
+    err = [ln for ln in capsys.readouterr().err.splitlines() if "warning" in ln]
+    assert len(err) == 1 and str(p) in err[0] and "motor encoder 13.0 bits" in err[0], err
+    r = json.loads(out.read_text())
+    vr = r["validated_range"]
+    assert vr["inside"] is False and abs(vr["log"]["motor_encoder_bits"] - 13.0) < 1e-6
+    assert any("motor encoder 13.0 bits" in n for n in r["notes"])
+    # a sidecar whose tag names another format is still refused (one line, no output)
+    out.unlink()
+    p.with_suffix(".json").write_text(json.dumps({"format": "other", "gear_ratio": 100.0, "sample_period_s": 1e-4}))
+    assert cli.main(["discrepancy", str(p), "--json", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and '"format"' in err[0] and not out.exists()
+
+
+def test_validated_range_checks() -> None:
+    import numpy as np
+    from hdservo.discrepancy import validity as v
+    rng = np.random.default_rng(3)
+    x = np.cumsum(rng.normal(0, 1e-3, 5000))
+    for bits in (14, 17, 20):
+        q = 2 * np.pi / 2 ** bits
+        assert abs(v.quantum_bits(np.round(x / q) * q) - bits) < 1e-6
+    assert v.quantum_bits(x) is None                        # not on a grid: resolution unknown
+    inside = v.LogRange(rate_Hz=2000.0, motor_bits=17.0, load_bits=None)
+    assert v.outside(inside) == [] and v.warning("l.csv", inside) is None
+    assert v.outside(v.LogRange(500.0, 17.0, 24.0)) == ["sampled at 500 Hz"]
+    assert v.outside(v.LogRange(20000.0, 17.0, 24.0)) == ["sampled at 20000 Hz"]
+    assert v.outside(v.LogRange(1000.0, 30.0, 16.0)) == ["output encoder 16.0 bits"]
+    w = v.warning("l.csv", v.LogRange(500.0, 12.0, 24.0))
+    assert w is not None and "\n" not in w and w.startswith("l.csv: sampled at 500 Hz, motor encoder 12.0 bits")
+    assert v.log_range({"motor_encoder_counts_per_rev": 2 ** 16}, 1e-3, x, None).motor_bits == 16.0

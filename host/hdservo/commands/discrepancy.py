@@ -59,27 +59,32 @@ def read_model(path: Path) -> dict[str, Any]:
     return {"structure": st, "offset": off}
 
 
-#: Log rate the workflow's tables were measured at and down to, Hz (10 kHz and, every 5th
-#: sample, 2 kHz: the same names; at 1 kHz Stribeck friction is found in 1 of 4 held-out logs).
-MIN_VALIDATED_RATE_HZ = 2000.0
-
-
 def run(args: argparse.Namespace) -> int:
     from .. import logio
     from ..fileio import write_json_atomic
-    from ..discrepancy import signals, workflow
+    from ..discrepancy import signals, validity, workflow
     model = read_model(args.model) if args.model else {"structure": None, "offset": None}
-    log = logio.read_log(args.log)
+    # a user's own log: the documented columns and gear_ratio + sample_period_s suffice
+    log = logio.read_log(args.log, require_tag=False)
     sig = signals.from_log(log, model["structure"])
+    cols = signals.resolve_columns(log)
+    rotary = sig.units["angle"] == "rad"      # a linear axis' metres have no bits per revolution
+    rng = validity.log_range(log.meta, sig.dt,
+                             log[cols["motor_angle_rad"]] if rotary and "motor_angle_rad" in cols else None,
+                             log[cols["load_angle_rad"]] if rotary and "load_angle_rad" in cols else None)
+    warn = validity.warning(str(args.log), rng)
+    if warn:
+        print(f"[discrepancy] warning: {warn}", file=sys.stderr)
     res = workflow.run(sig, offset=model["offset"])
     out = res.to_json()
     out["log"] = str(args.log)
     out["structure"] = sig.kind
-    notes = list(res.notes)
-    if 1.0 / sig.dt < MIN_VALIDATED_RATE_HZ:
-        notes.append(f"log sampled at {1.0 / sig.dt:.0f} Hz, below the {MIN_VALIDATED_RATE_HZ:.0f} Hz the workflow is "
-                     "validated at: Stribeck friction and small effects are less reliable (docs/discrepancy.md)")
-    out["notes"] = notes
+    out["validated_range"] = {"rate_Hz": list(validity.RATE_HZ), "motor_encoder_bits": list(validity.MOTOR_BITS),
+                              "output_encoder_bits": list(validity.LOAD_BITS),
+                              "log": {"rate_Hz": rng.rate_Hz, "motor_encoder_bits": rng.motor_bits,
+                                      "output_encoder_bits": rng.load_bits},
+                              "inside": warn is None}
+    out["notes"] = list(res.notes) + ([warn] if warn else [])
     if args.plots:
         from ..discrepancy.plots import write_plots
         out["plots"] = [str(p) for p in write_plots(res, args.plots)]
@@ -106,6 +111,6 @@ def run(args: argparse.Namespace) -> int:
                   f"{g['before']:.4g} -> {g['after']:.4g} {gu}, {sh}")
     if not res.iterations:
         print("  no significant missing effect")
-    for n in notes:
+    for n in res.notes:
         print(f"[discrepancy] note: {n}", file=sys.stderr)
     return 0
