@@ -211,3 +211,56 @@ def test_validated_range_checks() -> None:
     w = v.warning("l.csv", v.LogRange(500.0, 12.0, 24.0))
     assert w is not None and "\n" not in w and w.startswith("l.csv: sampled at 500 Hz, motor encoder 12.0 bits")
     assert v.log_range({"motor_encoder_counts_per_rev": 2 ** 16}, 1e-3, x, None).motor_bits == 16.0
+
+
+@pytest.mark.parametrize("keep, angles", [("motor_angle_rad", "motor"), ("load_angle_rad", "output")])
+def test_one_encoder_names_only_what_it_can_show(tmp_path: Path, cog_log: Path, capsys, keep: str,
+                                                  angles: str) -> None:
+    """A log with one encoder never names an effect outside its row of the identifiability
+    table and lists the rest as not identifiable from these signals (cogging is hidden in
+    the log: the motor encoder shows it, the output encoder alone cannot)."""
+    from hdservo import logio
+    from hdservo.discrepancy import IDENTIFIABLE, NOT_IDENTIFIABLE
+    log = logio.read_log(cog_log)
+    p = tmp_path / f"{angles}.csv"
+    logio.write_log(p, {"t_s": log.t, keep: log[keep], "motor_torque_Nm": log["motor_torque_Nm"]},
+                    {"gear_ratio": log.meta["gear_ratio"], "sample_period_s": log.meta["sample_period_s"]})
+    out = tmp_path / "o.json"
+    capsys.readouterr()
+    assert cli.main(["discrepancy", str(p), "--json", str(out)]) == 0
+    r = json.loads(out.read_text())
+    assert r["signals"] == angles
+    assert set(r["named_effects"]) <= set(IDENTIFIABLE[angles])
+    assert {e for e, v in r["identifiability"].items() if v == NOT_IDENTIFIABLE} == \
+        set(EFFECT_NAMES) - set(IDENTIFIABLE[angles]) == set(r["not_identifiable"])
+    assert "cogging_torque" in r["not_identifiable"] if angles == "output" else "cogging_torque" in r["named_effects"]
+    ranked = {c["effect"] for c in r["first_ranking"]}
+    assert not ranked & set(r["not_identifiable"])
+    assert NOT_IDENTIFIABLE in capsys.readouterr().out
+
+
+def test_output_encoder_alone_never_names_cogging(tmp_path: Path, capsys) -> None:
+    """A rigid log with the output encoder alone whose torque carries a ripple at 40 lines per
+    output revolution: the motor angle it would need to be cogging is not measured, so the
+    workflow does not name cogging_torque (it reports it as not identifiable)."""
+    import numpy as np
+    from hdservo import logio
+    from hdservo.discrepancy import NOT_IDENTIFIABLE
+    dt, N = 5e-4, 50.0
+    t = np.arange(int(8.0 / dt)) * dt
+    th = 0.8 * np.sin(2 * np.pi * 0.25 * t) + 0.02 * np.sin(2 * np.pi * 3.1 * t)
+    v, a = np.gradient(th, dt), np.gradient(np.gradient(th, dt), dt)
+    J, Fv, Fc = 0.02, 0.01, 0.05                            # at the motor, per output rad/s x N
+    tau = J * N * a + Fv * N * v + Fc * np.tanh(v / 0.01) + 0.4 * Fc * np.cos(40 * th + 0.3)
+    rng = np.random.default_rng(5)
+    q = 2 * np.pi / 2 ** 22
+    p = tmp_path / "out_only.csv"
+    logio.write_log(p, {"t_s": t, "load_angle_rad": np.round(th / q) * q,
+                        "motor_torque_Nm": tau + rng.normal(0, 1e-4, t.size)},
+                    {"gear_ratio": N, "sample_period_s": dt})
+    out = tmp_path / "o.json"
+    assert cli.main(["discrepancy", str(p), "--json", str(out)]) == 0
+    r = json.loads(out.read_text())
+    assert r["signals"] == "output" and r["identifiability"]["cogging_torque"] == NOT_IDENTIFIABLE
+    assert "cogging_torque" not in r["named_effects"]
+    assert "cogging_torque" not in {c["effect"] for c in r["first_ranking"]}

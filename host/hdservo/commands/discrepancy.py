@@ -111,6 +111,11 @@ def run(args: argparse.Namespace) -> int:
                   f"{g['before']:.4g} -> {g['after']:.4g} {gu}, {sh}")
     if not res.iterations:
         print("  no significant missing effect")
+    hidden = [e for e, v in res.identifiability.items() if v != "identifiable"]
+    if hidden:
+        from ..discrepancy import NOT_IDENTIFIABLE
+        print(f"  {NOT_IDENTIFIABLE} ({res.angles} encoder{'s' if res.angles == 'both' else ''} + torque): "
+              + ", ".join(hidden))
     for n in res.notes:
         print(f"[discrepancy] note: {n}", file=sys.stderr)
     return 0
