@@ -187,6 +187,71 @@ int32_t hd_simlib_open_loop(const char *axis, const char *const *keys, const dou
     return 0;
 }
 
+/* ---- windowed replay (simlib.h) ------------------------------------------------------ */
+
+int32_t hd_simlib_replay_windows(const char *axis, const char *const *keys, const double *values, int32_t n_over,
+                                 double dt_s, int64_t n, const double *torque_Nm, int64_t n_win,
+                                 const int64_t *start, const double *x0, double *out, char *err, size_t errlen)
+{
+    hd_plant_params prm;
+    if (!(dt_s > 0.0 && dt_s <= 1.0) || n < 0 || n_win < 0) {
+        sim_set_err(err, errlen, "replay: expected 0 < dt_s <= 1, n >= 0 and n_win >= 0 (got dt_s = %g, n = %lld, "
+                    "n_win = %lld)", dt_s, (long long)n, (long long)n_win);
+        return -1;
+    }
+    for (int64_t w = 0; w < n_win; w++) {
+        if (start[w] < 0 || start[w] >= n || (w > 0 && start[w] <= start[w - 1])) {
+            sim_set_err(err, errlen, "replay: window %lld starts at row %lld, expected increasing rows in [0, %lld)",
+                        (long long)w, (long long)start[w], (long long)n);
+            return -1;
+        }
+    }
+    if (hd_sim_axis_params(axis ? axis : "reference", &prm, err, errlen)) return -1;
+    for (int32_t i = 0; i < n_over; i++) {
+        int rc = hd_plant_param_set(&prm, keys[i], values[i]);
+        if (rc != HD_PLANT_OK) {
+            sim_set_err(err, errlen, "plant parameter '%s' = %.17g: %s", keys[i], values[i], hd_plant_strerror(rc));
+            return -1;
+        }
+    }
+    /* one initialised plant (tables, caches) copied into every window: hd_plant holds no pointers */
+    hd_plant *p0 = malloc(sizeof *p0);
+    hd_plant *p = malloc(sizeof *p);
+    if (!p0 || !p) { free(p0); free(p); sim_set_err(err, errlen, "out of memory"); return -1; }
+    char msg[256];
+    if (hd_plant_init(p0, &prm, 0, msg, sizeof msg) != HD_PLANT_OK) {
+        sim_set_err(err, errlen, "%s", msg);
+        free(p0); free(p);
+        return -1;
+    }
+    const double nan_v = nan("");
+    for (int64_t i = 0; i < (n_win > 0 ? start[0] : n); i++) { out[2 * i] = nan_v; out[2 * i + 1] = nan_v; }
+    hd_plant_input in;
+    memset(&in, 0, sizeof in);
+    for (int64_t w = 0; w < n_win; w++) {
+        const int64_t a = start[w], b = w + 1 < n_win ? start[w + 1] : n;
+        const double *x = x0 + 4 * w;
+        memcpy(p, p0, sizeof *p);
+        hd_plant_set_state(p, x[0], x[1], x[2], x[3]);
+        if (prm.kt_Nm_per_A > 0.0) p->i = torque_Nm[a] / prm.kt_Nm_per_A;
+        out[2 * a] = x[0];
+        out[2 * a + 1] = x[2];
+        int dead = 0;
+        for (int64_t i = a; i + 1 < b; i++) {
+            if (!dead) {
+                in.torque_cmd_Nm = torque_Nm[i];
+                hd_plant_step(p, &in, dt_s);
+                dead = hd_plant_diverged(p);
+            }
+            out[2 * (i + 1)] = dead ? nan_v : p->th_m;
+            out[2 * (i + 1) + 1] = dead ? nan_v : p->th_l;
+        }
+    }
+    free(p0);
+    free(p);
+    return 0;
+}
+
 /* ---- parameter table --------------------------------------------------------------- */
 
 int32_t hd_simlib_param_count(void) { return (int32_t)hd_plant_param_count(); }

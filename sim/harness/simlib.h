@@ -44,6 +44,18 @@ int32_t hd_simlib_open_loop(const char *axis, const char *const *keys, const dou
                             uint64_t seed, double dt_s, int64_t n, const double *torque_Nm,
                             const double *load_Nm, double *out, char *err, size_t errlen);
 
+/* Replay measured inputs over windows, each started from a given state (multiple
+ * shooting; the model-discrepancy workflow's simulator check).  Window w covers rows
+ * [start[w], start[w+1]) (the last one to n); x0 + 4*w = (theta_m rad, omega_m rad/s,
+ * theta_l rad, omega_l rad/s) at row start[w], and the current-loop state starts at
+ * torque_Nm[start[w]] / Kt (no start-up transient of a log's steady current).  Row i
+ * of out (n x 2: true motor angle, true load angle, rad) is the state at row i;
+ * torque_Nm[i] acts over [t_i, t_i + dt_s).  Rows before start[0] and rows of a
+ * window whose integration diverged are NaN.  start must increase, 0 <= start < n. */
+int32_t hd_simlib_replay_windows(const char *axis, const char *const *keys, const double *values, int32_t n_over,
+                                 double dt_s, int64_t n, const double *torque_Nm, int64_t n_win,
+                                 const int64_t *start, const double *x0, double *out, char *err, size_t errlen);
+
 /* ---- plant parameter table ---- */
 int32_t hd_simlib_param_count(void);
 const char *hd_simlib_param_name(int32_t i);

@@ -1,0 +1,46 @@
+"""``hdservo.sim.replay_windows``: the plant replayed over windows from given states."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hdservo import sim
+
+
+def _open_loop(n: int, dt: float) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    t = np.arange(n) * dt
+    u = 0.3 * np.sin(2 * np.pi * 2 * t) + 0.2
+    return u, sim.simulate_open_loop(u, axis="minimal", dt_s=dt)
+
+
+def test_windows_from_the_true_state_reproduce_the_run() -> None:
+    n, dt = 6000, 1e-4
+    u, o = _open_loop(n, dt)
+
+    def at_rows(c: str) -> np.ndarray:          # open-loop row i is the state after input i
+        return np.r_[0.0, o[c][:-1]]
+    tm, tl = at_rows("motor_angle_true_rad"), at_rows("load_angle_true_rad")
+    wm, wl = at_rows("motor_velocity_rad_s"), at_rows("load_velocity_rad_s")
+    st = np.arange(0, n, 500)
+    x0 = np.c_[tm[st], wm[st], tl[st], wl[st]]
+    a, b = sim.replay_windows(u, st, x0, axis="minimal", dt_s=dt)
+    assert np.array_equal(a, tm) and np.array_equal(b, tl)
+    # a window started elsewhere follows its own start, and only that window changes
+    x1 = x0.copy()
+    x1[3, 0] += 0.5
+    a1, _ = sim.replay_windows(u, st, x1, axis="minimal", dt_s=dt)
+    w = slice(st[3], st[4])
+    assert a1[st[3]] == tm[st[3]] + 0.5 and np.all(a1[w][1:] != tm[w][1:])
+    assert np.array_equal(a1[: st[3]], tm[: st[3]]) and np.array_equal(a1[st[4]:], tm[st[4]:])
+    # rows before the first window are NaN
+    a2, _ = sim.replay_windows(u, st[1:], x0[1:], axis="minimal", dt_s=dt)
+    assert np.all(np.isnan(a2[: st[1]])) and np.array_equal(a2[st[1]:], tm[st[1]:])
+
+
+@pytest.mark.parametrize("starts, msg", [([0, 0], "increasing"), ([5, 100000], "increasing"), ([-1], "increasing")])
+def test_bad_windows_are_refused(starts: list[int], msg: str) -> None:
+    u = np.zeros(1000)
+    with pytest.raises(sim.SimError, match=msg):
+        sim.replay_windows(u, starts, np.zeros((len(starts), 4)), axis="minimal")
+    with pytest.raises(sim.SimError, match="shape"):
+        sim.replay_windows(u, [0], np.zeros((2, 4)), axis="minimal")
