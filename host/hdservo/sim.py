@@ -82,6 +82,9 @@ def load_library() -> ctypes.CDLL:
             "hd_simlib_ol_column": (cp, [i32]),
             "hd_simlib_open_loop": (i32, [cp, ctypes.POINTER(cp), dp, i32, u64, ctypes.c_double, i64,
                                           dp, dp, dp, cp, sz]),
+            "hd_simlib_plant_open": (vp, [cp, ctypes.POINTER(cp), dp, i32, u64, cp, sz]),
+            "hd_simlib_plant_run": (i32, [vp, ctypes.c_double, i64, dp, dp, cp, sz]),
+            "hd_simlib_plant_close": (None, [vp]),
             "hd_simlib_replay_windows": (i32, [cp, ctypes.POINTER(cp), dp, i32, ctypes.c_double, i64, dp, i64,
                                                ctypes.POINTER(i64), dp, dp, cp, sz]),
             "hd_simlib_param_count": (i32, []),
@@ -398,3 +401,60 @@ def replay_windows(torque_Nm: Sequence[float] | np.ndarray, starts: Sequence[int
     if rc != 0:
         _raise(err)
     return np.ascontiguousarray(out[:, 0]), np.ascontiguousarray(out[:, 1])
+
+
+# ------------------------------------------------------------------ plant stepped by the caller
+
+class Plant:
+    """The plant alone, stepped by the caller (an outer controller written in Python).
+
+    Parameters
+    ----------
+    axis : str or path-like
+        "reference", "minimal" or an axis TOML file.
+    params, effects : mapping, optional
+        Overrides, as in :func:`simulate_open_loop`.
+    seed : int
+        Sensor-noise seed.
+
+    Use as a context manager (or call :meth:`close`).
+    """
+
+    def __init__(self, axis: str | os.PathLike[str] = "reference", *,
+                 params: Mapping[str, float | bool] | None = None, effects: Mapping[str, bool] | None = None,
+                 seed: int = 0) -> None:
+        self._lib = load_library()
+        over = _overrides(params, effects)
+        keys = (ctypes.c_char_p * max(1, len(over)))(*[k.encode() for k, _ in over])
+        vals = np.array([v for _, v in over] or [0.0], dtype=np.float64)
+        err = _err_buf()
+        self._h = self._lib.hd_simlib_plant_open(os.fsencode(os.fspath(axis)), keys, _c_double_p(vals), len(over),
+                                                 int(seed), err, _ERRLEN)
+        if not self._h:
+            _raise(err)
+        self.columns = open_loop_columns()
+
+    def run(self, torque_Nm: Sequence[float] | np.ndarray, dt_s: float = LOOP_PERIOD_S) -> np.ndarray:
+        """Step ``len(torque_Nm)`` periods of ``dt_s`` s; rows (n, len(columns)) as
+        :func:`simulate_open_loop`, time continuing from the previous call."""
+        if not self._h:
+            raise SimError("plant: already closed")
+        u = np.ascontiguousarray(np.asarray(torque_Nm, dtype=np.float64).reshape(-1))
+        out = np.empty((u.size, len(self.columns)), dtype=np.float64)
+        err = _err_buf()
+        if self._lib.hd_simlib_plant_run(self._h, float(dt_s), u.size, _c_double_p(u), _c_double_p(out), err,
+                                         _ERRLEN) != 0:
+            _raise(err)
+        return out
+
+    def close(self) -> None:
+        """Free the plant."""
+        if self._h:
+            self._lib.hd_simlib_plant_close(self._h)
+            self._h = None
+
+    def __enter__(self) -> "Plant":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

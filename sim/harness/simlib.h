@@ -44,6 +44,16 @@ int32_t hd_simlib_open_loop(const char *axis, const char *const *keys, const dou
                             uint64_t seed, double dt_s, int64_t n, const double *torque_Nm,
                             const double *load_Nm, double *out, char *err, size_t errlen);
 
+/* A plant stepped by the caller (an outer controller in the caller's language): open,
+ * then run n periods of dt_s with torque_Nm[i] (out rows as hd_simlib_open_loop, time
+ * continuing from the previous call), then close. */
+typedef struct hd_simlib_plant hd_simlib_plant_t;
+hd_simlib_plant_t *hd_simlib_plant_open(const char *axis, const char *const *keys, const double *values,
+                                        int32_t n_over, uint64_t seed, char *err, size_t errlen);
+int32_t hd_simlib_plant_run(hd_simlib_plant_t *h, double dt_s, int64_t n, const double *torque_Nm, double *out,
+                            char *err, size_t errlen);
+void hd_simlib_plant_close(hd_simlib_plant_t *h);
+
 /* Replay measured inputs over windows, each started from a given state (multiple
  * shooting; the model-discrepancy workflow's simulator check).  Window w covers rows
  * [start[w], start[w+1]) (the last one to n); x0 + 4*w = (theta_m rad, omega_m rad/s,

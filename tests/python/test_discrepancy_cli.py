@@ -114,7 +114,7 @@ def test_cogging_case_json_and_plots(tmp_path: Path, cog_log: Path) -> None:
             "residual_1_cogging_torque.png"} <= names
     # the simulation error is reported and used as evidence
     assert len(res["sim_rms_history_rad"]) == len(res["rms_history"])
-    assert it["sim_rms_after_rad"] < it["sim_rms_before_rad"]
+    assert it["model_sim_rms_after_rad"] < it["model_sim_rms_before_rad"]
     assert {"sim_delta_bic", "sim_explained_fraction", "total_delta_bic"} <= set(it["evidence"])
 
 
@@ -134,7 +134,7 @@ def test_baseline_biased_by_the_missing_effect(tmp_path: Path, monkeypatch, caps
     res = json.loads(text)
     assert res["baseline"]["J_m_kgm2"] <= 0.0
     assert res["named_effects"][:1] == ["asymmetric_friction"]
-    assert res["sim_rms_history_rad"][0] is None and res["iterations"][0]["sim_rms_before_rad"] is None
+    assert res["sim_rms_history_rad"][0] is None and res["iterations"][0]["model_sim_rms_before_rad"] is None
     assert res["iterations"][0]["rms_gap"]["residual"] == "equation"
     assert res["iterations"][0]["rms_gap"]["shrink"] >= 3.0
     fin = res["final_model"]["params"]
@@ -264,3 +264,58 @@ def test_output_encoder_alone_never_names_cogging(tmp_path: Path, capsys) -> Non
     assert r["signals"] == "output" and r["identifiability"]["cogging_torque"] == NOT_IDENTIFIABLE
     assert "cogging_torque" not in r["named_effects"]
     assert "cogging_torque" not in {c["effect"] for c in r["first_ranking"]}
+
+
+def test_named_effect_goes_into_an_axis_file_the_simulator_confirms(tmp_path: Path, cog_log: Path) -> None:
+    """The named effect is written into AXIS.updated.toml (the identified baseline with the
+    effect's section on), the C simulator replays the log's torque through the axis before
+    and after, and the gap shrinks; with the user's own axis file the effect goes into a copy
+    of it and the rest of the file is kept."""
+    import tomllib
+    from hdservo import sim
+    out = tmp_path / "o.json"
+    assert cli.main(["discrepancy", str(cog_log), "--json", str(out), "--plots", str(tmp_path / "p")]) == 0
+    r = json.loads(out.read_text())
+    it = r["iterations"][0]
+    assert it["named_effect"] == "cogging_torque"
+    assert it["sim_rms_after_rad"] < 0.7 * it["sim_rms_before_rad"] and it["simulator_confirmed"] is True
+    assert it["model_sim_rms_after_rad"] < it["model_sim_rms_before_rad"]
+    upd = Path(r["simulator"]["updated_axis"])
+    assert upd == tmp_path / "cog.updated.toml" and Path(it["axis_before"]) == tmp_path / "cog.baseline.toml"
+    ax = tomllib.loads(upd.read_text())
+    assert ax["cogging"]["enabled"] is True and ax["cogging"]["h1_order"] == 36.0
+    # the plant's 3 x 0.004 N.m at phase 0.3 rad (discrepancy_cases, size 1 is 6x)
+    assert ax["cogging"]["h1_amp_Nm"] == pytest.approx(6 * 0.004, rel=0.25)
+    assert abs((ax["cogging"]["h1_phase_rad"] - 0.3 + 3.1416) % 6.2832 - 3.1416) < 0.3
+    assert sim.axis_param("cogging.h1_amp_Nm", str(upd)) == ax["cogging"]["h1_amp_Nm"]   # a valid axis file
+    assert (tmp_path / "p" / "simulator_1_cogging_torque.png").stat().st_size > 0
+    # the user's axis file: the effect's section goes into a copy, the user's keys stay
+    mine = tmp_path / "mine.toml"
+    mine.write_text((tmp_path / "cog.baseline.toml").read_text().replace('name = "cog identified baseline"',
+                                                                         'name = "my axis"'))
+    out2 = tmp_path / "o2.json"
+    assert cli.main(["discrepancy", str(cog_log), "--json", str(out2), "--axis", str(mine),
+                     "--axis-out", str(tmp_path / "ax")]) == 0
+    r2 = json.loads(out2.read_text())
+    it2 = r2["iterations"][0]
+    # (the user's file keeps its own inertias and spring: here the baseline's, which the missing
+    # cogging biased, so the gap shrinks less than with the re-fitted baseline above)
+    assert it2["axis_before"] == str(mine) and it2["sim_rms_after_rad"] < it2["sim_rms_before_rad"]
+    ax2 = tomllib.loads((tmp_path / "ax" / "mine.updated.toml").read_text())
+    assert ax2["axis"]["name"] == "my axis" and ax2["cogging"]["enabled"] is True
+
+
+def test_bad_axis_file_is_one_line(tmp_path: Path, cog_log: Path, capsys) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[stiffness]\nk9_Nm_per_rad = 3\n")
+    out = tmp_path / "o.json"
+    capsys.readouterr()
+    assert cli.main(["discrepancy", str(cog_log), "--json", str(out), "--axis", str(bad)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(bad) in err[0] and "k9_Nm_per_rad" in err[0] and not out.exists()
+
+
+def test_stop_rule_keeps_a_later_effect_only_when_the_simulator_confirms_it() -> None:
+    from hdservo.discrepancy import closeloop as c
+    assert c.confirm(1.0, 0.85) and not c.confirm(1.0, 0.95) and not c.confirm(float("nan"), 0.1)
+    assert not c.confirm(1.0, float("nan"))

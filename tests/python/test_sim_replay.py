@@ -44,3 +44,15 @@ def test_bad_windows_are_refused(starts: list[int], msg: str) -> None:
         sim.replay_windows(u, starts, np.zeros((len(starts), 4)), axis="minimal")
     with pytest.raises(sim.SimError, match="shape"):
         sim.replay_windows(u, [0], np.zeros((2, 4)), axis="minimal")
+
+
+def test_plant_stepped_by_the_caller_matches_the_open_loop_run() -> None:
+    n, dt = 3000, 1e-4
+    u, o = _open_loop(n, dt)
+    cols = sim.open_loop_columns()
+    with sim.Plant("minimal") as p:
+        rows = np.vstack([p.run(u[i:i + 7], dt) for i in range(0, n, 7)])      # any chunking
+    for c in ("t_s", "motor_angle_true_rad", "load_angle_true_rad", "motor_velocity_rad_s"):
+        assert np.allclose(rows[:, cols.index(c)], o[c], rtol=0, atol=1e-12), c
+    with pytest.raises(sim.SimError, match="closed"):
+        p.run(u[:3])

@@ -29,6 +29,13 @@ def register(p: argparse.ArgumentParser) -> None:
     p.add_argument("--model", type=Path, help="baseline model TOML ([model] structure, offset)")
     p.add_argument("--json", type=Path, required=True, metavar="OUT.json", help="result JSON to write")
     p.add_argument("--plots", type=Path, metavar="DIR", help="directory for the PNG plots")
+    p.add_argument("--axis", type=Path, metavar="AXIS.toml",
+                   help="your simulator axis file (docs/sim.md): the named effects go into a copy of it "
+                        "(default: the identified baseline)")
+    p.add_argument("--axis-out", type=Path, metavar="DIR",
+                   help="directory for AXIS.updated.toml and the axis file of every model (default: the JSON's)")
+    p.add_argument("--no-simulator", action="store_true",
+                   help="do not write axis files nor replay them through the simulator")
 
 
 def read_model(path: Path) -> dict[str, Any]:
@@ -75,7 +82,16 @@ def run(args: argparse.Namespace) -> int:
     warn = validity.warning(str(args.log), rng)
     if warn:
         print(f"[discrepancy] warning: {warn}", file=sys.stderr)
+    if args.axis is not None and not args.no_simulator:
+        from ..discrepancy.closeloop import read_axis
+        read_axis(args.axis)                 # a bad axis file is refused before the long analysis
     res = workflow.run(sig, offset=model["offset"])
+    closed = None
+    if not args.no_simulator:
+        from ..discrepancy import closeloop
+        stem = args.axis.stem if args.axis is not None else args.log.stem
+        closed = closeloop.close(res, args.axis_out or args.json.resolve().parent, stem, args.axis)
+        closeloop.apply(res, closed)
     out = res.to_json()
     out["log"] = str(args.log)
     out["structure"] = sig.kind
@@ -85,9 +101,14 @@ def run(args: argparse.Namespace) -> int:
                                       "output_encoder_bits": rng.load_bits},
                               "inside": warn is None}
     out["notes"] = list(res.notes) + ([warn] if warn else [])
+    if closed is not None:
+        out["simulator"] = closeloop.to_json(closed)
     if args.plots:
         from ..discrepancy.plots import write_plots
         out["plots"] = [str(p) for p in write_plots(res, args.plots)]
+        if closed is not None:
+            from ..discrepancy.plots import write_simulator_overlay
+            out["plots"] += [str(p) for p in write_simulator_overlay(res, closed, args.plots)]
     write_json_atomic(args.json, out)
     u = sig.units["torque"]
     au = sig.units["angle"]
@@ -97,9 +118,9 @@ def run(args: argparse.Namespace) -> int:
     for it in res.iterations:
         ev = it["evidence"]
         sf = ev.get("sim_explained_fraction")
-        sb = it["sim_rms_before_rad"]
+        sb = it["model_sim_rms_before_rad"]
         print(f"  + {it['named_effect']}: {it['rms_before']:.4g} -> {it['rms_after']:.4g} {u}, simulation "
-              f"{f'{sb:.4g}' if math.isfinite(sb) else '-'} -> {it['sim_rms_after_rad']:.4g} {au} "
+              f"{f'{sb:.4g}' if math.isfinite(sb) else '-'} -> {it['model_sim_rms_after_rad']:.4g} {au} "
               f"(delta BIC {ev['delta_bic']:.0f} + {ev.get('sim_delta_bic') or 0:.0f}, explained "
               f"{100 * ev['explained_fraction']:.0f} % / {100 * (sf or 0):.0f} %)")
         g = it.get("rms_gap") or {}
@@ -109,6 +130,16 @@ def run(args: argparse.Namespace) -> int:
                   else f"shrink {g['shrink']:.2f}x" if g.get("shrink") is not None else "no gap above the floor")
             print(f"    RMS gap ({g['residual']} error over where it acts, above its floor): "
                   f"{g['before']:.4g} -> {g['after']:.4g} {gu}, {sh}")
+        if "sim_rms_after_rad" in it:
+            b, a = it["sim_rms_before_rad"], it["sim_rms_after_rad"]
+            print(f"    simulator ({it['axis_after'] or 'not replayable'}): "
+                  f"{f'{b:.4g}' if b is not None and math.isfinite(b) else '-'} -> "
+                  f"{f'{a:.4g}' if a is not None and math.isfinite(a) else '-'} {au}")
+    if closed is not None:
+        for d in closed.dropped:
+            print(f"  - {d['named_effect']} dropped: {d['reason']}")
+        if closed.updated is not None:
+            print(f"  updated axis file: {closed.updated}")
     if not res.iterations:
         print("  no significant missing effect")
     hidden = [e for e, v in res.identifiability.items() if v != "identifiable"]

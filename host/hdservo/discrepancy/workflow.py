@@ -938,7 +938,7 @@ def _add_effect(st_: State, top: Candidate, runner: Candidate | None) -> tuple[d
         "rms_before": rms_before, "rms_after": st_.fit.rms, "signal": SIGNAL_TEXT,
         "acting_equations": _acting(top.variant, st_.design),
         "rms_acting_before": eq_before, "rms_acting_after": _eq_rms(st_.fit, top.variant),
-        "sim_rms_before_rad": sim_before, "sim_rms_after_rad": _rms(st_.sim),
+        "model_sim_rms_before_rad": sim_before, "model_sim_rms_after_rad": _rms(st_.sim),
         # the same figures over the region where the effect acts (local_evidence)
         "region": {"speed_bands": bands, "equation_share": float(reg_eq.mean()) if len(reg_eq) else 0.0,
                    "simulation_share": float(reg_sim.mean()) if len(reg_sim) else 0.0},
