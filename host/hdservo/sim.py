@@ -86,7 +86,8 @@ def load_library() -> ctypes.CDLL:
             "hd_simlib_plant_run": (i32, [vp, ctypes.c_double, i64, dp, dp, cp, sz]),
             "hd_simlib_plant_close": (None, [vp]),
             "hd_simlib_replay_windows": (i32, [cp, ctypes.POINTER(cp), dp, i32, ctypes.c_double, i64, dp, i64,
-                                               ctypes.POINTER(i64), dp, dp, cp, sz]),
+                                               ctypes.POINTER(i64), dp, dp, dp, cp, sz]),
+            "hd_simlib_max_maxwell": (i32, []),
             "hd_simlib_param_count": (i32, []),
             "hd_simlib_param_name": (cp, [i32]),
             "hd_simlib_param_unit": (cp, [i32]),
@@ -346,10 +347,16 @@ def simulate_open_loop(torque_Nm: Sequence[float] | np.ndarray, *,
 
 # ------------------------------------------------------------------ windowed replay
 
+def max_maxwell() -> int:
+    """Number of Maxwell-slip elements the plant holds."""
+    return int(load_library().hd_simlib_max_maxwell())
+
+
 def replay_windows(torque_Nm: Sequence[float] | np.ndarray, starts: Sequence[int] | np.ndarray,
                    x0: np.ndarray, *, params: Mapping[str, float | bool] | None = None,
                    effects: Mapping[str, bool] | None = None,
-                   axis: str | os.PathLike[str] = "minimal", dt_s: float = LOOP_PERIOD_S) -> tuple[np.ndarray, np.ndarray]:
+                   axis: str | os.PathLike[str] = "minimal", dt_s: float = LOOP_PERIOD_S,
+                   maxwell_xi: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Replay a measured torque through the plant over windows started from given states.
 
     Multiple shooting: each window starts from a measured state, so a closed-loop log can
@@ -372,6 +379,9 @@ def replay_windows(torque_Nm: Sequence[float] | np.ndarray, starts: Sequence[int
         "reference", "minimal" or an axis TOML file.
     dt_s : float
         Row period, s.
+    maxwell_xi : numpy.ndarray, shape (w, :func:`max_maxwell`), optional
+        Maxwell-slip element positions (rad of twist) at each window's start: the
+        hysteresis memory there; default: every element relaxed at the start twist.
 
     Returns
     -------
@@ -389,6 +399,12 @@ def replay_windows(torque_Nm: Sequence[float] | np.ndarray, starts: Sequence[int
         raise SimError(f"x0: expected shape ({st.size}, 4), found {x.shape}")
     if not np.all(np.isfinite(x)):
         raise SimError("x0: expected finite values")
+    xi = None
+    if maxwell_xi is not None:
+        mx = lib.hd_simlib_max_maxwell()
+        xi = np.ascontiguousarray(np.asarray(maxwell_xi, dtype=np.float64))
+        if xi.shape != (st.size, mx) or not np.all(np.isfinite(xi)):
+            raise SimError(f"maxwell_xi: expected finite values of shape ({st.size}, {mx}), found {xi.shape}")
     over = _overrides(params, effects)
     keys = (ctypes.c_char_p * max(1, len(over)))(*[k.encode() for k, _ in over])
     vals = np.array([v for _, v in over] or [0.0], dtype=np.float64)
@@ -397,7 +413,7 @@ def replay_windows(torque_Nm: Sequence[float] | np.ndarray, starts: Sequence[int
     rc = lib.hd_simlib_replay_windows(os.fsencode(os.fspath(axis)), keys, _c_double_p(vals), len(over), float(dt_s),
                                       u.size, _c_double_p(u), st.size,
                                       st.ctypes.data_as(ctypes.POINTER(ctypes.c_int64)), _c_double_p(x),
-                                      _c_double_p(out), err, _ERRLEN)
+                                      _c_double_p(xi) if xi is not None else None, _c_double_p(out), err, _ERRLEN)
     if rc != 0:
         _raise(err)
     return np.ascontiguousarray(out[:, 0]), np.ascontiguousarray(out[:, 1])

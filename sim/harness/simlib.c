@@ -250,9 +250,12 @@ void hd_simlib_plant_close(hd_simlib_plant_t *h) { free(h); }
 
 /* ---- windowed replay (simlib.h) ------------------------------------------------------ */
 
+int32_t hd_simlib_max_maxwell(void) { return HD_PLANT_MAX_MAXWELL; }
+
 int32_t hd_simlib_replay_windows(const char *axis, const char *const *keys, const double *values, int32_t n_over,
                                  double dt_s, int64_t n, const double *torque_Nm, int64_t n_win,
-                                 const int64_t *start, const double *x0, double *out, char *err, size_t errlen)
+                                 const int64_t *start, const double *x0, const double *xi0, double *out,
+                                 char *err, size_t errlen)
 {
     hd_plant_params prm;
     if (!(dt_s > 0.0 && dt_s <= 1.0) || n < 0 || n_win < 0) {
@@ -294,6 +297,8 @@ int32_t hd_simlib_replay_windows(const char *axis, const char *const *keys, cons
         const double *x = x0 + 4 * w;
         memcpy(p, p0, sizeof *p);
         hd_plant_set_state(p, x[0], x[1], x[2], x[3]);
+        if (xi0)
+            for (int k = 0; k < HD_PLANT_MAX_MAXWELL; k++) p->xi[k] = xi0[w * HD_PLANT_MAX_MAXWELL + k];
         if (prm.kt_Nm_per_A > 0.0) p->i = torque_Nm[a] / prm.kt_Nm_per_A;
         out[2 * a] = x[0];
         out[2 * a + 1] = x[2];

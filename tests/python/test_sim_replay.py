@@ -56,3 +56,34 @@ def test_plant_stepped_by_the_caller_matches_the_open_loop_run() -> None:
         assert np.allclose(rows[:, cols.index(c)], o[c], rtol=0, atol=1e-12), c
     with pytest.raises(sim.SimError, match="closed"):
         p.run(u[:3])
+
+
+def test_windows_start_with_the_given_hysteresis_memory() -> None:
+    """With Maxwell-slip elements, the windows replay the run exactly only when they start
+    with the elements where the run left them; relaxed elements change the replay."""
+    n, dt = 4000, 1e-4
+    t = np.arange(n) * dt
+    u = 0.5 * np.sin(2 * np.pi * 3 * t)
+    eff = {"hysteresis_maxwell": True}
+    o = sim.simulate_open_loop(u, axis="minimal", effects=eff, dt_s=dt)
+    tm = np.r_[0.0, o["motor_angle_true_rad"][:-1]]
+    tl = np.r_[0.0, o["load_angle_true_rad"][:-1]]
+    wm = np.r_[0.0, o["motor_velocity_rad_s"][:-1]]
+    wl = np.r_[0.0, o["load_velocity_rad_s"][:-1]]
+    st = np.array([0, 2000])
+    x0 = np.c_[tm[st], wm[st], tl[st], wl[st]]
+    relaxed = sim.replay_windows(u, st, x0, axis="minimal", effects=eff, dt_s=dt)[1]
+    from hdservo.discrepancy.effects import stop_operator
+    N = sim.axis_param("gear.ratio", "minimal")
+    phi = tm / N - tl
+    xi = np.repeat(phi[st][:, None], sim.max_maxwell(), axis=1)
+    for i in range(int(sim.axis_param("hysteresis_maxwell.n_elements", "minimal"))):
+        k = sim.axis_param(f"hysteresis_maxwell.e{i + 1}_k_Nm_per_rad", "minimal")
+        w = sim.axis_param(f"hysteresis_maxwell.e{i + 1}_w_Nm", "minimal")
+        xi[:, i] = (phi - stop_operator(phi, w / k))[st]
+    given = sim.replay_windows(u, st, x0, axis="minimal", effects=eff, dt_s=dt, maxwell_xi=xi)[1]
+    e_rel, e_giv = np.abs(relaxed[2000:] - tl[2000:]).max(), np.abs(given[2000:] - tl[2000:]).max()
+    assert e_rel > 0 and e_giv < 0.1 * e_rel, (e_rel, e_giv)
+    with pytest.raises(sim.SimError, match="maxwell_xi"):
+        sim.replay_windows(u, st, x0, axis="minimal", effects=eff, dt_s=dt, maxwell_xi=np.zeros((2, 3)))
+    assert sim.max_maxwell() == 8

@@ -371,7 +371,8 @@ def replay(sig: Signals, axis: Path, offset: float = 0.0, horizon_s: float | Non
             "current_loop.peak_A": float(10 * max(float(np.max(np.abs(sig.tau))), 1e-6) / kt)}
     tau = sig.tau - offset
     try:
-        m, l_ = sim.replay_windows(tau, st, x0, params=over, axis=str(axis), dt_s=sig.dt)
+        xi = maxwell_memory(sig, axis, st)
+        m, l_ = sim.replay_windows(tau, st, x0, params=over, axis=str(axis), dt_s=sig.dt, maxwell_xi=xi)
     except sim.SimError as e:
         raise UserError(f"{axis}: the simulator refused the axis: {e}") from None
     return Replay(axis=axis, rms_rad=gap_rms(sig, m, l_, horizon_s=horizon_s), motor=m, load=l_)
@@ -393,6 +394,30 @@ def _detrend_windows(e: np.ndarray, starts: np.ndarray) -> np.ndarray:
         y[ok] = x[ok] - A @ coef
         out[a:b] = y
     return out
+
+
+def maxwell_memory(sig: Signals, axis: Path, starts: np.ndarray) -> np.ndarray | None:
+    """The Maxwell-slip elements' positions at every window start (rad of twist), as the
+    measured twist left them, for an axis with hysteresis elements on; None otherwise.
+
+    Each element of stiffness k and slip torque w is a stop operator of threshold w/k on the
+    twist (:func:`hdservo.discrepancy.effects.stop_operator`): its position is the twist
+    minus the operator's output.  Relaxing the elements at each window's start instead
+    would drop the hysteresis torque the log carries there.
+    """
+    from .effects import stop_operator
+    a = str(axis)
+    if sig.kind != "two_mass" or not sim.axis_param("hysteresis_maxwell.enabled", a):
+        return None
+    n_el = int(sim.axis_param("hysteresis_maxwell.n_elements", a))
+    xi = np.repeat((sig.th_m[starts] / sig.ratio - sig.th_l[starts])[:, None], sim.max_maxwell(), axis=1)
+    phi = sig.phi
+    for i in range(n_el):
+        k = sim.axis_param(f"hysteresis_maxwell.e{i + 1}_k_Nm_per_rad", a)
+        w = sim.axis_param(f"hysteresis_maxwell.e{i + 1}_w_Nm", a)
+        if k > 0 and w > 0:
+            xi[:, i] = (phi - stop_operator(phi, w / k))[starts]
+    return xi
 
 
 def gap_rms(sig: Signals, motor: np.ndarray, load: np.ndarray, rows: np.ndarray | None = None,
