@@ -305,7 +305,10 @@ def run_ppi(case: CorpusCase, axis_file: Path) -> dict[str, np.ndarray]:
     im, il = cols.index("motor_angle_rad"), cols.index("load_angle_rad")
     rows, cmds = [], []
     integ, v_f, th_prev = 0.0, 0.0, 0.0
-    u_max = 3.5 * ax["stiffness"]["t1_Nm"] / N * 3
+    # torque limit: the spring's range, and at least 4x the breakaway friction seen at the motor
+    # (a large axis with Stribeck friction must not stay stuck)
+    fr = ax["friction_motor"]["fs_pos_Nm"] + ax["friction_load"]["fs_pos_Nm"] / N
+    u_max = max(3.5 * ax["stiffness"]["t1_Nm"] / N * 3, 4.0 * fr)
     with sim.Plant(str(axis_file), seed=case.seed) as p:
         last = None
         for i in range(n_ctl):
