@@ -238,7 +238,9 @@ def effect_overrides(axis: dict[str, dict[str, Any]], eff: str, g: float,
         return {"stiffness": {"k1_Nm_per_rad": k1, "t1_Nm": k1 * b, "t2_Nm": k1 * b + 0.2 * Tp,
                               "k2_Nm_per_rad": K, "k3_Nm_per_rad": K}}
     if eff == "gravity_unbalance":
-        return {"gravity": {"enabled": True, "mgl_Nm": 0.2 * g * Tp, "offset_rad": float(rng.uniform(-math.pi, math.pi))}}
+        # the reference axis' unbalance is 0.14 T1; the tuned cases use 1x and 2x of it
+        T1 = axis["stiffness"]["t1_Nm"]
+        return {"gravity": {"enabled": True, "mgl_Nm": 0.21 * g * T1, "offset_rad": float(rng.uniform(-math.pi, math.pi))}}
     if eff == "current_loop_lag":
         return {"current_loop": {"bandwidth_Hz": 225.0 / g}}
     if eff == "unmodelled_compliance":
