@@ -539,7 +539,20 @@ def close(res: Any, out_dir: Path, stem: str, user_axis: Path | None = None) -> 
             prev = replay(sig, prev.axis, offset_of(fits[k]), two_mass=False, count_load=True)
             before = prev.rms_rad
             rec["sim_rms_before_rad"] = before
-        r = replay(sig, path, offset_of(p_after), two_mass=tm)
+        try:
+            r = replay(sig, path, offset_of(p_after), two_mass=tm)
+        except UserError as e:
+            # the fitted parameters are outside what the simulator accepts: say so, keep the rest
+            path.unlink(missing_ok=True)
+            cl.notes.append(f"{name}: {e}")
+            if k > 0:
+                cl.dropped.append({"named_effect": name, "reason": "not replayable in the simulator"})
+                break
+            rec.update({"axis_after": None, "sim_rms_after_rad": float("nan"), "confirmed": None})
+            cl.iterations.append(rec)
+            cl.pairs.append((prev, None))
+            prev = None
+            continue
         ok = confirm(before, r.rms_rad)
         rec.update({"axis_after": str(path), "sim_rms_after_rad": r.rms_rad, "confirmed": ok,
                     "shrink": before / r.rms_rad if math.isfinite(before) and r.rms_rad > 0 else None})
