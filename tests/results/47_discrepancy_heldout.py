@@ -185,8 +185,10 @@ def main() -> int:
     with ProcessPoolExecutor(max_workers=JOBS) as ex:
         for r in ex.map(analyse, seeds):
             recs.append(r)
-            print(f"{r['label']}: named {r['named']}{' ' + r['error'] if r['error'] else ''} ({r['seconds']:.0f} s)",
-                  flush=True)
+            sh = f", simulator gap shrink {r['sim_shrink']:.2f}x" if r.get("sim_shrink") else ""
+            print(f"{r['label']}: named {r['named']}{sh}{' ' + r['error'] if r['error'] else ''} "
+                  f"({r['seconds']:.0f} s)", flush=True)
+    out.parent.mkdir(parents=True, exist_ok=True)
     doc = {"set": SET, "seeds": [seeds[0], seeds[-1]] if seeds else [], "summary": score(recs), "cases": recs,
            "wall_s": time.time() - t0}
     write_json_atomic(out, doc)
