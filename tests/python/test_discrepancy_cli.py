@@ -81,17 +81,22 @@ def test_lost_samples_and_wrong_period_are_refused(tmp_path: Path, cog_log: Path
 
 
 def test_low_log_rate_gets_a_note(tmp_path: Path, cog_log: Path, capsys) -> None:
+    """1 kHz is inside the validated range (no warning); 500 Hz is outside (one warning line)."""
     from hdservo import logio
     log = logio.read_log(cog_log)
-    slow = tmp_path / "slow.csv"                       # every 10th sample: a 1 kHz logger
-    logio.write_log(slow, {k: v[::10] for k, v in log.columns.items()},
-                    {**log.meta, "sample_period_s": log.meta["sample_period_s"] * 10})
     out = tmp_path / "o.json"
-    capsys.readouterr()
-    assert cli.main(["discrepancy", str(slow), "--json", str(out)]) == 0
-    err = capsys.readouterr().err
-    assert "note: log sampled at 1000 Hz, below the 2000 Hz" in err
-    assert json.loads(out.read_text())["notes"] and "1000 Hz" in json.loads(out.read_text())["notes"][0]
+    for k, hz in ((10, 1000), (20, 500)):
+        slow = tmp_path / f"slow{hz}.csv"                  # every k-th sample: a slower logger
+        logio.write_log(slow, {c: v[::k] for c, v in log.columns.items()},
+                        {**log.meta, "sample_period_s": log.meta["sample_period_s"] * k})
+        capsys.readouterr()
+        assert cli.main(["discrepancy", str(slow), "--json", str(out), "--no-simulator"]) == 0
+        err = [ln for ln in capsys.readouterr().err.splitlines() if "validated" in ln]
+        notes = [n for n in json.loads(out.read_text())["notes"] if "validated" in n]
+        if hz == 1000:
+            assert err == [] and notes == []
+        else:
+            assert len(err) == 1 and f"sampled at {hz} Hz" in err[0] and f"sampled at {hz} Hz" in notes[0]
 
 
 def test_cogging_case_json_and_plots(tmp_path: Path, cog_log: Path) -> None:
