@@ -285,8 +285,17 @@ _TYPE_WORD = {float: "a finite number", int: "an integer", str: "a string", dict
               list: "an array"}
 
 
-def read_meta(path: str | os.PathLike[str]) -> dict[str, Any]:
+def read_meta(path: str | os.PathLike[str], require_tag: bool = True) -> dict[str, Any]:
     """Read and validate a sidecar ``.json``.
+
+    Parameters
+    ----------
+    path : path-like
+        The sidecar.
+    require_tag : bool
+        If False, a sidecar without ``format`` / ``version`` is accepted (a user's own
+        log with only ``gear_ratio`` and ``sample_period_s``); a tag that is present
+        must still be this format's.
 
     Raises
     ------
@@ -309,9 +318,9 @@ def read_meta(path: str | os.PathLike[str]) -> dict[str, Any]:
         raise LogError(f"{p}: {e}") from None
     if not isinstance(meta, dict):
         raise LogError(f"{p}:1:1: expected a JSON object")
-    if meta.get("format") != FORMAT:
+    if (require_tag or "format" in meta) and meta.get("format") != FORMAT:
         raise LogError(f"{p}: expected \"format\": \"{FORMAT}\", found {json.dumps(meta.get('format'))}")
-    if meta.get("version") != FORMAT_VERSION:
+    if (require_tag or "version" in meta) and meta.get("version") != FORMAT_VERSION:
         raise LogError(f"{p}: expected \"version\": {FORMAT_VERSION}, found {json.dumps(meta.get('version'))}")
     for key, want in REQUIRED_META.items():
         if key not in meta:
@@ -328,7 +337,7 @@ def _reject_constant(name: str) -> Any:
     raise ValueError(f"expected finite numbers, found {name}")
 
 
-def read_log(path: str | os.PathLike[str], require_sidecar: bool = True) -> Log:
+def read_log(path: str | os.PathLike[str], require_sidecar: bool = True, require_tag: bool = True) -> Log:
     """Read a log (CSV + sidecar).
 
     Parameters
@@ -337,6 +346,8 @@ def read_log(path: str | os.PathLike[str], require_sidecar: bool = True) -> Log:
         The ``.csv`` file; the sidecar is the ``.json`` beside it.
     require_sidecar : bool
         If False a missing sidecar gives empty ``meta``.
+    require_tag : bool
+        If False the sidecar's ``format`` / ``version`` tag may be absent (:func:`read_meta`).
 
     Returns
     -------
@@ -347,7 +358,7 @@ def read_log(path: str | os.PathLike[str], require_sidecar: bool = True) -> Log:
     side = sidecar_path(p)
     meta: dict[str, Any] = {}
     if side.exists() or require_sidecar:
-        meta = read_meta(side)
+        meta = read_meta(side, require_tag=require_tag)
         listed = meta.get("columns")
         if listed is not None and list(listed) != list(cols):
             raise LogError(f"{side}: key \"columns\": expected the CSV header {list(cols)}, found {listed}")

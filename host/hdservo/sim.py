@@ -83,6 +83,12 @@ def load_library() -> ctypes.CDLL:
             "hd_simlib_ol_column": (cp, [i32]),
             "hd_simlib_open_loop": (i32, [cp, ctypes.POINTER(cp), dp, i32, u64, ctypes.c_double, i64,
                                           dp, dp, dp, cp, sz]),
+            "hd_simlib_plant_open": (vp, [cp, ctypes.POINTER(cp), dp, i32, u64, cp, sz]),
+            "hd_simlib_plant_run": (i32, [vp, ctypes.c_double, i64, dp, dp, cp, sz]),
+            "hd_simlib_plant_close": (None, [vp]),
+            "hd_simlib_replay_windows": (i32, [cp, ctypes.POINTER(cp), dp, i32, ctypes.c_double, i64, dp, i64,
+                                               ctypes.POINTER(i64), dp, dp, dp, cp, sz]),
+            "hd_simlib_max_maxwell": (i32, []),
             "hd_simlib_param_count": (i32, []),
             "hd_simlib_param_name": (cp, [i32]),
             "hd_simlib_param_unit": (cp, [i32]),
@@ -340,3 +346,134 @@ def simulate_open_loop(torque_Nm: Sequence[float] | np.ndarray, *,
     if rc != 0:
         _raise(err)
     return {name: np.ascontiguousarray(out[:, j]) for j, name in enumerate(open_loop_columns())}
+
+
+# ------------------------------------------------------------------ windowed replay
+
+def max_maxwell() -> int:
+    """Number of Maxwell-slip elements the plant holds."""
+    return int(load_library().hd_simlib_max_maxwell())
+
+
+def replay_windows(torque_Nm: Sequence[float] | np.ndarray, starts: Sequence[int] | np.ndarray,
+                   x0: np.ndarray, *, params: Mapping[str, float | bool] | None = None,
+                   effects: Mapping[str, bool] | None = None,
+                   axis: str | os.PathLike[str] = "minimal", dt_s: float = LOOP_PERIOD_S,
+                   maxwell_xi: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Replay a measured torque through the plant over windows started from given states.
+
+    Multiple shooting: each window starts from a measured state, so a closed-loop log can
+    be replayed without its controller (the plant alone, open loop, drifts only within a
+    window).
+
+    Parameters
+    ----------
+    torque_Nm : array-like, shape (n,)
+        Motor torque per row, N.m at the motor (passes the current loop when the axis
+        enables it; its state starts at the window's first torque).
+    starts : array-like of int, shape (w,)
+        First row of each window, increasing; a window ends where the next begins.
+    x0 : numpy.ndarray, shape (w, 4)
+        State at each window's first row: motor angle rad, motor speed rad/s, load angle
+        rad, load speed rad/s.
+    params, effects : mapping, optional
+        Overrides of the axis, as in :func:`simulate_open_loop`.
+    axis : str or path-like
+        "reference", "minimal" or an axis TOML file.
+    dt_s : float
+        Row period, s.
+    maxwell_xi : numpy.ndarray, shape (w, :func:`max_maxwell`), optional
+        Maxwell-slip element positions (rad of twist) at each window's start: the
+        hysteresis memory there; default: every element relaxed at the start twist.
+
+    Returns
+    -------
+    motor_angle_rad, load_angle_rad : numpy.ndarray, shape (n,)
+        The simulated (true) angles per row; NaN before the first window and after a
+        window's integration diverged.
+    """
+    lib = load_library()
+    u = np.ascontiguousarray(np.asarray(torque_Nm, dtype=np.float64))
+    if u.ndim != 1 or not np.all(np.isfinite(u)):
+        raise SimError("torque_Nm: expected a 1-D array of finite values")
+    st = np.ascontiguousarray(np.asarray(starts, dtype=np.int64))
+    x = np.ascontiguousarray(np.asarray(x0, dtype=np.float64))
+    if st.ndim != 1 or x.shape != (st.size, 4):
+        raise SimError(f"x0: expected shape ({st.size}, 4), found {x.shape}")
+    if not np.all(np.isfinite(x)):
+        raise SimError("x0: expected finite values")
+    xi = None
+    if maxwell_xi is not None:
+        mx = lib.hd_simlib_max_maxwell()
+        xi = np.ascontiguousarray(np.asarray(maxwell_xi, dtype=np.float64))
+        if xi.shape != (st.size, mx) or not np.all(np.isfinite(xi)):
+            raise SimError(f"maxwell_xi: expected finite values of shape ({st.size}, {mx}), found {xi.shape}")
+    over = _overrides(params, effects)
+    keys = (ctypes.c_char_p * max(1, len(over)))(*[k.encode() for k, _ in over])
+    vals = np.array([v for _, v in over] or [0.0], dtype=np.float64)
+    out = np.empty((u.size, 2), dtype=np.float64)
+    err = _err_buf()
+    rc = lib.hd_simlib_replay_windows(os.fsencode(os.fspath(axis)), keys, _c_double_p(vals), len(over), float(dt_s),
+                                      u.size, _c_double_p(u), st.size,
+                                      st.ctypes.data_as(ctypes.POINTER(ctypes.c_int64)), _c_double_p(x),
+                                      _c_double_p(xi) if xi is not None else None, _c_double_p(out), err, _ERRLEN)
+    if rc != 0:
+        _raise(err)
+    return np.ascontiguousarray(out[:, 0]), np.ascontiguousarray(out[:, 1])
+
+
+# ------------------------------------------------------------------ plant stepped by the caller
+
+class Plant:
+    """The plant alone, stepped by the caller (an outer controller written in Python).
+
+    Parameters
+    ----------
+    axis : str or path-like
+        "reference", "minimal" or an axis TOML file.
+    params, effects : mapping, optional
+        Overrides, as in :func:`simulate_open_loop`.
+    seed : int
+        Sensor-noise seed.
+
+    Use as a context manager (or call :meth:`close`).
+    """
+
+    def __init__(self, axis: str | os.PathLike[str] = "reference", *,
+                 params: Mapping[str, float | bool] | None = None, effects: Mapping[str, bool] | None = None,
+                 seed: int = 0) -> None:
+        self._lib = load_library()
+        over = _overrides(params, effects)
+        keys = (ctypes.c_char_p * max(1, len(over)))(*[k.encode() for k, _ in over])
+        vals = np.array([v for _, v in over] or [0.0], dtype=np.float64)
+        err = _err_buf()
+        self._h = self._lib.hd_simlib_plant_open(os.fsencode(os.fspath(axis)), keys, _c_double_p(vals), len(over),
+                                                 int(seed), err, _ERRLEN)
+        if not self._h:
+            _raise(err)
+        self.columns = open_loop_columns()
+
+    def run(self, torque_Nm: Sequence[float] | np.ndarray, dt_s: float = LOOP_PERIOD_S) -> np.ndarray:
+        """Step ``len(torque_Nm)`` periods of ``dt_s`` s; rows (n, len(columns)) as
+        :func:`simulate_open_loop`, time continuing from the previous call."""
+        if not self._h:
+            raise SimError("plant: already closed")
+        u = np.ascontiguousarray(np.asarray(torque_Nm, dtype=np.float64).reshape(-1))
+        out = np.empty((u.size, len(self.columns)), dtype=np.float64)
+        err = _err_buf()
+        if self._lib.hd_simlib_plant_run(self._h, float(dt_s), u.size, _c_double_p(u), _c_double_p(out), err,
+                                         _ERRLEN) != 0:
+            _raise(err)
+        return out
+
+    def close(self) -> None:
+        """Free the plant."""
+        if self._h:
+            self._lib.hd_simlib_plant_close(self._h)
+            self._h = None
+
+    def __enter__(self) -> "Plant":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -137,6 +137,27 @@ static const char *const OL_COLS[] = {
 int32_t hd_simlib_ol_ncol(void) { return OL_NCOL; }
 const char *hd_simlib_ol_column(int32_t col) { return (col >= 0 && col < OL_NCOL) ? OL_COLS[col] : NULL; }
 
+/* One output row of the open-loop column list (hd_simlib_ol_column). */
+static void ol_row(const hd_plant_output *o, double t, double mc, double lc, double *r)
+{
+    r[0] = t;
+    r[1] = (double)o->enc_motor_count * mc;
+    r[2] = (double)o->enc_load_count * lc;
+    r[3] = o->motor_velocity_rad_s;
+    r[4] = o->load_velocity_rad_s;
+    r[5] = o->motor_torque_Nm;
+    r[6] = o->current_meas_A;
+    r[7] = o->twist_rad;
+    r[8] = o->gyro_rad_s;
+    r[9] = o->motor_angle_rad;
+    r[10] = o->load_angle_rad;
+    r[11] = o->transmitted_torque_Nm;
+    r[12] = o->hysteresis_torque_Nm;
+    r[13] = o->friction_motor_Nm;
+    r[14] = o->friction_load_Nm;
+    r[15] = o->te_rad;
+}
+
 int32_t hd_simlib_open_loop(const char *axis, const char *const *keys, const double *values, int32_t n_over,
                             uint64_t seed, double dt_s, int64_t n, const double *torque_Nm,
                             const double *load_Nm, double *out, char *err, size_t errlen)
@@ -171,24 +192,134 @@ int32_t hd_simlib_open_loop(const char *axis, const char *const *keys, const dou
         in.torque_cmd_Nm = torque_Nm[i];
         in.load_torque_Nm = load_Nm ? load_Nm[i] : 0.0;
         const hd_plant_output *o = hd_plant_step(p, &in, dt_s);
-        double *r = out + i * OL_NCOL;
-        r[0] = (double)(i + 1) * dt_s;
-        r[1] = (double)o->enc_motor_count * mc;
-        r[2] = (double)o->enc_load_count * lc;
-        r[3] = o->motor_velocity_rad_s;
-        r[4] = o->load_velocity_rad_s;
-        r[5] = o->motor_torque_Nm;
-        r[6] = o->current_meas_A;
-        r[7] = o->twist_rad;
-        r[8] = o->gyro_rad_s;
-        r[9] = o->motor_angle_rad;
-        r[10] = o->load_angle_rad;
-        r[11] = o->transmitted_torque_Nm;
-        r[12] = o->hysteresis_torque_Nm;
-        r[13] = o->friction_motor_Nm;
-        r[14] = o->friction_load_Nm;
-        r[15] = o->te_rad;
+        ol_row(o, (double)(i + 1) * dt_s, mc, lc, out + i * OL_NCOL);
     }
+    free(p);
+    return 0;
+}
+
+/* ---- plant stepped by the caller (simlib.h) ------------------------------------------- */
+
+struct hd_simlib_plant {
+    hd_plant p;
+    double mc, lc;          /* rad per encoder count */
+    int64_t steps;          /* periods run so far */
+    double t;               /* s */
+};
+
+hd_simlib_plant_t *hd_simlib_plant_open(const char *axis, const char *const *keys, const double *values,
+                                        int32_t n_over, uint64_t seed, char *err, size_t errlen)
+{
+    hd_plant_params prm;
+    if (hd_sim_axis_params(axis ? axis : "reference", &prm, err, errlen)) return NULL;
+    for (int32_t i = 0; i < n_over; i++) {
+        int rc = hd_plant_param_set(&prm, keys[i], values[i]);
+        if (rc != HD_PLANT_OK) {
+            sim_set_err(err, errlen, "plant parameter '%s' = %.17g: %s", keys[i], values[i], hd_plant_strerror(rc));
+            return NULL;
+        }
+    }
+    hd_simlib_plant_t *h = calloc(1, sizeof *h);
+    if (!h) { sim_set_err(err, errlen, "out of memory"); return NULL; }
+    char msg[256];
+    if (hd_plant_init(&h->p, &prm, seed, msg, sizeof msg) != HD_PLANT_OK) {
+        sim_set_err(err, errlen, "%s", msg);
+        free(h);
+        return NULL;
+    }
+    h->mc = 2.0 * 3.14159265358979323846 / ldexp(1.0, prm.enc_m_bits);
+    h->lc = 2.0 * 3.14159265358979323846 / ldexp(1.0, prm.enc_l_bits);
+    return h;
+}
+
+int32_t hd_simlib_plant_run(hd_simlib_plant_t *h, double dt_s, int64_t n, const double *torque_Nm, double *out,
+                            char *err, size_t errlen)
+{
+    if (!(dt_s > 0.0 && dt_s <= 1.0) || n < 0) {
+        sim_set_err(err, errlen, "plant run: expected 0 < dt_s <= 1 and n >= 0 (got dt_s = %g, n = %lld)", dt_s,
+                    (long long)n);
+        return -1;
+    }
+    hd_plant_input in;
+    memset(&in, 0, sizeof in);
+    for (int64_t i = 0; i < n; i++) {
+        in.torque_cmd_Nm = torque_Nm[i];
+        const hd_plant_output *o = hd_plant_step(&h->p, &in, dt_s);
+        h->steps++;
+        h->t += dt_s;
+        ol_row(o, h->t, h->mc, h->lc, out + i * OL_NCOL);
+    }
+    return 0;
+}
+
+void hd_simlib_plant_close(hd_simlib_plant_t *h) { free(h); }
+
+/* ---- windowed replay (simlib.h) ------------------------------------------------------ */
+
+int32_t hd_simlib_max_maxwell(void) { return HD_PLANT_MAX_MAXWELL; }
+
+int32_t hd_simlib_replay_windows(const char *axis, const char *const *keys, const double *values, int32_t n_over,
+                                 double dt_s, int64_t n, const double *torque_Nm, int64_t n_win,
+                                 const int64_t *start, const double *x0, const double *xi0, double *out,
+                                 char *err, size_t errlen)
+{
+    hd_plant_params prm;
+    if (!(dt_s > 0.0 && dt_s <= 1.0) || n < 0 || n_win < 0) {
+        sim_set_err(err, errlen, "replay: expected 0 < dt_s <= 1, n >= 0 and n_win >= 0 (got dt_s = %g, n = %lld, "
+                    "n_win = %lld)", dt_s, (long long)n, (long long)n_win);
+        return -1;
+    }
+    for (int64_t w = 0; w < n_win; w++) {
+        if (start[w] < 0 || start[w] >= n || (w > 0 && start[w] <= start[w - 1])) {
+            sim_set_err(err, errlen, "replay: window %lld starts at row %lld, expected increasing rows in [0, %lld)",
+                        (long long)w, (long long)start[w], (long long)n);
+            return -1;
+        }
+    }
+    if (hd_sim_axis_params(axis ? axis : "reference", &prm, err, errlen)) return -1;
+    for (int32_t i = 0; i < n_over; i++) {
+        int rc = hd_plant_param_set(&prm, keys[i], values[i]);
+        if (rc != HD_PLANT_OK) {
+            sim_set_err(err, errlen, "plant parameter '%s' = %.17g: %s", keys[i], values[i], hd_plant_strerror(rc));
+            return -1;
+        }
+    }
+    /* one initialised plant (tables, caches) copied into every window: hd_plant holds no pointers */
+    hd_plant *p0 = malloc(sizeof *p0);
+    hd_plant *p = malloc(sizeof *p);
+    if (!p0 || !p) { free(p0); free(p); sim_set_err(err, errlen, "out of memory"); return -1; }
+    char msg[256];
+    if (hd_plant_init(p0, &prm, 0, msg, sizeof msg) != HD_PLANT_OK) {
+        sim_set_err(err, errlen, "%s", msg);
+        free(p0); free(p);
+        return -1;
+    }
+    const double nan_v = nan("");
+    for (int64_t i = 0; i < (n_win > 0 ? start[0] : n); i++) { out[2 * i] = nan_v; out[2 * i + 1] = nan_v; }
+    hd_plant_input in;
+    memset(&in, 0, sizeof in);
+    for (int64_t w = 0; w < n_win; w++) {
+        const int64_t a = start[w], b = w + 1 < n_win ? start[w + 1] : n;
+        const double *x = x0 + 4 * w;
+        memcpy(p, p0, sizeof *p);
+        hd_plant_set_state(p, x[0], x[1], x[2], x[3]);
+        if (xi0)
+            for (int k = 0; k < HD_PLANT_MAX_MAXWELL; k++) p->xi[k] = xi0[w * HD_PLANT_MAX_MAXWELL + k];
+        if (prm.kt_Nm_per_A > 0.0) p->i = torque_Nm[a] / prm.kt_Nm_per_A;
+        out[2 * a] = x[0];
+        out[2 * a + 1] = x[2];
+        int dead = 0;
+        for (int64_t i = a; i + 1 < b; i++) {
+            if (!dead) {
+                in.torque_cmd_Nm = torque_Nm[i];
+                hd_plant_step(p, &in, dt_s);
+                dead = hd_plant_diverged(p);
+            }
+            out[2 * (i + 1)] = dead ? nan_v : p->th_m;
+            out[2 * (i + 1) + 1] = dead ? nan_v : p->th_l;
+        }
+    }
+    free(p0);
     free(p);
     return 0;
 }

@@ -46,6 +46,34 @@ int32_t hd_simlib_open_loop(const char *axis, const char *const *keys, const dou
                             uint64_t seed, double dt_s, int64_t n, const double *torque_Nm,
                             const double *load_Nm, double *out, char *err, size_t errlen);
 
+/* A plant stepped by the caller (an outer controller in the caller's language): open,
+ * then run n periods of dt_s with torque_Nm[i] (out rows as hd_simlib_open_loop, time
+ * continuing from the previous call), then close. */
+typedef struct hd_simlib_plant hd_simlib_plant_t;
+hd_simlib_plant_t *hd_simlib_plant_open(const char *axis, const char *const *keys, const double *values,
+                                        int32_t n_over, uint64_t seed, char *err, size_t errlen);
+int32_t hd_simlib_plant_run(hd_simlib_plant_t *h, double dt_s, int64_t n, const double *torque_Nm, double *out,
+                            char *err, size_t errlen);
+void hd_simlib_plant_close(hd_simlib_plant_t *h);
+
+/* Replay measured inputs over windows, each started from a given state (multiple
+ * shooting; the model-discrepancy workflow's simulator check).  Window w covers rows
+ * [start[w], start[w+1]) (the last one to n); x0 + 4*w = (theta_m rad, omega_m rad/s,
+ * theta_l rad, omega_l rad/s) at row start[w], and the current-loop state starts at
+ * torque_Nm[start[w]] / Kt (no start-up transient of a log's steady current).  Row i
+ * of out (n x 2: true motor angle, true load angle, rad) is the state at row i;
+ * torque_Nm[i] acts over [t_i, t_i + dt_s).  Rows before start[0] and rows of a
+ * window whose integration diverged are NaN.  start must increase, 0 <= start < n.
+ * xi0 (may be NULL): per window the HD_PLANT_MAX_MAXWELL Maxwell-slip element positions
+ * (rad of twist) at its start, i.e. the hysteresis memory the measured twist left there;
+ * NULL relaxes the elements at the start twist. */
+int32_t hd_simlib_replay_windows(const char *axis, const char *const *keys, const double *values, int32_t n_over,
+                                 double dt_s, int64_t n, const double *torque_Nm, int64_t n_win,
+                                 const int64_t *start, const double *x0, const double *xi0, double *out,
+                                 char *err, size_t errlen);
+/* Number of Maxwell-slip elements the plant holds (the row length of xi0). */
+int32_t hd_simlib_max_maxwell(void);
+
 /* ---- plant parameter table ---- */
 int32_t hd_simlib_param_count(void);
 const char *hd_simlib_param_name(int32_t i);

@@ -70,7 +70,7 @@ def test_stribeck_named_by_its_output_error_fit(tmp_path: Path) -> None:
     r = workflow.run(signals.from_log(logio.read_log(p)))
     assert r.named and r.named[0] == "stribeck_friction"
     it = r.iterations[0]
-    assert it["sim_rms_after_rad"] < 0.85 * it["sim_rms_before_rad"]
+    assert it["model_sim_rms_after_rad"] < 0.85 * it["model_sim_rms_before_rad"]
     # motor side Fs - Fc of the plant: (2.2 - 1) x 0.07 N.m; the fitter's levels are a
     # factor 2 apart, so within a factor 2
     assert 0.042 <= it["params"]["dFs_motor_Nm"] <= 0.17
@@ -79,7 +79,7 @@ def test_stribeck_named_by_its_output_error_fit(tmp_path: Path) -> None:
     # and the simulation error over that region shrinks more than over the whole record
     assert 0.0 < it["region"]["simulation_share"] < 0.5
     loc = it["sim_rms_region_before_rad"] / it["sim_rms_region_after_rad"]
-    assert loc > it["sim_rms_before_rad"] / it["sim_rms_after_rad"] > 1.0
+    assert loc > it["model_sim_rms_before_rad"] / it["model_sim_rms_after_rad"] > 1.0
     assert it["evidence"]["sim_explained_fraction_local"] >= it["evidence"]["sim_explained_fraction"]
     # the levels are fitted on both residuals: the equation error is not significantly
     # worse (n_eff ln(RSS_1/RSS_0) <= bic_min), the same rule the ranking applies

@@ -30,6 +30,13 @@ def register(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", type=Path, required=True, metavar="OUT.json", help="result JSON to write")
     p.add_argument("--out-dir", type=Path, metavar="DIR", help="directory for the PNG plots")
     p.add_argument("--plots", dest="out_dir", type=Path, help=argparse.SUPPRESS)   # older spelling
+    p.add_argument("--axis", type=Path, metavar="AXIS.toml",
+                   help="your simulator axis file (docs/sim.md): the named effects go into a copy of it "
+                        "(default: the identified baseline)")
+    p.add_argument("--axis-out", type=Path, metavar="DIR",
+                   help="directory for AXIS.updated.toml and the axis file of every model (default: the JSON's)")
+    p.add_argument("--no-simulator", action="store_true",
+                   help="do not write axis files nor replay them through the simulator")
 
 
 def read_model(path: Path) -> dict[str, Any]:
@@ -60,30 +67,49 @@ def read_model(path: Path) -> dict[str, Any]:
     return {"structure": st, "offset": off}
 
 
-#: Log rate the workflow's tables were measured at and down to, Hz (10 kHz and, every 5th
-#: sample, 2 kHz: the same names; at 1 kHz Stribeck friction is found in 1 of 4 held-out logs).
-MIN_VALIDATED_RATE_HZ = 2000.0
-
-
 def run(args: argparse.Namespace) -> int:
     from .. import logio
     from ..fileio import write_json_atomic
-    from ..discrepancy import signals, workflow
+    from ..discrepancy import signals, validity, workflow
     model = read_model(args.model) if args.model else {"structure": None, "offset": None}
-    log = logio.read_log(args.log)
+    # a user's own log: the documented columns and gear_ratio + sample_period_s suffice
+    log = logio.read_log(args.log, require_tag=False)
     sig = signals.from_log(log, model["structure"])
+    cols = signals.resolve_columns(log)
+    rotary = sig.units["angle"] == "rad"      # a linear axis' metres have no bits per revolution
+    rng = validity.log_range(log.meta, sig.dt,
+                             log[cols["motor_angle_rad"]] if rotary and "motor_angle_rad" in cols else None,
+                             log[cols["load_angle_rad"]] if rotary and "load_angle_rad" in cols else None)
+    warn = validity.warning(str(args.log), rng)
+    if warn:
+        print(f"[discrepancy] warning: {warn}", file=sys.stderr)
+    if args.axis is not None and not args.no_simulator:
+        from ..discrepancy.closeloop import read_axis
+        read_axis(args.axis)                 # a bad axis file is refused before the long analysis
     res = workflow.run(sig, offset=model["offset"])
+    closed = None
+    if not args.no_simulator:
+        from ..discrepancy import closeloop
+        stem = args.axis.stem if args.axis is not None else args.log.stem
+        closed = closeloop.close(res, args.axis_out or args.json.resolve().parent, stem, args.axis)
+        closeloop.apply(res, closed)
     out = res.to_json()
     out["log"] = str(args.log)
     out["structure"] = sig.kind
-    notes = list(res.notes)
-    if 1.0 / sig.dt < MIN_VALIDATED_RATE_HZ:
-        notes.append(f"log sampled at {1.0 / sig.dt:.0f} Hz, below the {MIN_VALIDATED_RATE_HZ:.0f} Hz the workflow is "
-                     "validated at: Stribeck friction and small effects are less reliable (docs/discrepancy.md)")
-    out["notes"] = notes
+    out["validated_range"] = {"rate_Hz": list(validity.RATE_HZ), "motor_encoder_bits": list(validity.MOTOR_BITS),
+                              "output_encoder_bits": list(validity.LOAD_BITS),
+                              "log": {"rate_Hz": rng.rate_Hz, "motor_encoder_bits": rng.motor_bits,
+                                      "output_encoder_bits": rng.load_bits},
+                              "inside": warn is None}
+    out["notes"] = list(res.notes) + ([warn] if warn else [])
+    if closed is not None:
+        out["simulator"] = closeloop.to_json(closed)
     if args.out_dir:
         from ..discrepancy.plots import write_plots
         out["plots"] = [str(p) for p in write_plots(res, args.out_dir)]
+        if closed is not None:
+            from ..discrepancy.plots import write_simulator_overlay
+            out["plots"] += [str(p) for p in write_simulator_overlay(res, closed, args.out_dir)]
     write_json_atomic(args.json, out)
     u = sig.units["torque"]
     au = sig.units["angle"]
@@ -93,9 +119,9 @@ def run(args: argparse.Namespace) -> int:
     for it in res.iterations:
         ev = it["evidence"]
         sf = ev.get("sim_explained_fraction")
-        sb = it["sim_rms_before_rad"]
+        sb = it["model_sim_rms_before_rad"]
         print(f"  + {it['named_effect']}: {it['rms_before']:.4g} -> {it['rms_after']:.4g} {u}, simulation "
-              f"{f'{sb:.4g}' if math.isfinite(sb) else '-'} -> {it['sim_rms_after_rad']:.4g} {au} "
+              f"{f'{sb:.4g}' if math.isfinite(sb) else '-'} -> {it['model_sim_rms_after_rad']:.4g} {au} "
               f"(delta BIC {ev['delta_bic']:.0f} + {ev.get('sim_delta_bic') or 0:.0f}, explained "
               f"{100 * ev['explained_fraction']:.0f} % / {100 * (sf or 0):.0f} %)")
         g = it.get("rms_gap") or {}
@@ -105,8 +131,23 @@ def run(args: argparse.Namespace) -> int:
                   else f"shrink {g['shrink']:.2f}x" if g.get("shrink") is not None else "no gap above the floor")
             print(f"    RMS gap ({g['residual']} error over where it acts, above its floor): "
                   f"{g['before']:.4g} -> {g['after']:.4g} {gu}, {sh}")
+        if "sim_rms_after_rad" in it:
+            b, a = it["sim_rms_before_rad"], it["sim_rms_after_rad"]
+            print(f"    simulator ({it['axis_after'] or 'not replayable'}): "
+                  f"{f'{b:.4g}' if b is not None and math.isfinite(b) else '-'} -> "
+                  f"{f'{a:.4g}' if a is not None and math.isfinite(a) else '-'} {au}")
+    if closed is not None:
+        for d in closed.dropped:
+            print(f"  - {d['named_effect']} dropped: {d['reason']}")
+        if closed.updated is not None:
+            print(f"  updated axis file: {closed.updated}")
     if not res.iterations:
         print("  no significant missing effect")
-    for n in notes:
+    hidden = [e for e, v in res.identifiability.items() if v != "identifiable"]
+    if hidden:
+        from ..discrepancy import NOT_IDENTIFIABLE
+        print(f"  {NOT_IDENTIFIABLE} ({res.angles} encoder{'s' if res.angles == 'both' else ''} + torque): "
+              + ", ".join(hidden))
+    for n in res.notes:
         print(f"[discrepancy] note: {n}", file=sys.stderr)
     return 0

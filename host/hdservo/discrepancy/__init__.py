@@ -21,3 +21,36 @@ EFFECT_NAMES: tuple[str, ...] = (
     "nonlinear_stiffness", "hysteresis", "backlash", "gravity_unbalance",
     "unmodelled_compliance", "current_loop_lag",
 )
+
+#: Signal sets of a log: both encoders, the motor encoder alone, the output encoder alone
+#: (each with the motor torque).
+SIGNAL_SETS: tuple[str, ...] = ("both", "motor", "output")
+
+#: What each signal set can reveal (docs/discrepancy.md, "What the signals can show").
+#: An effect acting through the twist needs both angles; the transmission error is the
+#: output's position error against the motor's, so it needs both too; cogging is periodic
+#: in the motor angle, which an output encoder alone gives only as N x output angle plus an
+#: unmeasured twist (at order 36 per motor revolution, 1e-4 rad of output twist on N = 100
+#: is 0.36 rad of phase), so it needs the motor encoder.  Unmodelled compliance is tested
+#: with a rigid baseline on a two-encoder log (the twist acceleration's column).
+IDENTIFIABLE: dict[str, tuple[str, ...]] = {
+    "both": EFFECT_NAMES,
+    "motor": ("stribeck_friction", "asymmetric_friction", "cogging_torque", "gravity_unbalance",
+              "current_loop_lag"),
+    "output": ("stribeck_friction", "asymmetric_friction", "gravity_unbalance", "current_loop_lag"),
+}
+
+#: The phrase the workflow reports for an effect its signals cannot show.
+NOT_IDENTIFIABLE = "not identifiable from these signals"
+
+
+def identifiability(angles: str) -> dict[str, str]:
+    """Per effect of :data:`EFFECT_NAMES`: ``"identifiable"`` or :data:`NOT_IDENTIFIABLE`.
+
+    Parameters
+    ----------
+    angles : str
+        The log's signal set, one of :data:`SIGNAL_SETS`.
+    """
+    ok = IDENTIFIABLE[angles]
+    return {e: "identifiable" if e in ok else NOT_IDENTIFIABLE for e in EFFECT_NAMES}

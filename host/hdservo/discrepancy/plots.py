@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
+    from .closeloop import Closed
     from .workflow import Result
 
 from ..fileio import save_figure_atomic
@@ -177,6 +178,56 @@ def write_plots(res: "Result", out_dir: str | Path) -> list[Path]:
         fig = draw()
         fig.tight_layout()
         p = out / name
+        _save(fig, p)
+        paths.append(p)
+    return paths
+
+
+#: Length of the span the simulator overlay shows, s.
+OVERLAY_SPAN_S = 0.5
+
+
+def write_simulator_overlay(res: "Result", cl: "Closed", out_dir: str | Path) -> list[Path]:
+    """``simulator_<k>_<effect>.png`` per kept named effect: the measured output angle and the
+    C simulator's replay of the axis before and after the effect (top), and their errors
+    (bottom), over the :data:`OVERLAY_SPAN_S` span where the effect acts and the replay
+    changes most (a speed-banded effect: only rows inside its band count)."""
+    from .simerr import region_mask
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    s = res.state.design.sig
+    t = s.t
+    meas = s.th_l if (s.kind == "two_mass" and s.th_l is not None) else s.th_m / s.ratio
+    paths: list[Path] = []
+    for k, (it, (rb, ra)) in enumerate(zip(cl.iterations, cl.pairs)):
+        if rb is None or ra is None:
+            continue
+        sim_b = rb.load if s.kind == "two_mass" else rb.motor / s.ratio
+        sim_a = ra.load if s.kind == "two_mass" else ra.motor / s.ratio
+        gain = np.nan_to_num((sim_b - meas) ** 2 - (sim_a - meas) ** 2)
+        bands = (res.iterations[k].get("region") or {}).get("speed_bands")
+        if bands:
+            m = region_mask(res.state.design, bands)
+            idx = np.minimum((np.arange(len(t)) // max(1, s.q)), len(m) - 1)
+            gain = gain * m[idx]
+        w = max(2, int(OVERLAY_SPAN_S / s.dt))
+        c = np.convolve(gain, np.ones(w), mode="valid") if len(gain) > w else gain
+        a = int(np.argmax(c)) if len(gain) > w else 0
+        sl = slice(a, min(len(t), a + w))
+        fig, ax = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+        ax[0].plot(t[sl], meas[sl], "k", lw=1.2, label="measured")
+        ax[0].plot(t[sl], sim_b[sl], "C3", lw=0.8, label="simulator before")
+        ax[0].plot(t[sl], sim_a[sl], "C2", lw=0.8, label=f"simulator with {it['named_effect']}")
+        ax[0].set_ylabel(f"output angle [{s.units['angle']}]")
+        ax[0].legend(loc="best", fontsize=8)
+        ax[0].set_title(f"C simulator replay, {cl.iterations[k]['horizon_s'] * 1000:g} ms windows from the "
+                        f"measured state: RMS {rb.rms_rad:.3g} -> {ra.rms_rad:.3g} {s.units['angle']}", fontsize=9)
+        ax[1].plot(t[sl], 1e6 * (sim_b[sl] - meas[sl]), "C3", lw=0.8, label="before - measured")
+        ax[1].plot(t[sl], 1e6 * (sim_a[sl] - meas[sl]), "C2", lw=0.8, label="after - measured")
+        ax[1].set_ylabel(f"error [µ{s.units['angle']}]")
+        ax[1].set_xlabel("time [s]")
+        ax[1].legend(loc="best", fontsize=8)
+        p = out / f"simulator_{k + 1}_{it['named_effect']}.png"
         _save(fig, p)
         paths.append(p)
     return paths

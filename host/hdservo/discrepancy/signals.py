@@ -85,6 +85,9 @@ class Signals:
     units: dict[str, str] = field(default_factory=dict)
     meta: dict[str, Any] = field(default_factory=dict)
     source: str = "log"          #: where the log came from (its path), for error messages
+    #: The angle signals the log carries: ``"both"`` encoders, ``"motor"`` or ``"output"`` alone
+    #: (the identifiability table, :data:`hdservo.discrepancy.IDENTIFIABLE`).
+    angles: str = "both"
     _dec_cache: dict[int, np.ndarray] = field(default_factory=dict, repr=False)
 
     # ------------------------------------------------------------------ derived
@@ -259,7 +262,8 @@ def from_log(log: logio.Log, structure: str | None = None, fc_Hz: float | None =
         th_l, w_l, a_l = states(raw_l)
     return Signals(kind=structure, ratio=rat, dt=dt, fc_Hz=fc, q=q, t=t, tau=tau,
                    th_m=th_m, w_m=w_m, a_m=a_m, th_l=th_l, w_l=w_l, a_l=a_l,
-                   raw_th_m=raw_m, raw_th_l=raw_l, units=units, meta=dict(log.meta), source=where)
+                   raw_th_m=raw_m, raw_th_l=raw_l, units=units, meta=dict(log.meta), source=where,
+                   angles="both" if both else "motor" if "motor_angle_rad" in cols else "output")
 
 
 def check_uniform(t: np.ndarray, dt: float, where: str) -> None:

@@ -30,6 +30,7 @@ from typing import Any, Callable
 import numpy as np
 import scipy.stats as st
 
+from . import identifiability
 from . import regression as bl
 from . import effects as fx
 from ..fileio import json_ready
@@ -683,6 +684,10 @@ class Result:
     sim_floor: dict[str, float] = field(default_factory=dict)
     #: Remarks on the log and the run (e.g. a biased baseline), one line each.
     notes: list[str] = field(default_factory=list)
+    #: The log's signal set (``both``, ``motor``, ``output``) and, per effect, whether it can
+    #: show it (:func:`hdservo.discrepancy.identifiability`).
+    angles: str = "both"
+    identifiability: dict[str, str] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
         # JSON has no inf/NaN: a figure that does not exist (a biased baseline's simulation
@@ -693,7 +698,9 @@ class Result:
                 "sim_signal": SIM_TEXT, "first_ranking": self.ranking_first,
                 "last_ranking": self.ranking_last,
                 "final_whiteness": self.whiteness, "noise_floor": self.floor,
-                "sim_floor_rad": self.sim_floor, "notes": list(self.notes)})
+                "sim_floor_rad": self.sim_floor, "notes": list(self.notes),
+                "signals": self.angles, "identifiability": dict(self.identifiability),
+                "not_identifiable": [e for e, v in self.identifiability.items() if v != "identifiable"]})
 
 
 SIGNAL_TEXT = ("equation error of the measured motor torque (motor and rigid-body equations stacked), "
@@ -782,6 +789,9 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
     """
     s = settings or Settings()
     lib = lib if lib is not None else fx.library()
+    # never name what the log's signals cannot show (the identifiability table)
+    ident = identifiability(sig.angles)
+    lib = [e for e in lib if ident[e.name] == "identifiable"]
     sig, d, cols, zero_note = _prepare(sig, offset)
     st_ = State.start(d, cols)
     base_fit = st_.fit
@@ -811,7 +821,7 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
                   final_model=final, rms_history=path.rms, state=st_, base_fit=base_fit, snapshots=path.snapshots,
                   ranking_last=path.last_rank, whiteness=white, base_rel_pct=base_rel,
                   ranking_first=path.first_rank or [], sim_rms_history=path.sim_rms, sims=path.sims, floor=floor,
-                  sim_floor=sim_floor, notes=notes)
+                  sim_floor=sim_floor, notes=notes, angles=sig.angles, identifiability=ident)
 
 
 def _prepare(sig: Signals, offset: bool | None) -> tuple[Signals, bl.Design, list[bl.Column], str | None]:
@@ -928,7 +938,7 @@ def _add_effect(st_: State, top: Candidate, runner: Candidate | None) -> tuple[d
         "rms_before": rms_before, "rms_after": st_.fit.rms, "signal": SIGNAL_TEXT,
         "acting_equations": _acting(top.variant, st_.design),
         "rms_acting_before": eq_before, "rms_acting_after": _eq_rms(st_.fit, top.variant),
-        "sim_rms_before_rad": sim_before, "sim_rms_after_rad": _rms(st_.sim),
+        "model_sim_rms_before_rad": sim_before, "model_sim_rms_after_rad": _rms(st_.sim),
         # the same figures over the region where the effect acts (local_evidence)
         "region": {"speed_bands": bands, "equation_share": float(reg_eq.mean()) if len(reg_eq) else 0.0,
                    "simulation_share": float(reg_sim.mean()) if len(reg_sim) else 0.0},

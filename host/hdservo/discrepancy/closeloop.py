@@ -1,0 +1,604 @@
+"""Close the loop through the project's simulator: every named effect goes into an axis file,
+and the C simulator, replayed on the log's inputs, shows whether it now agrees with the log.
+
+For each model along the workflow's path (the baseline, then one named effect more per
+iteration) this module writes an axis file of the simulator (docs/sim.md):
+
+* without a user's axis file, the **identified baseline** -- the ``minimal`` axis with the
+  fitted inertias, spring, damping and Coulomb + viscous friction -- and, per named
+  effect, its plant section switched on with the fitted parameters (:func:`effect_sections`);
+* with the user's axis file (``--axis``), that file, with the sections the named effect
+  acts through replaced by the fitted ones.
+
+Each axis is replayed by the C simulator (:func:`hdservo.sim.replay_windows`) on the
+log's measured motor torque, over windows of :data:`HORIZON_S` started from the measured
+(filtered) state -- the plant alone, without the log's controller, so each window drifts
+only for its own length.  The gap is the RMS of the simulated minus the measured angles,
+rad at the output (the motor angle divided by N, stacked with the load angle), over the
+rows where the replay is finite.
+
+Stop rule (:func:`confirm`): the first named effect is kept on the workflow's evidence;
+a later one is kept only when the simulator confirms it -- its axis file brings the
+replay's gap down by at least :data:`CONFIRM_SHRINK` of what it was -- and the path is cut
+at the first one that is not.
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from .. import sim
+from ..errors import UserError
+from ..fileio import write_text_atomic
+from ..tomltext import basic_string
+from .signals import Signals
+
+#: Replay window, s: long enough for an effect's torque to move the axis measurably,
+#: short enough that the plant without its controller does not drift away.  Chosen on the
+#: tuned axes' logs (tests/python/oracles/discrepancy_cases.py, reference axis, closed loop):
+#: cogging 2.4x at 20 ms vs 2.2x at 50 ms; a rigid model given its compliance 1.35x at
+#: 20 ms but 0.79x at 50 ms (the two-mass plant without its controller drifts more).
+HORIZON_S = 0.02
+#: Integration step the plant is sub-stepped to, s (the simulator's own 10 kHz period).
+PLANT_STEP_S = 1e-4
+#: A later named effect must cut the simulator's gap by at least this fraction.
+CONFIRM_SHRINK = 0.10
+#: Torsional mode given to a rigid model's plant (two halves on a stiff spring), Hz, and its
+#: damping ratio: far above the 200 Hz band the workflow looks at, low enough for RK4 at 10 kHz.
+RIGID_MODE_HZ = 1000.0
+RIGID_ZETA = 0.5
+
+Sections = dict[str, dict[str, Any]]
+
+
+@dataclass
+class Replay:
+    """One axis replayed on a log.
+
+    Attributes
+    ----------
+    axis : pathlib.Path
+        The axis file.
+    rms_rad : float
+        RMS of simulated minus measured angle, rad at the output (NaN: nothing finite).
+    motor, load : numpy.ndarray
+        Simulated motor angle (rad, motor side) and load angle (rad) per log row.
+    """
+
+    axis: Path
+    rms_rad: float
+    motor: np.ndarray
+    load: np.ndarray
+
+
+@dataclass
+class Closed:
+    """The simulator-closed loop of one workflow run.
+
+    Attributes
+    ----------
+    replays : list of Replay
+        Model 0 (baseline or the user's axis), then one per kept named effect.
+    iterations : list of dict
+        Per kept named effect: ``sim_rms_before_rad``, ``sim_rms_after_rad``, ``axis_before``,
+        ``axis_after``, ``confirmed``.
+    dropped : list of dict
+        Named effects cut by the stop rule, with the reason.
+    updated : pathlib.Path or None
+        ``AXIS.updated.toml``: the last kept model.
+    notes : list of str
+    """
+
+    replays: list[Replay] = field(default_factory=list)
+    iterations: list[dict[str, Any]] = field(default_factory=list)
+    dropped: list[dict[str, Any]] = field(default_factory=list)
+    updated: Path | None = None
+    notes: list[str] = field(default_factory=list)
+    #: Per kept iteration: the replay before (None without one) and after.
+    pairs: list[tuple[Replay | None, Replay | None]] = field(default_factory=list)
+
+
+# ----------------------------------------------------------------------------- axis sections
+
+def _pos(x: float) -> float:
+    return float(max(x, 0.0))
+
+
+def _friction(fc: float, fv: float) -> dict[str, Any]:
+    f = _pos(fc)
+    return {"enabled": True, "fc_pos_Nm": f, "fc_neg_Nm": f, "fs_pos_Nm": f, "fs_neg_Nm": f,
+            "viscous_Nms_per_rad": _pos(fv), "lugre_enabled": False}
+
+
+def baseline_sections(sig: Signals, p: Mapping[str, float]) -> Sections | None:
+    """The identified baseline as plant sections (over the ``minimal`` axis), or None when the
+    fit is not a mechanical axis (an inertia or the spring <= 0).
+
+    Two-mass: J_m, J_l, K (k1 = k2 = k3), damping c, Coulomb + viscous friction per side.
+    Rigid (one coordinate, ratio r): the inertia J split in two halves on a spring stiff
+    enough for a :data:`RIGID_MODE_HZ` mode, friction on the measured coordinate; the
+    baseline's constant offset is taken off the torque instead (:func:`replay`).
+    """
+    r = float(sig.ratio)
+    if sig.kind == "two_mass":
+        jm, jl, K = p.get("J_m_kgm2", 0.0), p.get("J_l_kgm2", 0.0), p.get("K_Nm_per_rad", 0.0)
+        if not (jm > 0 and jl > 0 and K > 0):
+            return None
+        return {"gear": {"ratio": r}, "motor": {"jm_kgm2": jm}, "load": {"jl_kgm2": jl},
+                "stiffness": {"enabled": True, "k1_Nm_per_rad": K, "k2_Nm_per_rad": K, "k3_Nm_per_rad": K,
+                              "damping_Nms_per_rad": _pos(p.get("c_Nms_per_rad", 0.0))},
+                "friction_motor": _friction(p.get("Fc_motor_Nm", 0.0), p.get("Fv_motor_Nms_per_rad", 0.0)),
+                "friction_load": _friction(p.get("Fc_load_Nm", 0.0), p.get("Fv_load_Nms_per_rad", 0.0))}
+    J = p.get("J", 0.0)
+    if not J > 0:
+        return None
+    w = 2 * math.pi * RIGID_MODE_HZ
+    K = w * w * r * r * J / 4.0
+    return {"gear": {"ratio": r}, "motor": {"jm_kgm2": J / 2.0}, "load": {"jl_kgm2": r * r * J / 2.0},
+            "stiffness": {"enabled": True, "k1_Nm_per_rad": K, "k2_Nm_per_rad": K, "k3_Nm_per_rad": K,
+                          "damping_Nms_per_rad": 2 * RIGID_ZETA * w * r * r * J / 4.0},
+            "friction_motor": _friction(p.get("Fc", 0.0), p.get("Fv", 0.0)),
+            "friction_load": {"enabled": False}}
+
+
+def _moving_mean_abs(x: np.ndarray | None) -> float:
+    if x is None:
+        return 0.0
+    a = np.abs(x)
+    m = a > 0.01 * float(np.percentile(a, 99))
+    return float(np.mean(a[m])) if np.any(m) else 0.0
+
+
+def effect_sections(sig: Signals, name: str, e: Mapping[str, Any], secs: Sections,
+                    p: Mapping[str, float]) -> Sections | None:
+    """The plant sections that carry a named effect, from its fitted parameters ``e`` (the
+    iteration's ``params``), the current sections ``secs`` and the fit ``p``; None when the
+    plant has no section for what was fitted (the note says so).
+
+    The regression's direction-dependent viscous term |v| is folded into the Coulomb
+    asymmetry at the log's mean moving speed (the plant's viscous friction is symmetric).
+    """
+    N = float(sig.ratio)
+    out: Sections = {}
+    if name == "asymmetric_friction":
+        sides = (("friction_motor", "dFc_motor_asym_Nm", "dFv_motor_asym_Nms_per_rad", sig.w_m),
+                 ("friction_load", "dFc_load_asym_Nm", "dFv_load_asym_Nms_per_rad", sig.w_l))
+        if sig.kind == "rigid":
+            sides = (("friction_motor", "dFc_asym", "dFv_asym", sig.w_m),)
+        for sec, kc, kv, w in sides:
+            f = dict(secs.get(sec, {}))
+            if not f.get("enabled"):
+                continue
+            a = float(e.get(kc, 0.0)) + float(e.get(kv, 0.0)) * _moving_mean_abs(w)
+            fc = 0.5 * (f["fc_pos_Nm"] + f["fc_neg_Nm"])
+            dfs = f["fs_pos_Nm"] - f["fc_pos_Nm"]
+            f["fc_pos_Nm"], f["fc_neg_Nm"] = _pos(fc + a), _pos(fc - a)
+            f["fs_pos_Nm"], f["fs_neg_Nm"] = f["fc_pos_Nm"] + dfs, f["fc_neg_Nm"] + dfs
+            out[sec] = f
+        return out
+    if name == "stribeck_friction":
+        vs = float(e["vs_out_rad_s"])
+        sides = (("friction_motor", "dFs_motor_Nm", vs * N), ("friction_load", "dFs_load_Nm", vs))
+        if sig.kind == "rigid":
+            sides = (("friction_motor", "dFs", vs * N),)
+        for sec, k, v in sides:
+            f = dict(secs.get(sec, {}))
+            if not f.get("enabled"):
+                continue
+            d = _pos(float(e.get(k, 0.0)))
+            f.update({"fs_pos_Nm": f["fc_pos_Nm"] + d, "fs_neg_Nm": f["fc_neg_Nm"] + d, "vs_rad_s": v, "delta": 2.0})
+            out[sec] = f
+        return out
+    if name == "transmission_error":
+        t: dict[str, Any] = {"enabled": True}
+        for pre, n in (("wg", 4), ("out", 4)):
+            for k in range(1, n + 1):
+                amp = e.get(f"{pre}{k}_amp_rad")
+                t[f"{pre}{k}_order"] = float(k) if amp is not None else 0.0
+                t[f"{pre}{k}_amp_rad"] = float(amp or 0.0)
+                t[f"{pre}{k}_phase_rad"] = float(e.get(f"{pre}{k}_phase_rad", 0.0))
+        return {"transmission_error": t}
+    if name == "cogging_torque":
+        pz = int(e["order_per_motor_rev"])
+        c: dict[str, Any] = {"enabled": True}
+        for i, m in enumerate((pz, 2 * pz, 0, 0), start=1):
+            amp = float(e.get(f"h{m}_amp_Nm", 0.0)) if m else 0.0
+            # the regression's line is the torque the motor needs against cogging; the plant's
+            # cogging torque acts on the motor shaft: opposite sign, phase + pi
+            c.update({f"h{i}_order": float(m), f"h{i}_amp_Nm": amp,
+                      f"h{i}_phase_rad": float(e.get(f"h{m}_phase_rad", 0.0)) + math.pi if m else 0.0})
+        return {"cogging": c}
+    if name in ("nonlinear_stiffness", "backlash"):
+        st = dict(secs.get("stiffness", {}))
+        K = float(p.get("K_Nm_per_rad", st.get("k3_Nm_per_rad", 0.0)))
+        if not K > 0:
+            return None
+        if name == "nonlinear_stiffness" and e.get("form") == "cubic":
+            phi = sig.phi
+            k3 = float(e.get("k3_Nm_per_rad3", 0.0))
+            # the plant's cubic spring has no phi|phi| term: its least-squares cubic over the log's twist
+            den = float(np.sum(phi ** 6))
+            if den > 0:
+                k3 += float(e.get("k2_Nm_per_rad2", 0.0)) * float(np.sum(np.abs(phi) ** 5)) / den
+            st["enabled"] = False
+            return {"stiffness": st, "stiffness_cubic": {"enabled": True, "k1_Nm_per_rad": K, "k3_Nm_per_rad3": _pos(k3)}}
+        if name == "backlash":
+            b, k1 = float(e["half_gap_rad"]), max(float(e["stiffness_in_gap_Nm_per_rad"]), 1e-3 * K)
+        else:
+            b, k1 = float(e["knee_rad"]), K + float(e["dk_knee_Nm_per_rad"])
+        if not k1 > 0:
+            return None
+        st.update({"enabled": True, "k1_Nm_per_rad": k1, "k2_Nm_per_rad": K, "k3_Nm_per_rad": K,
+                   "t1_Nm": k1 * b, "t2_Nm": k1 * b + K * b})
+        return {"stiffness": st}
+    if name == "hysteresis":
+        els = []
+        for i in range(1, 64):
+            k, w = e.get(f"e{i}_k_Nm_per_rad"), e.get(f"e{i}_w_Nm")
+            if k is None:
+                break
+            if k > 0 and w > 0:
+                els.append((float(w), float(k)))
+        # the plant has 8 Maxwell-slip elements: the 8 that hold the most torque
+        els = sorted(sorted(els, reverse=True)[:8], key=lambda kw: kw[0] / kw[1])
+        h: dict[str, Any] = {"enabled": bool(els), "n_elements": len(els)}
+        for i in range(1, 9):
+            w, k = els[i - 1] if i <= len(els) else (0.0, 0.0)
+            h[f"e{i}_k_Nm_per_rad"], h[f"e{i}_w_Nm"] = k, w
+        return {"hysteresis_maxwell": h}
+    if name == "gravity_unbalance":
+        return {"gravity": {"enabled": True, "mgl_Nm": float(e["mgl_Nm"]), "offset_rad": float(e["offset_rad"])}}
+    if name == "current_loop_lag":
+        return {"current_loop": {"enabled": True, "bandwidth_Hz": float(e["bandwidth_Hz"])}}
+    if name == "unmodelled_compliance":
+        return _compliance_sections(sig, e, p)
+    return None
+
+
+def _compliance_sections(sig: Signals, e: Mapping[str, Any], p: Mapping[str, float]) -> Sections | None:
+    """A rigid model given a load inertia by the compliance column becomes a two-mass axis:
+    J_m = J - J_l/N^2, and K, c from the load's equation J_l a_l = K phi + c dphi - friction
+    (least squares on the filtered states, moving samples)."""
+    if sig.th_l is None or sig.w_l is None or sig.a_l is None:
+        return None
+    N = float(sig.ratio)
+    jl = float(e.get("J_l_kgm2", 0.0))
+    jm = float(p.get("J", 0.0)) - jl / N ** 2
+    if not (jl > 0 and jm > 0):
+        return None
+    q = max(1, sig.q)
+    wl = sig.w_l[::q]
+    mv = np.abs(wl) > 0.01 * float(np.percentile(np.abs(wl), 99))
+    A = np.c_[sig.phi[::q], sig.dphi[::q], -wl, -np.sign(wl)][mv]
+    y = (jl * sig.a_l[::q])[mv]
+    if len(y) < 20:
+        return None
+    K, c, fv, fc = np.linalg.lstsq(A, y, rcond=None)[0]
+    if not K > 0:
+        return None
+    return {"motor": {"jm_kgm2": jm}, "load": {"jl_kgm2": jl},
+            "stiffness": {"enabled": True, "k1_Nm_per_rad": float(K), "k2_Nm_per_rad": float(K),
+                          "k3_Nm_per_rad": float(K), "damping_Nms_per_rad": _pos(c)},
+            "friction_load": _friction(fc, fv)}
+
+
+def merged(base: Sections, over: Sections) -> Sections:
+    """``base`` with the sections of ``over`` updated key by key."""
+    out = {k: dict(v) for k, v in base.items()}
+    for sec, kv in over.items():
+        out.setdefault(sec, {}).update(kv)
+    return out
+
+
+# ----------------------------------------------------------------------------- axis files
+
+def read_axis(path: Path) -> Sections:
+    """A user's axis file as sections; one-line UserError if it is not TOML or not an axis of
+    the simulator (an unknown section.key)."""
+    try:
+        raw = path.read_bytes()
+    except OSError as e:
+        raise UserError(f"{path}: cannot read: {e.strerror or e}") from None
+    try:
+        data = tomllib.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
+        raise UserError(f"{path}: expected a TOML axis file (docs/sim.md): {e}") from None
+    known = {i.name for i in sim.param_table()}
+    for sec, kv in data.items():
+        if not isinstance(kv, dict):
+            raise UserError(f"{path}: '{sec}': expected a [section] of the axis file, found a value")
+        if sec == "axis":
+            continue
+        for k in kv:
+            if f"{sec}.{k}" not in known:
+                raise UserError(f"{path}: [{sec}] {k}: expected a plant parameter of docs/plant.md (unknown key)")
+    return data
+
+
+def axis_text(secs: Sections, header: str) -> str:
+    """TOML text of an axis (``[axis]`` metadata first, then the plant sections)."""
+    kinds = {i.name: i.kind for i in sim.param_table()}
+    lines = [f"# {ln}" for ln in header.splitlines()] + [""]
+    order = (["axis"] if "axis" in secs else []) + [s for s in secs if s != "axis"]
+    for sec in order:
+        kv = secs[sec]
+        if not kv:
+            continue
+        lines.append(f"[{sec}]")
+        for k, v in kv.items():
+            kind = kinds.get(f"{sec}.{k}", "str" if isinstance(v, str) else "double")
+            if isinstance(v, str):
+                val = basic_string(v)
+            elif kind == "bool" or isinstance(v, bool):
+                val = "true" if v else "false"
+            elif kind == "int":
+                val = str(int(round(float(v))))
+            else:
+                val = repr(float(v))
+            lines.append(f"{k} = {val}")
+        lines.append("")
+    return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- replay
+
+def window_starts(n: int, dt: float, horizon_s: float | None = None) -> np.ndarray:
+    """First row of every replay window (``horizon_s`` default :data:`HORIZON_S`)."""
+    horizon_s = HORIZON_S if horizon_s is None else horizon_s
+    step = max(2, int(round(horizon_s / dt)))
+    return np.arange(0, n - 1, step, dtype=np.int64)
+
+
+def replay(sig: Signals, axis: Path, offset: float = 0.0, horizon_s: float | None = None,
+           two_mass: bool | None = None, count_load: bool | None = None) -> Replay:
+    """Replay ``axis`` on the log's measured torque from the measured state of every window.
+
+    The plant is sub-stepped to :data:`PLANT_STEP_S`; its current clamp is lifted above
+    the log's torque (the logged torque is what acted).  ``offset``: a rigid baseline's
+    constant torque, taken off the measured torque.  ``two_mass`` (default: the signals'
+    structure): the axis is a two-mass model whose load starts at the measured load state and
+    whose load angle counts in the gap (a rigid model of a two-encoder log given a
+    compliance); otherwise the load starts at the motor's / N (no twist).  ``count_load``
+    (default: ``two_mass``): the load angle's error counts in the gap (a rigid model judged
+    against a two-encoder log's load angle).
+    """
+    if two_mass is None:
+        two_mass = sig.kind == "two_mass"
+    two_mass = bool(two_mass and sig.th_l is not None)
+    n = len(sig.t)
+    horizon_s = HORIZON_S if horizon_s is None else horizon_s
+    st = window_starts(n, sig.dt, horizon_s)
+    if two_mass:
+        x0 = np.c_[sig.th_m[st], sig.w_m[st], sig.th_l[st], sig.w_l[st]]
+    else:
+        r = float(sig.ratio)
+        x0 = np.c_[sig.th_m[st], sig.w_m[st], sig.th_m[st] / r, sig.w_m[st] / r]
+    kt = sim.axis_param("motor.kt_Nm_per_A", str(axis))
+    over = {"integrator.substeps": float(min(64, max(1, math.ceil(sig.dt / PLANT_STEP_S - 1e-9)))),
+            "current_loop.peak_A": float(10 * max(float(np.max(np.abs(sig.tau))), 1e-6) / kt)}
+    tau = sig.tau - offset
+    try:
+        xi = maxwell_memory(sig, axis, st)
+        m, l_ = sim.replay_windows(tau, st, x0, params=over, axis=str(axis), dt_s=sig.dt, maxwell_xi=xi)
+    except sim.SimError as e:
+        raise UserError(f"{axis}: the simulator refused the axis: {e}") from None
+    cnt = two_mass if count_load is None else bool(count_load and sig.th_l is not None)
+    return Replay(axis=axis, rms_rad=gap_rms(sig, m, l_, horizon_s=horizon_s, two_mass=cnt), motor=m, load=l_)
+
+
+def _detrend_windows(e: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """``e`` with its least-squares line (offset + slope in the row index) taken out per window."""
+    out = np.full_like(e, np.nan)
+    bounds = list(starts) + [len(e)]
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        x = e[a:b]
+        ok = np.isfinite(x)
+        if ok.sum() < 3:
+            continue
+        t = np.arange(b - a, dtype=float)[ok]
+        A = np.c_[np.ones_like(t), t]
+        coef = np.linalg.lstsq(A, x[ok], rcond=None)[0]
+        y = np.full(b - a, np.nan)
+        y[ok] = x[ok] - A @ coef
+        out[a:b] = y
+    return out
+
+
+def maxwell_memory(sig: Signals, axis: Path, starts: np.ndarray) -> np.ndarray | None:
+    """The Maxwell-slip elements' positions at every window start (rad of twist), as the
+    measured twist left them, for an axis with hysteresis elements on; None otherwise.
+
+    Each element of stiffness k and slip torque w is a stop operator of threshold w/k on the
+    twist (:func:`hdservo.discrepancy.effects.stop_operator`): its position is the twist
+    minus the operator's output.  Relaxing the elements at each window's start instead
+    would drop the hysteresis torque the log carries there.
+    """
+    from .effects import stop_operator
+    a = str(axis)
+    if sig.kind != "two_mass" or not sim.axis_param("hysteresis_maxwell.enabled", a):
+        return None
+    n_el = int(sim.axis_param("hysteresis_maxwell.n_elements", a))
+    xi = np.repeat((sig.th_m[starts] / sig.ratio - sig.th_l[starts])[:, None], sim.max_maxwell(), axis=1)
+    phi = sig.phi
+    for i in range(n_el):
+        k = sim.axis_param(f"hysteresis_maxwell.e{i + 1}_k_Nm_per_rad", a)
+        w = sim.axis_param(f"hysteresis_maxwell.e{i + 1}_w_Nm", a)
+        if k > 0 and w > 0:
+            xi[:, i] = (phi - stop_operator(phi, w / k))[starts]
+    return xi
+
+
+def gap_rms(sig: Signals, motor: np.ndarray, load: np.ndarray, rows: np.ndarray | None = None,
+            horizon_s: float | None = None, two_mass: bool | None = None) -> float:
+    """RMS of simulated minus measured angle, rad at the output, over finite rows (and ``rows``).
+
+    The windows' initial position and speed are treated as free (multiple shooting): per
+    window and side the error's least-squares line in time is taken out.  The measured
+    initial speed is a filtered derivative of the encoder and carries its noise (1 count of
+    a 24-bit output encoder filtered at 200 Hz is about 5e-4 rad/s: 1e-5 rad over a 50 ms
+    window, the size of a small effect); what a missing torque does inside a window
+    (an acceleration, a vibration) is not a line and stays.
+    """
+    st = window_starts(len(sig.t), sig.dt, horizon_s)
+    parts = [_detrend_windows((motor - sig.th_m) / sig.ratio, st)]
+    if (sig.kind == "two_mass" if two_mass is None else two_mass) and sig.th_l is not None:
+        parts.append(_detrend_windows(load - sig.th_l, st))
+    e = np.concatenate([x if rows is None else x[rows] for x in parts])
+    e = e[np.isfinite(e)]
+    return float(np.sqrt(np.mean(e ** 2))) if e.size else float("nan")
+
+
+def confirm(before: float, after: float) -> bool:
+    """The simulator confirms an effect: its axis cuts the replay's gap by at least
+    :data:`CONFIRM_SHRINK` (a non-finite figure confirms nothing)."""
+    return bool(math.isfinite(before) and math.isfinite(after) and after <= (1.0 - CONFIRM_SHRINK) * before)
+
+
+# ----------------------------------------------------------------------------- the loop
+
+def close(res: Any, out_dir: Path, stem: str, user_axis: Path | None = None) -> Closed:
+    """Write the axis file of every model along ``res`` (a :class:`workflow.Result`), replay
+    each through the C simulator and apply the stop rule.
+
+    Parameters
+    ----------
+    res : hdservo.discrepancy.workflow.Result
+    out_dir : pathlib.Path
+        Where the axis files go.
+    stem : str
+        Name stem: ``STEM.baseline.toml`` (identified baseline), ``STEM.updated-K.toml`` per
+        kept effect, ``STEM.updated.toml`` the last kept model.
+    user_axis : pathlib.Path, optional
+        The user's axis file: model 0, and the base the named effects' sections go into.
+    """
+    sig: Signals = res.state.design.sig
+    cl = Closed()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    fits = [f.params() for f in res.snapshots]
+    offset_of = (lambda p: float(p.get("offset", 0.0))) if sig.kind == "rigid" and user_axis is None else (lambda p: 0.0)
+    if user_axis is not None:
+        base0: Sections | None = read_axis(user_axis)
+        axis0 = user_axis
+    else:
+        b = baseline_sections(sig, fits[0])
+        base0 = None if b is None else merged({"axis": {"defaults": "minimal", "name": f"{stem} identified baseline"}}, b)
+        axis0 = out_dir / f"{stem}.baseline.toml"
+        if base0 is not None:
+            write_text_atomic(axis0, axis_text(base0, "Identified baseline of hdservo discrepancy (docs/discrepancy.md)"))
+    prev = replay(sig, axis0, offset_of(fits[0])) if base0 is not None else None
+    if prev is not None:
+        cl.replays.append(prev)
+    else:
+        cl.notes.append("the baseline fit is not a mechanical axis: no simulator replay before the first effect")
+    effects: list[tuple[str, dict[str, Any]]] = []
+    for k, it in enumerate(res.iterations):
+        name = it["named_effect"]
+        p_after = fits[k + 1]
+        effects.append((name, it["params"]))
+        if user_axis is not None:
+            secs: Sections | None = dict(base0 or {})
+            fitted = baseline_sections(sig, p_after) or {}
+            for nm, e in effects:
+                es = effect_sections(sig, nm, e, merged(secs or {}, fitted), p_after)
+                secs = None if es is None or secs is None else merged(secs, es)
+        else:
+            b = baseline_sections(sig, p_after)
+            secs = None if b is None else merged({"axis": {"defaults": "minimal",
+                                                           "name": f"{stem} with {', '.join(n for n, _ in effects)}"}}, b)
+            for nm, e in effects:
+                if secs is None:
+                    break
+                es = effect_sections(sig, nm, e, secs, p_after)
+                secs = None if es is None else merged(secs, es)
+        before = prev.rms_rad if prev is not None else float("nan")
+        rec: dict[str, Any] = {"named_effect": name, "axis_before": str(prev.axis) if prev else None,
+                               "sim_rms_before_rad": before, "horizon_s": HORIZON_S}
+        if secs is None:
+            rec.update({"axis_after": None, "sim_rms_after_rad": float("nan"), "confirmed": None})
+            cl.notes.append(f"{name}: the simulator has no section for the fitted form; not replayed")
+            if k > 0:
+                cl.dropped.append({"named_effect": name, "reason": "not replayable in the simulator"})
+                break
+            cl.iterations.append(rec)
+            cl.pairs.append((prev, None))
+            prev = None
+            continue
+        path = out_dir / f"{stem}.updated-{k + 1}.toml"
+        src = f"the user's axis {user_axis.name}" if user_axis is not None else "the identified baseline"
+        write_text_atomic(path, axis_text(secs, f"hdservo discrepancy: {src} + "
+                                                f"{', '.join(n for n, _ in effects)} (docs/discrepancy.md)"))
+        # a rigid model given a compliance is a two-mass axis from then on: its load starts at
+        # the measured load; the gap before is re-measured the same way, so both count alike
+        tm = sig.kind == "two_mass" or any(n == "unmodelled_compliance" for n, _ in effects)
+        if tm and sig.kind != "two_mass" and prev is not None:
+            prev = replay(sig, prev.axis, offset_of(fits[k]), two_mass=False, count_load=True)
+            before = prev.rms_rad
+            rec["sim_rms_before_rad"] = before
+        try:
+            r = replay(sig, path, offset_of(p_after), two_mass=tm)
+        except UserError as e:
+            # the fitted parameters are outside what the simulator accepts: say so, keep the rest
+            path.unlink(missing_ok=True)
+            cl.notes.append(f"{name}: {e}")
+            if k > 0:
+                cl.dropped.append({"named_effect": name, "reason": "not replayable in the simulator"})
+                break
+            rec.update({"axis_after": None, "sim_rms_after_rad": float("nan"), "confirmed": None})
+            cl.iterations.append(rec)
+            cl.pairs.append((prev, None))
+            prev = None
+            continue
+        ok = confirm(before, r.rms_rad)
+        rec.update({"axis_after": str(path), "sim_rms_after_rad": r.rms_rad, "confirmed": ok,
+                    "shrink": before / r.rms_rad if math.isfinite(before) and r.rms_rad > 0 else None})
+        if k > 0 and not ok:
+            cl.dropped.append({"named_effect": name, "sim_rms_before_rad": before, "sim_rms_after_rad": r.rms_rad,
+                               "reason": f"the simulator's gap shrinks by less than {100 * CONFIRM_SHRINK:.0f} %"})
+            path.unlink(missing_ok=True)
+            break
+        cl.iterations.append(rec)
+        cl.replays.append(r)
+        cl.pairs.append((prev, r))
+        prev = r
+    last = next((Path(it["axis_after"]) for it in reversed(cl.iterations) if it.get("axis_after")), None)
+    if last is not None:
+        cl.updated = out_dir / f"{stem}.updated.toml"
+        write_text_atomic(cl.updated, last.read_text())
+    return cl
+
+
+def apply(res: Any, cl: Closed) -> None:
+    """Put the simulator's figures into the workflow's result: per kept iteration
+    ``sim_rms_before_rad`` / ``sim_rms_after_rad`` (the C simulator's replay), ``axis_before`` /
+    ``axis_after`` and ``simulator_confirmed``; the iterations the stop rule cut are removed
+    from ``iterations``, ``named`` and the final model, with a note each."""
+    keep = len(cl.iterations)
+    for it, rec in zip(res.iterations, cl.iterations):
+        it.update({"sim_rms_before_rad": rec["sim_rms_before_rad"], "sim_rms_after_rad": rec["sim_rms_after_rad"],
+                   "axis_before": rec["axis_before"], "axis_after": rec["axis_after"],
+                   "simulator_confirmed": rec["confirmed"], "simulator_horizon_s": rec["horizon_s"]})
+    for d in cl.dropped:
+        res.notes.append(f"{d['named_effect']} is not kept: {d['reason']} (the stop rule, docs/discrepancy.md)")
+    if keep < len(res.iterations):
+        del res.iterations[keep:]
+        res.named = res.named[:keep]
+        res.final_model["effects"] = {it["named_effect"]: it["params"] for it in res.iterations}
+        res.final_model["params"] = res.snapshots[keep].params()
+    res.notes.extend(cl.notes)
+
+
+def to_json(cl: Closed) -> dict[str, Any]:
+    """The simulator section of the command's JSON."""
+    from ..fileio import json_ready
+    return json_ready({"updated_axis": str(cl.updated) if cl.updated else None,
+                       "horizon_s": HORIZON_S, "confirm_shrink": CONFIRM_SHRINK,
+                       "models": [{"axis": str(r.axis), "sim_rms_rad": r.rms_rad} for r in cl.replays],
+                       "iterations": cl.iterations, "dropped": cl.dropped,
+                       "signal": "C simulator replayed on the log's measured torque over windows of "
+                                 f"{HORIZON_S * 1000:g} ms from the measured state; RMS of simulated minus measured "
+                                 "angle, rad at the output (motor angle / N stacked with the load angle)"})
