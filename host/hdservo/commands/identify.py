@@ -197,7 +197,7 @@ def _run_pipeline(args: argparse.Namespace, runner: object, data: dict, progress
 
     from ..ident import pipeline
     settings = pipeline.Settings(torque_max_Nm=args.torque_max, rated_torque_Nm=args.rated_torque,
-                                 fixed_gains=tuple(k.partition("=")[0] for k in args.gain))
+                                 fixed_gains=tuple(k.partition("=")[0] for k in args.set))
     pl = pipeline.Pipeline(runner=runner, settings=settings, progress=progress, data=data)
     if runner is not None:
         pl.run(args.target)
