@@ -9,8 +9,8 @@
 #include <stdint.h>
 
 #define HD_PARAM_VERSION 1u
-#define HD_PARAM_TABLE_HASH 0x4A416ADEu
-#define HD_PARAM_COUNT 161u
+#define HD_PARAM_TABLE_HASH 0x0FF81585u
+#define HD_PARAM_COUNT 173u
 
 typedef enum {
     HD_P_GEAR_RATIO = 0,
@@ -174,6 +174,18 @@ typedef enum {
     HD_P_CP_K3 = 158,
     HD_P_CP_T1 = 159,
     HD_P_CP_T2 = 160,
+    HD_P_FE_ENABLE = 161,
+    HD_P_FE_FEED = 162,
+    HD_P_FE_DECIM = 163,
+    HD_P_FE_V_MIN = 164,
+    HD_P_FE_VS_LO = 165,
+    HD_P_FE_DV_MAX = 166,
+    HD_P_FE_SETTLE = 167,
+    HD_P_FE_FORGET = 168,
+    HD_P_FE_N_MIN = 169,
+    HD_P_FE_TAU_MAX = 170,
+    HD_P_FE_FV_MAX = 171,
+    HD_P_FE_RAMP = 172,
 } hd_param_id_t;
 
 #define HD_PTYPE_I32 0u

@@ -1,0 +1,136 @@
+/*
+ * hd_fric_est.h - online Stribeck identification from normal motion.
+ *
+ * The drive keeps the static friction map of each direction,
+ *     g_d(v) = fc_d + (fs_d - fc_d) exp(-(v / vs_d)^2) + fv_d |v|,   d = pos, neg
+ * (the map of hd_stribeck.h with delta = 2) up to date while it moves, from
+ * the torque it applies at constant velocity.  No dedicated experiment: at
+ * a constant reference velocity and after the loops have settled, the torque
+ * command is the friction at that velocity (inertia torque 0, no feed-forward
+ * can change that: whatever the loop applies to keep the rate is friction).
+ *
+ * Data (excitation check 1: only steady sliding informs the static map).
+ *   One step per HD_FE step period (the caller decimates, e.g. 1 kHz).  The
+ *   reference velocity v_ref is "steady" when it is non-zero, keeps its sign
+ *   and changes by at most dv_max per step; after settle steady steps each
+ *   step adds (|v_ref|, torque) to the bin of |v_ref| of its direction.  Bins
+ *   are half octaves of |v_ref| (bin edges 2^k and 1.5 2^k LSB), HD_FE_NBIN per
+ *   direction from v_min up; outside [v_min, top edge] nothing is updated.
+ *   Each bin holds the mean velocity and mean torque magnitude of its samples
+ *   and their count n: a running mean while n < n_forget, then an exponential
+ *   mean over the last ~n_forget samples (the forgetting: a bin follows a
+ *   drifting friction with time constant n_forget of its own samples).
+ *   Updating a bin costs one 32-bit division (by n + 1).
+ *
+ * Fit (excitation check 2: a parameter changes only when the bins inform it).
+ *   Per direction, for each candidate Stribeck velocity vs_j = vs_lo 2^(j/4),
+ *   j = 0..HD_FE_NGRID-1 (8 octaves), the map is linear in (fc, fs - fc, fv):
+ *   least squares over the bins with n >= n_min (centred 2x2 normal
+ *   equations, solved through a reciprocal found by Newton iteration: no
+ *   64-bit division), and its residual sum of squares S_j.  One candidate per
+ *   step (round robin over both directions: a full fit every 2 HD_FE_NGRID
+ *   steps).  After the last candidate: the best j, refined by a parabola
+ *   through S_j-1, S_j, S_j+1 (vs interpolated linearly between the grid
+ *   values, the linear parameters likewise), then the estimate of the
+ *   direction is replaced only if
+ *     - at least 4 bins are valid, at least one below vs and one above 2 vs
+ *       (fs and vs need data under and across the Stribeck drop; fc and fv
+ *       need sliding above it), and
+ *     - the best j is not at either end of the grid (vs is inside the range),
+ *   and it is bounded: 0 <= fc <= fs <= tau_max, 0 <= fv <= fv_max, vs in the grid
+ *   range.  Otherwise the old estimate stays.
+ *
+ * Confidence (per direction, permille): 1000 x min(n_lo, 2) min(n_mid, 2)
+ *   min(n_hi, 2) / 8 with the valid bins below vs / 2 (lo: static level),
+ *   within [vs / 2, 2 vs] (mid: Stribeck velocity) and above 2 vs (hi: Coulomb
+ *   level and viscous term) of the last fit: 1000 when each region has two
+ *   bins, 0 while one of them has none.
+ *
+ * Formats:
+ *   v_ref, v_min, vs_lo, dv_max, est vs : output velocity, 2^-32 turn/s
+ *   tau (input), fc, fs, tau_max        : Q15.16 N.m, output-referred
+ *   fv, fv_max                          : Q15.16 N.m per (turn/s) (as hd_stribeck.h)
+ *   bin velocity                        : 2^-32 turn/s; r16 = |v| / vs_lo in Q16
+ *   e (shape)                           : Q16 inside the fit (exp(-x) by hd_exp_neg_q16)
+ *   fit velocity column                 : |v| / 2^HD_FE_U_SHIFT (2^-21 turn/s)
+ * Cost: a bin update is a few multiplies and one 32-bit division; a fit step
+ *   is three passes over HD_FE_NBIN bins (one exp each) and one reciprocal
+ *   (measured on the Cortex-M4: tests/bench/10_cm4_cost.sh, docs/compensators.md).
+ * Memory: hd_fric_est_t, about 1.1 KiB.
+ */
+#ifndef HD_FRIC_EST_H
+#define HD_FRIC_EST_H
+
+#include <stdint.h>
+#include <stdbool.h>
+#include "hd_stribeck.h"
+#include "hd_blend.h"
+
+#define HD_FE_NBIN   24u     /* half-octave bins per direction (12 octaves) */
+#define HD_FE_NGRID  32u     /* candidate Stribeck velocities, quarter octaves (8 octaves) */
+#define HD_FE_U_SHIFT 11u    /* fit velocity column: |v| >> 11 (2^-21 turn/s) */
+
+typedef enum {
+    HD_FE_DIR_POS = 0,
+    HD_FE_DIR_NEG = 1,
+    HD_FE_NDIR = 2
+} hd_fe_dir_t;
+
+typedef struct {
+    int32_t  v_min;          /* lowest velocity binned, 2^-32 turn/s, > 0 */
+    int32_t  vs_lo;          /* smallest candidate vs, 2^-32 turn/s, > 0 (vs_hi = 2^7.75 vs_lo) */
+    int32_t  dv_max;         /* largest change of v_ref per step that is still steady, 2^-32 turn/s */
+    uint32_t settle;         /* steady steps before a sample is taken */
+    uint32_t n_forget;       /* bin memory, samples (>= 1) */
+    uint32_t n_min;          /* samples for a bin to count in the fit (>= 1) */
+    int32_t  tau_max;        /* bound of fc and fs, Q15.16 N.m, > 0 */
+    int32_t  fv_max;         /* bound of fv, Q15.16 N.m/(turn/s), >= 0 */
+    hd_stribeck_recip_t rvs; /* reciprocal of vs_lo (hd_fric_est_config) */
+} hd_fric_est_cfg_t;
+
+typedef struct {
+    int32_t  v;              /* mean |v_ref|, 2^-32 turn/s */
+    int32_t  f;              /* mean torque magnitude, Q15.16 N.m */
+    int32_t  r16;            /* v / vs_lo, Q16 (saturated) */
+    uint32_t n;              /* samples (saturates at n_forget) */
+} hd_fe_bin_t;
+
+typedef struct {
+    hd_fe_bin_t bin[HD_FE_NDIR][HD_FE_NBIN];
+    hd_stribeck_dir_t est[HD_FE_NDIR];  /* published estimate (magnitudes) */
+    uint32_t conf[HD_FE_NDIR];          /* confidence, permille */
+    uint32_t fits[HD_FE_NDIR];          /* accepted fits (wraps) */
+    int64_t  sse[HD_FE_NGRID];          /* residual sums of the fit in progress */
+    int32_t  th[HD_FE_NGRID][3];        /* its (fc, fs - fc, fv) per candidate */
+    uint32_t fit_dir;                   /* direction of the fit in progress */
+    uint32_t fit_j;                     /* its next candidate */
+    int32_t  v_prev;                    /* v_ref of the last step */
+    uint32_t steady_n;                  /* steady steps (saturates at settle) */
+    uint32_t samples;                   /* samples taken (wraps) */
+    hd_blend_t feed;                    /* weight of the estimate in the Stribeck feed-forward */
+} hd_fric_est_t;
+
+/** Config from raw values; 0 ok, -1 inconsistent (non-positive velocities, n 0). Contains a
+ *  64-bit division (the reciprocal of vs_lo): call it when the parameters change. */
+int32_t hd_fric_est_config(hd_fric_est_cfg_t *c, int32_t v_min, int32_t vs_lo, int32_t dv_max,
+                           uint32_t settle, uint32_t n_forget, uint32_t n_min, int32_t tau_max,
+                           int32_t fv_max);
+/** Empty bins; the estimate starts from init (magnitudes of both directions, e.g. the
+ *  Stribeck FF parameters) with confidence 0; feed weight ramp over ramp_steps steps. */
+void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR], uint32_t ramp_steps,
+                      bool feed);
+/** One step (decimated rate): v_ref the reference velocity, tau the torque applied (both of
+ *  the step's period), active = 0 while the loops do not run (forgets the steadiness). */
+void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t tau, bool active);
+/** The bin of |v| (0..HD_FE_NBIN-1), or -1 outside the binned range. */
+int32_t hd_fric_est_bin_of(const hd_fric_est_cfg_t *c, int32_t v);
+/** Switch the feed of the estimate into the Stribeck FF (weight ramps, bumpless). */
+void hd_fric_est_set_feed(hd_fric_est_t *e, bool on);
+/** The Stribeck FF config the drive uses: base with its four parameters per direction
+ *  moved to the estimate by the feed weight, out = base + w (est - base); the weight
+ *  advances one ramp step per call (call once per estimator step). */
+void hd_fric_est_feed(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, hd_stribeck_cfg_t *out);
+/** True while the feed weight is not 0. */
+bool hd_fric_est_feeding(const hd_fric_est_t *e);
+
+#endif
