@@ -982,7 +982,7 @@ void hd_app_step(hd_app_t *a)
     phase_command(a, &p);
     PHASE_MARK();
     /* slow slot: online Stribeck identification (steady reference velocity, torque applied) */
-    hd_comp_bank_fric_est(&a->cb, &a->cb_cfg, p.vff_plain, p.cmd.enable ? p.t_cmd : 0,
+    hd_comp_bank_fric_est(&a->cb, &a->cb_cfg, p.vff_plain, p.v_fb, p.cmd.enable ? p.t_cmd : 0,
                           p.loops == HD_LOOPS_POS_VEL && p.cmd.enable != 0);
     phase_telemetry(a, &p);
     PHASE_MARK();

@@ -473,8 +473,8 @@ void hd_comp_bank_end(hd_comp_bank_t *b, int32_t t_applied)
     b->t_prev = t_applied;
 }
 
-void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_vel_out_t v_ref, int32_t tau,
-                           bool active)
+void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_vel_out_t v_ref, hd_vel_out_t v_fb,
+                           int32_t tau, bool active)
 {
     if (c->fe_on == 0u && !hd_fric_est_feeding(&b->fe)) {
         return;                 /* off and not ramping out: no cost, the bins keep their data */
@@ -484,7 +484,7 @@ void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_ve
     }
     b->fe_tick = 0u;
     if (c->fe_on != 0u) {
-        hd_fric_est_step(&b->fe, &c->fe, v_ref, tau, active);
+        hd_fric_est_step(&b->fe, &c->fe, v_ref, v_fb, tau, active);
     }
     hd_fric_est_feed(&b->fe, &c->str, &b->fe_str);
 }

@@ -198,11 +198,12 @@ int32_t hd_comp_bank_post(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const 
 /** End of the period: the torque command actually applied (for the DOB / torque estimate). */
 void hd_comp_bank_end(hd_comp_bank_t *b, int32_t t_applied);
 /** The slow slot of the online Stribeck identification (hd_fric_est.h): call once per
- *  control period with the reference velocity before the bank's corrections (2^-32 turn/s),
- *  the output torque applied (Q15.16 N.m) and whether the position loops ran; every
- *  fe_decim-th call runs one estimator step and refreshes the fed Stribeck FF config. */
-void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_vel_out_t v_ref, int32_t tau,
-                           bool active);
+ *  control period with the reference velocity before the bank's corrections and the
+ *  velocity-loop feedback (2^-32 turn/s), the output torque applied (Q15.16 N.m) and
+ *  whether the position loops ran; every fe_decim-th call runs one estimator step and
+ *  refreshes the fed Stribeck FF config. */
+void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_vel_out_t v_ref, hd_vel_out_t v_fb,
+                           int32_t tau, bool active);
 /** True while any compensator output may be non-zero. */
 bool hd_comp_bank_active(const hd_comp_bank_t *b);
 

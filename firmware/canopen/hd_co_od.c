@@ -340,7 +340,7 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x28A0u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 165u, INT64_C(4), INT64_C(8589935), INT64_C(596523), NULL},  /* fe_vs_lo */
     {0x28A0u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 166u, INT64_C(0), INT64_C(42949673), INT64_C(429), NULL},  /* fe_dv_max */
     {0x28A0u, 7u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 167u, INT64_C(0), INT64_C(100000), INT64_C(300), NULL},  /* fe_settle */
-    {0x28A0u, 8u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 168u, INT64_C(1), INT64_C(1000000), INT64_C(1000), NULL},  /* fe_forget */
+    {0x28A0u, 8u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 168u, INT64_C(1), INT64_C(1000000), INT64_C(150), NULL},  /* fe_forget */
     {0x28A0u, 9u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 169u, INT64_C(1), INT64_C(1000000), INT64_C(100), NULL},  /* fe_n_min */
     {0x28A0u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 170u, INT64_C(66), INT64_C(1048576000), INT64_C(6553600), NULL},  /* fe_tau_max */
     {0x28A0u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 171u, INT64_C(0), INT64_C(1966080000), INT64_C(196608000), NULL},  /* fe_fv_max */

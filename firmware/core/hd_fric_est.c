@@ -122,6 +122,7 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
     e->fit_dir = 0u;
     e->fit_j = 0u;
     e->v_prev = 0;
+    e->v_lp = 0;
     e->steady_n = 0u;
     e->samples = 0u;
     hd_blend_init(&e->feed, ramp_steps, feed);
@@ -262,7 +263,8 @@ static void fit_finish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
 {
     uint32_t j;
     uint32_t best = 0u;
-    uint32_t nlo = 0u, nmid = 0u, nhi = 0u, nbelow = 0u, nvalid = 0u;
+    uint32_t nlo = 0u, nmid = 0u, nhi = 0u, nvalid = 0u;
+    int32_t vmin_valid = INT32_MAX, vmax_valid = 0;
     uint32_t i;
     int32_t vs, fc, dfs, fv;
     for (j = 1; j < HD_FE_NGRID; j++) {
@@ -299,9 +301,8 @@ static void fit_finish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
         const hd_fe_bin_t *b = &e->bin[d][i];
         if (b->n >= c->n_min) {
             nvalid++;
-            if (b->v < vs) {
-                nbelow++;
-            }
+            vmin_valid = (b->v < vmin_valid) ? b->v : vmin_valid;
+            vmax_valid = (b->v > vmax_valid) ? b->v : vmax_valid;
             if (b->v < vs / 2) {
                 nlo++;
             } else if (b->v <= 2 * (int64_t)vs) {
@@ -312,8 +313,15 @@ static void fit_finish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
         }
     }
     e->conf[d] = 1000u * ((nlo < 2u) ? nlo : 2u) * ((nmid < 2u) ? nmid : 2u) * ((nhi < 2u) ? nhi : 2u) / 8u;
-    if (nvalid < 4u || nbelow < 1u || nhi < 1u || best == 0u || best == HD_FE_NGRID - 1u) {
+    /* vs two octaves inside the binned range (the drop and both plateaus seen), five bins */
+    if (nvalid < 5u || (int64_t)vmin_valid * 4 > (int64_t)vs || (int64_t)vmax_valid < 4 * (int64_t)vs ||
+        best == 0u || best == HD_FE_NGRID - 1u) {
         return;                             /* the bins do not inform every parameter: keep the old */
+    }
+    /* no Stribeck drop, or a viscous term that pulls the fastest bin down by more than fc / 8:
+     * a straight line through the bins, not a Stribeck curve (the data do not show one) */
+    if (dfs < 0 || hdf_mul64x32_q((int64_t)fv, vmax_valid, 32u) < -(int64_t)(fc / 8)) {
+        return;
     }
     fc = hdf_clamp32(fc, 0, c->tau_max);
     e->est[d].fc = fc;
@@ -323,15 +331,20 @@ static void fit_finish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
     e->fits[d]++;
 }
 
-void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t tau, bool active)
+void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
+                      bool active)
 {
+    /* the measured velocity, low-passed (the observer's noise at slow rates) */
+    e->v_lp = hdf_sat32((int64_t)e->v_lp + hdf_asr64_rnd((int64_t)v_meas - (int64_t)e->v_lp, HD_FE_VLP_SHIFT));
     if (!active) {
         e->steady_n = 0u;
         e->v_prev = 0;
     } else {
         const bool same = ((v_ref > 0) && (e->v_prev > 0)) || ((v_ref < 0) && (e->v_prev < 0));
         const int64_t dv = (int64_t)v_ref - (int64_t)e->v_prev;
-        if (same && dv <= (int64_t)c->dv_max && dv >= -(int64_t)c->dv_max) {
+        const int64_t slip = (int64_t)e->v_lp - (int64_t)v_ref;
+        const int64_t half = (int64_t)hdf_abs_sat(v_ref) / 2;
+        if (same && dv <= (int64_t)c->dv_max && dv >= -(int64_t)c->dv_max && slip <= half && slip >= -half) {
             if (e->steady_n < c->settle) {
                 e->steady_n++;
             }

@@ -12,8 +12,13 @@
  * Data (excitation check 1: only steady sliding informs the static map).
  *   One step per HD_FE step period (the caller decimates, e.g. 1 kHz).  The
  *   reference velocity v_ref is "steady" when it is non-zero, keeps its sign
- *   and changes by at most dv_max per step; after settle steady steps each
- *   step adds (|v_ref|, torque) to the bin of |v_ref| of its direction.  Bins
+ *   and changes by at most dv_max per step, and the axis slides with it: the
+ *   measured velocity, low-passed over 2^HD_FE_VLP_SHIFT steps, is within
+ *   |v_ref| / 2 of v_ref (after a reversal the axis sticks while the loops wind
+ *   the torque through twice the breakaway level: at slow rates that takes
+ *   longer than any fixed time; the torque of that phase is not friction).
+ *   After settle steady steps each step adds (|v_ref|, torque) to the bin of
+ *   |v_ref| of its direction.  Bins
  *   are half octaves of |v_ref| (bin edges 2^k and 1.5 2^k LSB), HD_FE_NBIN per
  *   direction from v_min up; outside [v_min, top edge] nothing is updated.
  *   Each bin holds the mean velocity and mean torque magnitude of its samples
@@ -33,10 +38,17 @@
  *   through S_j-1, S_j, S_j+1 (vs interpolated linearly between the grid
  *   values, the linear parameters likewise), then the estimate of the
  *   direction is replaced only if
- *     - at least 4 bins are valid, at least one below vs and one above 2 vs
- *       (fs and vs need data under and across the Stribeck drop; fc and fv
- *       need sliding above it), and
+ *     - at least 5 bins are valid and they reach two octaves below and above
+ *       the fitted vs (slowest valid bin <= vs / 4, fastest >= 4 vs: fs needs
+ *       the plateau under the Stribeck drop, vs the drop, fc and fv the sliding
+ *       above it; a fit to bins on one side only would place vs outside them),
  *     - the best j is not at either end of the grid (vs is inside the range),
+ *     - the fit shows a Stribeck drop (fs >= fc) and no viscous term that lowers
+ *       the fastest bin by more than fc / 8 (a line through the bins is not a
+ *       Stribeck curve),
+ *     - the fit shows a Stribeck drop (fs >= fc) and no viscous term that lowers
+ *       the fastest bin by more than fc / 8 (a line through the bins is not a
+ *       Stribeck curve),
  *   and it is bounded: 0 <= fc <= fs <= tau_max, 0 <= fv <= fv_max, vs in the grid
  *   range.  Otherwise the old estimate stays.
  *
@@ -69,6 +81,7 @@
 #define HD_FE_NBIN   24u     /* half-octave bins per direction (12 octaves) */
 #define HD_FE_NGRID  32u     /* candidate Stribeck velocities, quarter octaves (8 octaves) */
 #define HD_FE_U_SHIFT 11u    /* fit velocity column: |v| >> 11 (2^-21 turn/s) */
+#define HD_FE_VLP_SHIFT 5u   /* low-pass of the measured velocity: 2^-5 per step (32 ms at 1 kHz) */
 
 typedef enum {
     HD_FE_DIR_POS = 0,
@@ -105,6 +118,7 @@ typedef struct {
     uint32_t fit_dir;                   /* direction of the fit in progress */
     uint32_t fit_j;                     /* its next candidate */
     int32_t  v_prev;                    /* v_ref of the last step */
+    int32_t  v_lp;                      /* low-passed measured velocity, 2^-32 turn/s */
     uint32_t steady_n;                  /* steady steps (saturates at settle) */
     uint32_t samples;                   /* samples taken (wraps) */
     hd_blend_t feed;                    /* weight of the estimate in the Stribeck feed-forward */
@@ -119,9 +133,11 @@ int32_t hd_fric_est_config(hd_fric_est_cfg_t *c, int32_t v_min, int32_t vs_lo, i
  *  Stribeck FF parameters) with confidence 0; feed weight ramp over ramp_steps steps. */
 void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR], uint32_t ramp_steps,
                       bool feed);
-/** One step (decimated rate): v_ref the reference velocity, tau the torque applied (both of
- *  the step's period), active = 0 while the loops do not run (forgets the steadiness). */
-void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t tau, bool active);
+/** One step (decimated rate): v_ref the reference velocity, v_meas the measured velocity,
+ *  tau the torque applied (all of the step's period), active = 0 while the loops do not run
+ *  (forgets the steadiness). */
+void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
+                      bool active);
 /** The bin of |v| (0..HD_FE_NBIN-1), or -1 outside the binned range. */
 int32_t hd_fric_est_bin_of(const hd_fric_est_cfg_t *c, int32_t v);
 /** Switch the feed of the estimate into the Stribeck FF (weight ramps, bumpless). */

@@ -56,10 +56,12 @@ static void leg(const map_t *m, double v_degs, uint32_t steps, double scale, dou
     for (k = 0; k < steps; k++) {
         const double n = noise * (double)((int32_t)((k * 2654435761u) >> 16 & 0xFFFFu) - 32768) / 32768.0;
         const double t = (v_degs >= 0 ? 1.0 : -1.0) * g_of(m, v_degs) * scale + n;
-        hd_fric_est_step(&est, &cfg, v, NM(t), true);
+        hd_fric_est_step(&est, &cfg, v, v, NM(t), true);
     }
-    /* a stop between legs: the steadiness restarts */
-    hd_fric_est_step(&est, &cfg, 0, 0, true);
+    /* a stop of 0.1 s between legs: the steadiness restarts */
+    for (k = 0; k < 100u; k++) {
+        hd_fric_est_step(&est, &cfg, 0, 0, 0, true);
+    }
 }
 
 /* the profile: 0.01..10 deg/s in both directions, 'steps' per leg */
@@ -121,7 +123,7 @@ static void test_no_update_without_low_speed_data(void **state)
         leg(&REF, vv[i], 600u, 1.0, 0.0);
     }
     for (i = 0; i < 200u; i++) {
-        hd_fric_est_step(&est, &cfg, 0, 0, true);
+        hd_fric_est_step(&est, &cfg, 0, 0, 0, true);
     }
     assert_true(est.samples > 0u);
     assert_int_equal(est.fits[HD_FE_DIR_POS], 0u);
@@ -129,28 +131,35 @@ static void test_no_update_without_low_speed_data(void **state)
     assert_memory_equal(&est.est[HD_FE_DIR_POS], &before, sizeof before);
 }
 
-/* a ramping reference (acceleration) or inactive loops give no sample at all */
-static void test_no_sample_while_accelerating_or_inactive(void **state)
+/* a ramping reference (acceleration), an axis that does not follow (stuck after a
+ * reversal) or inactive loops give no sample at all */
+static void test_no_sample_while_accelerating_stuck_or_inactive(void **state)
 {
     uint32_t k;
     (void)state;
     for (k = 0; k < 5000u; k++) {
         const int32_t v = (int32_t)(0.01 * DEGS) + (int32_t)k * 1000;   /* 1000 LSB per step > dv_max */
-        hd_fric_est_step(&est, &cfg, v, NM(9), true);
+        hd_fric_est_step(&est, &cfg, v, v, NM(9), true);
     }
     for (k = 0; k < 5000u; k++) {
-        hd_fric_est_step(&est, &cfg, (int32_t)DEGS, NM(9), false);
+        hd_fric_est_step(&est, &cfg, (int32_t)DEGS, 0, NM(9), true);      /* stuck */
+    }
+    for (k = 0; k < 5000u; k++) {
+        hd_fric_est_step(&est, &cfg, (int32_t)DEGS, (int32_t)(0.4 * DEGS), NM(9), true);   /* 60 % slip */
+    }
+    for (k = 0; k < 5000u; k++) {
+        hd_fric_est_step(&est, &cfg, (int32_t)DEGS, (int32_t)DEGS, NM(9), false);
     }
     assert_int_equal(est.samples, 0u);
-    /* steady: the sample comes after exactly settle steady steps */
+    /* steady and sliding: the sample comes after exactly settle steady steps */
     for (k = 0; k <= cfg.settle; k++) {
-        hd_fric_est_step(&est, &cfg, (int32_t)DEGS, NM(9), true);
+        hd_fric_est_step(&est, &cfg, (int32_t)DEGS, (int32_t)DEGS, NM(9), true);
     }
     assert_int_equal(est.samples, 1u);
 }
 
-/* friction 30 % higher: with a bin memory of 200 samples, 800 new samples per bin leave
- * (1 - 1/200)^800 = 1.8 % of the old level in the bins (0.5 % of the estimate) */
+/* friction 30 % higher: with a bin memory of 200 samples, six legs of ~170 new samples
+ * per bin leave (1 - 1/200)^1000 = 0.7 % of the old level in the bins */
 static void test_tracks_drift(void **state)
 {
     uint32_t r;
@@ -158,7 +167,7 @@ static void test_tracks_drift(void **state)
     cfg.n_forget = 200u;
     profile(&REF, 500u, 1.0, 0.0);
     profile(&REF, 100u, 1.0, 0.0);
-    for (r = 0; r < 4u; r++) {
+    for (r = 0; r < 6u; r++) {
         profile(&REF, 500u, 1.3, 0.0);
     }
     profile(&REF, 100u, 1.3, 0.0);
@@ -230,7 +239,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_converges_on_known_map, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_converges_with_noise, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_no_update_without_low_speed_data, setUp, tearDown),
-        cmocka_unit_test_setup_teardown(test_no_sample_while_accelerating_or_inactive, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_no_sample_while_accelerating_stuck_or_inactive, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_tracks_drift, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_estimate_bounded, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_feed_is_bumpless, setUp, tearDown),

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Optional
 
 import numpy as np
 
@@ -158,3 +158,234 @@ def convergence(samples: dict[str, np.ndarray], batch: StribeckResult, tol: floa
             "grid_points": int(len(vs_grid)), "ops_per_sample": OnlineStribeck.ops_per_sample(len(vs_grid)),
             "memory_words": OnlineStribeck.memory_words(len(vs_grid)),
             "max_rel_error_history": hist}
+
+
+# ----------------------------------------------------------------- the drive's own estimator
+
+#: CANopen record of the drive's online Stribeck estimate (hd_fric_est.h, docs/od.md)
+FE_INDEX = 0x5200
+#: turn/s per raw velocity LSB (2^-32 turn/s) and N.m per raw torque LSB (Q15.16)
+_V_LSB_TURN_S = 2.0 ** -32
+_T_LSB_NM = 2.0 ** -16
+#: the targets of the online identification: levels within 5 %, Stribeck velocity within 15 % of the batch fit
+TOL_LEVEL = 0.05
+TOL_VS = 0.15
+#: compared per direction: the levels, then the Stribeck velocity
+LEVELS = ("fc_pos_Nm", "fs_pos_Nm", "fc_neg_Nm", "fs_neg_Nm")
+
+
+@dataclass
+class DriveEstimate:
+    """One reading of the drive's online estimate (object 0x5200), output-referred SI units.
+
+    Attributes
+    ----------
+    t_s : float
+        Drive time of the reading, s (loop ticks since power-up).
+    fc_pos_Nm, fs_pos_Nm, fc_neg_Nm, fs_neg_Nm : float
+        Coulomb and static levels per direction (magnitudes), N.m.
+    vs_pos_rad_s, vs_neg_rad_s : float
+        Stribeck velocity per direction, rad/s.
+    fv_pos_Nms_per_rad, fv_neg_Nms_per_rad : float
+        Viscous coefficient per direction, N.m.s/rad.
+    conf_pos, conf_neg : float
+        Confidence per direction, 0..1.
+    fits_pos, fits_neg, samples : int
+        Accepted fits per direction and steady samples binned (counters of the drive).
+    """
+
+    t_s: float
+    fc_pos_Nm: float
+    fs_pos_Nm: float
+    vs_pos_rad_s: float
+    fv_pos_Nms_per_rad: float
+    fc_neg_Nm: float
+    fs_neg_Nm: float
+    vs_neg_rad_s: float
+    fv_neg_Nms_per_rad: float
+    conf_pos: float
+    conf_neg: float
+    fits_pos: int
+    fits_neg: int
+    samples: int
+
+    @classmethod
+    def from_raw(cls, t_s: float, raw: list[int]) -> "DriveEstimate":
+        """From the 13 raw words 0x5200:1..13 (see docs/od.md)."""
+        two_pi = 2.0 * math.pi
+        d = []
+        for k in (0, 4):
+            d += [raw[k] * _T_LSB_NM, raw[k + 1] * _T_LSB_NM, raw[k + 2] * _V_LSB_TURN_S * two_pi,
+                  raw[k + 3] * _T_LSB_NM / two_pi]
+        return cls(t_s, *d, raw[8] / 1000.0, raw[9] / 1000.0, int(raw[10]), int(raw[11]), int(raw[12]))
+
+    def rel_errors(self, ref: StribeckResult, scale: float = 1.0) -> dict[str, float]:
+        """Relative errors against a batch fit whose levels and viscous term are scaled by ``scale``."""
+        r = ref.to_dict()
+        out = {k: getattr(self, k) / (scale * r[k]) - 1.0 for k in LEVELS}
+        out["vs_pos_rad_s"] = self.vs_pos_rad_s / r["vs_rad_s"] - 1.0
+        out["vs_neg_rad_s"] = self.vs_neg_rad_s / r["vs_rad_s"] - 1.0
+        out["fv_pos_Nms_per_rad"] = self.fv_pos_Nms_per_rad / (scale * r["viscous_Nms_per_rad"]) - 1.0
+        out["fv_neg_Nms_per_rad"] = self.fv_neg_Nms_per_rad / (scale * r["viscous_Nms_per_rad"]) - 1.0
+        return out
+
+    def within(self, ref: StribeckResult, scale: float = 1.0, tol_level: float = TOL_LEVEL,
+               tol_vs: float = TOL_VS) -> bool:
+        """True when every level is within ``tol_level`` and both vs within ``tol_vs`` of the reference."""
+        e = self.rel_errors(ref, scale)
+        return (all(abs(e[k]) <= tol_level for k in LEVELS) and abs(e["vs_pos_rad_s"]) <= tol_vs
+                and abs(e["vs_neg_rad_s"]) <= tol_vs)
+
+    def to_dict(self) -> dict[str, Any]:
+        return dict(self.__dict__)
+
+
+def read_drive_estimate(read: Any, t_s: float) -> DriveEstimate:
+    """Read 0x5200:1..13 through ``read(index, sub)`` (an SDO read) at drive time ``t_s``."""
+    return DriveEstimate.from_raw(t_s, [int(read(FE_INDEX, s)) for s in range(1, 14)])
+
+
+@dataclass
+class ProfileLeg:
+    """One move of the normal motion profile: PP move to ``target_rad`` at ``v_rad_s`` (output)."""
+
+    target_rad: float
+    v_rad_s: float
+
+
+def normal_profile(v_min_deg_s: float = 0.01, v_max_deg_s: float = 10.0, n_speeds: int = 10,
+                   cruise_s: float = 0.55, amax_deg_s2: float = 100.0, run_in_deg: float = 0.05
+                   ) -> list[ProfileLeg]:
+    """Moves and reversals of a normal motion profile about the start position (one cycle).
+
+    The rule: ``n_speeds`` log-spaced speeds from ``v_min`` to ``v_max``; at each
+    speed one move forward and one back of ``L = v cruise_s + v^2 / amax`` each,
+    centred on the start.  Each of them is entered in its own direction: a short
+    positioning move at ``v_max`` overshoots by ``run_in_deg`` and comes back (the
+    reversal happens at speed), so the slow move starts with the friction and the
+    loops' integrators already on its side instead of winding them through twice the
+    breakaway level at the slow rate (that transient is not steady friction and
+    takes longer than the move at the slowest rates).
+
+    Parameters
+    ----------
+    v_min_deg_s, v_max_deg_s : float
+        Slowest and fastest speed, deg/s (> 0).
+    n_speeds : int
+        Speeds in the cycle (>= 2).
+    cruise_s : float
+        Constant-velocity time of each slow move, s: the estimator's settle time
+        (fe_settle) plus its data (at least fe_n_min steps).
+    amax_deg_s2 : float
+        Profile acceleration, deg/s^2 (the accelerating and braking parts add ``v^2 / amax``).
+    run_in_deg : float
+        Overshoot of the positioning moves, deg.
+
+    Returns
+    -------
+    list of ProfileLeg
+        Targets relative to the start position, rad; six moves per speed.
+    """
+    if not (0 < v_min_deg_s < v_max_deg_s) or n_speeds < 2 or cruise_s <= 0 or amax_deg_s2 <= 0 \
+            or run_in_deg <= 0:
+        raise ValueError("normal_profile: need 0 < v_min < v_max, n_speeds >= 2, cruise_s, amax, run_in > 0")
+    fast = math.radians(v_max_deg_s)
+    d = math.radians(run_in_deg)
+    legs = []
+    for v in np.geomspace(v_min_deg_s, v_max_deg_s, n_speeds):
+        v = float(v)
+        half = math.radians(0.5 * (v * cruise_s + v * v / amax_deg_s2))
+        legs += [ProfileLeg(-half - d, fast), ProfileLeg(-half, fast), ProfileLeg(half, math.radians(v)),
+                 ProfileLeg(half + d, fast), ProfileLeg(half, fast), ProfileLeg(-half, math.radians(v))]
+    return legs
+
+
+def profile_cycle_s(legs: list[ProfileLeg], amax_deg_s2: float = 100.0) -> float:
+    """Nominal duration of one cycle of legs (trapezoid moves, start to start), s."""
+    t, prev = 0.0, 0.0
+    for g in legs:
+        d = abs(g.target_rad - prev)
+        v, a = g.v_rad_s, math.radians(amax_deg_s2)
+        t += d / v + v / a
+        prev = g.target_rad
+    return t
+
+
+def watch_convergence(history: list[DriveEstimate], ref: StribeckResult, t0_s: float,
+                      scale_at: Any = None, tol_level: float = TOL_LEVEL, tol_vs: float = TOL_VS
+                      ) -> Optional[float]:
+    """Time from ``t0_s`` after which every reading stays within tolerance of the reference.
+
+    Parameters
+    ----------
+    history : list of DriveEstimate
+        Readings in time order.
+    ref : StribeckResult
+        Batch fit.
+    t0_s : float
+        Drive time the count starts from (profile start, or the end of a drift ramp), s.
+    scale_at : callable, optional
+        ``scale_at(t_s)``: friction scale of the reference at drive time t (drift); default 1.
+    tol_level, tol_vs : float
+        Relative tolerances.
+
+    Returns
+    -------
+    float or None
+        Seconds after ``t0_s`` (None if the last reading is outside).
+    """
+    since: Optional[float] = None
+    for e in history:
+        if e.t_s < t0_s:
+            continue
+        s = 1.0 if scale_at is None else float(scale_at(e.t_s))
+        if e.within(ref, s, tol_level, tol_vs):
+            if since is None:
+                since = e.t_s
+        else:
+            since = None
+    return None if since is None else max(0.0, since - t0_s)
+
+
+def run_profile(bench: Any, legs: list[ProfileLeg], duration_s: float,
+                on_reading: Optional[Any] = None) -> tuple[float, list[DriveEstimate]]:
+    """Run the profile (cycles of ``legs`` about the present position) for ``duration_s`` of drive time.
+
+    The drive must have ``fe_enable`` = 1; the estimate is read after every move.
+
+    Parameters
+    ----------
+    bench : hdservo.procedures.runner.Bench
+        Enabled in PROFILED POSITION mode by this function.
+    legs : list of ProfileLeg
+        One cycle (:func:`normal_profile`).
+    duration_s : float
+        Profile time, s (the last cycle stops at the first leg end past it).
+    on_reading : callable, optional
+        Called with each :class:`DriveEstimate` (progress).
+
+    Returns
+    -------
+    (float, list of DriveEstimate)
+        Drive time of the profile start, s, and the readings.
+    """
+    from ..procedures.closedloop import pp_move
+    from ..procedures.runner import DT
+    from ..units import TURN
+    bench.enable("PROFILED POSITION")
+    start = float(bench.load_angle_rad())
+    t0 = bench.ticks() * DT
+    hist: list[DriveEstimate] = []
+    k = 0
+    while True:
+        g = legs[k % len(legs)]
+        bench.drive.set_param("traj_vmax", g.v_rad_s / TURN)
+        pp_move(bench, start + g.target_rad)
+        e = read_drive_estimate(bench.read, bench.ticks() * DT)
+        hist.append(e)
+        if on_reading is not None:
+            on_reading(e)
+        k += 1
+        if e.t_s - t0 >= duration_s:
+            break
+    return t0, hist
