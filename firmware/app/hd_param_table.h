@@ -9,8 +9,8 @@
 #include <stdint.h>
 
 #define HD_PARAM_VERSION 1u
-#define HD_PARAM_TABLE_HASH 0x0FF81585u
-#define HD_PARAM_COUNT 173u
+#define HD_PARAM_TABLE_HASH 0x3856CD79u
+#define HD_PARAM_COUNT 174u
 
 typedef enum {
     HD_P_GEAR_RATIO = 0,
@@ -186,6 +186,7 @@ typedef enum {
     HD_P_FE_TAU_MAX = 170,
     HD_P_FE_FV_MAX = 171,
     HD_P_FE_RAMP = 172,
+    HD_P_FE_N_KEEP = 173,
 } hd_param_id_t;
 
 #define HD_PTYPE_I32 0u

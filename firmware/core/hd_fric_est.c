@@ -78,8 +78,8 @@ static uint32_t bitlen64(uint64_t x)
 }
 
 int32_t hd_fric_est_config(hd_fric_est_cfg_t *c, int32_t v_min, int32_t vs_lo, int32_t dv_max,
-                           uint32_t settle, uint32_t n_forget, uint32_t n_min, int32_t tau_max,
-                           int32_t fv_max)
+                           uint32_t settle, uint32_t n_forget, uint32_t n_min, uint32_t n_keep,
+                           int32_t tau_max, int32_t fv_max)
 {
     if (v_min <= 0 || vs_lo <= 0 || dv_max < 0 || n_forget < 1u || n_min < 1u || tau_max <= 0 || fv_max < 0) {
         return -1;
@@ -90,6 +90,7 @@ int32_t hd_fric_est_config(hd_fric_est_cfg_t *c, int32_t v_min, int32_t vs_lo, i
     c->settle = settle;
     c->n_forget = n_forget;
     c->n_min = n_min;
+    c->n_keep = n_keep;
     /* |f| <= 2^30: the centred torque of the fit fits an int32 */
     c->tau_max = (tau_max > (1 << 30)) ? (1 << 30) : tau_max;
     c->fv_max = fv_max;
@@ -123,6 +124,7 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
     e->fit_j = 0u;
     e->v_prev = 0;
     e->v_lp = 0;
+    e->visit = 0u;
     e->steady_n = 0u;
     e->samples = 0u;
     hd_blend_init(&e->feed, ramp_steps, feed);
@@ -137,7 +139,7 @@ static int32_t mean_step(int32_t x, int32_t y, uint32_t n)
     return x + q;
 }
 
-static void bin_update(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t tau)
+static void bin_update(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t tau, bool first)
 {
     const int32_t k = hd_fric_est_bin_of(c, v_ref);
     hd_fe_bin_t *b;
@@ -149,6 +151,9 @@ static void bin_update(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_r
     b = &e->bin[(v_ref > 0) ? HD_FE_DIR_POS : HD_FE_DIR_NEG][k];
     /* friction magnitude of the direction: the torque against the motion */
     f = hdf_clamp32((v_ref > 0) ? tau : hdf_neg_sat(tau), hdf_neg_sat(c->tau_max), c->tau_max);
+    if (first && b->n > c->n_keep) {
+        b->n = c->n_keep;                   /* a new visit: the old mean weighs as n_keep samples */
+    }
     n1 = (b->n < c->n_forget) ? b->n + 1u : c->n_forget;
     b->v = mean_step(b->v, hdf_abs_sat(v_ref), n1);
     b->f = mean_step(b->f, f, n1);
@@ -339,6 +344,7 @@ void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_re
     if (!active) {
         e->steady_n = 0u;
         e->v_prev = 0;
+        e->visit = 0u;
     } else {
         const bool same = ((v_ref > 0) && (e->v_prev > 0)) || ((v_ref < 0) && (e->v_prev < 0));
         const int64_t dv = (int64_t)v_ref - (int64_t)e->v_prev;
@@ -353,7 +359,10 @@ void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_re
         }
         e->v_prev = v_ref;
         if (same && e->steady_n >= c->settle) {
-            bin_update(e, c, v_ref, tau);
+            bin_update(e, c, v_ref, tau, e->visit == 0u);
+            e->visit = 1u;
+        } else {
+            e->visit = 0u;
         }
     }
     /* one candidate of the fit per step (constant cost), both directions in turn */

@@ -23,8 +23,11 @@
  *   direction from v_min up; outside [v_min, top edge] nothing is updated.
  *   Each bin holds the mean velocity and mean torque magnitude of its samples
  *   and their count n: a running mean while n < n_forget, then an exponential
- *   mean over the last ~n_forget samples (the forgetting: a bin follows a
- *   drifting friction with time constant n_forget of its own samples).
+ *   mean over the last ~n_forget samples.  Forgetting across visits: a slow
+ *   bin gets few samples per visit and is visited once per motion cycle, so
+ *   at the first sample of each visit (steady segment) its count is cut to
+ *   n_keep: the old mean then weighs as n_keep samples against the new visit
+ *   (a drifting friction is followed within about one visit of every bin).
  *   Updating a bin costs one 32-bit division (by n + 1).
  *
  * Fit (excitation check 2: a parameter changes only when the bins inform it).
@@ -96,6 +99,7 @@ typedef struct {
     uint32_t settle;         /* steady steps before a sample is taken */
     uint32_t n_forget;       /* bin memory, samples (>= 1) */
     uint32_t n_min;          /* samples for a bin to count in the fit (>= 1) */
+    uint32_t n_keep;         /* weight of a bin's old mean at the start of a visit, samples */
     int32_t  tau_max;        /* bound of fc and fs, Q15.16 N.m, > 0 */
     int32_t  fv_max;         /* bound of fv, Q15.16 N.m/(turn/s), >= 0 */
     hd_stribeck_recip_t rvs; /* reciprocal of vs_lo (hd_fric_est_config) */
@@ -120,6 +124,7 @@ typedef struct {
     int32_t  v_prev;                    /* v_ref of the last step */
     int32_t  v_lp;                      /* low-passed measured velocity, 2^-32 turn/s */
     uint32_t steady_n;                  /* steady steps (saturates at settle) */
+    uint32_t visit;                     /* 1 while a steady segment is being binned */
     uint32_t samples;                   /* samples taken (wraps) */
     hd_blend_t feed;                    /* weight of the estimate in the Stribeck feed-forward */
 } hd_fric_est_t;
@@ -127,8 +132,8 @@ typedef struct {
 /** Config from raw values; 0 ok, -1 inconsistent (non-positive velocities, n 0). Contains a
  *  64-bit division (the reciprocal of vs_lo): call it when the parameters change. */
 int32_t hd_fric_est_config(hd_fric_est_cfg_t *c, int32_t v_min, int32_t vs_lo, int32_t dv_max,
-                           uint32_t settle, uint32_t n_forget, uint32_t n_min, int32_t tau_max,
-                           int32_t fv_max);
+                           uint32_t settle, uint32_t n_forget, uint32_t n_min, uint32_t n_keep,
+                           int32_t tau_max, int32_t fv_max);
 /** Empty bins; the estimate starts from init (magnitudes of both directions, e.g. the
  *  Stribeck FF parameters) with confidence 0; feed weight ramp over ramp_steps steps. */
 void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR], uint32_t ramp_steps,

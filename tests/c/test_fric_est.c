@@ -38,9 +38,10 @@ static int setUp(void **state)
     const hd_stribeck_dir_t init[HD_FE_NDIR] = {{NM(1), NM(2), (int32_t)DEGS, NM(10)},
                                                 {NM(1), NM(2), (int32_t)DEGS, NM(10)}};
     *state = NULL;
-    /* v_min 0.005 deg/s, vs_lo 0.05 deg/s, dv_max 1e-7 turn/s, settle 300, forget 1000, n_min 100 */
+    /* v_min 0.005 deg/s, vs_lo 0.05 deg/s, dv_max 1e-7 turn/s, settle 300, forget 1000, n_min 100,
+     * n_keep 1000 (no cut at a new visit; the forgetting tests set it) */
     if (hd_fric_est_config(&cfg, (int32_t)(0.005 * DEGS), (int32_t)(0.05 * DEGS), 429, 300u, 1000u, 100u,
-                           NM(100), NM(3000)) != 0) {
+                           1000u, NM(100), NM(3000)) != 0) {
         return -1;
     }
     hd_fric_est_init(&est, init, 100u, false);
@@ -175,6 +176,22 @@ static void test_tracks_drift(void **state)
     check_dir(HD_FE_DIR_NEG, &REF, 1.3, 0.02, 0.05);
 }
 
+/* forgetting across visits: with n_keep 20 one visit of ~170 samples replaces 90 % of a
+ * bin's old mean even though the bins had 1000 samples of the old friction */
+static void test_visit_forgetting(void **state)
+{
+    uint32_t r;
+    (void)state;
+    for (r = 0; r < 5u; r++) {
+        profile(&REF, 500u, 1.0, 0.0);
+    }
+    cfg.n_keep = 20u;
+    profile(&REF, 500u, 1.3, 0.0);
+    profile(&REF, 100u, 1.3, 0.0);
+    check_dir(HD_FE_DIR_POS, &REF, 1.3, 0.04, 0.05);
+    check_dir(HD_FE_DIR_NEG, &REF, 1.3, 0.04, 0.05);
+}
+
 /* nonsense torques (pushing with the motion) stay inside the bounds */
 static void test_estimate_bounded(void **state)
 {
@@ -230,7 +247,7 @@ static void test_bins(void **state)
     assert_int_equal(hd_fric_est_bin_of(&cfg, 4 * cfg.v_min), 4);
     assert_int_equal(hd_fric_est_bin_of(&cfg, INT32_MAX), -1);
     assert_int_equal(hd_fric_est_bin_of(&cfg, INT32_MIN), -1);
-    assert_int_equal(hd_fric_est_config(&cfg, 0, 1, 0, 1u, 1u, 1u, 1, 0), -1);
+    assert_int_equal(hd_fric_est_config(&cfg, 0, 1, 0, 1u, 1u, 1u, 1u, 1, 0), -1);
 }
 
 int main(void)
@@ -241,6 +258,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_no_update_without_low_speed_data, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_no_sample_while_accelerating_stuck_or_inactive, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_tracks_drift, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_visit_forgetting, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_estimate_bounded, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_feed_is_bumpless, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_bins, setUp, tearDown),

@@ -222,7 +222,7 @@ class DriveEstimate:
     def rel_errors(self, ref: StribeckResult, scale: float = 1.0) -> dict[str, float]:
         """Relative errors against a batch fit whose levels and viscous term are scaled by ``scale``."""
         r = ref.to_dict()
-        out = {k: getattr(self, k) / (scale * r[k]) - 1.0 for k in LEVELS}
+        out: dict[str, float] = {k: getattr(self, k) / (scale * r[k]) - 1.0 for k in LEVELS}
         out["vs_pos_rad_s"] = self.vs_pos_rad_s / r["vs_rad_s"] - 1.0
         out["vs_neg_rad_s"] = self.vs_neg_rad_s / r["vs_rad_s"] - 1.0
         out["fv_pos_Nms_per_rad"] = self.fv_pos_Nms_per_rad / (scale * r["viscous_Nms_per_rad"]) - 1.0
@@ -231,7 +231,10 @@ class DriveEstimate:
 
     def within(self, ref: StribeckResult, scale: float = 1.0, tol_level: float = TOL_LEVEL,
                tol_vs: float = TOL_VS) -> bool:
-        """True when every level is within ``tol_level`` and both vs within ``tol_vs`` of the reference."""
+        """True when the drive has fitted both directions (its initial values do not count) and every
+        level is within ``tol_level`` and both vs within ``tol_vs`` of the reference."""
+        if self.fits_pos == 0 or self.fits_neg == 0:
+            return False
         e = self.rel_errors(ref, scale)
         return (all(abs(e[k]) <= tol_level for k in LEVELS) and abs(e["vs_pos_rad_s"]) <= tol_vs
                 and abs(e["vs_neg_rad_s"]) <= tol_vs)
@@ -389,3 +392,88 @@ def run_profile(bench: Any, legs: list[ProfileLeg], duration_s: float,
         if e.t_s - t0 >= duration_s:
             break
     return t0, hist
+
+
+def drift_scale(t_s: float, t_start_s: float, ramp_s: float, scale: float) -> float:
+    """The plant's ``[friction_drift]`` scale at plant time ``t_s`` (docs/sim.md)."""
+    x = (t_s - t_start_s) / ramp_s
+    return 1.0 + (scale - 1.0) * min(1.0, max(0.0, x))
+
+
+def online_identification(target: Any, batch: StribeckResult, duration_s: float = 20.0,
+                          drift: Optional[dict[str, float]] = None, progress: Optional[Any] = None
+                          ) -> dict[str, Any]:
+    """Watch the drive's online Stribeck identification converge during a normal motion profile.
+
+    The drive's estimator is switched on (``fe_enable`` = 1), the profile
+    (:func:`normal_profile`) runs for ``duration_s`` of drive time and the
+    estimate is read over CAN after every move and compared with ``batch``.
+    The axis runs without its payload unbalance (rig set-up ``gear``): the
+    estimator takes all the steady torque for friction, and an unbalance
+    would shift the two directions by +-its torque.
+
+    Parameters
+    ----------
+    target : hdservo.procedures.runner.Target
+        The drive (``bus`` None: the virtual drive of ``axis``, run in lock-step, so
+        that the host's polling costs no drive time).
+    batch : StribeckResult
+        The batch fit to compare with (``hdservo identify friction``).
+    duration_s : float
+        Profile time, s of drive time.
+    drift : dict, optional
+        Virtual drive only: the plant's ``[friction_drift]`` (``t_start_s``, plant time,
+        ``ramp_s``, ``scale``); the reference is then the batch fit scaled like the plant.
+    progress : callable, optional
+        ``progress(str)``.
+
+    Returns
+    -------
+    dict
+        ``history`` (readings; ``t_s`` from the profile start), ``final`` and
+        ``final_rel_error``, ``time_to_target_s`` (levels within 5 %, vs within 15 % from
+        then on, s after the profile start; None if not), with drift ``tracked_s`` (the
+        same counted from the end of the ramp), the profile rule and the targets.
+    """
+    from ..procedures.runner import RigSetup, Target, open_bench
+    legs = normal_profile()
+    tgt = Target(bus=target.bus, node_id=target.node_id, axis=target.axis, seed=target.seed,
+                 params={**target.params, "fe_enable": 1.0}, plant=dict(target.plant))
+    if drift is not None:
+        if not target.virtual:
+            raise ValueError("friction drift is a simulator option (virtual drive only)")
+        tgt.plant.update({"friction_drift.enabled": True, "friction_drift.t_start_s": float(drift["t_start_s"]),
+                          "friction_drift.ramp_s": float(drift["ramp_s"]),
+                          "friction_drift.scale": float(drift["scale"])})
+
+    def report(e: DriveEstimate) -> None:
+        if progress is not None:
+            progress(f"t = {e.t_s:6.2f} s: fits {e.fits_pos}/{e.fits_neg}, confidence "
+                     f"{e.conf_pos:.2f}/{e.conf_neg:.2f}")
+
+    with open_bench(tgt, RigSetup("gear", payload=False), lockstep=target.virtual) as bench:
+        t0, hist = run_profile(bench, legs, duration_s, on_reading=report)
+    scale_at = None
+    if drift is not None:
+        d = drift
+
+        def scale_at(t: float) -> float:
+            return drift_scale(t, float(d["t_start_s"]), float(d["ramp_s"]), float(d["scale"]))
+    out: dict[str, Any] = {
+        "profile": {"rule": "normal_profile: 10 log-spaced speeds 0.01..10 deg/s, a move each way per speed, "
+                            "each entered in its own direction", "cycle_s": profile_cycle_s(legs),
+                    "moves_per_cycle": len(legs)},
+        "targets": {"levels": TOL_LEVEL, "vs": TOL_VS, "time_s": 20.0, "drift_tracked_s": 10.0},
+        "batch": batch.to_dict(), "t_profile_start_s": t0}
+    out["time_to_target_s"] = watch_convergence(hist, batch, t0, scale_at)
+    if drift is not None:
+        t_end = float(drift["t_start_s"]) + float(drift["ramp_s"])
+        out["drift"] = dict(drift)
+        out["tracked_s"] = watch_convergence(hist, batch, t_end, scale_at)
+    last = hist[-1]
+    out["final_rel_error"] = last.rel_errors(batch, 1.0 if scale_at is None else scale_at(last.t_s))
+    for e in hist:
+        e.t_s -= t0
+    out["history"] = [e.to_dict() for e in hist]
+    out["final"] = last.to_dict()
+    return out
