@@ -122,6 +122,17 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
     }
     e->fit_dir = 0u;
     e->fit_j = 0u;
+    e->fit_pass = 0u;
+    e->fit_mask = 0u;
+    e->fit_ok = 0u;
+    e->fit_s[0] = 0;
+    e->fit_s[1] = 0;
+    e->fit_s[2] = 0;
+    for (i = 0; i < HD_FE_NBIN; i++) {
+        e->fit_e[i] = 0;
+        e->fit_u[i] = 0;
+        e->fit_f[i] = 0;
+    }
     e->v_prev = 0;
     e->v_lp = 0;
     e->visit = 0u;
@@ -173,43 +184,68 @@ static int32_t shape16(int32_t r16, uint32_t j)
     return hdf_asr32_rnd((int64_t)hd_exp_neg_q16(x16), 14u);
 }
 
-/* Least squares of candidate j over the valid bins of direction d -> e->sse[j], e->th[j] */
-static void fit_candidate(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d, uint32_t j)
+/* Least squares of candidate j over the valid bins of direction d -> e->sse[j], e->th[j], in
+ * four steps (the cost of one estimator step stays a quarter of a candidate):
+ *   pass 0, 1: bins 0..11, 12..23: snapshot of the valid bins (shape, velocity column,
+ *              torque; the bins may change before the candidate is done) and their sums;
+ *   pass 2:    means, centred normal equations, (fc, fs - fc, fv);
+ *   pass 3:    residual sum of squares. */
+static void fit_snapshot(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d, uint32_t j, uint32_t lo)
 {
     const hd_fe_bin_t *bn = e->bin[d];
-    int32_t e16[HD_FE_NBIN];
-    int32_t u[HD_FE_NBIN];
-    int64_t se = 0, su = 0, sf = 0;
-    int64_t see = 0, suu = 0, seu = 0, sef = 0, suf = 0, sse = 0;
-    uint32_t nb = 0u;
     uint32_t i;
-    e->sse[j] = FE_NO_FIT;
-    for (i = 0; i < HD_FE_NBIN; i++) {
+    if (lo == 0u) {
+        e->fit_mask = 0u;
+        e->fit_s[0] = 0;
+        e->fit_s[1] = 0;
+        e->fit_s[2] = 0;
+        e->sse[j] = FE_NO_FIT;
+    }
+    for (i = lo; i < lo + HD_FE_NBIN / 2u; i++) {
         if (bn[i].n >= c->n_min) {
-            e16[i] = shape16(bn[i].r16, j);
-            u[i] = (int32_t)((uint32_t)bn[i].v >> HD_FE_U_SHIFT);
-            se += e16[i];
-            su += u[i];
-            sf += bn[i].f;
-            nb++;
+            e->fit_e[i] = shape16(bn[i].r16, j);
+            e->fit_u[i] = (int32_t)((uint32_t)bn[i].v >> HD_FE_U_SHIFT);
+            e->fit_f[i] = bn[i].f;
+            e->fit_mask |= 1u << i;
+            e->fit_s[0] += e->fit_e[i];
+            e->fit_s[1] += e->fit_u[i];
+            e->fit_s[2] += e->fit_f[i];
         }
     }
+}
+
+static uint32_t popcount24(uint32_t m)
+{
+    uint32_t n = 0u;
+    while (m != 0u) {
+        m &= m - 1u;
+        n++;
+    }
+    return n;
+}
+
+static void fit_solve(hd_fric_est_t *e, uint32_t j)
+{
+    const uint32_t nb = popcount24(e->fit_mask);
+    int64_t see = 0, suu = 0, seu = 0, sef = 0, suf = 0;
+    uint32_t i;
+    e->fit_ok = 0u;
     if (nb < 4u) {
         return;                             /* fewer bins than parameters + 1 */
     }
     {
         const int32_t inv = fe_inv_n[nb - 1u];
-        const int32_t me = hdf_sat32(hdf_mul64x32_q(se, inv, 30u));
-        const int32_t mu = hdf_sat32(hdf_mul64x32_q(su, inv, 30u));
-        const int32_t mf = hdf_sat32(hdf_mul64x32_q(sf, inv, 30u));
+        const int32_t me = hdf_sat32(hdf_mul64x32_q(e->fit_s[0], inv, 30u));
+        const int32_t mu = hdf_sat32(hdf_mul64x32_q(e->fit_s[1], inv, 30u));
+        const int32_t mf = hdf_sat32(hdf_mul64x32_q(e->fit_s[2], inv, 30u));
         uint32_t s_e, s_u, h;
         int64_t a, b, cc, det, nbeta, ngam;
         int32_t dfs, fv, fc;
         for (i = 0; i < HD_FE_NBIN; i++) {
-            if (bn[i].n >= c->n_min) {
-                const int64_t ec = (int64_t)e16[i] - me;        /* |.| <= 2^16 */
-                const int64_t uc = (int64_t)u[i] - mu;          /* |.| <= 2^20 */
-                const int64_t fcn = (int64_t)bn[i].f - mf;      /* |.| <= 2^31 */
+            if ((e->fit_mask & (1u << i)) != 0u) {
+                const int64_t ec = (int64_t)e->fit_e[i] - me;   /* |.| <= 2^16 */
+                const int64_t uc = (int64_t)e->fit_u[i] - mu;   /* |.| <= 2^20 */
+                const int64_t fcn = (int64_t)e->fit_f[i] - mf;  /* |.| <= 2^31 */
                 see += ec * ec;                                 /* <= 2^37 */
                 suu += uc * uc;                                 /* <= 2^45 */
                 seu += ec * uc;
@@ -241,20 +277,30 @@ static void fit_candidate(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t
         fv = hdf_sat32(div_approx(ngam, (uint64_t)det, 30u + HD_FE_U_SHIFT + 10u)); /* per 2^-21 -> per turn/s */
         fc = hdf_sat32((int64_t)mf - hdf_mul64x32_q((int64_t)dfs, me, 16u) -
                        hdf_mul64x32_q((int64_t)fv, mu, 21u));
-        for (i = 0; i < HD_FE_NBIN; i++) {
-            if (bn[i].n >= c->n_min) {
-                const int64_t m = (int64_t)fc + hdf_mul64x32_q((int64_t)dfs, e16[i], 16u) +
-                                  hdf_mul64x32_q((int64_t)fv, u[i], 21u);
-                const int64_t r = hdf_asr64_rnd((int64_t)bn[i].f - m, 4u);
-                const int64_t rc = hdf_clamp64(r, -((int64_t)1 << 31), (int64_t)1 << 31);
-                sse = hdf_add64_sat(sse, rc * rc);
-            }
-        }
-        e->sse[j] = (sse < FE_NO_FIT) ? sse : FE_NO_FIT - 1;
         e->th[j][0] = fc;
         e->th[j][1] = dfs;
         e->th[j][2] = fv;
+        e->fit_ok = 1u;
     }
+}
+
+static void fit_sse(hd_fric_est_t *e, uint32_t j)
+{
+    int64_t sse = 0;
+    uint32_t i;
+    if (e->fit_ok == 0u) {
+        return;
+    }
+    for (i = 0; i < HD_FE_NBIN; i++) {
+        if ((e->fit_mask & (1u << i)) != 0u) {
+            const int64_t m = (int64_t)e->th[j][0] + hdf_mul64x32_q((int64_t)e->th[j][1], e->fit_e[i], 16u) +
+                              hdf_mul64x32_q((int64_t)e->th[j][2], e->fit_u[i], 21u);
+            const int64_t r = hdf_asr64_rnd((int64_t)e->fit_f[i] - m, 4u);
+            const int64_t rc = hdf_clamp64(r, -((int64_t)1 << 31), (int64_t)1 << 31);
+            sse = hdf_add64_sat(sse, rc * rc);
+        }
+    }
+    e->sse[j] = (sse < FE_NO_FIT) ? sse : FE_NO_FIT - 1;
 }
 
 /* a + w (b - a), w in Q16 [0, 2^16] */
@@ -365,8 +411,26 @@ void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_re
             e->visit = 0u;
         }
     }
-    /* one candidate of the fit per step (constant cost), both directions in turn */
-    fit_candidate(e, c, e->fit_dir, e->fit_j);
+    /* a quarter of a fit candidate per step (bounded cost), both directions in turn */
+    switch (e->fit_pass) {
+    case 0u:
+        fit_snapshot(e, c, e->fit_dir, e->fit_j, 0u);
+        break;
+    case 1u:
+        fit_snapshot(e, c, e->fit_dir, e->fit_j, HD_FE_NBIN / 2u);
+        break;
+    case 2u:
+        fit_solve(e, e->fit_j);
+        break;
+    default:
+        fit_sse(e, e->fit_j);
+        break;
+    }
+    if (e->fit_pass < 3u) {
+        e->fit_pass++;
+        return;
+    }
+    e->fit_pass = 0u;
     if (e->fit_j + 1u < HD_FE_NGRID) {
         e->fit_j++;
     } else {

@@ -35,9 +35,10 @@
  *   j = 0..HD_FE_NGRID-1 (8 octaves), the map is linear in (fc, fs - fc, fv):
  *   least squares over the bins with n >= n_min (centred 2x2 normal
  *   equations, solved through a reciprocal found by Newton iteration: no
- *   64-bit division), and its residual sum of squares S_j.  One candidate per
- *   step (round robin over both directions: a full fit every 2 HD_FE_NGRID
- *   steps).  After the last candidate: the best j, refined by a parabola
+ *   64-bit division), and its residual sum of squares S_j.  A candidate takes
+ *   four steps (two halves of the bins into a snapshot, the solution, the
+ *   residual: a step costs a quarter of a candidate); both directions in turn,
+ *   a full fit every 8 HD_FE_NGRID steps (256 ms at 1 kHz).  After the last candidate: the best j, refined by a parabola
  *   through S_j-1, S_j, S_j+1 (vs interpolated linearly between the grid
  *   values, the linear parameters likewise), then the estimate of the
  *   direction is replaced only if
@@ -68,10 +69,11 @@
  *   bin velocity                        : 2^-32 turn/s; r16 = |v| / vs_lo in Q16
  *   e (shape)                           : Q16 inside the fit (exp(-x) by hd_exp_neg_q16)
  *   fit velocity column                 : |v| / 2^HD_FE_U_SHIFT (2^-21 turn/s)
- * Cost: a bin update is a few multiplies and one 32-bit division; a fit step
- *   is three passes over HD_FE_NBIN bins (one exp each) and one reciprocal
- *   (measured on the Cortex-M4: tests/bench/10_cm4_cost.sh, docs/compensators.md).
- * Memory: hd_fric_est_t, about 1.1 KiB.
+ * Cost: a bin update is a few multiplies and one 32-bit division; a step adds
+ *   one quarter of a candidate: 12 exp, or the 2x2 solution (two reciprocals),
+ *   or the residual over 24 bins (+ the closing of a fit after the last one)
+ *   (Cortex-M4 instructions per step: tests/bench/10_cm4_cost.sh, docs/compensators.md).
+ * Memory: hd_fric_est_t, about 1.4 KiB.
  */
 #ifndef HD_FRIC_EST_H
 #define HD_FRIC_EST_H
@@ -120,7 +122,14 @@ typedef struct {
     int64_t  sse[HD_FE_NGRID];          /* residual sums of the fit in progress */
     int32_t  th[HD_FE_NGRID][3];        /* its (fc, fs - fc, fv) per candidate */
     uint32_t fit_dir;                   /* direction of the fit in progress */
-    uint32_t fit_j;                     /* its next candidate */
+    uint32_t fit_j;                     /* its candidate in progress */
+    uint32_t fit_pass;                  /* the candidate's step, 0..3 */
+    uint32_t fit_mask;                  /* valid bins of the candidate's snapshot (bit per bin) */
+    uint32_t fit_ok;                    /* 1: pass 2 solved the candidate */
+    int64_t  fit_s[3];                  /* snapshot sums of shape, velocity column, torque */
+    int32_t  fit_e[HD_FE_NBIN];         /* snapshot: shape, Q16 */
+    int32_t  fit_u[HD_FE_NBIN];         /* snapshot: velocity column, 2^-21 turn/s */
+    int32_t  fit_f[HD_FE_NBIN];         /* snapshot: mean torque, Q15.16 N.m */
     int32_t  v_prev;                    /* v_ref of the last step */
     int32_t  v_lp;                      /* low-passed measured velocity, 2^-32 turn/s */
     uint32_t steady_n;                  /* steady steps (saturates at settle) */

@@ -5,8 +5,9 @@
  * Stribeck map plus noise); run() steps the estimator 64 times per leg (a stop,
  * then the leg with velocity and torque jitter) and outputs the estimate after
  * it, so the bins, the grid fit, its excitation checks and the publication are
- * all exercised.  cost(): one step with every bin of a direction valid (a bin
- * update and one fit candidate over 24 bins), and the step that closes a fit.
+ * all exercised.  cost(): one step (a bin update and a quarter of a fit
+ * candidate over 24 valid bins) in each pass: snapshot of half the bins
+ * (fric_est_legs), the solution, the residual, and the step that closes a fit.
  */
 #include "gv.h"
 #include "hd_fixed.h"
@@ -106,36 +107,50 @@ static void fill_bins(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
     e->visit = 1u;
 }
 
-static void cost_step(void)
+/* one step in the given pass of candidate j (the passes before it run outside the marks) */
+static void cost_pass(uint32_t pass, uint32_t j)
 {
     hd_fric_est_cfg_t c;
+    uint32_t p;
     fe_cfg_init(&c);
     fill_bins(&fe_cost_state, &c);
     fe_cost_state.fit_dir = HD_FE_DIR_POS;
-    fe_cost_state.fit_j = 1u;
+    fe_cost_state.fit_j = j;
+    fe_cost_state.fit_pass = 0u;
+    for (p = 0; p < pass; p++) {
+        hd_fric_est_step(&fe_cost_state, &c, cv_vref, cv_vref, cv_tau, true);
+    }
     hd_gv_cost_mark();
     hd_fric_est_step(&fe_cost_state, &c, cv_vref, cv_vref, cv_tau, true);
     hd_gv_cost_mark();
 }
 
+static void cost_snapshot(void) { cost_pass(0u, 7u); }
+static void cost_solve(void) { cost_pass(2u, 7u); }
+static void cost_sse(void) { cost_pass(3u, 7u); }
+
 static void cost_finish(void)
 {
     hd_fric_est_cfg_t c;
-    uint32_t j;
+    uint32_t j, p;
     fe_cfg_init(&c);
     fill_bins(&fe_cost_state, &c);
     fe_cost_state.fit_dir = HD_FE_DIR_POS;
-    for (j = 0; j + 1u < HD_FE_NGRID; j++) {
-        fe_cost_state.fit_j = j;
-        hd_fric_est_step(&fe_cost_state, &c, cv_vref, cv_vref, cv_tau, true);
+    fe_cost_state.fit_pass = 0u;
+    for (j = 0; j < HD_FE_NGRID; j++) {
+        for (p = 0; p < ((j + 1u < HD_FE_NGRID) ? 4u : 3u); p++) {
+            hd_fric_est_step(&fe_cost_state, &c, cv_vref, cv_vref, cv_tau, true);
+        }
     }
     hd_gv_cost_mark();
-    hd_fric_est_step(&fe_cost_state, &c, cv_vref, cv_vref, cv_tau, true);   /* last candidate + the fit */
+    hd_fric_est_step(&fe_cost_state, &c, cv_vref, cv_vref, cv_tau, true);   /* last residual + the fit */
     hd_gv_cost_mark();
 }
 
 const hd_gv_kernel_t hd_gv_fric_est_kernels[] = {
-    { "fric_est_legs", 3u, 10u, 48u, gen_leg, run_legs, cost_step },
-    { "fric_est_fit_finish", 3u, 10u, 1u, gen_leg, run_legs, cost_finish },
+    { "fric_est_legs", 3u, 10u, 48u, gen_leg, run_legs, cost_snapshot },
+    { "fric_est_step_solve", 3u, 10u, 1u, gen_leg, run_legs, cost_solve },
+    { "fric_est_step_sse", 3u, 10u, 1u, gen_leg, run_legs, cost_sse },
+    { "fric_est_step_fit_finish", 3u, 10u, 1u, gen_leg, run_legs, cost_finish },
 };
 const uint32_t hd_gv_fric_est_count = sizeof hd_gv_fric_est_kernels / sizeof hd_gv_fric_est_kernels[0];
