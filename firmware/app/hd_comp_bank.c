@@ -178,7 +178,9 @@ static void set_blend_ramps(hd_comp_bank_t *b, uint32_t ramp)
 /* the estimator from the Stribeck FF parameters, empty bins */
 static void fe_reset(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
 {
-    const hd_stribeck_dir_t init[HD_FE_NDIR] = {c->str.pos, c->str.neg};
+    hd_stribeck_dir_t init[HD_FE_NDIR];
+    init[HD_FE_DIR_POS] = c->str.pos;
+    init[HD_FE_DIR_NEG] = c->str.neg;
     hd_fric_est_init(&b->fe, init, c->fe_ramp, (c->fe_on & c->fe_feed) != 0u);
     b->fe_str = c->str;
     b->fe_tick = 0u;

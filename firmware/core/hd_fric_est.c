@@ -14,6 +14,12 @@ static const int32_t fe_qoct[4] = {1073741824, 1276901417, 1518500250, 180581130
 #define FE_INV_SQRT2_Q30 759250125      /* round(2^30 / sqrt 2) */
 #define FE_NO_FIT INT64_MAX
 
+/* bit i of a bin mask (i < HD_FE_NBIN <= 32) */
+static uint32_t bin_bit(uint32_t i)
+{
+    return (i >= 32u) ? 0u : (1u << i);
+}
+
 static uint32_t half_octave(uint32_t a)   /* 2 floor(log2 a) + the next bit, a > 0 */
 {
     const uint32_t m = 31u - (uint32_t)__builtin_clz(a);
@@ -206,7 +212,7 @@ static void fit_snapshot(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t 
             e->fit_e[i] = shape16(bn[i].r16, j);
             e->fit_u[i] = (int32_t)((uint32_t)bn[i].v >> HD_FE_U_SHIFT);
             e->fit_f[i] = bn[i].f;
-            e->fit_mask |= 1u << i;
+            e->fit_mask |= bin_bit(i);
             e->fit_s[0] += e->fit_e[i];
             e->fit_s[1] += e->fit_u[i];
             e->fit_s[2] += e->fit_f[i];
@@ -242,7 +248,7 @@ static void fit_solve(hd_fric_est_t *e, uint32_t j)
         int64_t a, b, cc, det, nbeta, ngam;
         int32_t dfs, fv, fc;
         for (i = 0; i < HD_FE_NBIN; i++) {
-            if ((e->fit_mask & (1u << i)) != 0u) {
+            if ((e->fit_mask & bin_bit(i)) != 0u) {
                 const int64_t ec = (int64_t)e->fit_e[i] - me;   /* |.| <= 2^16 */
                 const int64_t uc = (int64_t)e->fit_u[i] - mu;   /* |.| <= 2^20 */
                 const int64_t fcn = (int64_t)e->fit_f[i] - mf;  /* |.| <= 2^31 */
@@ -292,7 +298,7 @@ static void fit_sse(hd_fric_est_t *e, uint32_t j)
         return;
     }
     for (i = 0; i < HD_FE_NBIN; i++) {
-        if ((e->fit_mask & (1u << i)) != 0u) {
+        if ((e->fit_mask & bin_bit(i)) != 0u) {
             const int64_t m = (int64_t)e->th[j][0] + hdf_mul64x32_q((int64_t)e->th[j][1], e->fit_e[i], 16u) +
                               hdf_mul64x32_q((int64_t)e->th[j][2], e->fit_u[i], 21u);
             const int64_t r = hdf_asr64_rnd((int64_t)e->fit_f[i] - m, 4u);
