@@ -149,7 +149,7 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
     if (hd_fric_est_config(&c->fe, prm(p, HD_P_FE_V_MIN), prm(p, HD_P_FE_VS_LO), prm(p, HD_P_FE_DV_MAX),
                            (uint32_t)prm(p, HD_P_FE_SETTLE), (uint32_t)prm(p, HD_P_FE_FORGET),
                            (uint32_t)prm(p, HD_P_FE_N_MIN), (uint32_t)prm(p, HD_P_FE_N_KEEP),
-                           prm(p, HD_P_FE_TAU_MAX), prm(p, HD_P_FE_FV_MAX)) != 0) {
+                           (uint32_t)prm(p, HD_P_FE_MAX_AGE), prm(p, HD_P_FE_TAU_MAX), prm(p, HD_P_FE_FV_MAX)) != 0) {
         return -1;
     }
 

@@ -176,4 +176,5 @@ const hd_param_desc_t hd_param_table[HD_PARAM_COUNT] = {
     {"fe_fv_max", 0x28A0u, 11u, HD_PTYPE_I32, 16u, 0, 1966080000, 196608000, "N.m/(turn/s)"},
     {"fe_ramp", 0x28A0u, 12u, HD_PTYPE_U32, 0u, 0, 1000000, 1000, "step"},
     {"fe_n_keep", 0x28A0u, 13u, HD_PTYPE_U32, 0u, 0, 1000000, 20, "sample"},
+    {"fe_max_age", 0x28A0u, 14u, HD_PTYPE_U32, 0u, 1, 2000000000, 30000, "step"},
 };

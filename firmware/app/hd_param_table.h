@@ -9,8 +9,8 @@
 #include <stdint.h>
 
 #define HD_PARAM_VERSION 1u
-#define HD_PARAM_TABLE_HASH 0x3856CD79u
-#define HD_PARAM_COUNT 174u
+#define HD_PARAM_TABLE_HASH 0xA06E3743u
+#define HD_PARAM_COUNT 175u
 
 typedef enum {
     HD_P_GEAR_RATIO = 0,
@@ -187,6 +187,7 @@ typedef enum {
     HD_P_FE_FV_MAX = 171,
     HD_P_FE_RAMP = 172,
     HD_P_FE_N_KEEP = 173,
+    HD_P_FE_MAX_AGE = 174,
 } hd_param_id_t;
 
 #define HD_PTYPE_I32 0u

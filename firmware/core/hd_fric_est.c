@@ -85,7 +85,7 @@ static uint32_t bitlen64(uint64_t x)
 
 int32_t hd_fric_est_config(hd_fric_est_cfg_t *c, int32_t v_min, int32_t vs_lo, int32_t dv_max,
                            uint32_t settle, uint32_t n_forget, uint32_t n_min, uint32_t n_keep,
-                           int32_t tau_max, int32_t fv_max)
+                           uint32_t max_age, int32_t tau_max, int32_t fv_max)
 {
     if (v_min <= 0 || vs_lo <= 0 || dv_max < 0 || n_forget < 1u || n_min < 1u || tau_max <= 0 || fv_max < 0) {
         return -1;
@@ -97,6 +97,7 @@ int32_t hd_fric_est_config(hd_fric_est_cfg_t *c, int32_t v_min, int32_t vs_lo, i
     c->n_forget = n_forget;
     c->n_min = n_min;
     c->n_keep = n_keep;
+    c->max_age = max_age;
     /* |f| <= 2^30: the centred torque of the fit fits an int32 */
     c->tau_max = (tau_max > (1 << 30)) ? (1 << 30) : tau_max;
     c->fv_max = fv_max;
@@ -115,6 +116,7 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
             e->bin[d][i].f = 0;
             e->bin[d][i].r16 = 0;
             e->bin[d][i].n = 0u;
+            e->bin[d][i].stamp = 0u;
         }
         e->est[d] = init[d];
         e->conf[d] = 0u;
@@ -144,6 +146,7 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
     e->visit = 0u;
     e->steady_n = 0u;
     e->samples = 0u;
+    e->steps = 0u;
     hd_blend_init(&e->feed, ramp_steps, feed);
 }
 
@@ -176,7 +179,14 @@ static void bin_update(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_r
     b->f = mean_step(b->f, f, n1);
     b->n = n1;
     b->r16 = r16_of(c, b->v);
+    b->stamp = e->steps;
     e->samples++;
+}
+
+/* a bin counts in the fit: enough samples, and the last one not older than max_age */
+static bool bin_valid(const hd_fric_est_t *e, const hd_fric_est_cfg_t *c, const hd_fe_bin_t *b)
+{
+    return (b->n >= c->n_min) && ((uint32_t)(e->steps - b->stamp) <= c->max_age);
 }
 
 /* shape exp(-(v / vs_j)^2) in Q16 from r16 = v / vs_lo: (v / vs_j)^2 = r^2 2^(-j/2) */
@@ -208,7 +218,7 @@ static void fit_snapshot(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t 
         e->sse[j] = FE_NO_FIT;
     }
     for (i = lo; i < lo + HD_FE_NBIN / 2u; i++) {
-        if (bn[i].n >= c->n_min) {
+        if (bin_valid(e, c, &bn[i])) {
             e->fit_e[i] = shape16(bn[i].r16, j);
             e->fit_u[i] = (int32_t)((uint32_t)bn[i].v >> HD_FE_U_SHIFT);
             e->fit_f[i] = bn[i].f;
@@ -356,7 +366,7 @@ static void fit_finish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
     /* where the valid bins lie relative to vs */
     for (i = 0; i < HD_FE_NBIN; i++) {
         const hd_fe_bin_t *b = &e->bin[d][i];
-        if (b->n >= c->n_min) {
+        if (bin_valid(e, c, b)) {
             nvalid++;
             vmin_valid = (b->v < vmin_valid) ? b->v : vmin_valid;
             vmax_valid = (b->v > vmax_valid) ? b->v : vmax_valid;
@@ -391,6 +401,7 @@ static void fit_finish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
 void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
                       bool active)
 {
+    e->steps++;
     /* the measured velocity, low-passed (the observer's noise at slow rates) */
     e->v_lp = hdf_sat32((int64_t)e->v_lp + hdf_asr64_rnd((int64_t)v_meas - (int64_t)e->v_lp, HD_FE_VLP_SHIFT));
     if (!active) {

@@ -28,6 +28,9 @@
  *   at the first sample of each visit (steady segment) its count is cut to
  *   n_keep: the old mean then weighs as n_keep samples against the new visit
  *   (a drifting friction is followed within about one visit of every bin).
+ *   A bin whose last sample is older than max_age steps is left out of the
+ *   fit (a stale bin would hold the friction of another time; without it the
+ *   excitation checks may keep the last estimate until the speed comes again).
  *   Updating a bin costs one 32-bit division (by n + 1).
  *
  * Fit (excitation check 2: a parameter changes only when the bins inform it).
@@ -102,6 +105,7 @@ typedef struct {
     uint32_t n_forget;       /* bin memory, samples (>= 1) */
     uint32_t n_min;          /* samples for a bin to count in the fit (>= 1) */
     uint32_t n_keep;         /* weight of a bin's old mean at the start of a visit, samples */
+    uint32_t max_age;        /* a bin not updated for longer than this (steps) is left out of the fit */
     int32_t  tau_max;        /* bound of fc and fs, Q15.16 N.m, > 0 */
     int32_t  fv_max;         /* bound of fv, Q15.16 N.m/(turn/s), >= 0 */
     hd_stribeck_recip_t rvs; /* reciprocal of vs_lo (hd_fric_est_config) */
@@ -112,6 +116,7 @@ typedef struct {
     int32_t  f;              /* mean torque magnitude, Q15.16 N.m */
     int32_t  r16;            /* v / vs_lo, Q16 (saturated) */
     uint32_t n;              /* samples (saturates at n_forget) */
+    uint32_t stamp;          /* step count of its last sample */
 } hd_fe_bin_t;
 
 typedef struct {
@@ -135,6 +140,7 @@ typedef struct {
     uint32_t steady_n;                  /* steady steps (saturates at settle) */
     uint32_t visit;                     /* 1 while a steady segment is being binned */
     uint32_t samples;                   /* samples taken (wraps) */
+    uint32_t steps;                     /* steps since init (wraps; bin ages) */
     hd_blend_t feed;                    /* weight of the estimate in the Stribeck feed-forward */
 } hd_fric_est_t;
 
@@ -142,7 +148,7 @@ typedef struct {
  *  64-bit division (the reciprocal of vs_lo): call it when the parameters change. */
 int32_t hd_fric_est_config(hd_fric_est_cfg_t *c, int32_t v_min, int32_t vs_lo, int32_t dv_max,
                            uint32_t settle, uint32_t n_forget, uint32_t n_min, uint32_t n_keep,
-                           int32_t tau_max, int32_t fv_max);
+                           uint32_t max_age, int32_t tau_max, int32_t fv_max);
 /** Empty bins; the estimate starts from init (magnitudes of both directions, e.g. the
  *  Stribeck FF parameters) with confidence 0; feed weight ramp over ramp_steps steps. */
 void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR], uint32_t ramp_steps,

@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 VERSION = 1
-TABLE_HASH = 0x3856CD79
+TABLE_HASH = 0xA06E3743
 
 
 class ParamDef(NamedTuple):
@@ -204,5 +204,6 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef(171, 'fe_fv_max', 0x28A0, 11, 'i32', 'N.m/(turn/s)', 16, 0.0, 30000.0, 3000.0, 0, 1966080000, 196608000, 'Online Stribeck identification: bound of the estimated viscous coefficient'),
     ParamDef(172, 'fe_ramp', 0x28A0, 12, 'u32', 'step', 0, 0.0, 1000000.0, 1000.0, 0, 1000000, 1000, 'Online Stribeck identification: estimator steps of the feed ramp (bumpless switch of fe_feed)'),
     ParamDef(173, 'fe_n_keep', 0x28A0, 13, 'u32', 'sample', 0, 0.0, 1000000.0, 20.0, 0, 1000000, 20, "Online Stribeck identification: weight of a bin's old mean at the start of each new visit (forgetting across visits)"),
+    ParamDef(174, 'fe_max_age', 0x28A0, 14, 'u32', 'step', 0, 1.0, 2000000000.0, 30000.0, 1, 2000000000, 30000, 'Online Stribeck identification: a bin not updated for longer than this is left out of the fit (30000: 30 s at 1 kHz)'),
 )
 BY_NAME: dict[str, ParamDef] = {p.name: p for p in PARAMS}

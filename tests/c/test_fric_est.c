@@ -41,7 +41,7 @@ static int setUp(void **state)
     /* v_min 0.005 deg/s, vs_lo 0.05 deg/s, dv_max 1e-7 turn/s, settle 300, forget 1000, n_min 100,
      * n_keep 1000 (no cut at a new visit; the forgetting tests set it) */
     if (hd_fric_est_config(&cfg, (int32_t)(0.005 * DEGS), (int32_t)(0.05 * DEGS), 429, 300u, 1000u, 100u,
-                           1000u, NM(100), NM(3000)) != 0) {
+                           1000u, 1000000u, NM(100), NM(3000)) != 0) {
         return -1;
     }
     hd_fric_est_init(&est, init, 100u, false);
@@ -192,6 +192,36 @@ static void test_visit_forgetting(void **state)
     check_dir(HD_FE_DIR_NEG, &REF, 1.3, 0.04, 0.05);
 }
 
+/* bins older than max_age leave the fit: without fresh data the estimate stays as it was
+ * (no accepted fit) and the confidence drops to 0; fresh data bring both back */
+static void test_stale_bins_leave_the_fit(void **state)
+{
+    const uint32_t age = 20000u;
+    uint32_t k, fits;
+    hd_stribeck_dir_t before;
+    (void)state;
+    cfg.max_age = age;
+    cfg.n_keep = 0u;          /* a new visit replaces a bin's mean */
+    profile(&REF, 500u, 1.0, 0.0);
+    profile(&REF, 100u, 1.0, 0.0);
+    assert_int_equal(est.conf[HD_FE_DIR_POS], 1000u);
+    for (k = 0; k <= age; k++) {
+        hd_fric_est_step(&est, &cfg, 0, 0, 0, true);
+    }
+    fits = est.fits[HD_FE_DIR_POS];
+    before = est.est[HD_FE_DIR_POS];
+    for (k = 0; k < 1000u; k++) {
+        hd_fric_est_step(&est, &cfg, 0, 0, 0, true);
+    }
+    assert_int_equal(est.fits[HD_FE_DIR_POS], fits);
+    assert_int_equal(est.conf[HD_FE_DIR_POS], 0u);
+    assert_memory_equal(&est.est[HD_FE_DIR_POS], &before, sizeof before);
+    profile(&REF, 500u, 1.3, 0.0);
+    profile(&REF, 100u, 1.3, 0.0);
+    assert_true(est.fits[HD_FE_DIR_POS] > fits);
+    check_dir(HD_FE_DIR_POS, &REF, 1.3, 0.02, 0.05);
+}
+
 /* nonsense torques (pushing with the motion) stay inside the bounds */
 static void test_estimate_bounded(void **state)
 {
@@ -247,7 +277,7 @@ static void test_bins(void **state)
     assert_int_equal(hd_fric_est_bin_of(&cfg, 4 * cfg.v_min), 4);
     assert_int_equal(hd_fric_est_bin_of(&cfg, INT32_MAX), -1);
     assert_int_equal(hd_fric_est_bin_of(&cfg, INT32_MIN), -1);
-    assert_int_equal(hd_fric_est_config(&cfg, 0, 1, 0, 1u, 1u, 1u, 1u, 1, 0), -1);
+    assert_int_equal(hd_fric_est_config(&cfg, 0, 1, 0, 1u, 1u, 1u, 1u, 1u, 1, 0), -1);
 }
 
 int main(void)
@@ -259,6 +289,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_no_sample_while_accelerating_stuck_or_inactive, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_tracks_drift, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_visit_forgetting, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_stale_bins_leave_the_fit, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_estimate_bounded, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_feed_is_bumpless, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_bins, setUp, tearDown),

@@ -33,8 +33,8 @@ static const int32_t fe_speeds[8] = {
 
 static void fe_cfg_init(hd_fric_est_cfg_t *c)
 {
-    /* v_min 0.005 deg/s, vs_lo 0.05 deg/s, dv_max 64, settle 4, forget 32, n_min 8, keep 8 */
-    (void)hd_fric_est_config(c, DEGS / 200, DEGS / 20, 64, 4u, 32u, 8u, 8u, NM(100), NM(3000));
+    /* v_min 0.005 deg/s, vs_lo 0.05 deg/s, dv_max 64, settle 4, forget 32, n_min 8, keep 8, max age 1500 */
+    (void)hd_fric_est_config(c, DEGS / 200, DEGS / 20, 64, 4u, 32u, 8u, 8u, 1500u, NM(100), NM(3000));
 }
 
 static void gen_leg(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
