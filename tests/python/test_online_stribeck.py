@@ -2,14 +2,15 @@
 and comparison logic, and `identify friction --online` bad input."""
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
 import pytest
 
 from hdservo.cli import main
 from hdservo.ident import stribeck_online as so
 from hdservo.ident.friction import StribeckResult
-from hdservo.procedures.runner import Target
 
 import ident_truth as truth
 
@@ -20,18 +21,25 @@ def _truth(axis: str) -> StribeckResult:
                           t["viscous_Nms_per_rad"])
 
 
-def test_drive_estimate_converges_over_can() -> None:
-    """The virtual drive's estimator, read over CAN during 20 s of the normal profile, lands within the
-    targets (levels 5 %, vs 15 %) of the axis's own friction; before its first fit it does not count."""
-    ref = _truth("reference")
-    out = so.online_identification(Target(axis="reference"), ref, 20.0)
-    hist = out["history"]
+def test_identify_friction_online_over_can(tmp_path: Path, capsys) -> None:
+    """`identify friction --sim --online`: the virtual drive's estimator, read over CAN during 20 s of the
+    normal profile, lands within the targets (levels 5 %, vs 15 %) of the batch fit and of the axis's own
+    friction; before its first fit it does not count."""
+    js = tmp_path / "r.json"
+    rc = main(["identify", "friction", "--sim", "--online", "--json", str(js), "-q"])
+    out = capsys.readouterr().out
+    assert rc == 0 and "drive online Stribeck:" in out and "inside the targets" in out
+    o = json.loads(js.read_text())["stribeck_drive_online"]
+    hist = o["history"]
     assert hist[0]["fits_pos"] == 0 and hist[-1]["fits_pos"] > 0 and hist[-1]["fits_neg"] > 0
-    assert out["time_to_target_s"] is not None and out["time_to_target_s"] <= 20.0
-    e = out["final_rel_error"]
+    assert o["time_to_target_s"] is not None and o["time_to_target_s"] <= 20.0
+    e = o["final_rel_error"]
     assert all(abs(e[k]) <= 0.05 for k in so.LEVELS)
     assert abs(e["vs_pos_rad_s"]) <= 0.15 and abs(e["vs_neg_rad_s"]) <= 0.15
     assert hist[-1]["conf_pos"] == 1.0 and hist[-1]["samples"] > 1000
+    # and against the axis's own friction (the truth the batch fit estimates)
+    last = so.DriveEstimate(**hist[-1])
+    assert last.within(_truth("reference"))
 
 
 def test_profile_rule() -> None:
