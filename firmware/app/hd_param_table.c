@@ -171,10 +171,10 @@ const hd_param_desc_t hd_param_table[HD_PARAM_COUNT] = {
     {"fe_dv_max", 0x28A0u, 6u, HD_PTYPE_I32, 32u, 0, 42949673, 429, "turn/s"},
     {"fe_settle", 0x28A0u, 7u, HD_PTYPE_U32, 0u, 0, 100000, 300, "step"},
     {"fe_forget", 0x28A0u, 8u, HD_PTYPE_U32, 0u, 1, 1000000, 150, "sample"},
-    {"fe_n_min", 0x28A0u, 9u, HD_PTYPE_U32, 0u, 1, 1000000, 50, "sample"},
+    {"fe_n_min", 0x28A0u, 9u, HD_PTYPE_U32, 0u, 1, 1000000, 30, "sample"},
     {"fe_tau_max", 0x28A0u, 10u, HD_PTYPE_I32, 16u, 66, 1048576000, 6553600, "N.m"},
     {"fe_fv_max", 0x28A0u, 11u, HD_PTYPE_I32, 16u, 0, 1966080000, 196608000, "N.m/(turn/s)"},
     {"fe_ramp", 0x28A0u, 12u, HD_PTYPE_U32, 0u, 0, 1000000, 1000, "step"},
-    {"fe_n_keep", 0x28A0u, 13u, HD_PTYPE_U32, 0u, 0, 1000000, 20, "sample"},
+    {"fe_n_keep", 0x28A0u, 13u, HD_PTYPE_U32, 0u, 0, 1000000, 5, "sample"},
     {"fe_max_age", 0x28A0u, 14u, HD_PTYPE_U32, 0u, 1, 2000000000, 30000, "step"},
 };

@@ -341,11 +341,11 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x28A0u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 166u, INT64_C(0), INT64_C(42949673), INT64_C(429), NULL},  /* fe_dv_max */
     {0x28A0u, 7u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 167u, INT64_C(0), INT64_C(100000), INT64_C(300), NULL},  /* fe_settle */
     {0x28A0u, 8u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 168u, INT64_C(1), INT64_C(1000000), INT64_C(150), NULL},  /* fe_forget */
-    {0x28A0u, 9u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 169u, INT64_C(1), INT64_C(1000000), INT64_C(50), NULL},  /* fe_n_min */
+    {0x28A0u, 9u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 169u, INT64_C(1), INT64_C(1000000), INT64_C(30), NULL},  /* fe_n_min */
     {0x28A0u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 170u, INT64_C(66), INT64_C(1048576000), INT64_C(6553600), NULL},  /* fe_tau_max */
     {0x28A0u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 171u, INT64_C(0), INT64_C(1966080000), INT64_C(196608000), NULL},  /* fe_fv_max */
     {0x28A0u, 12u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 172u, INT64_C(0), INT64_C(1000000), INT64_C(1000), NULL},  /* fe_ramp */
-    {0x28A0u, 13u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 173u, INT64_C(0), INT64_C(1000000), INT64_C(20), NULL},  /* fe_n_keep */
+    {0x28A0u, 13u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 173u, INT64_C(0), INT64_C(1000000), INT64_C(5), NULL},  /* fe_n_keep */
     {0x28A0u, 14u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 174u, INT64_C(1), INT64_C(2000000000), INT64_C(30000), NULL},  /* fe_max_age */
     {0x5000u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(7), NULL},  /* highest_sub_index_supported */
     {0x5000u, 1u, 0x05u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(2), INT64_C(0), NULL},  /* capture_control */

@@ -199,11 +199,11 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef(166, 'fe_dv_max', 0x28A0, 6, 'i32', 'turn/s', 32, 0.0, 0.01, 1e-07, 0, 42949673, 429, 'Online Stribeck identification: largest change of the reference velocity per step that counts as steady'),
     ParamDef(167, 'fe_settle', 0x28A0, 7, 'u32', 'step', 0, 0.0, 100000.0, 300.0, 0, 100000, 300, 'Online Stribeck identification: steady sliding steps before the torque is taken as friction'),
     ParamDef(168, 'fe_forget', 0x28A0, 8, 'u32', 'sample', 0, 1.0, 1000000.0, 150.0, 1, 1000000, 150, 'Online Stribeck identification: memory of a bin (running mean, then exponential over this many samples)'),
-    ParamDef(169, 'fe_n_min', 0x28A0, 9, 'u32', 'sample', 0, 1.0, 1000000.0, 50.0, 1, 1000000, 50, 'Online Stribeck identification: samples for a bin to count in the fit'),
+    ParamDef(169, 'fe_n_min', 0x28A0, 9, 'u32', 'sample', 0, 1.0, 1000000.0, 30.0, 1, 1000000, 30, 'Online Stribeck identification: samples for a bin to count in the fit'),
     ParamDef(170, 'fe_tau_max', 0x28A0, 10, 'i32', 'N.m', 16, 0.001, 16000.0, 100.0, 66, 1048576000, 6553600, 'Online Stribeck identification: bound of the estimated Coulomb and static levels (output)'),
     ParamDef(171, 'fe_fv_max', 0x28A0, 11, 'i32', 'N.m/(turn/s)', 16, 0.0, 30000.0, 3000.0, 0, 1966080000, 196608000, 'Online Stribeck identification: bound of the estimated viscous coefficient'),
     ParamDef(172, 'fe_ramp', 0x28A0, 12, 'u32', 'step', 0, 0.0, 1000000.0, 1000.0, 0, 1000000, 1000, 'Online Stribeck identification: estimator steps of the feed ramp (bumpless switch of fe_feed)'),
-    ParamDef(173, 'fe_n_keep', 0x28A0, 13, 'u32', 'sample', 0, 0.0, 1000000.0, 20.0, 0, 1000000, 20, "Online Stribeck identification: weight of a bin's old mean at the start of each new visit (forgetting across visits)"),
+    ParamDef(173, 'fe_n_keep', 0x28A0, 13, 'u32', 'sample', 0, 0.0, 1000000.0, 5.0, 0, 1000000, 5, "Online Stribeck identification: weight of a bin's old mean at the start of each new visit (forgetting across visits)"),
     ParamDef(174, 'fe_max_age', 0x28A0, 14, 'u32', 'step', 0, 1.0, 2000000000.0, 30000.0, 1, 2000000000, 30000, 'Online Stribeck identification: a bin not updated for longer than this is left out of the fit (30000: 30 s at 1 kHz)'),
 )
 BY_NAME: dict[str, ParamDef] = {p.name: p for p in PARAMS}
