@@ -10,7 +10,7 @@
  * can change that: whatever the loop applies to keep the rate is friction).
  *
  * Data (excitation check 1: only steady sliding informs the static map).
- *   One step per HD_FE step period (the caller decimates, e.g. 1 kHz).  The
+ *   hd_fric_est_step() runs at a decimated rate (the caller's, e.g. 1 kHz).  The
  *   reference velocity v_ref is "steady" when it is non-zero, keeps its sign
  *   and changes by at most dv_max per step, and the axis slides with it: the
  *   measured velocity, low-passed over 2^HD_FE_VLP_SHIFT steps, is within
@@ -18,8 +18,7 @@
  *   the torque through twice the breakaway level: at slow rates that takes
  *   longer than any fixed time; the torque of that phase is not friction).
  *   After settle steady steps each step adds (|v_ref|, torque) to the bin of
- *   |v_ref| of its direction.  Bins
- *   are half octaves of |v_ref| (bin edges 2^k and 1.5 2^k LSB), HD_FE_NBIN per
+ *   |v_ref| of its direction.  Bins are half octaves of |v_ref| (bin edges 2^k and 1.5 2^k LSB), HD_FE_NBIN per
  *   direction from v_min up; outside [v_min, top edge] nothing is updated.
  *   Each bin holds the mean velocity and mean torque magnitude of its samples
  *   and their count n: a running mean while n < n_forget, then an exponential
@@ -36,23 +35,21 @@
  * Fit (excitation check 2: a parameter changes only when the bins inform it).
  *   Per direction, for each candidate Stribeck velocity vs_j = vs_lo 2^(j/4),
  *   j = 0..HD_FE_NGRID-1 (8 octaves), the map is linear in (fc, fs - fc, fv):
- *   least squares over the bins with n >= n_min (centred 2x2 normal
- *   equations, solved through a reciprocal found by Newton iteration: no
- *   64-bit division), and its residual sum of squares S_j.  A candidate takes
- *   four steps (two halves of the bins into a snapshot, the solution, the
- *   residual: a step costs a quarter of a candidate); both directions in turn,
- *   a full fit every 8 HD_FE_NGRID steps (256 ms at 1 kHz).  After the last candidate: the best j, refined by a parabola
- *   through S_j-1, S_j, S_j+1 (vs interpolated linearly between the grid
- *   values, the linear parameters likewise), then the estimate of the
+ *   least squares over the valid bins (n >= n_min, not older than max_age;
+ *   centred 2x2 normal equations, solved through a reciprocal found by Newton
+ *   iteration: no 64-bit division), and its residual sum of squares S_j.  A
+ *   candidate takes four steps (two halves of the bins into a snapshot, the
+ *   solution, the residual: a step costs a quarter of a candidate); both
+ *   directions in turn, a full fit every 8 HD_FE_NGRID steps (256 ms at 1 kHz).
+ *   After the last candidate: the best j, refined by a parabola through S_j-1,
+ *   S_j, S_j+1 (vs interpolated linearly between the grid values, the linear
+ *   parameters likewise), then the estimate of the
  *   direction is replaced only if
  *     - at least 5 bins are valid and they reach two octaves below and above
  *       the fitted vs (slowest valid bin <= vs / 4, fastest >= 4 vs: fs needs
  *       the plateau under the Stribeck drop, vs the drop, fc and fv the sliding
  *       above it; a fit to bins on one side only would place vs outside them),
  *     - the best j is not at either end of the grid (vs is inside the range),
- *     - the fit shows a Stribeck drop (fs >= fc) and no viscous term that lowers
- *       the fastest bin by more than fc / 8 (a line through the bins is not a
- *       Stribeck curve),
  *     - the fit shows a Stribeck drop (fs >= fc) and no viscous term that lowers
  *       the fastest bin by more than fc / 8 (a line through the bins is not a
  *       Stribeck curve),
