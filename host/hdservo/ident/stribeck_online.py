@@ -1,4 +1,11 @@
-"""Fast online Stribeck identification: RLS on the model made linear by a grid over vs.
+"""Online Stribeck identification: the host-side RLS replay, and the drive's own estimator.
+
+The first part replays recorded sweep windows through a bank of RLS filters
+(a reference for the batch fit).  The second part (:func:`online_identification`)
+watches the drive's fixed-point estimator (``firmware/core/hd_fric_est.h``,
+object 0x5200) over CAN during a normal motion profile.
+
+RLS on the model made linear by a grid over vs.
 
 For a fixed Stribeck velocity vs (and shape delta = 2) the static map is
 linear in theta = (Fc+, Fs+ - Fc+, Fc-, Fs- - Fc-, Fv)::
