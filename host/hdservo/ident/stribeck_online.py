@@ -25,10 +25,9 @@ Cost per sample and grid value: one exp, P phi (25 MAC), gain (5 div or
 -> ~90 operations; G = 32 -> ~2900 operations per sample.  Memory per grid
 value: P (15 unique of 25), theta 5, S 1 -> 21 words; G = 24 -> 504 words
 (2 kB at 32 bit).  On a Cortex-M4 at 170 MHz that is ~15-25 us per sample
-in float, i.e. a 20 Hz sample rate costs 0.05 % of the CPU; the firmware
-rules ask for fixed point (P needs ~40 bits of dynamic range: int64
-accumulators, Q-scaled columns), or the drive streams the block means and
-the host runs this.  Measured convergence is in docs/identification.md.
+in float; the drive runs its own fixed-point estimator instead (binned steady
+torque and a grid fit: hd_fric_est.h).  Measured convergence of both is in
+docs/identification.md.
 """
 from __future__ import annotations
 
