@@ -981,6 +981,9 @@ void hd_app_step(hd_app_t *a)
     PHASE_MARK();
     phase_command(a, &p);
     PHASE_MARK();
+    /* slow slot: online Stribeck identification (steady reference velocity, torque applied) */
+    hd_comp_bank_fric_est(&a->cb, &a->cb_cfg, p.vff_plain, p.v_fb, p.cmd.enable ? p.t_cmd : 0,
+                          p.loops == HD_LOOPS_POS_VEL && p.cmd.enable != 0);
     phase_telemetry(a, &p);
     PHASE_MARK();
 }

@@ -163,6 +163,18 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
         }
     }
 
+    /* online Stribeck identification */
+    c->fe_on = (prm(p, HD_P_FE_ENABLE) != 0) ? 1u : 0u;
+    c->fe_feed = (prm(p, HD_P_FE_FEED) != 0) ? 1u : 0u;
+    c->fe_decim = (prm(p, HD_P_FE_DECIM) > 0) ? (uint32_t)prm(p, HD_P_FE_DECIM) : 1u;
+    c->fe_ramp = (uint32_t)prm(p, HD_P_FE_RAMP);
+    if (hd_fric_est_config(&c->fe, prm(p, HD_P_FE_V_MIN), prm(p, HD_P_FE_VS_LO), prm(p, HD_P_FE_DV_MAX),
+                           (uint32_t)prm(p, HD_P_FE_SETTLE), (uint32_t)prm(p, HD_P_FE_FORGET),
+                           (uint32_t)prm(p, HD_P_FE_N_MIN), (uint32_t)prm(p, HD_P_FE_N_KEEP),
+                           (uint32_t)prm(p, HD_P_FE_MAX_AGE), prm(p, HD_P_FE_TAU_MAX), prm(p, HD_P_FE_FV_MAX)) != 0) {
+        return -1;
+    }
+
     /* disturbance observer: g T (Q30) and g J (Q15.16 N.m/(turn/s)) = 4 pi^2 fc J */
     {
         const int32_t fc = prm(p, HD_P_DOB_FC);
@@ -183,6 +195,19 @@ static void set_blend_ramps(hd_comp_bank_t *b, uint32_t ramp)
     b->bs.blend.ramp_ticks = ramp;
     b->dob_blend.ramp_ticks = ramp;
     b->cp_blend.ramp_ticks = ramp;
+}
+
+/* the estimator from the Stribeck FF parameters, empty bins */
+static void fe_reset(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    hd_stribeck_dir_t init[HD_FE_NDIR];
+    init[HD_FE_DIR_POS] = c->str.pos;
+    init[HD_FE_DIR_NEG] = c->str.neg;
+    hd_fric_est_init(&b->fe, init, c->fe_ramp, (c->fe_on & c->fe_feed) != 0u);
+    b->fe_str = c->str;
+    b->fe_tick = 0u;
+    b->fe_v_min = c->fe.v_min;
+    b->fe_vs_lo = c->fe.vs_lo;
 }
 
 void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
@@ -228,6 +253,7 @@ void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     b->pki_w = 0;
     b->pr_test = 0;
     b->cp_dth = 0;
+    fe_reset(b, c);
 }
 
 void hd_comp_bank_apply(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
@@ -251,6 +277,17 @@ void hd_comp_bank_apply(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
         hd_backstep_set_enabled(&b->bs, on);
     }
     b->enabled = en;
+    /* the estimator: new binning empties the bins; the feed switch ramps */
+    if (c->fe.v_min != b->fe_v_min || c->fe.vs_lo != b->fe_vs_lo) {
+        const hd_blend_t feed = b->fe.feed;
+        fe_reset(b, c);
+        b->fe.feed = feed;
+    }
+    b->fe.feed.ramp_ticks = c->fe_ramp;
+    if (b->fe.feed.w == 0) {
+        b->fe_str = c->str;     /* a feed switched on starts from the parameters in force */
+    }
+    hd_fric_est_set_feed(&b->fe, (c->fe_on & c->fe_feed) != 0u);
 }
 
 /* A new table's memory: the gear demagnetised at rest (input 0: no torque, no twist), not
@@ -356,7 +393,9 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
 
     /* friction: Stribeck map (also the Preisach torque estimate's model) and LuGre */
     if (running(b, HD_CB_STRIBECK, &b->str.blend) || pr_on || cp_on) {
-        tff = hdf_add_sat(tff, hd_stribeck_step(&b->str, &c->str, in->vel_ref, in->vel_fb));
+        /* while the estimate is fed in (or ramping out): its config, else the parameters */
+        const hd_stribeck_cfg_t *sc = hd_fric_est_feeding(&b->fe) ? &b->fe_str : &c->str;
+        tff = hdf_add_sat(tff, hd_stribeck_step(&b->str, sc, in->vel_ref, in->vel_fb));
     }
     if (running(b, HD_CB_LUGRE, &b->lug.blend)) {
         const hd_vel_out_t v = (c->lug_v_src != 0u) ? in->vel_fb : in->vel_ref;
@@ -489,6 +528,22 @@ int32_t hd_comp_bank_post(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const 
 void hd_comp_bank_end(hd_comp_bank_t *b, int32_t t_applied)
 {
     b->t_prev = t_applied;
+}
+
+void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_vel_out_t v_ref, hd_vel_out_t v_fb,
+                           int32_t tau, bool active)
+{
+    if (c->fe_on == 0u && !hd_fric_est_feeding(&b->fe)) {
+        return;                 /* off and not ramping out: no cost, the bins keep their data */
+    }
+    if (++b->fe_tick < c->fe_decim) {
+        return;
+    }
+    b->fe_tick = 0u;
+    if (c->fe_on != 0u) {
+        hd_fric_est_step(&b->fe, &c->fe, v_ref, v_fb, tau, active);
+    }
+    hd_fric_est_feed(&b->fe, &c->str, &b->fe_str);
 }
 
 bool hd_comp_bank_active(const hd_comp_bank_t *b)

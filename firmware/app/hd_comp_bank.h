@@ -29,6 +29,9 @@
  *   compliance twist of the three-slope stiffness (hd_compliance.h) at the
  *              transmitted-torque estimate of the Preisach inverse (same
  *              pr_t_src / pr_fc; the estimate runs when either is on)   -> position correction
+ *   online Stribeck identification (fe_enable; hd_fric_est.h) from the slow slot
+ *              hd_comp_bank_fric_est(): with fe_feed its estimate replaces the
+ *              Stribeck FF parameters (ramped, bumpless)
  *   backstep   replaces the PID's torque: u = u_pid + w (u_bs - u_pid); preloaded at engage
  *   DOB        d = Q(t_prev - J s v_fb), Q = g/(s+g) first order; torque FF + d
  *   pos. I     scheduled position integral (cb_pki > 0): a second integrator of the
@@ -81,6 +84,7 @@
 #include "hd_backstep.h"
 #include "hd_blend.h"
 #include "hd_compliance.h"
+#include "hd_fric_est.h"
 
 #define HD_CB_STRIBECK  (1u << 0)
 #define HD_CB_LUGRE     (1u << 1)
@@ -124,6 +128,11 @@ typedef struct {
     int32_t  pki_vhi;            /* schedule: weight 1 at |v_ref| >= vhi, 2^-32 turn/s */
     int32_t  pki_leak_dt;        /* leak rate x T, Q30 (applied with weight 1 - w) */
     int32_t  pki_max;            /* integral clamp, 2^-32 turn/s */
+    hd_fric_est_cfg_t fe;        /* online Stribeck identification (parameters fe_*) */
+    uint32_t fe_on;              /* 1: the estimator runs (fe_enable) */
+    uint32_t fe_feed;            /* 1: the Stribeck FF uses the estimate (fe_feed, with fe_on) */
+    uint32_t fe_decim;           /* control periods per estimator step */
+    uint32_t fe_ramp;            /* estimator steps of the feed ramp */
 } hd_comp_bank_cfg_t;
 
 /* Signals of one period (inputs filled by the app). */
@@ -169,6 +178,11 @@ typedef struct {
     int32_t  pki_w;              /* its last schedule weight, Q30 (telemetry) */
     int32_t  pr_test;            /* last Preisach torque estimate, Q15.16 N.m (telemetry) */
     int32_t  cp_dth;             /* weighted compliance twist, 2^-32 turn */
+    hd_fric_est_t fe;            /* online Stribeck identification */
+    hd_stribeck_cfg_t fe_str;    /* the Stribeck FF config with the estimate fed in (while feeding) */
+    uint32_t fe_tick;            /* periods since the last estimator step */
+    int32_t  fe_v_min;           /* binning of the bins in fe (a change empties them) */
+    int32_t  fe_vs_lo;
 } hd_comp_bank_t;
 
 /** Configs from raw parameters. 0 ok, -1 inconsistent (bounds, sizes). */
@@ -192,6 +206,13 @@ int32_t hd_comp_bank_post(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const 
                           int32_t u_pid);
 /** End of the period: the torque command actually applied (for the DOB / torque estimate). */
 void hd_comp_bank_end(hd_comp_bank_t *b, int32_t t_applied);
+/** The slow slot of the online Stribeck identification (hd_fric_est.h): call once per
+ *  control period with the reference velocity before the bank's corrections and the
+ *  velocity-loop feedback (2^-32 turn/s), the output torque applied (Q15.16 N.m) and
+ *  whether the position loops ran; every fe_decim-th call runs one estimator step and
+ *  refreshes the fed Stribeck FF config. */
+void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_vel_out_t v_ref, hd_vel_out_t v_fb,
+                           int32_t tau, bool active);
 /** True while any compensator output may be non-zero. */
 bool hd_comp_bank_active(const hd_comp_bank_t *b);
 

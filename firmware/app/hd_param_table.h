@@ -9,8 +9,8 @@
 #include <stdint.h>
 
 #define HD_PARAM_VERSION 1u
-#define HD_PARAM_TABLE_HASH 0x5C3D9EE7u
-#define HD_PARAM_COUNT 169u
+#define HD_PARAM_TABLE_HASH 0x96E70418u
+#define HD_PARAM_COUNT 183u
 
 typedef enum {
     HD_P_GEAR_RATIO = 0,
@@ -182,6 +182,20 @@ typedef enum {
     HD_P_CP_K3 = 166,
     HD_P_CP_T1 = 167,
     HD_P_CP_T2 = 168,
+    HD_P_FE_ENABLE = 169,
+    HD_P_FE_FEED = 170,
+    HD_P_FE_DECIM = 171,
+    HD_P_FE_V_MIN = 172,
+    HD_P_FE_VS_LO = 173,
+    HD_P_FE_DV_MAX = 174,
+    HD_P_FE_SETTLE = 175,
+    HD_P_FE_FORGET = 176,
+    HD_P_FE_N_MIN = 177,
+    HD_P_FE_TAU_MAX = 178,
+    HD_P_FE_FV_MAX = 179,
+    HD_P_FE_RAMP = 180,
+    HD_P_FE_N_KEEP = 181,
+    HD_P_FE_MAX_AGE = 182,
 } hd_param_id_t;
 
 #define HD_PTYPE_I32 0u

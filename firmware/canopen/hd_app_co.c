@@ -354,6 +354,25 @@ static uint32_t wear_total(const hd_app_co_t *ac)
     return total;
 }
 
+/* 0x5200: the online Stribeck estimate (hd_fric_est.h), sub-index 1..14 */
+static int64_t fric_est_read(const hd_fric_est_t *e, uint8_t sub)
+{
+    if (sub <= 8u) {
+        /* :1..:4 positive direction, :5..:8 negative: fc, fs, vs, fv */
+        const hd_stribeck_dir_t *d = &e->est[(sub <= 4u) ? HD_FE_DIR_POS : HD_FE_DIR_NEG];
+        const uint32_t k = ((uint32_t)sub - 1u) & 3u;
+        return (k == 0u) ? d->fc : (k == 1u) ? d->fs : (k == 2u) ? d->vs : d->fv;
+    }
+    switch (sub) {
+    case 9u: return (int64_t)e->conf[HD_FE_DIR_POS];
+    case 10u: return (int64_t)e->conf[HD_FE_DIR_NEG];
+    case 11u: return (int64_t)e->fits[HD_FE_DIR_POS];
+    case 12u: return (int64_t)e->fits[HD_FE_DIR_NEG];
+    case 13u: return (int64_t)e->samples;
+    default: return (int64_t)e->feed.w;
+    }
+}
+
 static uint32_t a_special_read(void *c, uint16_t index, uint8_t sub, int64_t *v)
 {
     hd_app_co_t *ac = c;
@@ -374,6 +393,10 @@ static uint32_t a_special_read(void *c, uint16_t index, uint8_t sub, int64_t *v)
             max_page = 0u;
         }
         *v = (int64_t)((sub == 1u) ? total : max_page);
+        return 0u;
+    }
+    if (index == 0x5200u && sub >= 1u && sub <= 14u) {
+        *v = fric_est_read(&ac->app->cb.fe, sub);
         return 0u;
     }
     if (index == 0x5102u && sub == 3u) { *v = (int64_t)ac->saves_refused; return 0u; }

@@ -340,6 +340,21 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x2890u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 166u, INT64_C(2099200), INT64_C(2048000000), INT64_C(91684240), NULL},  /* cp_k3 */
     {0x2890u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 167u, INT64_C(0), INT64_C(1966080000), INT64_C(917504), NULL},  /* cp_t1 */
     {0x2890u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 168u, INT64_C(0), INT64_C(1966080000), INT64_C(3145728), NULL},  /* cp_t2 */
+    {0x28A0u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(14), NULL},  /* highest_sub_index_supported */
+    {0x28A0u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 169u, INT64_C(0), INT64_C(1), INT64_C(0), NULL},  /* fe_enable */
+    {0x28A0u, 2u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 170u, INT64_C(0), INT64_C(1), INT64_C(0), NULL},  /* fe_feed */
+    {0x28A0u, 3u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 171u, INT64_C(1), INT64_C(1000), INT64_C(10), NULL},  /* fe_decim */
+    {0x28A0u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 172u, INT64_C(4), INT64_C(429496730), INT64_C(59652), NULL},  /* fe_v_min */
+    {0x28A0u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 173u, INT64_C(4), INT64_C(8589935), INT64_C(596523), NULL},  /* fe_vs_lo */
+    {0x28A0u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 174u, INT64_C(0), INT64_C(42949673), INT64_C(429), NULL},  /* fe_dv_max */
+    {0x28A0u, 7u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 175u, INT64_C(0), INT64_C(100000), INT64_C(300), NULL},  /* fe_settle */
+    {0x28A0u, 8u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 176u, INT64_C(1), INT64_C(1000000), INT64_C(150), NULL},  /* fe_forget */
+    {0x28A0u, 9u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 177u, INT64_C(1), INT64_C(1000000), INT64_C(30), NULL},  /* fe_n_min */
+    {0x28A0u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 178u, INT64_C(66), INT64_C(1048576000), INT64_C(6553600), NULL},  /* fe_tau_max */
+    {0x28A0u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 179u, INT64_C(0), INT64_C(1966080000), INT64_C(196608000), NULL},  /* fe_fv_max */
+    {0x28A0u, 12u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 180u, INT64_C(0), INT64_C(1000000), INT64_C(1000), NULL},  /* fe_ramp */
+    {0x28A0u, 13u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 181u, INT64_C(0), INT64_C(1000000), INT64_C(5), NULL},  /* fe_n_keep */
+    {0x28A0u, 14u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 182u, INT64_C(1), INT64_C(2000000000), INT64_C(30000), NULL},  /* fe_max_age */
     {0x5000u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(7), NULL},  /* highest_sub_index_supported */
     {0x5000u, 1u, 0x05u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(2), INT64_C(0), NULL},  /* capture_control */
     {0x5000u, 2u, 0x05u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(0), NULL},  /* capture_state */
@@ -380,6 +395,21 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x5102u, 2u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* nvm_erases_max_page */
     {0x5102u, 3u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* saves_refused */
     {0x5102u, 4u, 0x04u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* save_credit */
+    {0x5200u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(14), NULL},  /* highest_sub_index_supported */
+    {0x5200u, 1u, 0x04u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* fe_fc_pos */
+    {0x5200u, 2u, 0x04u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* fe_fs_pos */
+    {0x5200u, 3u, 0x04u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* fe_vs_pos */
+    {0x5200u, 4u, 0x04u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* fe_fv_pos */
+    {0x5200u, 5u, 0x04u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* fe_fc_neg */
+    {0x5200u, 6u, 0x04u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* fe_fs_neg */
+    {0x5200u, 7u, 0x04u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* fe_vs_neg */
+    {0x5200u, 8u, 0x04u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* fe_fv_neg */
+    {0x5200u, 9u, 0x06u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(65535), INT64_C(0), NULL},  /* fe_conf_pos */
+    {0x5200u, 10u, 0x06u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(65535), INT64_C(0), NULL},  /* fe_conf_neg */
+    {0x5200u, 11u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* fe_fits_pos */
+    {0x5200u, 12u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* fe_fits_neg */
+    {0x5200u, 13u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* fe_samples */
+    {0x5200u, 14u, 0x04u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* fe_feed_weight */
     {0x5F00u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(12), NULL},  /* highest_sub_index_supported */
     {0x5F00u, 1u, 0x07u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO), HD_CO_K_VAR, OFF(drive_status_loop_tick), INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* loop_tick */
     {0x5F00u, 2u, 0x07u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO), HD_CO_K_VAR, OFF(drive_status_load_phase), INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* load_phase */

@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 OD_VERSION = 1
-PARAM_HASH = 0x5C3D9EE7
+PARAM_HASH = 0x96E70418
 VENDOR_ID = 0x00000EDA
 PRODUCT_CODE = 0x00484453
 REVISION = 0x00010000
@@ -363,6 +363,21 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x2890, 3, 'cp_k3', 'i32', 'rw', '', 'N.m/turn', 0.00390625),
     OdEntry(0x2890, 4, 'cp_t1', 'i32', 'rw', '', 'N.m', 1.52587890625e-05),
     OdEntry(0x2890, 5, 'cp_t2', 'i32', 'rw', '', 'N.m', 1.52587890625e-05),
+    OdEntry(0x28A0, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
+    OdEntry(0x28A0, 1, 'fe_enable', 'u32', 'rw', '', '1', 1.0),
+    OdEntry(0x28A0, 2, 'fe_feed', 'u32', 'rw', '', '1', 1.0),
+    OdEntry(0x28A0, 3, 'fe_decim', 'u32', 'rw', '', 'period', 1.0),
+    OdEntry(0x28A0, 4, 'fe_v_min', 'i32', 'rw', '', 'turn/s', 2.3283064365386963e-10),
+    OdEntry(0x28A0, 5, 'fe_vs_lo', 'i32', 'rw', '', 'turn/s', 2.3283064365386963e-10),
+    OdEntry(0x28A0, 6, 'fe_dv_max', 'i32', 'rw', '', 'turn/s', 2.3283064365386963e-10),
+    OdEntry(0x28A0, 7, 'fe_settle', 'u32', 'rw', '', 'step', 1.0),
+    OdEntry(0x28A0, 8, 'fe_forget', 'u32', 'rw', '', 'sample', 1.0),
+    OdEntry(0x28A0, 9, 'fe_n_min', 'u32', 'rw', '', 'sample', 1.0),
+    OdEntry(0x28A0, 10, 'fe_tau_max', 'i32', 'rw', '', 'N.m', 1.52587890625e-05),
+    OdEntry(0x28A0, 11, 'fe_fv_max', 'i32', 'rw', '', 'N.m/(turn/s)', 1.52587890625e-05),
+    OdEntry(0x28A0, 12, 'fe_ramp', 'u32', 'rw', '', 'step', 1.0),
+    OdEntry(0x28A0, 13, 'fe_n_keep', 'u32', 'rw', '', 'sample', 1.0),
+    OdEntry(0x28A0, 14, 'fe_max_age', 'u32', 'rw', '', 'step', 1.0),
     OdEntry(0x5000, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x5000, 1, 'capture_control', 'u8', 'rw', '', '', 1.0),
     OdEntry(0x5000, 2, 'capture_state', 'u8', 'ro', '', '', 1.0),
@@ -403,6 +418,21 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x5102, 2, 'nvm_erases_max_page', 'u32', 'ro', '', 'page erase', 1.0),
     OdEntry(0x5102, 3, 'saves_refused', 'u32', 'ro', '', '', 1.0),
     OdEntry(0x5102, 4, 'save_credit', 'i32', 'ro', '', 'page erase', 1.0),
+    OdEntry(0x5200, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
+    OdEntry(0x5200, 1, 'fe_fc_pos', 'i32', 'ro', '', 'Q15.16 N.m', 1.0),
+    OdEntry(0x5200, 2, 'fe_fs_pos', 'i32', 'ro', '', 'Q15.16 N.m', 1.0),
+    OdEntry(0x5200, 3, 'fe_vs_pos', 'i32', 'ro', '', '2^-32 turn/s', 1.0),
+    OdEntry(0x5200, 4, 'fe_fv_pos', 'i32', 'ro', '', 'Q15.16 N.m/(turn/s)', 1.0),
+    OdEntry(0x5200, 5, 'fe_fc_neg', 'i32', 'ro', '', 'Q15.16 N.m', 1.0),
+    OdEntry(0x5200, 6, 'fe_fs_neg', 'i32', 'ro', '', 'Q15.16 N.m', 1.0),
+    OdEntry(0x5200, 7, 'fe_vs_neg', 'i32', 'ro', '', '2^-32 turn/s', 1.0),
+    OdEntry(0x5200, 8, 'fe_fv_neg', 'i32', 'ro', '', 'Q15.16 N.m/(turn/s)', 1.0),
+    OdEntry(0x5200, 9, 'fe_conf_pos', 'u16', 'ro', '', 'permille', 1.0),
+    OdEntry(0x5200, 10, 'fe_conf_neg', 'u16', 'ro', '', 'permille', 1.0),
+    OdEntry(0x5200, 11, 'fe_fits_pos', 'u32', 'ro', '', 'fit', 1.0),
+    OdEntry(0x5200, 12, 'fe_fits_neg', 'u32', 'ro', '', 'fit', 1.0),
+    OdEntry(0x5200, 13, 'fe_samples', 'u32', 'ro', '', 'sample', 1.0),
+    OdEntry(0x5200, 14, 'fe_feed_weight', 'i32', 'ro', '', '2^-30', 1.0),
     OdEntry(0x5F00, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x5F00, 1, 'loop_tick', 'u32', 'ro', 't', '100 us', 1.0),
     OdEntry(0x5F00, 2, 'load_phase', 'u32', 'ro', 't', '2^-32 turn', 1.0),

@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 VERSION = 1
-TABLE_HASH = 0x5C3D9EE7
+TABLE_HASH = 0x96E70418
 
 
 class ParamDef(NamedTuple):
@@ -199,5 +199,19 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef(166, 'cp_k3', 0x2890, 3, 'i32', 'N.m/turn', 8, 8200.0, 8000000.0, 358141.5625, 2099200, 2048000000, 91684240, 'Compliance: third stiffness slope K3 (|T| > cp_t2)'),
     ParamDef(167, 'cp_t1', 0x2890, 4, 'i32', 'N.m', 16, 0.0, 30000.0, 14.0, 0, 1966080000, 917504, 'Compliance: torque at the end of the first slope'),
     ParamDef(168, 'cp_t2', 0x2890, 5, 'i32', 'N.m', 16, 0.0, 30000.0, 48.0, 0, 1966080000, 3145728, 'Compliance: torque at the end of the second slope (>= cp_t1)'),
+    ParamDef(169, 'fe_enable', 0x28A0, 1, 'u32', '1', 0, 0.0, 1.0, 0.0, 0, 1, 0, 'Online Stribeck identification: 1 = run the estimator (position modes, every fe_decim periods)'),
+    ParamDef(170, 'fe_feed', 0x28A0, 2, 'u32', '1', 0, 0.0, 1.0, 0.0, 0, 1, 0, 'Online Stribeck identification: 1 = the Stribeck FF uses the estimate (ramped in and out over fe_ramp steps, shape delta 2)'),
+    ParamDef(171, 'fe_decim', 0x28A0, 3, 'u32', 'period', 0, 1.0, 1000.0, 10.0, 1, 1000, 10, 'Online Stribeck identification: control periods per estimator step (10: 1 kHz)'),
+    ParamDef(172, 'fe_v_min', 0x28A0, 4, 'i32', 'turn/s', 32, 1e-09, 0.1, 1.3888888888888888e-05, 4, 429496730, 59652, 'Online Stribeck identification: lowest binned velocity (24 half-octave bins per direction from here)'),
+    ParamDef(173, 'fe_vs_lo', 0x28A0, 5, 'i32', 'turn/s', 32, 1e-09, 0.002, 0.0001388888888888889, 4, 8589935, 596523, 'Online Stribeck identification: smallest candidate Stribeck velocity (32 quarter-octave candidates from here)'),
+    ParamDef(174, 'fe_dv_max', 0x28A0, 6, 'i32', 'turn/s', 32, 0.0, 0.01, 1e-07, 0, 42949673, 429, 'Online Stribeck identification: largest change of the reference velocity per step that counts as steady'),
+    ParamDef(175, 'fe_settle', 0x28A0, 7, 'u32', 'step', 0, 0.0, 100000.0, 300.0, 0, 100000, 300, 'Online Stribeck identification: steady sliding steps before the torque is taken as friction'),
+    ParamDef(176, 'fe_forget', 0x28A0, 8, 'u32', 'sample', 0, 1.0, 1000000.0, 150.0, 1, 1000000, 150, 'Online Stribeck identification: memory of a bin (running mean, then exponential over this many samples)'),
+    ParamDef(177, 'fe_n_min', 0x28A0, 9, 'u32', 'sample', 0, 1.0, 1000000.0, 30.0, 1, 1000000, 30, 'Online Stribeck identification: samples for a bin to count in the fit'),
+    ParamDef(178, 'fe_tau_max', 0x28A0, 10, 'i32', 'N.m', 16, 0.001, 16000.0, 100.0, 66, 1048576000, 6553600, 'Online Stribeck identification: bound of the estimated Coulomb and static levels (output)'),
+    ParamDef(179, 'fe_fv_max', 0x28A0, 11, 'i32', 'N.m/(turn/s)', 16, 0.0, 30000.0, 3000.0, 0, 1966080000, 196608000, 'Online Stribeck identification: bound of the estimated viscous coefficient'),
+    ParamDef(180, 'fe_ramp', 0x28A0, 12, 'u32', 'step', 0, 0.0, 1000000.0, 1000.0, 0, 1000000, 1000, 'Online Stribeck identification: estimator steps of the feed ramp (bumpless switch of fe_feed)'),
+    ParamDef(181, 'fe_n_keep', 0x28A0, 13, 'u32', 'sample', 0, 0.0, 1000000.0, 5.0, 0, 1000000, 5, "Online Stribeck identification: weight of a bin's old mean at the start of each new visit (forgetting across visits)"),
+    ParamDef(182, 'fe_max_age', 0x28A0, 14, 'u32', 'step', 0, 1.0, 2000000000.0, 30000.0, 1, 2000000000, 30000, 'Online Stribeck identification: a bin not updated for longer than this is left out of the fit (30000: 30 s at 1 kHz)'),
 )
 BY_NAME: dict[str, ParamDef] = {p.name: p for p in PARAMS}

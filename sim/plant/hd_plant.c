@@ -470,6 +470,45 @@ static double stribeck_exp(hd_plant *p, int side, double y)
     return p->fr_ea[side];
 }
 
+/* Per-side look-up tables of the friction levels in force (p->prm.fric_m / fric_l). */
+static void friction_tables(hd_plant *p)
+{
+    int k;
+    for (k = 0; k < 2; k++) {
+        const hd_plant_friction_params *f = k == 0 ? &p->prm.fric_m : &p->prm.fric_l;
+        p->fr_inv_vs[k] = 1.0 / f->vs_rad_s;
+        p->fr_fc[k][0] = f->fc_pos_Nm;
+        p->fr_fc[k][1] = f->fc_neg_Nm;
+        p->fr_dfs[k][0] = f->fs_pos_Nm - f->fc_pos_Nm;
+        p->fr_dfs[k][1] = f->fs_neg_Nm - f->fc_neg_Nm;
+    }
+    p->fr_v[0] = p->fr_v[1] = NAN;        /* the memoised levels are stale */
+}
+
+/* [friction_drift]: scale both sides' levels and viscous term from their initial values
+ * to s(t); the cached evaluations of the last period are dropped when s changes. */
+static void friction_drift(hd_plant *p)
+{
+    const hd_plant_params *q = &p->prm;
+    const double x = (p->t - q->drift_t_start_s) / q->drift_ramp_s;
+    const double s = 1.0 + (q->drift_scale - 1.0) * (x <= 0.0 ? 0.0 : (x >= 1.0 ? 1.0 : x));
+    int k;
+    if (s == p->fr_scale) return;
+    p->fr_scale = s;
+    for (k = 0; k < 2; k++) {
+        const hd_plant_friction_params *b = &p->fr_base[k];
+        hd_plant_friction_params *f = k == 0 ? &p->prm.fric_m : &p->prm.fric_l;
+        f->fc_pos_Nm = b->fc_pos_Nm * s;
+        f->fc_neg_Nm = b->fc_neg_Nm * s;
+        f->fs_pos_Nm = b->fs_pos_Nm * s;
+        f->fs_neg_Nm = b->fs_neg_Nm * s;
+        f->viscous_Nms_per_rad = b->viscous_Nms_per_rad * s;
+    }
+    friction_tables(p);
+    p->end_valid = 0;
+    p->k1_valid = 0;
+}
+
 /* Stribeck level g(v) > 0 for the direction of v (v == 0: positive side). */
 static double stribeck_g(hd_plant *p, int side, const hd_plant_friction_params *f, double v)
 {
@@ -906,14 +945,10 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
     p->fr_v[0] = p->fr_v[1] = NAN;        /* no memoised friction level yet */
     p->fr_ya[0] = p->fr_ya[1] = 0.0;      /* Stribeck exponential anchors: exp(-0) = 1 */
     p->fr_ea[0] = p->fr_ea[1] = 1.0;
-    for (k = 0; k < 2; k++) {
-        const hd_plant_friction_params *f = k == 0 ? &prm->fric_m : &prm->fric_l;
-        p->fr_inv_vs[k] = 1.0 / f->vs_rad_s;
-        p->fr_fc[k][0] = f->fc_pos_Nm;
-        p->fr_fc[k][1] = f->fc_neg_Nm;
-        p->fr_dfs[k][0] = f->fs_pos_Nm - f->fc_pos_Nm;
-        p->fr_dfs[k][1] = f->fs_neg_Nm - f->fc_neg_Nm;
-    }
+    p->fr_base[0] = prm->fric_m;
+    p->fr_base[1] = prm->fric_l;
+    p->fr_scale = 1.0;
+    friction_tables(p);
     p->k_dt = 0.0;
     p->end_valid = 0;
     p->k1_valid = 0;
@@ -1011,6 +1046,7 @@ const hd_plant_output *hd_plant_step(hd_plant *p, const hd_plant_input *in, doub
      * output (the harness reports the divergence) instead of integrating NaN */
     if (p->diverged) return o;
     if (dt_s != p->k_dt) period_constants(p, dt_s);
+    if (q->drift_enabled) friction_drift(p);
     h = p->k_h;
     E = p->k_E;
     icmd = in->current_cmd_A + in->torque_cmd_Nm / q->kt_Nm_per_A;

@@ -138,6 +138,15 @@ typedef struct {
     hd_plant_friction_params fric_m;  /* motor side, N.m and rad/s at the motor */
     hd_plant_friction_params fric_l;  /* output bearing side, N.m and rad/s at the output */
 
+    /* [friction_drift]  both friction sides (levels Fc, Fs and the viscous term) scaled by
+     * s(t) = 1 + (scale - 1) * clamp((t - t_start_s) / ramp_s, 0, 1): warm-up or wear
+     * during a run, for the online identification (docs/sim.md).  Applied once per
+     * control period to the values the plant was initialised with. */
+    int    drift_enabled;
+    double drift_t_start_s;           /* ramp start, s of simulated time */
+    double drift_ramp_s;              /* ramp duration, s (> 0) */
+    double drift_scale;               /* friction scale at the end of the ramp */
+
     /* [load] */
     double jl_kgm2;                   /* load (payload + flange) inertia */
 
@@ -290,6 +299,8 @@ typedef struct {
     double   fr_ya[2], fr_ea[2];      /* Stribeck exponential anchor: y, exp(-y) from libm */
     double   fr_inv_vs[2];            /* 1/vs per side */
     double   fr_fc[2][2], fr_dfs[2][2]; /* [side][v < 0]: Fc, Fs - Fc */
+    hd_plant_friction_params fr_base[2]; /* friction as initialised (the drift scales it) */
+    double   fr_scale;                /* friction scale in force ([friction_drift]) */
     int32_t  end_valid;               /* end-of-sub-step evaluation below is current */
     double   end_th_m, end_th_l, end_phi, end_te, end_de_m, end_de_l, end_Tsh, end_Th, end_Tcog;
     double   end_cm, end_sm, end_cl, end_sl;

@@ -76,6 +76,10 @@ static const hd_plant_param_desc k_table[] = {
     D("hysteresis_preisach.s_rad", preisach_s_rad, 1e-12, BIG, "rad", "relay centre spread"),
     FRIC("friction_motor", fric_m, "rad/s"),
     FRIC("friction_load", fric_l, "rad/s"),
+    B("friction_drift.enabled", drift_enabled, "friction scaled by a ramp over time (both sides)"),
+    D("friction_drift.t_start_s", drift_t_start_s, 0.0, BIG, "s", "ramp start (simulated time)"),
+    D("friction_drift.ramp_s", drift_ramp_s, 1e-6, BIG, "s", "ramp duration"),
+    D("friction_drift.scale", drift_scale, 0.0, 100.0, "", "friction scale at the end of the ramp (1 = none)"),
     D("load.jl_kgm2", jl_kgm2, 1e-12, BIG, "kg.m^2", "load inertia"),
     B("gravity.enabled", gravity_enabled, "gravity unbalance"),
     D("gravity.mgl_Nm", mgl_Nm, -BIG, BIG, "N.m", "unbalance m*g*l"),
@@ -243,6 +247,11 @@ void hd_plant_defaults_reference(hd_plant_params *prm)
     friction_defaults(&prm->fric_m, 0.10, 0.07, 0.05, 2.0, 5e-4, 100.0, 0.09, 1e-3);
     /* output crossed-roller bearing: breakaway 0.6 N.m, presliding ~2e-5 rad */
     friction_defaults(&prm->fric_l, 0.60, 0.40, 0.08, 0.02, 0.3, 3e4, 120.0, 1e-5);
+
+    prm->drift_enabled = 0;
+    prm->drift_t_start_s = 0.0;
+    prm->drift_ramp_s = 10.0;
+    prm->drift_scale = 1.0;
 
     prm->jl_kgm2 = 0.5;
     prm->gravity_enabled = 1;

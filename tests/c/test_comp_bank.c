@@ -198,6 +198,65 @@ static void test_friction_ff_takes_over(void **st)
     assert_true(fabs(tq - ff) < 2.5);
 }
 
+/* fe_feed: the Stribeck FF moves from the str_* map to the online estimate over fe_ramp
+ * estimator steps (every fe_decim periods), and back when switched off */
+static void test_online_estimate_feeds_the_ff(void **st)
+{
+    (void)st;
+    int32_t p[HD_PARAM_COUNT];
+    hd_comp_bank_cfg_t c;
+    static hd_comp_bank_t b;
+    hd_comp_bank_in_t in;
+    hd_comp_bank_out_t out;
+    hd_stribeck_cfg_t fed;
+    const int32_t v = 2 * 11930465;              /* 2 deg/s */
+    int32_t prev;
+    hd_params_defaults(p);
+    p[HD_P_CB_ENABLE] = (int32_t)HD_CB_STRIBECK;
+    p[HD_P_FE_ENABLE] = 1;
+    p[HD_P_FE_FEED] = 0;
+    p[HD_P_FE_DECIM] = 10;
+    p[HD_P_FE_RAMP] = 20;
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    hd_comp_bank_init(&b, &c);
+    memset(&in, 0, sizeof in);
+    in.vel_ref = v;
+    in.vel_fb = v;
+    /* an estimate unlike the parameters (as a fit would publish it) */
+    b.fe.est[HD_FE_DIR_POS].fc = 3 << 16;
+    b.fe.est[HD_FE_DIR_POS].fs = 5 << 16;
+    b.fe.est[HD_FE_DIR_POS].fv = 100 << 16;
+    fed = c.str;
+    fed.pos = b.fe.est[HD_FE_DIR_POS];
+    fed.neg = b.fe.est[HD_FE_DIR_NEG];
+    fed.delta = 2u;
+    const int32_t t_param = hd_stribeck_map(&c.str, v), t_est = hd_stribeck_map(&fed, v);
+    assert_true(abs(t_param - t_est) > (2 << 16));
+    hd_comp_bank_pre(&b, &c, &in, &out);
+    assert_int_equal(out.tff, t_param);
+    p[HD_P_FE_FEED] = 1;
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    hd_comp_bank_apply(&b, &c);
+    prev = t_param;
+    for (int k = 0; k < 10 * 25; k++) {
+        hd_comp_bank_fric_est(&b, &c, 0, 0, 0, false);     /* no data: the estimate stays */
+        hd_comp_bank_pre(&b, &c, &in, &out);
+        /* monotone, at most 1/20 of the difference (+ rounding) per estimator step */
+        assert_true(abs(out.tff - prev) <= abs(t_est - t_param) / 20 + 2);
+        assert_true((t_est < t_param) ? out.tff <= prev : out.tff >= prev);
+        prev = out.tff;
+    }
+    assert_int_equal(out.tff, t_est);
+    p[HD_P_FE_FEED] = 0;
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    hd_comp_bank_apply(&b, &c);
+    for (int k = 0; k < 10 * 25; k++) {
+        hd_comp_bank_fric_est(&b, &c, 0, 0, 0, false);
+        hd_comp_bank_pre(&b, &c, &in, &out);
+    }
+    assert_int_equal(out.tff, t_param);
+}
+
 /* Maxwell-slip compliance format (2^-44 turn/N.m): a soft gear (5e3 N.m/rad) and a
  * stiff one (2e5 N.m/rad) both fit, within 1e-6 relative; below 2^13 N.m/turn refused. */
 static void test_maxwell_stiffness_range(void **st)
@@ -472,6 +531,7 @@ int main(void)
         cmocka_unit_test(test_table_install),
         cmocka_unit_test(test_bumpless_switching),
         cmocka_unit_test(test_friction_ff_takes_over),
+        cmocka_unit_test(test_online_estimate_feeds_the_ff),
         cmocka_unit_test(test_maxwell_stiffness_range),
         cmocka_unit_test(test_pki_schedule),
         cmocka_unit_test(test_preisach_model_torque),

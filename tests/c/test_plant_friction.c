@@ -157,6 +157,43 @@ static void test_lugre_steady_state_stribeck(void **state)
     check_stribeck_side(f, 1);
 }
 
+/* [friction_drift]: the friction at a fixed sliding velocity follows 1 -> 1.3 linearly
+ * over the ramp (levels and viscous term) against the same run without drift, and is
+ * untouched before the ramp. */
+static void test_friction_drift_ramp(void **state)
+{
+    fixture *f = *state;
+    hd_plant ref;
+    char msg[200];
+    const double w = 10.0;
+    long k;
+    motor_alone(f, 0);
+    f->prm.current_loop_enabled = 0;
+    assert_int_equal(hd_plant_init(&ref, &f->prm, 1, msg, sizeof msg), 0);
+    f->prm.drift_enabled = 1;
+    f->prm.drift_t_start_s = 0.5;
+    f->prm.drift_ramp_s = 1.0;
+    f->prm.drift_scale = 1.3;
+    init(f, 1);
+    for (k = 1; k <= 25000; k++) {
+        hd_plant_set_state(&f->plant, 0.0, w, 0.0, 0.0);
+        hd_plant_set_state(&ref, 0.0, w, 0.0, 0.0);
+        hd_plant_step(&f->plant, &f->in, 1e-4);
+        hd_plant_step(&ref, &f->in, 1e-4);
+        if (k % 2500 == 0) {
+            /* the scale in force during the period that ended at t = k 1e-4 s (set at its start) */
+            const double x = ((double)(k - 1) * 1e-4 - 0.5) / 1.0;
+            const double s = 1.0 + 0.3 * (x <= 0.0 ? 0.0 : (x >= 1.0 ? 1.0 : x));
+            const double r = f->plant.out.friction_motor_Nm / ref.out.friction_motor_Nm;
+            assert_true(fabs(ref.out.friction_motor_Nm) > 0.07);
+            assert_true(fabs(r - s) < 1e-3);
+            if (x <= 0.0) {
+                assert_true(r == 1.0);
+            }
+        }
+    }
+}
+
 /* Same seed -> identical run (bit for bit); different seed -> different noise, same physics. */
 static void run_ref(hd_plant *p, uint64_t seed, hd_plant_output *log, long n)
 {
@@ -300,6 +337,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_lugre_steady_state_stribeck, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_seeds, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_param_table, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_friction_drift_ramp, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_faults_and_brake, setUp, tearDown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -58,6 +58,13 @@ def register(p: argparse.ArgumentParser) -> None:
                      help="with --standard-objects: SYNC period, s (default 0.001; --sim: 0.001)")
     std.add_argument("--bus-bitrate", type=float, metavar="BIT_S", default=None,
                      help="with --standard-objects: bitrate for the bus-load check (default: -b, else 1000000)")
+    onl = p.add_argument_group("online Stribeck identification in the drive (docs/identification.md)")
+    onl.add_argument("--online", action="store_true",
+                     help="friction on a drive only: after the batch fit, switch on the drive's own estimator "
+                          "(fe_enable), run a normal motion profile (moves and reversals 0.01..10 deg/s) and "
+                          "watch the estimate (0x5200) converge over CAN against the batch fit")
+    onl.add_argument("--online-s", type=float, default=20.0, metavar="S",
+                     help="with --online: profile time, s of drive time (default 20)")
     p.add_argument("--seed", type=int, default=None,
                    help="with --sim or --offline only: simulator noise seed (default 1)")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
@@ -110,6 +117,16 @@ def _run(args: argparse.Namespace) -> int:
     if args.data and args.seed is not None:
         raise UserError("--seed is the simulator's noise seed: it goes with --sim or --offline, not --data")
     seed = 1 if args.seed is None else args.seed
+    if args.online_s != 20.0 and not args.online:
+        raise UserError("--online-s: an option of --online")
+    if args.online:
+        if args.target != "friction":
+            raise UserError(f"--online: the drive estimates friction only; identify {args.target} has no --online")
+        if args.offline is not None or args.data or args.standard_objects:
+            which = "--offline" if args.offline is not None else "--data" if args.data else "--standard-objects"
+            raise UserError(f"--online runs the drive's own estimator over CAN: it does not go with {which}")
+        if not (math.isfinite(args.online_s) and 1.0 <= args.online_s <= 3600.0):
+            raise UserError(f"--online-s {args.online_s}: expected seconds in [1, 3600]")
     std_opts = [f"--{k.replace('_', '-')}" for k in ("gear_ratio", "sync_period", "bus_bitrate")
                 if getattr(args, k) is not None]
     if std_opts and not args.standard_objects:
@@ -128,6 +145,7 @@ def _run(args: argparse.Namespace) -> int:
             if v is not None and not (math.isfinite(v) and v > 0):
                 raise UserError(f"--{k.replace('_', '-')} {v}: expected a positive number")
     session = None
+    target = None
     if args.data:
         for path in args.data:
             if not path.is_file():
@@ -188,8 +206,26 @@ def _run(args: argparse.Namespace) -> int:
     else:
         pl = _run_pipeline(args, runner, data, progress)
         notes = []
-    _write_outputs(args, pl, source, notes)
+    online = None
+    if args.online:
+        online = _run_online(args, target, pl, seed, progress)
+    _write_outputs(args, pl, source, notes, online)
     return 0
+
+
+def _run_online(args: argparse.Namespace, target: object, pl: object, seed: int, progress) -> dict:
+    """The drive's online Stribeck identification against the batch fit just made (thin: the library)."""
+    from ..ident.stribeck_online import online_identification
+    from ..procedures.runner import Target
+    batch = pl.results.get("stribeck")
+    if batch is None:
+        raise UserError("--online: the batch friction fit gave no Stribeck result to compare with")
+    progress(f"online: the drive's estimator during {args.online_s:g} s of a normal motion profile")
+    tgt = Target(bus=target.bus, node_id=args.node_id, axis=target.axis or "reference", seed=seed)
+    try:
+        return online_identification(tgt, batch, args.online_s, progress=lambda m: progress(f"online: {m}"))
+    except RuntimeError as e:
+        raise UserError(f"--online: {e}") from None
 
 
 def _run_pipeline(args: argparse.Namespace, runner: object, data: dict, progress) -> object:
@@ -218,7 +254,7 @@ def _run_pipeline(args: argparse.Namespace, runner: object, data: dict, progress
     return pl
 
 
-def _write_outputs(args: argparse.Namespace, pl, source: str, notes: list[str]) -> None:
+def _write_outputs(args: argparse.Namespace, pl, source: str, notes: list[str], online: dict | None = None) -> None:
     from ..fileio import write_bytes_atomic, write_json_atomic
     from ..ident import model_toml, pipeline, report
     summ = pipeline.summary(pl.results)
@@ -241,10 +277,23 @@ def _write_outputs(args: argparse.Namespace, pl, source: str, notes: list[str]) 
     if args.json:
         write_json_atomic(args.json, {"target": args.target, "source": source, "notes": notes,
                                       "experiment_sources": {k: d.meta.get("source") for k, d in pl.data.items()},
-                                      "results": summ, "timings_s": pl.timings, "plots": plots})
+                                      "results": summ, "timings_s": pl.timings, "plots": plots,
+                                      **({"stribeck_drive_online": online} if online is not None else {})})
     for n in notes:
         print(f"note: {n}")
     _print_summary(summ)
+    if online is not None:
+        _print_online(online)
+
+
+def _print_online(o: dict) -> None:
+    f, e = o["final"], o["final_rel_error"]
+    t = o["time_to_target_s"]
+    print(f"drive online Stribeck: Fs +{f['fs_pos_Nm']:.4g}/-{f['fs_neg_Nm']:.4g} N.m, Fc +{f['fc_pos_Nm']:.4g}/-"
+          f"{f['fc_neg_Nm']:.4g} N.m, vs +{f['vs_pos_rad_s']:.4g}/-{f['vs_neg_rad_s']:.4g} rad/s after "
+          f"{f['t_s']:.1f} s of profile; vs batch: levels within {100 * max(abs(e[k]) for k in e if k.endswith('_Nm')):.1f} %, "
+          f"vs within {100 * max(abs(e['vs_pos_rad_s']), abs(e['vs_neg_rad_s'])):.1f} %; "
+          + (f"inside the targets (5 %, 15 %) from {t:.1f} s" if t is not None else "not inside the targets (5 %, 15 %)"))
 
 
 def _print_summary(s: dict) -> None:

@@ -1,0 +1,488 @@
+/* hd_fric_est.c - online Stribeck identification (contract: hd_fric_est.h). */
+#include "hd_fric_est.h"
+#include "hd_fixed.h"
+
+/* round(2^30 / n), n = 1..HD_FE_NBIN: bin means without a division */
+static const int32_t fe_inv_n[HD_FE_NBIN] = {
+    1073741824, 536870912, 357913941, 268435456, 214748365, 178956971, 153391689, 134217728,
+    119304647, 107374182, 97612893, 89478485, 82595525, 76695845, 71582788, 67108864,
+    63161284, 59652324, 56512728, 53687091, 51130563, 48806447, 46684427, 44739243};
+
+/* round(2^(k/4) 2^30), k = 0..3: the quarter-octave grid of candidate vs */
+static const int32_t fe_qoct[4] = {1073741824, 1276901417, 1518500250, 1805811301};
+
+#define FE_INV_SQRT2_Q30 759250125      /* round(2^30 / sqrt 2) */
+#define FE_NO_FIT INT64_MAX
+
+/* bit i of a bin mask (i < HD_FE_NBIN <= 32) */
+static uint32_t bin_bit(uint32_t i)
+{
+    return (i >= 32u) ? 0u : (1u << i);
+}
+
+static uint32_t half_octave(uint32_t a)   /* 2 floor(log2 a) + the next bit, a > 0 */
+{
+    const uint32_t m = 31u - (uint32_t)__builtin_clz(a);
+    return 2u * m + ((m > 0u) ? ((a >> (m - 1u)) & 1u) : 0u);
+}
+
+int32_t hd_fric_est_bin_of(const hd_fric_est_cfg_t *c, int32_t v)
+{
+    const int32_t a = hdf_abs_sat(v);
+    int32_t k;
+    if (a < c->v_min || c->v_min <= 0) {
+        return -1;
+    }
+    k = (int32_t)half_octave((uint32_t)a) - (int32_t)half_octave((uint32_t)c->v_min);
+    return (k < (int32_t)HD_FE_NBIN) ? k : -1;
+}
+
+/* |v| / vs_lo in Q16 through the reciprocal (saturated) */
+static int32_t r16_of(const hd_fric_est_cfg_t *c, int32_t v)
+{
+    const uint32_t s = c->rvs.sh - 16u;                 /* 15..45 */
+    uint64_t prod = (uint64_t)(uint32_t)hdf_abs_sat(v) * (uint64_t)c->rvs.m;   /* < 2^62 */
+    prod = (prod + ((uint64_t)1 << (s - 1u))) >> s;
+    return (prod > (uint64_t)INT32_MAX) ? INT32_MAX : (int32_t)prod;
+}
+
+/* vs_lo 2^(j/4), saturated */
+static int32_t vs_of(const hd_fric_est_cfg_t *c, uint32_t j)
+{
+    const int64_t v = hdf_mul64x32_q((int64_t)c->vs_lo << (j >> 2), fe_qoct[j & 3u], 30u);
+    return hdf_sat32(v);
+}
+
+/* 2^62 / d for d in [2^31, 2^32): Newton iteration from the linear estimate
+ * 48/17 - 32/17 d (relative error <= 1/17, squared at every iteration: three
+ * iterations reach the Q30 resolution); result in (2^30, 2^31], a few LSB. */
+static uint64_t recip30(uint32_t d)
+{
+    uint64_t r = 3031741621u - (((uint64_t)d * 2021161081u) >> 32);
+    uint32_t i;
+    for (i = 0; i < 3u; i++) {
+        const uint64_t dr = ((uint64_t)d * r) >> 32;    /* d r, Q30 (about 2^30) */
+        r = (r * ((uint64_t)1 << 31) - r * dr) >> 30;   /* r (2 - d r) */
+    }
+    return r;
+}
+
+/* round(num 2^q / den) for den > 0, to ~2^-29 relative, without a 64-bit division */
+static int64_t div_approx(int64_t num, uint64_t den, uint32_t q)
+{
+    const uint32_t lz = (uint32_t)__builtin_clzll(den);
+    const uint32_t d32 = (uint32_t)((den << lz) >> 32);           /* den ~ d32 2^(32 - lz) */
+    const int32_t r29 = (int32_t)(recip30(d32) >> 1);            /* 2^61 / d32, <= 2^30 */
+    const int64_t t = hdf_mul64x32_q(num, r29, 29u);             /* num 2^32 / d32 */
+    const int32_t s = 64 - (int32_t)lz - (int32_t)q;
+    return (s >= 0) ? hdf_asr64_rnd(t, (uint32_t)s) : hdf_shl64_sat(t, (uint32_t)(-s));
+}
+
+static uint32_t bitlen64(uint64_t x)
+{
+    return (x == 0u) ? 0u : 64u - (uint32_t)__builtin_clzll(x);
+}
+
+int32_t hd_fric_est_config(hd_fric_est_cfg_t *c, int32_t v_min, int32_t vs_lo, int32_t dv_max,
+                           uint32_t settle, uint32_t n_forget, uint32_t n_min, uint32_t n_keep,
+                           uint32_t max_age, int32_t tau_max, int32_t fv_max)
+{
+    if (v_min <= 0 || vs_lo <= 0 || dv_max < 0 || n_forget < 1u || n_min < 1u || tau_max <= 0 || fv_max < 0) {
+        return -1;
+    }
+    c->v_min = v_min;
+    c->vs_lo = vs_lo;
+    c->dv_max = dv_max;
+    c->settle = settle;
+    c->n_forget = n_forget;
+    c->n_min = n_min;
+    c->n_keep = n_keep;
+    c->max_age = max_age;
+    /* |f| <= 2^30: the centred torque of the fit fits an int32 */
+    c->tau_max = (tau_max > (1 << 30)) ? (1 << 30) : tau_max;
+    c->fv_max = fv_max;
+    hd_stribeck_recip(&c->rvs, vs_lo);
+    return 0;
+}
+
+void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR], uint32_t ramp_steps,
+                      bool feed)
+{
+    uint32_t d;
+    uint32_t i;
+    for (d = 0; d < HD_FE_NDIR; d++) {
+        for (i = 0; i < HD_FE_NBIN; i++) {
+            e->bin[d][i].v = 0;
+            e->bin[d][i].f = 0;
+            e->bin[d][i].r16 = 0;
+            e->bin[d][i].n = 0u;
+            e->bin[d][i].stamp = 0u;
+        }
+        e->est[d] = init[d];
+        e->conf[d] = 0u;
+        e->fits[d] = 0u;
+    }
+    for (i = 0; i < HD_FE_NGRID; i++) {
+        e->sse[i] = FE_NO_FIT;
+        e->th[i][0] = 0;
+        e->th[i][1] = 0;
+        e->th[i][2] = 0;
+    }
+    e->fit_dir = 0u;
+    e->fit_j = 0u;
+    e->fit_pass = 0u;
+    e->fit_mask = 0u;
+    e->fit_ok = 0u;
+    e->fit_s[0] = 0;
+    e->fit_s[1] = 0;
+    e->fit_s[2] = 0;
+    for (i = 0; i < HD_FE_NBIN; i++) {
+        e->fit_e[i] = 0;
+        e->fit_u[i] = 0;
+        e->fit_f[i] = 0;
+    }
+    e->v_prev = 0;
+    e->v_lp = 0;
+    e->visit = 0u;
+    e->steady_n = 0u;
+    e->samples = 0u;
+    e->steps = 0u;
+    hd_blend_init(&e->feed, ramp_steps, feed);
+}
+
+/* x + (y - x) / n rounded half away (|y - x| < 2^31: both in [-2^30, 2^31)) */
+static int32_t mean_step(int32_t x, int32_t y, uint32_t n)
+{
+    const int32_t d = y - x;
+    const int32_t h = (int32_t)(n / 2u);
+    const int32_t q = (d >= 0) ? (d + h) / (int32_t)n : -((-d + h) / (int32_t)n);
+    return x + q;
+}
+
+static void bin_update(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t tau, bool first)
+{
+    const int32_t k = hd_fric_est_bin_of(c, v_ref);
+    hd_fe_bin_t *b;
+    uint32_t n1;
+    int32_t f;
+    if (k < 0) {
+        return;
+    }
+    b = &e->bin[(v_ref > 0) ? HD_FE_DIR_POS : HD_FE_DIR_NEG][k];
+    /* friction magnitude of the direction: the torque against the motion */
+    f = hdf_clamp32((v_ref > 0) ? tau : hdf_neg_sat(tau), hdf_neg_sat(c->tau_max), c->tau_max);
+    if (first && b->n > c->n_keep) {
+        b->n = c->n_keep;                   /* a new visit: the old mean weighs as n_keep samples */
+    }
+    n1 = (b->n < c->n_forget) ? b->n + 1u : c->n_forget;
+    b->v = mean_step(b->v, hdf_abs_sat(v_ref), n1);
+    b->f = mean_step(b->f, f, n1);
+    b->n = n1;
+    b->r16 = r16_of(c, b->v);
+    b->stamp = e->steps;
+    e->samples++;
+}
+
+/* a bin counts in the fit: enough samples, and the last one not older than max_age */
+static bool bin_valid(const hd_fric_est_t *e, const hd_fric_est_cfg_t *c, const hd_fe_bin_t *b)
+{
+    return (b->n >= c->n_min) && ((uint32_t)(e->steps - b->stamp) <= c->max_age);
+}
+
+/* shape exp(-(v / vs_j)^2) in Q16 from r16 = v / vs_lo: (v / vs_j)^2 = r^2 2^(-j/2) */
+static int32_t shape16(int32_t r16, uint32_t j)
+{
+    const int64_t x32 = (int64_t)r16 * (int64_t)r16;                     /* Q32 */
+    int32_t x16 = hdf_sat32(hdf_asr64_rnd(x32, 16u + (j >> 1)));
+    if ((j & 1u) != 0u) {
+        x16 = hdf_mul_q(x16, FE_INV_SQRT2_Q30, 30u);
+    }
+    return hdf_asr32_rnd((int64_t)hd_exp_neg_q16(x16), 14u);
+}
+
+/* Least squares of candidate j over the valid bins of direction d -> e->sse[j], e->th[j], in
+ * four steps (the cost of one estimator step stays a quarter of a candidate):
+ *   pass 0, 1: bins 0..11, 12..23: snapshot of the valid bins (shape, velocity column,
+ *              torque; the bins may change before the candidate is done) and their sums;
+ *   pass 2:    means, centred normal equations, (fc, fs - fc, fv);
+ *   pass 3:    residual sum of squares. */
+static void fit_snapshot(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d, uint32_t j, uint32_t lo)
+{
+    const hd_fe_bin_t *bn = e->bin[d];
+    uint32_t i;
+    if (lo == 0u) {
+        e->fit_mask = 0u;
+        e->fit_s[0] = 0;
+        e->fit_s[1] = 0;
+        e->fit_s[2] = 0;
+        e->sse[j] = FE_NO_FIT;
+    }
+    for (i = lo; i < lo + HD_FE_NBIN / 2u; i++) {
+        if (bin_valid(e, c, &bn[i])) {
+            e->fit_e[i] = shape16(bn[i].r16, j);
+            e->fit_u[i] = (int32_t)((uint32_t)bn[i].v >> HD_FE_U_SHIFT);
+            e->fit_f[i] = bn[i].f;
+            e->fit_mask |= bin_bit(i);
+            e->fit_s[0] += e->fit_e[i];
+            e->fit_s[1] += e->fit_u[i];
+            e->fit_s[2] += e->fit_f[i];
+        }
+    }
+}
+
+static uint32_t popcount24(uint32_t m)
+{
+    uint32_t n = 0u;
+    while (m != 0u) {
+        m &= m - 1u;
+        n++;
+    }
+    return n;
+}
+
+static void fit_solve(hd_fric_est_t *e, uint32_t j)
+{
+    const uint32_t nb = popcount24(e->fit_mask);
+    int64_t see = 0, suu = 0, seu = 0, sef = 0, suf = 0;
+    uint32_t i;
+    e->fit_ok = 0u;
+    if (nb < 4u) {
+        return;                             /* fewer bins than parameters + 1 */
+    }
+    {
+        const int32_t inv = fe_inv_n[nb - 1u];
+        const int32_t me = hdf_sat32(hdf_mul64x32_q(e->fit_s[0], inv, 30u));
+        const int32_t mu = hdf_sat32(hdf_mul64x32_q(e->fit_s[1], inv, 30u));
+        const int32_t mf = hdf_sat32(hdf_mul64x32_q(e->fit_s[2], inv, 30u));
+        uint32_t s_e, s_u, h;
+        int64_t a, b, cc, det, nbeta, ngam;
+        int32_t dfs, fv, fc;
+        for (i = 0; i < HD_FE_NBIN; i++) {
+            if ((e->fit_mask & bin_bit(i)) != 0u) {
+                const int64_t ec = (int64_t)e->fit_e[i] - me;   /* |.| <= 2^16 */
+                const int64_t uc = (int64_t)e->fit_u[i] - mu;   /* |.| <= 2^20 */
+                const int64_t fcn = (int64_t)e->fit_f[i] - mf;  /* |.| <= 2^31 */
+                see += ec * ec;                                 /* <= 2^37 */
+                suu += uc * uc;                                 /* <= 2^45 */
+                seu += ec * uc;
+                sef += ec * fcn;                                /* <= 2^52 */
+                suf += uc * fcn;                                /* <= 2^56 */
+            }
+        }
+        /* scale the normal matrix into 30 bits (the same h on the cross term) */
+        s_e = (bitlen64((uint64_t)see) > 30u) ? bitlen64((uint64_t)see) - 30u : 0u;
+        s_u = (bitlen64((uint64_t)suu) > 30u) ? bitlen64((uint64_t)suu) - 30u : 0u;
+        if (((s_e + s_u) & 1u) != 0u) {
+            s_e++;
+        }
+        h = (s_e + s_u) / 2u;
+        a = hdf_asr64_rnd(see, s_e);
+        cc = hdf_asr64_rnd(suu, s_u);
+        b = hdf_asr64_rnd(seu, h);
+        b = hdf_clamp64(b, -((int64_t)1 << 30), (int64_t)1 << 30);
+        det = a * cc - b * b;                                   /* <= 2^60 */
+        if (det <= 0 || a == 0) {
+            return;                         /* the shape column carries no information */
+        }
+        /* (dF, fv) det / 2^30 by Cramer's rule on the scaled sums */
+        nbeta = hdf_sub64_sat(hdf_mul64x32_q(hdf_asr64_rnd(sef, s_e), (int32_t)cc, 30u),
+                              hdf_mul64x32_q(hdf_asr64_rnd(suf, h), (int32_t)b, 30u));
+        ngam = hdf_sub64_sat(hdf_mul64x32_q(hdf_asr64_rnd(suf, s_u), (int32_t)a, 30u),
+                             hdf_mul64x32_q(hdf_asr64_rnd(sef, h), (int32_t)b, 30u));
+        dfs = hdf_sat32(div_approx(nbeta, (uint64_t)det, 46u));              /* Q16 N.m (e in Q16) */
+        fv = hdf_sat32(div_approx(ngam, (uint64_t)det, 30u + HD_FE_U_SHIFT + 10u)); /* per 2^-21 -> per turn/s */
+        fc = hdf_sat32((int64_t)mf - hdf_mul64x32_q((int64_t)dfs, me, 16u) -
+                       hdf_mul64x32_q((int64_t)fv, mu, 21u));
+        e->th[j][0] = fc;
+        e->th[j][1] = dfs;
+        e->th[j][2] = fv;
+        e->fit_ok = 1u;
+    }
+}
+
+static void fit_sse(hd_fric_est_t *e, uint32_t j)
+{
+    int64_t sse = 0;
+    uint32_t i;
+    if (e->fit_ok == 0u) {
+        return;
+    }
+    for (i = 0; i < HD_FE_NBIN; i++) {
+        if ((e->fit_mask & bin_bit(i)) != 0u) {
+            const int64_t m = (int64_t)e->th[j][0] + hdf_mul64x32_q((int64_t)e->th[j][1], e->fit_e[i], 16u) +
+                              hdf_mul64x32_q((int64_t)e->th[j][2], e->fit_u[i], 21u);
+            const int64_t r = hdf_asr64_rnd((int64_t)e->fit_f[i] - m, 4u);
+            const int64_t rc = hdf_clamp64(r, -((int64_t)1 << 31), (int64_t)1 << 31);
+            sse = hdf_add64_sat(sse, rc * rc);
+        }
+    }
+    e->sse[j] = (sse < FE_NO_FIT) ? sse : FE_NO_FIT - 1;
+}
+
+/* a + w (b - a), w in Q16 [0, 2^16] */
+static int32_t lerp16(int32_t a, int32_t b, int32_t w)
+{
+    return hdf_sat32((int64_t)a + hdf_mul64x32_q((int64_t)b - (int64_t)a, w, 16u));
+}
+
+/* After the last candidate of direction d: best vs, excitation check, bounds, publish */
+static void fit_finish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
+{
+    uint32_t j;
+    uint32_t best = 0u;
+    uint32_t nlo = 0u, nmid = 0u, nhi = 0u, nvalid = 0u;
+    int32_t vmin_valid = INT32_MAX, vmax_valid = 0;
+    uint32_t i;
+    int32_t vs, fc, dfs, fv;
+    for (j = 1; j < HD_FE_NGRID; j++) {
+        if (e->sse[j] < e->sse[best]) {
+            best = j;
+        }
+    }
+    if (e->sse[best] == FE_NO_FIT) {
+        e->conf[d] = 0u;
+        return;
+    }
+    vs = vs_of(c, best);
+    fc = e->th[best][0];
+    dfs = e->th[best][1];
+    fv = e->th[best][2];
+    if (best > 0u && best < HD_FE_NGRID - 1u && e->sse[best - 1u] != FE_NO_FIT &&
+        e->sse[best + 1u] != FE_NO_FIT) {
+        /* parabola through the three sums: minimum at x = (a - c) / (2 (a - 2b + c)) grid steps */
+        const int64_t sa = e->sse[best - 1u], sb = e->sse[best], sc = e->sse[best + 1u];
+        const int64_t den = hdf_add64_sat(hdf_sub64_sat(sa, sb), hdf_sub64_sat(sc, sb));
+        if (den > 0) {
+            const int64_t x15 = div_approx(hdf_sub64_sat(sa, sc), (uint64_t)den, 15u);    /* x in Q16 */
+            const int32_t x = hdf_sat32(hdf_clamp64(x15, -32768, 32768));
+            const uint32_t nbj = (x > 0) ? best + 1u : best - 1u;
+            const int32_t w = hdf_abs_sat(x);
+            vs = lerp16(vs, vs_of(c, nbj), w);
+            fc = lerp16(fc, e->th[nbj][0], w);
+            dfs = lerp16(dfs, e->th[nbj][1], w);
+            fv = lerp16(fv, e->th[nbj][2], w);
+        }
+    }
+    /* where the valid bins lie relative to vs */
+    for (i = 0; i < HD_FE_NBIN; i++) {
+        const hd_fe_bin_t *b = &e->bin[d][i];
+        if (bin_valid(e, c, b)) {
+            nvalid++;
+            vmin_valid = (b->v < vmin_valid) ? b->v : vmin_valid;
+            vmax_valid = (b->v > vmax_valid) ? b->v : vmax_valid;
+            if (b->v < vs / 2) {
+                nlo++;
+            } else if (b->v <= 2 * (int64_t)vs) {
+                nmid++;
+            } else {
+                nhi++;
+            }
+        }
+    }
+    e->conf[d] = 1000u * ((nlo < 2u) ? nlo : 2u) * ((nmid < 2u) ? nmid : 2u) * ((nhi < 2u) ? nhi : 2u) / 8u;
+    /* vs two octaves inside the binned range (the drop and both plateaus seen), five bins */
+    if (nvalid < 5u || (int64_t)vmin_valid * 4 > (int64_t)vs || (int64_t)vmax_valid < 4 * (int64_t)vs ||
+        best == 0u || best == HD_FE_NGRID - 1u) {
+        return;                             /* the bins do not inform every parameter: keep the old */
+    }
+    /* no Stribeck drop, or a viscous term that pulls the fastest bin down by more than fc / 8:
+     * a straight line through the bins, not a Stribeck curve (the data do not show one) */
+    if (dfs < 0 || hdf_mul64x32_q((int64_t)fv, vmax_valid, 32u) < -(int64_t)(fc / 8)) {
+        return;
+    }
+    fc = hdf_clamp32(fc, 0, c->tau_max);
+    e->est[d].fc = fc;
+    e->est[d].fs = hdf_clamp32(hdf_add_sat(fc, dfs), fc, c->tau_max);
+    e->est[d].vs = hdf_clamp32(vs, c->vs_lo, vs_of(c, HD_FE_NGRID - 1u));
+    e->est[d].fv = hdf_clamp32(fv, 0, c->fv_max);
+    e->fits[d]++;
+}
+
+void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
+                      bool active)
+{
+    e->steps++;
+    /* the measured velocity, low-passed (the observer's noise at slow rates) */
+    e->v_lp = hdf_sat32((int64_t)e->v_lp + hdf_asr64_rnd((int64_t)v_meas - (int64_t)e->v_lp, HD_FE_VLP_SHIFT));
+    if (!active) {
+        e->steady_n = 0u;
+        e->v_prev = 0;
+        e->visit = 0u;
+    } else {
+        const bool same = ((v_ref > 0) && (e->v_prev > 0)) || ((v_ref < 0) && (e->v_prev < 0));
+        const int64_t dv = (int64_t)v_ref - (int64_t)e->v_prev;
+        const int64_t slip = (int64_t)e->v_lp - (int64_t)v_ref;
+        const int64_t half = (int64_t)hdf_abs_sat(v_ref) / 2;
+        if (same && dv <= (int64_t)c->dv_max && dv >= -(int64_t)c->dv_max && slip <= half && slip >= -half) {
+            if (e->steady_n < c->settle) {
+                e->steady_n++;
+            }
+        } else {
+            e->steady_n = 0u;
+        }
+        e->v_prev = v_ref;
+        if (same && e->steady_n >= c->settle) {
+            bin_update(e, c, v_ref, tau, e->visit == 0u);
+            e->visit = 1u;
+        } else {
+            e->visit = 0u;
+        }
+    }
+    /* a quarter of a fit candidate per step (bounded cost), both directions in turn */
+    switch (e->fit_pass) {
+    case 0u:
+        fit_snapshot(e, c, e->fit_dir, e->fit_j, 0u);
+        break;
+    case 1u:
+        fit_snapshot(e, c, e->fit_dir, e->fit_j, HD_FE_NBIN / 2u);
+        break;
+    case 2u:
+        fit_solve(e, e->fit_j);
+        break;
+    default:
+        fit_sse(e, e->fit_j);
+        break;
+    }
+    if (e->fit_pass < 3u) {
+        e->fit_pass++;
+        return;
+    }
+    e->fit_pass = 0u;
+    if (e->fit_j + 1u < HD_FE_NGRID) {
+        e->fit_j++;
+    } else {
+        fit_finish(e, c, e->fit_dir);
+        e->fit_j = 0u;
+        e->fit_dir = (e->fit_dir + 1u) % HD_FE_NDIR;
+    }
+}
+
+void hd_fric_est_set_feed(hd_fric_est_t *e, bool on)
+{
+    hd_blend_set_enabled(&e->feed, on);
+}
+
+bool hd_fric_est_feeding(const hd_fric_est_t *e)
+{
+    return hd_blend_active(&e->feed);
+}
+
+static void mix_dir(const hd_blend_t *w, const hd_stribeck_dir_t *base, const hd_stribeck_dir_t *est,
+                    hd_stribeck_dir_t *out)
+{
+    out->fc = hd_blend_mix(w, base->fc, est->fc);
+    out->fs = hd_blend_mix(w, base->fs, est->fs);
+    out->vs = hd_blend_mix(w, base->vs, est->vs);
+    out->fv = hd_blend_mix(w, base->fv, est->fv);
+}
+
+void hd_fric_est_feed(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, hd_stribeck_cfg_t *out)
+{
+    *out = *base;
+    if (hd_blend_update(&e->feed) == 0) {
+        return;
+    }
+    mix_dir(&e->feed, &base->pos, &e->est[HD_FE_DIR_POS], &out->pos);
+    mix_dir(&e->feed, &base->neg, &e->est[HD_FE_DIR_NEG], &out->neg);
+    out->delta = 2u;                        /* the estimate's shape */
+}

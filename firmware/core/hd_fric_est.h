@@ -1,0 +1,169 @@
+/*
+ * hd_fric_est.h - online Stribeck identification from normal motion.
+ *
+ * The drive keeps the static friction map of each direction,
+ *     g_d(v) = fc_d + (fs_d - fc_d) exp(-(v / vs_d)^2) + fv_d |v|,   d = pos, neg
+ * (the map of hd_stribeck.h with delta = 2) up to date while it moves, from
+ * the torque it applies at constant velocity.  No dedicated experiment: at
+ * a constant reference velocity and after the loops have settled, the torque
+ * command is the friction at that velocity (inertia torque 0, no feed-forward
+ * can change that: whatever the loop applies to keep the rate is friction).
+ *
+ * Data (excitation check 1: only steady sliding informs the static map).
+ *   hd_fric_est_step() runs at a decimated rate (the caller's, e.g. 1 kHz).  The
+ *   reference velocity v_ref is "steady" when it is non-zero, keeps its sign
+ *   and changes by at most dv_max per step, and the axis slides with it: the
+ *   measured velocity, low-passed over 2^HD_FE_VLP_SHIFT steps, is within
+ *   |v_ref| / 2 of v_ref (after a reversal the axis sticks while the loops wind
+ *   the torque through twice the breakaway level: at slow rates that takes
+ *   longer than any fixed time; the torque of that phase is not friction).
+ *   After settle steady steps each step adds (|v_ref|, torque) to the bin of
+ *   |v_ref| of its direction.  Bins are half octaves of |v_ref| (bin edges 2^k and 1.5 2^k LSB), HD_FE_NBIN per
+ *   direction from v_min up; outside [v_min, top edge] nothing is updated.
+ *   Each bin holds the mean velocity and mean torque magnitude of its samples
+ *   and their count n: a running mean while n < n_forget, then an exponential
+ *   mean over the last ~n_forget samples.  Forgetting across visits: a slow
+ *   bin gets few samples per visit and is visited once per motion cycle, so
+ *   at the first sample of each visit (steady segment) its count is cut to
+ *   n_keep: the old mean then weighs as n_keep samples against the new visit
+ *   (a drifting friction is followed within about one visit of every bin).
+ *   A bin whose last sample is older than max_age steps is left out of the
+ *   fit (a stale bin would hold the friction of another time; without it the
+ *   excitation checks may keep the last estimate until the speed comes again).
+ *   Updating a bin costs one 32-bit division (by n + 1).
+ *
+ * Fit (excitation check 2: a parameter changes only when the bins inform it).
+ *   Per direction, for each candidate Stribeck velocity vs_j = vs_lo 2^(j/4),
+ *   j = 0..HD_FE_NGRID-1 (8 octaves), the map is linear in (fc, fs - fc, fv):
+ *   least squares over the valid bins (n >= n_min, not older than max_age;
+ *   centred 2x2 normal equations, solved through a reciprocal found by Newton
+ *   iteration: no 64-bit division), and its residual sum of squares S_j.  A
+ *   candidate takes four steps (two halves of the bins into a snapshot, the
+ *   solution, the residual: a step costs a quarter of a candidate); both
+ *   directions in turn, a full fit every 8 HD_FE_NGRID steps (256 ms at 1 kHz).
+ *   After the last candidate: the best j, refined by a parabola through S_j-1,
+ *   S_j, S_j+1 (vs interpolated linearly between the grid values, the linear
+ *   parameters likewise), then the estimate of the
+ *   direction is replaced only if
+ *     - at least 5 bins are valid and they reach two octaves below and above
+ *       the fitted vs (slowest valid bin <= vs / 4, fastest >= 4 vs: fs needs
+ *       the plateau under the Stribeck drop, vs the drop, fc and fv the sliding
+ *       above it; a fit to bins on one side only would place vs outside them),
+ *     - the best j is not at either end of the grid (vs is inside the range),
+ *     - the fit shows a Stribeck drop (fs >= fc) and no viscous term that lowers
+ *       the fastest bin by more than fc / 8 (a line through the bins is not a
+ *       Stribeck curve),
+ *   and it is bounded: 0 <= fc <= fs <= tau_max, 0 <= fv <= fv_max, vs in the grid
+ *   range.  Otherwise the old estimate stays.
+ *
+ * Confidence (per direction, permille): 1000 x min(n_lo, 2) min(n_mid, 2)
+ *   min(n_hi, 2) / 8 with the valid bins below vs / 2 (lo: static level),
+ *   within [vs / 2, 2 vs] (mid: Stribeck velocity) and above 2 vs (hi: Coulomb
+ *   level and viscous term) of the last fit: 1000 when each region has two
+ *   bins, 0 while one of them has none.
+ *
+ * Formats:
+ *   v_ref, v_min, vs_lo, dv_max, est vs : output velocity, 2^-32 turn/s
+ *   tau (input), fc, fs, tau_max        : Q15.16 N.m, output-referred
+ *   fv, fv_max                          : Q15.16 N.m per (turn/s) (as hd_stribeck.h)
+ *   bin velocity                        : 2^-32 turn/s; r16 = |v| / vs_lo in Q16
+ *   e (shape)                           : Q16 inside the fit (exp(-x) by hd_exp_neg_q16)
+ *   fit velocity column                 : |v| / 2^HD_FE_U_SHIFT (2^-21 turn/s)
+ * Cost: a bin update is a few multiplies and one 32-bit division; a step adds
+ *   one quarter of a candidate: 12 exp, or the 2x2 solution (two reciprocals),
+ *   or the residual over 24 bins (+ the closing of a fit after the last one)
+ *   (Cortex-M4 instructions per step: tests/bench/10_cm4_cost.sh, docs/compensators.md).
+ * Memory: hd_fric_est_t, about 1.4 KiB.
+ */
+#ifndef HD_FRIC_EST_H
+#define HD_FRIC_EST_H
+
+#include <stdint.h>
+#include <stdbool.h>
+#include "hd_stribeck.h"
+#include "hd_blend.h"
+
+#define HD_FE_NBIN   24u     /* half-octave bins per direction (12 octaves) */
+#define HD_FE_NGRID  32u     /* candidate Stribeck velocities, quarter octaves (8 octaves) */
+#define HD_FE_U_SHIFT 11u    /* fit velocity column: |v| >> 11 (2^-21 turn/s) */
+#define HD_FE_VLP_SHIFT 5u   /* low-pass of the measured velocity: 2^-5 per step (32 ms at 1 kHz) */
+
+typedef enum {
+    HD_FE_DIR_POS = 0,
+    HD_FE_DIR_NEG = 1,
+    HD_FE_NDIR = 2
+} hd_fe_dir_t;
+
+typedef struct {
+    int32_t  v_min;          /* lowest velocity binned, 2^-32 turn/s, > 0 */
+    int32_t  vs_lo;          /* smallest candidate vs, 2^-32 turn/s, > 0 (vs_hi = 2^7.75 vs_lo) */
+    int32_t  dv_max;         /* largest change of v_ref per step that is still steady, 2^-32 turn/s */
+    uint32_t settle;         /* steady steps before a sample is taken */
+    uint32_t n_forget;       /* bin memory, samples (>= 1) */
+    uint32_t n_min;          /* samples for a bin to count in the fit (>= 1) */
+    uint32_t n_keep;         /* weight of a bin's old mean at the start of a visit, samples */
+    uint32_t max_age;        /* a bin not updated for longer than this (steps) is left out of the fit */
+    int32_t  tau_max;        /* bound of fc and fs, Q15.16 N.m, > 0 */
+    int32_t  fv_max;         /* bound of fv, Q15.16 N.m/(turn/s), >= 0 */
+    hd_stribeck_recip_t rvs; /* reciprocal of vs_lo (hd_fric_est_config) */
+} hd_fric_est_cfg_t;
+
+typedef struct {
+    int32_t  v;              /* mean |v_ref|, 2^-32 turn/s */
+    int32_t  f;              /* mean torque magnitude, Q15.16 N.m */
+    int32_t  r16;            /* v / vs_lo, Q16 (saturated) */
+    uint32_t n;              /* samples (saturates at n_forget) */
+    uint32_t stamp;          /* step count of its last sample */
+} hd_fe_bin_t;
+
+typedef struct {
+    hd_fe_bin_t bin[HD_FE_NDIR][HD_FE_NBIN];
+    hd_stribeck_dir_t est[HD_FE_NDIR];  /* published estimate (magnitudes) */
+    uint32_t conf[HD_FE_NDIR];          /* confidence, permille */
+    uint32_t fits[HD_FE_NDIR];          /* accepted fits (wraps) */
+    int64_t  sse[HD_FE_NGRID];          /* residual sums of the fit in progress */
+    int32_t  th[HD_FE_NGRID][3];        /* its (fc, fs - fc, fv) per candidate */
+    uint32_t fit_dir;                   /* direction of the fit in progress */
+    uint32_t fit_j;                     /* its candidate in progress */
+    uint32_t fit_pass;                  /* the candidate's step, 0..3 */
+    uint32_t fit_mask;                  /* valid bins of the candidate's snapshot (bit per bin) */
+    uint32_t fit_ok;                    /* 1: pass 2 solved the candidate */
+    int64_t  fit_s[3];                  /* snapshot sums of shape, velocity column, torque */
+    int32_t  fit_e[HD_FE_NBIN];         /* snapshot: shape, Q16 */
+    int32_t  fit_u[HD_FE_NBIN];         /* snapshot: velocity column, 2^-21 turn/s */
+    int32_t  fit_f[HD_FE_NBIN];         /* snapshot: mean torque, Q15.16 N.m */
+    int32_t  v_prev;                    /* v_ref of the last step */
+    int32_t  v_lp;                      /* low-passed measured velocity, 2^-32 turn/s */
+    uint32_t steady_n;                  /* steady steps (saturates at settle) */
+    uint32_t visit;                     /* 1 while a steady segment is being binned */
+    uint32_t samples;                   /* samples taken (wraps) */
+    uint32_t steps;                     /* steps since init (wraps; bin ages) */
+    hd_blend_t feed;                    /* weight of the estimate in the Stribeck feed-forward */
+} hd_fric_est_t;
+
+/** Config from raw values; 0 ok, -1 inconsistent (non-positive velocities, n 0). Contains a
+ *  64-bit division (the reciprocal of vs_lo): call it when the parameters change. */
+int32_t hd_fric_est_config(hd_fric_est_cfg_t *c, int32_t v_min, int32_t vs_lo, int32_t dv_max,
+                           uint32_t settle, uint32_t n_forget, uint32_t n_min, uint32_t n_keep,
+                           uint32_t max_age, int32_t tau_max, int32_t fv_max);
+/** Empty bins; the estimate starts from init (magnitudes of both directions, e.g. the
+ *  Stribeck FF parameters) with confidence 0; feed weight ramp over ramp_steps steps. */
+void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR], uint32_t ramp_steps,
+                      bool feed);
+/** One step (decimated rate): v_ref the reference velocity, v_meas the measured velocity,
+ *  tau the torque applied (all of the step's period), active = 0 while the loops do not run
+ *  (forgets the steadiness). */
+void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
+                      bool active);
+/** The bin of |v| (0..HD_FE_NBIN-1), or -1 outside the binned range. */
+int32_t hd_fric_est_bin_of(const hd_fric_est_cfg_t *c, int32_t v);
+/** Switch the feed of the estimate into the Stribeck FF (weight ramps, bumpless). */
+void hd_fric_est_set_feed(hd_fric_est_t *e, bool on);
+/** The Stribeck FF config the drive uses: base with its four parameters per direction
+ *  moved to the estimate by the feed weight, out = base + w (est - base); the weight
+ *  advances one ramp step per call (call once per estimator step). */
+void hd_fric_est_feed(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, hd_stribeck_cfg_t *out);
+/** True while the feed weight is not 0. */
+bool hd_fric_est_feeding(const hd_fric_est_t *e);
+
+#endif

@@ -1,0 +1,298 @@
+/*
+ * test_fric_est.c - online Stribeck identification (hd_fric_est.h): convergence on a
+ * known map, the excitation checks, forgetting under drift, bounds and the bumpless feed.
+ */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <math.h>
+#include <cmocka.h>
+
+#include "hd_fixed.h"
+#include "hd_fric_est.h"
+
+#define NM(x) ((int32_t)((x) * 65536.0))
+#define DEGS 11930465.0   /* 1 deg/s in 2^-32 turn/s */
+#define TURNS 4294967296.0
+
+/* the reference axis, output-referred: fc 7.4 N.m, fs 10.6 N.m, vs 0.02 rad/s, fv 5.3 N.m s/rad */
+typedef struct {
+    double fc, fs, vs_degs, fv_per_degs;
+} map_t;
+
+static const map_t REF = {7.4, 10.6, 1.1459, 5.3 * 0.017453292519943};
+
+static double g_of(const map_t *m, double v_degs)
+{
+    const double r = fabs(v_degs) / m->vs_degs;
+    return m->fc + (m->fs - m->fc) * exp(-r * r) + m->fv_per_degs * fabs(v_degs);
+}
+
+static hd_fric_est_cfg_t cfg;
+static hd_fric_est_t est;
+
+static int setUp(void **state)
+{
+    const hd_stribeck_dir_t init[HD_FE_NDIR] = {{NM(1), NM(2), (int32_t)DEGS, NM(10)},
+                                                {NM(1), NM(2), (int32_t)DEGS, NM(10)}};
+    *state = NULL;
+    /* v_min 0.005 deg/s, vs_lo 0.05 deg/s, dv_max 1e-7 turn/s, settle 300, forget 1000, n_min 100,
+     * n_keep 1000 (no cut at a new visit; the forgetting tests set it) */
+    if (hd_fric_est_config(&cfg, (int32_t)(0.005 * DEGS), (int32_t)(0.05 * DEGS), 429, 300u, 1000u, 100u,
+                           1000u, 1000000u, NM(100), NM(3000)) != 0) {
+        return -1;
+    }
+    hd_fric_est_init(&est, init, 100u, false);
+    return 0;
+}
+static int tearDown(void **state) { (void)state; return 0; }
+
+/* one constant-velocity leg: settle + n steps at v (deg/s), torque = sign(v) g(|v|) scale + noise */
+static void leg(const map_t *m, double v_degs, uint32_t steps, double scale, double noise)
+{
+    const int32_t v = (int32_t)lround(v_degs * DEGS);
+    uint32_t k;
+    for (k = 0; k < steps; k++) {
+        const double n = noise * (double)((int32_t)((k * 2654435761u) >> 16 & 0xFFFFu) - 32768) / 32768.0;
+        const double t = (v_degs >= 0 ? 1.0 : -1.0) * g_of(m, v_degs) * scale + n;
+        hd_fric_est_step(&est, &cfg, v, v, NM(t), true);
+    }
+    /* a stop of 0.1 s between legs: the steadiness restarts */
+    for (k = 0; k < 100u; k++) {
+        hd_fric_est_step(&est, &cfg, 0, 0, 0, true);
+    }
+}
+
+/* the profile: 0.01..10 deg/s in both directions, 'steps' per leg */
+static void profile(const map_t *m, uint32_t steps, double scale, double noise)
+{
+    static const double vv[] = {0.01, 0.03, 0.1, 0.2, 0.4, 0.7, 1.0, 1.5, 2.5, 4.0, 6.5, 10.0};
+    uint32_t i;
+    for (i = 0; i < sizeof vv / sizeof vv[0]; i++) {
+        leg(m, vv[i], steps, scale, noise);
+        leg(m, -vv[i], steps, scale, noise);
+    }
+}
+
+static double rel(double a, double b) { return fabs(a / b - 1.0); }
+
+static void check_dir(hd_fe_dir_t d, const map_t *m, double scale, double tol_level, double tol_vs)
+{
+    const hd_stribeck_dir_t *e = &est.est[d];
+    const double fc = e->fc / 65536.0, fs = e->fs / 65536.0, vs = e->vs / DEGS;
+    const double fv = e->fv / 65536.0 / 360.0;   /* per turn/s -> per deg/s */
+    print_message("# dir %d: fc %.4f fs %.4f vs %.4f deg/s fv %.5f N.m/(deg/s) conf %u fits %u\n", (int)d,
+                  fc, fs, vs, fv, est.conf[d], est.fits[d]);
+    assert_true(rel(fc, m->fc * scale) < tol_level);
+    assert_true(rel(fs, m->fs * scale) < tol_level);
+    assert_true(rel(vs, m->vs_degs) < tol_vs);
+    assert_true(rel(fv, m->fv_per_degs * scale) < 3 * tol_level);
+}
+
+/* the exact map, sampled at 12 velocities per direction: levels within 1 %, vs within 5 % */
+static void test_converges_on_known_map(void **state)
+{
+    (void)state;
+    profile(&REF, 500u, 1.0, 0.0);
+    profile(&REF, 100u, 1.0, 0.0);   /* let the fits see every bin */
+    assert_true(est.fits[HD_FE_DIR_POS] > 0u && est.fits[HD_FE_DIR_NEG] > 0u);
+    check_dir(HD_FE_DIR_POS, &REF, 1.0, 0.01, 0.05);
+    check_dir(HD_FE_DIR_NEG, &REF, 1.0, 0.01, 0.05);
+    assert_int_equal(est.conf[HD_FE_DIR_POS], 1000u);
+}
+
+/* torque noise of 0.5 N.m (5 % of the levels) averages out in the bins */
+static void test_converges_with_noise(void **state)
+{
+    (void)state;
+    profile(&REF, 800u, 1.0, 0.5);
+    profile(&REF, 100u, 1.0, 0.5);
+    check_dir(HD_FE_DIR_POS, &REF, 1.0, 0.03, 0.10);
+    check_dir(HD_FE_DIR_NEG, &REF, 1.0, 0.03, 0.10);
+}
+
+/* sliding only far above vs: the Stribeck drop is not seen, nothing is published */
+static void test_no_update_without_low_speed_data(void **state)
+{
+    static const double vv[] = {5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 12.0};
+    const hd_stribeck_dir_t before = est.est[HD_FE_DIR_POS];
+    uint32_t i;
+    (void)state;
+    for (i = 0; i < 7u; i++) {
+        leg(&REF, vv[i], 600u, 1.0, 0.0);
+    }
+    for (i = 0; i < 200u; i++) {
+        hd_fric_est_step(&est, &cfg, 0, 0, 0, true);
+    }
+    assert_true(est.samples > 0u);
+    assert_int_equal(est.fits[HD_FE_DIR_POS], 0u);
+    assert_int_equal(est.conf[HD_FE_DIR_POS], 0u);
+    assert_memory_equal(&est.est[HD_FE_DIR_POS], &before, sizeof before);
+}
+
+/* a ramping reference (acceleration), an axis that does not follow (stuck after a
+ * reversal) or inactive loops give no sample at all */
+static void test_no_sample_while_accelerating_stuck_or_inactive(void **state)
+{
+    uint32_t k;
+    (void)state;
+    for (k = 0; k < 5000u; k++) {
+        const int32_t v = (int32_t)(0.01 * DEGS) + (int32_t)k * 1000;   /* 1000 LSB per step > dv_max */
+        hd_fric_est_step(&est, &cfg, v, v, NM(9), true);
+    }
+    for (k = 0; k < 5000u; k++) {
+        hd_fric_est_step(&est, &cfg, (int32_t)DEGS, 0, NM(9), true);      /* stuck */
+    }
+    for (k = 0; k < 5000u; k++) {
+        hd_fric_est_step(&est, &cfg, (int32_t)DEGS, (int32_t)(0.4 * DEGS), NM(9), true);   /* 60 % slip */
+    }
+    for (k = 0; k < 5000u; k++) {
+        hd_fric_est_step(&est, &cfg, (int32_t)DEGS, (int32_t)DEGS, NM(9), false);
+    }
+    assert_int_equal(est.samples, 0u);
+    /* steady and sliding: the sample comes after exactly settle steady steps */
+    for (k = 0; k <= cfg.settle; k++) {
+        hd_fric_est_step(&est, &cfg, (int32_t)DEGS, (int32_t)DEGS, NM(9), true);
+    }
+    assert_int_equal(est.samples, 1u);
+}
+
+/* friction 30 % higher: with a bin memory of 200 samples, six legs of ~170 new samples
+ * per bin leave (1 - 1/200)^1000 = 0.7 % of the old level in the bins */
+static void test_tracks_drift(void **state)
+{
+    uint32_t r;
+    (void)state;
+    cfg.n_forget = 200u;
+    profile(&REF, 500u, 1.0, 0.0);
+    profile(&REF, 100u, 1.0, 0.0);
+    for (r = 0; r < 6u; r++) {
+        profile(&REF, 500u, 1.3, 0.0);
+    }
+    profile(&REF, 100u, 1.3, 0.0);
+    check_dir(HD_FE_DIR_POS, &REF, 1.3, 0.02, 0.05);
+    check_dir(HD_FE_DIR_NEG, &REF, 1.3, 0.02, 0.05);
+}
+
+/* forgetting across visits: with n_keep 20 one visit of ~170 samples replaces 90 % of a
+ * bin's old mean even though the bins had 1000 samples of the old friction */
+static void test_visit_forgetting(void **state)
+{
+    uint32_t r;
+    (void)state;
+    for (r = 0; r < 5u; r++) {
+        profile(&REF, 500u, 1.0, 0.0);
+    }
+    cfg.n_keep = 20u;
+    profile(&REF, 500u, 1.3, 0.0);
+    profile(&REF, 100u, 1.3, 0.0);
+    check_dir(HD_FE_DIR_POS, &REF, 1.3, 0.04, 0.05);
+    check_dir(HD_FE_DIR_NEG, &REF, 1.3, 0.04, 0.05);
+}
+
+/* bins older than max_age leave the fit: without fresh data the estimate stays as it was
+ * (no accepted fit) and the confidence drops to 0; fresh data bring both back */
+static void test_stale_bins_leave_the_fit(void **state)
+{
+    const uint32_t age = 20000u;
+    uint32_t k, fits;
+    hd_stribeck_dir_t before;
+    (void)state;
+    cfg.max_age = age;
+    cfg.n_keep = 0u;          /* a new visit replaces a bin's mean */
+    profile(&REF, 500u, 1.0, 0.0);
+    profile(&REF, 100u, 1.0, 0.0);
+    assert_int_equal(est.conf[HD_FE_DIR_POS], 1000u);
+    for (k = 0; k <= age; k++) {
+        hd_fric_est_step(&est, &cfg, 0, 0, 0, true);
+    }
+    fits = est.fits[HD_FE_DIR_POS];
+    before = est.est[HD_FE_DIR_POS];
+    for (k = 0; k < 1000u; k++) {
+        hd_fric_est_step(&est, &cfg, 0, 0, 0, true);
+    }
+    assert_int_equal(est.fits[HD_FE_DIR_POS], fits);
+    assert_int_equal(est.conf[HD_FE_DIR_POS], 0u);
+    assert_memory_equal(&est.est[HD_FE_DIR_POS], &before, sizeof before);
+    profile(&REF, 500u, 1.3, 0.0);
+    profile(&REF, 100u, 1.3, 0.0);
+    assert_true(est.fits[HD_FE_DIR_POS] > fits);
+    check_dir(HD_FE_DIR_POS, &REF, 1.3, 0.02, 0.05);
+}
+
+/* nonsense torques (pushing with the motion) stay inside the bounds */
+static void test_estimate_bounded(void **state)
+{
+    const map_t neg = {-7.4, -10.6, 1.1459, -0.09};
+    (void)state;
+    profile(&neg, 400u, 1.0, 0.0);
+    profile(&neg, 100u, 1.0, 0.0);
+    assert_true(est.est[HD_FE_DIR_POS].fc >= 0 && est.est[HD_FE_DIR_POS].fc <= cfg.tau_max);
+    assert_true(est.est[HD_FE_DIR_POS].fs >= est.est[HD_FE_DIR_POS].fc);
+    assert_true(est.est[HD_FE_DIR_POS].fv >= 0 && est.est[HD_FE_DIR_POS].fv <= cfg.fv_max);
+    assert_true(est.est[HD_FE_DIR_POS].vs >= cfg.vs_lo);
+}
+
+/* the feed moves the FF parameters from the base to the estimate by 1/ramp per step */
+static void test_feed_is_bumpless(void **state)
+{
+    hd_stribeck_cfg_t base = {{NM(5), NM(8), (int32_t)DEGS, NM(100)}, {NM(5), NM(8), (int32_t)DEGS, NM(100)},
+                              2u, 0, 1 << 30, NM(100), 0u};
+    hd_stribeck_cfg_t out;
+    int32_t prev;
+    uint32_t k;
+    (void)state;
+    profile(&REF, 500u, 1.0, 0.0);
+    profile(&REF, 100u, 1.0, 0.0);
+    hd_fric_est_feed(&est, &base, &out);
+    assert_memory_equal(&out, &base, sizeof out);
+    assert_false(hd_fric_est_feeding(&est));
+    hd_fric_est_set_feed(&est, true);
+    assert_true(hd_fric_est_feeding(&est));
+    prev = base.pos.fc;
+    for (k = 0; k < 100u; k++) {
+        hd_fric_est_feed(&est, &base, &out);
+        assert_true(abs(out.pos.fc - prev) <= abs(est.est[HD_FE_DIR_POS].fc - base.pos.fc) / 100 + 2);
+        prev = out.pos.fc;
+    }
+    assert_memory_equal(&out.pos, &est.est[HD_FE_DIR_POS], sizeof out.pos);
+    assert_memory_equal(&out.neg, &est.est[HD_FE_DIR_NEG], sizeof out.neg);
+    hd_fric_est_set_feed(&est, false);
+    for (k = 0; k < 100u; k++) {
+        hd_fric_est_feed(&est, &base, &out);
+    }
+    assert_memory_equal(&out.pos, &base.pos, sizeof out.pos);
+    assert_false(hd_fric_est_feeding(&est));
+}
+
+/* bins: half octaves from v_min, none below it or above the top */
+static void test_bins(void **state)
+{
+    (void)state;
+    assert_int_equal(hd_fric_est_bin_of(&cfg, cfg.v_min - 1), -1);
+    assert_int_equal(hd_fric_est_bin_of(&cfg, cfg.v_min), 0);
+    assert_int_equal(hd_fric_est_bin_of(&cfg, -cfg.v_min), 0);
+    assert_int_equal(hd_fric_est_bin_of(&cfg, 4 * cfg.v_min), 4);
+    assert_int_equal(hd_fric_est_bin_of(&cfg, INT32_MAX), -1);
+    assert_int_equal(hd_fric_est_bin_of(&cfg, INT32_MIN), -1);
+    assert_int_equal(hd_fric_est_config(&cfg, 0, 1, 0, 1u, 1u, 1u, 1u, 1u, 1, 0), -1);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(test_converges_on_known_map, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_converges_with_noise, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_no_update_without_low_speed_data, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_no_sample_while_accelerating_stuck_or_inactive, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_tracks_drift, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_visit_forgetting, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_stale_bins_leave_the_fit, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_estimate_bounded, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_feed_is_bumpless, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_bins, setUp, tearDown),
+    };
+    return cmocka_run_group_tests_name("fric_est", tests, NULL, NULL);
+}
