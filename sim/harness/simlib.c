@@ -158,6 +158,22 @@ static void ol_row(const hd_plant_output *o, double t, double mc, double lc, dou
     r[15] = o->te_rad;
 }
 
+/* The plant parameters of an axis file (the reference axis when NULL) with n_over overrides
+ * keys[i] = values[i] applied in order; 0, or -1 with the first refusal in err. */
+static int axis_with_overrides(const char *axis, const char *const *keys, const double *values, int32_t n_over,
+                               hd_plant_params *prm, char *err, size_t errlen)
+{
+    if (hd_sim_axis_params(axis ? axis : "reference", prm, err, errlen)) return -1;
+    for (int32_t i = 0; i < n_over; i++) {
+        int rc = hd_plant_param_set(prm, keys[i], values[i]);
+        if (rc != HD_PLANT_OK) {
+            sim_set_err(err, errlen, "plant parameter '%s' = %.17g: %s", keys[i], values[i], hd_plant_strerror(rc));
+            return -1;
+        }
+    }
+    return 0;
+}
+
 int32_t hd_simlib_open_loop(const char *axis, const char *const *keys, const double *values, int32_t n_over,
                             uint64_t seed, double dt_s, int64_t n, const double *torque_Nm,
                             const double *load_Nm, double *out, char *err, size_t errlen)
@@ -168,14 +184,7 @@ int32_t hd_simlib_open_loop(const char *axis, const char *const *keys, const dou
                 (long long)n);
         return -1;
     }
-    if (hd_sim_axis_params(axis ? axis : "reference", &prm, err, errlen)) return -1;
-    for (int32_t i = 0; i < n_over; i++) {
-        int rc = hd_plant_param_set(&prm, keys[i], values[i]);
-        if (rc != HD_PLANT_OK) {
-            sim_set_err(err, errlen, "plant parameter '%s' = %.17g: %s", keys[i], values[i], hd_plant_strerror(rc));
-            return -1;
-        }
-    }
+    if (axis_with_overrides(axis, keys, values, n_over, &prm, err, errlen)) return -1;
     hd_plant *p = malloc(sizeof *p);
     if (!p) { sim_set_err(err, errlen, "out of memory"); return -1; }
     char msg[256];
@@ -211,14 +220,7 @@ hd_simlib_plant_t *hd_simlib_plant_open(const char *axis, const char *const *key
                                         int32_t n_over, uint64_t seed, char *err, size_t errlen)
 {
     hd_plant_params prm;
-    if (hd_sim_axis_params(axis ? axis : "reference", &prm, err, errlen)) return NULL;
-    for (int32_t i = 0; i < n_over; i++) {
-        int rc = hd_plant_param_set(&prm, keys[i], values[i]);
-        if (rc != HD_PLANT_OK) {
-            sim_set_err(err, errlen, "plant parameter '%s' = %.17g: %s", keys[i], values[i], hd_plant_strerror(rc));
-            return NULL;
-        }
-    }
+    if (axis_with_overrides(axis, keys, values, n_over, &prm, err, errlen)) return NULL;
     hd_simlib_plant_t *h = calloc(1, sizeof *h);
     if (!h) { sim_set_err(err, errlen, "out of memory"); return NULL; }
     char msg[256];
@@ -276,14 +278,7 @@ int32_t hd_simlib_replay_windows(const char *axis, const char *const *keys, cons
             return -1;
         }
     }
-    if (hd_sim_axis_params(axis ? axis : "reference", &prm, err, errlen)) return -1;
-    for (int32_t i = 0; i < n_over; i++) {
-        int rc = hd_plant_param_set(&prm, keys[i], values[i]);
-        if (rc != HD_PLANT_OK) {
-            sim_set_err(err, errlen, "plant parameter '%s' = %.17g: %s", keys[i], values[i], hd_plant_strerror(rc));
-            return -1;
-        }
-    }
+    if (axis_with_overrides(axis, keys, values, n_over, &prm, err, errlen)) return -1;
     /* one initialised plant (tables, caches) copied into every window: hd_plant holds no pointers */
     hd_plant *p0 = malloc(sizeof *p0);
     hd_plant *p = malloc(sizeof *p);
