@@ -62,13 +62,19 @@ def read_toml_file(path: "str | os.PathLike[str]", error: type[UserError] = User
         The file.
     error : type
         The :class:`~hdservo.errors.UserError` subclass raised (``"PATH: cannot read: ..."`` or
-        ``"PATH: not valid TOML: ..."``, with the parser's line and column).
+        ``"PATH: not valid TOML: ..."``, with the parser's line and column; ``"PATH:LINE: expected
+        UTF-8 TOML text ..."`` for bytes that are not UTF-8).
     """
     try:
         with open(path, "rb") as f:
-            return tomllib.load(f)
+            raw = f.read()
     except OSError as e:
         raise error(f"{path}: cannot read: {e.strerror}") from None
+    try:
+        return tomllib.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError as e:
+        line = raw[: e.start].count(b"\n") + 1
+        raise error(f"{path}:{line}: expected UTF-8 TOML text, found byte 0x{raw[e.start]:02x}") from None
     except tomllib.TOMLDecodeError as e:
         raise error(f"{path}: not valid TOML: {e}") from None
 

@@ -25,7 +25,6 @@ at the first one that is not.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
@@ -35,7 +34,7 @@ import numpy as np
 from .. import sim
 from ..errors import UserError
 from ..fileio import write_text_atomic
-from ..tomltext import basic_string
+from ..tomltext import basic_string, read_toml_file
 from .signals import Signals
 
 #: Replay window, s: long enough for an effect's torque to move the axis measurably,
@@ -300,14 +299,7 @@ def merged(base: Sections, over: Sections) -> Sections:
 def read_axis(path: Path) -> Sections:
     """A user's axis file as sections; one-line UserError if it is not TOML or not an axis of
     the simulator (an unknown section.key)."""
-    try:
-        raw = path.read_bytes()
-    except OSError as e:
-        raise UserError(f"{path}: cannot read: {e.strerror or e}") from None
-    try:
-        data = tomllib.loads(raw.decode("utf-8"))
-    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
-        raise UserError(f"{path}: expected a TOML axis file (docs/sim.md): {e}") from None
+    data = read_toml_file(path)
     known = {i.name for i in sim.param_table()}
     for sec, kv in data.items():
         if not isinstance(kv, dict):
