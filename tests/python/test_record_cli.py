@@ -57,7 +57,7 @@ def test_recorded_log_goes_into_discrepancy(tmp_path: Path, capsys) -> None:
     js = tmp_path / "disc.json"
     capsys.readouterr()
     assert main(["discrepancy", str(out), "--json", str(js)]) == 0
-    assert "note" not in capsys.readouterr().err            # 2 kHz: a rate the workflow is validated at
+    assert "validated for" not in capsys.readouterr().err   # 2 kHz, the drive's encoders: inside the validated range
     r = json.loads(js.read_text())
     assert r["notes"] == []
     b = r["baseline"]
