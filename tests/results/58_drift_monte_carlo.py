@@ -335,14 +335,17 @@ def plot(res: Mapping[str, Any], axis: str, out: Path) -> list[Path]:
     x = np.arange(len(scen))
     wdt = 0.8 / max(len(ctls), 1)
     for a, f in zip(np.atleast_1d(axs), FIGURES):
+        positive = False
         for i, c in enumerate(ctls):
             med = np.array([st[s][c][f]["median"] or np.nan for s in scen], dtype=float)
             p95 = np.array([st[s][c][f]["p95"] or np.nan for s in scen], dtype=float)
             a.bar(x + (i - (len(ctls) - 1) / 2) * wdt, med, wdt, label=c,
-                  yerr=[np.zeros_like(med), np.clip(p95 - med, 0.0, None)], capsize=2)
+                  yerr=[np.zeros_like(med), np.nan_to_num(np.clip(p95 - med, 0.0, None))], capsize=2)
+            positive = positive or bool(np.any(med > 0.0))
         a.set_xticks(x)
         a.set_xticklabels(scen, rotation=40, fontsize=7, ha="right")
-        a.set_yscale("log")
+        if positive:                    # a figure the grid did not measure stays linear (empty)
+            a.set_yscale("log")
         a.set_ylabel(f"{f} (median, bar to p95)", fontsize=8)
         a.grid(True, alpha=0.3, axis="y")
     np.atleast_1d(axs)[0].legend(fontsize=7)
