@@ -491,8 +491,13 @@ static void friction_drift(hd_plant *p)
 {
     const hd_plant_params *q = &p->prm;
     const double x = (p->t - q->drift_t_start_s) / q->drift_ramp_s;
-    const double s = 1.0 + (q->drift_scale - 1.0) * (x <= 0.0 ? 0.0 : (x >= 1.0 ? 1.0 : x));
+    double w = x <= 0.0 ? 0.0 : (x >= 1.0 ? 1.0 : x), s;
     int k;
+    if (q->drift_return_s > 0.0) {           /* cold -> warm -> cold: back to 1 after the hold */
+        const double y = (p->t - q->drift_t_start_s - q->drift_ramp_s - q->drift_hold_s) / q->drift_return_s;
+        if (y > 0.0) w = y >= 1.0 ? 0.0 : 1.0 - y;
+    }
+    s = 1.0 + (q->drift_scale - 1.0) * w;
     if (s == p->fr_scale) return;
     p->fr_scale = s;
     for (k = 0; k < 2; k++) {
@@ -507,6 +512,57 @@ static void friction_drift(hd_plant *p)
     friction_tables(p);
     p->end_valid = 0;
     p->k1_valid = 0;
+}
+
+static double ramp_weight(double t, double t_start_s, double ramp_s)
+{
+    const double x = (t - t_start_s) / ramp_s;
+    return x <= 0.0 ? 0.0 : (x >= 1.0 ? 1.0 : x);
+}
+
+/* [inertia_drift], [stiffness_drift], [gravity_drift]: set the drifting parameters from
+ * their initial values; the cached evaluations of the last period are dropped when one
+ * changes (they hold torques and accelerations of the old parameters). */
+static void param_drift(hd_plant *p)
+{
+    hd_plant_params *q = &p->prm;
+    int changed = 0;
+    if (q->jdrift_enabled) {
+        const double w = ramp_weight(p->t, q->jdrift_t_start_s, q->jdrift_ramp_s);
+        if (w != p->pd_w[0]) {
+            p->pd_w[0] = w;
+            q->jl_kgm2 = p->pd_jl * (1.0 + (q->jdrift_scale - 1.0) * w);
+            p->inv_jl = 1.0 / q->jl_kgm2;
+            changed = 1;
+        }
+    }
+    if (q->kdrift_enabled) {
+        const double w = ramp_weight(p->t, q->kdrift_t_start_s, q->kdrift_ramp_s);
+        if (w != p->pd_w[1]) {
+            const double s = 1.0 + (q->kdrift_scale - 1.0) * w;
+            p->pd_w[1] = w;
+            q->k1_Nm_per_rad = p->pd_k[0] * s;   /* slopes and breakpoint torques together: */
+            q->k2_Nm_per_rad = p->pd_k[1] * s;   /* phi1, phi2 (twists) are unchanged */
+            q->k3_Nm_per_rad = p->pd_k[2] * s;
+            q->t1_Nm = p->pd_k[3] * s;
+            q->t2_Nm = p->pd_k[4] * s;
+            q->cubic_k1_Nm_per_rad = p->pd_cubic[0] * s;
+            q->cubic_k3_Nm_per_rad3 = p->pd_cubic[1] * s;
+            changed = 1;
+        }
+    }
+    if (q->gdrift_enabled) {
+        const double w = ramp_weight(p->t, q->gdrift_t_start_s, q->gdrift_ramp_s);
+        if (w != p->pd_w[2]) {
+            p->pd_w[2] = w;
+            q->mgl_Nm = p->pd_mgl + (q->gdrift_mgl_Nm - p->pd_mgl) * w;
+            changed = 1;
+        }
+    }
+    if (changed) {
+        p->end_valid = 0;
+        p->k1_valid = 0;
+    }
 }
 
 /* Stribeck level g(v) > 0 for the direction of v (v == 0: positive side). */
@@ -949,6 +1005,15 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
     p->fr_base[1] = prm->fric_l;
     p->fr_scale = 1.0;
     friction_tables(p);
+    p->pd_jl = prm->jl_kgm2;
+    p->pd_k[0] = prm->k1_Nm_per_rad; p->pd_k[1] = prm->k2_Nm_per_rad; p->pd_k[2] = prm->k3_Nm_per_rad;
+    p->pd_k[3] = prm->t1_Nm; p->pd_k[4] = prm->t2_Nm;
+    p->pd_cubic[0] = prm->cubic_k1_Nm_per_rad; p->pd_cubic[1] = prm->cubic_k3_Nm_per_rad3;
+    p->pd_mgl = prm->gravity_enabled ? prm->mgl_Nm : 0.0;
+    if (prm->gdrift_enabled && !prm->gravity_enabled) {   /* the unbalance appears from zero */
+        p->prm.gravity_enabled = 1;
+        p->prm.mgl_Nm = 0.0;
+    }
     p->k_dt = 0.0;
     p->end_valid = 0;
     p->k1_valid = 0;
@@ -1047,6 +1112,7 @@ const hd_plant_output *hd_plant_step(hd_plant *p, const hd_plant_input *in, doub
     if (p->diverged) return o;
     if (dt_s != p->k_dt) period_constants(p, dt_s);
     if (q->drift_enabled) friction_drift(p);
+    if (q->jdrift_enabled || q->kdrift_enabled || q->gdrift_enabled) param_drift(p);
     h = p->k_h;
     E = p->k_E;
     icmd = in->current_cmd_A + in->torque_cmd_Nm / q->kt_Nm_per_A;

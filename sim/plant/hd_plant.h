@@ -146,6 +146,30 @@ typedef struct {
     double drift_t_start_s;           /* ramp start, s of simulated time */
     double drift_ramp_s;              /* ramp duration, s (> 0) */
     double drift_scale;               /* friction scale at the end of the ramp */
+    double drift_hold_s;              /* time at the full scale before the return leg, s */
+    double drift_return_s;            /* return ramp back to 1 (cold -> warm -> cold), s; 0: none */
+
+    /* [inertia_drift], [stiffness_drift], [gravity_drift]  parameter drifts during a run
+     * (payload change, compliance loss, unbalance appearing), each with the same ramp
+     * w(t) = clamp((t - t_start_s) / ramp_s, 0, 1) (a short ramp_s is a step):
+     *   J_l(t) = J_l * (1 + (scale - 1) w)             load inertia
+     *   K(t)   = K * (1 + (scale - 1) w)               three-slope and cubic stiffness
+     *                                                  (slopes and breakpoint torques, so
+     *                                                  the breakpoint twists stay)
+     *   mgl(t) = mgl0 + (mgl_Nm - mgl0) w              mgl0 = gravity.mgl_Nm (0 if off)
+     * Applied once per control period from the values the plant was initialised with. */
+    int    jdrift_enabled;
+    double jdrift_t_start_s;
+    double jdrift_ramp_s;
+    double jdrift_scale;              /* load inertia scale at the end of the ramp */
+    int    kdrift_enabled;
+    double kdrift_t_start_s;
+    double kdrift_ramp_s;
+    double kdrift_scale;              /* stiffness scale at the end of the ramp */
+    int    gdrift_enabled;
+    double gdrift_t_start_s;
+    double gdrift_ramp_s;
+    double gdrift_mgl_Nm;             /* unbalance m*g*l at the end of the ramp */
 
     /* [load] */
     double jl_kgm2;                   /* load (payload + flange) inertia */
@@ -301,6 +325,9 @@ typedef struct {
     double   fr_fc[2][2], fr_dfs[2][2]; /* [side][v < 0]: Fc, Fs - Fc */
     hd_plant_friction_params fr_base[2]; /* friction as initialised (the drift scales it) */
     double   fr_scale;                /* friction scale in force ([friction_drift]) */
+    double   pd_jl, pd_k[5], pd_cubic[2], pd_mgl; /* inertia, stiffness (k1 k2 k3 t1 t2), cubic
+                                                    (k1 k3), mgl as initialised (drifts scale them) */
+    double   pd_w[3];                 /* last ramp weight of each drift (inertia, stiffness, gravity) */
     int32_t  end_valid;               /* end-of-sub-step evaluation below is current */
     double   end_th_m, end_th_l, end_phi, end_te, end_de_m, end_de_l, end_Tsh, end_Th, end_Tcog;
     double   end_cm, end_sm, end_cl, end_sl;

@@ -80,6 +80,20 @@ static const hd_plant_param_desc k_table[] = {
     D("friction_drift.t_start_s", drift_t_start_s, 0.0, BIG, "s", "ramp start (simulated time)"),
     D("friction_drift.ramp_s", drift_ramp_s, 1e-6, BIG, "s", "ramp duration"),
     D("friction_drift.scale", drift_scale, 0.0, 100.0, "", "friction scale at the end of the ramp (1 = none)"),
+    D("friction_drift.hold_s", drift_hold_s, 0.0, BIG, "s", "time at the full scale before the return leg"),
+    D("friction_drift.return_s", drift_return_s, 0.0, BIG, "s", "return ramp back to 1 after the hold (0 = no return)"),
+    B("inertia_drift.enabled", jdrift_enabled, "load inertia scaled by a ramp over time (payload change)"),
+    D("inertia_drift.t_start_s", jdrift_t_start_s, 0.0, BIG, "s", "ramp start (simulated time)"),
+    D("inertia_drift.ramp_s", jdrift_ramp_s, 1e-6, BIG, "s", "ramp duration (short: a step)"),
+    D("inertia_drift.scale", jdrift_scale, 1e-3, 1000.0, "", "load inertia scale at the end of the ramp"),
+    B("stiffness_drift.enabled", kdrift_enabled, "stiffness scaled by a ramp over time"),
+    D("stiffness_drift.t_start_s", kdrift_t_start_s, 0.0, BIG, "s", "ramp start (simulated time)"),
+    D("stiffness_drift.ramp_s", kdrift_ramp_s, 1e-6, BIG, "s", "ramp duration"),
+    D("stiffness_drift.scale", kdrift_scale, 1e-3, 100.0, "", "stiffness scale at the end of the ramp"),
+    B("gravity_drift.enabled", gdrift_enabled, "gravity unbalance ramping to a new m*g*l"),
+    D("gravity_drift.t_start_s", gdrift_t_start_s, 0.0, BIG, "s", "ramp start (simulated time)"),
+    D("gravity_drift.ramp_s", gdrift_ramp_s, 1e-6, BIG, "s", "ramp duration"),
+    D("gravity_drift.mgl_Nm", gdrift_mgl_Nm, -BIG, BIG, "N.m", "unbalance m*g*l at the end of the ramp"),
     D("load.jl_kgm2", jl_kgm2, 1e-12, BIG, "kg.m^2", "load inertia"),
     B("gravity.enabled", gravity_enabled, "gravity unbalance"),
     D("gravity.mgl_Nm", mgl_Nm, -BIG, BIG, "N.m", "unbalance m*g*l"),
@@ -252,6 +266,20 @@ void hd_plant_defaults_reference(hd_plant_params *prm)
     prm->drift_t_start_s = 0.0;
     prm->drift_ramp_s = 10.0;
     prm->drift_scale = 1.0;
+    prm->drift_hold_s = 0.0;
+    prm->drift_return_s = 0.0;
+    prm->jdrift_enabled = 0;
+    prm->jdrift_t_start_s = 0.0;
+    prm->jdrift_ramp_s = 1e-3;
+    prm->jdrift_scale = 1.0;
+    prm->kdrift_enabled = 0;
+    prm->kdrift_t_start_s = 0.0;
+    prm->kdrift_ramp_s = 10.0;
+    prm->kdrift_scale = 1.0;
+    prm->gdrift_enabled = 0;
+    prm->gdrift_t_start_s = 0.0;
+    prm->gdrift_ramp_s = 10.0;
+    prm->gdrift_mgl_Nm = 0.0;
 
     prm->jl_kgm2 = 0.5;
     prm->gravity_enabled = 1;

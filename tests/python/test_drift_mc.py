@@ -1,0 +1,126 @@
+"""The drift Monte Carlo study (tests/results/58_drift_monte_carlo.py) on a tiny grid."""
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _script() -> Any:
+    spec = importlib.util.spec_from_file_location("drift_mc", ROOT / "tests" / "results" / "58_drift_monte_carlo.py")
+    assert spec is not None and spec.loader is not None
+    m = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = m          # the worker processes find run_task by module name
+    spec.loader.exec_module(m)
+    return m
+
+
+def _row(m: Any, scen: str, ctl: str, run: int, values: dict[str, float | None]) -> dict[str, Any]:
+    return {"scenario": scen, "controller": ctl, "run": run, "factors": m.model_factors(run), "faults": 0,
+            **{f: values.get(f) for f in m.FIGURES}}
+
+
+def test_statistics_and_target_rule() -> None:
+    m = _script()
+    rng = np.random.default_rng(3)
+    rows = []
+    # pid 10x the nominal error of 'fixed'; under drift fixed falls to pid, the adaptive ones stay
+    level = {("nominal", "pid"): 10.0, ("nominal", "fixed"): 1.0, ("nominal", "online"): 2.0,
+             ("nominal", "backstep"): 2.5, ("inertia_x2", "pid"): 10.0, ("inertia_x2", "fixed"): 8.0,
+             ("inertia_x2", "online"): 3.0, ("inertia_x2", "backstep"): 6.5}
+    draws: dict[tuple[str, str], list[float]] = {}
+    for (s, c), lv in level.items():
+        draws[(s, c)] = list(lv * rng.uniform(0.8, 1.2, 7))
+        for r, v in enumerate(draws[(s, c)]):
+            rows.append(_row(m, s, c, r, {f: v for f in m.FIGURES}))
+    rows.append(_row(m, "nominal", "pid", 7, {}))                       # a run without figures
+    res = m.summarise(rows, m.CONTROLLERS, ("nominal", "inertia_x2"))
+    st = res["stats"]["inertia_x2"]["online"][m.TARGET_FIGURE]
+    assert st["median"] == pytest.approx(float(np.median(draws[("inertia_x2", "online")])))
+    assert st["p95"] == pytest.approx(float(np.percentile(draws[("inertia_x2", "online")], 95)))
+    assert st["n"] == 7 and st["missing"] == 0
+    assert res["stats"]["nominal"]["pid"][m.TARGET_FIGURE]["missing"] == 1
+    g = res["gain"]["inertia_x2"]["fixed"][m.TARGET_FIGURE]
+    assert g == pytest.approx(np.median(draws[("inertia_x2", "pid")]) / np.median(draws[("inertia_x2", "fixed")]))
+    r = res["retention"]["inertia_x2"]["fixed"][m.TARGET_FIGURE]
+    assert r == pytest.approx(g / res["gain"]["nominal"]["fixed"][m.TARGET_FIGURE])
+    t = res["target"]
+    assert t["figures"] == list(m.FIGURES)                        # fixed gains ~10 on every figure
+    e = t["per_scenario"]["inertia_x2"][m.TARGET_FIGURE]
+    assert e["fixed_loses_gain"] and e["online_keeps_gain"] and not e["backstep_keeps_gain"]
+    assert f"inertia_x2/{m.TARGET_FIGURE}" in t["where_fixed_loses"]
+    assert t["met"] is False
+    # with backstepping as good as the online FF the rule holds
+    for row in rows:
+        if row["scenario"] == "inertia_x2" and row["controller"] == "backstep":
+            for f in m.FIGURES:
+                row[f] = row[f] * 0.5
+    assert m.summarise(rows, m.CONTROLLERS, ("nominal", "inertia_x2"))["target"]["met"] is True
+    # a fixed-model compensation that keeps its gain: nothing to check, no verdict
+    for row in rows:
+        if row["scenario"] == "inertia_x2" and row["controller"] == "fixed":
+            for f in m.FIGURES:
+                row[f] = row[f] / 10.0
+    res2 = m.summarise(rows, m.CONTROLLERS, ("nominal", "inertia_x2"))
+    assert res2["target"]["where_fixed_loses"] == [] and res2["target"]["met"] is None
+
+def test_scenarios_and_model() -> None:
+    m = _script()
+    c = m.cases(quick=True)[0]
+    s, w = m._window(c)
+    p = m.scenario_plant("friction_warm_cold", c, "reference")
+    assert p["friction_drift.t_start_s"] >= s
+    assert p["friction_drift.t_start_s"] + p["friction_drift.ramp_s"] + p["friction_drift.hold_s"] \
+        + p["friction_drift.return_s"] <= s + w + 1e-9
+    g = m.scenario_plant("gravity_appears", c, "reference")
+    assert g["gravity_drift.mgl_Nm"] > 0.0
+    assert m.scenario_plant("nominal", c, "reference") == {}
+    with pytest.raises(ValueError, match="unknown scenario"):
+        m.scenario_plant("nope", c, "reference")
+    f = m.model_factors(4)
+    assert f == m.model_factors(4) and f != m.model_factors(5)
+    assert all(1 - m.MODEL_ERROR <= v <= 1 + m.MODEL_ERROR for v in f.values())
+    true = m.perturbed_model("reference", {k: 1.0 for k in m.MODEL_GROUPS})
+    pert = m.perturbed_model("reference", f)
+    assert pert["load.jl_kgm2"] == pytest.approx(true["load.jl_kgm2"] * f["inertia"])
+    t_fixed = m.controller_table("fixed", "reference", pert)
+    t_true = m.controller_table("fixed", "reference", true)
+    assert t_fixed["gains"]["str_fc_pos"] != t_true["gains"]["str_fc_pos"]
+    assert m.controller_table("online", "reference", pert)["gains"]["fe_feed"] == 1.0
+    assert m.controller_table("pid", "reference", pert)["compensators"] == []
+
+
+def test_tiny_run_writes_json(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    m = _script()
+    quick = m.cases(quick=True)
+    # one short tracking case and one move: enough for two figures, seconds per run
+    short = [c for c in quick if c.name == "tracking_0.01"] + [c for c in quick if c.kind == "ptp"][:1]
+    monkeypatch.setattr(m, "cases", lambda quick=False: short)
+    res = m.run("reference", runs=2, jobs=2, quick=True, controllers=("pid", "fixed"),
+                scenarios=("nominal", "inertia_x2"), out=tmp_path, plots=True)
+    data = json.loads((tmp_path / "drift_mc.json").read_text())
+    assert data["format"] == m.FORMAT and data["runs_per_controller"] == 2
+    assert (tmp_path / data["plots"][0]).is_file()
+    assert len(data["runs"]) == 2 * 2 * 2
+    for s in ("nominal", "inertia_x2"):
+        for c in ("pid", "fixed"):
+            st = data["stats"][s][c][m.TARGET_FIGURE]
+            vals = [r[m.TARGET_FIGURE] for r in data["runs"] if r["scenario"] == s and r["controller"] == c]
+            assert st["n"] == 2 and all(v is not None and math.isfinite(v) and v > 0 for v in vals)
+            assert st["median"] == pytest.approx(float(np.median(vals)))
+            assert min(vals) <= st["p95"] <= max(vals)
+    # the drift changes the run: same seeds and model draws, different error
+    nom = [r[m.TARGET_FIGURE] for r in data["runs"] if r["scenario"] == "nominal" and r["controller"] == "pid"]
+    dr = [r[m.TARGET_FIGURE] for r in data["runs"] if r["scenario"] == "inertia_x2" and r["controller"] == "pid"]
+    assert nom != dr
+    assert set(data["target"]) == {"figures", "min_nominal_gain", "loss_retention", "gain_required",
+                                   "per_scenario", "where_fixed_loses", "met"}
+    assert "inertia_x2" in data["target"]["per_scenario"]
