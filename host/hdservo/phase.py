@@ -6,7 +6,9 @@ are taken to be less than half a wrap apart (half a turn, 2^31 ticks), so each
 step is the signed difference modulo 2^32.  :func:`unwrap_count` continues a
 whole capture of 32-bit counts (in counts), :func:`unwrap_turns` a whole capture
 of phases (in turns), :func:`unwrap_phase` and :func:`unwrap_tick` continue a
-stream one frame at a time; all four follow the same rule.
+stream one frame at a time; all four follow the same rule.  :func:`unwrap_pair`
+unwraps a reference and the output that follows it as one: the output is the
+reference plus their signed difference, so the two never land a turn apart.
 """
 from __future__ import annotations
 
@@ -69,6 +71,44 @@ def unwrap_turns(words: np.ndarray, centred: bool = True) -> np.ndarray:
     return unwrap_count(words, centred) / float(WRAP)
 
 
+def unwrap_pair(ref_words: np.ndarray, out_words: np.ndarray,
+                centred: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """A reference and the output that follows it (turns), unwrapped consistently.
+
+    Unwrapping the two captures separately puts them a whole turn apart whenever
+    their first samples fall on either side of the wrap (an axis at rest at the
+    turn boundary: reference just above it, output just below), which reads as a
+    one-turn (1,296,000 arcsec) error.  Here the reference is unwrapped and the
+    output is the reference plus the signed difference of the two words, taken to
+    be within half a turn (a following error that large is a fault anyway).
+
+    Parameters
+    ----------
+    ref_words, out_words : numpy.ndarray
+        The reference's and the output's phases as read, sample for sample
+        (0 .. 2^32 - 1, 2^-32 turn); the same length.
+    centred : bool
+        The reference's first sample in [-0.5, 0.5) turn (True) or in [0, 1) turn (False).
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        The reference and the output (turns), float.
+
+    Raises
+    ------
+    ValueError
+        When the two captures differ in length.
+    """
+    r = np.asarray(ref_words).astype(np.int64)
+    o = np.asarray(out_words).astype(np.int64)
+    if r.shape != o.shape:
+        raise ValueError(f"unwrap_pair: the reference has {r.size} samples, the output {o.size}; "
+                         "expected the same number")
+    ref = unwrap_turns(r, centred)
+    return ref, ref + _signed_step(o - r) / float(WRAP)
+
+
 def unwrap_phase(prev_turns: Optional[float], phase_u32: int) -> float:
     """Continue a multi-turn angle (turns) from a wrapped 2^32-per-turn phase.
 
@@ -104,4 +144,4 @@ def unwrap_tick(prev: Optional[int], tick_u32: int) -> int:
     return prev + int(_signed_step(int(tick_u32) - prev))
 
 
-__all__ = ["HALF", "WRAP", "unwrap_count", "unwrap_phase", "unwrap_tick", "unwrap_turns"]
+__all__ = ["HALF", "WRAP", "unwrap_count", "unwrap_pair", "unwrap_phase", "unwrap_tick", "unwrap_turns"]

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hdservo.phase import unwrap_count, unwrap_phase, unwrap_tick, unwrap_turns
+from hdservo.phase import unwrap_count, unwrap_pair, unwrap_phase, unwrap_tick, unwrap_turns
 
 
 def _wrapped(turns: np.ndarray) -> np.ndarray:
@@ -63,3 +63,16 @@ def test_signed_and_unsigned_views_of_a_word_agree() -> None:
     signed = ((true + 2 ** 31) % 2 ** 32) - 2 ** 31
     assert np.array_equal(unwrap_count(unsigned), unwrap_count(signed))
     assert np.array_equal(unwrap_turns(unsigned), unwrap_count(signed) / 2.0 ** 32)
+
+
+def test_unwrap_pair_keeps_the_output_next_to_its_reference() -> None:
+    # reference 2^-30 turn above the wrap and rising, output 2^-30 behind it: across the wrap
+    ref = np.array([2 ** 2, 2 ** 2 + 8, 2 ** 2 + 16], dtype=np.int64)
+    out = (ref - 2 ** 3) % 2 ** 32
+    r, o = unwrap_pair(ref, out, centred=False)
+    assert r == pytest.approx(ref / 2 ** 32)
+    assert o - r == pytest.approx(np.full(3, -(2 ** 3) / 2 ** 32), abs=1e-18)
+    # separately unwrapped, the output lands a whole turn away from the reference
+    assert unwrap_turns(out, centred=False)[0] - unwrap_turns(ref, centred=False)[0] == pytest.approx(1.0, abs=1e-8)
+    with pytest.raises(ValueError, match="same number"):
+        unwrap_pair(ref, out[:2])

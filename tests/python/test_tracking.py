@@ -106,3 +106,85 @@ def test_tracking_and_settling_on_the_virtual_axis(tmp_path: Path) -> None:
     assert "settling_0p2deg_s" in s["headline"]
     mv = s["figures"]["moves"][0]
     assert mv["arrival_s"] > 0 and abs(mv["final_error_arcsec"]) < 20.0
+
+
+class _BoundaryBench:
+    """A bench whose axis sits at a whole turn: the drive's reference words start just
+    above the wrap, the output (behind the reference by ``lag_arcsec``) just below it.
+
+    It records the set-points streamed while a capture runs and returns them as the
+    drive's low words (``pos_ref_lo``), the output ``lag_arcsec`` behind (``pos_out_lo``).
+    """
+
+    sync_periods = 10
+    lockstep = False
+
+    def __init__(self, start_rad: float, lag_arcsec: float) -> None:
+        self.start = start_rad
+        self.lag = lag_arcsec * mt.ARCSEC
+        self.sent: list[float] = []
+        self.recording = False
+        self.rig = self
+        self.targets: list[float] = []
+
+    # the rig, the drive's state machine and its clock
+    def brake(self, on: bool) -> None:
+        pass
+
+    def enable(self, mode: str) -> None:
+        pass
+
+    def disable(self) -> None:
+        pass
+
+    def wait(self, s: float) -> None:
+        pass
+
+    def fault(self) -> int:
+        return 0
+
+    def load_angle_rad(self) -> float:
+        return self.start
+
+    # set-points
+    def rpdo_position(self, rad: float, vel_rad_s: float = 0.0) -> None:
+        if self.recording:
+            self.sent.append(rad)
+
+    def stream(self, values: np.ndarray, send: "object") -> None:
+        for v in values:
+            send(v)                         # type: ignore[operator]
+
+    def capture(self, signals: list[str], frames: int, decim: int, action: "object") -> dict[str, np.ndarray]:
+        self.sent = []
+        self.recording = True
+        action()                            # type: ignore[operator]
+        self.recording = False
+        ref = np.asarray(self.sent[:frames], float)
+        if ref.size < frames:               # a profile move: the reference at the target
+            ref = np.full(frames, self.targets[-1])
+        words = lambda rad: np.round(rad / tr.TURN * 2.0 ** 32).astype(np.int64) % 2 ** 32   # noqa: E731
+        return {"pos_ref_lo": words(ref), "pos_out_lo": words(ref - self.lag)}
+
+
+def test_tracking_at_the_turn_boundary_reports_the_following_error_not_a_turn() -> None:
+    # the sinusoid stands at A = v / w a quarter period before its end, where the record starts:
+    # the axis is put so that the record's first reference is 2" above the wrap, the output 3" below
+    rate, period = 0.1, 1.0
+    a = math.radians(rate) * period / tr.TURN
+    bench = _BoundaryBench(tr.TURN - a + 2 * mt.ARCSEC, lag_arcsec=5.0)
+    r = tr.tracking(bench, rates_deg_s=[rate], period_s=period)   # type: ignore[arg-type]
+    h = r.headline
+    # the output follows 5" behind the set-points (to their 2^-24-turn rounding, 0.08")
+    assert h["tracking_rms_0p1_arcsec"] == pytest.approx(5.0, abs=0.1)
+    assert h["tracking_peak_0p1_arcsec"] == pytest.approx(5.0, abs=0.1)
+
+
+def test_settling_at_the_turn_boundary_reports_the_final_error_not_a_turn(monkeypatch: pytest.MonkeyPatch) -> None:
+    bench = _BoundaryBench(tr.TURN + 1 * mt.ARCSEC, lag_arcsec=3.0)
+    bench.drive = type("D", (), {"get_param": staticmethod(lambda name: 0.1)})()
+    monkeypatch.setattr(tr, "pp_move_start", lambda b, target: b.targets.append(target))
+    r = tr.settling(bench, step_deg=0.001, moves=2, band_arcsec=5.0)   # type: ignore[arg-type]
+    for mv in r.figures["moves"]:
+        assert mv["final_error_arcsec"] == pytest.approx(-3.0, abs=0.01)
+    assert r.headline["settling_0p001deg_s"] is not None

@@ -19,7 +19,7 @@ import numpy as np
 from . import metrics as mt
 from .results import Result, figure, save_figure
 from .runner import DT, Bench, Progress, RigSetup
-from ..phase import unwrap_turns
+from ..phase import unwrap_pair, unwrap_turns
 
 AXIS_SETUP = RigSetup("axis", payload=True)
 from ..units import TURN  # noqa: E402
@@ -723,8 +723,8 @@ def bandwidth(bench: Bench, amplitude_arcsec: float = 60.0, period_samples: int 
     bench.disable()
     if fault:
         raise RuntimeError(f"the drive faulted during the bandwidth test (fault code {fault})")
-    ref = unwrap_turns(cap["pos_ref_lo"], centred=False) * TURN
-    out = unwrap_turns(cap["pos_out_lo"], centred=False) * TURN
+    ref, out = unwrap_pair(cap["pos_ref_lo"], cap["pos_out_lo"], centred=False)
+    ref, out = ref * TURN, out * TURN
     n = frames
     h = mt.line_response(ref[:n], out[:n], lines)
     f = np.asarray(lines, float) / (period_samples * k * DT)

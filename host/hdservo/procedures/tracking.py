@@ -28,7 +28,7 @@ from . import metrics as mt
 from .closedloop import AXIS_SETUP, TURN, pp_move_start
 from .results import Result, figure, save_figure
 from .runner import DT, Bench, Progress
-from ..phase import unwrap_turns
+from ..phase import unwrap_pair
 
 #: Peak rates of the tracking sinusoids, deg/s.
 TRACK_RATES_DEG_S: tuple[float, ...] = (0.01, 0.1)
@@ -157,8 +157,8 @@ def tracking(bench: Bench, rates_deg_s: Sequence[float] = TRACK_RATES_DEG_S, per
         if fault:
             raise RuntimeError(f"the drive faulted tracking {rate:g} deg/s (fault code {fault})")
         step = decim // k
-        ref = unwrap_turns(cap["pos_ref_lo"], centred=False) * TURN
-        out = unwrap_turns(cap["pos_out_lo"], centred=False) * TURN
+        ref, out = unwrap_pair(cap["pos_ref_lo"], cap["pos_out_lo"], centred=False)
+        ref, out = ref * TURN, out * TURN
         # the captured words are the low 32 bits: put them on the set-points' turn
         off = TURN * round((cmd[lead] - ref[0]) / TURN)
         ref, out = ref + off, out + off
@@ -297,8 +297,8 @@ def settling(bench: Bench, step_deg: float = SETTLE_STEP_DEG, moves: int = 4, ba
         sgn = 1.0 if j % 2 == 0 else -1.0
         target = start + sgn * step if j % 2 == 0 else start
         cap = bench.capture(["pos_ref_lo", "pos_out_lo"], frames, decim, action=lambda: pp_move_start(bench, target))
-        ref = unwrap_turns(cap["pos_ref_lo"], centred=False) * TURN
-        out = unwrap_turns(cap["pos_out_lo"], centred=False) * TURN
+        ref, out = unwrap_pair(cap["pos_ref_lo"], cap["pos_out_lo"], centred=False)
+        ref, out = ref * TURN, out * TURN
         t = np.arange(ref.size) * decim * DT
         final = ref[-1]
         arr = np.flatnonzero(np.abs(ref - final) < 0.5 / 2 ** 32 * TURN + 1e-15)
