@@ -89,5 +89,5 @@ def test_one_definition(rule: str) -> None:
     if rule == "json-cleaner":
         assert found == ["hdservo/fileio.py:json_ready"]
     else:
-        assert sorted(found) == ["hdservo/phase.py:unwrap_count", "hdservo/phase.py:unwrap_phase",
+        assert sorted(found) == ["hdservo/phase.py:unwrap_count", "hdservo/phase.py:unwrap_pair", "hdservo/phase.py:unwrap_phase",
                                  "hdservo/phase.py:unwrap_tick", "hdservo/phase.py:unwrap_turns"]
