@@ -394,9 +394,18 @@ def rule_need_friction_ff(needs: Sequence[NeedRow]) -> Rule:
                 holds, {w: list(v) for w, v in got.items()})
 
 
+def rule_need_hysteresis_alone(needs: Sequence[NeedRow]) -> Rule:
+    """In full closed neither hysteresis model alone buys 2x on any need (the output encoder sees the twist)."""
+    g = {n.need: max([n.gains.get(c, 0.0) for c in ("maxwell", "preisach")]) for n in needs if n.gains}
+    top = max(g.values()) if g else math.nan
+    return Rule("need_hysteresis_alone", "in full closed Maxwell-slip or Preisach alone is no answer to any need: "
+                f"their best gain is {top:.2f}x (the output encoder already measures the twist)",
+                bool(g) and top < 2.0, {"best_gain": g})
+
+
 HYSTERESIS_RULES: list[Callable[[Sequence[HysteresisRow]], Rule]] = [
     rule_preisach_minor_loops, rule_preisach_major_loops, rule_maxwell_memory]
-NEED_RULES: list[Callable[[Sequence[NeedRow]], Rule]] = [rule_need_friction_ff]
+NEED_RULES: list[Callable[[Sequence[NeedRow]], Rule]] = [rule_need_friction_ff, rule_need_hysteresis_alone]
 
 
 def check_rules(hyst: Sequence[HysteresisRow] | None, needs: Sequence[NeedRow] | None) -> list[Rule]:
@@ -457,3 +466,25 @@ def summary_lines(ablation: Mapping[str, Any], costs: Mapping[str, int | None],
         if r.holds:
             lines.append(f"rule: {r.text}")
     return lines
+
+
+def compare_lines(doc: Mapping[str, Any]) -> list[str]:
+    """Selection lines for the end of ``hdservo compare`` from its document (empty without ablation rows).
+
+    The CPU costs come from ``build/bench/cm4_cost.json`` and the hysteresis rules from
+    ``build/results/selection_rules.json`` when a checkout has them (:func:`hdservo.resources.build_output`).
+    """
+    from .. import resources
+    from ..compare import ablation_doc
+    if not doc.get("ablation"):
+        return []
+    abl = ablation_doc(doc)
+    costs = cpu_costs(resources.build_output("bench", "cm4_cost.json"))
+    sp = resources.build_output("results", "selection_rules.json")
+    selection = None
+    if sp is not None:
+        try:
+            selection = json.loads(sp.read_text())
+        except (OSError, ValueError):
+            selection = None
+    return summary_lines(abl, costs, selection)
