@@ -43,7 +43,7 @@ def main() -> int:
             r.axis = name
         hyst += rows
     needs = sel.needs_table(abl, costs, "full-closed")
-    doc = sel.selection_doc(hyst, needs, costs, meta={
+    doc = sel.selection_doc(hyst, needs, costs, closed_loop=sel.closed_loop_benefit(abl), meta={
         "amplitudes_frac_rated": list(AMPLITUDES), "minor_widths_frac": list(WIDTHS), "levels": LEVELS,
         "seed": SEED, "ablation": "build/demo/ablation.json" if abl["rows"] else "not measured here",
         "cm4_cost": "build/bench/cm4_cost.json" if any(v is not None for v in costs.values())
@@ -58,6 +58,7 @@ def main() -> int:
               f"M {r['major_err_arcsec']['maxwell']:.2f}\" P {r['major_err_arcsec']['preisach']:.2f}\"; minor "
               + ", ".join(f"w{w} M {r['minor_err_arcsec']['maxwell'][w]:.2f}\" P {r['minor_err_arcsec']['preisach'][w]:.2f}\""
                           for w in r["minor_err_arcsec"]["maxwell"]) + f"; loop width {r['loop_width_arcsec']:.1f}\"")
+    print(f"semi-closed positioning gain: {doc['closed_loop_semi_positioning_gain']}")
     for n in doc["needs"]:
         print(f"need {n['need']}: {n['compensator']} {n['gain']}")
     bad = [r for r in doc["rules"] if not r["holds"]]

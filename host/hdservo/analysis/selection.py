@@ -422,10 +422,30 @@ def rules_from_doc(doc: Mapping[str, Any]) -> list[Rule]:
     return check_rules(hyst or None, needs or None)
 
 
+def closed_loop_benefit(ablation: Mapping[str, Any], feedback: str = "semi-closed",
+                        figure: str = "positioning_accuracy_arcsec") -> dict[str, Any]:
+    """Positioning gain (fair PID value / value) of Maxwell-slip and Preisach rows in ``feedback``.
+
+    Alone and, when the ablation has them, on top of TE (``te+maxwell``, ``te+preisach``); a
+    model without a row is "not measured here".
+    """
+    out: dict[str, Any] = {}
+    rows = [r for r in ablation.get("rows", []) if r.get("feedback", "full-closed") == feedback]
+    for m in ("maxwell", "preisach"):
+        for parts in ([m], ["te", m]):
+            key = "+".join(parts)
+            q = next(((r.get("ratio_to_baseline") or {}).get(figure) for r in rows
+                      if sorted(r.get("components", [])) == sorted(parts)), None)
+            out[key] = 1.0 / float(q) if q else "not measured here"
+    return out
+
+
 def selection_doc(hyst: Sequence[HysteresisRow], needs: Sequence[NeedRow], costs: Mapping[str, int | None],
-                  meta: Mapping[str, Any] | None = None) -> dict[str, Any]:
+                  meta: Mapping[str, Any] | None = None,
+                  closed_loop: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """JSON-ready document of both tables, the CPU costs and the rules with their verdicts."""
     return {"hysteresis": [r.to_dict() for r in hyst], "needs": [n.to_dict() for n in needs],
+            "closed_loop_semi_positioning_gain": dict(closed_loop or {}),
             "cpu_instructions": dict(costs), "rules": [r.to_dict() for r in check_rules(hyst, needs)],
             "meta": dict(meta or {})}
 
