@@ -6,7 +6,8 @@ amplitudes 0.1-1.0 x rated torque and minor-loop widths 0.05-0.3 (fractions of 2
 tables of 16 levels.  The needs table comes from ``build/demo/ablation.json`` when ``make demo``
 wrote it, the CPU costs from ``build/bench/cm4_cost.json`` when ``make bench`` wrote it
 (otherwise those columns say not measured here).  Every stated rule is checked on the tables.
-Writes build/results/selection_rules.json.
+Writes build/results/selection_rules.json (with axis names as arguments: only those,
+to selection_rules.<names>.json).
 """
 from __future__ import annotations
 
@@ -23,8 +24,8 @@ from hdservo.fileio import write_json_atomic  # noqa: E402
 
 AXES = {"reference": "reference", "csf17_50": str(ROOT / "sim" / "axes" / "csf17_50.toml")}
 ONLY = sys.argv[1:]          # axis names to run (default: all)
-AMPLITUDES = (0.1, 0.2, 0.3, 0.5, 0.7, 1.0)
-WIDTHS = (0.05, 0.1, 0.2, 0.3)
+AMPLITUDES = (0.1, 0.3, 0.5, 0.7, 1.0)
+WIDTHS = (0.05, 0.1, 0.3)
 LEVELS = 16
 SEED = 11
 
@@ -42,13 +43,15 @@ def main() -> int:
         for r in rows:
             r.axis = name
         hyst += rows
-    needs = sel.needs_table(abl, costs, "full-closed")
+    needs = sel.needs_table(abl, costs, "full-closed") if abl["rows"] else []
     doc = sel.selection_doc(hyst, needs, costs, closed_loop=sel.closed_loop_benefit(abl), meta={
         "amplitudes_frac_rated": list(AMPLITUDES), "minor_widths_frac": list(WIDTHS), "levels": LEVELS,
         "seed": SEED, "ablation": "build/demo/ablation.json" if abl["rows"] else "not measured here",
         "cm4_cost": "build/bench/cm4_cost.json" if any(v is not None for v in costs.values())
         else "not measured here", "run_time_s": time.time() - t0})
-    out = ROOT / "build" / "results" / "selection_rules.json"
+    out = ROOT / "build" / "results" / ("selection_rules.json" if not ONLY else
+                                        f"selection_rules.{'+'.join(ONLY)}.json")
+    out.parent.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out, doc)
     for r in doc["hysteresis"]:
         if r["note"]:
