@@ -87,3 +87,17 @@ def test_needs_rules_hold_on_the_demo_ablation() -> None:
     assert [n.need for n in needs] == list(sel.NEEDS)
     for r in sel.check_rules(None, needs):
         assert r.holds, r.text
+
+
+def test_compare_summary_names_the_best_compensator_and_only_rules_that_hold() -> None:
+    abl = _ablation_rows({"stribeck": 20.0, "lugre": 4.0, "preisach": 1.2})
+    lines = sel.summary_lines(abl, {"stribeck": 301})
+    assert "need pointing accuracy (full-closed): stribeck, 20x better than the fair PID; " \
+           "301 M4 instructions/step; identification: gravity_sine, friction_sweep" in lines
+    assert "need parameter drift (full-closed): not measured here" in lines
+    rules = [ln for ln in lines if ln.startswith("rule: ")]
+    assert len(rules) == 2 and all(r.holds for r in sel.check_rules(None, sel.needs_table(abl, {})))
+    # a table on which the friction rule fails: the rule is not printed
+    bad = sel.summary_lines(_ablation_rows({"stribeck": 1.5, "preisach": 1.2}), {})
+    assert not any("friction feed-forward" in ln for ln in bad)
+    assert sel.compare_lines({"controllers": {}}) == []
