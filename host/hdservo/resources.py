@@ -213,6 +213,19 @@ def data_path(*parts: str) -> Path:
     return DATA_DIR.joinpath(*parts)
 
 
+def build_output(*parts: str) -> Optional[Path]:
+    """A file that ``make bench`` / ``make results`` wrote under the checkout's ``build/``, else None.
+
+    ``build_output("bench", "cm4_cost.json")``; None for an installed wheel or when the file
+    has not been produced (the caller says "not measured here").
+    """
+    root = checkout_root()
+    if root is None:
+        return None
+    p = root.joinpath("build", *parts)
+    return p if p.is_file() else None
+
+
 def eds_path() -> Path:
     """The drive's EDS (CiA 306), generated from ``firmware/params/canopen.toml``."""
     return data_path("hdservo.eds")

@@ -127,6 +127,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"best combination, {fb}: {' + '.join(info['best']) or 'none (no compensator pays)'}")
         for part, j in info.get("leave_one_out", {}).items():
             print(f"  leave-one-out, {part}: {'pays' if j['pays'] else 'does not pay'} ({j['text']})")
+    from ..analysis.selection import compare_lines
+    for line in compare_lines(doc):
+        print(line)
     v = doc["verdict"]
     if v["targets_met"]:
         met = [k for k, ok in v["targets_met"].items() if ok]
