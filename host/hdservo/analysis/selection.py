@@ -353,31 +353,35 @@ FULL_LOAD_FRAC = 0.7
 PART_LOAD_FRAC = 0.3
 
 
+def _wins(rows: Sequence[HysteresisRow], win: str, lose: str) -> tuple[list[bool], str]:
+    """Per row whether ``win`` has the smaller major- and minor-loop error than ``lose``, and the
+    medians of both as text ('A" on the major loop and B" on minor loops' for each)."""
+    ok = [r.major_err_arcsec[win] < r.major_err_arcsec[lose] and r.minor_mean(win) < r.minor_mean(lose)
+          for r in rows]
+
+    def errs(m: str) -> str:
+        return (f"{_median(rows, lambda r: r.major_err_arcsec[m]):.2f}\" on the major loop and "
+                f"{_median(rows, lambda r: r.minor_mean(m)):.2f}\" on minor loops")
+    return ok, f"{errs(win)}, against {{}}'s {errs(lose).replace(' on the major loop', '').replace(' on minor loops', '')}"
+
+
 def rule_preisach_full_load(rows: Sequence[HysteresisRow]) -> Rule:
     """Preisach at full load: at >= FULL_LOAD_FRAC x rated its major- and minor-loop errors are below Maxwell's."""
     rows = [r for r in _measured(rows) if r.amplitude_frac >= FULL_LOAD_FRAC]
-    ok = [r.major_err_arcsec["preisach"] < r.major_err_arcsec["maxwell"]
-          and r.minor_mean("preisach") < r.minor_mean("maxwell") for r in rows]
+    ok, text = _wins(rows, "preisach", "maxwell")
     return Rule("preisach_full_load",
                 f"Preisach when the gear is loaded to {FULL_LOAD_FRAC:g}-1 x rated torque and minor loops matter: "
-                f"its twist error is {_median(rows, lambda r: r.major_err_arcsec['preisach']):.2f}\" on the major "
-                f"loop and {_median(rows, lambda r: r.minor_mean('preisach')):.2f}\" on minor loops, against "
-                f"Maxwell-slip's {_median(rows, lambda r: r.major_err_arcsec['maxwell']):.2f}\" and "
-                f"{_median(rows, lambda r: r.minor_mean('maxwell')):.2f}\" (medians)",
+                f"its twist error is {text.format('Maxwell-slip')} (medians)",
                 bool(rows) and all(ok), {"amplitudes": [r.amplitude_frac for r in rows], "preisach_better": ok})
 
 
 def rule_maxwell_part_load(rows: Sequence[HysteresisRow]) -> Rule:
     """Maxwell-slip at part load: at <= PART_LOAD_FRAC x rated its major- and minor-loop errors are below Preisach's."""
     rows = [r for r in _measured(rows) if r.amplitude_frac <= PART_LOAD_FRAC]
-    ok = [r.major_err_arcsec["maxwell"] < r.major_err_arcsec["preisach"]
-          and r.minor_mean("maxwell") < r.minor_mean("preisach") for r in rows]
+    ok, text = _wins(rows, "maxwell", "preisach")
     return Rule("maxwell_part_load",
                 f"Maxwell-slip when the load stays within {PART_LOAD_FRAC:g} x rated torque: its twist error is "
-                f"{_median(rows, lambda r: r.major_err_arcsec['maxwell']):.2f}\" on the major loop and "
-                f"{_median(rows, lambda r: r.minor_mean('maxwell')):.2f}\" on minor loops, against the Preisach "
-                f"table's {_median(rows, lambda r: r.major_err_arcsec['preisach']):.2f}\" and "
-                f"{_median(rows, lambda r: r.minor_mean('preisach')):.2f}\" (medians)",
+                f"{text.format('the Preisach table')} (medians)",
                 bool(rows) and all(ok), {"amplitudes": [r.amplitude_frac for r in rows], "maxwell_better": ok})
 
 
