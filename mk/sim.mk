@@ -60,5 +60,7 @@ $(HARNESS_TESTS): $(B)/host/tests/%: tests/c/%.c $(CTEST_HELPERS) $(HARNESS_HOST
 
 .PHONY: sim
 sim: $(HDSIM_BIN) $(HDSIM_SO)
+# `make all` builds the simulator too, so the binding never loads a stale library
+all: sim
 
 BUILD_TESTS_EXTRA += $(HDSIM_BIN) $(HDSIM_SO)
