@@ -510,8 +510,7 @@ static void friction_drift(hd_plant *p)
         f->viscous_Nms_per_rad = b->viscous_Nms_per_rad * s;
     }
     friction_tables(p);
-    p->end_valid = 0;
-    p->k1_valid = 0;
+    p->k1_valid = 0;       /* the end evaluation holds no friction: only the first-stage cache is stale */
 }
 
 static double ramp_weight(double t, double t_start_s, double ramp_s)
@@ -521,26 +520,28 @@ static double ramp_weight(double t, double t_start_s, double ramp_s)
 }
 
 /* [inertia_drift], [stiffness_drift], [gravity_drift]: set the drifting parameters from
- * their initial values; the cached evaluations of the last period are dropped when one
- * changes (they hold torques and accelerations of the old parameters). */
+ * their initial values.  The caches of the last period are kept where they stay right, so
+ * that a drift costs no extra evaluation per period: the end evaluation's position part
+ * (twist, TE, hysteresis) depends on none of them; the spring torque in it is recomputed
+ * when the stiffness changes (and the first-stage cache dropped); the first-stage cache
+ * holds no inertia and applies the unbalance in force (k1_from_cache). */
 static void param_drift(hd_plant *p)
 {
     hd_plant_params *q = &p->prm;
-    int changed = 0;
     if (q->jdrift_enabled) {
         const double w = ramp_weight(p->t, q->jdrift_t_start_s, q->jdrift_ramp_s);
         if (w != p->pd_w[0]) {
             p->pd_w[0] = w;
             q->jl_kgm2 = p->pd_jl * (1.0 + (q->jdrift_scale - 1.0) * w);
             p->inv_jl = 1.0 / q->jl_kgm2;
-            changed = 1;
         }
     }
     if (q->kdrift_enabled) {
         const double w = ramp_weight(p->t, q->kdrift_t_start_s, q->kdrift_ramp_s);
-        if (w != p->pd_w[1]) {
-            const double s = 1.0 + (q->kdrift_scale - 1.0) * w;
+        const double s = 1.0 + (q->kdrift_scale - 1.0) * w;
+        if (s != p->pd_ks) {
             p->pd_w[1] = w;
+            p->pd_ks = s;
             q->k1_Nm_per_rad = p->pd_k[0] * s;   /* slopes and breakpoint torques together: */
             q->k2_Nm_per_rad = p->pd_k[1] * s;   /* phi1, phi2 (twists) are unchanged */
             q->k3_Nm_per_rad = p->pd_k[2] * s;
@@ -548,7 +549,8 @@ static void param_drift(hd_plant *p)
             q->t2_Nm = p->pd_k[4] * s;
             q->cubic_k1_Nm_per_rad = p->pd_cubic[0] * s;
             q->cubic_k3_Nm_per_rad3 = p->pd_cubic[1] * s;
-            changed = 1;
+            if (p->end_valid) p->end_Tsh = spring_torque(p, p->end_phi) + p->end_Th;
+            p->k1_valid = 0;
         }
     }
     if (q->gdrift_enabled) {
@@ -556,12 +558,7 @@ static void param_drift(hd_plant *p)
         if (w != p->pd_w[2]) {
             p->pd_w[2] = w;
             q->mgl_Nm = p->pd_mgl + (q->gdrift_mgl_Nm - p->pd_mgl) * w;
-            changed = 1;
         }
-    }
-    if (changed) {
-        p->end_valid = 0;
-        p->k1_valid = 0;
     }
 }
 
@@ -650,7 +647,9 @@ typedef struct {           /* constants of one sub-step */
 
 typedef struct {           /* diagnostics of one evaluation */
     double phi, te, T, Th, Fm, Fl, Tcog, Tg, appl_m, appl_l, th_b, w_b;
-    double rest_m, rest_l;         /* applied torques without the motor torque, external load, base inertia */
+    double rest_m, rest_l;         /* applied torques without the motor torque, external load, base inertia
+                                      (and, on the load side, gravity) */
+    double gf;                     /* gravity torque per unit unbalance: T_grav = -mgl * gf */
 } eval_diag;
 
 typedef struct {           /* the velocity-independent part of one evaluation */
@@ -742,15 +741,17 @@ static void accel_eval(hd_plant *p, const substep_ctx *c, double s, int bi, cons
                        xstate *dx, eval_diag *dg)
 {
     const hd_plant_params *q = &p->prm;
-    double T = pp->Tsh, Fm = 0.0, Fl = 0.0, Tg = 0.0, appl_m, appl_l, rest_m, rest_l, a_b, invN = p->inv_ratio;
+    double T = pp->Tsh, Fm = 0.0, Fl = 0.0, Tg = 0.0, gf = 0.0, appl_m, appl_l, rest_m, rest_l, rest_l0, a_b;
+    const double invN = p->inv_ratio;
     a_b = c->ba[bi];
     if (q->stiffness_enabled || q->cubic_enabled)
         T += q->damping_Nms_per_rad * (x->w_m * (invN + pp->de_m) + x->w_l * (pp->de_l - 1.0));
     /* cos(theta_l + theta_b + offset) by angle addition with the cached cos/sin of theta_b + offset */
-    if (q->gravity_enabled) Tg = -q->mgl_Nm * (pp->cl * c->gc[bi] - pp->sl * c->gs[bi]);
+    if (q->gravity_enabled) { gf = pp->cl * c->gc[bi] - pp->sl * c->gs[bi]; Tg = -q->mgl_Nm * gf; }
 
     rest_m = pp->Tcog - T * (invN + pp->de_m);
-    rest_l = T * (1.0 - pp->de_l) + Tg;
+    rest_l0 = T * (1.0 - pp->de_l);
+    rest_l = rest_l0 + Tg;
     appl_m = c->tq_m + rest_m - q->jm_kgm2 * a_b;
     appl_l = rest_l + c->t_ext - q->jl_kgm2 * a_b;
 
@@ -786,7 +787,7 @@ static void accel_eval(hd_plant *p, const substep_ctx *c, double s, int bi, cons
         dg->phi = pp->phi; dg->te = pp->te; dg->T = T; dg->Th = pp->Th; dg->Fm = Fm; dg->Fl = Fl;
         dg->Tcog = pp->Tcog; dg->Tg = Tg; dg->appl_m = appl_m; dg->appl_l = appl_l;
         dg->th_b = c->bth[bi]; dg->w_b = c->bw[bi];
-        dg->rest_m = rest_m; dg->rest_l = rest_l;
+        dg->rest_m = rest_m; dg->rest_l = rest_l0; dg->gf = gf;
     }
 }
 
@@ -814,6 +815,7 @@ static void end_eval(hd_plant *p)
     xstate x = { p->th_m, p->w_m, p->th_l, p->w_l };
     double cm = 1.0, sm = 0.0, cl = 1.0, sl = 0.0, de_m, de_l, te, phi, Th = 0.0;
     int k, rotated = 0;
+    p->n_end_eval++;
     /* cos/sin at the end of the sub-step: a small rotation from the start (the last end
      * evaluation), refreshed from libm every TRIG_SYNC evaluations so that rounding
      * cannot accumulate (each rotation is good to about one ulp); the harmonics likewise
@@ -879,7 +881,8 @@ static void k1_from_cache(const hd_plant *p, const substep_ctx *c, const xstate 
     const hd_plant_params *q = &p->prm;
     const double a_b = c->ba[0];
     const double appl_m = c->tq_m + p->k1_rest_m - q->jm_kgm2 * a_b;
-    const double appl_l = p->k1_rest_l + c->t_ext - q->jl_kgm2 * a_b;
+    const double Tg = q->gravity_enabled ? -q->mgl_Nm * p->k1_gf : 0.0;   /* the unbalance in force */
+    const double appl_l = (p->k1_rest_l + Tg) + c->t_ext - q->jl_kgm2 * a_b;
     dx->th_m = x->w_m;
     dx->w_m = (appl_m - p->k1_Fm) * p->inv_jm;
     if (p->brake) {
@@ -1004,6 +1007,7 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
     p->fr_base[0] = prm->fric_m;
     p->fr_base[1] = prm->fric_l;
     p->fr_scale = 1.0;
+    p->pd_ks = 1.0;
     friction_tables(p);
     p->pd_jl = prm->jl_kgm2;
     p->pd_k[0] = prm->k1_Nm_per_rad; p->pd_k[1] = prm->k2_Nm_per_rad; p->pd_k[2] = prm->k3_Nm_per_rad;
@@ -1157,7 +1161,7 @@ const hd_plant_output *hd_plant_step(hd_plant *p, const hd_plant_input *in, doub
     end_part(p, &pp);
     accel_eval(p, &c, 0.0, 2, &x, &pp, &dx, &dg);   /* bristles as committed; base at the end (point 2) */
     p->k1_valid = 1;                                  /* the next period's first stage starts from here */
-    p->k1_rest_m = dg.rest_m; p->k1_rest_l = dg.rest_l; p->k1_Fm = dg.Fm; p->k1_Fl = dg.Fl;
+    p->k1_rest_m = dg.rest_m; p->k1_rest_l = dg.rest_l; p->k1_gf = dg.gf; p->k1_Fm = dg.Fm; p->k1_Fl = dg.Fl;
     p->k1_w_m = x.w_m; p->k1_w_l = x.w_l; p->k1_brake = p->brake;
 
     o->t_s = p->t;

@@ -328,12 +328,14 @@ typedef struct {
     double   pd_jl, pd_k[5], pd_cubic[2], pd_mgl; /* inertia, stiffness (k1 k2 k3 t1 t2), cubic
                                                     (k1 k3), mgl as initialised (drifts scale them) */
     double   pd_w[3];                 /* last ramp weight of each drift (inertia, stiffness, gravity) */
+    double   pd_ks;                   /* stiffness scale in force ([stiffness_drift]) */
     int32_t  end_valid;               /* end-of-sub-step evaluation below is current */
     double   end_th_m, end_th_l, end_phi, end_te, end_de_m, end_de_l, end_Tsh, end_Th, end_Tcog;
     double   end_cm, end_sm, end_cl, end_sl;
     int32_t  trig_n;                  /* end evaluations since cos/sin came from libm */
+    int64_t  n_end_eval;              /* end evaluations so far (tests count the work an option costs) */
     int32_t  k1_valid, k1_ok, k1_brake;  /* end-of-period evaluation reusable as the next first stage */
-    double   k1_rest_m, k1_rest_l, k1_Fm, k1_Fl, k1_w_m, k1_w_l;
+    double   k1_rest_m, k1_rest_l, k1_gf, k1_Fm, k1_Fl, k1_w_m, k1_w_l;
     double   base_t, base_h, base_c, base_s, grav_a, grav_c, grav_s; /* base-generator / gravity phase */
 } hd_plant;
 

@@ -214,6 +214,60 @@ static void test_drifts_off_bit_identical(void **state)
     }
 }
 
+/* Every drift ramping at once on the reference axis, every effect on: the period's caches
+ * (the end evaluation, the first RK stage taken from it) are kept where they stay right, so
+ * a drifting axis costs one end evaluation per period like a fixed one, and its run agrees
+ * to rounding (1e-12 of the peak) with the same run evaluated in full every period (caches
+ * dropped before each step, as after a parameter change). */
+static void test_drifts_keep_caches(void **state)
+{
+    fixture *f = *state;
+    hd_plant_params q;
+    const long n = 6000;
+    double worst_w = 0.0, worst_th = 0.0, pk_w = 0.0, pk_th = 0.0;
+    long k;
+    hd_plant_defaults_reference(&q);
+    q.cubic_enabled = 1;
+    set(&q, "friction_drift.enabled", 1.0);
+    set(&q, "friction_drift.ramp_s", 0.3);
+    set(&q, "friction_drift.scale", 1.4);
+    set(&q, "inertia_drift.enabled", 1.0);
+    set(&q, "inertia_drift.t_start_s", 0.1);
+    set(&q, "inertia_drift.ramp_s", 0.2);
+    set(&q, "inertia_drift.scale", 2.0);
+    set(&q, "stiffness_drift.enabled", 1.0);
+    set(&q, "stiffness_drift.ramp_s", 0.4);
+    set(&q, "stiffness_drift.scale", 0.8);
+    set(&q, "gravity_drift.enabled", 1.0);
+    set(&q, "gravity_drift.ramp_s", 0.4);
+    set(&q, "gravity_drift.mgl_Nm", 8.0);
+    init(&f->plant, &q);
+    init(&f->ref, &q);
+    memset(&f->in, 0, sizeof f->in);
+    for (k = 0; k < n; k++) {
+        f->in.current_cmd_A = 3.0 * sin(2.0 * 3.141592653589793 * 5.0 * (double)k * DT);
+        f->ref.end_valid = 0;                   /* full evaluation of every stage */
+        f->ref.k1_valid = 0;
+        hd_plant_step(&f->plant, &f->in, DT);
+        hd_plant_step(&f->ref, &f->in, DT);
+        if (fabs(f->ref.out.motor_velocity_rad_s) > pk_w) pk_w = fabs(f->ref.out.motor_velocity_rad_s);
+        if (fabs(f->ref.out.load_angle_rad) > pk_th) pk_th = fabs(f->ref.out.load_angle_rad);
+        if (fabs(f->plant.out.motor_velocity_rad_s - f->ref.out.motor_velocity_rad_s) > worst_w)
+            worst_w = fabs(f->plant.out.motor_velocity_rad_s - f->ref.out.motor_velocity_rad_s);
+        if (fabs(f->plant.out.load_angle_rad - f->ref.out.load_angle_rad) > worst_th)
+            worst_th = fabs(f->plant.out.load_angle_rad - f->ref.out.load_angle_rad);
+    }
+    printf("# every drift ramping: %.3f end evaluations per period (evaluated in full: %.3f); "
+           "cached vs full: motor velocity %.2e of peak %.3g rad/s, load angle %.2e of peak %.3g rad\n",
+           (double)f->plant.n_end_eval / (double)n, (double)f->ref.n_end_eval / (double)n, worst_w / pk_w, pk_w,
+           worst_th / pk_th, pk_th);
+    assert_true(pk_w > 1.0);
+    assert_true(pk_th > 1e-3);
+    assert_true(f->plant.n_end_eval <= n + 1);  /* one per period, and the first period's start */
+    assert_true(worst_w / pk_w < 1e-12);
+    assert_true(worst_th / pk_th < 1e-12);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -222,6 +276,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_gravity_drift_appears, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_friction_drift_return, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_drifts_off_bit_identical, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_drifts_keep_caches, setUp, tearDown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
