@@ -136,6 +136,9 @@ static inline void rot_poly(double c0, double s0, double d, double *c, double *s
 }
 
 #define ROT_MAX 0.1   /* rot_poly's range: |d| < ROT_MAX */
+#define TRIG_SYNC 64  /* rotations between refreshes of cos/sin from libm */
+#define HT_XMAX 0.125 /* range of the harmonics' series in n_max |d| (degree <= HD_PLANT_HT_JMAX) */
+#define HT_EMIN 60    /* n_max |d| < 2^-60: degree 0 (the first term is below 2^-60 relative) */
 
 static inline void rot_small(double c0, double s0, double x, double d, double *c, double *s)
 {
@@ -267,6 +270,14 @@ static void harm_plan(hd_plant *p)
         p->pw_a[ch][0] = p->pw_b[ch][0] = 0;
         p->hmax[ch] = 0.0;
     }
+    for (l = 0; l <= HD_PLANT_HT_JMAX; l++)      /* radius of degree J: x^(J+1)/(J+1)! = 2^-53 */
+        p->ht_xb[l] = exp((lgamma((double)l + 2.0) - 53.0 * log(2.0)) / ((double)l + 1.0));
+    for (l = 0; l < HD_PLANT_HT_NTAB; l++) {   /* degree by octave: x < 2^(l + 1 - HT_EMIN) */
+        const double top = ldexp(1.0, l + 1 - HT_EMIN);
+        int32_t J = 0;
+        while (J < HD_PLANT_HT_JMAX && top > p->ht_xb[J]) J++;
+        p->ht_jtab[l] = J;
+    }
     for (l = 0; l < 3; l++) {
         const double *ord = l == 0 ? q->cog_order : (l == 1 ? q->te_wg_order : q->te_out_order);
         const double *amp = l == 0 ? q->cog_amp_Nm : (l == 1 ? q->te_wg_amp_rad : q->te_out_amp_rad);
@@ -289,6 +300,14 @@ static void harm_plan(hd_plant *p)
         }
         p->hn[l] = n;
         if (p->hn_int[l] < n) p->h_libm = 1;
+        for (k = 0; k < p->hn_int[l]; k++) {      /* Taylor weights a n^j / j!, sign of the j-th derivative of sin */
+            double w = p->hamp[l][k];
+            int32_t j;
+            for (j = 0; j <= HD_PLANT_HT_JMAX + 1; j++) {
+                p->ht_w[l][k][j] = (j & 2) ? -w : w;
+                w = w * p->hfo[l][k] / (double)(j + 1);
+            }
+        }
         for (k = 0; k < p->hn_int[l]; k++)
             if (p->hfo[l][k] > p->hmax[ch]) p->hmax[ch] = p->hfo[l][k];
     }
@@ -393,47 +412,141 @@ static double te_eval1(const hd_plant *p, double th_m, double th_l, double *de_m
     return harm_eval(p, th_m, cos(th_m), sin(th_m), th_l, cos(th_l), sin(th_l), de_m, de_l, &tcog, NULL, NULL);
 }
 
-/* The same sums at theta_m = end_th_m + dm and theta_l = end_th_l + dl, from the
- * cos/sin(n theta + phase) that the last end evaluation stored per harmonic (hc0, hs0): each
- * harmonic is rotated by n*dm (n*dl) with rot_poly, independently of the others, so there is no
- * chain of products whose length grows with the order (36, 72: seven dependent complex
- * products).  The RK stages use it (nothing carried on: every value one rotation, about one
- * ulp, from the stored one); the end evaluation too, storing the rotated values (hc, hs not
- * NULL) for the next sub-step, between the refreshes from libm every TRIG_SYNC sub-steps
- * (end_eval), so rounding cannot accumulate beyond TRIG_SYNC rotations.  Returns 0 (caller
- * uses harm_eval) when a rotation angle n*d reaches ROT_MAX or an order is not an integer. */
-static int harm_eval_rot(const hd_plant *p, double dm, double dl, double *te, double *de_m, double *de_l,
-                         double *tcog, double (*hc)[HD_PLANT_MAX_HARM], double (*hs)[HD_PLANT_MAX_HARM])
+/* ---- harmonics by Taylor series about an anchor ------------------------------------------
+ * The RK stages and the end evaluations take TE and cogging from Taylor series of the sums
+ * about an anchor angle (theta_a: theta_m for chain 0, theta_l for chain 1), where
+ * cos/sin(n theta_a + phase) of every integer-order harmonic are stored (hc0, hs0):
+ *   S(theta_a + d) = sum_k a_k sin(n_k (theta_a + d) + p_k) = sum_j E_j d^j,
+ *   E_j = sum_k a_k n_k^j / j! * sin^(j)(n_k theta_a + p_k)   (sin, cos, -sin, -cos, ...),
+ * and the derivative sum sum_k a_k n_k cos(...) = sum_j (j + 1) E_{j+1} d^j.  The degree J
+ * of an evaluation is the smallest with x^(J+1)/(J+1)! <= 2^-53, x = n_max |d| (ht_xb): the
+ * truncation is below 2^-53 of sum |a_k| (of sum |a_k n_k| for the derivative), i.e. the
+ * series equals the libm formula to rounding.  Coefficients are formed lazily up to the
+ * degree asked for (ht_deg), so an axis at rest pays for a degree 0-2 polynomial per sum
+ * and no trigonometry.  The end evaluation moves the anchor to its angles when they are
+ * beyond the degree-HT_JANCHOR radius: each stored harmonic is rotated by n d (rot_poly,
+ * about one ulp), re-seeded from libm cos/sin and the power chain every TRIG_SYNC
+ * re-anchorings, so rounding cannot accumulate.  Beyond the degree-HD_PLANT_HT_JMAX radius
+ * (fast motion) the caller evaluates the power chain instead (harm_eval). */
+#define HT_JANCHOR 5
+
+/* E_j, and D_{j-1} = j E_j, of the lists on chain ch for j up to J + 1. */
+static void ht_build(hd_plant *p, int ch, int32_t J)
 {
-    const int te_on = p->prm.te_enabled != 0, cog = p->prm.cogging_enabled != 0;
-    double e = 0.0, d = 0.0, d_l = 0.0, cg = 0.0, c, s;
-    int32_t k;
-    if (!p->h_rot_ok || p->h_libm || !(fabs(dm) * p->hmax[0] < ROT_MAX) || !(fabs(dl) * p->hmax[1] < ROT_MAX)) return 0;
-    if (te_on || hc != NULL) {
-        for (k = 0; k < p->hn_int[1]; k++) {
-            rot_poly(p->hc0[1][k], p->hs0[1][k], p->hfo[1][k] * dm, &c, &s);
-            e += p->hamp[1][k] * s;
-            d += p->hampn[1][k] * c;
-            if (hc != NULL) { hc[1][k] = c; hs[1][k] = s; }
-        }
-        for (k = 0; k < p->hn_int[2]; k++) {
-            rot_poly(p->hc0[2][k], p->hs0[2][k], p->hfo[2][k] * dl, &c, &s);
-            e += p->hamp[2][k] * s;
-            d_l += p->hampn[2][k] * c;
-            if (hc != NULL) { hc[2][k] = c; hs[2][k] = s; }
+    const int l0 = ch == 0 ? 0 : 2, l1 = ch == 0 ? 1 : 2;
+    int32_t j, k, l;
+    for (j = p->ht_deg[ch] + 1; j <= J; j++) {
+        int32_t m;
+        for (m = j == 0 ? 0 : j + 1; m <= j + 1; m++) {   /* E_0 with the first degree */
+            for (l = l0; l <= l1; l++) {
+                const double *t = (m & 1) ? p->hc0[l] : p->hs0[l];  /* sin, cos, -sin, -cos: sign in ht_w */
+                double e = 0.0;
+                for (k = 0; k < p->hn_int[l]; k++) e += p->ht_w[l][k][m] * t[k];
+                p->ht_e[l][m] = e;
+                if (m > 0) p->ht_d[l][m - 1] = (double)m * e;
+            }
         }
     }
-    if (cog || hc != NULL)
-        for (k = 0; k < p->hn_int[0]; k++) {
-            rot_poly(p->hc0[0][k], p->hs0[0][k], p->hfo[0][k] * dm, &c, &s);
-            cg += p->hamp[0][k] * s;
-            if (hc != NULL) { hc[0][k] = c; hs[0][k] = s; }
-        }
-    *te = te_on ? e : 0.0;
-    *de_m = te_on ? d : 0.0;
-    *de_l = te_on ? d_l : 0.0;
-    *tcog = cog ? cg : 0.0;
+    if (J > p->ht_deg[ch]) p->ht_deg[ch] = J;
+}
+
+/* Degree for 0 <= x < HT_XMAX: a table by the binary exponent of x, the degree of the
+ * upper end of x's octave (at most one more than the smallest degree for x itself). */
+static int32_t ht_degree(const hd_plant *p, double x)
+{
+    uint64_t b;
+    int32_t e;
+    memcpy(&b, &x, sizeof b);
+    e = (int32_t)(b >> 52) - 1023 + HT_EMIN;        /* x in [2^(e - HT_EMIN), 2^(e - HT_EMIN + 1)) */
+    return e < 0 ? 0 : p->ht_jtab[e];
+}
+
+/* Horner's scheme for degree J (0..HD_PLANT_HT_JMAX) as straight-line code, three series
+ * (a, b, c; c may repeat b) of the same offset d side by side: one jump per evaluation. */
+static inline __attribute__((always_inline)) void ht_horner3(const double *a, const double *b, const double *c, int32_t J, double d, double *out)
+{
+    double ra = a[J], rb = b[J], rc = c[J];
+    switch (J) {
+    case 10:
+        ra = ra * d + a[9]; rb = rb * d + b[9]; rc = rc * d + c[9];
+        /* fall through */
+    case 9:
+        ra = ra * d + a[8]; rb = rb * d + b[8]; rc = rc * d + c[8];
+        /* fall through */
+    case 8:
+        ra = ra * d + a[7]; rb = rb * d + b[7]; rc = rc * d + c[7];
+        /* fall through */
+    case 7:
+        ra = ra * d + a[6]; rb = rb * d + b[6]; rc = rc * d + c[6];
+        /* fall through */
+    case 6:
+        ra = ra * d + a[5]; rb = rb * d + b[5]; rc = rc * d + c[5];
+        /* fall through */
+    case 5:
+        ra = ra * d + a[4]; rb = rb * d + b[4]; rc = rc * d + c[4];
+        /* fall through */
+    case 4:
+        ra = ra * d + a[3]; rb = rb * d + b[3]; rc = rc * d + c[3];
+        /* fall through */
+    case 3:
+        ra = ra * d + a[2]; rb = rb * d + b[2]; rc = rc * d + c[2];
+        /* fall through */
+    case 2:
+        ra = ra * d + a[1]; rb = rb * d + b[1]; rc = rc * d + c[1];
+        /* fall through */
+    case 1:
+        ra = ra * d + a[0]; rb = rb * d + b[0]; rc = rc * d + c[0];
+        /* fall through */
+    default:
+        break;
+    }
+    out[0] = ra; out[1] = rb; out[2] = rc;
+}
+
+/* The sums at theta_m = ha_th[0] + dm, theta_l = ha_th[1] + dl by the series; 0 (nothing
+ * written) when an offset is beyond the series' range. */
+static int harm_eval_taylor(hd_plant *p, double dm, double dl, double *te, double *de_m, double *de_l,
+                            double *tcog)
+{
+    const double xm = fabs(dm) * p->hmax[0], xl = fabs(dl) * p->hmax[1];
+    int32_t Jm, Jl;
+    double r0[3], r1[3];
+    if (!p->ha_valid || !(xm < HT_XMAX) || !(xl < HT_XMAX)) return 0;
+    Jm = ht_degree(p, xm);
+    Jl = ht_degree(p, xl);
+    if (Jm > p->ht_deg[0]) ht_build(p, 0, Jm);
+    if (Jl > p->ht_deg[1]) ht_build(p, 1, Jl);
+    ht_horner3(p->ht_e[1], p->ht_d[1], p->ht_e[0], Jm, dm, r0);    /* TE wg, its derivative, cogging */
+    ht_horner3(p->ht_e[2], p->ht_d[2], p->ht_d[2], Jl, dl, r1);    /* TE output, its derivative */
+    if (p->prm.te_enabled) { *te = r0[0] + r1[0]; *de_m = r0[1]; *de_l = r1[1]; }
+    else { *te = 0.0; *de_m = 0.0; *de_l = 0.0; }
+    *tcog = p->prm.cogging_enabled ? r0[2] : 0.0;
     return 1;
+}
+
+/* Move the anchor to (th_m, th_l): rotate the stored harmonics by n * (new - old), or seed
+ * them from libm cos/sin and the power chain (first time, every TRIG_SYNC re-anchorings, or
+ * a move beyond the rotation's range).  The coefficients are formed again on demand. */
+static void harm_anchor(hd_plant *p, double th_m, double th_l)
+{
+    const double dm = th_m - p->ha_th[0], dl = th_l - p->ha_th[1];
+    int32_t k, l;
+    if (p->ha_valid && p->ha_n < TRIG_SYNC && fabs(dm) * p->hmax[0] < ROT_MAX && fabs(dl) * p->hmax[1] < ROT_MAX) {
+        for (l = 0; l < 3; l++) {
+            const double d = l == 2 ? dl : dm;
+            for (k = 0; k < p->hn_int[l]; k++)
+                rot_poly(p->hc0[l][k], p->hs0[l][k], p->hfo[l][k] * d, &p->hc0[l][k], &p->hs0[l][k]);
+        }
+        p->ha_n++;
+    } else {
+        double de_m, de_l, tcog, cm = cos(th_m), sm = sin(th_m), cl = cos(th_l), sl = sin(th_l);
+        (void)harm_eval(p, th_m, cm, sm, th_l, cl, sl, &de_m, &de_l, &tcog, p->hc0, p->hs0);
+        p->ha_n = 0;
+    }
+    p->ha_th[0] = th_m;
+    p->ha_th[1] = th_l;
+    p->ha_valid = 1;
+    p->ht_deg[0] = p->ht_deg[1] = -1;
 }
 
 static double cogging_energy(const hd_plant_params *q, double th_m)
@@ -708,8 +821,6 @@ static void base_cache(hd_plant *p, substep_ctx *c)
     }
 }
 
-#define TRIG_SYNC 64
-
 static int need_trig_m(const hd_plant_params *q) { return q->te_enabled || q->cogging_enabled; }
 static int need_trig_l(const hd_plant *p) { return (p->prm.te_enabled && p->has_te_out) || p->prm.gravity_enabled; }
 
@@ -799,7 +910,8 @@ static void stage(hd_plant *p, const substep_ctx *c, double s, const xstate *x0,
     const double dm = xt->th_m - x0->th_m, dl = xt->th_l - x0->th_l;
     pos_part pp;
     if (need_trig_l(p)) rot_small(t0[2], t0[3], xt->th_l, dl, &cl, &sl);
-    if (!harm_eval_rot(p, dm, dl, &pp.te, &pp.de_m, &pp.de_l, &pp.Tcog, NULL, NULL)) {
+    if (!p->h_rot_ok || p->h_libm
+        || !harm_eval_taylor(p, xt->th_m - p->ha_th[0], xt->th_l - p->ha_th[1], &pp.te, &pp.de_m, &pp.de_l, &pp.Tcog)) {
         if (need_trig_m(&p->prm)) rot_small(t0[0], t0[1], xt->th_m, dm, &cm, &sm);
         pp.te = harm_eval(p, xt->th_m, cm, sm, xt->th_l, cl, sl, &pp.de_m, &pp.de_l, &pp.Tcog, NULL, NULL);
     }
@@ -818,20 +930,26 @@ static void end_eval(hd_plant *p)
     p->n_end_eval++;
     /* cos/sin at the end of the sub-step: a small rotation from the start (the last end
      * evaluation), refreshed from libm every TRIG_SYNC evaluations so that rounding
-     * cannot accumulate (each rotation is good to about one ulp); the harmonics likewise
-     * (harm_eval_rot), refreshed from the powers of the libm values at the same time */
+     * cannot accumulate (each rotation is good to about one ulp); the harmonics by their
+     * series about the anchor (harm_eval_taylor) */
     if (p->end_valid && p->trig_n < TRIG_SYNC) {
         const double dm = x.th_m - p->end_th_m, dl = x.th_l - p->end_th_l;
         if (need_trig_m(q)) rot_small(p->end_cm, p->end_sm, x.th_m, dm, &cm, &sm);
         if (need_trig_l(p)) rot_small(p->end_cl, p->end_sl, x.th_l, dl, &cl, &sl);
-        rotated = harm_eval_rot(p, dm, dl, &te, &de_m, &de_l, &p->end_Tcog, p->hc0, p->hs0);
         p->trig_n++;
     } else {
         if (need_trig_m(q)) { cm = cos(x.th_m); sm = sin(x.th_m); }
         if (need_trig_l(p)) { cl = cos(x.th_l); sl = sin(x.th_l); }
         p->trig_n = 0;
     }
-    if (!rotated) te = harm_eval(p, x.th_m, cm, sm, x.th_l, cl, sl, &de_m, &de_l, &p->end_Tcog, p->hc0, p->hs0);
+    if (p->h_rot_ok && !p->h_libm) {
+        /* TE and cogging by the series about the anchor, moved here when beyond its radius */
+        const double ra = p->ht_xb[HT_JANCHOR];
+        if (!p->ha_valid || fabs(x.th_m - p->ha_th[0]) * p->hmax[0] > ra || fabs(x.th_l - p->ha_th[1]) * p->hmax[1] > ra)
+            harm_anchor(p, x.th_m, x.th_l);
+        rotated = harm_eval_taylor(p, x.th_m - p->ha_th[0], x.th_l - p->ha_th[1], &te, &de_m, &de_l, &p->end_Tcog);
+    }
+    if (!rotated) te = harm_eval(p, x.th_m, cm, sm, x.th_l, cl, sl, &de_m, &de_l, &p->end_Tcog, NULL, NULL);
     phi = x.th_m * p->inv_ratio + te - x.th_l;
     if (q->maxwell_enabled) {
         for (k = 0; k < q->maxwell_n; k++) {

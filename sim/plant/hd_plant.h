@@ -41,6 +41,8 @@ extern "C" {
 #define HD_PLANT_MAX_MAXWELL  8   /* Maxwell-slip elements */
 #define HD_PLANT_PREISACH_L  32   /* Preisach input levels (Everett table L+1 x L+1) */
 #define HD_PLANT_PREISACH_STACK 80 /* memory depth (oldest pair merged when full) */
+#define HD_PLANT_HT_JMAX 10  /* highest degree of the harmonics' Taylor series (internal) */
+#define HD_PLANT_HT_NTAB 58  /* octaves of the series' degree table (internal) */
 #define HD_PLANT_POW_MAX (48 * HD_PLANT_MAX_HARM + 1) /* power-chain entries (24 per integer order <= 4096) */
 
 /* Error codes (negative) returned by the functions below. */
@@ -313,9 +315,16 @@ typedef struct {
     uint32_t pw_ord[2][HD_PLANT_POW_MAX];
     double   hfo[3][HD_PLANT_MAX_HARM], hamp[3][HD_PLANT_MAX_HARM], hampn[3][HD_PLANT_MAX_HARM];
     double   hc0[3][HD_PLANT_MAX_HARM], hs0[3][HD_PLANT_MAX_HARM]; /* cos/sin(n theta + phase) of each integer-
-                                                                     order harmonic at the last end evaluation */
+                                                                     order harmonic at the anchor angle ha_th */
     double   hmax[2];                 /* largest integer order on chain 0 (theta_m) and 1 (theta_l) */
-    int32_t  h_rot_ok;                /* 1: stages rotate the end evaluation's harmonics (tests set 0) */
+    int32_t  h_rot_ok;                /* 1: harmonics by Taylor series about an anchor (tests set 0: power chain) */
+    double   ha_th[2];                /* anchor angles of the series: theta_m (chain 0), theta_l (chain 1) */
+    int32_t  ha_valid, ha_n;          /* anchor set; re-anchorings by rotation since the last libm seed */
+    int32_t  ht_deg[2];               /* highest degree whose coefficients are formed, per chain (-1: none) */
+    double   ht_xb[HD_PLANT_HT_JMAX + 1];  /* radius of degree J in n_max |d| */
+    int32_t  ht_jtab[HD_PLANT_HT_NTAB];    /* degree by the binary exponent of n_max |d| */
+    double   ht_w[3][HD_PLANT_MAX_HARM][HD_PLANT_HT_JMAX + 2];  /* signed a n^j / j! per harmonic */
+    double   ht_e[3][HD_PLANT_HT_JMAX + 2], ht_d[3][HD_PLANT_HT_JMAX + 1]; /* series of the sums, derivatives */
     double   hcp[3][HD_PLANT_MAX_HARM], hsp[3][HD_PLANT_MAX_HARM], hph[3][HD_PLANT_MAX_HARM];
     double   k_dt, k_h, k_inv_h, k_E, k_Efac, k_gyro_a, k_gyro_sd, k_rot_c, k_rot_s, k_rot2_c, k_rot2_s; /* per-dt */
     double   enc_scale[2];
