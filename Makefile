@@ -30,7 +30,11 @@ SAN      := -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-fra
 HOST_CC  := gcc
 HOST_FW_CFLAGS := $(FW_STD) $(FW_WARN) -O1 -g $(SAN) $(FW_INC)
 # Host, optimised (simulator, virtual drive, Python binding): same code, no sanitizer.
-OPT_FW_CFLAGS  := $(FW_STD) $(FW_WARN) -O2 -g -fPIC -fno-semantic-interposition $(FW_INC)
+# On x86-64 these target x86-64-v2 where the compiler knows it (SSE4.1 rounding: floor and
+# nearbyint in one instruction, no libm call): the same results bit for bit (no FMA in v2,
+# and -std=c99 forbids contraction), about 5 % faster simulation (docs/sim.md "Speed").
+OPT_ARCH := $(if $(filter x86_64,$(shell uname -m)),$(shell $(HOST_CC) -march=x86-64-v2 -E -x c /dev/null >/dev/null 2>&1 && echo -march=x86-64-v2))
+OPT_FW_CFLAGS  := $(FW_STD) $(FW_WARN) -O2 $(OPT_ARCH) -g -fPIC -fno-semantic-interposition $(FW_INC)
 
 # Cortex-M4 (emulated for bit-exactness and instruction counts; STM32G474 ABI is hard-float
 # but the core is integer-only, so soft-float objects prove no FP helper is called).
@@ -48,7 +52,7 @@ SIM_SRC     := $(wildcard sim/plant/*.c)
 SIM_INC     := -Isim/plant -Isim/harness
 SIM_WARN    := -Wall -Wextra -Wshadow -Werror
 HOST_SIM_CFLAGS := -std=c99 -D_POSIX_C_SOURCE=200809L $(SIM_WARN) -O1 -g $(SAN) $(SIM_INC)
-OPT_SIM_CFLAGS  := -std=c99 -D_POSIX_C_SOURCE=200809L $(SIM_WARN) -O2 -g -fPIC -fno-semantic-interposition $(SIM_INC)
+OPT_SIM_CFLAGS  := -std=c99 -D_POSIX_C_SOURCE=200809L $(SIM_WARN) -O2 $(OPT_ARCH) -g -fPIC -fno-semantic-interposition $(SIM_INC)
 HOST_SIM_OBJ := $(patsubst %.c,$(B)/host/obj/%.o,$(SIM_SRC))
 OPT_SIM_OBJ  := $(patsubst %.c,$(B)/opt/obj/%.o,$(SIM_SRC))
 

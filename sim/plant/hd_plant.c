@@ -197,7 +197,7 @@ static double sat_pot(double x, double d)   /* integral of sat_d from 0 to x */
     return ax <= d ? 0.5 * x * x : d * ax - 0.5 * d * d;
 }
 
-static double spring_torque(const hd_plant *p, double phi)
+static inline __attribute__((always_inline)) double spring_torque(const hd_plant *p, double phi)
 {
     const hd_plant_params *q = &p->prm;
     double t = 0.0;
@@ -676,7 +676,7 @@ static void param_drift(hd_plant *p)
 }
 
 /* Stribeck level g(v) > 0 for the direction of v (v == 0: positive side). */
-static double stribeck_g(hd_plant *p, int side, const hd_plant_friction_params *f, double v)
+static inline __attribute__((always_inline)) double stribeck_g(hd_plant *p, int side, const hd_plant_friction_params *f, double v)
 {
     const int neg = v < 0.0;                 /* table look-up, no branch on the sign */
     const double fc = p->fr_fc[side][neg], dfs = p->fr_dfs[side][neg];
@@ -689,7 +689,7 @@ static double stribeck_g(hd_plant *p, int side, const hd_plant_friction_params *
 
 /* g(v) of side 0 (motor) / 1 (load) and its reciprocal, memoised on the last velocity
  * (the end-of-step evaluation and the next step's first stage share the velocity). */
-static double stribeck_m(hd_plant *p, int side, const hd_plant_friction_params *f, double v)
+static inline __attribute__((always_inline)) double stribeck_m(hd_plant *p, int side, const hd_plant_friction_params *f, double v)
 {
     if (v != p->fr_v[side]) {
         p->fr_v[side] = v;
@@ -721,7 +721,7 @@ static double lugre_z(const hd_plant_friction_params *f, double z0, double v, do
     return z0 * (1.0 + em1) + v * s * (em1 / x);
 }
 
-static double lugre_force(hd_plant *p, int side, const hd_plant_friction_params *f, double z0, double v, double s)
+static inline __attribute__((always_inline)) double lugre_force(hd_plant *p, int side, const hd_plant_friction_params *f, double z0, double v, double s)
 {
     double z, zd;
     (void)stribeck_m(p, side, f, v);
