@@ -12,6 +12,11 @@ then carries one FOC period instead of two, one ADC interrupt instead of two
 and one set of port register accesses; the frame decode and the step are the
 same.
 
+The control period runs a multi-rate schedule (firmware/app/hd_sched.h): each tick
+of a cycle carries its own slot of the slow work.  ``isr_worst_case`` is the worst
+tick of the cycle (cm4_cost.json folds the per-tick kernels ``isr_worst_case.s<k>``,
+every tick measured); isr_load.json lists every tick under ``schedule``.
+
 Worst-case control period = kernel ``isr_worst_case`` (tests/golden/gv_foc.c):
 hd_app_step with every compensator of the bank enabled and set up as
 control_step_full (Preisach table installed, LuGre observer and TE gains on,
@@ -122,6 +127,12 @@ def main() -> int:
         "cpu_load": round(load, 4),
         "within_target": load <= TARGET,
     }
+    if "slots" in k["isr_worst_case"]:
+        # the multi-rate schedule (firmware/app/hd_sched.h): every tick of one cycle, the worst counts
+        sl = k["isr_worst_case"]["slots"]
+        out["schedule"] = {"ticks_per_cycle": len(sl), "worst_tick": k["isr_worst_case"]["worst_slot"],
+                           "tick_instructions": sl,
+                           "tick_cpu_load": [round((n * CPI + sum(ALLOW_CYCLES.values())) / budget, 4) for n in sl]}
     if PHASES_SRC.exists() and "ssi_decode" in k:
         ph = json.loads(PHASES_SRC.read_text())["kernels"].get("isr_worst_case", {}).get("phases_instructions")
         if ph:
@@ -138,6 +149,10 @@ def main() -> int:
           f"(target <= {100 * TARGET:.0f} %: {'met' if load <= TARGET else 'NOT met'})")
     for n, v in parts.items():
         print(f"  {n:24s} {v:6d} instructions ({100 * v * CPI / budget:.1f} %)")
+    if "schedule" in out:
+        sc = out["schedule"]
+        print(f"  schedule: {sc['ticks_per_cycle']} ticks per cycle, worst tick {sc['worst_tick']}: "
+              + ", ".join(str(n) for n in sc["tick_instructions"]))
     for n, v in out.get("phases_instructions", {}).items():
         print(f"  phase {n:36s} {v:6d} instructions")
     for n, v in out.get("slack", {}).items():

@@ -513,14 +513,15 @@ static void test_te_output_lines(void **st)
     for (int deg = -170; deg <= 180; deg += 35) {
         in.pos_out = (hd_angle_t)llround(deg / 360.0 * 4294967296.0) + ((hd_angle_t)3 << 32);   /* 3 turns on */
         in.pos_mot = in.pos_out * N_RATIO;
-        for (int k = 0; k < 3; k++) hd_comp_bank_pre(&b, &c, &in, &o);
+        /* TE runs once per schedule cycle (hd_sched.h): one cycle sees a step at the new position */
+        for (int k = 0; k < (int)HD_SCHED_CYCLE; k++) hd_comp_bank_pre(&b, &c, &in, &o);
         const double expect = -amp * sin(2.0 * TEST_PI * (deg / 360.0 + ph)) * 4294967296.0;
         assert_true(fabs((double)o.dpos - expect) <= 2.0);
     }
     /* switched off: the correction ramps out with the wave-generator lines */
     c.enable = 0u;
     hd_comp_bank_apply(&b, &c);
-    for (int k = 0; k < 3; k++) hd_comp_bank_pre(&b, &c, &in, &o);
+    for (int k = 0; k < 2 * (int)HD_SCHED_CYCLE; k++) hd_comp_bank_pre(&b, &c, &in, &o);
     assert_int_equal(o.dpos, 0);
 }
 
