@@ -63,3 +63,35 @@ def test_golden_images_register_every_tick_of_the_cycle() -> None:
             names.setdefault(base, set()).add(int(k))
     for base in SCHEDULED:
         assert names.get(base) == set(range(cycle)), f"{base}: ticks {sorted(names.get(base, ()))}"
+
+
+def _load_script(path: Path, name: str) -> ModuleType:
+    spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_phase_probe_folds_the_worst_tick() -> None:
+    m = _load_script(ROOT / "tests" / "bench" / "phase" / "phase_cost.py", "phase_cost_tool")
+    ph = lambda cb, lp: {"sensors": 400, "comp_bank": cb, "loops": lp}          # noqa: E731
+    res = {f"k.s{t}": {"phases_instructions": ph(cb, lp), "sum": 400 + cb + lp, "kernel_instructions": None}
+           for t, (cb, lp) in enumerate([(700, 600), (900, 500), (800, 650), (600, 600)])}
+    f = m.fold_ticks(res)["k"]
+    assert f["worst_tick"] == 2                                   # the largest period, not the largest bank
+    assert f["ticks"]["comp_bank"] == [700, 900, 800, 600]
+    assert f["worst_instructions"]["comp_bank"] == 900            # the bank's own worst over the ticks
+    assert f["worst_instructions"]["loops"] == 650
+
+
+def test_isr_load_reports_the_bank_phase_per_configuration() -> None:
+    m = _load_script(ROOT / "tests" / "bench" / "50_isr_load.py", "isr_load_tool")
+    k = {"control_step_full": {"ticks": {"comp_bank": [800, 850, 700]}},
+         "control_step_dual": {"ticks": {"comp_bank": [800, 851, 700]}},
+         "control_step_baseline": {"phases_instructions": {"comp_bank": 200}}}
+    out = m.comp_bank_phase(k)
+    assert out["control_step_full"] == {"worst_instructions": 850, "tick_instructions": [800, 850, 700],
+                                        "within_budget": True}
+    assert out["control_step_dual"]["within_budget"] is False
+    assert "control_step_semi" not in out and "control_step_baseline" not in out
