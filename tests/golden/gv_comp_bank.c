@@ -170,6 +170,26 @@ static void cost_fb(int32_t fb, uint32_t slot)
     hd_gv_cost_mark();
 }
 
+/* the first period after the loops start (mode entry, reset): the bank evaluates every
+ * compensator at once (hd_comp_bank_pre, hd_sched.h), once per start */
+static void cost_entry(void)
+{
+    int32_t in[2 * 16];
+    int32_t out[4 * 16];
+    hd_gv_rng_t r;
+    uint32_t i;
+    r.s = 4242u;
+    for (i = 0; i < 16u; i++) {
+        gen_full(i, &r, &in[2u * i]);
+    }
+    run_full(in, out, 16u);
+    gv_app_stub_sensors(((uint32_t)in[30] + 5u) & 0x1FFFFu, ((uint32_t)in[31] + 1u) & 0xFFFFFFu);
+    gv_full.cb.dpos_primed = 0u;            /* as the app's loop reset leaves it */
+    hd_gv_cost_mark();
+    hd_app_step(&gv_full);
+    hd_gv_cost_mark();
+}
+
 /* one cost kernel per tick of the schedule (hd_sched.h); tools/cm4_cost.py takes the worst */
 static void cost_full_s0(void) { cost_full(0u); }
 static void cost_full_s1(void) { cost_full(1u); }
@@ -200,6 +220,7 @@ const hd_gv_kernel_t hd_gv_comp_bank_kernels[] = {
     {"control_step_full", 2u, 4u, 256u, gen_full, run_full, NULL},
     {"control_step_semi", 2u, 4u, 256u, gen_full, run_semi, NULL},
     {"control_step_dual", 2u, 4u, 256u, gen_full, run_dual, NULL},
+    {"control_step_entry", 2u, 4u, 8u, gen_full, run_full, cost_entry},
     {"control_step_full.s0", 2u, 4u, 8u, gen_full, run_full, cost_full_s0},
     {"control_step_full.s1", 2u, 4u, 8u, gen_full, run_full, cost_full_s1},
     {"control_step_full.s2", 2u, 4u, 8u, gen_full, run_full, cost_full_s2},
