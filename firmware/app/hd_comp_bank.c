@@ -229,10 +229,9 @@ static int64_t ex_sample(hd_cb_extrap_t *x, int64_t smp)
 }
 
 /* A tick without a sample: one increment further */
-static int64_t ex_tick(hd_cb_extrap_t *x)
+static void ex_tick(hd_cb_extrap_t *x)
 {
     x->v = hdf_add64_sat(x->v, x->inc);
-    return x->v;
 }
 
 /* the estimator from the Stribeck FF parameters, empty bins */
@@ -479,16 +478,111 @@ static void preisach_tick(hd_comp_bank_t *b, uint32_t k, uint32_t budget)
     b->pr.out = b->pr_dth;
 }
 
+/* ---- the slow work, one function per part of a slot (hd_sched.h) ---- */
+
+/* LuGre, one step of HD_SCHED_CYCLE periods in three parts: g(v) and z_ss at the velocity
+ * of its first tick, the step's exponential factor, the bristle update and torque */
+static void lugre_g(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in)
+{
+    if (running(b, HD_CB_LUGRE, &b->lug.blend)) {
+        hd_lugre_prep_g(&b->lug, &c->lug, (c->lug_v_src != 0u) ? in->vel_fb : in->vel_ref);
+    }
+}
+
+static void lugre_exp(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    if (running(b, HD_CB_LUGRE, &b->lug.blend)) {
+        hd_lugre_prep_exp_n(&b->lug, &c->lug, HD_SCHED_CYCLE);
+    }
+}
+
+static void lugre_finish(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in)
+{
+    if (running(b, HD_CB_LUGRE, &b->lug.blend)) {
+        (void)hd_lugre_finish_n(&b->lug, &c->lug, hdf_sub64_sat(in->pos_out, in->pos_ref), HD_SCHED_CYCLE);
+    }
+}
+
+/* disturbance observer at the slow rate: x += a (T + g J w - x), d = x - g J w (states
+ * Q15.16 x 2^16, a = 1 - exp(-g T_slow)) */
+static void dob_step(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in)
+{
+    const int64_t gjw = hdf_mul64x32_q((int64_t)c->dob_gj, in->vel_fb, 16u);      /* Q15.16 x 2^16 */
+    if (running(b, HD_CB_DOB, &b->dob_blend)) {
+        const int64_t drive = hdf_add64_sat(hdf_shl64_sat((int64_t)b->t_prev, 16u), gjw);
+        b->dob_x = hdf_add64_sat(b->dob_x, hdf_mul64x32_q(hdf_sub64_sat(drive, b->dob_x), c->dob_g_t, 30u));
+        const int32_t d = hdf_sat32(hdf_asr64_rnd(hdf_sub64_sat(b->dob_x, gjw), 16u));
+        (void)hd_blend_update(&b->dob_blend);
+        b->dob_d = hd_blend_apply(&b->dob_blend, d);
+    } else {
+        /* cold: restart from d = 0 at the next enable */
+        b->dob_x = gjw;
+        b->dob_d = 0;
+    }
+}
+
+/* Maxwell-slip at the position reference; extrapolated in the other ticks */
+static void maxwell(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in, bool all)
+{
+    if (running(b, HD_CB_MAXWELL, &b->mx.blend)) {
+        if (all) {
+            ex_reset(&b->mx_x);     /* no increment from a sample of an earlier run */
+        }
+        (void)ex_sample(&b->mx_x, hd_maxwell_step(&b->mx, &c->mx, in->pos_ref));
+        if (!hd_blend_active(&b->mx.blend)) {
+            ex_reset(&b->mx_x);     /* ramped out: 0 from now on */
+        }
+    } else {
+        ex_reset(&b->mx_x);
+    }
+}
+
+/* the compliance twist at the held torque estimate: the output lags motor / N by it */
+static void compliance(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    if (running(b, HD_CB_COMPLIANCE, &b->cp_blend)) {
+        (void)hd_blend_update(&b->cp_blend);
+        b->cp_dth = hd_blend_apply(&b->cp_blend, hd_compliance_twist(&c->cp, b->pr_yd));
+    }
+}
+
+/* TE at the motor angle, with its slope for the ticks until the next step */
+static void te_step(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in)
+{
+    if (running(b, HD_CB_TE, &b->te.blend)) {
+        b->te_dth = hd_te_comp_step_slope(&b->te, &c->te, in->pos_mot, &b->te_slope);
+        b->te_mot = in->pos_mot;
+        b->te_out_dth = 0;
+        if (c->te_out.n > 0u) {
+            /* output-side lines at the output position the loop knows (semi-closed: the estimate;
+             * a line of one per output turn moves by far less than an LSB between the two),
+             * held: the output moves N times less than the motor */
+            b->te_out = hd_te_model(&c->te_out, in->pos_out);
+            b->te_out_dth = hd_blend_mix64(&b->te.blend, 0, hdf_neg64_sat(b->te_out));
+        }
+    }
+}
+
+/* The torque estimate and the Preisach twist, when either of its users runs */
+static bool estimate_needed(const hd_comp_bank_t *b)
+{
+    return running(b, HD_CB_PREISACH, &b->pr.blend) || running(b, HD_CB_COMPLIANCE, &b->cp_blend);
+}
+
+static void preisach(hd_comp_bank_t *b, uint32_t k, uint32_t budget)
+{
+    if (running(b, HD_CB_PREISACH, &b->pr.blend)) {
+        preisach_tick(b, k, budget);
+    }
+}
+
 void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in,
                       hd_comp_bank_out_t *out)
 {
     int32_t tff = 0;
-    int64_t dpos = 0;
+    int64_t dpos;
     int32_t dv_i;
-    const bool pr_on = running(b, HD_CB_PREISACH, &b->pr.blend);
-    const bool cp_on = running(b, HD_CB_COMPLIANCE, &b->cp_blend);
     const uint32_t k = b->tick & (HD_SCHED_CYCLE - 1u);
-    const hd_slot_t slot = hd_sched_slot(k);
     /* the first period after the loops start (app reset, mode entry) evaluates every
      * compensator, so that the entry sees the whole correction (bumpless, hd_feedback.h);
      * the schedule then goes on from there */
@@ -500,95 +594,69 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
     }
     dv_i = pki_step(b, c, in);
 
-    /* friction: Stribeck map every period (also the torque estimate's model) and LuGre */
-    if (running(b, HD_CB_STRIBECK, &b->str.blend) || pr_on || cp_on) {
+    /* friction: the Stribeck map every period (also the torque estimate's model) */
+    if (running(b, HD_CB_STRIBECK, &b->str.blend) || estimate_needed(b)) {
         /* while the estimate is fed in (or ramping out): its config, else the parameters */
         const hd_stribeck_cfg_t *sc = hd_fric_est_feeding(&b->fe) ? &b->fe_str : &c->str;
-        tff = hdf_add_sat(tff, hd_stribeck_step(&b->str, sc, in->vel_ref, in->vel_fb));
-    }
-    if (running(b, HD_CB_LUGRE, &b->lug.blend)) {
-        /* one step of HD_SCHED_CYCLE periods in three parts: g(v) and z_ss at the velocity of
-         * slot 0, the step's exponential factor in slot 1, the bristle update and torque in slot 2 */
-        if (slot == HD_SLOT_LUGRE_G || all) {
-            hd_lugre_prep_g(&b->lug, &c->lug, (c->lug_v_src != 0u) ? in->vel_fb : in->vel_ref);
-        }
-        if (slot == HD_SLOT_LUGRE_EXP || all) {
-            hd_lugre_prep_exp_n(&b->lug, &c->lug, HD_SCHED_CYCLE);
-        }
-        if (slot == HD_SLOT_LUGRE_FINISH || all) {
-            (void)hd_lugre_finish_n(&b->lug, &c->lug, hdf_sub64_sat(in->pos_out, in->pos_ref), HD_SCHED_CYCLE);
-        }
-        tff = hdf_add_sat(tff, b->lug.tau);            /* held between its steps */
+        tff = hd_stribeck_step(&b->str, sc, in->vel_ref, in->vel_fb);
     }
 
-    /* disturbance observer at the slow rate (its slot): x += a (T + g J w - x), d = x - g J w
-     * (states Q15.16 x 2^16, a = 1 - exp(-g T_slow)); d held between its steps */
-    if (running(b, HD_CB_DOB, &b->dob_blend)) {
-        if (slot == HD_SLOT_DOB || all) {
-            const int64_t gjw = hdf_mul64x32_q((int64_t)c->dob_gj, in->vel_fb, 16u);      /* Q15.16 x 2^16 */
-            const int64_t drive = hdf_add64_sat(hdf_shl64_sat((int64_t)b->t_prev, 16u), gjw);
-            b->dob_x = hdf_add64_sat(b->dob_x, hdf_mul64x32_q(hdf_sub64_sat(drive, b->dob_x), c->dob_g_t, 30u));
-            const int32_t d = hdf_sat32(hdf_asr64_rnd(hdf_sub64_sat(b->dob_x, gjw), 16u));
-            (void)hd_blend_update(&b->dob_blend);
-            b->dob_d = hd_blend_apply(&b->dob_blend, d);
+    /* the slow work of this tick (every part in the first period); the torque estimate from
+     * the command (pr_t_src 0) every period: it closes a loop through the torque command */
+    if (all) {
+        lugre_g(b, c, in);
+        lugre_exp(b, c);
+        lugre_finish(b, c, in);
+        dob_step(b, c, in);
+        maxwell(b, c, in, true);
+        if (estimate_needed(b)) {
+            torque_estimate(b, c, in);
+            preisach(b, (uint32_t)HD_SLOT_PREISACH, UINT32_MAX);           /* the whole search */
+            compliance(b, c);
         }
-        tff = hdf_add_sat(tff, b->dob_d);
+        te_step(b, c, in);
     } else {
-        /* cold: restart from d = 0 at the next enable */
-        b->dob_x = hdf_mul64x32_q((int64_t)c->dob_gj, in->vel_fb, 16u);
-        b->dob_d = 0;
-    }
-
-    /* position corrections (output-referred motor lead), each in its slot, extrapolated
-     * (Maxwell-slip, TE) or held (Preisach, compliance) in the other ticks */
-    if (running(b, HD_CB_MAXWELL, &b->mx.blend)) {
-        if (all) {
-            ex_reset(&b->mx_x);     /* no increment from a sample of an earlier run */
-        }
-        dpos = hdf_add64_sat(dpos, (slot == HD_SLOT_MAXWELL_EST || all) ?
-                             ex_sample(&b->mx_x, hd_maxwell_step(&b->mx, &c->mx, in->pos_ref)) : ex_tick(&b->mx_x));
-    } else {
-        ex_reset(&b->mx_x);
-    }
-    if (pr_on || cp_on) {
-        if (slot == HD_SLOT_MAXWELL_EST || all || c->pr_t_src == 0u) {
+        if (c->pr_t_src == 0u && estimate_needed(b)) {
             torque_estimate(b, c, in);
         }
-        if (pr_on) {
-            if (all) {
-                preisach_tick(b, (uint32_t)HD_SLOT_PREISACH, UINT32_MAX);    /* the whole search */
-            } else if (slot == HD_SLOT_PREISACH) {
-                preisach_tick(b, k, HD_SCHED_PR_TRIALS);
+        ex_tick(&b->mx_x);          /* Maxwell-slip one increment on (its slot samples anew) */
+        switch (hd_sched_slot(k)) {
+        case HD_SLOT_LUGRE_G:
+            lugre_g(b, c, in);
+            break;
+        case HD_SLOT_LUGRE_EXP:
+            lugre_exp(b, c);
+            dob_step(b, c, in);
+            break;
+        case HD_SLOT_LUGRE_FINISH:
+            lugre_finish(b, c, in);
+            compliance(b, c);
+            break;
+        case HD_SLOT_TE:
+            te_step(b, c, in);
+            break;
+        case HD_SLOT_MAXWELL_EST:
+            maxwell(b, c, in, false);
+            if (c->pr_t_src != 0u && estimate_needed(b)) {
+                torque_estimate(b, c, in);
             }
-            dpos = hdf_add64_sat(dpos, (int64_t)b->pr_dth);
-        }
-        if (cp_on) {
-            if (slot == HD_SLOT_LUGRE_FINISH || all) {
-                /* the gear's elastic twist at that torque: the output lags motor / N by it */
-                (void)hd_blend_update(&b->cp_blend);
-                b->cp_dth = hd_blend_apply(&b->cp_blend, hd_compliance_twist(&c->cp, b->pr_yd));
-            }
-            dpos = hdf_add64_sat(dpos, (int64_t)b->cp_dth);
+            break;
+        default:
+            preisach(b, k, HD_SCHED_PR_TRIALS);
+            break;
         }
     }
-    if (running(b, HD_CB_TE, &b->te.blend)) {
-        if (slot == HD_SLOT_TE || all) {
-            b->te_dth = hd_te_comp_step_slope(&b->te, &c->te, in->pos_mot, &b->te_slope);
-            b->te_mot = in->pos_mot;
-            b->te_out_dth = 0;
-            if (c->te_out.n > 0u) {
-                /* output-side lines at the output position the loop knows (semi-closed: the estimate;
-                 * a line of one per output turn moves by far less than an LSB between the two),
-                 * held: the output moves N times less than the motor */
-                b->te_out = hd_te_model(&c->te_out, in->pos_out);
-                b->te_out_dth = hd_blend_mix64(&b->te.blend, 0, hdf_neg64_sat(b->te_out));
-            }
-        }
-        /* between its steps: first order in the motor angle's change since (its slope at the
-         * step), not in time: the motor angle is fed back, a prediction in time is a delay */
-        dpos = hdf_add64_sat(dpos, hdf_add64_sat(hdf_add64_sat(b->te_dth, b->te_out_dth),
-                             hdf_mul64x32_q(hdf_sub64_sat(in->pos_mot, b->te_mot), b->te_slope, 32u)));
-        tff = hdf_add_sat(tff, b->te.tau);               /* held between its steps */
+
+    /* the held torques (0 for a compensator that is off: its last step had weight 0) */
+    tff = hdf_add_sat(tff, hdf_add_sat(hdf_add_sat(b->lug.tau, b->dob_d), b->te.tau));
+    /* position corrections (output-referred motor lead): held (Preisach, compliance, the TE
+     * step's value), extrapolated (Maxwell-slip) and, between the TE steps, first order in the
+     * motor angle's change since (its slope at the step), not in time: the motor angle is fed
+     * back, a prediction in time is a delay */
+    dpos = hdf_add64_sat(hdf_add64_sat(hdf_add64_sat((int64_t)b->pr_dth, (int64_t)b->cp_dth),
+                                       hdf_add64_sat(b->te_dth, b->te_out_dth)), b->mx_x.v);
+    if (b->te_slope != 0) {
+        dpos = hdf_add64_sat(dpos, hdf_mul64x32_q(hdf_sub64_sat(in->pos_mot, b->te_mot), b->te_slope, 32u));
     }
 
     out->tff = tff;
