@@ -12,12 +12,18 @@ static int32_t prm(const int32_t *p, hd_param_id_t id)
     return p[id];
 }
 
-/* 1 - exp(-2 pi fc T) in Q30 from fc in Q16 Hz (at least 1 LSB) */
-static int32_t lpf_alpha(int32_t fc_q16)
+/* 1 - exp(-2 pi fc T) in Q30 from fc in Q16 Hz, T = 1 / rate_hz (at least 1 LSB) */
+static int32_t lpf_alpha_at(int32_t fc_q16, int32_t rate_hz)
 {
-    const int32_t x = hdf_sat32(hd_div64_rnd(hdf_mul64x32_q((int64_t)fc_q16, CB_TWO_PI_Q28, 28u), HD_LOOP_HZ));
+    const int32_t x = hdf_sat32(hd_div64_rnd(hdf_mul64x32_q((int64_t)fc_q16, CB_TWO_PI_Q28, 28u), rate_hz));
     const int32_t a = HD_Q30_ONE - hd_exp_neg_q16(x);
     return (a < 1) ? 1 : a;
+}
+
+/* the same at the control rate */
+static int32_t lpf_alpha(int32_t fc_q16)
+{
+    return lpf_alpha_at(fc_q16, HD_LOOP_HZ);
 }
 
 int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_COUNT])
@@ -80,7 +86,10 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
 
     /* Preisach inverse */
     c->pr_deadband = (uint32_t)prm(p, HD_P_PR_DEADBAND);
-    c->pr_alpha = lpf_alpha(prm(p, HD_P_PR_FC));
+    /* the estimate from the model runs once per cycle (slow rate), the one from the command every
+     * period: it closes a loop through the torque command, where the delay of a held estimate
+     * would cost the phase margin */
+    c->pr_alpha = lpf_alpha_at(prm(p, HD_P_PR_FC), (prm(p, HD_P_PR_T_SRC) != 0) ? (int32_t)HD_SCHED_SLOW_HZ : HD_LOOP_HZ);
     c->pr_share = prm(p, HD_P_PR_MOTOR_SHARE);
     c->pr_t_src = (uint32_t)prm(p, HD_P_PR_T_SRC);
     c->pr_jl = prm(p, HD_P_PR_JL);
@@ -175,26 +184,54 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
         return -1;
     }
 
-    /* disturbance observer: g T (Q30) and g J (Q15.16 N.m/(turn/s)) = 4 pi^2 fc J */
+    /* disturbance observer: its Q filter's step at the slow rate, 1 - exp(-g T_slow) (Q30; exact,
+     * so stable for every corner up to its 500 Hz maximum), and g J (Q15.16 N.m/(turn/s)) = 4 pi^2 fc J */
     {
         const int32_t fc = prm(p, HD_P_DOB_FC);
-        c->dob_g_t = hdf_sat32(hd_div64_rnd(hdf_mul64x32_q((int64_t)fc, CB_TWO_PI_Q28, 14u), HD_LOOP_HZ));
+        c->dob_g_t = lpf_alpha_at(fc, (int32_t)HD_SCHED_SLOW_HZ);
         c->dob_gj = hdf_sat32(hdf_mul64x32_q(hdf_mul64x32_q((int64_t)prm(p, HD_P_DOB_J), fc, 16u),
                                            CB_4PI2_Q24, 24u));
     }
     return 0;
 }
 
+/* Ramps in steps of each compensator: the decimated ones (hd_sched.h) step once per
+ * cycle, so the same time is ramp / HD_SCHED_CYCLE of their steps (rounded up). */
 static void set_blend_ramps(hd_comp_bank_t *b, uint32_t ramp)
 {
+    const uint32_t slow = (ramp + HD_SCHED_CYCLE - 1u) >> HD_SCHED_LOG2;
     b->str.blend.ramp_ticks = ramp;
-    b->lug.blend.ramp_ticks = ramp;
-    b->mx.blend.ramp_ticks = ramp;
-    b->pr.blend.ramp_ticks = ramp;
-    b->te.blend.ramp_ticks = ramp;
+    b->lug.blend.ramp_ticks = slow;
+    b->mx.blend.ramp_ticks = slow;
+    b->pr.blend.ramp_ticks = slow;
+    b->te.blend.ramp_ticks = slow;
     b->bs.blend.ramp_ticks = ramp;
-    b->dob_blend.ramp_ticks = ramp;
-    b->cp_blend.ramp_ticks = ramp;
+    b->dob_blend.ramp_ticks = slow;
+    b->cp_blend.ramp_ticks = slow;
+}
+
+static void ex_reset(hd_cb_extrap_t *x)
+{
+    x->v = 0;
+    x->last = 0;
+    x->inc = 0;
+    x->primed = 0u;
+}
+
+/* A new sample: the value now, and the increment of each tick until the next one */
+static int64_t ex_sample(hd_cb_extrap_t *x, int64_t smp)
+{
+    x->inc = (x->primed != 0u) ? hdf_asr64_rnd(hdf_sub64_sat(smp, x->last), HD_SCHED_LOG2) : 0;
+    x->last = smp;
+    x->v = smp;
+    x->primed = 1u;
+    return smp;
+}
+
+/* A tick without a sample: one increment further */
+static void ex_tick(hd_cb_extrap_t *x)
+{
+    x->v = hdf_add64_sat(x->v, x->inc);
 }
 
 /* the estimator from the Stribeck FF parameters, empty bins */
@@ -253,6 +290,14 @@ void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     b->pki_w = 0;
     b->pr_test = 0;
     b->cp_dth = 0;
+    b->tick = 0u;
+    b->pr_yd = 0;
+    ex_reset(&b->mx_x);
+    b->te_dth = 0;
+    b->te_out_dth = 0;
+    b->te_mot = 0;
+    b->te_slope = 0;
+    set_blend_ramps(b, r);
     fe_reset(b, c);
 }
 
@@ -295,6 +340,7 @@ void hd_comp_bank_apply(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
  * remanence would offset every predicted twist. */
 static void table_memory(hd_comp_bank_t *b)
 {
+    hd_preisach_inv_search_reset(&b->pr);       /* a search of the old table means nothing */
     hd_preisach_demagnetise(&b->pr.fwd, &b->table, hd_preisach_quantise(&b->table, 0));
 }
 
@@ -321,6 +367,7 @@ int32_t hd_comp_bank_adopt_table(hd_comp_bank_t *b)
 void hd_comp_bank_clear_table(hd_comp_bank_t *b)
 {
     b->table_ok = 0u;
+    hd_preisach_inv_search_reset(&b->pr);
 }
 
 /* A compensator is evaluated while enabled or while its weight is not 0 (ramping
@@ -377,107 +424,239 @@ static int32_t pki_step(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd
     return hdf_sat32(hdf_asr64_rnd(b->pki_i, 16u));
 }
 
-void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in,
-                      hd_comp_bank_out_t *out)
+/* The transmitted-torque estimate (Preisach and compliance), low-passed at pr_fc at the
+ * slow rate; the filtered value is held in b->pr_yd until the next cycle. */
+static void torque_estimate(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in)
 {
-    int32_t tff = 0;
-    int64_t dpos = 0;
-    int32_t dv_i;
-    const bool pr_on = running(b, HD_CB_PREISACH, &b->pr.blend);
-    const bool cp_on = running(b, HD_CB_COMPLIANCE, &b->cp_blend);
-
-    if (b->dpos_primed == 0u) {
-        b->pki_i = 0;           /* the loops were reset (app) or first period */
+    int32_t test;
+    if (c->pr_t_src != 0u) {
+        /* model: load-side friction (1 - share) F(v_ref) + J_L a_ref (2 pi J [Q16] acc [2^-24 turn/s^2])
+         * + the unbalance */
+        const int32_t fl = hdf_mul_q(b->str.tau_raw, hdf_sub_sat(HD_Q30_ONE, c->pr_share), 30u);
+        const int64_t ja = hdf_mul64x32_q(hdf_mul64x32_q((int64_t)c->pr_jl, in->acc_ref, 24u), CB_TWO_PI_Q28, 28u);
+        test = hdf_add_sat(fl, hdf_sat32(ja));
+        if (c->pr_mgl != 0) {
+            /* the unbalance the gear holds, mgl cos(output angle + offset): at rest it is the
+             * whole transmitted torque, so without it a position hold predicts no twist */
+            int32_t sn, cs;
+            hd_sincos_turn_fast((uint32_t)((uint64_t)in->pos_out & 0xFFFFFFFFu) + c->pr_g_off, &sn, &cs);
+            test = hdf_add_sat(test, hdf_mul_q(c->pr_mgl, cs, 30u));
+        }
+    } else {
+        /* command: t_prev - share F(v_ref) (includes the loop's reaction) */
+        test = hdf_sub_sat(b->t_prev, hdf_mul_q(b->str.tau_raw, c->pr_share, 30u));
     }
-    dv_i = pki_step(b, c, in);
+    b->pr_test = test;
+    const int64_t tg = hdf_shl64_sat((int64_t)test, 16u);
+    b->pr_t = hdf_add64_sat(b->pr_t, hdf_mul64x32_q(hdf_sub64_sat(tg, b->pr_t), c->pr_alpha, 30u));
+    b->pr_yd = hdf_sat32(hdf_asr64_rnd(b->pr_t, 16u));
+}
 
-    /* friction: Stribeck map (also the Preisach torque estimate's model) and LuGre */
-    if (running(b, HD_CB_STRIBECK, &b->str.blend) || pr_on || cp_on) {
-        /* while the estimate is fed in (or ramping out): its config, else the parameters */
-        const hd_stribeck_cfg_t *sc = hd_fric_est_feeding(&b->fe) ? &b->fe_str : &c->str;
-        tff = hdf_add_sat(tff, hd_stribeck_step(&b->str, sc, in->vel_ref, in->vel_fb));
+/* One Preisach tick (slots 5 .. 7 of hd_sched.h, k the tick in the cycle): the twist at
+ * the held torque estimate.  The blend steps once per cycle (its first Preisach tick). */
+static void preisach_tick(hd_comp_bank_t *b, uint32_t k, uint32_t budget)
+{
+    int32_t u = b->pr.u;
+    if (k == (uint32_t)HD_SLOT_PREISACH) {
+        (void)hd_blend_update(&b->pr.blend);
     }
+    if (b->table_ok == 0u) {
+        u = 0;
+    } else if (b->table.unit == HD_PREISACH_UNIT_TORQUE_TWIST) {
+        /* an identified image (hdservo identify) is the gear's torque -> twist
+         * operator itself: its forward output at the torque is the twist (once per cycle) */
+        if (k == (uint32_t)HD_SLOT_PREISACH) {
+            u = hdf_sat32(hd_preisach_step_p(&b->pr.fwd, &b->table, hd_preisach_quantise(&b->table, b->pr_yd)));
+        }
+    } else if (hd_preisach_inv_search(&b->pr, &b->table, (int64_t)b->pr_yd, budget)) {
+        /* a twist -> torque image (compsetup): the twist is its inverse at the torque; the
+         * bisection runs HD_SCHED_PR_TRIALS trials per tick, the twist changes when it ends */
+        u = hd_preisach_dequantise(&b->table, b->pr.fwd.p_prev);
+    }
+    b->pr.u = u;
+    b->pr_dth = hd_blend_apply(&b->pr.blend, u);
+    b->pr.out = b->pr_dth;
+}
+
+/* ---- the slow work, one function per part of a slot (hd_sched.h) ---- */
+
+/* LuGre, one step of HD_SCHED_CYCLE periods in three parts: g(v) and z_ss at the velocity
+ * of its first tick, the step's exponential factor, the bristle update and torque */
+static void lugre_g(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in)
+{
     if (running(b, HD_CB_LUGRE, &b->lug.blend)) {
-        const hd_vel_out_t v = (c->lug_v_src != 0u) ? in->vel_fb : in->vel_ref;
-        tff = hdf_add_sat(tff, hd_lugre_step(&b->lug, &c->lug, v, hdf_sub64_sat(in->pos_out, in->pos_ref)));
+        hd_lugre_prep_g(&b->lug, &c->lug, (c->lug_v_src != 0u) ? in->vel_fb : in->vel_ref);
     }
+}
 
-    /* disturbance observer: x' = g (T + g J w - x), d = x - g J w (states Q15.16 x 2^16) */
+static void lugre_exp(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    if (running(b, HD_CB_LUGRE, &b->lug.blend)) {
+        hd_lugre_prep_exp_n(&b->lug, &c->lug, HD_SCHED_CYCLE);
+    }
+}
+
+static void lugre_finish(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in)
+{
+    if (running(b, HD_CB_LUGRE, &b->lug.blend)) {
+        (void)hd_lugre_finish_n(&b->lug, &c->lug, hdf_sub64_sat(in->pos_out, in->pos_ref), HD_SCHED_CYCLE);
+    }
+}
+
+/* disturbance observer at the slow rate: x += a (T + g J w - x), d = x - g J w (states
+ * Q15.16 x 2^16, a = 1 - exp(-g T_slow)) */
+static void dob_step(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in)
+{
+    const int64_t gjw = hdf_mul64x32_q((int64_t)c->dob_gj, in->vel_fb, 16u);      /* Q15.16 x 2^16 */
     if (running(b, HD_CB_DOB, &b->dob_blend)) {
-        const int64_t gjw = hdf_mul64x32_q((int64_t)c->dob_gj, in->vel_fb, 16u);      /* Q15.16 x 2^16 */
         const int64_t drive = hdf_add64_sat(hdf_shl64_sat((int64_t)b->t_prev, 16u), gjw);
         b->dob_x = hdf_add64_sat(b->dob_x, hdf_mul64x32_q(hdf_sub64_sat(drive, b->dob_x), c->dob_g_t, 30u));
         const int32_t d = hdf_sat32(hdf_asr64_rnd(hdf_sub64_sat(b->dob_x, gjw), 16u));
         (void)hd_blend_update(&b->dob_blend);
         b->dob_d = hd_blend_apply(&b->dob_blend, d);
-        tff = hdf_add_sat(tff, b->dob_d);
     } else {
         /* cold: restart from d = 0 at the next enable */
-        b->dob_x = hdf_mul64x32_q((int64_t)c->dob_gj, in->vel_fb, 16u);
+        b->dob_x = gjw;
         b->dob_d = 0;
     }
+}
 
-    /* position corrections (output-referred motor lead) */
+/* Maxwell-slip at the position reference; extrapolated in the other ticks */
+static void maxwell(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in, bool all)
+{
     if (running(b, HD_CB_MAXWELL, &b->mx.blend)) {
-        dpos = hdf_add64_sat(dpos, hd_maxwell_step(&b->mx, &c->mx, in->pos_ref));
+        if (all) {
+            ex_reset(&b->mx_x);     /* no increment from a sample of an earlier run */
+        }
+        (void)ex_sample(&b->mx_x, hd_maxwell_step(&b->mx, &c->mx, in->pos_ref));
+        if (!hd_blend_active(&b->mx.blend)) {
+            ex_reset(&b->mx_x);     /* ramped out: 0 from now on */
+        }
+    } else {
+        ex_reset(&b->mx_x);
     }
-    if (pr_on || cp_on) {
-        /* transmitted torque estimate, low-passed (Preisach inverse and compliance) */
-        int32_t test;
-        if (c->pr_t_src != 0u) {
-            /* model: load-side friction (1 - share) F(v_ref) + J_L a_ref (2 pi J [Q16] acc [2^-24 turn/s^2])
-             * + the unbalance */
-            const int32_t fl = hdf_mul_q(b->str.tau_raw, hdf_sub_sat(HD_Q30_ONE, c->pr_share), 30u);
-            const int64_t ja = hdf_mul64x32_q(hdf_mul64x32_q((int64_t)c->pr_jl, in->acc_ref, 24u), CB_TWO_PI_Q28, 28u);
-            test = hdf_add_sat(fl, hdf_sat32(ja));
-            if (c->pr_mgl != 0) {
-                /* the unbalance the gear holds, mgl cos(output angle + offset): at rest it is the
-                 * whole transmitted torque, so without it a position hold predicts no twist */
-                int32_t sn, cs;
-                hd_sincos_turn_fast((uint32_t)((uint64_t)in->pos_out & 0xFFFFFFFFu) + c->pr_g_off, &sn, &cs);
-                test = hdf_add_sat(test, hdf_mul_q(c->pr_mgl, cs, 30u));
-            }
-        } else {
-            /* command: t_prev - share F(v_ref) (includes the loop's reaction) */
-            test = hdf_sub_sat(b->t_prev, hdf_mul_q(b->str.tau_raw, c->pr_share, 30u));
-        }
-        b->pr_test = test;
-        const int64_t tg = hdf_shl64_sat((int64_t)test, 16u);
-        b->pr_t = hdf_add64_sat(b->pr_t, hdf_mul64x32_q(hdf_sub64_sat(tg, b->pr_t), c->pr_alpha, 30u));
-        const int32_t yd = hdf_sat32(hdf_asr64_rnd(b->pr_t, 16u));
-        if (pr_on) {
-            int32_t u = 0;
-            (void)hd_blend_update(&b->pr.blend);
-            if (b->table_ok != 0u && b->table.unit == HD_PREISACH_UNIT_TORQUE_TWIST) {
-                /* an identified image (hdservo identify) is the gear's torque -> twist
-                 * operator itself: its forward output at the torque is the twist */
-                u = hdf_sat32(hd_preisach_step_p(&b->pr.fwd, &b->table, hd_preisach_quantise(&b->table, yd)));
-            } else if (b->table_ok != 0u) {
-                /* a twist -> torque image (compsetup): the twist is its inverse at the torque */
-                const int32_t pl = hd_preisach_inv_step_p(&b->pr, &b->table, (int64_t)yd);
-                u = hd_preisach_dequantise(&b->table, pl);
-            }
-            b->pr.u = u;
-            b->pr_dth = hd_blend_apply(&b->pr.blend, u);
-            b->pr.out = b->pr_dth;
-            dpos = hdf_add64_sat(dpos, (int64_t)b->pr_dth);
-        }
-        if (cp_on) {
-            /* the gear's elastic twist at that torque: the output lags motor / N by it */
-            (void)hd_blend_update(&b->cp_blend);
-            b->cp_dth = hd_blend_apply(&b->cp_blend, hd_compliance_twist(&c->cp, yd));
-            dpos = hdf_add64_sat(dpos, (int64_t)b->cp_dth);
-        }
+}
+
+/* the compliance twist at the held torque estimate: the output lags motor / N by it */
+static void compliance(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    if (running(b, HD_CB_COMPLIANCE, &b->cp_blend)) {
+        (void)hd_blend_update(&b->cp_blend);
+        b->cp_dth = hd_blend_apply(&b->cp_blend, hd_compliance_twist(&c->cp, b->pr_yd));
     }
+}
+
+/* TE at the motor angle, with its slope for the ticks until the next step */
+static void te_step(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in)
+{
     if (running(b, HD_CB_TE, &b->te.blend)) {
-        dpos = hdf_add64_sat(dpos, hd_te_comp_step(&b->te, &c->te, in->pos_mot));
-        tff = hdf_add_sat(tff, b->te.tau);
+        b->te_dth = hd_te_comp_step_slope(&b->te, &c->te, in->pos_mot, &b->te_slope);
+        b->te_mot = in->pos_mot;
+        b->te_out_dth = 0;
         if (c->te_out.n > 0u) {
             /* output-side lines at the output position the loop knows (semi-closed: the estimate;
-             * a line of one per output turn moves by far less than an LSB between the two) */
+             * a line of one per output turn moves by far less than an LSB between the two),
+             * held: the output moves N times less than the motor */
             b->te_out = hd_te_model(&c->te_out, in->pos_out);
-            dpos = hdf_add64_sat(dpos, hd_blend_mix64(&b->te.blend, 0, hdf_neg64_sat(b->te_out)));
+            b->te_out_dth = hd_blend_mix64(&b->te.blend, 0, hdf_neg64_sat(b->te_out));
         }
+    }
+}
+
+/* The torque estimate and the Preisach twist, when either of its users runs */
+static bool estimate_needed(const hd_comp_bank_t *b)
+{
+    return running(b, HD_CB_PREISACH, &b->pr.blend) || running(b, HD_CB_COMPLIANCE, &b->cp_blend);
+}
+
+static void preisach(hd_comp_bank_t *b, uint32_t k, uint32_t budget)
+{
+    if (running(b, HD_CB_PREISACH, &b->pr.blend)) {
+        preisach_tick(b, k, budget);
+    }
+}
+
+void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in,
+                      hd_comp_bank_out_t *out)
+{
+    int32_t tff = 0;
+    int64_t dpos;
+    int32_t dv_i;
+    const uint32_t k = b->tick & (HD_SCHED_CYCLE - 1u);
+    /* the first period after the loops start (app reset, mode entry) evaluates every
+     * compensator, so that the entry sees the whole correction (bumpless, hd_feedback.h);
+     * the schedule then goes on from there */
+    const bool all = (b->dpos_primed == 0u);
+    b->tick = k + 1u;
+
+    if (all) {
+        b->pki_i = 0;           /* the loops were reset (app) or first period */
+    }
+    dv_i = pki_step(b, c, in);
+
+    /* friction: the Stribeck map every period (also the torque estimate's model) */
+    if (running(b, HD_CB_STRIBECK, &b->str.blend) || estimate_needed(b)) {
+        /* while the estimate is fed in (or ramping out): its config, else the parameters */
+        const hd_stribeck_cfg_t *sc = hd_fric_est_feeding(&b->fe) ? &b->fe_str : &c->str;
+        tff = hd_stribeck_step(&b->str, sc, in->vel_ref, in->vel_fb);
+    }
+
+    /* the slow work of this tick (every part in the first period); the torque estimate from
+     * the command (pr_t_src 0) every period: it closes a loop through the torque command */
+    if (all) {
+        lugre_g(b, c, in);
+        lugre_exp(b, c);
+        lugre_finish(b, c, in);
+        dob_step(b, c, in);
+        maxwell(b, c, in, true);
+        if (estimate_needed(b)) {
+            torque_estimate(b, c, in);
+            preisach(b, (uint32_t)HD_SLOT_PREISACH, UINT32_MAX);           /* the whole search */
+            compliance(b, c);
+        }
+        te_step(b, c, in);
+    } else {
+        if (c->pr_t_src == 0u && estimate_needed(b)) {
+            torque_estimate(b, c, in);
+        }
+        ex_tick(&b->mx_x);          /* Maxwell-slip one increment on (its slot samples anew) */
+        switch (hd_sched_slot(k)) {
+        case HD_SLOT_LUGRE_G:
+            lugre_g(b, c, in);
+            break;
+        case HD_SLOT_LUGRE_EXP:
+            lugre_exp(b, c);
+            dob_step(b, c, in);
+            break;
+        case HD_SLOT_LUGRE_FINISH:
+            lugre_finish(b, c, in);
+            compliance(b, c);
+            break;
+        case HD_SLOT_TE:
+            te_step(b, c, in);
+            break;
+        case HD_SLOT_MAXWELL_EST:
+            maxwell(b, c, in, false);
+            if (c->pr_t_src != 0u && estimate_needed(b)) {
+                torque_estimate(b, c, in);
+            }
+            break;
+        default:
+            preisach(b, k, HD_SCHED_PR_TRIALS);
+            break;
+        }
+    }
+
+    /* the held torques (0 for a compensator that is off: its last step had weight 0) */
+    tff = hdf_add_sat(tff, hdf_add_sat(hdf_add_sat(b->lug.tau, b->dob_d), b->te.tau));
+    /* position corrections (output-referred motor lead): held (Preisach, compliance, the TE
+     * step's value), extrapolated (Maxwell-slip) and, between the TE steps, first order in the
+     * motor angle's change since (its slope at the step), not in time: the motor angle is fed
+     * back, a prediction in time is a delay */
+    dpos = hdf_add64_sat(hdf_add64_sat(hdf_add64_sat((int64_t)b->pr_dth, (int64_t)b->cp_dth),
+                                       hdf_add64_sat(b->te_dth, b->te_out_dth)), b->mx_x.v);
+    if (b->te_slope != 0) {
+        dpos = hdf_add64_sat(dpos, hdf_mul64x32_q(hdf_sub64_sat(in->pos_mot, b->te_mot), b->te_slope, 32u));
     }
 
     out->tff = tff;

@@ -55,6 +55,12 @@
  * is returned as it is (out.dpos) and the app subtracts it from the motor
  * angle / N: the predicted output position the loop closes on (hd_feedback.h).
  *
+ * Rates (hd_sched.h): the scheduled position integral, the Stribeck feed-forward, the
+ * DOB and the corrections' filter run every period; LuGre, TE, Maxwell-slip, the
+ * torque estimate, the compliance twist and the Preisach twist once per cycle of
+ * HD_SCHED_CYCLE periods, each in its own slot (the Preisach inverse's bisection
+ * spread over three slots), outputs held or linearly extrapolated between updates.
+ *
  * Switching: cb_enable bits (HD_CB_*).  A change of a bit calls the
  * compensator's set_enabled(): its output weight ramps over cb_ramp_ticks
  * periods (hd_blend).  A compensator is evaluated while enabled or ramping
@@ -85,6 +91,7 @@
 #include "hd_blend.h"
 #include "hd_compliance.h"
 #include "hd_fric_est.h"
+#include "hd_sched.h"
 
 #define HD_CB_STRIBECK  (1u << 0)
 #define HD_CB_LUGRE     (1u << 1)
@@ -114,10 +121,10 @@ typedef struct {
     uint32_t pos_mode;           /* 0 velocity FF (full closed), 1 raw dpos for the feedback estimate (fb_config 1, 2) */
     int32_t  dpos_alpha;         /* Q30, 1 - exp(-2 pi fc T) */
     uint32_t pr_deadband;
-    int32_t  pr_alpha;           /* Q30 */
+    int32_t  pr_alpha;           /* Q30, at the slow rate HD_SCHED_SLOW_HZ */
     int32_t  pr_share;           /* Q30 */
     uint32_t lug_v_src;          /* 0 reference, 1 estimate */
-    int32_t  dob_g_t;            /* Q30, g T (first-order Q filter, forward Euler) */
+    int32_t  dob_g_t;            /* Q30, 1 - exp(-g T) at the slow rate HD_SCHED_SLOW_HZ (first-order Q filter) */
     int32_t  dob_gj;             /* g J: N.m per (turn/s), Q15.16 */
     uint32_t pr_t_src;           /* Preisach torque estimate: 0 command - share F, 1 model (1 - share) F + J_L a */
     int32_t  pr_jl;              /* load inertia for pr_t_src 1, Q15.16 kg m^2 */
@@ -151,6 +158,15 @@ typedef struct {
     hd_torque_t  tff;            /* torque feed-forward, Q15.16 N.m */
 } hd_comp_bank_out_t;
 
+/* A slow position correction between its updates (hd_sched.h): the last sample,
+ * extrapolated linearly by the change of the last cycle. */
+typedef struct {
+    int64_t  v;                  /* value of this tick, 2^-32 turn */
+    int64_t  last;               /* last sample */
+    int64_t  inc;                /* per-tick increment: last change / HD_SCHED_CYCLE */
+    uint32_t primed;             /* 0: no sample yet (the first one gives no increment) */
+} hd_cb_extrap_t;
+
 typedef struct {
     hd_stribeck_t     str;
     hd_lugre_t        lug;
@@ -183,6 +199,13 @@ typedef struct {
     uint32_t fe_tick;            /* periods since the last estimator step */
     int32_t  fe_v_min;           /* binning of the bins in fe (a change empties them) */
     int32_t  fe_vs_lo;
+    uint32_t tick;               /* schedule tick (hd_sched.h), counts the pre() calls */
+    hd_cb_extrap_t mx_x;         /* Maxwell-slip correction between its updates */
+    hd_angle_t te_dth;           /* TE correction at its last step (motor-side harmonics), 2^-32 turn */
+    hd_angle_t te_out_dth;       /* TE correction of the output-side lines, held */
+    hd_angle_t te_mot;           /* motor angle of the last TE step, Q32.32 motor turns */
+    int32_t  te_slope;           /* d(te_dth)/d(motor angle) there, 2^-32 turn per motor turn */
+    int32_t  pr_yd;              /* held transmitted-torque estimate (low-passed), Q15.16 N.m */
 } hd_comp_bank_t;
 
 /** Configs from raw parameters. 0 ok, -1 inconsistent (bounds, sizes). */

@@ -9,6 +9,10 @@ void hd_lugre_init(hd_lugre_t *s, uint32_t ramp_ticks, bool enabled)
     s->dz = 0;
     s->tau_raw = 0;
     s->tau = 0;
+    s->v = 0;
+    s->g = 1;
+    s->zss = 0;
+    s->em1 = 0;
     hd_divinv_init(&s->inv_sigma0, 0u);
     hd_divinv_init(&s->inv_vs, 0u);
 }
@@ -88,10 +92,24 @@ static int64_t hd__mul_q46(int64_t x, int64_t m)
 
 int32_t hd_lugre_step(hd_lugre_t *s, const hd_lugre_cfg_t *c, hd_vel_out_t v, hd_angle_t e)
 {
+    return hd_lugre_step_n(s, c, v, e, 1u);
+}
+
+int32_t hd_lugre_step_n(hd_lugre_t *s, const hd_lugre_cfg_t *c, hd_vel_out_t v, hd_angle_t e, uint32_t n)
+{
+    hd_lugre_prep_n(s, c, v, n);
+    return hd_lugre_finish_n(s, c, e, n);
+}
+
+void hd_lugre_prep_n(hd_lugre_t *s, const hd_lugre_cfg_t *c, hd_vel_out_t v, uint32_t n)
+{
+    hd_lugre_prep_g(s, c, v);
+    hd_lugre_prep_exp_n(s, c, n);
+}
+
+void hd_lugre_prep_g(hd_lugre_t *s, const hd_lugre_cfg_t *c, hd_vel_out_t v)
+{
     const int32_t sigma0 = (c->sigma0 > 0) ? c->sigma0 : 1;
-    const int32_t tmax = (c->tau_max > 0) ? c->tau_max : INT32_MAX;
-    int64_t z1 = s->z;
-    int64_t t;
     int32_t g;
 
     /* reciprocals of the parameters: recomputed only when one changed */
@@ -106,29 +124,54 @@ int32_t hd_lugre_step(hd_lugre_t *s, const hd_lugre_cfg_t *c, hd_vel_out_t v, hd
     if (g < 1) {
         g = 1;
     }
+    s->v = v;
+    s->g = g;
+    s->zss = 0;
     if (v != 0) {
         /* z_ss = g / sigma0 in Q48: g_Q16 * 2^40 / sigma0_Q8 */
         const int64_t zmag = hd_divinv_rnd(hdf_shl64_sat((int64_t)g, 40u), &s->inv_sigma0);
-        const int64_t zss = (v > 0) ? zmag : -zmag;
-        /* a = sigma0 |v| T / g = sigma0_Q8 |v| / (g_Q16 f_s 2^24);
-         * z' = z + (z_ss - z) (1 - exp(-a)) */
-        const uint64_t num = (uint64_t)sigma0 * (uint64_t)hdf_abs_sat(v);  /* < 2^62 */
-        const uint64_t den = (uint64_t)g * (uint64_t)HD_LOOP_HZ;
-        const int64_t em1 = hd__one_minus_exp_q46(num, den);
-        z1 = hdf_add64_sat(s->z, hd__mul_q46(hdf_sub64_sat(zss, s->z), em1));
+        s->zss = (v > 0) ? zmag : -zmag;
+    }
+}
+
+void hd_lugre_prep_exp_n(hd_lugre_t *s, const hd_lugre_cfg_t *c, uint32_t n)
+{
+    /* the step's rate f_s / n (n divides HD_LOOP_HZ: checked by the caller's constant) */
+    const uint32_t rate = (n > 1u) ? (uint32_t)HD_LOOP_HZ / n : (uint32_t)HD_LOOP_HZ;
+    const int32_t sigma0 = (c->sigma0 > 0) ? c->sigma0 : 1;
+    s->em1 = 0;
+    if (s->v != 0) {
+        /* a = sigma0 |v| T / g = sigma0_Q8 |v| / (g_Q16 f_s 2^24) */
+        const uint64_t num = (uint64_t)sigma0 * (uint64_t)hdf_abs_sat(s->v);  /* < 2^62 */
+        const uint64_t den = (uint64_t)s->g * (uint64_t)rate;
+        s->em1 = hd__one_minus_exp_q46(num, den);
+    }
+}
+
+int32_t hd_lugre_finish_n(hd_lugre_t *s, const hd_lugre_cfg_t *c, hd_angle_t e, uint32_t n)
+{
+    const uint32_t rate = (n > 1u) ? (uint32_t)HD_LOOP_HZ / n : (uint32_t)HD_LOOP_HZ;
+    const int32_t sigma0 = (c->sigma0 > 0) ? c->sigma0 : 1;
+    const int32_t tmax = (c->tau_max > 0) ? c->tau_max : INT32_MAX;
+    int64_t z1 = s->z;
+    int64_t t;
+
+    if (s->v != 0) {
+        /* z' = z + (z_ss - z) (1 - exp(-a)) */
+        z1 = hdf_add64_sat(s->z, hd__mul_q46(hdf_sub64_sat(s->zss, s->z), s->em1));
     }
     if (c->k_obs != 0 && e != 0) {
-        /* k T e in Q48: k_Q16 * e_Q32 / f_s */
+        /* k T e in Q48: k_Q16 * e_Q32 / rate */
         const int64_t ke = hdf_mul64x32_q(e, c->k_obs, 0u);
-        z1 = hdf_sub64_sat(z1, hdf_div64_rnd_u16(ke, (uint32_t)HD_LOOP_HZ));
+        z1 = hdf_sub64_sat(z1, hdf_div64_rnd_u16(ke, rate));
     }
     s->dz = hdf_sub64_sat(z1, s->z);
     s->z = z1;
 
     /* F = sigma0 z + sigma1 dz/T + sigma2 v, each rounded once to Q16 */
     t = hdf_mul64x32_q(z1, sigma0, 40u);                                    /* Q48*Q8 -> Q16 */
-    t = hdf_add64_sat(t, hdf_mul64x32_q(hdf_mul64x32_q(s->dz, HD_LOOP_HZ, 0u), c->sigma1, 48u));
-    t = hdf_add64_sat(t, (int64_t)hdf_mul_q(c->sigma2, v, 32u));
+    t = hdf_add64_sat(t, hdf_mul64x32_q(hdf_mul64x32_q(s->dz, (int32_t)rate, 0u), c->sigma1, 48u));
+    t = hdf_add64_sat(t, (int64_t)hdf_mul_q(c->sigma2, s->v, 32u));
     s->tau_raw = hdf_clamp32(hdf_sat32(t), -tmax, tmax);
     (void)hd_blend_update(&s->blend);
     s->tau = hd_blend_apply(&s->blend, s->tau_raw);

@@ -61,6 +61,10 @@ typedef struct {
     int32_t tau;           /* last weighted output, Q15.16 N.m */
     hd_divinv_t inv_sigma0; /* reciprocal of cfg sigma0 (refreshed when it changes) */
     hd_divinv_t inv_vs;    /* reciprocal of cfg g.vs (refreshed when it changes) */
+    int32_t v;             /* velocity of the step prepared (hd_lugre_prep_n) */
+    int32_t g;             /* its g(v), Q15.16 N.m (>= 1) */
+    int64_t zss;           /* its bristle steady state z_ss, Q48 (0 at v = 0) */
+    int64_t em1;           /* its 1 - exp(-sigma0 |v| T / g), Q46 */
 } hd_lugre_t;
 
 void hd_lugre_init(hd_lugre_t *s, uint32_t ramp_ticks, bool enabled);
@@ -69,5 +73,19 @@ void hd_lugre_set_enabled(hd_lugre_t *s, bool enabled);
  *  position error e (0 when the observer term is not used).  Returns the
  *  weighted, clamped friction compensation torque, Q15.16 N.m. */
 int32_t hd_lugre_step(hd_lugre_t *s, const hd_lugre_cfg_t *c, hd_vel_out_t v, hd_angle_t e);
+/** The same step over n control periods (T = n / HD_LOOP_HZ, n divides HD_LOOP_HZ):
+ *  the bristle update, the observer term and dz/T at the rate HD_LOOP_HZ / n; for a
+ *  compensator evaluated every n-th period.  n = 1 is hd_lugre_step. */
+int32_t hd_lugre_step_n(hd_lugre_t *s, const hd_lugre_cfg_t *c, hd_vel_out_t v, hd_angle_t e, uint32_t n);
+/** hd_lugre_step_n in two calls, e.g. in two control periods: the prep at velocity v
+ *  (g(v), the bristles' steady state and the step's exponential factor, kept in s), then
+ *  the finish with the position error e (bristle update, observer term, torque).
+ *  prep then finish is exactly hd_lugre_step_n. */
+void hd_lugre_prep_n(hd_lugre_t *s, const hd_lugre_cfg_t *c, hd_vel_out_t v, uint32_t n);
+/** hd_lugre_prep_n in two calls as well: g(v) and the bristles' steady state, then the
+ *  step's exponential factor; prep_g then prep_exp_n is exactly hd_lugre_prep_n. */
+void hd_lugre_prep_g(hd_lugre_t *s, const hd_lugre_cfg_t *c, hd_vel_out_t v);
+void hd_lugre_prep_exp_n(hd_lugre_t *s, const hd_lugre_cfg_t *c, uint32_t n);
+int32_t hd_lugre_finish_n(hd_lugre_t *s, const hd_lugre_cfg_t *c, hd_angle_t e, uint32_t n);
 
 #endif

@@ -269,13 +269,7 @@ void hd_preisach_set_enabled(hd_preisach_t *s, bool enabled)
 /* Where p lands against the memory (no change to s).  *push: 0 none, -1 a
  * max (p_prev, y) is pushed (reversal downwards), +1 a min is pushed.
  * Returns false if the sample changes nothing (equal, or dead-band). */
-typedef struct {
-    int64_t y;
-    uint32_t n_max;
-    uint32_t n_min;
-    int32_t push;
-    int32_t dir;
-} hd__pz_loc_t;
+typedef hd_preisach_loc_t hd__pz_loc_t;
 
 static bool hd__pz_locate_k(const hd_preisach_t *s, const hd_preisach_table_t *t, int32_t p,
                             hd__pz_loc_t *r, int32_t ptop, uint32_t sb)
@@ -490,6 +484,10 @@ void hd_preisach_inv_init(hd_preisach_inv_t *s, const hd_preisach_table_t *t, ui
 {
     hd_preisach_init(&s->fwd, t, deadband, 0u, true);
     hd_blend_init(&s->blend, ramp_ticks, enabled);
+    s->srch.kind = HD_PREISACH_SEARCH_IDLE;
+    s->srch.y_d = 0;
+    s->srch.lo.p = 0;
+    s->srch.hi.p = 0;
     s->u = hd_preisach_dequantise(t, 0);
     s->out = 0;
 }
@@ -506,11 +504,7 @@ static int64_t hd__dist(int64_t a, int64_t b)
 
 /* A trial point of the inverse search: hd_preisach_peek_p(f, t, p) with the
  * located memory change kept (ok = 0: the sample changes nothing, y = f->y). */
-typedef struct {
-    int32_t p;
-    bool ok;
-    hd__pz_loc_t r;
-} hd__pz_try_t;
+typedef hd_preisach_try_t hd__pz_try_t;
 
 /* the table's P and sub-bits, computed once per inverse step */
 typedef struct {
@@ -522,11 +516,28 @@ static int64_t hd__try(const hd_preisach_t *f, const hd_preisach_table_t *t, con
                        hd__pz_try_t *x)
 {
     x->p = p;
-    x->ok = hd__pz_locate_k(f, t, p, &x->r, k->ptop, k->sb);
-    if (!x->ok) {
+    x->ok = hd__pz_locate_k(f, t, p, &x->r, k->ptop, k->sb) ? 1u : 0u;
+    if (x->ok == 0u) {
         x->r.y = f->y;
     }
     return x->r.y;
+}
+
+void hd_preisach_inv_search_reset(hd_preisach_inv_t *s)
+{
+    s->srch.kind = HD_PREISACH_SEARCH_IDLE;
+}
+
+/* The chosen point to the memory; the search ends. */
+static void hd__inv_finish(hd_preisach_inv_t *s, const hd_preisach_table_t *t, const hd__pz_try_t *sel)
+{
+    hd_preisach_t *f = &s->fwd;
+    if (hd__pz_needs_merge(f, sel->p)) {
+        (void)hd_preisach_step_p(f, t, sel->p);     /* the memory changes first: locate again */
+    } else if (sel->ok != 0u) {
+        hd__pz_commit(f, sel->p, &sel->r);
+    }
+    s->srch.kind = HD_PREISACH_SEARCH_IDLE;
 }
 
 /*
@@ -534,62 +545,82 @@ static int64_t hd__try(const hd_preisach_t *f, const hd_preisach_table_t *t, con
  * monotone branch from p_prev.  Every trial point is located once: its output
  * and memory change are kept, so the end comparison and the final step reuse
  * them instead of evaluating the Everett function again (same result as
- * peek at every point, then hd_preisach_step_p at the chosen one).
+ * peek at every point, then hd_preisach_step_p at the chosen one).  The
+ * bracket lives in s->srch, so the trials may be spread over several calls;
+ * the memory changes only when the search ends, and the trials depend only on
+ * the memory and y_d, so the result does not depend on the budget.
  */
-int32_t hd_preisach_inv_step_p(hd_preisach_inv_t *s, const hd_preisach_table_t *t, int64_t y_d)
+bool hd_preisach_inv_search(hd_preisach_inv_t *s, const hd_preisach_table_t *t, int64_t y_d, uint32_t budget)
 {
     hd_preisach_t *f = &s->fwd;
-    hd__pz_try_t lo;
-    hd__pz_try_t hi;
+    hd_preisach_search_t *q = &s->srch;
     hd__pz_try_t mid;
-    const hd__pz_try_t *sel;
     hd__pz_k_t k;
 
     k.ptop = hd_preisach_p_top(t);
     k.sb = hd__sub_bits(t);
     if (f->table_crc != t->crc || f->p_top != k.ptop) {
         hd__pz_reset(f, t);
+        q->kind = HD_PREISACH_SEARCH_IDLE;          /* a bracket of the old table means nothing */
     }
-    if (y_d == f->y) {
-        return f->p_prev;
-    }
-    if (y_d > f->y) {
-        /* y(p) non-decreasing on [p_prev, P]; y(lo) < y_d */
-        (void)hd__try(f, t, &k, f->p_prev, &lo);
-        if (f->p_top == f->p_prev || hd__try(f, t, &k, f->p_top, &hi) < y_d) {
-            sel = (f->p_top == f->p_prev) ? &lo : &hi;
-        } else {
-            while (hi.p - lo.p > 1) {
-                if (hd__try(f, t, &k, lo.p + (hi.p - lo.p) / 2, &mid) >= y_d) {
-                    hi = mid;
-                } else {
-                    lo = mid;
-                }
-            }
-            sel = (hd__dist(hi.r.y, y_d) < hd__dist(lo.r.y, y_d)) ? &hi : &lo;
+    if (q->kind == HD_PREISACH_SEARCH_IDLE) {
+        if (y_d == f->y) {
+            return true;
         }
+        q->y_d = y_d;
+        budget = (budget > 2u) ? budget - 2u : 0u;  /* the two ends */
+        if (y_d > f->y) {
+            /* y(p) non-decreasing on [p_prev, P]; y(lo) < y_d */
+            (void)hd__try(f, t, &k, f->p_prev, &q->lo);
+            if (f->p_top == f->p_prev) {
+                hd__inv_finish(s, t, &q->lo);
+                return true;
+            }
+            if (hd__try(f, t, &k, f->p_top, &q->hi) < y_d) {
+                hd__inv_finish(s, t, &q->hi);
+                return true;
+            }
+            q->kind = HD_PREISACH_SEARCH_UP;
+        } else {
+            /* y(p) non-decreasing on [0, p_prev]; y(hi) > y_d */
+            (void)hd__try(f, t, &k, f->p_prev, &q->hi);
+            if (f->p_prev == 0) {
+                hd__inv_finish(s, t, &q->hi);
+                return true;
+            }
+            if (hd__try(f, t, &k, 0, &q->lo) > y_d) {
+                hd__inv_finish(s, t, &q->lo);
+                return true;
+            }
+            q->kind = HD_PREISACH_SEARCH_DOWN;
+        }
+    }
+    while (q->hi.p - q->lo.p > 1 && budget > 0u) {
+        const int64_t ym = hd__try(f, t, &k, q->lo.p + (q->hi.p - q->lo.p) / 2, &mid);
+        const bool to_hi = (q->kind == HD_PREISACH_SEARCH_UP) ? (ym >= q->y_d) : (ym > q->y_d);
+        if (to_hi) {
+            q->hi = mid;
+        } else {
+            q->lo = mid;
+        }
+        budget--;
+    }
+    if (q->hi.p - q->lo.p > 1) {
+        return false;                               /* the budget ran out: go on next call */
+    }
+    if (q->kind == HD_PREISACH_SEARCH_UP) {
+        hd__inv_finish(s, t, (hd__dist(q->hi.r.y, q->y_d) < hd__dist(q->lo.r.y, q->y_d)) ? &q->hi : &q->lo);
     } else {
-        /* y(p) non-decreasing on [0, p_prev]; y(hi) > y_d */
-        (void)hd__try(f, t, &k, f->p_prev, &hi);
-        if (f->p_prev == 0 || hd__try(f, t, &k, 0, &lo) > y_d) {
-            sel = (f->p_prev == 0) ? &hi : &lo;
-        } else {
-            while (hi.p - lo.p > 1) {
-                if (hd__try(f, t, &k, lo.p + (hi.p - lo.p) / 2, &mid) <= y_d) {
-                    lo = mid;
-                } else {
-                    hi = mid;
-                }
-            }
-            sel = (hd__dist(lo.r.y, y_d) < hd__dist(hi.r.y, y_d)) ? &lo : &hi;
-        }
+        hd__inv_finish(s, t, (hd__dist(q->lo.r.y, q->y_d) < hd__dist(q->hi.r.y, q->y_d)) ? &q->lo : &q->hi);
     }
-    if (hd__pz_needs_merge(f, sel->p)) {
-        (void)hd_preisach_step_p(f, t, sel->p);     /* the memory changes first: locate again */
-    } else if (sel->ok) {
-        hd__pz_commit(f, sel->p, &sel->r);
-    }
-    return f->p_prev;
+    return true;
+}
+
+int32_t hd_preisach_inv_step_p(hd_preisach_inv_t *s, const hd_preisach_table_t *t, int64_t y_d)
+{
+    s->srch.kind = HD_PREISACH_SEARCH_IDLE;
+    (void)hd_preisach_inv_search(s, t, y_d, UINT32_MAX);
+    return s->fwd.p_prev;
 }
 
 int32_t hd_preisach_inv_step(hd_preisach_inv_t *s, const hd_preisach_table_t *t, int32_t y_d)

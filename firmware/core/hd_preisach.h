@@ -135,8 +135,42 @@ typedef struct {
     int64_t  y;
 } hd_preisach_bf_t;
 
+/* Where a trial input lands against the memory of a forward model (its output and
+ * the memory change it would make; internal to the inverse search). */
+typedef struct {
+    int64_t  y;           /* output at the trial input */
+    uint32_t n_max;       /* stack sizes after it */
+    uint32_t n_min;
+    int32_t  push;        /* 0 none, -1 a max is pushed, +1 a min */
+    int32_t  dir;         /* direction of the move */
+} hd_preisach_loc_t;
+
+/* A trial point of the inverse search. */
+typedef struct {
+    int32_t  p;           /* lattice input */
+    uint32_t ok;          /* 1: the input changes the memory (r holds the change) */
+    hd_preisach_loc_t r;
+} hd_preisach_try_t;
+
+/* Kinds of the inverse search state. */
+typedef enum {
+    HD_PREISACH_SEARCH_IDLE = 0,    /* no search in progress */
+    HD_PREISACH_SEARCH_UP = 1,      /* bisection on [p_prev, P] (output rises) */
+    HD_PREISACH_SEARCH_DOWN = 2     /* bisection on [0, p_prev] (output falls) */
+} hd_preisach_search_kind_t;
+
+/* An inverse search that may be spread over several calls (hd_preisach_inv_search):
+ * the bisection's bracket and its target, kept between the calls. */
+typedef struct {
+    hd_preisach_search_kind_t kind;
+    int64_t  y_d;                   /* the target output of the search in progress */
+    hd_preisach_try_t lo;
+    hd_preisach_try_t hi;
+} hd_preisach_search_t;
+
 typedef struct {
     hd_preisach_t fwd;                          /* forward model driven by the inverse */
+    hd_preisach_search_t srch;                  /* search in progress (hd_preisach_inv_search) */
     hd_blend_t blend;
     int32_t u;                                  /* last (unweighted) inverse input, input format */
     int32_t out;                                /* last weighted output */
@@ -202,6 +236,16 @@ void hd_preisach_inv_set_enabled(hd_preisach_inv_t *s, bool enabled);
 /** Lattice index whose forward output is closest to y_d on the current branch;
  *  committed to s->fwd.  Ties go to the smaller move. */
 int32_t hd_preisach_inv_step_p(hd_preisach_inv_t *s, const hd_preisach_table_t *t, int64_t y_d);
+/** The same search spread over calls: starts a search for y_d when none is in progress
+ *  (locating both ends of the branch: two trials), then runs bisection trials while the
+ *  call's budget of trials lasts.  Returns true once the search is done: the lattice index
+ *  is committed to s->fwd (s->fwd.p_prev), the same index and memory as
+ *  hd_preisach_inv_step_p(s, t, y_d) gives.  y_d is read only when a search starts; a
+ *  table change (its CRC) restarts the search.  budget >= 2 + ceil(log2(P)) finishes
+ *  in one call. */
+bool hd_preisach_inv_search(hd_preisach_inv_t *s, const hd_preisach_table_t *t, int64_t y_d, uint32_t budget);
+/** Abandon a search in progress (the memory is unchanged). */
+void hd_preisach_inv_search_reset(hd_preisach_inv_t *s);
 /** One period: desired output y_d (output format) -> input command, weighted as
  *  y_d + w * (u - y_d) (for hysteresis whose input and output share a format,
  *  e.g. HD_PREISACH_UNIT_POS_POS; w = 0 passes y_d through). */

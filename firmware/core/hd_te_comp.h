@@ -57,5 +57,13 @@ void hd_te_comp_init(hd_te_comp_t *s, uint32_t ramp_ticks, bool enabled);
 void hd_te_comp_set_enabled(hd_te_comp_t *s, bool enabled);
 /** One period: returns the weighted position correction dth (s->tau holds the torque). */
 hd_angle_t hd_te_comp_step(hd_te_comp_t *s, const hd_te_cfg_t *c, hd_angle_t theta_m);
+/** TE model at theta_m (the same value as hd_te_model) and its slope dTE/dtheta in
+ *  2^-32 turn per motor turn (2 pi sum order amp cos, saturated to int32), for a
+ *  first-order prediction TE(theta) ~ TE(theta_m) + slope (theta - theta_m). */
+int64_t hd_te_model_slope(const hd_te_cfg_t *c, hd_angle_t theta_m, int32_t *slope);
+/** hd_te_comp_step with the slope of the returned correction (-w dTE/dtheta, 2^-32 turn
+ *  per motor turn) in *slope_w: a caller that evaluates TE every n periods predicts the
+ *  correction in between from the motor angle's change (hd_comp_bank.c). */
+hd_angle_t hd_te_comp_step_slope(hd_te_comp_t *s, const hd_te_cfg_t *c, hd_angle_t theta_m, int32_t *slope_w);
 
 #endif

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Per-phase Cortex-M4 instruction cost of one control period (hd_app_step) in
-# the kernels control_step_baseline, control_step_full and isr_worst_case
+# the kernels control_step_baseline, control_step_full / semi / dual and
+# isr_worst_case (these at every tick of the bank's schedule, folded to the worst)
 # -> build/bench/phase_cost.json.  Same counter as 10_cm4_cost.sh (QEMU TCG
 # plugin tools/qemu-insncount on mps2-an386); the probe image is the cost image
 # with hd_app.c compiled with HD_APP_PHASE_PROBE (a mark between the phases of
@@ -25,7 +26,14 @@ q=build/m4/obj/firmware/port/qemu-m4
 objs=("$q/startup.o" "$q/semihost.o" build/m4/obj/firmware/port/common/mini_libc.o build/m4/obj/tests/golden/*.o build/golden/m4/gv_registry.o)
 PY=.venv/bin/python; [ -x "$PY" ] || PY=python3
 args=()
-for k in control_step_baseline control_step_full isr_worst_case; do
+# the kernels with the bank on are measured at every tick of its schedule (hd_sched.h)
+cycle=$(awk '$1=="#define" && $2=="HD_SCHED_CYCLE"{gsub("u","",$3); print $3}' firmware/app/hd_sched.h)
+[ -n "$cycle" ] || { echo "phase_cost: no HD_SCHED_CYCLE in firmware/app/hd_sched.h"; exit 1; }
+kernels=(control_step_baseline)
+for b in control_step_full control_step_semi control_step_dual isr_worst_case; do
+  for ((t = 0; t < cycle; t++)); do kernels+=("$b.s$t"); done
+done
+for k in "${kernels[@]}"; do
   $CC $CFLAGS $INC "-DHD_PHASE_KERNEL=\"$k\"" -c tests/bench/phase/phase_main.c -o "$d/main_$k.o" || exit 1
   $CC $ARCH -nostdlib -nostartfiles -T firmware/port/qemu-m4/mps2-an386.ld -Wl,--gc-sections -o "$d/$k.elf" \
     "$d/main_$k.o" "$d/hd_app_probe.o" "${objs[@]}" build/m4/libhdfw.a -lgcc || { echo "phase_cost: linking $k failed"; exit 1; }

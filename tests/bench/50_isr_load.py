@@ -12,6 +12,11 @@ then carries one FOC period instead of two, one ADC interrupt instead of two
 and one set of port register accesses; the frame decode and the step are the
 same.
 
+The compensator bank runs on a schedule (firmware/app/hd_sched.h): each tick of a
+cycle carries its own slot of the bank's slow work.  ``isr_worst_case`` is the worst
+tick of the cycle (cm4_cost.json folds the per-tick kernels ``isr_worst_case.s<k>``,
+every tick measured); isr_load.json lists every tick under ``schedule``.
+
 Worst-case control period = kernel ``isr_worst_case`` (tests/golden/gv_foc.c):
 hd_app_step with every compensator of the bank enabled and set up as
 control_step_full (Preisach table installed, LuGre observer and TE gains on,
@@ -89,6 +94,35 @@ def slack(step_insn: int, port_per_foc: float, decode_insn: int, f_ctrl_hz: floa
             "slack_us": round((budget - cycles) / F_CPU_HZ * 1e6, 2)}
 
 
+COMP_BANK_BUDGET = 850     # instructions of the compensator bank's phase in the worst tick (docs/firmware.md)
+
+
+def comp_bank_phase(kernels: dict[str, dict]) -> dict[str, dict]:
+    """The compensator bank's phase in every feedback configuration, worst over the ticks.
+
+    Parameters
+    ----------
+    kernels : dict[str, dict]
+        ``phase_cost.json`` kernels; a kernel measured per tick carries ``ticks``
+        (phase -> Cortex-M4 instructions of every tick of the schedule).
+
+    Returns
+    -------
+    dict[str, dict]
+        Per kernel with the bank on (control_step_full / semi / dual):
+        ``worst_instructions``, ``tick_instructions`` and ``within_budget``
+        (``COMP_BANK_BUDGET``).
+    """
+    out: dict[str, dict] = {}
+    for name in ("control_step_full", "control_step_semi", "control_step_dual"):
+        ticks = kernels.get(name, {}).get("ticks", {}).get("comp_bank")
+        if ticks:
+            worst = max(ticks)
+            out[name] = {"worst_instructions": worst, "tick_instructions": ticks,
+                         "within_budget": worst <= COMP_BANK_BUDGET}
+    return out
+
+
 def main() -> int:
     if not SRC.exists():
         print(f"{SRC.relative_to(ROOT)}: missing (run tests/bench/10_cm4_cost.sh first)")
@@ -122,6 +156,12 @@ def main() -> int:
         "cpu_load": round(load, 4),
         "within_target": load <= TARGET,
     }
+    if "slots" in k["isr_worst_case"]:
+        # the bank's schedule (firmware/app/hd_sched.h): every tick of one cycle, the worst counts
+        sl = k["isr_worst_case"]["slots"]
+        out["schedule"] = {"ticks_per_cycle": len(sl), "worst_tick": k["isr_worst_case"]["worst_slot"],
+                           "tick_instructions": sl,
+                           "tick_cpu_load": [round((n * CPI + sum(ALLOW_CYCLES.values())) / budget, 4) for n in sl]}
     if PHASES_SRC.exists() and "ssi_decode" in k:
         ph = json.loads(PHASES_SRC.read_text())["kernels"].get("isr_worst_case", {}).get("phases_instructions")
         if ph:
@@ -132,14 +172,22 @@ def main() -> int:
                                           **{n: v for n, v in ph.items() if n not in ("before_step", "after_step")}}
             out["slack"] = {"10kHz": slack(step, per_foc, k["ssi_decode"]["instructions"], 10e3),
                             "20kHz": slack(step, per_foc, k["ssi_decode"]["instructions"], 20e3)}
+        out["comp_bank_phase"] = comp_bank_phase(json.loads(PHASES_SRC.read_text())["kernels"])
     DST.write_text(json.dumps(out, indent=2) + "\n")
     print(f"isr_worst_case: {insn} instructions x {CPI} + {sum(ALLOW_CYCLES.values())} cycles allowance "
           f"= {cycles:.0f} of {budget:.0f} cycles per 100 us -> CPU load {100 * load:.1f} % "
           f"(target <= {100 * TARGET:.0f} %: {'met' if load <= TARGET else 'NOT met'})")
     for n, v in parts.items():
         print(f"  {n:24s} {v:6d} instructions ({100 * v * CPI / budget:.1f} %)")
+    if "schedule" in out:
+        sc = out["schedule"]
+        print(f"  schedule: {sc['ticks_per_cycle']} ticks per cycle, worst tick {sc['worst_tick']}: "
+              + ", ".join(str(n) for n in sc["tick_instructions"]))
     for n, v in out.get("phases_instructions", {}).items():
         print(f"  phase {n:36s} {v:6d} instructions")
+    for n, v in out.get("comp_bank_phase", {}).items():
+        print(f"  comp_bank phase, {n:24s} worst tick {v['worst_instructions']:5d} instructions "
+              f"(budget {COMP_BANK_BUDGET}): " + ", ".join(str(t) for t in v["tick_instructions"]))
     for n, v in out.get("slack", {}).items():
         print(f"  at {n}: load {100 * v['cpu_load']:.1f} %, slack {v['slack_cycles']} cycles ({v['slack_us']} us)")
     print(f"wrote {DST.relative_to(ROOT)}")

@@ -221,6 +221,75 @@ static void test_te_single_harmonic(void **state)
     assert_true(hd_te_comp_step(&s, &c, ((int64_t)7 << 32) + ((int64_t)1 << 29)) == -100000);
 }
 
+/* LuGre over n periods in parts (the bank's schedule): prep_g, prep_exp_n and finish_n in
+ * separate calls are exactly step_n; step_n with n = 1 is the single-period step; with n = 8 the
+ * bristles reach the same steady state as eight single-period steps do. */
+static void test_lugre_parts_equal_step(void **state)
+{
+    hd_lugre_cfg_t c = { { NM(8), NM(12), DEGS, 0 }, 2u, (int32_t)(1.9e5 * 256), NM(600), NM(3), 30 << 16, NM(200) };
+    hd_lugre_t a, b, one, ref;
+    uint32_t k;
+    uint64_t r = 12345u;
+    (void)state;
+    hd_lugre_init(&a, 2u, true);
+    hd_lugre_init(&b, 2u, true);
+    hd_lugre_init(&one, 0u, true);
+    hd_lugre_init(&ref, 0u, true);
+    for (k = 0; k < 3000u; k++) {
+        r = r * 6364136223846793005ULL + 1442695040888963407ULL;
+        const int32_t v = (int32_t)((int64_t)(r >> 40) - (1 << 23)) * 64 + ((k % 500u < 250u) ? 5 * DEGS : -5 * DEGS);
+        const hd_angle_t e = (hd_angle_t)(int32_t)(r >> 48) - 32768;
+        hd_lugre_prep_g(&a, &c, v);
+        hd_lugre_prep_exp_n(&a, &c, 8u);
+        const int32_t ta = hd_lugre_finish_n(&a, &c, e, 8u);
+        assert_int_equal(ta, hd_lugre_step_n(&b, &c, v, e, 8u));
+        assert_true(a.z == b.z && a.dz == b.dz && a.tau_raw == b.tau_raw);
+        assert_int_equal(hd_lugre_step_n(&one, &c, v, e, 1u), hd_lugre_step(&ref, &c, v, e));
+        assert_true(one.z == ref.z);
+    }
+    /* steady state at 10 deg/s: one step of 8 periods ends where 8 single steps do */
+    hd_lugre_init(&a, 0u, true);
+    hd_lugre_init(&b, 0u, true);
+    for (k = 0; k < 400u; k++) {
+        (void)hd_lugre_step_n(&a, &c, 10 * DEGS, 0, 8u);
+        for (uint32_t j = 0; j < 8u; j++) {
+            (void)hd_lugre_step(&b, &c, 10 * DEGS, 0);
+        }
+    }
+    print_message("z after 400 x 8 periods: %lld vs %lld (Q48)\n", (long long)a.z, (long long)b.z);
+    assert_true(llabs((long long)(a.z - b.z)) <= llabs((long long)b.z) / 1000000);
+    assert_true(abs(a.tau_raw - b.tau_raw) <= 2);
+}
+
+/* TE with its slope: the same model value as hd_te_model; TE(theta + d) is predicted from the
+ * slope within the second-order term (2 pi order)^2 amp d^2 / 2 (+ 2 LSB); the weighted
+ * correction's slope is -w dTE/dtheta. */
+static void test_te_slope_predicts(void **state)
+{
+    hd_te_cfg_t c = { 3u, { 2u, 1u, 4u }, { 100000, -40000, 25000 }, { 0x12345678u, 0x9ABCDEF0u, 7u }, 0, NM(100) };
+    hd_te_comp_t s;
+    uint32_t k;
+    int32_t slope_w;
+    (void)state;
+    for (k = 0; k < 2000u; k++) {
+        const hd_angle_t th = ((hd_angle_t)5 << 32) + (hd_angle_t)k * 2147483LL * 1000LL;
+        int32_t slope;
+        const int64_t te = hd_te_model_slope(&c, th, &slope);
+        assert_true(te == hd_te_model(&c, th));
+        const int64_t d = (int64_t)(k % 41u) * 4000000 - 80000000;       /* up to ~0.019 turn */
+        const int64_t pred = te + (int64_t)(((__int128)d * slope) >> 32);
+        const double dt = (double)d / 4294967296.0;
+        const double bound = 0.5 * (2.0 * 3.14159265358979 * 4.0) * (2.0 * 3.14159265358979 * 4.0) * 165000.0 * dt * dt + 2.0;
+        assert_true(fabs((double)(pred - hd_te_model(&c, th + d))) <= bound);
+    }
+    hd_te_comp_init(&s, 0u, true);
+    const hd_angle_t th0 = (int64_t)1 << 29;
+    int32_t slope0;
+    (void)hd_te_model_slope(&c, th0, &slope0);
+    assert_true(hd_te_comp_step_slope(&s, &c, th0, &slope_w) == -hd_te_model(&c, th0));
+    assert_int_equal(slope_w, -slope0);
+}
+
 /* Closed loop on an integer rigid plant: J w' = u - Fc sgn(w) - Tl. */
 static void test_backstep_closed_loop(void **state)
 {
@@ -289,6 +358,8 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_lugre_steady_state_and_hold, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_maxwell_saturation, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_te_single_harmonic, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_lugre_parts_equal_step, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_te_slope_predicts, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_backstep_closed_loop, setUp, tearDown),
     };
     return cmocka_run_group_tests_name("comp_misc", tests, NULL, NULL);

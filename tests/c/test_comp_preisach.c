@@ -5,12 +5,15 @@
  * (L = 8/32/64, sub_bits 0..2, dead-band 0 and 2), wiping-out, congruency of
  * minor loops, inverse round trip within half a lattice step, refusal of a bad
  * table (previous stays in force), stack overflow safety net; the inverse's
- * memoised bisection equals the peek-at-every-point bisection it replaced.
+ * memoised bisection equals the peek-at-every-point bisection it replaced, and
+ * spread over calls (hd_preisach_inv_search, any budget) it gives the same
+ * index and memory as in one call.
  */
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>
 #include <stdint.h>
+#include <stdbool.h>
 #include <stdlib.h>
 #include <cmocka.h>
 
@@ -324,6 +327,64 @@ static void test_inverse_equals_peek_bisection(void **state)
     assert_true(merged > 0u);                            /* the merge path was exercised */
 }
 
+/* The inverse spread over calls (the bank's schedule, hd_sched.h): with a budget of 1, 2 or 3
+ * trials per call the search ends with the same index and memory as the one-shot inverse at
+ * the same target; a budget below 2 + log2(P) needs more than one call; the memory does not
+ * change before the search ends. */
+static void test_inverse_search_spread_equals_one_shot(void **state)
+{
+    fx_t *f = *state;
+    static hd_preisach_inv_t ref;
+    static const uint32_t cfg[3][3] = {{16u, 1u, 0u}, {32u, 2u, 2u}, {64u, 3u, 1u}};
+    uint32_t c, k, budget;
+    uint32_t spread = 0u;
+    for (c = 0; c < 3u; c++) {
+        for (budget = 1u; budget <= 3u; budget++) {
+            int64_t yd = 0;
+            int64_t ysat;
+            build(f, cfg[c][0], cfg[c][1], 1u);
+            hd_preisach_inv_init(&f->inv, &f->t, cfg[c][2], 0u, true);
+            hd_preisach_inv_init(&ref, &f->t, cfg[c][2], 0u, true);
+            ysat = -f->inv.fwd.y;
+            for (k = 0; k < 1500u; k++) {
+                uint32_t calls = 0u;
+                int32_t p2;
+                yd += (int64_t)(int32_t)(rnd(f) % 4001u) - 2000;
+                yd += ((rnd(f) & 31u) == 0u) ? (int64_t)(rnd(f) % 3u - 1u) * ysat / 2 : 0;
+                yd = (yd > ysat + 5000) ? ysat + 5000 : ((yd < -ysat - 5000) ? -ysat - 5000 : yd);
+                const int64_t y_before = f->inv.fwd.y;
+                for (;;) {
+                    /* a later call's target is ignored while a search runs: pass a wrong one */
+                    const bool done = hd_preisach_inv_search(&f->inv, &f->t, (calls == 0u) ? yd : -yd, budget);
+                    calls++;
+                    if (done) {
+                        break;
+                    }
+                    assert_true(f->inv.fwd.y == y_before);        /* no memory change mid-search */
+                    assert_true(calls < 64u);
+                }
+                spread += (calls > 1u) ? 1u : 0u;
+                p2 = hd_preisach_inv_step_p(&ref, &f->t, yd);
+                if (f->inv.fwd.p_prev != p2 || f->inv.fwd.y != ref.fwd.y || f->inv.fwd.n_max != ref.fwd.n_max ||
+                    f->inv.fwd.n_min != ref.fwd.n_min || f->inv.fwd.dir != ref.fwd.dir) {
+                    fail_msg("L %u sub %u budget %u step %u: p %d vs %d, y %lld vs %lld", cfg[c][0], cfg[c][1],
+                             budget, k, f->inv.fwd.p_prev, p2, (long long)f->inv.fwd.y, (long long)ref.fwd.y);
+                }
+            }
+        }
+    }
+    assert_true(spread > 1000u);                          /* the searches really were spread */
+    /* a table change abandons the search in progress: the next call starts over on the new table */
+    build(f, 16u, 1u, 1u);
+    hd_preisach_inv_init(&f->inv, &f->t, 0u, 0u, true);
+    assert_false(hd_preisach_inv_search(&f->inv, &f->t, -f->inv.fwd.y / 3, 1u));
+    build(f, 32u, 2u, 2u);
+    hd_preisach_inv_init(&ref, &f->t, 0u, 0u, true);
+    while (!hd_preisach_inv_search(&f->inv, &f->t, -ref.fwd.y / 5, 1u)) {
+    }
+    assert_int_equal(f->inv.fwd.p_prev, hd_preisach_inv_step_p(&ref, &f->t, -ref.fwd.y / 5));
+}
+
 static void test_bad_table_refused(void **state)
 {
     fx_t *f = *state;
@@ -412,6 +473,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_congruency, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_inverse_round_trip, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_inverse_equals_peek_bisection, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_inverse_search_spread_equals_one_shot, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_bad_table_refused, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_stack_overflow_merges, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_table_crc_is_crc32_of_image, setUp, tearDown),

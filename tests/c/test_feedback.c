@@ -312,6 +312,7 @@ static void test_fb_bumpless(void **st)
                (double)app.tel.pos_err / TURN * 1296000.0);
         assert_true(fabs((double)app.tel.pos_err / TURN * 1296000.0) < 0.2);
         run(2000);
+        printf("# fb_config %d: settled position error %.3f arcsec\n", kind, (double)app.tel.pos_err / TURN * 1296000.0);
         /* after settling: the position error is that of a held axis, whichever source */
         assert_true(fabs((double)app.tel.pos_err / TURN * 1296000.0) < 1.0);
         assert_int_equal(app.fault, HD_FAULT_NONE);

@@ -11,6 +11,7 @@
 #include "gv.h"
 #include "hal.h"
 #include "hd_app.h"
+#include "hd_sched.h"
 
 void gv_app_stub_sensors(uint32_t motor_raw, uint32_t output_raw);
 int32_t gv_app_stub_torque(void);
@@ -83,7 +84,25 @@ static void run_full(const int32_t *in, int32_t *out, uint32_t count)
     }
 }
 
-static void cost_full(void)
+/* Cost kernels of one tick of the bank's schedule (hd_sched.h): the app is stepped on
+ * (encoders advancing 5 motor / 1 output count per period from mot / out) until its next
+ * period is tick `tick` of the cycle; *mot / *out are then the last inputs.  Returns 1
+ * then, 0 if it never got there (the caller then makes no cost marks and
+ * tools/cm4_cost.py fails on the mark count: a tick is never silently skipped). */
+int32_t gv_app_to_tick(hd_app_t *a, uint32_t tick, uint32_t *mot, uint32_t *out);
+int32_t gv_app_to_tick(hd_app_t *a, uint32_t tick, uint32_t *mot, uint32_t *out)
+{
+    uint32_t i;
+    for (i = 0; i < HD_SCHED_CYCLE && (a->cb.tick & (HD_SCHED_CYCLE - 1u)) != tick; i++) {
+        *mot = (*mot + 5u) & 0x1FFFFu;
+        *out = (*out + 1u) & 0xFFFFFFu;
+        gv_app_stub_sensors(*mot, *out);
+        hd_app_step(a);
+    }
+    return ((a->cb.tick & (HD_SCHED_CYCLE - 1u)) == tick) ? 1 : 0;
+}
+
+static void cost_full(uint32_t slot)
 {
     int32_t in[2 * 16];
     int32_t out[4 * 16];
@@ -94,7 +113,11 @@ static void cost_full(void)
         gen_full(i, &r, &in[2u * i]);
     }
     run_full(in, out, 16u);          /* PTP moving, every compensator fully on (ramp 4 periods) */
-    gv_app_stub_sensors((uint32_t)in[30] + 5u, (uint32_t)in[31] + 1u);
+    uint32_t mot = (uint32_t)in[30], outc = (uint32_t)in[31];
+    if (gv_app_to_tick(&gv_full, slot, &mot, &outc) == 0) {
+        return;
+    }
+    gv_app_stub_sensors((mot + 5u) & 0x1FFFFu, (outc + 1u) & 0xFFFFFFu);
     hd_gv_cost_mark();
     hd_app_step(&gv_full);
     hd_gv_cost_mark();
@@ -126,7 +149,7 @@ static void run_dual(const int32_t *in, int32_t *out, uint32_t count)
     run_fb(in, out, count, HD_FB_DUAL_LOOP);
 }
 
-static void cost_fb(int32_t fb)
+static void cost_fb(int32_t fb, uint32_t slot)
 {
     int32_t in[2 * 16];
     int32_t out[4 * 16];
@@ -137,25 +160,90 @@ static void cost_fb(int32_t fb)
         gen_full(i, &r, &in[2u * i]);
     }
     run_fb(in, out, 16u, fb);
-    gv_app_stub_sensors((uint32_t)in[30] + 5u, (uint32_t)in[31] + 1u);
+    uint32_t mot = (uint32_t)in[30], outc = (uint32_t)in[31];
+    if (gv_app_to_tick(&gv_full, slot, &mot, &outc) == 0) {
+        return;
+    }
+    gv_app_stub_sensors((mot + 5u) & 0x1FFFFu, (outc + 1u) & 0xFFFFFFu);
     hd_gv_cost_mark();
     hd_app_step(&gv_full);
     hd_gv_cost_mark();
 }
 
-static void cost_semi(void)
+/* the first period after the loops start (mode entry, reset): the bank evaluates every
+ * compensator at once (hd_comp_bank_pre, hd_sched.h), once per start */
+static void cost_entry(void)
 {
-    cost_fb(HD_FB_SEMI_CLOSED);
+    int32_t in[2 * 16];
+    int32_t out[4 * 16];
+    hd_gv_rng_t r;
+    uint32_t i;
+    r.s = 4242u;
+    for (i = 0; i < 16u; i++) {
+        gen_full(i, &r, &in[2u * i]);
+    }
+    run_full(in, out, 16u);
+    gv_app_stub_sensors(((uint32_t)in[30] + 5u) & 0x1FFFFu, ((uint32_t)in[31] + 1u) & 0xFFFFFFu);
+    gv_full.cb.dpos_primed = 0u;            /* as the app's loop reset leaves it */
+    hd_gv_cost_mark();
+    hd_app_step(&gv_full);
+    hd_gv_cost_mark();
 }
 
-static void cost_dual(void)
-{
-    cost_fb(HD_FB_DUAL_LOOP);
-}
+/* one cost kernel per tick of the schedule (hd_sched.h); tools/cm4_cost.py takes the worst */
+static void cost_full_s0(void) { cost_full(0u); }
+static void cost_full_s1(void) { cost_full(1u); }
+static void cost_full_s2(void) { cost_full(2u); }
+static void cost_full_s3(void) { cost_full(3u); }
+static void cost_full_s4(void) { cost_full(4u); }
+static void cost_full_s5(void) { cost_full(5u); }
+static void cost_full_s6(void) { cost_full(6u); }
+static void cost_full_s7(void) { cost_full(7u); }
+static void cost_semi_s0(void) { cost_fb(HD_FB_SEMI_CLOSED, 0u); }
+static void cost_semi_s1(void) { cost_fb(HD_FB_SEMI_CLOSED, 1u); }
+static void cost_semi_s2(void) { cost_fb(HD_FB_SEMI_CLOSED, 2u); }
+static void cost_semi_s3(void) { cost_fb(HD_FB_SEMI_CLOSED, 3u); }
+static void cost_semi_s4(void) { cost_fb(HD_FB_SEMI_CLOSED, 4u); }
+static void cost_semi_s5(void) { cost_fb(HD_FB_SEMI_CLOSED, 5u); }
+static void cost_semi_s6(void) { cost_fb(HD_FB_SEMI_CLOSED, 6u); }
+static void cost_semi_s7(void) { cost_fb(HD_FB_SEMI_CLOSED, 7u); }
+static void cost_dual_s0(void) { cost_fb(HD_FB_DUAL_LOOP, 0u); }
+static void cost_dual_s1(void) { cost_fb(HD_FB_DUAL_LOOP, 1u); }
+static void cost_dual_s2(void) { cost_fb(HD_FB_DUAL_LOOP, 2u); }
+static void cost_dual_s3(void) { cost_fb(HD_FB_DUAL_LOOP, 3u); }
+static void cost_dual_s4(void) { cost_fb(HD_FB_DUAL_LOOP, 4u); }
+static void cost_dual_s5(void) { cost_fb(HD_FB_DUAL_LOOP, 5u); }
+static void cost_dual_s6(void) { cost_fb(HD_FB_DUAL_LOOP, 6u); }
+static void cost_dual_s7(void) { cost_fb(HD_FB_DUAL_LOOP, 7u); }
 
 const hd_gv_kernel_t hd_gv_comp_bank_kernels[] = {
-    {"control_step_full", 2u, 4u, 256u, gen_full, run_full, cost_full},
-    {"control_step_semi", 2u, 4u, 256u, gen_full, run_semi, cost_semi},
-    {"control_step_dual", 2u, 4u, 256u, gen_full, run_dual, cost_dual},
+    {"control_step_full", 2u, 4u, 256u, gen_full, run_full, NULL},
+    {"control_step_semi", 2u, 4u, 256u, gen_full, run_semi, NULL},
+    {"control_step_dual", 2u, 4u, 256u, gen_full, run_dual, NULL},
+    {"control_step_entry", 2u, 4u, 8u, gen_full, run_full, cost_entry},
+    {"control_step_full.s0", 2u, 4u, 8u, gen_full, run_full, cost_full_s0},
+    {"control_step_full.s1", 2u, 4u, 8u, gen_full, run_full, cost_full_s1},
+    {"control_step_full.s2", 2u, 4u, 8u, gen_full, run_full, cost_full_s2},
+    {"control_step_full.s3", 2u, 4u, 8u, gen_full, run_full, cost_full_s3},
+    {"control_step_full.s4", 2u, 4u, 8u, gen_full, run_full, cost_full_s4},
+    {"control_step_full.s5", 2u, 4u, 8u, gen_full, run_full, cost_full_s5},
+    {"control_step_full.s6", 2u, 4u, 8u, gen_full, run_full, cost_full_s6},
+    {"control_step_full.s7", 2u, 4u, 8u, gen_full, run_full, cost_full_s7},
+    {"control_step_semi.s0", 2u, 4u, 8u, gen_full, run_semi, cost_semi_s0},
+    {"control_step_semi.s1", 2u, 4u, 8u, gen_full, run_semi, cost_semi_s1},
+    {"control_step_semi.s2", 2u, 4u, 8u, gen_full, run_semi, cost_semi_s2},
+    {"control_step_semi.s3", 2u, 4u, 8u, gen_full, run_semi, cost_semi_s3},
+    {"control_step_semi.s4", 2u, 4u, 8u, gen_full, run_semi, cost_semi_s4},
+    {"control_step_semi.s5", 2u, 4u, 8u, gen_full, run_semi, cost_semi_s5},
+    {"control_step_semi.s6", 2u, 4u, 8u, gen_full, run_semi, cost_semi_s6},
+    {"control_step_semi.s7", 2u, 4u, 8u, gen_full, run_semi, cost_semi_s7},
+    {"control_step_dual.s0", 2u, 4u, 8u, gen_full, run_dual, cost_dual_s0},
+    {"control_step_dual.s1", 2u, 4u, 8u, gen_full, run_dual, cost_dual_s1},
+    {"control_step_dual.s2", 2u, 4u, 8u, gen_full, run_dual, cost_dual_s2},
+    {"control_step_dual.s3", 2u, 4u, 8u, gen_full, run_dual, cost_dual_s3},
+    {"control_step_dual.s4", 2u, 4u, 8u, gen_full, run_dual, cost_dual_s4},
+    {"control_step_dual.s5", 2u, 4u, 8u, gen_full, run_dual, cost_dual_s5},
+    {"control_step_dual.s6", 2u, 4u, 8u, gen_full, run_dual, cost_dual_s6},
+    {"control_step_dual.s7", 2u, 4u, 8u, gen_full, run_dual, cost_dual_s7},
 };
 const uint32_t hd_gv_comp_bank_count = sizeof hd_gv_comp_bank_kernels / sizeof hd_gv_comp_bank_kernels[0];

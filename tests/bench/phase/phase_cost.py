@@ -49,6 +49,41 @@ def phase_counts(marks_path: Path) -> dict[str, int]:
     return out
 
 
+def fold_ticks(res: dict[str, dict]) -> dict[str, dict]:
+    """Per-tick probe results ``<base>.s<k>`` folded into ``<base>``.
+
+    Parameters
+    ----------
+    res : dict[str, dict]
+        Kernel name -> ``{"phases_instructions": .., "sum": ..}`` (Cortex-M4 instructions).
+
+    Returns
+    -------
+    dict[str, dict]
+        Per base: the phases of its worst tick (largest sum), ``worst_tick``, and per
+        phase the instructions of every tick (``ticks``: phase -> list) and the worst
+        over the ticks (``worst_instructions``: phase -> max).
+    """
+    bases: dict[str, dict[int, dict]] = {}
+    for name, r in res.items():
+        base, sep, tick = name.rpartition(".s")
+        if sep and tick.isdigit():
+            bases.setdefault(base, {})[int(tick)] = r
+    out: dict[str, dict] = {}
+    for base, per in bases.items():
+        order = sorted(per)
+        worst = max(order, key=lambda t: per[t]["sum"])
+        phases = list(per[worst]["phases_instructions"])
+        out[base] = {"phases_instructions": per[worst]["phases_instructions"], "sum": per[worst]["sum"],
+                     "kernel_instructions": per[worst]["kernel_instructions"], "worst_tick": worst,
+                     "ticks": {n: [per[t]["phases_instructions"][n] for t in order] for n in phases},
+                     "worst_instructions": {n: max(per[t]["phases_instructions"][n] for t in order)
+                                            for n in phases}}
+        print(f"{base}: worst tick {worst}; comp_bank per tick " +
+              ", ".join(str(v) for v in out[base]["ticks"]["comp_bank"]))
+    return out
+
+
 def main(argv: list[str]) -> int:
     """Write the per-phase JSON; 0 on success, 1 on a malformed log."""
     if len(argv) < 5 or (len(argv) - 3) % 2:
@@ -67,6 +102,7 @@ def main(argv: list[str]) -> int:
                   "kernel_instructions": whole.get(k, {}).get("instructions")}
         print(f"{k}: " + ", ".join(f"{n} {v}" for n, v in ph.items()) + f" (sum {res[k]['sum']}, "
               f"kernel {res[k]['kernel_instructions']})")
+    res.update(fold_ticks(res))
     out_path.write_text(json.dumps({"meta": {"unit": "Cortex-M4 instructions (QEMU TCG count)",
                                              "phases": PHASES}, "kernels": res}, indent=2) + "\n")
     print(f"wrote {out_path}")
