@@ -38,7 +38,12 @@ HD_FX_INLINE int32_t pid_core(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t ref, i
     }
     s->meas_prev = meas;
     s->primed = 1;
-    if (dmeas != 0 || s->dfilt != 0) {     /* else the update leaves dfilt at 0 exactly */
+    if (c->kd_fs == 0) {
+        /* no D term: the filter is not needed, so it rests at 0 (a D gain switched on
+         * later starts from a filter at rest, like a reset; the measurement history
+         * above stays current, so there is no derivative kick either) */
+        s->dfilt = 0;
+    } else if (dmeas != 0 || s->dfilt != 0) {     /* else the update leaves dfilt at 0 exactly */
         /* |dmeas| < 2^32, so dmeas * 2^16 < 2^48: the saturating shift is the product */
         const int64_t target = dmeas * 65536;
         const int64_t diff = hdf_sub64_sat(target, s->dfilt);
@@ -49,7 +54,7 @@ HD_FX_INLINE int32_t pid_core(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t ref, i
     }
 
     const int32_t p = hdf_mul_q(c->kp, e, shift);
-    /* kd_fs == 0 (no D term): the product is exactly 0 */
+    /* kd_fs == 0 (no D term): the term is 0 */
     const int32_t d = (c->kd_fs == 0) ? 0
                       : hdf_neg_sat((int32_t)hdf_sat32(hdf_mul64x32_q(s->dfilt, c->kd_fs, shift + 16u)));
 

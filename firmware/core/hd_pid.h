@@ -16,7 +16,8 @@
  * State.  integ: int64, units out-LSB * 2^shift (i.e. `shift` more fractional
  * bits than the output).  dfilt: int64, the first-order-filtered measurement
  * increment per period in in-LSB * 2^16:  dfilt += alpha * (dmeas*2^16 - dfilt),
- * alpha = 1 - exp(-2 pi f_d T) in Q30.
+ * alpha = 1 - exp(-2 pi f_d T) in Q30.  With kd_fs = 0 (no D term) the filter is
+ * not run and rests at 0: a D gain switched on later starts from the filter at rest.
  *
  * Anti-windup: conditional integration (the integrator does not move in the
  * direction that deepens saturation) plus clamping of the integral term to the

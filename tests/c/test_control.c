@@ -99,6 +99,25 @@ static void test_pid_derivative_on_measurement(void **st)
     assert_int_equal(hd_pid_step(&s, &c, 0, 1000, 0), -250);
 }
 
+/* Without a D gain the derivative filter is not run: it rests at 0, so a D gain
+ * switched on later starts from rest (a measurement that moved while kd_fs was 0
+ * leaves no filtered history behind) and the first D term is the new step only. */
+static void test_pid_derivative_rests_without_gain(void **st)
+{
+    (void)st;
+    hd_pid_t s;
+    hd_pid_cfg_t c = pcfg(0, 0, 0, 16, 1 << 30);
+    c.d_alpha = HD_Q30_ONE / 2;
+    hd_pid_reset(&s);
+    for (int32_t k = 0; k < 50; k++) {
+        assert_int_equal(hd_pid_step(&s, &c, 0, 1000 * k, 0), 0);
+    }
+    assert_true(s.dfilt == 0);
+    c.kd_fs = 1 << 16;                                            /* D = -filtered dmeas */
+    assert_int_equal(hd_pid_step(&s, &c, 0, 49000, 0), 0);        /* no step: still at rest */
+    assert_int_equal(hd_pid_step(&s, &c, 0, 50000, 0), -500);     /* alpha 0.5 of a fresh 1000 step */
+}
+
 static void test_pid_extremes_no_ub(void **st)
 {
     (void)st;
@@ -861,6 +880,7 @@ int main(void)
         cmocka_unit_test(test_pid_integrator_precision),
         cmocka_unit_test(test_pid_antiwindup),
         cmocka_unit_test(test_pid_derivative_on_measurement),
+        cmocka_unit_test(test_pid_derivative_rests_without_gain),
         cmocka_unit_test(test_pid_extremes_no_ub),
         cmocka_unit_test(test_observer_low_speed),
         cmocka_unit_test(test_observer_exact_ramp),
