@@ -253,6 +253,44 @@ static void test_biquad_notch_depth(void **st)
     assert_true(fabs(g500 - 1.0) < 0.03);
 }
 
+/* The section is the exact filter to within the output rounding: against a
+ * double-precision direct form I of the same quantised coefficients, a narrow
+ * notch (1/A(z) gain in the hundreds) and the low-pass, driven by random
+ * torques, stay within 1 LSB (full-precision feedback: the rounding of y is not
+ * recirculated); and a signal beyond the section limit is held at +-2^29. */
+static void test_biquad_full_precision(void **st)
+{
+    (void)st;
+    const hd_biquad_coef_t cs[2] = {q30(0.98883244, -1.97420856, 0.98635076, -1.97420856, 0.9751832),
+                                    q30(0.06745527, 0.13491055, 0.06745527, -1.1429805, 0.4128016)};
+    for (int j = 0; j < 2; j++) {
+        const hd_biquad_coef_t *c = &cs[j];
+        const double b0 = c->b0 / 1073741824.0, b1 = c->b1 / 1073741824.0, b2 = c->b2 / 1073741824.0;
+        const double a1 = c->a1 / 1073741824.0, a2 = c->a2 / 1073741824.0;
+        hd_biquad_state_t s;
+        hd_biquad_reset(&s);
+        double x1 = 0, x2 = 0, y1 = 0, y2 = 0, worst = 0;
+        uint32_t seed = 12345u;
+        for (int k = 0; k < 20000; k++) {
+            seed = seed * 1664525u + 1013904223u;
+            const int32_t x = (int32_t)(seed >> 8) - (1 << 23) + (int32_t)lround(3e6 * sin(0.0314 * k));
+            const double yd = b0 * x + b1 * x1 + b2 * x2 - a1 * y1 - a2 * y2;
+            x2 = x1; x1 = x; y2 = y1; y1 = yd;
+            const double err = fabs((double)hd_biquad_step(&s, c, x) - yd);
+            worst = (err > worst) ? err : worst;
+        }
+        printf("# biquad %d: max |y - exact| %.3f LSB\n", j, worst);
+        assert_true(worst <= 1.0);
+    }
+    hd_biquad_coef_t id;
+    hd_biquad_state_t s;
+    hd_biquad_identity(&id);
+    hd_biquad_reset(&s);
+    assert_int_equal(hd_biquad_step(&s, &id, INT32_MAX), HD_BIQUAD_SIG_MAX);
+    assert_int_equal(hd_biquad_step(&s, &id, INT32_MIN), -HD_BIQUAD_SIG_MAX);
+    assert_int_equal(hd_biquad_step(&s, &id, -12345), -12345);
+}
+
 static void test_biquad_chain_extremes(void **st)
 {
     (void)st;
@@ -886,6 +924,7 @@ int main(void)
         cmocka_unit_test(test_observer_exact_ramp),
         cmocka_unit_test(test_biquad_identity_and_dc),
         cmocka_unit_test(test_biquad_notch_depth),
+        cmocka_unit_test(test_biquad_full_precision),
         cmocka_unit_test(test_biquad_chain_extremes),
         cmocka_unit_test(test_traj_ptp_exact),
         cmocka_unit_test(test_traj_cruise_at_vmax_exactly),
