@@ -195,6 +195,39 @@ static void test_observer_exact_ramp(void **st)
     assert_true(fabs(vm - 20.0) < 1e-6);
 }
 
+/* A jump far beyond the 32-bit error's range (2^-5 turn): err still reports the
+ * whole error, the estimate moves at the limit's rate, settles on the new angle
+ * without overflow and the velocity returns to 0; and err is the error rounded
+ * half away from zero (ties of frac = 1/2 included). */
+static void test_observer_large_error(void **st)
+{
+    (void)st;
+    hd_velobs_t s;
+    hd_velobs_cfg_t c;
+    hd_velobs_design(&c, (int32_t)lround(2 * M_PI * 20 * 65536), 65536);
+    hd_velobs_reset(&s, 0);
+    const int64_t jump = (int64_t)1 << 30;                     /* 0.25 turn, 2^-32 turn */
+    hd_velobs_step(&s, &c, jump);
+    assert_int_equal(s.err, (int32_t)jump);
+    for (int k = 0; k < 30000; k++) {
+        hd_velobs_step(&s, &c, jump);
+    }
+    assert_true(llabs((long long)(s.theta - jump)) <= 1);
+    assert_true(llabs((long long)hd_velobs_vel_out(&s)) <= 2);
+    /* err = round_half_away((d 2^16 - frac) / 2^16) for every frac around a tie */
+    const int32_t fr[] = {0, 1, 32767, 32768, 32769, 65535};
+    const int64_t dd[] = {-3, -1, 0, 1, 2, 1000};
+    for (unsigned i = 0; i < sizeof fr / sizeof fr[0]; i++) {
+        for (unsigned j = 0; j < sizeof dd / sizeof dd[0]; j++) {
+            hd_velobs_t t;
+            hd_velobs_reset(&t, 0);
+            t.frac = fr[i];
+            hd_velobs_step(&t, &c, dd[j]);
+            assert_int_equal(t.err, hd_asr32_rnd(dd[j] * 65536 - fr[i], 16u));
+        }
+    }
+}
+
 /* ------------------------------------------------------------ biquad ----- */
 
 static hd_biquad_coef_t q30(double b0, double b1, double b2, double a1, double a2)
@@ -922,6 +955,7 @@ int main(void)
         cmocka_unit_test(test_pid_extremes_no_ub),
         cmocka_unit_test(test_observer_low_speed),
         cmocka_unit_test(test_observer_exact_ramp),
+        cmocka_unit_test(test_observer_large_error),
         cmocka_unit_test(test_biquad_identity_and_dc),
         cmocka_unit_test(test_biquad_notch_depth),
         cmocka_unit_test(test_biquad_full_precision),
