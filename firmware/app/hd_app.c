@@ -849,8 +849,9 @@ static void phase_loops(hd_app_t *a, hd_period_t *p)
         /* gain 1.0 (the default): the Q30 product is v_ff itself, exactly */
         const int32_t gain = param_raw(a, HD_P_VFF_GAIN);
         const hd_vel_out_t vff = (gain == HD_Q30_ONE) ? p->v_ff : hdf_mul_q(p->v_ff, gain, 30u);
-        p->vel_ref = hd_pid_step(&a->pos_pid, (p->mode == HD_MODE_STAB) ? &a->stab_pos_cfg : &a->pos_cfg,
-                                 p->pos_err, 0, vff);
+        /* the loops' gain shifts are set in hd_app_apply_params: 16 (position), 32 (velocity) */
+        p->vel_ref = hd_pid_step_q(&a->pos_pid, (p->mode == HD_MODE_STAB) ? &a->stab_pos_cfg : &a->pos_cfg,
+                                   p->pos_err, 0, vff, 16u);
     }
     if (p->loops != HD_LOOPS_NONE) {
         /* acceleration feed-forward: j_total [Q16 kg m^2] * acc [2^-24 turn/s^2] * 2 pi -> Q16 N.m */
@@ -860,7 +861,7 @@ static void phase_loops(hd_app_t *a, hd_period_t *p)
             const int32_t aff = hdf_mul_q(hdf_sat32(jaw), param_raw(a, HD_P_AFF_GAIN), 30u);
             p->t_ff = hdf_add_sat(p->t_ff, aff);
         }
-        int32_t t = hd_pid_step(&a->vel_pid, &a->vel_cfg, p->vel_ref, p->v_fb, p->t_ff);
+        int32_t t = hd_pid_step_q(&a->vel_pid, &a->vel_cfg, p->vel_ref, p->v_fb, p->t_ff, 32u);
         if (p->loops == HD_LOOPS_POS_VEL) {
             t = hd_comp_bank_post(&a->cb, &a->cb_cfg, &p->cbi, t);
         }

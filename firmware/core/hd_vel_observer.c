@@ -9,14 +9,6 @@
 #define HD_VELOBS_T_Q44 1759218604
 #define HD_VELOBS_T_SHIFT 44u
 
-void hd_velobs_reset(hd_velobs_t *s, hd_angle_t theta)
-{
-    s->theta = theta;
-    s->frac = 0;
-    s->vel = 0;
-    s->err = 0;
-}
-
 /* the error's 32-bit form: 2^-36 turn, so int32 holds +-2^-5 turn (11.25 deg) */
 #define HD_VELOBS_E_SHIFT 12u                         /* 2^-48 -> 2^-36 turn */
 #define HD_VELOBS_D_MAX ((INT64_C(1) << 27) - 1)      /* |d| clamp, 2^-32 turn */
@@ -49,14 +41,12 @@ void hd_velobs_step(hd_velobs_t *s, const hd_velobs_cfg_t *c, hd_angle_t theta_m
     s->theta = hdf_add64_sat(s->theta, whole);
 }
 
-hd_vel_out_t hd_velobs_vel_out(const hd_velobs_t *s)
+void hd_velobs_reset(hd_velobs_t *s, hd_angle_t theta)
 {
-    return hdf_asr32_rnd(s->vel, 16u);
-}
-
-int64_t hd_velobs_vel48(const hd_velobs_t *s)
-{
-    return s->vel;
+    s->theta = theta;
+    s->frac = 0;
+    s->vel = 0;
+    s->err = 0;
 }
 
 void hd_velobs_design(hd_velobs_cfg_t *c, int32_t w_q16, int32_t zeta_q16)
