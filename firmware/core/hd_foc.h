@@ -11,7 +11,8 @@
  *   sin / cos               Q30             (hd_sincos_turn_fast: ~4e-8, for a 12-bit loop)
  *   kp                      Q15.16 V/A
  *   ki_ts = Ki * Ts         Q15.16 V/(A period)
- *   integrator              int64, 2^-32 V  (16 more fractional bits than the output)
+ *   integrator              int32, 2^-24 V  (8 more fractional bits than the output;
+ *                           holds +-128 V, the bus range of the modulation's fast path)
  *   duty                    Q16, 0 .. 65536 == 0 .. 100 % high-side on time
  *
  * One step (called once per PWM period, Ts = 1 / f_pwm):
@@ -55,8 +56,8 @@ typedef struct {
 } hd_foc_cfg_t;
 
 typedef struct {
-    int64_t integ_d;    /* 2^-32 V */
-    int64_t integ_q;    /* 2^-32 V */
+    int32_t integ_d;    /* 2^-24 V, |.| <= min(vmax, 128 V) */
+    int32_t integ_q;    /* 2^-24 V */
     /* last step, telemetry (Q15.16) */
     int32_t id, iq;     /* measured dq current, A */
     int32_t vd, vq;     /* limited dq voltage, V */
