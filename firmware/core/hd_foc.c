@@ -205,8 +205,8 @@ void hd_foc_step(hd_foc_t *s, const hd_foc_cfg_t *c, const hd_foc_in_t *in, hd_f
         return;
     }
     /* usable phase-voltage amplitude of linear SVM */
-    const int32_t mm = hdf_clamp32(c->m_max, 0, HD_Q30_ONE);
-    const int32_t vmax = foc_rnd_sat((int64_t)foc_rnd_sat((int64_t)in->vbus * mm, 30u) * HD_INV_SQRT3_Q30, 30u);
+    const int32_t vk = hdf_clamp32(c->vmax_k, 0, HD_INV_SQRT3_Q30);
+    const int32_t vmax = foc_rnd_sat((int64_t)in->vbus * vk, 30u);
     const int32_t vd = pi_axis(&s->integ_d, c, hdf_sub_sat(in->id_ref, id), vmax, &hit);
     /* q axis: output and integrator clamped to the rest of the circle,
      * sqrt(vmax^2 - vd^2) - computed only when the vector would leave the circle */
@@ -238,7 +238,8 @@ int32_t hd_foc_design(hd_foc_cfg_t *c, int32_t r_mohm, int32_t l_nh, int32_t fc_
     const int64_t ki = hd_div64_rnd((int64_t)HD_TWO_PI_Q16 * fc_hz * r_mohm, (int64_t)1000 * fs_hz);
     c->kp = hdf_sat32(kp);
     c->ki_ts = hdf_sat32(ki);
-    c->m_max = (int32_t)((HD_Q30_ONE / 100) * 95);    /* 95 % of the linear range */
+    /* 95 % of the linear range: m_max / sqrt(3) with m_max = 0.95, formed once here */
+    c->vmax_k = foc_rnd_sat((int64_t)((HD_Q30_ONE / 100) * 95) * HD_INV_SQRT3_Q30, 30u);
     return 0;
 }
 

@@ -19,7 +19,7 @@
  *   1. Clarke:  i_alpha = ia,  i_beta = (ia + 2 ib) / sqrt(3)   (ia + ib + ic = 0)
  *   2. Park:    id =  i_alpha cos + i_beta sin,  iq = -i_alpha sin + i_beta cos
  *   3. PI on d and q:  v = kp e + I,  I += ki_ts e;  the voltage vector is
- *      limited to the linear SVM range |v| <= vmax = vbus / sqrt(3) * m_max,
+ *      limited to the linear SVM range |v| <= vmax = vbus * vmax_k, vmax_k = m_max / sqrt(3),
  *      d axis first (vd clamped to +-vmax, vq to +-sqrt(vmax^2 - vd^2), the
  *      square root only evaluated when the vector leaves the circle);
  *      anti-windup: each integrator is clamped to its axis limit, so it never
@@ -52,7 +52,8 @@
 typedef struct {
     int32_t kp;         /* Q15.16 V/A */
     int32_t ki_ts;      /* Q15.16 V/(A period) */
-    int32_t m_max;      /* Q30 modulation limit of the linear range, (0, 1] (e.g. 0.95) */
+    int32_t vmax_k;     /* Q30 usable phase amplitude per volt of bus, m_max / sqrt(3) with the
+                         * modulation limit m_max in (0, 1] (e.g. 0.95); clamped to 1 / sqrt(3) */
 } hd_foc_cfg_t;
 
 typedef struct {
