@@ -34,7 +34,6 @@
 
 #include <stdint.h>
 #include "hd_units.h"
-#include "hd_fixed.h"
 
 typedef struct {
     int32_t kp_dt;   /* Q16, 2*zeta*w*T */
@@ -53,15 +52,9 @@ void hd_velobs_step(hd_velobs_t *s, const hd_velobs_cfg_t *c, hd_angle_t theta_m
 /** Start at angle theta with velocity 0. */
 void hd_velobs_reset(hd_velobs_t *s, hd_angle_t theta);
 /** Velocity in 2^-32 turn/s, rounded and saturated. */
-HD_FX_INLINE hd_vel_out_t hd_velobs_vel_out(const hd_velobs_t *s)
-{
-    return hdf_asr32_rnd(s->vel, 16u);
-}
+hd_vel_out_t hd_velobs_vel_out(const hd_velobs_t *s);
 /** Velocity in 2^-48 turn/s. */
-HD_FX_INLINE int64_t hd_velobs_vel48(const hd_velobs_t *s)
-{
-    return s->vel;
-}
+int64_t hd_velobs_vel48(const hd_velobs_t *s);
 /** Gains for bandwidth w (rad/s, given in Q16) and damping zeta (Q16): kp_dt = 2 zeta w T, ki_dt = w^2 T. */
 void hd_velobs_design(hd_velobs_cfg_t *c, int32_t w_q16, int32_t zeta_q16);
 
