@@ -242,15 +242,3 @@ int32_t hd_foc_design(hd_foc_cfg_t *c, int32_t r_mohm, int32_t l_nh, int32_t fc_
     c->vmax_k = foc_rnd_sat((int64_t)((HD_Q30_ONE / 100) * 95) * HD_INV_SQRT3_Q30, 30u);
     return 0;
 }
-
-int32_t hd_foc_adc_current(int32_t raw, int32_t offset, int32_t gain_q30)
-{
-    return hdf_mul_q(hdf_sub_sat(raw, offset), gain_q30, 14u);
-}
-
-uint32_t hd_foc_elec_angle(uint32_t count, uint32_t bits, uint32_t pole_pairs, uint32_t offset)
-{
-    const uint32_t b = (bits < 1u) ? 1u : ((bits > 32u) ? 32u : bits);
-    const uint32_t mech = (b == 32u) ? count : (count << (32u - b));
-    return mech * pole_pairs + offset;     /* modulo 2^32: the angle wraps, meant */
-}

@@ -46,6 +46,7 @@
 
 #include <stdint.h>
 #include "hd_units.h"
+#include "hd_fixed.h"
 
 #define HD_FOC_DUTY_ONE 65536   /* Q16 duty 100 % */
 
@@ -101,11 +102,21 @@ void hd_foc_step(hd_foc_t *s, const hd_foc_cfg_t *c, const hd_foc_in_t *in, hd_f
 int32_t hd_foc_design(hd_foc_cfg_t *c, int32_t r_mohm, int32_t l_nh, int32_t fc_hz, int32_t fs_hz);
 
 /** ADC sample to phase current, Q15.16 A: (raw - offset) * gain, gain_q30 in A per LSB
- *  as Q30 (e.g. 33 A / 2048 LSB = 17301504).  Rounded, saturated. */
-int32_t hd_foc_adc_current(int32_t raw, int32_t offset, int32_t gain_q30);
+ *  as Q30 (e.g. 33 A / 2048 LSB = 17301504).  Rounded, saturated.  Inline (the port
+ *  calls it twice per FOC period). */
+HD_FX_INLINE int32_t hd_foc_adc_current(int32_t raw, int32_t offset, int32_t gain_q30)
+{
+    return hdf_mul_q(hdf_sub_sat(raw, offset), gain_q30, 14u);
+}
 
 /** Electrical angle from a single-turn encoder count in [0, 2^bits) (1 <= bits <= 32):
- *  mech = count * 2^(32 - bits), theta_e = mech * pole_pairs + offset (mod 2^32, meant). */
-uint32_t hd_foc_elec_angle(uint32_t count, uint32_t bits, uint32_t pole_pairs, uint32_t offset);
+ *  mech = count * 2^(32 - bits), theta_e = mech * pole_pairs + offset (mod 2^32, meant).
+ *  Inline (once per FOC period). */
+HD_FX_INLINE uint32_t hd_foc_elec_angle(uint32_t count, uint32_t bits, uint32_t pole_pairs, uint32_t offset)
+{
+    const uint32_t b = (bits < 1u) ? 1u : ((bits > 32u) ? 32u : bits);
+    const uint32_t mech = (b == 32u) ? count : (count << (32u - b));
+    return mech * pole_pairs + offset;     /* modulo 2^32: the angle wraps, meant */
+}
 
 #endif
