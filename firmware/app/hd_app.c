@@ -119,6 +119,11 @@ int32_t hd_app_apply_params(hd_app_t *a)
     a->travel_min_q = hdf_shl64_sat(param_raw(a, HD_P_TRAVEL_MIN), 8u);
     a->travel_max_q = hdf_shl64_sat(param_raw(a, HD_P_TRAVEL_MAX), 8u);
 
+    /* acceleration feed-forward as one gain: aff_gain [Q30] x j_total [Q16 kg m^2] x 2 pi,
+     * N.m per turn/s^2 in Q32.32 (j_total 2 pi 2^44 < 2^62; the result < 2^51) */
+    a->aff_k = hd_mul64x32_q(hd_mul64x32_q((int64_t)param_raw(a, HD_P_J_TOTAL), TWO_PI_Q28, 0u),
+                             param_raw(a, HD_P_AFF_GAIN), 42u);
+
     a->traj_cfg.vmax = param_raw(a, HD_P_TRAJ_VMAX);
     a->traj_cfg.amax = param_raw(a, HD_P_TRAJ_AMAX);
     a->traj_cfg.jmax = param_raw(a, HD_P_TRAJ_JMAX);
@@ -849,18 +854,16 @@ static void phase_loops(hd_app_t *a, hd_period_t *p)
         /* gain 1.0 (the default): the Q30 product is v_ff itself, exactly */
         const int32_t gain = param_raw(a, HD_P_VFF_GAIN);
         const hd_vel_out_t vff = (gain == HD_Q30_ONE) ? p->v_ff : hdf_mul_q(p->v_ff, gain, 30u);
-        p->vel_ref = hd_pid_step(&a->pos_pid, (p->mode == HD_MODE_STAB) ? &a->stab_pos_cfg : &a->pos_cfg,
-                                 p->pos_err, 0, vff);
+        /* the loops' gain shifts are set in hd_app_apply_params: 16 (position), 32 (velocity) */
+        p->vel_ref = hd_pid_step_q(&a->pos_pid, (p->mode == HD_MODE_STAB) ? &a->stab_pos_cfg : &a->pos_cfg,
+                                   p->pos_err, 0, vff, 16u);
     }
     if (p->loops != HD_LOOPS_NONE) {
-        /* acceleration feed-forward: j_total [Q16 kg m^2] * acc [2^-24 turn/s^2] * 2 pi -> Q16 N.m */
-        if (p->acc_ref != 0 && param_raw(a, HD_P_AFF_GAIN) != 0) {    /* else the product is exactly 0 */
-            const int64_t ja = hdf_mul64x32_q((int64_t)param_raw(a, HD_P_J_TOTAL), p->acc_ref, 24u);
-            const int64_t jaw = hdf_mul64x32_q(ja, TWO_PI_Q28, 28u);
-            const int32_t aff = hdf_mul_q(hdf_sat32(jaw), param_raw(a, HD_P_AFF_GAIN), 30u);
-            p->t_ff = hdf_add_sat(p->t_ff, aff);
+        /* acceleration feed-forward: aff_k [Q32.32 N.m per turn/s^2] * acc [2^-24 turn/s^2] -> Q16 N.m */
+        if (p->acc_ref != 0 && a->aff_k != 0) {    /* else the product is exactly 0 */
+            p->t_ff = hdf_add_sat(p->t_ff, hdf_sat32(hdf_mul64x32_q(a->aff_k, p->acc_ref, 40u)));
         }
-        int32_t t = hd_pid_step(&a->vel_pid, &a->vel_cfg, p->vel_ref, p->v_fb, p->t_ff);
+        int32_t t = hd_pid_step_q(&a->vel_pid, &a->vel_cfg, p->vel_ref, p->v_fb, p->t_ff, 32u);
         if (p->loops == HD_LOOPS_POS_VEL) {
             t = hd_comp_bank_post(&a->cb, &a->cb_cfg, &p->cbi, t);
         }

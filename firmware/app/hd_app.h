@@ -178,6 +178,7 @@ typedef struct {
     hd_traj_cfg_t traj_cfg;
     hd_angle_t travel_min_q;      /* travel limits as Q32.32 turns (travel_min/max x 2^8, saturated) */
     hd_angle_t travel_max_q;
+    int64_t      aff_k;           /* acceleration FF gain aff_gain j_total 2 pi, N.m per turn/s^2 in Q32.32 */
 
     /* controller state */
     hd_pid_t pos_pid, vel_pid;

@@ -1,5 +1,5 @@
 /*
- * hd_biquad.c - transposed direct form II biquads, 64-bit state, Q2.30 coefficients.
+ * hd_biquad.c - direct form I biquads with full-precision feedback, Q2.30 coefficients.
  */
 #include "hd_biquad.h"
 #include "hd_fixed.h"
@@ -15,24 +15,54 @@ void hd_biquad_identity(hd_biquad_coef_t *c)
 
 void hd_biquad_reset(hd_biquad_state_t *s)
 {
-    s->s1 = 0;
-    s->s2 = 0;
+    s->x1 = 0;
+    s->x2 = 0;
+    s->y1 = 0;
+    s->y2 = 0;
+    s->e1 = 0;
+    s->e2 = 0;
+}
+
+/* One section (formats and range: hd_biquad.h).  Every product is a 32 x 32-bit
+ * multiply-accumulate into one int64 (SMLAL); the two roundings are the inline
+ * shifts of hd_fixed.h. */
+static inline int32_t biquad_step(hd_biquad_state_t *s, const hd_biquad_coef_t *c, int32_t x_in)
+{
+    const int32_t x = hdf_clamp32(x_in, -HD_BIQUAD_SIG_MAX, HD_BIQUAD_SIG_MAX);
+    /* the residuals' feedback: |a e| < 2^31 2^29, the sum < 2^61; rounded to < 2^32 */
+    int64_t r = (int64_t)c->a1 * s->e1;
+    r += (int64_t)c->a2 * s->e2;
+    /* |each product| <= 2^31 2^29 = 2^60: five and the residual term stay below 2^63 */
+    int64_t acc = (int64_t)c->b0 * x;
+    acc += (int64_t)c->b1 * s->x1;
+    acc += (int64_t)c->b2 * s->x2;
+    acc += (int64_t)c->a1 * (int32_t)(-s->y1);             /* |y| <= 2^29: the negation fits */
+    acc += (int64_t)c->a2 * (int32_t)(-s->y2);
+    acc -= hdf_asr64_rnd(r, 30u);
+    const int64_t yr = hdf_asr64_rnd(acc, 30u);              /* |.| < 2^33 */
+    int32_t y;
+    int32_t e;
+    if (yr > (int64_t)HD_BIQUAD_SIG_MAX || yr < -(int64_t)HD_BIQUAD_SIG_MAX) {
+        y = (yr > 0) ? HD_BIQUAD_SIG_MAX : -HD_BIQUAD_SIG_MAX;
+        e = 0;                                              /* limited: the residual is dropped */
+    } else {
+        y = (int32_t)yr;
+        /* acc - y 2^30 lies in [-2^29, 2^29]: its low word is the value (mod 2^32 exact) */
+        const uint32_t u = (uint32_t)((uint64_t)acc & 0xFFFFFFFFu) - ((uint32_t)y << 30);
+        e = (u > 0x7FFFFFFFu) ? -(int32_t)(~u) - 1 : (int32_t)u;
+    }
+    s->x2 = s->x1;
+    s->x1 = x;
+    s->y2 = s->y1;
+    s->y1 = y;
+    s->e2 = s->e1;
+    s->e1 = e;
+    return y;
 }
 
 int32_t hd_biquad_step(hd_biquad_state_t *s, const hd_biquad_coef_t *c, int32_t x)
 {
-    /* acc = b0 x + s1 keeps 30 fractional bits; the FULL-precision acc (not the
-     * rounded y) is fed back, so the output rounding is not amplified by 1/A(z)
-     * (which is large for a narrow notch). */
-    const int64_t acc = hdf_mac64(s->s1, c->b0, x);
-    const int32_t y = hdf_asr32_rnd(acc, 30u);
-    int64_t s1 = hdf_mac64(s->s2, c->b1, x);
-    s1 = hdf_sub64_sat(s1, hdf_mul64x32_q(acc, c->a1, 30u));
-    int64_t s2 = hdf_mac64(0, c->b2, x);
-    s2 = hdf_sub64_sat(s2, hdf_mul64x32_q(acc, c->a2, 30u));
-    s->s1 = s1;
-    s->s2 = s2;
-    return y;
+    return biquad_step(s, c, x);
 }
 
 void hd_biquad_chain_reset(hd_biquad_chain_t *s)
@@ -48,7 +78,7 @@ int32_t hd_biquad_chain_step(hd_biquad_chain_t *s, const hd_biquad_chain_cfg_t *
     uint32_t i;
     const uint32_t n = (c->n < HD_BIQUAD_MAX) ? c->n : HD_BIQUAD_MAX;
     for (i = 0; i < n; i++) {
-        x = hd_biquad_step(&s->s[i], &c->c[i], x);
+        x = biquad_step(&s->s[i], &c->c[i], x);
     }
     return x;
 }

@@ -29,10 +29,3 @@ int32_t hd_enc_update(hd_enc_t *e, uint32_t raw)
     }
     return step;
 }
-
-uint32_t hd_enc_single_turn(const hd_enc_t *e, uint32_t bits)
-{
-    const uint32_t b = (bits < 1u) ? 1u : ((bits > 32u) ? 32u : bits);
-    const uint64_t mask = ((uint64_t)1 << b) - 1u;
-    return (uint32_t)((uint64_t)e->count & mask);   /* two's complement image: mod 2^b */
-}

@@ -31,7 +31,12 @@ typedef struct {
 void hd_enc_init(hd_enc_t *e, uint32_t raw, int64_t count0, uint32_t max_step);
 /** One update with the counter value raw; returns the signed step in counts. */
 int32_t hd_enc_update(hd_enc_t *e, uint32_t raw);
-/** count mod 2^bits in [0, 2^bits), 1 <= bits <= 32. */
-uint32_t hd_enc_single_turn(const hd_enc_t *e, uint32_t bits);
+/** count mod 2^bits in [0, 2^bits), 1 <= bits <= 32 (inline: twice per FOC period). */
+static inline uint32_t hd_enc_single_turn(const hd_enc_t *e, uint32_t bits)
+{
+    const uint32_t b = (bits < 1u) ? 1u : ((bits > 32u) ? 32u : bits);
+    const uint64_t mask = ((uint64_t)1 << b) - 1u;
+    return (uint32_t)((uint64_t)e->count & mask);   /* two's complement image: mod 2^b */
+}
 
 #endif

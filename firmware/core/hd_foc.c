@@ -145,19 +145,40 @@ void hd_foc_reset(hd_foc_t *s)
     s->limited = 0u;
 }
 
+/* The integrators are int32 in 2^-24 V (Q8.24: 8 more fractional bits than the
+ * output, +-128 V): the axis limit is at most HD_FOC_I_LIM (128 V - 2^-16 V) there,
+ * so |integrator| < 2^31 - 2^8 and the rounding offset 2^7 cannot overflow. */
+#define HD_FOC_I_SHIFT 8u
+#define HD_FOC_I_LIM   (((int32_t)1 << 23) - 1)    /* Q15.16 V */
+
+/* floor(x / 2^s) of an int32 (arithmetic shift, written without >> on a signed value) */
+static inline int32_t foc_floor32(int32_t x, uint32_t s)
+{
+    const uint32_t m = (x < 0) ? 0xFFFFFFFFu : 0u;
+    const uint32_t u = (((uint32_t)x ^ m) >> s) ^ m;
+    return (u > 0x7FFFFFFFu) ? -(int32_t)(~u) - 1 : (int32_t)u;
+}
+
+/* an axis limit lim (Q15.16 V, >= 0) as the integrator's bound in 2^-24 V */
+static inline int32_t foc_ilim(int32_t lim)
+{
+    return (int32_t)((uint32_t)((lim < HD_FOC_I_LIM) ? lim : HD_FOC_I_LIM) << HD_FOC_I_SHIFT);
+}
+
 /* PI with the integrator clamped to +-lim (anti-windup: the integrator never
  * holds more than the usable voltage, so it keeps tracking what the
  * saturated axis needs, e.g. the back-EMF, and recovery takes a few periods);
- * returns the output limited to +-lim (lim >= 0); *lim_hit = 1 if clamped. */
-static int32_t pi_axis(int64_t *integ, const hd_foc_cfg_t *c, int32_t e, int32_t lim, uint32_t *lim_hit)
+ * returns the output limited to +-lim (lim >= 0); *lim_hit = 1 if clamped.
+ * 32-bit integrator: the increment ki_ts e (Q32 V, |.| < 2^62) rounded to 2^-24 V
+ * and saturated, a saturating add, a 32-bit clamp (range: HD_FOC_I_LIM above). */
+static int32_t pi_axis(int32_t *integ, const hd_foc_cfg_t *c, int32_t e, int32_t lim, uint32_t *lim_hit)
 {
-    const int64_t ilim = (int64_t)lim * HD_Q16_ONE;          /* Q32 V, <= 2^47 */
-    const int64_t ib = (int64_t)1 << 48;                     /* |*integ| <= 2^47: every step clamps */
-    const int64_t i0 = hdf_clamp64(*integ, -ib, ib);          /* (so this never acts; keeps the sum in range) */
+    const int32_t ilim = foc_ilim(lim);
     const int32_t p = foc_rnd_sat((int64_t)c->kp * e, 16u);  /* |product| < 2^62 */
-    const int64_t in = hdf_clamp64(i0 + (int64_t)c->ki_ts * e, -ilim, ilim);   /* |sum| < 2^62 + 2^48 */
+    const int32_t inc = foc_rnd_sat((int64_t)c->ki_ts * e, 32u - (16u + HD_FOC_I_SHIFT));   /* Q32 -> Q24 V */
+    const int32_t in = hdf_clamp32(hdf_add_sat(*integ, inc), -ilim, ilim);
     *integ = in;
-    const int32_t v = hdf_add_sat(p, foc_rnd_sat(in, 16u));
+    const int32_t v = hdf_add_sat(p, foc_floor32(in + ((int32_t)1 << (HD_FOC_I_SHIFT - 1u)), HD_FOC_I_SHIFT));
     if (v > lim || v < -lim) {
         *lim_hit = 1u;
     }
@@ -184,8 +205,8 @@ void hd_foc_step(hd_foc_t *s, const hd_foc_cfg_t *c, const hd_foc_in_t *in, hd_f
         return;
     }
     /* usable phase-voltage amplitude of linear SVM */
-    const int32_t mm = hdf_clamp32(c->m_max, 0, HD_Q30_ONE);
-    const int32_t vmax = foc_rnd_sat((int64_t)foc_rnd_sat((int64_t)in->vbus * mm, 30u) * HD_INV_SQRT3_Q30, 30u);
+    const int32_t vk = hdf_clamp32(c->vmax_k, 0, HD_INV_SQRT3_Q30);
+    const int32_t vmax = foc_rnd_sat((int64_t)in->vbus * vk, 30u);
     const int32_t vd = pi_axis(&s->integ_d, c, hdf_sub_sat(in->id_ref, id), vmax, &hit);
     /* q axis: output and integrator clamped to the rest of the circle,
      * sqrt(vmax^2 - vd^2) - computed only when the vector would leave the circle */
@@ -196,7 +217,7 @@ void hd_foc_step(hd_foc_t *s, const hd_foc_cfg_t *c, const hd_foc_in_t *in, hd_f
     if ((int64_t)vq * vq > r2 - vd2) {
         const int32_t vq_lim = (int32_t)hd_isqrt64((uint64_t)(r2 - vd2));
         vq = hdf_clamp32(vq, -vq_lim, vq_lim);
-        s->integ_q = hdf_clamp64(s->integ_q, -(int64_t)vq_lim * HD_Q16_ONE, (int64_t)vq_lim * HD_Q16_ONE);
+        s->integ_q = hdf_clamp32(s->integ_q, -foc_ilim(vq_lim), foc_ilim(vq_lim));
         hit = 1u;
     }
     hit |= hit_q;
@@ -217,18 +238,7 @@ int32_t hd_foc_design(hd_foc_cfg_t *c, int32_t r_mohm, int32_t l_nh, int32_t fc_
     const int64_t ki = hd_div64_rnd((int64_t)HD_TWO_PI_Q16 * fc_hz * r_mohm, (int64_t)1000 * fs_hz);
     c->kp = hdf_sat32(kp);
     c->ki_ts = hdf_sat32(ki);
-    c->m_max = (int32_t)((HD_Q30_ONE / 100) * 95);    /* 95 % of the linear range */
+    /* 95 % of the linear range: m_max / sqrt(3) with m_max = 0.95, formed once here */
+    c->vmax_k = foc_rnd_sat((int64_t)((HD_Q30_ONE / 100) * 95) * HD_INV_SQRT3_Q30, 30u);
     return 0;
-}
-
-int32_t hd_foc_adc_current(int32_t raw, int32_t offset, int32_t gain_q30)
-{
-    return hdf_mul_q(hdf_sub_sat(raw, offset), gain_q30, 14u);
-}
-
-uint32_t hd_foc_elec_angle(uint32_t count, uint32_t bits, uint32_t pole_pairs, uint32_t offset)
-{
-    const uint32_t b = (bits < 1u) ? 1u : ((bits > 32u) ? 32u : bits);
-    const uint32_t mech = (b == 32u) ? count : (count << (32u - b));
-    return mech * pole_pairs + offset;     /* modulo 2^32: the angle wraps, meant */
 }

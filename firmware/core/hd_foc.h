@@ -11,14 +11,15 @@
  *   sin / cos               Q30             (hd_sincos_turn_fast: ~4e-8, for a 12-bit loop)
  *   kp                      Q15.16 V/A
  *   ki_ts = Ki * Ts         Q15.16 V/(A period)
- *   integrator              int64, 2^-32 V  (16 more fractional bits than the output)
+ *   integrator              int32, 2^-24 V  (8 more fractional bits than the output;
+ *                           holds +-128 V, the bus range of the modulation's fast path)
  *   duty                    Q16, 0 .. 65536 == 0 .. 100 % high-side on time
  *
  * One step (called once per PWM period, Ts = 1 / f_pwm):
  *   1. Clarke:  i_alpha = ia,  i_beta = (ia + 2 ib) / sqrt(3)   (ia + ib + ic = 0)
  *   2. Park:    id =  i_alpha cos + i_beta sin,  iq = -i_alpha sin + i_beta cos
  *   3. PI on d and q:  v = kp e + I,  I += ki_ts e;  the voltage vector is
- *      limited to the linear SVM range |v| <= vmax = vbus / sqrt(3) * m_max,
+ *      limited to the linear SVM range |v| <= vmax = vbus * vmax_k, vmax_k = m_max / sqrt(3),
  *      d axis first (vd clamped to +-vmax, vq to +-sqrt(vmax^2 - vd^2), the
  *      square root only evaluated when the vector leaves the circle);
  *      anti-windup: each integrator is clamped to its axis limit, so it never
@@ -45,18 +46,20 @@
 
 #include <stdint.h>
 #include "hd_units.h"
+#include "hd_fixed.h"
 
 #define HD_FOC_DUTY_ONE 65536   /* Q16 duty 100 % */
 
 typedef struct {
     int32_t kp;         /* Q15.16 V/A */
     int32_t ki_ts;      /* Q15.16 V/(A period) */
-    int32_t m_max;      /* Q30 modulation limit of the linear range, (0, 1] (e.g. 0.95) */
+    int32_t vmax_k;     /* Q30 usable phase amplitude per volt of bus, m_max / sqrt(3) with the
+                         * modulation limit m_max in (0, 1] (e.g. 0.95); clamped to 1 / sqrt(3) */
 } hd_foc_cfg_t;
 
 typedef struct {
-    int64_t integ_d;    /* 2^-32 V */
-    int64_t integ_q;    /* 2^-32 V */
+    int32_t integ_d;    /* 2^-24 V, |.| <= min(vmax, 128 V) */
+    int32_t integ_q;    /* 2^-24 V */
     /* last step, telemetry (Q15.16) */
     int32_t id, iq;     /* measured dq current, A */
     int32_t vd, vq;     /* limited dq voltage, V */
@@ -99,11 +102,21 @@ void hd_foc_step(hd_foc_t *s, const hd_foc_cfg_t *c, const hd_foc_in_t *in, hd_f
 int32_t hd_foc_design(hd_foc_cfg_t *c, int32_t r_mohm, int32_t l_nh, int32_t fc_hz, int32_t fs_hz);
 
 /** ADC sample to phase current, Q15.16 A: (raw - offset) * gain, gain_q30 in A per LSB
- *  as Q30 (e.g. 33 A / 2048 LSB = 17301504).  Rounded, saturated. */
-int32_t hd_foc_adc_current(int32_t raw, int32_t offset, int32_t gain_q30);
+ *  as Q30 (e.g. 33 A / 2048 LSB = 17301504).  Rounded, saturated.  Inline (the port
+ *  calls it twice per FOC period). */
+HD_FX_INLINE int32_t hd_foc_adc_current(int32_t raw, int32_t offset, int32_t gain_q30)
+{
+    return hdf_mul_q(hdf_sub_sat(raw, offset), gain_q30, 14u);
+}
 
 /** Electrical angle from a single-turn encoder count in [0, 2^bits) (1 <= bits <= 32):
- *  mech = count * 2^(32 - bits), theta_e = mech * pole_pairs + offset (mod 2^32, meant). */
-uint32_t hd_foc_elec_angle(uint32_t count, uint32_t bits, uint32_t pole_pairs, uint32_t offset);
+ *  mech = count * 2^(32 - bits), theta_e = mech * pole_pairs + offset (mod 2^32, meant).
+ *  Inline (once per FOC period). */
+HD_FX_INLINE uint32_t hd_foc_elec_angle(uint32_t count, uint32_t bits, uint32_t pole_pairs, uint32_t offset)
+{
+    const uint32_t b = (bits < 1u) ? 1u : ((bits > 32u) ? 32u : bits);
+    const uint32_t mech = (b == 32u) ? count : (count << (32u - b));
+    return mech * pole_pairs + offset;     /* modulo 2^32: the angle wraps, meant */
+}
 
 #endif

@@ -9,36 +9,44 @@
 #define HD_VELOBS_T_Q44 1759218604
 #define HD_VELOBS_T_SHIFT 44u
 
+/* the error's 32-bit form: 2^-36 turn, so int32 holds +-2^-5 turn (11.25 deg) */
+#define HD_VELOBS_E_SHIFT 12u                         /* 2^-48 -> 2^-36 turn */
+#define HD_VELOBS_D_MAX ((INT64_C(1) << 27) - 1)      /* |d| clamp, 2^-32 turn */
+
+void hd_velobs_step(hd_velobs_t *s, const hd_velobs_cfg_t *c, hd_angle_t theta_meas)
+{
+    /* error against the estimate theta, 2^-32 turn */
+    int64_t d;
+    if (theta_meas > -(INT64_C(1) << 46) && theta_meas < (INT64_C(1) << 46) &&
+        s->theta > -(INT64_C(1) << 46) && s->theta < (INT64_C(1) << 46)) {
+        d = theta_meas - s->theta;                      /* |.| < 2^47: no saturation */
+    } else {
+        d = hdf_sub64_sat(theta_meas, s->theta);
+    }
+    /* err = round(d - frac 2^-16) in 2^-32 turn: d, less one when frac > 1/2 (or is
+     * 1/2 and d <= 0: the tie goes away from zero) */
+    s->err = hdf_sub_sat(hdf_sat32(d), (s->frac > 32768 || (s->frac == 32768 && d <= 0)) ? 1 : 0);
+    /* e = d - frac (2^-48 turn) in 2^-36 turn as an int32: |d| clamped to 2^27 - 1
+     * (2^-5 turn; a larger error moves the estimate at that error's rate), so
+     * |d 2^16 - frac| < 2^43 and the rounded e < 2^31 */
+    const int64_t dc = hdf_clamp64(d, -HD_VELOBS_D_MAX, HD_VELOBS_D_MAX);
+    const int32_t e = (int32_t)hdf_asr64_rnd(dc * 65536 - (int64_t)s->frac, HD_VELOBS_E_SHIFT);
+    /* vel [2^-48 turn/s] += (Ki T)[Q16 1/s] * e [2^-36 turn] / 2^4: a 32 x 32 product */
+    s->vel = hdf_add64_sat(s->vel, hdf_asr64_rnd((int64_t)c->ki_dt * e, 16u - HD_VELOBS_E_SHIFT));
+    /* angle advance in 2^-48 turn: T * vel + (Kp T) * e + frac (|(Kp T) e / 2^4| < 2^59) */
+    int64_t adv = hdf_mul64x32_q(s->vel, HD_VELOBS_T_Q44, HD_VELOBS_T_SHIFT);
+    adv = hdf_add64_sat(adv, hdf_asr64_rnd((int64_t)c->kp_dt * e, 16u - HD_VELOBS_E_SHIFT) + (int64_t)s->frac);
+    const int64_t whole = hdf_asr64_floor(adv, 16u);
+    s->frac = (int32_t)(adv - whole * 65536);
+    s->theta = hdf_add64_sat(s->theta, whole);
+}
+
 void hd_velobs_reset(hd_velobs_t *s, hd_angle_t theta)
 {
     s->theta = theta;
     s->frac = 0;
     s->vel = 0;
     s->err = 0;
-}
-
-void hd_velobs_step(hd_velobs_t *s, const hd_velobs_cfg_t *c, hd_angle_t theta_meas)
-{
-    /* error against the full-precision estimate (theta + frac), 2^-48 turn */
-    int64_t e48;
-    if (theta_meas > -(INT64_C(1) << 46) && theta_meas < (INT64_C(1) << 46) &&
-        s->theta > -(INT64_C(1) << 46) && s->theta < (INT64_C(1) << 46)) {
-        /* |angles| < 2^46 turn * 2^-32: nothing below saturates, the same value directly */
-        e48 = (theta_meas - s->theta) * 65536 - (int64_t)s->frac;
-    } else {
-        e48 = hdf_sub64_sat(hdf_sub64_sat(hdf_shl64_sat(theta_meas, 16u), hdf_shl64_sat(s->theta, 16u)),
-                           (int64_t)s->frac);
-    }
-    s->err = hdf_asr32_rnd(e48, 16u);
-    /* vel [2^-48 turn/s] += (Ki T)[Q16 1/s] * e [2^-48 turn] / 2^16 */
-    s->vel = hdf_add64_sat(s->vel, hdf_mul64x32_q(e48, c->ki_dt, 16u));
-    /* angle advance in 2^-48 turn: T * vel + (Kp T) * e */
-    int64_t adv = hdf_mul64x32_q(s->vel, HD_VELOBS_T_Q44, HD_VELOBS_T_SHIFT);
-    adv = hdf_add64_sat(adv, hdf_mul64x32_q(e48, c->kp_dt, 16u));
-    adv = hdf_add64_sat(adv, (int64_t)s->frac);
-    const int64_t whole = hdf_asr64_floor(adv, 16u);
-    s->frac = (int32_t)(adv - whole * 65536);
-    s->theta = hdf_add64_sat(s->theta, whole);
 }
 
 hd_vel_out_t hd_velobs_vel_out(const hd_velobs_t *s)

@@ -2,7 +2,8 @@
  * hd_vel_observer.h - low-speed velocity estimator: a type-2 tracking loop
  * (PLL / tracking observer) on a multi-turn encoder angle.
  *
- *   e      = theta_meas - theta_hat                      (2^-48 turn, int64, incl. frac)
+ *   e      = theta_meas - theta_hat                      (2^-36 turn, int32, incl. frac;
+ *                                                         |e| limited to 2^-5 turn)
  *   vel   += ki_dt * e                                   (Ki = w^2,       T = 1/HD_LOOP_HZ)
  *   theta_hat += T * vel + kp_dt * e                     (Kp = 2 zeta w)
  *
@@ -15,6 +16,12 @@
  *                          velocity format; holds +-32768 turn/s, so the same
  *                          observer serves the motor shaft).
  *   kp_dt, ki_dt           int32 Q16 (dimensionless Kp*T; Ki*T in 1/s).
+ *   e                      int32, 2^-36 turn: the error rounded from 2^-48 turn
+ *                          (d 2^16 - frac) and limited to +-2^-5 turn (11.25 deg),
+ *                          so each gain product is one 32 x 32-bit multiply; a
+ *                          larger error (start-up, a jump) moves the estimate at
+ *                          the limit's rate until it is back in range.
+ *   err                    the unlimited error rounded to 2^-32 turn (saturated).
  * Outputs: hd_velobs_vel_out() rounds vel to 2^-32 turn/s (saturated int32),
  * hd_velobs_vel48() gives the full int64.
  *
@@ -40,10 +47,10 @@ typedef struct {
     int32_t    err;    /* last error, 2^-32 turn */
 } hd_velobs_t;
 
-/** Start at angle theta with velocity 0. */
-void hd_velobs_reset(hd_velobs_t *s, hd_angle_t theta);
 /** One period with the measured multi-turn angle. */
 void hd_velobs_step(hd_velobs_t *s, const hd_velobs_cfg_t *c, hd_angle_t theta_meas);
+/** Start at angle theta with velocity 0. */
+void hd_velobs_reset(hd_velobs_t *s, hd_angle_t theta);
 /** Velocity in 2^-32 turn/s, rounded and saturated. */
 hd_vel_out_t hd_velobs_vel_out(const hd_velobs_t *s);
 /** Velocity in 2^-48 turn/s. */

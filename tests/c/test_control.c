@@ -99,6 +99,25 @@ static void test_pid_derivative_on_measurement(void **st)
     assert_int_equal(hd_pid_step(&s, &c, 0, 1000, 0), -250);
 }
 
+/* Without a D gain the derivative filter is not run: it rests at 0, so a D gain
+ * switched on later starts from rest (a measurement that moved while kd_fs was 0
+ * leaves no filtered history behind) and the first D term is the new step only. */
+static void test_pid_derivative_rests_without_gain(void **st)
+{
+    (void)st;
+    hd_pid_t s;
+    hd_pid_cfg_t c = pcfg(0, 0, 0, 16, 1 << 30);
+    c.d_alpha = HD_Q30_ONE / 2;
+    hd_pid_reset(&s);
+    for (int32_t k = 0; k < 50; k++) {
+        assert_int_equal(hd_pid_step(&s, &c, 0, 1000 * k, 0), 0);
+    }
+    assert_true(s.dfilt == 0);
+    c.kd_fs = 1 << 16;                                            /* D = -filtered dmeas */
+    assert_int_equal(hd_pid_step(&s, &c, 0, 49000, 0), 0);        /* no step: still at rest */
+    assert_int_equal(hd_pid_step(&s, &c, 0, 50000, 0), -500);     /* alpha 0.5 of a fresh 1000 step */
+}
+
 static void test_pid_extremes_no_ub(void **st)
 {
     (void)st;
@@ -176,6 +195,39 @@ static void test_observer_exact_ramp(void **st)
     assert_true(fabs(vm - 20.0) < 1e-6);
 }
 
+/* A jump far beyond the 32-bit error's range (2^-5 turn): err still reports the
+ * whole error, the estimate moves at the limit's rate, settles on the new angle
+ * without overflow and the velocity returns to 0; and err is the error rounded
+ * half away from zero (ties of frac = 1/2 included). */
+static void test_observer_large_error(void **st)
+{
+    (void)st;
+    hd_velobs_t s;
+    hd_velobs_cfg_t c;
+    hd_velobs_design(&c, (int32_t)lround(2 * M_PI * 20 * 65536), 65536);
+    hd_velobs_reset(&s, 0);
+    const int64_t jump = (int64_t)1 << 30;                     /* 0.25 turn, 2^-32 turn */
+    hd_velobs_step(&s, &c, jump);
+    assert_int_equal(s.err, (int32_t)jump);
+    for (int k = 0; k < 30000; k++) {
+        hd_velobs_step(&s, &c, jump);
+    }
+    assert_true(llabs((long long)(s.theta - jump)) <= 1);
+    assert_true(llabs((long long)hd_velobs_vel_out(&s)) <= 2);
+    /* err = round_half_away((d 2^16 - frac) / 2^16) for every frac around a tie */
+    const int32_t fr[] = {0, 1, 32767, 32768, 32769, 65535};
+    const int64_t dd[] = {-3, -1, 0, 1, 2, 1000};
+    for (unsigned i = 0; i < sizeof fr / sizeof fr[0]; i++) {
+        for (unsigned j = 0; j < sizeof dd / sizeof dd[0]; j++) {
+            hd_velobs_t t;
+            hd_velobs_reset(&t, 0);
+            t.frac = fr[i];
+            hd_velobs_step(&t, &c, dd[j]);
+            assert_int_equal(t.err, hd_asr32_rnd(dd[j] * 65536 - fr[i], 16u));
+        }
+    }
+}
+
 /* ------------------------------------------------------------ biquad ----- */
 
 static hd_biquad_coef_t q30(double b0, double b1, double b2, double a1, double a2)
@@ -232,6 +284,44 @@ static void test_biquad_notch_depth(void **st)
     assert_true(g50 < 0.12);
     assert_true(fabs(g5 - 1.0) < 0.03);
     assert_true(fabs(g500 - 1.0) < 0.03);
+}
+
+/* The section is the exact filter to within the output rounding: against a
+ * double-precision direct form I of the same quantised coefficients, a narrow
+ * notch (1/A(z) gain in the hundreds) and the low-pass, driven by random
+ * torques, stay within 1 LSB (full-precision feedback: the rounding of y is not
+ * recirculated); and a signal beyond the section limit is held at +-2^29. */
+static void test_biquad_full_precision(void **st)
+{
+    (void)st;
+    const hd_biquad_coef_t cs[2] = {q30(0.98883244, -1.97420856, 0.98635076, -1.97420856, 0.9751832),
+                                    q30(0.06745527, 0.13491055, 0.06745527, -1.1429805, 0.4128016)};
+    for (int j = 0; j < 2; j++) {
+        const hd_biquad_coef_t *c = &cs[j];
+        const double b0 = c->b0 / 1073741824.0, b1 = c->b1 / 1073741824.0, b2 = c->b2 / 1073741824.0;
+        const double a1 = c->a1 / 1073741824.0, a2 = c->a2 / 1073741824.0;
+        hd_biquad_state_t s;
+        hd_biquad_reset(&s);
+        double x1 = 0, x2 = 0, y1 = 0, y2 = 0, worst = 0;
+        uint32_t seed = 12345u;
+        for (int k = 0; k < 20000; k++) {
+            seed = seed * 1664525u + 1013904223u;
+            const int32_t x = (int32_t)(seed >> 8) - (1 << 23) + (int32_t)lround(3e6 * sin(0.0314 * k));
+            const double yd = b0 * x + b1 * x1 + b2 * x2 - a1 * y1 - a2 * y2;
+            x2 = x1; x1 = x; y2 = y1; y1 = yd;
+            const double err = fabs((double)hd_biquad_step(&s, c, x) - yd);
+            worst = (err > worst) ? err : worst;
+        }
+        printf("# biquad %d: max |y - exact| %.3f LSB\n", j, worst);
+        assert_true(worst <= 1.0);
+    }
+    hd_biquad_coef_t id;
+    hd_biquad_state_t s;
+    hd_biquad_identity(&id);
+    hd_biquad_reset(&s);
+    assert_int_equal(hd_biquad_step(&s, &id, INT32_MAX), HD_BIQUAD_SIG_MAX);
+    assert_int_equal(hd_biquad_step(&s, &id, INT32_MIN), -HD_BIQUAD_SIG_MAX);
+    assert_int_equal(hd_biquad_step(&s, &id, -12345), -12345);
 }
 
 static void test_biquad_chain_extremes(void **st)
@@ -861,11 +951,14 @@ int main(void)
         cmocka_unit_test(test_pid_integrator_precision),
         cmocka_unit_test(test_pid_antiwindup),
         cmocka_unit_test(test_pid_derivative_on_measurement),
+        cmocka_unit_test(test_pid_derivative_rests_without_gain),
         cmocka_unit_test(test_pid_extremes_no_ub),
         cmocka_unit_test(test_observer_low_speed),
         cmocka_unit_test(test_observer_exact_ramp),
+        cmocka_unit_test(test_observer_large_error),
         cmocka_unit_test(test_biquad_identity_and_dc),
         cmocka_unit_test(test_biquad_notch_depth),
+        cmocka_unit_test(test_biquad_full_precision),
         cmocka_unit_test(test_biquad_chain_extremes),
         cmocka_unit_test(test_traj_ptp_exact),
         cmocka_unit_test(test_traj_cruise_at_vmax_exactly),

@@ -301,8 +301,8 @@ static void test_anti_windup(void **st)
     assert_int_equal(l.foc.limited, 1u);
     /* integrators stay bounded by the usable voltage */
     const double vmax = 48.0 / sqrt(3.0);
-    assert_true(fabs((double)l.foc.integ_q / 4294967296.0) <= vmax + 1e-6);
-    assert_true(fabs((double)l.foc.integ_d / 4294967296.0) <= vmax + 1e-6);
+    assert_true(fabs((double)l.foc.integ_q / 16777216.0) <= vmax + 1e-6);
+    assert_true(fabs((double)l.foc.integ_d / 16777216.0) <= vmax + 1e-6);
     /* back to a reachable reference: no windup tail.  (An unclamped integrator
      * would hold ~400 x 0.085 x 190 A = 6000 V here and stay saturated for seconds.)
      * The remaining tail is the PI's disturbance mode (tau = L/R = 1 ms) rejecting

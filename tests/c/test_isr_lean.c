@@ -12,6 +12,8 @@
  *           derivative step  the saturating shift hd_shl64_sat
  *   hd_divinv_rnd            vs hd_div64_rnd (division by a parameter via its reciprocal)
  *   hd_stribeck_g_inv        vs hd_stribeck_g (LuGre's g(v))
+ *   hd_app: acceleration FF  one precomputed gain aff_gain j_total 2 pi (parameter set)
+ *                            vs the exact product, and it follows a parameter change
  * The hal is a stub: the sensor sample is set by the test, the command recorded,
  * NVM blank (defaults) and read-only.
  */
@@ -20,6 +22,7 @@
 #include <setjmp.h>
 #include <stdint.h>
 #include <string.h>
+#include <math.h>
 #include <cmocka.h>
 
 #include "hd_app.h"
@@ -413,6 +416,36 @@ static void test_foc_rounding_matches_biased_form(void **st)
     }
 }
 
+/* The acceleration feed-forward's gain is formed when a parameter is set: for
+ * inertias and FF gains over their ranges it is aff_gain j_total 2 pi in Q32.32
+ * to within 1 LSB (2 pi as the drive's Q28 constant, round(2 pi 2^28)), and the period's product aff_k acc / 2^40 is the exact torque
+ * (Q15.16 N.m) to within 1 LSB for accelerations of every magnitude. */
+static void test_app_aff_gain_precomputed(void **state)
+{
+    static const int32_t js[] = {0, 1, 655, 85197, 65536 * 10, 65536 * 1000, 65536 * 30000};
+    static const int32_t gs[] = {0, 1, 1 << 29, 1 << 30, (1 << 30) + (1 << 29)};
+    uint32_t i, j, k;
+    (void)state;
+    app_start(0u, 0u);
+    for (i = 0; i < sizeof js / sizeof js[0]; i++) {
+        for (j = 0; j < sizeof gs / sizeof gs[0]; j++) {
+            assert_int_equal(hd_app_param_set(&app, HD_P_J_TOTAL, js[i]), 0);
+            assert_int_equal(hd_app_param_set(&app, HD_P_AFF_GAIN, gs[j]), 0);
+            const long double kx = (long double)js[i] / 65536.0L * (1686629713.0L / 268435456.0L) *
+                                   (long double)gs[j] / 1073741824.0L;          /* N.m per turn/s^2 */
+            assert_true(fabsl((long double)app.aff_k - kx * 4294967296.0L) <= 1.0L);
+            for (k = 0; k < 2000u; k++) {
+                const int32_t acc = s32((uint32_t)rnd64()) / (int32_t)(1u << (uint32_t)(rnd64() % 24u));
+                const long double t = kx * (long double)acc / 16777216.0L * 65536.0L;   /* Q16 N.m */
+                if (fabsl(t) < 2.0e9L) {
+                    const int32_t got = hdf_sat32(hdf_mul64x32_q(app.aff_k, acc, 40u));
+                    assert_true(fabsl((long double)got - t) <= 1.0L);
+                }
+            }
+        }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -425,6 +458,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_divinv_matches_div64_rnd, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_stribeck_g_inv_matches_g, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_foc_rounding_matches_biased_form, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_app_aff_gain_precomputed, setUp, tearDown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -38,7 +38,8 @@ class BqCoef(C.Structure):
 
 
 class BqState(C.Structure):
-    _fields_ = [("s1", C.c_int64), ("s2", C.c_int64)]
+    _fields_ = [("x1", C.c_int32), ("x2", C.c_int32), ("y1", C.c_int32), ("y2", C.c_int32),
+                ("e1", C.c_int32), ("e2", C.c_int32)]
 
 
 class TrajCfg(C.Structure):

@@ -5,8 +5,9 @@ Tolerances (docs/control.md, "Quantisation tolerances"):
 * PID: |fixed - real| <= 1 LSB per term (P, I, D, rounding of the sum) -> 3 LSB.
 * observer: velocity within 2 LSB of 2^-32 turn/s + 1e-6 relative (the T constant
   in Q44 and the 2^-48 turn angle state), on an unquantised input.
-* biquad chain: within 4 LSB of the signal (TDF-II round-off of y fed back,
-  amplified by the notch's near-unit-circle poles, measured < 2).
+* biquad chain: within 4 LSB of the signal (the output rounding of each section;
+  the full-precision feedback keeps the notch's near-unit-circle poles from
+  amplifying it, measured < 2).
 * trajectory rate: bit-exact against the exact rational reference.
 """
 from __future__ import annotations

@@ -23,8 +23,11 @@ EX = Path(__file__).resolve().parents[2] / "examples" / "pitch_drive"
 AXIS = str(EX / "report" / "axis_csf-25-80_fl-050.toml")
 ARCSEC = math.pi / 180.0 / 3600.0
 DEG = math.pi / 180.0
-#: sensor seeds whose hold after a -1 deg move onto +25 deg hunts with the relay alone
-HUNT_SEEDS = (16, 30, 34, 54)
+#: sensor seeds whose hold after a -1 deg move onto +25 deg hunts with the relay alone: the
+#: first four from seed 0 up (p-p of the 0.1 s means and RMS above 10 Hz both > 5"); which
+#: stops hunt is chaotic, so the list follows the drive's arithmetic (the rate does not:
+#: 2-6 % of the stops in each run of 120 seeds)
+HUNT_SEEDS = (42, 62, 160, 181)
 
 
 def _hold(ctl: dict[str, Any], seed: int) -> tuple[float, float]:
@@ -56,7 +59,7 @@ def test_breaker_ends_the_standstill_hunt() -> None:
     on = [_hold(_controller(2000.0), s) for s in HUNT_SEEDS]
     print("relay alone (p-p 0.1 s means, RMS > 10 Hz):", [f"{a:.1f}/{b:.1f}" for a, b in off])
     print("with the breaker:", [f"{a:.1f}/{b:.1f}" for a, b in on])
-    # the relay alone hunts after at least half of these stops (all four with the committed design)
+    # the relay alone hunts after at least half of these stops (all four with the present arithmetic)
     assert sum(pp > 5.0 and hf > 5.0 for pp, hf in off) >= len(HUNT_SEEDS) // 2
     # with the breaker every one holds like an ordinary stop: the ~107 Hz dither only (p-p 1.6-3.0", 1.07" RMS)
     assert all(pp < 3.5 and hf < 1.5 for pp, hf in on)
