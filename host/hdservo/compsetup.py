@@ -16,7 +16,9 @@ Models (output-referred; docs/compensators.md section 8):
   (torque) and N^2 (viscous, sigma1, sigma0) plus the load-side friction, on
   the output velocity; the Stribeck velocities of both sides agree on both
   axis files (motor vs / N = load vs), otherwise the torque-weighted mean;
-* Maxwell-slip (lost motion at reversal): the load-side presliding friction
+* Maxwell-slip (lost motion at reversal): the identified lost-motion elements
+  (``lost_motion.eK_gain`` / ``eK_d_rad``, twist per output travel, :mod:`hdservo.ident.lost_motion`)
+  when the model has them; otherwise the load-side presliding friction
   ``F(x) = Fs (1 - exp(-sigma0_l x / Fs))`` fitted by ``n`` stop elements,
   turned into twist by the tangent stiffness of the gear (K1 + hysteresis
   elements);
@@ -149,6 +151,27 @@ def _maxwell_fit(fs: float, x0: float, n: int) -> tuple[list[float], list[float]
     slopes = np.diff(np.concatenate([[0.0], fx])) / np.diff(np.concatenate([[0.0], xs]))
     k = [float(slopes[i] - (slopes[i + 1] if i + 1 < n else 0.0)) for i in range(n)]
     return k, [float(x) for x in xs]
+
+
+def _lost_motion_elements(get: Callable[[str], float], k_nm_per_rad: float
+                          ) -> tuple[list[float], list[float]] | None:
+    """Identified lost-motion elements as Maxwell-slip stop elements (k_i N.m/rad, d_i rad), or None.
+
+    The drive's element i adds ``k_i s_i / mx_stiffness`` of twist; an identified element of twist
+    gain g_i (rad per rad of output travel) therefore gets ``k_i = g_i x mx_stiffness``.  More than
+    the drive's 8 elements are merged (neighbours with the smallest gains).
+    """
+    if not _has(get, "lost_motion.n_elements"):
+        return None
+    n = int(get("lost_motion.n_elements"))
+    g = [float(get(f"lost_motion.e{i}_gain")) for i in range(1, n + 1)]
+    d = [float(get(f"lost_motion.e{i}_d_rad")) for i in range(1, n + 1)]
+    while len(g) > 8:          # merge the neighbour pair of smallest gain (gain-weighted threshold)
+        j = int(np.argmin([g[i] + g[i + 1] for i in range(len(g) - 1)]))
+        gg = g[j] + g[j + 1]
+        dd = (g[j] * d[j] + g[j + 1] * d[j + 1]) / gg if gg > 0 else d[j]
+        g[j:j + 2], d[j:j + 2] = [gg], [dd]
+    return [gi * k_nm_per_rad for gi in g], d
 
 
 def gear_everett(get: Callable[[str], float], u_grid: np.ndarray) -> np.ndarray:
@@ -413,11 +436,18 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     out.update(lugre)
     out["mx_n"] = n_maxwell
     # the firmware compliance (2^-44 turn/N.m, int32) needs K > 2^13 N.m/turn (1.3e3 N.m/rad)
-    out["mx_stiffness"] = max(_tangent_stiffness(get) * TWO_PI, MX_STIFFNESS_MIN)   # N.m/turn
+    out["mx_stiffness"] = min(max(_tangent_stiffness(get) * TWO_PI, MX_STIFFNESS_MIN),
+                              PARAM_DEFS["mx_stiffness"].max)                       # N.m/turn
     out["mx_tau_max"] = 30.0
     out.update(_compliance_params(get))
-    k_el, d_el = _maxwell_fit(ld["fsp"], z_l if z_l > 0 else 1e-5, n_maxwell) if fl else ([0.0] * n_maxwell,
-                                                                                         [0.0] * n_maxwell)
+    lm = _lost_motion_elements(get, out["mx_stiffness"] / TWO_PI)
+    if lm is not None:
+        k_el, d_el = lm
+        n_maxwell = len(k_el)
+        out["mx_n"] = n_maxwell
+    else:
+        k_el, d_el = _maxwell_fit(ld["fsp"], z_l if z_l > 0 else 1e-5, n_maxwell) if fl else ([0.0] * n_maxwell,
+                                                                                             [0.0] * n_maxwell)
     for i in range(8):
         out[f"mx_k{i + 1}"] = k_el[i] * TWO_PI if i < n_maxwell else 0.0      # N.m/turn
         out[f"mx_d{i + 1}"] = d_el[i] / TWO_PI if i < n_maxwell else 0.0      # turn

@@ -88,6 +88,14 @@ def model_overrides(model: Mapping[str, Mapping[str, Any]], axis_get) -> tuple[d
                 o[f"hysteresis_maxwell.{k}"] = float(hm[k])
         # the identified hysteresis is in the Maxwell elements / the Preisach image, not the plant's Preisach keys
         o["hysteresis_preisach.enabled"] = 0.0
+    lmo = model.get("lost_motion")
+    if lmo is not None:
+        # identified lost-motion elements (twist on the output travel): the Maxwell-slip compensator
+        # takes them instead of a presliding curve of the (not identified) output-side friction
+        o["lost_motion.n_elements"] = float(lmo.get("n_elements", 0))
+        for i in range(1, int(lmo.get("n_elements", 0)) + 1):
+            for k in (f"e{i}_gain", f"e{i}_d_rad"):
+                o[f"lost_motion.{k}"] = float(lmo[k])
     te = model.get("transmission_error")
     if te:
         harm = []

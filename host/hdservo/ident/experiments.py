@@ -376,6 +376,29 @@ class PreslidingSteps:
 
 
 @dataclass
+class LostMotionSine:
+    """Small slow position sine about the start (position mode): the lost motion at reversals.
+
+    The output travels +-``amplitude_rad`` at a peak speed of ``2 pi f amplitude`` (0.036 deg/s
+    with the defaults), far below the Stribeck velocities, so every reversal passes through the
+    presliding of the output-side friction quasi-statically.  The twist between the two encoders
+    (motor / N - output, TE removed) against the output travel since the last reversal is the
+    lost-motion curve the Maxwell-slip compensator predicts (:mod:`.lost_motion`).  The amplitude
+    is a few times the presliding distances of gear friction (1e-5 .. 1e-4 rad), small enough that
+    the unbalance torque stays constant.
+    """
+
+    amplitude_rad: float = 1e-3
+    frequency_Hz: float = 0.1
+    cycles: float = 2.5
+    kind: str = "lost_motion"
+
+    def plan(self, ratio: float) -> list[dict[str, Any]]:
+        return [{"mode": "position", "amplitude_rad": self.amplitude_rad, "frequency_Hz": self.frequency_Hz,
+                 "duration_s": self.cycles / self.frequency_Hz}]
+
+
+@dataclass
 class FRFExcitation:
     """Velocity-mode multisine on a constant bias speed (no velocity reversal: friction slides).
 
@@ -399,7 +422,8 @@ class FRFExcitation:
 
 
 EXPERIMENTS: dict[str, type] = {c.kind: c for c in (FrictionSweep, GravitySine, TERotation, LockedCycle,  # type: ignore[attr-defined]
-                                                    ForcSet, MinorLoops, FRFExcitation, PreslidingSteps)}
+                                                    ForcSet, MinorLoops, FRFExcitation, PreslidingSteps,
+                                                    LostMotionSine)}
 
 
 def describe(design: Any) -> dict[str, Any]:
