@@ -153,7 +153,7 @@ def _maxwell_fit(fs: float, x0: float, n: int) -> tuple[list[float], list[float]
     return k, [float(x) for x in xs]
 
 
-def _lost_motion_elements(get: Callable[[str], float], k_nm_per_rad: float
+def _lost_motion_elements(model: Mapping[str, float] | None, k_nm_per_rad: float
                           ) -> tuple[list[float], list[float]] | None:
     """Identified lost-motion elements as Maxwell-slip stop elements (k_i N.m/rad, d_i rad), or None.
 
@@ -161,11 +161,12 @@ def _lost_motion_elements(get: Callable[[str], float], k_nm_per_rad: float
     gain g_i (rad per rad of output travel) therefore gets ``k_i = g_i x mx_stiffness``.  More than
     the drive's 8 elements are merged (neighbours with the smallest gains).
     """
-    if not _has(get, "lost_motion.n_elements"):
+    # only an identified model has them (an axis file describes the plant's friction instead)
+    if model is None or "lost_motion.n_elements" not in model:
         return None
-    n = int(get("lost_motion.n_elements"))
-    g = [float(get(f"lost_motion.e{i}_gain")) for i in range(1, n + 1)]
-    d = [float(get(f"lost_motion.e{i}_d_rad")) for i in range(1, n + 1)]
+    n = int(model["lost_motion.n_elements"])
+    g = [float(model[f"lost_motion.e{i}_gain"]) for i in range(1, n + 1)]
+    d = [float(model[f"lost_motion.e{i}_d_rad"]) for i in range(1, n + 1)]
     while len(g) > 8:          # merge the neighbour pair of smallest gain (gain-weighted threshold)
         j = int(np.argmin([g[i] + g[i + 1] for i in range(len(g) - 1)]))
         gg = g[j] + g[j + 1]
@@ -440,7 +441,7 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
                               PARAM_DEFS["mx_stiffness"].max)                       # N.m/turn
     out["mx_tau_max"] = 30.0
     out.update(_compliance_params(get))
-    lm = _lost_motion_elements(get, out["mx_stiffness"] / TWO_PI)
+    lm = _lost_motion_elements(model, out["mx_stiffness"] / TWO_PI)
     if lm is not None:
         k_el, d_el = lm
         n_maxwell = len(k_el)
