@@ -328,6 +328,10 @@ def _print_summary(s: dict) -> None:
         print(f"LuGre presliding (motor side): sigma0 {p['sigma0_Nm_per_rad']:.4g} N.m/rad, breakaway "
               f"+{p['breakaway_pos_Nm']:.4g}/-{p['breakaway_neg_Nm']:.4g} N.m, sigma1 "
               + (f"{s1:.3g} N.m.s/rad (rule)" if s1 is not None else "not identified"))
+    if "lost_motion" in s:
+        m = s["lost_motion"]
+        print(f"lost motion at reversals (Maxwell-slip on the output travel): {m['lost_motion_arcsec']:.3g}\" "
+              f"over {m['n_elements']} elements, fit residual {m['rms_residual_rad'] * 206264.8:.3g}\" RMS")
     if "preisach" in s:
         p = s["preisach"]
         print(f"Preisach: L = {p['levels']}, {p['forcs']} FORCs, held-out minor loops RMS "

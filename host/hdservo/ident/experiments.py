@@ -379,16 +379,18 @@ class PreslidingSteps:
 class LostMotionSine:
     """Small slow position sine about the start (position mode): the lost motion at reversals.
 
-    The output travels +-``amplitude_rad`` at a peak speed of ``2 pi f amplitude`` (0.036 deg/s
-    with the defaults), far below the Stribeck velocities, so every reversal passes through the
-    presliding of the output-side friction quasi-statically.  The twist between the two encoders
-    (motor / N - output, TE removed) against the output travel since the last reversal is the
-    lost-motion curve the Maxwell-slip compensator predicts (:mod:`.lost_motion`).  The amplitude
-    is a few times the presliding distances of gear friction (1e-5 .. 1e-4 rad), small enough that
-    the unbalance torque stays constant.
+    The output travels +-``amplitude_rad`` at a peak speed of ``2 pi f amplitude`` (0.36 deg/s
+    with the defaults); near each reversal the speed passes through zero slowly, so the reversal
+    goes through the presliding of the output-side friction quasi-statically.  The twist between
+    the two encoders (motor / N - output, TE removed) against the output travel since the last
+    reversal is the lost-motion curve the Maxwell-slip compensator predicts (:mod:`.lost_motion`).
+    The amplitude is a hundred times the presliding distances of gear friction (1e-5 .. 1e-4 rad)
+    and small enough that the unbalance torque stays nearly constant (0.6 % of mgl); over CAN the
+    segment runs in cyclic synchronous velocity, whose loop needs a few 1e-4 rad of travel to
+    break away (at +-1e-3 rad the output of the reference axis moved +-3e-5 rad and slid nowhere).
     """
 
-    amplitude_rad: float = 1e-3
+    amplitude_rad: float = 1e-2
     frequency_Hz: float = 0.1
     cycles: float = 2.5
     kind: str = "lost_motion"

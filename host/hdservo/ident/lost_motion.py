@@ -12,7 +12,7 @@ measured directly, not from a friction model: with the small position sine of
 
 where ``S_j`` is the unit stop operator of threshold ``d_j`` on the output angle x (the same
 ``clamp(s + dx, -d, d)`` the firmware runs) and ``g_j >= 0`` its twist gain (rad of twist per
-rad of travel).  The thresholds lie on a geometric grid up to the half amplitude; the gains come
+rad of travel).  The thresholds lie on a geometric grid from 1/4096 of the amplitude up to its half; the gains come
 from non-negative least squares (the offset c0 of either sign is free), the first quarter
 period is left out (the elements start relaxed), and at most ``max_elements`` are kept (merged
 neighbours, :meth:`.hysteresis.MaxwellSlip.reduce`).
@@ -35,8 +35,8 @@ from .hysteresis import MaxwellSlip, stop_operators
 from .stiffness import twist_of
 from .te import TEResult
 
-#: Thresholds of the grid per octave pair (geometric grid from amplitude / 512 to amplitude / 2).
-GRID_POINTS = 16
+#: Thresholds of the grid (geometric from amplitude / 4096 to amplitude / 2, a factor 1.39 apart).
+GRID_POINTS = 24
 #: Elements whose gain is below this fraction of the largest are dropped.
 REL_TOL = 1e-3
 
@@ -114,7 +114,7 @@ def fit_lost_motion(data: ExperimentData, te: TEResult | None = None, max_elemen
         a = 0.5 * float(np.ptp(x))
         if thr is None:
             amp = a
-            thr = a * np.geomspace(1.0 / 512.0, 0.5, GRID_POINTS)
+            thr = a * np.geomspace(1.0 / 4096.0, 0.5, GRID_POINTS)
         phi = twist_of(seg, n, te)
         S = stop_operators(x, thr)
         # leave out the first quarter period: the elements start relaxed (the travel to the first
