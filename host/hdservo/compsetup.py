@@ -48,6 +48,10 @@ TWO_PI = 2.0 * math.pi
 #: i.e. 1.3e3 N.m/rad: the compliance is 2^-44 turn/N.m in int32).
 MX_STIFFNESS_MIN = 8200.0
 
+#: Model key (``{"section.key": value}`` of :func:`compensator_params`) of the motor side's share of the
+#: identified total friction, 0..1; set by :func:`hdservo.download.model_overrides`.
+MOTOR_SHARE_KEY = "friction_total.motor_share"
+
 #: Bits of ``cb_enable`` (firmware HD_CB_*).
 #: Reference-speed schedule of the scheduled position integral (cb_pki_vlo / cb_pki_vhi), deg/s.
 PKI_V_LO_DEG_S = 0.002
@@ -258,8 +262,9 @@ def _friction_sides(get: Callable[[str], float], n: float) -> tuple[dict[str, fl
 
 
 def _stribeck_params(m: dict[str, float], ld: dict[str, float], fm: bool, fl: bool,
-                     eps_rad: float) -> tuple[dict[str, float], float, float]:
-    """The Stribeck feed-forward (both sides summed): (parameters, vs turn/s, viscous N.m/(turn/s))."""
+                     eps_rad: float, share: float = 1.0) -> tuple[dict[str, float], float, float]:
+    """The Stribeck feed-forward (both sides summed, the levels times ``share``): (parameters, vs turn/s,
+    viscous N.m/(turn/s))."""
     # Stribeck velocity: the mean of both sides weighted by their Stribeck hump Fs - Fc; a hump
     # that is not there (an identified Fs <= Fc) weighs nothing, and with no hump on either
     # side the enabled sides count equally (a negative weight sum made vs meaningless)
@@ -269,8 +274,9 @@ def _stribeck_params(m: dict[str, float], ld: dict[str, float], fm: bool, fl: bo
     vs = (m["vs"] * ws[0] + ld["vs"] * ws[1]) / max(ws[0] + ws[1], 1e-12)      # rad/s, output
     vs_turn = vs / TWO_PI
     fv = (m["fv"] + ld["fv"]) * TWO_PI                                            # N.m/(turn/s)
-    return ({"str_fc_pos": m["fcp"] + ld["fcp"], "str_fs_pos": m["fsp"] + ld["fsp"], "str_vs_pos": vs_turn,
-             "str_fv_pos": fv, "str_fc_neg": m["fcn"] + ld["fcn"], "str_fs_neg": m["fsn"] + ld["fsn"],
+    return ({"str_fc_pos": share * (m["fcp"] + ld["fcp"]), "str_fs_pos": share * (m["fsp"] + ld["fsp"]),
+             "str_vs_pos": vs_turn, "str_fv_pos": fv, "str_fc_neg": share * (m["fcn"] + ld["fcn"]),
+             "str_fs_neg": share * (m["fsn"] + ld["fsn"]),
              "str_vs_neg": vs_turn, "str_fv_neg": fv, "str_delta": 2, "str_eps_v": eps_rad / TWO_PI,
              "str_w_ref": 1.0, "str_tau_max": 30.0}, vs_turn, fv)
 
@@ -431,7 +437,12 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
                 "cb_pki_leak": 2.0, "cb_pki_max": 1.0 / 360.0})
     m, ld, fm, fl = _friction_sides(get, n)
     eps_rad = 1e-5                                                                # smooth-sign half width, rad/s
-    stribeck, vs_turn, fv = _stribeck_params(m, ld, fm, fl, eps_rad)
+    # Stribeck levels of an identified model: the motor side's share of the total (download.model_overrides,
+    # from the presliding breakaway).  On the measured velocity the feed-forward is a relay at rest; the
+    # motor torque meets the motor-side friction directly, while the output-side friction sits behind the
+    # gear's spring: relaying its level too winds the spring back and forth and scatters the stops
+    share = float(model[MOTOR_SHARE_KEY]) if model is not None and MOTOR_SHARE_KEY in model else 1.0
+    stribeck, vs_turn, fv = _stribeck_params(m, ld, fm, fl, eps_rad, share)
     out.update(stribeck)
     lugre, z_l = _lugre_params(m, ld, vs_turn, fv)
     out.update(lugre)
@@ -461,7 +472,7 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     out["pr_jl"] = get("load.jl_kgm2")
     out.update(_unbalance_params(get))
     out.update(_te_params(get))
-    out.update(_backstepping_params(get, n, vs_turn, fv, eps_rad, out["str_fc_pos"], out["str_fs_pos"]))
+    out.update(_backstepping_params(get, n, vs_turn, fv, eps_rad, m["fcp"] + ld["fcp"], m["fsp"] + ld["fsp"]))
     # disturbance observer: Q-filter bandwidth (Hz) and nominal inertia
     out["dob_fc"] = 10.0
     out["dob_j"] = get("load.jl_kgm2") + n * n * get("motor.jm_kgm2")
@@ -531,6 +542,6 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
     return ctl
 
 
-__all__ = ["BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
+__all__ = ["MOTOR_SHARE_KEY", "BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
            "FAIR_GAINS", "FAIR_PROC_ARGS", "GROUPS", "STRATEGIES", "best_gains", "compensator_params", "controller", "enable_mask", "gear_everett", "preisach_table",
            "write_preisach_table"]

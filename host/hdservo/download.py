@@ -35,6 +35,24 @@ def read_model(path: Path) -> dict[str, dict[str, Any]]:
     return _read(path)
 
 
+def motor_share(model: Mapping[str, Mapping[str, Any]]) -> float | None:
+    """Motor side's share of the identified total friction, 0..1, or None when the model cannot tell.
+
+    The locked-output presliding experiment measures the motor-side breakaway alone (motor units); the
+    friction sweep the output-referred total.  share = N (b+ + b-) / (Fs+ + Fs-), at most 1.
+    """
+    ft, fm = model.get("friction_total") or {}, model.get("friction_motor") or {}
+    try:
+        n = float(model["gear"]["ratio"])
+        b = float(fm["presliding_breakaway_pos_Nm"]) + float(fm["presliding_breakaway_neg_Nm"])
+        fs = float(ft["fs_pos_Nm"]) + float(ft["fs_neg_Nm"])
+    except (KeyError, TypeError, ValueError):
+        return None
+    if not (b > 0 and fs > 0 and n > 0) or not math.isfinite(b / fs):
+        return None
+    return min(1.0, n * b / fs)
+
+
 def model_overrides(model: Mapping[str, Mapping[str, Any]], axis_get) -> tuple[dict[str, float], list[str]]:
     """``{"section.key": value}`` for :func:`compsetup.compensator_params` and notes on what was assumed."""
     notes: list[str] = []
@@ -56,6 +74,12 @@ def model_overrides(model: Mapping[str, Mapping[str, Any]], axis_get) -> tuple[d
                   "friction_motor.vs_rad_s": ft["vs_rad_s"] * n,
                   "friction_motor.viscous_Nms_per_rad": ft["viscous_Nms_per_rad"] / n ** 2,
                   "friction_motor.delta": 2.0})
+        share = motor_share(model)
+        if share is not None:
+            from .compsetup import MOTOR_SHARE_KEY
+            o[MOTOR_SHARE_KEY] = share
+            notes.append(f"Stribeck levels: the motor side's share {share:.3g} of the total friction "
+                         "(presliding breakaway x N / total Fs)")
         if "sigma0_Nm_per_rad" in fm:
             o["friction_motor.lugre_enabled"] = 1.0
             o["friction_motor.sigma0_Nm_per_rad"] = float(fm["sigma0_Nm_per_rad"])
