@@ -1,0 +1,68 @@
+"""The download plan of a model identified on any catalogue axis (hdservo.axisgen, ratios 30-160) fits
+the drive's parameter ranges: every compensator parameter, the Stribeck motor share and the
+identified lost-motion elements included (the identification -> download -> compare chain)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+import ident_truth as truth
+from hdservo import axisgen as ag
+from hdservo import download as dl
+from hdservo.ident.model_toml import write_toml
+from hdservo.params_gen import BY_NAME as PARAMS
+
+
+def _true_model(a: dict) -> dict:
+    """A model with every section identification writes, from the axis file's true values."""
+    n = a["gear"]["ratio"]
+    m, st = a["friction_motor"], a["stiffness"]
+    ft = truth.friction_total(a)
+    tm = {"gear": {"ratio": float(n)},
+          "friction_total": {**ft, "delta": 2.0},
+          "friction_motor": {"sigma0_Nm_per_rad": m["sigma0_Nm_per_rad"],
+                             "presliding_breakaway_pos_Nm": m["fs_pos_Nm"],
+                             "presliding_breakaway_neg_Nm": m["fs_neg_Nm"]},
+          "stiffness": {k: st[k] for k in ("k1_Nm_per_rad", "k2_Nm_per_rad", "k3_Nm_per_rad", "t1_Nm", "t2_Nm")},
+          "load": {"jl_kgm2": a["load"]["jl_kgm2"]}, "motor": {"jm_kgm2": a["motor"]["jm_kgm2"]},
+          "gravity": {"mgl_Nm": a["gravity"]["mgl_Nm"], "offset_rad": 0.0}}
+    hm = a["hysteresis_maxwell"]
+    tm["hysteresis_maxwell"] = {"n_elements": int(hm["n_elements"])}
+    for i in range(1, int(hm["n_elements"]) + 1):
+        tm["hysteresis_maxwell"][f"e{i}_k_Nm_per_rad"] = hm[f"e{i}_k_Nm_per_rad"]
+        tm["hysteresis_maxwell"][f"e{i}_w_Nm"] = hm[f"e{i}_w_Nm"]
+    te = a["transmission_error"]
+    tm["transmission_error"] = {}
+    for i in range(1, 5):
+        for k in ("order", "amp_rad", "phase_rad"):
+            v = te[f"wg{i}_{k}"]
+            tm["transmission_error"][f"wg{i}_{k}"] = int(v) if k == "order" else float(v)
+    # lost motion: the output friction turned over in its presliding distance, through K1
+    fl = a["friction_load"]
+    z = fl["fs_pos_Nm"] / fl["sigma0_Nm_per_rad"]
+    lost = (fl["fs_pos_Nm"] + fl["fs_neg_Nm"]) / st["k1_Nm_per_rad"]
+    tm["lost_motion"] = {"n_elements": 3}
+    for i, f in enumerate((0.5, 1.0, 2.0), start=1):
+        tm["lost_motion"][f"e{i}_d_rad"] = f * z
+        tm["lost_motion"][f"e{i}_gain"] = lost / (3 * 2 * f * z)
+    return tm
+
+
+@pytest.mark.parametrize("seed", [3, 101])
+def test_download_plan_fits_the_drive_on_catalogue_axes(tmp_path: Path, seed: int) -> None:
+    ratios = set()
+    for path in ag.write_axes(tmp_path / "axes", 12, seed):
+        import tomllib
+        with open(path, "rb") as f:
+            a = tomllib.load(f)
+        ratios.add(int(a["gear"]["ratio"]))
+        mp = tmp_path / f"{path.stem}.model.toml"
+        write_toml(mp, _true_model(a))
+        plan = dl.plan_download(mp, axis=str(path))          # a value outside a range is a UserError
+        p = plan["params"]
+        for name, v in p.items():
+            assert PARAMS[name].min <= v <= PARAMS[name].max, (path.stem, name, v)
+        assert p["mx_n"] == 3 and p["mx_k1"] > 0
+        assert 0 < p["str_fs_pos"] <= truth.friction_total(a)["fs_pos_Nm"] * (1 + 1e-12)
+    assert min(ratios) <= 50 and max(ratios) >= 100          # the catalogue's range is covered
