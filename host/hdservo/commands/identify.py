@@ -135,7 +135,9 @@ def _run(args: argparse.Namespace) -> int:
         if args.offline is not None or args.data:
             raise UserError("--standard-objects runs on a drive: it does not go with --offline or --data")
         if args.target not in STD_TARGETS:
-            raise UserError(f"identify {args.target}: needs the output locked and a torque sensor (a test rig); "
+            need = ("the motor and the output angle together (not among the standard objects)"
+                    if args.target == "lost_motion" else "the output locked and a torque sensor (a test rig)")
+            raise UserError(f"identify {args.target}: needs {need}; "
                             f"--standard-objects identifies {', '.join(STD_TARGETS)}")
         if args.no_rig or args.set:
             raise UserError(f"{'--no-rig' if args.no_rig else '--set'}: not an option of --standard-objects "
