@@ -66,3 +66,21 @@ def test_download_plan_fits_the_drive_on_catalogue_axes(tmp_path: Path, seed: in
         assert p["mx_n"] == 3 and p["mx_k1"] > 0
         assert 0 < p["str_fs_pos"] <= truth.friction_total(a)["fs_pos_Nm"] * (1 + 1e-12)
     assert min(ratios) <= 50 and max(ratios) >= 100          # the catalogue's range is covered
+
+
+def test_velocity_loop_of_the_design_rule_fits_the_drive_on_heavy_axes(tmp_path: Path) -> None:
+    """A CSF-40 axis with J = 6.5 kg.m^2 (axisgen seed 7): ki of the 25 Hz rule (40000 N.m/rad) is beyond
+    the drive's Q15.16 vel_ki; the identification's loop and the comparison's fair PID stay inside it,
+    with the crossover's kp and a lower PI zero."""
+    import math
+    from hdservo import closedloop_cases as bl
+    from hdservo.ident import tuning
+    path = ag.write_axes(tmp_path, 1, seed=7)[0]
+    j = ag.random_axes(1, seed=7)[0].summary()["j_total_kgm2"]
+    assert j > 5.3
+    for g in (tuning.velocity_pi(j), bl.axis_controller(str(path))["gains"]):
+        assert g["vel_ki"] == PARAMS["vel_ki"].max
+        assert g["vel_kp"] == pytest.approx(j * 2 * math.pi * 25.0)
+        assert PARAMS["vel_kp"].min <= g["vel_kp"] <= PARAMS["vel_kp"].max
+    light = tuning.velocity_pi(1.3)
+    assert light["vel_ki"] == pytest.approx(1.3 * (2 * math.pi * 25.0) ** 2 / 4)      # the rule itself
