@@ -249,23 +249,32 @@ def write_verified(drive: Any, plan: Mapping[str, Any], tables: bool = True,
         if st == "OPERATION ENABLED":
             raise UserError("the drive's power stage is on (OPERATION ENABLED): disable it before downloading")
         progress(f"parameters: {len(plan['sdo'])} by SDO")
-        for name, v in plan["sdo"].items():
-            p = PARAMS[name]
-            raw = raw_of(name, v)
-            if skip_missing and p.index not in drive.node.sdo:
-                done["missing"].append(name)
-                continue
-            try:
-                drive.write(p.index, p.sub, raw)
-            except DriveError as e:
-                if skip_missing and ("0x06090011" in str(e) or "0x06020000" in str(e)):
-                    done["missing"].append(name)     # older drive firmware: parameter not in its dictionary
+        # a value inside its own range that the drive refuses (0x06090030) breaks a check across parameters
+        # against a value still in force (cp_t1 above the old cp_t2, cb_pki_vlo above the old cb_pki_vhi):
+        # it is written again after the others, once
+        deferred: list[str] = []
+        for pass_no, names in enumerate((list(plan["sdo"]), deferred)):
+            for name in names:
+                v = plan["sdo"][name]
+                p = PARAMS[name]
+                raw = raw_of(name, v)
+                if skip_missing and p.index not in drive.node.sdo:
+                    done["missing"].append(name)
                     continue
-                raise
-            back = int(drive.read(p.index, p.sub))
-            if back != raw:
-                raise UserError(f"{name} (0x{p.index:04X}:{p.sub}): read back {back}, wrote {raw}")
-            done["params"] += 1
+                try:
+                    drive.write(p.index, p.sub, raw)
+                except DriveError as e:
+                    if skip_missing and ("0x06090011" in str(e) or "0x06020000" in str(e)):
+                        done["missing"].append(name)     # older drive firmware: parameter not in its dictionary
+                        continue
+                    if pass_no == 0 and "0x06090030" in str(e) and not isinstance(e, DriveProtocolError):
+                        deferred.append(name)
+                        continue
+                    raise
+                back = int(drive.read(p.index, p.sub))
+                if back != raw:
+                    raise UserError(f"{name} (0x{p.index:04X}:{p.sub}): read back {back}, wrote {raw}")
+                done["params"] += 1
         if tables:
             for sub, raw in plan["groups"].items():
                 label = {2: "friction group (Stribeck + LuGre)", 3: "TE group"}[sub]

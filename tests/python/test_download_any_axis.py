@@ -84,3 +84,42 @@ def test_velocity_loop_of_the_design_rule_fits_the_drive_on_heavy_axes(tmp_path:
         assert PARAMS["vel_kp"].min <= g["vel_kp"] <= PARAMS["vel_kp"].max
     light = tuning.velocity_pi(1.3)
     assert light["vel_ki"] == pytest.approx(1.3 * (2 * math.pi * 25.0) ** 2 / 4)      # the rule itself
+
+
+class _CrossCheckDrive:
+    """A drive whose compliance check refuses cp_t1 above the cp_t2 in force (as hd_compliance_design)."""
+
+    def __init__(self) -> None:
+        from hdservo.download import raw_of
+        self.values = {(PARAMS[n].index, PARAMS[n].sub): raw_of(n, v) for n, v in (("cp_t1", 14.0), ("cp_t2", 48.0))}
+        self.t1, self.t2 = (PARAMS["cp_t1"].index, PARAMS["cp_t1"].sub), (PARAMS["cp_t2"].index, PARAMS["cp_t2"].sub)
+
+    def state(self) -> str:
+        return "SWITCH ON DISABLED"
+
+    def write(self, index: int, sub: int, raw: int) -> None:
+        from hdservo.drive import DriveError
+        new = {**self.values, (index, sub): raw}
+        if new.get(self.t1, 0) > new.get(self.t2, 0):
+            raise DriveError(f"write 0x{index:04X}:{sub} = {raw}: Code 0x06090030, Value range of parameter exceeded")
+        self.values = new
+
+    def read(self, index: int, sub: int) -> int:
+        return self.values[(index, sub)]
+
+
+def test_download_orders_writes_across_a_cross_check() -> None:
+    """A CSF-40 gear's T1 (52.8 N.m) above the drive's default T2 (48 N.m): cp_t1 is refused until
+    cp_t2 is written; the download writes it again after the others (it ended the demo before)."""
+    from hdservo.download import raw_of, write_verified
+    d = _CrossCheckDrive()
+    plan = {"sdo": {"cp_t1": 52.8, "cp_t2": 185.7}, "groups": {}, "preisach": None, "version": 1}
+    done = write_verified(d, plan, tables=False)
+    assert done["params"] == 2
+    assert d.values[d.t1] == raw_of("cp_t1", 52.8) and d.values[d.t2] == raw_of("cp_t2", 185.7)
+    # a value the drive refuses on its own stays a refusal (one line)
+    from hdservo.errors import UserError
+    d2 = _CrossCheckDrive()
+    with pytest.raises(UserError, match="refused by the drive.*0x06090030"):
+        write_verified(d2, {"sdo": {"cp_t1": 60.0, "cp_t2": 50.0}, "groups": {}, "preisach": None,
+                            "version": 1}, tables=False)
