@@ -164,13 +164,48 @@ def standard_cases(quick: bool = False) -> list[Case]:
 
 # ------------------------------------------------------------------ controller configuration
 
+def velocity_pi(j_total_kgm2: float, f_v_hz: float = 25.0) -> dict[str, float]:
+    """Velocity PI of the design rule (docs/control.md) for a total inertia, inside the drive's ranges.
+
+    ``kp = J 2 pi f_v`` (N.m.s/rad) and ``ki = kp 2 pi f_v / 4`` (N.m/rad): the PI zero a quarter of
+    the crossover.  ``vel_ki`` is a Q15.16 word in the drive (at most 32000 N.m/rad, reached at
+    J = 5.2 kg.m^2 with f_v = 25 Hz); beyond, ki stays at the drive's maximum and the PI zero moves
+    down (ki / kp), which keeps the crossover and adds phase margin.  kp likewise stays inside its
+    range (5000 N.m.s/rad, J = 32 kg.m^2).
+
+    Parameters
+    ----------
+    j_total_kgm2 : float
+        Total inertia referred to the output, J_L + N^2 J_m, kg.m^2 (> 0).
+    f_v_hz : float
+        Velocity-loop crossover, Hz (> 0).
+
+    Returns
+    -------
+    dict
+        ``{"vel_kp": kp, "vel_ki": ki}`` in the parameter-table units.
+
+    Raises
+    ------
+    ValueError
+        A non-finite or non-positive inertia or bandwidth.
+    """
+    from .params_gen import BY_NAME
+    if not (math.isfinite(j_total_kgm2) and j_total_kgm2 > 0):
+        raise ValueError(f"total inertia {j_total_kgm2!r} kg.m^2: expected a finite number > 0")
+    if not (math.isfinite(f_v_hz) and f_v_hz > 0):
+        raise ValueError(f"velocity bandwidth {f_v_hz!r} Hz: expected a finite number > 0")
+    kp = min(j_total_kgm2 * 2.0 * math.pi * f_v_hz, BY_NAME["vel_kp"].max)
+    return {"vel_kp": kp, "vel_ki": min(kp * 2.0 * math.pi * f_v_hz / 4.0, BY_NAME["vel_ki"].max)}
+
+
 def axis_controller(axis: str = "reference") -> dict[str, Any]:
     """The PID baseline ``[controller]`` table for an axis.
 
     The reference axis uses the parameter-table defaults (they are the
     reference design, docs/control.md).  Any other axis gets the same design
-    rules applied to its own axis file (velocity PI at 25 Hz:
-    ``kp = J_tot 2 pi 25``, ``ki = kp 2 pi 25 / 4``; position P at 6 Hz as the
+    rules applied to its own axis file (velocity PI at 25 Hz, :func:`velocity_pi`:
+    ``kp = J_tot 2 pi 25``, ``ki = kp 2 pi 25 / 4`` within the drive's range; position P at 6 Hz as the
     defaults; notch at the coupled resonance ``sqrt(K1 (J1 + J2) / (J1 J2))``,
     40 Hz wide, -20 dB) -- nothing is tuned by hand for either axis.
 
@@ -193,12 +228,9 @@ def axis_controller(axis: str = "reference") -> dict[str, Any]:
     j1 = p["gear.ratio"] ** 2 * p["motor.jm_kgm2"]
     j2 = p["load.jl_kgm2"]
     jt = j1 + j2
-    f_v = 25.0
-    kp = jt * 2 * math.pi * f_v
-    ki = kp * 2 * math.pi * f_v / 4
     f_res = math.sqrt(p["stiffness.k1_Nm_per_rad"] * jt / (j1 * j2)) / (2 * math.pi)
     raw = filters.quantise(filters.notch(f_res, 40.0, -20.0))
-    gains: dict[str, float] = {"vel_kp": kp, "vel_ki": ki}
+    gains: dict[str, float] = velocity_pi(jt, 25.0)
     for k, r in filters.export_params("f1", raw).items():
         gains[k] = r / filters.Q30            # table unit of a Q2.30 coefficient: exact
     return {"mode": "position", "gains": gains, "compensators": []}

@@ -214,8 +214,9 @@ def best_gains_default(axis: str = "reference") -> dict[str, float]:
         base = bl.axis_controller(axis)["gains"]
     except Exception:   # noqa: BLE001 - an axis the baseline cannot read: the reference design
         base = "defaults"
+    from .params_gen import BY_NAME
     vel_ki = 8019.0 if base == "defaults" else float(base["vel_ki"])
-    return dict(BEST_GAINS_DEFAULT, vel_ki=vel_ki * BEST_VEL_KI_RATIO)
+    return dict(BEST_GAINS_DEFAULT, vel_ki=min(vel_ki * BEST_VEL_KI_RATIO, BY_NAME["vel_ki"].max))
 
 
 def best_controller(axis: str = "reference") -> Controller:

@@ -16,7 +16,9 @@ Models (output-referred; docs/compensators.md section 8):
   (torque) and N^2 (viscous, sigma1, sigma0) plus the load-side friction, on
   the output velocity; the Stribeck velocities of both sides agree on both
   axis files (motor vs / N = load vs), otherwise the torque-weighted mean;
-* Maxwell-slip (lost motion at reversal): the load-side presliding friction
+* Maxwell-slip (lost motion at reversal): the identified lost-motion elements
+  (``lost_motion.eK_gain`` / ``eK_d_rad``, twist per output travel, :mod:`hdservo.ident.lost_motion`)
+  when the model has them; otherwise the load-side presliding friction
   ``F(x) = Fs (1 - exp(-sigma0_l x / Fs))`` fitted by ``n`` stop elements,
   turned into twist by the tangent stiffness of the gear (K1 + hysteresis
   elements);
@@ -45,6 +47,10 @@ TWO_PI = 2.0 * math.pi
 #: Smallest Maxwell-slip stiffness the firmware format holds, N.m/turn (above 2^52 / 2^31 / 2^8 = 2^13,
 #: i.e. 1.3e3 N.m/rad: the compliance is 2^-44 turn/N.m in int32).
 MX_STIFFNESS_MIN = 8200.0
+
+#: Model key (``{"section.key": value}`` of :func:`compensator_params`) of the motor side's share of the
+#: identified total friction, 0..1; set by :func:`hdservo.download.model_overrides`.
+MOTOR_SHARE_KEY = "friction_total.motor_share"
 
 #: Bits of ``cb_enable`` (firmware HD_CB_*).
 #: Reference-speed schedule of the scheduled position integral (cb_pki_vlo / cb_pki_vhi), deg/s.
@@ -151,6 +157,28 @@ def _maxwell_fit(fs: float, x0: float, n: int) -> tuple[list[float], list[float]
     return k, [float(x) for x in xs]
 
 
+def _lost_motion_elements(model: Mapping[str, float] | None, k_nm_per_rad: float
+                          ) -> tuple[list[float], list[float]] | None:
+    """Identified lost-motion elements as Maxwell-slip stop elements (k_i N.m/rad, d_i rad), or None.
+
+    The drive's element i adds ``k_i s_i / mx_stiffness`` of twist; an identified element of twist
+    gain g_i (rad per rad of output travel) therefore gets ``k_i = g_i x mx_stiffness``.  More than
+    the drive's 8 elements are merged (neighbours with the smallest gains).
+    """
+    # only an identified model has them (an axis file describes the plant's friction instead)
+    if model is None or "lost_motion.n_elements" not in model:
+        return None
+    n = int(model["lost_motion.n_elements"])
+    g = [float(model[f"lost_motion.e{i}_gain"]) for i in range(1, n + 1)]
+    d = [float(model[f"lost_motion.e{i}_d_rad"]) for i in range(1, n + 1)]
+    while len(g) > 8:          # merge the neighbour pair of smallest gain (gain-weighted threshold)
+        j = int(np.argmin([g[i] + g[i + 1] for i in range(len(g) - 1)]))
+        gg = g[j] + g[j + 1]
+        dd = (g[j] * d[j] + g[j + 1] * d[j + 1]) / gg if gg > 0 else d[j]
+        g[j:j + 2], d[j:j + 2] = [gg], [dd]
+    return [gi * k_nm_per_rad for gi in g], d
+
+
 def gear_everett(get: Callable[[str], float], u_grid: np.ndarray) -> np.ndarray:
     """Everett grid (N.m) of the gear's twist -> torque operator on ``u_grid`` (rad).
 
@@ -234,8 +262,9 @@ def _friction_sides(get: Callable[[str], float], n: float) -> tuple[dict[str, fl
 
 
 def _stribeck_params(m: dict[str, float], ld: dict[str, float], fm: bool, fl: bool,
-                     eps_rad: float) -> tuple[dict[str, float], float, float]:
-    """The Stribeck feed-forward (both sides summed): (parameters, vs turn/s, viscous N.m/(turn/s))."""
+                     eps_rad: float, share: float = 1.0) -> tuple[dict[str, float], float, float]:
+    """The Stribeck feed-forward (both sides summed, the levels times ``share``): (parameters, vs turn/s,
+    viscous N.m/(turn/s))."""
     # Stribeck velocity: the mean of both sides weighted by their Stribeck hump Fs - Fc; a hump
     # that is not there (an identified Fs <= Fc) weighs nothing, and with no hump on either
     # side the enabled sides count equally (a negative weight sum made vs meaningless)
@@ -245,8 +274,9 @@ def _stribeck_params(m: dict[str, float], ld: dict[str, float], fm: bool, fl: bo
     vs = (m["vs"] * ws[0] + ld["vs"] * ws[1]) / max(ws[0] + ws[1], 1e-12)      # rad/s, output
     vs_turn = vs / TWO_PI
     fv = (m["fv"] + ld["fv"]) * TWO_PI                                            # N.m/(turn/s)
-    return ({"str_fc_pos": m["fcp"] + ld["fcp"], "str_fs_pos": m["fsp"] + ld["fsp"], "str_vs_pos": vs_turn,
-             "str_fv_pos": fv, "str_fc_neg": m["fcn"] + ld["fcn"], "str_fs_neg": m["fsn"] + ld["fsn"],
+    return ({"str_fc_pos": share * (m["fcp"] + ld["fcp"]), "str_fs_pos": share * (m["fsp"] + ld["fsp"]),
+             "str_vs_pos": vs_turn, "str_fv_pos": fv, "str_fc_neg": share * (m["fcn"] + ld["fcn"]),
+             "str_fs_neg": share * (m["fsn"] + ld["fsn"]),
              "str_vs_neg": vs_turn, "str_fv_neg": fv, "str_delta": 2, "str_eps_v": eps_rad / TWO_PI,
              "str_w_ref": 1.0, "str_tau_max": 30.0}, vs_turn, fv)
 
@@ -407,17 +437,29 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
                 "cb_pki_leak": 2.0, "cb_pki_max": 1.0 / 360.0})
     m, ld, fm, fl = _friction_sides(get, n)
     eps_rad = 1e-5                                                                # smooth-sign half width, rad/s
-    stribeck, vs_turn, fv = _stribeck_params(m, ld, fm, fl, eps_rad)
+    # Stribeck levels of an identified model: the motor side's share of the total (download.model_overrides,
+    # from the presliding breakaway).  On the measured velocity the feed-forward is a relay at rest; the
+    # motor torque meets the motor-side friction directly, while the output-side friction sits behind the
+    # gear's spring: relaying its level too winds the spring back and forth and scatters the stops
+    share = float(model[MOTOR_SHARE_KEY]) if model is not None and MOTOR_SHARE_KEY in model else 1.0
+    stribeck, vs_turn, fv = _stribeck_params(m, ld, fm, fl, eps_rad, share)
     out.update(stribeck)
     lugre, z_l = _lugre_params(m, ld, vs_turn, fv)
     out.update(lugre)
     out["mx_n"] = n_maxwell
     # the firmware compliance (2^-44 turn/N.m, int32) needs K > 2^13 N.m/turn (1.3e3 N.m/rad)
-    out["mx_stiffness"] = max(_tangent_stiffness(get) * TWO_PI, MX_STIFFNESS_MIN)   # N.m/turn
+    out["mx_stiffness"] = min(max(_tangent_stiffness(get) * TWO_PI, MX_STIFFNESS_MIN),
+                              PARAM_DEFS["mx_stiffness"].max)                       # N.m/turn
     out["mx_tau_max"] = 30.0
     out.update(_compliance_params(get))
-    k_el, d_el = _maxwell_fit(ld["fsp"], z_l if z_l > 0 else 1e-5, n_maxwell) if fl else ([0.0] * n_maxwell,
-                                                                                         [0.0] * n_maxwell)
+    lm = _lost_motion_elements(model, out["mx_stiffness"] / TWO_PI)
+    if lm is not None:
+        k_el, d_el = lm
+        n_maxwell = len(k_el)
+        out["mx_n"] = n_maxwell
+    else:
+        k_el, d_el = _maxwell_fit(ld["fsp"], z_l if z_l > 0 else 1e-5, n_maxwell) if fl else ([0.0] * n_maxwell,
+                                                                                             [0.0] * n_maxwell)
     for i in range(8):
         out[f"mx_k{i + 1}"] = k_el[i] * TWO_PI if i < n_maxwell else 0.0      # N.m/turn
         out[f"mx_d{i + 1}"] = d_el[i] / TWO_PI if i < n_maxwell else 0.0      # turn
@@ -430,7 +472,7 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     out["pr_jl"] = get("load.jl_kgm2")
     out.update(_unbalance_params(get))
     out.update(_te_params(get))
-    out.update(_backstepping_params(get, n, vs_turn, fv, eps_rad, out["str_fc_pos"], out["str_fs_pos"]))
+    out.update(_backstepping_params(get, n, vs_turn, fv, eps_rad, m["fcp"] + ld["fcp"], m["fsp"] + ld["fsp"]))
     # disturbance observer: Q-filter bandwidth (Hz) and nominal inertia
     out["dob_fc"] = 10.0
     out["dob_j"] = get("load.jl_kgm2") + n * n * get("motor.jm_kgm2")
@@ -500,6 +542,6 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
     return ctl
 
 
-__all__ = ["BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
+__all__ = ["MOTOR_SHARE_KEY", "BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
            "FAIR_GAINS", "FAIR_PROC_ARGS", "GROUPS", "STRATEGIES", "best_gains", "compensator_params", "controller", "enable_mask", "gear_everett", "preisach_table",
            "write_preisach_table"]

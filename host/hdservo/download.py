@@ -35,6 +35,24 @@ def read_model(path: Path) -> dict[str, dict[str, Any]]:
     return _read(path)
 
 
+def motor_share(model: Mapping[str, Mapping[str, Any]]) -> float | None:
+    """Motor side's share of the identified total friction, 0..1, or None when the model cannot tell.
+
+    The locked-output presliding experiment measures the motor-side breakaway alone (motor units); the
+    friction sweep the output-referred total.  share = N (b+ + b-) / (Fs+ + Fs-), at most 1.
+    """
+    ft, fm = model.get("friction_total") or {}, model.get("friction_motor") or {}
+    try:
+        n = float(model["gear"]["ratio"])
+        b = float(fm["presliding_breakaway_pos_Nm"]) + float(fm["presliding_breakaway_neg_Nm"])
+        fs = float(ft["fs_pos_Nm"]) + float(ft["fs_neg_Nm"])
+    except (KeyError, TypeError, ValueError):
+        return None
+    if not (b > 0 and fs > 0 and n > 0) or not math.isfinite(b / fs):
+        return None
+    return min(1.0, n * b / fs)
+
+
 def model_overrides(model: Mapping[str, Mapping[str, Any]], axis_get) -> tuple[dict[str, float], list[str]]:
     """``{"section.key": value}`` for :func:`compsetup.compensator_params` and notes on what was assumed."""
     notes: list[str] = []
@@ -56,6 +74,12 @@ def model_overrides(model: Mapping[str, Mapping[str, Any]], axis_get) -> tuple[d
                   "friction_motor.vs_rad_s": ft["vs_rad_s"] * n,
                   "friction_motor.viscous_Nms_per_rad": ft["viscous_Nms_per_rad"] / n ** 2,
                   "friction_motor.delta": 2.0})
+        share = motor_share(model)
+        if share is not None:
+            from .compsetup import MOTOR_SHARE_KEY
+            o[MOTOR_SHARE_KEY] = share
+            notes.append(f"Stribeck levels: the motor side's share {share:.3g} of the total friction "
+                         "(presliding breakaway x N / total Fs)")
         if "sigma0_Nm_per_rad" in fm:
             o["friction_motor.lugre_enabled"] = 1.0
             o["friction_motor.sigma0_Nm_per_rad"] = float(fm["sigma0_Nm_per_rad"])
@@ -88,6 +112,14 @@ def model_overrides(model: Mapping[str, Mapping[str, Any]], axis_get) -> tuple[d
                 o[f"hysteresis_maxwell.{k}"] = float(hm[k])
         # the identified hysteresis is in the Maxwell elements / the Preisach image, not the plant's Preisach keys
         o["hysteresis_preisach.enabled"] = 0.0
+    lmo = model.get("lost_motion")
+    if lmo is not None:
+        # identified lost-motion elements (twist on the output travel): the Maxwell-slip compensator
+        # takes them instead of a presliding curve of the (not identified) output-side friction
+        o["lost_motion.n_elements"] = float(lmo.get("n_elements", 0))
+        for i in range(1, int(lmo.get("n_elements", 0)) + 1):
+            for k in (f"e{i}_gain", f"e{i}_d_rad"):
+                o[f"lost_motion.{k}"] = float(lmo[k])
     te = model.get("transmission_error")
     if te:
         harm = []
@@ -217,23 +249,32 @@ def write_verified(drive: Any, plan: Mapping[str, Any], tables: bool = True,
         if st == "OPERATION ENABLED":
             raise UserError("the drive's power stage is on (OPERATION ENABLED): disable it before downloading")
         progress(f"parameters: {len(plan['sdo'])} by SDO")
-        for name, v in plan["sdo"].items():
-            p = PARAMS[name]
-            raw = raw_of(name, v)
-            if skip_missing and p.index not in drive.node.sdo:
-                done["missing"].append(name)
-                continue
-            try:
-                drive.write(p.index, p.sub, raw)
-            except DriveError as e:
-                if skip_missing and ("0x06090011" in str(e) or "0x06020000" in str(e)):
-                    done["missing"].append(name)     # older drive firmware: parameter not in its dictionary
+        # a value inside its own range that the drive refuses (0x06090030) breaks a check across parameters
+        # against a value still in force (cp_t1 above the old cp_t2, cb_pki_vlo above the old cb_pki_vhi):
+        # it is written again after the others, once
+        deferred: list[str] = []
+        for pass_no, names in enumerate((list(plan["sdo"]), deferred)):
+            for name in names:
+                v = plan["sdo"][name]
+                p = PARAMS[name]
+                raw = raw_of(name, v)
+                if skip_missing and p.index not in drive.node.sdo:
+                    done["missing"].append(name)
                     continue
-                raise
-            back = int(drive.read(p.index, p.sub))
-            if back != raw:
-                raise UserError(f"{name} (0x{p.index:04X}:{p.sub}): read back {back}, wrote {raw}")
-            done["params"] += 1
+                try:
+                    drive.write(p.index, p.sub, raw)
+                except DriveError as e:
+                    if skip_missing and ("0x06090011" in str(e) or "0x06020000" in str(e)):
+                        done["missing"].append(name)     # older drive firmware: parameter not in its dictionary
+                        continue
+                    if pass_no == 0 and "0x06090030" in str(e) and not isinstance(e, DriveProtocolError):
+                        deferred.append(name)
+                        continue
+                    raise
+                back = int(drive.read(p.index, p.sub))
+                if back != raw:
+                    raise UserError(f"{name} (0x{p.index:04X}:{p.sub}): read back {back}, wrote {raw}")
+                done["params"] += 1
         if tables:
             for sub, raw in plan["groups"].items():
                 label = {2: "friction group (Stribeck + LuGre)", 3: "TE group"}[sub]

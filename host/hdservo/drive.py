@@ -103,6 +103,13 @@ class DriveProtocolError(DriveError):
     """
 
 
+def _sdo_error(e: Exception) -> type[DriveError]:
+    """The error class of a failed expedited SDO exchange: an abort is the drive's answer (DriveError);
+    no (valid) response is the transport's failure (DriveProtocolError), e.g. a loaded host's time-out."""
+    import canopen
+    return DriveProtocolError if isinstance(e, canopen.SdoCommunicationError) else DriveError
+
+
 #: python-can-like interface name of the simulated drive (``-i virtual-drive``, ``CAN_INTERFACE``, config file)
 SIM_INTERFACE = "virtual-drive"
 #: built-in axes of the simulated drive (else an axis TOML file)
@@ -378,7 +385,7 @@ class Drive:
             except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
                 if self._stale_retry(e, attempt):
                     continue
-                raise DriveError(f"read 0x{index:04X}:{sub}: {e}") from None
+                raise _sdo_error(e)(f"read 0x{index:04X}:{sub}: {e}") from None
         raise AssertionError("unreachable")
 
     def write(self, index: int, sub: int, value: Any) -> None:
@@ -390,7 +397,7 @@ class Drive:
             except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
                 if self._stale_retry(e, attempt):
                     continue
-                raise DriveError(f"write 0x{index:04X}:{sub} = {value!r}: {e}") from None
+                raise _sdo_error(e)(f"write 0x{index:04X}:{sub} = {value!r}: {e}") from None
 
     # ---- parameters by name ----------------------------------------------------
     def get_param(self, name: str) -> float:

@@ -67,6 +67,36 @@ def test_aborts_and_timeouts_are_not_repeated_here(err: Exception, monkeypatch: 
     assert v.calls == 1
 
 
+def test_a_timeout_is_a_protocol_error_and_an_abort_is_not(monkeypatch: pytest.MonkeyPatch) -> None:
+    """No SDO response is the transport's failure (the download may be repeated on a fresh connection);
+    an abort is the drive's refusal."""
+    v = _Var(1, canopen.SdoCommunicationError("No SDO response received"))
+    with pytest.raises(dv.DriveProtocolError, match=r"read 0x2860:7: No SDO response received"):
+        _drive(v, monkeypatch).read(0x2860, 7)
+    w = _Var(1, canopen.SdoCommunicationError("No SDO response received"))
+    with pytest.raises(dv.DriveProtocolError, match=r"write 0x2860:7 = 3"):
+        _drive(w, monkeypatch).write(0x2860, 7, 3)
+    a = _Var(1, canopen.SdoAbortedError(0x06090030))
+    with pytest.raises(dv.DriveError) as ei:
+        _drive(a, monkeypatch).read(0x2860, 7)
+    assert not isinstance(ei.value, dv.DriveProtocolError)
+
+
+def test_download_timeout_is_a_transport_error_not_a_refusal(monkeypatch: pytest.MonkeyPatch) -> None:
+    """hdservo compare repeats a row whose download broke off (DownloadTransportError); a time-out on a
+    parameter's read-back used to end the whole comparison as 'refused by the drive'."""
+    from hdservo import download as dl
+    from hdservo.params_gen import BY_NAME as PARAMS
+    v = _Var(10 ** 6, canopen.SdoCommunicationError("No SDO response received"))
+    d = _drive(v, monkeypatch)
+    monkeypatch.setattr(d, "state", lambda: "SWITCH ON DISABLED")
+    name = "mx_n"
+    plan = {"sdo": {name: 2.0}, "groups": {}, "preisach": None, "version": 1}
+    assert name in PARAMS
+    with pytest.raises(dl.DownloadTransportError, match="not refused"):
+        dl.write_verified(d, plan, tables=False)
+
+
 class _DomainVar:
     """Stands in for a canopen domain variable whose first ``fails`` block transfers die with ``err``."""
 

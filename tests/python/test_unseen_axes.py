@@ -58,5 +58,7 @@ def test_headline_factors_and_relaxed_targets() -> None:
     assert t["positioning_accuracy_arcsec"] == {"required_factor": 5.0 / 1.5, "factor": 4.0, "met": True}
     assert t["tracking_rms_0p01_arcsec"]["met"] is False       # 1.5 < 3 / 1.5
     assert t["reversal_peak_arcsec"]["met"] is None and t["stabilisation_rms_arcsec"]["met"] is None
+    assert m.verdict(t) is False and m.verdict({}) is None
+    assert m.verdict({k: v for k, v in t.items() if k != "tracking_rms_0p01_arcsec"}) is True
     assert m.targets(h, factor=1.0)["positioning_accuracy_arcsec"]["met"] is False
     assert m.cycle_amplitude(48.0) == 63.0 and m.cycle_amplitude(10.0) == 13.0

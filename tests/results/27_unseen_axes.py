@@ -121,6 +121,12 @@ def targets(head: Mapping[str, Mapping[str, Optional[float]]], factor: float = U
     return out
 
 
+def verdict(tg: Mapping[str, Mapping[str, Any]]) -> Optional[bool]:
+    """True when every target of :func:`targets` is met, False when one is not, None when none was measured."""
+    met = [v.get("met") for v in tg.values() if v.get("met") is not None]
+    return None if not met else all(met)
+
+
 def cycle_amplitude(t2_Nm: float) -> float:
     """Stiffness-cycle amplitude from the gear's catalogue T2, N.m: 1.3 T2 rounded up (docs/identification.md)."""
     return float(math.ceil(1.3 * t2_Nm))
@@ -173,6 +179,8 @@ def main(argv: Optional[list[str]] = None) -> int:
         # the cycle amplitude is the gear's catalogue rating, as a user reads it off the data sheet
         r = run_axis(p, work / name, a.quick, cycle_amplitude(gen[name].params["stiffness"]["t2_Nm"]))
         r["axis"] = gen[name].summary()
+        r["ratio"] = gen[name].ratio
+        r["all_targets_met"] = verdict(r.get("targets", {}))
         doc["axes"][name] = r
         worst = max((abs(v) for v in r.get("identification_error", {}).values() if v is not None), default=None)
         fac = {k: v["factor"] for k, v in r.get("headline", {}).items() if k in TARGETS}

@@ -135,7 +135,9 @@ def _run(args: argparse.Namespace) -> int:
         if args.offline is not None or args.data:
             raise UserError("--standard-objects runs on a drive: it does not go with --offline or --data")
         if args.target not in STD_TARGETS:
-            raise UserError(f"identify {args.target}: needs the output locked and a torque sensor (a test rig); "
+            need = ("the motor and the output angle together (not among the standard objects)"
+                    if args.target == "lost_motion" else "the output locked and a torque sensor (a test rig)")
+            raise UserError(f"identify {args.target}: needs {need}; "
                             f"--standard-objects identifies {', '.join(STD_TARGETS)}")
         if args.no_rig or args.set:
             raise UserError(f"{'--no-rig' if args.no_rig else '--set'}: not an option of --standard-objects "
@@ -328,6 +330,10 @@ def _print_summary(s: dict) -> None:
         print(f"LuGre presliding (motor side): sigma0 {p['sigma0_Nm_per_rad']:.4g} N.m/rad, breakaway "
               f"+{p['breakaway_pos_Nm']:.4g}/-{p['breakaway_neg_Nm']:.4g} N.m, sigma1 "
               + (f"{s1:.3g} N.m.s/rad (rule)" if s1 is not None else "not identified"))
+    if "lost_motion" in s:
+        m = s["lost_motion"]
+        print(f"lost motion at reversals (Maxwell-slip on the output travel): {m['lost_motion_arcsec']:.3g}\" "
+              f"over {m['n_elements']} elements, fit residual {m['rms_residual_rad'] * 206264.8:.3g}\" RMS")
     if "preisach" in s:
         p = s["preisach"]
         print(f"Preisach: L = {p['levels']}, {p['forcs']} FORCs, held-out minor loops RMS "

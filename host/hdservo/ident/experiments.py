@@ -376,6 +376,31 @@ class PreslidingSteps:
 
 
 @dataclass
+class LostMotionSine:
+    """Small slow position sine about the start (position mode): the lost motion at reversals.
+
+    The output travels +-``amplitude_rad`` at a peak speed of ``2 pi f amplitude`` (0.36 deg/s
+    with the defaults); near each reversal the speed passes through zero slowly, so the reversal
+    goes through the presliding of the output-side friction quasi-statically.  The twist between
+    the two encoders (motor / N - output, TE removed) against the output travel since the last
+    reversal is the lost-motion curve the Maxwell-slip compensator predicts (:mod:`.lost_motion`).
+    The amplitude is a hundred times the presliding distances of gear friction (1e-5 .. 1e-4 rad)
+    and small enough that the unbalance torque stays nearly constant (0.6 % of mgl); over CAN the
+    segment runs in cyclic synchronous velocity, whose loop needs a few 1e-4 rad of travel to
+    break away (at +-1e-3 rad the output of the reference axis moved +-3e-5 rad and slid nowhere).
+    """
+
+    amplitude_rad: float = 1e-2
+    frequency_Hz: float = 0.1
+    cycles: float = 2.5
+    kind: str = "lost_motion"
+
+    def plan(self, ratio: float) -> list[dict[str, Any]]:
+        return [{"mode": "position", "amplitude_rad": self.amplitude_rad, "frequency_Hz": self.frequency_Hz,
+                 "duration_s": self.cycles / self.frequency_Hz}]
+
+
+@dataclass
 class FRFExcitation:
     """Velocity-mode multisine on a constant bias speed (no velocity reversal: friction slides).
 
@@ -399,7 +424,8 @@ class FRFExcitation:
 
 
 EXPERIMENTS: dict[str, type] = {c.kind: c for c in (FrictionSweep, GravitySine, TERotation, LockedCycle,  # type: ignore[attr-defined]
-                                                    ForcSet, MinorLoops, FRFExcitation, PreslidingSteps)}
+                                                    ForcSet, MinorLoops, FRFExcitation, PreslidingSteps,
+                                                    LostMotionSine)}
 
 
 def describe(design: Any) -> dict[str, Any]:

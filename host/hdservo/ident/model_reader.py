@@ -6,7 +6,8 @@ any drive is contacted: each section is a table, each known key has the right
 type (a finite number, an integer, a string), positive where the compensator
 arithmetic divides by it, and the keys that come in groups are complete
 (``[gear] ratio``; the six Stribeck keys of ``[friction_total]``; ``k1`` of a
-``[stiffness]`` with a spring; ``eK_k``/``eK_w`` for every Maxwell element;
+``[stiffness]`` with a spring; ``eK_k``/``eK_w`` for every Maxwell element and
+``eK_gain``/``eK_d_rad`` for every lost-motion element;
 order/amplitude/phase of every TE harmonic).  A bad file is one
 :class:`ModelError` line ``FILE: key 'section.key': expected ..., got ...``.
 Keys the reader does not know are kept as they are (a model may carry notes).
@@ -31,6 +32,7 @@ KEYS: dict[str, dict[str, str]] = {
                   "t2_Nm": "num", "damping_Nms_per_rad": "num"},
     "stiffness_cubic": {"k1_Nm_per_rad": "num", "k3_Nm_per_rad3": "num"},
     "hysteresis_maxwell": {"n_elements": "int"},
+    "lost_motion": {"n_elements": "int"},
     "transmission_error": {},
     "load": {"jl_kgm2": "pos"},
     "motor": {"jm_kgm2": "pos"},
@@ -42,7 +44,8 @@ KEYS: dict[str, dict[str, str]] = {
     "identified": {"hysteresis_loss_rad": "num", "lost_motion_rad": "num", "f_antiresonance_Hz": "num",
                    "f_resonance_Hz": "num", "frf_small_signal_k_Nm_per_rad": "num", "preisach_offset_rad": "num",
                    "preisach_u0_Nm": "num", "preisach_step_Nm": "num", "preisach_levels": "int",
-                   "preisach_crc": "int", "preisach_table": "str"},
+                   "preisach_crc": "int", "preisach_table": "str",
+                   "lost_motion_reversal_rad": "num"},
 }
 #: Keys a section needs when it is present.
 _REQUIRED: dict[str, tuple[str, ...]] = {
@@ -122,13 +125,14 @@ def check_model(data: Any, where: str = "model") -> Model:
         if not isinstance(body, dict):
             raise ModelError(f"{where}: key '{sec}': expected a table [{sec}], got {_got(body)}")
         kinds = dict(KEYS[sec])
-        if sec == "hysteresis_maxwell":
+        if sec in ("hysteresis_maxwell", "lost_motion"):
             n = check_value(where, f"{sec}.n_elements", body.get("n_elements", 0), "int")
             if int(n) > MAX_ELEMENTS:
                 raise ModelError(f"{where}: key '{sec}.n_elements': expected at most {MAX_ELEMENTS}, got {n}")
+            pair = ("k_Nm_per_rad", "w_Nm") if sec == "hysteresis_maxwell" else ("gain", "d_rad")
             for i in range(1, int(n) + 1):
-                kinds[f"e{i}_k_Nm_per_rad"] = "nonneg"
-                kinds[f"e{i}_w_Nm"] = "nonneg"
+                for k in pair:
+                    kinds[f"e{i}_{k}"] = "nonneg"
             need = tuple(k for k in kinds if k != "n_elements")
         elif sec == "transmission_error":
             need = ()

@@ -5,6 +5,8 @@ Sections written (only those identified):
 * ``[gear]`` ratio; ``[stiffness]`` k1/k2/k3_Nm_per_rad, t1_Nm, t2_Nm,
   damping_Nms_per_rad (FRF); ``[stiffness_cubic]`` k1_Nm_per_rad, k3_Nm_per_rad3;
 * ``[hysteresis_maxwell]`` n_elements, eK_k_Nm_per_rad, eK_w_Nm;
+* ``[lost_motion]`` n_elements, eK_gain (rad/rad), eK_d_rad -- Maxwell-slip elements of the twist
+  on the output travel (:mod:`.lost_motion`);
 * ``[transmission_error]`` wgK_order/_amp_rad/_phase_rad, outK_...;
 * ``[load]`` jl_kgm2 and ``[motor]`` jm_kgm2 (FRF: J2, J1/N^2);
   ``[gravity]`` mgl_Nm, offset_rad;
@@ -114,6 +116,14 @@ def model_sections(results: Mapping[str, Any], ratio: float) -> dict[str, dict[s
         if ps.sigma1_Nms_per_rad is not None:
             fm["sigma1_Nms_per_rad"] = ps.sigma1_Nms_per_rad     # rule sqrt(sigma0 J_m), see the report
         s["friction_motor"] = fm
+    lmr = results.get("lost_motion")
+    if lmr is not None:
+        lt: dict[str, Any] = {"n_elements": len(lmr.gain)}
+        for i, (g, d) in enumerate(zip(lmr.gain, lmr.d_rad), start=1):
+            lt[f"e{i}_gain"] = g
+            lt[f"e{i}_d_rad"] = d
+        s["lost_motion"] = lt
+        ident["lost_motion_reversal_rad"] = lmr.lost_motion_rad
     pz = results.get("preisach")
     if pz is not None:
         ident["preisach_offset_rad"] = pz["everett"].offset_rad

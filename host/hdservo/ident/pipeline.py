@@ -2,7 +2,7 @@
 
 Order (each step uses what the earlier ones found, never the truth):
 te -> (frf) -> friction (gravity sine, sweep, Stribeck, online RLS) ->
-stiffness (locked cycles, TE removed) -> presliding (locked, small torque
+lost motion (small position sine, TE removed) -> stiffness (locked cycles, TE removed) -> presliding (locked, small torque
 steps, motor-side LuGre sigma0/sigma1) -> hysteresis
 (FORCs on a grid chosen from the identified T1, Preisach table, held-out
 minor loops).
@@ -21,12 +21,13 @@ from . import experiments as ex
 from . import friction as fr
 from . import frf as frfm
 from . import hysteresis as hy
+from . import lost_motion as lm
 from . import stiffness as stf
 from . import stribeck_online as so
 from . import te as tem
 from . import tuning as tun
 
-TARGETS = ("friction", "stiffness", "hysteresis", "te", "frf", "presliding", "all")
+TARGETS = ("friction", "stiffness", "hysteresis", "te", "frf", "presliding", "lost_motion", "all")
 
 
 @dataclass
@@ -204,6 +205,16 @@ class Pipeline:
             self.results["presliding"] = self._timed("presliding", lambda: fr.fit_presliding(d, jm_kgm2=jm))
         return self.results["presliding"]
 
+    def lost_motion(self) -> lm.LostMotionResult:
+        """Maxwell-slip lost-motion elements on the output travel (small position sine, TE removed)."""
+        if "lost_motion" not in self.results:
+            te = self.te() if (self.runner is not None or "te_rotation" in self.data) else None
+            d = self._get(ex.LostMotionSine())
+            self.progress("fit: lost motion (Maxwell-slip elements on the output travel)")
+            self.results["lost_motion"] = self._timed(
+                "lost_motion", lambda: lm.fit_lost_motion(d, te, max_elements=self.settings.maxwell_elements))
+        return self.results["lost_motion"]
+
     def hysteresis(self) -> dict[str, Any]:
         if "preisach" not in self.results:
             st = self.stiffness()
@@ -235,8 +246,8 @@ class Pipeline:
             raise UserError(f"identify: unknown target '{target}' (expected one of {', '.join(TARGETS)})")
         steps = {"te": [self.te], "frf": [self.frf], "friction": [self.friction],
                  "stiffness": [self.stiffness], "hysteresis": [self.stiffness, self.hysteresis],
-                 "presliding": [self.presliding],
-                 "all": [self.frf, self.te, self.friction, self.stiffness, self.presliding,
+                 "presliding": [self.presliding], "lost_motion": [self.lost_motion],
+                 "all": [self.frf, self.te, self.friction, self.lost_motion, self.stiffness, self.presliding,
                          self.hysteresis, self.te_output]}[target]
         t0 = time.perf_counter()
         for s in steps:
@@ -249,7 +260,7 @@ def summary(results: dict[str, Any]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     if results.get("tuning"):
         out["velocity_loop_tuning"] = list(results["tuning"])
-    for k in ("te", "gravity", "stribeck", "stiffness", "presliding"):
+    for k in ("te", "gravity", "stribeck", "stiffness", "presliding", "lost_motion"):
         if k in results:
             out[k] = results[k].to_dict()
     if "frf" in results:

@@ -28,7 +28,7 @@ RETUNE_TOLERANCE = 0.1
 
 
 def velocity_pi(j_total_kgm2: float, f_v_hz: float = VELOCITY_BANDWIDTH_HZ) -> dict[str, float]:
-    """Velocity PI of the design rule for a total inertia.
+    """Velocity PI of the design rule for a total inertia (:func:`hdservo.closedloop_cases.velocity_pi`).
 
     Parameters
     ----------
@@ -41,19 +41,16 @@ def velocity_pi(j_total_kgm2: float, f_v_hz: float = VELOCITY_BANDWIDTH_HZ) -> d
     -------
     dict
         ``{"vel_kp": kp, "vel_ki": ki}`` in the parameter-table units
-        (N.m.s/rad, N.m/rad): ``kp = J 2 pi f_v``, ``ki = kp 2 pi f_v / 4``.
+        (N.m.s/rad, N.m/rad): ``kp = J 2 pi f_v``, ``ki = kp 2 pi f_v / 4``, each at most the
+        drive's maximum (``vel_ki`` 32000 N.m/rad: J above 5.2 kg.m^2 gets a lower PI zero).
 
     Raises
     ------
     ValueError
         A non-finite or non-positive inertia or bandwidth.
     """
-    if not (math.isfinite(j_total_kgm2) and j_total_kgm2 > 0):
-        raise ValueError(f"total inertia {j_total_kgm2!r} kg.m^2: expected a finite number > 0")
-    if not (math.isfinite(f_v_hz) and f_v_hz > 0):
-        raise ValueError(f"velocity bandwidth {f_v_hz!r} Hz: expected a finite number > 0")
-    kp = j_total_kgm2 * 2.0 * math.pi * f_v_hz
-    return {"vel_kp": kp, "vel_ki": kp * 2.0 * math.pi * f_v_hz / 4.0}
+    from ..closedloop_cases import velocity_pi as rule
+    return rule(j_total_kgm2, f_v_hz)
 
 
 def frf_inertia(frf_results: Any) -> float | None:
