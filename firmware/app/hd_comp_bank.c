@@ -696,11 +696,19 @@ int32_t hd_comp_bank_post(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const 
         b->u_bs = u_pid;
         return u_pid;
     }
+    /* the law every period with the held estimates; the Stribeck regressor's shape and the
+     * adaptation (HD_SCHED_CYCLE periods' worth at once) in its slot (hd_sched.h) */
+    const bool slot = ((b->tick - 1u) & (HD_SCHED_CYCLE - 1u)) == (uint32_t)HD_SLOT_BACKSTEP;
     if (b->bs_preload != 0u) {
-        hd_backstep_preload(&b->bs, &c->bs, &bi, u_pid);
+        hd_backstep_preload(&b->bs, &c->bs, &bi, u_pid);     /* also the regressor's shape */
         b->bs_preload = 0u;
+    } else if (slot) {
+        hd_backstep_regressor(&b->bs, &c->bs, bi.omega);
     }
-    b->u_bs = hd_backstep_step(&b->bs, &c->bs, &bi, u_pid);
+    b->u_bs = hd_backstep_step_held(&b->bs, &c->bs, &bi, u_pid);
+    if (slot) {
+        hd_backstep_adapt(&b->bs, &c->bs, HD_SCHED_LOG2);
+    }
     return b->u_bs;
 }
 
