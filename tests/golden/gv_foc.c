@@ -25,6 +25,10 @@
  *                   Register accesses, the SPI transfer and interrupt entry
  *                   are NOT included (see tests/bench/50_isr_load.py).
  *   isr_worst_case_pid  the same without backstepping (cost only).
+ *   isr_worst_case_fe   isr_worst_case's worst tick (3) with the online Stribeck
+ *                   identification on (fe_enable 1) and its most expensive step
+ *                   (the last residual and the close of a fit) due in the
+ *                   measured period (cost only).
  * The app step uses the stub hal of gv_app.c (linked into the same images).
  */
 #include "gv.h"
@@ -34,6 +38,8 @@
 #include "hd_encoder.h"
 #include "hd_ssi.h"
 #include "hd_fixed.h"
+#include "hd_fric_est.h"
+#include "hd_stribeck.h"
 
 /* ---- foc_step ------------------------------------------------------------------------ */
 
@@ -280,7 +286,40 @@ static void isr_port_foc(hd_foc_t *s, const hd_foc_cfg_t *c, hd_enc_t *e, uint32
 
 int32_t gv_app_to_tick(hd_app_t *a, uint32_t tick, uint32_t *mot, uint32_t *out);
 
-static void cost_isr_en(uint32_t cb_enable, uint32_t slot)
+/* The online Stribeck identification of isr_app one step before the end of a fit: every
+ * bin of the positive direction valid (the map of the Stribeck parameters), the candidates
+ * 0 .. NGRID-2 and the last one's first three passes done (outside the marks), and its step
+ * due in the next period, which then runs the estimator's most expensive step (the last
+ * residual and the fit's close, as gv_fric_est.c's fric_est_step_fit_finish). */
+static void isr_fe_before_fit_end(hd_app_t *a)
+{
+    hd_fric_est_t *e = &a->cb.fe;
+    const hd_fric_est_cfg_t *c = &a->cb_cfg.fe;
+    uint32_t i, j, p;
+    for (i = 0; i < HD_FE_NBIN; i++) {
+        const int32_t v = hdf_sat32((int64_t)c->v_min << (i / 2u));
+        hd_fe_bin_t *b = &e->bin[HD_FE_DIR_POS][i];
+        b->v = hdf_add_sat(v, ((i & 1u) != 0u) ? v / 2 : 0);
+        b->f = hd_stribeck_map(&a->cb_cfg.str, b->v);
+        b->n = c->n_min;
+        b->stamp = e->steps;
+        {
+            const uint64_t r = ((uint64_t)(uint32_t)b->v << 16) / (uint32_t)c->vs_lo;
+            b->r16 = (r > (uint64_t)INT32_MAX) ? INT32_MAX : (int32_t)r;
+        }
+    }
+    e->fit_dir = HD_FE_DIR_POS;
+    e->fit_j = 0u;
+    e->fit_pass = 0u;
+    for (j = 0; j < HD_FE_NGRID; j++) {
+        for (p = 0; p < ((j + 1u < HD_FE_NGRID) ? 4u : 3u); p++) {
+            hd_fric_est_step(e, c, e->v_prev, e->v_lp, e->bin[HD_FE_DIR_POS][8].f, true);
+        }
+    }
+    a->cb.fe_tick = a->cb_cfg.fe_decim - 1u;
+}
+
+static void cost_isr_en(uint32_t cb_enable, uint32_t slot, bool fe)
 {
     hd_foc_t s;
     hd_foc_cfg_t c;
@@ -307,6 +346,9 @@ static void cost_isr_en(uint32_t cb_enable, uint32_t slot)
     (void)hd_app_move_to(&isr_app, isr_app.pos_out + ((hd_angle_t)1 << 24));
     (void)hd_app_set_mode(&isr_app, HD_MODE_PTP);
     (void)hd_app_param_set(&isr_app, HD_P_CB_ENABLE, (int32_t)cb_enable);
+    if (fe) {
+        (void)hd_app_param_set(&isr_app, HD_P_FE_ENABLE, 1);
+    }
     for (k = 0; k < 16u; k++) {                  /* PTP moving, every weight fully on (ramp 4) */
         isr_sensors(k, &r, 0u);
         hd_app_step(&isr_app);
@@ -318,6 +360,9 @@ static void cost_isr_en(uint32_t cb_enable, uint32_t slot)
             return;                              /* no marks: the bench fails, never under-reports */
         }
         gv_app_stub_sensors((mot + 5u) & 0x1FFFFu, (outc + 1u) & 0xFFFFFFu);
+    }
+    if (fe) {
+        isr_fe_before_fit_end(&isr_app);
     }
     vol_in[0] = 2100; vol_in[1] = 1990; vol_in[2] = 3000; vol_in[3] = 5 * 65536;
     const int32_t ra = vol_in[0], rb = vol_in[1], rv = vol_in[2], iq = vol_in[3];
@@ -333,22 +378,25 @@ static void cost_isr_en(uint32_t cb_enable, uint32_t slot)
 /* one cost kernel per tick of the schedule (hd_sched.h); tools/cm4_cost.py takes the worst */
 #define ISR_ALL ((uint32_t)HD_CB_ALL)
 #define ISR_PID ((uint32_t)HD_CB_ALL & ~(uint32_t)HD_CB_BACKSTEP)
-static void cost_isr_s0(void) { cost_isr_en(ISR_ALL, 0u); }
-static void cost_isr_s1(void) { cost_isr_en(ISR_ALL, 1u); }
-static void cost_isr_s2(void) { cost_isr_en(ISR_ALL, 2u); }
-static void cost_isr_s3(void) { cost_isr_en(ISR_ALL, 3u); }
-static void cost_isr_s4(void) { cost_isr_en(ISR_ALL, 4u); }
-static void cost_isr_s5(void) { cost_isr_en(ISR_ALL, 5u); }
-static void cost_isr_s6(void) { cost_isr_en(ISR_ALL, 6u); }
-static void cost_isr_s7(void) { cost_isr_en(ISR_ALL, 7u); }
-static void cost_isr_pid_s0(void) { cost_isr_en(ISR_PID, 0u); }
-static void cost_isr_pid_s1(void) { cost_isr_en(ISR_PID, 1u); }
-static void cost_isr_pid_s2(void) { cost_isr_en(ISR_PID, 2u); }
-static void cost_isr_pid_s3(void) { cost_isr_en(ISR_PID, 3u); }
-static void cost_isr_pid_s4(void) { cost_isr_en(ISR_PID, 4u); }
-static void cost_isr_pid_s5(void) { cost_isr_en(ISR_PID, 5u); }
-static void cost_isr_pid_s6(void) { cost_isr_en(ISR_PID, 6u); }
-static void cost_isr_pid_s7(void) { cost_isr_en(ISR_PID, 7u); }
+static void cost_isr_s0(void) { cost_isr_en(ISR_ALL, 0u, false); }
+static void cost_isr_s1(void) { cost_isr_en(ISR_ALL, 1u, false); }
+static void cost_isr_s2(void) { cost_isr_en(ISR_ALL, 2u, false); }
+static void cost_isr_s3(void) { cost_isr_en(ISR_ALL, 3u, false); }
+static void cost_isr_s4(void) { cost_isr_en(ISR_ALL, 4u, false); }
+static void cost_isr_s5(void) { cost_isr_en(ISR_ALL, 5u, false); }
+static void cost_isr_s6(void) { cost_isr_en(ISR_ALL, 6u, false); }
+static void cost_isr_s7(void) { cost_isr_en(ISR_ALL, 7u, false); }
+static void cost_isr_pid_s0(void) { cost_isr_en(ISR_PID, 0u, false); }
+static void cost_isr_pid_s1(void) { cost_isr_en(ISR_PID, 1u, false); }
+static void cost_isr_pid_s2(void) { cost_isr_en(ISR_PID, 2u, false); }
+static void cost_isr_pid_s3(void) { cost_isr_en(ISR_PID, 3u, false); }
+static void cost_isr_pid_s4(void) { cost_isr_en(ISR_PID, 4u, false); }
+static void cost_isr_pid_s5(void) { cost_isr_en(ISR_PID, 5u, false); }
+static void cost_isr_pid_s6(void) { cost_isr_en(ISR_PID, 6u, false); }
+static void cost_isr_pid_s7(void) { cost_isr_en(ISR_PID, 7u, false); }
+/* the worst tick of the bank (3, the TE slot) with the estimator's most expensive step in
+ * the same period (fe_decim 10 against a cycle of 8: every tick meets every step) */
+static void cost_isr_fe(void) { cost_isr_en(ISR_ALL, 3u, true); }
 
 const hd_gv_kernel_t hd_gv_foc_kernels[] = {
     {"foc_step", 6u, 7u, 384u, gen_foc, run_foc, cost_foc},
@@ -371,5 +419,6 @@ const hd_gv_kernel_t hd_gv_foc_kernels[] = {
     {"isr_worst_case_pid.s5", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_pid_s5},
     {"isr_worst_case_pid.s6", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_pid_s6},
     {"isr_worst_case_pid.s7", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_pid_s7},
+    {"isr_worst_case_fe", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe},
 };
 const uint32_t hd_gv_foc_count = sizeof hd_gv_foc_kernels / sizeof hd_gv_foc_kernels[0];
