@@ -724,11 +724,16 @@ void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_ve
         return;                 /* off and not ramping out: no cost, the bins keep their data */
     }
     if (++b->fe_tick < c->fe_decim) {
+        /* the step's fit pass one part per period in the periods after it (at most 8 parts:
+         * the pass is done before the next step for fe_decim >= 9; else that step completes it) */
+        if (c->fe_on != 0u) {
+            (void)hd_fric_est_fit_part(&b->fe, &c->fe);
+        }
         return;
     }
     b->fe_tick = 0u;
     if (c->fe_on != 0u) {
-        hd_fric_est_step(&b->fe, &c->fe, v_ref, v_fb, tau, active);
+        hd_fric_est_observe(&b->fe, &c->fe, v_ref, v_fb, tau, active);
     }
     hd_fric_est_feed(&b->fe, &c->str, &b->fe_str);
 }

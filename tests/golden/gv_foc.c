@@ -25,10 +25,11 @@
  *                   Register accesses, the SPI transfer and interrupt entry
  *                   are NOT included (see tests/bench/50_isr_load.py).
  *   isr_worst_case_pid  the same without backstepping (cost only).
- *   isr_worst_case_fe   isr_worst_case's worst tick (3) with the online Stribeck
- *                   identification on (fe_enable 1) and its most expensive step
- *                   (the last residual and the close of a fit) due in the
- *                   measured period (cost only).
+ *   isr_worst_case_fe_<part>  isr_worst_case's worst tick (3) with the online
+ *                   Stribeck identification on (fe_enable 1) and one kind of its
+ *                   work in the measured period: its step's observation, a
+ *                   snapshot part, a part of the solution's sums, the solution,
+ *                   a residual part, the two parts of the close of a fit (cost only).
  * The app step uses the stub hal of gv_app.c (linked into the same images).
  */
 #include "gv.h"
@@ -286,16 +287,17 @@ static void isr_port_foc(hd_foc_t *s, const hd_foc_cfg_t *c, hd_enc_t *e, uint32
 
 int32_t gv_app_to_tick(hd_app_t *a, uint32_t tick, uint32_t *mot, uint32_t *out);
 
-/* The online Stribeck identification of isr_app one step before the end of a fit: every
- * bin of the positive direction valid (the map of the Stribeck parameters), the candidates
- * 0 .. NGRID-2 and the last one's first three passes done (outside the marks), and its step
- * due in the next period, which then runs the estimator's most expensive step (the last
- * residual and the fit's close, as gv_fric_est.c's fric_est_step_fit_finish). */
-static void isr_fe_before_fit_end(hd_app_t *a)
+/* The online Stribeck identification of isr_app at a given point of a fit: every bin of the
+ * positive direction valid (the map of the Stribeck parameters), `steps` estimator steps of
+ * its fit done from candidate 0 (outside the marks); then either its next step due in the
+ * measured period (parts == FE_OBSERVE: the observation, bins, feed), or that step done and
+ * `parts` parts of its pass, the measured period running the next part. */
+#define FE_OBSERVE 0xFFFFFFFFu
+static void isr_fe_setup(hd_app_t *a, uint32_t steps, uint32_t parts)
 {
     hd_fric_est_t *e = &a->cb.fe;
     const hd_fric_est_cfg_t *c = &a->cb_cfg.fe;
-    uint32_t i, j, p;
+    uint32_t i, k;
     for (i = 0; i < HD_FE_NBIN; i++) {
         const int32_t v = hdf_sat32((int64_t)c->v_min << (i / 2u));
         hd_fe_bin_t *b = &e->bin[HD_FE_DIR_POS][i];
@@ -311,15 +313,21 @@ static void isr_fe_before_fit_end(hd_app_t *a)
     e->fit_dir = HD_FE_DIR_POS;
     e->fit_j = 0u;
     e->fit_pass = 0u;
-    for (j = 0; j < HD_FE_NGRID; j++) {
-        for (p = 0; p < ((j + 1u < HD_FE_NGRID) ? 4u : 3u); p++) {
-            hd_fric_est_step(e, c, e->v_prev, e->v_lp, e->bin[HD_FE_DIR_POS][8].f, true);
-        }
+    for (k = 0; k < steps; k++) {
+        hd_fric_est_step(e, c, e->v_prev, e->v_lp, e->bin[HD_FE_DIR_POS][8].f, true);
     }
-    a->cb.fe_tick = a->cb_cfg.fe_decim - 1u;
+    if (parts == FE_OBSERVE) {
+        a->cb.fe_tick = a->cb_cfg.fe_decim - 1u;
+        return;
+    }
+    hd_fric_est_observe(e, c, e->v_prev, e->v_lp, e->bin[HD_FE_DIR_POS][8].f, true);
+    for (k = 0; k < parts; k++) {
+        (void)hd_fric_est_fit_part(e, c);
+    }
+    a->cb.fe_tick = 0u;
 }
 
-static void cost_isr_en(uint32_t cb_enable, uint32_t slot, bool fe)
+static void cost_isr_en(uint32_t cb_enable, uint32_t slot, uint32_t fe_steps, uint32_t fe_parts)
 {
     hd_foc_t s;
     hd_foc_cfg_t c;
@@ -346,7 +354,7 @@ static void cost_isr_en(uint32_t cb_enable, uint32_t slot, bool fe)
     (void)hd_app_move_to(&isr_app, isr_app.pos_out + ((hd_angle_t)1 << 24));
     (void)hd_app_set_mode(&isr_app, HD_MODE_PTP);
     (void)hd_app_param_set(&isr_app, HD_P_CB_ENABLE, (int32_t)cb_enable);
-    if (fe) {
+    if (fe_steps != 0u) {
         (void)hd_app_param_set(&isr_app, HD_P_FE_ENABLE, 1);
     }
     for (k = 0; k < 16u; k++) {                  /* PTP moving, every weight fully on (ramp 4) */
@@ -361,8 +369,8 @@ static void cost_isr_en(uint32_t cb_enable, uint32_t slot, bool fe)
         }
         gv_app_stub_sensors((mot + 5u) & 0x1FFFFu, (outc + 1u) & 0xFFFFFFu);
     }
-    if (fe) {
-        isr_fe_before_fit_end(&isr_app);
+    if (fe_steps != 0u) {
+        isr_fe_setup(&isr_app, fe_steps, fe_parts);
     }
     vol_in[0] = 2100; vol_in[1] = 1990; vol_in[2] = 3000; vol_in[3] = 5 * 65536;
     const int32_t ra = vol_in[0], rb = vol_in[1], rv = vol_in[2], iq = vol_in[3];
@@ -378,25 +386,33 @@ static void cost_isr_en(uint32_t cb_enable, uint32_t slot, bool fe)
 /* one cost kernel per tick of the schedule (hd_sched.h); tools/cm4_cost.py takes the worst */
 #define ISR_ALL ((uint32_t)HD_CB_ALL)
 #define ISR_PID ((uint32_t)HD_CB_ALL & ~(uint32_t)HD_CB_BACKSTEP)
-static void cost_isr_s0(void) { cost_isr_en(ISR_ALL, 0u, false); }
-static void cost_isr_s1(void) { cost_isr_en(ISR_ALL, 1u, false); }
-static void cost_isr_s2(void) { cost_isr_en(ISR_ALL, 2u, false); }
-static void cost_isr_s3(void) { cost_isr_en(ISR_ALL, 3u, false); }
-static void cost_isr_s4(void) { cost_isr_en(ISR_ALL, 4u, false); }
-static void cost_isr_s5(void) { cost_isr_en(ISR_ALL, 5u, false); }
-static void cost_isr_s6(void) { cost_isr_en(ISR_ALL, 6u, false); }
-static void cost_isr_s7(void) { cost_isr_en(ISR_ALL, 7u, false); }
-static void cost_isr_pid_s0(void) { cost_isr_en(ISR_PID, 0u, false); }
-static void cost_isr_pid_s1(void) { cost_isr_en(ISR_PID, 1u, false); }
-static void cost_isr_pid_s2(void) { cost_isr_en(ISR_PID, 2u, false); }
-static void cost_isr_pid_s3(void) { cost_isr_en(ISR_PID, 3u, false); }
-static void cost_isr_pid_s4(void) { cost_isr_en(ISR_PID, 4u, false); }
-static void cost_isr_pid_s5(void) { cost_isr_en(ISR_PID, 5u, false); }
-static void cost_isr_pid_s6(void) { cost_isr_en(ISR_PID, 6u, false); }
-static void cost_isr_pid_s7(void) { cost_isr_en(ISR_PID, 7u, false); }
-/* the worst tick of the bank (3, the TE slot) with the estimator's most expensive step in
- * the same period (fe_decim 10 against a cycle of 8: every tick meets every step) */
-static void cost_isr_fe(void) { cost_isr_en(ISR_ALL, 3u, true); }
+static void cost_isr_s0(void) { cost_isr_en(ISR_ALL, 0u, 0u, 0u); }
+static void cost_isr_s1(void) { cost_isr_en(ISR_ALL, 1u, 0u, 0u); }
+static void cost_isr_s2(void) { cost_isr_en(ISR_ALL, 2u, 0u, 0u); }
+static void cost_isr_s3(void) { cost_isr_en(ISR_ALL, 3u, 0u, 0u); }
+static void cost_isr_s4(void) { cost_isr_en(ISR_ALL, 4u, 0u, 0u); }
+static void cost_isr_s5(void) { cost_isr_en(ISR_ALL, 5u, 0u, 0u); }
+static void cost_isr_s6(void) { cost_isr_en(ISR_ALL, 6u, 0u, 0u); }
+static void cost_isr_s7(void) { cost_isr_en(ISR_ALL, 7u, 0u, 0u); }
+static void cost_isr_pid_s0(void) { cost_isr_en(ISR_PID, 0u, 0u, 0u); }
+static void cost_isr_pid_s1(void) { cost_isr_en(ISR_PID, 1u, 0u, 0u); }
+static void cost_isr_pid_s2(void) { cost_isr_en(ISR_PID, 2u, 0u, 0u); }
+static void cost_isr_pid_s3(void) { cost_isr_en(ISR_PID, 3u, 0u, 0u); }
+static void cost_isr_pid_s4(void) { cost_isr_en(ISR_PID, 4u, 0u, 0u); }
+static void cost_isr_pid_s5(void) { cost_isr_en(ISR_PID, 5u, 0u, 0u); }
+static void cost_isr_pid_s6(void) { cost_isr_en(ISR_PID, 6u, 0u, 0u); }
+static void cost_isr_pid_s7(void) { cost_isr_en(ISR_PID, 7u, 0u, 0u); }
+/* the worst tick of the bank (3, the TE slot) with each kind of the online estimator's work
+ * in the same period (fe_decim 10 against a cycle of 8: every tick meets every step and
+ * part), in the last candidate of a fit (31 x 4 steps before it) */
+#define FE_J31 (31u * 4u)
+static void cost_isr_fe_observe(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, FE_OBSERVE); }
+static void cost_isr_fe_snapshot(void) { cost_isr_en(ISR_ALL, 3u, FE_J31, 0u); }
+static void cost_isr_fe_sums(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 0u); }
+static void cost_isr_fe_solve(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 6u); }
+static void cost_isr_fe_sse(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 0u); }
+static void cost_isr_fe_pick(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 6u); }
+static void cost_isr_fe_publish(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 7u); }
 
 const hd_gv_kernel_t hd_gv_foc_kernels[] = {
     {"foc_step", 6u, 7u, 384u, gen_foc, run_foc, cost_foc},
@@ -419,6 +435,12 @@ const hd_gv_kernel_t hd_gv_foc_kernels[] = {
     {"isr_worst_case_pid.s5", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_pid_s5},
     {"isr_worst_case_pid.s6", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_pid_s6},
     {"isr_worst_case_pid.s7", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_pid_s7},
-    {"isr_worst_case_fe", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe},
+    {"isr_worst_case_fe_observe", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_observe},
+    {"isr_worst_case_fe_snapshot", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_snapshot},
+    {"isr_worst_case_fe_sums", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_sums},
+    {"isr_worst_case_fe_solve", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_solve},
+    {"isr_worst_case_fe_sse", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_sse},
+    {"isr_worst_case_fe_pick", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_pick},
+    {"isr_worst_case_fe_publish", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_publish},
 };
 const uint32_t hd_gv_foc_count = sizeof hd_gv_foc_kernels / sizeof hd_gv_foc_kernels[0];
