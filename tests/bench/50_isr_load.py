@@ -161,7 +161,8 @@ def main() -> int:
         print(f"{SRC.relative_to(ROOT)}: no kernel 'isr_worst_case'")
         return 1
     insn = k["isr_worst_case"]["instructions"]
-    parts = {n: k[n]["instructions"] for n in ("isr_worst_case_pid", "control_step_full", "control_step_baseline",
+    parts = {n: k[n]["instructions"] for n in ("isr_worst_case_pid", "isr_worst_case_exc", "control_step_full",
+                                               "control_step_baseline",
                                                "foc_step", "ssi_decode", "enc_update")
              if n in k}
     cycles = insn * CPI + sum(ALLOW_CYCLES.values())

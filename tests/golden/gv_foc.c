@@ -25,6 +25,9 @@
  *                   Register accesses, the SPI transfer and interrupt entry
  *                   are NOT included (see tests/bench/50_isr_load.py).
  *   isr_worst_case_pid  the same without backstepping (cost only).
+ *   isr_worst_case_exc  the same period in the excitation mode (a multisine of 4
+ *                   lines added to the held position) instead of PTP, per tick
+ *                   (cost only).
  *   isr_worst_case_fe_<part>  isr_worst_case's worst tick (3) with the online
  *                   Stribeck identification on (fe_enable 1) and one kind of its
  *                   work in the measured period: its step's observation, a
@@ -327,7 +330,25 @@ static void isr_fe_setup(hd_app_t *a, uint32_t steps, uint32_t parts)
     a->cb.fe_tick = 0u;
 }
 
-static void cost_isr_en(uint32_t cb_enable, uint32_t slot, uint32_t fe_steps, uint32_t fe_parts)
+/* excitation in the measured runs: a multisine of 4 lines (10 .. 900 Hz, the exc_step kernel's
+ * set-up) added to the held position (hd_app_set_excitation, HD_INJ_POS_REF) */
+static void isr_exc_cfg(hd_exc_cfg_t *c)
+{
+    c->kind = (int32_t)HD_EXC_MULTISINE;
+    c->amp = 1 << 20;
+    c->offset = 0;
+    c->length = 0;
+    c->hold = 3;
+    c->n = 4u;
+    c->m = 2;
+    c->rate = c->amp / 20 + 1;
+    c->f0_q16 = 10 << 16;
+    c->f1_q16 = 900 << 16;
+    c->period = 50;
+    c->seed = 0x5Au;
+}
+
+static void cost_isr_en(uint32_t cb_enable, uint32_t slot, uint32_t fe_steps, uint32_t fe_parts, bool exc)
 {
     hd_foc_t s;
     hd_foc_cfg_t c;
@@ -351,8 +372,15 @@ static void cost_isr_en(uint32_t cb_enable, uint32_t slot, uint32_t fe_steps, ui
     isr_make_table();
     (void)hd_app_comp_table(&isr_app, &isr_tab);
     hd_app_step(&isr_app);
-    (void)hd_app_move_to(&isr_app, isr_app.pos_out + ((hd_angle_t)1 << 24));
-    (void)hd_app_set_mode(&isr_app, HD_MODE_PTP);
+    if (exc) {
+        hd_exc_cfg_t xc;
+        isr_exc_cfg(&xc);
+        (void)hd_app_set_excitation(&isr_app, &xc, HD_INJ_POS_REF);
+        (void)hd_app_set_mode(&isr_app, HD_MODE_EXCITATION);
+    } else {
+        (void)hd_app_move_to(&isr_app, isr_app.pos_out + ((hd_angle_t)1 << 24));
+        (void)hd_app_set_mode(&isr_app, HD_MODE_PTP);
+    }
     (void)hd_app_param_set(&isr_app, HD_P_CB_ENABLE, (int32_t)cb_enable);
     if (fe_steps != 0u) {
         (void)hd_app_param_set(&isr_app, HD_P_FE_ENABLE, 1);
@@ -386,33 +414,42 @@ static void cost_isr_en(uint32_t cb_enable, uint32_t slot, uint32_t fe_steps, ui
 /* one cost kernel per tick of the schedule (hd_sched.h); tools/cm4_cost.py takes the worst */
 #define ISR_ALL ((uint32_t)HD_CB_ALL)
 #define ISR_PID ((uint32_t)HD_CB_ALL & ~(uint32_t)HD_CB_BACKSTEP)
-static void cost_isr_s0(void) { cost_isr_en(ISR_ALL, 0u, 0u, 0u); }
-static void cost_isr_s1(void) { cost_isr_en(ISR_ALL, 1u, 0u, 0u); }
-static void cost_isr_s2(void) { cost_isr_en(ISR_ALL, 2u, 0u, 0u); }
-static void cost_isr_s3(void) { cost_isr_en(ISR_ALL, 3u, 0u, 0u); }
-static void cost_isr_s4(void) { cost_isr_en(ISR_ALL, 4u, 0u, 0u); }
-static void cost_isr_s5(void) { cost_isr_en(ISR_ALL, 5u, 0u, 0u); }
-static void cost_isr_s6(void) { cost_isr_en(ISR_ALL, 6u, 0u, 0u); }
-static void cost_isr_s7(void) { cost_isr_en(ISR_ALL, 7u, 0u, 0u); }
-static void cost_isr_pid_s0(void) { cost_isr_en(ISR_PID, 0u, 0u, 0u); }
-static void cost_isr_pid_s1(void) { cost_isr_en(ISR_PID, 1u, 0u, 0u); }
-static void cost_isr_pid_s2(void) { cost_isr_en(ISR_PID, 2u, 0u, 0u); }
-static void cost_isr_pid_s3(void) { cost_isr_en(ISR_PID, 3u, 0u, 0u); }
-static void cost_isr_pid_s4(void) { cost_isr_en(ISR_PID, 4u, 0u, 0u); }
-static void cost_isr_pid_s5(void) { cost_isr_en(ISR_PID, 5u, 0u, 0u); }
-static void cost_isr_pid_s6(void) { cost_isr_en(ISR_PID, 6u, 0u, 0u); }
-static void cost_isr_pid_s7(void) { cost_isr_en(ISR_PID, 7u, 0u, 0u); }
+static void cost_isr_s0(void) { cost_isr_en(ISR_ALL, 0u, 0u, 0u, false); }
+static void cost_isr_s1(void) { cost_isr_en(ISR_ALL, 1u, 0u, 0u, false); }
+static void cost_isr_s2(void) { cost_isr_en(ISR_ALL, 2u, 0u, 0u, false); }
+static void cost_isr_s3(void) { cost_isr_en(ISR_ALL, 3u, 0u, 0u, false); }
+static void cost_isr_s4(void) { cost_isr_en(ISR_ALL, 4u, 0u, 0u, false); }
+static void cost_isr_s5(void) { cost_isr_en(ISR_ALL, 5u, 0u, 0u, false); }
+static void cost_isr_s6(void) { cost_isr_en(ISR_ALL, 6u, 0u, 0u, false); }
+static void cost_isr_s7(void) { cost_isr_en(ISR_ALL, 7u, 0u, 0u, false); }
+static void cost_isr_pid_s0(void) { cost_isr_en(ISR_PID, 0u, 0u, 0u, false); }
+static void cost_isr_pid_s1(void) { cost_isr_en(ISR_PID, 1u, 0u, 0u, false); }
+static void cost_isr_pid_s2(void) { cost_isr_en(ISR_PID, 2u, 0u, 0u, false); }
+static void cost_isr_pid_s3(void) { cost_isr_en(ISR_PID, 3u, 0u, 0u, false); }
+static void cost_isr_pid_s4(void) { cost_isr_en(ISR_PID, 4u, 0u, 0u, false); }
+static void cost_isr_pid_s5(void) { cost_isr_en(ISR_PID, 5u, 0u, 0u, false); }
+static void cost_isr_pid_s6(void) { cost_isr_en(ISR_PID, 6u, 0u, 0u, false); }
+static void cost_isr_pid_s7(void) { cost_isr_en(ISR_PID, 7u, 0u, 0u, false); }
 /* the worst tick of the bank (3, the TE slot) with each kind of the online estimator's work
  * in the same period (fe_decim 10 against a cycle of 8: every tick meets every step and
  * part), in the last candidate of a fit (31 x 4 steps before it) */
+/* the excitation mode with every compensator on, per tick */
+static void cost_isr_exc_s0(void) { cost_isr_en(ISR_ALL, 0u, 0u, 0u, true); }
+static void cost_isr_exc_s1(void) { cost_isr_en(ISR_ALL, 1u, 0u, 0u, true); }
+static void cost_isr_exc_s2(void) { cost_isr_en(ISR_ALL, 2u, 0u, 0u, true); }
+static void cost_isr_exc_s3(void) { cost_isr_en(ISR_ALL, 3u, 0u, 0u, true); }
+static void cost_isr_exc_s4(void) { cost_isr_en(ISR_ALL, 4u, 0u, 0u, true); }
+static void cost_isr_exc_s5(void) { cost_isr_en(ISR_ALL, 5u, 0u, 0u, true); }
+static void cost_isr_exc_s6(void) { cost_isr_en(ISR_ALL, 6u, 0u, 0u, true); }
+static void cost_isr_exc_s7(void) { cost_isr_en(ISR_ALL, 7u, 0u, 0u, true); }
 #define FE_J31 (31u * 4u)
-static void cost_isr_fe_observe(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, FE_OBSERVE); }
-static void cost_isr_fe_snapshot(void) { cost_isr_en(ISR_ALL, 3u, FE_J31, 0u); }
-static void cost_isr_fe_sums(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 0u); }
-static void cost_isr_fe_solve(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 6u); }
-static void cost_isr_fe_sse(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 0u); }
-static void cost_isr_fe_pick(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 6u); }
-static void cost_isr_fe_publish(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 7u); }
+static void cost_isr_fe_observe(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, FE_OBSERVE, false); }
+static void cost_isr_fe_snapshot(void) { cost_isr_en(ISR_ALL, 3u, FE_J31, 0u, false); }
+static void cost_isr_fe_sums(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 0u, false); }
+static void cost_isr_fe_solve(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 6u, false); }
+static void cost_isr_fe_sse(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 0u, false); }
+static void cost_isr_fe_pick(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 6u, false); }
+static void cost_isr_fe_publish(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 7u, false); }
 
 const hd_gv_kernel_t hd_gv_foc_kernels[] = {
     {"foc_step", 6u, 7u, 384u, gen_foc, run_foc, cost_foc},
@@ -435,6 +472,14 @@ const hd_gv_kernel_t hd_gv_foc_kernels[] = {
     {"isr_worst_case_pid.s5", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_pid_s5},
     {"isr_worst_case_pid.s6", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_pid_s6},
     {"isr_worst_case_pid.s7", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_pid_s7},
+    {"isr_worst_case_exc.s0", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s0},
+    {"isr_worst_case_exc.s1", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s1},
+    {"isr_worst_case_exc.s2", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s2},
+    {"isr_worst_case_exc.s3", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s3},
+    {"isr_worst_case_exc.s4", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s4},
+    {"isr_worst_case_exc.s5", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s5},
+    {"isr_worst_case_exc.s6", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s6},
+    {"isr_worst_case_exc.s7", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s7},
     {"isr_worst_case_fe_observe", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_observe},
     {"isr_worst_case_fe_snapshot", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_snapshot},
     {"isr_worst_case_fe_sums", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_sums},
