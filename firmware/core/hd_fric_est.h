@@ -73,7 +73,9 @@
  *   one quarter of a candidate: 12 exp, or the 2x2 solution (two reciprocals),
  *   or the residual over 24 bins (+ the closing of a fit after the last one)
  *   (Cortex-M4 instructions per step: tests/bench/10_cm4_cost.sh, docs/compensators.md).
- * Memory: hd_fric_est_t, about 1.4 KiB.
+ *   In the drive a step runs in parts of bounded cost, the observation, then its
+ *   pass one part per control period (hd_fric_est_observe, hd_fric_est_fit_part).
+ * Memory: hd_fric_est_t, about 2.1 KiB.
  */
 #ifndef HD_FRIC_EST_H
 #define HD_FRIC_EST_H
