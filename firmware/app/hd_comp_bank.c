@@ -696,11 +696,19 @@ int32_t hd_comp_bank_post(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const 
         b->u_bs = u_pid;
         return u_pid;
     }
+    /* the law every period with the held estimates; the Stribeck regressor's shape and the
+     * adaptation (HD_SCHED_CYCLE periods' worth at once) in its slot (hd_sched.h) */
+    const bool slot = ((b->tick - 1u) & (HD_SCHED_CYCLE - 1u)) == (uint32_t)HD_SLOT_BACKSTEP;
     if (b->bs_preload != 0u) {
-        hd_backstep_preload(&b->bs, &c->bs, &bi, u_pid);
+        hd_backstep_preload(&b->bs, &c->bs, &bi, u_pid);     /* also the regressor's shape */
         b->bs_preload = 0u;
+    } else if (slot) {
+        hd_backstep_regressor(&b->bs, &c->bs, bi.omega);
     }
-    b->u_bs = hd_backstep_step(&b->bs, &c->bs, &bi, u_pid);
+    b->u_bs = hd_backstep_step_held(&b->bs, &c->bs, &bi, u_pid);
+    if (slot) {
+        hd_backstep_adapt(&b->bs, &c->bs, HD_SCHED_LOG2);
+    }
     return b->u_bs;
 }
 
@@ -716,11 +724,16 @@ void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_ve
         return;                 /* off and not ramping out: no cost, the bins keep their data */
     }
     if (++b->fe_tick < c->fe_decim) {
+        /* the step's fit pass one part per period in the periods after it (at most 8 parts:
+         * the pass is done before the next step for fe_decim >= 9; else that step completes it) */
+        if (c->fe_on != 0u) {
+            (void)hd_fric_est_fit_part(&b->fe, &c->fe);
+        }
         return;
     }
     b->fe_tick = 0u;
     if (c->fe_on != 0u) {
-        hd_fric_est_step(&b->fe, &c->fe, v_ref, v_fb, tau, active);
+        hd_fric_est_observe(&b->fe, &c->fe, v_ref, v_fb, tau, active);
     }
     hd_fric_est_feed(&b->fe, &c->str, &b->fe_str);
 }

@@ -11,10 +11,13 @@
  * motor angle and the reference).  Rates, filter constants and ramps of a
  * decimated compensator are those of its own step (HD_SCHED_CYCLE periods).
  *
- *   every tick (10 kHz)   scheduled position integral, Stribeck feed-forward
+ *   every tick (10 kHz)   backstepping's law, scheduled position integral, Stribeck feed-forward
  *                         (measured / reference velocity), the sum of the
  *                         position corrections and its filter (dvel)
- *   slot 0                LuGre: g(v) and the bristles' steady state
+ *   slot 0                LuGre: g(v) and the bristles' steady state; backstepping
+ *                         (after the loops): its Stribeck regressor's shape and the
+ *                         adaptation of HD_SCHED_CYCLE periods (the law runs every tick
+ *                         with the held estimates)
  *   slot 1                LuGre: the step's exponential factor; DOB
  *   slot 2                LuGre: bristle update, observer term, torque;
  *                         compliance twist at the held torque estimate
@@ -52,6 +55,9 @@ typedef enum {
     HD_SLOT_PREISACH = 5        /* Preisach (ticks 5 .. 7) */
 } hd_slot_t;
 #define HD_SLOT_DOB HD_SLOT_LUGRE_EXP
+/* backstepping (hd_comp_bank_post, phase_loops): the regressor's Stribeck shape and the
+ * adaptation in the tick of LuGre's g(v), the lightest slot */
+#define HD_SLOT_BACKSTEP HD_SLOT_LUGRE_G
 
 /** The slot kind of a tick count. */
 static inline hd_slot_t hd_sched_slot(uint32_t tick)

@@ -29,6 +29,7 @@ void hd_backstep_init(hd_backstep_t *s, const hd_backstep_cfg_t *c, const int32_
     s->u_bs = 0;
     s->u = 0;
     s->saturated = 0u;
+    s->shape = HD_Q30_ONE;
     hd_divinv_init(&s->inv_ws, 0u);
 }
 
@@ -45,9 +46,17 @@ void hd_backstep_set_enabled(hd_backstep_t *s, bool enabled)
     hd_blend_set_enabled(&s->blend, enabled);
 }
 
-/* Errors, regressor and the law; fills e1, e2, phi. */
+/* The Stribeck regressor's shape exp(-(omega / w_s)^2) in Q30, by the reciprocal when it
+ * is set up for this w_s (the same value as the division) */
+static int32_t hd__shape(const hd_divinv_t *inv_ws, const hd_backstep_cfg_t *c, hd_vel_out_t omega)
+{
+    return (c->w_s > 0 && inv_ws->d == (uint32_t)c->w_s) ? hd_stribeck_shape_inv_q30(omega, c->w_s, 2u, inv_ws)
+                                                         : hd_stribeck_shape_q30(omega, c->w_s, 2u);
+}
+
+/* Errors, regressor (with the given Stribeck shape) and the law; fills e1, e2, phi. */
 static int64_t hd__law(int32_t *e1o, int32_t *e2o, int32_t phi[HD_BS_NP], const int64_t th[HD_BS_NP],
-                       const hd_divinv_t *inv_ws, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in)
+                       int32_t shape, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in)
 {
     const int64_t e1max = (c->e1_max > 0) ? (int64_t)c->e1_max : (int64_t)INT32_MAX;
     const int32_t e1 = (int32_t)hdf_clamp64(hdf_sub64_sat(in->theta, in->theta_d), -e1max, e1max);
@@ -59,9 +68,7 @@ static int64_t hd__law(int32_t *e1o, int32_t *e2o, int32_t phi[HD_BS_NP], const 
     uint32_t i;
 
     phi[0] = sg;
-    /* |omega| / w_s by the reciprocal when it is set up for this w_s (the same value) */
-    phi[1] = hdf_mul_q((c->w_s > 0 && inv_ws->d == (uint32_t)c->w_s) ? hd_stribeck_shape_inv_q30(in->omega, c->w_s, 2u, inv_ws)
-                                                                     : hd_stribeck_shape_q30(in->omega, c->w_s, 2u), sg, 30u);
+    phi[1] = hdf_mul_q(shape, sg, 30u);
     phi[2] = hdf_asr32_rnd((int64_t)in->omega, 2u);       /* 2^-32 turn/s -> Q30 turn/s */
     phi[3] = HD_Q30_ONE;
     /* J (alpha1' - c2 e2) - ke e1 */
@@ -82,17 +89,18 @@ int32_t hd_backstep_law(const hd_backstep_t *s, const hd_backstep_cfg_t *c, cons
     int32_t e1;
     int32_t e2;
     int32_t phi[HD_BS_NP];
-    return hdf_sat32(hd__law(&e1, &e2, phi, s->th, &s->inv_ws, c, in));
+    return hdf_sat32(hd__law(&e1, &e2, phi, s->th, hd__shape(&s->inv_ws, c, in->omega), c, in));
 }
 
 void hd_backstep_preload(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in,
                          int32_t u_now)
 {
     hd__inv_ws(s, c);
-    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, &s->inv_ws, c, in);
+    s->shape = hd__shape(&s->inv_ws, c, in->omega);
+    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, s->shape, c, in);
     const int64_t du = hdf_sub64_sat((int64_t)u_now, u);              /* Q16; phi_3 = 1 */
     s->th[3] = hdf_clamp64(hdf_add64_sat(s->th[3], hdf_shl64_sat(du, 32u)), hd__th_lo(c, 3u), hd__th_hi(c, 3u));
-    s->u_bs = hdf_sat32(hd__law(&s->e1, &s->e2, s->phi, s->th, &s->inv_ws, c, in));
+    s->u_bs = hdf_sat32(hd__law(&s->e1, &s->e2, s->phi, s->th, s->shape, c, in));
     s->u = u_now;
 }
 
@@ -102,7 +110,8 @@ int32_t hd_backstep_step(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
     const int32_t umax = (c->u_max > 0) ? c->u_max : INT32_MAX;
     uint32_t i;
     hd__inv_ws(s, c);
-    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, &s->inv_ws, c, in);
+    s->shape = hd__shape(&s->inv_ws, c, in->omega);
+    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, s->shape, c, in);
 
     s->u_bs = (int32_t)hdf_clamp64(u, -(int64_t)umax, (int64_t)umax);
     s->saturated = ((int64_t)s->u_bs != u) ? 1u : 0u;
@@ -117,4 +126,37 @@ int32_t hd_backstep_step(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
         }
     }
     return s->u;
+}
+
+int32_t hd_backstep_step_held(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in,
+                              int32_t u_base)
+{
+    const int32_t umax = (c->u_max > 0) ? c->u_max : INT32_MAX;
+    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, s->shape, c, in);
+    s->u_bs = (int32_t)hdf_clamp64(u, -(int64_t)umax, (int64_t)umax);
+    s->saturated = ((int64_t)s->u_bs != u) ? 1u : 0u;
+    (void)hd_blend_update(&s->blend);
+    s->u = hd_blend_mix(&s->blend, u_base, s->u_bs);
+    return s->u;
+}
+
+void hd_backstep_regressor(hd_backstep_t *s, const hd_backstep_cfg_t *c, hd_vel_out_t omega)
+{
+    hd__inv_ws(s, c);
+    s->shape = hd__shape(&s->inv_ws, c, omega);
+}
+
+void hd_backstep_adapt(hd_backstep_t *s, const hd_backstep_cfg_t *c, uint32_t log2_n)
+{
+    uint32_t i;
+    /* frozen while saturated or blended out, as in hd_backstep_step */
+    if (s->saturated != 0u || s->blend.w == 0) {
+        return;
+    }
+    for (i = 0; i < HD_BS_NP; i++) {
+        /* 2^log2_n periods of gamma_dt: round(gamma_dt pe 2^log2_n / 2^8); |gamma_dt pe| < 2^62 */
+        const int32_t pe = hdf_mul_q(s->phi[i], s->e2, 30u);
+        const int64_t d = hdf_asr64_rnd((int64_t)c->gamma_dt[i] * (int64_t)pe, 8u - log2_n);
+        s->th[i] = hdf_clamp64(hdf_sub64_sat(s->th[i], d), hd__th_lo(c, i), hd__th_hi(c, i));
+    }
 }

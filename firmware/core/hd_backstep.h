@@ -75,6 +75,7 @@ typedef struct {
     int32_t u_bs;                  /* last backstepping output (unweighted, clamped) */
     int32_t u;                     /* last blended output */
     uint32_t saturated;            /* 1 if u_bs was clamped */
+    int32_t shape;                 /* Stribeck regressor's shape exp(-(omega/w_s)^2), Q30, at its last refresh */
     hd_divinv_t inv_ws;            /* reciprocal of cfg w_s (refreshed by step / preload when it changes) */
 } hd_backstep_t;
 
@@ -91,5 +92,16 @@ void hd_backstep_preload(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
 /** One period: law + adaptation; returns u_base + w (u_bs - u_base). */
 int32_t hd_backstep_step(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in,
                          int32_t u_base);
+
+/** The law of one period with the held adapted parameters and the held Stribeck shape
+ *  (hd_backstep_regressor), the sign and viscous regressors of this period's omega; no
+ *  adaptation.  Returns u_base + w (u_bs - u_base); keeps e2, phi for hd_backstep_adapt. */
+int32_t hd_backstep_step_held(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in,
+                              int32_t u_base);
+/** Refresh the held Stribeck shape of the regressor at omega (2^-32 turn/s). */
+void hd_backstep_regressor(hd_backstep_t *s, const hd_backstep_cfg_t *c, hd_vel_out_t omega);
+/** The adaptation of 2^log2_n periods (log2_n <= 8) at once, from the regressor and e2
+ *  of the last hd_backstep_step_held (frozen while it saturated or blended out). */
+void hd_backstep_adapt(hd_backstep_t *s, const hd_backstep_cfg_t *c, uint32_t log2_n);
 
 #endif

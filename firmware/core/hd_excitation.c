@@ -107,10 +107,10 @@ int32_t hd_exc_start(hd_exc_t *s, const hd_exc_cfg_t *c)
 static int32_t ramp_to(hd_exc_t *s, int32_t target, int32_t rate)
 {
     if (s->cur < target) {
-        int32_t nv = hd_add_sat(s->cur, rate);
+        int32_t nv = hdf_add_sat(s->cur, rate);
         s->cur = (nv > target) ? target : nv;
     } else if (s->cur > target) {
-        int32_t nv = hd_sub_sat(s->cur, rate);
+        int32_t nv = hdf_sub_sat(s->cur, rate);
         s->cur = (nv < target) ? target : nv;
     }
     return (s->cur == target) ? 1 : 0;
@@ -125,14 +125,14 @@ static int32_t vsteps_value(hd_exc_t *s, const hd_exc_cfg_t *c)
     }
     const uint32_t lv = s->idx / 2u;
     const uint32_t e10 = lv * (10u / c->m);         /* exponent in tenths of a decade */
-    int64_t v = hd_mul64x32_q((int64_t)c->amp, dec_q16[e10 % 10u], 16u);
+    int64_t v = hdf_mul64x32_q((int64_t)c->amp, dec_q16[e10 % 10u], 16u);
     uint32_t d;
     for (d = 0; d < e10 / 10u; d++) {
-        v = hd_mul64x32_q(v, 10, 0);
+        v = hdf_mul64x32_q(v, 10, 0);
     }
-    int32_t out = hd_sat32(v);
+    int32_t out = hdf_sat32(v);
     if (s->idx & 1u) {
-        out = hd_neg_sat(out);
+        out = hdf_neg_sat(out);
     }
     if (++s->sub >= c->hold) {
         s->sub = 0;
@@ -143,7 +143,7 @@ static int32_t vsteps_value(hd_exc_t *s, const hd_exc_cfg_t *c)
 
 static int32_t tramp_value(hd_exc_t *s, const hd_exc_cfg_t *c)
 {
-    const int32_t tgt = (s->dir > 0) ? c->amp : hd_neg_sat(c->amp);
+    const int32_t tgt = (s->dir > 0) ? c->amp : hdf_neg_sat(c->amp);
     if (ramp_to(s, tgt, c->rate)) {
         s->dir = -s->dir;
         if (s->dir > 0) {
@@ -159,7 +159,7 @@ static int32_t tramp_value(hd_exc_t *s, const hd_exc_cfg_t *c)
 static int32_t forc_value(hd_exc_t *s, const hd_exc_cfg_t *c)
 {
     /* sub: 0 = going to -amp (start or after a reversal), 1 = going up to reversal idx+1 */
-    const int32_t lo = hd_neg_sat(c->amp);
+    const int32_t lo = hdf_neg_sat(c->amp);
     if (s->sub == 0u) {
         if (ramp_to(s, lo, c->rate)) {
             if (s->idx >= c->n) {
@@ -170,7 +170,7 @@ static int32_t forc_value(hd_exc_t *s, const hd_exc_cfg_t *c)
         }
     } else {
         const int64_t r = (int64_t)lo + hd_div64_rnd(2 * (int64_t)c->amp * (int64_t)(s->idx + 1u), (int64_t)c->n);
-        if (ramp_to(s, hd_sat32(r), c->rate)) {
+        if (ramp_to(s, hdf_sat32(r), c->rate)) {
             s->idx++;
             s->sub = 0;
         }
@@ -206,14 +206,14 @@ static int32_t multisine_value(hd_exc_t *s, const hd_exc_cfg_t *c)
         const uint32_t sch = frac32(sn, 2u * c->n);
         int32_t sv, cv;
         hd_sincos_turn(ph - sch, &sv, &cv);   /* uint32 phase wraps, meant */
-        sum = hd_add64_sat(sum, (int64_t)hd_mul_q(c->amp, sv, 30u));
+        sum = hdf_add64_sat(sum, (int64_t)hdf_mul_q(c->amp, sv, 30u));
     }
-    return hd_sat32(sum);
+    return hdf_sat32(sum);
 }
 
 static int32_t prbs_value(hd_exc_t *s, const hd_exc_cfg_t *c)
 {
-    const int32_t out = (s->lfsr & 1u) ? c->amp : hd_neg_sat(c->amp);
+    const int32_t out = (s->lfsr & 1u) ? c->amp : hdf_neg_sat(c->amp);
     if (++s->sub >= c->hold) {
         s->sub = 0;
         const uint32_t lsb = s->lfsr & 1u;
@@ -245,9 +245,9 @@ int32_t hd_exc_step(hd_exc_t *s, const hd_exc_cfg_t *c)
         case HD_EXC_CHIRP: {
             int32_t sv, cv;
             hd_sincos_turn((uint32_t)(s->phase >> 32), &sv, &cv);
-            v = hd_mul_q(c->amp, sv, 30u);
+            v = hdf_mul_q(c->amp, sv, 30u);
             s->phase += (uint64_t)s->inc;     /* uint64 wraps once per cycle, meant */
-            s->inc = hd_add64_sat(s->inc, s->dinc);
+            s->inc = hdf_add64_sat(s->inc, s->dinc);
             break;
         }
         case HD_EXC_MULTISINE:
@@ -262,6 +262,6 @@ int32_t hd_exc_step(hd_exc_t *s, const hd_exc_cfg_t *c)
         }
     }
     s->k++;
-    s->out = hd_add_sat(v, c->offset);
+    s->out = hdf_add_sat(v, c->offset);
     return s->out;
 }

@@ -13,6 +13,9 @@ static const int32_t fe_qoct[4] = {1073741824, 1276901417, 1518500250, 180581130
 
 #define FE_INV_SQRT2_Q30 759250125      /* round(2^30 / sqrt 2) */
 #define FE_NO_FIT INT64_MAX
+#define HD_FE_SNAP_BINS 3u   /* bins per snapshot part (a part: 3 exp) */
+#define HD_FE_SUM_BINS 4u    /* bins per part of the solution's sums and of the residual */
+#define FE_SUM_PARTS (HD_FE_NBIN / HD_FE_SUM_BINS)
 
 /* bit i of a bin mask (i < HD_FE_NBIN <= 32) */
 static uint32_t bin_bit(uint32_t i)
@@ -131,6 +134,20 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
     e->fit_dir = 0u;
     e->fit_j = 0u;
     e->fit_pass = 0u;
+    e->fit_part = 0u;
+    e->fit_due = 0u;
+    e->fit_nb = 0u;
+    for (i = 0; i < 5u; i++) {
+        e->fit_q[i] = 0;
+    }
+    e->fit_m[0] = 0;
+    e->fit_m[1] = 0;
+    e->fit_m[2] = 0;
+    e->fin_ok = 0u;
+    e->fin_best = 0u;
+    for (i = 0; i < 4u; i++) {
+        e->fin[i] = 0;
+    }
     e->fit_mask = 0u;
     e->fit_ok = 0u;
     e->fit_s[0] = 0;
@@ -206,7 +223,8 @@ static int32_t shape16(int32_t r16, uint32_t j)
  *              torque; the bins may change before the candidate is done) and their sums;
  *   pass 2:    means, centred normal equations, (fc, fs - fc, fv);
  *   pass 3:    residual sum of squares. */
-static void fit_snapshot(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d, uint32_t j, uint32_t lo)
+static void fit_snapshot(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d, uint32_t j, uint32_t lo,
+                         uint32_t n)
 {
     const hd_fe_bin_t *bn = e->bin[d];
     uint32_t i;
@@ -217,7 +235,7 @@ static void fit_snapshot(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t 
         e->fit_s[2] = 0;
         e->sse[j] = FE_NO_FIT;
     }
-    for (i = lo; i < lo + HD_FE_NBIN / 2u; i++) {
+    for (i = lo; i < lo + n; i++) {
         if (bin_valid(e, c, &bn[i])) {
             e->fit_e[i] = shape16(bn[i].r16, j);
             e->fit_u[i] = (int32_t)((uint32_t)bn[i].v >> HD_FE_U_SHIFT);
@@ -240,74 +258,97 @@ static uint32_t popcount24(uint32_t m)
     return n;
 }
 
-static void fit_solve(hd_fric_est_t *e, uint32_t j)
+/* The solution in three parts: the means (fit_solve_begin), the centred sums over a range
+ * of bins (fit_solve_sums, in bin order), the scaled normal equations (fit_solve_end). */
+static void fit_solve_begin(hd_fric_est_t *e)
 {
     const uint32_t nb = popcount24(e->fit_mask);
-    int64_t see = 0, suu = 0, seu = 0, sef = 0, suf = 0;
-    uint32_t i;
+    uint32_t k;
     e->fit_ok = 0u;
+    e->fit_nb = nb;
+    for (k = 0; k < 5u; k++) {
+        e->fit_q[k] = 0;
+    }
     if (nb < 4u) {
         return;                             /* fewer bins than parameters + 1 */
     }
     {
         const int32_t inv = fe_inv_n[nb - 1u];
-        const int32_t me = hdf_sat32(hdf_mul64x32_q(e->fit_s[0], inv, 30u));
-        const int32_t mu = hdf_sat32(hdf_mul64x32_q(e->fit_s[1], inv, 30u));
-        const int32_t mf = hdf_sat32(hdf_mul64x32_q(e->fit_s[2], inv, 30u));
-        uint32_t s_e, s_u, h;
-        int64_t a, b, cc, det, nbeta, ngam;
-        int32_t dfs, fv, fc;
-        for (i = 0; i < HD_FE_NBIN; i++) {
-            if ((e->fit_mask & bin_bit(i)) != 0u) {
-                const int64_t ec = (int64_t)e->fit_e[i] - me;   /* |.| <= 2^16 */
-                const int64_t uc = (int64_t)e->fit_u[i] - mu;   /* |.| <= 2^20 */
-                const int64_t fcn = (int64_t)e->fit_f[i] - mf;  /* |.| <= 2^31 */
-                see += ec * ec;                                 /* <= 2^37 */
-                suu += uc * uc;                                 /* <= 2^45 */
-                seu += ec * uc;
-                sef += ec * fcn;                                /* <= 2^52 */
-                suf += uc * fcn;                                /* <= 2^56 */
-            }
-        }
-        /* scale the normal matrix into 30 bits (the same h on the cross term) */
-        s_e = (bitlen64((uint64_t)see) > 30u) ? bitlen64((uint64_t)see) - 30u : 0u;
-        s_u = (bitlen64((uint64_t)suu) > 30u) ? bitlen64((uint64_t)suu) - 30u : 0u;
-        if (((s_e + s_u) & 1u) != 0u) {
-            s_e++;
-        }
-        h = (s_e + s_u) / 2u;
-        a = hdf_asr64_rnd(see, s_e);
-        cc = hdf_asr64_rnd(suu, s_u);
-        b = hdf_asr64_rnd(seu, h);
-        b = hdf_clamp64(b, -((int64_t)1 << 30), (int64_t)1 << 30);
-        det = a * cc - b * b;                                   /* <= 2^60 */
-        if (det <= 0 || a == 0) {
-            return;                         /* the shape column carries no information */
-        }
-        /* (dF, fv) det / 2^30 by Cramer's rule on the scaled sums */
-        nbeta = hdf_sub64_sat(hdf_mul64x32_q(hdf_asr64_rnd(sef, s_e), (int32_t)cc, 30u),
-                              hdf_mul64x32_q(hdf_asr64_rnd(suf, h), (int32_t)b, 30u));
-        ngam = hdf_sub64_sat(hdf_mul64x32_q(hdf_asr64_rnd(suf, s_u), (int32_t)a, 30u),
-                             hdf_mul64x32_q(hdf_asr64_rnd(sef, h), (int32_t)b, 30u));
-        dfs = hdf_sat32(div_approx(nbeta, (uint64_t)det, 46u));              /* Q16 N.m (e in Q16) */
-        fv = hdf_sat32(div_approx(ngam, (uint64_t)det, 30u + HD_FE_U_SHIFT + 10u)); /* per 2^-21 -> per turn/s */
-        fc = hdf_sat32((int64_t)mf - hdf_mul64x32_q((int64_t)dfs, me, 16u) -
-                       hdf_mul64x32_q((int64_t)fv, mu, 21u));
-        e->th[j][0] = fc;
-        e->th[j][1] = dfs;
-        e->th[j][2] = fv;
-        e->fit_ok = 1u;
+        e->fit_m[0] = hdf_sat32(hdf_mul64x32_q(e->fit_s[0], inv, 30u));
+        e->fit_m[1] = hdf_sat32(hdf_mul64x32_q(e->fit_s[1], inv, 30u));
+        e->fit_m[2] = hdf_sat32(hdf_mul64x32_q(e->fit_s[2], inv, 30u));
     }
 }
 
-static void fit_sse(hd_fric_est_t *e, uint32_t j)
+static void fit_solve_sums(hd_fric_est_t *e, uint32_t lo, uint32_t n)
 {
-    int64_t sse = 0;
+    uint32_t i;
+    if (e->fit_nb < 4u) {
+        return;
+    }
+    for (i = lo; i < lo + n; i++) {
+        if ((e->fit_mask & bin_bit(i)) != 0u) {
+            const int64_t ec = (int64_t)e->fit_e[i] - e->fit_m[0];  /* |.| <= 2^16 */
+            const int64_t uc = (int64_t)e->fit_u[i] - e->fit_m[1];  /* |.| <= 2^20 */
+            const int64_t fcn = (int64_t)e->fit_f[i] - e->fit_m[2]; /* |.| <= 2^31 */
+            e->fit_q[0] += ec * ec;                                 /* see <= 2^37 */
+            e->fit_q[1] += uc * uc;                                 /* suu <= 2^45 */
+            e->fit_q[2] += ec * uc;                                 /* seu */
+            e->fit_q[3] += ec * fcn;                                /* sef <= 2^52 */
+            e->fit_q[4] += uc * fcn;                                /* suf <= 2^56 */
+        }
+    }
+}
+
+static void fit_solve_end(hd_fric_est_t *e, uint32_t j)
+{
+    const int64_t see = e->fit_q[0], suu = e->fit_q[1], seu = e->fit_q[2], sef = e->fit_q[3], suf = e->fit_q[4];
+    const int32_t me = e->fit_m[0], mu = e->fit_m[1], mf = e->fit_m[2];
+    uint32_t s_e, s_u, h;
+    int64_t a, b, cc, det, nbeta, ngam;
+    int32_t dfs, fv, fc;
+    if (e->fit_nb < 4u) {
+        return;
+    }
+    /* scale the normal matrix into 30 bits (the same h on the cross term) */
+    s_e = (bitlen64((uint64_t)see) > 30u) ? bitlen64((uint64_t)see) - 30u : 0u;
+    s_u = (bitlen64((uint64_t)suu) > 30u) ? bitlen64((uint64_t)suu) - 30u : 0u;
+    if (((s_e + s_u) & 1u) != 0u) {
+        s_e++;
+    }
+    h = (s_e + s_u) / 2u;
+    a = hdf_asr64_rnd(see, s_e);
+    cc = hdf_asr64_rnd(suu, s_u);
+    b = hdf_asr64_rnd(seu, h);
+    b = hdf_clamp64(b, -((int64_t)1 << 30), (int64_t)1 << 30);
+    det = a * cc - b * b;                                   /* <= 2^60 */
+    if (det <= 0 || a == 0) {
+        return;                             /* the shape column carries no information */
+    }
+    /* (dF, fv) det / 2^30 by Cramer's rule on the scaled sums */
+    nbeta = hdf_sub64_sat(hdf_mul64x32_q(hdf_asr64_rnd(sef, s_e), (int32_t)cc, 30u),
+                          hdf_mul64x32_q(hdf_asr64_rnd(suf, h), (int32_t)b, 30u));
+    ngam = hdf_sub64_sat(hdf_mul64x32_q(hdf_asr64_rnd(suf, s_u), (int32_t)a, 30u),
+                         hdf_mul64x32_q(hdf_asr64_rnd(sef, h), (int32_t)b, 30u));
+    dfs = hdf_sat32(div_approx(nbeta, (uint64_t)det, 46u));              /* Q16 N.m (e in Q16) */
+    fv = hdf_sat32(div_approx(ngam, (uint64_t)det, 30u + HD_FE_U_SHIFT + 10u)); /* per 2^-21 -> per turn/s */
+    fc = hdf_sat32((int64_t)mf - hdf_mul64x32_q((int64_t)dfs, me, 16u) -
+                   hdf_mul64x32_q((int64_t)fv, mu, 21u));
+    e->th[j][0] = fc;
+    e->th[j][1] = dfs;
+    e->th[j][2] = fv;
+    e->fit_ok = 1u;
+}
+
+/* residual sum of squares over a range of bins (in bin order), into fit_q[0] */
+static void fit_sse(hd_fric_est_t *e, uint32_t j, uint32_t lo, uint32_t n)
+{
+    int64_t sse = (lo == 0u) ? 0 : e->fit_q[0];
     uint32_t i;
     if (e->fit_ok == 0u) {
         return;
     }
-    for (i = 0; i < HD_FE_NBIN; i++) {
+    for (i = lo; i < lo + n; i++) {
         if ((e->fit_mask & bin_bit(i)) != 0u) {
             const int64_t m = (int64_t)e->th[j][0] + hdf_mul64x32_q((int64_t)e->th[j][1], e->fit_e[i], 16u) +
                               hdf_mul64x32_q((int64_t)e->th[j][2], e->fit_u[i], 21u);
@@ -316,7 +357,10 @@ static void fit_sse(hd_fric_est_t *e, uint32_t j)
             sse = hdf_add64_sat(sse, rc * rc);
         }
     }
-    e->sse[j] = (sse < FE_NO_FIT) ? sse : FE_NO_FIT - 1;
+    e->fit_q[0] = sse;
+    if (lo + n >= HD_FE_NBIN) {
+        e->sse[j] = (sse < FE_NO_FIT) ? sse : FE_NO_FIT - 1;
+    }
 }
 
 /* a + w (b - a), w in Q16 [0, 2^16] */
@@ -326,14 +370,14 @@ static int32_t lerp16(int32_t a, int32_t b, int32_t w)
 }
 
 /* After the last candidate of direction d: best vs, excitation check, bounds, publish */
-static void fit_finish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
+/* in two parts: the best candidate refined (fit_finish_pick), then the bins' check and the
+ * publication (fit_finish_publish) */
+static void fit_finish_pick(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
 {
     uint32_t j;
     uint32_t best = 0u;
-    uint32_t nlo = 0u, nmid = 0u, nhi = 0u, nvalid = 0u;
-    int32_t vmin_valid = INT32_MAX, vmax_valid = 0;
-    uint32_t i;
     int32_t vs, fc, dfs, fv;
+    e->fin_ok = 0u;
     for (j = 1; j < HD_FE_NGRID; j++) {
         if (e->sse[j] < e->sse[best]) {
             best = j;
@@ -362,6 +406,25 @@ static void fit_finish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
             dfs = lerp16(dfs, e->th[nbj][1], w);
             fv = lerp16(fv, e->th[nbj][2], w);
         }
+    }
+    e->fin_ok = 1u;
+    e->fin_best = best;
+    e->fin[0] = vs;
+    e->fin[1] = fc;
+    e->fin[2] = dfs;
+    e->fin[3] = fv;
+}
+
+static void fit_finish_publish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
+{
+    uint32_t nlo = 0u, nmid = 0u, nhi = 0u, nvalid = 0u;
+    int32_t vmin_valid = INT32_MAX, vmax_valid = 0;
+    uint32_t i;
+    const uint32_t best = e->fin_best;
+    const int32_t vs = e->fin[0], dfs = e->fin[2], fv = e->fin[3];
+    int32_t fc = e->fin[1];
+    if (e->fin_ok == 0u) {
+        return;
     }
     /* where the valid bins lie relative to vs */
     for (i = 0; i < HD_FE_NBIN; i++) {
@@ -398,9 +461,74 @@ static void fit_finish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
     e->fits[d]++;
 }
 
-void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
-                      bool active)
+/* One part of the fit's pass in progress (bounded cost, HD_FE_PASS_PARTS per pass, one
+ * more for the close of a fit); true when the pass is complete (then the next is set up). */
+static bool fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
 {
+    const uint32_t k = e->fit_part;
+    const uint32_t j = e->fit_j;
+    bool done = false;
+    switch (e->fit_pass) {
+    case 0u:
+    case 1u:
+        /* snapshot: HD_FE_NBIN / 2 bins per pass, HD_FE_SNAP_BINS per part */
+        fit_snapshot(e, c, e->fit_dir, j, e->fit_pass * (HD_FE_NBIN / 2u) + k * HD_FE_SNAP_BINS, HD_FE_SNAP_BINS);
+        done = (k + 1u) * HD_FE_SNAP_BINS >= HD_FE_NBIN / 2u;
+        break;
+    case 2u:
+        /* the solution: the means and HD_FE_SUM_BINS bins of the sums per part, then the
+         * normal equations */
+        if (k == 0u) {
+            fit_solve_begin(e);
+        }
+        if (k < FE_SUM_PARTS) {
+            fit_solve_sums(e, k * HD_FE_SUM_BINS, HD_FE_SUM_BINS);
+        } else {
+            fit_solve_end(e, j);
+            done = true;
+        }
+        break;
+    default:
+        /* the residual, HD_FE_SUM_BINS bins per part; after the last candidate the close */
+        if (k < FE_SUM_PARTS) {
+            fit_sse(e, j, k * HD_FE_SUM_BINS, HD_FE_SUM_BINS);
+            done = (k + 1u == FE_SUM_PARTS) && (j + 1u < HD_FE_NGRID);
+        } else if (k == FE_SUM_PARTS) {
+            fit_finish_pick(e, c, e->fit_dir);
+        } else {
+            fit_finish_publish(e, c, e->fit_dir);
+            done = true;
+        }
+        break;
+    }
+    if (!done) {
+        e->fit_part = k + 1u;
+        return false;
+    }
+    e->fit_part = 0u;
+    e->fit_due = 0u;
+    if (e->fit_pass < 3u) {
+        e->fit_pass++;
+    } else {
+        e->fit_pass = 0u;
+        if (j + 1u < HD_FE_NGRID) {
+            e->fit_j++;
+        } else {
+            e->fit_j = 0u;
+            e->fit_dir = (e->fit_dir + 1u) % HD_FE_NDIR;
+        }
+    }
+    return true;
+}
+
+void hd_fric_est_observe(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
+                         bool active)
+{
+    /* the last step's pass first (its parts did not all run yet): the passes see the bins
+     * of their own step, as in hd_fric_est_step */
+    while (e->fit_due != 0u) {
+        (void)fit_part(e, c);
+    }
     e->steps++;
     /* the measured velocity, low-passed (the observer's noise at slow rates) */
     e->v_lp = hdf_sat32((int64_t)e->v_lp + hdf_asr64_rnd((int64_t)v_meas - (int64_t)e->v_lp, HD_FE_VLP_SHIFT));
@@ -428,32 +556,22 @@ void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_re
             e->visit = 0u;
         }
     }
-    /* a quarter of a fit candidate per step (bounded cost), both directions in turn */
-    switch (e->fit_pass) {
-    case 0u:
-        fit_snapshot(e, c, e->fit_dir, e->fit_j, 0u);
-        break;
-    case 1u:
-        fit_snapshot(e, c, e->fit_dir, e->fit_j, HD_FE_NBIN / 2u);
-        break;
-    case 2u:
-        fit_solve(e, e->fit_j);
-        break;
-    default:
-        fit_sse(e, e->fit_j);
-        break;
+    e->fit_due = 1u;                        /* a quarter of a fit candidate per step */
+}
+
+bool hd_fric_est_fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
+{
+    if (e->fit_due == 0u) {
+        return false;
     }
-    if (e->fit_pass < 3u) {
-        e->fit_pass++;
-        return;
-    }
-    e->fit_pass = 0u;
-    if (e->fit_j + 1u < HD_FE_NGRID) {
-        e->fit_j++;
-    } else {
-        fit_finish(e, c, e->fit_dir);
-        e->fit_j = 0u;
-        e->fit_dir = (e->fit_dir + 1u) % HD_FE_NDIR;
+    return !fit_part(e, c);
+}
+
+void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
+                      bool active)
+{
+    hd_fric_est_observe(e, c, v_ref, v_meas, tau, active);
+    while (hd_fric_est_fit_part(e, c)) {
     }
 }
 

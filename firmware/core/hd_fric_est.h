@@ -73,7 +73,9 @@
  *   one quarter of a candidate: 12 exp, or the 2x2 solution (two reciprocals),
  *   or the residual over 24 bins (+ the closing of a fit after the last one)
  *   (Cortex-M4 instructions per step: tests/bench/10_cm4_cost.sh, docs/compensators.md).
- * Memory: hd_fric_est_t, about 1.4 KiB.
+ *   In the drive a step runs in parts of bounded cost, the observation, then its
+ *   pass one part per control period (hd_fric_est_observe, hd_fric_est_fit_part).
+ * Memory: hd_fric_est_t, about 2.1 KiB.
  */
 #ifndef HD_FRIC_EST_H
 #define HD_FRIC_EST_H
@@ -126,6 +128,14 @@ typedef struct {
     uint32_t fit_dir;                   /* direction of the fit in progress */
     uint32_t fit_j;                     /* its candidate in progress */
     uint32_t fit_pass;                  /* the candidate's step, 0..3 */
+    uint32_t fit_part;                  /* the pass's next part (hd_fric_est_fit_part) */
+    uint32_t fit_due;                   /* 1 while the pass of the last step has parts left */
+    uint32_t fit_nb;                    /* valid bins of the snapshot (pass 2) */
+    int64_t  fit_q[5];                  /* pass 2: centred sums (see, suu, seu, sef, suf); pass 3: residual */
+    int32_t  fit_m[3];                  /* pass 2: means of shape, velocity column, torque */
+    uint32_t fin_ok;                    /* close of a fit: 1 when a candidate was picked */
+    uint32_t fin_best;                  /* its best candidate */
+    int32_t  fin[4];                    /* its refined (vs, fc, fs - fc, fv) */
     uint32_t fit_mask;                  /* valid bins of the candidate's snapshot (bit per bin) */
     uint32_t fit_ok;                    /* 1: pass 2 solved the candidate */
     int64_t  fit_s[3];                  /* snapshot sums of shape, velocity column, torque */
@@ -155,6 +165,15 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
  *  (forgets the steadiness). */
 void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
                       bool active);
+/** hd_fric_est_step in parts of bounded cost: the observation (steadiness, bins; it first
+ *  completes the last step's pass if parts of it are left), then its pass of the fit one
+ *  part per call of hd_fric_est_fit_part (4 snapshot parts of 3 bins, or 6 parts of the
+ *  solution's sums of 4 bins + the solution, or 6 parts of the residual of 4 bins + 2 for
+ *  the close of a fit), which returns true while
+ *  parts are left.  observe + every part = hd_fric_est_step, bit for bit. */
+void hd_fric_est_observe(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
+                         bool active);
+bool hd_fric_est_fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c);
 /** The bin of |v| (0..HD_FE_NBIN-1), or -1 outside the binned range. */
 int32_t hd_fric_est_bin_of(const hd_fric_est_cfg_t *c, int32_t v);
 /** Switch the feed of the estimate into the Stribeck FF (weight ramps, bumpless). */

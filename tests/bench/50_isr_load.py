@@ -123,6 +123,35 @@ def comp_bank_phase(kernels: dict[str, dict]) -> dict[str, dict]:
     return out
 
 
+def with_online_estimator(kernels: dict) -> dict | None:
+    """Load of the worst period with the online Stribeck identification's worst step.
+
+    Parameters
+    ----------
+    kernels : dict
+        ``cm4_cost.json`` ``kernels`` (name -> {"instructions": N}).  The kernels
+        ``isr_worst_case_fe_<part>`` are the bank's worst tick with fe_enable 1 and one kind
+        of the estimator's work in the same period (its step's observation, or one part of
+        its fit pass).
+
+    Returns
+    -------
+    dict or None
+        ``instructions`` and ``worst_part`` (the worst of the parts), ``parts_instructions``,
+        ``cpu_load`` (fraction of the 10 kHz period at 1.3 cycles per instruction plus the
+        allowances) and ``within_target``; None without those kernels.
+    """
+    parts = {k[len("isr_worst_case_fe_"):]: int(v["instructions"]) for k, v in kernels.items()
+             if k.startswith("isr_worst_case_fe_")}
+    if not parts:
+        return None
+    worst = max(parts, key=lambda p: parts[p])
+    n = parts[worst]
+    load = (n * CPI + sum(ALLOW_CYCLES.values())) / (F_CPU_HZ / F_CTRL_HZ)
+    return {"instructions": n, "worst_part": worst, "parts_instructions": parts,
+            "cpu_load": round(load, 4), "within_target": load <= TARGET}
+
+
 def main() -> int:
     if not SRC.exists():
         print(f"{SRC.relative_to(ROOT)}: missing (run tests/bench/10_cm4_cost.sh first)")
@@ -132,7 +161,8 @@ def main() -> int:
         print(f"{SRC.relative_to(ROOT)}: no kernel 'isr_worst_case'")
         return 1
     insn = k["isr_worst_case"]["instructions"]
-    parts = {n: k[n]["instructions"] for n in ("isr_worst_case_pid", "control_step_full", "control_step_baseline",
+    parts = {n: k[n]["instructions"] for n in ("isr_worst_case_pid", "isr_worst_case_exc", "control_step_full",
+                                               "control_step_baseline",
                                                "foc_step", "ssi_decode", "enc_update")
              if n in k}
     cycles = insn * CPI + sum(ALLOW_CYCLES.values())
@@ -156,6 +186,9 @@ def main() -> int:
         "cpu_load": round(load, 4),
         "within_target": load <= TARGET,
     }
+    fe = with_online_estimator(k)
+    if fe is not None:
+        out["with_online_estimator"] = fe
     if "slots" in k["isr_worst_case"]:
         # the bank's schedule (firmware/app/hd_sched.h): every tick of one cycle, the worst counts
         sl = k["isr_worst_case"]["slots"]
@@ -179,6 +212,10 @@ def main() -> int:
           f"(target <= {100 * TARGET:.0f} %: {'met' if load <= TARGET else 'NOT met'})")
     for n, v in parts.items():
         print(f"  {n:24s} {v:6d} instructions ({100 * v * CPI / budget:.1f} %)")
+    if "with_online_estimator" in out:
+        fe = out["with_online_estimator"]
+        print(f"  with the online estimator's worst part ({fe['worst_part']}): {fe['instructions']} instructions, "
+              f"load {100 * fe['cpu_load']:.1f} % ({'met' if fe['within_target'] else 'NOT met'})")
     if "schedule" in out:
         sc = out["schedule"]
         print(f"  schedule: {sc['ticks_per_cycle']} ticks per cycle, worst tick {sc['worst_tick']}: "

@@ -572,6 +572,46 @@ static void test_schedule_te_once_per_cycle(void **st)
     assert_true(worst <= 8.0);                                       /* 12" is 38,000 LSB */
 }
 
+/* Backstepping on the schedule: the law every period (its output moves with the
+ * velocity each period), the adapted parameters only in the backstepping slot,
+ * by HD_SCHED_CYCLE periods' worth at once. */
+static void test_schedule_backstep_adapts_in_its_slot(void **st)
+{
+    (void)st;
+    int32_t p[HD_PARAM_COUNT];
+    static hd_comp_bank_cfg_t c;
+    static hd_comp_bank_t b;
+    hd_comp_bank_in_t in;
+    hd_comp_bank_out_t o;
+    hd_params_defaults(p);
+    p[HD_P_CB_ENABLE] = (int32_t)HD_CB_BACKSTEP;
+    p[HD_P_CB_RAMP_TICKS] = 0;
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    hd_comp_bank_init(&b, &c);
+    memset(&in, 0, sizeof in);
+    in.pos_ref = (hd_angle_t)1 << 20;            /* a small position error: e2 != 0 */
+    uint32_t adapts = 0u, laws = 0u;
+    int32_t u_prev = 0;
+    for (uint32_t k = 0; k < 64u; k++) {
+        in.vel_fb = (int32_t)(1000 + 37 * (int32_t)k) << 12;
+        int64_t th_before[HD_BS_NP];
+        memcpy(th_before, b.bs.th, sizeof th_before);
+        const uint32_t tick = b.tick & (HD_SCHED_CYCLE - 1u);
+        hd_comp_bank_pre(&b, &c, &in, &o);
+        const int32_t u = hd_comp_bank_post(&b, &c, &in, 0);
+        if (memcmp(th_before, b.bs.th, sizeof th_before) != 0) {
+            assert_int_equal(tick, (uint32_t)HD_SLOT_BACKSTEP);        /* adaptation in its slot only */
+            adapts++;
+        }
+        if (k > 0u && u != u_prev) {
+            laws++;
+        }
+        u_prev = u;
+    }
+    assert_true(adapts >= 64u / HD_SCHED_CYCLE - 1u);
+    assert_int_equal(laws, 63u);                 /* the law follows the velocity every period */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -588,6 +628,7 @@ int main(void)
         cmocka_unit_test(test_preisach_memory_starts_demagnetised),
         cmocka_unit_test(test_te_output_lines),
         cmocka_unit_test(test_schedule_te_once_per_cycle),
+        cmocka_unit_test(test_schedule_backstep_adapts_in_its_slot),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -347,6 +347,90 @@ static void test_backstep_closed_loop(void **state)
     assert_true(abs(hd_backstep_law(&s, &c, &in) - (u + NM(1))) <= 1);
 }
 
+/* The same loop with the law every period on the held estimates and the regressor's
+ * shape and the adaptation once per 8 periods (the bank's schedule, hd_sched.h): the
+ * same tracking and estimates; the adaptation of 8 periods at once is 8 times one. */
+static void test_backstep_held_closed_loop(void **state)
+{
+    const int32_t J = (int32_t)(1.3 * 6.283185307 * 65536);
+    hd_backstep_cfg_t c = { (int32_t)(50.0 * 65536), (int32_t)(50.0 * 65536), J,
+                            (int32_t)(1.3 * 6.283185307 * 2500 / 4 * 256), DEGS / 100, DEGS, 1 << 30, NM(150),
+                            { 1 << 23, 1 << 23, 1 << 22, 1 << 23 }, { 0, 0, 0, NM(-20) }, { NM(30), NM(30), NM(500), NM(20) } };
+    const int32_t th0[4] = { 0, 0, 0, 0 };
+    hd_backstep_t s;
+    hd_backstep_in_t in = { 0, 0, 0, 0, 0 };
+    int64_t w48 = 0;           /* plant velocity, 2^-48 turn/s */
+    int64_t th = 0;            /* plant angle Q32.32 (with 2^-16 carry in w48 integration) */
+    int64_t frac = 0;
+    int32_t u = 0;
+    uint32_t k;
+    int64_t maxerr = 0;
+    (void)state;
+    hd_backstep_init(&s, &c, th0, 0u, true);
+    for (k = 0; k < 40000u; k++) {
+        /* reference: slow sine of 0.002 turn at 0.5 Hz */
+        const uint32_t ph = (uint32_t)((uint64_t)k * 214748u);   /* 0.5 Hz */
+        int32_t sn, cs;
+        hd_sincos_turn(ph, &sn, &cs);
+        in.theta_d = hd_mul64x32_q((int64_t)8589935, sn, 30u);     /* 0.002 turn */
+        in.omega_d = hd_mul_q(26986075, cs, 30);                    /* 0.002*pi turn/s */
+        in.acc_d = hd_mul_q(-(int32_t)(0.002 * 9.8696 * 16777216), sn, 30);
+        in.theta = th;
+        in.omega = (int32_t)hd_asr64_rnd(w48, 16u);
+        if ((k & 7u) == 0u) {
+            hd_backstep_regressor(&s, &c, in.omega);
+        }
+        u = hd_backstep_step_held(&s, &c, &in, 0);
+        if ((k & 7u) == 0u) {
+            hd_backstep_adapt(&s, &c, 3u);
+        }
+        {
+            /* plant: a = (u - 3 N.m sgn w - 2 N.m) / J  -> 2^-48 turn/s^2 */
+            const int32_t fr = (in.omega > 0) ? NM(3) : ((in.omega < 0) ? -NM(3) : 0);
+            const int64_t net = (int64_t)u - fr - NM(2);
+            const int64_t acc48 = hd_div64_rnd(net * ((int64_t)1 << 32), J);     /* Q16/Q16 -> 2^-32 */
+            w48 += hd_div64_rnd(acc48 * 65536, 10000);
+            frac += w48;                                           /* 2^-48 turn per 1/10000 s */
+            th += hd_div64_rnd(frac, (int64_t)10000 << 16);
+            frac -= hd_div64_rnd(frac, (int64_t)10000 << 16) * ((int64_t)10000 << 16);
+        }
+        if (k > 30000u) {
+            const int64_t e = llabs(th - in.theta_d);
+            maxerr = (e > maxerr) ? e : maxerr;
+        }
+    }
+    /* tracking error after adaptation: < 10 arcsec (1 arcsec = 3314 LSB; without
+     * adaptation the 5 N.m of friction + load leave ~320 arcsec), estimates near truth */
+    print_message("# backstep closed loop, held law, adaptation every 8 periods: max |e1| in the last second = %.3f arcsec, "
+                  "Fc_hat %.2f N.m, Tl_hat %.2f N.m\n", (double)maxerr / 3314.0,
+                  (double)s.th[0] / 281474976710656.0, (double)s.th[3] / 281474976710656.0);
+    assert_true(maxerr < 10 * 3314);
+    assert_true(llabs(s.th[0] - ((int64_t)NM(3) << 32)) < ((int64_t)NM(0.5) << 32));
+    assert_true(llabs(s.th[3] - ((int64_t)NM(2) << 32)) < ((int64_t)NM(0.5) << 32));
+    /* one adaptation of 8 periods moves each parameter by 8 times the one of 1 period (+-4 LSB) */
+    {
+        hd_backstep_t s1 = s, s8 = s;
+        uint32_t moved = 0u;
+        s1.saturated = 0u;
+        s8.saturated = 0u;
+        hd_backstep_adapt(&s1, &c, 0u);
+        hd_backstep_adapt(&s8, &c, 3u);
+        for (uint32_t i = 0; i < HD_BS_NP; i++) {
+            const int64_t d1 = s1.th[i] - s.th[i], d8 = s8.th[i] - s.th[i];
+            if (s8.th[i] != (int64_t)c.th_min[i] * 4294967296LL && s8.th[i] != (int64_t)c.th_max[i] * 4294967296LL) {
+                assert_true(llabs(d8 - 8 * d1) <= 4);
+                moved += (d1 != 0) ? 1u : 0u;
+            }
+        }
+        assert_true(moved > 0u);
+    }
+    /* bumpless preload with the held law: the law equals the effort applied */
+    hd_backstep_preload(&s, &c, &in, u + NM(1));
+    assert_true(abs(hd_backstep_law(&s, &c, &in) - (u + NM(1))) <= 1);
+    assert_true(abs(hd_backstep_step_held(&s, &c, &in, 0) - (u + NM(1))) <= 1);
+}
+
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -361,6 +445,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_lugre_parts_equal_step, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_te_slope_predicts, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_backstep_closed_loop, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_backstep_held_closed_loop, setUp, tearDown),
     };
     return cmocka_run_group_tests_name("comp_misc", tests, NULL, NULL);
 }

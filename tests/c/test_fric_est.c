@@ -280,6 +280,41 @@ static void test_bins(void **state)
     assert_int_equal(hd_fric_est_config(&cfg, 0, 1, 0, 1u, 1u, 1u, 1u, 1u, 1, 0), -1);
 }
 
+/* The step in parts (hd_fric_est_observe, then hd_fric_est_fit_part once per period, as the
+ * bank runs it) gives the very state of hd_fric_est_step, with at most 8 parts per step. */
+static void test_parts_equal_step(void **state)
+{
+    static hd_fric_est_t split;
+    static const double vv[] = {0.01, 0.1, 0.4, 1.0, 2.5, 10.0, -0.03, -0.2, -0.7, -1.5, -4.0, -6.5};
+    const hd_stribeck_dir_t init[HD_FE_NDIR] = {{NM(1), NM(2), (int32_t)DEGS, NM(10)},
+                                                {NM(1), NM(2), (int32_t)DEGS, NM(10)}};
+    uint32_t most = 0u, i, k;
+    (void)state;
+    hd_fric_est_init(&split, init, 100u, false);
+    for (i = 0; i < 2u * sizeof vv / sizeof vv[0]; i++) {
+        const double vd = vv[i % (sizeof vv / sizeof vv[0])];
+        const int32_t v = (int32_t)lround(vd * DEGS);
+        for (k = 0; k < 700u; k++) {
+            const int32_t t = NM((vd >= 0 ? 1.0 : -1.0) * g_of(&REF, vd) + 0.01 * (double)(k % 7u));
+            const int32_t vk = (k < 600u) ? v : 0;
+            uint32_t n = 0u;
+            hd_fric_est_step(&est, &cfg, vk, vk, t, true);
+            hd_fric_est_observe(&split, &cfg, vk, vk, t, true);
+            while (n < 9u) {
+                n++;                                    /* a part per period: the last one ends the pass */
+                if (!hd_fric_est_fit_part(&split, &cfg)) {
+                    break;
+                }
+            }
+            most = (n > most) ? n : most;
+            assert_memory_equal(&est, &split, sizeof est);
+        }
+    }
+    print_message("# at most %u parts after a step; fits %u / %u\n", most, est.fits[0], est.fits[1]);
+    assert_true(most <= 8u);
+    assert_true(est.fits[HD_FE_DIR_POS] > 0u && est.fits[HD_FE_DIR_NEG] > 0u);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -293,6 +328,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_estimate_bounded, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_feed_is_bumpless, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_bins, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_parts_equal_step, setUp, tearDown),
     };
     return cmocka_run_group_tests_name("fric_est", tests, NULL, NULL);
 }

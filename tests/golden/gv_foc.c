@@ -25,6 +25,14 @@
  *                   Register accesses, the SPI transfer and interrupt entry
  *                   are NOT included (see tests/bench/50_isr_load.py).
  *   isr_worst_case_pid  the same without backstepping (cost only).
+ *   isr_worst_case_exc  the same period in the excitation mode (a multisine of 4
+ *                   lines added to the held position) instead of PTP, per tick
+ *                   (cost only).
+ *   isr_worst_case_fe_<part>  isr_worst_case's worst tick (3) with the online
+ *                   Stribeck identification on (fe_enable 1) and one kind of its
+ *                   work in the measured period: its step's observation, a
+ *                   snapshot part, a part of the solution's sums, the solution,
+ *                   a residual part, the two parts of the close of a fit (cost only).
  * The app step uses the stub hal of gv_app.c (linked into the same images).
  */
 #include "gv.h"
@@ -34,6 +42,8 @@
 #include "hd_encoder.h"
 #include "hd_ssi.h"
 #include "hd_fixed.h"
+#include "hd_fric_est.h"
+#include "hd_stribeck.h"
 
 /* ---- foc_step ------------------------------------------------------------------------ */
 
@@ -280,7 +290,65 @@ static void isr_port_foc(hd_foc_t *s, const hd_foc_cfg_t *c, hd_enc_t *e, uint32
 
 int32_t gv_app_to_tick(hd_app_t *a, uint32_t tick, uint32_t *mot, uint32_t *out);
 
-static void cost_isr_en(uint32_t cb_enable, uint32_t slot)
+/* The online Stribeck identification of isr_app at a given point of a fit: every bin of the
+ * positive direction valid (the map of the Stribeck parameters), `steps` estimator steps of
+ * its fit done from candidate 0 (outside the marks); then either its next step due in the
+ * measured period (parts == FE_OBSERVE: the observation, bins, feed), or that step done and
+ * `parts` parts of its pass, the measured period running the next part. */
+#define FE_OBSERVE 0xFFFFFFFFu
+static void isr_fe_setup(hd_app_t *a, uint32_t steps, uint32_t parts)
+{
+    hd_fric_est_t *e = &a->cb.fe;
+    const hd_fric_est_cfg_t *c = &a->cb_cfg.fe;
+    uint32_t i, k;
+    for (i = 0; i < HD_FE_NBIN; i++) {
+        const int32_t v = hdf_sat32((int64_t)c->v_min << (i / 2u));
+        hd_fe_bin_t *b = &e->bin[HD_FE_DIR_POS][i];
+        b->v = hdf_add_sat(v, ((i & 1u) != 0u) ? v / 2 : 0);
+        b->f = hd_stribeck_map(&a->cb_cfg.str, b->v);
+        b->n = c->n_min;
+        b->stamp = e->steps;
+        {
+            const uint64_t r = ((uint64_t)(uint32_t)b->v << 16) / (uint32_t)c->vs_lo;
+            b->r16 = (r > (uint64_t)INT32_MAX) ? INT32_MAX : (int32_t)r;
+        }
+    }
+    e->fit_dir = HD_FE_DIR_POS;
+    e->fit_j = 0u;
+    e->fit_pass = 0u;
+    for (k = 0; k < steps; k++) {
+        hd_fric_est_step(e, c, e->v_prev, e->v_lp, e->bin[HD_FE_DIR_POS][8].f, true);
+    }
+    if (parts == FE_OBSERVE) {
+        a->cb.fe_tick = a->cb_cfg.fe_decim - 1u;
+        return;
+    }
+    hd_fric_est_observe(e, c, e->v_prev, e->v_lp, e->bin[HD_FE_DIR_POS][8].f, true);
+    for (k = 0; k < parts; k++) {
+        (void)hd_fric_est_fit_part(e, c);
+    }
+    a->cb.fe_tick = 0u;
+}
+
+/* excitation in the measured runs: a multisine of 4 lines (10 .. 900 Hz, the exc_step kernel's
+ * set-up) added to the held position (hd_app_set_excitation, HD_INJ_POS_REF) */
+static void isr_exc_cfg(hd_exc_cfg_t *c)
+{
+    c->kind = (int32_t)HD_EXC_MULTISINE;
+    c->amp = 1 << 20;
+    c->offset = 0;
+    c->length = 0;
+    c->hold = 3;
+    c->n = 4u;
+    c->m = 2;
+    c->rate = c->amp / 20 + 1;
+    c->f0_q16 = 10 << 16;
+    c->f1_q16 = 900 << 16;
+    c->period = 50;
+    c->seed = 0x5Au;
+}
+
+static void cost_isr_en(uint32_t cb_enable, uint32_t slot, uint32_t fe_steps, uint32_t fe_parts, bool exc)
 {
     hd_foc_t s;
     hd_foc_cfg_t c;
@@ -304,9 +372,19 @@ static void cost_isr_en(uint32_t cb_enable, uint32_t slot)
     isr_make_table();
     (void)hd_app_comp_table(&isr_app, &isr_tab);
     hd_app_step(&isr_app);
-    (void)hd_app_move_to(&isr_app, isr_app.pos_out + ((hd_angle_t)1 << 24));
-    (void)hd_app_set_mode(&isr_app, HD_MODE_PTP);
+    if (exc) {
+        hd_exc_cfg_t xc;
+        isr_exc_cfg(&xc);
+        (void)hd_app_set_excitation(&isr_app, &xc, HD_INJ_POS_REF);
+        (void)hd_app_set_mode(&isr_app, HD_MODE_EXCITATION);
+    } else {
+        (void)hd_app_move_to(&isr_app, isr_app.pos_out + ((hd_angle_t)1 << 24));
+        (void)hd_app_set_mode(&isr_app, HD_MODE_PTP);
+    }
     (void)hd_app_param_set(&isr_app, HD_P_CB_ENABLE, (int32_t)cb_enable);
+    if (fe_steps != 0u) {
+        (void)hd_app_param_set(&isr_app, HD_P_FE_ENABLE, 1);
+    }
     for (k = 0; k < 16u; k++) {                  /* PTP moving, every weight fully on (ramp 4) */
         isr_sensors(k, &r, 0u);
         hd_app_step(&isr_app);
@@ -318,6 +396,9 @@ static void cost_isr_en(uint32_t cb_enable, uint32_t slot)
             return;                              /* no marks: the bench fails, never under-reports */
         }
         gv_app_stub_sensors((mot + 5u) & 0x1FFFFu, (outc + 1u) & 0xFFFFFFu);
+    }
+    if (fe_steps != 0u) {
+        isr_fe_setup(&isr_app, fe_steps, fe_parts);
     }
     vol_in[0] = 2100; vol_in[1] = 1990; vol_in[2] = 3000; vol_in[3] = 5 * 65536;
     const int32_t ra = vol_in[0], rb = vol_in[1], rv = vol_in[2], iq = vol_in[3];
@@ -333,22 +414,42 @@ static void cost_isr_en(uint32_t cb_enable, uint32_t slot)
 /* one cost kernel per tick of the schedule (hd_sched.h); tools/cm4_cost.py takes the worst */
 #define ISR_ALL ((uint32_t)HD_CB_ALL)
 #define ISR_PID ((uint32_t)HD_CB_ALL & ~(uint32_t)HD_CB_BACKSTEP)
-static void cost_isr_s0(void) { cost_isr_en(ISR_ALL, 0u); }
-static void cost_isr_s1(void) { cost_isr_en(ISR_ALL, 1u); }
-static void cost_isr_s2(void) { cost_isr_en(ISR_ALL, 2u); }
-static void cost_isr_s3(void) { cost_isr_en(ISR_ALL, 3u); }
-static void cost_isr_s4(void) { cost_isr_en(ISR_ALL, 4u); }
-static void cost_isr_s5(void) { cost_isr_en(ISR_ALL, 5u); }
-static void cost_isr_s6(void) { cost_isr_en(ISR_ALL, 6u); }
-static void cost_isr_s7(void) { cost_isr_en(ISR_ALL, 7u); }
-static void cost_isr_pid_s0(void) { cost_isr_en(ISR_PID, 0u); }
-static void cost_isr_pid_s1(void) { cost_isr_en(ISR_PID, 1u); }
-static void cost_isr_pid_s2(void) { cost_isr_en(ISR_PID, 2u); }
-static void cost_isr_pid_s3(void) { cost_isr_en(ISR_PID, 3u); }
-static void cost_isr_pid_s4(void) { cost_isr_en(ISR_PID, 4u); }
-static void cost_isr_pid_s5(void) { cost_isr_en(ISR_PID, 5u); }
-static void cost_isr_pid_s6(void) { cost_isr_en(ISR_PID, 6u); }
-static void cost_isr_pid_s7(void) { cost_isr_en(ISR_PID, 7u); }
+static void cost_isr_s0(void) { cost_isr_en(ISR_ALL, 0u, 0u, 0u, false); }
+static void cost_isr_s1(void) { cost_isr_en(ISR_ALL, 1u, 0u, 0u, false); }
+static void cost_isr_s2(void) { cost_isr_en(ISR_ALL, 2u, 0u, 0u, false); }
+static void cost_isr_s3(void) { cost_isr_en(ISR_ALL, 3u, 0u, 0u, false); }
+static void cost_isr_s4(void) { cost_isr_en(ISR_ALL, 4u, 0u, 0u, false); }
+static void cost_isr_s5(void) { cost_isr_en(ISR_ALL, 5u, 0u, 0u, false); }
+static void cost_isr_s6(void) { cost_isr_en(ISR_ALL, 6u, 0u, 0u, false); }
+static void cost_isr_s7(void) { cost_isr_en(ISR_ALL, 7u, 0u, 0u, false); }
+static void cost_isr_pid_s0(void) { cost_isr_en(ISR_PID, 0u, 0u, 0u, false); }
+static void cost_isr_pid_s1(void) { cost_isr_en(ISR_PID, 1u, 0u, 0u, false); }
+static void cost_isr_pid_s2(void) { cost_isr_en(ISR_PID, 2u, 0u, 0u, false); }
+static void cost_isr_pid_s3(void) { cost_isr_en(ISR_PID, 3u, 0u, 0u, false); }
+static void cost_isr_pid_s4(void) { cost_isr_en(ISR_PID, 4u, 0u, 0u, false); }
+static void cost_isr_pid_s5(void) { cost_isr_en(ISR_PID, 5u, 0u, 0u, false); }
+static void cost_isr_pid_s6(void) { cost_isr_en(ISR_PID, 6u, 0u, 0u, false); }
+static void cost_isr_pid_s7(void) { cost_isr_en(ISR_PID, 7u, 0u, 0u, false); }
+/* the worst tick of the bank (3, the TE slot) with each kind of the online estimator's work
+ * in the same period (fe_decim 10 against a cycle of 8: every tick meets every step and
+ * part), in the last candidate of a fit (31 x 4 steps before it) */
+/* the excitation mode with every compensator on, per tick */
+static void cost_isr_exc_s0(void) { cost_isr_en(ISR_ALL, 0u, 0u, 0u, true); }
+static void cost_isr_exc_s1(void) { cost_isr_en(ISR_ALL, 1u, 0u, 0u, true); }
+static void cost_isr_exc_s2(void) { cost_isr_en(ISR_ALL, 2u, 0u, 0u, true); }
+static void cost_isr_exc_s3(void) { cost_isr_en(ISR_ALL, 3u, 0u, 0u, true); }
+static void cost_isr_exc_s4(void) { cost_isr_en(ISR_ALL, 4u, 0u, 0u, true); }
+static void cost_isr_exc_s5(void) { cost_isr_en(ISR_ALL, 5u, 0u, 0u, true); }
+static void cost_isr_exc_s6(void) { cost_isr_en(ISR_ALL, 6u, 0u, 0u, true); }
+static void cost_isr_exc_s7(void) { cost_isr_en(ISR_ALL, 7u, 0u, 0u, true); }
+#define FE_J31 (31u * 4u)
+static void cost_isr_fe_observe(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, FE_OBSERVE, false); }
+static void cost_isr_fe_snapshot(void) { cost_isr_en(ISR_ALL, 3u, FE_J31, 0u, false); }
+static void cost_isr_fe_sums(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 0u, false); }
+static void cost_isr_fe_solve(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 6u, false); }
+static void cost_isr_fe_sse(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 0u, false); }
+static void cost_isr_fe_pick(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 6u, false); }
+static void cost_isr_fe_publish(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 7u, false); }
 
 const hd_gv_kernel_t hd_gv_foc_kernels[] = {
     {"foc_step", 6u, 7u, 384u, gen_foc, run_foc, cost_foc},
@@ -371,5 +472,20 @@ const hd_gv_kernel_t hd_gv_foc_kernels[] = {
     {"isr_worst_case_pid.s5", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_pid_s5},
     {"isr_worst_case_pid.s6", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_pid_s6},
     {"isr_worst_case_pid.s7", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_pid_s7},
+    {"isr_worst_case_exc.s0", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s0},
+    {"isr_worst_case_exc.s1", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s1},
+    {"isr_worst_case_exc.s2", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s2},
+    {"isr_worst_case_exc.s3", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s3},
+    {"isr_worst_case_exc.s4", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s4},
+    {"isr_worst_case_exc.s5", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s5},
+    {"isr_worst_case_exc.s6", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s6},
+    {"isr_worst_case_exc.s7", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s7},
+    {"isr_worst_case_fe_observe", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_observe},
+    {"isr_worst_case_fe_snapshot", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_snapshot},
+    {"isr_worst_case_fe_sums", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_sums},
+    {"isr_worst_case_fe_solve", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_solve},
+    {"isr_worst_case_fe_sse", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_sse},
+    {"isr_worst_case_fe_pick", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_pick},
+    {"isr_worst_case_fe_publish", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_publish},
 };
 const uint32_t hd_gv_foc_count = sizeof hd_gv_foc_kernels / sizeof hd_gv_foc_kernels[0];

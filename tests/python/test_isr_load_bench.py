@@ -39,3 +39,16 @@ def test_the_25_percent_target_in_instructions() -> None:
     # 2,992 instructions of isr_worst_case is the most within 25 % at 10 kHz (docs/firmware.md)
     assert 2992 * m.CPI + sum(m.ALLOW_CYCLES.values()) <= m.TARGET * m.F_CPU_HZ / m.F_CTRL_HZ
     assert 2993 * m.CPI + sum(m.ALLOW_CYCLES.values()) > m.TARGET * m.F_CPU_HZ / m.F_CTRL_HZ
+
+
+def test_the_worst_period_with_the_online_estimator() -> None:
+    m = _load()
+    assert m.with_online_estimator({"isr_worst_case": {"instructions": 2000}}) is None
+    k = {"isr_worst_case_fe_observe": {"instructions": 2500}, "isr_worst_case_fe_finish": {"instructions": 2992}}
+    fe = m.with_online_estimator(k)
+    assert fe is not None
+    assert fe["instructions"] == 2992 and fe["worst_part"] == "finish"
+    assert fe["parts_instructions"] == {"observe": 2500, "finish": 2992}
+    assert fe["cpu_load"] == round((2992 * 1.3 + 360) / 17000, 4) and fe["within_target"] is True
+    k["isr_worst_case_fe_sse"] = {"instructions": 2993}
+    assert m.with_online_estimator(k)["within_target"] is False
