@@ -32,6 +32,32 @@
  *   excitation checks may keep the last estimate until the speed comes again).
  *   Updating a bin costs one 32-bit division (by n + 1).
  *
+ * Common mode (fast): level drift and unbalance.
+ *   A friction drift (temperature, lubricant) scales the Coulomb, static and viscous
+ *   terms of both directions together; an unbalance adds the same signed torque to both
+ *   directions.  The steady torque is modelled as
+ *       tau = sign(v) scale g_d(|v|) + bias
+ *   with the bins holding g (the shape, normalised: (sign(v) (tau - bias)) / scale), and
+ *   scale (Q16, bounded to x1/8..x8) and bias (Q15.16 N.m, bounded by tau_max) shared by
+ *   every bin.  Each sample of a visit to a bin that held n_min samples when the visit began
+ *   (excitation check 3: only an established bin tells a level change from a new bin; the
+ *   comparison is with the mean of the earlier visits, so a visit's own settling is not
+ *   taken for a drift) is one LMS step on the
+ *   residual r = tau - (sign(v) scale g + bias), g the bin's mean when the visit began: scale += (sign(v) r / g) / 2^HD_FE_SCALE_SHIFT
+ *   and bias += r / 2^HD_FE_BIAS_SHIFT (32 samples each), the bias only while the other direction has a
+ *   sample not older than max_age (from one direction alone a level change and an
+ *   unbalance give the same residual: it goes to the scale).  So a drift seen in any bin
+ *   moves the published levels of every bin within about 2^5 samples, while the shape
+ *   (vs, the ratio of the levels) follows the bins' slower forgetting (a new visit keeps
+ *   at least HD_FE_KEEP_MIN = 4 x 2^5 samples of a bin's old mean, whatever n_keep: the
+ *   scale, not the visited bin, takes a level change); an unbalance that
+ *   comes or goes is not taken for friction.  The published estimate is the last accepted
+ *   fit of the bins times the scale (vs unchanged), refreshed at every sample once a
+ *   fit of the direction was accepted.  A steady
+ *   unbalance present from the start is in the bins (it looks like asymmetric friction);
+ *   a position-dependent one is followed as it changes along the motion (2^5 samples).
+ *   Cost per sample: two approximate divisions (div_approx, no 64-bit division).
+ *
  * Fit (excitation check 2: a parameter changes only when the bins inform it).
  *   Per direction, for each candidate Stribeck velocity vs_j = vs_lo 2^(j/4),
  *   j = 0..HD_FE_NGRID-1 (8 octaves), the map is linear in (fc, fs - fc, fv):
@@ -73,7 +99,7 @@
  *   one quarter of a candidate: 12 exp, or the 2x2 solution (two reciprocals),
  *   or the residual over 24 bins (+ the closing of a fit after the last one)
  *   (Cortex-M4 instructions per step: tests/bench/10_cm4_cost.sh, docs/compensators.md).
- * Memory: hd_fric_est_t, about 1.4 KiB.
+ * Memory: hd_fric_est_t, about 1.5 KiB.
  */
 #ifndef HD_FRIC_EST_H
 #define HD_FRIC_EST_H
@@ -87,6 +113,12 @@
 #define HD_FE_NGRID  32u     /* candidate Stribeck velocities, quarter octaves (8 octaves) */
 #define HD_FE_U_SHIFT 11u    /* fit velocity column: |v| >> 11 (2^-21 turn/s) */
 #define HD_FE_VLP_SHIFT 5u   /* low-pass of the measured velocity: 2^-5 per step (32 ms at 1 kHz) */
+#define HD_FE_SCALE_ONE 65536          /* common-mode scale 1.0, Q16 */
+#define HD_FE_SCALE_MIN (HD_FE_SCALE_ONE / 8)   /* bounds of the scale: x1/8 .. x8 */
+#define HD_FE_SCALE_MAX (HD_FE_SCALE_ONE * 8)
+#define HD_FE_SCALE_SHIFT 5u /* scale memory: 2^5 samples (32 ms of steady motion at 1 kHz) */
+
+#define HD_FE_KEEP_MIN 1024u  /* least memory of an established bin, samples (the shape moves slowly) */
 
 typedef enum {
     HD_FE_DIR_POS = 0,
@@ -118,7 +150,18 @@ typedef struct {
 
 typedef struct {
     hd_fe_bin_t bin[HD_FE_NDIR][HD_FE_NBIN];
-    hd_stribeck_dir_t est[HD_FE_NDIR];  /* published estimate (magnitudes) */
+    hd_stribeck_dir_t est[HD_FE_NDIR];  /* published estimate (magnitudes): shape x scale */
+    hd_stribeck_dir_t shape[HD_FE_NDIR];/* last accepted fit of the bins (normalised levels) */
+    int32_t  scale;                     /* common-mode friction level, Q16 (1.0 = HD_FE_SCALE_ONE) */
+    int32_t  bias;                      /* direction-independent torque (unbalance), Q15.16 N.m */
+    int32_t  vis_g;                     /* mean of the visited bin when the visit began, Q15.16 N.m (0: none) */
+    uint32_t vis_n;                     /* samples of the visit (saturates at n_forget) */
+    int32_t  vis_m;                     /* the visit's mean signed torque, Q15.16 N.m */
+    int32_t  vis_s0;                    /* scale when the visit began, Q16 */
+    int32_t  vis_b0;                    /* bias when the visit began, Q15.16 N.m */
+    int32_t  oth_m[HD_FE_NDIR];         /* per direction: mean signed torque of its last established visit */
+    int32_t  oth_g[HD_FE_NDIR];         /* ... the mean of its bin when that visit began (0: none) */
+    uint32_t oth_t[HD_FE_NDIR];         /* ... and the step of its last sample */
     uint32_t conf[HD_FE_NDIR];          /* confidence, permille */
     uint32_t fits[HD_FE_NDIR];          /* accepted fits (wraps) */
     int64_t  sse[HD_FE_NGRID];          /* residual sums of the fit in progress */
