@@ -201,7 +201,8 @@ static void common_update(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t
     const int64_t g0 = e->vis_g;
     int64_t s_t;
     int64_t b_t = e->vis_b0;
-    if (e->oth_g[o] > 0 && (uint32_t)(e->steps - e->oth_t[o]) <= c->max_age) {
+    const uint32_t age = (c->max_age < HD_FE_PAIR_AGE) ? c->max_age : HD_FE_PAIR_AGE;
+    if (e->oth_g[o] > 0 && (uint32_t)(e->steps - e->oth_t[o]) <= age) {
         /* pos: mp = s gp + b, neg: mn = -s gn + b  ->  s = (mp - mn) / (gp + gn),
          * b = (mp gn + mn gp) / (gp + gn) */
         const int64_t mo = e->oth_m[o];
@@ -264,8 +265,8 @@ static void bin_update(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_r
                     c->tau_max);
     if (first) {
         /* a new visit: the old mean weighs as n_keep samples, but at least HD_FE_KEEP_MIN: a
-         * common-mode change is the scale's to follow (2^HD_FE_SCALE_SHIFT samples); a bin that
-         * forgot faster would take it into the shape before the scale sees it */
+         * common-mode change is the scale's to follow; a bin that forgot faster would take
+         * it into the shape before the scale sees it */
         const uint32_t keep = (c->n_keep > HD_FE_KEEP_MIN) ? c->n_keep : HD_FE_KEEP_MIN;
         b->n = (b->n > keep) ? keep : b->n;
     }

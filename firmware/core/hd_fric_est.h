@@ -25,8 +25,8 @@
  *   mean over the last ~n_forget samples.  Forgetting across visits: a slow
  *   bin gets few samples per visit and is visited once per motion cycle, so
  *   at the first sample of each visit (steady segment) its count is cut to
- *   n_keep: the old mean then weighs as n_keep samples against the new visit
- *   (a drifting friction is followed within about one visit of every bin).
+ *   n_keep (at least HD_FE_KEEP_MIN once the bin is established, below): the old
+ *   mean then weighs as n_keep samples against the new visit.
  *   A bin whose last sample is older than max_age steps is left out of the
  *   fit (a stale bin would hold the friction of another time; without it the
  *   excitation checks may keep the last estimate until the speed comes again).
@@ -37,27 +37,31 @@
  *   terms of both directions together; an unbalance adds the same signed torque to both
  *   directions.  The steady torque is modelled as
  *       tau = sign(v) scale g_d(|v|) + bias
- *   with the bins holding g (the shape, normalised: (sign(v) (tau - bias)) / scale), and
- *   scale (Q16, bounded to x1/8..x8) and bias (Q15.16 N.m, bounded by tau_max) shared by
- *   every bin.  Each sample of a visit to a bin that held n_min samples when the visit began
- *   (excitation check 3: only an established bin tells a level change from a new bin; the
- *   comparison is with the mean of the earlier visits, so a visit's own settling is not
- *   taken for a drift) is one LMS step on the
- *   residual r = tau - (sign(v) scale g + bias), g the bin's mean when the visit began: scale += (sign(v) r / g) / 2^HD_FE_SCALE_SHIFT
- *   and bias += r / 2^HD_FE_BIAS_SHIFT (32 samples each), the bias only while the other direction has a
- *   sample not older than max_age (from one direction alone a level change and an
- *   unbalance give the same residual: it goes to the scale).  So a drift seen in any bin
- *   moves the published levels of every bin within about 2^5 samples, while the shape
- *   (vs, the ratio of the levels) follows the bins' slower forgetting (a new visit keeps
- *   at least HD_FE_KEEP_MIN = 4 x 2^5 samples of a bin's old mean, whatever n_keep: the
- *   scale, not the visited bin, takes a level change); an unbalance that
- *   comes or goes is not taken for friction.  The published estimate is the last accepted
- *   fit of the bins times the scale (vs unchanged), refreshed at every sample once a
- *   fit of the direction was accepted.  A steady
+ *   with the bins holding g, the shape (each sample enters its bin as
+ *   sign(v) (tau - bias) / scale), and scale (Q16, bounded to x1/8..x8) and bias (Q15.16
+ *   N.m, bounded by tau_max) shared by every bin.  Excitation check 3: only a visit to a
+ *   bin that held n_min samples when the visit began informs the common mode (a new bin
+ *   cannot tell a level change from its own level); the visit is compared with that
+ *   mean g0, held for the whole visit (not with the running mean: a visit's own settling
+ *   would look like a drift).  With the visit's mean signed torque m (n samples) and the
+ *   last established visit of the other direction (m', g0', its last sample not older
+ *   than HD_FE_PAIR_AGE steps, 4 s at 1 kHz, nor max_age: an older one may hold the
+ *   friction of another time and would put part of a drift into the bias) the two equations m = sign scale g0 + bias give scale and bias; without
+ *   a recent visit of the other direction the bias stays and the visit gives the scale
+ *   (from one direction alone a level change and an unbalance look the same: the
+ *   friction hypothesis).  Each sample moves scale and bias from their values at the
+ *   visit's start towards that solution by n / (n + 2^HD_FE_SCALE_SHIFT): a drift seen in
+ *   any established bin moves the published levels of every bin within one visit.  An
+ *   established bin forgets over at least HD_FE_KEEP_MIN samples whatever n_forget and
+ *   n_keep (the shape, vs and the ratio of the levels, moves slowly; the scale, not the
+ *   visited bin, takes a level change).  The published estimate is the last accepted fit
+ *   of the bins with its levels and viscous term times the scale (vs unchanged),
+ *   refreshed at every sample once a fit of the direction was accepted.  A steady
  *   unbalance present from the start is in the bins (it looks like asymmetric friction);
- *   a position-dependent one is followed as it changes along the motion (2^5 samples).
- *   Cost per sample: two approximate divisions (div_approx, no 64-bit division).
- *
+ *   one that appears or changes goes to the bias, not to the friction levels.
+ *   Cost per sample of an established visit: three approximate divisions (div_approx,
+ *   no 64-bit division), and the normalisation of the sample (one more).
+
  * Fit (excitation check 2: a parameter changes only when the bins inform it).
  *   Per direction, for each candidate Stribeck velocity vs_j = vs_lo 2^(j/4),
  *   j = 0..HD_FE_NGRID-1 (8 octaves), the map is linear in (fc, fs - fc, fv):
@@ -116,8 +120,9 @@
 #define HD_FE_SCALE_ONE 65536          /* common-mode scale 1.0, Q16 */
 #define HD_FE_SCALE_MIN (HD_FE_SCALE_ONE / 8)   /* bounds of the scale: x1/8 .. x8 */
 #define HD_FE_SCALE_MAX (HD_FE_SCALE_ONE * 8)
-#define HD_FE_SCALE_SHIFT 5u /* scale memory: 2^5 samples (32 ms of steady motion at 1 kHz) */
+#define HD_FE_SCALE_SHIFT 5u /* weight of scale and bias at a visit's start: 2^5 samples (32 ms at 1 kHz) */
 
+#define HD_FE_PAIR_AGE 4096u  /* the other direction's visit pairs with this one if not older, steps */
 #define HD_FE_KEEP_MIN 1024u  /* least memory of an established bin, samples (the shape moves slowly) */
 
 typedef enum {
