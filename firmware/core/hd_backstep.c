@@ -54,15 +54,22 @@ static int64_t hd__law(int32_t *e1o, int32_t *e2o, int32_t phi[HD_BS_NP], const 
     const int32_t alpha1 = hdf_sub_sat(in->omega_d, hdf_mul_q(c->c1, e1, 16u));
     const int32_t e2 = hdf_sub_sat(in->omega, alpha1);
     const int32_t dalpha1 = hdf_sub_sat(in->acc_d, hdf_mul_q(c->c1, hdf_sub_sat(in->omega, in->omega_d), 24u));
-    const int32_t sg = hd_sign_smooth_q30(in->omega, c->eps_w);
+    /* The friction regressor follows the reference velocity while the reference moves, the
+     * measured one at rest.  At slow rates the measured velocity's noise flips its sign every
+     * few periods: the friction terms then average out, and the load term T_load has to carry
+     * the friction as well as the load.  With an unbalance on top that exceeds T_load's
+     * projection bound, the position error stays, the cascade's velocity PID winds up and
+     * the drive trips on torque saturation. */
+    const int32_t wr = (in->omega_d != 0) ? in->omega_d : in->omega;
+    const int32_t sg = hd_sign_smooth_q30(wr, c->eps_w);
     int64_t u;
     uint32_t i;
 
     phi[0] = sg;
     /* |omega| / w_s by the reciprocal when it is set up for this w_s (the same value) */
-    phi[1] = hdf_mul_q((c->w_s > 0 && inv_ws->d == (uint32_t)c->w_s) ? hd_stribeck_shape_inv_q30(in->omega, c->w_s, 2u, inv_ws)
-                                                                     : hd_stribeck_shape_q30(in->omega, c->w_s, 2u), sg, 30u);
-    phi[2] = hdf_asr32_rnd((int64_t)in->omega, 2u);       /* 2^-32 turn/s -> Q30 turn/s */
+    phi[1] = hdf_mul_q((c->w_s > 0 && inv_ws->d == (uint32_t)c->w_s) ? hd_stribeck_shape_inv_q30(wr, c->w_s, 2u, inv_ws)
+                                                                     : hd_stribeck_shape_q30(wr, c->w_s, 2u), sg, 30u);
+    phi[2] = hdf_asr32_rnd((int64_t)wr, 2u);              /* 2^-32 turn/s -> Q30 turn/s */
     phi[3] = HD_Q30_ONE;
     /* J (alpha1' - c2 e2) - ke e1 */
     u = (int64_t)hdf_mul_q(c->j, hdf_sub_sat(dalpha1, hdf_mul_q(c->c2, e2, 24u)), 24u);

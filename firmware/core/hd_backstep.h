@@ -10,8 +10,11 @@
  *   alpha1'= acc_d - c1 (omega - omega_d)
  *   u      = J (alpha1' - c2 e2) - ke e1 + phi^T theta_hat
  *   theta_hat' = -Gamma phi e2, projected onto [th_min, th_max] per parameter
- *   phi    = [ s(omega), exp(-(omega/w_s)^2) s(omega), omega [turn/s], 1 ]
- *            s = hd_sign_smooth_q30(omega, eps_w); theta = [Fc, Fs - Fc, Fv, T_load]
+ *   phi    = [ s(w), exp(-(w/w_s)^2) s(w), w [turn/s], 1 ],  w = omega_d if omega_d != 0, else omega
+ *            s = hd_sign_smooth_q30(w, eps_w); theta = [Fc, Fs - Fc, Fv, T_load]
+ *            (the reference velocity while the reference moves: at slow rates the sign of the
+ *            measured velocity follows its noise, the friction terms would average out and
+ *            T_load would have to hold the friction besides the load)
  * Lyapunov V = ke e1^2/2 + J e2^2/2 + sum (theta_i - theta_hat_i)^2 / (2 Gamma_i)
  *   => V' = -ke c1 e1^2 - J c2 e2^2 <= 0 inside the bounds (projection only removes
  *      terms of the right sign when theta lies in the box).
