@@ -10,11 +10,13 @@
  *   alpha1'= acc_d - c1 (omega - omega_d)
  *   u      = J (alpha1' - c2 e2) - ke e1 + phi^T theta_hat
  *   theta_hat' = -Gamma phi e2, projected onto [th_min, th_max] per parameter
- *   phi    = [ s(w), exp(-(w/w_s)^2) s(w), w [turn/s], 1 ],  w = omega_d if omega_d != 0, else omega
- *            s = hd_sign_smooth_q30(w, eps_w); theta = [Fc, Fs - Fc, Fv, T_load]
- *            (the reference velocity while the reference moves: at slow rates the sign of the
- *            measured velocity follows its noise, the friction terms would average out and
- *            T_load would have to hold the friction besides the load)
+ *   phi    = [ s(w), exp(-(w/w_s)^2) s(w), w [turn/s], 1 ],  w = omega_d while the reference
+ *            cruises (omega_d != 0, changed by at most HD_BS_WD_STEADY since the last step),
+ *            else omega;  s = hd_sign_smooth_q30(w, eps_w); theta = [Fc, Fs - Fc, Fv, T_load]
+ *            (at a slow cruise the sign of the measured velocity follows its noise, the
+ *            friction terms would average out and T_load would have to hold the friction
+ *            besides the load; at rest and at reversals the axis' own velocity is the
+ *            friction's direction)
  * Lyapunov V = ke e1^2/2 + J e2^2/2 + sum (theta_i - theta_hat_i)^2 / (2 Gamma_i)
  *   => V' = -ke c1 e1^2 - J c2 e2^2 <= 0 inside the bounds (projection only removes
  *      terms of the right sign when theta lies in the box).
@@ -46,6 +48,7 @@
 #include "hd_fixed.h"
 
 #define HD_BS_NP 4u
+#define HD_BS_WD_STEADY 64     /* omega_d change per period of a cruising reference, 2^-32 turn/s */
 
 typedef struct {
     int32_t c1;                    /* Q15.16 1/s */
@@ -79,6 +82,7 @@ typedef struct {
     int32_t u;                     /* last blended output */
     uint32_t saturated;            /* 1 if u_bs was clamped */
     hd_divinv_t inv_ws;            /* reciprocal of cfg w_s (refreshed by step / preload when it changes) */
+    int32_t wd_prev;               /* omega_d of the last step (cruise test of the regressor) */
 } hd_backstep_t;
 
 /** Parameters start at th0 (Q15.16, clamped into the bounds). */

@@ -278,10 +278,11 @@ static void test_backstep_closed_loop(void **state)
     assert_true(abs(hd_backstep_law(&s, &c, &in) - (u + NM(1))) <= 1);
 }
 
-/* A slow reference (0.01 deg/s) with the measured velocity's noise ten times larger
- * flipping its sign every period: the friction regressor follows the reference (sign +1,
- * Stribeck shape at the reference velocity), so the friction estimate keeps carrying the
- * friction; at rest it follows the measured velocity. */
+/* A slow cruising reference (0.01 deg/s) with the measured velocity's noise ten times
+ * larger flipping its sign every period: from the second period of the cruise the friction
+ * regressor follows the reference (sign +1, Stribeck shape at the reference velocity), so
+ * the friction estimate keeps carrying the friction; at rest and while the reference
+ * changes it follows the measured velocity. */
 static void test_backstep_regressor_follows_the_moving_reference(void **state)
 {
     hd_backstep_cfg_t c = { (int32_t)(50.0 * 65536), (int32_t)(50.0 * 65536), (int32_t)(8.0 * 65536),
@@ -294,12 +295,20 @@ static void test_backstep_regressor_follows_the_moving_reference(void **state)
     uint32_t k;
     (void)state;
     hd_backstep_init(&s, &c, th0, 0u, true);
+    in.omega = -DEGS / 10;
+    (void)hd_backstep_step(&s, &c, &in, 0);        /* the reference just started: not a cruise */
+    assert_true(s.phi[0] < -HD_Q30_ONE / 2);
     for (k = 0; k < 200u; k++) {
         in.omega = ((k & 1u) != 0u) ? DEGS / 10 : -DEGS / 10;
         (void)hd_backstep_step(&s, &c, &in, 0);
         assert_true(s.phi[0] > HD_Q30_ONE / 2);
         assert_true(s.phi[1] > HD_Q30_ONE / 2);
     }
+    /* a reference that changes (a reversal): the measured velocity */
+    in.omega_d = DEGS / 200;
+    in.omega = -DEGS / 10;
+    (void)hd_backstep_step(&s, &c, &in, 0);
+    assert_true(s.phi[0] < -HD_Q30_ONE / 2);
     /* at rest (omega_d = 0) the measured velocity sets the direction */
     in.omega_d = 0;
     in.omega = -DEGS / 10;
