@@ -146,3 +146,18 @@ def test_cpu_cost_of_the_online_feed_forward_sums_its_kernels(tmp_path: Path) ->
                                          "fric_est_legs": {"instructions": 120}}}))
     c = sel.cpu_costs(p)
     assert c["stribeck"] == 300 and c["stribeck_online"] == 420 and c["lugre"] is None
+
+
+def test_drift_rule_is_checked_on_the_measured_row_and_can_fail() -> None:
+    abl = _ablation_rows({"stribeck": 20.0, "lugre": 4.0})
+    good = _drift_doc({"gravity_appears": {"pid": 1.0, "fixed": 1.6, "online": 1.8, "backstep": 0.4}})
+    rules = {r.name: r for r in sel.check_rules(None, sel.needs_table(abl, {}, drift=sel.drift_gains(good)))}
+    assert rules["need_drift"].holds, rules["need_drift"].text
+    assert "the online-identified one 1.80x" in rules["need_drift"].text
+    # backstepping ahead of both feed-forwards, or the feed-forwards below 1.5x: the rule fails
+    for row in ({"pid": 1.0, "fixed": 1.6, "online": 1.8, "backstep": 2.5},
+                {"pid": 1.0, "fixed": 1.2, "online": 1.4, "backstep": 0.4}):
+        bad = sel.needs_table(abl, {}, drift=sel.drift_gains(_drift_doc({"gravity_appears": row})))
+        assert not {r.name: r for r in sel.check_rules(None, bad)}["need_drift"].holds
+    # no drift study: the rule is not stated
+    assert "need_drift" not in {r.name for r in sel.check_rules(None, sel.needs_table(abl, {}))}

@@ -478,6 +478,27 @@ def rule_need_hysteresis_alone(needs: Sequence[NeedRow]) -> Rule:
                 bool(g) and top < 2.0, {"best_gain": g})
 
 
+#: Least gain over the fair PID a compensator keeps in the worst drift scenario for the drift rule.
+DRIFT_MIN_GAIN = 1.5
+
+
+def rule_need_drift(needs: Sequence[NeedRow]) -> Rule:
+    """Parameter drift: a Stribeck feed-forward (fixed-model or online-identified) keeps at least
+    DRIFT_MIN_GAIN over the fair PID in every drift scenario, and more than adaptive backstepping."""
+    row = next((n for n in needs if n.figure == "drift"), None)
+    g = dict(row.gains) if row is not None else {}
+    ff = {c: g[c] for c in ("stribeck", "stribeck_online") if c in g}
+    best = max(ff, key=lambda c: ff[c]) if ff else None
+    bs = g.get("backstep")
+    holds = best is not None and ff[best] >= DRIFT_MIN_GAIN and (bs is None or bs < ff[best])
+    names = {"stribeck": "the fixed-model Stribeck feed-forward", "stribeck_online": "the online-identified one",
+             "backstep": "adaptive backstepping"}
+    txt = ", ".join(f"{names[c]} {v:.2f}x" for c, v in g.items() if c in names)
+    return Rule("need_drift", f"for parameter drift a Stribeck feed-forward is the compensator: on the reversal "
+                f"peak and positioning, in the worst drift scenario, {txt} over the fair PID "
+                f"(at least {DRIFT_MIN_GAIN:g}x, and more than backstepping)", holds, {"gain_kept": g})
+
+
 HYSTERESIS_RULES: list[Callable[[Sequence[HysteresisRow]], Rule]] = [
     rule_preisach_full_load, rule_maxwell_part_load, rule_maxwell_memory]
 NEED_RULES: list[Callable[[Sequence[NeedRow]], Rule]] = [rule_need_friction_ff, rule_need_hysteresis_alone]
@@ -487,6 +508,9 @@ def check_rules(hyst: Sequence[HysteresisRow] | None, needs: Sequence[NeedRow] |
     """Every rule on the tables given (a missing table skips its rules)."""
     out = [r(hyst) for r in HYSTERESIS_RULES] if hyst else []
     out += [r(needs) for r in NEED_RULES] if needs else []
+    # the drift rule is checked where a drift study measured the row
+    if needs and any(n.figure == "drift" and n.gains for n in needs):
+        out.append(rule_need_drift(needs))
     return out
 
 
