@@ -128,9 +128,10 @@ def test_tiny_run_writes_json(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
 
 def test_backstepping_holds_an_appearing_unbalance() -> None:
     """Slow tracking (0.01 deg/s) while an unbalance of the axis' breakaway size appears, with a
-    model whose friction is 10-20 % low: backstepping tracks without a drive fault (before, its
-    friction terms followed the noisy sign of the measured velocity and averaged out, the load
-    term hit its bound and the drive tripped on torque saturation)."""
+    model whose friction is 10-20 % low: backstepping tracks without a drive fault.  Its friction
+    regressor follows the cruising reference; on the noisy sign of the measured velocity the
+    friction terms average out, the load term reaches its bound and the drive trips on torque
+    saturation."""
     from hdservo import closedloop_cases as bl
     m = _script()
     case = next(c for c in m.cases(quick=False) if c.name == "tracking_0.01")
