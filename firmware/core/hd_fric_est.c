@@ -148,6 +148,7 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
     e->scale = HD_FE_SCALE_ONE;
     e->bias = 0;
     e->vis_g = 0;
+    e->vis_bin = 0u;
     e->vis_n = 0u;
     e->vis_m = 0;
     e->vis_s0 = HD_FE_SCALE_ONE;
@@ -241,7 +242,10 @@ static void bin_update(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_r
     /* excitation check of the common mode: the bin held n_min samples of earlier visits when
      * this visit began; the visit is compared with that mean, held for the whole visit (a
      * comparison with the running mean would take the visit's own settling for a drift) */
-    if (first) {
+    /* a visit of the common mode is one bin: a reference that creeps (within dv_max) into
+     * the next bin starts a new one there (its samples are compared with that bin's mean) */
+    if (first || e->vis_bin != d * HD_FE_NBIN + (uint32_t)k) {
+        e->vis_bin = d * HD_FE_NBIN + (uint32_t)k;
         e->vis_g = (b->n >= c->n_min && b->f > 0) ? b->f : 0;
         e->vis_n = 0u;
         e->vis_m = 0;

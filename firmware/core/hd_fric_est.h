@@ -160,6 +160,7 @@ typedef struct {
     int32_t  scale;                     /* common-mode friction level, Q16 (1.0 = HD_FE_SCALE_ONE) */
     int32_t  bias;                      /* direction-independent torque (unbalance), Q15.16 N.m */
     int32_t  vis_g;                     /* mean of the visited bin when the visit began, Q15.16 N.m (0: none) */
+    uint32_t vis_bin;                   /* the visited bin, direction x HD_FE_NBIN + bin */
     uint32_t vis_n;                     /* samples of the visit (saturates at n_forget) */
     int32_t  vis_m;                     /* the visit's mean signed torque, Q15.16 N.m */
     int32_t  vis_s0;                    /* scale when the visit began, Q16 */

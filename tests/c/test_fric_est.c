@@ -296,6 +296,28 @@ static void test_unbalance_is_not_friction(void **state)
     assert_true(fabs(est.bias / 65536.0 - 3.0) < 0.3);
 }
 
+/* a steady segment whose reference creeps (within dv_max) across bin edges in the Stribeck
+ * drop, friction unchanged: each bin's samples are compared with that bin's own mean, the
+ * common-mode scale stays at 1 (compared with the mean of the bin where the segment began,
+ * the drop would read as a level change) */
+static void test_creeping_reference_changes_the_visited_bin(void **state)
+{
+    const int32_t v0 = (int32_t)lround(0.8 * DEGS), v1 = (int32_t)lround(1.6 * DEGS);
+    int32_t v = v0;
+    (void)state;
+    cfg.n_min = 30u;
+    profile(&REF, 500u, 1.0, 0.0);
+    profile(&REF, 500u, 1.0, 0.0);
+    assert_int_equal(est.scale, HD_FE_SCALE_ONE);
+    while (v < v1) {
+        const double t = g_of(&REF, v / DEGS);
+        hd_fric_est_step(&est, &cfg, v, v, NM(t), true);
+        v += cfg.dv_max;
+    }
+    print_message("# scale after the creep %.4f\n", est.scale / 65536.0);
+    assert_true(fabs(est.scale / 65536.0 - 1.0) < 0.01);
+}
+
 /* nonsense torques (pushing with the motion) stay inside the bounds */
 static void test_estimate_bounded(void **state)
 {
@@ -366,6 +388,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_stale_bins_leave_the_fit, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_drift_tracked_from_any_bin, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_unbalance_is_not_friction, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_creeping_reference_changes_the_visited_bin, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_estimate_bounded, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_feed_is_bumpless, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_bins, setUp, tearDown),
