@@ -253,7 +253,8 @@ static void bin_update(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_r
         e->vis_b0 = e->bias;
     }
     if (e->vis_g > 0) {
-        e->vis_n = (e->vis_n < c->n_forget) ? e->vis_n + 1u : c->n_forget;
+        /* samples of the visit, 1..n_forget (n_forget >= 1 by hd_fric_est_config) */
+        e->vis_n = (e->vis_n < c->n_forget) ? e->vis_n + 1u : ((c->n_forget > 0u) ? c->n_forget : 1u);
         e->vis_m = mean_step(e->vis_m, hdf_clamp32(tau, hdf_neg_sat(c->tau_max), c->tau_max), e->vis_n);
         common_update(e, c, d, sg, e->vis_n);
         e->oth_m[d] = e->vis_m;
