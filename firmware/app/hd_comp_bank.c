@@ -703,7 +703,7 @@ int32_t hd_comp_bank_post(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const 
         hd_backstep_preload(&b->bs, &c->bs, &bi, u_pid);     /* also the regressor's shape */
         b->bs_preload = 0u;
     } else if (slot) {
-        hd_backstep_regressor(&b->bs, &c->bs, bi.omega);
+        hd_backstep_regressor(&b->bs, &c->bs, &bi);
     }
     b->u_bs = hd_backstep_step_held(&b->bs, &c->bs, &bi, u_pid);
     if (slot) {

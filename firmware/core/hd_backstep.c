@@ -30,6 +30,7 @@ void hd_backstep_init(hd_backstep_t *s, const hd_backstep_cfg_t *c, const int32_
     s->u = 0;
     s->saturated = 0u;
     s->shape = HD_Q30_ONE;
+    s->wd_prev = 0;
     hd_divinv_init(&s->inv_ws, 0u);
 }
 
@@ -54,22 +55,38 @@ static int32_t hd__shape(const hd_divinv_t *inv_ws, const hd_backstep_cfg_t *c, 
                                                          : hd_stribeck_shape_q30(omega, c->w_s, 2u);
 }
 
-/* Errors, regressor (with the given Stribeck shape) and the law; fills e1, e2, phi. */
+/* The velocity of the friction regressor: the reference velocity while the reference cruises
+ * (moves at a constant velocity: unchanged within HD_BS_WD_STEADY since the last period), the
+ * measured one otherwise (at rest, and while the reference accelerates or reverses: the axis
+ * lags it and its own velocity says where the friction acts).  At slow rates the measured
+ * velocity's noise flips its sign every few periods: the friction terms then average out, and
+ * the load term T_load has to carry the friction as well as the load.  With an unbalance on top
+ * that exceeds T_load's projection bound, the position error stays, the cascade's velocity PID
+ * winds up and the drive trips on torque saturation. */
+static int32_t hd__wr(int32_t wd_prev, const hd_backstep_in_t *in)
+{
+    const int64_t dwd = (int64_t)in->omega_d - (int64_t)wd_prev;
+    const bool cruise = (in->omega_d != 0) && (dwd <= HD_BS_WD_STEADY) && (dwd >= -HD_BS_WD_STEADY);
+    return cruise ? in->omega_d : in->omega;
+}
+
+/* Errors, regressor (with the given Stribeck shape of hd__wr) and the law; fills e1, e2, phi. */
 static int64_t hd__law(int32_t *e1o, int32_t *e2o, int32_t phi[HD_BS_NP], const int64_t th[HD_BS_NP],
-                       int32_t shape, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in)
+                       int32_t shape, int32_t wd_prev, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in)
 {
     const int64_t e1max = (c->e1_max > 0) ? (int64_t)c->e1_max : (int64_t)INT32_MAX;
     const int32_t e1 = (int32_t)hdf_clamp64(hdf_sub64_sat(in->theta, in->theta_d), -e1max, e1max);
     const int32_t alpha1 = hdf_sub_sat(in->omega_d, hdf_mul_q(c->c1, e1, 16u));
     const int32_t e2 = hdf_sub_sat(in->omega, alpha1);
     const int32_t dalpha1 = hdf_sub_sat(in->acc_d, hdf_mul_q(c->c1, hdf_sub_sat(in->omega, in->omega_d), 24u));
-    const int32_t sg = hd_sign_smooth_q30(in->omega, c->eps_w);
+    const int32_t wr = hd__wr(wd_prev, in);
+    const int32_t sg = hd_sign_smooth_q30(wr, c->eps_w);
     int64_t u;
     uint32_t i;
 
     phi[0] = sg;
     phi[1] = hdf_mul_q(shape, sg, 30u);
-    phi[2] = hdf_asr32_rnd((int64_t)in->omega, 2u);       /* 2^-32 turn/s -> Q30 turn/s */
+    phi[2] = hdf_asr32_rnd((int64_t)wr, 2u);       /* 2^-32 turn/s -> Q30 turn/s */
     phi[3] = HD_Q30_ONE;
     /* J (alpha1' - c2 e2) - ke e1 */
     u = (int64_t)hdf_mul_q(c->j, hdf_sub_sat(dalpha1, hdf_mul_q(c->c2, e2, 24u)), 24u);
@@ -89,18 +106,18 @@ int32_t hd_backstep_law(const hd_backstep_t *s, const hd_backstep_cfg_t *c, cons
     int32_t e1;
     int32_t e2;
     int32_t phi[HD_BS_NP];
-    return hdf_sat32(hd__law(&e1, &e2, phi, s->th, hd__shape(&s->inv_ws, c, in->omega), c, in));
+    return hdf_sat32(hd__law(&e1, &e2, phi, s->th, hd__shape(&s->inv_ws, c, hd__wr(s->wd_prev, in)), s->wd_prev, c, in));
 }
 
 void hd_backstep_preload(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in,
                          int32_t u_now)
 {
     hd__inv_ws(s, c);
-    s->shape = hd__shape(&s->inv_ws, c, in->omega);
-    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, s->shape, c, in);
+    s->shape = hd__shape(&s->inv_ws, c, hd__wr(s->wd_prev, in));
+    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, s->shape, s->wd_prev, c, in);
     const int64_t du = hdf_sub64_sat((int64_t)u_now, u);              /* Q16; phi_3 = 1 */
     s->th[3] = hdf_clamp64(hdf_add64_sat(s->th[3], hdf_shl64_sat(du, 32u)), hd__th_lo(c, 3u), hd__th_hi(c, 3u));
-    s->u_bs = hdf_sat32(hd__law(&s->e1, &s->e2, s->phi, s->th, s->shape, c, in));
+    s->u_bs = hdf_sat32(hd__law(&s->e1, &s->e2, s->phi, s->th, s->shape, s->wd_prev, c, in));
     s->u = u_now;
 }
 
@@ -110,8 +127,8 @@ int32_t hd_backstep_step(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
     const int32_t umax = (c->u_max > 0) ? c->u_max : INT32_MAX;
     uint32_t i;
     hd__inv_ws(s, c);
-    s->shape = hd__shape(&s->inv_ws, c, in->omega);
-    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, s->shape, c, in);
+    s->shape = hd__shape(&s->inv_ws, c, hd__wr(s->wd_prev, in));
+    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, s->shape, s->wd_prev, c, in);
 
     s->u_bs = (int32_t)hdf_clamp64(u, -(int64_t)umax, (int64_t)umax);
     s->saturated = ((int64_t)s->u_bs != u) ? 1u : 0u;
@@ -125,6 +142,7 @@ int32_t hd_backstep_step(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
             s->th[i] = hdf_clamp64(hdf_sub64_sat(s->th[i], d), hd__th_lo(c, i), hd__th_hi(c, i));
         }
     }
+    s->wd_prev = in->omega_d;
     return s->u;
 }
 
@@ -132,18 +150,19 @@ int32_t hd_backstep_step_held(hd_backstep_t *s, const hd_backstep_cfg_t *c, cons
                               int32_t u_base)
 {
     const int32_t umax = (c->u_max > 0) ? c->u_max : INT32_MAX;
-    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, s->shape, c, in);
+    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, s->shape, s->wd_prev, c, in);
     s->u_bs = (int32_t)hdf_clamp64(u, -(int64_t)umax, (int64_t)umax);
     s->saturated = ((int64_t)s->u_bs != u) ? 1u : 0u;
     (void)hd_blend_update(&s->blend);
     s->u = hd_blend_mix(&s->blend, u_base, s->u_bs);
+    s->wd_prev = in->omega_d;
     return s->u;
 }
 
-void hd_backstep_regressor(hd_backstep_t *s, const hd_backstep_cfg_t *c, hd_vel_out_t omega)
+void hd_backstep_regressor(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in)
 {
     hd__inv_ws(s, c);
-    s->shape = hd__shape(&s->inv_ws, c, omega);
+    s->shape = hd__shape(&s->inv_ws, c, hd__wr(s->wd_prev, in));
 }
 
 void hd_backstep_adapt(hd_backstep_t *s, const hd_backstep_cfg_t *c, uint32_t log2_n)

@@ -10,8 +10,13 @@
  *   alpha1'= acc_d - c1 (omega - omega_d)
  *   u      = J (alpha1' - c2 e2) - ke e1 + phi^T theta_hat
  *   theta_hat' = -Gamma phi e2, projected onto [th_min, th_max] per parameter
- *   phi    = [ s(omega), exp(-(omega/w_s)^2) s(omega), omega [turn/s], 1 ]
- *            s = hd_sign_smooth_q30(omega, eps_w); theta = [Fc, Fs - Fc, Fv, T_load]
+ *   phi    = [ s(w), exp(-(w/w_s)^2) s(w), w [turn/s], 1 ],  w = omega_d while the reference
+ *            cruises (omega_d != 0, changed by at most HD_BS_WD_STEADY since the last step),
+ *            else omega;  s = hd_sign_smooth_q30(w, eps_w); theta = [Fc, Fs - Fc, Fv, T_load]
+ *            (at a slow cruise the sign of the measured velocity follows its noise, the
+ *            friction terms would average out and T_load would have to hold the friction
+ *            besides the load; at rest and at reversals the axis' own velocity is the
+ *            friction's direction)
  * Lyapunov V = ke e1^2/2 + J e2^2/2 + sum (theta_i - theta_hat_i)^2 / (2 Gamma_i)
  *   => V' = -ke c1 e1^2 - J c2 e2^2 <= 0 inside the bounds (projection only removes
  *      terms of the right sign when theta lies in the box).
@@ -43,6 +48,7 @@
 #include "hd_fixed.h"
 
 #define HD_BS_NP 4u
+#define HD_BS_WD_STEADY 64     /* omega_d change per period of a cruising reference, 2^-32 turn/s */
 
 typedef struct {
     int32_t c1;                    /* Q15.16 1/s */
@@ -77,6 +83,7 @@ typedef struct {
     uint32_t saturated;            /* 1 if u_bs was clamped */
     int32_t shape;                 /* Stribeck regressor's shape exp(-(omega/w_s)^2), Q30, at its last refresh */
     hd_divinv_t inv_ws;            /* reciprocal of cfg w_s (refreshed by step / preload when it changes) */
+    int32_t wd_prev;               /* omega_d of the last step (cruise test of the regressor) */
 } hd_backstep_t;
 
 /** Parameters start at th0 (Q15.16, clamped into the bounds). */
@@ -94,12 +101,13 @@ int32_t hd_backstep_step(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
                          int32_t u_base);
 
 /** The law of one period with the held adapted parameters and the held Stribeck shape
- *  (hd_backstep_regressor), the sign and viscous regressors of this period's omega; no
+ *  (hd_backstep_regressor), the sign and viscous regressors of this period's velocity; no
  *  adaptation.  Returns u_base + w (u_bs - u_base); keeps e2, phi for hd_backstep_adapt. */
 int32_t hd_backstep_step_held(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in,
                               int32_t u_base);
-/** Refresh the held Stribeck shape of the regressor at omega (2^-32 turn/s). */
-void hd_backstep_regressor(hd_backstep_t *s, const hd_backstep_cfg_t *c, hd_vel_out_t omega);
+/** Refresh the held Stribeck shape of the regressor at this period's regressor velocity
+ *  (omega_d while the reference cruises, omega otherwise: see phi above). */
+void hd_backstep_regressor(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in);
 /** The adaptation of 2^log2_n periods (log2_n <= 8) at once, from the regressor and e2
  *  of the last hd_backstep_step_held (frozen while it saturated or blended out). */
 void hd_backstep_adapt(hd_backstep_t *s, const hd_backstep_cfg_t *c, uint32_t log2_n);

@@ -122,6 +122,10 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
             e->bin[d][i].stamp = 0u;
         }
         e->est[d] = init[d];
+        e->shape[d] = init[d];
+        e->oth_m[d] = 0;
+        e->oth_g[d] = 0;
+        e->oth_t[d] = 0u;
         e->conf[d] = 0u;
         e->fits[d] = 0u;
     }
@@ -158,6 +162,14 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
         e->fit_u[i] = 0;
         e->fit_f[i] = 0;
     }
+    e->scale = HD_FE_SCALE_ONE;
+    e->bias = 0;
+    e->vis_g = 0;
+    e->vis_bin = 0u;
+    e->vis_n = 0u;
+    e->vis_m = 0;
+    e->vis_s0 = HD_FE_SCALE_ONE;
+    e->vis_b0 = 0;
     e->v_prev = 0;
     e->v_lp = 0;
     e->visit = 0u;
@@ -176,28 +188,128 @@ static int32_t mean_step(int32_t x, int32_t y, uint32_t n)
     return x + q;
 }
 
+/* the published estimate of direction d: the shape fit's levels and viscous term times the
+ * common-mode scale (vs is a shape parameter: a friction drift does not move it) */
+static void publish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
+{
+    const hd_stribeck_dir_t *sh = &e->shape[d];
+    const int32_t fc = hdf_clamp32(hdf_sat32(hdf_mul64x32_q((int64_t)sh->fc, e->scale, 16u)), 0, c->tau_max);
+    e->est[d].fc = fc;
+    e->est[d].fs = hdf_clamp32(hdf_sat32(hdf_mul64x32_q((int64_t)sh->fs, e->scale, 16u)), fc, c->tau_max);
+    e->est[d].vs = sh->vs;
+    e->est[d].fv = hdf_clamp32(hdf_sat32(hdf_mul64x32_q((int64_t)sh->fv, e->scale, 16u)), 0, c->fv_max);
+}
+
+/* a + (t - a) n / (n + 2^HD_FE_SCALE_SHIFT): the visit's evidence (n samples) against the value
+ * at the visit's start (weight 2^HD_FE_SCALE_SHIFT samples) */
+static int64_t visit_blend(int64_t a, int64_t t, uint32_t n)
+{
+    return a + div_approx((t - a) * (int64_t)n, (uint64_t)n + (1u << HD_FE_SCALE_SHIFT), 0u);
+}
+
+/* Common mode from the visit in progress (direction d, sign sg, the visited bin's mean g0 when
+ * the visit began, the visit's mean signed torque m over n samples).  The model is
+ * m = sg scale g0 + bias.  With a recent visit of the other direction (mean mo of a bin of
+ * mean go) the two equations give both unknowns; without one, the bias stays and the visit
+ * gives the scale.  The result is blended with the values at the visit's start. */
+static void common_update(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d, int32_t sg, uint32_t n)
+{
+    const uint32_t o = (d == (uint32_t)HD_FE_DIR_POS) ? (uint32_t)HD_FE_DIR_NEG : (uint32_t)HD_FE_DIR_POS;
+    const int64_t m = e->vis_m;
+    const int64_t g0 = e->vis_g;
+    int64_t s_t;
+    int64_t b_t = e->vis_b0;
+    const uint32_t age = (c->max_age < HD_FE_PAIR_AGE) ? c->max_age : HD_FE_PAIR_AGE;
+    if (e->oth_g[o] > 0 && (uint32_t)(e->steps - e->oth_t[o]) <= age) {
+        /* pos: mp = s gp + b, neg: mn = -s gn + b  ->  s = (mp - mn) / (gp + gn),
+         * b = (mp gn + mn gp) / (gp + gn) */
+        const int64_t mo = e->oth_m[o];
+        const int64_t go = e->oth_g[o];
+        const uint64_t den = (uint64_t)(g0 + go);
+        const int64_t mp = (sg > 0) ? m : mo;
+        const int64_t mn = (sg > 0) ? mo : m;
+        const int64_t gp = (sg > 0) ? g0 : go;
+        const int64_t gn = (sg > 0) ? go : g0;
+        s_t = div_approx(mp - mn, den, 16u);                                       /* Q16 */
+        b_t = div_approx(mp * gn + mn * gp, den, 0u);                             /* Q16 N.m */
+    } else {
+        const int64_t f = (sg > 0) ? m - (int64_t)e->vis_b0 : (int64_t)e->vis_b0 - m;
+        s_t = div_approx(f, (uint64_t)g0, 16u);
+    }
+    s_t = hdf_clamp64(s_t, HD_FE_SCALE_MIN, HD_FE_SCALE_MAX);
+    b_t = hdf_clamp64(b_t, -(int64_t)c->tau_max, (int64_t)c->tau_max);
+    e->scale = hdf_sat32(visit_blend(e->vis_s0, s_t, n));
+    e->bias = hdf_sat32(visit_blend(e->vis_b0, b_t, n));
+}
+
 static void bin_update(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t tau, bool first)
 {
     const int32_t k = hd_fric_est_bin_of(c, v_ref);
+    const uint32_t d = (v_ref > 0) ? (uint32_t)HD_FE_DIR_POS : (uint32_t)HD_FE_DIR_NEG;
+    const int32_t sg = (v_ref > 0) ? 1 : -1;
     hd_fe_bin_t *b;
     uint32_t n1;
+    uint32_t cap;
     int32_t f;
+    int64_t fn;
     if (k < 0) {
         return;
     }
-    b = &e->bin[(v_ref > 0) ? HD_FE_DIR_POS : HD_FE_DIR_NEG][k];
-    /* friction magnitude of the direction: the torque against the motion */
-    f = hdf_clamp32((v_ref > 0) ? tau : hdf_neg_sat(tau), hdf_neg_sat(c->tau_max), c->tau_max);
-    if (first && b->n > c->n_keep) {
-        b->n = c->n_keep;                   /* a new visit: the old mean weighs as n_keep samples */
+    b = &e->bin[d][k];
+    /* excitation check of the common mode: the bin held n_min samples of earlier visits when
+     * this visit began; the visit is compared with that mean, held for the whole visit (a
+     * comparison with the running mean would take the visit's own settling for a drift) */
+    /* a visit of the common mode is one bin: a reference that creeps (within dv_max) into
+     * the next bin starts a new one there (its samples are compared with that bin's mean) */
+    if (first || e->vis_bin != d * HD_FE_NBIN + (uint32_t)k) {
+        e->vis_bin = d * HD_FE_NBIN + (uint32_t)k;
+        e->vis_g = (b->n >= c->n_min && b->f > 0) ? b->f : 0;
+        e->vis_n = 0u;
+        e->vis_m = 0;
+        e->vis_s0 = e->scale;
+        e->vis_b0 = e->bias;
     }
-    n1 = (b->n < c->n_forget) ? b->n + 1u : c->n_forget;
+    if (e->vis_g > 0) {
+        /* samples of the visit, 1..n_forget (n_forget >= 1 by hd_fric_est_config) */
+        e->vis_n = (e->vis_n < c->n_forget) ? e->vis_n + 1u : ((c->n_forget > 0u) ? c->n_forget : 1u);
+        e->vis_m = mean_step(e->vis_m, hdf_clamp32(tau, hdf_neg_sat(c->tau_max), c->tau_max), e->vis_n);
+        common_update(e, c, d, sg, e->vis_n);
+        e->oth_m[d] = e->vis_m;
+        e->oth_g[d] = e->vis_g;
+        e->oth_t[d] = e->steps;
+    }
+    /* friction magnitude of the direction, the unbalance taken off and normalised by the
+     * scale: the bins hold the shape of the map, the scale its present level */
+    fn = (int64_t)tau - (int64_t)e->bias;
+    fn = (v_ref > 0) ? fn : -fn;
+    fn = hdf_clamp64(fn, -(int64_t)c->tau_max, (int64_t)c->tau_max);
+    f = hdf_clamp32(hdf_sat32(div_approx(fn, (uint64_t)(uint32_t)e->scale, 16u)), hdf_neg_sat(c->tau_max),
+                    c->tau_max);
+    if (first) {
+        /* a new visit: the old mean weighs as n_keep samples, but at least HD_FE_KEEP_MIN: a
+         * common-mode change is the scale's to follow; a bin that forgot faster would take
+         * it into the shape before the scale sees it */
+        const uint32_t keep = (c->n_keep > HD_FE_KEEP_MIN) ? c->n_keep : HD_FE_KEEP_MIN;
+        b->n = (b->n > keep) ? keep : b->n;
+    }
+    /* an established bin (the common mode follows its visits) forgets over at least
+     * HD_FE_KEEP_MIN samples: its shape changes slowly, the scale takes the level */
+    cap = (e->vis_g > 0 && c->n_forget < HD_FE_KEEP_MIN) ? HD_FE_KEEP_MIN : c->n_forget;
+    n1 = (b->n < cap) ? b->n + 1u : cap;
     b->v = mean_step(b->v, hdf_abs_sat(v_ref), n1);
     b->f = mean_step(b->f, f, n1);
     b->n = n1;
     b->r16 = r16_of(c, b->v);
     b->stamp = e->steps;
     e->samples++;
+    /* the levels follow the scale once the bins have given a fit (before it, the initial
+     * estimate stays: excitation check 2) */
+    if (e->fits[HD_FE_DIR_POS] != 0u) {
+        publish(e, c, HD_FE_DIR_POS);
+    }
+    if (e->fits[HD_FE_DIR_NEG] != 0u) {
+        publish(e, c, HD_FE_DIR_NEG);
+    }
 }
 
 /* a bin counts in the fit: enough samples, and the last one not older than max_age */
@@ -454,10 +566,11 @@ static void fit_finish_publish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uin
         return;
     }
     fc = hdf_clamp32(fc, 0, c->tau_max);
-    e->est[d].fc = fc;
-    e->est[d].fs = hdf_clamp32(hdf_add_sat(fc, dfs), fc, c->tau_max);
-    e->est[d].vs = hdf_clamp32(vs, c->vs_lo, vs_of(c, HD_FE_NGRID - 1u));
-    e->est[d].fv = hdf_clamp32(fv, 0, c->fv_max);
+    e->shape[d].fc = fc;
+    e->shape[d].fs = hdf_clamp32(hdf_add_sat(fc, dfs), fc, c->tau_max);
+    e->shape[d].vs = hdf_clamp32(vs, c->vs_lo, vs_of(c, HD_FE_NGRID - 1u));
+    e->shape[d].fv = hdf_clamp32(fv, 0, c->fv_max);
+    publish(e, c, d);
     e->fits[d]++;
 }
 

@@ -25,13 +25,43 @@
  *   mean over the last ~n_forget samples.  Forgetting across visits: a slow
  *   bin gets few samples per visit and is visited once per motion cycle, so
  *   at the first sample of each visit (steady segment) its count is cut to
- *   n_keep: the old mean then weighs as n_keep samples against the new visit
- *   (a drifting friction is followed within about one visit of every bin).
+ *   n_keep (at least HD_FE_KEEP_MIN once the bin is established, below): the old
+ *   mean then weighs as n_keep samples against the new visit.
  *   A bin whose last sample is older than max_age steps is left out of the
  *   fit (a stale bin would hold the friction of another time; without it the
  *   excitation checks may keep the last estimate until the speed comes again).
  *   Updating a bin costs one 32-bit division (by n + 1).
  *
+ * Common mode (fast): level drift and unbalance.
+ *   A friction drift (temperature, lubricant) scales the Coulomb, static and viscous
+ *   terms of both directions together; an unbalance adds the same signed torque to both
+ *   directions.  The steady torque is modelled as
+ *       tau = sign(v) scale g_d(|v|) + bias
+ *   with the bins holding g, the shape (each sample enters its bin as
+ *   sign(v) (tau - bias) / scale), and scale (Q16, bounded to x1/8..x8) and bias (Q15.16
+ *   N.m, bounded by tau_max) shared by every bin.  Excitation check 3: only a visit to a
+ *   bin that held n_min samples when the visit began informs the common mode (a new bin
+ *   cannot tell a level change from its own level); the visit is compared with that
+ *   mean g0, held for the whole visit (not with the running mean: a visit's own settling
+ *   would look like a drift).  With the visit's mean signed torque m (n samples) and the
+ *   last established visit of the other direction (m', g0', its last sample not older
+ *   than HD_FE_PAIR_AGE steps, 4 s at 1 kHz, nor max_age: an older one may hold the
+ *   friction of another time and would put part of a drift into the bias) the two equations m = sign scale g0 + bias give scale and bias; without
+ *   a recent visit of the other direction the bias stays and the visit gives the scale
+ *   (from one direction alone a level change and an unbalance look the same: the
+ *   friction hypothesis).  Each sample moves scale and bias from their values at the
+ *   visit's start towards that solution by n / (n + 2^HD_FE_SCALE_SHIFT): a drift seen in
+ *   any established bin moves the published levels of every bin within one visit.  An
+ *   established bin forgets over at least HD_FE_KEEP_MIN samples whatever n_forget and
+ *   n_keep (the shape, vs and the ratio of the levels, moves slowly; the scale, not the
+ *   visited bin, takes a level change).  The published estimate is the last accepted fit
+ *   of the bins with its levels and viscous term times the scale (vs unchanged),
+ *   refreshed at every sample once a fit of the direction was accepted.  A steady
+ *   unbalance present from the start is in the bins (it looks like asymmetric friction);
+ *   one that appears or changes goes to the bias, not to the friction levels.
+ *   Cost per sample of an established visit: three approximate divisions (div_approx,
+ *   no 64-bit division), and the normalisation of the sample (one more).
+
  * Fit (excitation check 2: a parameter changes only when the bins inform it).
  *   Per direction, for each candidate Stribeck velocity vs_j = vs_lo 2^(j/4),
  *   j = 0..HD_FE_NGRID-1 (8 octaves), the map is linear in (fc, fs - fc, fv):
@@ -75,7 +105,7 @@
  *   (Cortex-M4 instructions per step: tests/bench/10_cm4_cost.sh, docs/compensators.md).
  *   In the drive a step runs in parts of bounded cost, the observation, then its
  *   pass one part per control period (hd_fric_est_observe, hd_fric_est_fit_part).
- * Memory: hd_fric_est_t, about 2.1 KiB.
+ * Memory: hd_fric_est_t, about 2.2 KiB.
  */
 #ifndef HD_FRIC_EST_H
 #define HD_FRIC_EST_H
@@ -89,6 +119,13 @@
 #define HD_FE_NGRID  32u     /* candidate Stribeck velocities, quarter octaves (8 octaves) */
 #define HD_FE_U_SHIFT 11u    /* fit velocity column: |v| >> 11 (2^-21 turn/s) */
 #define HD_FE_VLP_SHIFT 5u   /* low-pass of the measured velocity: 2^-5 per step (32 ms at 1 kHz) */
+#define HD_FE_SCALE_ONE 65536          /* common-mode scale 1.0, Q16 */
+#define HD_FE_SCALE_MIN (HD_FE_SCALE_ONE / 8)   /* bounds of the scale: x1/8 .. x8 */
+#define HD_FE_SCALE_MAX (HD_FE_SCALE_ONE * 8)
+#define HD_FE_SCALE_SHIFT 5u /* weight of scale and bias at a visit's start: 2^5 samples (32 ms at 1 kHz) */
+
+#define HD_FE_PAIR_AGE 4096u  /* the other direction's visit pairs with this one if not older, steps */
+#define HD_FE_KEEP_MIN 1024u  /* least memory of an established bin, samples (the shape moves slowly) */
 
 typedef enum {
     HD_FE_DIR_POS = 0,
@@ -120,7 +157,19 @@ typedef struct {
 
 typedef struct {
     hd_fe_bin_t bin[HD_FE_NDIR][HD_FE_NBIN];
-    hd_stribeck_dir_t est[HD_FE_NDIR];  /* published estimate (magnitudes) */
+    hd_stribeck_dir_t est[HD_FE_NDIR];  /* published estimate (magnitudes): shape x scale */
+    hd_stribeck_dir_t shape[HD_FE_NDIR];/* last accepted fit of the bins (normalised levels) */
+    int32_t  scale;                     /* common-mode friction level, Q16 (1.0 = HD_FE_SCALE_ONE) */
+    int32_t  bias;                      /* direction-independent torque (unbalance), Q15.16 N.m */
+    int32_t  vis_g;                     /* mean of the visited bin when the visit began, Q15.16 N.m (0: none) */
+    uint32_t vis_bin;                   /* the visited bin, direction x HD_FE_NBIN + bin */
+    uint32_t vis_n;                     /* samples of the visit (saturates at n_forget) */
+    int32_t  vis_m;                     /* the visit's mean signed torque, Q15.16 N.m */
+    int32_t  vis_s0;                    /* scale when the visit began, Q16 */
+    int32_t  vis_b0;                    /* bias when the visit began, Q15.16 N.m */
+    int32_t  oth_m[HD_FE_NDIR];         /* per direction: mean signed torque of its last established visit */
+    int32_t  oth_g[HD_FE_NDIR];         /* ... the mean of its bin when that visit began (0: none) */
+    uint32_t oth_t[HD_FE_NDIR];         /* ... and the step of its last sample */
     uint32_t conf[HD_FE_NDIR];          /* confidence, permille */
     uint32_t fits[HD_FE_NDIR];          /* accepted fits (wraps) */
     int64_t  sse[HD_FE_NGRID];          /* residual sums of the fit in progress */

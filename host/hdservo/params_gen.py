@@ -211,7 +211,7 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef(178, 'fe_tau_max', 0x28A0, 10, 'i32', 'N.m', 16, 0.001, 16000.0, 100.0, 66, 1048576000, 6553600, 'Online Stribeck identification: bound of the estimated Coulomb and static levels (output)'),
     ParamDef(179, 'fe_fv_max', 0x28A0, 11, 'i32', 'N.m/(turn/s)', 16, 0.0, 30000.0, 3000.0, 0, 1966080000, 196608000, 'Online Stribeck identification: bound of the estimated viscous coefficient'),
     ParamDef(180, 'fe_ramp', 0x28A0, 12, 'u32', 'step', 0, 0.0, 1000000.0, 1000.0, 0, 1000000, 1000, 'Online Stribeck identification: estimator steps of the feed ramp (bumpless switch of fe_feed)'),
-    ParamDef(181, 'fe_n_keep', 0x28A0, 13, 'u32', 'sample', 0, 0.0, 1000000.0, 5.0, 0, 1000000, 5, "Online Stribeck identification: weight of a bin's old mean at the start of each new visit (forgetting across visits)"),
+    ParamDef(181, 'fe_n_keep', 0x28A0, 13, 'u32', 'sample', 0, 0.0, 1000000.0, 5.0, 0, 1000000, 5, "Online Stribeck identification: weight of a bin's old mean at the start of each new visit (forgetting across visits; at least 1024 once the bin is established)"),
     ParamDef(182, 'fe_max_age', 0x28A0, 14, 'u32', 'step', 0, 1.0, 2000000000.0, 30000.0, 1, 2000000000, 30000, 'Online Stribeck identification: a bin not updated for longer than this is left out of the fit (30000: 30 s at 1 kHz)'),
 )
 BY_NAME: dict[str, ParamDef] = {p.name: p for p in PARAMS}

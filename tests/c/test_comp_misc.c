@@ -378,7 +378,7 @@ static void test_backstep_held_closed_loop(void **state)
         in.theta = th;
         in.omega = (int32_t)hd_asr64_rnd(w48, 16u);
         if ((k & 7u) == 0u) {
-            hd_backstep_regressor(&s, &c, in.omega);
+            hd_backstep_regressor(&s, &c, &in);
         }
         u = hd_backstep_step_held(&s, &c, &in, 0);
         if ((k & 7u) == 0u) {
@@ -431,6 +431,44 @@ static void test_backstep_held_closed_loop(void **state)
 }
 
 
+/* A slow cruising reference (0.01 deg/s) with the measured velocity's noise ten times
+ * larger flipping its sign every period: from the second period of the cruise the friction
+ * regressor follows the reference (sign +1, Stribeck shape at the reference velocity), so
+ * the friction estimate keeps carrying the friction; at rest and while the reference
+ * changes it follows the measured velocity. */
+static void test_backstep_regressor_follows_the_moving_reference(void **state)
+{
+    hd_backstep_cfg_t c = { (int32_t)(50.0 * 65536), (int32_t)(50.0 * 65536), (int32_t)(8.0 * 65536),
+                            (int32_t)(4000.0 * 256), DEGS / 1000, DEGS, 1 << 30, NM(60),
+                            { 1 << 23, 1 << 23, 1 << 22, 1 << 23 }, { 0, 0, 0, NM(-20) },
+                            { NM(30), NM(30), NM(500), NM(20) } };
+    const int32_t th0[4] = { NM(7), NM(3), NM(10), 0 };
+    hd_backstep_t s;
+    hd_backstep_in_t in = { 0, 0, DEGS / 100, DEGS / 100, 0 };
+    uint32_t k;
+    (void)state;
+    hd_backstep_init(&s, &c, th0, 0u, true);
+    in.omega = -DEGS / 10;
+    (void)hd_backstep_step(&s, &c, &in, 0);        /* the reference just started: not a cruise */
+    assert_true(s.phi[0] < -HD_Q30_ONE / 2);
+    for (k = 0; k < 200u; k++) {
+        in.omega = ((k & 1u) != 0u) ? DEGS / 10 : -DEGS / 10;
+        (void)hd_backstep_step(&s, &c, &in, 0);
+        assert_true(s.phi[0] > HD_Q30_ONE / 2);
+        assert_true(s.phi[1] > HD_Q30_ONE / 2);
+    }
+    /* a reference that changes (a reversal): the measured velocity */
+    in.omega_d = DEGS / 200;
+    in.omega = -DEGS / 10;
+    (void)hd_backstep_step(&s, &c, &in, 0);
+    assert_true(s.phi[0] < -HD_Q30_ONE / 2);
+    /* at rest (omega_d = 0) the measured velocity sets the direction */
+    in.omega_d = 0;
+    in.omega = -DEGS / 10;
+    (void)hd_backstep_step(&s, &c, &in, 0);
+    assert_true(s.phi[0] < -HD_Q30_ONE / 2);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -446,6 +484,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_te_slope_predicts, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_backstep_closed_loop, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_backstep_held_closed_loop, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_backstep_regressor_follows_the_moving_reference, setUp, tearDown),
     };
     return cmocka_run_group_tests_name("comp_misc", tests, NULL, NULL);
 }

@@ -4,7 +4,8 @@
  * (speeds ascending over a ladder, both directions, torque from an integer
  * Stribeck map plus noise); run() steps the estimator 64 times per leg (a stop,
  * then the leg with velocity and torque jitter) and outputs the estimate after
- * it, so the bins, the grid fit, its excitation checks and the publication are
+ * it, so the bins, the grid fit, its excitation checks, the common-mode scale and
+ * unbalance (established bins from the second cycle of legs) and the publication are
  * all exercised.  cost(): one step (a bin update and a quarter of a fit
  * candidate over 24 valid bins) in each pass: snapshot of half the bins
  * (fric_est_legs), the solution, the residual, and the step that closes a fit.
@@ -69,16 +70,18 @@ static void run_legs(const int32_t *in, int32_t *out, uint32_t count)
                                  hdf_add_sat(t, jt), true);
             }
         }
-        out[10u * k] = e.est[0].fc;
-        out[10u * k + 1u] = e.est[0].fs;
-        out[10u * k + 2u] = e.est[0].vs;
-        out[10u * k + 3u] = e.est[0].fv;
-        out[10u * k + 4u] = e.est[1].fc;
-        out[10u * k + 5u] = e.est[1].fs;
-        out[10u * k + 6u] = e.est[1].vs;
-        out[10u * k + 7u] = e.est[1].fv;
-        out[10u * k + 8u] = (int32_t)(e.conf[0] + 1000u * e.conf[1]);
-        out[10u * k + 9u] = (int32_t)(e.samples + 65536u * (e.fits[0] & 0x7FFFu));
+        out[12u * k] = e.est[0].fc;
+        out[12u * k + 1u] = e.est[0].fs;
+        out[12u * k + 2u] = e.est[0].vs;
+        out[12u * k + 3u] = e.est[0].fv;
+        out[12u * k + 4u] = e.est[1].fc;
+        out[12u * k + 5u] = e.est[1].fs;
+        out[12u * k + 6u] = e.est[1].vs;
+        out[12u * k + 7u] = e.est[1].fv;
+        out[12u * k + 8u] = (int32_t)(e.conf[0] + 1000u * e.conf[1]);
+        out[12u * k + 9u] = (int32_t)(e.samples + 65536u * (e.fits[0] & 0x7FFFu));
+        out[12u * k + 10u] = e.scale;            /* the common mode (from the second cycle of legs) */
+        out[12u * k + 11u] = e.bias;
     }
 }
 
@@ -148,9 +151,9 @@ static void cost_finish(void)
 }
 
 const hd_gv_kernel_t hd_gv_fric_est_kernels[] = {
-    { "fric_est_legs", 3u, 10u, 48u, gen_leg, run_legs, cost_snapshot },
-    { "fric_est_step_solve", 3u, 10u, 1u, gen_leg, run_legs, cost_solve },
-    { "fric_est_step_sse", 3u, 10u, 1u, gen_leg, run_legs, cost_sse },
-    { "fric_est_step_fit_finish", 3u, 10u, 1u, gen_leg, run_legs, cost_finish },
+    { "fric_est_legs", 3u, 12u, 48u, gen_leg, run_legs, cost_snapshot },
+    { "fric_est_step_solve", 3u, 12u, 1u, gen_leg, run_legs, cost_solve },
+    { "fric_est_step_sse", 3u, 12u, 1u, gen_leg, run_legs, cost_sse },
+    { "fric_est_step_fit_finish", 3u, 12u, 1u, gen_leg, run_legs, cost_finish },
 };
 const uint32_t hd_gv_fric_est_count = sizeof hd_gv_fric_est_kernels / sizeof hd_gv_fric_est_kernels[0];

@@ -101,3 +101,63 @@ def test_compare_summary_names_the_best_compensator_and_only_rules_that_hold() -
     bad = sel.summary_lines(_ablation_rows({"stribeck": 1.5, "preisach": 1.2}), {})
     assert not any("friction feed-forward" in ln for ln in bad)
     assert sel.compare_lines({"controllers": {}}) == []
+
+
+def _drift_doc(gains: dict[str, dict[str, float]]) -> dict:
+    """A drift study document (58_drift_monte_carlo.py format) with the median gains given per
+    scenario and controller on two figures (the second 10 % higher)."""
+    figs = ["reversal_peak_arcsec", "positioning_A_arcsec"]
+    return {"scenarios": ["nominal", *gains], "target": {"figures": figs},
+            "gain": {"nominal": {c: {f: 5.0 for f in figs} for c in ("pid", "fixed", "online", "backstep")},
+                     **{s: {c: {figs[0]: g, figs[1]: 1.1 * g} for c, g in row.items()}
+                        for s, row in gains.items()}}}
+
+
+def test_drift_row_comes_from_the_drift_study(tmp_path: Path) -> None:
+    doc = _drift_doc({"friction_warm_cold": {"pid": 1.0, "fixed": 1.2, "online": 3.0, "backstep": 2.5},
+                      "gravity_appears": {"pid": 1.0, "fixed": 4.0, "online": 2.2, "backstep": 0.5}})
+    kept = sel.drift_gains(doc)
+    # the worst drift scenario and figure of each compensator
+    assert kept == pytest.approx({"stribeck": 1.2, "stribeck_online": 2.2, "backstep": 0.5})
+    abl = _ablation_rows({"stribeck": 20.0})
+    row = {n.need: n for n in sel.needs_table(abl, {"stribeck_online": 350}, drift=kept)}["parameter drift"]
+    assert (row.compensator, row.gain, row.cpu_instructions, row.experiments) == ("stribeck_online", 2.2, 350, [])
+    # one drift on which the online FF falls behind: backstepping becomes the row's answer
+    doc["gain"]["gravity_appears"]["online"] = {f: 0.4 for f in doc["target"]["figures"]}
+    doc["gain"]["gravity_appears"]["backstep"] = {f: 2.0 for f in doc["target"]["figures"]}
+    row = {n.need: n for n in sel.needs_table(abl, {}, drift=sel.drift_gains(doc))}["parameter drift"]
+    assert (row.compensator, row.gain) == ("backstep", 2.0)
+    # the compare summary prints the measured row; without a study it says not measured here
+    lines = sel.summary_lines(abl, {}, None, doc)
+    assert any(ln.startswith("need parameter drift (full-closed): backstep, 2x kept under drift") for ln in lines)
+    assert "need parameter drift (full-closed): not measured here" in sel.summary_lines(abl, {}, None, None)
+    # the stored document round trip, and a missing or broken file
+    p = tmp_path / "drift_mc.json"
+    p.write_text(json.dumps(doc))
+    assert sel.drift_gains(sel.load_drift(p)) == sel.drift_gains(doc)
+    assert sel.load_drift(tmp_path / "none.json") is None
+    (tmp_path / "bad.json").write_text("{")
+    assert sel.load_drift(tmp_path / "bad.json") is None and sel.drift_gains(None) == {}
+
+
+def test_cpu_cost_of_the_online_feed_forward_sums_its_kernels(tmp_path: Path) -> None:
+    p = tmp_path / "cm4_cost.json"
+    p.write_text(json.dumps({"kernels": {"comp_stribeck_step": {"instructions": 300},
+                                         "fric_est_legs": {"instructions": 120}}}))
+    c = sel.cpu_costs(p)
+    assert c["stribeck"] == 300 and c["stribeck_online"] == 420 and c["lugre"] is None
+
+
+def test_drift_rule_is_checked_on_the_measured_row_and_can_fail() -> None:
+    abl = _ablation_rows({"stribeck": 20.0, "lugre": 4.0})
+    good = _drift_doc({"gravity_appears": {"pid": 1.0, "fixed": 1.6, "online": 1.8, "backstep": 0.4}})
+    rules = {r.name: r for r in sel.check_rules(None, sel.needs_table(abl, {}, drift=sel.drift_gains(good)))}
+    assert rules["need_drift"].holds, rules["need_drift"].text
+    assert "the online-identified one 1.80x" in rules["need_drift"].text
+    # backstepping ahead of both feed-forwards, or the feed-forwards below 1.5x: the rule fails
+    for row in ({"pid": 1.0, "fixed": 1.6, "online": 1.8, "backstep": 2.5},
+                {"pid": 1.0, "fixed": 1.2, "online": 1.4, "backstep": 0.4}):
+        bad = sel.needs_table(abl, {}, drift=sel.drift_gains(_drift_doc({"gravity_appears": row})))
+        assert not {r.name: r for r in sel.check_rules(None, bad)}["need_drift"].holds
+    # no drift study: the rule is not stated
+    assert "need_drift" not in {r.name for r in sel.check_rules(None, sel.needs_table(abl, {}))}

@@ -37,16 +37,23 @@ ARCSEC_PER_RAD = 180.0 / math.pi * 3600.0
 #: Firmware words per Maxwell-slip element: stiffness k_i, slip limit d_i and the state s_i
 #: (docs/compensators.md, section 3), 4 bytes each.
 MAXWELL_BYTES_PER_ELEMENT = 3 * 4
-#: Kernel names of the M4 cost bench (tests/golden/gv_comp.c) per model.
-COST_KERNEL = {"maxwell": "comp_maxwell_step_n8", "preisach": "preisach_online_L32",
-               "stribeck": "comp_stribeck_step", "lugre": "comp_lugre_step", "te": "comp_te_step_h4",
-               "backstep": "comp_backstep_step"}
+#: Kernel names of the M4 cost bench (tests/golden/gv_comp.c) per model; a tuple is summed.  The
+#: online-identified Stribeck feed-forward is the Stribeck step plus one estimator step with its bin
+#: update (``fric_est_legs``; the estimator runs every ``fe_decim`` periods, so this is its worst period).
+COST_KERNEL: dict[str, str | tuple[str, ...]] = {
+    "maxwell": "comp_maxwell_step_n8", "preisach": "preisach_online_L32", "stribeck": "comp_stribeck_step",
+    "lugre": "comp_lugre_step", "te": "comp_te_step_h4", "backstep": "comp_backstep_step",
+    "stribeck_online": ("comp_stribeck_step", "fric_est_legs")}
 #: Identification experiments each compensator needs (hdservo.ident.pipeline).
 IDENT_EXPERIMENTS = {"stribeck": ["gravity_sine", "friction_sweep"],
                      "lugre": ["gravity_sine", "friction_sweep", "presliding_steps"],
                      "maxwell": ["locked_cycle"], "preisach": ["locked_cycle", "forc", "minor_loops"],
                      "te": ["te_rotation"], "backstep": ["gravity_sine", "friction_sweep", "frf"],
-                     "compliance": ["locked_cycle"]}
+                     "compliance": ["locked_cycle"], "stribeck_online": []}
+#: Controllers of the drift study (tests/results/58_drift_monte_carlo.py) -> compensator of the needs
+#: table: the fixed-model Stribeck feed-forward, the same fed by the drive's online estimator
+#: (identified during normal motion: no experiment), adaptive backstepping.
+DRIFT_COMPENSATOR = {"fixed": "stribeck", "online": "stribeck_online", "backstep": "backstep"}
 #: Needs -> (ablation figure, what it measures).  Every figure is "lower is better" except
 #: those in :data:`HIGHER_IS_BETTER`.
 NEEDS = {"pointing accuracy": "positioning_accuracy_arcsec",
@@ -269,7 +276,57 @@ def cpu_costs(bench_json: Path | None) -> dict[str, int | None]:
     kern: Mapping[str, Any] = {}
     if bench_json is not None and Path(bench_json).is_file():
         kern = json.loads(Path(bench_json).read_text()).get("kernels", {})
-    return {c: (int(kern[k]["instructions"]) if k in kern else None) for c, k in COST_KERNEL.items()}
+    out: dict[str, int | None] = {}
+    for c, k in COST_KERNEL.items():
+        names = (k,) if isinstance(k, str) else k
+        out[c] = int(sum(int(kern[n]["instructions"]) for n in names)) if all(n in kern for n in names) else None
+    return out
+
+
+def drift_gains(doc: Mapping[str, Any] | None) -> dict[str, float]:
+    """Gain each compensator keeps under parameter drift, from a drift study document.
+
+    The document is ``build/results/drift_mc.json`` (tests/results/58_drift_monte_carlo.py).  The
+    gain kept by a compensator is the smallest, over the drift scenarios (every scenario but
+    ``nominal``) and the figures the compensation is for (``target.figures``: where the
+    fixed-model compensation gains at least 1.5x on the nominal axis), of its median gain over
+    the fair PID (median PID figure / median figure, dimensionless).  A compensator with a
+    missing gain on one of them is left out.
+
+    Parameters
+    ----------
+    doc : mapping or None
+        The drift document; None or one without drift scenarios gives an empty mapping.
+
+    Returns
+    -------
+    dict
+        Compensator (:data:`DRIFT_COMPENSATOR` values) -> gain kept.
+    """
+    if not doc:
+        return {}
+    gain = doc.get("gain", {})
+    figs = list(doc.get("target", {}).get("figures", []))
+    drifts = [s for s in doc.get("scenarios", []) if s != "nominal" and s in gain]
+    out: dict[str, float] = {}
+    if not figs or not drifts:
+        return out
+    for ctl, comp in DRIFT_COMPENSATOR.items():
+        vals = [gain[s].get(ctl, {}).get(f) for s in drifts for f in figs]
+        if vals and all(v is not None and math.isfinite(float(v)) for v in vals):
+            out[comp] = float(min(float(v) for v in vals))
+    return out
+
+
+def load_drift(path: Path | None) -> dict[str, Any] | None:
+    """The drift study document at ``path`` (None when absent or unreadable: not measured here)."""
+    if path is None or not Path(path).is_file():
+        return None
+    try:
+        doc = json.loads(Path(path).read_text())
+    except (OSError, ValueError):
+        return None
+    return doc if isinstance(doc, dict) else None
 
 
 @dataclass
@@ -421,6 +478,27 @@ def rule_need_hysteresis_alone(needs: Sequence[NeedRow]) -> Rule:
                 bool(g) and top < 2.0, {"best_gain": g})
 
 
+#: Least gain over the fair PID a compensator keeps in the worst drift scenario for the drift rule.
+DRIFT_MIN_GAIN = 1.5
+
+
+def rule_need_drift(needs: Sequence[NeedRow]) -> Rule:
+    """Parameter drift: a Stribeck feed-forward (fixed-model or online-identified) keeps at least
+    DRIFT_MIN_GAIN over the fair PID in every drift scenario, and more than adaptive backstepping."""
+    row = next((n for n in needs if n.figure == "drift"), None)
+    g = dict(row.gains) if row is not None else {}
+    ff = {c: g[c] for c in ("stribeck", "stribeck_online") if c in g}
+    best = max(ff, key=lambda c: ff[c]) if ff else None
+    bs = g.get("backstep")
+    holds = best is not None and ff[best] >= DRIFT_MIN_GAIN and (bs is None or bs < ff[best])
+    names = {"stribeck": "the fixed-model Stribeck feed-forward", "stribeck_online": "the online-identified one",
+             "backstep": "adaptive backstepping"}
+    txt = ", ".join(f"{names[c]} {v:.2f}x" for c, v in g.items() if c in names)
+    return Rule("need_drift", f"for parameter drift a Stribeck feed-forward is the compensator: on the reversal "
+                f"peak and positioning, in the worst drift scenario, {txt} over the fair PID "
+                f"(at least {DRIFT_MIN_GAIN:g}x, and more than backstepping)", holds, {"gain_kept": g})
+
+
 HYSTERESIS_RULES: list[Callable[[Sequence[HysteresisRow]], Rule]] = [
     rule_preisach_full_load, rule_maxwell_part_load, rule_maxwell_memory]
 NEED_RULES: list[Callable[[Sequence[NeedRow]], Rule]] = [rule_need_friction_ff, rule_need_hysteresis_alone]
@@ -430,6 +508,9 @@ def check_rules(hyst: Sequence[HysteresisRow] | None, needs: Sequence[NeedRow] |
     """Every rule on the tables given (a missing table skips its rules)."""
     out = [r(hyst) for r in HYSTERESIS_RULES] if hyst else []
     out += [r(needs) for r in NEED_RULES] if needs else []
+    # the drift rule is checked where a drift study measured the row
+    if needs and any(n.figure == "drift" and n.gains for n in needs):
+        out.append(rule_need_drift(needs))
     return out
 
 
@@ -469,7 +550,8 @@ def selection_doc(hyst: Sequence[HysteresisRow], needs: Sequence[NeedRow], costs
 
 
 def summary_lines(ablation: Mapping[str, Any], costs: Mapping[str, int | None],
-                  selection: Mapping[str, Any] | None = None) -> list[str]:
+                  selection: Mapping[str, Any] | None = None,
+                  drift: Mapping[str, Any] | None = None) -> list[str]:
     """Lines for the end of ``hdservo compare``: the need rows and the rules that hold.
 
     Parameters
@@ -481,6 +563,9 @@ def summary_lines(ablation: Mapping[str, Any], costs: Mapping[str, int | None],
     selection : mapping, optional
         A stored selection document (``build/results/selection_rules.json``) for the hysteresis
         rules.
+    drift : mapping, optional
+        A drift study document (``build/results/drift_mc.json``) for the parameter-drift row
+        (full-closed); without it that row says not measured here.
     """
     lines = []
     fbs = []
@@ -489,7 +574,7 @@ def summary_lines(ablation: Mapping[str, Any], costs: Mapping[str, int | None],
             fbs.append(r.get("feedback", "full-closed"))
     needs_all: list[NeedRow] = []
     for fb in fbs:
-        needs = needs_table(ablation, costs, fb)
+        needs = needs_table(ablation, costs, fb, drift=drift_gains(drift) if fb == "full-closed" else None)
         needs_all += needs if fb == "full-closed" else []
         for n in needs:
             if n.compensator is None:
@@ -497,7 +582,8 @@ def summary_lines(ablation: Mapping[str, Any], costs: Mapping[str, int | None],
                 continue
             cpu = f"{n.cpu_instructions} M4 instructions/step" if n.cpu_instructions is not None else \
                 "CPU not measured here"
-            lines.append(f"need {n.need} ({fb}): {n.compensator}, {n.gain:.2g}x better than the fair PID; {cpu}; "
+            what = "kept under drift (worst drift scenario)" if n.figure == "drift" else "better than the fair PID"
+            lines.append(f"need {n.need} ({fb}): {n.compensator}, {n.gain:.2g}x {what}; {cpu}; "
                          f"identification: {', '.join(n.experiments) or 'none'}")
     hyst = [HysteresisRow(**r) for r in (selection or {}).get("hysteresis", [])]
     for r in check_rules(hyst or None, needs_all or None):
@@ -525,4 +611,5 @@ def compare_lines(doc: Mapping[str, Any]) -> list[str]:
             selection = json.loads(sp.read_text())
         except (OSError, ValueError):
             selection = None
-    return summary_lines(abl, costs, selection)
+    drift = load_drift(resources.build_output("results", "drift_mc.json"))
+    return summary_lines(abl, costs, selection, drift)

@@ -414,9 +414,9 @@ def online_identification(target: Any, batch: StribeckResult, duration_s: float 
     The drive's estimator is switched on (``fe_enable`` = 1), the profile
     (:func:`normal_profile`) runs for ``duration_s`` of drive time and the
     estimate is read over CAN after every move and compared with ``batch``.
-    The axis runs without its payload unbalance (rig set-up ``gear``): the
-    estimator takes all the steady torque for friction, and an unbalance
-    would shift the two directions by +-its torque.
+    The axis runs without its payload unbalance (rig set-up ``gear``): an
+    unbalance present from the start of the estimation goes into the bins as
+    asymmetric friction (one that appears later goes to the estimator's bias).
 
     Parameters
     ----------

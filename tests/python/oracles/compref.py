@@ -213,8 +213,13 @@ def backstep_run(cfg: Sequence[int], th0: Sequence[int], theta: np.ndarray, thet
         alpha1 = omega_d[i] - c1 / Q16 * e1
         e2 = w - alpha1
         dalpha1 = acc_d[i] - c1 / Q16 * (w - omega_d[i]) / 2.0**8
-        sg = float(sign_smooth(np.array(w), eps_w))
-        phi = np.array([sg, np.exp(-(w / w_s) ** 2) * sg if w_s > 0 else 0.0, w / Q32, 1.0])
+        # the friction regressor: the reference velocity while it cruises (unchanged within
+        # HD_BS_WD_STEADY = 64 since the last period), the measured one otherwise
+        wd_prev = float(omega_d[i - 1]) if i > 0 else 0.0
+        cruise = omega_d[i] != 0 and abs(float(omega_d[i]) - wd_prev) <= 64
+        wr = float(omega_d[i]) if cruise else w
+        sg = float(sign_smooth(np.array(wr), eps_w))
+        phi = np.array([sg, np.exp(-(wr / w_s) ** 2) * sg if w_s > 0 else 0.0, wr / Q32, 1.0])
         u = j / Q16 * (dalpha1 - c2 / Q16 * e2 / 2.0**8) * Q16 / 2.0**24 \
             - ke / 256.0 * e1 / Q32 * Q16 + float(np.dot(th, phi)) / Q32
         ub = float(np.clip(u, -u_max, u_max))

@@ -5,7 +5,8 @@ Per axis (reference, csf17_50): :func:`hdservo.analysis.selection.hysteresis_tab
 amplitudes 0.1-1.0 x rated torque and minor-loop widths 0.05-0.3 (fractions of 2A), Preisach
 tables of 16 levels.  The needs table comes from ``build/demo/ablation.json`` when ``make demo``
 wrote it, the CPU costs from ``build/bench/cm4_cost.json`` when ``make bench`` wrote it
-(otherwise those columns say not measured here).  Every stated rule is checked on the tables.
+(otherwise those columns say not measured here), the parameter-drift row from
+``build/results/drift_mc.json`` when 58_drift_monte_carlo.py wrote it (make results runs it before this script).  Every stated rule is checked on the tables.
 Writes build/results/selection_rules.json (with axis names as arguments: only those,
 to selection_rules.<names>.json).
 """
@@ -43,10 +44,13 @@ def main() -> int:
         for r in rows:
             r.axis = name
         hyst += rows
-    needs = sel.needs_table(abl, costs, "full-closed") if abl["rows"] else []
+    drift = sel.load_drift(ROOT / "build" / "results" / "drift_mc.json")
+    needs = sel.needs_table(abl, costs, "full-closed", drift=sel.drift_gains(drift)) if abl["rows"] else []
     doc = sel.selection_doc(hyst, needs, costs, closed_loop=sel.closed_loop_benefit(abl), meta={
         "amplitudes_frac_rated": list(AMPLITUDES), "minor_widths_frac": list(WIDTHS), "levels": LEVELS,
         "seed": SEED, "ablation": "build/demo/ablation.json" if abl["rows"] else "not measured here",
+        "drift": (f"build/results/drift_mc.json ({drift.get('runs_per_controller')} runs per controller)"
+                  if drift else "not measured here"),
         "cm4_cost": "build/bench/cm4_cost.json" if any(v is not None for v in costs.values())
         else "not measured here", "run_time_s": time.time() - t0})
     out = ROOT / "build" / "results" / ("selection_rules.json" if not ONLY else
