@@ -691,6 +691,13 @@ def choose_best(single: Mapping[str, Mapping[str, Any]], base: Mapping[str, Any]
     return _ordered(current), why
 
 
+def selection_lines(why: Sequence[str]) -> list[str]:
+    """The decisions of the forward selection from :func:`choose_best`'s reasons: the seed, each step's
+    accepted candidate and why it stops (the per-candidate judgements stay in the JSON)."""
+    return [w for w in why if w.startswith("seed:") or w.startswith("no compensator qualifies and none")
+            or (w.startswith("step ") and (": accepted " in w or ": stop" in w))]
+
+
 # ---------------------------------------------------------------------------------- progress
 
 #: the comparison's progress over rows x procedures (:class:`hdservo.progress.Bar`: tqdm on a terminal)

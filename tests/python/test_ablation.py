@@ -146,6 +146,10 @@ def test_forward_selection_takes_what_pays_on_top_of_friction() -> None:
     assert not any({"preisach", "compliance"} <= set(c) or {"preisach", "maxwell"} <= set(c) for c in asked)
     assert not any({"te", "preisach"} <= set(c) and len(c) > 3 for c in asked)
     assert why[-1].startswith("step 2: stop")
+    # what the commands print: the seed, each accepted step and the stop
+    printed = cmp.selection_lines(why)
+    assert [w.split(":")[0] for w in printed] == ["seed", "step 1", "step 2"]
+    assert "accepted te+preisach" in printed[1] and "no group left" in printed[2]
 
 
 def test_forward_selection_leaves_out_what_hurts_on_top_of_friction() -> None:
