@@ -175,6 +175,7 @@ class Controller:
         Feedback configuration (a key of :data:`FEEDBACKS`).
     kind : str
         Role in the ablation: ``baseline`` (the fair PID), ``compensator`` (fair PID + one),
+        ``selection`` (a row the forward selection measures: the current best + one candidate),
         ``best``, ``leave-one-out``, ``strategy`` (motion strategies on top of the best),
         ``extra`` (labelled extra rows such as the PID in position hold) or ``custom``.
     components : list of str
