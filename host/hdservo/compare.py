@@ -610,6 +610,11 @@ def _excluded(parts: Sequence[str]) -> Optional[tuple[str, str]]:
     return next(((a, b) for a, b in cs.EXCLUSIVE if a in k and b in k), None)
 
 
+def _missing(headline: Mapping[str, Any], base: Mapping[str, Any], keys: Sequence[str]) -> list[str]:
+    """Judged figures the fair PID has and the row lacks (one of its procedures failed)."""
+    return [k for k in keys if k in FIGURE_BY_KEY and k not in RULE_SKIP and k in base and k not in headline]
+
+
 def _seed(single: Mapping[str, Mapping[str, Any]], base: Mapping[str, Any], keys: Sequence[str],
           why: list[str]) -> Optional[str]:
     """Stage 2 of the rule: the starting row of the forward selection (None: no compensator beats the PID)."""
@@ -617,6 +622,10 @@ def _seed(single: Mapping[str, Mapping[str, Any]], base: Mapping[str, Any], keys
     ok: dict[str, float] = {}
     factor: dict[str, float] = {}
     for c, h in single.items():
+        gone = _missing(h, base, keys)
+        if gone:                    # a failed procedure: the row's figures are incomplete, it cannot be chosen
+            why.append(f"{c} on the fair PID: not a candidate (a procedure failed: no {', '.join(gone)})")
+            continue
         q, text = qualifies(h, base, keys)
         factor[c] = geo_mean_factor(h, base, keys)
         why.append(f"{c} on the fair PID: {'qualifies' if q else 'does not qualify'} ({text}; "
@@ -679,7 +688,7 @@ def choose_best(single: Mapping[str, Mapping[str, Any]], base: Mapping[str, Any]
     seed = _seed(single, base, keys, why)
     if seed is None:
         return [], why
-    first = {c: geo_mean_factor(h, base, keys) for c, h in single.items()}
+    first = {c: geo_mean_factor(h, base, keys) for c, h in single.items() if not _missing(h, base, keys)}
     current = list(combo_key([seed]))
     cur_h = known[combo_key(current)]
     used = _groups_of(current)
@@ -692,7 +701,7 @@ def choose_best(single: Mapping[str, Mapping[str, Any]], base: Mapping[str, Any]
             if g in used:
                 continue
             for c in members:
-                if c not in single:            # a pair not measured in this configuration
+                if c not in first:             # a pair not measured in this configuration, or a failed row
                     continue
                 new = [p for p in c.split("+") if p not in current]
                 if not new or len(new) < len(c.split("+")) or _groups_of(new) & used:
@@ -719,6 +728,10 @@ def choose_best(single: Mapping[str, Mapping[str, Any]], base: Mapping[str, Any]
             if k not in known:
                 continue
             name = "+".join(_ordered(list(k)))
+            gone = _missing(known[k], base, keys)
+            if gone:
+                why.append(f"step {step}: {name}: not a candidate (a procedure failed: no {', '.join(gone)})")
+                continue
             q, text = step_qualifies(known[k], cur_h, base, keys)
             g = geo_mean_factor(known[k], cur_h, keys)
             why.append(f"step {step}: {name} against {'+'.join(_ordered(current))}: "

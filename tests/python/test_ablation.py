@@ -192,6 +192,29 @@ def test_forward_selection_judges_losses_against_the_fair_pid() -> None:
     assert any("stribeck+maxwell against stribeck: does not qualify (not better" in w for w in why)
 
 
+def test_a_row_with_a_failed_procedure_is_no_candidate() -> None:
+    """A row whose positioning procedure failed (no A, no R in its headline) is neither the seed nor a
+    step's choice, however good its other figures (backstepping faulting in semi-closed became the
+    seed of csf17_50 and hid the TE rows)."""
+    keys = list(SEMI)
+    h, single = _semi_closed_case({"repeatability_arcsec": 0.8})
+    single["backstep"] = {"stabilisation_rms_arcsec": 5.0, "tracking_rms_0p01_arcsec": 1.0}      # positioning failed
+    best, why = cmp.choose_best(single, SEMI, keys, lambda cs: {cmp.combo_key(c): h(c) for c in cs})
+    assert best == ["stribeck", "preisach", "te"]
+    assert "backstep on the fair PID: not a candidate (a procedure failed: no positioning_accuracy_arcsec, " \
+           "repeatability_arcsec)" in why
+    # ... and in a step: the candidate row that failed is skipped, the next one taken
+    def measure(cs: Any) -> dict[tuple[str, ...], dict[str, float]]:
+        out = {cmp.combo_key(c): h(c) for c in cs}
+        k = cmp.combo_key(["stribeck", "te", "preisach"])
+        if k in out:
+            out[k] = {x: v for x, v in out[k].items() if x != "positioning_accuracy_arcsec"}
+        return out
+    best, why = cmp.choose_best(single, SEMI, keys, measure)
+    assert best[:2] == ["stribeck", "te"] and "preisach" not in best
+    assert any("stribeck+preisach+te: not a candidate (a procedure failed" in w for w in why)
+
+
 def test_forward_selection_row_cap_and_reuse() -> None:
     """At most ``max_rows`` rows are measured (the most promising stage-1 rows first); rows measured in an
     earlier step are reused; a step without a candidate measured stops."""
