@@ -175,6 +175,7 @@ class Controller:
         Feedback configuration (a key of :data:`FEEDBACKS`).
     kind : str
         Role in the ablation: ``baseline`` (the fair PID), ``compensator`` (fair PID + one),
+        ``selection`` (a row the forward selection measures: the current best + one candidate),
         ``best``, ``leave-one-out``, ``strategy`` (motion strategies on top of the best),
         ``extra`` (labelled extra rows such as the PID in position hold) or ``custom``.
     components : list of str
@@ -518,67 +519,244 @@ def part_pays(best: Mapping[str, Any], without: Mapping[str, Any], keys: Sequenc
     return True, "buys " + ", ".join(f"{k} (x{w[k]:.3g})" for k in gains) + cost
 
 
-def choose_best(single: Mapping[str, Mapping[str, Any]], base: Mapping[str, Any],
-                keys: Sequence[str]) -> tuple[list[str], list[str]]:
-    """The best combination from measurements: the documented rule (docs/compensators.md).
+#: Rows the forward selection (:func:`choose_best`) measures at most per feedback configuration beyond
+#: stage 1: it bounds the run time (a step measures the current best plus each remaining candidate).
+SELECTION_MAX_ROWS = 8
+#: The rule of the best combination, as stored in ``ablation.json`` (``feedbacks[fb].rule``).
+RULE_TEXT = ("greedy forward selection per feedback configuration: (1) measure the fair PID and the fair PID + "
+             "each compensator (in semi-closed and dual-loop also TE + each motor-side predictor); (2) start "
+             "from the friction compensator (stribeck, lugre, backstep) that qualifies against the fair PID "
+             "with the smallest geometric-mean factor (else the qualifying compensator of any group with the "
+             "smallest factor, else the one with the smallest factor below 1, else none); (3) measure the "
+             "current best + each candidate of the groups not yet used (lost motion / hysteresis, transmission "
+             "error with its measured pairs, compliance; the Preisach twist with neither compliance nor "
+             "Maxwell-slip) and accept the one with the smallest geometric-mean factor against the current "
+             f"best among those that improve at least one figure by >= {RULE_GAIN:.0%} against the current "
+             f"best, are better than it on balance (factor < 1) and worsen no figure by more than {RULE_LOSS:.0%} "
+             "against the fair PID; repeat until none does, the groups are used up or "
+             f"{SELECTION_MAX_ROWS} rows are measured. A row qualifies against the fair PID when it improves "
+             f"at least one figure by >= {RULE_GAIN:.0%} and worsens none by more than {RULE_LOSS:.0%}; "
+             "the settling time is reported, not judged; the factor is the geometric mean of the row's value "
+             "ratios to the row it is judged against (< 1 better)")
+
+
+def step_qualifies(headline: Mapping[str, Any], current: Mapping[str, Any], base: Mapping[str, Any],
+                   keys: Sequence[str]) -> tuple[bool, str]:
+    """The forward selection's judgement of the current best + a candidate (:func:`choose_best`).
+
+    Parameters
+    ----------
+    headline : mapping
+        Headline of the current best + the candidate.
+    current : mapping
+        Headline of the current best.
+    base : mapping
+        Headline of the fair PID (same feedback configuration).
+    keys : sequence of str
+        The figures judged (:data:`RULE_SKIP` figures are not).
+
+    Returns
+    -------
+    (bool, str)
+        True when the row improves at least one figure by :data:`RULE_GAIN` against the current
+        best, is better than it on balance (geometric-mean factor < 1), and worsens no figure by
+        more than :data:`RULE_LOSS` against the fair PID; and why (one line).  The losses are
+        judged against the fair PID because the current best may already hold a figure far
+        below the PID's (in semi-closed the friction feed-forward makes the stops repeat to a
+        fraction of an arcsecond while they miss the target by tens): a candidate that gives
+        part of such a gain back for a larger gain elsewhere still leaves the combination
+        better than the PID on every figure and better than the current best on balance.
+    """
+    wc = {k: worse_factor(FIGURE_BY_KEY[k], headline.get(k), current.get(k)) for k in keys
+          if k in FIGURE_BY_KEY and k not in RULE_SKIP and k in headline and k in current}
+    wb = {k: worse_factor(FIGURE_BY_KEY[k], headline.get(k), base.get(k)) for k in keys
+          if k in FIGURE_BY_KEY and k not in RULE_SKIP and k in headline and k in base}
+    gains = [k for k, v in wc.items() if v is not None and v <= 1.0 - RULE_GAIN]
+    losses = [k for k, v in wb.items() if v is not None and v > 1.0 + RULE_LOSS]
+    g = geo_mean_factor(headline, current, keys)
+    if not gains:
+        return False, "improves no figure by 20 % against the current best"
+    if losses:
+        return False, ("worsens " + ", ".join(f"{k} (x{wb[k]:.3g} of the fair PID)" for k in losses)
+                       + " by more than 10 %")
+    if not g < 1.0:
+        return False, f"not better than the current best on balance (geometric-mean factor {g:.3g})"
+    return True, "improves " + ", ".join(f"{k} (x{wc[k]:.3g})" for k in gains) + " against the current best"
+
+
+def combo_key(parts: Sequence[str]) -> tuple[str, ...]:
+    """Order-free key of a combination (``te+preisach`` and ``preisach+te`` are one row)."""
+    out: list[str] = []
+    for c in parts:
+        out += [x for x in c.split("+") if x not in out]
+    return tuple(sorted(out))
+
+
+def _ordered(parts: Sequence[str]) -> list[str]:
+    """Parts in the order of :data:`SINGLES`, others after them."""
+    flat = list(combo_key(parts))
+    return [c for c in SINGLES if c in flat] + [c for c in flat if c not in SINGLES]
+
+
+def _groups_of(parts: Sequence[str]) -> set[str]:
+    """The :data:`hdservo.compsetup.GROUPS` a set of compensators belongs to (one group per single part)."""
+    from . import compsetup as cs
+    return {g for g, members in cs.GROUPS.items() for p in combo_key(parts) if p in members}
+
+
+def _excluded(parts: Sequence[str]) -> Optional[tuple[str, str]]:
+    """The first :data:`hdservo.compsetup.EXCLUSIVE` pair that ``parts`` hold both of (None: none)."""
+    from . import compsetup as cs
+    k = combo_key(parts)
+    return next(((a, b) for a, b in cs.EXCLUSIVE if a in k and b in k), None)
+
+
+def _missing(headline: Mapping[str, Any], base: Mapping[str, Any], keys: Sequence[str]) -> list[str]:
+    """Judged figures the fair PID has and the row lacks (one of its procedures failed)."""
+    return [k for k in keys if k in FIGURE_BY_KEY and k not in RULE_SKIP and k in base and k not in headline]
+
+
+def _seed(single: Mapping[str, Mapping[str, Any]], base: Mapping[str, Any], keys: Sequence[str],
+          why: list[str]) -> Optional[str]:
+    """Stage 2 of the rule: the starting row of the forward selection (None: no compensator beats the PID)."""
+    from . import compsetup as cs
+    ok: dict[str, float] = {}
+    factor: dict[str, float] = {}
+    for c, h in single.items():
+        gone = _missing(h, base, keys)
+        if gone:                    # a failed procedure: the row's figures are incomplete, it cannot be chosen
+            why.append(f"{c} on the fair PID: not a candidate (a procedure failed: no {', '.join(gone)})")
+            continue
+        q, text = qualifies(h, base, keys)
+        factor[c] = geo_mean_factor(h, base, keys)
+        why.append(f"{c} on the fair PID: {'qualifies' if q else 'does not qualify'} ({text}; "
+                   f"geometric-mean factor {factor[c]:.3g})")
+        if q and _excluded([c]) is None:
+            ok[c] = factor[c]
+    friction = [c for c in ok if c in cs.GROUPS.get("friction", ())]
+    if friction:
+        top = min(friction, key=lambda c: ok[c])
+        why.append(f"seed: {top}, the qualifying friction compensator with the smallest factor ({ok[top]:.3g})")
+        return top
+    if ok:
+        top = min(ok, key=lambda c: ok[c])
+        why.append(f"seed: {top}; no friction compensator qualifies, {top} is the qualifying row with the "
+                   f"smallest factor ({ok[top]:.3g})")
+        return top
+    if factor:
+        top = min(factor, key=lambda c: factor[c])
+        if factor[top] < 1.0:
+            why.append(f"seed: {top}; no compensator qualifies: the best on balance (factor {factor[top]:.3g}) "
+                       "is taken")
+            return top
+    why.append("no compensator qualifies and none beats the fair PID on balance: the best combination is the PID")
+    return None
+
+
+def choose_best(single: Mapping[str, Mapping[str, Any]], base: Mapping[str, Any], keys: Sequence[str],
+                measure: Optional[Callable[[Sequence[Sequence[str]]], Mapping[tuple[str, ...], Mapping[str, Any]]]]
+                = None, max_rows: int = SELECTION_MAX_ROWS) -> tuple[list[str], list[str]]:
+    """The best combination by greedy forward selection: the documented rule (docs/compensators.md, :data:`RULE_TEXT`).
 
     Parameters
     ----------
     single : mapping
-        Compensator name -> headline of the fair PID + that compensator.
+        Stage 1: compensator (or measured pair such as ``te+preisach``) -> headline of the fair
+        PID + it, in one feedback configuration.
     base : mapping
         Headline of the fair PID (same feedback configuration).
     keys : sequence of str
         The figures judged.
+    measure : callable, optional
+        Measures combinations on the fair footing: a list of part lists -> ``{combo_key(parts):
+        headline}``.  Called once per step with the current best + each candidate not measured
+        yet.  None: only the rows of ``single`` are known (a combination not measured there is
+        skipped).
+    max_rows : int
+        Rows ``measure`` is asked for at most over all steps; the candidates with the smallest
+        stage-1 factor are measured first.
 
     Returns
     -------
     (list of str, list of str)
-        The chosen compensators (at most one per :data:`hdservo.compsetup.GROUPS` group: among
-        those that qualify, :func:`qualifies`, the smallest geometric-mean factor; of a pair in
-        :data:`hdservo.compsetup.EXCLUSIVE` only the one with the smaller factor; a measured
-        pair such as ``te+preisach`` stands for its parts) and one reason
-        line per compensator.  When none qualifies, the single compensator with the smallest
-        geometric-mean factor below 1 (none when no compensator beats the PID on balance).
+        The chosen compensators (in :data:`SINGLES` order) and the reason lines of every step:
+        each stage-1 row against the fair PID, the seed, each candidate against the current best
+        and why the selection stops.
     """
     from . import compsetup as cs
     why: list[str] = []
-    ok: dict[str, float] = {}
-    for c, h in single.items():
-        q, text = qualifies(h, base, keys)
-        g = geo_mean_factor(h, base, keys)
-        why.append(f"{c}: {'qualifies' if q else 'does not qualify'} ({text}; geometric-mean factor {g:.3g})")
-        if q:
-            ok[c] = g
-    chosen: list[str] = []
-    for _, members in cs.GROUPS.items():
-        cand = [c for c in members if c in ok]
-        if cand:
-            chosen.append(min(cand, key=lambda c: ok[c]))
-    for a, b in cs.EXCLUSIVE:
-        ca = next((c for c in chosen if a in c.split("+")), None)
-        cb = next((c for c in chosen if b in c.split("+")), None)
-        if ca is not None and cb is not None and ca != cb:
-            drop, keep, other = (ca, cb, a) if ok[ca] > ok[cb] else (cb, ca, b)
-            i = chosen.index(drop)
-            chosen.remove(drop)
-            why.append(f"{drop}: left out next to {keep} (they predict the same twist)")
-            # the next candidate of the dropped one's group without the conflicting part
-            grp = next((m for m in cs.GROUPS.values() if drop in m), ())
-            alt = [c for c in grp if c in ok and other not in c.split("+")]
-            if alt:
-                chosen.insert(i, min(alt, key=lambda c: ok[c]))
-    if not chosen and single:
-        g = {c: geo_mean_factor(h, base, keys) for c, h in single.items()}
-        top = min(g, key=lambda c: g[c])
-        if g[top] < 1.0:
-            chosen = [top]
-            why.append(f"no compensator qualifies: the best on balance, {top}, is taken")
-    parts: list[str] = []
-    for c in chosen:                         # a measured pair (cs.MOTOR_SIDE_PAIRS) stands for its parts
-        parts += [x for x in c.split("+") if x not in parts]
-    order = [c for c in SINGLES if c in parts] + [c for c in parts if c not in SINGLES]
-    return order, why
+    known: dict[tuple[str, ...], Mapping[str, Any]] = {combo_key([c]): h for c, h in single.items()}
+    seed = _seed(single, base, keys, why)
+    if seed is None:
+        return [], why
+    first = {c: geo_mean_factor(h, base, keys) for c, h in single.items() if not _missing(h, base, keys)}
+    current = list(combo_key([seed]))
+    cur_h = known[combo_key(current)]
+    used = _groups_of(current)
+    budget = max(0, int(max_rows))
+    step = 0
+    while True:
+        step += 1
+        cand: dict[tuple[str, ...], str] = {}
+        for g, members in cs.GROUPS.items():
+            if g in used:
+                continue
+            for c in members:
+                if c not in first:             # a pair not measured in this configuration, or a failed row
+                    continue
+                new = [p for p in c.split("+") if p not in current]
+                if not new or len(new) < len(c.split("+")) or _groups_of(new) & used:
+                    continue                   # overlaps the current best or a group it used
+                if _excluded(current + new) is not None:
+                    continue
+                k = combo_key(current + new)
+                if k not in cand or first[c] < first[cand[k]]:
+                    cand[k] = c
+        if not cand:
+            why.append(f"step {step}: stop, no group left to add to {'+'.join(_ordered(current))}")
+            break
+        order = sorted(cand, key=lambda k: (first[cand[k]], cand[k]))
+        todo = [k for k in order if k not in known]
+        take = todo[:budget]
+        for k in todo[budget:]:
+            why.append(f"step {step}: {'+'.join(_ordered(list(k)))} not measured (at most {max_rows} rows)")
+        if take and measure is not None:
+            got = measure([_ordered(list(k)) for k in take])
+            budget -= len(take)
+            known.update({combo_key(list(k)): h for k, h in got.items()})
+        judged: dict[tuple[str, ...], float] = {}
+        for k in order:
+            if k not in known:
+                continue
+            name = "+".join(_ordered(list(k)))
+            gone = _missing(known[k], base, keys)
+            if gone:
+                why.append(f"step {step}: {name}: not a candidate (a procedure failed: no {', '.join(gone)})")
+                continue
+            q, text = step_qualifies(known[k], cur_h, base, keys)
+            g = geo_mean_factor(known[k], cur_h, keys)
+            why.append(f"step {step}: {name} against {'+'.join(_ordered(current))}: "
+                       f"{'qualifies' if q else 'does not qualify'} ({text}; geometric-mean factor {g:.3g})")
+            if q:
+                judged[k] = g
+        if not judged:
+            why.append(f"step {step}: stop, no candidate qualifies against {'+'.join(_ordered(current))}")
+            break
+        top = min(judged, key=lambda k: (judged[k], len(k), "+".join(k)))     # a tie: the fewer parts
+        added = [p for p in top if p not in current]
+        current = list(top)
+        cur_h = known[top]
+        used |= _groups_of(added)
+        why.append(f"step {step}: accepted {cand[top]} (factor {judged[top]:.3g} against the previous best): "
+                   f"best = {'+'.join(_ordered(current))}")
+    return _ordered(current), why
+
+
+def selection_lines(why: Sequence[str]) -> list[str]:
+    """The decisions of the forward selection from :func:`choose_best`'s reasons: the seed, each step's
+    accepted candidate and why it stops (the per-candidate judgements stay in the JSON)."""
+    return [w for w in why if w.startswith("seed:") or w.startswith("no compensator qualifies and none")
+            or (w.startswith("step ") and (": accepted " in w or ": stop" in w))]
 
 
 # ---------------------------------------------------------------------------------- progress
@@ -871,7 +1049,9 @@ def run_ablation(out_dir: Path, feedbacks: Sequence[str], procedures: Sequence[s
     :data:`SINGLES`, in semi-closed and dual-loop also the pairs of
     :data:`hdservo.compsetup.MOTOR_SIDE_PAIRS` (and, with ``extras``, the PID design in position
     hold, labelled).  The best
-    combination is then chosen from these measurements by :func:`choose_best`.  Stage 2: the best
+    combination is then chosen by :func:`choose_best`, a greedy forward selection that starts
+    from these rows and measures, step by step, the current best plus each remaining candidate
+    (rows of kind ``selection``, at most :data:`SELECTION_MAX_ROWS` per configuration).  Stage 2: the best
     combination, the best minus each of its parts (when it has two or more), and the motion
     strategies on top of it (``best+hold``, ``best+hold+approach``), each its own row.  A row whose
     configuration equals one already measured is not run again (``measured_as`` names it).
@@ -915,15 +1095,16 @@ def run_ablation(out_dir: Path, feedbacks: Sequence[str], procedures: Sequence[s
         single = {c: doc_ctl[row_name("+".join([c]), fb)]["headline"] for c in SINGLES}
         single.update({"+".join(p): doc_ctl[row_name("+".join(p), fb)]["headline"] for p in cs.MOTOR_SIDE_PAIRS
                        if row_name("+".join(p), fb) in doc_ctl})
-        parts, why = choose_best(single, base, keys)
+        def measure(combos: Sequence[Sequence[str]], fb: str = fb) -> dict[tuple[str, ...], Mapping[str, Any]]:
+            return _measure_combos(combos, fb, ax, doc_ctl, out_dir, procedures, proc_extra, kw, bar, echo, pdf, jb)
+        parts, why = choose_best(single, base, keys, measure)
         rows = [fair_row(parts, fb, "best", name="best", axis=ax)]
         if len(parts) >= 2:
             rows += [fair_row([x for x in parts if x != p], fb, "leave-one-out", name=f"best-{p}", axis=ax)
                      for p in parts]
         rows += [fair_row([*parts, "hold"], fb, "strategy", name="best+hold", axis=ax),
                  fair_row([*parts, "hold", "approach"], fb, "strategy", name="best+hold+approach", axis=ax)]
-        known = {tuple(sorted(d.get("components", []))): n for n, d in doc_ctl.items()
-                 if d.get("feedback") == fb and d.get("kind") in ("baseline", "compensator")}
+        known = _known_rows(doc_ctl, fb)
         for r in rows:
             same = known.get(tuple(sorted(r.components)))
             if same is not None:
@@ -939,7 +1120,7 @@ def run_ablation(out_dir: Path, feedbacks: Sequence[str], procedures: Sequence[s
     for n, (r, same) in alias.items():
         doc_ctl[n] = {**doc_ctl[same], **r.to_json(), "plots": [], "measured_as": same,
                       "description": r.description + f" (the same configuration as row {same}: measured once)"}
-    rank = {"baseline": 0, "compensator": 1, "best": 2, "leave-one-out": 3, "strategy": 4}
+    rank = {"baseline": 0, "compensator": 1, "selection": 2, "best": 3, "leave-one-out": 4, "strategy": 5}
     pos = {n: i for i, n in enumerate(doc_ctl)}
     fbi = {fb: i for i, fb in enumerate(feedbacks)}
     order = sorted(doc_ctl, key=lambda n: (doc_ctl[n].get("kind") == "extra",
@@ -961,15 +1142,39 @@ def run_ablation(out_dir: Path, feedbacks: Sequence[str], procedures: Sequence[s
                 info[fb]["rule"].append(f"leave-one-out, {p}: {text}")
             info[fb]["leave_one_out"] = loo
     doc = _finish(out_dir, doc_ctl, procedures, proc_extra, bus, axis, seed, model, plan, t0,
-                  {"baseline": "pid", "feedbacks": info,
-                   "rule": (f"best combination: the compensators that, on the fair PID in the same feedback "
-                            f"configuration, improve at least one figure by >= {RULE_GAIN:.0%} and worsen none by "
-                            f"more than {RULE_LOSS:.0%} (settling time reported, not judged); at most one per group (friction, lost motion / "
-                            f"hysteresis, transmission error with the measured TE pairs of semi-closed and dual-loop, "
-                            f"compliance), the smallest geometric-mean factor wins; the Preisach twist is combined "
-                            f"with neither compliance nor Maxwell-slip")})
+                  {"baseline": "pid", "feedbacks": info, "rule": RULE_TEXT})
     _write_json_atomic(out_dir / "ablation.json", ablation_doc(doc))
     return doc
+
+
+def _known_rows(doc_ctl: Mapping[str, Mapping[str, Any]], fb: str) -> dict[tuple[str, ...], str]:
+    """Rows measured on the fair footing in ``fb``, by their compensators (:func:`combo_key`) -> row name."""
+    return {combo_key(d.get("components", [])): n for n, d in doc_ctl.items()
+            if d.get("feedback") == fb and d.get("kind") in ("baseline", "compensator", "selection")
+            and "measured_as" not in d}
+
+
+def _measure_combos(combos: Sequence[Sequence[str]], fb: str, ax: str, doc_ctl: dict[str, Any], out_dir: Path,
+                    procedures: Sequence[str], proc_extra: Sequence[str], kw: Mapping[str, Any], bar: "StageBar",
+                    echo: Callable[[str], None], pdf: bool, jobs: int) -> dict[tuple[str, ...], Mapping[str, Any]]:
+    """The forward selection's rows of one step: each combination on the fair footing, measured once.
+
+    A combination already in ``doc_ctl`` (same feedback configuration and compensators) is not
+    run again.  New rows (kind ``selection``) are added to ``doc_ctl``.
+
+    Returns
+    -------
+    dict
+        :func:`combo_key` of each combination -> its headline.
+    """
+    known = _known_rows(doc_ctl, fb)
+    rows = [fair_row(list(c), fb, "selection", axis=ax) for c in combos if combo_key(c) not in known]
+    if rows:
+        bar.total = bar.total + len(rows) * len(procedures)
+        echo(f"forward selection, {fb}: measuring " + ", ".join(r.name for r in rows))
+        doc_ctl.update(_run_rows(out_dir, rows, procedures, proc_extra, kw, bar, echo, pdf, jobs))
+    known = _known_rows(doc_ctl, fb)
+    return {combo_key(c): doc_ctl[known[combo_key(c)]]["headline"] for c in combos if combo_key(c) in known}
 
 
 def _finish(out_dir: Path, doc_ctl: dict[str, Any], procedures: Sequence[str], proc_extra: Sequence[str],
@@ -1017,7 +1222,10 @@ def _finish(out_dir: Path, doc_ctl: dict[str, Any], procedures: Sequence[str], p
 def ablation_doc(doc: Mapping[str, Any]) -> dict[str, Any]:
     """``{"baseline": "pid", "rows": [{"name", "feedback", "kind", "components", "figures", "ratio_to_baseline"}]}``.
 
-    Also ``best`` (the chosen parts per feedback configuration) and ``leave_one_out`` (per
+    Also ``best`` (the chosen parts per feedback configuration), ``feedbacks`` (per configuration:
+    ``best``, ``rule`` -- the text of the rule, :data:`RULE_TEXT` --, ``steps`` -- the reason of
+    every step of the forward selection and of each leave-one-out judgement -- and
+    ``leave_one_out``) and ``leave_one_out`` (per
     configuration with a combination of two or more parts: per part ``{"pays", "text"}``,
     :func:`part_pays`).
 
@@ -1035,6 +1243,9 @@ def ablation_doc(doc: Mapping[str, Any]) -> dict[str, Any]:
     ab = doc.get("ablation", {})
     return {"baseline": "pid", "rule": ab.get("rule"),
             "best": {fb: v.get("best") for fb, v in ab.get("feedbacks", {}).items()},
+            "feedbacks": {fb: {"best": v.get("best"), "rule": ab.get("rule"), "steps": list(v.get("rule", [])),
+                               "leave_one_out": v.get("leave_one_out", {})}
+                          for fb, v in ab.get("feedbacks", {}).items()},
             "leave_one_out": {fb: v["leave_one_out"] for fb, v in ab.get("feedbacks", {}).items()
                               if "leave_one_out" in v}, "rows": rows}
 

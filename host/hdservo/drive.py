@@ -324,11 +324,34 @@ class Drive:
         self.network = network
         self.node = canopen.BaseNode402(node_id, str(EDS_PATH))
         self.node.sdo.MAX_RETRIES = SDO_ATTEMPTS
+        #: (index, sub) of the domain transfer running (:meth:`_domain_transfer`), None between transfers
+        self._transfer: Optional[tuple[int, int]] = None
+        self._sdo_on_response = self.node.sdo.on_response
+        self.node.sdo.on_response = self._on_sdo_response    # before add_node subscribes it
         network.add_node(self.node)
         self.node_id = node_id
         #: the PDOs as the EDS maps them (decoding TPDOs, encoding set-point RPDOs)
         self.pdo = PdoDecoder(node_id, self.node.object_dictionary)
         self._own_network = False
+
+    def _on_sdo_response(self, can_id: int, data: bytes, timestamp: float) -> None:
+        """The SDO client's receive callback, without the stale aborts of a domain transfer.
+
+        When the drive discards a block transfer (its SDO time-out, drive time: ~50 ms wall with
+        fast pacing, which a loaded host can miss between two segments), the rest of the
+        sub-block reaches an idle SDO server.  It reads each segment as a new request (the
+        sequence number as a command specifier, table bytes as index and sub-index) and aborts
+        each one: 0x05040001, and 0x06020000 "Object does not exist" for an "index" it does
+        not have.  Those aborts can arrive while the repeat of the transfer runs and end it as
+        a refusal.  An abort answers the transfer it names (CiA 301: the abort frame carries
+        the multiplexer), so during a domain transfer an abort of another object is dropped.
+        """
+        t = self._transfer
+        if t is not None and len(data) >= 4 and data[0] == 0x80:
+            index, sub = struct.unpack_from("<HB", bytes(data), 1)
+            if (index, sub) != t:
+                return
+        self._sdo_on_response(can_id, data, timestamp)
 
     # ---- connection ----------------------------------------------------------
     @classmethod
@@ -659,7 +682,7 @@ class Drive:
         if back != blob:
             raise DriveError(f"table 0x5100:{sub}: read-back differs from what was written")
 
-    def _domain_transfer(self, what: str, fn: Callable[[], Any]) -> Any:
+    def _domain_transfer(self, what: str, fn: Callable[[], Any], index: int, sub: int) -> Any:
         """Run one block transfer ``fn``, repeated whole when it broke at the protocol level.
 
         A response time-out or a protocol abort (:data:`PROTOCOL_ABORTS`) repeats the transfer,
@@ -668,32 +691,37 @@ class Drive:
         check out, so a repeat cannot leave a mix.  With fast pacing that time-out is drive time
         (~50 ms wall), which a loaded host can miss between two blocks (a stale frame then ends
         the transfer with 0x05040001: seen in `make demo` at load average 13).  A refusal of the
-        content (any other abort) is final.
+        content (any other abort) is final.  While it runs, an abort frame that names another
+        object than ``index``:``sub`` is not this transfer's answer (:meth:`_on_sdo_response`).
         """
-        for attempt in range(DOMAIN_ATTEMPTS):
-            try:
-                return fn()
-            except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
-                protocol = not isinstance(e, canopen.SdoAbortedError) or e.code in PROTOCOL_ABORTS
-                if protocol and attempt + 1 < DOMAIN_ATTEMPTS:
-                    time.sleep(DRIVE_SDO_TIMEOUT_S + self.node.sdo.RESPONSE_TIMEOUT)
-                    continue
-                raise (DriveProtocolError if protocol else DriveError)(f"{what}: {e}") from None
-        raise AssertionError("unreachable")
+        self._transfer = (index, sub)
+        try:
+            for attempt in range(DOMAIN_ATTEMPTS):
+                try:
+                    return fn()
+                except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as e:
+                    protocol = not isinstance(e, canopen.SdoAbortedError) or e.code in PROTOCOL_ABORTS
+                    if protocol and attempt + 1 < DOMAIN_ATTEMPTS:
+                        time.sleep(DRIVE_SDO_TIMEOUT_S + self.node.sdo.RESPONSE_TIMEOUT)
+                        continue
+                    raise (DriveProtocolError if protocol else DriveError)(f"{what}: {e}") from None
+            raise AssertionError("unreachable")
+        finally:
+            self._transfer = None
 
     def write_domain(self, index: int, sub: int, blob: bytes) -> None:
         """Block download of a domain (CRC-checked; see :meth:`_domain_transfer` for repeats)."""
         def go() -> None:
             with self._var(index, sub).open("wb", size=len(blob), block_transfer=True) as f:
                 f.write(blob)
-        self._domain_transfer(f"download 0x{index:04X}:{sub}", go)
+        self._domain_transfer(f"download 0x{index:04X}:{sub}", go, index, sub)
 
     def read_domain(self, index: int, sub: int) -> bytes:
         """Block upload of a domain (CRC-checked; see :meth:`_domain_transfer` for repeats)."""
         def go() -> bytes:
             with self._var(index, sub).open("rb", block_transfer=True) as f:
                 return bytes(f.read())
-        out: bytes = self._domain_transfer(f"upload 0x{index:04X}:{sub}", go)
+        out: bytes = self._domain_transfer(f"upload 0x{index:04X}:{sub}", go, index, sub)
         return out
 
     def download_group(self, sub: int, raw: dict[str, int], version: int = 1) -> None:

@@ -95,7 +95,9 @@ def merge_ablations(docs: Sequence[Mapping[str, Any]], seeds: Sequence[int]) -> 
     Returns
     -------
     dict
-        ``{"baseline", "rule", "best": {feedback: [components per seed]}, "seeds", "statistic",
+        ``{"baseline", "rule", "best": {feedback: [components per seed]}, "feedbacks": {feedback:
+        {"rule", "best", "steps", "leave_one_out"}}`` (the rule's text, and per seed the chosen parts,
+        the reasons of the forward selection and the leave-one-out judgements), ``"seeds", "statistic",
         "rows": [{"name", "feedback", "kind", "components", "baseline_row", "figures",
         "ratio_to_baseline", "per_seed": {"figures": {k: [..]}, "ratio_to_baseline": {k: [..]},
         "components": [..]}}]}``; ``ratio_to_baseline`` is the row's median over the baseline
@@ -129,8 +131,15 @@ def merge_ablations(docs: Sequence[Mapping[str, Any]], seeds: Sequence[int]) -> 
     for d in docs:
         for fb, parts in (d.get("best") or {}).items():
             best.setdefault(fb, []).append(parts)
+    fbs: dict[str, dict[str, Any]] = {}
+    for d in docs:
+        for fb, v in (d.get("feedbacks") or {}).items():
+            e = fbs.setdefault(fb, {"rule": v.get("rule"), "best": [], "steps": [], "leave_one_out": []})
+            e["best"].append(v.get("best"))
+            e["steps"].append(list(v.get("steps", [])))
+            e["leave_one_out"].append(v.get("leave_one_out", {}))
     return {"baseline": docs[0].get("baseline", "pid"), "rule": docs[0].get("rule"), "best": best,
-            "seeds": list(seeds), "statistic": "median", "rows": rows}
+            "feedbacks": fbs, "seeds": list(seeds), "statistic": "median", "rows": rows}
 
 
 __all__ = ["median", "merge_ablations", "merge_summaries", "parse_seeds"]

@@ -213,14 +213,14 @@ def test_a_download_broken_off_on_a_loaded_host_is_one_failed_attempt(tmp_path: 
     orig = drive_mod.Drive._domain_transfer
     broken = {"n": 0}
 
-    def flaky(self: Any, what: str, fn: Any) -> Any:
+    def flaky(self: Any, what: str, fn: Any, index: int, sub: int) -> Any:
         if what.startswith("upload 0x5100") and broken["n"] == 0:
             broken["n"] += 1
 
             def stale() -> Any:
                 raise canopen.SdoAbortedError(0x05040001)
-            return orig(self, what, stale)
-        return orig(self, what, fn)
+            return orig(self, what, stale, index, sub)
+        return orig(self, what, fn, index, sub)
     monkeypatch.setattr(drive_mod, "DOMAIN_ATTEMPTS", 1)       # every repeat of the transfer broke
     monkeypatch.setattr(drive_mod.Drive, "_domain_transfer", flaky)
     ctl = cmp.fair_row(["lugre"], "full-closed", "compensator")

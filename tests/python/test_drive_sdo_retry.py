@@ -1,6 +1,7 @@
 """The CAN client repeats an expedited SDO exchange that got a stale (late, duplicated) response."""
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import canopen
@@ -159,3 +160,60 @@ def test_domain_transfer_gives_up_or_takes_an_abort_as_final(fails: int, err: Ex
     with pytest.raises(dv.DriveError, match=rf"download 0x5100:1: .*{match}"):
         d.write_domain(0x5100, 1, b"table")
     assert v.opens == fails and v.stored == b""
+
+
+@pytest.mark.skipif(not (Path(__file__).resolve().parents[2] / "build" / "bin" / "hdservo-sim").exists(),
+                    reason="hdservo-sim not built (make sim)")
+def test_stale_aborts_of_a_discarded_block_transfer_do_not_end_its_repeat() -> None:
+    """The virtual drive discards a Preisach-table download whose client stalls past the drive's SDO
+    time-out; the rest of the sub-block then reaches an idle SDO server, which reads each segment as
+    a request and aborts it, for an "index" made of table bytes (0x06020000 "Object does not exist"
+    among them: how a loaded `make demo` on csf17_50 stopped with "download 0x5100:1 Object does not
+    exist").  Such an abort that arrives while the repeated transfer runs is not its answer: the table
+    still goes in and reads back."""
+    import struct
+    import time
+    import zlib
+    from hdservo import compsetup
+    from hdservo.procedures.runner import VirtualDriveProcess
+    payload = compsetup.preisach_table("reference").to_bytes()
+    blob = payload + struct.pack("<I", zlib.crc32(payload))
+    proc = VirtualDriveProcess("reference", "fast", [], 10, 1, 1, "hdservo")
+    try:
+        d = dv.Drive.connect(1, interface="socketcand", channel="can0", host="127.0.0.1", port=proc.port)
+        try:
+            d.start(wait_tpdo=True)
+            # 1. what the drive answers to the rest of a sub-block after its SDO time-out
+            got: list[bytes] = []
+
+            def keep(can_id: int, data: bytes, ts: float) -> None:
+                got.append(bytes(data))
+            d.network.subscribe(0x581, keep)
+            f = d._var(0x5100, 1).open("wb", size=len(blob), block_transfer=True)
+            with pytest.raises(canopen.SdoAbortedError):
+                for n, i in enumerate(range(0, len(blob), 7)):
+                    f.write(blob[i:i + 7])
+                    if n == 60:
+                        time.sleep(2.0 * dv.DRIVE_SDO_TIMEOUT_S)     # >> the drive's time-out in fast pacing
+            time.sleep(0.5)
+            stale = [g for g in got if g[0] == 0x80 and struct.unpack_from("<HB", g, 1) != (0x5100, 1)]
+            absent = [g for g in stale if struct.unpack_from("<L", g, 4)[0] == 0x06020000]
+            assert absent, got
+            # 2. one of them arrives right after the repeat's initiate request: the repeat still succeeds
+            d.network.unsubscribe(0x581, keep)
+            sdo = d.node.sdo
+            send = sdo.send_request
+            late = {"sent": False}
+
+            def send_then_stale(request: bytes) -> None:
+                send(request)
+                if not late["sent"] and request[0] & 0xE0 == 0xC0:        # block download initiate
+                    late["sent"] = True
+                    d.network.notify(0x581, bytearray(absent[-1]), 0.0)   # as if from the bus
+            sdo.send_request = send_then_stale  # type: ignore[method-assign]
+            d.download_table(1, payload)
+            assert late["sent"] and d.read_domain(0x5100, 1) == blob
+        finally:
+            d.close()
+    finally:
+        proc.stop()

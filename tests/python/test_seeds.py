@@ -35,7 +35,9 @@ def test_summary_medians_keep_every_seed() -> None:
 
 
 def _ablation(pid_a: float, best_a: float, best_parts: list[str]) -> dict:
-    return {"baseline": "pid", "rule": "r", "best": {"full-closed": best_parts}, "rows": [
+    return {"baseline": "pid", "rule": "r", "best": {"full-closed": best_parts},
+            "feedbacks": {"full-closed": {"best": best_parts, "rule": "r", "steps": [f"seed: {best_parts[0]}"],
+                                          "leave_one_out": {}}}, "rows": [
         {"name": "pid", "feedback": "full-closed", "kind": "baseline", "components": [], "baseline_row": "pid",
          "figures": {"a": pid_a}, "ratio_to_baseline": {"a": 1.0}},
         {"name": "best", "feedback": "full-closed", "kind": "best", "components": best_parts, "baseline_row": "pid",
@@ -51,6 +53,10 @@ def test_ablation_medians_and_ratio_of_medians() -> None:
     assert rows["best"]["per_seed"]["ratio_to_baseline"]["a"] == [0.25, 0.5, 0.25]
     assert rows["best"]["per_seed"]["components"] == [["lugre"], ["te"], ["lugre"]]
     assert d["best"] == {"full-closed": [["lugre"], ["te"], ["lugre"]]} and d["seeds"] == [1, 2, 3]
+    # the rule's text once, and every seed's selection steps (what each seed chose and why)
+    f = d["feedbacks"]["full-closed"]
+    assert f["rule"] == "r" and f["best"] == [["lugre"], ["te"], ["lugre"]]
+    assert f["steps"] == [["seed: lugre"], ["seed: te"], ["seed: lugre"]]
 
 
 def test_parse_seeds() -> None:

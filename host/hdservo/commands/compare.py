@@ -125,6 +125,8 @@ def run(args: argparse.Namespace) -> int:
     print(cmp.ablation_table(doc))
     for fb, info in doc.get("ablation", {}).get("feedbacks", {}).items():
         print(f"best combination, {fb}: {' + '.join(info['best']) or 'none (no compensator pays)'}")
+        for line in cmp.selection_lines(info.get("rule", [])):
+            print(f"  {line}")
         for part, j in info.get("leave_one_out", {}).items():
             print(f"  leave-one-out, {part}: {'pays' if j['pays'] else 'does not pay'} ({j['text']})")
     from ..analysis.selection import compare_lines

@@ -219,6 +219,8 @@ def run(args: argparse.Namespace) -> int:
     print(cmp.ablation_table(doc))
     for fb, inf in doc.get("ablation", {}).get("feedbacks", {}).items():
         print(f"best combination, {fb}: {' + '.join(inf['best']) or 'none (no compensator pays)'}")
+        for line in cmp.selection_lines(inf.get("rule", [])):
+            print(f"  {line}")
         for part, j in inf.get("leave_one_out", {}).items():
             print(f"  leave-one-out, {part}: {'pays' if j['pays'] else 'does not pay'} ({j['text']})")
     v = doc["verdict"]

@@ -269,7 +269,8 @@ def _ablation_section(doc: Document, cmp: Mapping[str, Any]) -> None:
         doc.heading(f"Ablation, {fb} feedback", level=3)
         if info:
             doc.para(Raw(f"Best combination: <b>{esc(' + '.join(info.get('best', [])) or 'none')}</b>."))
-            doc.details("why (the rule per compensator)", [Para(w) for w in info.get("rule", [])])
+            doc.details("why (the forward selection step by step, and each part left out)",
+                        [Para(w) for w in info.get("rule", [])])
         header = ["row", "components"] + [f"{f.get('short') or f['label']} ({f['unit']})"
                                           for f in cmp["figures"].values()]
         rows, cls = _ablation_rows(cmp, names, base)
