@@ -34,6 +34,7 @@
 #include "hd_app.h"
 #include <stddef.h>
 #include "hd_fixed.h"
+#include "hd_sched.h"
 
 #define TWO_PI_Q28 1686629713   /* round(2 pi 2^28) */
 
@@ -148,6 +149,50 @@ int32_t hd_app_apply_params(hd_app_t *a)
     return 0;
 }
 
+/* The compensators evaluated by hd_comp_bank_pre (backstepping runs in _post). */
+#define HD_CB_PRE_MASK (HD_CB_STRIBECK | HD_CB_LUGRE | HD_CB_MAXWELL | HD_CB_PREISACH | HD_CB_TE | \
+                        HD_CB_DOB | HD_CB_COMPLIANCE)
+
+/* 1 when hd_comp_bank_pre would return zero corrections and change nothing but its
+ * bookkeeping (bank_idle_step): no compensator of the pre part enabled or ramping,
+ * no scheduled position integral, and every held, extrapolated and filtered
+ * correction exactly 0 (or, for the low-passed one, no longer moving).  Evaluated in the parameter-set path and, while a
+ * compensator ramps out, after each period's bank step, never in an idle period. */
+static uint32_t bank_idle(const hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    const bool quiet = (b->enabled & HD_CB_PRE_MASK) == 0u && c->pki == 0 && b->pki_i == 0 &&
+        !hd_blend_active(&b->str.blend) && !hd_blend_active(&b->lug.blend) &&
+        !hd_blend_active(&b->mx.blend) && !hd_blend_active(&b->pr.blend) &&
+        !hd_blend_active(&b->te.blend) && !hd_blend_active(&b->dob_blend) &&
+        !hd_blend_active(&b->cp_blend);
+    const bool zero = b->lug.tau == 0 && b->dob_d == 0 && b->te.tau == 0 && b->pr_dth == 0 &&
+        b->cp_dth == 0 && b->te_dth == 0 && b->te_out_dth == 0 && b->mx_x.v == 0 &&
+        b->mx_x.inc == 0 && b->te_slope == 0;
+    /* the corrections' low-pass (full closed): settled when its step toward 0 is 0 (its
+     * rounding can leave a few 2^-48 turn); semi-closed / dual-loop set it to 0 */
+    const bool settled = c->pos_mode != 0u || b->dpos_f == 0 ||
+        hdf_mul64x32_q(hdf_neg64_sat(b->dpos_f), c->dpos_alpha, 30u) == 0;
+    return (quiet && zero && settled) ? 1u : 0u;
+}
+
+/* What hd_comp_bank_pre does to the bank's state when idle (bank_idle): the schedule's
+ * tick goes on, the loops' start is recorded, the outputs are 0.  Keeps an idle
+ * period bit-identical to a call, so that a compensator switched on later starts in
+ * the same tick of the schedule and with the same state. */
+static void bank_idle_step(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_comp_bank_out_t *out)
+{
+    b->tick = (b->tick & (HD_SCHED_CYCLE - 1u)) + 1u;
+    if (c->pos_mode != 0u || b->dpos_primed == 0u) {
+        b->dpos_f = 0;                  /* the correction's sum (0), as the bank's own step sets it */
+    }
+    b->dpos_primed = 1u;
+    b->pki_w = 0;
+    out->dpos = 0;
+    out->dvel = 0;
+    out->tff = 0;
+    b->out = *out;
+}
+
 static void reset_loops(hd_app_t *a)
 {
     hd_pid_reset(&a->pos_pid);
@@ -176,6 +221,7 @@ void hd_app_init(hd_app_t *a)
     hd_velobs_reset(&a->obs_mot, 0);
     hd_velobs_reset(&a->obs_out, 0);
     hd_comp_bank_init(&a->cb, &a->cb_cfg);
+    a->cb_idle = bank_idle(&a->cb, &a->cb_cfg);
     hd_fb_reset(&a->fb, &a->fb_cfg, 0, 0);
     /* the saved Preisach table, read straight into the bank (no second image in RAM) */
     a->tstore_status = hd_tstore_load(&a->cb.table, &a->tstore_seq);
@@ -489,6 +535,7 @@ int32_t hd_app_param_set(hd_app_t *a, uint32_t id, int32_t raw)
         return -1;
     }
     hd_comp_bank_apply(&a->cb, &a->cb_cfg);   /* enable changes ramp (bumpless) */
+    a->cb_idle = bank_idle(&a->cb, &a->cb_cfg);
     if ((id == (uint32_t)HD_P_FB_CONFIG || id == (uint32_t)HD_P_GEAR_RATIO) && raw != old) {
         /* motor / N restarts from the present angles (the next mode entry starts there) */
         hd_fb_reset(&a->fb, &a->fb_cfg, a->pos_mot, a->pos_out);
@@ -783,12 +830,19 @@ static void phase_comp_bank(hd_app_t *a, hd_period_t *p)
         p->cbi.acc_ref = p->acc_ref;
         /* velocity-integrator hand-over: the part of the friction FF that a weight ramp adds
          * this period, (w_k - w_k-1) x raw torque, is taken off the integrator (bumpless) */
-        const int32_t w_str = a->cb.str.blend.w, w_lug = a->cb.lug.blend.w;
-        hd_comp_bank_pre(&a->cb, &a->cb_cfg, &p->cbi, &cbo);
-        if (a->cb.str.blend.w != w_str || a->cb.lug.blend.w != w_lug) {    /* else the part is exactly 0 */
-            a->vel_pid.integ = hdf_sub64_sat(a->vel_pid.integ, hdf_shl64_sat(
-                (int64_t)hdf_mul_q(a->cb.str.tau_raw, a->cb.str.blend.w - w_str, 30u) +
-                (int64_t)hdf_mul_q(a->cb.lug.tau_raw, a->cb.lug.blend.w - w_lug, 30u), a->vel_cfg.shift));
+        if (a->cb_idle != 0u) {
+            bank_idle_step(&a->cb, &a->cb_cfg, &cbo);       /* every correction 0, no weight moves */
+        } else {
+            const int32_t w_str = a->cb.str.blend.w, w_lug = a->cb.lug.blend.w;
+            hd_comp_bank_pre(&a->cb, &a->cb_cfg, &p->cbi, &cbo);
+            if (a->cb.str.blend.w != w_str || a->cb.lug.blend.w != w_lug) {    /* else the part is exactly 0 */
+                a->vel_pid.integ = hdf_sub64_sat(a->vel_pid.integ, hdf_shl64_sat(
+                    (int64_t)hdf_mul_q(a->cb.str.tau_raw, a->cb.str.blend.w - w_str, 30u) +
+                    (int64_t)hdf_mul_q(a->cb.lug.tau_raw, a->cb.lug.blend.w - w_lug, 30u), a->vel_cfg.shift));
+            }
+            if ((a->cb.enabled & HD_CB_PRE_MASK) == 0u) {
+                a->cb_idle = bank_idle(&a->cb, &a->cb_cfg);     /* ramped out and settled? */
+            }
         }
         if (est) {
             pos_fb = hd_fb_step(&a->fb, &a->fb_cfg, a->pos_out, cbo.dpos);   /* motor / N - dpos (blend) */

@@ -226,6 +226,9 @@ typedef struct {
     /* compensator bank (hd_comp_bank.h; parameters cb_*, str_*, lug_*, mx_*, pr_*, te_*, bs_*, dob_*) */
     hd_comp_bank_cfg_t cb_cfg;
     hd_comp_bank_t cb;
+    uint32_t cb_idle;             /* 1: no compensator of hd_comp_bank_pre enabled or ramping and every
+                                   * held correction 0, so the period skips it (set in the
+                                   * parameter-set path, cleared there, re-checked while ramping out) */
 
     /* inertial stabilisation (mode STAB; parameters stab_*) */
     hd_pid_cfg_t stab_pos_cfg;
