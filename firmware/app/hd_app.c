@@ -146,6 +146,7 @@ int32_t hd_app_apply_params(hd_app_t *a)
     if (hd_fb_design(&a->fb_cfg, param_raw(a, HD_P_FB_CONFIG), n, param_raw(a, HD_P_FB_DUAL_FC)) != 0) {
         return -1;
     }
+    a->obs_out_fb = (param_raw(a, HD_P_VEL_FB_SRC) != 0 && a->fb_cfg.kind == (uint32_t)HD_FB_FULL_CLOSED) ? 1u : 0u;
     return 0;
 }
 
@@ -220,6 +221,7 @@ void hd_app_init(hd_app_t *a)
     reset_loops(a);
     hd_velobs_reset(&a->obs_mot, 0);
     hd_velobs_reset(&a->obs_out, 0);
+    a->obs_out_run = 0u;
     hd_comp_bank_init(&a->cb, &a->cb_cfg);
     a->cb_idle = bank_idle(&a->cb, &a->cb_cfg);
     hd_fb_reset(&a->fb, &a->fb_cfg, 0, 0);
@@ -375,6 +377,7 @@ static int32_t read_sensors(hd_app_t *a, hd_hal_sensors_t *sn)
         a->started = 1;
         hd_velobs_reset(&a->obs_mot, a->pos_mot);
         hd_velobs_reset(&a->obs_out, a->pos_out);
+        a->obs_out_run = 0u;
         hd_traj_reset(&a->traj, a->pos_out);
         hd_fb_reset(&a->fb, &a->fb_cfg, a->pos_mot, a->pos_out);
     } else {
@@ -731,12 +734,23 @@ static void phase_sensors(hd_app_t *a, hd_period_t *p)
         enter_mode(a, a->mode_req);
     }
     hd_velobs_step(&a->obs_mot, &a->obs_mot_cfg, a->pos_mot);
-    hd_velobs_step(&a->obs_out, &a->obs_out_cfg, a->pos_out);
     p->n = param_raw(a, HD_P_GEAR_RATIO);
     const hd_vel_out_t v_mot_out = div_n_q16_rnd(hd_velobs_vel48(&a->obs_mot), p->n);
-    p->v_out_enc = hd_velobs_vel_out(&a->obs_out);
-    p->v_fb = (param_raw(a, HD_P_VEL_FB_SRC) == 0 || a->fb_cfg.kind != (uint32_t)HD_FB_FULL_CLOSED) ?
-        v_mot_out : p->v_out_enc;
+    /* the output-encoder observer only while its velocity is used: the loop's feedback
+     * (vel_fb_src 1, full closed) or STAB; switched on, it starts at the output angle
+     * with the motor side's velocity (motor observer / N) */
+    p->v_out_enc = 0;
+    if (a->obs_out_fb != 0u || a->mode == HD_MODE_STAB) {
+        if (a->obs_out_run == 0u) {
+            hd_velobs_start(&a->obs_out, a->pos_out, hd_div64_rnd(hd_velobs_vel48(&a->obs_mot), p->n));
+            a->obs_out_run = 1u;
+        }
+        hd_velobs_step(&a->obs_out, &a->obs_out_cfg, a->pos_out);
+        p->v_out_enc = hd_velobs_vel_out(&a->obs_out);
+    } else {
+        a->obs_out_run = 0u;
+    }
+    p->v_fb = (a->obs_out_fb != 0u) ? p->v_out_enc : v_mot_out;
 }
 
 /* References of the mode in effect (trajectory, excitation, stabilisation)

@@ -146,7 +146,8 @@ typedef struct {
     hd_angle_t   pos_out;     /* output angle, Q32.32 turns */
     hd_angle_t   pos_mot;     /* motor angle, Q32.32 motor turns */
     hd_vel_out_t vel_out;     /* velocity estimate used by the loop, 2^-32 turn/s (output) */
-    hd_vel_out_t vel_out_enc; /* output-encoder observer, 2^-32 turn/s */
+    hd_vel_out_t vel_out_enc; /* output-encoder observer, 2^-32 turn/s (0 while it is off:
+                               * it runs for vel_fb_src 1 in full closed and in STAB) */
     hd_vel_mot_t vel_mot;     /* motor-encoder observer, 2^-24 turn/s */
     hd_angle_t   pos_ref;     /* position reference, Q32.32 turns */
     hd_vel_out_t vel_ref;     /* velocity reference into the velocity loop, 2^-32 turn/s */
@@ -183,6 +184,9 @@ typedef struct {
     /* controller state */
     hd_pid_t pos_pid, vel_pid;
     hd_velobs_t obs_mot, obs_out;
+    uint32_t obs_out_fb;          /* 1: the velocity loop's feedback is the output-encoder observer
+                                   * (vel_fb_src 1 in full closed; set in the parameter-set path) */
+    uint32_t obs_out_run;         /* 1: the output-encoder observer ran last period */
     hd_biquad_chain_t filt;
     hd_traj_t traj;
     hd_exc_t exc;

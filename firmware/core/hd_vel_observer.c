@@ -49,6 +49,12 @@ void hd_velobs_reset(hd_velobs_t *s, hd_angle_t theta)
     s->err = 0;
 }
 
+void hd_velobs_start(hd_velobs_t *s, hd_angle_t theta, int64_t vel48)
+{
+    hd_velobs_reset(s, theta);
+    s->vel = vel48;
+}
+
 hd_vel_out_t hd_velobs_vel_out(const hd_velobs_t *s)
 {
     return hdf_asr32_rnd(s->vel, 16u);
