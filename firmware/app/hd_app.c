@@ -194,6 +194,27 @@ static void bank_idle_step(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_co
     b->out = *out;
 }
 
+/* 1 when backstepping is off and its weight 0 (hd_comp_bank_post returns the PID's torque) */
+static uint32_t bs_idle(const hd_comp_bank_t *b)
+{
+    return ((b->enabled & HD_CB_BACKSTEP) == 0u && !hd_blend_active(&b->bs.blend)) ? 1u : 0u;
+}
+
+/* 1 when the online identification is off and its feed ramped out (hd_comp_bank_fric_est
+ * returns at once) */
+static uint32_t fe_idle(const hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    return (c->fe_on == 0u && !hd_fric_est_feeding(&b->fe)) ? 1u : 0u;
+}
+
+/* The bank's skip flags, after a parameter set or a reset of the bank. */
+static void bank_flags(hd_app_t *a)
+{
+    a->cb_idle = bank_idle(&a->cb, &a->cb_cfg);
+    a->bs_idle = bs_idle(&a->cb);
+    a->fe_idle = fe_idle(&a->cb, &a->cb_cfg);
+}
+
 static void reset_loops(hd_app_t *a)
 {
     hd_pid_reset(&a->pos_pid);
@@ -223,7 +244,7 @@ void hd_app_init(hd_app_t *a)
     hd_velobs_reset(&a->obs_out, 0);
     a->obs_out_run = 0u;
     hd_comp_bank_init(&a->cb, &a->cb_cfg);
-    a->cb_idle = bank_idle(&a->cb, &a->cb_cfg);
+    bank_flags(a);
     hd_fb_reset(&a->fb, &a->fb_cfg, 0, 0);
     /* the saved Preisach table, read straight into the bank (no second image in RAM) */
     a->tstore_status = hd_tstore_load(&a->cb.table, &a->tstore_seq);
@@ -538,7 +559,7 @@ int32_t hd_app_param_set(hd_app_t *a, uint32_t id, int32_t raw)
         return -1;
     }
     hd_comp_bank_apply(&a->cb, &a->cb_cfg);   /* enable changes ramp (bumpless) */
-    a->cb_idle = bank_idle(&a->cb, &a->cb_cfg);
+    bank_flags(a);
     if ((id == (uint32_t)HD_P_FB_CONFIG || id == (uint32_t)HD_P_GEAR_RATIO) && raw != old) {
         /* motor / N restarts from the present angles (the next mode entry starts there) */
         hd_fb_reset(&a->fb, &a->fb_cfg, a->pos_mot, a->pos_out);
@@ -933,7 +954,14 @@ static void phase_loops(hd_app_t *a, hd_period_t *p)
         }
         int32_t t = hd_pid_step_q(&a->vel_pid, &a->vel_cfg, p->vel_ref, p->v_fb, p->t_ff, 32u);
         if (p->loops == HD_LOOPS_POS_VEL) {
-            t = hd_comp_bank_post(&a->cb, &a->cb_cfg, &p->cbi, t);
+            if (a->bs_idle != 0u) {
+                a->cb.u_bs = t;                 /* what the bank's post step records when off */
+            } else {
+                t = hd_comp_bank_post(&a->cb, &a->cb_cfg, &p->cbi, t);
+                if ((a->cb.enabled & HD_CB_BACKSTEP) == 0u) {
+                    a->bs_idle = bs_idle(&a->cb);           /* ramped out? */
+                }
+            }
         }
         p->t_out = hd_biquad_chain_step(&a->filt, &a->filt_cfg, t);
     }
@@ -1053,8 +1081,13 @@ void hd_app_step(hd_app_t *a)
     phase_command(a, &p);
     PHASE_MARK();
     /* slow slot: online Stribeck identification (steady reference velocity, torque applied) */
-    hd_comp_bank_fric_est(&a->cb, &a->cb_cfg, p.vff_plain, p.v_fb, p.cmd.enable ? p.t_cmd : 0,
-                          p.loops == HD_LOOPS_POS_VEL && p.cmd.enable != 0);
+    if (a->fe_idle == 0u) {
+        hd_comp_bank_fric_est(&a->cb, &a->cb_cfg, p.vff_plain, p.v_fb, p.cmd.enable ? p.t_cmd : 0,
+                              p.loops == HD_LOOPS_POS_VEL && p.cmd.enable != 0);
+        if (a->cb_cfg.fe_on == 0u) {
+            a->fe_idle = fe_idle(&a->cb, &a->cb_cfg);      /* the feed ramped out? */
+        }
+    }
     phase_telemetry(a, &p);
     PHASE_MARK();
 }

@@ -233,6 +233,9 @@ typedef struct {
     uint32_t cb_idle;             /* 1: no compensator of hd_comp_bank_pre enabled or ramping and every
                                    * held correction 0, so the period skips it (set in the
                                    * parameter-set path, cleared there, re-checked while ramping out) */
+    uint32_t bs_idle;             /* 1: backstepping off and not ramping: hd_comp_bank_post is skipped */
+    uint32_t fe_idle;             /* 1: online Stribeck identification off and not feeding: its slow
+                                   * slot is skipped (both set like cb_idle) */
 
     /* inertial stabilisation (mode STAB; parameters stab_*) */
     hd_pid_cfg_t stab_pos_cfg;

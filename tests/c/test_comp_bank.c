@@ -572,9 +572,9 @@ static void test_schedule_te_once_per_cycle(void **st)
     assert_true(worst <= 8.0);                                       /* 12" is 38,000 LSB */
 }
 
-/* The switched-off bank is skipped at the phase level (hd_app.c bank_idle): a run
- * with the skip and a run that calls hd_comp_bank_pre in every period (cb_idle forced
- * to 0) are bit-identical, through a mode entry while the bank is off, switching
+/* The switched-off bank is skipped at the phase level (hd_app.c bank_idle, bs_idle,
+ * fe_idle): a run with the skips and a run that calls hd_comp_bank_pre, _post and
+ * _fric_est in every period (the flags forced to 0) are bit-identical, through a mode entry while the bank is off, switching
  * compensators on (same tick of the schedule, same state) and their ramp out; the
  * skip is in force while the bank is off and again once the ramps have settled. */
 #define IDLE_RUN 26000
@@ -595,16 +595,20 @@ static void run_idle(int32_t fb_config, int force_call, int32_t *tq, int64_t *pr
     for (int k = 0; k < IDLE_RUN; k++) {
         if (k == 3001) assert_int_equal(hd_app_set_mode(&app, HD_MODE_RATE), 0);   /* loops restart */
         if (k == 5003) assert_int_equal(hd_app_param_set(&app, HD_P_CB_ENABLE,
-            (int32_t)(HD_CB_STRIBECK | HD_CB_LUGRE | HD_CB_MAXWELL | HD_CB_DOB)), 0);
+            (int32_t)(HD_CB_STRIBECK | HD_CB_LUGRE | HD_CB_MAXWELL | HD_CB_DOB | HD_CB_BACKSTEP)), 0);
         if (k == 12000) assert_int_equal(hd_app_param_set(&app, HD_P_CB_ENABLE, 0), 0);
-        if (k == 4000) *idle_off = app.cb_idle;
-        if (force_call) app.cb_idle = 0u;
+        if (k == 4000) *idle_off = app.cb_idle & app.bs_idle & app.fe_idle;
+        if (force_call) {
+            app.cb_idle = 0u;
+            app.bs_idle = 0u;
+            app.fe_idle = 0u;
+        }
         hd_app_step(&app); plant_step();
         tq[k] = app.tel.torque_cmd;
         pref[k] = app.tel.pos_ref;
         tick[k] = app.cb.tick;
     }
-    *idle_end = app.cb_idle;
+    *idle_end = app.cb_idle & app.bs_idle & app.fe_idle;
 }
 
 static void test_idle_bank_skipped_bit_identical(void **st)
