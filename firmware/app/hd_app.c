@@ -847,6 +847,17 @@ static void phase_references(hd_app_t *a, hd_period_t *p)
     p->vff_plain = p->v_ff;
 }
 
+/* The bank's inputs of this period (pre and post). */
+static inline void bank_inputs(hd_app_t *a, hd_period_t *p, bool est)
+{
+    p->cbi.pos_ref = p->pos_ref;
+    p->cbi.pos_out = est ? a->fb.pos_fb : a->pos_out;   /* last period's loop feedback */
+    p->cbi.pos_mot = a->pos_mot;
+    p->cbi.vel_ref = (p->mode == HD_MODE_STAB) ? a->stab.vff_db : p->v_ff;   /* friction FF without gyro-noise chatter */
+    p->cbi.vel_fb = p->v_fb;
+    p->cbi.acc_ref = p->acc_ref;
+}
+
 /* Compensator bank (position loops only): corrections of pos_ref / v_ff, its torque
  * feed-forward into t_ff, the velocity-integrator hand-over of a weight ramp;
  * then pos_err of the corrected reference. */
@@ -857,17 +868,18 @@ static void phase_comp_bank(hd_app_t *a, hd_period_t *p)
     hd_angle_t pos_fb = a->pos_out;
     if (p->loops == HD_LOOPS_POS_VEL) {
         hd_comp_bank_out_t cbo;
-        p->cbi.pos_ref = p->pos_ref;
-        p->cbi.pos_out = est ? a->fb.pos_fb : a->pos_out;   /* last period's loop feedback */
-        p->cbi.pos_mot = a->pos_mot;
-        p->cbi.vel_ref = (p->mode == HD_MODE_STAB) ? a->stab.vff_db : p->v_ff;   /* friction FF without gyro-noise chatter */
-        p->cbi.vel_fb = p->v_fb;
-        p->cbi.acc_ref = p->acc_ref;
-        /* velocity-integrator hand-over: the part of the friction FF that a weight ramp adds
-         * this period, (w_k - w_k-1) x raw torque, is taken off the integrator (bumpless) */
         if (a->cb_idle != 0u) {
             bank_idle_step(&a->cb, &a->cb_cfg, &cbo);       /* every correction 0, no weight moves */
+            if (a->bs_idle == 0u) {
+                bank_inputs(a, p, est);                     /* for backstepping alone */
+            }
+            if (est) {
+                pos_fb = hd_fb_step(&a->fb, &a->fb_cfg, a->pos_out, 0);   /* motor / N (blend) */
+            }
         } else {
+            bank_inputs(a, p, est);
+            /* velocity-integrator hand-over: the part of the friction FF that a weight ramp adds
+             * this period, (w_k - w_k-1) x raw torque, is taken off the integrator (bumpless) */
             const int32_t w_str = a->cb.str.blend.w, w_lug = a->cb.lug.blend.w;
             hd_comp_bank_pre(&a->cb, &a->cb_cfg, &p->cbi, &cbo);
             if (a->cb.str.blend.w != w_str || a->cb.lug.blend.w != w_lug) {    /* else the part is exactly 0 */
@@ -878,14 +890,14 @@ static void phase_comp_bank(hd_app_t *a, hd_period_t *p)
             if ((a->cb.enabled & HD_CB_PRE_MASK) == 0u) {
                 a->cb_idle = bank_idle(&a->cb, &a->cb_cfg);     /* ramped out and settled? */
             }
+            if (est) {
+                pos_fb = hd_fb_step(&a->fb, &a->fb_cfg, a->pos_out, cbo.dpos);   /* motor / N - dpos (blend) */
+            } else if (a->fb_cfg.kind == (uint32_t)HD_FB_FULL_CLOSED) {
+                p->pos_ref = hdf_add64_sat(p->pos_ref, cbo.dpos);        /* 0 in full closed (dvel instead) */
+            }
+            p->v_ff = hdf_add_sat(p->v_ff, cbo.dvel);
+            p->t_ff = hdf_add_sat(p->t_ff, cbo.tff);
         }
-        if (est) {
-            pos_fb = hd_fb_step(&a->fb, &a->fb_cfg, a->pos_out, cbo.dpos);   /* motor / N - dpos (blend) */
-        } else if (a->fb_cfg.kind == (uint32_t)HD_FB_FULL_CLOSED) {
-            p->pos_ref = hdf_add64_sat(p->pos_ref, cbo.dpos);        /* 0 in full closed (dvel instead) */
-        }
-        p->v_ff = hdf_add_sat(p->v_ff, cbo.dvel);
-        p->t_ff = hdf_add_sat(p->t_ff, cbo.tff);
     }
     p->pos_fb = pos_fb;
     p->pos_err = hdf_sat32(hdf_sub64_sat(p->pos_ref, pos_fb));
