@@ -291,7 +291,9 @@ int32_t hd_app_param_set(hd_app_t *a, uint32_t id, int32_t raw);
 int32_t hd_app_param_get(const hd_app_t *a, uint32_t id);
 /** Save all parameters to NVM (refused with -1 unless mode OFF). */
 int32_t hd_app_param_save(hd_app_t *a);
-/** Recompute the controller configs from a->param. 0 ok, -1 inconsistent. */
+/** Recompute the controller configs from a->param. 0 ok, -1 inconsistent.  The bank's
+ *  enable switches and the skip flags (cb_idle, bs_idle, fe_idle) follow in
+ *  hd_app_param_set: change parameters through it. */
 int32_t hd_app_apply_params(hd_app_t *a);
 
 /** Arm the capture of n_ch signals (hd_sig_t ids in sig[]) with cfg. 0 ok, -1 bad. */
