@@ -34,6 +34,7 @@
 #include "hd_app.h"
 #include <stddef.h>
 #include "hd_fixed.h"
+#include "hd_sched.h"
 
 #define TWO_PI_Q28 1686629713   /* round(2 pi 2^28) */
 
@@ -145,7 +146,73 @@ int32_t hd_app_apply_params(hd_app_t *a)
     if (hd_fb_design(&a->fb_cfg, param_raw(a, HD_P_FB_CONFIG), n, param_raw(a, HD_P_FB_DUAL_FC)) != 0) {
         return -1;
     }
+    a->obs_out_fb = (param_raw(a, HD_P_VEL_FB_SRC) != 0 && a->fb_cfg.kind == (uint32_t)HD_FB_FULL_CLOSED) ? 1u : 0u;
     return 0;
+}
+
+/* The compensators evaluated by hd_comp_bank_pre (backstepping runs in _post). */
+#define HD_CB_PRE_MASK (HD_CB_STRIBECK | HD_CB_LUGRE | HD_CB_MAXWELL | HD_CB_PREISACH | HD_CB_TE | \
+                        HD_CB_DOB | HD_CB_COMPLIANCE)
+
+/* 1 when hd_comp_bank_pre would return zero corrections and change nothing but its
+ * bookkeeping (bank_idle_step): no compensator of the pre part enabled or ramping,
+ * no scheduled position integral, and every held, extrapolated and filtered
+ * correction exactly 0 (or, for the low-passed one, no longer moving).  Evaluated in the parameter-set path and, while a
+ * compensator ramps out, after each period's bank step, never in an idle period. */
+static uint32_t bank_idle(const hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    const bool quiet = (b->enabled & HD_CB_PRE_MASK) == 0u && c->pki == 0 && b->pki_i == 0 &&
+        !hd_blend_active(&b->str.blend) && !hd_blend_active(&b->lug.blend) &&
+        !hd_blend_active(&b->mx.blend) && !hd_blend_active(&b->pr.blend) &&
+        !hd_blend_active(&b->te.blend) && !hd_blend_active(&b->dob_blend) &&
+        !hd_blend_active(&b->cp_blend);
+    const bool zero = b->lug.tau == 0 && b->dob_d == 0 && b->te.tau == 0 && b->pr_dth == 0 &&
+        b->cp_dth == 0 && b->te_dth == 0 && b->te_out_dth == 0 && b->mx_x.v == 0 &&
+        b->mx_x.inc == 0 && b->te_slope == 0;
+    /* the corrections' low-pass (full closed): settled when its step toward 0 is 0 (its
+     * rounding can leave a few 2^-48 turn); semi-closed / dual-loop set it to 0 */
+    const bool settled = c->pos_mode != 0u || b->dpos_f == 0 ||
+        hdf_mul64x32_q(hdf_neg64_sat(b->dpos_f), c->dpos_alpha, 30u) == 0;
+    return (quiet && zero && settled) ? 1u : 0u;
+}
+
+/* What hd_comp_bank_pre does to the bank's state when idle (bank_idle): the schedule's
+ * tick goes on, the loops' start is recorded, the outputs are 0.  Keeps an idle
+ * period bit-identical to a call, so that a compensator switched on later starts in
+ * the same tick of the schedule and with the same state. */
+static void bank_idle_step(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_comp_bank_out_t *out)
+{
+    b->tick = (b->tick & (HD_SCHED_CYCLE - 1u)) + 1u;
+    if (c->pos_mode != 0u || b->dpos_primed == 0u) {
+        b->dpos_f = 0;                  /* the correction's sum (0), as the bank's own step sets it */
+    }
+    b->dpos_primed = 1u;
+    b->pki_w = 0;
+    out->dpos = 0;
+    out->dvel = 0;
+    out->tff = 0;
+    b->out = *out;
+}
+
+/* 1 when backstepping is off and its weight 0 (hd_comp_bank_post returns the PID's torque) */
+static uint32_t bs_idle(const hd_comp_bank_t *b)
+{
+    return ((b->enabled & HD_CB_BACKSTEP) == 0u && !hd_blend_active(&b->bs.blend)) ? 1u : 0u;
+}
+
+/* 1 when the online identification is off and its feed ramped out (hd_comp_bank_fric_est
+ * returns at once) */
+static uint32_t fe_idle(const hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    return (c->fe_on == 0u && !hd_fric_est_feeding(&b->fe)) ? 1u : 0u;
+}
+
+/* The bank's skip flags, after a parameter set or a reset of the bank. */
+static void bank_flags(hd_app_t *a)
+{
+    a->cb_idle = bank_idle(&a->cb, &a->cb_cfg);
+    a->bs_idle = bs_idle(&a->cb);
+    a->fe_idle = fe_idle(&a->cb, &a->cb_cfg);
 }
 
 static void reset_loops(hd_app_t *a)
@@ -175,7 +242,9 @@ void hd_app_init(hd_app_t *a)
     reset_loops(a);
     hd_velobs_reset(&a->obs_mot, 0);
     hd_velobs_reset(&a->obs_out, 0);
+    a->obs_out_run = 0u;
     hd_comp_bank_init(&a->cb, &a->cb_cfg);
+    bank_flags(a);
     hd_fb_reset(&a->fb, &a->fb_cfg, 0, 0);
     /* the saved Preisach table, read straight into the bank (no second image in RAM) */
     a->tstore_status = hd_tstore_load(&a->cb.table, &a->tstore_seq);
@@ -329,6 +398,7 @@ static int32_t read_sensors(hd_app_t *a, hd_hal_sensors_t *sn)
         a->started = 1;
         hd_velobs_reset(&a->obs_mot, a->pos_mot);
         hd_velobs_reset(&a->obs_out, a->pos_out);
+        a->obs_out_run = 0u;
         hd_traj_reset(&a->traj, a->pos_out);
         hd_fb_reset(&a->fb, &a->fb_cfg, a->pos_mot, a->pos_out);
     } else {
@@ -489,6 +559,7 @@ int32_t hd_app_param_set(hd_app_t *a, uint32_t id, int32_t raw)
         return -1;
     }
     hd_comp_bank_apply(&a->cb, &a->cb_cfg);   /* enable changes ramp (bumpless) */
+    bank_flags(a);
     if ((id == (uint32_t)HD_P_FB_CONFIG || id == (uint32_t)HD_P_GEAR_RATIO) && raw != old) {
         /* motor / N restarts from the present angles (the next mode entry starts there) */
         hd_fb_reset(&a->fb, &a->fb_cfg, a->pos_mot, a->pos_out);
@@ -684,12 +755,23 @@ static void phase_sensors(hd_app_t *a, hd_period_t *p)
         enter_mode(a, a->mode_req);
     }
     hd_velobs_step(&a->obs_mot, &a->obs_mot_cfg, a->pos_mot);
-    hd_velobs_step(&a->obs_out, &a->obs_out_cfg, a->pos_out);
     p->n = param_raw(a, HD_P_GEAR_RATIO);
     const hd_vel_out_t v_mot_out = div_n_q16_rnd(hd_velobs_vel48(&a->obs_mot), p->n);
-    p->v_out_enc = hd_velobs_vel_out(&a->obs_out);
-    p->v_fb = (param_raw(a, HD_P_VEL_FB_SRC) == 0 || a->fb_cfg.kind != (uint32_t)HD_FB_FULL_CLOSED) ?
-        v_mot_out : p->v_out_enc;
+    /* the output-encoder observer only while its velocity is used: the loop's feedback
+     * (vel_fb_src 1, full closed) or STAB; switched on, it starts at the output angle
+     * with the motor side's velocity (motor observer / N) */
+    p->v_out_enc = 0;
+    if (a->obs_out_fb != 0u || a->mode == HD_MODE_STAB) {
+        if (a->obs_out_run == 0u) {
+            hd_velobs_start(&a->obs_out, a->pos_out, hd_div64_rnd(hd_velobs_vel48(&a->obs_mot), p->n));
+            a->obs_out_run = 1u;
+        }
+        hd_velobs_step(&a->obs_out, &a->obs_out_cfg, a->pos_out);
+        p->v_out_enc = hd_velobs_vel_out(&a->obs_out);
+    } else {
+        a->obs_out_run = 0u;
+    }
+    p->v_fb = (a->obs_out_fb != 0u) ? p->v_out_enc : v_mot_out;
 }
 
 /* References of the mode in effect (trajectory, excitation, stabilisation)
@@ -765,6 +847,17 @@ static void phase_references(hd_app_t *a, hd_period_t *p)
     p->vff_plain = p->v_ff;
 }
 
+/* The bank's inputs of this period (pre and post). */
+static inline void bank_inputs(hd_app_t *a, hd_period_t *p, bool est)
+{
+    p->cbi.pos_ref = p->pos_ref;
+    p->cbi.pos_out = est ? a->fb.pos_fb : a->pos_out;   /* last period's loop feedback */
+    p->cbi.pos_mot = a->pos_mot;
+    p->cbi.vel_ref = (p->mode == HD_MODE_STAB) ? a->stab.vff_db : p->v_ff;   /* friction FF without gyro-noise chatter */
+    p->cbi.vel_fb = p->v_fb;
+    p->cbi.acc_ref = p->acc_ref;
+}
+
 /* Compensator bank (position loops only): corrections of pos_ref / v_ff, its torque
  * feed-forward into t_ff, the velocity-integrator hand-over of a weight ramp;
  * then pos_err of the corrected reference. */
@@ -775,28 +868,36 @@ static void phase_comp_bank(hd_app_t *a, hd_period_t *p)
     hd_angle_t pos_fb = a->pos_out;
     if (p->loops == HD_LOOPS_POS_VEL) {
         hd_comp_bank_out_t cbo;
-        p->cbi.pos_ref = p->pos_ref;
-        p->cbi.pos_out = est ? a->fb.pos_fb : a->pos_out;   /* last period's loop feedback */
-        p->cbi.pos_mot = a->pos_mot;
-        p->cbi.vel_ref = (p->mode == HD_MODE_STAB) ? a->stab.vff_db : p->v_ff;   /* friction FF without gyro-noise chatter */
-        p->cbi.vel_fb = p->v_fb;
-        p->cbi.acc_ref = p->acc_ref;
-        /* velocity-integrator hand-over: the part of the friction FF that a weight ramp adds
-         * this period, (w_k - w_k-1) x raw torque, is taken off the integrator (bumpless) */
-        const int32_t w_str = a->cb.str.blend.w, w_lug = a->cb.lug.blend.w;
-        hd_comp_bank_pre(&a->cb, &a->cb_cfg, &p->cbi, &cbo);
-        if (a->cb.str.blend.w != w_str || a->cb.lug.blend.w != w_lug) {    /* else the part is exactly 0 */
-            a->vel_pid.integ = hdf_sub64_sat(a->vel_pid.integ, hdf_shl64_sat(
-                (int64_t)hdf_mul_q(a->cb.str.tau_raw, a->cb.str.blend.w - w_str, 30u) +
-                (int64_t)hdf_mul_q(a->cb.lug.tau_raw, a->cb.lug.blend.w - w_lug, 30u), a->vel_cfg.shift));
+        if (a->cb_idle != 0u) {
+            bank_idle_step(&a->cb, &a->cb_cfg, &cbo);       /* every correction 0, no weight moves */
+            if (a->bs_idle == 0u) {
+                bank_inputs(a, p, est);                     /* for backstepping alone */
+            }
+            if (est) {
+                pos_fb = hd_fb_step(&a->fb, &a->fb_cfg, a->pos_out, 0);   /* motor / N (blend) */
+            }
+        } else {
+            bank_inputs(a, p, est);
+            /* velocity-integrator hand-over: the part of the friction FF that a weight ramp adds
+             * this period, (w_k - w_k-1) x raw torque, is taken off the integrator (bumpless) */
+            const int32_t w_str = a->cb.str.blend.w, w_lug = a->cb.lug.blend.w;
+            hd_comp_bank_pre(&a->cb, &a->cb_cfg, &p->cbi, &cbo);
+            if (a->cb.str.blend.w != w_str || a->cb.lug.blend.w != w_lug) {    /* else the part is exactly 0 */
+                a->vel_pid.integ = hdf_sub64_sat(a->vel_pid.integ, hdf_shl64_sat(
+                    (int64_t)hdf_mul_q(a->cb.str.tau_raw, a->cb.str.blend.w - w_str, 30u) +
+                    (int64_t)hdf_mul_q(a->cb.lug.tau_raw, a->cb.lug.blend.w - w_lug, 30u), a->vel_cfg.shift));
+            }
+            if ((a->cb.enabled & HD_CB_PRE_MASK) == 0u) {
+                a->cb_idle = bank_idle(&a->cb, &a->cb_cfg);     /* ramped out and settled? */
+            }
+            if (est) {
+                pos_fb = hd_fb_step(&a->fb, &a->fb_cfg, a->pos_out, cbo.dpos);   /* motor / N - dpos (blend) */
+            } else if (a->fb_cfg.kind == (uint32_t)HD_FB_FULL_CLOSED) {
+                p->pos_ref = hdf_add64_sat(p->pos_ref, cbo.dpos);        /* 0 in full closed (dvel instead) */
+            }
+            p->v_ff = hdf_add_sat(p->v_ff, cbo.dvel);
+            p->t_ff = hdf_add_sat(p->t_ff, cbo.tff);
         }
-        if (est) {
-            pos_fb = hd_fb_step(&a->fb, &a->fb_cfg, a->pos_out, cbo.dpos);   /* motor / N - dpos (blend) */
-        } else if (a->fb_cfg.kind == (uint32_t)HD_FB_FULL_CLOSED) {
-            p->pos_ref = hdf_add64_sat(p->pos_ref, cbo.dpos);        /* 0 in full closed (dvel instead) */
-        }
-        p->v_ff = hdf_add_sat(p->v_ff, cbo.dvel);
-        p->t_ff = hdf_add_sat(p->t_ff, cbo.tff);
     }
     p->pos_fb = pos_fb;
     p->pos_err = hdf_sat32(hdf_sub64_sat(p->pos_ref, pos_fb));
@@ -865,7 +966,14 @@ static void phase_loops(hd_app_t *a, hd_period_t *p)
         }
         int32_t t = hd_pid_step_q(&a->vel_pid, &a->vel_cfg, p->vel_ref, p->v_fb, p->t_ff, 32u);
         if (p->loops == HD_LOOPS_POS_VEL) {
-            t = hd_comp_bank_post(&a->cb, &a->cb_cfg, &p->cbi, t);
+            if (a->bs_idle != 0u) {
+                a->cb.u_bs = t;                 /* what the bank's post step records when off */
+            } else {
+                t = hd_comp_bank_post(&a->cb, &a->cb_cfg, &p->cbi, t);
+                if ((a->cb.enabled & HD_CB_BACKSTEP) == 0u) {
+                    a->bs_idle = bs_idle(&a->cb);           /* ramped out? */
+                }
+            }
         }
         p->t_out = hd_biquad_chain_step(&a->filt, &a->filt_cfg, t);
     }
@@ -985,8 +1093,13 @@ void hd_app_step(hd_app_t *a)
     phase_command(a, &p);
     PHASE_MARK();
     /* slow slot: online Stribeck identification (steady reference velocity, torque applied) */
-    hd_comp_bank_fric_est(&a->cb, &a->cb_cfg, p.vff_plain, p.v_fb, p.cmd.enable ? p.t_cmd : 0,
-                          p.loops == HD_LOOPS_POS_VEL && p.cmd.enable != 0);
+    if (a->fe_idle == 0u) {
+        hd_comp_bank_fric_est(&a->cb, &a->cb_cfg, p.vff_plain, p.v_fb, p.cmd.enable ? p.t_cmd : 0,
+                              p.loops == HD_LOOPS_POS_VEL && p.cmd.enable != 0);
+        if (a->cb_cfg.fe_on == 0u) {
+            a->fe_idle = fe_idle(&a->cb, &a->cb_cfg);      /* the feed ramped out? */
+        }
+    }
     phase_telemetry(a, &p);
     PHASE_MARK();
 }

@@ -146,7 +146,8 @@ typedef struct {
     hd_angle_t   pos_out;     /* output angle, Q32.32 turns */
     hd_angle_t   pos_mot;     /* motor angle, Q32.32 motor turns */
     hd_vel_out_t vel_out;     /* velocity estimate used by the loop, 2^-32 turn/s (output) */
-    hd_vel_out_t vel_out_enc; /* output-encoder observer, 2^-32 turn/s */
+    hd_vel_out_t vel_out_enc; /* output-encoder observer, 2^-32 turn/s (0 while it is off:
+                               * it runs for vel_fb_src 1 in full closed and in STAB) */
     hd_vel_mot_t vel_mot;     /* motor-encoder observer, 2^-24 turn/s */
     hd_angle_t   pos_ref;     /* position reference, Q32.32 turns */
     hd_vel_out_t vel_ref;     /* velocity reference into the velocity loop, 2^-32 turn/s */
@@ -183,6 +184,9 @@ typedef struct {
     /* controller state */
     hd_pid_t pos_pid, vel_pid;
     hd_velobs_t obs_mot, obs_out;
+    uint32_t obs_out_fb;          /* 1: the velocity loop's feedback is the output-encoder observer
+                                   * (vel_fb_src 1 in full closed; set in the parameter-set path) */
+    uint32_t obs_out_run;         /* 1: the output-encoder observer ran last period */
     hd_biquad_chain_t filt;
     hd_traj_t traj;
     hd_exc_t exc;
@@ -226,6 +230,12 @@ typedef struct {
     /* compensator bank (hd_comp_bank.h; parameters cb_*, str_*, lug_*, mx_*, pr_*, te_*, bs_*, dob_*) */
     hd_comp_bank_cfg_t cb_cfg;
     hd_comp_bank_t cb;
+    uint32_t cb_idle;             /* 1: no compensator of hd_comp_bank_pre enabled or ramping and every
+                                   * held correction 0, so the period skips it (set in the
+                                   * parameter-set path, cleared there, re-checked while ramping out) */
+    uint32_t bs_idle;             /* 1: backstepping off and not ramping: hd_comp_bank_post is skipped */
+    uint32_t fe_idle;             /* 1: online Stribeck identification off and not feeding: its slow
+                                   * slot is skipped (both set like cb_idle) */
 
     /* inertial stabilisation (mode STAB; parameters stab_*) */
     hd_pid_cfg_t stab_pos_cfg;
@@ -281,7 +291,9 @@ int32_t hd_app_param_set(hd_app_t *a, uint32_t id, int32_t raw);
 int32_t hd_app_param_get(const hd_app_t *a, uint32_t id);
 /** Save all parameters to NVM (refused with -1 unless mode OFF). */
 int32_t hd_app_param_save(hd_app_t *a);
-/** Recompute the controller configs from a->param. 0 ok, -1 inconsistent. */
+/** Recompute the controller configs from a->param. 0 ok, -1 inconsistent.  The bank's
+ *  enable switches and the skip flags (cb_idle, bs_idle, fe_idle) follow in
+ *  hd_app_param_set: change parameters through it. */
 int32_t hd_app_apply_params(hd_app_t *a);
 
 /** Arm the capture of n_ch signals (hd_sig_t ids in sig[]) with cfg. 0 ok, -1 bad. */

@@ -16,13 +16,9 @@
 void hd_velobs_step(hd_velobs_t *s, const hd_velobs_cfg_t *c, hd_angle_t theta_meas)
 {
     /* error against the estimate theta, 2^-32 turn */
-    int64_t d;
-    if (theta_meas > -(INT64_C(1) << 46) && theta_meas < (INT64_C(1) << 46) &&
-        s->theta > -(INT64_C(1) << 46) && s->theta < (INT64_C(1) << 46)) {
-        d = theta_meas - s->theta;                      /* |.| < 2^47: no saturation */
-    } else {
-        d = hdf_sub64_sat(theta_meas, s->theta);
-    }
+    /* the saturating difference (ADDS/ADCS and the overflow flag on the M4): the plain
+     * difference wherever that fits, so no range test of the angles is needed */
+    const int64_t d = hdf_sub64_sat(theta_meas, s->theta);
     /* err = round(d - frac 2^-16) in 2^-32 turn: d, less one when frac > 1/2 (or is
      * 1/2 and d <= 0: the tie goes away from zero) */
     s->err = hdf_sub_sat(hdf_sat32(d), (s->frac > 32768 || (s->frac == 32768 && d <= 0)) ? 1 : 0);
@@ -47,6 +43,12 @@ void hd_velobs_reset(hd_velobs_t *s, hd_angle_t theta)
     s->frac = 0;
     s->vel = 0;
     s->err = 0;
+}
+
+void hd_velobs_start(hd_velobs_t *s, hd_angle_t theta, int64_t vel48)
+{
+    hd_velobs_reset(s, theta);
+    s->vel = vel48;
 }
 
 hd_vel_out_t hd_velobs_vel_out(const hd_velobs_t *s)

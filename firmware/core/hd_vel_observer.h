@@ -51,6 +51,9 @@ typedef struct {
 void hd_velobs_step(hd_velobs_t *s, const hd_velobs_cfg_t *c, hd_angle_t theta_meas);
 /** Start at angle theta with velocity 0. */
 void hd_velobs_reset(hd_velobs_t *s, hd_angle_t theta);
+/** Start at angle theta with velocity vel48 (2^-48 turn/s): an observer switched on
+ *  while the axis moves starts from another estimate of the same velocity. */
+void hd_velobs_start(hd_velobs_t *s, hd_angle_t theta, int64_t vel48);
 /** Velocity in 2^-32 turn/s, rounded and saturated. */
 hd_vel_out_t hd_velobs_vel_out(const hd_velobs_t *s);
 /** Velocity in 2^-48 turn/s. */

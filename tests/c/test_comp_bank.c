@@ -610,6 +610,66 @@ static void test_schedule_backstep_adapts_in_its_slot(void **st)
     }
     assert_true(adapts >= 64u / HD_SCHED_CYCLE - 1u);
     assert_int_equal(laws, 63u);                 /* the law follows the velocity every period */
+/* The switched-off bank is skipped at the phase level (hd_app.c bank_idle, bs_idle,
+ * fe_idle): a run with the skips and a run that calls hd_comp_bank_pre, _post and
+ * _fric_est in every period (the flags forced to 0) are bit-identical, through a mode entry while the bank is off, switching
+ * compensators on (same tick of the schedule, same state) and their ramp out; the
+ * skip is in force while the bank is off and again once the ramps have settled. */
+#define IDLE_RUN 26000
+static void run_idle(int32_t fb_config, int force_call, int32_t *tq, int64_t *pref, uint32_t *tick,
+                     uint32_t *idle_off, uint32_t *idle_end)
+{
+    memset(&P, 0, sizeof P);
+    P.fc = 8.0; P.fv = 5.0; P.j = 1.3;
+    hd_app_init(&app);
+    assert_int_equal(hd_app_param_set(&app, HD_P_FAULT_ENABLE, 0), 0);
+    assert_int_equal(hd_app_param_set(&app, HD_P_FB_CONFIG, fb_config), 0);
+    assert_int_equal(hd_app_param_set(&app, HD_P_STR_FC_POS, 8 << 16), 0);
+    assert_int_equal(hd_app_param_set(&app, HD_P_STR_FC_NEG, 8 << 16), 0);
+    assert_int_equal(hd_app_param_set(&app, HD_P_CB_RAMP_TICKS, 1000), 0);
+    hd_app_step(&app); plant_step();
+    hd_app_set_rate(&app, (hd_vel_out_t)llround(0.05 / 360.0 * 4294967296.0));
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_RATE), 0);
+    for (int k = 0; k < IDLE_RUN; k++) {
+        if (k == 3001) assert_int_equal(hd_app_set_mode(&app, HD_MODE_RATE), 0);   /* loops restart */
+        if (k == 5003) assert_int_equal(hd_app_param_set(&app, HD_P_CB_ENABLE,
+            (int32_t)(HD_CB_STRIBECK | HD_CB_LUGRE | HD_CB_MAXWELL | HD_CB_DOB | HD_CB_BACKSTEP)), 0);
+        if (k == 12000) assert_int_equal(hd_app_param_set(&app, HD_P_CB_ENABLE, 0), 0);
+        if (k == 4000) *idle_off = app.cb_idle & app.bs_idle & app.fe_idle;
+        if (force_call) {
+            app.cb_idle = 0u;
+            app.bs_idle = 0u;
+            app.fe_idle = 0u;
+        }
+        hd_app_step(&app); plant_step();
+        tq[k] = app.tel.torque_cmd;
+        pref[k] = app.tel.pos_ref;
+        tick[k] = app.cb.tick;
+    }
+    *idle_end = app.cb_idle & app.bs_idle & app.fe_idle;
+}
+
+static void test_idle_bank_skipped_bit_identical(void **st)
+{
+    (void)st;
+    static int32_t tq0[IDLE_RUN], tq1[IDLE_RUN];
+    static int64_t pr0[IDLE_RUN], pr1[IDLE_RUN];
+    static uint32_t tk0[IDLE_RUN], tk1[IDLE_RUN];
+    for (int32_t fb = 0; fb <= 1; fb++) {
+        uint32_t off0, end0, off1, end1;
+        run_idle(fb, 1, tq0, pr0, tk0, &off0, &end0);
+        run_idle(fb, 0, tq1, pr1, tk1, &off1, &end1);
+        assert_int_equal(off1, 1u);           /* skipped while off */
+        assert_int_equal(end1, 1u);           /* and again after the ramp out */
+        int32_t tmax = 0;
+        for (int k = 0; k < IDLE_RUN; k++) {
+            assert_int_equal(tq0[k], tq1[k]);
+            assert_true(pr0[k] == pr1[k]);
+            assert_int_equal(tk0[k], tk1[k]);
+            if (k > 6000 && k < 12000 && abs(tq1[k]) > tmax) tmax = abs(tq1[k]);
+        }
+        assert_true(tmax > 4 << 16);          /* the compensators did act in between */
+    }
 }
 
 int main(void)
@@ -629,6 +689,7 @@ int main(void)
         cmocka_unit_test(test_te_output_lines),
         cmocka_unit_test(test_schedule_te_once_per_cycle),
         cmocka_unit_test(test_schedule_backstep_adapts_in_its_slot),
+        cmocka_unit_test(test_idle_bank_skipped_bit_identical),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -393,6 +393,42 @@ static void test_fb_semi_closed_estimate(void **st)
     assert_true(fabs(err[1][0]) < 1.0 && fabs(err[1][1]) < 1.0);
 }
 
+/* The output-encoder observer runs only while its velocity is used (vel_fb_src 1 in
+ * full closed, STAB): off it costs nothing and reads 0; switched on while the axis
+ * turns it starts at the motor side's velocity (no transient from 0), and it
+ * follows the output encoder from there. */
+static void test_out_observer_on_use(void **st)
+{
+    (void)st;
+    assert_int_equal(hd_app_param_set(&app, HD_P_FAULT_ENABLE, 0), 0);
+    P.gear_on = 0;
+    P.w = 0.01;                                          /* 0.01 turn/s, coasting (OFF) */
+    const double v_true = 0.01 * TURN;                   /* 2^-32 turn/s */
+    run(3000);
+    assert_int_equal(app.obs_out_run, 0u);
+    assert_int_equal(app.tel.vel_out_enc, 0);
+    assert_true(fabs(app.tel.vel_out - v_true) < 0.02 * v_true);   /* motor / N */
+    assert_int_equal(hd_app_param_set(&app, HD_P_VEL_FB_SRC, 1), 0);
+    run(1);
+    assert_int_equal(app.obs_out_run, 1u);
+    printf("# output observer switched on at 0.01 turn/s: first velocity %.4f turn/s\n",
+           app.tel.vel_out_enc / TURN);
+    assert_true(fabs(app.tel.vel_out_enc - v_true) < 0.02 * v_true);
+    assert_int_equal(app.tel.vel_out, app.tel.vel_out_enc);          /* the loop's feedback */
+    double worst = 0.0;
+    for (int k = 0; k < 3000; k++) {
+        run(1);
+        const double e = fabs(app.tel.vel_out_enc - v_true);
+        if (e > worst) worst = e;
+    }
+    printf("# output observer: worst velocity error over 0.3 s %.2f%%\n", 100.0 * worst / v_true);
+    assert_true(worst < 0.05 * v_true);
+    assert_int_equal(hd_app_param_set(&app, HD_P_VEL_FB_SRC, 0), 0);
+    run(1);
+    assert_int_equal(app.obs_out_run, 0u);
+    assert_int_equal(app.tel.vel_out_enc, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -403,6 +439,7 @@ int main(void)
         cmocka_unit_test_setup(test_fb_bumpless, setup),
         cmocka_unit_test_setup(test_fb_source, setup),
         cmocka_unit_test_setup(test_fb_semi_closed_estimate, setup),
+        cmocka_unit_test_setup(test_out_observer_on_use, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
