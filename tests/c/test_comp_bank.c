@@ -610,6 +610,8 @@ static void test_schedule_backstep_adapts_in_its_slot(void **st)
     }
     assert_true(adapts >= 64u / HD_SCHED_CYCLE - 1u);
     assert_int_equal(laws, 63u);                 /* the law follows the velocity every period */
+}
+
 /* The switched-off bank is skipped at the phase level (hd_app.c bank_idle, bs_idle,
  * fe_idle): a run with the skips and a run that calls hd_comp_bank_pre, _post and
  * _fric_est in every period (the flags forced to 0) are bit-identical, through a mode entry while the bank is off, switching
