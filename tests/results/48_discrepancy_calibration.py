@@ -9,9 +9,8 @@ corpus' CALIBRATION seeds (1-1000; never the held-apart ones) and reports:
 * per candidate effect, its first-ranking evidence (size: the largest explained fraction,
   total Delta BIC) when it is hidden and when it is not, as quantiles;
 * the size threshold each signal set needs by the documented rule (:func:`choose_frac_min`):
-  the 95 % quantile of the largest size among the significant candidates that are not
-  hidden (clean logs and every other candidate of the hidden logs), never below the
-  workflow's default.
+  on the clean logs, the 95 % quantile of the largest size among the significant
+  candidates (a false-alarm quantile), never below the workflow's default.
 
 Environment: ``HDSERVO_CALIB_N`` (logs, default 120), ``HDSERVO_CALIB_JOBS`` (worker
 processes, default 2), ``HDSERVO_CALIB_FROM`` (a previous JSON of this script: recompute
@@ -106,25 +105,56 @@ def evidence_stats(records: Iterable[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
+#: A threshold sits this far above the size it must silence (the rule is size >= threshold).
+MARGIN = 0.01
+
+
 def choose_frac_min(records: Iterable[dict[str, Any]], default: float,
                     q: float = FALSE_ALARM_QUANTILE) -> dict[str, float]:
-    """Size threshold per signal set by the false-alarm rule.
+    """Size threshold per signal set by the false-alarm rule on the clean calibration logs.
 
-    For every analysed log, the largest size among its first ranking's significant
-    candidates that are not hidden in it (0 when there is none): what a threshold must stay
-    above for that log to name nothing false first.  The threshold of a signal set is the
-    ``q`` quantile of those values over its logs, never below ``default``.
+    For every clean log (nothing hidden), the largest size among its first ranking's
+    significant candidates (0 when there is none): a threshold above it keeps that log
+    silent.  The threshold of a signal set is the ``q`` quantile of those values over its
+    clean logs plus :data:`MARGIN`, never below ``default``.
     """
     import numpy as np
     per: dict[str, list[float]] = {}
     for r in records:
-        if r.get("error"):
+        if r.get("error") or r["hidden"]:
             continue
         xs = [float(c["size"]) for c in r.get("ranking_first", [])
-              if c.get("significant") and c["effect"] not in r["hidden"] and c.get("size") is not None
-              and math.isfinite(float(c["size"]))]
+              if c.get("significant") and c.get("size") is not None and math.isfinite(float(c["size"]))]
         per.setdefault(r["angles"], []).append(max(xs) if xs else 0.0)
-    return {a: max(default, float(np.quantile(v, q))) for a, v in sorted(per.items()) if v}
+    out = {a: default for a in ("both", "motor", "output")}
+    for a, v in per.items():
+        x = float(np.quantile(v, q))
+        out[a] = max(default, x + MARGIN) if x > 0 else default
+    return out
+
+
+def first_names_under(records: Iterable[dict[str, Any]], frac_min: dict[str, float]) -> dict[str, Any]:
+    """The first names the recorded first rankings give with the size thresholds ``frac_min``
+    (per signal set): the best-ranked significant candidate whose size reaches its signal
+    set's threshold.  Per hidden effect named first / n, and clean logs with a name."""
+    hit: dict[str, list[int]] = {}
+    fa = [0, 0]
+    for r in records:
+        if r.get("error"):
+            continue
+        th = frac_min.get(r["angles"], 0.0)
+        first = next((c["effect"] for c in r.get("ranking_first", [])
+                      if c.get("significant") and c.get("size") is not None and float(c["size"]) >= th), None)
+        if not r["hidden"]:
+            fa[0] += first is not None
+            fa[1] += 1
+        elif len(r["hidden"]) == 1 and r["identifiable"]:
+            h = hit.setdefault(r["hidden"][0], [0, 0])
+            h[0] += first == r["hidden"][0]
+            h[1] += 1
+    return {"named_first": {e: {"k": k, "n": n} for e, (k, n) in sorted(hit.items())},
+            "named_first_total": {"k": sum(k for k, _ in hit.values()), "n": sum(n for _, n in hit.values())},
+            "false_alarm": {"k": fa[0], "n": fa[1]}}
 
 
 def report(records: list[dict[str, Any]]) -> dict[str, Any]:
@@ -136,10 +166,13 @@ def report(records: list[dict[str, Any]]) -> dict[str, Any]:
         rs = [r for r in records if r.get("angles") == a]
         if rs:
             by_set[a] = m.score(rs)
+    chosen = choose_frac_min(records, Settings().frac_min)
+    default = {a: Settings().frac_min for a in chosen}
     return {"summary": m.score(records), "per_signal_set": by_set, "confusion": confusion(records),
             "evidence": evidence_stats(records),
-            "frac_min_rule": {"quantile": FALSE_ALARM_QUANTILE, "default": Settings().frac_min,
-                              "chosen": choose_frac_min(records, Settings().frac_min)}}
+            "frac_min_rule": {"quantile": FALSE_ALARM_QUANTILE, "default": Settings().frac_min, "chosen": chosen,
+                              "first_names_default": first_names_under(records, default),
+                              "first_names_chosen": first_names_under(records, chosen)}}
 
 
 def main() -> int:
