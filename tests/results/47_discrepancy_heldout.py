@@ -197,6 +197,9 @@ def analyse(seed: int) -> dict[str, Any]:
             if gb is not None and ga is not None and math.isfinite(gb) and math.isfinite(ga) and ga > 0:
                 rec["sim_gap_shrink"] = gb / ga
             rec["sim_floor_rad"] = its[0].get("sim_floor_rad")
+            rec["iterations"] = [{k: it.get(k) for k in ("named_effect", "sim_rms_before_rad", "sim_rms_after_rad",
+                                                         "sim_gap_before_rad", "sim_gap_after_rad")}
+                                 | {"replay_factors": (it.get("replay_fit") or {}).get("factors")} for it in its]
         rec["dropped"] = [x["named_effect"] for x in cl.dropped]
     except (UserError, RuntimeError, ValueError) as e:
         rec["error"] = f"{type(e).__name__}: {str(e)[:300]}"
@@ -216,6 +219,9 @@ def main() -> int:
             sh = f", simulator gap shrink {r['sim_shrink']:.2f}x" if r.get("sim_shrink") else ""
             print(f"{r['label']}: named {r['named']}{sh}{' ' + r['error'] if r['error'] else ''} "
                   f"({r['seconds']:.0f} s)", flush=True)
+            if len(recs) % 5 == 0:             # a partial record survives an interrupted run
+                out.parent.mkdir(parents=True, exist_ok=True)
+                write_json_atomic(out.with_suffix(".partial.json"), {"set": SET, "cases": recs})
     out.parent.mkdir(parents=True, exist_ok=True)
     doc = {"set": SET, "seeds": [seeds[0], seeds[-1]] if seeds else [], "summary": score(recs), "cases": recs,
            "wall_s": time.time() - t0}
