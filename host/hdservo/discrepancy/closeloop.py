@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
@@ -589,7 +589,8 @@ def tune_dims(name: str) -> int:
     return 2 if name in ("hysteresis", "stribeck_friction", "unmodelled_compliance") else 1
 
 
-def fit_on_replay(name: str, secs: Sections, cost: Any) -> tuple[Sections, dict[str, Any]]:
+def fit_on_replay(name: str, secs: Sections,
+                  cost: Callable[[Sections], float]) -> tuple[Sections, dict[str, Any]]:
     """Fit the named effect's parameter groups (:func:`scaled_sections`) by minimising the
     simulator's replay gap ``cost(sections) -> rad`` over the log's windows.
 
