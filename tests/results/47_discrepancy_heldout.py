@@ -16,8 +16,9 @@ distribution-free order-statistic interval for the median):
 * false alarms: clean logs with any name;
 * spurious names: logs with a hidden effect and a name that is not hidden;
 * two identifiable hidden effects, both named;
-* the simulator's gap shrink (sim_rms_before of the first kept iteration / sim_rms_after of
-  the last) on logs whose first name is right, median.
+* the simulator's gap shrink above the encoders' quantisation floor (sim_gap_before of the
+  first kept iteration / sim_gap_after of the last) and the raw RMS ratio (sim_rms_before /
+  sim_rms_after) on logs whose first name is right, medians.
 
 Environment: ``HDSERVO_HELDOUT_N`` (logs, default 200), ``HDSERVO_HELDOUT_SET``
 (``held_apart`` or ``calibration``), ``HDSERVO_HELDOUT_JOBS`` (worker processes, default 2).
