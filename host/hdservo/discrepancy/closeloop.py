@@ -20,8 +20,9 @@ rows where the replay is finite.
 Stop rule (:func:`confirm`): a named effect is kept only when the simulator confirms it --
 its axis file (parameters fitted on the replay) brings the replay's gap down by at least
 :data:`CONFIRM_SHRINK` of what it was -- and the path is cut at the first one that is not.
-A first name without a replay before it (the baseline is not a mechanical axis) stands on
-the workflow's evidence alone.
+The first name of a one-encoder log (EMPS: a linear axis the rotary plant replays only
+roughly), or one without a replay before it (the baseline is not a mechanical axis),
+stands on the workflow's evidence alone.
 """
 from __future__ import annotations
 
@@ -754,10 +755,11 @@ def close(res: Any, out_dir: Path, stem: str, user_axis: Path | None = None) -> 
                     "shrink": before / r.rms_rad if math.isfinite(before) and r.rms_rad > 0 else None,
                     "sim_floor_rad": fl, "sim_gap_before_rad": gb, "sim_gap_after_rad": ga,
                     "gap_shrink": gb / ga if math.isfinite(gb) and ga > 0 else None})
-        # the first name too: a simulator that cannot be brought closer by it (its
-        # parameters fitted on the replay) does not confirm it; only a first name without a
-        # replay before (a baseline that is not a mechanical axis) stands on the evidence alone
-        if not ok and (k > 0 or math.isfinite(before)):
+        # the first name of a two-encoder log too (where the calibration logs' false first
+        # names were): a simulator that cannot be brought closer by it (its parameters fitted
+        # on the replay) does not confirm it; a one-encoder log's first name, or one without a
+        # replay before (a baseline that is not a mechanical axis), stands on the evidence
+        if not ok and (k > 0 or (math.isfinite(before) and sig.angles == "both")):
             cl.dropped.append({"named_effect": name, "sim_rms_before_rad": before, "sim_rms_after_rad": r.rms_rad,
                                "reason": f"the simulator's gap shrinks by less than {100 * CONFIRM_SHRINK:.0f} %"})
             path.unlink(missing_ok=True)
