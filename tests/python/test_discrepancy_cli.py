@@ -324,3 +324,37 @@ def test_stop_rule_keeps_a_later_effect_only_when_the_simulator_confirms_it() ->
     from hdservo.discrepancy import closeloop as c
     assert c.confirm(1.0, 0.85) and not c.confirm(1.0, 0.95) and not c.confirm(float("nan"), 0.1)
     assert not c.confirm(1.0, float("nan"))
+
+
+def test_effect_parameters_written_are_fitted_on_the_simulators_replay(tmp_path: Path, cog_log: Path) -> None:
+    """The axis file gets the effect's parameters that make the C simulator's replay agree
+    best, not the regression's coefficients as they come: a regression that got the size
+    wrong (as the hysteresis and compliance fits do on closed-loop logs) is corrected by the
+    replay fit, and the gap after is smaller than with the regression's parameters."""
+    import tomllib
+    from hdservo import logio
+    from hdservo.discrepancy import closeloop, signals, workflow
+    sig = signals.from_log(logio.read_log(cog_log, require_tag=False), "two_mass")
+    res = workflow.run(sig)
+    assert res.named[:1] == ["cogging_torque"]
+    p = res.iterations[0]["params"]
+    amps = [k for k in p if k.endswith("_amp_Nm")]
+    assert amps
+    for k in amps:
+        p[k] *= 0.3
+    c = closeloop.close(res, tmp_path, "cog")
+    ax = tomllib.loads((tmp_path / "cog.updated.toml").read_text())
+    # the plant's 6 x 0.004 N.m (discrepancy_cases, size 1), not 0.3 x the regression's
+    assert ax["cogging"]["h1_amp_Nm"] == pytest.approx(6 * 0.004, rel=0.3)
+    rec = c.iterations[0]
+    assert rec["sim_rms_after_rad"] < 0.8 * rec["replay_fit"]["sim_rms_regression_rad"]
+    assert rec["sim_gap_after_rad"] < rec["sim_gap_before_rad"] and rec["sim_floor_rad"] > 0
+    # a first name the simulator cannot confirm (a slow current loop this log does not have:
+    # the replay fit can only bring its bandwidth up to 10x, still a lag the plant lacks) is
+    # dropped by the stop rule, like a later one
+    res.iterations[0].update({"named_effect": "current_loop_lag", "params": {"bandwidth_Hz": 20.0}})
+    c2 = closeloop.close(res, tmp_path / "wrong", "cog")
+    assert [d["named_effect"] for d in c2.dropped] == ["current_loop_lag"] and c2.iterations == []
+    assert c2.updated is None
+    closeloop.apply(res, c2)
+    assert res.named == [] and any("current_loop_lag is not kept" in n for n in res.notes)

@@ -40,6 +40,15 @@ from .simerr import region_mask, side_error, simulation_error
 from .signals import Signals
 
 
+#: Size threshold per signal set where it differs from the default, by the false-alarm rule
+#: on the clean logs of the corpus' calibration seeds (tests/results/48_discrepancy_calibration.py,
+#: ``frac_min_rule``: the 95 % quantile of the largest significant candidate's size on clean
+#: logs, plus 0.01, never below the default).  Empty: seeds 1-20 hold only 4 clean
+#: two-encoder logs, whose rule value (0.565) also silences the tuned Stribeck case
+#: (tests/python/test_discrepancy_effects.py); the rule needs the full calibration run.
+FRAC_MIN_BY_SIGNALS: dict[str, float] = {}
+
+
 @dataclass
 class Settings:
     """Decision thresholds (docs/discrepancy.md)."""
@@ -51,6 +60,14 @@ class Settings:
     whiteness_p: float = 0.01
     #: Variants per candidate (best by equation-error evidence) that are also simulated.
     sim_variants: int = 3
+    #: ``frac_min`` per signal set (``both``, ``motor``, ``output``) where it differs from
+    #: the default: :data:`FRAC_MIN_BY_SIGNALS`, set on the corpus' calibration logs.
+    frac_min_by_signals: dict[str, float] = field(default_factory=lambda: dict(FRAC_MIN_BY_SIGNALS))
+
+    def for_signals(self, angles: str) -> "Settings":
+        """These settings with the size threshold of the log's signal set."""
+        from dataclasses import replace
+        return replace(self, frac_min=max(self.frac_min, self.frac_min_by_signals.get(angles, self.frac_min)))
 
 
 #: Log-bisection steps of :func:`oe_fit` towards the best-scoring level when it is not
@@ -787,7 +804,7 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
     lib : list of Effect, optional
         Candidate library (default :func:`hdservo.discrepancy.effects.library`).
     """
-    s = settings or Settings()
+    s = (settings or Settings()).for_signals(sig.angles)
     lib = lib if lib is not None else fx.library()
     # never name what the log's signals cannot show (the identifiability table)
     ident = identifiability(sig.angles)

@@ -1,0 +1,206 @@
+"""Calibration of the discrepancy workflow's decision rules -> build/results/discrepancy_calibration.json.
+
+Runs the workflow (with the simulator's stop rule, as 47_discrepancy_heldout.py does) on the
+corpus' CALIBRATION seeds (1-1000; never the held-apart ones) and reports:
+
+* per hidden effect (single hidden effects the log's signals can show): named first,
+  missed (nothing named), wrong (another effect named first);
+* false alarms on clean logs and spurious names, per signal set;
+* per candidate effect, its first-ranking evidence (size: the largest explained fraction,
+  total Delta BIC) when it is hidden and when it is not, as quantiles;
+* the size threshold each signal set needs by the documented rule (:func:`choose_frac_min`):
+  on the clean logs, the 95 % quantile of the largest size among the significant
+  candidates (a false-alarm quantile), never below the workflow's default.
+
+Environment: ``HDSERVO_CALIB_N`` (logs, default 120), ``HDSERVO_CALIB_JOBS`` (worker
+processes, default 2), ``HDSERVO_CALIB_FROM`` (a previous JSON of this script: recompute
+the report from its cases without running anything).  Heavy: run under ``nice``.
+"""
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+import os
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any, Iterable, Sequence
+
+for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
+
+REPO = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(REPO / "host"))
+sys.path.insert(0, str(REPO / "tests" / "python"))
+
+from hdservo.fileio import write_json_atomic  # noqa: E402
+
+N_LOGS = int(os.environ.get("HDSERVO_CALIB_N", "120"))
+JOBS = int(os.environ.get("HDSERVO_CALIB_JOBS", "2"))
+#: The false-alarm quantile of the threshold rule (the held-apart target is <= 5 % false alarms).
+FALSE_ALARM_QUANTILE = 0.95
+
+
+def _heldout() -> Any:
+    spec = importlib.util.spec_from_file_location("heldout47", Path(__file__).with_name("47_discrepancy_heldout.py"))
+    assert spec is not None and spec.loader is not None
+    m = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(m)
+    return m
+
+
+def analyse(seed: int) -> dict[str, Any]:
+    """One calibration log through the workflow and the simulator loop (47's :func:`analyse`)."""
+    return _heldout().analyse(seed)
+
+
+def confusion(records: Iterable[dict[str, Any]]) -> dict[str, dict[str, int]]:
+    """Per hidden effect, over the single hidden effects the signals can show: ``named_first``,
+    ``missed`` (nothing named), ``wrong`` (another effect named first) and ``n``."""
+    out: dict[str, dict[str, int]] = {}
+    for r in records:
+        if r.get("error") or len(r["hidden"]) != 1 or not r["identifiable"]:
+            continue
+        e = r["hidden"][0]
+        c = out.setdefault(e, {"named_first": 0, "missed": 0, "wrong": 0, "n": 0})
+        c["n"] += 1
+        if not r["named"]:
+            c["missed"] += 1
+        elif r["named"][0] == e:
+            c["named_first"] += 1
+        else:
+            c["wrong"] += 1
+    return dict(sorted(out.items()))
+
+
+def _q(x: Sequence[float], qs: Sequence[float] = (0.05, 0.5, 0.95)) -> list[float] | None:
+    import numpy as np
+    v = [float(a) for a in x if a is not None and math.isfinite(float(a))]
+    return [float(np.quantile(v, q)) for q in qs] if v else None
+
+
+def evidence_stats(records: Iterable[dict[str, Any]]) -> dict[str, Any]:
+    """Per candidate effect: quantiles (5/50/95 %) of its first-ranking size and total Delta
+    BIC on logs where it is hidden and where it is not, and how often it is significant."""
+    acc: dict[str, dict[str, list[float]]] = {}
+    for r in records:
+        if r.get("error"):
+            continue
+        for c in r.get("ranking_first", []):
+            a = acc.setdefault(c["effect"], {"size_hidden": [], "size_not": [], "bic_hidden": [], "bic_not": [],
+                                             "sig_hidden": [], "sig_not": []})
+            k = "hidden" if c["effect"] in r["hidden"] else "not"
+            a[f"size_{k}"].append(c.get("size", float("nan")))
+            a[f"bic_{k}"].append(c.get("total_delta_bic") if c.get("total_delta_bic") is not None else float("nan"))
+            a[f"sig_{k}"].append(1.0 if c.get("significant") else 0.0)
+    out = {}
+    for e, a in sorted(acc.items()):
+        out[e] = {"n_hidden": len(a["size_hidden"]), "n_not_hidden": len(a["size_not"]),
+                  "size_q05_q50_q95_hidden": _q(a["size_hidden"]), "size_q05_q50_q95_not_hidden": _q(a["size_not"]),
+                  "total_dbic_q05_q50_q95_hidden": _q(a["bic_hidden"]),
+                  "total_dbic_q05_q50_q95_not_hidden": _q(a["bic_not"]),
+                  "significant_hidden": int(sum(a["sig_hidden"])), "significant_not_hidden": int(sum(a["sig_not"]))}
+    return out
+
+
+#: A threshold sits this far above the size it must silence (the rule is size >= threshold).
+MARGIN = 0.01
+
+
+def choose_frac_min(records: Iterable[dict[str, Any]], default: float,
+                    q: float = FALSE_ALARM_QUANTILE) -> dict[str, float]:
+    """Size threshold per signal set by the false-alarm rule on the clean calibration logs.
+
+    For every clean log (nothing hidden), the largest size among its first ranking's
+    significant candidates (0 when there is none): a threshold above it keeps that log
+    silent.  The threshold of a signal set is the ``q`` quantile of those values over its
+    clean logs plus :data:`MARGIN`, never below ``default``.
+    """
+    import numpy as np
+    per: dict[str, list[float]] = {}
+    for r in records:
+        if r.get("error") or r["hidden"]:
+            continue
+        xs = [float(c["size"]) for c in r.get("ranking_first", [])
+              if c.get("significant") and c.get("size") is not None and math.isfinite(float(c["size"]))]
+        per.setdefault(r["angles"], []).append(max(xs) if xs else 0.0)
+    out = {a: default for a in ("both", "motor", "output")}
+    for a, v in per.items():
+        x = float(np.quantile(v, q))
+        out[a] = max(default, x + MARGIN) if x > 0 else default
+    return out
+
+
+def first_names_under(records: Iterable[dict[str, Any]], frac_min: dict[str, float]) -> dict[str, Any]:
+    """The first names the recorded first rankings give with the size thresholds ``frac_min``
+    (per signal set): the best-ranked significant candidate whose size reaches its signal
+    set's threshold.  Per hidden effect named first / n, and clean logs with a name."""
+    hit: dict[str, list[int]] = {}
+    fa = [0, 0]
+    for r in records:
+        if r.get("error"):
+            continue
+        th = frac_min.get(r["angles"], 0.0)
+        first = next((c["effect"] for c in r.get("ranking_first", [])
+                      if c.get("significant") and c.get("size") is not None and float(c["size"]) >= th), None)
+        if not r["hidden"]:
+            fa[0] += first is not None
+            fa[1] += 1
+        elif len(r["hidden"]) == 1 and r["identifiable"]:
+            h = hit.setdefault(r["hidden"][0], [0, 0])
+            h[0] += first == r["hidden"][0]
+            h[1] += 1
+    return {"named_first": {e: {"k": k, "n": n} for e, (k, n) in sorted(hit.items())},
+            "named_first_total": {"k": sum(k for k, _ in hit.values()), "n": sum(n for _, n in hit.values())},
+            "false_alarm": {"k": fa[0], "n": fa[1]}}
+
+
+def report(records: list[dict[str, Any]]) -> dict[str, Any]:
+    """The calibration report of analysed records (see the module docstring)."""
+    from hdservo.discrepancy.workflow import Settings
+    m = _heldout()
+    by_set: dict[str, Any] = {}
+    for a in ("both", "motor", "output"):
+        rs = [r for r in records if r.get("angles") == a]
+        if rs:
+            by_set[a] = m.score(rs)
+    chosen = choose_frac_min(records, Settings().frac_min)
+    default = {a: Settings().frac_min for a in chosen}
+    return {"summary": m.score(records), "per_signal_set": by_set, "confusion": confusion(records),
+            "evidence": evidence_stats(records),
+            "frac_min_rule": {"quantile": FALSE_ALARM_QUANTILE, "default": Settings().frac_min, "chosen": chosen,
+                              "first_names_default": first_names_under(records, default),
+                              "first_names_chosen": first_names_under(records, chosen)}}
+
+
+def main() -> int:
+    out = REPO / "build" / "results" / "discrepancy_calibration.json"
+    src = os.environ.get("HDSERVO_CALIB_FROM")
+    t0 = time.time()
+    if src:
+        recs = json.loads(Path(src).read_text())["cases"]
+    else:
+        from oracles import discrepancy_corpus as corpus
+        seeds = list(corpus.CALIBRATION_SEEDS)[:N_LOGS]
+        recs = []
+        with ProcessPoolExecutor(max_workers=JOBS) as ex:
+            for r in ex.map(analyse, seeds):
+                recs.append(r)
+                print(f"{r['label']}: named {r['named']}{' ' + r['error'] if r['error'] else ''} "
+                      f"({r['seconds']:.0f} s)", flush=True)
+                if len(recs) % 10 == 0:         # a partial record survives an interrupted run
+                    out.parent.mkdir(parents=True, exist_ok=True)
+                    write_json_atomic(out.with_suffix(".partial.json"), {"cases": recs})
+    doc = {"set": "calibration", "report": report(recs), "cases": recs, "wall_s": time.time() - t0}
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(out, doc)
+    print(json.dumps({k: doc["report"][k] for k in ("confusion", "frac_min_rule")}, indent=1))
+    print(json.dumps(doc["report"]["summary"], indent=1))
+    print(f"-> {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
