@@ -86,7 +86,10 @@ HD_FX_INLINE int32_t hd_pid_step_q(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t r
         s->dfilt = hdf_add64_sat(s->dfilt, step);
     }
 
-    const int32_t p = hdf_mul_q(c->kp, e, shift);
+    /* shift 32: |kp e| <= 2^62, so the rounded term is at most 2^30 and needs no
+     * saturation (the high word after the rounding offset) */
+    const int32_t p = (shift == 32u) ? hdf_asr32_rnd_fit((int64_t)c->kp * (int64_t)e, 32u)
+                                     : hdf_mul_q(c->kp, e, shift);
     /* kd_fs == 0 (no D term): the term is 0 */
     const int32_t d = (c->kd_fs == 0) ? 0
                       : hdf_neg_sat((int32_t)hdf_sat32(hdf_mul64x32_q(s->dfilt, c->kd_fs, shift + 16u)));
@@ -100,13 +103,15 @@ HD_FX_INLINE int32_t hd_pid_step_q(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t r
                                           : hdf_shl64_sat((int64_t)c->out_min, shift);
     int64_t integ_new = hdf_mac64(s->integ, c->ki_dt, e);
     integ_new = hdf_clamp64(integ_new, lim_lo, lim_hi);
-    int32_t i_new = hdf_asr32_rnd(integ_new, shift);
+    /* the integrator is clamped to [out_min, out_max] 2^shift (shift <= 32: exact
+     * limits), so its rounded read-out lies in [out_min, out_max]: no saturation */
+    int32_t i_new = (shift <= 32u) ? hdf_asr32_rnd_fit(integ_new, shift) : hdf_asr32_rnd(integ_new, shift);
 
     int64_t u = (int64_t)p + (int64_t)i_new + (int64_t)d + (int64_t)ff;
     if ((u > (int64_t)c->out_max && integ_new > s->integ) ||
         (u < (int64_t)c->out_min && integ_new < s->integ)) {
         integ_new = s->integ;                       /* freeze */
-        i_new = hdf_asr32_rnd(integ_new, shift);
+        i_new = (shift <= 32u) ? hdf_asr32_rnd_fit(integ_new, shift) : hdf_asr32_rnd(integ_new, shift);
         u = (int64_t)p + (int64_t)i_new + (int64_t)d + (int64_t)ff;
     }
     s->integ = integ_new;

@@ -56,6 +56,7 @@ bite "$src" gv_m4.elf "${mutants[@]}"
 hmutants=(
   'h_qadd|s@"qadd %0, %1, %2"@"add %0, %1, %2" /* MUTANT */@|hdf_add_sat|wrap-around instead of QADD in the M4 hdf_add_sat'
   'h_rnd_shift|s@"asrvc %\[yh\], %\[yh\], %\[s\]"@"lsrvc %[yh], %[yh], %[s]" /* MUTANT */@|hdf_asr64_rnd|logical instead of arithmetic shift in the M4 hdf_asr64_rnd'
+  'h_rnd_fit_carry|s@"adc %\[yh\], %\[hi\], #0"@"mov %[yh], %[hi]" /* MUTANT */@|hdf_asr32_rnd_fit|rounding carry dropped in the M4 hdf_asr32_rnd_fit'
   'h_mul96_sign|s@"and %\[n\], %\[al\], %\[b\], asr #31\\n\\t"@"mov %[n], #0\\n\\t" /* MUTANT */@|hdf_mul64x32_q|missing negative-b correction in the M4 96-bit product'
 )
 bite firmware/core/hd_fixed.h gv_m4_h.elf "${hmutants[@]}"

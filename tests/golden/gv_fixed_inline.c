@@ -77,6 +77,23 @@ static void gen_e64_s63(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
     hd_gv_put64(in, x);
     in[2] = (int32_t)s;
 }
+/* hdf_asr32_rnd_fit: s 1..32 (idx < 32 walks every s once), x = v 2^s + frac with
+ * v an edge-biased int32 and 0 <= frac < 2^s (one in four frac = 2^(s-1): the tie),
+ * so the rounded quotient fits an int32 (frac < 2^(s-1) for v = INT32_MAX) */
+static void gen_rnd_fit(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    const uint32_t s = 1u + ((idx < 32u) ? idx : hd_gv_rand32(r) % 32u);
+    const int32_t v = hd_gv_rand_edge32(r);
+    uint64_t frac = hd_gv_rand64(r) & (((uint64_t)1 << s) - 1u);
+    if ((idx % 4u) == 1u) {
+        frac = (uint64_t)1 << (s - 1u);
+    }
+    if (v == INT32_MAX) {
+        frac &= ((uint64_t)1 << (s - 1u)) - 1u;
+    }
+    hd_gv_put64(in, (int64_t)v * (int64_t)((uint64_t)1 << s) + (int64_t)frac);
+    in[2] = (int32_t)s;
+}
 static void gen_mul_q(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
 {
     in[0] = hd_gv_rand_edge32(r);
@@ -128,6 +145,15 @@ static int32_t asr32_rnd_const(int64_t x, uint32_t s)
     default: return hdf_asr32_rnd(x, 63u);
     }
 }
+#define RNDFIT_CASE(x, k) case (k): return hdf_asr32_rnd_fit((x), (k));
+#define CASES32_1(F, x) CASES8(F, x, 1u) CASES8(F, x, 9u) CASES8(F, x, 17u) CASES8(F, x, 25u)
+static int32_t asr32_rnd_fit_const(int64_t x, uint32_t s)
+{
+    switch (s) {
+    CASES32_1(RNDFIT_CASE, x)
+    default: return hdf_asr32_rnd_fit(x, 1u);
+    }
+}
 #define MULQ_CASE(x, k) case (k): return hdf_mul_q((x)[0], (x)[1], (k));
 static int32_t mul_q_const(const int32_t *in, uint32_t q)
 {
@@ -172,6 +198,7 @@ RUN_BEGIN(run_asr64_rnd, 3, 2) hd_gv_put64(out, asr64_rnd_const(hd_gv_get64(in),
 RUN_BEGIN(run_asr64_floor, 3, 2) hd_gv_put64(out, asr64_floor_const(hd_gv_get64(in), hd_gv_s2u(in[2]))); RUN_END
 RUN_BEGIN(run_asr64_rnd_var, 3, 2) hd_gv_put64(out, hdf_asr64_rnd(hd_gv_get64(in), hd_gv_s2u(in[2]))); RUN_END
 RUN_BEGIN(run_asr32_rnd, 3, 1) out[0] = asr32_rnd_const(hd_gv_get64(in), hd_gv_s2u(in[2])); RUN_END
+RUN_BEGIN(run_asr32_rnd_fit, 3, 1) out[0] = asr32_rnd_fit_const(hd_gv_get64(in), hd_gv_s2u(in[2])); RUN_END
 RUN_BEGIN(run_shl64_sat, 3, 2) hd_gv_put64(out, shl64_sat_const(hd_gv_get64(in), hd_gv_s2u(in[2]))); RUN_END
 RUN_BEGIN(run_mul64x32_q, 4, 2) hd_gv_put64(out, mul64x32_q_const(in, hd_gv_s2u(in[3]))); RUN_END
 RUN_BEGIN(run_mul_q, 3, 1) out[0] = mul_q_const(in, hd_gv_s2u(in[2])); RUN_END
@@ -204,6 +231,7 @@ static void cost_asr64_rnd_var(void)
 }
 COST(cost_asr64_floor, sink64, hdf_asr64_floor(b64, 16u))
 COST(cost_asr32_rnd, sink32, hdf_asr32_rnd(b64, 16u))
+COST(cost_asr32_rnd_fit, sink32, hdf_asr32_rnd_fit(b64, 32u))
 COST(cost_mul_q, sink32, hdf_mul_q(a, b, 30u))
 COST(cost_shl64_sat, sink64, hdf_shl64_sat(b64, 16u))
 COST(cost_mul64x32_q, sink64, hdf_mul64x32_q(a64, b, 30u))
@@ -220,6 +248,7 @@ const hd_gv_kernel_t hd_gv_fixed_inline_kernels[] = {
     {"hdf_asr64_floor", 3, 2, 2u * GV_N, gen_e64_s63, run_asr64_floor, cost_asr64_floor},
     {"hdf_asr64_rnd_var", 3, 2, 2u * GV_N, gen_e64_s63, run_asr64_rnd_var, cost_asr64_rnd_var},
     {"hdf_asr32_rnd", 3, 1, 2u * GV_N, gen_e64_s63, run_asr32_rnd, cost_asr32_rnd},
+    {"hdf_asr32_rnd_fit", 3, 1, 2u * GV_N, gen_rnd_fit, run_asr32_rnd_fit, cost_asr32_rnd_fit},
     {"hdf_mul_q", 3, 1, GV_N, gen_mul_q, run_mul_q, cost_mul_q},
     {"hdf_shl64_sat", 3, 2, 2u * GV_N, gen_e64_s63, run_shl64_sat, cost_shl64_sat},
     {"hdf_mul64x32_q", 4, 2, 2u * GV_N, gen_mul64x32_q, run_mul64x32_q, cost_mul64x32_q},
