@@ -328,6 +328,49 @@ static void test_pid_shift_products_match_shl64_sat(void **state)
     }
 }
 
+/* The PID's unsaturated read-outs (hdf_asr32_rnd_fit): the velocity loop's P term
+ * kp e / 2^32 for every int32 pair, and the I term of an integrator clamped to
+ * [out_min, out_max] 2^shift for shift 1..32, ties included, are the saturating
+ * rounded shift's value (hdf_asr32_rnd). */
+static void test_pid_fit_readouts_match_asr32_rnd(void **state)
+{
+    static const int32_t edge[] = {INT32_MIN, INT32_MIN + 1, -65536, -1, 0, 1, 65535, INT32_MAX - 1, INT32_MAX};
+    uint32_t sh;
+    int j;
+    int k;
+    (void)state;
+    for (j = 0; j < (int)(sizeof edge / sizeof edge[0]); j++) {
+        for (k = 0; k < (int)(sizeof edge / sizeof edge[0]); k++) {
+            const int64_t x = (int64_t)edge[j] * (int64_t)edge[k];
+            assert_int_equal(hdf_asr32_rnd(x, 32u), hdf_asr32_rnd_fit(x, 32u));
+        }
+    }
+    for (k = 0; k < 20000; k++) {
+        const int64_t x = (int64_t)s32((uint32_t)rnd64()) * (int64_t)s32((uint32_t)rnd64());
+        assert_int_equal(hdf_asr32_rnd(x, 32u), hdf_asr32_rnd_fit(x, 32u));
+    }
+    for (sh = 1u; sh <= 32u; sh++) {
+        const int64_t one = (int64_t)1 << sh;
+        for (k = 0; k < 4000; k++) {
+            const int32_t lo = (k < 2) ? INT32_MIN : s32((uint32_t)rnd64());
+            const int32_t hi = (k < 2) ? INT32_MAX : s32((uint32_t)rnd64());
+            const int32_t mn = (lo < hi) ? lo : hi;
+            const int32_t mx = (lo < hi) ? hi : lo;
+            /* an integrator value: random, a limit, or a tie next to a limit, then clamped */
+            int64_t integ = s64(rnd64()) >> (rnd64() % 40u);
+            if (k % 4 == 1) {
+                integ = (int64_t)mx * one - one / 2;
+            } else if (k % 4 == 2) {
+                integ = (int64_t)mn * one + one / 2;
+            } else if (k % 4 == 3) {
+                integ = (k % 8 == 3) ? (int64_t)mx * one : (int64_t)mn * one;
+            }
+            integ = hdf_clamp64(integ, (int64_t)mn * one, (int64_t)mx * one);
+            assert_int_equal(hdf_asr32_rnd(integ, sh), hdf_asr32_rnd_fit(integ, sh));
+        }
+    }
+}
+
 /* Division by a fixed divisor through its reciprocal: the value of hd_div64_rnd for every
  * divisor scale (1, powers of two and their neighbours, 16-bit, 32-bit edges, random) and
  * dividends at the edges (0, +-1, multiples of d and half-way points, INT64_MIN / MAX) and
@@ -450,6 +493,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_div64_rnd_u16_matches_div64_rnd, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_pid_fit_readouts_match_asr32_rnd, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_blend_update_follows_ramp_rule, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_app_current_is_div_q, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_app_encoder_steps, setUp, tearDown),
