@@ -107,12 +107,14 @@ HD_FX_INLINE int32_t hd_pid_step_q(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t r
      * limits), so its rounded read-out lies in [out_min, out_max]: no saturation */
     int32_t i_new = (shift <= 32u) ? hdf_asr32_rnd_fit(integ_new, shift) : hdf_asr32_rnd(integ_new, shift);
 
-    int64_t u = (int64_t)p + (int64_t)i_new + (int64_t)d + (int64_t)ff;
+    /* the terms other than I, summed once for both tries (four int32s: exact in int64) */
+    const int64_t pdf = (int64_t)p + (int64_t)d + (int64_t)ff;
+    int64_t u = pdf + (int64_t)i_new;
     if ((u > (int64_t)c->out_max && integ_new > s->integ) ||
         (u < (int64_t)c->out_min && integ_new < s->integ)) {
         integ_new = s->integ;                       /* freeze */
         i_new = (shift <= 32u) ? hdf_asr32_rnd_fit(integ_new, shift) : hdf_asr32_rnd(integ_new, shift);
-        u = (int64_t)p + (int64_t)i_new + (int64_t)d + (int64_t)ff;
+        u = pdf + (int64_t)i_new;
     }
     s->integ = integ_new;
 
