@@ -88,6 +88,18 @@ static void sdo_fail(hd_co_t *co, uint32_t code)
     sdo_abort(co, ix, sb, code);
 }
 
+/* a download whose commit was refused: dl_commit has already ended a domain transfer (the
+ * domain refused or kept its old content, nothing to discard), yet the abort still names the
+ * object (CiA 301: the abort carries the transfer's multiplexer; a master matches on it) */
+static void sdo_commit_refused(hd_co_t *co, uint32_t code)
+{
+    const hd_co_entry_t *e = &co->table[co->sdo.ent];
+    const uint16_t ix = e->index;
+    const uint8_t sb = e->sub;
+    hd_co__sdo_reset(co, false);
+    sdo_abort(co, ix, sb, code);
+}
+
 void hd_co_sdo_abort(hd_co_t *co, uint32_t code)
 {
     if (co->sdo.state != SDO_IDLE) {
@@ -207,11 +219,13 @@ static void sdo_initiate_download(hd_co_t *co, const uint8_t *d, uint16_t index,
                 s->ent = (uint16_t)ent;
                 s->state = SDO_DL_SEG;   /* so that a failure discards */
                 ab = dl_sink(co, &d[4], n);
-                if (ab == 0u) {
-                    ab = dl_commit(co);
-                }
                 if (ab != 0u) {
                     sdo_fail(co, ab);
+                    return;
+                }
+                ab = dl_commit(co);
+                if (ab != 0u) {
+                    sdo_commit_refused(co, ab);
                     return;
                 }
                 hd_co__sdo_reset(co, false);
@@ -275,7 +289,7 @@ static void sdo_download_segment(hd_co_t *co, const uint8_t *d)
     if ((d[0] & 0x01u) != 0u) {
         ab = dl_commit(co);
         if (ab != 0u) {
-            sdo_fail(co, ab);
+            sdo_commit_refused(co, ab);
             return;
         }
         hd_co__sdo_reset(co, false);
@@ -474,7 +488,7 @@ static void sdo_block_download_end(hd_co_t *co, const uint8_t *d)
     uint8_t sb = e->sub;
     ab = dl_commit(co);
     if (ab != 0u) {
-        sdo_fail(co, ab);
+        sdo_commit_refused(co, ab);
         return;
     }
     hd_co__sdo_reset(co, false);

@@ -1075,12 +1075,31 @@ static void test_table_commit_interlock(void **st)
     assert_int_equal(app.cb.table.version, 4);
 }
 
+/* A table whose CRC-32 trailer does not match is refused at the commit of the transfer, and
+ * the abort names the transfer's object (CiA 301: the abort carries the multiplexer; a master
+ * that matches aborts to its transfer would otherwise not see its answer). */
+static void test_refused_table_commit_names_its_object(void **st)
+{
+    (void)st;
+    uint32_t len = make_table(8u, 3u, 200);
+    img[len - 1u] ^= 0x40u;                                   /* CRC-32 trailer broken */
+    seg_initiate(len);
+    for (uint32_t seg = 0u, t = 0u; 7u * seg < len; seg++, t ^= 1u) {
+        seg_send(len, seg, (uint8_t)t);
+    }
+    assert_int_not_equal(last_abort_code(), 0u);
+    assert_int_equal(last_sdo.data[1], 0x00);                 /* index 0x5100 */
+    assert_int_equal(last_sdo.data[2], 0x51);
+    assert_int_equal(last_sdo.data[3], 0x01);                 /* sub 1 */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_preisach_table, setup),
         cmocka_unit_test_setup(test_store_objects, setup),
         cmocka_unit_test_setup(test_stored_image_with_read_only_rpdo_mapping_refused, setup),
+        cmocka_unit_test_setup(test_refused_table_commit_names_its_object, setup),
         cmocka_unit_test_setup(test_stored_image_with_restricted_cob_id_refused, setup),
         cmocka_unit_test_setup(test_identical_save_erases_nothing, setup),
         cmocka_unit_test_setup(test_save_rate_limit, setup),
