@@ -864,7 +864,8 @@ def _prepare(sig: Signals, offset: bool | None) -> tuple[Signals, bl.Design, lis
         zero_note = (f"the encoders' zeros differ: the measured twist carries a constant {phi0:.4g} rad (output) that "
                      "no spring can (it would hold more torque than the motor ever applied); removed from the motor "
                      "angle before the fit")
-    d._baseline_names = {c.name for c in cols}  # type: ignore[attr-defined]
+    # the fitted baseline columns (a fixed standstill offset does not take up a Coulomb asymmetry)
+    d._baseline_names = {c.name for c in cols if c.fixed is None}  # type: ignore[attr-defined]
     return sig, d, cols, zero_note
 
 
