@@ -25,6 +25,8 @@ def _signals(tmp_path: Path) -> signals.Signals:
 
 def test_motor_only_log_names_asymmetric_friction(tmp_path: Path) -> None:
     sig = _signals(tmp_path)
+    res = workflow.run(sig)
+    assert res.named[:1] == ["asymmetric_friction"]
     d = bl.make_design(sig)
     cols = bl.baseline_columns(d)
     off = next(c for c in cols if c.name == "offset")
@@ -33,8 +35,6 @@ def test_motor_only_log_names_asymmetric_friction(tmp_path: Path) -> None:
     assert off.fixed is not None and off.fixed == bl.standstill_offset(d)
     still_free = bl.solve(d, bl.baseline_columns(d, True), {}).params()["offset"]
     assert abs(off.fixed) < 0.2 * abs(still_free)
-    res = workflow.run(sig)
-    assert res.named[:1] == ["asymmetric_friction"]
     assert res.baseline["offset"] == off.fixed
 
 
