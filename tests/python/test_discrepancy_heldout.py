@@ -85,13 +85,17 @@ def test_score_and_confidence_intervals() -> None:
          "sim_shrink": 9.0},
         {"hidden": ["hysteresis"], "identifiable": [], "named": [], "sim_shrink": None},
         {"hidden": ["hysteresis"], "identifiable": ["hysteresis"], "named": [], "error": "UserError: x"},
+        # named in the other order, but ordered right by explained variance
+        {"hidden": ["stribeck_friction", "cogging_torque"], "identifiable": ["stribeck_friction", "cogging_torque"],
+         "hidden_by_size": ["cogging_torque", "stribeck_friction"], "named": ["stribeck_friction", "cogging_torque"],
+         "named_by_size": ["cogging_torque", "stribeck_friction"], "sim_shrink": None},
     ]
     s = m.score(r)
     assert s["single_named_first"]["k"] == 2 and s["single_named_first"]["n"] == 3
     assert s["single_named_first_per_effect"]["cogging_torque"]["k"] == 1
     assert s["false_alarm"]["k"] == 1 and s["false_alarm"]["n"] == 2
-    assert s["spurious"]["k"] == 2 and s["spurious"]["n"] == 5
-    assert s["two_both_named"]["k"] == 1 and s["two_named_in_order"]["k"] == 1
+    assert s["spurious"]["k"] == 2 and s["spurious"]["n"] == 6
+    assert s["two_both_named"]["k"] == 2 and s["two_named_in_order"]["k"] == 2
     assert s["median_sim_shrink"]["median"] == 4.0 and s["median_sim_shrink"]["n"] == 3
     assert s["hidden_not_identifiable_silent"]["k"] == 1 and s["refused_or_failed"] == 1
     assert math.isnan(m.wilson(0, 0)[0])

@@ -121,7 +121,8 @@ def score(records: Iterable[dict[str, Any]]) -> dict[str, Any]:
         "false_alarm": _frac(sum(bool(r["named"]) for r in clean), len(clean)),
         "spurious": _frac(sum(any(n not in r["hidden"] for n in r["named"]) for r in hid), len(hid)),
         "two_both_named": _frac(sum(set(r["hidden"]) <= set(r["named"]) for r in two), len(two)),
-        "two_named_in_order": _frac(sum(r["named"][:2] == r["hidden_by_size"] for r in two
+        # the workflow's order by explained variance (named_by_size) where recorded
+        "two_named_in_order": _frac(sum(r.get("named_by_size", r["named"])[:2] == r["hidden_by_size"] for r in two
                                         if "hidden_by_size" in r), len(two)),
         "median_sim_shrink": {"median": med, "ci95": [lo, hi], "n": len(shrinks)},
         "median_sim_gap_shrink": {"median": gmed, "ci95": [glo, ghi], "n": len(gaps)},
@@ -188,6 +189,7 @@ def analyse(seed: int) -> dict[str, Any]:
         closeloop.apply(res, cl)
         rec["named_workflow"] = named_wf
         rec["named"] = list(res.named)
+        rec["named_by_size"] = res.named_by_size()
         its = res.iterations
         if its:
             b, a = its[0].get("sim_rms_before_rad"), its[-1].get("sim_rms_after_rad")

@@ -13,7 +13,12 @@ Two structures (docs/discrepancy.md):
   equations; it holds whatever the spring does, M carries the spring.
 * ``rigid`` -- one mass on one coordinate: tau = J a + Fv w + Fc sgn w + offset (the
   symmetric inverse model of EMPS).  With two encoders and a rigid baseline the
-  coordinate is the motor angle.
+  coordinate is the motor angle.  By default the offset is the median torque of the
+  log's standstill segments (:func:`standstill_offset`), held fixed in the fit: on the
+  moving samples a free constant is indistinguishable from a Coulomb level that differs
+  between directions (it would take up an asymmetric friction); at standstill friction
+  holds no net torque on average, a constant load does.  A log with too little
+  standstill gets a free offset.
 
 Both are fitted by ordinary least squares on the parallel-filtered, decimated data
 (IDIM-LS), each equation weighted by the inverse of its residual scale, samples at
@@ -51,6 +56,9 @@ class Column:
     fric: str = ""
     #: Inertia column ("Jm", "Jl", or "J" for the rigid model): the simulated dynamics.
     role: str = ""
+    #: Coefficient estimated outside the fit (the standstill offset), held fixed by
+    #: :func:`solve`; None: fitted.
+    fixed: float | None = None
 
 
 #: Width of the smoothed sign relative to the standstill threshold (samples below the
@@ -184,8 +192,35 @@ def _smooth(x: np.ndarray, w: int) -> np.ndarray:
     return np.convolve(x, k, mode="same")
 
 
+#: Least share of the (decimated, away-from-the-ends) samples at standstill for the rigid
+#: baseline's offset to be estimated there (:func:`standstill_offset`): 5 %, a few hundred
+#: samples on an 8 s log, enough for a median within the torque noise.
+STILL_MIN_SHARE = 0.05
+
+
+def standstill_offset(d: Design) -> float | None:
+    """Median measured torque over the standstill segments of a log, N.m (motor side).
+
+    A sample is at standstill when the output velocity stays below the design's threshold
+    for the stop margin on each side (the same rule that drops it from the fit).  None when
+    fewer than :data:`STILL_MIN_SHARE` of the samples stand still.
+    """
+    s = d.sig
+    still = _erode(np.abs(s.dec(s.v_out)) <= d.v_eps, stop_margin(s))
+    edge = max(10, len(still) // 100)
+    still[:edge] = False
+    still[-edge:] = False
+    if int(still.sum()) < STILL_MIN_SHARE * max(len(still) - 2 * edge, 1):
+        return None
+    return float(np.median(d.dec("tau", s.tau)[still]))
+
+
 def baseline_columns(d: Design, offset: bool | None = None) -> list[Column]:
-    """Regressors of the baseline model (see the module docstring)."""
+    """Regressors of the baseline model (see the module docstring).
+
+    ``offset``: rigid default (None) the standstill offset held fixed (a free one without
+    enough standstill), True a free offset, False none; two-mass: True a free offset.
+    """
     s = d.sig
     N = s.ratio
     eps = d.v_eps
@@ -196,7 +231,8 @@ def baseline_columns(d: Design, offset: bool | None = None) -> list[Column]:
                 Column("Fc", None, smooth_sign(s.w_m, SIGN_SMOOTH * eps * N),
                        fn=lambda tm, wm, tl, wl: (None, np.sign(wm)), fric="m")]
         if offset is None or offset:
-            cols.append(Column("offset", None, one, fn=lambda tm, wm, tl, wl: (None, np.ones_like(wm))))
+            c0 = standstill_offset(d) if offset is None else None
+            cols.append(Column("offset", None, one, fn=lambda tm, wm, tl, wl: (None, np.ones_like(wm)), fixed=c0))
         return cols
     sm = smooth_sign(s.w_m, SIGN_SMOOTH * eps * N)
     sl = smooth_sign(s.w_l, SIGN_SMOOTH * eps)
@@ -258,6 +294,7 @@ def solve(d: Design, cols: Sequence[Column], weights: dict[str, float],
     simulation error); their contribution is subtracted from the measured torque and
     they are appended to the fit's coefficients (and counted in ``n_params``).
     """
+    fixed = list(fixed) + [(c, c.fixed) for c in cols if c.fixed is not None]
     cols = [c for c in cols if c.name not in {f.name for f, _ in fixed}]
     X = np.column_stack([d.stack(c) for c in cols])
     y = d.lhs(d.sig.tau if tau is None else tau, tau_key)

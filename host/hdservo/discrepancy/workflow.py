@@ -706,11 +706,18 @@ class Result:
     angles: str = "both"
     identifiability: dict[str, str] = field(default_factory=dict)
 
+    def named_by_size(self) -> list[str]:
+        """The kept names, largest first by their share of the baseline's equation-error
+        variance in the final model (``iterations[i].explained_share``,
+        :func:`explained_shares`); the naming order breaks ties."""
+        share = {it["named_effect"]: it.get("explained_share") or 0.0 for it in self.iterations}
+        return sorted(self.named, key=lambda e: -share.get(e, 0.0))
+
     def to_json(self) -> dict[str, Any]:
         # JSON has no inf/NaN: a figure that does not exist (a biased baseline's simulation
         # error) is null
         return json_ready({"baseline": self.baseline, "baseline_relative_error_pct": self.base_rel_pct, "iterations": self.iterations, "named_effects": self.named,
-                "final_model": self.final_model, "residual_unit": "N.m at the motor (N for a linear axis)",
+                "named_by_size": self.named_by_size(), "final_model": self.final_model, "residual_unit": "N.m at the motor (N for a linear axis)",
                 "rms_history": self.rms_history, "sim_rms_history_rad": self.sim_rms_history,
                 "sim_signal": SIM_TEXT, "first_ranking": self.ranking_first,
                 "last_ranking": self.ranking_last,
@@ -826,6 +833,8 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
     floor, sim_floor, imgs_sim = _model_floors(st_, path)
     for k, it in enumerate(path.iterations):
         _gap_figures(st_, path, k, imgs_sim, floor)
+    for it, share in zip(path.iterations, explained_shares(st_, base_fit)):
+        it["explained_share"] = share
     notes = [zero_note] if zero_note else []
     if biased:
         notes.append(f"the baseline fit is not a mechanical axis ({', '.join(unphysical(baseline))}): it cannot be simulated, so "
@@ -839,6 +848,21 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
                   ranking_last=path.last_rank, whiteness=white, base_rel_pct=base_rel,
                   ranking_first=path.first_rank or [], sim_rms_history=path.sim_rms, sims=path.sims, floor=floor,
                   sim_floor=sim_floor, notes=notes, angles=sig.angles, identifiability=ident)
+
+
+def explained_shares(st_: State, base_fit: bl.Fit) -> list[float]:
+    """Per added effect (in naming order), its share of the baseline's weighted
+    equation-error variance in the final model: the rise of the weighted RSS when that
+    effect alone is taken out of the final model (the rest re-fitted), over the
+    baseline's weighted RSS.  A name's share in the model it was named in depends on what
+    was named before it; this one does not, so two effects are ordered by it."""
+    assert st_.fit is not None
+    from dataclasses import replace
+    out = []
+    for i in range(len(st_.added)):
+        without = replace(st_, added=st_.added[:i] + st_.added[i + 1:]).solve()
+        out.append(max(0.0, (without.rss_w - st_.fit.rss_w) / max(base_fit.rss_w, 1e-300)))
+    return out
 
 
 def _prepare(sig: Signals, offset: bool | None) -> tuple[Signals, bl.Design, list[bl.Column], str | None]:
@@ -864,7 +888,8 @@ def _prepare(sig: Signals, offset: bool | None) -> tuple[Signals, bl.Design, lis
         zero_note = (f"the encoders' zeros differ: the measured twist carries a constant {phi0:.4g} rad (output) that "
                      "no spring can (it would hold more torque than the motor ever applied); removed from the motor "
                      "angle before the fit")
-    d._baseline_names = {c.name for c in cols}  # type: ignore[attr-defined]
+    # the fitted baseline columns (a fixed standstill offset does not take up a Coulomb asymmetry)
+    d._baseline_names = {c.name for c in cols if c.fixed is None}  # type: ignore[attr-defined]
     return sig, d, cols, zero_note
 
 
