@@ -715,7 +715,7 @@ static double lugre_z(const hd_plant_friction_params *f, double z0, double v, do
         const double x2 = x * x, x4 = x2 * x2;
         const double ph = ((1.0 + x * (1.0 / 2.0)) + x2 * (1.0 / 6.0 + x * (1.0 / 24.0)))
                           + x4 * ((1.0 / 120.0 + x * (1.0 / 720.0)) + x2 * (1.0 / 5040.0 + x * (1.0 / 40320.0)));
-        return z0 * (1.0 + x * ph) + v * s * ph;
+        return z0 + ph * (x * z0 + v * s);    /* z0 (1 + x ph) + v s ph: ph last on the chain */
     }
     em1 = x < -40.0 ? -1.0 : (x < -0.7 ? exp(x) - 1.0 : expm1(x));
     return z0 * (1.0 + em1) + v * s * (em1 / x);
@@ -723,11 +723,15 @@ static double lugre_z(const hd_plant_friction_params *f, double z0, double v, do
 
 static inline __attribute__((always_inline)) double lugre_force(hd_plant *p, int side, const hd_plant_friction_params *f, double z0, double v, double s)
 {
-    double z, zd;
+    double z, zd = 0.0, zf;
     (void)stribeck_m(p, side, f, v);
+    /* sigma0 z + sigma1 zd + viscous v with zd = v - sigma0 |v| z / g, as
+     * z (sigma0 - sigma1 sigma0 |v| / g) + (sigma1 + viscous) v: the factor of z is formed
+     * beside z, so z is one multiply-add from the force */
+    zf = f->sigma0_Nm_per_rad - f->sigma1_Nms_per_rad * f->sigma0_Nm_per_rad * fabs(v) * p->fr_ig[side];
     z = lugre_z(f, z0, v, s, p->fr_ig[side]);
-    zd = v - f->sigma0_Nm_per_rad * fabs(v) * z * p->fr_ig[side];
-    return f->sigma0_Nm_per_rad * z + f->sigma1_Nms_per_rad * zd + f->viscous_Nms_per_rad * v;
+    (void)zd;
+    return z * zf + (f->sigma1_Nms_per_rad + f->viscous_Nms_per_rad) * v;
 }
 
 /* Friction of a moving (not stuck) side without LuGre. */
@@ -824,22 +828,84 @@ static void base_cache(hd_plant *p, substep_ctx *c)
 static int need_trig_m(const hd_plant_params *q) { return q->te_enabled || q->cogging_enabled; }
 static int need_trig_l(const hd_plant *p) { return (p->prm.te_enabled && p->has_te_out) || p->prm.gravity_enabled; }
 
+/* The hysteresis torque of the committed memory (Maxwell-slip elements at xi, Preisach
+ * memory pz) is, as a function of the twist, continuous and piecewise linear: each element
+ * is linear or saturated, P_mean is linear in a grid cell, and the Preisach output is linear
+ * while its moving argument stays in one Everett cell and wipes out no extremum.  From the
+ * end evaluation's twist phi (torque end_Th) this finds, per direction (0 up, 1 down), the
+ * slope and the twist up to which it holds, so that a stage inside that piece needs one
+ * multiply-add instead of the operators (the same function; rounding differs by an ulp or so). */
+static void hyst_piece(hd_plant *p, int dir)
+{
+    const hd_plant_params *q = &p->prm;
+    const double phi = p->end_phi;
+    double sl = 0.0, bd = dir == 0 ? INFINITY : -INFINITY, b;
+    int k;
+    if (q->maxwell_enabled) {
+        for (k = 0; k < q->maxwell_n; k++) {
+            const double kk = q->maxwell_k_Nm_per_rad[k], w = q->maxwell_w_Nm[k], xi = p->xi[k];
+            double v;
+            if (kk <= 0.0) continue;
+            v = kk * (phi - xi);
+            if (dir == 0 && v < w) {               /* up: linear until +w, or saturated at -w until -w */
+                if (v >= -w) sl += kk;
+                b = v >= -w ? xi + p->mx_slip[k] : xi - p->mx_slip[k];
+                if (b < bd) bd = b;
+            } else if (dir == 1 && v > -w) {       /* down: linear until -w, or saturated at +w until +w */
+                if (v <= w) sl += kk;
+                b = v <= w ? xi - p->mx_slip[k] : xi + p->mx_slip[k];
+                if (b > bd) bd = b;
+            }
+        }
+    }
+    if (q->preisach_enabled) {
+        const double M = q->preisach_u_max_rad, inv = p->preisach_inv_du;
+        if (phi >= M || phi <= -M) {                /* saturated: P_mean and P constant beyond +-M */
+            if (dir == 0 && phi < 0.0 && -M < bd) bd = -M;
+            if (dir == 1 && phi > 0.0 && M > bd) bd = M;
+        } else {
+            const double x = (phi + M) * inv;
+            double sp;
+            int32_t i = dir == 0 ? (int32_t)floor(x) : (int32_t)ceil(x) - 1;   /* P_mean's cell */
+            if (i > HD_PLANT_PREISACH_L - 1) i = HD_PLANT_PREISACH_L - 1;
+            if (i < 0) i = 0;
+            sl += (p->preisach_pm[i + 1] - p->preisach_pm[i]) * inv;
+            b = -M + (double)(dir == 0 ? i + 1 : i) / inv;
+            if (dir == 0 ? b < bd : b > bd) bd = b;
+            hd_plant_preisach_piece(&p->pz, p->everett, M, dir == 0 ? 1 : -1, &sp, &b);
+            sl -= sp;
+            if (dir == 0 ? b < bd : b > bd) bd = b;
+        }
+    }
+    p->hy_s[dir] = sl;
+    p->hy_b[dir] = bd;
+    p->hy_ok[dir] = 1;
+}
+
 /* Spring + hysteresis (from the committed memory) at angles x, with TE and cogging
  * already in pp (te, de_m, de_l, Tcog) and cos/sin of theta_l (cl, sl). */
-static void pos_eval(const hd_plant *p, const xstate *x, double cl, double sl, pos_part *pp)
+static void pos_eval(hd_plant *p, const xstate *x, double cl, double sl, pos_part *pp)
 {
     const hd_plant_params *q = &p->prm;
     double Th = 0.0, phi;
+    int dir;
     phi = x->th_m * p->inv_ratio + pp->te - x->th_l;
     pp->phi = phi;
-    if (q->maxwell_enabled) {
-        int k;
-        for (k = 0; k < q->maxwell_n; k++)
-            Th += sat(q->maxwell_k_Nm_per_rad[k] * (phi - p->xi[k]), q->maxwell_w_Nm[k]);
+    dir = phi >= p->end_phi ? 0 : 1;
+    if (p->hy_lin_ok && !p->hy_ok[dir]) hyst_piece(p, dir);
+    if (p->hy_lin_ok && (dir == 0 ? phi <= p->hy_b[0] : phi >= p->hy_b[1])) {
+        /* within the linear piece of the committed memory (hyst_piece) */
+        Th = p->end_Th + p->hy_s[dir] * (phi - p->end_phi);
+    } else {
+        if (q->maxwell_enabled) {
+            int k;
+            for (k = 0; k < q->maxwell_n; k++)
+                Th += sat(q->maxwell_k_Nm_per_rad[k] * (phi - p->xi[k]), q->maxwell_w_Nm[k]);
+        }
+        if (q->preisach_enabled) /* P_mean(phi) - P[phi]: purely hysteretic, dissipative, zero net torque at saturation */
+            Th += preisach_mean(p, q, phi)
+                  - hd_plant_preisach_eval(&p->pz, p->everett, q->preisach_u_max_rad, phi, NULL);
     }
-    if (q->preisach_enabled) /* P_mean(phi) - P[phi]: purely hysteretic, dissipative, zero net torque at saturation */
-        Th += preisach_mean(p, q, phi)
-              - hd_plant_preisach_eval(&p->pz, p->everett, q->preisach_u_max_rad, phi, NULL);
     pp->Th = Th;
     pp->Tsh = spring_torque(p, phi) + Th;
     pp->cl = cl;
@@ -968,6 +1034,7 @@ static void end_eval(hd_plant *p)
     p->end_phi = phi; p->end_te = te; p->end_de_m = de_m; p->end_de_l = de_l;
     p->end_Th = Th;
     p->end_Tsh = spring_torque(p, phi) + Th;
+    p->hy_ok[0] = p->hy_ok[1] = 0;             /* pieces formed when a stage first needs one */
     p->end_cm = cm; p->end_sm = sm; p->end_cl = cl; p->end_sl = sl;
     p->end_valid = 1;
 }
@@ -1106,6 +1173,7 @@ int hd_plant_init(hd_plant *p, const hd_plant_params *prm, uint64_t seed, char *
     }
     harm_plan(p);
     p->h_rot_ok = 1;
+    p->hy_lin_ok = 1;
     if (prm->preisach_enabled) {
         hd_plant_preisach_everett(p->everett, prm->preisach_u_max_rad, prm->preisach_t_sat_Nm,
                             prm->preisach_r0_rad, prm->preisach_s_rad);

@@ -330,6 +330,8 @@ typedef struct {
     double   enc_scale[2];
     double   fr_v[2], fr_g[2], fr_ig[2]; /* last Stribeck level g(v) per side, 1/g */
     double   fr_ya[2], fr_ea[2];      /* Stribeck exponential anchor: y, exp(-y) from libm */
+    double   fr_cg[2][2][7], fr_ci[2][2][10]; /* [side][v < 0]: series of g and 1/g about the anchor */
+    int32_t  fr_cok[2][2];            /* those coefficients are formed for the anchor in force */
     double   fr_inv_vs[2];            /* 1/vs per side */
     double   fr_fc[2][2], fr_dfs[2][2]; /* [side][v < 0]: Fc, Fs - Fc */
     hd_plant_friction_params fr_base[2]; /* friction as initialised (the drift scales it) */
@@ -341,6 +343,11 @@ typedef struct {
     int32_t  end_valid;               /* end-of-sub-step evaluation below is current */
     double   end_th_m, end_th_l, end_phi, end_te, end_de_m, end_de_l, end_Tsh, end_Th, end_Tcog;
     double   end_cm, end_sm, end_cl, end_sl;
+    int32_t  hy_lin_ok;               /* 1: stages take the hysteresis torque from its linear piece
+                                         (tests set 0: the operators evaluated at every stage) */
+    int32_t  hy_ok[2];                /* the piece below is formed for the last end evaluation */
+    double   hy_s[2], hy_b[2];        /* from the end evaluation's twist, up [0] / down [1]: slope of the
+                                         hysteresis torque (N.m/rad) and the twist up to which it holds */
     int32_t  trig_n;                  /* end evaluations since cos/sin came from libm */
     int64_t  n_end_eval;              /* end evaluations so far (tests count the work an option costs) */
     int32_t  k1_valid, k1_ok, k1_brake;  /* end-of-period evaluation reusable as the next first stage */

@@ -130,6 +130,56 @@ double hd_plant_preisach_eval(const hd_plant_preisach_state *s, const double *E,
     return y;
 }
 
+/* Slope (output per rad of input) of the operator from memory s for inputs moving from
+ * s->u_prev in direction dir, and the input up to which it holds.  y(u) is continuous and,
+ * for fixed memory, piecewise linear: one Everett cell of the moving argument (the bilinear
+ * interpolation is linear in one argument when the other is fixed), until the next stored
+ * extremum is wiped out or the input saturates. */
+void hd_plant_preisach_piece(const hd_plant_preisach_state *s, const double *E, double u_max, int32_t dir,
+                             double *slope, double *bound)
+{
+    const double u = s->u_prev, inv = s->inv_du;
+    double x, f;
+    int32_t i, j;
+    if (dir > 0) {
+        const double m = s->dir != 1 ? u : s->min_u[s->n_min - 1];   /* the last minimum (or u itself) */
+        double b;
+        if (u >= u_max) { *slope = 0.0; *bound = INFINITY; return; }  /* saturated: constant */
+        x = (u + u_max) * inv;
+        i = (int32_t)floor(x);                                      /* alpha cell [i, i + 1) */
+        if (i > L - 1) i = L - 1;
+        if (i < 0) i = 0;
+        x = (m + u_max) * inv;
+        if (x < 0.0) x = 0.0;
+        j = (int32_t)x; if (j > L - 1) j = L - 1;
+        f = x - (double)j;
+        if (i == j) *slope = 2.0 * inv * E[(i + 1) * W + i];
+        else *slope = 2.0 * inv * ((1.0 - f) * (E[(i + 1) * W + j] - E[i * W + j])
+                                   + f * (E[(i + 1) * W + j + 1] - E[i * W + j + 1]));
+        b = -u_max + (double)(i + 1) / inv;
+        if (s->max_u[s->n_max - 1] < b) b = s->max_u[s->n_max - 1];  /* wiping out the last maximum */
+        *bound = b < u_max ? b : u_max;
+    } else {
+        const double M = s->dir != -1 ? u : s->max_u[s->n_max - 1];  /* the last maximum (or u itself) */
+        double b;
+        if (u <= -u_max) { *slope = 0.0; *bound = -INFINITY; return; }
+        x = (u + u_max) * inv;
+        j = (int32_t)ceil(x) - 1;                                   /* beta cell [j, j + 1) */
+        if (j > L - 1) j = L - 1;
+        if (j < 0) j = 0;
+        x = (M + u_max) * inv;
+        if (x > (double)L) x = (double)L;
+        i = (int32_t)x; if (i > L - 1) i = L - 1;
+        f = x - (double)i;
+        if (i == j) *slope = 2.0 * inv * E[(i + 1) * W + i];
+        else *slope = -2.0 * inv * ((1.0 - f) * (E[i * W + j + 1] - E[i * W + j])
+                                    + f * (E[(i + 1) * W + j + 1] - E[(i + 1) * W + j]));
+        b = -u_max + (double)j / inv;
+        if (s->n_min > 1 && s->min_u[s->n_min - 1] > b) b = s->min_u[s->n_min - 1]; /* the last minimum */
+        *bound = b > -u_max ? b : -u_max;
+    }
+}
+
 void hd_plant_preisach_reset(hd_plant_preisach_state *s, const double *E, double u_max)
 {
     int k;

@@ -24,4 +24,10 @@ void hd_plant_preisach_reset(hd_plant_preisach_state *s, const double *E, double
 double hd_plant_preisach_eval(const hd_plant_preisach_state *s, const double *E, double u_max, double u,
                         hd_plant_preisach_state *commit);
 
+/* Slope dy/du of the output from memory s (no move committed) for inputs moving from
+ * s->u_prev in direction dir (+1 up, -1 down), and the input (bound) up to which that
+ * slope holds: y(u) = s->y + slope (u - s->u_prev) between s->u_prev and bound. */
+void hd_plant_preisach_piece(const hd_plant_preisach_state *s, const double *E, double u_max, int32_t dir,
+                             double *slope, double *bound);
+
 #endif
