@@ -896,6 +896,7 @@ static void pos_eval(hd_plant *p, const xstate *x, double cl, double sl, pos_par
     if (p->hy_lin_ok && (dir == 0 ? phi <= p->hy_b[0] : phi >= p->hy_b[1])) {
         /* within the linear piece of the committed memory (hyst_piece) */
         Th = p->end_Th + p->hy_s[dir] * (phi - p->end_phi);
+        p->n_hy_lin++;
     } else {
         if (q->maxwell_enabled) {
             int k;

@@ -346,6 +346,7 @@ typedef struct {
     int32_t  hy_lin_ok;               /* 1: stages take the hysteresis torque from its linear piece
                                          (tests set 0: the operators evaluated at every stage) */
     int32_t  hy_ok[2];                /* the piece below is formed for the last end evaluation */
+    int64_t  n_hy_lin;                /* stages that took the hysteresis torque from the piece (tests) */
     double   hy_s[2], hy_b[2];        /* from the end evaluation's twist, up [0] / down [1]: slope of the
                                          hysteresis torque (N.m/rad) and the twist up to which it holds */
     int32_t  trig_n;                  /* end evaluations since cos/sin came from libm */
