@@ -723,14 +723,13 @@ static double lugre_z(const hd_plant_friction_params *f, double z0, double v, do
 
 static inline __attribute__((always_inline)) double lugre_force(hd_plant *p, int side, const hd_plant_friction_params *f, double z0, double v, double s)
 {
-    double z, zd = 0.0, zf;
+    double z, zf;
     (void)stribeck_m(p, side, f, v);
     /* sigma0 z + sigma1 zd + viscous v with zd = v - sigma0 |v| z / g, as
      * z (sigma0 - sigma1 sigma0 |v| / g) + (sigma1 + viscous) v: the factor of z is formed
-     * beside z, so z is one multiply-add from the force */
+     * beside z, so z is one multiply-add from the force (the stages are a chain) */
     zf = f->sigma0_Nm_per_rad - f->sigma1_Nms_per_rad * f->sigma0_Nm_per_rad * fabs(v) * p->fr_ig[side];
     z = lugre_z(f, z0, v, s, p->fr_ig[side]);
-    (void)zd;
     return z * zf + (f->sigma1_Nms_per_rad + f->viscous_Nms_per_rad) * v;
 }
 
