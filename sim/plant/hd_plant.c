@@ -882,7 +882,8 @@ static void hyst_piece(hd_plant *p, int dir)
 }
 
 /* Spring + hysteresis (from the committed memory) at angles x, with TE and cogging
- * already in pp (te, de_m, de_l, Tcog) and cos/sin of theta_l (cl, sl). */
+ * already in pp (te, de_m, de_l, Tcog) and cos/sin of theta_l (cl, sl).  p is written only
+ * to form the hysteresis piece of the committed memory on its first use (hyst_piece). */
 static void pos_eval(hd_plant *p, const xstate *x, double cl, double sl, pos_part *pp)
 {
     const hd_plant_params *q = &p->prm;
