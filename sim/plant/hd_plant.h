@@ -330,8 +330,6 @@ typedef struct {
     double   enc_scale[2];
     double   fr_v[2], fr_g[2], fr_ig[2]; /* last Stribeck level g(v) per side, 1/g */
     double   fr_ya[2], fr_ea[2];      /* Stribeck exponential anchor: y, exp(-y) from libm */
-    double   fr_cg[2][2][7], fr_ci[2][2][10]; /* [side][v < 0]: series of g and 1/g about the anchor */
-    int32_t  fr_cok[2][2];            /* those coefficients are formed for the anchor in force */
     double   fr_inv_vs[2];            /* 1/vs per side */
     double   fr_fc[2][2], fr_dfs[2][2]; /* [side][v < 0]: Fc, Fs - Fc */
     hd_plant_friction_params fr_base[2]; /* friction as initialised (the drift scales it) */
