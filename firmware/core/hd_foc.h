@@ -78,6 +78,9 @@ typedef struct {
     int32_t duty[3];    /* Q16 duty of phases a, b, c, [0, 65536] */
 } hd_foc_out_t;
 
+/** sin and cos of an electrical angle (2^32 == one turn) in Q31, |.| <= 2^31 - 1, by linear
+ *  interpolation of a 1024-entry table (the current loop's form: error <= 4.7e-6 + 1 LSB). */
+void hd_foc_sincos(uint32_t theta_e, int32_t *sin_q31, int32_t *cos_q31);
 /** Clarke transform (balanced three-phase): alpha, beta in Q15.16 A. */
 void hd_foc_clarke(int32_t ia, int32_t ib, int32_t *i_alpha, int32_t *i_beta);
 /** Park: (alpha, beta) -> (d, q) with sin, cos in Q30. */
