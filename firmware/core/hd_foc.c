@@ -94,6 +94,14 @@ static inline int32_t foc_ratio_q28(int64_t p)
     return (int32_t)((uint32_t)((uint64_t)(c + lim + ((int64_t)1 << 17)) >> 18) - ((uint32_t)1 << 28));
 }
 
+/* floor(x / 2^s) of an int32 (arithmetic shift, written without >> on a signed value) */
+static inline int32_t foc_floor32(int32_t x, uint32_t s)
+{
+    const uint32_t m = (x < 0) ? 0xFFFFFFFFu : 0u;
+    const uint32_t u = (((uint32_t)x ^ m) >> s) ^ m;
+    return (u > 0x7FFFFFFFu) ? -(int32_t)(~u) - 1 : (int32_t)u;
+}
+
 /* twice the phase ratios p0, p1, p2 (Q28, summing to 0) -> three Q16 duties: phase ratio +
  * v0 in Q30 = 2 p - (max + min); duty Q16 = (2^29 + that) / 2^14, rounded, within [0, 1] */
 static inline void foc_duties(int32_t p0, int32_t p1, int32_t p2, int32_t duty[3])
@@ -186,13 +194,6 @@ void hd_foc_reset(hd_foc_t *s)
 #define HD_FOC_I_SHIFT 8u
 #define HD_FOC_I_LIM   (((int32_t)1 << 23) - 1)    /* Q15.16 V */
 
-/* floor(x / 2^s) of an int32 (arithmetic shift, written without >> on a signed value) */
-static inline int32_t foc_floor32(int32_t x, uint32_t s)
-{
-    const uint32_t m = (x < 0) ? 0xFFFFFFFFu : 0u;
-    const uint32_t u = (((uint32_t)x ^ m) >> s) ^ m;
-    return (u > 0x7FFFFFFFu) ? -(int32_t)(~u) - 1 : (int32_t)u;
-}
 
 /* an axis limit lim (Q15.16 V, >= 0) as the integrator's bound in 2^-24 V */
 static inline int32_t foc_ilim(int32_t lim)
@@ -218,17 +219,20 @@ void hd_foc_sincos(uint32_t theta_e, int32_t *sin_q31, int32_t *cos_q31)
     foc_sincos(theta_e, sin_q31, cos_q31);
 }
 
-/* PI of one axis in 32-bit words: the error's products by SMULL, rounded and saturated
- * (Q15.16 V and the integrator's 2^-24 V), the integrator clamped to +-ilim (anti-windup,
- * the integrator never holds more than the usable voltage, so it keeps tracking what the
- * saturated axis needs, e.g. the back-EMF, and recovery takes a few periods), the output
- * clamped to +-lim; *lim_hit = 1 if clamped. */
+/* PI of one axis: the integrator (2^-24 V) advances by ki_ts e rounded half up, as one
+ * 64-bit sum integ 2^8 + ki_ts e + 2^7 (|.| < 2^62 + 2^40: SMLAL, no wrap) shifted by 8 and
+ * saturated, then clamped to +-ilim (anti-windup: the integrator never holds more than the
+ * usable voltage, so it keeps tracking what the saturated axis needs, e.g. the back-EMF,
+ * and recovery takes a few periods); the output is P and I rounded once, (kp e + in 2^8 +
+ * 2^15) / 2^16 (Q32 V -> Q15.16 V, the same bound), saturated, then clamped to +-lim;
+ * *lim_hit = 1 if clamped. */
 static inline int32_t foc_pi(int32_t *integ, int32_t kp, int32_t ki_ts, int32_t e, int32_t lim, int32_t ilim,
                              uint32_t *lim_hit)
 {
-    const int32_t p = hdf_mul_q(kp, e, 16u);
-    const int32_t in = hdf_clamp32(hdf_add_sat(*integ, hdf_mul_q(ki_ts, e, 32u - (16u + HD_FOC_I_SHIFT))), -ilim, ilim);
-    const int32_t v = hdf_add_sat(p, foc_floor32(in + ((int32_t)1 << (HD_FOC_I_SHIFT - 1u)), HD_FOC_I_SHIFT));
+    const int64_t ai = (int64_t)*integ * 256 + (int64_t)ki_ts * e + 128;
+    const int32_t in = hdf_clamp32(hdf_sat32(hdf_asr64_floor(ai, 8u)), -ilim, ilim);
+    const int64_t av = (int64_t)kp * e + (int64_t)in * 256 + 32768;
+    const int32_t v = hdf_sat32(hdf_asr64_floor(av, 16u));
     *integ = in;
     if (v > lim || v < -lim) {
         *lim_hit = 1u;

@@ -105,11 +105,14 @@ void hd_foc_step(hd_foc_t *s, const hd_foc_cfg_t *c, const hd_foc_in_t *in, hd_f
 int32_t hd_foc_design(hd_foc_cfg_t *c, int32_t r_mohm, int32_t l_nh, int32_t fc_hz, int32_t fs_hz);
 
 /** ADC sample to phase current, Q15.16 A: (raw - offset) * gain, gain_q30 in A per LSB
- *  as Q30 (e.g. 33 A / 2048 LSB = 17301504).  Rounded, saturated.  Inline (the port
- *  calls it twice per FOC period). */
+ *  as Q30 (e.g. 33 A / 2048 LSB = 17301504), rounded half up.  32-bit: raw - offset is
+ *  saturated to [-2^16, 2^16) LSB (SSAT 17: any ADC of up to 16 bits) and the gain to
+ *  [-2^27, 2^27) (0.125 A per LSB); then (d 2^14) (gain 2^4) / 2^32 = d gain / 2^14 is one
+ *  SMMULR, both factors within int32, |result| <= 2^29.  Inline (the port calls it twice
+ *  per FOC period). */
 HD_FX_INLINE int32_t hd_foc_adc_current(int32_t raw, int32_t offset, int32_t gain_q30)
 {
-    return hdf_mul_q(hdf_sub_sat(raw, offset), gain_q30, 14u);
+    return hdf_smmulr(hdf_ssat(hdf_sub_sat(raw, offset), 17u) * 16384, hdf_ssat(gain_q30, 28u) * 16);
 }
 
 /** Electrical angle from a single-turn encoder count in [0, 2^bits) (1 <= bits <= 32):
