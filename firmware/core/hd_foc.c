@@ -16,22 +16,29 @@
  *                 the offset 2^31): each product < 2^60, the sum < 2^61 (no wrap);
  *                 |id|, |iq| <= |(ia, i_beta)| <= 2^28 + 1
  *   e             Q15.16 A, the saturated difference (QSUB) of the reference and id / iq
- *   kp e, ki_ts e int64 (SMULL), rounded to Q15.16 V and Q8.24 V and saturated
+ *   integrator    2^-24 V (Q8.24), |.| <= min(vmax, 128 V) 2^8 < 2^31 - 2^8 (the clamp)
+ *   ki_ts e + integ 2^8 + 2^7, kp e + integ 2^8 + 2^15
+ *                 int64 (SMULL + SMLAL), |.| <= 2^62 + 2^40 (no wrap), shifted to Q8.24 V and
+ *                 Q15.16 V and saturated
  *   vbus          Q15.16 V, saturated to < 2^29 (8,192 V; SSAT 30), > 0 here
  *   vmax          Q15.16 V = round(vbus vmax_k / 2^30) = SMMULR(4 vbus, vmax_k): 4 vbus < 2^31;
  *                 vmax_k <= 2^30 / sqrt(3), so vmax <= vbus / sqrt(3) < 2^28.2
  *   vd, vq        Q15.16 V, |.| <= vmax (the PI limits and the circle)
  *   vd^2 + vq^2   int64, < 2^57.4 (the circle test)
- *   inv           Q30 per Q15.16 V, round(2^46 / vbus) (hd_foc_inv_vbus), <= 2^30 for vbus >= 1 V
- *   md, mq        Q3.29 modulation ratio v / vbus = round(v inv / 2^17): |v inv| <= vmax
- *                 2^46 / vbus <= 2^46 / sqrt(3) (for vbus < 1 V inv is smaller than
- *                 2^46 / vbus), so |md|, |mq| <= 2^29 / sqrt(3) + 1 < 2^28.2
- *   ma, mb        Q4.28 ratios after the inverse Park = (md cos - mq sin) / 2^32: products
- *                 < 2^59.2, |ma|, |mb| <= 2^28 / sqrt(3) + 1 < 2^27.2
- *   sb            Q4.28, sqrt(3) mb = SMMULR(4 mb, 2^31 sqrt(3) / 2): |4 mb| < 2^29.2, |sb| < 2^28
- *   2 p - (max + min) and the duty: as in foc_svm_inv below (|.| < 2^30).
+ *   vb1           vbus for the modulation, at least 1 V (below it the duties are those of
+ *                 1 V: no operating point), in [2^z, 2^(z+1)) with z = 16 .. 28
+ *   inv           Q30 per Q15.16 V, round(2^46 / vb1) (hd_foc_inv_vbus), in (2^(45-z), 2^(46-z)]
+ *   inv_n         inv 2^(z-16) <= 2^30
+ *   md, mq        Q4.27 modulation ratio v / vbus = SMMULR(v 2^(29-z), inv_n) = v inv / 2^19:
+ *                 |v| <= vmax <= vbus / sqrt(3) + 1 < 2^(z+1) / sqrt(3) + 1, so
+ *                 |v 2^(29-z)| < 2^30 / sqrt(3) + 2^13 < 2^29.3 and |md|, |mq| < 2^26.3
+ *   ma, mb        Q5.26 ratios after the inverse Park = (md cos - mq sin) / 2^32: products
+ *                 < 2^57.3, |ma|, |mb| < 2^26.3
+ *   sb            Q5.26, sqrt(3) mb = SMMULR(4 mb, 2^31 sqrt(3) / 2): |4 mb| < 2^28.3, |sb| < 2^27.1
+ *   2 p - (max + min) and the duty: as in foc_svm_inv below, two bits lower (|.| < 2^28;
+ *                 the duty (2^27 + 2 p - (max + min) + 2^11) / 2^12)
  * The rounding of the 32-bit forms (half an LSB of Q15.17 current, of a Q31 sine,
- * of a Q29 ratio) is far below the 12-bit current ADC's LSB and the Q16 duty's.
+ * of a Q27 ratio) is far below the 12-bit current ADC's LSB and the Q16 duty's.
  */
 #include "hd_foc.h"
 #include "hd_fixed.h"
@@ -104,17 +111,17 @@ static inline int32_t foc_floor32(int32_t x, uint32_t s)
 
 /* twice the phase ratios p0, p1, p2 (Q28, summing to 0) -> three Q16 duties: phase ratio +
  * v0 in Q30 = 2 p - (max + min); duty Q16 = (2^29 + that) / 2^14, rounded, within [0, 1] */
-static inline void foc_duties(int32_t p0, int32_t p1, int32_t p2, int32_t duty[3])
+static inline void foc_duties(int32_t p0, int32_t p1, int32_t p2, uint32_t sh, int32_t duty[3])
 {
     const int32_t mx = (p1 > p0) ? ((p2 > p1) ? p2 : p1) : ((p2 > p0) ? p2 : p0);
     const int32_t mn = (p1 < p0) ? ((p2 < p1) ? p2 : p1) : ((p2 < p0) ? p2 : p0);
-    const int32_t o = (1 << 29) + (1 << 13) - (mx + mn);
+    const int32_t o = ((int32_t)1 << (sh + 15u)) + ((int32_t)1 << (sh - 1u)) - (mx + mn);
     const int32_t q0 = 2 * p0 + o;
     const int32_t q1 = 2 * p1 + o;
     const int32_t q2 = 2 * p2 + o;
-    const int32_t d0 = (q0 <= 0) ? 0 : (int32_t)((uint32_t)q0 >> 14);
-    const int32_t d1 = (q1 <= 0) ? 0 : (int32_t)((uint32_t)q1 >> 14);
-    const int32_t d2 = (q2 <= 0) ? 0 : (int32_t)((uint32_t)q2 >> 14);
+    const int32_t d0 = (q0 <= 0) ? 0 : (int32_t)((uint32_t)q0 >> sh);
+    const int32_t d1 = (q1 <= 0) ? 0 : (int32_t)((uint32_t)q1 >> sh);
+    const int32_t d2 = (q2 <= 0) ? 0 : (int32_t)((uint32_t)q2 >> sh);
     duty[0] = (d0 > HD_FOC_DUTY_ONE) ? HD_FOC_DUTY_ONE : d0;
     duty[1] = (d1 > HD_FOC_DUTY_ONE) ? HD_FOC_DUTY_ONE : d1;
     duty[2] = (d2 > HD_FOC_DUTY_ONE) ? HD_FOC_DUTY_ONE : d2;
@@ -137,10 +144,10 @@ static void foc_svm_inv(int32_t v_alpha, int32_t v_beta, int32_t inv_q30, int32_
     /* sqrt(3) m_beta in Q28, rounded (biased to a non-negative shift: |product| < 2^59) */
     const int32_t sb = (int32_t)((uint32_t)((uint64_t)((int64_t)mb * HD_SQRT3_Q30 + ((int64_t)1 << 59) +
                                                        ((int64_t)1 << 29)) >> 30) - ((uint32_t)1 << 29));
-    foc_duties(2 * ma, sb - ma, -sb - ma, duty);
+    foc_duties(2 * ma, sb - ma, -sb - ma, 14u, duty);
 }
 
-int32_t hd_foc_inv_vbus(int32_t vbus)
+static inline int32_t foc_inv_vbus(int32_t vbus)
 {
     /* 2^46 / d for 2^16 <= d < 2^23 by long division in 32-bit words: the first digit from
      * 2^28, then two 9-bit digits (a remainder r < d < 2^23 shifted by 9 stays below 2^32);
@@ -164,6 +171,11 @@ int32_t hd_foc_inv_vbus(int32_t vbus)
         return (int32_t)q;
     }
     return hd_div_q(HD_Q16_ONE, vbus, 30u);
+}
+
+int32_t hd_foc_inv_vbus(int32_t vbus)
+{
+    return foc_inv_vbus(vbus);
 }
 
 void hd_foc_svm(int32_t v_alpha, int32_t v_beta, int32_t vbus, int32_t duty[3])
@@ -282,14 +294,17 @@ void hd_foc_step(hd_foc_t *s, const hd_foc_cfg_t *c, const hd_foc_in_t *in, hd_f
     s->vq = vq;
     s->limited = hit;
     {
-        /* modulation ratios (Q29), inverse Park to Q28, then the SVM of foc_svm_inv */
-        const int32_t inv = hd_foc_inv_vbus(vbus);
-        const int32_t md = hdf_asr32_rnd_fit((int64_t)vd * inv, 17u);
-        const int32_t mq = hdf_asr32_rnd_fit((int64_t)vq * inv, 17u);
+        /* modulation ratios (Q27), inverse Park to Q26, then the SVM of foc_svm_inv */
+        const int32_t vb1 = (vbus < HD_Q16_ONE) ? HD_Q16_ONE : vbus;           /* [2^16, 2^29) */
+        const uint32_t z = 31u - (uint32_t)__builtin_clz((uint32_t)vb1);       /* 16 .. 28 */
+        const int32_t inv = foc_inv_vbus(vb1);
+        const int32_t inv_n = (int32_t)((uint32_t)inv << (z - 16u));
+        const int32_t md = hdf_smmulr(hdf__s32((uint32_t)vd << (29u - z)), inv_n);
+        const int32_t mq = hdf_smmulr(hdf__s32((uint32_t)vq << (29u - z)), inv_n);
         const int32_t ma = hdf_dot2_rnd32(md, cs, -mq, sn);
         const int32_t mb = hdf_dot2_rnd32(md, sn, mq, cs);
         const int32_t sb = hdf_smmulr(4 * mb, HD_SQRT3_2_Q31);
-        foc_duties(2 * ma, sb - ma, -sb - ma, out->duty);
+        foc_duties(2 * ma, sb - ma, -sb - ma, 12u, out->duty);
     }
 }
 
