@@ -656,7 +656,7 @@ HD_FX_INLINE int64_t hdf_mac64(int64_t acc, int32_t a, int32_t b)
  * Each computes, for every input, the bits of one Cortex-M4 DSP instruction
  * (wrapping where the instruction wraps, never undefined in C): the caller's
  * written range analysis shows that the wrap cannot happen where it is used.
- * The golden kernels hdf_smmulr, hdf_smmlar, hdf_dot2_rnd32 and hdf_ssat
+ * The golden kernels hdf_smmulr, hdf_smmlar, hdf_dot2_rnd32, hdf_dot2_64 and hdf_ssat
  * (tests/golden/gv_fixed_inline.c) compare the M4 bodies with the portable
  * ones over edges and random arguments. */
 
@@ -704,6 +704,21 @@ HD_FX_INLINE int32_t hdf_dot2_rnd32(int32_t a, int32_t b, int32_t c, int32_t d)
     return hdf__s32(hi);
 #else
     return hdf__s32((uint32_t)(((uint64_t)((int64_t)a * b) + (uint64_t)((int64_t)c * d) + 0x80000000u) >> 32));
+#endif
+}
+/** a b + c d as int64, the sum taken modulo 2^64 (exact when |a b + c d| < 2^63): two
+ *  products accumulated without a rounding.  M4: SMULL + SMLAL. */
+HD_FX_INLINE int64_t hdf_dot2_64(int32_t a, int32_t b, int32_t c, int32_t d)
+{
+#if HD_FX_M4
+    uint32_t lo;
+    uint32_t hi;
+    __asm__("smull %[lo], %[hi], %[a], %[b]\n\t"
+            "smlal %[lo], %[hi], %[x], %[y]"
+            : [lo] "=&r"(lo), [hi] "=&r"(hi) : [a] "r"(a), [b] "r"(b), [x] "r"(c), [y] "r"(d));
+    return hdf__u2s64(((uint64_t)hi << 32) | lo);
+#else
+    return hdf__u2s64((uint64_t)((int64_t)a * b) + (uint64_t)((int64_t)c * d));
 #endif
 }
 /** x saturated to the signed n-bit range [-2^(n-1), 2^(n-1) - 1], 1 <= n <= 32

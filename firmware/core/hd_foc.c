@@ -243,7 +243,7 @@ static inline int32_t foc_pi(int32_t *integ, int32_t kp, int32_t ki_ts, int32_t 
 {
     const int64_t ai = (int64_t)*integ * 256 + (int64_t)ki_ts * e + 128;
     const int32_t in = hdf_clamp32(hdf_sat32(hdf_asr64_floor(ai, 8u)), -ilim, ilim);
-    const int64_t av = (int64_t)kp * e + (int64_t)in * 256 + 32768;
+    const int64_t av = hdf_dot2_64(kp, e, in + 128, 256);           /* + 2^15 as (in + 2^7) 2^8 */
     const int32_t v = hdf_sat32(hdf_asr64_floor(av, 16u));
     *integ = in;
     if (v > lim || v < -lim) {
@@ -284,7 +284,9 @@ void hd_foc_step(hd_foc_t *s, const hd_foc_cfg_t *c, const hd_foc_in_t *in, hd_f
     /* q axis: output and integrator clamped to the rest of the circle,
      * sqrt(vmax^2 - vd^2) - computed only when the vector would leave the circle */
     const int64_t r2 = (int64_t)vmax * vmax - (int64_t)vd * vd;               /* >= 0 */
-    if ((int64_t)vq * vq > r2) {
+    const uint32_t l1 = (uint32_t)((vd < 0) ? -vd : vd) + (uint32_t)((vq < 0) ? -vq : vq);
+    /* |vd| + |vq| <= vmax is inside the circle: the squares only near its edge */
+    if (l1 > (uint32_t)vmax && (int64_t)vq * vq > r2) {
         const int32_t vq_lim = (int32_t)hd_isqrt64((uint64_t)r2);
         vq = hdf_clamp32(vq, -vq_lim, vq_lim);
         s->integ_q = hdf_clamp32(s->integ_q, -foc_ilim(vq_lim), foc_ilim(vq_lim));

@@ -1,7 +1,7 @@
 /*
  * test_foc_fast.c - the 32-bit forms of the port's period (hd_foc.c range analysis):
  *
- *  - the DSP helpers hdf_smmulr, hdf_smmlar, hdf_dot2_rnd32, hdf_ssat against their
+ *  - the DSP helpers hdf_smmulr, hdf_smmlar, hdf_dot2_rnd32, hdf_dot2_64, hdf_ssat against their
  *    definitions evaluated in 128-bit arithmetic (edges and random words);
  *  - the current loop's table sine (hd_foc_sincos) against double precision;
  *  - hd_foc_step's Clarke + Park against double precision, its current saturation,
@@ -70,6 +70,12 @@ static void test_dsp_helpers(void **st)
         assert_int_equal(hdf_smmlar(c, a, b), s32((uint32_t)(unsigned __int128)r2));
         /* two SMLAL on 2^31: the high word of (a b + c d + 2^31) mod 2^64 */
         assert_int_equal(hdf_dot2_rnd32(a, b, c, d), hi_word_mod64(ab + (__int128)c * d + ((__int128)1 << 31)));
+        /* SMULL + SMLAL: (a b + c d) mod 2^64 */
+        {
+            const unsigned __int128 w = (unsigned __int128)(ab + (__int128)c * d);
+            const uint64_t u = (uint64_t)w;
+            assert_true(hdf_dot2_64(a, b, c, d) == ((u > (uint64_t)INT64_MAX) ? -(int64_t)(~u) - 1 : (int64_t)u));
+        }
         /* SSAT to n bits */
         const uint32_t n = 1u + rnd() % 32u;
         const int64_t lim = ((int64_t)1 << (n - 1u));

@@ -6,7 +6,7 @@
  * bodies give the same bits.  Shift counts must be constants for the M4
  * bodies: the runners dispatch every count 0..63 to a call with a literal
  * (hdf_asr64_rnd_var: the count known at run time only).  The 32-bit DSP
- * forms (SMMULR, SMMLAR, two SMLAL, SSAT) are compared the same way.
+ * forms (SMMULR, SMMLAR, SMULL + SMLAL, two SMLAL, SSAT) are compared the same way.
  */
 #include "gv.h"
 #include "hd_fixed.h"
@@ -243,6 +243,7 @@ RUN_BEGIN(run_mul_q, 3, 1) out[0] = mul_q_const(in, hd_gv_s2u(in[2])); RUN_END
 RUN_BEGIN(run_smmulr, 2, 1) out[0] = hdf_smmulr(in[0], in[1]); RUN_END
 RUN_BEGIN(run_smmlar, 4, 1) out[0] = hdf_smmlar(in[2], in[0], in[1]); RUN_END
 RUN_BEGIN(run_dot2_rnd32, 4, 1) out[0] = hdf_dot2_rnd32(in[0], in[1], in[2], in[3]); RUN_END
+RUN_BEGIN(run_dot2_64, 4, 2) hd_gv_put64(out, hdf_dot2_64(in[0], in[1], in[2], in[3])); RUN_END
 RUN_BEGIN(run_ssat, 2, 1) out[0] = ssat_const(in[0], hd_gv_s2u(in[1])); RUN_END
 
 /* ---- cost: one representative call each ------------------------------- */
@@ -280,6 +281,7 @@ COST(cost_mul64x32_q, sink64, hdf_mul64x32_q(a64, b, 30u))
 COST(cost_smmulr, sink32, hdf_smmulr(a, b))
 COST(cost_smmlar, sink32, hdf_smmlar(b, a, b))
 COST(cost_dot2_rnd32, sink32, hdf_dot2_rnd32(a, b, b, a))
+COST(cost_dot2_64, sink64, hdf_dot2_64(a, b, b, a))
 COST(cost_ssat, sink32, hdf_ssat(a, 28u))
 
 /* ---- registry -------------------------------------------------------- */
@@ -301,6 +303,7 @@ const hd_gv_kernel_t hd_gv_fixed_inline_kernels[] = {
     {"hdf_smmulr", 2, 1, GV_N, gen_e32x2, run_smmulr, cost_smmulr},
     {"hdf_smmlar", 4, 1, GV_N, gen_e32x4, run_smmlar, cost_smmlar},
     {"hdf_dot2_rnd32", 4, 1, GV_N, gen_e32x4, run_dot2_rnd32, cost_dot2_rnd32},
+    {"hdf_dot2_64", 4, 2, GV_N, gen_e32x4, run_dot2_64, cost_dot2_64},
     {"hdf_ssat", 2, 1, GV_N, gen_ssat, run_ssat, cost_ssat},
 };
 const uint32_t hd_gv_fixed_inline_count = sizeof hd_gv_fixed_inline_kernels / sizeof hd_gv_fixed_inline_kernels[0];
