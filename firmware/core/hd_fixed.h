@@ -722,11 +722,12 @@ HD_FX_INLINE int64_t hdf_dot2_64(int32_t a, int32_t b, int32_t c, int32_t d)
 #endif
 }
 /** x saturated to the signed n-bit range [-2^(n-1), 2^(n-1) - 1], 1 <= n <= 32
- *  (n outside: clamped).  M4 (constant n): SSAT. */
+ *  (n outside: clamped).  M4 (constant n, x known at run time only): SSAT; a constant
+ *  x folds at compile time. */
 HD_FX_INLINE int32_t hdf_ssat(int32_t x, uint32_t n)
 {
 #if HD_FX_M4
-    if (__builtin_constant_p(n) && n >= 1u && n <= 32u) {
+    if (__builtin_constant_p(n) && n >= 1u && n <= 32u && !__builtin_constant_p(x)) {
         int32_t r;
         __asm__("ssat %0, %1, %2" : "=r"(r) : "i"(n), "r"(x));
         return r;
