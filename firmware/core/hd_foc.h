@@ -8,11 +8,13 @@
  *   phase / dq current      Q15.16 A        (int32, hd_current_t)
  *   voltage                 Q15.16 V        (int32)
  *   electrical angle        uint32, 2^32 == one electrical turn (wraps, meant)
- *   sin / cos               Q30             (hd_sincos_turn_fast: ~4e-8, for a 12-bit loop)
+ *   sin / cos               Q31 in the step (hd_foc_sincos: 1024-entry table, linear
+ *                           interpolation, 4.7e-6, for a 12-bit loop); Q30 arguments of
+ *                           the public transforms below
  *   kp                      Q15.16 V/A
  *   ki_ts = Ki * Ts         Q15.16 V/(A period)
  *   integrator              int32, 2^-24 V  (8 more fractional bits than the output;
- *                           holds +-128 V, the bus range of the modulation's fast path)
+ *                           holds +-128 V)
  *   duty                    Q16, 0 .. 65536 == 0 .. 100 % high-side on time
  *
  * One step (called once per PWM period, Ts = 1 / f_pwm):
@@ -28,8 +30,14 @@
  *      periods (test_foc.c: < 1 ms at 3000 rpm).
  *   4. inverse Park, inverse Clarke to va, vb, vc, zero-sequence injection
  *      v0 = -(max + min) / 2 (equivalent to SVM), duty = 1/2 + (vx + v0) / vbus,
- *      computed in 32-bit on modulation ratios (v / vbus in Q28, one 1/vbus
- *      per step; ratios saturated to +-2, far outside the linear range).
+ *      computed on modulation ratios (vd / vbus, vq / vbus, one 1/vbus per step)
+ *      rotated by the inverse Park.
+ * hd_foc_step computes in 32-bit words with the Cortex-M4 DSP forms (SMMULR,
+ * SMMLAR, SMLAL, SSAT: the hdf_ helpers of hd_fixed.h); the range analysis with
+ * every Q-format is the comment at the top of hd_foc.c.  Phase currents
+ * saturate at +-2,048 A, the bus voltage at 8,192 V, and below 1 V the
+ * modulation is that of 1 V.  The public transforms and hd_foc_svm are the
+ * 64-bit references (tests/c/test_foc_fast.c compares the step with them).
  * Every narrowing rounds to nearest (half up in the transforms and the SVM)
  * and saturates.
  *
