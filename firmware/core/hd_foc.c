@@ -26,12 +26,13 @@
  *   vd, vq        Q15.16 V, |.| <= vmax (the PI limits and the circle)
  *   vd^2 + vq^2   int64, < 2^57.4 (the circle test)
  *   vb1           vbus for the modulation, at least 1 V (below it the duties are those of
- *                 1 V: no operating point), in [2^z, 2^(z+1)) with z = 16 .. 28
- *   inv           Q30 per Q15.16 V, round(2^46 / vb1) (hd_foc_inv_vbus), in (2^(45-z), 2^(46-z)]
- *   inv_n         inv 2^(z-16) <= 2^30
- *   md, mq        Q4.27 modulation ratio v / vbus = SMMULR(v 2^(29-z), inv_n) = v inv / 2^19:
+ *                 1 V: no operating point), in [2^16, 2^29); n = clz(vb1) = 3 .. 15
+ *   inv_n         2^61 / (vb1 2^n) = 2^(30+z) / vbus with z = 31 - n, <= 2^30, from below
+ *                 within 2^-28 relative (foc_recip61: one UDIV and a Newton step, the same
+ *                 cost for every bus voltage)
+ *   md, mq        Q4.27 modulation ratio v / vbus = SMMULR(v 2^(n-2), inv_n) = v 2^27 / vbus:
  *                 |v| <= vmax <= vbus / sqrt(3) + 1 < 2^(z+1) / sqrt(3) + 1, so
- *                 |v 2^(29-z)| < 2^30 / sqrt(3) + 2^13 < 2^29.3 and |md|, |mq| < 2^26.3
+ *                 |v 2^(n-2)| < 2^30 / sqrt(3) + 2^13 < 2^29.3 and |md|, |mq| < 2^26.3
  *   ma, mb        Q5.26 ratios after the inverse Park = (md cos - mq sin) / 2^32: products
  *                 < 2^57.3, |ma|, |mb| < 2^26.3
  *   sb            Q5.26, sqrt(3) mb = SMMULR(4 mb, 2^31 sqrt(3) / 2): |4 mb| < 2^28.3, |sb| < 2^27.1
@@ -231,6 +232,20 @@ void hd_foc_sincos(uint32_t theta_e, int32_t *sin_q31, int32_t *cos_q31)
     foc_sincos(theta_e, sin_q31, cos_q31);
 }
 
+/* floor(2^61 / vn) or a little less (relative error < 2^-28) for a normalised bus voltage
+ * vn in [2^31, 2^32): a 16-bit estimate from below by one 32-bit division,
+ * x0 = floor((2^32 - 1) / (floor(vn / 2^16) + 1)) 2^13 < 2^61 / vn (relative error
+ * < 2^-14), then one Newton step x0 + x0 (2^61 - vn x0) / 2^61 (from below it stays below,
+ * error squared): vn x0 < 2^61, (2^61 - vn x0) / 2^16 < 2^31, x0 times that < 2^61: two
+ * UMULL, no wrap.  The result is <= 2^30. */
+static inline int32_t foc_recip61(uint32_t vn)
+{
+    const uint32_t x0 = (0xFFFFFFFFu / ((vn >> 16) + 1u)) << 13;
+    const uint64_t t = (uint64_t)vn * x0;
+    const uint32_t e16 = (uint32_t)((((uint64_t)1 << 61) - t) >> 16);
+    return (int32_t)(x0 + (uint32_t)(((uint64_t)x0 * e16) >> 45));
+}
+
 /* PI of one axis: the integrator (2^-24 V) advances by ki_ts e rounded half up, as one
  * 64-bit sum integ 2^8 + ki_ts e + 2^7 (|.| < 2^62 + 2^40: SMLAL, no wrap) shifted by 8 and
  * saturated, then clamped to +-ilim (anti-windup: the integrator never holds more than the
@@ -297,12 +312,11 @@ void hd_foc_step(hd_foc_t *s, const hd_foc_cfg_t *c, const hd_foc_in_t *in, hd_f
     s->limited = hit;
     {
         /* modulation ratios (Q27), inverse Park to Q26, then the SVM of foc_svm_inv */
-        const int32_t vb1 = (vbus < HD_Q16_ONE) ? HD_Q16_ONE : vbus;           /* [2^16, 2^29) */
-        const uint32_t z = 31u - (uint32_t)__builtin_clz((uint32_t)vb1);       /* 16 .. 28 */
-        const int32_t inv = foc_inv_vbus(vb1);
-        const int32_t inv_n = (int32_t)((uint32_t)inv << (z - 16u));
-        const int32_t md = hdf_smmulr(hdf__s32((uint32_t)vd << (29u - z)), inv_n);
-        const int32_t mq = hdf_smmulr(hdf__s32((uint32_t)vq << (29u - z)), inv_n);
+        const uint32_t vb1 = (uint32_t)((vbus < HD_Q16_ONE) ? HD_Q16_ONE : vbus);   /* [2^16, 2^29) */
+        const uint32_t n = (uint32_t)__builtin_clz(vb1);                           /* 3 .. 15 */
+        const int32_t inv_n = foc_recip61(vb1 << n);
+        const int32_t md = hdf_smmulr(hdf__s32((uint32_t)vd << (n - 2u)), inv_n);
+        const int32_t mq = hdf_smmulr(hdf__s32((uint32_t)vq << (n - 2u)), inv_n);
         const int32_t ma = hdf_dot2_rnd32(md, cs, -mq, sn);
         const int32_t mb = hdf_dot2_rnd32(md, sn, mq, cs);
         const int32_t sb = hdf_smmulr(4 * mb, HD_SQRT3_2_Q31);
