@@ -52,8 +52,8 @@
 #define HD_SQRT3_Q30      1859775393    /* sqrt(3) in Q30 */
 #define HD_TWO_PI_Q16     411775        /* 2 pi in Q16 */
 
-/* The transforms, inlined into hd_foc_step (the public functions below are
- * the same arithmetic). */
+/* The 64-bit reference transforms of the public functions (Q30 sin / cos, one
+ * rounding half up each); hd_foc_step has its own 32-bit forms (below). */
 
 /* round(x / 2^q) (half up), saturated to int32, for |x| < 2^62 and 1 <= q <= 30:
  * floor((x + 2^(q-1)) / 2^q), the sum cannot overflow in that range. */
