@@ -19,7 +19,7 @@ uint32_t hd_ssi_crc6(uint32_t data, uint32_t nbits)
 {
     /* the data masked to n <= 32 bits fits one word: 32-bit shifts only */
     const uint32_t n = (nbits > 32u) ? 32u : nbits;
-    const uint32_t d = (n == 32u) ? data : (data & ((1u << n) - 1u));
+    const uint32_t d = data & (uint32_t)(((uint64_t)1 << n) - 1u);
     uint32_t crc = 0u;
     uint32_t sh = ((n + 5u) / 6u) * 6u;
     if (sh > 30u) {                                   /* n 31, 32: the top chunk holds 1 or 2 bits */
@@ -119,6 +119,7 @@ int32_t hd_ssi_decode(const uint8_t *buf, uint32_t nbytes, uint32_t nbits, hd_ss
     uint32_t hi = 0u;
     uint32_t lo = 0u;
     uint32_t i;
+    uint32_t k;
     if (buf == NULL || r == NULL || nbits > 8u * nbytes) {
         return HD_SSI_ERR_ARG;
     }
@@ -127,17 +128,25 @@ int32_t hd_ssi_decode(const uint8_t *buf, uint32_t nbytes, uint32_t nbits, hd_ss
     }
     /* word-wise: the frame top-aligned in w (bit i of the frame = bit 63 - i of w);
      * a run that reaches past nbits fails the same tests as the bitwise count.
-     * The bytes read are those of the frame (k < nbytes), gathered without a loop. */
-    switch ((nbytes < 8u) ? nbytes : 8u) {
-    case 8u: lo |= (uint32_t)buf[7];             /* fall through */
-    case 7u: lo |= (uint32_t)buf[6] << 8;        /* fall through */
-    case 6u: lo |= (uint32_t)buf[5] << 16;       /* fall through */
-    case 5u: lo |= (uint32_t)buf[4] << 24;       /* fall through */
-    case 4u: hi |= (uint32_t)buf[3];             /* fall through */
-    case 3u: hi |= (uint32_t)buf[2] << 8;        /* fall through */
-    case 2u: hi |= (uint32_t)buf[1] << 16;       /* fall through */
-    case 1u: hi |= (uint32_t)buf[0] << 24;       /* fall through */
-    default: break;
+     * The bytes read are those of the frame (k < nbytes); a frame of 6 bytes or more
+     * (the drive's 48 clocks) is gathered without a loop. */
+    if (nbytes >= 6u) {
+        hi = ((uint32_t)buf[0] << 24) | ((uint32_t)buf[1] << 16) | ((uint32_t)buf[2] << 8) | (uint32_t)buf[3];
+        lo = ((uint32_t)buf[4] << 24) | ((uint32_t)buf[5] << 16);
+        if (nbytes >= 7u) {
+            lo |= (uint32_t)buf[6] << 8;
+        }
+        if (nbytes >= 8u) {
+            lo |= (uint32_t)buf[7];
+        }
+    } else {
+        for (k = 0u; k < nbytes; k++) {
+            if (k < 4u) {
+                hi |= (uint32_t)buf[k] << (24u - (8u * k));
+            } else {
+                lo |= (uint32_t)buf[k] << (56u - (8u * k));
+            }
+        }
     }
     w = ((uint64_t)hi << 32) | lo;
     i = clz64(~w);                                    /* idle high */

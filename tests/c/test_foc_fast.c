@@ -8,7 +8,8 @@
  *    and its duties against the reference modulation hd_foc_svm (64-bit ratios, exact
  *    1 / vbus) fed with the step's limited voltage;
  *  - the 32-bit ADC scaling against the 64-bit product hd_mul_q;
- *  - the 32-bit CRC-6 of hd_ssi against a bitwise polynomial division for every width.
+ *  - the 32-bit CRC-6 of hd_ssi against a bitwise polynomial division for every width, and
+ *    the frame decode for streams of every length of 1 .. 8 bytes.
  */
 #include <stdarg.h>
 #include <stddef.h>
@@ -251,6 +252,49 @@ static void test_ssi_crc6_every_width(void **st)
     }
 }
 
+/* A frame (idle 1, ack 0, latency 0s, start 1, CDS 0, 32 data bits, then 1s) in a stream of
+ * 1 .. 8 bytes: the bytes are gathered without a loop for 6 bytes and more, by a loop below;
+ * every length that holds the frame decodes it, shorter ones fail on the framing. */
+static void test_ssi_frame_every_length(void **st)
+{
+    (void)st;
+    for (int k = 0; k < 2000; k++) {
+        const uint32_t pos = rnd() & 0xFFFFFFu;
+        const uint32_t data = hd_ssi_encode(pos, 0u, 0u);
+        const uint32_t lat = rnd() % 5u;                  /* frame of 36 + lat <= 40 bits */
+        uint8_t buf[8];
+        uint32_t bit = 0u;
+        for (int i = 0; i < 8; i++) {
+            buf[i] = 0xFFu;
+        }
+#define CLR(b) (buf[(b) >> 3] = (uint8_t)(buf[(b) >> 3] & ~(0x80u >> ((b) & 7u))))
+        bit = 1u;                                          /* idle 1 */
+        for (uint32_t i = 0; i <= lat; i++) {
+            CLR(bit);                                      /* ack + latency zeros */
+            bit++;
+        }
+        bit++;                                             /* start 1 */
+        CLR(bit);                                          /* CDS 0 */
+        bit++;
+        for (uint32_t i = 0; i < 32u; i++, bit++) {
+            if (((data >> (31u - i)) & 1u) == 0u) {
+                CLR(bit);
+            }
+        }
+#undef CLR
+        for (uint32_t nb = 1u; nb <= 8u; nb++) {
+            hd_ssi_reading_t r = {0u, 0u, 0u};
+            const int32_t rc = hd_ssi_decode(buf, nb, 8u * nb, &r);
+            if (8u * nb >= bit) {
+                assert_int_equal(rc, HD_SSI_OK);
+                assert_int_equal(r.position, pos);
+            } else {
+                assert_true(rc == HD_SSI_ERR_NO_START || rc == HD_SSI_ERR_NO_ACK);
+            }
+        }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -260,6 +304,7 @@ int main(void)
         cmocka_unit_test(test_foc_step_duties_match_svm),
         cmocka_unit_test(test_adc_current),
         cmocka_unit_test(test_ssi_crc6_every_width),
+        cmocka_unit_test(test_ssi_frame_every_length),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
