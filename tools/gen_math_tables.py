@@ -19,7 +19,7 @@ from pathlib import Path
 
 OUT = Path(__file__).resolve().parent.parent / "firmware" / "core" / "hd_math_tables.h"
 OUT_FOC = OUT.parent / "hd_foc_tables.h"
-FOC_SIN_N = 1024  # entries per electrical turn of the current loop's sine table
+FOC_SIN_N = 512  # entries per electrical turn of the current loop's sine table
 EXP_INT_N = 22  # exp(-x) returns 0 for x >= 22 (e^-22 * 2^30 = 0.30 LSB)
 
 
@@ -101,8 +101,8 @@ def render_foc() -> str:
     Returns
     -------
     str
-        C99 header: sin(2 pi k / 1024) in Q31 (the value 1.0 as 2^31 - 1) and
-        twice the difference to the next entry, k = 0..1023, interleaved.
+        C99 header: sin(2 pi k / 512) in Q31 (the value 1.0 as 2^31 - 1) and
+        twice the difference to the next entry, k = 0..511, interleaved.
     """
     q31 = float(1 << 31)
     val = [min(_rnd_signed(math.sin(2.0 * math.pi * k / FOC_SIN_N) * q31), (1 << 31) - 1)

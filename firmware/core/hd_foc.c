@@ -214,15 +214,16 @@ static inline int32_t foc_ilim(int32_t lim)
     return (int32_t)((uint32_t)((lim < HD_FOC_I_LIM) ? lim : HD_FOC_I_LIM) << HD_FOC_I_SHIFT);
 }
 
-/* sin and cos of an electrical angle (2^32 == one turn) in Q31 from the 1024-entry table by
+/* sin and cos of an electrical angle (2^32 == one turn) in Q31 from the 512-entry table by
  * linear interpolation: value + slope x fraction in one SMMLAR each (the fraction, the
- * angle's low 22 bits, as a Q31 word: below 2^31).  Error <= (2 pi / 1024)^2 / 8 = 4.7e-6
- * of the amplitude + 1 LSB (tests/c/test_foc.c). */
+ * angle's low 23 bits, as a Q31 word: below 2^31).  Error <= (2 pi / 512)^2 / 8 = 1.9e-5
+ * of the amplitude + 1.5 LSB (tests/c/test_foc_fast.c): 0.08 LSB of a 12-bit current ADC's
+ * full scale. */
 static inline void foc_sincos(uint32_t theta, int32_t *sn, int32_t *cs)
 {
-    const int32_t f = (int32_t)((theta << 10) >> 1);
-    const int32_t *ps = &hd_foc_sin_tab[2u * (theta >> 22)];
-    const int32_t *pc = &hd_foc_sin_tab[2u * ((theta + 0x40000000u) >> 22)];
+    const int32_t f = (int32_t)((theta << 9) >> 1);
+    const int32_t *ps = &hd_foc_sin_tab[2u * (theta >> 23)];
+    const int32_t *pc = &hd_foc_sin_tab[2u * ((theta + 0x40000000u) >> 23)];
     *sn = hdf_smmlar(ps[0], ps[1], f);
     *cs = hdf_smmlar(pc[0], pc[1], f);
 }

@@ -8,8 +8,8 @@
  *   phase / dq current      Q15.16 A        (int32, hd_current_t)
  *   voltage                 Q15.16 V        (int32)
  *   electrical angle        uint32, 2^32 == one electrical turn (wraps, meant)
- *   sin / cos               Q31 in the step (hd_foc_sincos: 1024-entry table, linear
- *                           interpolation, 4.7e-6, for a 12-bit loop); Q30 arguments of
+ *   sin / cos               Q31 in the step (hd_foc_sincos: 512-entry table, linear
+ *                           interpolation, 1.9e-5, for a 12-bit loop); Q30 arguments of
  *                           the public transforms below
  *   kp                      Q15.16 V/A
  *   ki_ts = Ki * Ts         Q15.16 V/(A period)
@@ -87,7 +87,7 @@ typedef struct {
 } hd_foc_out_t;
 
 /** sin and cos of an electrical angle (2^32 == one turn) in Q31, |.| <= 2^31 - 1, by linear
- *  interpolation of a 1024-entry table (the current loop's form: error <= 4.7e-6 + 1 LSB). */
+ *  interpolation of a 512-entry table (the current loop's form: error <= 1.9e-5 + 1.5 LSB). */
 void hd_foc_sincos(uint32_t theta_e, int32_t *sin_q31, int32_t *cos_q31);
 /** Clarke transform (balanced three-phase): alpha, beta in Q15.16 A. */
 void hd_foc_clarke(int32_t ia, int32_t ib, int32_t *i_alpha, int32_t *i_beta);

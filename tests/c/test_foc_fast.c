@@ -90,27 +90,27 @@ static void test_dsp_helpers(void **st)
     assert_int_equal(hdf_ssat(INT32_MAX, 28u), (1 << 27) - 1);
 }
 
-/* The table sine: linear interpolation of 1024 entries per turn, error <= (2 pi / 1024)^2 / 8
- * of the amplitude (4.7e-6, 10,106.5 LSB of Q31) + the rounding of the two entries and of
+/* The table sine: linear interpolation of 512 entries per turn, error <= (2 pi / 512)^2 / 8
+ * of the amplitude (1.9e-5, 40,425.9 LSB of Q31) + the rounding of the two entries and of
  * the interpolation (1.5 LSB). */
 static void test_foc_sincos(void **st)
 {
     double worst = 0;
     (void)st;
     for (uint32_t k = 0; k < 1200000u; k++) {
-        const uint32_t th = (k < 4096u) ? k << 20 : (rnd() ^ (rnd() << 16));
+        const uint32_t th = (k < 4096u) ? k << 20 : (rnd() ^ (rnd() << 16));    /* nodes: k % 8 == 0 */
         int32_t s, c;
         hd_foc_sincos(th, &s, &c);
         const double a = th / 4294967296.0 * 2 * PI_D;
         worst = fmax(worst, fmax(fabs(s - sin(a) * Q31), fabs(c - cos(a) * Q31)));
-        if (k < 4096u && (k % 4u) == 0u) {
+        if (k < 4096u && (k % 8u) == 0u) {
             /* table nodes: the entry itself, within its rounding */
             assert_true(fabs(s - sin(a) * Q31) <= 1.0 && fabs(c - cos(a) * Q31) <= 1.0);
         }
     }
     printf("# table sine: max error %.0f LSB of Q31 (%.2e)\n", worst, worst / Q31);
-    assert_true(worst <= 10106.5 + 1.5);
-    assert_true(worst >= 5000.0);       /* the interpolation error is there: the bound is tight */
+    assert_true(worst <= 40425.9 + 1.5);
+    assert_true(worst >= 20000.0);      /* the interpolation error is there: the bound is tight */
 }
 
 static void foc_setup(hd_foc_t *s, hd_foc_cfg_t *c)
@@ -119,7 +119,7 @@ static void foc_setup(hd_foc_t *s, hd_foc_cfg_t *c)
     assert_int_equal(hd_foc_design(c, 300, 300000, 900, 20000), 0);
 }
 
-/* Clarke + Park of hd_foc_step: within 1 LSB + the sine's 4.7e-6 of the current's magnitude
+/* Clarke + Park of hd_foc_step: within 1 LSB + the sine's 1.9e-5 of the current's magnitude
  * of the double-precision transforms; currents beyond +-2,048 A saturate (SSAT 28). */
 static void test_foc_step_transforms(void **st)
 {
@@ -143,10 +143,10 @@ static void test_foc_step_transforms(void **st)
         const double d = al * cos(a) + be * sin(a), q = be * cos(a) - al * sin(a);
         const double mag = sqrt(al * al + be * be);
         const double e = fmax(fabs(s.id - d), fabs(s.iq - q));
-        worst = fmax(worst, e / (1.0 + 4.8e-6 * mag));
-        assert_true(e <= 1.0 + 4.8e-6 * mag);
+        worst = fmax(worst, e / (1.0 + 1.9e-5 * mag));
+        assert_true(e <= 1.0 + 1.9e-5 * mag);
     }
-    printf("# step Clarke + Park: worst error / (1 LSB + 4.8e-6 |i|) = %.3f\n", worst);
+    printf("# step Clarke + Park: worst error / (1 LSB + 1.9e-5 |i|) = %.3f\n", worst);
     /* saturation of the phase currents at [-2^27, 2^27) */
     {
         int32_t id1, iq1;
