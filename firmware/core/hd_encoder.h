@@ -18,6 +18,7 @@
 #define HD_ENCODER_H
 
 #include <stdint.h>
+#include "hd_fixed.h"
 
 typedef struct {
     int64_t  count;      /* multi-turn count since init (plus the initial offset) */
@@ -29,8 +30,24 @@ typedef struct {
 
 /** Start counting at `count0` with the counter currently reading raw (low 16 bits used). */
 void hd_enc_init(hd_enc_t *e, uint32_t raw, int64_t count0, uint32_t max_step);
-/** One update with the counter value raw; returns the signed step in counts. */
-int32_t hd_enc_update(hd_enc_t *e, uint32_t raw);
+/** One update with the counter value raw; returns the signed step in counts.  Inline
+ *  (once per FOC period). */
+static inline int32_t hd_enc_update(hd_enc_t *e, uint32_t raw)
+{
+    const uint32_t r = raw & 0xFFFFu;
+    const uint32_t d = (r - e->last_raw) & 0xFFFFu;          /* mod 2^16 */
+    const int32_t step = (d >= 0x8000u) ? ((int32_t)d - 0x10000) : (int32_t)d;
+    e->last_raw = r;
+    e->count = hdf_add64_sat(e->count, step);
+    const uint32_t mag = (step < 0) ? (uint32_t)(-step) : (uint32_t)step;
+    if (mag > e->max_step) {
+        e->jumps++;
+        e->ok = 0u;
+    } else {
+        e->ok = 1u;
+    }
+    return step;
+}
 /** count mod 2^bits in [0, 2^bits), 1 <= bits <= 32 (inline: twice per FOC period). */
 static inline uint32_t hd_enc_single_turn(const hd_enc_t *e, uint32_t bits)
 {

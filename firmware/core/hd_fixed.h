@@ -652,6 +652,94 @@ HD_FX_INLINE int64_t hdf_mac64(int64_t acc, int32_t a, int32_t b)
 {
     return hdf_add64_sat(acc, (int64_t)a * (int64_t)b);
 }
+/* ---- 32-bit DSP forms ---------------------------------------------------------
+ * Each computes, for every input, the bits of one Cortex-M4 DSP instruction
+ * (wrapping where the instruction wraps, never undefined in C): the caller's
+ * written range analysis shows that the wrap cannot happen where it is used.
+ * The golden kernels hdf_smmulr, hdf_smmlar, hdf_dot2_rnd32, hdf_dot2_64 and hdf_ssat
+ * (tests/golden/gv_fixed_inline.c) compare the M4 bodies with the portable
+ * ones over edges and random arguments. */
+
+/* a bit pattern as int32 (no implementation-defined conversion) */
+HD_FX_INLINE int32_t hdf__s32(uint32_t u)
+{
+    return (u > (uint32_t)INT32_MAX) ? (-(int32_t)(~u) - 1) : (int32_t)u;
+}
+/** floor((a b + 2^31) / 2^32): the 64-bit product's high word rounded half up
+ *  (never overflows: |a b| <= 2^62).  M4: SMMULR. */
+HD_FX_INLINE int32_t hdf_smmulr(int32_t a, int32_t b)
+{
+#if HD_FX_M4
+    int32_t r;
+    __asm__("smmulr %0, %1, %2" : "=r"(r) : "r"(a), "r"(b));
+    return r;
+#else
+    return hdf__s32((uint32_t)(((uint64_t)((int64_t)a * b) + 0x80000000u) >> 32));
+#endif
+}
+/** acc + floor((a b + 2^31) / 2^32), modulo 2^32 (the high word of acc 2^32 + a b + 2^31):
+ *  a rounded Q-format product added in one instruction.  M4: SMMLAR. */
+HD_FX_INLINE int32_t hdf_smmlar(int32_t acc, int32_t a, int32_t b)
+{
+#if HD_FX_M4
+    int32_t r;
+    __asm__("smmlar %0, %1, %2, %3" : "=r"(r) : "r"(a), "r"(b), "r"(acc));
+    return r;
+#else
+    return hdf__s32((uint32_t)((((uint64_t)(uint32_t)acc << 32) + (uint64_t)((int64_t)a * b) + 0x80000000u) >> 32));
+#endif
+}
+/** floor((a b + c d + 2^31) / 2^32), the sum taken modulo 2^64 and the high word
+ *  returned (exact when |a b + c d| < 2^63 - 2^31): a dot product of two terms
+ *  rounded once, half up.  M4: the rounding offset as the accumulator's low word,
+ *  two SMLAL. */
+HD_FX_INLINE int32_t hdf_dot2_rnd32(int32_t a, int32_t b, int32_t c, int32_t d)
+{
+#if HD_FX_M4
+    uint32_t lo = 0x80000000u;
+    uint32_t hi = 0u;
+    __asm__("smlal %[lo], %[hi], %[a], %[b]\n\t"
+            "smlal %[lo], %[hi], %[c], %[d]"
+            : [lo] "+&r"(lo), [hi] "+&r"(hi) : [a] "r"(a), [b] "r"(b), [c] "r"(c), [d] "r"(d));
+    return hdf__s32(hi);
+#else
+    return hdf__s32((uint32_t)(((uint64_t)((int64_t)a * b) + (uint64_t)((int64_t)c * d) + 0x80000000u) >> 32));
+#endif
+}
+/** a b + c d as int64, the sum taken modulo 2^64 (exact when |a b + c d| < 2^63): two
+ *  products accumulated without a rounding.  M4: SMULL + SMLAL. */
+HD_FX_INLINE int64_t hdf_dot2_64(int32_t a, int32_t b, int32_t c, int32_t d)
+{
+#if HD_FX_M4
+    uint32_t lo;
+    uint32_t hi;
+    __asm__("smull %[lo], %[hi], %[a], %[b]\n\t"
+            "smlal %[lo], %[hi], %[x], %[y]"
+            : [lo] "=&r"(lo), [hi] "=&r"(hi) : [a] "r"(a), [b] "r"(b), [x] "r"(c), [y] "r"(d));
+    return hdf__u2s64(((uint64_t)hi << 32) | lo);
+#else
+    return hdf__u2s64((uint64_t)((int64_t)a * b) + (uint64_t)((int64_t)c * d));
+#endif
+}
+/** x saturated to the signed n-bit range [-2^(n-1), 2^(n-1) - 1], 1 <= n <= 32
+ *  (n outside: clamped).  M4 (constant n, x known at run time only): SSAT; a constant
+ *  x folds at compile time. */
+HD_FX_INLINE int32_t hdf_ssat(int32_t x, uint32_t n)
+{
+#if HD_FX_M4
+    if (__builtin_constant_p(n) && n >= 1u && n <= 32u && !__builtin_constant_p(x)) {
+        int32_t r;
+        __asm__("ssat %0, %1, %2" : "=r"(r) : "i"(n), "r"(x));
+        return r;
+    }
+#endif
+    {
+        const uint32_t k = (n < 1u) ? 0u : ((n > 32u) ? 31u : n - 1u);
+        const int64_t hi = ((int64_t)1 << k) - 1;
+        return (x > hi) ? (int32_t)hi : ((x < -hi - 1) ? (int32_t)(-hi - 1) : x);
+    }
+}
+
 /* hd_div64_rnd(num, den) for a small positive divisor, 2 <= den <= 65535 (a
  * constant such as HD_LOOP_HZ at the call site): |num| is divided in three
  * 32-bit UDIV steps (the high word, then two 16-bit digits; each dividend

@@ -1,15 +1,59 @@
 /*
  * hd_foc.c - field-oriented current loop (see hd_foc.h).
+ *
+ * hd_foc_step computes in 32-bit words (Cortex-M4: SMMULR, SMMLAR, SMLAL, SSAT
+ * behind the hdf_ helpers of hd_fixed.h).  Range analysis of one step, Q-formats
+ * (Qm.n: value x 2^-n), every bound including its rounding:
+ *
+ *   ia, ib        Q15.16 A, saturated to [-2^27, 2^27) (SSAT 28: +-2,048 A, far
+ *                 beyond any current the ADC scaling produces)
+ *   sin, cos      Q31, |.| <= 2^31 - 1 (table entries <= 2^31 - 1; the linear
+ *                 interpolation lies between two entries)
+ *   al2 = 2 ia    Q15.17 A (the alpha current doubled), |.| <= 2^28
+ *   be2           Q15.17 A, 2 (ia + 2 ib) / sqrt(3) = SMMULR(4 (ia + 2 ib), 2^31 / sqrt(3)):
+ *                 |4 (ia + 2 ib)| <= 3 2^29 < 2^31, |be2| <= sqrt(3) 2^28 + 1 < 2^29
+ *   id, iq        Q15.16 A = (al2 cos + be2 sin) / 2^32, one rounding (two SMLAL on
+ *                 the offset 2^31): each product < 2^60, the sum < 2^61 (no wrap);
+ *                 |id|, |iq| <= |(ia, i_beta)| <= 2^28 + 1
+ *   e             Q15.16 A, the saturated difference (QSUB) of the reference and id / iq
+ *   integrator    2^-24 V (Q8.24), |.| <= min(vmax, 128 V) 2^8 < 2^31 - 2^8 (the clamp)
+ *   ki_ts e + integ 2^8 + 2^7, kp e + integ 2^8 + 2^15
+ *                 int64 (SMULL + SMLAL), |.| <= 2^62 + 2^40 (no wrap), shifted to Q8.24 V and
+ *                 Q15.16 V and saturated
+ *   vbus          Q15.16 V, saturated to < 2^29 (8,192 V; SSAT 30), > 0 here
+ *   vmax          Q15.16 V = round(vbus vmax_k / 2^30) = SMMULR(4 vbus, vmax_k): 4 vbus < 2^31;
+ *                 vmax_k <= 2^30 / sqrt(3), so vmax <= vbus / sqrt(3) < 2^28.2
+ *   vd, vq        Q15.16 V, |.| <= vmax (the PI limits and the circle)
+ *   vd^2 + vq^2   int64, < 2^57.4 (the circle test)
+ *   vb1           vbus for the modulation, at least 1 V (below it the duties are those of
+ *                 1 V: no operating point), in [2^16, 2^29); n = clz(vb1) = 3 .. 15
+ *   inv_n         2^61 / (vb1 2^n) = 2^(30+z) / vbus with z = 31 - n, <= 2^30, from below
+ *                 within 2^-28 relative (foc_recip61: one UDIV and a Newton step, the same
+ *                 cost for every bus voltage)
+ *   md, mq        Q4.27 modulation ratio v / vbus = SMMULR(v 2^(n-2), inv_n) = v 2^27 / vbus:
+ *                 |v| <= vmax <= vbus / sqrt(3) + 1 < 2^(z+1) / sqrt(3) + 1, so
+ *                 |v 2^(n-2)| < 2^30 / sqrt(3) + 2^13 < 2^29.3 and |md|, |mq| < 2^26.3
+ *   ma, mb        Q5.26 ratios after the inverse Park = (md cos - mq sin) / 2^32: products
+ *                 < 2^57.3, |ma|, |mb| < 2^26.3
+ *   sb            Q5.26, sqrt(3) mb = SMMULR(4 mb, 2^31 sqrt(3) / 2): |4 mb| < 2^28.3, |sb| < 2^27.1
+ *   2 p - (max + min) and the duty: as in foc_svm_inv below, two bits lower (|.| < 2^28;
+ *                 the duty (2^27 + 2 p - (max + min) + 2^11) / 2^12)
+ * The rounding of the 32-bit forms (half an LSB of Q15.17 current, of a Q31 sine,
+ * of a Q27 ratio) is far below the 12-bit current ADC's LSB and the Q16 duty's.
  */
 #include "hd_foc.h"
 #include "hd_fixed.h"
+#include "hd_foc_tables.h"
+
+#define HD_INV_SQRT3_Q31  1239850262    /* 2^31 / sqrt(3), rounded */
+#define HD_SQRT3_2_Q31    1859775393    /* 2^31 sqrt(3) / 2, rounded */
 
 #define HD_INV_SQRT3_Q30  619925131     /* 1/sqrt(3) in Q30 */
 #define HD_SQRT3_Q30      1859775393    /* sqrt(3) in Q30 */
 #define HD_TWO_PI_Q16     411775        /* 2 pi in Q16 */
 
-/* The transforms, inlined into hd_foc_step (the public functions below are
- * the same arithmetic). */
+/* The 64-bit reference transforms of the public functions (Q30 sin / cos, one
+ * rounding half up each); hd_foc_step has its own 32-bit forms (below). */
 
 /* round(x / 2^q) (half up), saturated to int32, for |x| < 2^62 and 1 <= q <= 30:
  * floor((x + 2^(q-1)) / 2^q), the sum cannot overflow in that range. */
@@ -58,6 +102,32 @@ static inline int32_t foc_ratio_q28(int64_t p)
     return (int32_t)((uint32_t)((uint64_t)(c + lim + ((int64_t)1 << 17)) >> 18) - ((uint32_t)1 << 28));
 }
 
+/* floor(x / 2^s) of an int32 (arithmetic shift, written without >> on a signed value) */
+static inline int32_t foc_floor32(int32_t x, uint32_t s)
+{
+    const uint32_t m = (x < 0) ? 0xFFFFFFFFu : 0u;
+    const uint32_t u = (((uint32_t)x ^ m) >> s) ^ m;
+    return (u > 0x7FFFFFFFu) ? -(int32_t)(~u) - 1 : (int32_t)u;
+}
+
+/* twice the phase ratios p0, p1, p2 (Q28, summing to 0) -> three Q16 duties: phase ratio +
+ * v0 in Q30 = 2 p - (max + min); duty Q16 = (2^29 + that) / 2^14, rounded, within [0, 1] */
+static inline void foc_duties(int32_t p0, int32_t p1, int32_t p2, uint32_t sh, int32_t duty[3])
+{
+    const int32_t mx = (p1 > p0) ? ((p2 > p1) ? p2 : p1) : ((p2 > p0) ? p2 : p0);
+    const int32_t mn = (p1 < p0) ? ((p2 < p1) ? p2 : p1) : ((p2 < p0) ? p2 : p0);
+    const int32_t o = ((int32_t)1 << (sh + 15u)) + ((int32_t)1 << (sh - 1u)) - (mx + mn);
+    const int32_t q0 = 2 * p0 + o;
+    const int32_t q1 = 2 * p1 + o;
+    const int32_t q2 = 2 * p2 + o;
+    const int32_t d0 = (q0 <= 0) ? 0 : (int32_t)((uint32_t)q0 >> sh);
+    const int32_t d1 = (q1 <= 0) ? 0 : (int32_t)((uint32_t)q1 >> sh);
+    const int32_t d2 = (q2 <= 0) ? 0 : (int32_t)((uint32_t)q2 >> sh);
+    duty[0] = (d0 > HD_FOC_DUTY_ONE) ? HD_FOC_DUTY_ONE : d0;
+    duty[1] = (d1 > HD_FOC_DUTY_ONE) ? HD_FOC_DUTY_ONE : d1;
+    duty[2] = (d2 > HD_FOC_DUTY_ONE) ? HD_FOC_DUTY_ONE : d2;
+}
+
 /*
  * SVM with 1/vbus given (Q30 per V), in 32-bit: the voltage components as
  * modulation ratios m = v / vbus in Q28, each saturated to +-1 (the duties
@@ -75,29 +145,10 @@ static void foc_svm_inv(int32_t v_alpha, int32_t v_beta, int32_t inv_q30, int32_
     /* sqrt(3) m_beta in Q28, rounded (biased to a non-negative shift: |product| < 2^59) */
     const int32_t sb = (int32_t)((uint32_t)((uint64_t)((int64_t)mb * HD_SQRT3_Q30 + ((int64_t)1 << 59) +
                                                        ((int64_t)1 << 29)) >> 30) - ((uint32_t)1 << 29));
-    int32_t p[3];
-    int32_t mx;
-    int32_t mn;
-    uint32_t k;
-    p[0] = 2 * ma;
-    p[1] = sb - ma;
-    p[2] = -sb - ma;
-    mx = (p[1] > p[0]) ? p[1] : p[0];
-    mx = (p[2] > mx) ? p[2] : mx;
-    mn = (p[1] < p[0]) ? p[1] : p[0];
-    mn = (p[2] < mn) ? p[2] : mn;
-    {
-        /* phase ratio + v0 in Q30 = 2 p - (max + min); duty Q16 = (2^29 + that) / 2^14, rounded */
-        const int32_t s = mx + mn;
-        for (k = 0; k < 3u; k++) {
-            const int32_t q30 = 2 * p[k] - s + (1 << 29) + (1 << 13);
-            const int32_t d = (q30 <= 0) ? 0 : (int32_t)((uint32_t)q30 >> 14);
-            duty[k] = (d > HD_FOC_DUTY_ONE) ? HD_FOC_DUTY_ONE : d;
-        }
-    }
+    foc_duties(2 * ma, sb - ma, -sb - ma, 14u, duty);
 }
 
-int32_t hd_foc_inv_vbus(int32_t vbus)
+static inline int32_t foc_inv_vbus(int32_t vbus)
 {
     /* 2^46 / d for 2^16 <= d < 2^23 by long division in 32-bit words: the first digit from
      * 2^28, then two 9-bit digits (a remainder r < d < 2^23 shifted by 9 stays below 2^32);
@@ -121,6 +172,11 @@ int32_t hd_foc_inv_vbus(int32_t vbus)
         return (int32_t)q;
     }
     return hd_div_q(HD_Q16_ONE, vbus, 30u);
+}
+
+int32_t hd_foc_inv_vbus(int32_t vbus)
+{
+    return foc_inv_vbus(vbus);
 }
 
 void hd_foc_svm(int32_t v_alpha, int32_t v_beta, int32_t vbus, int32_t duty[3])
@@ -151,13 +207,6 @@ void hd_foc_reset(hd_foc_t *s)
 #define HD_FOC_I_SHIFT 8u
 #define HD_FOC_I_LIM   (((int32_t)1 << 23) - 1)    /* Q15.16 V */
 
-/* floor(x / 2^s) of an int32 (arithmetic shift, written without >> on a signed value) */
-static inline int32_t foc_floor32(int32_t x, uint32_t s)
-{
-    const uint32_t m = (x < 0) ? 0xFFFFFFFFu : 0u;
-    const uint32_t u = (((uint32_t)x ^ m) >> s) ^ m;
-    return (u > 0x7FFFFFFFu) ? -(int32_t)(~u) - 1 : (int32_t)u;
-}
 
 /* an axis limit lim (Q15.16 V, >= 0) as the integrator's bound in 2^-24 V */
 static inline int32_t foc_ilim(int32_t lim)
@@ -165,34 +214,72 @@ static inline int32_t foc_ilim(int32_t lim)
     return (int32_t)((uint32_t)((lim < HD_FOC_I_LIM) ? lim : HD_FOC_I_LIM) << HD_FOC_I_SHIFT);
 }
 
-/* PI with the integrator clamped to +-lim (anti-windup: the integrator never
- * holds more than the usable voltage, so it keeps tracking what the
- * saturated axis needs, e.g. the back-EMF, and recovery takes a few periods);
- * returns the output limited to +-lim (lim >= 0); *lim_hit = 1 if clamped.
- * 32-bit integrator: the increment ki_ts e (Q32 V, |.| < 2^62) rounded to 2^-24 V
- * and saturated, a saturating add, a 32-bit clamp (range: HD_FOC_I_LIM above). */
-static int32_t pi_axis(int32_t *integ, const hd_foc_cfg_t *c, int32_t e, int32_t lim, uint32_t *lim_hit)
+/* sin and cos of an electrical angle (2^32 == one turn) in Q31 from the 512-entry table by
+ * linear interpolation: value + slope x fraction in one SMMLAR each (the fraction, the
+ * angle's low 23 bits, as a Q31 word: below 2^31).  Error <= (2 pi / 512)^2 / 8 = 1.9e-5
+ * of the amplitude + 1.5 LSB (tests/c/test_foc_fast.c): 0.08 LSB of a 12-bit current ADC's
+ * full scale. */
+static inline void foc_sincos(uint32_t theta, int32_t *sn, int32_t *cs)
 {
-    const int32_t ilim = foc_ilim(lim);
-    const int32_t p = foc_rnd_sat((int64_t)c->kp * e, 16u);  /* |product| < 2^62 */
-    const int32_t inc = foc_rnd_sat((int64_t)c->ki_ts * e, 32u - (16u + HD_FOC_I_SHIFT));   /* Q32 -> Q24 V */
-    const int32_t in = hdf_clamp32(hdf_add_sat(*integ, inc), -ilim, ilim);
+    const int32_t f = (int32_t)((theta << 9) >> 1);
+    const int32_t *ps = &hd_foc_sin_tab[2u * (theta >> 23)];
+    const int32_t *pc = &hd_foc_sin_tab[2u * ((theta + 0x40000000u) >> 23)];
+    *sn = hdf_smmlar(ps[0], ps[1], f);
+    *cs = hdf_smmlar(pc[0], pc[1], f);
+}
+
+void hd_foc_sincos(uint32_t theta_e, int32_t *sin_q31, int32_t *cos_q31)
+{
+    foc_sincos(theta_e, sin_q31, cos_q31);
+}
+
+/* floor(2^61 / vn) or a little less (relative error < 2^-28) for a normalised bus voltage
+ * vn in [2^31, 2^32): a 16-bit estimate from below by one 32-bit division,
+ * x0 = floor((2^32 - 1) / (floor(vn / 2^16) + 1)) 2^13 < 2^61 / vn (relative error
+ * < 2^-14), then one Newton step x0 + x0 (2^61 - vn x0) / 2^61 (from below it stays below,
+ * error squared): vn x0 < 2^61, (2^61 - vn x0) / 2^16 < 2^31, x0 times that < 2^61: two
+ * UMULL, no wrap.  The result is <= 2^30. */
+static inline int32_t foc_recip61(uint32_t vn)
+{
+    const uint32_t x0 = (0xFFFFFFFFu / ((vn >> 16) + 1u)) << 13;
+    const uint64_t t = (uint64_t)vn * x0;
+    const uint32_t e16 = (uint32_t)((((uint64_t)1 << 61) - t) >> 16);
+    return (int32_t)(x0 + (uint32_t)(((uint64_t)x0 * e16) >> 45));
+}
+
+/* PI of one axis: the integrator (2^-24 V) advances by ki_ts e rounded half up, as one
+ * 64-bit sum integ 2^8 + ki_ts e + 2^7 (|.| < 2^62 + 2^40: SMLAL, no wrap) shifted by 8 and
+ * saturated, then clamped to +-ilim (anti-windup: the integrator never holds more than the
+ * usable voltage, so it keeps tracking what the saturated axis needs, e.g. the back-EMF,
+ * and recovery takes a few periods); the output is P and I rounded once, (kp e + in 2^8 +
+ * 2^15) / 2^16 (Q32 V -> Q15.16 V, the same bound), saturated, then clamped to +-lim;
+ * *lim_hit = 1 if clamped. */
+static inline int32_t foc_pi(int32_t *integ, int32_t kp, int32_t ki_ts, int32_t e, int32_t lim, int32_t ilim,
+                             uint32_t *lim_hit)
+{
+    const int64_t ai = (int64_t)*integ * 256 + (int64_t)ki_ts * e + 128;
+    const int32_t in = hdf_clamp32(hdf_sat32(hdf_asr64_floor(ai, 8u)), -ilim, ilim);
+    const int64_t av = hdf_dot2_64(kp, e, in + 128, 256);           /* + 2^15 as (in + 2^7) 2^8 */
+    const int32_t v = hdf_sat32(hdf_asr64_floor(av, 16u));
     *integ = in;
-    const int32_t v = hdf_add_sat(p, foc_floor32(in + ((int32_t)1 << (HD_FOC_I_SHIFT - 1u)), HD_FOC_I_SHIFT));
     if (v > lim || v < -lim) {
         *lim_hit = 1u;
+        return (v > lim) ? lim : -lim;
     }
-    return hdf_clamp32(v, -lim, lim);
+    return v;
 }
 
 void hd_foc_step(hd_foc_t *s, const hd_foc_cfg_t *c, const hd_foc_in_t *in, hd_foc_out_t *out)
 {
-    int32_t sn, cs, ial, ibe, id, iq, val, vbe;
+    int32_t sn, cs;
     uint32_t hit = 0u;
-    hd_sincos_turn_fast(in->theta_e, &sn, &cs);
-    ial = in->ia;
-    ibe = foc_clarke_beta(in->ia, in->ib);
-    foc_rot(ial, ibe, -sn, cs, &id, &iq);                     /* Park; |sn| <= 2^30 */
+    foc_sincos(in->theta_e, &sn, &cs);
+    const int32_t ia = hdf_ssat(in->ia, 28u);
+    const int32_t ib = hdf_ssat(in->ib, 28u);
+    const int32_t al2 = 2 * ia;                                            /* Clarke, doubled */
+    const int32_t be2 = hdf_smmulr(4 * (ia + 2 * ib), HD_INV_SQRT3_Q31);
+    const int32_t id = hdf_dot2_rnd32(al2, cs, be2, sn);                   /* Park */
+    const int32_t iq = hdf_dot2_rnd32(be2, cs, -al2, sn);
     s->id = id;
     s->iq = iq;
     if (in->vbus <= 0) {
@@ -204,28 +291,38 @@ void hd_foc_step(hd_foc_t *s, const hd_foc_cfg_t *c, const hd_foc_in_t *in, hd_f
         out->duty[2] = HD_FOC_DUTY_ONE / 2;
         return;
     }
+    const int32_t vbus = hdf_ssat(in->vbus, 30u);
     /* usable phase-voltage amplitude of linear SVM */
-    const int32_t vk = hdf_clamp32(c->vmax_k, 0, HD_INV_SQRT3_Q30);
-    const int32_t vmax = foc_rnd_sat((int64_t)in->vbus * vk, 30u);
-    const int32_t vd = pi_axis(&s->integ_d, c, hdf_sub_sat(in->id_ref, id), vmax, &hit);
+    const int32_t vmax = hdf_smmulr(4 * vbus, hdf_clamp32(c->vmax_k, 0, HD_INV_SQRT3_Q30));
+    const int32_t ilim = foc_ilim(vmax);
+    const int32_t vd = foc_pi(&s->integ_d, c->kp, c->ki_ts, hdf_sub_sat(in->id_ref, id), vmax, ilim, &hit);
+    int32_t vq = foc_pi(&s->integ_q, c->kp, c->ki_ts, hdf_sub_sat(in->iq_ref, iq), vmax, ilim, &hit);
     /* q axis: output and integrator clamped to the rest of the circle,
      * sqrt(vmax^2 - vd^2) - computed only when the vector would leave the circle */
-    uint32_t hit_q = 0u;
-    int32_t vq = pi_axis(&s->integ_q, c, hdf_sub_sat(in->iq_ref, iq), vmax, &hit_q);
-    const int64_t r2 = (int64_t)vmax * vmax;                                  /* < 2^62 */
-    const int64_t vd2 = (int64_t)vd * vd;                                     /* <= r2 */
-    if ((int64_t)vq * vq > r2 - vd2) {
-        const int32_t vq_lim = (int32_t)hd_isqrt64((uint64_t)(r2 - vd2));
+    const int64_t r2 = (int64_t)vmax * vmax - (int64_t)vd * vd;               /* >= 0 */
+    const uint32_t l1 = (uint32_t)((vd < 0) ? -vd : vd) + (uint32_t)((vq < 0) ? -vq : vq);
+    /* |vd| + |vq| <= vmax is inside the circle: the squares only near its edge */
+    if (l1 > (uint32_t)vmax && (int64_t)vq * vq > r2) {
+        const int32_t vq_lim = (int32_t)hd_isqrt64((uint64_t)r2);
         vq = hdf_clamp32(vq, -vq_lim, vq_lim);
         s->integ_q = hdf_clamp32(s->integ_q, -foc_ilim(vq_lim), foc_ilim(vq_lim));
         hit = 1u;
     }
-    hit |= hit_q;
     s->vd = vd;
     s->vq = vq;
     s->limited = hit;
-    foc_rot(vd, vq, sn, cs, &val, &vbe);                      /* inverse Park */
-    foc_svm_inv(val, vbe, hd_foc_inv_vbus(in->vbus), out->duty);
+    {
+        /* modulation ratios (Q27), inverse Park to Q26, then the SVM of foc_svm_inv */
+        const uint32_t vb1 = (uint32_t)((vbus < HD_Q16_ONE) ? HD_Q16_ONE : vbus);   /* [2^16, 2^29) */
+        const uint32_t n = (uint32_t)__builtin_clz(vb1);                           /* 3 .. 15 */
+        const int32_t inv_n = foc_recip61(vb1 << n);
+        const int32_t md = hdf_smmulr(hdf__s32((uint32_t)vd << (n - 2u)), inv_n);
+        const int32_t mq = hdf_smmulr(hdf__s32((uint32_t)vq << (n - 2u)), inv_n);
+        const int32_t ma = hdf_dot2_rnd32(md, cs, -mq, sn);
+        const int32_t mb = hdf_dot2_rnd32(md, sn, mq, cs);
+        const int32_t sb = hdf_smmulr(4 * mb, HD_SQRT3_2_Q31);
+        foc_duties(2 * ma, sb - ma, -sb - ma, 12u, out->duty);
+    }
 }
 
 int32_t hd_foc_design(hd_foc_cfg_t *c, int32_t r_mohm, int32_t l_nh, int32_t fc_hz, int32_t fs_hz)

@@ -8,11 +8,13 @@
  *   phase / dq current      Q15.16 A        (int32, hd_current_t)
  *   voltage                 Q15.16 V        (int32)
  *   electrical angle        uint32, 2^32 == one electrical turn (wraps, meant)
- *   sin / cos               Q30             (hd_sincos_turn_fast: ~4e-8, for a 12-bit loop)
+ *   sin / cos               Q31 in the step (hd_foc_sincos: 512-entry table, linear
+ *                           interpolation, 1.9e-5, for a 12-bit loop); Q30 arguments of
+ *                           the public transforms below
  *   kp                      Q15.16 V/A
  *   ki_ts = Ki * Ts         Q15.16 V/(A period)
  *   integrator              int32, 2^-24 V  (8 more fractional bits than the output;
- *                           holds +-128 V, the bus range of the modulation's fast path)
+ *                           holds +-128 V)
  *   duty                    Q16, 0 .. 65536 == 0 .. 100 % high-side on time
  *
  * One step (called once per PWM period, Ts = 1 / f_pwm):
@@ -28,8 +30,14 @@
  *      periods (test_foc.c: < 1 ms at 3000 rpm).
  *   4. inverse Park, inverse Clarke to va, vb, vc, zero-sequence injection
  *      v0 = -(max + min) / 2 (equivalent to SVM), duty = 1/2 + (vx + v0) / vbus,
- *      computed in 32-bit on modulation ratios (v / vbus in Q28, one 1/vbus
- *      per step; ratios saturated to +-2, far outside the linear range).
+ *      computed on modulation ratios (vd / vbus, vq / vbus, one 1/vbus per step)
+ *      rotated by the inverse Park.
+ * hd_foc_step computes in 32-bit words with the Cortex-M4 DSP forms (SMMULR,
+ * SMMLAR, SMLAL, SSAT: the hdf_ helpers of hd_fixed.h); the range analysis with
+ * every Q-format is the comment at the top of hd_foc.c.  Phase currents
+ * saturate at +-2,048 A, the bus voltage at 8,192 V, and below 1 V the
+ * modulation is that of 1 V.  The public transforms and hd_foc_svm are the
+ * 64-bit references (tests/c/test_foc_fast.c compares the step with them).
  * Every narrowing rounds to nearest (half up in the transforms and the SVM)
  * and saturates.
  *
@@ -78,6 +86,9 @@ typedef struct {
     int32_t duty[3];    /* Q16 duty of phases a, b, c, [0, 65536] */
 } hd_foc_out_t;
 
+/** sin and cos of an electrical angle (2^32 == one turn) in Q31, |.| <= 2^31 - 1, by linear
+ *  interpolation of a 512-entry table (the current loop's form: error <= 1.9e-5 + 1.5 LSB). */
+void hd_foc_sincos(uint32_t theta_e, int32_t *sin_q31, int32_t *cos_q31);
 /** Clarke transform (balanced three-phase): alpha, beta in Q15.16 A. */
 void hd_foc_clarke(int32_t ia, int32_t ib, int32_t *i_alpha, int32_t *i_beta);
 /** Park: (alpha, beta) -> (d, q) with sin, cos in Q30. */
@@ -102,11 +113,14 @@ void hd_foc_step(hd_foc_t *s, const hd_foc_cfg_t *c, const hd_foc_in_t *in, hd_f
 int32_t hd_foc_design(hd_foc_cfg_t *c, int32_t r_mohm, int32_t l_nh, int32_t fc_hz, int32_t fs_hz);
 
 /** ADC sample to phase current, Q15.16 A: (raw - offset) * gain, gain_q30 in A per LSB
- *  as Q30 (e.g. 33 A / 2048 LSB = 17301504).  Rounded, saturated.  Inline (the port
- *  calls it twice per FOC period). */
+ *  as Q30 (e.g. 33 A / 2048 LSB = 17301504), rounded half up.  32-bit: raw - offset is
+ *  saturated to [-2^16, 2^16) LSB (SSAT 17: any ADC of up to 16 bits) and the gain to
+ *  [-2^27, 2^27) (0.125 A per LSB); then (d 2^14) (gain 2^4) / 2^32 = d gain / 2^14 is one
+ *  SMMULR, both factors within int32, |result| <= 2^29.  Inline (the port calls it twice
+ *  per FOC period). */
 HD_FX_INLINE int32_t hd_foc_adc_current(int32_t raw, int32_t offset, int32_t gain_q30)
 {
-    return hdf_mul_q(hdf_sub_sat(raw, offset), gain_q30, 14u);
+    return hdf_smmulr(hdf_ssat(hdf_sub_sat(raw, offset), 17u) * 16384, hdf_ssat(gain_q30, 28u) * 16);
 }
 
 /** Electrical angle from a single-turn encoder count in [0, 2^bits) (1 <= bits <= 32):

@@ -17,15 +17,30 @@ static const uint8_t hd_ssi_crc6_tab[64] = {
 
 uint32_t hd_ssi_crc6(uint32_t data, uint32_t nbits)
 {
+    /* the data masked to n <= 32 bits fits one word: 32-bit shifts only */
     const uint32_t n = (nbits > 32u) ? 32u : nbits;
-    const uint64_t d = (uint64_t)data & (((uint64_t)1 << n) - 1u);
+    const uint32_t d = data & (uint32_t)(((uint64_t)1 << n) - 1u);
     uint32_t crc = 0u;
     uint32_t sh = ((n + 5u) / 6u) * 6u;
+    if (sh > 30u) {                                   /* n 31, 32: the top chunk holds 1 or 2 bits */
+        crc = hd_ssi_crc6_tab[d >> 30];
+        sh = 30u;
+    }
     while (sh > 0u) {
         sh -= 6u;
-        crc = hd_ssi_crc6_tab[crc ^ (uint32_t)((d >> sh) & 0x3Fu)];
+        crc = hd_ssi_crc6_tab[crc ^ ((d >> sh) & 0x3Fu)];
     }
     return crc;
+}
+
+/* hd_ssi_crc6(d, 26) unrolled: the chunks at bits 24 (2 bits), 18, 12, 6, 0 */
+static inline uint32_t ssi_crc6_26(uint32_t d)
+{
+    uint32_t crc = hd_ssi_crc6_tab[(d >> 24) & 0x3u];
+    crc = hd_ssi_crc6_tab[crc ^ ((d >> 18) & 0x3Fu)];
+    crc = hd_ssi_crc6_tab[crc ^ ((d >> 12) & 0x3Fu)];
+    crc = hd_ssi_crc6_tab[crc ^ ((d >> 6) & 0x3Fu)];
+    return hd_ssi_crc6_tab[crc ^ (d & 0x3Fu)];
 }
 
 uint32_t hd_ssi_encode(uint32_t position, uint32_t error, uint32_t warning)
@@ -35,17 +50,23 @@ uint32_t hd_ssi_encode(uint32_t position, uint32_t error, uint32_t warning)
     return (d26 << 6) | ((~hd_ssi_crc6(d26, 26u)) & 0x3Fu);
 }
 
-int32_t hd_ssi_decode_data(uint32_t data, hd_ssi_reading_t *r)
+/* the 32 data bits of a frame: CRC check, then the reading (hd_ssi_decode_data) */
+static inline int32_t ssi_data(uint32_t data, hd_ssi_reading_t *r)
 {
     const uint32_t d26 = data >> 6;
     const uint32_t crc = (~data) & 0x3Fu;
-    if (hd_ssi_crc6(d26, 26u) != crc) {
+    if (ssi_crc6_26(d26) != crc) {
         return HD_SSI_ERR_CRC;
     }
     r->position = d26 >> 2;
     r->error = ((d26 & 2u) != 0u) ? 0u : 1u;
     r->warning = ((d26 & 1u) != 0u) ? 0u : 1u;
     return HD_SSI_OK;
+}
+
+int32_t hd_ssi_decode_data(uint32_t data, hd_ssi_reading_t *r)
+{
+    return ssi_data(data, r);
 }
 
 static uint32_t bit_at(const uint8_t *buf, uint32_t i)
@@ -78,7 +99,7 @@ static int32_t hd_ssi_decode_bits(const uint8_t *buf, uint32_t nbits, hd_ssi_rea
     for (k = 0u; k < HD_SSI_DATA_BITS; k++) {
         data = (data << 1) | bit_at(buf, i + 2u + k);
     }
-    return hd_ssi_decode_data(data, r);
+    return ssi_data(data, r);
 }
 
 /* leading zeros of a 64-bit word (64 for 0) */
@@ -97,8 +118,8 @@ int32_t hd_ssi_decode(const uint8_t *buf, uint32_t nbytes, uint32_t nbits, hd_ss
     uint64_t w;
     uint32_t hi = 0u;
     uint32_t lo = 0u;
-    uint32_t k;
     uint32_t i;
+    uint32_t k;
     if (buf == NULL || r == NULL || nbits > 8u * nbytes) {
         return HD_SSI_ERR_ARG;
     }
@@ -106,12 +127,26 @@ int32_t hd_ssi_decode(const uint8_t *buf, uint32_t nbytes, uint32_t nbits, hd_ss
         return hd_ssi_decode_bits(buf, nbits, r);
     }
     /* word-wise: the frame top-aligned in w (bit i of the frame = bit 63 - i of w);
-     * a run that reaches past nbits fails the same tests as the bitwise count */
-    for (k = 0u; k < 4u && k < nbytes; k++) {
-        hi |= (uint32_t)buf[k] << (24u - 8u * k);
-    }
-    for (k = 4u; k < 8u && k < nbytes; k++) {
-        lo |= (uint32_t)buf[k] << (56u - 8u * k);
+     * a run that reaches past nbits fails the same tests as the bitwise count.
+     * The bytes read are those of the frame (k < nbytes); a frame of 6 bytes or more
+     * (the drive's 48 clocks) is gathered without a loop. */
+    if (nbytes >= 6u) {
+        hi = ((uint32_t)buf[0] << 24) | ((uint32_t)buf[1] << 16) | ((uint32_t)buf[2] << 8) | (uint32_t)buf[3];
+        lo = ((uint32_t)buf[4] << 24) | ((uint32_t)buf[5] << 16);
+        if (nbytes >= 7u) {
+            lo |= (uint32_t)buf[6] << 8;
+        }
+        if (nbytes >= 8u) {
+            lo |= (uint32_t)buf[7];
+        }
+    } else {
+        for (k = 0u; k < nbytes; k++) {
+            if (k < 4u) {
+                hi |= (uint32_t)buf[k] << (24u - (8u * k));
+            } else {
+                lo |= (uint32_t)buf[k] << (56u - (8u * k));
+            }
+        }
     }
     w = ((uint64_t)hi << 32) | lo;
     i = clz64(~w);                                    /* idle high */
@@ -126,5 +161,5 @@ int32_t hd_ssi_decode(const uint8_t *buf, uint32_t nbytes, uint32_t nbits, hd_ss
     if (((w >> 62) & 1u) != 0u) {
         return HD_SSI_ERR_CDS;
     }
-    return hd_ssi_decode_data((uint32_t)(w >> 30), r);
+    return ssi_data((uint32_t)(w >> 30), r);
 }

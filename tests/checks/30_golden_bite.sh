@@ -57,6 +57,11 @@ hmutants=(
   'h_qadd|s@"qadd %0, %1, %2"@"add %0, %1, %2" /* MUTANT */@|hdf_add_sat|wrap-around instead of QADD in the M4 hdf_add_sat'
   'h_rnd_shift|s@"asrvc %\[yh\], %\[yh\], %\[s\]"@"lsrvc %[yh], %[yh], %[s]" /* MUTANT */@|hdf_asr64_rnd|logical instead of arithmetic shift in the M4 hdf_asr64_rnd'
   'h_rnd_fit_carry|s@"adc %\[yh\], %\[hi\], #0"@"mov %[yh], %[hi]" /* MUTANT */@|hdf_asr32_rnd_fit|rounding carry dropped in the M4 hdf_asr32_rnd_fit'
+  'h_smmulr|s@"smmulr %0, %1, %2"@"smmul %0, %1, %2" /* MUTANT */@|hdf_smmulr|rounding dropped in the M4 hdf_smmulr (SMMUL for SMMULR)'
+  'h_smmlar|s@"smmlar %0, %1, %2, %3"@"smmla %0, %1, %2, %3" /* MUTANT */@|hdf_smmlar|rounding dropped in the M4 hdf_smmlar (SMMLA for SMMLAR)'
+  'h_dot2|s@"smlal %\[lo\], %\[hi\], %\[c\], %\[d\]"@"smull %[lo], %[hi], %[c], %[d]" /* MUTANT */@|hdf_dot2_rnd32|first product and rounding dropped in the M4 hdf_dot2_rnd32'
+  'h_dot2_64|s@"smull %\[lo\], %\[hi\], %\[a\], %\[b\]\\n\\t"@"mov %[lo], #0\\n\\tmov %[hi], #0\\n\\t" /* MUTANT */@|hdf_dot2_64|first product dropped in the M4 hdf_dot2_64'
+  'h_ssat|s@"ssat %0, %1, %2"@"mov %0, %2" /* MUTANT */@|hdf_ssat|saturation dropped in the M4 hdf_ssat'
   'h_mul96_sign|s@"and %\[n\], %\[al\], %\[b\], asr #31\\n\\t"@"mov %[n], #0\\n\\t" /* MUTANT */@|hdf_mul64x32_q|missing negative-b correction in the M4 96-bit product'
 )
 bite firmware/core/hd_fixed.h gv_m4_h.elf "${hmutants[@]}"

@@ -5,7 +5,8 @@
  * the host runs the portable C bodies, so these kernels prove that both
  * bodies give the same bits.  Shift counts must be constants for the M4
  * bodies: the runners dispatch every count 0..63 to a call with a literal
- * (hdf_asr64_rnd_var: the count known at run time only).
+ * (hdf_asr64_rnd_var: the count known at run time only).  The 32-bit DSP
+ * forms (SMMULR, SMMLAR, SMULL + SMLAL, two SMLAL, SSAT) are compared the same way.
  */
 #include "gv.h"
 #include "hd_fixed.h"
@@ -114,6 +115,34 @@ static void gen_mul64x32_q(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
     in[3] = (int32_t)((idx < 63u) ? idx : hd_gv_rand32(r) % 63u);
 }
 
+/* the DSP forms: edge-biased words; hdf_dot2_rnd32 one in four with both products at
+ * their extreme (+-2^62 each: the 64-bit sum wraps, as SMLAL does); hdf_ssat walks
+ * n = 1..32 (idx < 32), one in four x at a limit +-1 */
+static void gen_e32x4(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    in[0] = hd_gv_rand_edge32(r);
+    in[1] = hd_gv_rand_edge32(r);
+    in[2] = hd_gv_rand_edge32(r);
+    in[3] = hd_gv_rand_edge32(r);
+    if ((idx % 4u) == 2u) {
+        in[0] = INT32_MIN;
+        in[1] = INT32_MIN;
+        in[2] = ((idx % 8u) == 2u) ? INT32_MIN : INT32_MAX;
+        in[3] = INT32_MIN;
+    }
+}
+static void gen_ssat(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    const uint32_t n = 1u + ((idx < 32u) ? idx : hd_gv_rand32(r) % 32u);
+    in[0] = hd_gv_rand_edge32(r);
+    if ((idx % 4u) == 1u) {
+        const int64_t lim = ((idx % 8u) == 1u) ? ((int64_t)1 << (n - 1u)) - 1 : -((int64_t)1 << (n - 1u));
+        const int64_t x = lim + (int64_t)(hd_gv_rand32(r) % 3u) - 1;
+        in[0] = (x > INT32_MAX) ? INT32_MAX : ((x < INT32_MIN) ? INT32_MIN : (int32_t)x);
+    }
+    in[1] = (int32_t)n;
+}
+
 /* ---- constant-shift dispatch ------------------------------------------ */
 
 #define CASES8(F, x, b) F(x, b + 0u) F(x, b + 1u) F(x, b + 2u) F(x, b + 3u) \
@@ -180,6 +209,15 @@ static int64_t mul64x32_q_const(const int32_t *in, uint32_t q)
     }
 }
 
+#define SSAT_CASE(x, k) case (k): return hdf_ssat((x), (k));
+static int32_t ssat_const(int32_t x, uint32_t n)
+{
+    switch (n) {
+    CASES32_1(SSAT_CASE, x)
+    default: return hdf_ssat(x, 32u);
+    }
+}
+
 /* ---- runners --------------------------------------------------------- */
 
 #define RUN_BEGIN(fn, nin, nout) \
@@ -202,6 +240,11 @@ RUN_BEGIN(run_asr32_rnd_fit, 3, 1) out[0] = asr32_rnd_fit_const(hd_gv_get64(in),
 RUN_BEGIN(run_shl64_sat, 3, 2) hd_gv_put64(out, shl64_sat_const(hd_gv_get64(in), hd_gv_s2u(in[2]))); RUN_END
 RUN_BEGIN(run_mul64x32_q, 4, 2) hd_gv_put64(out, mul64x32_q_const(in, hd_gv_s2u(in[3]))); RUN_END
 RUN_BEGIN(run_mul_q, 3, 1) out[0] = mul_q_const(in, hd_gv_s2u(in[2])); RUN_END
+RUN_BEGIN(run_smmulr, 2, 1) out[0] = hdf_smmulr(in[0], in[1]); RUN_END
+RUN_BEGIN(run_smmlar, 4, 1) out[0] = hdf_smmlar(in[2], in[0], in[1]); RUN_END
+RUN_BEGIN(run_dot2_rnd32, 4, 1) out[0] = hdf_dot2_rnd32(in[0], in[1], in[2], in[3]); RUN_END
+RUN_BEGIN(run_dot2_64, 4, 2) hd_gv_put64(out, hdf_dot2_64(in[0], in[1], in[2], in[3])); RUN_END
+RUN_BEGIN(run_ssat, 2, 1) out[0] = ssat_const(in[0], hd_gv_s2u(in[1])); RUN_END
 
 /* ---- cost: one representative call each ------------------------------- */
 
@@ -235,6 +278,11 @@ COST(cost_asr32_rnd_fit, sink32, hdf_asr32_rnd_fit(b64, 32u))
 COST(cost_mul_q, sink32, hdf_mul_q(a, b, 30u))
 COST(cost_shl64_sat, sink64, hdf_shl64_sat(b64, 16u))
 COST(cost_mul64x32_q, sink64, hdf_mul64x32_q(a64, b, 30u))
+COST(cost_smmulr, sink32, hdf_smmulr(a, b))
+COST(cost_smmlar, sink32, hdf_smmlar(b, a, b))
+COST(cost_dot2_rnd32, sink32, hdf_dot2_rnd32(a, b, b, a))
+COST(cost_dot2_64, sink64, hdf_dot2_64(a, b, b, a))
+COST(cost_ssat, sink32, hdf_ssat(a, 28u))
 
 /* ---- registry -------------------------------------------------------- */
 
@@ -252,5 +300,10 @@ const hd_gv_kernel_t hd_gv_fixed_inline_kernels[] = {
     {"hdf_mul_q", 3, 1, GV_N, gen_mul_q, run_mul_q, cost_mul_q},
     {"hdf_shl64_sat", 3, 2, 2u * GV_N, gen_e64_s63, run_shl64_sat, cost_shl64_sat},
     {"hdf_mul64x32_q", 4, 2, 2u * GV_N, gen_mul64x32_q, run_mul64x32_q, cost_mul64x32_q},
+    {"hdf_smmulr", 2, 1, GV_N, gen_e32x2, run_smmulr, cost_smmulr},
+    {"hdf_smmlar", 4, 1, GV_N, gen_e32x4, run_smmlar, cost_smmlar},
+    {"hdf_dot2_rnd32", 4, 1, GV_N, gen_e32x4, run_dot2_rnd32, cost_dot2_rnd32},
+    {"hdf_dot2_64", 4, 2, GV_N, gen_e32x4, run_dot2_64, cost_dot2_64},
+    {"hdf_ssat", 2, 1, GV_N, gen_ssat, run_ssat, cost_ssat},
 };
 const uint32_t hd_gv_fixed_inline_count = sizeof hd_gv_fixed_inline_kernels / sizeof hd_gv_fixed_inline_kernels[0];
