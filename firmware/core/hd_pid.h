@@ -94,29 +94,38 @@ HD_FX_INLINE int32_t hd_pid_step_q(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t r
     const int32_t d = (c->kd_fs == 0) ? 0
                       : hdf_neg_sat((int32_t)hdf_sat32(hdf_mul64x32_q(s->dfilt, c->kd_fs, shift + 16u)));
 
-    /* conditional integration: tentative update, kept unless it deepens saturation */
-    /* an int32 times 2^shift, shift <= 32, stays within int64 (-2^63 at the least):
-     * the saturating shift is the product (the drive's shifts 16 and 32 fold it) */
-    const int64_t lim_hi = (shift <= 32u) ? (int64_t)c->out_max * ((int64_t)1 << shift)
-                                          : hdf_shl64_sat((int64_t)c->out_max, shift);
-    const int64_t lim_lo = (shift <= 32u) ? (int64_t)c->out_min * ((int64_t)1 << shift)
-                                          : hdf_shl64_sat((int64_t)c->out_min, shift);
-    int64_t integ_new = hdf_mac64(s->integ, c->ki_dt, e);
-    integ_new = hdf_clamp64(integ_new, lim_lo, lim_hi);
-    /* the integrator is clamped to [out_min, out_max] 2^shift (shift <= 32: exact
-     * limits), so its rounded read-out lies in [out_min, out_max]: no saturation */
-    int32_t i_new = (shift <= 32u) ? hdf_asr32_rnd_fit(integ_new, shift) : hdf_asr32_rnd(integ_new, shift);
-
     /* the terms other than I, summed once for both tries (four int32s: exact in int64) */
     const int64_t pdf = (int64_t)p + (int64_t)d + (int64_t)ff;
-    int64_t u = pdf + (int64_t)i_new;
-    if ((u > (int64_t)c->out_max && integ_new > s->integ) ||
-        (u < (int64_t)c->out_min && integ_new < s->integ)) {
-        integ_new = s->integ;                       /* freeze */
+    int64_t u;
+    int32_t i_new;
+    if (c->ki_dt == 0 && s->integ == 0 && c->out_min <= 0 && c->out_max >= 0) {
+        /* no I gain and the integrator at 0 (the position loop's default): the tentative
+         * update is 0, inside the limits and equal to the old value, so it is kept and
+         * reads out 0; the same words as the general path below, without its 64-bit work */
+        i_new = 0;
+        u = pdf;
+    } else {
+        /* conditional integration: tentative update, kept unless it deepens saturation */
+        /* an int32 times 2^shift, shift <= 32, stays within int64 (-2^63 at the least):
+         * the saturating shift is the product (the drive's shifts 16 and 32 fold it) */
+        const int64_t lim_hi = (shift <= 32u) ? (int64_t)c->out_max * ((int64_t)1 << shift)
+                                              : hdf_shl64_sat((int64_t)c->out_max, shift);
+        const int64_t lim_lo = (shift <= 32u) ? (int64_t)c->out_min * ((int64_t)1 << shift)
+                                              : hdf_shl64_sat((int64_t)c->out_min, shift);
+        int64_t integ_new = hdf_mac64(s->integ, c->ki_dt, e);
+        integ_new = hdf_clamp64(integ_new, lim_lo, lim_hi);
+        /* the integrator is clamped to [out_min, out_max] 2^shift (shift <= 32: exact
+         * limits), so its rounded read-out lies in [out_min, out_max]: no saturation */
         i_new = (shift <= 32u) ? hdf_asr32_rnd_fit(integ_new, shift) : hdf_asr32_rnd(integ_new, shift);
         u = pdf + (int64_t)i_new;
+        if ((u > (int64_t)c->out_max && integ_new > s->integ) ||
+            (u < (int64_t)c->out_min && integ_new < s->integ)) {
+            integ_new = s->integ;                       /* freeze */
+            i_new = (shift <= 32u) ? hdf_asr32_rnd_fit(integ_new, shift) : hdf_asr32_rnd(integ_new, shift);
+            u = pdf + (int64_t)i_new;
+        }
+        s->integ = integ_new;
     }
-    s->integ = integ_new;
 
     const int64_t uc = hdf_clamp64(u, (int64_t)c->out_min, (int64_t)c->out_max);
     s->saturated = (uc != u) ? 1u : 0u;
