@@ -210,7 +210,7 @@ static void test_maxwell_saturation(void **state)
 
 static void test_te_single_harmonic(void **state)
 {
-    hd_te_cfg_t c = { 1u, { 2u }, { 100000 }, { 0u }, 256 * 1000, NM(100) };
+    hd_te_cfg_t c = { 1u, { 2u }, { 100000 }, { 0u }, 256 * 1000, NM(100), 0u };
     hd_te_comp_t s;
     (void)state;
     hd_te_comp_init(&s, 0u, true);
@@ -266,7 +266,7 @@ static void test_lugre_parts_equal_step(void **state)
  * correction's slope is -w dTE/dtheta. */
 static void test_te_slope_predicts(void **state)
 {
-    hd_te_cfg_t c = { 3u, { 2u, 1u, 4u }, { 100000, -40000, 25000 }, { 0x12345678u, 0x9ABCDEF0u, 7u }, 0, NM(100) };
+    hd_te_cfg_t c = { 3u, { 2u, 1u, 4u }, { 100000, -40000, 25000 }, { 0x12345678u, 0x9ABCDEF0u, 7u }, 0, NM(100), 0u };
     hd_te_comp_t s;
     uint32_t k;
     int32_t slope_w;
@@ -540,6 +540,59 @@ static void test_backstep_law_q16_terms(void **state)
     assert_true(maxdiff <= 2);
 }
 
+/* The short form of the TE model and slope (fit32) gives the general form's words at the
+ * edges of its ranges (amplitudes +-2^30, orders up to 2^28, four harmonics), and
+ * hd_te_cfg_ranges takes it only inside them. */
+static void test_te_fit32_same_words(void **state)
+{
+    hd_te_cfg_t c = { 4u, { 2u, 1u, 4u, 6u }, { 0, 0, 0, 0 }, { 0u, 0u, 0u, 0u }, 0, NM(100), 0u };
+    hd_te_cfg_t g;
+    uint32_t x = 777u, k, h;
+    (void)state;
+    for (k = 0; k < 20000u; k++) {
+        for (h = 0; h < 4u; h++) {
+            const uint32_t r = lcg(&x);
+            c.amp[h] = ((r & 3u) == 0u) ? (((r & 4u) != 0u) ? HD_TE_FIT32_AMP : -HD_TE_FIT32_AMP)
+                                        : (int32_t)(lcg(&x) >> 1) - (1 << 30);
+            c.order[h] = ((r & 24u) == 0u) ? HD_TE_FIT32_ORDER : (lcg(&x) >> 4);
+            c.phase[h] = lcg(&x);
+        }
+        c.n = 1u + (k & 3u);
+        hd_te_cfg_ranges(&c);
+        assert_int_equal(c.fit32, 1u);
+        g = c;
+        g.fit32 = 0u;
+        {
+            const uint64_t hi = lcg(&x);
+            const int64_t th = (int64_t)((hi << 32) | lcg(&x));
+            int32_t s1, s0;
+            const int64_t m1 = hd_te_model_slope(&c, th, &s1);
+            const int64_t m0 = hd_te_model_slope(&g, th, &s0);
+            assert_true(m1 == m0);
+            assert_int_equal(s1, s0);
+        }
+    }
+    /* outside the ranges: the general form */
+    c.n = 4u;
+    c.amp[0] = HD_TE_FIT32_AMP + 1;
+    hd_te_cfg_ranges(&c);
+    assert_int_equal(c.fit32, 0u);
+    c.amp[0] = -HD_TE_FIT32_AMP - 1;
+    hd_te_cfg_ranges(&c);
+    assert_int_equal(c.fit32, 0u);
+    c.amp[0] = 0;
+    c.order[3] = HD_TE_FIT32_ORDER + 1u;
+    hd_te_cfg_ranges(&c);
+    assert_int_equal(c.fit32, 0u);
+    c.order[3] = 6u;
+    c.n = 5u;
+    hd_te_cfg_ranges(&c);
+    assert_int_equal(c.fit32, 0u);
+    c.n = 4u;
+    hd_te_cfg_ranges(&c);
+    assert_int_equal(c.fit32, 1u);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -557,6 +610,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_backstep_held_closed_loop, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_backstep_regressor_follows_the_moving_reference, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_backstep_law_q16_terms, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_te_fit32_same_words, setUp, tearDown),
     };
     return cmocka_run_group_tests_name("comp_misc", tests, NULL, NULL);
 }
