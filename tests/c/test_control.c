@@ -944,6 +944,47 @@ static void test_capture_pretrigger(void **st)
     assert_int_equal(hd_capture_arm(&cap, &b), -1);
 }
 
+/* One observer step against the form with the 64-bit error (e = round((dc 2^16 - frac) /
+ * 2^12), the clamped error dc in 2^-32 turn): the same state words for errors at and
+ * beyond the clamp, 0, +-1, and every tie of frac (0, 2^11, 2^15, 2^16 - 1 ...). */
+static void test_observer_error_words(void **st)
+{
+    static const int64_t ds[] = { 0, 1, -1, 2, -2, 4095, -4096, (1 << 27) - 1, -((1 << 27) - 1), 1 << 27,
+                                  -(1 << 27), INT64_C(1) << 40, -(INT64_C(1) << 40), 123456789, -98765432 };
+    static const int32_t fr[] = { 0, 1, 2047, 2048, 2049, 4095, 4096, 32767, 32768, 32769, 65534, 65535 };
+    hd_velobs_cfg_t c;
+    size_t i, j;
+    (void)st;
+    hd_velobs_design(&c, 2 * 62832 * 20, 65536);    /* ~20 Hz, zeta 1 */
+    for (i = 0; i < sizeof ds / sizeof ds[0]; i++) {
+        for (j = 0; j < sizeof fr / sizeof fr[0]; j++) {
+            hd_velobs_t s;
+            hd_velobs_reset(&s, (int64_t)1 << 36);
+            s.frac = fr[j];
+            s.vel = (int64_t)(i * 7919u) << 20;
+            {
+                /* the reference: hd_velobs_step with the error in int64 */
+                const int64_t d = hd_sub64_sat((int64_t)s.theta + ds[i], s.theta);
+                const int64_t dc = (d > (1 << 27) - 1) ? (1 << 27) - 1 : ((d < -((1 << 27) - 1)) ? -((1 << 27) - 1) : d);
+                const int32_t e = (int32_t)hd_asr64_rnd(dc * 65536 - (int64_t)s.frac, 12u);
+                int64_t vel = hd_add64_sat(s.vel, hd_asr64_rnd((int64_t)c.ki_dt * e, 4u));
+                int64_t adv = hd_mul64x32_q(vel, 1759218604, 44u);
+                int64_t whole;
+                adv = hd_add64_sat(adv, hd_asr64_rnd((int64_t)c.kp_dt * e, 4u) + (int64_t)s.frac);
+                whole = hd_asr64_floor(adv, 16u);
+                {
+                    const int64_t theta = hd_add64_sat(s.theta, whole);
+                    const int32_t frac = (int32_t)(adv - whole * 65536);
+                    hd_velobs_step(&s, &c, s.theta + ds[i]);
+                    assert_true(s.vel == vel);
+                    assert_true(s.theta == theta);
+                    assert_int_equal(s.frac, frac);
+                }
+            }
+        }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -956,6 +997,7 @@ int main(void)
         cmocka_unit_test(test_observer_low_speed),
         cmocka_unit_test(test_observer_exact_ramp),
         cmocka_unit_test(test_observer_large_error),
+        cmocka_unit_test(test_observer_error_words),
         cmocka_unit_test(test_biquad_identity_and_dc),
         cmocka_unit_test(test_biquad_notch_depth),
         cmocka_unit_test(test_biquad_full_precision),
