@@ -951,8 +951,9 @@ static void phase_loops(hd_app_t *a, hd_period_t *p)
         const int32_t gain = param_raw(a, HD_P_VFF_GAIN);
         const hd_vel_out_t vff = (gain == HD_Q30_ONE) ? p->v_ff : hdf_mul_q(p->v_ff, gain, 30u);
         /* the loops' gain shifts are set in hd_app_apply_params: 16 (position), 32 (velocity) */
-        a->tel.vel_ref = hd_pid_step_q(&a->pos_pid, (p->mode == HD_MODE_STAB) ? &a->stab_pos_cfg : &a->pos_cfg,
-                                   a->tel.pos_err, 0, vff, 16u);
+        /* no D in the position loops (kd_fs 0, hd_app_apply_params) */
+        a->tel.vel_ref = hd_pid_step_pi_q(&a->pos_pid, (p->mode == HD_MODE_STAB) ? &a->stab_pos_cfg : &a->pos_cfg,
+                                          a->tel.pos_err, vff, 16u);
     }
     if (p->loops != HD_LOOPS_NONE) {
         /* acceleration feed-forward: aff_k [Q32.32 N.m per turn/s^2] * acc [2^-24 turn/s^2] -> Q16 N.m */

@@ -985,6 +985,47 @@ static void test_observer_error_words(void **st)
     }
 }
 
+/* The position loop's form (hd_pid_step_pi_q: no D, error form) gives the words of
+ * hd_pid_step_q with kd_fs 0 and meas 0, with and without an I gain, through saturation;
+ * with no I gain the output is clamp(P + ff) and the integrator stays 0. */
+static void test_pid_pi_form_same_words(void **st)
+{
+    hd_pid_cfg_t c = { 37 << 16, 0, 0, HD_Q30_ONE, 16u, -(1 << 30), 1 << 30 };
+    uint32_t x = 99u, k, pass;
+    (void)st;
+    for (pass = 0; pass < 2u; pass++) {
+        hd_pid_t a, b;
+        c.ki_dt = (pass == 0u) ? 0 : 40000;
+        hd_pid_reset(&a);
+        hd_pid_reset(&b);
+        for (k = 0; k < 20000u; k++) {
+            int32_t e, ff, ua, ub;
+            x = x * 1664525u + 1013904223u;
+            e = (int32_t)x >> ((k >> 10) & 15u);        /* small to edge errors */
+            x = x * 1664525u + 1013904223u;
+            ff = (int32_t)x >> 2;
+            ua = hd_pid_step_pi_q(&a, &c, e, ff, 16u);
+            ub = hd_pid_step_q(&b, &c, e, 0, ff, 16u);
+            assert_int_equal(ua, ub);
+            assert_true(a.integ == b.integ && a.dfilt == b.dfilt);
+            assert_int_equal(a.meas_prev, b.meas_prev);
+            assert_int_equal(a.primed, b.primed);
+            assert_int_equal(a.saturated, b.saturated);
+            assert_int_equal(a.p, b.p);
+            assert_int_equal(a.i, b.i);
+            assert_int_equal(a.d, b.d);
+            if (pass == 0u) {
+                const int64_t u = (int64_t)hd_mul_q(c.kp, e, 16u) + ff;
+                const int64_t uc = (u > c.out_max) ? c.out_max : ((u < c.out_min) ? c.out_min : u);
+                assert_true(a.integ == 0);
+                assert_int_equal(a.i, 0);
+                assert_int_equal(ua, (int32_t)uc);
+                assert_int_equal(a.saturated, (uc != u) ? 1u : 0u);
+            }
+        }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -998,6 +1039,7 @@ int main(void)
         cmocka_unit_test(test_observer_exact_ramp),
         cmocka_unit_test(test_observer_large_error),
         cmocka_unit_test(test_observer_error_words),
+        cmocka_unit_test(test_pid_pi_form_same_words),
         cmocka_unit_test(test_biquad_identity_and_dc),
         cmocka_unit_test(test_biquad_notch_depth),
         cmocka_unit_test(test_biquad_full_precision),
