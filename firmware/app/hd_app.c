@@ -710,33 +710,28 @@ typedef enum {
     HD_LOOPS_POS_VEL = 2    /* position + velocity loops (and the compensator bank) */
 } hd_loops_t;
 
-/* The signals of one period, handed from phase to phase (stack, no state kept). */
+/* The signals of one period, handed from phase to phase (stack, no state kept); the
+ * ones the telemetry reports (velocity feedback and output-encoder observer, position
+ * reference, feedback and error, velocity and acceleration references, excitation)
+ * the phases write into a->tel directly, which the later phases read. */
 typedef struct {
     hd_hal_sensors_t   sn;        /* the sensor sample */
     uint32_t           fen;       /* fault_enable bits */
     int32_t            n;         /* gear ratio */
-    hd_vel_out_t       v_fb;      /* velocity-loop feedback, 2^-32 turn/s */
-    hd_vel_out_t       v_out_enc; /* output-encoder observer, 2^-32 turn/s */
     int32_t            mode;      /* hd_mode_t in effect (OFF while faulted) */
     hd_loops_t         loops;
-    hd_angle_t         pos_ref;   /* Q32.32 turns */
     hd_angle_t         ref_plain; /* pos_ref before the bank's corrections */
     hd_vel_out_t       v_ff;      /* velocity feed-forward, 2^-32 turn/s */
     hd_vel_out_t       vff_plain; /* v_ff before the bank's corrections */
-    hd_acc_t           acc_ref;   /* 2^-24 turn/s^2 */
     hd_torque_t        t_ff;      /* torque feed-forward, Q15.16 N.m */
-    int32_t            exc;       /* excitation value, injection format */
-    hd_vel_out_t       vel_ref;   /* velocity-loop reference, 2^-32 turn/s */
     int64_t            t_out;     /* torque before the limit, Q15.16 N.m */
-    int32_t            pos_err;   /* 2^-32 turn, saturated */
-    hd_angle_t         pos_fb;    /* the loop's position feedback, Q32.32 turns */
     int32_t            t_cmd;     /* limited output torque command, Q15.16 N.m */
     hd_comp_bank_in_t  cbi;       /* the bank's inputs (pre and post) */
     hd_hal_command_t   cmd;
 } hd_period_t;
 
 /* Sensors: sample, unwrap, sensor / encoder-jump faults, pending mode entry,
- * velocity observers and the loop's velocity feedback -> p->sn, v_fb, v_out_enc. */
+ * velocity observers and the loop's velocity feedback -> p->sn, tel.vel_out, vel_out_enc. */
 static void phase_sensors(hd_app_t *a, hd_period_t *p)
 {
     p->fen = (uint32_t)param_raw(a, HD_P_FAULT_ENABLE);
@@ -760,32 +755,32 @@ static void phase_sensors(hd_app_t *a, hd_period_t *p)
     /* the output-encoder observer only while its velocity is used: the loop's feedback
      * (vel_fb_src 1, full closed) or STAB; switched on, it starts at the output angle
      * with the motor side's velocity (motor observer / N) */
-    p->v_out_enc = 0;
+    a->tel.vel_out_enc = 0;
     if (a->obs_out_fb != 0u || a->mode == HD_MODE_STAB) {
         if (a->obs_out_run == 0u) {
             hd_velobs_start(&a->obs_out, a->pos_out, hd_div64_rnd(hd_velobs_vel48(&a->obs_mot), p->n));
             a->obs_out_run = 1u;
         }
         hd_velobs_step(&a->obs_out, &a->obs_out_cfg, a->pos_out);
-        p->v_out_enc = hd_velobs_vel_out(&a->obs_out);
+        a->tel.vel_out_enc = hd_velobs_vel_out(&a->obs_out);
     } else {
         a->obs_out_run = 0u;
     }
-    p->v_fb = (a->obs_out_fb != 0u) ? p->v_out_enc : v_mot_out;
+    a->tel.vel_out = (a->obs_out_fb != 0u) ? a->tel.vel_out_enc : v_mot_out;
 }
 
 /* References of the mode in effect (trajectory, excitation, stabilisation)
- * -> p->mode, loops, pos_ref, v_ff, acc_ref, t_ff, exc, vel_ref, t_out. */
+ * -> p->mode, loops, v_ff, t_ff, t_out; tel.pos_ref, acc_ref, exc, vel_ref. */
 static void phase_references(hd_app_t *a, hd_period_t *p)
 {
     p->mode = (a->fault != HD_FAULT_NONE) ? HD_MODE_OFF : a->mode;
-    p->pos_ref = a->pos_out;
+    a->tel.pos_ref = a->pos_out;
     p->v_ff = 0;
-    p->acc_ref = 0;
+    a->tel.acc_ref = 0;
     p->t_ff = a->torque_cmd;
-    p->exc = 0;
+    a->tel.exc = 0;
     p->loops = HD_LOOPS_NONE;
-    p->vel_ref = 0;
+    a->tel.vel_ref = 0;
     p->t_out = 0;
 
     switch (p->mode) {
@@ -793,11 +788,11 @@ static void phase_references(hd_app_t *a, hd_period_t *p)
         p->t_out = a->torque_cmd;
         break;
     case HD_MODE_VELOCITY:
-        p->vel_ref = a->vel_cmd;
+        a->tel.vel_ref = a->vel_cmd;
         p->loops = HD_LOOPS_VEL;
         break;
     case HD_MODE_POSITION:
-        p->pos_ref = a->pos_cmd;
+        a->tel.pos_ref = a->pos_cmd;
         p->v_ff = a->vel_cmd;
         p->loops = HD_LOOPS_POS_VEL;
         break;
@@ -805,24 +800,24 @@ static void phase_references(hd_app_t *a, hd_period_t *p)
     case HD_MODE_RATE:
     case HD_MODE_SINE:
         hd_traj_step(&a->traj, &a->traj_cfg);
-        p->pos_ref = a->traj.pos;
+        a->tel.pos_ref = a->traj.pos;
         p->v_ff = a->traj.vel;
-        p->acc_ref = a->traj.acc;
+        a->tel.acc_ref = a->traj.acc;
         p->loops = HD_LOOPS_POS_VEL;
         break;
     case HD_MODE_EXCITATION:
-        p->exc = hd_exc_step(&a->exc, &a->exc_cfg);
+        a->tel.exc = hd_exc_step(&a->exc, &a->exc_cfg);
         if (a->exc_inj == HD_INJ_TORQUE) {
-            p->t_out = p->exc;
+            p->t_out = a->tel.exc;
         } else if (a->exc_inj == HD_INJ_VEL_REF) {
-            p->vel_ref = p->exc;
+            a->tel.vel_ref = a->tel.exc;
             p->loops = HD_LOOPS_VEL;
         } else if (a->exc_inj == HD_INJ_TORQUE_FF) {
-            p->pos_ref = a->hold_pos;
-            p->t_ff = hdf_add_sat(p->t_ff, p->exc);
+            a->tel.pos_ref = a->hold_pos;
+            p->t_ff = hdf_add_sat(p->t_ff, a->tel.exc);
             p->loops = HD_LOOPS_POS_VEL;
         } else {
-            p->pos_ref = hdf_add64_sat(a->hold_pos, p->exc);
+            a->tel.pos_ref = hdf_add64_sat(a->hold_pos, a->tel.exc);
             p->loops = HD_LOOPS_POS_VEL;
         }
         break;
@@ -831,11 +826,11 @@ static void phase_references(hd_app_t *a, hd_period_t *p)
             trip(a, HD_FAULT_SENSOR);
         }
         if (a->stab_primed == 0u) {
-            hd_stab_start(&a->stab, &a->stab_cfg, a->pos_out, p->sn.gyro_rate, p->v_out_enc);
+            hd_stab_start(&a->stab, &a->stab_cfg, a->pos_out, p->sn.gyro_rate, a->tel.vel_out_enc);
             a->stab_primed = 1u;
         }
         hd_stab_step(&a->stab, &a->stab_cfg, p->sn.gyro_rate, a->pos_out, a->vel_cmd);
-        p->pos_ref = hdf_add64_sat(a->pos_out, a->stab.err);   /* pos_err = inertial-angle error */
+        a->tel.pos_ref = hdf_add64_sat(a->pos_out, a->stab.err);   /* pos_err = inertial-angle error */
         p->v_ff = a->stab.vff;
         p->loops = HD_LOOPS_POS_VEL;
         break;
@@ -843,24 +838,24 @@ static void phase_references(hd_app_t *a, hd_period_t *p)
         break;
     }
     /* the reference before the bank's corrections ("at rest" of the hunt breaker) */
-    p->ref_plain = p->pos_ref;
+    p->ref_plain = a->tel.pos_ref;
     p->vff_plain = p->v_ff;
 }
 
 /* The bank's inputs of this period (pre and post). */
 static inline void bank_inputs(hd_app_t *a, hd_period_t *p, bool est)
 {
-    p->cbi.pos_ref = p->pos_ref;
+    p->cbi.pos_ref = a->tel.pos_ref;
     p->cbi.pos_out = est ? a->fb.pos_fb : a->pos_out;   /* last period's loop feedback */
     p->cbi.pos_mot = a->pos_mot;
     p->cbi.vel_ref = (p->mode == HD_MODE_STAB) ? a->stab.vff_db : p->v_ff;   /* friction FF without gyro-noise chatter */
-    p->cbi.vel_fb = p->v_fb;
-    p->cbi.acc_ref = p->acc_ref;
+    p->cbi.vel_fb = a->tel.vel_out;
+    p->cbi.acc_ref = a->tel.acc_ref;
 }
 
 /* Compensator bank (position loops only): corrections of pos_ref / v_ff, its torque
  * feed-forward into t_ff, the velocity-integrator hand-over of a weight ramp;
- * then pos_err of the corrected reference. */
+ * then tel.pos_fb and tel.pos_err of the corrected reference. */
 static void phase_comp_bank(hd_app_t *a, hd_period_t *p)
 {
     /* semi-closed / dual-loop outside STAB: the loop closes on the motor-side estimate */
@@ -893,14 +888,14 @@ static void phase_comp_bank(hd_app_t *a, hd_period_t *p)
             if (est) {
                 pos_fb = hd_fb_step(&a->fb, &a->fb_cfg, a->pos_out, cbo.dpos);   /* motor / N - dpos (blend) */
             } else if (a->fb_cfg.kind == (uint32_t)HD_FB_FULL_CLOSED) {
-                p->pos_ref = hdf_add64_sat(p->pos_ref, cbo.dpos);        /* 0 in full closed (dvel instead) */
+                a->tel.pos_ref = hdf_add64_sat(a->tel.pos_ref, cbo.dpos);        /* 0 in full closed (dvel instead) */
             }
             p->v_ff = hdf_add_sat(p->v_ff, cbo.dvel);
             p->t_ff = hdf_add_sat(p->t_ff, cbo.tff);
         }
     }
-    p->pos_fb = pos_fb;
-    p->pos_err = hdf_sat32(hdf_sub64_sat(p->pos_ref, pos_fb));
+    a->tel.pos_fb = pos_fb;
+    a->tel.pos_err = hdf_sat32(hdf_sub64_sat(a->tel.pos_ref, pos_fb));
 }
 
 /* Standstill hunt breaker (file header comment): at rest and hunting, the Stribeck
@@ -928,7 +923,7 @@ static void phase_hunt_breaker(hd_app_t *a, hd_period_t *p)
             }
         } else if (a->inpos_w < HD_Q30_ONE) {
             a->inpos_w = (a->inpos_w < HD_Q30_ONE - a->inpos_dw) ? a->inpos_w + a->inpos_dw : HD_Q30_ONE;
-        } else if (a->inpos_n >= hold_ticks && hdf_abs_sat(p->pos_err) > param_raw(a, HD_P_HOLD_HUNT_WIN)) {
+        } else if (a->inpos_n >= hold_ticks && hdf_abs_sat(a->tel.pos_err) > param_raw(a, HD_P_HOLD_HUNT_WIN)) {
             a->inpos_on = 1u;                   /* hunting at rest */
         }
         if (a->inpos_w < HD_Q30_ONE) {
@@ -948,7 +943,7 @@ static void phase_hunt_breaker(hd_app_t *a, hd_period_t *p)
 }
 
 /* The cascade: position PID -> velocity PID (+ acceleration FF) -> backstepping
- * blend -> torque filters, then the torque limit -> p->vel_ref, t_out, t_cmd. */
+ * blend -> torque filters, then the torque limit -> tel.vel_ref, p->t_out, t_cmd. */
 static void phase_loops(hd_app_t *a, hd_period_t *p)
 {
     if (p->loops == HD_LOOPS_POS_VEL) {
@@ -956,15 +951,16 @@ static void phase_loops(hd_app_t *a, hd_period_t *p)
         const int32_t gain = param_raw(a, HD_P_VFF_GAIN);
         const hd_vel_out_t vff = (gain == HD_Q30_ONE) ? p->v_ff : hdf_mul_q(p->v_ff, gain, 30u);
         /* the loops' gain shifts are set in hd_app_apply_params: 16 (position), 32 (velocity) */
-        p->vel_ref = hd_pid_step_q(&a->pos_pid, (p->mode == HD_MODE_STAB) ? &a->stab_pos_cfg : &a->pos_cfg,
-                                   p->pos_err, 0, vff, 16u);
+        /* no D in the position loops (kd_fs 0, hd_app_apply_params) */
+        a->tel.vel_ref = hd_pid_step_pi_q(&a->pos_pid, (p->mode == HD_MODE_STAB) ? &a->stab_pos_cfg : &a->pos_cfg,
+                                          a->tel.pos_err, vff, 16u);
     }
     if (p->loops != HD_LOOPS_NONE) {
         /* acceleration feed-forward: aff_k [Q32.32 N.m per turn/s^2] * acc [2^-24 turn/s^2] -> Q16 N.m */
-        if (p->acc_ref != 0 && a->aff_k != 0) {    /* else the product is exactly 0 */
-            p->t_ff = hdf_add_sat(p->t_ff, hdf_sat32(hdf_mul64x32_q(a->aff_k, p->acc_ref, 40u)));
+        if (a->tel.acc_ref != 0 && a->aff_k != 0) {    /* else the product is exactly 0 */
+            p->t_ff = hdf_add_sat(p->t_ff, hdf_sat32(hdf_mul64x32_q(a->aff_k, a->tel.acc_ref, 40u)));
         }
-        int32_t t = hd_pid_step_q(&a->vel_pid, &a->vel_cfg, p->vel_ref, p->v_fb, p->t_ff, 32u);
+        int32_t t = hd_pid_step_q(&a->vel_pid, &a->vel_cfg, a->tel.vel_ref, a->tel.vel_out, p->t_ff, 32u);
         if (p->loops == HD_LOOPS_POS_VEL) {
             if (a->bs_idle != 0u) {
                 a->cb.u_bs = t;                 /* what the bank's post step records when off */
@@ -997,7 +993,7 @@ static void phase_limits_faults(hd_app_t *a, const hd_period_t *p)
     if ((fen & HD_FCHK_TORQUE_SAT) && a->sat_count > (uint32_t)param_raw(a, HD_P_TORQUE_SAT_TIME)) {
         trip(a, HD_FAULT_TORQUE_SAT);
     }
-    if ((fen & HD_FCHK_OVERSPEED) && hdf_abs_sat(p->v_fb) > param_raw(a, HD_P_VEL_TRIP)) {
+    if ((fen & HD_FCHK_OVERSPEED) && hdf_abs_sat(a->tel.vel_out) > param_raw(a, HD_P_VEL_TRIP)) {
         trip(a, HD_FAULT_OVERSPEED);
     }
     if ((fen & HD_FCHK_TRAVEL) &&
@@ -1005,7 +1001,7 @@ static void phase_limits_faults(hd_app_t *a, const hd_period_t *p)
         trip(a, HD_FAULT_TRAVEL);
     }
     if ((fen & HD_FCHK_FOLLOWING) && p->loops == HD_LOOPS_POS_VEL &&
-        hdf_abs_sat(p->pos_err) > param_raw(a, HD_P_FOLLOW_ERR_MAX)) {
+        hdf_abs_sat(a->tel.pos_err) > param_raw(a, HD_P_FOLLOW_ERR_MAX)) {
         trip(a, HD_FAULT_FOLLOWING);
     }
 }
@@ -1031,7 +1027,7 @@ static void phase_command(hd_app_t *a, hd_period_t *p)
     hd_comp_bank_end(&a->cb, p->cmd.enable ? p->t_cmd : 0);
 }
 
-/* Telemetry of the period (a->tel) and the capture of the armed signals. */
+/* The rest of the period's telemetry (a->tel) and the capture of the armed signals. */
 static void phase_telemetry(hd_app_t *a, const hd_period_t *p)
 {
     hd_telemetry_t *t = &a->tel;
@@ -1041,19 +1037,11 @@ static void phase_telemetry(hd_app_t *a, const hd_period_t *p)
     t->fault = a->fault;
     t->pos_out = a->pos_out;
     t->pos_mot = a->pos_mot;
-    t->vel_out = p->v_fb;
-    t->vel_out_enc = p->v_out_enc;
     t->vel_mot = hdf_asr32_rnd(hd_velobs_vel48(&a->obs_mot), 24u);
-    t->pos_ref = p->pos_ref;
-    t->vel_ref = p->vel_ref;
-    t->acc_ref = p->acc_ref;
     t->torque_cmd = p->cmd.enable ? p->t_cmd : 0;
     t->motor_torque = p->cmd.torque;
     t->current = p->sn.current;
     t->gyro = p->sn.gyro_rate;
-    t->exc = p->exc;
-    t->pos_err = p->pos_err;
-    t->pos_fb = p->pos_fb;
 
     if (a->cap.state == HD_CAP_ARMED || a->cap.state == HD_CAP_TRIGGERED) {
         int32_t smp[HD_CAPTURE_MAX_CH];
@@ -1094,7 +1082,7 @@ void hd_app_step(hd_app_t *a)
     PHASE_MARK();
     /* slow slot: online Stribeck identification (steady reference velocity, torque applied) */
     if (a->fe_idle == 0u) {
-        hd_comp_bank_fric_est(&a->cb, &a->cb_cfg, p.vff_plain, p.v_fb, p.cmd.enable ? p.t_cmd : 0,
+        hd_comp_bank_fric_est(&a->cb, &a->cb_cfg, p.vff_plain, a->tel.vel_out, p.cmd.enable ? p.t_cmd : 0,
                               p.loops == HD_LOOPS_POS_VEL && p.cmd.enable != 0);
         if (a->cb_cfg.fe_on == 0u) {
             a->fe_idle = fe_idle(&a->cb, &a->cb_cfg);      /* the feed ramped out? */

@@ -221,21 +221,7 @@ typedef struct {
     int32_t  fault;
     uint32_t sat_count;
 
-    /* capture */
-    hd_capture_t cap;
-    uint32_t cap_sig[HD_CAPTURE_MAX_CH];
-
     hd_telemetry_t tel;
-
-    /* compensator bank (hd_comp_bank.h; parameters cb_*, str_*, lug_*, mx_*, pr_*, te_*, bs_*, dob_*) */
-    hd_comp_bank_cfg_t cb_cfg;
-    hd_comp_bank_t cb;
-    uint32_t cb_idle;             /* 1: no compensator of hd_comp_bank_pre enabled or ramping and every
-                                   * held correction 0, so the period skips it (set in the
-                                   * parameter-set path, cleared there, re-checked while ramping out) */
-    uint32_t bs_idle;             /* 1: backstepping off and not ramping: hd_comp_bank_post is skipped */
-    uint32_t fe_idle;             /* 1: online Stribeck identification off and not feeding: its slow
-                                   * slot is skipped (both set like cb_idle) */
 
     /* inertial stabilisation (mode STAB; parameters stab_*) */
     hd_pid_cfg_t stab_pos_cfg;
@@ -246,6 +232,22 @@ typedef struct {
     /* feedback configuration of the position loop (parameters fb_*; hd_feedback.h) */
     hd_fb_cfg_t fb_cfg;
     hd_fb_t fb;
+
+    /* compensator bank (hd_comp_bank.h; parameters cb_*, str_*, lug_*, mx_*, pr_*, te_*, bs_*, dob_*) */
+    uint32_t cb_idle;             /* 1: no compensator of hd_comp_bank_pre enabled or ramping and every
+                                   * held correction 0, so the period skips it (set in the
+                                   * parameter-set path, cleared there, re-checked while ramping out) */
+    uint32_t bs_idle;             /* 1: backstepping off and not ramping: hd_comp_bank_post is skipped */
+    uint32_t fe_idle;             /* 1: online Stribeck identification off and not feeding: its slow
+                                   * slot is skipped (both set like cb_idle) */
+    hd_comp_bank_cfg_t cb_cfg;
+    hd_comp_bank_t cb;
+
+    /* capture, last: its sample buffer (32 KiB) and the bank's Preisach table (at the end
+     * of hd_comp_bank_t) would push the period's fields above out of the Cortex-M4's
+     * short load / store offsets (12 bits): each access past them needs an extra add */
+    hd_capture_t cap;
+    uint32_t cap_sig[HD_CAPTURE_MAX_CH];
 } hd_app_t;
 
 /** Power-up: load parameters (NVM or defaults), reset everything, mode OFF. */

@@ -145,6 +145,8 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
                 c->te_out.n++;
             }
         }
+        hd_te_cfg_ranges(&c->te);
+        hd_te_cfg_ranges(&c->te_out);
     }
 
     /* backstepping */

@@ -176,8 +176,6 @@ typedef struct {
     hd_backstep_t     bs;
     hd_blend_t        dob_blend;
     hd_blend_t        cp_blend;
-    hd_preisach_table_t table;   /* installed Preisach table (checked) */
-    uint32_t table_ok;           /* 1 once a table passed the check */
     uint32_t enabled;            /* last applied enable bits */
     uint32_t bs_preload;         /* 1: preload backstepping at the next post() */
     int64_t  dpos_f;             /* low-passed position correction, 2^-48 turn (int64) */
@@ -206,6 +204,9 @@ typedef struct {
     hd_angle_t te_mot;           /* motor angle of the last TE step, Q32.32 motor turns */
     int32_t  te_slope;           /* d(te_dth)/d(motor angle) there, 2^-32 turn per motor turn */
     int32_t  pr_yd;              /* held transmitted-torque estimate (low-passed), Q15.16 N.m */
+    uint32_t table_ok;           /* 1 once a table passed the check */
+    /* last: 8.3 KiB that would put the fields above out of the short load / store offsets */
+    hd_preisach_table_t table;   /* installed Preisach table (checked) */
 } hd_comp_bank_t;
 
 /** Configs from raw parameters. 0 ok, -1 inconsistent (bounds, sizes). */

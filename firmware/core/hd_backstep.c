@@ -1,4 +1,17 @@
-/* hd_backstep.c - adaptive backstepping position controller (contract: hd_backstep.h). */
+/* hd_backstep.c - adaptive backstepping position controller (contract: hd_backstep.h).
+ *
+ * Range analysis of the law's parameter terms (phi^T theta_hat, every period):
+ *   theta_hat_i is clamped to [th_min_i, th_max_i] 2^32 (Q16.48, the bounds int32 Q15.16),
+ *   so th_q16_i = round(theta_hat_i / 2^32) lies in [th_min_i, th_max_i]: an int32 Q15.16
+ *   (|rounding error| <= 2^-17 N.m, half an LSB of the output).
+ *   phi_0 = s(w), phi_1 = shape s(w): |.| <= 2^30 (Q30); phi_2 = w / 4: |.| <= 2^29.
+ *   Each product th_q16_i phi_i (Q15.16 x Q30 = Q46) is below 2^31 2^30 = 2^61 in
+ *   magnitude, the sum of the three below 3 2^61 < 2^63: exact in an int64 (three SMLALs
+ *   on the Cortex-M4), rounded once to Q15.16 (|result| < 2^33, then added with
+ *   saturation).  phi_3 = 1: th_q16_3 itself.  Against the Q16.48 products rounded one by
+ *   one (the earlier form) the law's output differs by at most 2 LSB (3e-5 N.m).
+ *   The estimates change only at init, preload and adaptation: th_q16 is formed there,
+ *   so the held ticks of the schedule (hd_sched.h) do no 64 x 32-bit products. */
 #include "hd_backstep.h"
 #include "hd_fixed.h"
 #include "hd_stribeck.h"
@@ -13,6 +26,15 @@ static int64_t hd__th_hi(const hd_backstep_cfg_t *c, uint32_t i)
     const int64_t hi = (int64_t)c->th_max[i] * ((int64_t)1 << 32);
     const int64_t lo = hd__th_lo(c, i);
     return (hi < lo) ? lo : hi;
+}
+
+/* th_q16 of the present estimates (range analysis at the top: each fits an int32) */
+static void hd__th_round(hd_backstep_t *s)
+{
+    uint32_t i;
+    for (i = 0; i < HD_BS_NP; i++) {
+        s->th_q16[i] = hdf_asr32_rnd(s->th[i], 32u);
+    }
 }
 
 void hd_backstep_init(hd_backstep_t *s, const hd_backstep_cfg_t *c, const int32_t th0[HD_BS_NP],
@@ -32,6 +54,7 @@ void hd_backstep_init(hd_backstep_t *s, const hd_backstep_cfg_t *c, const int32_
     s->shape = HD_Q30_ONE;
     s->wd_prev = 0;
     hd_divinv_init(&s->inv_ws, 0u);
+    hd__th_round(s);
 }
 
 /* the reciprocal of w_s, recomputed only when the parameter changed */
@@ -71,7 +94,7 @@ static int32_t hd__wr(int32_t wd_prev, const hd_backstep_in_t *in)
 }
 
 /* Errors, regressor (with the given Stribeck shape of hd__wr) and the law; fills e1, e2, phi. */
-static int64_t hd__law(int32_t *e1o, int32_t *e2o, int32_t phi[HD_BS_NP], const int64_t th[HD_BS_NP],
+static int64_t hd__law(int32_t *e1o, int32_t *e2o, int32_t phi[HD_BS_NP], const int32_t th_q16[HD_BS_NP],
                        int32_t shape, int32_t wd_prev, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in)
 {
     const int64_t e1max = (c->e1_max > 0) ? (int64_t)c->e1_max : (int64_t)INT32_MAX;
@@ -82,7 +105,7 @@ static int64_t hd__law(int32_t *e1o, int32_t *e2o, int32_t phi[HD_BS_NP], const 
     const int32_t wr = hd__wr(wd_prev, in);
     const int32_t sg = hd_sign_smooth_q30(wr, c->eps_w);
     int64_t u;
-    uint32_t i;
+    int64_t ft;
 
     phi[0] = sg;
     phi[1] = hdf_mul_q(shape, sg, 30u);
@@ -91,11 +114,12 @@ static int64_t hd__law(int32_t *e1o, int32_t *e2o, int32_t phi[HD_BS_NP], const 
     /* J (alpha1' - c2 e2) - ke e1 */
     u = (int64_t)hdf_mul_q(c->j, hdf_sub_sat(dalpha1, hdf_mul_q(c->c2, e2, 24u)), 24u);
     u -= (int64_t)hdf_asr32_rnd((int64_t)c->ke * (int64_t)e1, 24u);
-    for (i = 0; i < 3u; i++) {
-        u = hdf_add64_sat(u, hdf_mul64x32_q(th[i], phi[i], 62u));   /* Q48 * Q30 -> Q16 */
-    }
-    /* phi_3 = 1.0 (Q30): th_3 2^30 / 2^62 rounded is th_3 / 2^32 rounded, exactly */
-    u = hdf_add64_sat(u, hdf_asr64_rnd(th[3], 32u));
+    /* phi^T theta_hat: the three products summed exactly in Q46, rounded once (range
+     * analysis at the top of the file); phi_3 = 1.0: th_q16_3 itself */
+    ft = (int64_t)th_q16[0] * phi[0];
+    ft += (int64_t)th_q16[1] * phi[1];
+    ft += (int64_t)th_q16[2] * phi[2];
+    u = hdf_add64_sat(u, hdf_asr64_rnd(ft, 30u) + (int64_t)th_q16[3]);
     *e1o = e1;
     *e2o = e2;
     return u;
@@ -106,7 +130,7 @@ int32_t hd_backstep_law(const hd_backstep_t *s, const hd_backstep_cfg_t *c, cons
     int32_t e1;
     int32_t e2;
     int32_t phi[HD_BS_NP];
-    return hdf_sat32(hd__law(&e1, &e2, phi, s->th, hd__shape(&s->inv_ws, c, hd__wr(s->wd_prev, in)), s->wd_prev, c, in));
+    return hdf_sat32(hd__law(&e1, &e2, phi, s->th_q16, hd__shape(&s->inv_ws, c, hd__wr(s->wd_prev, in)), s->wd_prev, c, in));
 }
 
 void hd_backstep_preload(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in,
@@ -114,10 +138,11 @@ void hd_backstep_preload(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
 {
     hd__inv_ws(s, c);
     s->shape = hd__shape(&s->inv_ws, c, hd__wr(s->wd_prev, in));
-    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, s->shape, s->wd_prev, c, in);
+    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th_q16, s->shape, s->wd_prev, c, in);
     const int64_t du = hdf_sub64_sat((int64_t)u_now, u);              /* Q16; phi_3 = 1 */
     s->th[3] = hdf_clamp64(hdf_add64_sat(s->th[3], hdf_shl64_sat(du, 32u)), hd__th_lo(c, 3u), hd__th_hi(c, 3u));
-    s->u_bs = hdf_sat32(hd__law(&s->e1, &s->e2, s->phi, s->th, s->shape, s->wd_prev, c, in));
+    hd__th_round(s);
+    s->u_bs = hdf_sat32(hd__law(&s->e1, &s->e2, s->phi, s->th_q16, s->shape, s->wd_prev, c, in));
     s->u = u_now;
 }
 
@@ -128,7 +153,7 @@ int32_t hd_backstep_step(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
     uint32_t i;
     hd__inv_ws(s, c);
     s->shape = hd__shape(&s->inv_ws, c, hd__wr(s->wd_prev, in));
-    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, s->shape, s->wd_prev, c, in);
+    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th_q16, s->shape, s->wd_prev, c, in);
 
     s->u_bs = (int32_t)hdf_clamp64(u, -(int64_t)umax, (int64_t)umax);
     s->saturated = ((int64_t)s->u_bs != u) ? 1u : 0u;
@@ -141,6 +166,7 @@ int32_t hd_backstep_step(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
             const int64_t d = hdf_asr64_rnd((int64_t)c->gamma_dt[i] * (int64_t)pe, 8u); /* Q48 */
             s->th[i] = hdf_clamp64(hdf_sub64_sat(s->th[i], d), hd__th_lo(c, i), hd__th_hi(c, i));
         }
+        hd__th_round(s);
     }
     s->wd_prev = in->omega_d;
     return s->u;
@@ -150,7 +176,7 @@ int32_t hd_backstep_step_held(hd_backstep_t *s, const hd_backstep_cfg_t *c, cons
                               int32_t u_base)
 {
     const int32_t umax = (c->u_max > 0) ? c->u_max : INT32_MAX;
-    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, s->shape, s->wd_prev, c, in);
+    const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th_q16, s->shape, s->wd_prev, c, in);
     s->u_bs = (int32_t)hdf_clamp64(u, -(int64_t)umax, (int64_t)umax);
     s->saturated = ((int64_t)s->u_bs != u) ? 1u : 0u;
     (void)hd_blend_update(&s->blend);
@@ -178,4 +204,5 @@ void hd_backstep_adapt(hd_backstep_t *s, const hd_backstep_cfg_t *c, uint32_t lo
         const int64_t d = hdf_asr64_rnd((int64_t)c->gamma_dt[i] * (int64_t)pe, 8u - log2_n);
         s->th[i] = hdf_clamp64(hdf_sub64_sat(s->th[i], d), hd__th_lo(c, i), hd__th_hi(c, i));
     }
+    hd__th_round(s);
 }

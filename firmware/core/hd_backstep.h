@@ -31,7 +31,8 @@
  *   j                  Q15.16 N.m per (turn/s^2)  (= 2 pi J[kg m^2])
  *   ke                 Q23.8 N.m/turn
  *   phi_i              Q30 (phi_3 = omega in turn/s)
- *   theta_hat_i        int64 Q16.48 (N.m; N.m/(turn/s) for i = 2): wide state
+ *   theta_hat_i        int64 Q16.48 (N.m; N.m/(turn/s) for i = 2): wide state; the law
+ *                      uses it rounded to Q15.16 (th_q16, formed when theta_hat changes)
  *   th_min, th_max     Q15.16, same units
  *   gamma_dt_i         Q7.24, Gamma_i * T with Gamma_i in [theta_i] / (turn * unit phi):
  *                      each period  theta_hat_i -= round(gamma_dt_i * pe_i / 2^8)  (Q48),
@@ -75,6 +76,7 @@ typedef struct {
 typedef struct {
     hd_blend_t blend;
     int64_t th[HD_BS_NP];          /* adapted parameters, Q16.48 */
+    int32_t th_q16[HD_BS_NP];      /* th rounded to Q15.16 (the law's form), refreshed with th */
     int32_t phi[HD_BS_NP];         /* last regressor, Q30 */
     int32_t e1;                    /* 2^-32 turn */
     int32_t e2;                    /* 2^-32 turn/s */

@@ -33,14 +33,6 @@ int32_t hd_blend_ramp(hd_blend_t *b)
     return b->w;
 }
 
-int32_t hd_blend_mix(const hd_blend_t *b, int32_t off, int32_t on)
-{
-    const int64_t diff = (int64_t)on - (int64_t)off;
-    if (b->w >= HD_Q30_ONE) {
-        return on;
-    }
-    return hdf_sat32((int64_t)off + hdf_mul64x32_q(diff, b->w, 30u));
-}
 
 int64_t hd_blend_mix64(const hd_blend_t *b, int64_t off, int64_t on)
 {

@@ -56,8 +56,15 @@ static inline int32_t hd_blend_apply(const hd_blend_t *b, int32_t x)
     }
     return hdf_mul_q(x, b->w, 30u);
 }
-/** off + w * (on - off) for int32 signals, saturated, rounded to nearest. */
-int32_t hd_blend_mix(const hd_blend_t *b, int32_t off, int32_t on);
+/** off + w * (on - off) for int32 signals, saturated, rounded to nearest; inline
+ *  (backstepping's blend, every period; fully on it is on itself). */
+static inline int32_t hd_blend_mix(const hd_blend_t *b, int32_t off, int32_t on)
+{
+    if (b->w >= HD_Q30_ONE) {
+        return on;
+    }
+    return hdf_sat32((int64_t)off + hdf_mul64x32_q((int64_t)on - (int64_t)off, b->w, 30u));
+}
 /** off + w * (on - off) for int64 signals (angles), saturated, rounded. */
 int64_t hd_blend_mix64(const hd_blend_t *b, int64_t off, int64_t on);
 /** True while the weight is not 0 or is moving (output may be non-zero). */

@@ -693,11 +693,6 @@ void hd_fric_est_set_feed(hd_fric_est_t *e, bool on)
     hd_blend_set_enabled(&e->feed, on);
 }
 
-bool hd_fric_est_feeding(const hd_fric_est_t *e)
-{
-    return hd_blend_active(&e->feed);
-}
-
 static void mix_dir(const hd_blend_t *w, const hd_stribeck_dir_t *base, const hd_stribeck_dir_t *est,
                     hd_stribeck_dir_t *out)
 {

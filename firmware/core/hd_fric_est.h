@@ -232,6 +232,9 @@ void hd_fric_est_set_feed(hd_fric_est_t *e, bool on);
  *  advances one ramp step per call (call once per estimator step). */
 void hd_fric_est_feed(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, hd_stribeck_cfg_t *out);
 /** True while the feed weight is not 0. */
-bool hd_fric_est_feeding(const hd_fric_est_t *e);
+static inline bool hd_fric_est_feeding(const hd_fric_est_t *e)
+{
+    return hd_blend_active(&e->feed);     /* inline: the bank asks every period */
+}
 
 #endif

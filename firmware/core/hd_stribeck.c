@@ -146,7 +146,14 @@ int32_t hd_stribeck_step(hd_stribeck_t *s, const hd_stribeck_cfg_t *c,
     if (s->rn.vs != c->neg.vs) {
         hd_stribeck_recip(&s->rn, c->neg.vs);
     }
-    s->v = hdf_sat32((int64_t)v_est + hdf_mul64x32_q(dv, w, 30u));
+    /* w = 1 (the default, and every cruise) or 0: the blend is v_ref or v_est itself, exactly */
+    if (w == HD_Q30_ONE) {
+        s->v = v_ref;
+    } else if (w == 0) {
+        s->v = v_est;
+    } else {
+        s->v = hdf_sat32((int64_t)v_est + hdf_mul64x32_q(dv, w, 30u));
+    }
     /* in a cruise v = v_ref keeps its sign: full sign (no smooth-sign reduction at slow rates) */
     s->tau_raw = hdf_clamp32(map_recip(c, &s->rp, &s->rn, s->v, (s->cruise != 0u) ? 0 : c->eps_v), -tmax, tmax);
     (void)hd_blend_update(&s->blend);

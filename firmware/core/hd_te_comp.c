@@ -21,6 +21,17 @@ int64_t hd_te_model(const hd_te_cfg_t *c, hd_angle_t theta_m)
     return hdf_asr64_rnd(acc, 30u);
 }
 
+void hd_te_cfg_ranges(hd_te_cfg_t *c)
+{
+    uint32_t h;
+    c->fit32 = (c->n <= HD_TE_FIT32_N) ? 1u : 0u;
+    for (h = 0; h < HD_TE_FIT32_N && h < c->n; h++) {
+        if (c->amp[h] > HD_TE_FIT32_AMP || c->amp[h] < -HD_TE_FIT32_AMP || c->order[h] > HD_TE_FIT32_ORDER) {
+            c->fit32 = 0u;
+        }
+    }
+}
+
 int64_t hd_te_model_slope(const hd_te_cfg_t *c, hd_angle_t theta_m, int32_t *slope)
 {
     const uint32_t n = (c->n < HD_TE_N_MAX) ? c->n : HD_TE_N_MAX;
@@ -29,6 +40,20 @@ int64_t hd_te_model_slope(const hd_te_cfg_t *c, hd_angle_t theta_m, int32_t *slo
     int64_t ds = 0;
     uint32_t h;
 
+    if (c->fit32 != 0u) {
+        /* within HD_TE_FIT32_* (hd_te_comp.h): the sums below cannot saturate, so these
+         * are the words of the general loop, by SMLALs and an unsaturated read-out */
+        for (h = 0; h < n; h++) {
+            const uint32_t ang = c->order[h] * frac + c->phase[h];
+            int32_t sn;
+            int32_t cs;
+            hd_sincos_turn_fast(ang, &sn, &cs);
+            acc += (int64_t)c->amp[h] * (int64_t)sn;
+            ds += (int64_t)(int32_t)c->order[h] * (int64_t)hdf_asr32_rnd_fit((int64_t)c->amp[h] * (int64_t)cs, 30u);
+        }
+        *slope = hdf_sat32(hdf_mul64x32_q(ds, TE_TWO_PI_Q28, 28u));
+        return hdf_asr64_rnd(acc, 30u);
+    }
     for (h = 0; h < n; h++) {
         const uint32_t ang = c->order[h] * frac + c->phase[h];          /* mod 1 turn */
         int32_t sn;

@@ -35,6 +35,16 @@
 
 #define HD_TE_N_MAX 8u
 
+/* Ranges of the short form of hd_te_model_slope (hd_te_cfg_ranges): at most
+ * HD_TE_FIT32_N harmonics, |amp| <= 2^30 (a quarter turn), order <= 2^28.  Then
+ * |amp sin| <= 2^60 and the sum of four < 2^63; round(amp cos / 2^30) fits an int32
+ * (|.| <= 2^30) and order times it <= 2^58, the sum of four < 2^63: no sum saturates,
+ * so the plain int64 sums are the saturating ones, word for word.  The drive's
+ * parameters (te_amp* <= 0.01 turn, te_order* <= 1000, four harmonics) lie inside. */
+#define HD_TE_FIT32_N 4u
+#define HD_TE_FIT32_AMP (1 << 30)
+#define HD_TE_FIT32_ORDER (1u << 28)
+
 typedef struct {
     uint32_t n;                      /* harmonics in use, <= HD_TE_N_MAX */
     uint32_t order[HD_TE_N_MAX];
@@ -42,6 +52,9 @@ typedef struct {
     uint32_t phase[HD_TE_N_MAX];     /* 2^32 = 1 turn */
     int32_t  k1;                     /* Q23.8 N.m/turn; 0 = no torque feed-forward */
     int32_t  tau_max;                /* Q15.16 N.m, > 0 */
+    uint32_t fit32;                  /* 1: within HD_TE_FIT32_* (hd_te_cfg_ranges), so the model's
+                                      * sums need no saturation (same words, shorter code); 0: the
+                                      * general form */
 } hd_te_cfg_t;
 
 typedef struct {
@@ -51,6 +64,8 @@ typedef struct {
     int32_t tau;                     /* weighted torque feed-forward, Q15.16 N.m */
 } hd_te_comp_t;
 
+/** Set c->fit32 from the harmonics in c (call after filling n, order and amp). */
+void hd_te_cfg_ranges(hd_te_cfg_t *c);
 /** TE model at motor angle theta_m, 2^-32 turn. */
 int64_t hd_te_model(const hd_te_cfg_t *c, hd_angle_t theta_m);
 void hd_te_comp_init(hd_te_comp_t *s, uint32_t ramp_ticks, bool enabled);

@@ -11,6 +11,8 @@
 
 /* the error's 32-bit form: 2^-36 turn, so int32 holds +-2^-5 turn (11.25 deg) */
 #define HD_VELOBS_E_SHIFT 12u                         /* 2^-48 -> 2^-36 turn */
+#define HD_VELOBS_E_UNIT (1 << (16u - HD_VELOBS_E_SHIFT))    /* 2^-32 turn in 2^-36 turn */
+#define HD_VELOBS_E_HALF (1u << (HD_VELOBS_E_SHIFT - 1u))    /* the rounding offset */
 #define HD_VELOBS_D_MAX ((INT64_C(1) << 27) - 1)      /* |d| clamp, 2^-32 turn */
 
 void hd_velobs_step(hd_velobs_t *s, const hd_velobs_cfg_t *c, hd_angle_t theta_meas)
@@ -25,8 +27,14 @@ void hd_velobs_step(hd_velobs_t *s, const hd_velobs_cfg_t *c, hd_angle_t theta_m
     /* e = d - frac (2^-48 turn) in 2^-36 turn as an int32: |d| clamped to 2^27 - 1
      * (2^-5 turn; a larger error moves the estimate at that error's rate), so
      * |d 2^16 - frac| < 2^43 and the rounded e < 2^31 */
-    const int64_t dc = hdf_clamp64(d, -HD_VELOBS_D_MAX, HD_VELOBS_D_MAX);
-    const int32_t e = (int32_t)hdf_asr64_rnd(dc * 65536 - (int64_t)s->frac, HD_VELOBS_E_SHIFT);
+    /* in 32 bits: with x = dc 2^16 - frac and dc 2^16 a multiple of 2^12, round(x / 2^12)
+     * (ties away from 0) = dc 2^4 + floor((2^11 - frac - [x < 0]) / 2^12), the floor taken
+     * on the value + 2^16 (> 0, a logical shift: 0 .. 2^4) less 2^4; |dc| < 2^27, so
+     * dc 2^4 - 2^4 and the sum stay within int32 */
+    const int32_t dc = (int32_t)hdf_clamp64(d, -HD_VELOBS_D_MAX, HD_VELOBS_D_MAX);
+    const uint32_t neg = (dc < 0 || (dc == 0 && s->frac > 0)) ? 1u : 0u;
+    const int32_t e = (dc * HD_VELOBS_E_UNIT - HD_VELOBS_E_UNIT) +
+        (int32_t)((HD_VELOBS_E_HALF + 65536u - (uint32_t)s->frac - neg) >> HD_VELOBS_E_SHIFT);
     /* vel [2^-48 turn/s] += (Ki T)[Q16 1/s] * e [2^-36 turn] / 2^4: a 32 x 32 product */
     s->vel = hdf_add64_sat(s->vel, hdf_asr64_rnd((int64_t)c->ki_dt * e, 16u - HD_VELOBS_E_SHIFT));
     /* angle advance in 2^-48 turn: T * vel + (Kp T) * e + frac (|(Kp T) e / 2^4| < 2^59) */

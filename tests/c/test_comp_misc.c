@@ -210,7 +210,7 @@ static void test_maxwell_saturation(void **state)
 
 static void test_te_single_harmonic(void **state)
 {
-    hd_te_cfg_t c = { 1u, { 2u }, { 100000 }, { 0u }, 256 * 1000, NM(100) };
+    hd_te_cfg_t c = { 1u, { 2u }, { 100000 }, { 0u }, 256 * 1000, NM(100), 0u };
     hd_te_comp_t s;
     (void)state;
     hd_te_comp_init(&s, 0u, true);
@@ -266,7 +266,7 @@ static void test_lugre_parts_equal_step(void **state)
  * correction's slope is -w dTE/dtheta. */
 static void test_te_slope_predicts(void **state)
 {
-    hd_te_cfg_t c = { 3u, { 2u, 1u, 4u }, { 100000, -40000, 25000 }, { 0x12345678u, 0x9ABCDEF0u, 7u }, 0, NM(100) };
+    hd_te_cfg_t c = { 3u, { 2u, 1u, 4u }, { 100000, -40000, 25000 }, { 0x12345678u, 0x9ABCDEF0u, 7u }, 0, NM(100), 0u };
     hd_te_comp_t s;
     uint32_t k;
     int32_t slope_w;
@@ -469,6 +469,130 @@ static void test_backstep_regressor_follows_the_moving_reference(void **state)
     assert_true(s.phi[0] < -HD_Q30_ONE / 2);
 }
 
+/* The law's parameter terms in Q15.16 (th_q16, range analysis in hd_backstep.c): th_q16 is
+ * the rounded estimate after every change (init, step's adaptation, adapt, preload), and
+ * the law's output stays within 2 LSB of the form with the Q16.48 estimates, each product
+ * phi_i theta_hat_i rounded on its own (recomputed here from the step's e1, e2 and phi). */
+static uint32_t lcg(uint32_t *x)
+{
+    *x = *x * 1664525u + 1013904223u;
+    return *x;
+}
+
+static void assert_th_rounded(const hd_backstep_t *s)
+{
+    uint32_t i;
+    for (i = 0; i < HD_BS_NP; i++) {
+        assert_int_equal(s->th_q16[i], hd_sat32(hd_asr64_rnd(s->th[i], 32u)));
+    }
+}
+
+static void test_backstep_law_q16_terms(void **state)
+{
+    hd_backstep_cfg_t c = { (int32_t)(50.0 * 65536), (int32_t)(50.0 * 65536), (int32_t)(8.0 * 65536),
+                            (int32_t)(4000.0 * 256), DEGS / 1000, DEGS, 1 << 30, 0,
+                            { 1 << 26, 1 << 26, 1 << 25, 1 << 26 }, { -NM(300), -NM(300), -NM(3000), -NM(2000) },
+                            { NM(300), NM(300), NM(3000), NM(2000) } };
+    const int32_t th0[4] = { NM(7.3), NM(-2.1), NM(10.7), NM(-1.9) };
+    hd_backstep_t s;
+    hd_backstep_in_t in;
+    uint32_t x = 12345u, k, i;
+    int64_t maxdiff = 0;
+    uint32_t lowbits = 0u;
+    (void)state;
+    hd_backstep_init(&s, &c, th0, 0u, true);
+    assert_th_rounded(&s);
+    for (k = 0; k < 4000u; k++) {
+        in.theta_d = (int64_t)(int32_t)lcg(&x) * 64;
+        in.theta = in.theta_d + (int32_t)(lcg(&x) >> 8) - (1 << 23);
+        in.omega_d = (int32_t)(lcg(&x) >> 4) - (1 << 27);
+        in.omega = in.omega_d + (int32_t)(lcg(&x) >> 12) - (1 << 19);
+        in.acc_d = (int32_t)(lcg(&x) >> 8) - (1 << 23);
+        if ((k & 7u) == 0u) {
+            (void)hd_backstep_step(&s, &c, &in, 0);             /* adapts every period */
+        } else if ((k & 7u) == 1u) {
+            hd_backstep_adapt(&s, &c, 3u);                      /* the scheduled adaptation */
+        } else if ((k & 127u) == 2u) {
+            hd_backstep_preload(&s, &c, &in, NM(5));            /* moves th_3 */
+        }
+        assert_th_rounded(&s);
+        for (i = 0; i < HD_BS_NP; i++) {
+            lowbits |= (uint32_t)s.th[i];
+        }
+        (void)hd_backstep_step_held(&s, &c, &in, 0);
+        {
+            /* the Q16.48 form: J (alpha1' - c2 e2) - ke e1 + sum round(th_i phi_i / 2^62) + round(th_3 / 2^32) */
+            const int32_t dalpha1 = hd_sub_sat(in.acc_d, hd_mul_q(c.c1, hd_sub_sat(in.omega, in.omega_d), 24u));
+            int64_t u = (int64_t)hd_mul_q(c.j, hd_sub_sat(dalpha1, hd_mul_q(c.c2, s.e2, 24u)), 24u);
+            int64_t d;
+            u -= (int64_t)hd_sat32(hd_asr64_rnd((int64_t)c.ke * (int64_t)s.e1, 24u));
+            for (i = 0; i < 3u; i++) {
+                u = hd_add64_sat(u, hd_mul64x32_q(s.th[i], s.phi[i], 62u));
+            }
+            u = hd_add64_sat(u, hd_asr64_rnd(s.th[3], 32u));
+            d = (int64_t)s.u_bs - hd_sat32(u);
+            d = (d < 0) ? -d : d;
+            maxdiff = (d > maxdiff) ? d : maxdiff;
+        }
+    }
+    print_message("backstep law: Q15.16 terms vs Q16.48 products: max |diff| %lld LSB\n", (long long)maxdiff);
+    assert_true(lowbits != 0u);        /* the adaptation left fractions below Q16 to round */
+    assert_true(maxdiff <= 2);
+}
+
+/* The short form of the TE model and slope (fit32) gives the general form's words at the
+ * edges of its ranges (amplitudes +-2^30, orders up to 2^28, four harmonics), and
+ * hd_te_cfg_ranges takes it only inside them. */
+static void test_te_fit32_same_words(void **state)
+{
+    hd_te_cfg_t c = { 4u, { 2u, 1u, 4u, 6u }, { 0, 0, 0, 0 }, { 0u, 0u, 0u, 0u }, 0, NM(100), 0u };
+    hd_te_cfg_t g;
+    uint32_t x = 777u, k, h;
+    (void)state;
+    for (k = 0; k < 20000u; k++) {
+        for (h = 0; h < 4u; h++) {
+            const uint32_t r = lcg(&x);
+            c.amp[h] = ((r & 3u) == 0u) ? (((r & 4u) != 0u) ? HD_TE_FIT32_AMP : -HD_TE_FIT32_AMP)
+                                        : (int32_t)(lcg(&x) >> 1) - (1 << 30);
+            c.order[h] = ((r & 24u) == 0u) ? HD_TE_FIT32_ORDER : (lcg(&x) >> 4);
+            c.phase[h] = lcg(&x);
+        }
+        c.n = 1u + (k & 3u);
+        hd_te_cfg_ranges(&c);
+        assert_int_equal(c.fit32, 1u);
+        g = c;
+        g.fit32 = 0u;
+        {
+            const uint64_t hi = lcg(&x);
+            const int64_t th = (int64_t)((hi << 32) | lcg(&x));
+            int32_t s1, s0;
+            const int64_t m1 = hd_te_model_slope(&c, th, &s1);
+            const int64_t m0 = hd_te_model_slope(&g, th, &s0);
+            assert_true(m1 == m0);
+            assert_int_equal(s1, s0);
+        }
+    }
+    /* outside the ranges: the general form */
+    c.n = 4u;
+    c.amp[0] = HD_TE_FIT32_AMP + 1;
+    hd_te_cfg_ranges(&c);
+    assert_int_equal(c.fit32, 0u);
+    c.amp[0] = -HD_TE_FIT32_AMP - 1;
+    hd_te_cfg_ranges(&c);
+    assert_int_equal(c.fit32, 0u);
+    c.amp[0] = 0;
+    c.order[3] = HD_TE_FIT32_ORDER + 1u;
+    hd_te_cfg_ranges(&c);
+    assert_int_equal(c.fit32, 0u);
+    c.order[3] = 6u;
+    c.n = 5u;
+    hd_te_cfg_ranges(&c);
+    assert_int_equal(c.fit32, 0u);
+    c.n = 4u;
+    hd_te_cfg_ranges(&c);
+    assert_int_equal(c.fit32, 1u);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -485,6 +609,8 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_backstep_closed_loop, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_backstep_held_closed_loop, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_backstep_regressor_follows_the_moving_reference, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_backstep_law_q16_terms, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_te_fit32_same_words, setUp, tearDown),
     };
     return cmocka_run_group_tests_name("comp_misc", tests, NULL, NULL);
 }

@@ -944,6 +944,88 @@ static void test_capture_pretrigger(void **st)
     assert_int_equal(hd_capture_arm(&cap, &b), -1);
 }
 
+/* One observer step against the form with the 64-bit error (e = round((dc 2^16 - frac) /
+ * 2^12), the clamped error dc in 2^-32 turn): the same state words for errors at and
+ * beyond the clamp, 0, +-1, and every tie of frac (0, 2^11, 2^15, 2^16 - 1 ...). */
+static void test_observer_error_words(void **st)
+{
+    static const int64_t ds[] = { 0, 1, -1, 2, -2, 4095, -4096, (1 << 27) - 1, -((1 << 27) - 1), 1 << 27,
+                                  -(1 << 27), INT64_C(1) << 40, -(INT64_C(1) << 40), 123456789, -98765432 };
+    static const int32_t fr[] = { 0, 1, 2047, 2048, 2049, 4095, 4096, 32767, 32768, 32769, 65534, 65535 };
+    hd_velobs_cfg_t c;
+    size_t i, j;
+    (void)st;
+    hd_velobs_design(&c, 2 * 62832 * 20, 65536);    /* ~20 Hz, zeta 1 */
+    for (i = 0; i < sizeof ds / sizeof ds[0]; i++) {
+        for (j = 0; j < sizeof fr / sizeof fr[0]; j++) {
+            hd_velobs_t s;
+            hd_velobs_reset(&s, (int64_t)1 << 36);
+            s.frac = fr[j];
+            s.vel = (int64_t)(i * 7919u) << 20;
+            {
+                /* the reference: hd_velobs_step with the error in int64 */
+                const int64_t d = hd_sub64_sat((int64_t)s.theta + ds[i], s.theta);
+                const int64_t dc = (d > (1 << 27) - 1) ? (1 << 27) - 1 : ((d < -((1 << 27) - 1)) ? -((1 << 27) - 1) : d);
+                const int32_t e = (int32_t)hd_asr64_rnd(dc * 65536 - (int64_t)s.frac, 12u);
+                int64_t vel = hd_add64_sat(s.vel, hd_asr64_rnd((int64_t)c.ki_dt * e, 4u));
+                int64_t adv = hd_mul64x32_q(vel, 1759218604, 44u);
+                int64_t whole;
+                adv = hd_add64_sat(adv, hd_asr64_rnd((int64_t)c.kp_dt * e, 4u) + (int64_t)s.frac);
+                whole = hd_asr64_floor(adv, 16u);
+                {
+                    const int64_t theta = hd_add64_sat(s.theta, whole);
+                    const int32_t frac = (int32_t)(adv - whole * 65536);
+                    hd_velobs_step(&s, &c, s.theta + ds[i]);
+                    assert_true(s.vel == vel);
+                    assert_true(s.theta == theta);
+                    assert_int_equal(s.frac, frac);
+                }
+            }
+        }
+    }
+}
+
+/* The position loop's form (hd_pid_step_pi_q: no D, error form) gives the words of
+ * hd_pid_step_q with kd_fs 0 and meas 0, with and without an I gain, through saturation;
+ * with no I gain the output is clamp(P + ff) and the integrator stays 0. */
+static void test_pid_pi_form_same_words(void **st)
+{
+    hd_pid_cfg_t c = { 37 << 16, 0, 0, HD_Q30_ONE, 16u, -(1 << 30), 1 << 30 };
+    uint32_t x = 99u, k, pass;
+    (void)st;
+    for (pass = 0; pass < 2u; pass++) {
+        hd_pid_t a, b;
+        c.ki_dt = (pass == 0u) ? 0 : 40000;
+        hd_pid_reset(&a);
+        hd_pid_reset(&b);
+        for (k = 0; k < 20000u; k++) {
+            int32_t e, ff, ua, ub;
+            x = x * 1664525u + 1013904223u;
+            e = (int32_t)x >> ((k >> 10) & 15u);        /* small to edge errors */
+            x = x * 1664525u + 1013904223u;
+            ff = (int32_t)x >> 2;
+            ua = hd_pid_step_pi_q(&a, &c, e, ff, 16u);
+            ub = hd_pid_step_q(&b, &c, e, 0, ff, 16u);
+            assert_int_equal(ua, ub);
+            assert_true(a.integ == b.integ && a.dfilt == b.dfilt);
+            assert_int_equal(a.meas_prev, b.meas_prev);
+            assert_int_equal(a.primed, b.primed);
+            assert_int_equal(a.saturated, b.saturated);
+            assert_int_equal(a.p, b.p);
+            assert_int_equal(a.i, b.i);
+            assert_int_equal(a.d, b.d);
+            if (pass == 0u) {
+                const int64_t u = (int64_t)hd_mul_q(c.kp, e, 16u) + ff;
+                const int64_t uc = (u > c.out_max) ? c.out_max : ((u < c.out_min) ? c.out_min : u);
+                assert_true(a.integ == 0);
+                assert_int_equal(a.i, 0);
+                assert_int_equal(ua, (int32_t)uc);
+                assert_int_equal(a.saturated, (uc != u) ? 1u : 0u);
+            }
+        }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -956,6 +1038,8 @@ int main(void)
         cmocka_unit_test(test_observer_low_speed),
         cmocka_unit_test(test_observer_exact_ramp),
         cmocka_unit_test(test_observer_large_error),
+        cmocka_unit_test(test_observer_error_words),
+        cmocka_unit_test(test_pid_pi_form_same_words),
         cmocka_unit_test(test_biquad_identity_and_dc),
         cmocka_unit_test(test_biquad_notch_depth),
         cmocka_unit_test(test_biquad_full_precision),

@@ -166,8 +166,25 @@ static void cost_maxwell(void)
 
 static const hd_te_cfg_t te_cfg = {
     4u, { 2u, 1u, 4u, 6u, 0u, 0u, 0u, 0u }, { 33140, 9942, 6628, 3314, 0, 0, 0, 0 },
-    { 0u, 1073741824u, 3000000000u, 123456789u, 0u, 0u, 0u, 0u }, 49920000, 50 << 16
+    { 0u, 1073741824u, 3000000000u, 123456789u, 0u, 0u, 0u, 0u }, 49920000, 50 << 16, 0u
 };
+
+/* TE model and slope in the short form (fit32, hd_te_comp.h) at the edges of its ranges:
+ * amplitudes of +-2^30, the largest order 2^28 */
+static const hd_te_cfg_t te_fit_cfg = {
+    4u, { 2u, 268435456u, 1u, 1000u, 0u, 0u, 0u, 0u }, { 1073741824, -1073741824, 1073741824, -33140, 0, 0, 0, 0 },
+    { 0u, 1073741824u, 3000000000u, 123456789u, 0u, 0u, 0u, 0u }, 49920000, 50 << 16, 1u
+};
+
+static void run_te_slope(const int32_t *in, int32_t *out, uint32_t count)
+{
+    uint32_t k;
+    for (k = 0; k < count; k++) {
+        int32_t slope;
+        hd_gv_put64(&out[3u * k], hd_te_model_slope(&te_fit_cfg, hd_gv_get64(&in[2u * k]), &slope));
+        out[3u * k + 2u] = slope;
+    }
+}
 
 static void gen_angle(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
 {
@@ -184,6 +201,15 @@ static void run_te(const int32_t *in, int32_t *out, uint32_t count)
         hd_gv_put64(&out[3u * k], hd_te_comp_step(&s, &te_cfg, hd_gv_get64(&in[2u * k])));
         out[3u * k + 2u] = s.tau;
     }
+}
+
+static void cost_te_slope(void)
+{
+    int32_t slope;
+    hd_gv_cost_mark();
+    sink32 = (int32_t)hd_te_model_slope(&te_fit_cfg, (int64_t)cv_v * 1000, &slope);
+    hd_gv_cost_mark();
+    sink32 += slope;
 }
 
 static void cost_te(void)
@@ -424,6 +450,7 @@ const hd_gv_kernel_t hd_gv_comp_kernels[] = {
     { "comp_lugre_step", 3u, 3u, 256u, gen_lugre, run_lugre, cost_lugre },
     { "comp_maxwell_step_n8", 1u, 3u, 256u, gen_step, run_maxwell, cost_maxwell },
     { "comp_te_step_h4", 2u, 3u, 256u, gen_angle, run_te, cost_te },
+    { "comp_te_model_slope_fit32", 2u, 3u, 256u, gen_angle, run_te_slope, cost_te_slope },
     { "comp_backstep_step", 7u, 5u, 256u, gen_backstep, run_backstep, cost_backstep },
     { "preisach_online_L32", 1u, 2u, 512u, gen_pz_step, run_pz_on32, cost_pz_on32 },
     { "preisach_online_L64", 1u, 2u, 512u, gen_pz_step, run_pz_on64, cost_pz_on64 },
