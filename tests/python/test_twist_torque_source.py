@@ -54,5 +54,6 @@ def test_identified_inertias_decide(tmp_path: Path) -> None:
     assert plan["params"]["pr_t_src"] == 2                               # sqrt(31000 / 5) / 2 pi = 12.5 Hz
     assert plan["params"]["pr_jm"] == pytest.approx(100 ** 2 * 1e-4)
     assert "pr_jm" in plan["sdo"]
+    assert any("pr_t_src 2" in n and "12.5 Hz" in n for n in plan["notes"])     # the download says which
     model.write_text("[gear]\nratio = 100\n[load]\njl_kgm2 = 0.5\n")
     assert plan_download(model, "reference")["params"]["pr_t_src"] == 1  # 39.6 Hz
