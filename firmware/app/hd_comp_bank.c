@@ -95,6 +95,10 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
     c->pr_jl = prm(p, HD_P_PR_JL);
     c->pr_mgl = prm(p, HD_P_PR_MGL);
     c->pr_g_off = (uint32_t)prm(p, HD_P_PR_G_OFF);
+    /* pr_t_src 2: the motor-side estimate at the slow rate, handed over below 2 vs of the Stribeck FF */
+    c->gt.jm = prm(p, HD_P_PR_JM);
+    c->gt.vs = c->str.pos.vs;
+    c->gt.step_hz = (int32_t)HD_SCHED_SLOW_HZ;
 
     /* scheduled position integral: leak T in Q30 from the leak rate in Q16 1/s */
     c->pki = prm(p, HD_P_CB_PKI);
@@ -294,6 +298,7 @@ void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     b->cp_dth = 0;
     b->tick = 0u;
     b->pr_yd = 0;
+    hd_gear_torque_reset(&b->gt);
     ex_reset(&b->mx_x);
     b->te_dth = 0;
     b->te_out_dth = 0;
@@ -444,6 +449,12 @@ static void torque_estimate(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, cons
             hd_sincos_turn_fast((uint32_t)((uint64_t)in->pos_out & 0xFFFFFFFFu) + c->pr_g_off, &sn, &cs);
             test = hdf_add_sat(test, hdf_mul_q(c->pr_mgl, cs, 30u));
         }
+        if (c->pr_t_src == 2u) {
+            /* while the motor slides, the torque the motor side passes to the gear (its swings
+             * set the hysteresis branch a stop keeps); the model near standstill */
+            test = hd_gear_torque_step(&b->gt, &c->gt, b->t_prev, hdf_mul_q(b->str.tau_raw, c->pr_share, 30u),
+                                       in->vel_ref, in->vel_fb, test);
+        }
     } else {
         /* command: t_prev - share F(v_ref) (includes the loop's reaction) */
         test = hdf_sub_sat(b->t_prev, hdf_mul_q(b->str.tau_raw, c->pr_share, 30u));
@@ -593,6 +604,7 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
 
     if (all) {
         b->pki_i = 0;           /* the loops were reset (app) or first period */
+        hd_gear_torque_reset(&b->gt);
     }
     dv_i = pki_step(b, c, in);
 

@@ -21,6 +21,10 @@
  *                pr_t_src 1 (model): (1 - share) Stribeck(v_ref) + J_L a_ref
  *                           + mgl cos(2 pi (pos_out + g_off)) (load-side friction, load
  *                           inertia and the unbalance it holds: what the gear must transmit)
+ *                pr_t_src 2 (motor side while it slides, hd_gear_torque.h): t_prev
+ *                           - share Stribeck - N^2 J_m a_fb, handed over to the model of
+ *                           pr_t_src 1 between 2 vs and vs of the reference speed (the
+ *                           swings of a move set the gear's hysteresis branch)
  *                pr_t_src 0 (command): t_prev - share Stribeck(v_ref) (contains the
  *                           loop's own reaction; kept for comparison)       -> position correction
  *   TE         -TE(motor angle) - TE_out(pos_out: the loop's output position, in
@@ -90,6 +94,7 @@
 #include "hd_backstep.h"
 #include "hd_blend.h"
 #include "hd_compliance.h"
+#include "hd_gear_torque.h"
 #include "hd_fric_est.h"
 #include "hd_sched.h"
 
@@ -130,6 +135,7 @@ typedef struct {
     int32_t  pr_jl;              /* load inertia for pr_t_src 1, Q15.16 kg m^2 */
     int32_t  pr_mgl;             /* unbalance for pr_t_src 1, Q15.16 N.m (0 = none) */
     uint32_t pr_g_off;           /* its angle offset, 2^-32 turn (wraps) */
+    hd_gear_torque_cfg_t gt;     /* pr_t_src 2: motor-side estimate (pr_jm, the Stribeck FF's vs) */
     int32_t  pki;                /* scheduled position integral gain, Q15.16 1/s^2 (0 = off) */
     int32_t  pki_vlo;            /* schedule: weight 0 at |v_ref| <= vlo, 2^-32 turn/s */
     int32_t  pki_vhi;            /* schedule: weight 1 at |v_ref| >= vhi, 2^-32 turn/s */
@@ -204,6 +210,7 @@ typedef struct {
     hd_angle_t te_mot;           /* motor angle of the last TE step, Q32.32 motor turns */
     int32_t  te_slope;           /* d(te_dth)/d(motor angle) there, 2^-32 turn per motor turn */
     int32_t  pr_yd;              /* held transmitted-torque estimate (low-passed), Q15.16 N.m */
+    hd_gear_torque_t gt;         /* its motor-side part (pr_t_src 2) */
     uint32_t table_ok;           /* 1 once a table passed the check */
     /* last: 8.3 KiB that would put the fields above out of the short load / store offsets */
     hd_preisach_table_t table;   /* installed Preisach table (checked) */

@@ -113,7 +113,7 @@ const hd_param_desc_t hd_param_table[HD_PARAM_COUNT] = {
     {"pr_deadband", 0x2840u, 1u, HD_PTYPE_U32, 0u, 0, 64, 1, "step"},
     {"pr_fc", 0x2840u, 2u, HD_PTYPE_I32, 16u, 6554, 131072000, 1310720, "Hz"},
     {"pr_motor_share", 0x2840u, 3u, HD_PTYPE_I32, 30u, 0, 1073741824, 1015701725, "1"},
-    {"pr_t_src", 0x2840u, 4u, HD_PTYPE_U32, 0u, 0, 1, 1, "1"},
+    {"pr_t_src", 0x2840u, 4u, HD_PTYPE_U32, 0u, 0, 2, 1, "1"},
     {"pr_jl", 0x2840u, 5u, HD_PTYPE_I32, 16u, 0, 1966080000, 32768, "kg.m^2"},
     {"pr_mgl", 0x2840u, 6u, HD_PTYPE_I32, 16u, 0, 1966080000, 0, "N.m"},
     {"pr_g_off", 0x2840u, 7u, HD_PTYPE_I32, 32u, INT32_MIN, 2147483219, 0, "turn"},
@@ -185,4 +185,5 @@ const hd_param_desc_t hd_param_table[HD_PARAM_COUNT] = {
     {"fe_ramp", 0x28A0u, 12u, HD_PTYPE_U32, 0u, 0, 1000000, 1000, "step"},
     {"fe_n_keep", 0x28A0u, 13u, HD_PTYPE_U32, 0u, 0, 1000000, 5, "sample"},
     {"fe_max_age", 0x28A0u, 14u, HD_PTYPE_U32, 0u, 1, 2000000000, 30000, "step"},
+    {"pr_jm", 0x2840u, 8u, HD_PTYPE_I32, 16u, 0, 1966080000, 52429, "kg.m^2"},
 };

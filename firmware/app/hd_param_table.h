@@ -9,8 +9,8 @@
 #include <stdint.h>
 
 #define HD_PARAM_VERSION 1u
-#define HD_PARAM_TABLE_HASH 0x96E70418u
-#define HD_PARAM_COUNT 183u
+#define HD_PARAM_TABLE_HASH 0x27A38A7Au
+#define HD_PARAM_COUNT 184u
 
 typedef enum {
     HD_P_GEAR_RATIO = 0,
@@ -196,6 +196,7 @@ typedef enum {
     HD_P_FE_RAMP = 180,
     HD_P_FE_N_KEEP = 181,
     HD_P_FE_MAX_AGE = 182,
+    HD_P_PR_JM = 183,
 } hd_param_id_t;
 
 #define HD_PTYPE_I32 0u

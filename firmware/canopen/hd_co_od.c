@@ -273,14 +273,15 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x2830u, 17u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 105u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d6 */
     {0x2830u, 18u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 106u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d7 */
     {0x2830u, 19u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 107u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d8 */
-    {0x2840u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(7), NULL},  /* highest_sub_index_supported */
+    {0x2840u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(8), NULL},  /* highest_sub_index_supported */
     {0x2840u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 108u, INT64_C(0), INT64_C(64), INT64_C(1), NULL},  /* pr_deadband */
     {0x2840u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 109u, INT64_C(6554), INT64_C(131072000), INT64_C(1310720), NULL},  /* pr_fc */
     {0x2840u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 110u, INT64_C(0), INT64_C(1073741824), INT64_C(1015701725), NULL},  /* pr_motor_share */
-    {0x2840u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 111u, INT64_C(0), INT64_C(1), INT64_C(1), NULL},  /* pr_t_src */
+    {0x2840u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 111u, INT64_C(0), INT64_C(2), INT64_C(1), NULL},  /* pr_t_src */
     {0x2840u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 112u, INT64_C(0), INT64_C(1966080000), INT64_C(32768), NULL},  /* pr_jl */
     {0x2840u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 113u, INT64_C(0), INT64_C(1966080000), INT64_C(0), NULL},  /* pr_mgl */
     {0x2840u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 114u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* pr_g_off */
+    {0x2840u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 183u, INT64_C(0), INT64_C(1966080000), INT64_C(52429), NULL},  /* pr_jm */
     {0x2850u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(21), NULL},  /* highest_sub_index_supported */
     {0x2850u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 115u, INT64_C(0), INT64_C(4), INT64_C(3), NULL},  /* te_n */
     {0x2850u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 116u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* te_k1 */

@@ -52,7 +52,15 @@ MX_STIFFNESS_MIN = 8200.0
 #: identified total friction, 0..1; set by :func:`hdservo.download.model_overrides`.
 MOTOR_SHARE_KEY = "friction_total.motor_share"
 
-#: Bits of ``cb_enable`` (firmware HD_CB_*).
+#: Velocity-loop crossover of the axis' PID design, Hz (the same on every axis, hdservo.gains.design).
+VEL_LOOP_HZ = 25.0
+#: The twist torque estimate takes the motor side while the motor slides (``pr_t_src`` 2) when the load's
+#: resonance against the held motor, sqrt(K1 / J_L) / 2 pi, is below this multiple of the velocity loop's
+#: crossover: there the velocity loop excites the resonance at every move, and the torque swings that set
+#: the gear's hysteresis branch at a stop are several times J_L a_ref (docs/compensators.md section 13).
+#: Above it the moves follow the reference quasi-statically and the model estimate (``pr_t_src`` 1) has
+#: the smaller error.
+RESONANCE_LOOP_RATIO = 1.5
 #: Reference-speed schedule of the scheduled position integral (cb_pki_vlo / cb_pki_vhi), deg/s.
 PKI_V_LO_DEG_S = 0.002
 PKI_V_HI_DEG_S = 0.005
@@ -402,6 +410,45 @@ def _backstepping_params(get: Callable[[str], float], n: float, vs_turn: float, 
     return out
 
 
+def load_resonance_hz(k1_Nm_per_rad: float, jl_kgm2: float) -> float:
+    """Resonance of the load on the gear's first stiffness against a held motor.
+
+    Parameters
+    ----------
+    k1_Nm_per_rad : float
+        First slope K1 of the gear's stiffness, N.m/rad.
+    jl_kgm2 : float
+        Load inertia J_L, kg m^2.
+
+    Returns
+    -------
+    float
+        sqrt(K1 / J_L) / (2 pi), Hz (inf without a load inertia).
+    """
+    if jl_kgm2 <= 0.0:
+        return math.inf
+    return math.sqrt(max(k1_Nm_per_rad, 0.0) / jl_kgm2) / (2.0 * math.pi)
+
+
+def twist_torque_source(k1_Nm_per_rad: float, jl_kgm2: float) -> int:
+    """``pr_t_src`` of the twist predictions (Preisach, compliance) by the documented rule.
+
+    Parameters
+    ----------
+    k1_Nm_per_rad : float
+        First slope K1 of the gear's stiffness, N.m/rad.
+    jl_kgm2 : float
+        Load inertia J_L, kg m^2.
+
+    Returns
+    -------
+    int
+        2 (the motor side while the motor slides, the model near standstill) when the load resonance
+        :func:`load_resonance_hz` is below ``RESONANCE_LOOP_RATIO`` x ``VEL_LOOP_HZ``; else 1 (the model).
+    """
+    return 2 if load_resonance_hz(k1_Nm_per_rad, jl_kgm2) < RESONANCE_LOOP_RATIO * VEL_LOOP_HZ else 1
+
+
 def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
                        model: Mapping[str, float] | None = None) -> dict[str, float]:
     """Compensator-bank parameters of an axis (table units; docs/parameters.md).
@@ -468,8 +515,9 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     out["pr_deadband"] = 1
     out["pr_fc"] = 20.0
     out["pr_motor_share"] = (m["fcp"] / max(m["fcp"] + ld["fcp"], 1e-12)) if fm else 0.0
-    out["pr_t_src"] = 1
     out["pr_jl"] = get("load.jl_kgm2")
+    out["pr_jm"] = n * n * get("motor.jm_kgm2")
+    out["pr_t_src"] = twist_torque_source(get("stiffness.k1_Nm_per_rad"), out["pr_jl"])
     out.update(_unbalance_params(get))
     out.update(_te_params(get))
     out.update(_backstepping_params(get, n, vs_turn, fv, eps_rad, m["fcp"] + ld["fcp"], m["fsp"] + ld["fsp"]))
@@ -542,6 +590,6 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
     return ctl
 
 
-__all__ = ["MOTOR_SHARE_KEY", "BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
+__all__ = ["MOTOR_SHARE_KEY", "RESONANCE_LOOP_RATIO", "VEL_LOOP_HZ", "load_resonance_hz", "twist_torque_source", "BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
            "FAIR_GAINS", "FAIR_PROC_ARGS", "GROUPS", "STRATEGIES", "best_gains", "compensator_params", "controller", "enable_mask", "gear_everett", "preisach_table",
            "write_preisach_table"]

@@ -181,6 +181,11 @@ def plan_download(model_path: Path, axis: str = "reference", preisach: Path | No
     except (ValueError, KeyError, ZeroDivisionError, TypeError, OverflowError) as e:
         raise UserError(f"{model_path}: cannot compute the compensator parameters: {e}") from None
     cp.pop("cb_enable", None)
+    f_load = compsetup.load_resonance_hz(float(over.get("stiffness.k1_Nm_per_rad", sim.axis_param("stiffness.k1_Nm_per_rad", ax))),
+                                         float(cp.get("pr_jl", 0.0)))
+    notes.append(f"twist torque estimate: {'the motor side while it slides' if cp.get('pr_t_src') == 2 else 'the model'} "
+                 f"(pr_t_src {int(cp.get('pr_t_src', 1))}; load resonance {f_load:.3g} Hz, motor side below "
+                 f"{compsetup.RESONANCE_LOOP_RATIO * compsetup.VEL_LOOP_HZ:.3g} Hz)")
     params: dict[str, float] = {}
     for name, v in cp.items():
         p = PARAMS.get(name)

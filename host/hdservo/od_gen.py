@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 OD_VERSION = 1
-PARAM_HASH = 0x96E70418
+PARAM_HASH = 0x27A38A7A
 VENDOR_ID = 0x00000EDA
 PRODUCT_CODE = 0x00484453
 REVISION = 0x00010000
@@ -304,6 +304,7 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x2840, 5, 'pr_jl', 'i32', 'rw', '', 'kg.m^2', 1.52587890625e-05),
     OdEntry(0x2840, 6, 'pr_mgl', 'i32', 'rw', '', 'N.m', 1.52587890625e-05),
     OdEntry(0x2840, 7, 'pr_g_off', 'i32', 'rw', '', 'turn', 2.3283064365386963e-10),
+    OdEntry(0x2840, 8, 'pr_jm', 'i32', 'rw', '', 'kg.m^2', 1.52587890625e-05),
     OdEntry(0x2850, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x2850, 1, 'te_n', 'u32', 'rw', '', '1', 1.0),
     OdEntry(0x2850, 2, 'te_k1', 'i32', 'rw', '', 'N.m/turn', 0.00390625),

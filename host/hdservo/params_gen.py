@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 VERSION = 1
-TABLE_HASH = 0x96E70418
+TABLE_HASH = 0x27A38A7A
 
 
 class ParamDef(NamedTuple):
@@ -141,7 +141,7 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef(108, 'pr_deadband', 0x2840, 1, 'u32', 'step', 0, 0.0, 64.0, 1.0, 0, 64, 1, 'Preisach inverse: reversal dead-band, lattice steps'),
     ParamDef(109, 'pr_fc', 0x2840, 2, 'i32', 'Hz', 16, 0.1, 2000.0, 20.0, 6554, 131072000, 1310720, 'Preisach inverse: low-pass corner of the transmitted-torque estimate'),
     ParamDef(110, 'pr_motor_share', 0x2840, 3, 'i32', '1', 30, 0.0, 1.0, 0.9459459459459459, 0, 1073741824, 1015701725, 'Preisach inverse: share of the Stribeck friction model on the motor side (not transmitted)'),
-    ParamDef(111, 'pr_t_src', 0x2840, 4, 'u32', '1', 0, 0.0, 1.0, 1.0, 0, 1, 1, 'Preisach inverse torque estimate: 1 model (load-side friction + J_L a_ref), 0 torque command - motor friction model'),
+    ParamDef(111, 'pr_t_src', 0x2840, 4, 'u32', '1', 0, 0.0, 2.0, 1.0, 0, 2, 1, 'Preisach / compliance torque estimate: 1 model (load-side friction + J_L a_ref + unbalance), 2 motor side while the reference moves (torque - motor friction - pr_jm a), the model near standstill, 0 torque command - motor friction model'),
     ParamDef(112, 'pr_jl', 0x2840, 5, 'i32', 'kg.m^2', 16, 0.0, 30000.0, 0.5, 0, 1966080000, 32768, 'Preisach inverse: load inertia of the model torque estimate (pr_t_src 1)'),
     ParamDef(113, 'pr_mgl', 0x2840, 6, 'i32', 'N.m', 16, 0.0, 30000.0, 0.0, 0, 1966080000, 0, 'Twist torque estimate (pr_t_src 1): unbalance mgl of the holding torque mgl cos(output angle + pr_g_off) (0 = none)'),
     ParamDef(114, 'pr_g_off', 0x2840, 7, 'i32', 'turn', 32, -0.5, 0.4999999, 0.0, -2147483648, 2147483219, 0, 'Twist torque estimate (pr_t_src 1): angle offset of the unbalance'),
@@ -213,5 +213,6 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef(180, 'fe_ramp', 0x28A0, 12, 'u32', 'step', 0, 0.0, 1000000.0, 1000.0, 0, 1000000, 1000, 'Online Stribeck identification: estimator steps of the feed ramp (bumpless switch of fe_feed)'),
     ParamDef(181, 'fe_n_keep', 0x28A0, 13, 'u32', 'sample', 0, 0.0, 1000000.0, 5.0, 0, 1000000, 5, "Online Stribeck identification: weight of a bin's old mean at the start of each new visit (forgetting across visits; at least 1024 once the bin is established)"),
     ParamDef(182, 'fe_max_age', 0x28A0, 14, 'u32', 'step', 0, 1.0, 2000000000.0, 30000.0, 1, 2000000000, 30000, 'Online Stribeck identification: a bin not updated for longer than this is left out of the fit (30000: 30 s at 1 kHz)'),
+    ParamDef(183, 'pr_jm', 0x2840, 8, 'i32', 'kg.m^2', 16, 0.0, 30000.0, 0.8, 0, 1966080000, 52429, 'Twist torque estimate (pr_t_src 2): motor-side inertia N^2 J_m, output-referred'),
 )
 BY_NAME: dict[str, ParamDef] = {p.name: p for p in PARAMS}
