@@ -3,14 +3,31 @@
 #include "hd_fixed.h"
 #include "hd_stribeck.h"
 
+/* Widening of T_load's box (i = 3) on both sides, Q48: the largest static friction the friction
+ * boxes admit, th_max[0] + th_max[1] (Fc + (Fs - Fc)).  Why: while the axis sticks at a reversal
+ * the friction regressor's sign s(w) is about 0 (w is the measured velocity, noise about 0),
+ * so the static friction the axis must break shows up in e2 and only T_load's integral can
+ * supply it: the parameter T_load stands for is then the load plus up to Fs.  The projection
+ * keeps V' <= 0 only while that parameter lies in the box; a box sized for the load alone clamps
+ * T_load whenever the load is comparable with the breakaway (an unbalance that appears), the
+ * position error grows until the law's e1 terms break the axis away (a reversal peak twice the
+ * nominal one) and, with a small friction model, the cascade winds up into a torque-saturation
+ * fault. */
+static int64_t hd__th3_widen(const hd_backstep_cfg_t *c)
+{
+    return ((int64_t)((c->th_max[0] > 0) ? c->th_max[0] : 0) + (int64_t)((c->th_max[1] > 0) ? c->th_max[1] : 0)) *
+           ((int64_t)1 << 32);
+}
+
 static int64_t hd__th_lo(const hd_backstep_cfg_t *c, uint32_t i)
 {
-    return (int64_t)c->th_min[i] * ((int64_t)1 << 32);
+    const int64_t lo = (int64_t)c->th_min[i] * ((int64_t)1 << 32);
+    return (i == 3u) ? lo - hd__th3_widen(c) : lo;     /* |.| < 2^32 2^48: no overflow */
 }
 
 static int64_t hd__th_hi(const hd_backstep_cfg_t *c, uint32_t i)
 {
-    const int64_t hi = (int64_t)c->th_max[i] * ((int64_t)1 << 32);
+    const int64_t hi = (int64_t)c->th_max[i] * ((int64_t)1 << 32) + ((i == 3u) ? hd__th3_widen(c) : 0);
     const int64_t lo = hd__th_lo(c, i);
     return (hi < lo) ? lo : hi;
 }
