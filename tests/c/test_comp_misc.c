@@ -473,10 +473,10 @@ static void test_backstep_regressor_follows_the_moving_reference(void **state)
  * torque breaks it away: Fs 10 N.m, Fc 7 N.m) under a load torque of 12 N.m, larger than the
  * breakaway, with T_load's configured box +-14 N.m: it holds the load, not the load plus Fs.
  * While the axis sticks the friction regressor's sign is 0 and only T_load's integral can
- * supply the breakaway, so T_load has to leave the configured box by up to the static friction
- * estimate (and never further); the reversal error then stays near the one of a load inside
- * the box.  With a box of the load alone the error at the reversal against the load is the one
- * the e1 terms need to break the axis away, several times that. */
+ * supply the breakaway, so while the reference moves T_load may leave the configured box (by
+ * at most the friction boxes' Fc + (Fs - Fc)); the reversal error then stays near the one of a
+ * load inside the box.  With a box of the load alone the error at the reversal against the load
+ * is the one the e1 terms need to break the axis away, several times that. */
 static int32_t bs_reversal_run(int32_t tl_box, double load_Nm, int64_t *th3_max)
 {
     const double jt = 1.3 * 6.283185307;          /* N.m per (turn/s^2) */
@@ -538,6 +538,28 @@ static void test_backstep_reversal_against_a_load_beyond_the_box(void **state)
     /* ... and the reversal against the load costs at most 1.5x the error with a load well inside
      * the box (a box of the load alone: 12x) */
     assert_true(e_load <= e_ref * 3 / 2);
+    /* at rest (omega_d = 0) the configured box holds: a held error that winds T_load up stops at
+     * +14 N.m (a wider box lets the hold's integral hunt against the static friction) */
+    {
+        const double jt = 1.3 * 6.283185307;
+        hd_backstep_cfg_t c = { (int32_t)(50.0 * 65536), (int32_t)(50.0 * 65536), (int32_t)(jt * 65536),
+                                (int32_t)(jt * 2500 / 4 * 256), DEGS / 100, DEGS, 1 << 30, NM(150),
+                                { 1 << 23, 1 << 23, 1 << 22, 20 << 24 }, { 0, 0, 0, -NM(14) }, { NM(30), NM(30), NM(500), NM(14) } };
+        const int32_t th0[4] = { NM(7), NM(3), 0, NM(13) };
+        hd_backstep_t s;
+        hd_backstep_in_t in = { 0, 11930465 / 60, 0, 0, 0 };     /* 1 arcmin behind, at rest */
+        uint32_t k;
+        hd_backstep_init(&s, &c, th0, 0u, true);
+        for (k = 0; k < 2000u; k++) {
+            (void)hd_backstep_step(&s, &c, &in, 0);
+        }
+        assert_true(s.th[3] == ((int64_t)NM(14) << 32));
+        in.omega_d = DEGS / 100;                                   /* the reference moves: wider */
+        for (k = 0; k < 2000u; k++) {
+            (void)hd_backstep_step(&s, &c, &in, 0);
+        }
+        assert_true(s.th[3] > ((int64_t)NM(14) << 32) && s.th[3] <= ((int64_t)NM(14 + 60) << 32));
+    }
 }
 
 int main(void)
