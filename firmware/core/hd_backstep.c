@@ -15,8 +15,8 @@ static int64_t hd__th_hi(const hd_backstep_cfg_t *c, uint32_t i)
     return (hi < lo) ? lo : hi;
 }
 
-/* Projection of parameter i onto its box; moving: the reference moves (omega_d != 0).
- * While the reference moves, T_load's box (i = 3) is the configured one widened on both sides
+/* Projection of parameter i onto its box; moving: the reference moves slowly (hd__slow).
+ * While it does, T_load's box (i = 3) is the configured one widened on both sides
  * by the largest static friction the friction boxes admit, th_max_0 + th_max_1 (Fc + (Fs - Fc)).
  * Why: when the axis sticks at a reversal the friction regressor's sign s(omega) is about 0
  * (omega is noise about 0), so the static friction the axis must break shows up in e2 and only
@@ -26,7 +26,17 @@ static int64_t hd__th_hi(const hd_backstep_cfg_t *c, uint32_t i)
  * break the axis away (a reversal peak twice the nominal one), and with a small friction model
  * the cascade winds up into a torque-saturation fault.  At rest (omega_d = 0) the configured
  * box stays: there T_load is the hold's integral action, and a wider box lets it hunt against
- * the static friction (measured: final errors of 20-110 arcsec after point-to-point moves). */
+ * the static friction (measured: final errors of 20-110 arcsec after point-to-point moves).
+ * Above 4 w_s the axis slides and cannot stick; there the wider box would only let T_load wind
+ * up on the rigid model's mismatch during fast moves (measured: positioning A 0.33 instead of
+ * 0.19 arcsec under a friction drift). */
+/* the reference moves, at most 4 w_s fast: where the axis can stick at a reversal or an arrival */
+static bool hd__slow(const hd_backstep_cfg_t *c, int32_t wd)
+{
+    const int64_t a = (wd < 0) ? -(int64_t)wd : (int64_t)wd;
+    return (wd != 0) && (a <= 4 * (int64_t)c->w_s);
+}
+
 static int64_t hd__project(const hd_backstep_cfg_t *c, uint32_t i, int64_t v, bool moving)
 {
     int64_t lo = hd__th_lo(c, i);
@@ -142,7 +152,7 @@ void hd_backstep_preload(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
     s->shape = hd__shape(&s->inv_ws, c, hd__wr(s->wd_prev, in));
     const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th, s->shape, s->wd_prev, c, in);
     const int64_t du = hdf_sub64_sat((int64_t)u_now, u);              /* Q16; phi_3 = 1 */
-    s->th[3] = hd__project(c, 3u, hdf_add64_sat(s->th[3], hdf_shl64_sat(du, 32u)), in->omega_d != 0);
+    s->th[3] = hd__project(c, 3u, hdf_add64_sat(s->th[3], hdf_shl64_sat(du, 32u)), hd__slow(c, in->omega_d));
     s->u_bs = hdf_sat32(hd__law(&s->e1, &s->e2, s->phi, s->th, s->shape, s->wd_prev, c, in));
     s->u = u_now;
 }
@@ -165,7 +175,7 @@ int32_t hd_backstep_step(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
         for (i = 0; i < HD_BS_NP; i++) {
             const int32_t pe = hdf_mul_q(s->phi[i], s->e2, 30u);           /* 2^-32 turn/s */
             const int64_t d = hdf_asr64_rnd((int64_t)c->gamma_dt[i] * (int64_t)pe, 8u); /* Q48 */
-            s->th[i] = hd__project(c, i, hdf_sub64_sat(s->th[i], d), in->omega_d != 0);
+            s->th[i] = hd__project(c, i, hdf_sub64_sat(s->th[i], d), hd__slow(c, in->omega_d));
         }
     }
     s->wd_prev = in->omega_d;
@@ -202,6 +212,6 @@ void hd_backstep_adapt(hd_backstep_t *s, const hd_backstep_cfg_t *c, uint32_t lo
         /* 2^log2_n periods of gamma_dt: round(gamma_dt pe 2^log2_n / 2^8); |gamma_dt pe| < 2^62 */
         const int32_t pe = hdf_mul_q(s->phi[i], s->e2, 30u);
         const int64_t d = hdf_asr64_rnd((int64_t)c->gamma_dt[i] * (int64_t)pe, 8u - log2_n);
-        s->th[i] = hd__project(c, i, hdf_sub64_sat(s->th[i], d), s->wd_prev != 0);   /* omega_d of step_held */
+        s->th[i] = hd__project(c, i, hdf_sub64_sat(s->th[i], d), hd__slow(c, s->wd_prev));   /* omega_d of step_held */
     }
 }

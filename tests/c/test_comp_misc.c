@@ -473,7 +473,8 @@ static void test_backstep_regressor_follows_the_moving_reference(void **state)
  * torque breaks it away: Fs 10 N.m, Fc 7 N.m) under a load torque of 12 N.m, larger than the
  * breakaway, with T_load's configured box +-14 N.m: it holds the load, not the load plus Fs.
  * While the axis sticks the friction regressor's sign is 0 and only T_load's integral can
- * supply the breakaway, so while the reference moves T_load may leave the configured box (by
+ * supply the breakaway, so while the reference moves slowly (at most 4 w_s) T_load may leave
+ * the configured box (by
  * at most the friction boxes' Fc + (Fs - Fc)); the reversal error then stays near the one of a
  * load inside the box.  With a box of the load alone the error at the reversal against the load
  * is the one the e1 terms need to break the axis away, several times that. */
@@ -554,11 +555,14 @@ static void test_backstep_reversal_against_a_load_beyond_the_box(void **state)
             (void)hd_backstep_step(&s, &c, &in, 0);
         }
         assert_true(s.th[3] == ((int64_t)NM(14) << 32));
-        in.omega_d = DEGS / 100;                                   /* the reference moves: wider */
+        in.omega_d = DEGS / 100;                                   /* the reference moves slowly: wider */
         for (k = 0; k < 2000u; k++) {
             (void)hd_backstep_step(&s, &c, &in, 0);
         }
         assert_true(s.th[3] > ((int64_t)NM(14) << 32) && s.th[3] <= ((int64_t)NM(14 + 60) << 32));
+        in.omega_d = 5 * DEGS;                                     /* faster than 4 w_s: the load box */
+        (void)hd_backstep_step(&s, &c, &in, 0);
+        assert_true(s.th[3] <= ((int64_t)NM(14) << 32));
     }
 }
 

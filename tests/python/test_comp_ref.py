@@ -243,7 +243,7 @@ def test_backstep_matches_reference(lib: C.CDLL, lag_turn: float) -> None:
     th4 = th.reshape(n, 4)
     for i in range(3):
         assert th4[:, i].min() >= cfg[12 + i] * 2**32 and th4[:, i].max() <= cfg[16 + i] * 2**32
-    # T_load: the configured box widened by the friction bounds while the reference moves
+    # T_load: the configured box widened by the friction bounds while the reference moves slowly
     widen = (cfg[16] + cfg[17]) * 2**32
     assert th4[:, 3].min() >= cfg[15] * 2**32 - widen and th4[:, 3].max() <= cfg[19] * 2**32 + widen
     if lag_turn > 0:
