@@ -354,7 +354,7 @@ static uint32_t wear_total(const hd_app_co_t *ac)
     return total;
 }
 
-/* 0x5200: the online Stribeck estimate (hd_fric_est.h), sub-index 1..14 */
+/* 0x5200: the online Stribeck estimate (hd_fric_est.h), sub-index 1..16 */
 static int64_t fric_est_read(const hd_fric_est_t *e, uint8_t sub)
 {
     if (sub <= 8u) {
@@ -369,7 +369,9 @@ static int64_t fric_est_read(const hd_fric_est_t *e, uint8_t sub)
     case 11u: return (int64_t)e->fits[HD_FE_DIR_POS];
     case 12u: return (int64_t)e->fits[HD_FE_DIR_NEG];
     case 13u: return (int64_t)e->samples;
-    default: return (int64_t)e->feed.w;
+    case 14u: return (int64_t)e->feed.w;
+    case 15u: return (int64_t)e->scale;
+    default: return (int64_t)e->bias;
     }
 }
 
@@ -395,7 +397,7 @@ static uint32_t a_special_read(void *c, uint16_t index, uint8_t sub, int64_t *v)
         *v = (int64_t)((sub == 1u) ? total : max_page);
         return 0u;
     }
-    if (index == 0x5200u && sub >= 1u && sub <= 14u) {
+    if (index == 0x5200u && sub >= 1u && sub <= 16u) {
         *v = fric_est_read(&ac->app->cb.fe, sub);
         return 0u;
     }

@@ -396,7 +396,7 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x5102u, 2u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* nvm_erases_max_page */
     {0x5102u, 3u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* saves_refused */
     {0x5102u, 4u, 0x04u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* save_credit */
-    {0x5200u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(14), NULL},  /* highest_sub_index_supported */
+    {0x5200u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(16), NULL},  /* highest_sub_index_supported */
     {0x5200u, 1u, 0x04u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* fe_fc_pos */
     {0x5200u, 2u, 0x04u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* fe_fs_pos */
     {0x5200u, 3u, 0x04u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* fe_vs_pos */
@@ -411,6 +411,8 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x5200u, 12u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* fe_fits_neg */
     {0x5200u, 13u, 0x07u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* fe_samples */
     {0x5200u, 14u, 0x04u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* fe_feed_weight */
+    {0x5200u, 15u, 0x04u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* fe_scale */
+    {0x5200u, 16u, 0x04u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(-2147483648), INT64_C(2147483647), INT64_C(0), NULL},  /* fe_bias */
     {0x5F00u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(12), NULL},  /* highest_sub_index_supported */
     {0x5F00u, 1u, 0x07u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO), HD_CO_K_VAR, OFF(drive_status_loop_tick), INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* loop_tick */
     {0x5F00u, 2u, 0x07u, HD_CO_A_RO, (uint8_t)(HD_CO_F_TPDO), HD_CO_K_VAR, OFF(drive_status_load_phase), INT64_C(0), INT64_C(4294967295), INT64_C(0), NULL},  /* load_phase */

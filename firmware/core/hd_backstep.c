@@ -37,6 +37,42 @@ static void hd__th_round(hd_backstep_t *s)
     }
 }
 
+/* Projection of parameter i onto its box; moving: the reference moves slowly (hd__slow).
+ * While it does, T_load's box (i = 3) is the configured one widened on both sides
+ * by the largest static friction the friction boxes admit, th_max_0 + th_max_1 (Fc + (Fs - Fc)).
+ * Why: when the axis sticks at a reversal the friction regressor's sign s(omega) is about 0
+ * (omega is noise about 0), so the static friction the axis must break shows up in e2 and only
+ * T_load's integral can supply it; the parameter T_load stands for is then the load plus up to
+ * Fs.  A box sized for the load alone clamps T_load whenever the load is comparable with the
+ * breakaway (an unbalance that appears): the position error grows until the law's e1 terms
+ * break the axis away (a reversal peak twice the nominal one), and with a small friction model
+ * the cascade winds up into a torque-saturation fault.  At rest (omega_d = 0) the configured
+ * box stays: there T_load is the hold's integral action, and a wider box lets it hunt against
+ * the static friction (measured: final errors of 20-110 arcsec after point-to-point moves).
+ * Above 4 w_s the axis slides and cannot stick; there the wider box would only let T_load wind
+ * up on the rigid model's mismatch during fast moves (measured: positioning A 0.33 instead of
+ * 0.19 arcsec under a friction drift). */
+/* the reference moves, at most 4 w_s fast: where the axis can stick at a reversal or an arrival */
+static bool hd__slow(const hd_backstep_cfg_t *c, int32_t wd)
+{
+    const int64_t a = (wd < 0) ? -(int64_t)wd : (int64_t)wd;
+    return (wd != 0) && (a <= 4 * (int64_t)c->w_s);
+}
+
+static int64_t hd__project(const hd_backstep_cfg_t *c, uint32_t i, int64_t v, bool moving)
+{
+    int64_t lo = hd__th_lo(c, i);
+    int64_t hi = hd__th_hi(c, i);
+    if (i == 3u && moving) {
+        /* the sum of two Q15.16 bounds is < 2^32; in Q48 it may exceed int64: saturated */
+        const int64_t fs = hdf_shl64_sat((int64_t)((c->th_max[0] > 0) ? c->th_max[0] : 0) +
+                                         (int64_t)((c->th_max[1] > 0) ? c->th_max[1] : 0), 32u);
+        lo = hdf_sub64_sat(lo, fs);
+        hi = hdf_add64_sat(hi, fs);
+    }
+    return hdf_clamp64(v, lo, hi);
+}
+
 void hd_backstep_init(hd_backstep_t *s, const hd_backstep_cfg_t *c, const int32_t th0[HD_BS_NP],
                       uint32_t ramp_ticks, bool enabled)
 {
@@ -140,7 +176,7 @@ void hd_backstep_preload(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
     s->shape = hd__shape(&s->inv_ws, c, hd__wr(s->wd_prev, in));
     const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th_q16, s->shape, s->wd_prev, c, in);
     const int64_t du = hdf_sub64_sat((int64_t)u_now, u);              /* Q16; phi_3 = 1 */
-    s->th[3] = hdf_clamp64(hdf_add64_sat(s->th[3], hdf_shl64_sat(du, 32u)), hd__th_lo(c, 3u), hd__th_hi(c, 3u));
+    s->th[3] = hd__project(c, 3u, hdf_add64_sat(s->th[3], hdf_shl64_sat(du, 32u)), hd__slow(c, in->omega_d));
     hd__th_round(s);
     s->u_bs = hdf_sat32(hd__law(&s->e1, &s->e2, s->phi, s->th_q16, s->shape, s->wd_prev, c, in));
     s->u = u_now;
@@ -164,7 +200,7 @@ int32_t hd_backstep_step(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
         for (i = 0; i < HD_BS_NP; i++) {
             const int32_t pe = hdf_mul_q(s->phi[i], s->e2, 30u);           /* 2^-32 turn/s */
             const int64_t d = hdf_asr64_rnd((int64_t)c->gamma_dt[i] * (int64_t)pe, 8u); /* Q48 */
-            s->th[i] = hdf_clamp64(hdf_sub64_sat(s->th[i], d), hd__th_lo(c, i), hd__th_hi(c, i));
+            s->th[i] = hd__project(c, i, hdf_sub64_sat(s->th[i], d), hd__slow(c, in->omega_d));
         }
         hd__th_round(s);
     }
@@ -202,7 +238,7 @@ void hd_backstep_adapt(hd_backstep_t *s, const hd_backstep_cfg_t *c, uint32_t lo
         /* 2^log2_n periods of gamma_dt: round(gamma_dt pe 2^log2_n / 2^8); |gamma_dt pe| < 2^62 */
         const int32_t pe = hdf_mul_q(s->phi[i], s->e2, 30u);
         const int64_t d = hdf_asr64_rnd((int64_t)c->gamma_dt[i] * (int64_t)pe, 8u - log2_n);
-        s->th[i] = hdf_clamp64(hdf_sub64_sat(s->th[i], d), hd__th_lo(c, i), hd__th_hi(c, i));
+        s->th[i] = hd__project(c, i, hdf_sub64_sat(s->th[i], d), hd__slow(c, s->wd_prev));   /* omega_d of step_held */
     }
     hd__th_round(s);
 }

@@ -9,7 +9,11 @@
  *   e2     = omega - alpha1
  *   alpha1'= acc_d - c1 (omega - omega_d)
  *   u      = J (alpha1' - c2 e2) - ke e1 + phi^T theta_hat
- *   theta_hat' = -Gamma phi e2, projected onto [th_min, th_max] per parameter
+ *   theta_hat' = -Gamma phi e2, projected onto [th_min, th_max] per parameter; while the
+ *            reference moves at most 4 w_s fast (0 < |omega_d| <= 4 w_s) T_load's box is
+ *            widened on both sides by
+ *            th_max_0 + th_max_1 (the largest static friction: when the axis sticks at a
+ *            reversal the friction regressor is about 0 and T_load carries the breakaway)
  *   phi    = [ s(w), exp(-(w/w_s)^2) s(w), w [turn/s], 1 ],  w = omega_d while the reference
  *            cruises (omega_d != 0, changed by at most HD_BS_WD_STEADY since the last step),
  *            else omega;  s = hd_sign_smooth_q30(w, eps_w); theta = [Fc, Fs - Fc, Fv, T_load]
@@ -33,7 +37,7 @@
  *   phi_i              Q30 (phi_3 = omega in turn/s)
  *   theta_hat_i        int64 Q16.48 (N.m; N.m/(turn/s) for i = 2): wide state; the law
  *                      uses it rounded to Q15.16 (th_q16, formed when theta_hat changes)
- *   th_min, th_max     Q15.16, same units
+ *   th_min, th_max     Q15.16, same units (T_load: the load's box, widened as above)
  *   gamma_dt_i         Q7.24, Gamma_i * T with Gamma_i in [theta_i] / (turn * unit phi):
  *                      each period  theta_hat_i -= round(gamma_dt_i * pe_i / 2^8)  (Q48),
  *                      pe_i = round(phi_i * e2 / 2^30) in 2^-32 turn/s

@@ -434,6 +434,8 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x5200, 12, 'fe_fits_neg', 'u32', 'ro', '', 'fit', 1.0),
     OdEntry(0x5200, 13, 'fe_samples', 'u32', 'ro', '', 'sample', 1.0),
     OdEntry(0x5200, 14, 'fe_feed_weight', 'i32', 'ro', '', '2^-30', 1.0),
+    OdEntry(0x5200, 15, 'fe_scale', 'i32', 'ro', '', '2^-16', 1.0),
+    OdEntry(0x5200, 16, 'fe_bias', 'i32', 'ro', '', 'Q15.16 N.m', 1.0),
     OdEntry(0x5F00, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x5F00, 1, 'loop_tick', 'u32', 'ro', 't', '100 us', 1.0),
     OdEntry(0x5F00, 2, 'load_phase', 'u32', 'ro', 't', '2^-32 turn', 1.0),

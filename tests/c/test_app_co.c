@@ -430,6 +430,29 @@ static void nmt(uint8_t cmd)
  * a power cycle, an NMT reset and 0x1011 restore (0x5101 reports what boot found) */
 /* fb_config (0x2100:17) over SDO: accepted with the power stage off, refused with
  * 0x08000022 while it is on (the value in force kept); rewriting the same value is fine */
+/* 0x5200: the estimator's common-mode scale (:15) and bias (:16) read through the OD as
+ * signed 32-bit words, the confidence (:9, :10) beside them; the record ends at :16 */
+static void test_fric_est_common_mode_objects(void **st)
+{
+    int64_t v = 0;
+    (void)st;
+    app.cb.fe.scale = 3 * HD_FE_SCALE_ONE / 2;       /* x1.5 */
+    app.cb.fe.bias = -(5 << 14);                    /* -1.25 N.m */
+    app.cb.fe.conf[HD_FE_DIR_POS] = 1000u;
+    app.cb.fe.conf[HD_FE_DIR_NEG] = 250u;
+    assert_int_equal(od_get(0x5200u, 15u), 98304);
+    assert_int_equal(od_get(0x5200u, 16u), -81920);
+    assert_int_equal(od_get(0x5200u, 9u), 1000);
+    assert_int_equal(od_get(0x5200u, 10u), 250);
+    assert_int_equal(special(0x5200u, 15u), 98304);
+    assert_int_equal(special(0x5200u, 16u), -81920);
+    /* read-only: a write is refused and the value stays */
+    assert_int_not_equal(hd_co_set_i64(&co, 0x5200u, 15u, 65536), 0u);
+    assert_int_equal(od_get(0x5200u, 15u), 98304);
+    /* no sub-index beyond :16 */
+    assert_int_equal(hd_co_get_i64(&co, 0x5200u, 17u, &v), HD_CO_AB_NO_SUB);
+}
+
 static void test_fb_config_interlock(void **st)
 {
     (void)st;
@@ -1112,6 +1135,7 @@ int main(void)
         cmocka_unit_test_setup(test_stop_options, setup),
         cmocka_unit_test_setup(test_pp_halt_quick_stop_decel, setup),
         cmocka_unit_test_setup(test_table_commit_interlock, setup),
+        cmocka_unit_test_setup(test_fric_est_common_mode_objects, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -591,6 +591,101 @@ static void test_te_fit32_same_words(void **state)
     c.n = 4u;
     hd_te_cfg_ranges(&c);
     assert_int_equal(c.fit32, 1u);
+/* A slow sine on a rigid plant with static friction (the axis sticks at every reversal until the
+ * torque breaks it away: Fs 10 N.m, Fc 7 N.m) under a load torque of 12 N.m, larger than the
+ * breakaway, with T_load's configured box +-14 N.m: it holds the load, not the load plus Fs.
+ * While the axis sticks the friction regressor's sign is 0 and only T_load's integral can
+ * supply the breakaway, so while the reference moves slowly (at most 4 w_s) T_load may leave
+ * the configured box (by
+ * at most the friction boxes' Fc + (Fs - Fc)); the reversal error then stays near the one of a
+ * load inside the box.  With a box of the load alone the error at the reversal against the load
+ * is the one the e1 terms need to break the axis away, several times that. */
+static int32_t bs_reversal_run(int32_t tl_box, double load_Nm, int64_t *th3_max)
+{
+    const double jt = 1.3 * 6.283185307;          /* N.m per (turn/s^2) */
+    const double fs = 10.0, fc = 7.0, dt = 1.0 / HD_LOOP_HZ;
+    hd_backstep_cfg_t c = { (int32_t)(50.0 * 65536), (int32_t)(50.0 * 65536), (int32_t)(jt * 65536),
+                            (int32_t)(jt * 2500 / 4 * 256), DEGS / 100, DEGS, 1 << 30, NM(150),
+                            { 1 << 23, 1 << 23, 1 << 22, 20 << 24 }, { 0, 0, 0, -tl_box }, { NM(30), NM(30), NM(500), tl_box } };
+    const int32_t th0[4] = { NM(7), NM(3), 0, 0 };
+    hd_backstep_t s;
+    hd_backstep_in_t in = { 0, 0, 0, 0, 0 };
+    double th = 0.0, w = 0.0;                      /* plant, turn and turn/s */
+    bool stuck = true;
+    int64_t maxerr = 0;
+    uint32_t k;
+    hd_backstep_init(&s, &c, th0, 0u, true);
+    *th3_max = INT64_MIN;
+    for (k = 0; k < 90000u; k++) {
+        const uint32_t ph = (uint32_t)((uint64_t)k * 42950u);    /* 0.1 Hz, 1 deg: reversals at 2.5, 7.5 s */
+        int32_t sn, cs;
+        hd_sincos_turn(ph, &sn, &cs);
+        in.theta_d = hd_mul64x32_q((int64_t)11930465, sn, 30u);
+        in.omega_d = hd_mul_q(7495970, cs, 30);
+        in.acc_d = hd_mul_q(-18398, sn, 30);
+        in.theta = (int64_t)llround(th * 4294967296.0);
+        in.omega = (int32_t)lround(w * 4294967296.0);
+        {
+            const double u = (double)hd_backstep_step(&s, &c, &in, 0) / 65536.0;
+            const double drive = u - load_Nm;
+            if (stuck && fabs(drive) <= fs) {
+                w = 0.0;                                          /* static friction holds */
+            } else {
+                const double dir = (w != 0.0) ? ((w > 0.0) ? 1.0 : -1.0) : ((drive > 0.0) ? 1.0 : -1.0);
+                const double w1 = w + (drive - fc * dir) / jt * dt;
+                stuck = (w1 * dir <= 0.0);                        /* stops within the period */
+                w = stuck ? 0.0 : w1;
+            }
+            th += w * dt;
+        }
+        *th3_max = (s.th[3] > *th3_max) ? s.th[3] : *th3_max;
+        if (k > 50000u) {                                 /* the reversal at 7.5 s */
+            const int64_t e = llabs(in.theta - in.theta_d);
+            maxerr = (e > maxerr) ? e : maxerr;
+        }
+    }
+    return (int32_t)(maxerr / 3314);          /* arcsec */
+}
+
+static void test_backstep_reversal_against_a_load_beyond_the_box(void **state)
+{
+    int64_t th3_max, th3_ref;
+    int32_t e_load, e_ref;
+    (void)state;
+    e_load = bs_reversal_run(NM(14), 12.0, &th3_max);
+    e_ref = bs_reversal_run(NM(14), 2.0, &th3_ref);
+    print_message("# backstep reversal, load 12 N.m, T_load box +-14 N.m: max |e1| %d arcsec (load 2 N.m: %d), "
+                  "T_load up to %.2f N.m\n", e_load, e_ref, (double)th3_max / 281474976710656.0);
+    /* T_load leaves the configured box: it carries the load plus the breakaway (22 N.m) ... */
+    assert_true(th3_max > ((int64_t)NM(20) << 32));
+    /* ... and the reversal against the load costs at most 1.5x the error with a load well inside
+     * the box (a box of the load alone: 12x) */
+    assert_true(e_load <= e_ref * 3 / 2);
+    /* at rest (omega_d = 0) the configured box holds: a held error that winds T_load up stops at
+     * +14 N.m (a wider box lets the hold's integral hunt against the static friction) */
+    {
+        const double jt = 1.3 * 6.283185307;
+        hd_backstep_cfg_t c = { (int32_t)(50.0 * 65536), (int32_t)(50.0 * 65536), (int32_t)(jt * 65536),
+                                (int32_t)(jt * 2500 / 4 * 256), DEGS / 100, DEGS, 1 << 30, NM(150),
+                                { 1 << 23, 1 << 23, 1 << 22, 20 << 24 }, { 0, 0, 0, -NM(14) }, { NM(30), NM(30), NM(500), NM(14) } };
+        const int32_t th0[4] = { NM(7), NM(3), 0, NM(13) };
+        hd_backstep_t s;
+        hd_backstep_in_t in = { 0, 11930465 / 60, 0, 0, 0 };     /* 1 arcmin behind, at rest */
+        uint32_t k;
+        hd_backstep_init(&s, &c, th0, 0u, true);
+        for (k = 0; k < 2000u; k++) {
+            (void)hd_backstep_step(&s, &c, &in, 0);
+        }
+        assert_true(s.th[3] == ((int64_t)NM(14) << 32));
+        in.omega_d = DEGS / 100;                                   /* the reference moves slowly: wider */
+        for (k = 0; k < 2000u; k++) {
+            (void)hd_backstep_step(&s, &c, &in, 0);
+        }
+        assert_true(s.th[3] > ((int64_t)NM(14) << 32) && s.th[3] <= ((int64_t)NM(14 + 60) << 32));
+        in.omega_d = 5 * DEGS;                                     /* faster than 4 w_s: the load box */
+        (void)hd_backstep_step(&s, &c, &in, 0);
+        assert_true(s.th[3] <= ((int64_t)NM(14) << 32));
+    }
 }
 
 int main(void)
@@ -611,6 +706,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_backstep_regressor_follows_the_moving_reference, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_backstep_law_q16_terms, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_te_fit32_same_words, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_backstep_reversal_against_a_load_beyond_the_box, setUp, tearDown),
     };
     return cmocka_run_group_tests_name("comp_misc", tests, NULL, NULL);
 }

@@ -209,7 +209,10 @@ def test_te_matches_reference(lib: C.CDLL) -> None:
     assert et <= 2.0
 
 
-def test_backstep_matches_reference(lib: C.CDLL) -> None:
+@pytest.mark.parametrize("lag_turn", [0.0, 6e-4])
+def test_backstep_matches_reference(lib: C.CDLL, lag_turn: float) -> None:
+    """The kernel against the double reference; with a held lag (lag_turn behind the reference)
+    T_load winds past its configured box into the box widened by the friction bounds."""
     rng = np.random.default_rng(9)
     n = 5000
     J = 1.3 * 2 * np.pi
@@ -224,7 +227,7 @@ def test_backstep_matches_reference(lib: C.CDLL) -> None:
     thd = np.round(0.01 * np.sin(2 * np.pi * 0.5 * t) * 2**32)
     wd = np.round(0.01 * 2 * np.pi * 0.5 * np.cos(2 * np.pi * 0.5 * t) * 2**32)
     ad = np.round(-0.01 * (2 * np.pi * 0.5)**2 * np.sin(2 * np.pi * 0.5 * t) * 2**24)
-    theta = thd + np.round(rng.normal(0, 2e-6, n) * 2**32)
+    theta = thd + np.round(rng.normal(0, 2e-6, n) * 2**32) - round(lag_turn * 2**32)
     omega = wd + np.round(rng.normal(0, 1e-4, n) * 2**32)
     u = np.zeros(n, np.int32)
     th = np.zeros(n * 4, np.int64)
@@ -238,5 +241,10 @@ def test_backstep_matches_reference(lib: C.CDLL) -> None:
     assert eth.max() <= 2.0
     # the projection holds
     th4 = th.reshape(n, 4)
-    for i in range(4):
+    for i in range(3):
         assert th4[:, i].min() >= cfg[12 + i] * 2**32 and th4[:, i].max() <= cfg[16 + i] * 2**32
+    # T_load: the configured box widened by the friction bounds while the reference moves slowly
+    widen = (cfg[16] + cfg[17]) * 2**32
+    assert th4[:, 3].min() >= cfg[15] * 2**32 - widen and th4[:, 3].max() <= cfg[19] * 2**32 + widen
+    if lag_turn > 0:
+        assert th4[:, 3].max() > cfg[19] * 2**32       # the lag winds T_load past the load box

@@ -37,6 +37,13 @@ def test_identify_friction_online_over_can(tmp_path: Path, capsys) -> None:
     assert all(abs(e[k]) <= 0.05 for k in so.LEVELS)
     assert abs(e["vs_pos_rad_s"]) <= 0.15 and abs(e["vs_neg_rad_s"]) <= 0.15
     assert hist[-1]["conf_pos"] == 1.0 and hist[-1]["samples"] > 1000
+    # the common mode read over CAN (0x5200:15, :16; a drive without them aborts the read): no drift
+    # and no unbalance on this run, so the scale stays near 1 and the bias near 0 (against the axis'
+    # breakaway level), and the summary prints them
+    fs = max(o["batch"]["fs_pos_Nm"], o["batch"]["fs_neg_Nm"])
+    assert all(0.9 <= h["scale"] <= 1.1 for h in hist)
+    assert abs(hist[-1]["bias_Nm"]) <= 0.05 * fs
+    assert "common-mode scale" in out
     # and against the axis's own friction (the truth the batch fit estimates)
     last = so.DriveEstimate(**hist[-1])
     assert last.within(_truth("reference"))
@@ -89,6 +96,22 @@ def test_raw_units() -> None:
     assert e.vs_pos_rad_s == pytest.approx(2 * math.pi * 2.0 ** -10)
     assert e.fv_pos_Nms_per_rad == pytest.approx(33 / (2 * math.pi))
     assert (e.conf_pos, e.conf_neg, e.fits_pos, e.fits_neg, e.samples) == (1.0, 0.25, 5, 6, 77)
+    assert (e.scale, e.bias_Nm) == (1.0, 0.0)           # a 13-word reading: no common mode
+    e2 = so.DriveEstimate.from_raw(1.5, raw + [3 << 15, -(5 << 14)])
+    assert (e2.scale, e2.bias_Nm) == (1.5, -1.25) and e2.samples == 77
+
+
+def test_read_drive_estimate_subs() -> None:
+    """The reading asks 0x5200:1..13 and the common mode :15 (scale) and :16 (bias), not :14."""
+    asked: list[tuple[int, int]] = []
+
+    def read(index: int, sub: int) -> int:
+        asked.append((index, sub))
+        return {15: 1 << 17, 16: 1 << 15}.get(sub, 1)
+
+    e = so.read_drive_estimate(read, 2.0)
+    assert asked == [(0x5200, s) for s in list(range(1, 14)) + [15, 16]]
+    assert (e.scale, e.bias_Nm) == (2.0, 0.5)
 
 
 @pytest.mark.parametrize("argv, word", [

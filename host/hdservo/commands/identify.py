@@ -295,6 +295,7 @@ def _print_online(o: dict) -> None:
           f"{f['fc_neg_Nm']:.4g} N.m, vs +{f['vs_pos_rad_s']:.4g}/-{f['vs_neg_rad_s']:.4g} rad/s after "
           f"{f['t_s']:.1f} s of profile; vs batch: levels within {100 * max(abs(e[k]) for k in e if k.endswith('_Nm')):.1f} %, "
           f"vs within {100 * max(abs(e['vs_pos_rad_s']), abs(e['vs_neg_rad_s'])):.1f} %; "
+          f"common-mode scale {f.get('scale', 1.0):.3f}, bias {f.get('bias_Nm', 0.0):+.4g} N.m; "
           + (f"inside the targets (5 %, 15 %) from {t:.1f} s" if t is not None else "not inside the targets (5 %, 15 %)"))
 
 

@@ -173,6 +173,10 @@ FE_INDEX = 0x5200
 #: turn/s per raw velocity LSB (2^-32 turn/s) and N.m per raw torque LSB (Q15.16)
 _V_LSB_TURN_S = 2.0 ** -32
 _T_LSB_NM = 2.0 ** -16
+#: sub-indices of the common-mode scale (2^-16 per LSB) and bias (Q15.16 N.m) of 0x5200
+FE_SUB_SCALE = 15
+FE_SUB_BIAS = 16
+_SCALE_LSB = 2.0 ** -16
 #: the targets of the online identification: levels within 5 %, Stribeck velocity within 15 % of the batch fit
 TOL_LEVEL = 0.05
 TOL_VS = 0.15
@@ -198,6 +202,11 @@ class DriveEstimate:
         Confidence per direction, 0..1.
     fits_pos, fits_neg, samples : int
         Accepted fits per direction and steady samples binned (counters of the drive).
+    scale : float
+        Common-mode friction scale of both directions (1.0: the bins' own level), dimensionless.
+    bias_Nm : float
+        Direction-independent torque taken off every sample (an unbalance that appeared
+        after the bins were established), signed, N.m.
     """
 
     t_s: float
@@ -214,16 +223,24 @@ class DriveEstimate:
     fits_pos: int
     fits_neg: int
     samples: int
+    scale: float = 1.0
+    bias_Nm: float = 0.0
 
     @classmethod
     def from_raw(cls, t_s: float, raw: list[int]) -> "DriveEstimate":
-        """From the 13 raw words 0x5200:1..13 (see docs/od.md)."""
+        """From the raw words of 0x5200 (see docs/od.md).
+
+        ``raw`` holds :1..:13 and, when it has 15 words, then :15 (scale, 2^-16) and :16
+        (bias, Q15.16 N.m); with 13 words the scale is 1 and the bias 0.
+        """
         two_pi = 2.0 * math.pi
         d = []
         for k in (0, 4):
             d += [raw[k] * _T_LSB_NM, raw[k + 1] * _T_LSB_NM, raw[k + 2] * _V_LSB_TURN_S * two_pi,
                   raw[k + 3] * _T_LSB_NM / two_pi]
-        return cls(t_s, *d, raw[8] / 1000.0, raw[9] / 1000.0, int(raw[10]), int(raw[11]), int(raw[12]))
+        common = (raw[13] * _SCALE_LSB, raw[14] * _T_LSB_NM) if len(raw) >= 15 else (1.0, 0.0)
+        return cls(t_s, *d, raw[8] / 1000.0, raw[9] / 1000.0, int(raw[10]), int(raw[11]), int(raw[12]),
+                   *common)
 
     def rel_errors(self, ref: StribeckResult, scale: float = 1.0) -> dict[str, float]:
         """Relative errors against a batch fit whose levels and viscous term are scaled by ``scale``."""
@@ -250,8 +267,9 @@ class DriveEstimate:
 
 
 def read_drive_estimate(read: Any, t_s: float) -> DriveEstimate:
-    """Read 0x5200:1..13 through ``read(index, sub)`` (an SDO read) at drive time ``t_s``."""
-    return DriveEstimate.from_raw(t_s, [int(read(FE_INDEX, s)) for s in range(1, 14)])
+    """Read 0x5200:1..13, :15 and :16 through ``read(index, sub)`` (an SDO read) at drive time ``t_s``."""
+    subs = list(range(1, 14)) + [FE_SUB_SCALE, FE_SUB_BIAS]
+    return DriveEstimate.from_raw(t_s, [int(read(FE_INDEX, s)) for s in subs])
 
 
 @dataclass
@@ -455,7 +473,7 @@ def online_identification(target: Any, batch: StribeckResult, duration_s: float 
     def report(e: DriveEstimate) -> None:
         if progress is not None:
             progress(f"t = {e.t_s:6.2f} s: fits {e.fits_pos}/{e.fits_neg}, confidence "
-                     f"{e.conf_pos:.2f}/{e.conf_neg:.2f}")
+                     f"{e.conf_pos:.2f}/{e.conf_neg:.2f}, scale {e.scale:.3f}, bias {e.bias_Nm:+.4g} N.m")
 
     with open_bench(tgt, RigSetup("gear", payload=False), lockstep=target.virtual) as bench:
         t0, hist = run_profile(bench, legs, duration_s, on_reading=report)
