@@ -591,6 +591,8 @@ static void test_te_fit32_same_words(void **state)
     c.n = 4u;
     hd_te_cfg_ranges(&c);
     assert_int_equal(c.fit32, 1u);
+}
+
 /* A slow sine on a rigid plant with static friction (the axis sticks at every reversal until the
  * torque breaks it away: Fs 10 N.m, Fc 7 N.m) under a load torque of 12 N.m, larger than the
  * breakaway, with T_load's configured box +-14 N.m: it holds the load, not the load plus Fs.
