@@ -103,3 +103,85 @@ def test_compliance_is_confirmed_by_the_simulator_and_no_spurious_second_name(tm
     for d in c.dropped:
         assert d["named_effect"] != "unmodelled_compliance"
         assert math.isfinite(d["sim_rms_control_rad"])
+
+
+def test_output_te_harmonics_need_a_whole_period_of_output_motion() -> None:
+    """An output harmonic the log's motion does not cover a period of is a slow drift to the
+    regression (its fit can be 100x the gear's); it does not go into the axis file."""
+    N = 50.0
+    e = {"wg1_amp_rad": 1e-5, "wg1_phase_rad": 0.2, "wg2_amp_rad": 8e-5, "wg2_phase_rad": -1.0,
+         "out1_amp_rad": 4e-3, "out1_phase_rad": 1.5, "out2_amp_rad": 1e-3, "out2_phase_rad": 0.3}
+    short = _load_equation_signals(N, 0.5, K=1e4, c=5.0, fv=0.3, fc=0.8)     # output span 1 rad
+    te = cl.effect_sections(short, "transmission_error", e, {}, {})["transmission_error"]
+    assert te["wg2_amp_rad"] == 8e-5 and te["wg2_order"] == 2.0 and te["wg1_phase_rad"] == 0.2
+    assert te["out1_amp_rad"] == 0.0 and te["out1_order"] == 0.0 and te["out2_amp_rad"] == 0.0
+    # an output motion over 4 rad covers order 2 (period pi) but not order 1 (2 pi)
+    from dataclasses import replace
+    long = replace(short, th_l=4.0 * short.th_l, th_m=4.0 * short.th_m)
+    te = cl.effect_sections(long, "transmission_error", e, {}, {})["transmission_error"]
+    assert te["out1_amp_rad"] == 0.0 and te["out2_amp_rad"] == 1e-3 and te["out2_order"] == 2.0
+
+
+class _Snap:
+    def __init__(self, k: int) -> None:
+        self.k = k
+
+    def params(self) -> dict:
+        return {"fit": float(self.k)}
+
+
+def test_a_dropped_name_is_taken_out_and_the_later_ones_stay() -> None:
+    """The stop rule drops a name the simulator does not confirm; a later name it confirms
+    stays (the path is not cut), and the final model is the fit after the last kept one."""
+    from types import SimpleNamespace
+    its = [{"named_effect": n, "params": {"p": i}} for i, n in enumerate(("stribeck_friction",
+                                                                           "transmission_error", "current_loop_lag"))]
+    res = SimpleNamespace(iterations=its, named=[i["named_effect"] for i in its], notes=[],
+                          final_model={"effects": {}, "params": {}}, snapshots=[_Snap(k) for k in range(4)],
+                          state=SimpleNamespace(added=[]), base_fit=None)
+    rec = {"named_effect": "transmission_error", "index": 1, "fit_index": 2, "sim_rms_before_rad": 4.6e-5,
+           "sim_rms_after_rad": 2.4e-5, "axis_before": "b.toml", "axis_after": "a.toml", "confirmed": True,
+           "horizon_s": cl.HORIZON_S}
+    closed = cl.Closed(iterations=[rec], dropped=[{"named_effect": "stribeck_friction", "reason": "r"},
+                                                  {"named_effect": "current_loop_lag", "reason": "r"}])
+    cl.apply(res, closed)
+    assert res.named == ["transmission_error"] and len(res.iterations) == 1
+    assert res.iterations[0]["sim_rms_after_rad"] == 2.4e-5 and res.iterations[0]["simulator_confirmed"] is True
+    assert res.final_model["effects"] == {"transmission_error": {"p": 1}}
+    assert res.final_model["params"] == {"fit": 2.0}
+    assert sum("is not kept" in n for n in res.notes) == 2
+
+
+def test_later_names_need_the_larger_share() -> None:
+    assert cl.CONFIRM_SHRINK_LATER > cl.CONFIRM_SHRINK
+    assert cl.confirm(1.0, 0.85) and not cl.confirm(1.0, 0.85, cl.CONFIRM_SHRINK_LATER)
+    assert cl.confirm(1.0, 0.75, cl.CONFIRM_SHRINK_LATER)
+
+
+#: A calibration log with two hidden effects: asymmetric friction (x1.02) and transmission
+#: error (x1.10), both encoders, the drive's firmware, logged at 10 kHz.
+TWO_SEED = 7
+
+
+def test_two_effects_both_kept_by_the_simulator_and_ordered_by_size(tmp_path: Path) -> None:
+    """After the first name the workflow re-fits with it and looks again; the simulator
+    confirms the second hidden effect too (its output harmonics the motion cannot show left
+    out), drops the third name that does not beat its control, and the names are ordered by
+    their share of the baseline's variance in the kept model."""
+    case = corpus.draw(TWO_SEED)
+    assert sorted(e for e, _ in case.hidden) == ["asymmetric_friction", "transmission_error"]
+    p = corpus.make_log(case, tmp_path / "l.csv")
+    res = workflow.run(signals.from_log(logio.read_log(p, require_tag=False), case.structure))
+    c = cl.close(res, tmp_path / "ax", "s")
+    cl.apply(res, c)
+    assert set(res.named) == {"asymmetric_friction", "transmission_error"}
+    for it in res.iterations:
+        assert it["simulator_confirmed"] is True and it["sim_rms_after_rad"] < it["sim_rms_before_rad"]
+    second = res.iterations[1]
+    assert second["sim_rms_after_rad"] <= (1 - cl.CONFIRM_SHRINK_LATER) * min(second["sim_rms_before_rad"],
+                                                                              second["sim_rms_control_rad"])
+    shares = [it["explained_share"] for it in res.iterations]
+    by_size = res.named_by_size()
+    assert [s for _, s in sorted(zip(res.named, shares), key=lambda x: by_size.index(x[0]))] == sorted(shares, reverse=True)
+    assert by_size[0] == "asymmetric_friction"
+    assert res.to_json()["named_by_size"] == by_size

@@ -827,26 +827,32 @@ def close(res: Any, out_dir: Path, stem: str, user_axis: Path | None = None) -> 
     effects: list[tuple[str, dict[str, Any]]] = []
     #: the replay fit's factors of the effects kept so far (fit_on_replay)
     factors: list[tuple[float, ...]] = []
-    for k, it in enumerate(res.iterations):
+
+    def judge(k: int, j: int) -> None:
+        """Name ``k`` of the workflow on the fit ``fits[j]``: its axis file, the replay fit and
+        the stop rule; kept names go to ``cl.iterations``, the others to ``cl.dropped``."""
+        nonlocal prev
+        it = res.iterations[k]
         name = it["named_effect"]
-        p_after = fits[k + 1]
+        p_after = fits[j]
+        later = k > 0 or j > k + 1
         effects.append((name, it["params"]))
         secs = _model_sections(sig, effects, factors, p_after, base0 if user_axis is not None else None, stem)
         before = prev.rms_rad if prev is not None else float("nan")
-        rec: dict[str, Any] = {"named_effect": name, "index": k, "axis_before": str(prev.axis) if prev else None,
+        rec: dict[str, Any] = {"named_effect": name, "index": k, "fit_index": j, "axis_before": str(prev.axis) if prev else None,
                                "sim_rms_before_rad": before, "horizon_s": HORIZON_S}
         if secs is None:
             rec.update({"axis_after": None, "sim_rms_after_rad": float("nan"), "confirmed": None})
             cl.notes.append(f"{name}: the simulator has no section for the fitted form; not replayed")
-            if k > 0:
+            if later:
                 cl.dropped.append({"named_effect": name, "reason": "not replayable in the simulator"})
                 effects.pop()
-                continue
+                return
             factors.append((1.0,) * tune_dims(name))
             cl.iterations.append(rec)
             cl.pairs.append((prev, None))
             prev = None
-            continue
+            return
         path = out_dir / f"{stem}.updated-{k + 1}.toml"
         src = f"the user's axis {user_axis.name}" if user_axis is not None else "the identified baseline"
         # a rigid model given a compliance is a two-mass axis from then on: its load starts at
@@ -854,7 +860,7 @@ def close(res: Any, out_dir: Path, stem: str, user_axis: Path | None = None) -> 
         # counted, so both count alike (once: a later effect's model before is two-mass already)
         tm = sig.kind == "two_mass" or any(n == "unmodelled_compliance" for n, _ in effects)
         if name == "unmodelled_compliance" and sig.kind != "two_mass" and prev is not None:
-            prev = replay(sig, prev.axis, offset_of(fits[k]), two_mass=False, count_load=True)
+            prev = replay(sig, prev.axis, offset_of(fits[j - 1]), two_mass=False, count_load=True)
             before = prev.rms_rad
             rec["sim_rms_before_rad"] = before
         trial = out_dir / f"{stem}.fitting-{k + 1}.toml"
@@ -875,20 +881,20 @@ def close(res: Any, out_dir: Path, stem: str, user_axis: Path | None = None) -> 
             # the fitted parameters are outside what the simulator accepts: say so, keep the rest
             path.unlink(missing_ok=True)
             cl.notes.append(f"{name}: {e}")
-            if k > 0:
+            if later:
                 cl.dropped.append({"named_effect": name, "reason": "not replayable in the simulator"})
                 effects.pop()
-                continue
+                return
             rec.update({"axis_after": None, "sim_rms_after_rad": float("nan"), "confirmed": None})
             factors.append((1.0,) * tune_dims(name))
             cl.iterations.append(rec)
             cl.pairs.append((prev, None))
             prev = None
-            continue
+            return
         # a later name competes with its control: the model before it, on the same re-fitted
         # baseline, with the previous name's replay factors fitted once more (:func:`control_gap`)
         ref = before
-        if k > 0 and math.isfinite(before):
+        if effects[:-1] and math.isfinite(before):
             ctrl, rec["control_fit"] = control_gap(sig, effects[:-1], factors, p_after,
                                                    base0 if user_axis is not None else None, stem,
                                                    out_dir / f"{stem}.control-{k + 1}.toml", offset_of(p_after), tm)
@@ -907,20 +913,38 @@ def close(res: Any, out_dir: Path, stem: str, user_axis: Path | None = None) -> 
         # names were): a simulator that cannot be brought closer by it (its parameters fitted
         # on the replay) does not confirm it; a one-encoder log's first name, or one without a
         # replay before (a baseline that is not a mechanical axis), stands on the evidence
-        if not ok and (k > 0 or (math.isfinite(before) and sig.angles == "both")):
-            cl.dropped.append({"named_effect": name, "sim_rms_before_rad": before, "sim_rms_after_rad": r.rms_rad,
+        if not ok and (later or (math.isfinite(before) and sig.angles == "both")):
+            cl.dropped.append({"named_effect": name, "index": k, "sim_rms_before_rad": before, "sim_rms_after_rad": r.rms_rad,
                                "sim_rms_control_rad": rec.get("sim_rms_control_rad"),
                                "reason": f"the simulator's gap shrinks by less than {100 * need:.0f} %"
                                          + (" of its control's" if ref < before else "")})
             path.unlink(missing_ok=True)
             # the next name is judged without this one (its section is not in the model)
             effects.pop()
-            continue
+            return
         cl.iterations.append(rec)
         cl.replays.append(r)
         cl.pairs.append((prev, r))
         factors.append(tuple(rec["replay_fit"]["factors"]))
         prev = r
+
+    n = len(res.iterations)
+    for k in range(n):
+        judge(k, k + 1)
+    # look again: a name dropped before a later one was kept is judged once more on the kept
+    # model (the final regression, every name's columns in it) -- a small effect can fail on
+    # the baseline yet pass once a larger one is in the model
+    kept_idx = [rec["index"] for rec in cl.iterations]
+    retry = [d for d in cl.dropped if "sim_rms_after_rad" in d and kept_idx and d.get("index", n) < max(kept_idx)]
+    for d in retry:
+        cl.dropped.remove(d)
+        before_n = len(cl.iterations)
+        judge(int(d["index"]), n)
+        if len(cl.iterations) > before_n:
+            cl.iterations[-1]["judged_again"] = True
+        else:
+            cl.dropped.remove(cl.dropped[-1])
+            cl.dropped.append(d)
     last = next((Path(it["axis_after"]) for it in reversed(cl.iterations) if it.get("axis_after")), None)
     if last is not None:
         cl.updated = out_dir / f"{stem}.updated.toml"
@@ -943,23 +967,27 @@ def apply(res: Any, cl: Closed) -> None:
                    "axis_before": rec["axis_before"], "axis_after": rec["axis_after"],
                    "simulator_confirmed": rec["confirmed"], "simulator_horizon_s": rec["horizon_s"],
                    **{x: rec[x] for x in ("sim_floor_rad", "sim_gap_before_rad", "sim_gap_after_rad",
-                                          "replay_fit", "sim_rms_control_rad") if x in rec}})
+                                          "replay_fit", "sim_rms_control_rad", "judged_again") if x in rec}})
     for d in cl.dropped:
         res.notes.append(f"{d['named_effect']} is not kept: {d['reason']} (the stop rule, docs/discrepancy.md)")
-    if len(kept) < len(res.iterations):
-        last = max(kept) if kept else -1
-        res.iterations[:] = [it for k, it in enumerate(res.iterations) if k in kept]
+    order = [rec["index"] for rec in cl.iterations]
+    if order != list(range(len(res.iterations))):
+        # the kept names in the simulator's order (a name judged again comes after the one
+        # that let it pass), so each iteration's figures before follow the one above it
+        res.iterations[:] = [res.iterations[k] for k in order]
         res.named = [it["named_effect"] for it in res.iterations]
         res.final_model["effects"] = {it["named_effect"]: it["params"] for it in res.iterations}
-        res.final_model["params"] = res.snapshots[last + 1].params()
-        _reshare(res, sorted(kept))
+        res.final_model["params"] = res.snapshots[max(rec["fit_index"] for rec in cl.iterations)
+                                                  if cl.iterations else 0].params()
+        _reshare(res, order)
     res.notes.extend(cl.notes)
 
 
 def _reshare(res: Any, keep: list[int]) -> None:
     """Each kept name's ``explained_share`` (what orders ``named_by_size``) again, in the
-    model of the kept names only: a dropped name's columns took up part of the residual the
-    kept ones explain (:func:`hdservo.discrepancy.workflow.explained_shares`)."""
+    model of the kept names only (``keep``: their naming indices, in the order of
+    ``res.iterations``): a dropped name's columns took up part of the residual the kept
+    ones explain (:func:`hdservo.discrepancy.workflow.explained_shares`)."""
     from dataclasses import replace
     from .workflow import explained_shares
     st = res.state
