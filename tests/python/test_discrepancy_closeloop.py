@@ -40,7 +40,8 @@ def test_compliance_moves_the_loads_friction_off_the_motor_side() -> None:
     secs = cl.effect_sections(sig, "unmodelled_compliance", {"J_l_kgm2": jl}, {}, p)
     assert secs is not None
     st = secs["stiffness"]
-    assert st["k1_Nm_per_rad"] == pytest.approx(1e4, rel=1e-3) and st["damping_Nms_per_rad"] == pytest.approx(5.0, rel=1e-2)
+    assert st["k1_Nm_per_rad"] == pytest.approx(1e4, rel=1e-3)
+    assert st["damping_Nms_per_rad"] == pytest.approx(5.0, rel=1e-2)
     fm, fl = secs["friction_motor"], secs["friction_load"]
     assert fl["fc_pos_Nm"] == pytest.approx(0.8, rel=1e-3) and fl["viscous_Nms_per_rad"] == pytest.approx(0.3, rel=1e-3)
     assert fm["fc_pos_Nm"] == pytest.approx(0.1 - 0.8 / N, rel=1e-3)
@@ -182,6 +183,7 @@ def test_two_effects_both_kept_by_the_simulator_and_ordered_by_size(tmp_path: Pa
                                                                               second["sim_rms_control_rad"])
     shares = [it["explained_share"] for it in res.iterations]
     by_size = res.named_by_size()
-    assert [s for _, s in sorted(zip(res.named, shares), key=lambda x: by_size.index(x[0]))] == sorted(shares, reverse=True)
+    ordered = [s for _, s in sorted(zip(res.named, shares), key=lambda x: by_size.index(x[0]))]
+    assert ordered == sorted(shares, reverse=True)
     assert by_size[0] == "asymmetric_friction"
     assert res.to_json()["named_by_size"] == by_size

@@ -673,7 +673,7 @@ def _scale_load_friction(secs: Sections, ratio: float, s: float) -> None:
 
 
 def tune_dims(name: str) -> int:
-    """Factors of :func:`scaled_sections` fitted on the replay for an effect (1 or 2)."""
+    """Factors of :func:`scaled_sections` fitted on the replay for an effect (1, 2 or 3)."""
     if name == "unmodelled_compliance":
         return 3
     return 2 if name in ("hysteresis", "stribeck_friction") else 1
@@ -839,7 +839,8 @@ def close(res: Any, out_dir: Path, stem: str, user_axis: Path | None = None) -> 
         effects.append((name, it["params"]))
         secs = _model_sections(sig, effects, factors, p_after, base0 if user_axis is not None else None, stem)
         before = prev.rms_rad if prev is not None else float("nan")
-        rec: dict[str, Any] = {"named_effect": name, "index": k, "fit_index": j, "axis_before": str(prev.axis) if prev else None,
+        rec: dict[str, Any] = {"named_effect": name, "index": k, "fit_index": j,
+                               "axis_before": str(prev.axis) if prev else None,
                                "sim_rms_before_rad": before, "horizon_s": HORIZON_S}
         if secs is None:
             rec.update({"axis_after": None, "sim_rms_after_rad": float("nan"), "confirmed": None})
@@ -914,7 +915,8 @@ def close(res: Any, out_dir: Path, stem: str, user_axis: Path | None = None) -> 
         # on the replay) does not confirm it; a one-encoder log's first name, or one without a
         # replay before (a baseline that is not a mechanical axis), stands on the evidence
         if not ok and (later or (math.isfinite(before) and sig.angles == "both")):
-            cl.dropped.append({"named_effect": name, "index": k, "sim_rms_before_rad": before, "sim_rms_after_rad": r.rms_rad,
+            cl.dropped.append({"named_effect": name, "index": k, "sim_rms_before_rad": before,
+                               "sim_rms_after_rad": r.rms_rad,
                                "sim_rms_control_rad": rec.get("sim_rms_control_rad"),
                                "reason": f"the simulator's gap shrinks by less than {100 * need:.0f} %"
                                          + (" of its control's" if ref < before else "")})
