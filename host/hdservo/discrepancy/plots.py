@@ -205,7 +205,10 @@ def write_simulator_overlay(res: "Result", cl: "Closed", out_dir: str | Path) ->
         sim_b = rb.load if s.kind == "two_mass" else rb.motor / s.ratio
         sim_a = ra.load if s.kind == "two_mass" else ra.motor / s.ratio
         gain = np.nan_to_num((sim_b - meas) ** 2 - (sim_a - meas) ** 2)
-        bands = (res.iterations[k].get("region") or {}).get("speed_bands")
+        # the workflow's record of this name (the kept names' order can differ from the
+        # naming order when a name is judged again)
+        wf = next((x for x in res.iterations if x["named_effect"] == it["named_effect"]), {})
+        bands = (wf.get("region") or {}).get("speed_bands")
         if bands:
             m = region_mask(res.state.design, bands)
             idx = np.minimum((np.arange(len(t)) // max(1, s.q)), len(m) - 1)
