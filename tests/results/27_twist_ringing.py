@@ -136,6 +136,7 @@ def main(argv: list[str] | None = None) -> int:
     doc = {"rows": rows, "swing_limit": compsetup.TWIST_SWING_LIMIT,
            "edge_ratio": edge_ratio(rows, compsetup.TWIST_SWING_LIMIT),
            "rule_ratio": compsetup.RESONANCE_LOOP_RATIO, "run_time_s": time.monotonic() - t0}
+    a.out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(a.out / "twist_ringing.json", doc)
     print(f"edge of swing > {compsetup.TWIST_SWING_LIMIT:g}: f_load / f_v = {doc['edge_ratio']}; "
           f"rule {compsetup.RESONANCE_LOOP_RATIO:g}")

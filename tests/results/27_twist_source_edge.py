@@ -113,6 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     doc = {"rows": rows, "edge": compsetup.RESONANCE_LOOP_RATIO,
            "model_over_motor": band_summary(rows, compsetup.RESONANCE_LOOP_RATIO),
            "run_time_s": time.monotonic() - t0}
+    a.out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(a.out / "twist_source_edge.json", doc)
     print(f"A(model) / A(motor side) below / above {compsetup.RESONANCE_LOOP_RATIO:g} x f_v: {doc['model_over_motor']}")
     return 0
