@@ -967,7 +967,8 @@ def _prepare(procedures: Sequence[str], model: Optional[Path], axis: str, bus: O
     blob = None
     if model is not None:
         from .download import plan_download
-        plan = plan_download(model, axis)
+        # the twist torque rule takes the velocity loop every row runs (the axis' PID design)
+        plan = plan_download(model, axis, vel_kp=design_gains(axis).get("vel_kp"))
     elif bus is None and need_preisach:
         from . import compsetup
         blob = compsetup.preisach_table(axis).to_bytes()

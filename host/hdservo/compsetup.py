@@ -52,14 +52,17 @@ MX_STIFFNESS_MIN = 8200.0
 #: identified total friction, 0..1; set by :func:`hdservo.download.model_overrides`.
 MOTOR_SHARE_KEY = "friction_total.motor_share"
 
-#: Velocity-loop crossover of the axis' PID design, Hz (the same on every axis, hdservo.gains.design).
+#: Velocity-loop crossover of the PID design rule, Hz (:func:`hdservo.closedloop_cases.velocity_pi`); the
+#: crossover the drive runs is vel_kp / (2 pi J_tot) (:func:`velocity_loop_hz`), lower where vel_kp
+#: reaches the drive's maximum or the gains are set otherwise (design flow, ``--gain``).
 VEL_LOOP_HZ = 25.0
 #: The twist torque estimate takes the motor side while the motor slides (``pr_t_src`` 2) when the load's
-#: resonance against the held motor, sqrt(K1 / J_L) / 2 pi, is below this multiple of the velocity loop's
-#: crossover: there the velocity loop excites the resonance at every move, and the torque swings that set
-#: the gear's hysteresis branch at a stop are several times J_L a_ref (docs/compensators.md section 13).
-#: Above it the moves follow the reference quasi-statically and the model estimate (``pr_t_src`` 1) has
-#: the smaller error.
+#: resonance against the held motor, sqrt(K1 / J_L) / 2 pi, is below this multiple of the crossover of the
+#: velocity loop the drive runs (:func:`velocity_loop_hz`).  Measured by
+#: tests/results/27_twist_source_edge.py on axes no rule was set on (docs/compensators.md section 13): the
+#: motor side pays at ratios up to 1.16 and gains nothing from 1.59 on, also on one axis with its loop
+#: moved from 40 to 15 Hz; every factor between 1.17 and 1.58 makes the same choices there (one heavy
+#: axis does not follow the ratio with the axis file's Preisach table, and does with its identified one).
 RESONANCE_LOOP_RATIO = 1.5
 #: Reference-speed schedule of the scheduled position integral (cb_pki_vlo / cb_pki_vhi), deg/s.
 PKI_V_LO_DEG_S = 0.002
@@ -430,7 +433,33 @@ def load_resonance_hz(k1_Nm_per_rad: float, jl_kgm2: float) -> float:
     return math.sqrt(max(k1_Nm_per_rad, 0.0) / jl_kgm2) / (2.0 * math.pi)
 
 
-def twist_torque_source(k1_Nm_per_rad: float, jl_kgm2: float) -> int:
+def velocity_loop_hz(vel_kp_Nms_per_rad: float, j_total_kgm2: float) -> float:
+    """Crossover of the drive's velocity loop on the rigid axis, Hz.
+
+    Parameters
+    ----------
+    vel_kp_Nms_per_rad : float
+        Velocity-loop proportional gain the drive runs (``vel_kp``), N.m.s/rad.
+    j_total_kgm2 : float
+        Total inertia referred to the output, J_L + N^2 J_m, kg m^2.
+
+    Returns
+    -------
+    float
+        vel_kp / (2 pi J_tot), Hz (inf without an inertia).
+    """
+    if j_total_kgm2 <= 0.0:
+        return math.inf
+    return max(vel_kp_Nms_per_rad, 0.0) / (2.0 * math.pi * j_total_kgm2)
+
+
+def design_vel_kp(j_total_kgm2: float) -> float:
+    """``vel_kp`` the design rule configures for a total inertia, N.m.s/rad (25 Hz within the drive's range)."""
+    from .closedloop_cases import velocity_pi
+    return float(velocity_pi(j_total_kgm2, VEL_LOOP_HZ)["vel_kp"])
+
+
+def twist_torque_source(k1_Nm_per_rad: float, jl_kgm2: float, vel_loop_hz: float) -> int:
     """``pr_t_src`` of the twist predictions (Preisach, compliance) by the documented rule.
 
     Parameters
@@ -439,18 +468,21 @@ def twist_torque_source(k1_Nm_per_rad: float, jl_kgm2: float) -> int:
         First slope K1 of the gear's stiffness, N.m/rad.
     jl_kgm2 : float
         Load inertia J_L, kg m^2.
+    vel_loop_hz : float
+        Crossover of the velocity loop the drive runs (:func:`velocity_loop_hz`), Hz.
 
     Returns
     -------
     int
         2 (the motor side while the motor slides, the model near standstill) when the load resonance
-        :func:`load_resonance_hz` is below ``RESONANCE_LOOP_RATIO`` x ``VEL_LOOP_HZ``; else 1 (the model).
+        :func:`load_resonance_hz` is below ``RESONANCE_LOOP_RATIO`` x ``vel_loop_hz``; else 1 (the model).
     """
-    return 2 if load_resonance_hz(k1_Nm_per_rad, jl_kgm2) < RESONANCE_LOOP_RATIO * VEL_LOOP_HZ else 1
+    return 2 if load_resonance_hz(k1_Nm_per_rad, jl_kgm2) < RESONANCE_LOOP_RATIO * vel_loop_hz else 1
 
 
 def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
-                       model: Mapping[str, float] | None = None) -> dict[str, float]:
+                       model: Mapping[str, float] | None = None,
+                       vel_kp: float | None = None) -> dict[str, float]:
     """Compensator-bank parameters of an axis (table units; docs/parameters.md).
 
     Parameters
@@ -461,6 +493,10 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
         Maxwell-slip elements (<= 8).
     model : mapping, optional
         ``{"section.key": value}`` overriding the axis values (an identified model).
+    vel_kp : float, optional
+        Velocity-loop gain the drive runs, N.m.s/rad (default: the design rule's for the model's
+        J_tot, :func:`design_vel_kp`); with the model's J_tot it gives the crossover of the
+        twist torque rule (:func:`twist_torque_source`).
 
     Returns
     -------
@@ -517,7 +553,10 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     out["pr_motor_share"] = (m["fcp"] / max(m["fcp"] + ld["fcp"], 1e-12)) if fm else 0.0
     out["pr_jl"] = get("load.jl_kgm2")
     out["pr_jm"] = n * n * get("motor.jm_kgm2")
-    out["pr_t_src"] = twist_torque_source(get("stiffness.k1_Nm_per_rad"), out["pr_jl"])
+    # the rule's crossover: the velocity-loop gain the drive runs over the model's total inertia
+    jt = out["pr_jl"] + out["pr_jm"]
+    f_v = math.inf if jt <= 0.0 else velocity_loop_hz(design_vel_kp(jt) if vel_kp is None else vel_kp, jt)
+    out["pr_t_src"] = twist_torque_source(get("stiffness.k1_Nm_per_rad"), out["pr_jl"], f_v)
     out.update(_unbalance_params(get))
     out.update(_te_params(get))
     out.update(_backstepping_params(get, n, vs_turn, fv, eps_rad, m["fcp"] + ld["fcp"], m["fsp"] + ld["fsp"]))
@@ -590,6 +629,7 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
     return ctl
 
 
-__all__ = ["MOTOR_SHARE_KEY", "RESONANCE_LOOP_RATIO", "VEL_LOOP_HZ", "load_resonance_hz", "twist_torque_source", "BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
+__all__ = ["MOTOR_SHARE_KEY", "RESONANCE_LOOP_RATIO", "VEL_LOOP_HZ", "design_vel_kp", "load_resonance_hz",
+           "twist_torque_source", "velocity_loop_hz", "BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
            "FAIR_GAINS", "FAIR_PROC_ARGS", "GROUPS", "STRATEGIES", "best_gains", "compensator_params", "controller", "enable_mask", "gear_everett", "preisach_table",
            "write_preisach_table"]

@@ -159,8 +159,12 @@ def model_overrides(model: Mapping[str, Mapping[str, Any]], axis_get) -> tuple[d
 
 
 def plan_download(model_path: Path, axis: str = "reference", preisach: Path | None = None,
-                  version: int = 1) -> dict[str, Any]:
+                  version: int = 1, vel_kp: float | None = None) -> dict[str, Any]:
     """Everything to write: ``params`` (name -> table unit), ``groups`` (sub -> raw dict), ``preisach`` bytes.
+
+    ``vel_kp`` (N.m.s/rad) is the velocity-loop gain the drive runs with the download (default: the
+    design rule's for the model's total inertia); it sets the crossover of the twist torque rule
+    (:func:`hdservo.compsetup.twist_torque_source`).
 
     Raises
     ------
@@ -177,15 +181,18 @@ def plan_download(model_path: Path, axis: str = "reference", preisach: Path | No
         raise UserError(f"{axis}: axis file not found")
     over, notes = model_overrides(model, lambda k: float(sim.axis_param(k, ax)))
     try:
-        cp = compsetup.compensator_params(ax, model=over)
+        cp = compsetup.compensator_params(ax, model=over, vel_kp=vel_kp)
     except (ValueError, KeyError, ZeroDivisionError, TypeError, OverflowError) as e:
         raise UserError(f"{model_path}: cannot compute the compensator parameters: {e}") from None
     cp.pop("cb_enable", None)
     f_load = compsetup.load_resonance_hz(float(over.get("stiffness.k1_Nm_per_rad", sim.axis_param("stiffness.k1_Nm_per_rad", ax))),
                                          float(cp.get("pr_jl", 0.0)))
+    jt = float(cp.get("pr_jl", 0.0)) + float(cp.get("pr_jm", 0.0))
+    f_v = compsetup.velocity_loop_hz(compsetup.design_vel_kp(jt) if vel_kp is None else vel_kp, jt) if jt > 0 else math.inf
     notes.append(f"twist torque estimate: {'the motor side while it slides' if cp.get('pr_t_src') == 2 else 'the model'} "
                  f"(pr_t_src {int(cp.get('pr_t_src', 1))}; load resonance {f_load:.3g} Hz, motor side below "
-                 f"{compsetup.RESONANCE_LOOP_RATIO * compsetup.VEL_LOOP_HZ:.3g} Hz)")
+                 f"{compsetup.RESONANCE_LOOP_RATIO:g} x the {f_v:.3g} Hz velocity loop = "
+                 f"{compsetup.RESONANCE_LOOP_RATIO * f_v:.3g} Hz)")
     params: dict[str, float] = {}
     for name, v in cp.items():
         p = PARAMS.get(name)
