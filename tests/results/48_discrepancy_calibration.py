@@ -14,7 +14,9 @@ corpus' CALIBRATION seeds (1-1000; never the held-apart ones) and reports:
 
 Environment: ``HDSERVO_CALIB_N`` (logs, default 120), ``HDSERVO_CALIB_JOBS`` (worker
 processes, default 2), ``HDSERVO_CALIB_FROM`` (a previous JSON of this script: recompute
-the report from its cases without running anything).  Heavy: run under ``nice``.
+the report from its cases without running anything), ``HDSERVO_CALIB_PACKAGE=1`` (also
+write the rule's inputs to the package data, host/hdservo/data/discrepancy_thresholds.json,
+from which the workflow computes its thresholds).  Heavy: run under ``nice``.
 """
 from __future__ import annotations
 
@@ -52,7 +54,11 @@ def _heldout() -> Any:
 
 
 def analyse(seed: int) -> dict[str, Any]:
-    """One calibration log through the workflow and the simulator loop (47's :func:`analyse`)."""
+    """One calibration log through the workflow and the simulator loop (47's :func:`analyse`),
+    with the default size threshold for every signal set: the rule's inputs (which
+    candidates are significant) must not depend on the thresholds they set."""
+    from hdservo.discrepancy import workflow
+    workflow.FRAC_MIN_BY_SIGNALS.clear()       # this worker process only
     return _heldout().analyse(seed)
 
 
@@ -109,16 +115,9 @@ def evidence_stats(records: Iterable[dict[str, Any]]) -> dict[str, Any]:
 MARGIN = 0.01
 
 
-def choose_frac_min(records: Iterable[dict[str, Any]], default: float,
-                    q: float = FALSE_ALARM_QUANTILE) -> dict[str, float]:
-    """Size threshold per signal set by the false-alarm rule on the clean calibration logs.
-
-    For every clean log (nothing hidden), the largest size among its first ranking's
-    significant candidates (0 when there is none): a threshold above it keeps that log
-    silent.  The threshold of a signal set is the ``q`` quantile of those values over its
-    clean logs plus :data:`MARGIN`, never below ``default``.
-    """
-    import numpy as np
+def largest_sizes(records: Iterable[dict[str, Any]]) -> dict[str, list[float]]:
+    """Per signal set, per clean log (nothing hidden): the largest size among its first
+    ranking's significant candidates, 0 when there is none (the rule's inputs)."""
     per: dict[str, list[float]] = {}
     for r in records:
         if r.get("error") or r["hidden"]:
@@ -126,11 +125,44 @@ def choose_frac_min(records: Iterable[dict[str, Any]], default: float,
         xs = [float(c["size"]) for c in r.get("ranking_first", [])
               if c.get("significant") and c.get("size") is not None and math.isfinite(float(c["size"]))]
         per.setdefault(r["angles"], []).append(max(xs) if xs else 0.0)
-    out = {a: default for a in ("both", "motor", "output")}
-    for a, v in per.items():
-        x = float(np.quantile(v, q))
-        out[a] = max(default, x + MARGIN) if x > 0 else default
-    return out
+    return per
+
+
+def choose_frac_min(records: Iterable[dict[str, Any]], default: float,
+                    q: float = FALSE_ALARM_QUANTILE) -> dict[str, float]:
+    """Size threshold per signal set by the false-alarm rule on the clean calibration logs.
+
+    For every clean log (nothing hidden), the largest size among its first ranking's
+    significant candidates (0 when there is none): a threshold above it keeps that log
+    silent.  The threshold of a signal set is the ``q`` quantile of those values over its
+    clean logs plus :data:`MARGIN`, never below ``default``
+    (:func:`hdservo.discrepancy.thresholds.rule`).
+    """
+    from hdservo.discrepancy import thresholds
+    per = largest_sizes(records)
+    return {a: thresholds.rule(per.get(a, []), default, q, MARGIN) for a in thresholds.SETS}
+
+
+def threshold_inputs(records: list[dict[str, Any]], default: float, wall_s: float | None = None) -> dict[str, Any]:
+    """The rule's inputs as package data (hdservo/data/discrepancy_thresholds.json), with
+    their provenance: the calibration seeds analysed, the clean ones per signal set."""
+    seeds = sorted(int(r["seed"]) for r in records if "seed" in r)
+    clean = {}
+    for r in records:
+        if not r.get("error") and not r["hidden"]:
+            clean.setdefault(r["angles"], []).append(int(r["seed"]))
+    return {"rule": "frac_min[set] = max(default, quantile(largest_sizes[set], q) + margin); a set without "
+                    "clean logs keeps the default (hdservo.discrepancy.thresholds)",
+            "largest_sizes_are": "per clean calibration log: the largest size (explained fraction) among its "
+                                 "first ranking's significant candidates, 0 when none is significant",
+            "source": "tests/results/48_discrepancy_calibration.py on the corpus' calibration seeds "
+                      "(tests/python/oracles/discrepancy_corpus.py)",
+            "set": "calibration", "seeds_analysed": [seeds[0], seeds[-1]] if seeds else [],
+            "n_logs": len(seeds), "wall_s": wall_s,
+            "errors": sorted(int(r["seed"]) for r in records if r.get("error")),
+            "default": default, "quantile": FALSE_ALARM_QUANTILE, "margin": MARGIN,
+            "clean_seeds": {a: sorted(v) for a, v in sorted(clean.items())},
+            "largest_sizes": {a: v for a, v in sorted(largest_sizes(records).items())}}
 
 
 def first_names_under(records: Iterable[dict[str, Any]], frac_min: dict[str, float]) -> dict[str, Any]:
@@ -193,9 +225,16 @@ def main() -> int:
                 if len(recs) % 10 == 0:         # a partial record survives an interrupted run
                     out.parent.mkdir(parents=True, exist_ok=True)
                     write_json_atomic(out.with_suffix(".partial.json"), {"cases": recs})
-    doc = {"set": "calibration", "report": report(recs), "cases": recs, "wall_s": time.time() - t0}
+    from hdservo.discrepancy.workflow import Settings
+    wall = json.loads(Path(src).read_text()).get("wall_s") if src else time.time() - t0
+    doc = {"set": "calibration", "report": report(recs), "cases": recs, "wall_s": wall,
+           "threshold_inputs": threshold_inputs(recs, Settings().frac_min, wall)}
     out.parent.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out, doc)
+    if os.environ.get("HDSERVO_CALIB_PACKAGE") == "1":
+        pkg = REPO / "host" / "hdservo" / "data" / "discrepancy_thresholds.json"
+        write_json_atomic(pkg, doc["threshold_inputs"])
+        print(f"-> {pkg}")
     print(json.dumps({k: doc["report"][k] for k in ("confusion", "frac_min_rule")}, indent=1))
     print(json.dumps(doc["report"]["summary"], indent=1))
     print(f"-> {out}")
