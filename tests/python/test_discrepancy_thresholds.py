@@ -31,6 +31,7 @@ def test_package_data_holds_calibration_inputs_with_provenance() -> None:
     assert doc["set"] == "calibration"
     lo, hi = doc["seeds_analysed"]
     assert corpus.CALIBRATION_SEEDS.start <= lo <= hi < corpus.CALIBRATION_SEEDS.stop
+    assert all(s in corpus.CALIBRATION_SEEDS for s in doc["census_seeds"])
     for a, seeds in doc["clean_seeds"].items():
         assert a in thresholds.SETS
         # one input per clean calibration log of that signal set, each a clean log of it

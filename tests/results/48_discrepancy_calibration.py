@@ -14,7 +14,11 @@ corpus' CALIBRATION seeds (1-1000; never the held-apart ones) and reports:
 
 Environment: ``HDSERVO_CALIB_N`` (logs, default 120), ``HDSERVO_CALIB_JOBS`` (worker
 processes, default 2), ``HDSERVO_CALIB_FROM`` (a previous JSON of this script: recompute
-the report from its cases without running anything), ``HDSERVO_CALIB_PACKAGE=1`` (also
+the report from its cases without running anything; several JSONs separated by ``:`` are
+merged by seed), ``HDSERVO_CALIB_CLEAN`` (signal sets, e.g. ``motor,output``: also every
+clean calibration seed of those sets, a census of the logs the threshold rule needs where
+the first seeds hold few; they enter the rule's inputs, not the report's figures),
+``HDSERVO_CALIB_OUT`` (the JSON written), ``HDSERVO_CALIB_PACKAGE=1`` (also
 write the rule's inputs to the package data, host/hdservo/data/discrepancy_thresholds.json,
 from which the workflow computes its thresholds).  Heavy: run under ``nice``.
 """
@@ -146,7 +150,8 @@ def choose_frac_min(records: Iterable[dict[str, Any]], default: float,
 def threshold_inputs(records: list[dict[str, Any]], default: float, wall_s: float | None = None) -> dict[str, Any]:
     """The rule's inputs as package data (hdservo/data/discrepancy_thresholds.json), with
     their provenance: the calibration seeds analysed, the clean ones per signal set."""
-    seeds = sorted(int(r["seed"]) for r in records if "seed" in r)
+    seeds = sorted(int(r["seed"]) for r in records if "seed" in r and not r.get("census"))
+    census = sorted(int(r["seed"]) for r in records if r.get("census"))
     clean = {}
     for r in records:
         if not r.get("error") and not r["hidden"]:
@@ -158,7 +163,10 @@ def threshold_inputs(records: list[dict[str, Any]], default: float, wall_s: floa
             "source": "tests/results/48_discrepancy_calibration.py on the corpus' calibration seeds "
                       "(tests/python/oracles/discrepancy_corpus.py)",
             "set": "calibration", "seeds_analysed": [seeds[0], seeds[-1]] if seeds else [],
-            "n_logs": len(seeds), "wall_s": wall_s,
+            "n_logs": len(seeds),
+            "census_seeds": census, "census_is": "every clean calibration seed (1-1000) of the one-encoder signal "
+                                                 "sets beyond the first seeds, by the corpus' own draw",
+            "wall_s": wall_s,
             "errors": sorted(int(r["seed"]) for r in records if r.get("error")),
             "default": default, "quantile": FALSE_ALARM_QUANTILE, "margin": MARGIN,
             "clean_seeds": {a: sorted(v) for a, v in sorted(clean.items())},
@@ -207,28 +215,61 @@ def report(records: list[dict[str, Any]]) -> dict[str, Any]:
                               "first_names_chosen": first_names_under(records, chosen)}}
 
 
+def census_seeds(sets: Sequence[str], seeds: Iterable[int]) -> list[int]:
+    """The clean calibration seeds (nothing hidden) of the signal sets ``sets`` among ``seeds``
+    (the corpus' own draw, nothing simulated)."""
+    from oracles import discrepancy_corpus as corpus
+    out = []
+    for s in seeds:
+        c = corpus.draw(s)
+        if not c.hidden and c.angles in sets:
+            out.append(int(s))
+    return out
+
+
+def sample(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The records of the first ``HDSERVO_CALIB_N`` seeds (the census' extra clean logs out)."""
+    return [r for r in records if not r.get("census")]
+
+
+def merged(paths: Sequence[str]) -> tuple[list[dict[str, Any]], float]:
+    """Cases of previous runs (the first run's case of a seed wins) and their total run time, s."""
+    recs: dict[int, dict[str, Any]] = {}
+    wall = 0.0
+    for p in paths:
+        doc = json.loads(Path(p).read_text())
+        wall += float(doc.get("wall_s") or 0.0)
+        for r in doc["cases"]:
+            recs.setdefault(int(r["seed"]), r)
+    return [recs[k] for k in sorted(recs)], wall
+
+
 def main() -> int:
-    out = REPO / "build" / "results" / "discrepancy_calibration.json"
+    out = Path(os.environ.get("HDSERVO_CALIB_OUT") or REPO / "build" / "results" / "discrepancy_calibration.json")
     src = os.environ.get("HDSERVO_CALIB_FROM")
     t0 = time.time()
     if src:
-        recs = json.loads(Path(src).read_text())["cases"]
+        recs, wall = merged(src.split(os.pathsep))
     else:
         from oracles import discrepancy_corpus as corpus
         seeds = list(corpus.CALIBRATION_SEEDS)[:N_LOGS]
+        sets = [a for a in os.environ.get("HDSERVO_CALIB_CLEAN", "").split(",") if a]
+        extra = [s for s in census_seeds(sets, corpus.CALIBRATION_SEEDS) if s not in seeds]
         recs = []
         with ProcessPoolExecutor(max_workers=JOBS) as ex:
-            for r in ex.map(analyse, seeds):
+            for r in ex.map(analyse, seeds + extra):
+                r["census"] = r["seed"] in extra
                 recs.append(r)
                 print(f"{r['label']}: named {r['named']}{' ' + r['error'] if r['error'] else ''} "
                       f"({r['seconds']:.0f} s)", flush=True)
                 if len(recs) % 10 == 0:         # a partial record survives an interrupted run
                     out.parent.mkdir(parents=True, exist_ok=True)
-                    write_json_atomic(out.with_suffix(".partial.json"), {"cases": recs})
+                    write_json_atomic(out.with_suffix(".partial.json"), {"cases": recs, "wall_s": time.time() - t0})
+        wall = time.time() - t0
     from hdservo.discrepancy.workflow import Settings
-    wall = json.loads(Path(src).read_text()).get("wall_s") if src else time.time() - t0
-    doc = {"set": "calibration", "report": report(recs), "cases": recs, "wall_s": wall,
+    doc = {"set": "calibration", "report": report(sample(recs)), "cases": recs, "wall_s": wall,
            "threshold_inputs": threshold_inputs(recs, Settings().frac_min, wall)}
+    doc["report"]["frac_min_rule"]["chosen_with_census"] = choose_frac_min(recs, Settings().frac_min)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out, doc)
     if os.environ.get("HDSERVO_CALIB_PACKAGE") == "1":
