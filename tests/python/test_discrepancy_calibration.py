@@ -169,3 +169,18 @@ def test_threshold_inputs_and_census_records(tmp_path: Path) -> None:
     b.write_text(json.dumps({"cases": [dict(recs[1], named=["x"]), recs[2]], "wall_s": 7.0}))
     got_recs, wall = m.merged([str(a), str(b)])
     assert [r["seed"] for r in got_recs] == [1, 2, 3] and got_recs[1]["named"] == recs[1]["named"] and wall == 12.0
+
+
+def test_refresh_applies_the_current_identifiability_table() -> None:
+    m = _script()
+    from hdservo.discrepancy import IDENTIFIABLE
+    from oracles import discrepancy_corpus as corpus
+    seed = next(s for s in range(1, 400) if corpus.draw(s).angles == "output" and not corpus.draw(s).hidden)
+    rec = {"seed": seed, "hidden": [], "identifiable": ["x"], "angles": "output",
+           "named": ["cogging_torque", "gravity_unbalance"],
+           "ranking_first": [_rank("cogging_torque", 0.5, True), _rank("gravity_unbalance", 0.4, True)]}
+    (r,) = m.refresh([rec])
+    assert "cogging_torque" not in IDENTIFIABLE["output"]
+    assert r["named"] == ["gravity_unbalance"] and [c["effect"] for c in r["ranking_first"]] == ["gravity_unbalance"]
+    assert r["refreshed"] == ["cogging_torque"] and r["identifiable"] == []
+    assert rec["named"] == ["cogging_torque", "gravity_unbalance"]            # the input is not modified

@@ -244,12 +244,34 @@ def merged(paths: Sequence[str]) -> tuple[list[dict[str, Any]], float]:
     return [recs[k] for k in sorted(recs)], wall
 
 
+def refresh(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Records of a previous run under the current identifiability table: ``identifiable``
+    again from the corpus' draw; candidates and names the log's signals cannot show (by
+    the current table) taken out of ``ranking_first`` and ``named`` (``refreshed`` lists
+    what was taken out).  The rest of a ranking does not depend on them."""
+    from hdservo.discrepancy import IDENTIFIABLE
+    from oracles import discrepancy_corpus as corpus
+    out = []
+    for r in records:
+        ok = IDENTIFIABLE[r["angles"]]
+        gone = sorted({c["effect"] for c in r.get("ranking_first", []) if c["effect"] not in ok}
+                      | {e for e in r.get("named", []) if e not in ok})
+        r = dict(r, identifiable=corpus.draw(int(r["seed"])).identifiable())
+        if gone:
+            r["ranking_first"] = [c for c in r.get("ranking_first", []) if c["effect"] in ok]
+            r["named"] = [e for e in r["named"] if e in ok]
+            r["refreshed"] = gone
+        out.append(r)
+    return out
+
+
 def main() -> int:
     out = Path(os.environ.get("HDSERVO_CALIB_OUT") or REPO / "build" / "results" / "discrepancy_calibration.json")
     src = os.environ.get("HDSERVO_CALIB_FROM")
     t0 = time.time()
     if src:
         recs, wall = merged(src.split(os.pathsep))
+        recs = refresh(recs)
     else:
         from oracles import discrepancy_corpus as corpus
         seeds = list(corpus.CALIBRATION_SEEDS)[:N_LOGS]
