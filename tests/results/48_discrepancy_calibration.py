@@ -18,7 +18,9 @@ the report from its cases without running anything; several JSONs separated by `
 merged by seed), ``HDSERVO_CALIB_CLEAN`` (signal sets, e.g. ``motor,output``: also every
 clean calibration seed of those sets, a census of the logs the threshold rule needs where
 the first seeds hold few; they enter the rule's inputs, not the report's figures),
-``HDSERVO_CALIB_OUT`` (the JSON written), ``HDSERVO_CALIB_PACKAGE=1`` (also
+``HDSERVO_CALIB_SETS`` (signal sets: of the first seeds, only the logs of these sets; a run
+after a change that acts on those sets only, merged before the previous run with
+``HDSERVO_CALIB_FROM``), ``HDSERVO_CALIB_OUT`` (the JSON written), ``HDSERVO_CALIB_PACKAGE=1`` (also
 write the rule's inputs to the package data, host/hdservo/data/discrepancy_thresholds.json,
 from which the workflow computes its thresholds).  Heavy: run under ``nice``.
 """
@@ -275,6 +277,9 @@ def main() -> int:
     else:
         from oracles import discrepancy_corpus as corpus
         seeds = list(corpus.CALIBRATION_SEEDS)[:N_LOGS]
+        only = [a for a in os.environ.get("HDSERVO_CALIB_SETS", "").split(",") if a]
+        if only:                               # the first seeds' logs of these signal sets only
+            seeds = [s for s in seeds if corpus.draw(s).angles in only]
         sets = [a for a in os.environ.get("HDSERVO_CALIB_CLEAN", "").split(",") if a]
         extra = [s for s in census_seeds(sets, corpus.CALIBRATION_SEEDS) if s not in seeds]
         recs = []

@@ -889,6 +889,8 @@ def _prepare(sig: Signals, offset: bool | None) -> tuple[Signals, bl.Design, lis
                      "angle before the fit")
     # the fitted baseline columns (a fixed standstill offset does not take up a Coulomb asymmetry)
     d._baseline_names = {c.name for c in cols if c.fixed is None}  # type: ignore[attr-defined]
+    # and the ones held fixed (a rigid baseline's standstill offset)
+    d._fixed_names = {c.name for c in cols if c.fixed is not None}  # type: ignore[attr-defined]
     return sig, d, cols, zero_note
 
 
