@@ -54,10 +54,13 @@ def test_confusion_counts_named_first_missed_and_wrong() -> None:
 def test_threshold_rule_is_the_false_alarm_quantile_per_signal_set() -> None:
     m = _script()
     # clean logs: both -> nothing significant (0); output -> 0.45 (significant) and 0
-    got = m.choose_frac_min(RECORDS, default=0.3, q=1.0)
+    got = m.choose_frac_min(RECORDS, default=0.3, q=1.0, min_logs=0)
     assert got == {"both": 0.3, "motor": 0.3, "output": pytest.approx(0.45 + m.MARGIN)}
-    assert m.choose_frac_min(RECORDS, default=0.3, q=0.5)["output"] == 0.3    # median 0.225 < default
-    assert m.choose_frac_min(RECORDS, default=0.1, q=0.5)["output"] == pytest.approx(0.225 + m.MARGIN)
+    assert m.choose_frac_min(RECORDS, default=0.3, q=0.5, min_logs=0)["output"] == 0.3    # median 0.225 < default
+    assert m.choose_frac_min(RECORDS, default=0.1, q=0.5, min_logs=0)["output"] == pytest.approx(0.225 + m.MARGIN)
+    # two clean logs are fewer than the 20 a 95 % quantile needs: the default stays
+    assert m.MIN_CLEAN_LOGS == 20
+    assert m.choose_frac_min(RECORDS, default=0.3, q=1.0) == {"both": 0.3, "motor": 0.3, "output": 0.3}
     ev = m.evidence_stats(RECORDS)
     assert ev["hysteresis"]["n_hidden"] == 0 and ev["hysteresis"]["n_not_hidden"] == 3
     assert ev["hysteresis"]["significant_not_hidden"] == 2
@@ -153,8 +156,9 @@ def test_threshold_inputs_and_census_records(tmp_path: Path) -> None:
     assert doc["seeds_analysed"] == [1, 8] and doc["census_seeds"] == [9]
     assert doc["errors"] == [8] and doc["wall_s"] == 12.0
     from hdservo.discrepancy import thresholds
-    assert thresholds.from_inputs(doc) == m.choose_frac_min(recs, 0.3)
-    assert thresholds.from_inputs(doc)["motor"] == pytest.approx(0.6 + m.MARGIN)
+    assert thresholds.from_inputs(doc) == m.choose_frac_min(recs, 0.3) == {"both": 0.3, "motor": 0.3, "output": 0.3}
+    assert doc["min_logs"] == m.MIN_CLEAN_LOGS
+    assert thresholds.from_inputs(dict(doc, min_logs=0))["motor"] == pytest.approx(0.6 + m.MARGIN)
     # the census' extra clean logs enter the rule, not the report's figures
     assert len(m.sample(recs)) == len(RECORDS)
     # the census is the corpus' own draw: clean logs of the asked signal sets only

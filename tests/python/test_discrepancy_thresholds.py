@@ -20,6 +20,8 @@ def test_rule_is_the_quantile_plus_margin_never_below_the_default() -> None:
     assert thresholds.rule(sizes, 0.30, 0.90, 0.01) == 0.30          # the 90 % quantile is 0 (silent logs)
     assert thresholds.rule([0.2, 0.25], 0.30, 0.95, 0.01) == 0.30    # below the default: the default
     assert thresholds.rule([], 0.30, 0.95, 0.01) == 0.30             # no clean log of that set
+    assert thresholds.rule(sizes, 0.30, 0.95, 0.01, min_logs=20) > 0.30
+    assert thresholds.rule(sizes[1:], 0.30, 0.95, 0.01, min_logs=20) == 0.30   # 19 logs: too few
     assert thresholds.from_inputs({"default": 0.3, "quantile": 1.0, "margin": 0.01,
                                    "largest_sizes": {"output": [0.0, 0.45]}}) == \
         {"both": 0.3, "motor": 0.3, "output": pytest.approx(0.46)}
@@ -28,6 +30,7 @@ def test_rule_is_the_quantile_plus_margin_never_below_the_default() -> None:
 def test_package_data_holds_calibration_inputs_with_provenance() -> None:
     doc = thresholds.load()
     assert doc["default"] == workflow.Settings().frac_min
+    assert doc["min_logs"] == round(1 / (1 - doc["quantile"]))
     assert doc["set"] == "calibration"
     lo, hi = doc["seeds_analysed"]
     assert corpus.CALIBRATION_SEEDS.start <= lo <= hi < corpus.CALIBRATION_SEEDS.stop

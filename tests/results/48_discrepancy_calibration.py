@@ -119,6 +119,9 @@ def evidence_stats(records: Iterable[dict[str, Any]]) -> dict[str, Any]:
 
 #: A threshold sits this far above the size it must silence (the rule is size >= threshold).
 MARGIN = 0.01
+#: Fewest clean logs of a signal set the quantile is taken on: 1/(1 - q) = 20 (below it
+#: the 95 % quantile is the largest value, one log's outlier); fewer keep the default.
+MIN_CLEAN_LOGS = round(1.0 / (1.0 - FALSE_ALARM_QUANTILE))
 
 
 def largest_sizes(records: Iterable[dict[str, Any]]) -> dict[str, list[float]]:
@@ -135,18 +138,18 @@ def largest_sizes(records: Iterable[dict[str, Any]]) -> dict[str, list[float]]:
 
 
 def choose_frac_min(records: Iterable[dict[str, Any]], default: float,
-                    q: float = FALSE_ALARM_QUANTILE) -> dict[str, float]:
+                    q: float = FALSE_ALARM_QUANTILE, min_logs: int = MIN_CLEAN_LOGS) -> dict[str, float]:
     """Size threshold per signal set by the false-alarm rule on the clean calibration logs.
 
     For every clean log (nothing hidden), the largest size among its first ranking's
     significant candidates (0 when there is none): a threshold above it keeps that log
     silent.  The threshold of a signal set is the ``q`` quantile of those values over its
-    clean logs plus :data:`MARGIN`, never below ``default``
-    (:func:`hdservo.discrepancy.thresholds.rule`).
+    clean logs plus :data:`MARGIN`, never below ``default``; a set with fewer than
+    ``min_logs`` clean logs keeps ``default`` (:func:`hdservo.discrepancy.thresholds.rule`).
     """
     from hdservo.discrepancy import thresholds
     per = largest_sizes(records)
-    return {a: thresholds.rule(per.get(a, []), default, q, MARGIN) for a in thresholds.SETS}
+    return {a: thresholds.rule(per.get(a, []), default, q, MARGIN, min_logs) for a in thresholds.SETS}
 
 
 def threshold_inputs(records: list[dict[str, Any]], default: float, wall_s: float | None = None) -> dict[str, Any]:
@@ -158,8 +161,8 @@ def threshold_inputs(records: list[dict[str, Any]], default: float, wall_s: floa
     for r in records:
         if not r.get("error") and not r["hidden"]:
             clean.setdefault(r["angles"], []).append(int(r["seed"]))
-    return {"rule": "frac_min[set] = max(default, quantile(largest_sizes[set], q) + margin); a set without "
-                    "clean logs keeps the default (hdservo.discrepancy.thresholds)",
+    return {"rule": "frac_min[set] = max(default, quantile(largest_sizes[set], q) + margin); a set with fewer "
+                    "than min_logs clean logs keeps the default (hdservo.discrepancy.thresholds)",
             "largest_sizes_are": "per clean calibration log: the largest size (explained fraction) among its "
                                  "first ranking's significant candidates, 0 when none is significant",
             "source": "tests/results/48_discrepancy_calibration.py on the corpus' calibration seeds "
@@ -170,7 +173,7 @@ def threshold_inputs(records: list[dict[str, Any]], default: float, wall_s: floa
                                                  "sets beyond the first seeds, by the corpus' own draw",
             "wall_s": wall_s,
             "errors": sorted(int(r["seed"]) for r in records if r.get("error")),
-            "default": default, "quantile": FALSE_ALARM_QUANTILE, "margin": MARGIN,
+            "default": default, "quantile": FALSE_ALARM_QUANTILE, "margin": MARGIN, "min_logs": MIN_CLEAN_LOGS,
             "clean_seeds": {a: sorted(v) for a, v in sorted(clean.items())},
             "largest_sizes": {a: v for a, v in sorted(largest_sizes(records).items())}}
 
@@ -213,6 +216,8 @@ def report(records: list[dict[str, Any]]) -> dict[str, Any]:
     return {"summary": m.score(records), "per_signal_set": by_set, "confusion": confusion(records),
             "evidence": evidence_stats(records),
             "frac_min_rule": {"quantile": FALSE_ALARM_QUANTILE, "default": Settings().frac_min, "chosen": chosen,
+                              "min_logs": MIN_CLEAN_LOGS,
+                              "quantile_without_min_logs": choose_frac_min(records, Settings().frac_min, min_logs=0),
                               "first_names_default": first_names_under(records, default),
                               "first_names_chosen": first_names_under(records, chosen)}}
 

@@ -10,7 +10,8 @@ the clean logs of the corpus' calibration seeds (docs/discrepancy.md, "Calibrati
 
 where ``largest_sizes[set]`` holds, per clean calibration log of that set, the largest
 size among its first ranking's significant candidates (0 when none is significant).  A
-set without clean logs keeps the default.
+set with fewer than ``min_logs`` clean logs keeps the default: below 1/(1 - q) logs (20
+for q = 0.95) the q-quantile is the largest value itself, one log's outlier.
 
 The rule's inputs (those sizes, the seeds they come from, ``q``, ``margin``, the default)
 are package data, ``data/discrepancy_thresholds.json``, written by
@@ -36,7 +37,8 @@ FILE_NAME = "discrepancy_thresholds.json"
 SETS: tuple[str, ...] = ("both", "motor", "output")
 
 
-def rule(largest_sizes: Iterable[float], default: float, quantile: float, margin: float) -> float:
+def rule(largest_sizes: Iterable[float], default: float, quantile: float, margin: float,
+         min_logs: int = 0) -> float:
     """The false-alarm rule for one signal set.
 
     Parameters
@@ -50,6 +52,8 @@ def rule(largest_sizes: Iterable[float], default: float, quantile: float, margin
         False-alarm quantile (0.95: at most 5 % of such clean logs stay above it).
     margin : float
         Added to the quantile: the rule is ``size >= threshold``.
+    min_logs : int
+        Fewest clean logs the quantile is taken on; fewer keep ``default``.
 
     Returns
     -------
@@ -58,7 +62,7 @@ def rule(largest_sizes: Iterable[float], default: float, quantile: float, margin
         is 0 (no clean log had a significant candidate up to that quantile).
     """
     v = [float(x) for x in largest_sizes if x is not None and math.isfinite(float(x))]
-    if not v:
+    if not v or len(v) < min_logs:
         return float(default)
     x = float(np.quantile(v, quantile))
     return max(float(default), x + margin) if x > 0 else float(default)
@@ -70,12 +74,14 @@ def from_inputs(doc: Mapping[str, Any]) -> dict[str, float]:
     Parameters
     ----------
     doc : mapping
-        ``default``, ``quantile``, ``margin`` and ``largest_sizes`` (signal set -> list of
-        explained fractions, one per clean calibration log).
+        ``default``, ``quantile``, ``margin``, ``min_logs`` (0 when absent) and
+        ``largest_sizes`` (signal set -> list of explained fractions, one per clean
+        calibration log).
     """
     d, q, m = float(doc["default"]), float(doc["quantile"]), float(doc["margin"])
+    n = int(doc.get("min_logs", 0))
     sizes = doc.get("largest_sizes") or {}
-    return {a: rule(sizes.get(a, []), d, q, m) for a in SETS}
+    return {a: rule(sizes.get(a, []), d, q, m, n) for a in SETS}
 
 
 @lru_cache(maxsize=1)
