@@ -15,7 +15,7 @@ corpus' CALIBRATION seeds (1-1000; never the held-apart ones) and reports:
 Environment: ``HDSERVO_CALIB_N`` (logs, default 120), ``HDSERVO_CALIB_JOBS`` (worker
 processes, default 2), ``HDSERVO_CALIB_FROM`` (a previous JSON of this script: recompute
 the report from its cases without running anything; several JSONs separated by ``:`` are
-merged by seed), ``HDSERVO_CALIB_CLEAN`` (signal sets, e.g. ``motor,output``: also every
+merged by seed), ``HDSERVO_CALIB_CLEAN`` (signal sets, default ``motor,output``, empty for none: also every
 clean calibration seed of those sets, a census of the logs the threshold rule needs where
 the first seeds hold few; they enter the rule's inputs, not the report's figures),
 ``HDSERVO_CALIB_SETS`` (signal sets: of the first seeds, only the logs of these sets; a run
@@ -285,7 +285,7 @@ def main() -> int:
         only = [a for a in os.environ.get("HDSERVO_CALIB_SETS", "").split(",") if a]
         if only:                               # the first seeds' logs of these signal sets only
             seeds = [s for s in seeds if corpus.draw(s).angles in only]
-        sets = [a for a in os.environ.get("HDSERVO_CALIB_CLEAN", "").split(",") if a]
+        sets = [a for a in os.environ.get("HDSERVO_CALIB_CLEAN", "motor,output").split(",") if a]
         extra = [s for s in census_seeds(sets, corpus.CALIBRATION_SEEDS) if s not in seeds]
         recs = []
         with ProcessPoolExecutor(max_workers=JOBS) as ex:
