@@ -54,10 +54,13 @@ def test_confusion_counts_named_first_missed_and_wrong() -> None:
 def test_threshold_rule_is_the_false_alarm_quantile_per_signal_set() -> None:
     m = _script()
     # clean logs: both -> nothing significant (0); output -> 0.45 (significant) and 0
-    got = m.choose_frac_min(RECORDS, default=0.3, q=1.0)
+    got = m.choose_frac_min(RECORDS, default=0.3, q=1.0, min_logs=0)
     assert got == {"both": 0.3, "motor": 0.3, "output": pytest.approx(0.45 + m.MARGIN)}
-    assert m.choose_frac_min(RECORDS, default=0.3, q=0.5)["output"] == 0.3    # median 0.225 < default
-    assert m.choose_frac_min(RECORDS, default=0.1, q=0.5)["output"] == pytest.approx(0.225 + m.MARGIN)
+    assert m.choose_frac_min(RECORDS, default=0.3, q=0.5, min_logs=0)["output"] == 0.3    # median 0.225 < default
+    assert m.choose_frac_min(RECORDS, default=0.1, q=0.5, min_logs=0)["output"] == pytest.approx(0.225 + m.MARGIN)
+    # two clean logs are fewer than the 20 a 95 % quantile needs: the default stays
+    assert m.MIN_CLEAN_LOGS == 20
+    assert m.choose_frac_min(RECORDS, default=0.3, q=1.0) == {"both": 0.3, "motor": 0.3, "output": 0.3}
     ev = m.evidence_stats(RECORDS)
     assert ev["hysteresis"]["n_hidden"] == 0 and ev["hysteresis"]["n_not_hidden"] == 3
     assert ev["hysteresis"]["significant_not_hidden"] == 2
@@ -139,3 +142,49 @@ def test_first_names_under_thresholds_replays_the_rankings() -> None:
     assert high["false_alarm"] == {"k": 0, "n": 3}
     assert high["named_first"]["backlash"]["k"] == 0            # hysteresis (0.5) is still first
     assert high["named_first_total"] == {"k": 1, "n": 3}
+
+
+def test_threshold_inputs_and_census_records(tmp_path: Path) -> None:
+    m = _script()
+    recs = [dict(r, seed=i + 1) for i, r in enumerate(RECORDS)]
+    recs.append({"seed": 9, "hidden": [], "identifiable": [], "named": [], "angles": "motor", "census": True,
+                 "ranking_first": [_rank("asymmetric_friction", 0.6, True), _rank("gravity_unbalance", 0.2, True)]})
+    doc = m.threshold_inputs(recs, 0.3, 12.0)
+    # one input per clean log (errors left out), the largest significant size, 0 when none
+    assert doc["clean_seeds"] == {"both": [4], "motor": [9], "output": [5, 6]}
+    assert doc["largest_sizes"] == {"both": [0.0], "motor": [0.6], "output": [0.45, 0.0]}
+    assert doc["seeds_analysed"] == [1, 8] and doc["census_seeds"] == [9]
+    assert doc["errors"] == [8] and doc["wall_s"] == 12.0
+    from hdservo.discrepancy import thresholds
+    assert thresholds.from_inputs(doc) == m.choose_frac_min(recs, 0.3) == {"both": 0.3, "motor": 0.3, "output": 0.3}
+    assert doc["min_logs"] == m.MIN_CLEAN_LOGS
+    assert thresholds.from_inputs(dict(doc, min_logs=0))["motor"] == pytest.approx(0.6 + m.MARGIN)
+    # the census' extra clean logs enter the rule, not the report's figures
+    assert len(m.sample(recs)) == len(RECORDS)
+    # the census is the corpus' own draw: clean logs of the asked signal sets only
+    from oracles import discrepancy_corpus as corpus
+    got = m.census_seeds(["motor", "output"], range(1, 200))
+    assert got and all(not corpus.draw(s).hidden and corpus.draw(s).angles in ("motor", "output") for s in got)
+    assert set(got) == {s for s in range(1, 200) if not corpus.draw(s).hidden and corpus.draw(s).angles != "both"}
+    # runs merged by seed: the first file's case wins, run times add up
+    import json
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    a.write_text(json.dumps({"cases": recs[:2], "wall_s": 5.0}))
+    b.write_text(json.dumps({"cases": [dict(recs[1], named=["x"]), recs[2]], "wall_s": 7.0}))
+    got_recs, wall = m.merged([str(a), str(b)])
+    assert [r["seed"] for r in got_recs] == [1, 2, 3] and got_recs[1]["named"] == recs[1]["named"] and wall == 12.0
+
+
+def test_refresh_applies_the_current_identifiability_table() -> None:
+    m = _script()
+    from hdservo.discrepancy import IDENTIFIABLE
+    from oracles import discrepancy_corpus as corpus
+    seed = next(s for s in range(1, 400) if corpus.draw(s).angles == "output" and not corpus.draw(s).hidden)
+    rec = {"seed": seed, "hidden": [], "identifiable": ["x"], "angles": "output",
+           "named": ["cogging_torque", "gravity_unbalance"],
+           "ranking_first": [_rank("cogging_torque", 0.5, True), _rank("gravity_unbalance", 0.4, True)]}
+    (r,) = m.refresh([rec])
+    assert "cogging_torque" not in IDENTIFIABLE["output"]
+    assert r["named"] == ["gravity_unbalance"] and [c["effect"] for c in r["ranking_first"]] == ["gravity_unbalance"]
+    assert r["refreshed"] == ["cogging_torque"] and r["identifiable"] == []
+    assert rec["named"] == ["cogging_torque", "gravity_unbalance"]            # the input is not modified

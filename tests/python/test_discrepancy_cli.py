@@ -191,6 +191,10 @@ def test_users_log_with_minimal_sidecar_and_coarse_encoder(tmp_path: Path, cog_l
     vr = r["validated_range"]
     assert vr["inside"] is False and abs(vr["log"]["motor_encoder_bits"] - 13.0) < 1e-6
     assert any("motor encoder 13.0 bits" in n for n in r["notes"])
+    from hdservo.discrepancy import validity
+    lr = vr["log"]
+    assert lr["twist_resolution_rad"] == validity.twist_resolution(
+        validity.LogRange(lr["rate_Hz"], lr["motor_encoder_bits"], lr["output_encoder_bits"]), log.meta["gear_ratio"])
     # a sidecar whose tag names another format is still refused (one line, no output)
     out.unlink()
     p.with_suffix(".json").write_text(json.dumps({"format": "other", "gear_ratio": 100.0, "sample_period_s": 1e-4}))

@@ -14,7 +14,15 @@ corpus' CALIBRATION seeds (1-1000; never the held-apart ones) and reports:
 
 Environment: ``HDSERVO_CALIB_N`` (logs, default 120), ``HDSERVO_CALIB_JOBS`` (worker
 processes, default 2), ``HDSERVO_CALIB_FROM`` (a previous JSON of this script: recompute
-the report from its cases without running anything).  Heavy: run under ``nice``.
+the report from its cases without running anything; several JSONs separated by ``:`` are
+merged by seed), ``HDSERVO_CALIB_CLEAN`` (signal sets, default ``motor,output``, empty for none: also every
+clean calibration seed of those sets, a census of the logs the threshold rule needs where
+the first seeds hold few; they enter the rule's inputs, not the report's figures),
+``HDSERVO_CALIB_SETS`` (signal sets: of the first seeds, only the logs of these sets; a run
+after a change that acts on those sets only, merged before the previous run with
+``HDSERVO_CALIB_FROM``), ``HDSERVO_CALIB_OUT`` (the JSON written), ``HDSERVO_CALIB_PACKAGE=1`` (also
+write the rule's inputs to the package data, host/hdservo/data/discrepancy_thresholds.json,
+from which the workflow computes its thresholds).  Heavy: run under ``nice``.
 """
 from __future__ import annotations
 
@@ -52,7 +60,11 @@ def _heldout() -> Any:
 
 
 def analyse(seed: int) -> dict[str, Any]:
-    """One calibration log through the workflow and the simulator loop (47's :func:`analyse`)."""
+    """One calibration log through the workflow and the simulator loop (47's :func:`analyse`),
+    with the default size threshold for every signal set: the rule's inputs (which
+    candidates are significant) must not depend on the thresholds they set."""
+    from hdservo.discrepancy import workflow
+    workflow.FRAC_MIN_BY_SIGNALS.clear()       # this worker process only
     return _heldout().analyse(seed)
 
 
@@ -107,18 +119,14 @@ def evidence_stats(records: Iterable[dict[str, Any]]) -> dict[str, Any]:
 
 #: A threshold sits this far above the size it must silence (the rule is size >= threshold).
 MARGIN = 0.01
+#: Fewest clean logs of a signal set the quantile is taken on: 1/(1 - q) = 20 (below it
+#: the 95 % quantile is the largest value, one log's outlier); fewer keep the default.
+MIN_CLEAN_LOGS = round(1.0 / (1.0 - FALSE_ALARM_QUANTILE))
 
 
-def choose_frac_min(records: Iterable[dict[str, Any]], default: float,
-                    q: float = FALSE_ALARM_QUANTILE) -> dict[str, float]:
-    """Size threshold per signal set by the false-alarm rule on the clean calibration logs.
-
-    For every clean log (nothing hidden), the largest size among its first ranking's
-    significant candidates (0 when there is none): a threshold above it keeps that log
-    silent.  The threshold of a signal set is the ``q`` quantile of those values over its
-    clean logs plus :data:`MARGIN`, never below ``default``.
-    """
-    import numpy as np
+def largest_sizes(records: Iterable[dict[str, Any]]) -> dict[str, list[float]]:
+    """Per signal set, per clean log (nothing hidden): the largest size among its first
+    ranking's significant candidates, 0 when there is none (the rule's inputs)."""
     per: dict[str, list[float]] = {}
     for r in records:
         if r.get("error") or r["hidden"]:
@@ -126,11 +134,48 @@ def choose_frac_min(records: Iterable[dict[str, Any]], default: float,
         xs = [float(c["size"]) for c in r.get("ranking_first", [])
               if c.get("significant") and c.get("size") is not None and math.isfinite(float(c["size"]))]
         per.setdefault(r["angles"], []).append(max(xs) if xs else 0.0)
-    out = {a: default for a in ("both", "motor", "output")}
-    for a, v in per.items():
-        x = float(np.quantile(v, q))
-        out[a] = max(default, x + MARGIN) if x > 0 else default
-    return out
+    return per
+
+
+def choose_frac_min(records: Iterable[dict[str, Any]], default: float,
+                    q: float = FALSE_ALARM_QUANTILE, min_logs: int = MIN_CLEAN_LOGS) -> dict[str, float]:
+    """Size threshold per signal set by the false-alarm rule on the clean calibration logs.
+
+    For every clean log (nothing hidden), the largest size among its first ranking's
+    significant candidates (0 when there is none): a threshold above it keeps that log
+    silent.  The threshold of a signal set is the ``q`` quantile of those values over its
+    clean logs plus :data:`MARGIN`, never below ``default``; a set with fewer than
+    ``min_logs`` clean logs keeps ``default`` (:func:`hdservo.discrepancy.thresholds.rule`).
+    """
+    from hdservo.discrepancy import thresholds
+    per = largest_sizes(records)
+    return {a: thresholds.rule(per.get(a, []), default, q, MARGIN, min_logs) for a in thresholds.SETS}
+
+
+def threshold_inputs(records: list[dict[str, Any]], default: float, wall_s: float | None = None) -> dict[str, Any]:
+    """The rule's inputs as package data (hdservo/data/discrepancy_thresholds.json), with
+    their provenance: the calibration seeds analysed, the clean ones per signal set."""
+    seeds = sorted(int(r["seed"]) for r in records if "seed" in r and not r.get("census"))
+    census = sorted(int(r["seed"]) for r in records if r.get("census"))
+    clean = {}
+    for r in records:
+        if not r.get("error") and not r["hidden"]:
+            clean.setdefault(r["angles"], []).append(int(r["seed"]))
+    return {"rule": "frac_min[set] = max(default, quantile(largest_sizes[set], q) + margin); a set with fewer "
+                    "than min_logs clean logs keeps the default (hdservo.discrepancy.thresholds)",
+            "largest_sizes_are": "per clean calibration log: the largest size (explained fraction) among its "
+                                 "first ranking's significant candidates, 0 when none is significant",
+            "source": "tests/results/48_discrepancy_calibration.py on the corpus' calibration seeds "
+                      "(tests/python/oracles/discrepancy_corpus.py)",
+            "set": "calibration", "seeds_analysed": [seeds[0], seeds[-1]] if seeds else [],
+            "n_logs": len(seeds),
+            "census_seeds": census, "census_is": "every clean calibration seed (1-1000) of the one-encoder signal "
+                                                 "sets beyond the first seeds, by the corpus' own draw",
+            "wall_s": wall_s,
+            "errors": sorted(int(r["seed"]) for r in records if r.get("error")),
+            "default": default, "quantile": FALSE_ALARM_QUANTILE, "margin": MARGIN, "min_logs": MIN_CLEAN_LOGS,
+            "clean_seeds": {a: sorted(v) for a, v in sorted(clean.items())},
+            "largest_sizes": {a: v for a, v in sorted(largest_sizes(records).items())}}
 
 
 def first_names_under(records: Iterable[dict[str, Any]], frac_min: dict[str, float]) -> dict[str, Any]:
@@ -171,31 +216,98 @@ def report(records: list[dict[str, Any]]) -> dict[str, Any]:
     return {"summary": m.score(records), "per_signal_set": by_set, "confusion": confusion(records),
             "evidence": evidence_stats(records),
             "frac_min_rule": {"quantile": FALSE_ALARM_QUANTILE, "default": Settings().frac_min, "chosen": chosen,
+                              "min_logs": MIN_CLEAN_LOGS,
+                              "quantile_without_min_logs": choose_frac_min(records, Settings().frac_min, min_logs=0),
                               "first_names_default": first_names_under(records, default),
                               "first_names_chosen": first_names_under(records, chosen)}}
 
 
+def census_seeds(sets: Sequence[str], seeds: Iterable[int]) -> list[int]:
+    """The clean calibration seeds (nothing hidden) of the signal sets ``sets`` among ``seeds``
+    (the corpus' own draw, nothing simulated)."""
+    from oracles import discrepancy_corpus as corpus
+    out = []
+    for s in seeds:
+        c = corpus.draw(s)
+        if not c.hidden and c.angles in sets:
+            out.append(int(s))
+    return out
+
+
+def sample(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The records of the first ``HDSERVO_CALIB_N`` seeds (the census' extra clean logs out)."""
+    return [r for r in records if not r.get("census")]
+
+
+def merged(paths: Sequence[str]) -> tuple[list[dict[str, Any]], float]:
+    """Cases of previous runs (the first run's case of a seed wins) and their total run time, s."""
+    recs: dict[int, dict[str, Any]] = {}
+    wall = 0.0
+    for p in paths:
+        doc = json.loads(Path(p).read_text())
+        wall += float(doc.get("wall_s") or 0.0)
+        for r in doc["cases"]:
+            recs.setdefault(int(r["seed"]), r)
+    return [recs[k] for k in sorted(recs)], wall
+
+
+def refresh(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Records of a previous run under the current identifiability table: ``identifiable``
+    again from the corpus' draw; candidates and names the log's signals cannot show (by
+    the current table) taken out of ``ranking_first`` and ``named`` (``refreshed`` lists
+    what was taken out).  The rest of a ranking does not depend on them."""
+    from hdservo.discrepancy import IDENTIFIABLE
+    from oracles import discrepancy_corpus as corpus
+    out = []
+    for r in records:
+        ok = IDENTIFIABLE[r["angles"]]
+        gone = sorted({c["effect"] for c in r.get("ranking_first", []) if c["effect"] not in ok}
+                      | {e for e in r.get("named", []) if e not in ok})
+        r = dict(r, identifiable=corpus.draw(int(r["seed"])).identifiable())
+        if gone:
+            r["ranking_first"] = [c for c in r.get("ranking_first", []) if c["effect"] in ok]
+            r["named"] = [e for e in r["named"] if e in ok]
+            r["refreshed"] = gone
+        out.append(r)
+    return out
+
+
 def main() -> int:
-    out = REPO / "build" / "results" / "discrepancy_calibration.json"
+    out = Path(os.environ.get("HDSERVO_CALIB_OUT") or REPO / "build" / "results" / "discrepancy_calibration.json")
     src = os.environ.get("HDSERVO_CALIB_FROM")
     t0 = time.time()
     if src:
-        recs = json.loads(Path(src).read_text())["cases"]
+        recs, wall = merged(src.split(os.pathsep))
+        recs = refresh(recs)
     else:
         from oracles import discrepancy_corpus as corpus
         seeds = list(corpus.CALIBRATION_SEEDS)[:N_LOGS]
+        only = [a for a in os.environ.get("HDSERVO_CALIB_SETS", "").split(",") if a]
+        if only:                               # the first seeds' logs of these signal sets only
+            seeds = [s for s in seeds if corpus.draw(s).angles in only]
+        sets = [a for a in os.environ.get("HDSERVO_CALIB_CLEAN", "motor,output").split(",") if a]
+        extra = [s for s in census_seeds(sets, corpus.CALIBRATION_SEEDS) if s not in seeds]
         recs = []
         with ProcessPoolExecutor(max_workers=JOBS) as ex:
-            for r in ex.map(analyse, seeds):
+            for r in ex.map(analyse, seeds + extra):
+                r["census"] = r["seed"] in extra
                 recs.append(r)
                 print(f"{r['label']}: named {r['named']}{' ' + r['error'] if r['error'] else ''} "
                       f"({r['seconds']:.0f} s)", flush=True)
                 if len(recs) % 10 == 0:         # a partial record survives an interrupted run
                     out.parent.mkdir(parents=True, exist_ok=True)
-                    write_json_atomic(out.with_suffix(".partial.json"), {"cases": recs})
-    doc = {"set": "calibration", "report": report(recs), "cases": recs, "wall_s": time.time() - t0}
+                    write_json_atomic(out.with_suffix(".partial.json"), {"cases": recs, "wall_s": time.time() - t0})
+        wall = time.time() - t0
+    from hdservo.discrepancy.workflow import Settings
+    doc = {"set": "calibration", "report": report(sample(recs)), "cases": recs, "wall_s": wall,
+           "threshold_inputs": threshold_inputs(recs, Settings().frac_min, wall)}
+    doc["report"]["frac_min_rule"]["chosen_with_census"] = choose_frac_min(recs, Settings().frac_min)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out, doc)
+    if os.environ.get("HDSERVO_CALIB_PACKAGE") == "1":
+        pkg = REPO / "host" / "hdservo" / "data" / "discrepancy_thresholds.json"
+        write_json_atomic(pkg, doc["threshold_inputs"])
+        print(f"-> {pkg}")
     print(json.dumps({k: doc["report"][k] for k in ("confusion", "frac_min_rule")}, indent=1))
     print(json.dumps(doc["report"]["summary"], indent=1))
     print(f"-> {out}")

@@ -83,6 +83,9 @@ def run(args: argparse.Namespace) -> int:
     warn = validity.warning(str(args.log), rng)
     if warn:
         print(f"[discrepancy] warning: {warn}", file=sys.stderr)
+    coarse = validity.twist_note(str(args.log), rng, sig.ratio, validity.twist_p99(sig)) if sig.has_load else None
+    if coarse:
+        print(f"[discrepancy] note: {coarse}", file=sys.stderr)
     if args.axis is not None and not args.no_simulator:
         from ..discrepancy.closeloop import read_axis
         read_axis(args.axis)                 # a bad axis file is refused before the long analysis
@@ -101,7 +104,9 @@ def run(args: argparse.Namespace) -> int:
                               "log": {"rate_Hz": rng.rate_Hz, "motor_encoder_bits": rng.motor_bits,
                                       "output_encoder_bits": rng.load_bits},
                               "inside": warn is None}
-    out["notes"] = list(res.notes) + ([warn] if warn else [])
+    out["validated_range"]["log"]["twist_resolution_rad"] = validity.twist_resolution(rng, sig.ratio) if sig.has_load \
+        else None
+    out["notes"] = list(res.notes) + ([warn] if warn else []) + ([coarse] if coarse else [])
     if closed is not None:
         out["simulator"] = closeloop.to_json(closed)
     if args.out_dir:

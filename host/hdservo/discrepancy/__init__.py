@@ -32,12 +32,16 @@ SIGNAL_SETS: tuple[str, ...] = ("both", "motor", "output")
 #: in the motor angle, which an output encoder alone gives only as N x output angle plus an
 #: unmeasured twist (at order 36 per motor revolution, 1e-4 rad of output twist on N = 100
 #: is 0.36 rad of phase), so it needs the motor encoder.  Unmodelled compliance is tested
-#: with a rigid baseline on a two-encoder log (the twist acceleration's column).
+#: with a rigid baseline on a two-encoder log (the twist acceleration's column).  A
+#: current-loop lag needs the motor angle: the output angle sees the torque through the
+#: gear's spring, which below the torsional mode delays it like a lag of 2 zeta/omega_0
+#: (0.5-1.5 ms on the catalogue axes, the lag of a 100-300 Hz current loop), so an
+#: output-only log shows a lag whether the current loop has one or not.
 IDENTIFIABLE: dict[str, tuple[str, ...]] = {
     "both": EFFECT_NAMES,
     "motor": ("stribeck_friction", "asymmetric_friction", "cogging_torque", "gravity_unbalance",
               "current_loop_lag"),
-    "output": ("stribeck_friction", "asymmetric_friction", "gravity_unbalance", "current_loop_lag"),
+    "output": ("stribeck_friction", "asymmetric_friction", "gravity_unbalance"),
 }
 
 #: The phrase the workflow reports for an effect its signals cannot show.

@@ -59,6 +59,10 @@ class Column:
     #: Coefficient estimated outside the fit (the standstill offset), held fixed by
     #: :func:`solve`; None: fitted.
     fixed: float | None = None
+    #: Constant taken off the column (per unit of its coefficient), N.m at the motor: a
+    #: column centred so that it cannot make up a constant (the offset's); the physical
+    #: offset of the uncentred column is ``offset - coefficient * shift`` (:meth:`Fit.params`).
+    shift: float = 0.0
 
 
 #: Width of the smoothed sign relative to the standstill threshold (samples below the
@@ -274,6 +278,8 @@ class Fit:
     resid: dict[str, np.ndarray]
     rss_w: float
     n_params: int
+    #: :attr:`Column.shift` of the fit's centred columns (name -> N.m per unit coefficient).
+    shifts: dict[str, float] = field(default_factory=dict)
 
     @property
     def rms(self) -> float:
@@ -282,7 +288,12 @@ class Fit:
         return float(np.sqrt(np.mean(allr ** 2)))
 
     def params(self) -> dict[str, float]:
-        return {n: float(v) for n, v in zip(self.names, self.theta)}
+        """Coefficients by name; ``offset`` is the physical one: the fitted (or fixed)
+        offset less what the centred columns took off (:attr:`Column.shift`)."""
+        p = {n: float(v) for n, v in zip(self.names, self.theta)}
+        if self.shifts and "offset" in p:
+            p["offset"] -= sum(p[n] * sh for n, sh in self.shifts.items() if n in p)
+        return p
 
 
 def solve(d: Design, cols: Sequence[Column], weights: dict[str, float],
@@ -324,7 +335,8 @@ def solve(d: Design, cols: Sequence[Column], weights: dict[str, float],
     rss_w = float(np.sum((r * w) ** 2))
     theta = np.concatenate([theta, [float(a) for _, a in fixed]])
     names = [c.name for c in cols] + [c.name for c, _ in fixed]
-    return Fit(theta=theta, names=names, resid=resid, rss_w=rss_w, n_params=len(names))
+    shifts = {c.name: c.shift for c in list(cols) + [f for f, _ in fixed] if c.shift}
+    return Fit(theta=theta, names=names, resid=resid, rss_w=rss_w, n_params=len(names), shifts=shifts)
 
 
 def equation_weights(fit: Fit) -> dict[str, float]:

@@ -123,3 +123,67 @@ def warning(where: str, r: LogRange) -> str | None:
         return None
     return (f"{where}: {', '.join(bad)}: outside the range the workflow is validated for ({range_text()}); "
             "names and gaps are less reliable (docs/discrepancy.md)")
+
+
+#: A two-encoder log whose twist spans fewer counts than this (99th percentile of its
+#: magnitude over one count of the coarser encoder at the output) gets a note: the
+#: corpus' lost-motion zones are 15 % x 0.5-1.5 of the peak twist wide per side, so at
+#: 10 counts a zone is 1.5-4.5 counts across -- at the resolution itself.
+TWIST_COUNTS_MIN = 10.0
+
+
+def twist_resolution(r: LogRange, ratio: float) -> float | None:
+    """One count of the coarser of the two encoders, rad at the output.
+
+    Parameters
+    ----------
+    r : LogRange
+        The log's rate and encoder resolutions.
+    ratio : float
+        Gear ratio N (motor angle / output angle).
+
+    Returns
+    -------
+    float or None
+        max(2π / 2^motor_bits / N, 2π / 2^output_bits); None unless both encoders'
+        resolutions are known.
+    """
+    if r.motor_bits is None or r.load_bits is None:
+        return None
+    return max(2.0 * math.pi / 2.0 ** r.motor_bits / ratio, 2.0 * math.pi / 2.0 ** r.load_bits)
+
+
+def twist_note(where: str, r: LogRange, ratio: float, twist_p99_rad: float) -> str | None:
+    """One line when the log's twist spans fewer than :data:`TWIST_COUNTS_MIN` counts, else None.
+
+    Parameters
+    ----------
+    where : str
+        The log's name (starts the line).
+    r : LogRange
+        The log's rate and encoder resolutions.
+    ratio : float
+        Gear ratio N.
+    twist_p99_rad : float
+        99th percentile of the measured twist's magnitude, rad at the output.
+    """
+    q = twist_resolution(r, ratio)
+    if q is None or not math.isfinite(twist_p99_rad) or twist_p99_rad >= TWIST_COUNTS_MIN * q:
+        return None
+    return (f"{where}: the twist spans {twist_p99_rad / q:.1f} counts of the coarser encoder (one count is "
+            f"{q:.3g} rad at the output, expected >= {TWIST_COUNTS_MIN:g}): a lost-motion zone, hysteresis or "
+            "stiffness change a few counts wide is not resolved, so backlash and hysteresis may go unnamed or "
+            "be taken for each other")
+
+
+def twist_p99(sig: Any) -> float:
+    """99th percentile of the measured twist's magnitude, rad at the output (NaN without a
+    load angle).
+
+    Parameters
+    ----------
+    sig : hdservo.discrepancy.signals.Signals
+    """
+    if not getattr(sig, "has_load", False):
+        return float("nan")
+    return float(np.percentile(np.abs(sig.phi), 99))

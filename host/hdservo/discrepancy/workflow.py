@@ -36,17 +36,16 @@ from . import effects as fx
 from ..fileio import json_ready
 from .residuals import effective_n, ljung_box
 from . import simerr
+from . import thresholds
 from .simerr import region_mask, side_error, simulation_error
 from .signals import Signals
 
 
 #: Size threshold per signal set where it differs from the default, by the false-alarm rule
-#: on the clean logs of the corpus' calibration seeds (tests/results/48_discrepancy_calibration.py,
-#: ``frac_min_rule``: the 95 % quantile of the largest significant candidate's size on clean
-#: logs, plus 0.01, never below the default).  Empty: seeds 1-20 hold only 4 clean
-#: two-encoder logs, whose rule value (0.565) also silences the tuned Stribeck case
-#: (tests/python/test_discrepancy_effects.py); the rule needs the full calibration run.
-FRAC_MIN_BY_SIGNALS: dict[str, float] = {}
+#: on the clean logs of the corpus' calibration seeds (:mod:`hdservo.discrepancy.thresholds`:
+#: the 95 % quantile of the largest significant candidate's size on clean logs, plus 0.01,
+#: never below the default), computed from the rule's inputs in the package data.
+FRAC_MIN_BY_SIGNALS: dict[str, float] = thresholds.frac_min_by_signals()
 
 
 @dataclass
@@ -890,6 +889,8 @@ def _prepare(sig: Signals, offset: bool | None) -> tuple[Signals, bl.Design, lis
                      "angle before the fit")
     # the fitted baseline columns (a fixed standstill offset does not take up a Coulomb asymmetry)
     d._baseline_names = {c.name for c in cols if c.fixed is None}  # type: ignore[attr-defined]
+    # and the ones held fixed (a rigid baseline's standstill offset)
+    d._fixed_names = {c.name for c in cols if c.fixed is not None}  # type: ignore[attr-defined]
     return sig, d, cols, zero_note
 
 
