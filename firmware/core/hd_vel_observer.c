@@ -64,11 +64,6 @@ hd_vel_out_t hd_velobs_vel_out(const hd_velobs_t *s)
     return hdf_asr32_rnd(s->vel, 16u);
 }
 
-int64_t hd_velobs_vel48(const hd_velobs_t *s)
-{
-    return s->vel;
-}
-
 void hd_velobs_design(hd_velobs_cfg_t *c, int32_t w_q16, int32_t zeta_q16)
 {
     /* kp_dt (Q16) = 2 zeta w T ; ki_dt (Q16) = w^2 T.  T = 1/HD_LOOP_HZ. */

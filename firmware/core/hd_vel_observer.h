@@ -56,8 +56,11 @@ void hd_velobs_reset(hd_velobs_t *s, hd_angle_t theta);
 void hd_velobs_start(hd_velobs_t *s, hd_angle_t theta, int64_t vel48);
 /** Velocity in 2^-32 turn/s, rounded and saturated. */
 hd_vel_out_t hd_velobs_vel_out(const hd_velobs_t *s);
-/** Velocity in 2^-48 turn/s. */
-int64_t hd_velobs_vel48(const hd_velobs_t *s);
+/** Velocity in 2^-48 turn/s (inline: the control period reads it twice). */
+static inline int64_t hd_velobs_vel48(const hd_velobs_t *s)
+{
+    return s->vel;
+}
 /** Gains for bandwidth w (rad/s, given in Q16) and damping zeta (Q16): kp_dt = 2 zeta w T, ki_dt = w^2 T. */
 void hd_velobs_design(hd_velobs_cfg_t *c, int32_t w_q16, int32_t zeta_q16);
 
