@@ -736,7 +736,7 @@ typedef struct {
     hd_vel_out_t       v_ff;      /* velocity feed-forward, 2^-32 turn/s */
     hd_vel_out_t       vff_plain; /* v_ff before the bank's corrections */
     hd_torque_t        t_ff;      /* torque feed-forward, Q15.16 N.m */
-    int64_t            t_out;     /* torque before the limit, Q15.16 N.m */
+    int32_t            t_out;     /* torque before the limit, Q15.16 N.m (an int32 from every source) */
     int32_t            t_cmd;     /* limited output torque command, Q15.16 N.m */
     hd_comp_bank_in_t  cbi;       /* the bank's inputs (pre and post) */
     hd_hal_command_t   cmd;
@@ -986,7 +986,7 @@ static void phase_loops(hd_app_t *a, hd_period_t *p)
         p->t_out = hd_biquad_chain_step(&a->filt, &a->filt_cfg, t);
     }
     const int32_t tlim = param_raw(a, HD_P_TORQUE_LIMIT);
-    p->t_cmd = hdf_clamp32(hdf_sat32(p->t_out), hdf_neg_sat(tlim), tlim);
+    p->t_cmd = hdf_clamp32(p->t_out, hdf_neg_sat(tlim), tlim);
 }
 
 /* Limits and faults (latched; each check enabled by its fault_enable bit). */
