@@ -761,7 +761,7 @@ static void phase_sensors(hd_app_t *a, hd_period_t *p)
         a->mode_changed = 0;
         enter_mode(a, a->mode_req);
     }
-    hd_velobs_step(&a->obs_mot, &a->obs_mot_cfg, a->pos_mot);
+    hd_velobs_step_inline(&a->obs_mot, &a->obs_mot_cfg, a->pos_mot);
     p->n = param_raw(a, HD_P_GEAR_RATIO);
     const hd_vel_out_t v_mot_out = div_n_q16_rnd(hd_velobs_vel48(&a->obs_mot), p->n);
     /* the output-encoder observer only while its velocity is used: the loop's feedback
