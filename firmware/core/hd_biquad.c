@@ -38,8 +38,7 @@ static inline int32_t biquad_step(hd_biquad_state_t *s, const hd_biquad_coef_t *
     acc += (int64_t)c->b2 * s->x2;
     acc += (int64_t)c->a1 * (int32_t)(-s->y1);             /* |y| <= 2^29: the negation fits */
     acc += (int64_t)c->a2 * (int32_t)(-s->y2);
-    /* |r| < 2^61: the rounded r / 2^30 is below 2^31, an int32 (the fitting shift) */
-    acc -= (int64_t)hdf_asr32_rnd_fit(r, 30u);
+    acc -= hdf_asr64_rnd(r, 30u);
     const int64_t yr = hdf_asr64_rnd(acc, 30u);              /* |.| < 2^33 */
     int32_t y;
     int32_t e;
