@@ -310,39 +310,51 @@ static int32_t enc_step_q32(uint32_t now, uint32_t prev, uint32_t bits)
 }
 
 /* hd_sat32(hd_div64_rnd(num, den)) for int32 num and den >= 1, in 32-bit
- * arithmetic (one UDIV on the M4 instead of __aeabi_ldivmod); same result. */
+ * arithmetic (one UDIV on the M4 instead of __aeabi_ldivmod); same result.
+ * Range: |num| <= 2^31, so quo <= 2^31, and quo == 2^31 only for num = -2^31 and
+ * den = 1 (den >= 2 gives quo <= 2^30 + 1; den = 1 leaves num itself): a positive
+ * quotient fits an int32 and a negative one is -quo without saturation. */
 static int32_t div32_rnd(int32_t num, int32_t den)
 {
-    const uint32_t un = (uint32_t)mag64(num);      /* <= 2^31 */
+    const uint32_t un = (num < 0) ? 0u - (uint32_t)num : (uint32_t)num;   /* <= 2^31 */
     const uint32_t ud = (uint32_t)den;
     uint32_t quo = un / ud;
     const uint32_t rem = un - quo * ud;
     if (rem >= ud - rem) {
         quo += 1u;
     }
-    return hdf_sat32((num < 0) ? -(int64_t)quo : (int64_t)quo);
+    return hdf__s32((num < 0) ? 0u - quo : quo);
 }
 
 /* hd_div_q(num, den, 16u) for den >= 1: with den < 2^16 the 48-bit dividend
  * |num| 2^16 is divided in two 32-bit steps (q1 = |num| / den, then the
  * remainder r1 < 2^16 shifted by 16 bits: < 2^32), two UDIVs instead of the
- * 64-bit long division; same quotient, rounding and saturation.  Larger den: hd_div_q. */
+ * 64-bit long division; same quotient, rounding and saturation.  Larger den: hd_div_q.
+ * Range: q2 < 2^16, so with q1 < 2^15 the rounded quotient is at most 2^31 (a
+ * uint32): 2^31 saturates to INT32_MAX when positive and is INT32_MIN itself when
+ * negative; q1 >= 2^15 means |quotient| >= 2^31: the limit of the sign of num. */
 static int32_t div_q16_rnd(int32_t num, int32_t den)
 {
     if (den < 1 || den > 65535) {
         return hd_div_q(num, den, 16u);
     }
-    const uint32_t un = (uint32_t)mag64(num);      /* <= 2^31 */
+    const uint32_t un = (num < 0) ? 0u - (uint32_t)num : (uint32_t)num;   /* <= 2^31 */
     const uint32_t ud = (uint32_t)den;
     const uint32_t q1 = un / ud;
+    if (q1 >= 32768u) {
+        return (num < 0) ? INT32_MIN : INT32_MAX;
+    }
     const uint32_t t = (un - q1 * ud) << 16;
     const uint32_t q2 = t / ud;
     const uint32_t r2 = t - q2 * ud;
-    uint64_t quo = ((uint64_t)q1 << 16) + q2;
+    uint32_t quo = (q1 << 16) + q2;
     if (r2 >= ud - r2) {
         quo += 1u;
     }
-    return hdf_sat32((num < 0) ? -(int64_t)quo : (int64_t)quo);
+    if (num < 0) {
+        return hdf__s32(0u - quo);
+    }
+    return (quo > (uint32_t)INT32_MAX) ? INT32_MAX : (int32_t)quo;
 }
 
 /* hd_sat32(hd_div64_rnd(x, n * 65536)) for 1 <= n < 65536: floor(|x| / (n 2^16)) =
@@ -724,7 +736,7 @@ typedef struct {
     hd_vel_out_t       v_ff;      /* velocity feed-forward, 2^-32 turn/s */
     hd_vel_out_t       vff_plain; /* v_ff before the bank's corrections */
     hd_torque_t        t_ff;      /* torque feed-forward, Q15.16 N.m */
-    int64_t            t_out;     /* torque before the limit, Q15.16 N.m */
+    int32_t            t_out;     /* torque before the limit, Q15.16 N.m (an int32 from every source) */
     int32_t            t_cmd;     /* limited output torque command, Q15.16 N.m */
     hd_comp_bank_in_t  cbi;       /* the bank's inputs (pre and post) */
     hd_hal_command_t   cmd;
@@ -749,7 +761,7 @@ static void phase_sensors(hd_app_t *a, hd_period_t *p)
         a->mode_changed = 0;
         enter_mode(a, a->mode_req);
     }
-    hd_velobs_step(&a->obs_mot, &a->obs_mot_cfg, a->pos_mot);
+    hd_velobs_step_inline(&a->obs_mot, &a->obs_mot_cfg, a->pos_mot);
     p->n = param_raw(a, HD_P_GEAR_RATIO);
     const hd_vel_out_t v_mot_out = div_n_q16_rnd(hd_velobs_vel48(&a->obs_mot), p->n);
     /* the output-encoder observer only while its velocity is used: the loop's feedback
@@ -974,7 +986,7 @@ static void phase_loops(hd_app_t *a, hd_period_t *p)
         p->t_out = hd_biquad_chain_step(&a->filt, &a->filt_cfg, t);
     }
     const int32_t tlim = param_raw(a, HD_P_TORQUE_LIMIT);
-    p->t_cmd = hdf_clamp32(hdf_sat32(p->t_out), hdf_neg_sat(tlim), tlim);
+    p->t_cmd = hdf_clamp32(p->t_out, hdf_neg_sat(tlim), tlim);
 }
 
 /* Limits and faults (latched; each check enabled by its fault_enable bit). */

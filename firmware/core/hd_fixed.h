@@ -648,9 +648,19 @@ HD_FX_INLINE int64_t hdf_mul64x32_q(int64_t a, int32_t b, uint32_t q)
     }
     return hdf__mul96_q(a, b, qq);
 }
+/* M4: SMULL for the product (the compiler multiplies 64 x 64 bits once either
+ * factor's sign word is shared with other 64-bit work of the caller), then the
+ * saturating 64-bit add */
 HD_FX_INLINE int64_t hdf_mac64(int64_t acc, int32_t a, int32_t b)
 {
+#if HD_FX_M4
+    uint32_t pl;
+    uint32_t ph;
+    __asm__("smull %[pl], %[ph], %[x], %[y]" : [pl] "=&r"(pl), [ph] "=&r"(ph) : [x] "r"(a), [y] "r"(b));
+    return hdf_add64_sat(acc, hdf__u2s64(((uint64_t)ph << 32) | pl));
+#else
     return hdf_add64_sat(acc, (int64_t)a * (int64_t)b);
+#endif
 }
 /* ---- 32-bit DSP forms ---------------------------------------------------------
  * Each computes, for every input, the bits of one Cortex-M4 DSP instruction

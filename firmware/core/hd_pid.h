@@ -136,12 +136,23 @@ HD_FX_INLINE int32_t hd__pid_step(hd_pid_t *s, const hd_pid_cfg_t *c, int32_t re
         s->integ = integ_new;
     }
 
-    const int64_t uc = hdf_clamp64(u, (int64_t)c->out_min, (int64_t)c->out_max);
-    s->saturated = (uc != u) ? 1u : 0u;
+    /* the output limits are int32s: a sum outside the int32 range is clamped to the limit
+     * of its sign, one inside is clamped in 32-bit words (the same value and flag as the
+     * 64-bit clamp, without its 64-bit compares) */
+    int32_t uc;
+    const uint32_t ul = hdf__lo(u);
+    const int32_t u32 = hdf__s32(ul);
+    if (hdf__hi(u) != (uint32_t)(0u - (ul >> 31))) {
+        uc = (u < 0) ? c->out_min : c->out_max;
+        s->saturated = 1u;
+    } else {
+        uc = (u32 < c->out_min) ? c->out_min : ((u32 > c->out_max) ? c->out_max : u32);
+        s->saturated = (uc != u32) ? 1u : 0u;
+    }
     s->p = p;
     s->i = i_new;
     s->d = d;
-    s->out = (int32_t)uc;
+    s->out = uc;
     return s->out;
 }
 

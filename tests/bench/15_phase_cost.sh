@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Per-phase Cortex-M4 instruction cost of one control period (hd_app_step) in
-# the kernels control_step_baseline, control_step_full / semi / dual and
-# isr_worst_case (these at every tick of the bank's schedule, folded to the worst)
+# the kernels control_step_baseline, control_step_full / semi / dual,
+# isr_worst_case and isr_worst_case_semi_t2 (these at every tick of the bank's schedule, folded to the worst)
 # -> build/bench/phase_cost.json.  Same counter as 10_cm4_cost.sh (QEMU TCG
 # plugin tools/qemu-insncount on mps2-an386); the probe image is the cost image
 # with hd_app.c compiled with HD_APP_PHASE_PROBE (a mark between the phases of
@@ -30,7 +30,7 @@ args=()
 cycle=$(awk '$1=="#define" && $2=="HD_SCHED_CYCLE"{gsub("u","",$3); print $3}' firmware/app/hd_sched.h)
 [ -n "$cycle" ] || { echo "phase_cost: no HD_SCHED_CYCLE in firmware/app/hd_sched.h"; exit 1; }
 kernels=(control_step_baseline)
-for b in control_step_full control_step_semi control_step_dual isr_worst_case; do
+for b in control_step_full control_step_semi control_step_dual isr_worst_case isr_worst_case_semi_t2; do
   for ((t = 0; t < cycle; t++)); do kernels+=("$b.s$t"); done
 done
 for k in "${kernels[@]}"; do

@@ -152,6 +152,48 @@ def with_online_estimator(kernels: dict) -> dict | None:
             "cpu_load": round(load, 4), "within_target": load <= TARGET}
 
 
+#: the worst-case kernels per operating mode, each folded over the ticks of the schedule
+MODES = {
+    "isr_worst_case": "PTP, full closed, every compensator (backstepping on)",
+    "isr_worst_case_pid": "PTP, full closed, every compensator but backstepping",
+    "isr_worst_case_exc": "excitation (multisine of 4 lines on the held position), every compensator",
+    "isr_worst_case_semi_t2": "PTP, semi-closed, every compensator and compliance, "
+                              "twist torque from the motor side (pr_t_src 2)",
+}
+
+
+def modes(kernels: dict) -> dict:
+    """The worst control period of every operating mode against the target.
+
+    Parameters
+    ----------
+    kernels : dict
+        ``cm4_cost.json`` "kernels": name -> {"instructions": N [instructions],
+        optionally "worst_slot" and "slots" [instructions per tick]}.
+
+    Returns
+    -------
+    dict
+        Mode kernel name -> {"what", "instructions" [instructions], "worst_tick",
+        "tick_instructions", "cycles" [cycles per 100 us period, with the allowance],
+        "cpu_load" [fraction of the 10 kHz period], "within_target" (bool)}, for the
+        kernels of ``MODES`` present.
+    """
+    budget = F_CPU_HZ / F_CTRL_HZ
+    out = {}
+    for name, what in MODES.items():
+        if name not in kernels:
+            continue
+        n = int(kernels[name]["instructions"])
+        cycles = n * CPI + sum(ALLOW_CYCLES.values())
+        out[name] = {"what": what, "instructions": n,
+                     "worst_tick": kernels[name].get("worst_slot"),
+                     "tick_instructions": kernels[name].get("slots"),
+                     "cycles": round(cycles), "cpu_load": round(cycles / budget, 4),
+                     "within_target": cycles / budget <= TARGET}
+    return out
+
+
 def main() -> int:
     if not SRC.exists():
         print(f"{SRC.relative_to(ROOT)}: missing (run tests/bench/10_cm4_cost.sh first)")
@@ -161,7 +203,8 @@ def main() -> int:
         print(f"{SRC.relative_to(ROOT)}: no kernel 'isr_worst_case'")
         return 1
     insn = k["isr_worst_case"]["instructions"]
-    parts = {n: k[n]["instructions"] for n in ("isr_worst_case_pid", "isr_worst_case_exc", "control_step_full",
+    parts = {n: k[n]["instructions"] for n in ("isr_worst_case_pid", "isr_worst_case_exc", "isr_worst_case_semi_t2",
+                                               "control_step_full",
                                                "control_step_baseline",
                                                "foc_step", "ssi_decode", "enc_update")
              if n in k}
@@ -186,6 +229,7 @@ def main() -> int:
         "cpu_load": round(load, 4),
         "within_target": load <= TARGET,
     }
+    out["modes"] = modes(k)
     fe = with_online_estimator(k)
     if fe is not None:
         out["with_online_estimator"] = fe
@@ -212,6 +256,9 @@ def main() -> int:
           f"(target <= {100 * TARGET:.0f} %: {'met' if load <= TARGET else 'NOT met'})")
     for n, v in parts.items():
         print(f"  {n:24s} {v:6d} instructions ({100 * v * CPI / budget:.1f} %)")
+    for n, v in out["modes"].items():
+        print(f"  mode {n:24s} {v['instructions']:6d} instructions, load {100 * v['cpu_load']:.1f} % "
+              f"({'met' if v['within_target'] else 'NOT met'}): {v['what']}")
     if "with_online_estimator" in out:
         fe = out["with_online_estimator"]
         print(f"  with the online estimator's worst part ({fe['worst_part']}): {fe['instructions']} instructions, "

@@ -179,6 +179,35 @@ static void app_start(uint32_t mot, uint32_t out)
     hd_app_step(&app);
 }
 
+/* the motor torque command = round(output torque / N) (hd_div64_rnd, saturated) over
+ * gear ratios 1 .. 1000 and output torques up to the limit, signs and half-way points */
+static void test_app_motor_torque_is_div64_rnd(void **state)
+{
+    static const int32_t ns[] = {1, 2, 3, 7, 100, 160, 999, 1000};
+    const int32_t tlim = 1000 * 65536;   /* the parameter maxima */
+    static const int32_t torques[] = {0, 1, -1, 2, -2, 3, -3, 50, -50, 150, -150,
+                                      1000 * 65536, -1000 * 65536, 1000 * 65536 - 1};
+    uint32_t i, j, n = 0u;
+    (void)state;
+    app_start(0u, 0u);
+    assert_int_equal(hd_app_param_set(&app, HD_P_TORQUE_LIMIT, tlim), 0);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_TORQUE), 0);
+    for (i = 0; i < sizeof ns / sizeof ns[0]; i++) {
+        assert_int_equal(hd_app_param_set(&app, HD_P_GEAR_RATIO, ns[i]), 0);
+        for (j = 0; j < sizeof torques / sizeof torques[0] + 2000u; j++) {
+            const int32_t scale = (int32_t)(1u << (uint32_t)(rnd64() % 20u));
+            int32_t t = (j < sizeof torques / sizeof torques[0]) ? torques[j] : s32((uint32_t)rnd64()) / scale;
+            t = (t > tlim) ? tlim : (t < -tlim) ? -tlim : t;
+            hd_app_set_torque(&app, t);
+            hd_app_step(&app);
+            assert_int_equal(stub_cmd.enable, 1);
+            assert_int_equal(stub_cmd.torque, hd_sat32(hd_div64_rnd(t, ns[i])));
+            n += (stub_cmd.torque != 0) ? 1u : 0u;
+        }
+    }
+    assert_true(n > 1000u);
+}
+
 /* the motor current command = round(motor torque 2^16 / Kt) over the whole Kt range,
  * both branches of the 32-bit division (Kt < 1 N.m/A) and the general one */
 static void test_app_current_is_div_q(void **state)
@@ -496,6 +525,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_pid_fit_readouts_match_asr32_rnd, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_blend_update_follows_ramp_rule, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_app_current_is_div_q, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_app_motor_torque_is_div64_rnd, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_app_encoder_steps, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_app_travel_limit_follows_parameter, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_pid_shift_products_match_shl64_sat, setUp, tearDown),

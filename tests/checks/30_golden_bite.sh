@@ -62,6 +62,7 @@ hmutants=(
   'h_dot2|s@"smlal %\[lo\], %\[hi\], %\[c\], %\[d\]"@"smull %[lo], %[hi], %[c], %[d]" /* MUTANT */@|hdf_dot2_rnd32|first product and rounding dropped in the M4 hdf_dot2_rnd32'
   'h_dot2_64|s@"smull %\[lo\], %\[hi\], %\[a\], %\[b\]\\n\\t"@"mov %[lo], #0\\n\\tmov %[hi], #0\\n\\t" /* MUTANT */@|hdf_dot2_64|first product dropped in the M4 hdf_dot2_64'
   'h_ssat|s@"ssat %0, %1, %2"@"mov %0, %2" /* MUTANT */@|hdf_ssat|saturation dropped in the M4 hdf_ssat'
+  'h_mac64|s@"smull %\[pl\], %\[ph\], %\[x\], %\[y\]"@"umull %[pl], %[ph], %[x], %[y]" /* MUTANT */@|hdf_mac64|unsigned instead of signed product in the M4 hdf_mac64'
   'h_mul96_sign|s@"and %\[n\], %\[al\], %\[b\], asr #31\\n\\t"@"mov %[n], #0\\n\\t" /* MUTANT */@|hdf_mul64x32_q|missing negative-b correction in the M4 96-bit product'
 )
 bite firmware/core/hd_fixed.h gv_m4_h.elf "${hmutants[@]}"

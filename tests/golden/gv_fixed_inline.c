@@ -244,6 +244,7 @@ RUN_BEGIN(run_smmulr, 2, 1) out[0] = hdf_smmulr(in[0], in[1]); RUN_END
 RUN_BEGIN(run_smmlar, 4, 1) out[0] = hdf_smmlar(in[2], in[0], in[1]); RUN_END
 RUN_BEGIN(run_dot2_rnd32, 4, 1) out[0] = hdf_dot2_rnd32(in[0], in[1], in[2], in[3]); RUN_END
 RUN_BEGIN(run_dot2_64, 4, 2) hd_gv_put64(out, hdf_dot2_64(in[0], in[1], in[2], in[3])); RUN_END
+RUN_BEGIN(run_mac64, 4, 2) hd_gv_put64(out, hdf_mac64(hd_gv_get64(in), in[2], in[3])); RUN_END
 RUN_BEGIN(run_ssat, 2, 1) out[0] = ssat_const(in[0], hd_gv_s2u(in[1])); RUN_END
 
 /* ---- cost: one representative call each ------------------------------- */
@@ -283,6 +284,7 @@ COST(cost_smmlar, sink32, hdf_smmlar(b, a, b))
 COST(cost_dot2_rnd32, sink32, hdf_dot2_rnd32(a, b, b, a))
 COST(cost_dot2_64, sink64, hdf_dot2_64(a, b, b, a))
 COST(cost_ssat, sink32, hdf_ssat(a, 28u))
+COST(cost_mac64, sink64, hdf_mac64(a64, a, b))
 
 /* ---- registry -------------------------------------------------------- */
 
@@ -305,5 +307,6 @@ const hd_gv_kernel_t hd_gv_fixed_inline_kernels[] = {
     {"hdf_dot2_rnd32", 4, 1, GV_N, gen_e32x4, run_dot2_rnd32, cost_dot2_rnd32},
     {"hdf_dot2_64", 4, 2, GV_N, gen_e32x4, run_dot2_64, cost_dot2_64},
     {"hdf_ssat", 2, 1, GV_N, gen_ssat, run_ssat, cost_ssat},
+    {"hdf_mac64", 4, 2, GV_N, gen_e32x4, run_mac64, cost_mac64},
 };
 const uint32_t hd_gv_fixed_inline_count = sizeof hd_gv_fixed_inline_kernels / sizeof hd_gv_fixed_inline_kernels[0];

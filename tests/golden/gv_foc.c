@@ -28,6 +28,10 @@
  *   isr_worst_case_exc  the same period in the excitation mode (a multisine of 4
  *                   lines added to the held position) instead of PTP, per tick
  *                   (cost only).
+ *   isr_worst_case_semi_t2  the same period semi-closed (fb_config 1, the compliance
+ *                   compensator on too) with the twist torque of the Preisach inverse
+ *                   estimated from the motor side (pr_t_src 2, hd_gear_torque), per
+ *                   tick (cost only).
  *   isr_worst_case_fe_<part>  isr_worst_case's worst tick (3) with the online
  *                   Stribeck identification on (fe_enable 1) and one kind of its
  *                   work in the measured period: its step's observation, a
@@ -348,7 +352,7 @@ static void isr_exc_cfg(hd_exc_cfg_t *c)
     c->seed = 0x5Au;
 }
 
-static void cost_isr_en(uint32_t cb_enable, uint32_t slot, uint32_t fe_steps, uint32_t fe_parts, bool exc)
+static void cost_isr_en(uint32_t cb_enable, uint32_t slot, uint32_t fe_steps, uint32_t fe_parts, bool exc, bool semi)
 {
     hd_foc_t s;
     hd_foc_cfg_t c;
@@ -366,6 +370,12 @@ static void cost_isr_en(uint32_t cb_enable, uint32_t slot, uint32_t fe_steps, ui
     isr_sensors(0u, &r, 0u);
     hd_app_init(&isr_app);
     (void)hd_app_param_set(&isr_app, HD_P_FAULT_ENABLE, 0);
+    if (semi) {
+        /* semi-closed with the twist torque of the Preisach inverse from the motor side
+         * (pr_t_src 2: hd_gear_torque at its tick of the schedule) */
+        (void)hd_app_param_set(&isr_app, HD_P_FB_CONFIG, HD_FB_SEMI_CLOSED);
+        (void)hd_app_param_set(&isr_app, HD_P_PR_T_SRC, 2);
+    }
     (void)hd_app_param_set(&isr_app, HD_P_LUG_K_OBS, 30 << 16);
     (void)hd_app_param_set(&isr_app, HD_P_TE_K1, 1 << 20);
     (void)hd_app_param_set(&isr_app, HD_P_CB_RAMP_TICKS, 4);
@@ -414,42 +424,51 @@ static void cost_isr_en(uint32_t cb_enable, uint32_t slot, uint32_t fe_steps, ui
 /* one cost kernel per tick of the schedule (hd_sched.h); tools/cm4_cost.py takes the worst */
 #define ISR_ALL ((uint32_t)HD_CB_ALL)
 #define ISR_PID ((uint32_t)HD_CB_ALL & ~(uint32_t)HD_CB_BACKSTEP)
-static void cost_isr_s0(void) { cost_isr_en(ISR_ALL, 0u, 0u, 0u, false); }
-static void cost_isr_s1(void) { cost_isr_en(ISR_ALL, 1u, 0u, 0u, false); }
-static void cost_isr_s2(void) { cost_isr_en(ISR_ALL, 2u, 0u, 0u, false); }
-static void cost_isr_s3(void) { cost_isr_en(ISR_ALL, 3u, 0u, 0u, false); }
-static void cost_isr_s4(void) { cost_isr_en(ISR_ALL, 4u, 0u, 0u, false); }
-static void cost_isr_s5(void) { cost_isr_en(ISR_ALL, 5u, 0u, 0u, false); }
-static void cost_isr_s6(void) { cost_isr_en(ISR_ALL, 6u, 0u, 0u, false); }
-static void cost_isr_s7(void) { cost_isr_en(ISR_ALL, 7u, 0u, 0u, false); }
-static void cost_isr_pid_s0(void) { cost_isr_en(ISR_PID, 0u, 0u, 0u, false); }
-static void cost_isr_pid_s1(void) { cost_isr_en(ISR_PID, 1u, 0u, 0u, false); }
-static void cost_isr_pid_s2(void) { cost_isr_en(ISR_PID, 2u, 0u, 0u, false); }
-static void cost_isr_pid_s3(void) { cost_isr_en(ISR_PID, 3u, 0u, 0u, false); }
-static void cost_isr_pid_s4(void) { cost_isr_en(ISR_PID, 4u, 0u, 0u, false); }
-static void cost_isr_pid_s5(void) { cost_isr_en(ISR_PID, 5u, 0u, 0u, false); }
-static void cost_isr_pid_s6(void) { cost_isr_en(ISR_PID, 6u, 0u, 0u, false); }
-static void cost_isr_pid_s7(void) { cost_isr_en(ISR_PID, 7u, 0u, 0u, false); }
+static void cost_isr_s0(void) { cost_isr_en(ISR_ALL, 0u, 0u, 0u, false, false); }
+static void cost_isr_s1(void) { cost_isr_en(ISR_ALL, 1u, 0u, 0u, false, false); }
+static void cost_isr_s2(void) { cost_isr_en(ISR_ALL, 2u, 0u, 0u, false, false); }
+static void cost_isr_s3(void) { cost_isr_en(ISR_ALL, 3u, 0u, 0u, false, false); }
+static void cost_isr_s4(void) { cost_isr_en(ISR_ALL, 4u, 0u, 0u, false, false); }
+static void cost_isr_s5(void) { cost_isr_en(ISR_ALL, 5u, 0u, 0u, false, false); }
+static void cost_isr_s6(void) { cost_isr_en(ISR_ALL, 6u, 0u, 0u, false, false); }
+static void cost_isr_s7(void) { cost_isr_en(ISR_ALL, 7u, 0u, 0u, false, false); }
+static void cost_isr_pid_s0(void) { cost_isr_en(ISR_PID, 0u, 0u, 0u, false, false); }
+static void cost_isr_pid_s1(void) { cost_isr_en(ISR_PID, 1u, 0u, 0u, false, false); }
+static void cost_isr_pid_s2(void) { cost_isr_en(ISR_PID, 2u, 0u, 0u, false, false); }
+static void cost_isr_pid_s3(void) { cost_isr_en(ISR_PID, 3u, 0u, 0u, false, false); }
+static void cost_isr_pid_s4(void) { cost_isr_en(ISR_PID, 4u, 0u, 0u, false, false); }
+static void cost_isr_pid_s5(void) { cost_isr_en(ISR_PID, 5u, 0u, 0u, false, false); }
+static void cost_isr_pid_s6(void) { cost_isr_en(ISR_PID, 6u, 0u, 0u, false, false); }
+static void cost_isr_pid_s7(void) { cost_isr_en(ISR_PID, 7u, 0u, 0u, false, false); }
 /* the worst tick of the bank (3, the TE slot) with each kind of the online estimator's work
  * in the same period (fe_decim 10 against a cycle of 8: every tick meets every step and
  * part), in the last candidate of a fit (31 x 4 steps before it) */
 /* the excitation mode with every compensator on, per tick */
-static void cost_isr_exc_s0(void) { cost_isr_en(ISR_ALL, 0u, 0u, 0u, true); }
-static void cost_isr_exc_s1(void) { cost_isr_en(ISR_ALL, 1u, 0u, 0u, true); }
-static void cost_isr_exc_s2(void) { cost_isr_en(ISR_ALL, 2u, 0u, 0u, true); }
-static void cost_isr_exc_s3(void) { cost_isr_en(ISR_ALL, 3u, 0u, 0u, true); }
-static void cost_isr_exc_s4(void) { cost_isr_en(ISR_ALL, 4u, 0u, 0u, true); }
-static void cost_isr_exc_s5(void) { cost_isr_en(ISR_ALL, 5u, 0u, 0u, true); }
-static void cost_isr_exc_s6(void) { cost_isr_en(ISR_ALL, 6u, 0u, 0u, true); }
-static void cost_isr_exc_s7(void) { cost_isr_en(ISR_ALL, 7u, 0u, 0u, true); }
+static void cost_isr_exc_s0(void) { cost_isr_en(ISR_ALL, 0u, 0u, 0u, true, false); }
+static void cost_isr_exc_s1(void) { cost_isr_en(ISR_ALL, 1u, 0u, 0u, true, false); }
+static void cost_isr_exc_s2(void) { cost_isr_en(ISR_ALL, 2u, 0u, 0u, true, false); }
+static void cost_isr_exc_s3(void) { cost_isr_en(ISR_ALL, 3u, 0u, 0u, true, false); }
+static void cost_isr_exc_s4(void) { cost_isr_en(ISR_ALL, 4u, 0u, 0u, true, false); }
+static void cost_isr_exc_s5(void) { cost_isr_en(ISR_ALL, 5u, 0u, 0u, true, false); }
+static void cost_isr_exc_s6(void) { cost_isr_en(ISR_ALL, 6u, 0u, 0u, true, false); }
+static void cost_isr_exc_s7(void) { cost_isr_en(ISR_ALL, 7u, 0u, 0u, true, false); }
 #define FE_J31 (31u * 4u)
-static void cost_isr_fe_observe(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, FE_OBSERVE, false); }
-static void cost_isr_fe_snapshot(void) { cost_isr_en(ISR_ALL, 3u, FE_J31, 0u, false); }
-static void cost_isr_fe_sums(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 0u, false); }
-static void cost_isr_fe_solve(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 6u, false); }
-static void cost_isr_fe_sse(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 0u, false); }
-static void cost_isr_fe_pick(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 6u, false); }
-static void cost_isr_fe_publish(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 7u, false); }
+static void cost_isr_semi_t2_s0(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 0u, 0u, 0u, false, true); }
+static void cost_isr_semi_t2_s1(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 1u, 0u, 0u, false, true); }
+static void cost_isr_semi_t2_s2(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 2u, 0u, 0u, false, true); }
+static void cost_isr_semi_t2_s3(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 3u, 0u, 0u, false, true); }
+static void cost_isr_semi_t2_s4(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 4u, 0u, 0u, false, true); }
+static void cost_isr_semi_t2_s5(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 5u, 0u, 0u, false, true); }
+static void cost_isr_semi_t2_s6(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 6u, 0u, 0u, false, true); }
+static void cost_isr_semi_t2_s7(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 7u, 0u, 0u, false, true); }
+
+static void cost_isr_fe_observe(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, FE_OBSERVE, false, false); }
+static void cost_isr_fe_snapshot(void) { cost_isr_en(ISR_ALL, 3u, FE_J31, 0u, false, false); }
+static void cost_isr_fe_sums(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 0u, false, false); }
+static void cost_isr_fe_solve(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 6u, false, false); }
+static void cost_isr_fe_sse(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 0u, false, false); }
+static void cost_isr_fe_pick(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 6u, false, false); }
+static void cost_isr_fe_publish(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 7u, false, false); }
 
 const hd_gv_kernel_t hd_gv_foc_kernels[] = {
     {"foc_step", 6u, 7u, 384u, gen_foc, run_foc, cost_foc},
@@ -480,6 +499,14 @@ const hd_gv_kernel_t hd_gv_foc_kernels[] = {
     {"isr_worst_case_exc.s5", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s5},
     {"isr_worst_case_exc.s6", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s6},
     {"isr_worst_case_exc.s7", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_s7},
+    {"isr_worst_case_semi_t2.s0", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_s0},
+    {"isr_worst_case_semi_t2.s1", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_s1},
+    {"isr_worst_case_semi_t2.s2", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_s2},
+    {"isr_worst_case_semi_t2.s3", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_s3},
+    {"isr_worst_case_semi_t2.s4", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_s4},
+    {"isr_worst_case_semi_t2.s5", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_s5},
+    {"isr_worst_case_semi_t2.s6", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_s6},
+    {"isr_worst_case_semi_t2.s7", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_s7},
     {"isr_worst_case_fe_observe", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_observe},
     {"isr_worst_case_fe_snapshot", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_snapshot},
     {"isr_worst_case_fe_sums", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_sums},

@@ -52,3 +52,19 @@ def test_the_worst_period_with_the_online_estimator() -> None:
     assert fe["cpu_load"] == round((2992 * 1.3 + 360) / 17000, 4) and fe["within_target"] is True
     k["isr_worst_case_fe_sse"] = {"instructions": 2993}
     assert m.with_online_estimator(k)["within_target"] is False
+
+
+def test_every_mode_against_the_target() -> None:
+    m = _load()
+    kernels = {
+        "isr_worst_case": {"instructions": 2992, "worst_slot": 1, "slots": [2900, 2992]},
+        "isr_worst_case_semi_t2": {"instructions": 2993, "worst_slot": 0, "slots": [2993, 2800]},
+        "control_step_baseline": {"instructions": 999},
+    }
+    out = m.modes(kernels)
+    assert set(out) == {"isr_worst_case", "isr_worst_case_semi_t2"}
+    assert out["isr_worst_case"]["within_target"] is True
+    assert out["isr_worst_case_semi_t2"]["within_target"] is False
+    assert out["isr_worst_case_semi_t2"]["worst_tick"] == 0
+    assert out["isr_worst_case"]["cycles"] == round(2992 * m.CPI + sum(m.ALLOW_CYCLES.values()))
+    assert out["isr_worst_case"]["cpu_load"] == pytest.approx(out["isr_worst_case"]["cycles"] / 17000, abs=1e-4)
