@@ -308,11 +308,17 @@ static void bin_update(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_r
         fn = hdf_clamp64(fn, -(int64_t)c->tau_max, (int64_t)c->tau_max);
         f = hdf_clamp32(hdf_sat32(div_approx(fn, (uint64_t)(uint32_t)e->scale, 16u)), hdf_neg_sat(c->tau_max),
                         c->tau_max);
-        b->f = hdf_clamp32(hdf_sat32((int64_t)e->vis_g +
-                                     div_approx(((int64_t)f - (int64_t)e->vis_g) * (int64_t)e->vis_k,
-                                                (uint64_t)e->vis_n0 + e->vis_k, 0u)),
-                           hdf_neg_sat(c->tau_max), c->tau_max);
-        n1 = (e->vis_n0 + e->vis_k < cap) ? e->vis_n0 + e->vis_k : cap;
+        n1 = (e->vis_n0 < UINT32_MAX - e->vis_k) ? e->vis_n0 + e->vis_k : UINT32_MAX;
+        {
+            /* k / (n0 + k) in Q16 by a 32-bit division: both shifted to below 2^15 */
+            const uint32_t sh = (n1 >= 32768u) ? 32u - (uint32_t)__builtin_clz(n1) - 15u : 0u;
+            const uint32_t den = n1 >> sh;
+            const uint32_t w16 = (((e->vis_k >> sh) << 16) + den / 2u) / den;
+            b->f = hdf_clamp32(hdf_sat32((int64_t)e->vis_g +
+                                         hdf_mul64x32_q((int64_t)f - (int64_t)e->vis_g, (int32_t)w16, 16u)),
+                               hdf_neg_sat(c->tau_max), c->tau_max);
+        }
+        n1 = (n1 < cap) ? n1 : cap;
         b->v = mean_step(b->v, hdf_abs_sat(v_ref), n1);
     } else {
         /* friction magnitude of the direction, the unbalance taken off and normalised by the
