@@ -170,6 +170,9 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
     e->vis_m = 0;
     e->vis_s0 = HD_FE_SCALE_ONE;
     e->vis_b0 = 0;
+    e->vis_k = 0u;
+    e->vis_a = 0;
+    e->vis_n0 = 0u;
     e->v_prev = 0;
     e->v_lp = 0;
     e->visit = 0u;
@@ -251,6 +254,7 @@ static void bin_update(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_r
     uint32_t n1;
     uint32_t cap;
     int32_t f;
+    int32_t tc;
     int64_t fn;
     if (k < 0) {
         return;
@@ -268,36 +272,65 @@ static void bin_update(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_r
         e->vis_m = 0;
         e->vis_s0 = e->scale;
         e->vis_b0 = e->bias;
+        e->vis_k = 0u;
+        e->vis_a = 0;
+        e->vis_n0 = b->n;
     }
-    if (e->vis_g > 0) {
-        /* samples of the visit, 1..n_forget (n_forget >= 1 by hd_fric_est_config) */
-        e->vis_n = (e->vis_n < c->n_forget) ? e->vis_n + 1u : ((c->n_forget > 0u) ? c->n_forget : 1u);
-        e->vis_m = mean_step(e->vis_m, hdf_clamp32(tau, hdf_neg_sat(c->tau_max), c->tau_max), e->vis_n);
-        common_update(e, c, d, sg, e->vis_n);
-        e->oth_m[d] = e->vis_m;
-        e->oth_g[d] = e->vis_g;
-        e->oth_t[d] = e->steps;
-    }
-    /* friction magnitude of the direction, the unbalance taken off and normalised by the
-     * scale: the bins hold the shape of the map, the scale its present level */
-    fn = (int64_t)tau - (int64_t)e->bias;
-    fn = (v_ref > 0) ? fn : -fn;
-    fn = hdf_clamp64(fn, -(int64_t)c->tau_max, (int64_t)c->tau_max);
-    f = hdf_clamp32(hdf_sat32(div_approx(fn, (uint64_t)(uint32_t)e->scale, 16u)), hdf_neg_sat(c->tau_max),
-                    c->tau_max);
     if (first) {
         /* a new visit: the old mean weighs as n_keep samples, but at least HD_FE_KEEP_MIN: a
          * common-mode change is the scale's to follow; a bin that forgot faster would take
          * it into the shape before the scale sees it */
         const uint32_t keep = (c->n_keep > HD_FE_KEEP_MIN) ? c->n_keep : HD_FE_KEEP_MIN;
         b->n = (b->n > keep) ? keep : b->n;
+        e->vis_n0 = b->n;
+    }
+    tc = hdf_clamp32(tau, hdf_neg_sat(c->tau_max), c->tau_max);
+    if (e->vis_g > 0) {
+        /* samples of the visit, 1..n_forget (n_forget >= 1 by hd_fric_est_config) */
+        e->vis_n = (e->vis_n < c->n_forget) ? e->vis_n + 1u : ((c->n_forget > 0u) ? c->n_forget : 1u);
+        e->vis_m = mean_step(e->vis_m, tc, e->vis_n);
+        common_update(e, c, d, sg, e->vis_n);
+        e->oth_m[d] = e->vis_m;
+        e->oth_g[d] = e->vis_g;
+        e->oth_t[d] = e->steps;
     }
     /* an established bin (the common mode follows its visits) forgets over at least
      * HD_FE_KEEP_MIN samples: its shape changes slowly, the scale takes the level */
     cap = (e->vis_g > 0 && c->n_forget < HD_FE_KEEP_MIN) ? HD_FE_KEEP_MIN : c->n_forget;
-    n1 = (b->n < cap) ? b->n + 1u : cap;
-    b->v = mean_step(b->v, hdf_abs_sat(v_ref), n1);
-    b->f = mean_step(b->f, f, n1);
+    if (e->vis_g > 0) {
+        /* established: the bin is its old mean and the visit's mean torque normalised by the
+         * present scale and bias, weighed k : n0 (hd_fric_est.h: a sample normalised by the
+         * scale of its moment would be compared with the visit's running mean) */
+        e->vis_k = (e->vis_k < cap) ? e->vis_k + 1u : cap;
+        e->vis_a = mean_step(e->vis_a, tc, e->vis_k);
+        fn = (int64_t)e->vis_a - (int64_t)e->bias;
+        fn = (v_ref > 0) ? fn : -fn;
+        fn = hdf_clamp64(fn, -(int64_t)c->tau_max, (int64_t)c->tau_max);
+        f = hdf_clamp32(hdf_sat32(div_approx(fn, (uint64_t)(uint32_t)e->scale, 16u)), hdf_neg_sat(c->tau_max),
+                        c->tau_max);
+        n1 = (e->vis_n0 < UINT32_MAX - e->vis_k) ? e->vis_n0 + e->vis_k : UINT32_MAX;
+        {
+            /* k / (n0 + k) in Q16 by a 32-bit division: both shifted to below 2^15 */
+            const uint32_t sh = (n1 >= 32768u) ? 32u - (uint32_t)__builtin_clz(n1) - 15u : 0u;
+            const uint32_t den = n1 >> sh;
+            const uint32_t w16 = (((e->vis_k >> sh) << 16) + den / 2u) / den;
+            b->f = hdf_clamp32(hdf_sat32((int64_t)e->vis_g +
+                                         hdf_mul64x32_q((int64_t)f - (int64_t)e->vis_g, (int32_t)w16, 16u)),
+                               hdf_neg_sat(c->tau_max), c->tau_max);
+        }
+        n1 = (n1 < cap) ? n1 : cap;
+        b->v = mean_step(b->v, hdf_abs_sat(v_ref), n1);
+    } else {
+        /* friction magnitude of the direction, the unbalance taken off and normalised by the
+         * scale: the bins hold the shape of the map, the scale its present level */
+        fn = (int64_t)tc - (int64_t)e->bias;
+        fn = (v_ref > 0) ? fn : -fn;
+        f = hdf_clamp32(hdf_sat32(div_approx(fn, (uint64_t)(uint32_t)e->scale, 16u)), hdf_neg_sat(c->tau_max),
+                        c->tau_max);
+        n1 = (b->n < cap) ? b->n + 1u : cap;
+        b->v = mean_step(b->v, hdf_abs_sat(v_ref), n1);
+        b->f = mean_step(b->f, f, n1);
+    }
     b->n = n1;
     b->r16 = r16_of(c, b->v);
     b->stamp = e->steps;

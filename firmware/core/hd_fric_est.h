@@ -26,7 +26,15 @@
  *   bin gets few samples per visit and is visited once per motion cycle, so
  *   at the first sample of each visit (steady segment) its count is cut to
  *   n_keep (at least HD_FE_KEEP_MIN once the bin is established, below): the old
- *   mean then weighs as n_keep samples against the new visit.
+ *   mean then weighs as n_keep samples against the new visit.  An established bin
+ *   (below) takes the visit as one mean: its value is the old mean g0 (weight n0)
+ *   and the visit's mean torque over its k samples normalised by the present scale
+ *   and bias, g0 + (m_k / scale - g0) k / (n0 + k).  The torque within a move is
+ *   not constant (the loops settling, transmission error and cogging along the
+ *   stroke) and the scale moves towards the visit's running mean during the visit:
+ *   each sample normalised by the scale of its own moment would compare the sample
+ *   with the running mean, and a torque that falls along every fast move would lower
+ *   the fast bins at every visit (the viscous term drifting off with more data).
  *   A bin whose last sample is older than max_age steps is left out of the
  *   fit (a stale bin would hold the friction of another time; without it the
  *   excitation checks may keep the last estimate until the speed comes again).
@@ -60,7 +68,8 @@
  *   unbalance present from the start is in the bins (it looks like asymmetric friction);
  *   one that appears or changes goes to the bias, not to the friction levels.
  *   Cost per sample of an established visit: three approximate divisions (div_approx,
- *   no 64-bit division), and the normalisation of the sample (one more).
+ *   no 64-bit division), the normalisation of the visit's mean and its weight in the
+ *   bin (two more).
 
  * Fit (excitation check 2: a parameter changes only when the bins inform it).
  *   Per direction, for each candidate Stribeck velocity vs_j = vs_lo 2^(j/4),
@@ -167,6 +176,9 @@ typedef struct {
     int32_t  vis_m;                     /* the visit's mean signed torque, Q15.16 N.m */
     int32_t  vis_s0;                    /* scale when the visit began, Q16 */
     int32_t  vis_b0;                    /* bias when the visit began, Q15.16 N.m */
+    uint32_t vis_k;                     /* samples of the visit for its bin (saturates at the bin's memory) */
+    int32_t  vis_a;                     /* the visit's plain mean signed torque, Q15.16 N.m */
+    uint32_t vis_n0;                    /* the bin's weight when the visit began, samples */
     int32_t  oth_m[HD_FE_NDIR];         /* per direction: mean signed torque of its last established visit */
     int32_t  oth_g[HD_FE_NDIR];         /* ... the mean of its bin when that visit began (0: none) */
     uint32_t oth_t[HD_FE_NDIR];         /* ... and the step of its last sample */
