@@ -840,6 +840,12 @@ static void hyst_piece(hd_plant *p, int dir)
     const double phi = p->end_phi;
     double sl = 0.0, bd = dir == 0 ? INFINITY : -INFINITY, b;
     int k;
+    if (!isfinite(phi)) {                          /* no piece: every stage takes the operators */
+        p->hy_s[dir] = 0.0;
+        p->hy_b[dir] = dir == 0 ? -INFINITY : INFINITY;
+        p->hy_ok[dir] = 1;
+        return;
+    }
     if (q->maxwell_enabled) {
         for (k = 0; k < q->maxwell_n; k++) {
             const double kk = q->maxwell_k_Nm_per_rad[k], w = q->maxwell_w_Nm[k], xi = p->xi[k];
