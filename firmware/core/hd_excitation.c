@@ -204,8 +204,7 @@ static int32_t multisine_value(hd_exc_t *s, const hd_exc_cfg_t *c)
         const uint32_t ph = frac32(num, c->period);
         const uint32_t sn = (i * (i - 1u)) % (2u * c->n);
         const uint32_t sch = frac32(sn, 2u * c->n);
-        int32_t sv, cv;
-        hd_sincos_turn_fast(ph - sch, &sv, &cv);   /* uint32 phase wraps, meant; ~6e-8 of amp */
+        const int32_t sv = hd_sin_turn_fast(ph - sch);   /* uint32 phase wraps, meant; ~6e-8 of amp */
         sum = hdf_add64_sat(sum, (int64_t)hdf_mul_q(c->amp, sv, 30u));
     }
     return hdf_sat32(sum);
@@ -243,9 +242,7 @@ int32_t hd_exc_step(hd_exc_t *s, const hd_exc_cfg_t *c)
             v = forc_value(s, c);
             break;
         case HD_EXC_CHIRP: {
-            int32_t sv, cv;
-            hd_sincos_turn_fast((uint32_t)(s->phase >> 32), &sv, &cv);
-            v = hdf_mul_q(c->amp, sv, 30u);
+            v = hdf_mul_q(c->amp, hd_sin_turn_fast((uint32_t)(s->phase >> 32)), 30u);
             s->phase += (uint64_t)s->inc;     /* uint64 wraps once per cycle, meant */
             s->inc = hdf_add64_sat(s->inc, s->dinc);
             break;
