@@ -594,7 +594,7 @@ int32_t hd_sin_turn_fast(uint32_t angle)
     const uint32_t ck = hd_sin_tab_q31[256u - k];
     const uint32_t s_a = sk - (uint32_t)(((uint64_t)sk * h32) >> 32) + (uint32_t)(((uint64_t)ck * d32) >> 32);
     const uint32_t s31 = (s_a > 0x80000000u) ? 0x80000000u : s_a;
-    const int32_t s = (int32_t)((s31 + 1u) >> 1);
+    const int32_t s = (int32_t)((s31 + 1u) >> 1); /* HD_SIN_FAST_ROUNDING */
     return (quad >= 2u) ? -s : s;
 }
 
