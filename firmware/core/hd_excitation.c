@@ -178,36 +178,53 @@ static int32_t forc_value(hd_exc_t *s, const hd_exc_cfg_t *c)
     return s->cur;
 }
 
-/* floor(num * 2^32 / den) for num < den (the result fits 32 bits).  den < 2^16:
- * long division in two 16-bit digits, 32-bit UDIVs only (no __aeabi_uldivmod);
- * exact, same result as the 64-bit division used otherwise. */
-static uint32_t frac32(uint32_t num, uint32_t den)
+/* floor(num * 2^32 / den) for num < den < 2^16: long division in two 16-bit
+ * digits, 32-bit UDIVs only (no __aeabi_uldivmod); exact, the same result as
+ * the 64-bit division used for longer periods. */
+static uint32_t frac32_16(uint32_t num, uint32_t den)
 {
-    if (den < 65536u) {
-        const uint32_t c1 = num << 16;                 /* num < den < 2^16 */
-        const uint32_t q1 = c1 / den;
-        const uint32_t c0 = (c1 - q1 * den) << 16;
-        return (q1 << 16) | (c0 / den);
-    }
-    return (uint32_t)(((uint64_t)num << 32) / den);
+    const uint32_t c1 = num << 16;                     /* num < den < 2^16 */
+    const uint32_t q1 = c1 / den;
+    const uint32_t c0 = (c1 - q1 * den) << 16;
+    return (q1 << 16) | (c0 / den);
 }
 
-static int32_t multisine_value(hd_exc_t *s, const hd_exc_cfg_t *c)
+/* The lines' sum; short = 1 when period < 2^16 (the line fractions by
+ * frac32_16), a constant at both calls, so the test is made once per period. */
+static inline __attribute__((always_inline)) int64_t multisine_sum(uint32_t t, const hd_exc_cfg_t *c,
+                                                                   uint32_t short_period)
 {
-    const uint32_t t = s->k % c->period;
+    /* the cfg words in locals: the sine is a call, after which the compiler
+     * would load them again in every line */
+    const uint32_t period = c->period;
+    const uint32_t n = c->n;
+    const uint32_t n2 = 2u * n;                        /* <= 128 (checked at start) */
+    const int64_t amp = (int64_t)c->amp;
     int64_t sum = 0;
     uint32_t i;
-    for (i = 1; i <= c->n; i++) {
+    for (i = 1; i <= n; i++) {
         /* phase in turns: i t / period - (i (i - 1)) / (2 n)  (Schroeder);
          * i t < n period <= 2^31 and i (i - 1) < 2^12 (checked at start): 32-bit */
-        const uint32_t num = (i * t) % c->period;
-        const uint32_t ph = frac32(num, c->period);
-        const uint32_t sn = (i * (i - 1u)) % (2u * c->n);
-        const uint32_t sch = frac32(sn, 2u * c->n);
-        int32_t sv, cv;
-        hd_sincos_turn_fast(ph - sch, &sv, &cv);   /* uint32 phase wraps, meant; ~6e-8 of amp */
-        sum = hdf_add64_sat(sum, (int64_t)hdf_mul_q(c->amp, sv, 30u));
+        const uint32_t num = (i * t) % period;
+        const uint32_t ph = short_period ? frac32_16(num, period)
+                                         : (uint32_t)(((uint64_t)num << 32) / period);
+        const uint32_t sn = (i * (i - 1u)) % n2;
+        const uint32_t sch = frac32_16(sn, n2);
+        const int32_t sv = hd_sin_turn_fast(ph - sch);   /* uint32 phase wraps, meant; ~6e-8 of amp */
+        /* 0 <= amp < 2^31 (checked at start) and |sv| <= 2^30: the rounded
+         * amp sv / 2^30 is within +-(2^31 - 1), so it fits int32 without the
+         * saturation of hdf_mul_q; n <= 64 such terms sum to less than 2^37 in
+         * magnitude, so the int64 sum never saturates: the words of
+         * hdf_mul_q and hdf_add64_sat, without their tests. */
+        sum += (int64_t)hdf_asr32_rnd_fit(amp * (int64_t)sv, 30u);
     }
+    return sum;
+}
+
+static int32_t multisine_value(const hd_exc_t *s, const hd_exc_cfg_t *c)
+{
+    const uint32_t t = s->k % c->period;
+    const int64_t sum = (c->period < 65536u) ? multisine_sum(t, c, 1u) : multisine_sum(t, c, 0u);
     return hdf_sat32(sum);
 }
 
@@ -243,9 +260,7 @@ int32_t hd_exc_step(hd_exc_t *s, const hd_exc_cfg_t *c)
             v = forc_value(s, c);
             break;
         case HD_EXC_CHIRP: {
-            int32_t sv, cv;
-            hd_sincos_turn_fast((uint32_t)(s->phase >> 32), &sv, &cv);
-            v = hdf_mul_q(c->amp, sv, 30u);
+            v = hdf_mul_q(c->amp, hd_sin_turn_fast((uint32_t)(s->phase >> 32)), 30u);
             s->phase += (uint64_t)s->inc;     /* uint64 wraps once per cycle, meant */
             s->inc = hdf_add64_sat(s->inc, s->dinc);
             break;

@@ -578,6 +578,26 @@ void hd_sincos_turn_fast(uint32_t angle, int32_t *sin_q30, int32_t *cos_q30)
     *cos_q30 = (quad == 1u || quad == 2u) ? -c : c;
 }
 
+/* The sine of hd_sincos_turn_fast alone, the same words: the cosine's two
+ * products and clamp are left out where only the sine is used (the excitation
+ * generator's lines). */
+int32_t hd_sin_turn_fast(uint32_t angle)
+{
+    const uint32_t quad = angle >> 30;
+    const uint32_t r = angle & 0x3FFFFFFFu;
+    const uint32_t p = ((quad & 1u) != 0u) ? (0x40000000u - r) : r;
+    const uint32_t k = p >> 22;                                     /* 0..256 */
+    const uint32_t l = p & 0x3FFFFFu;
+    const uint32_t d32 = (uint32_t)(((uint64_t)l * (uint32_t)HD_PI_Q29) >> 28);
+    const uint32_t h32 = (uint32_t)(((uint64_t)d32 * d32) >> 33);   /* d^2 / 2, Q32 */
+    const uint32_t sk = hd_sin_tab_q31[k];
+    const uint32_t ck = hd_sin_tab_q31[256u - k];
+    const uint32_t s_a = sk - (uint32_t)(((uint64_t)sk * h32) >> 32) + (uint32_t)(((uint64_t)ck * d32) >> 32);
+    const uint32_t s31 = (s_a > 0x80000000u) ? 0x80000000u : s_a;
+    const int32_t s = (int32_t)((s31 + 1u) >> 1); /* HD_SIN_FAST_ROUNDING */
+    return (quad >= 2u) ? -s : s;
+}
+
 int32_t hd_sign_smooth_q30(int32_t x, int32_t eps)
 {
     uint64_t ux;

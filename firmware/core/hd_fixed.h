@@ -119,6 +119,8 @@ void hd_sincos_turn(uint32_t angle, int32_t *sin_q30, int32_t *cos_q30);
  *  third of the cost: for the 20 kHz current loop (hd_foc), whose sensors
  *  have 12 bits.  Results in [-2^30, 2^30]. */
 void hd_sincos_turn_fast(uint32_t angle, int32_t *sin_q30, int32_t *cos_q30);
+/** The sine of hd_sincos_turn_fast alone (the same word, Q30). */
+int32_t hd_sin_turn_fast(uint32_t angle);
 
 /** Smooth sign: with t = x / eps (eps > 0, same units as x), returns in Q30
  *  s(t) = t*(3 - t^2)/2 for |t| <= 1 and sign(t) otherwise: C1-continuous,

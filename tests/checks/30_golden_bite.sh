@@ -12,6 +12,7 @@ src=firmware/core/hd_fixed.c
 mutants=(
   'mul_trunc|/HD_MUL_Q_ROUNDING/c\    return hd_sat32(hd_asr64_floor(p, q)); /* MUTANT: truncation */|hd_mul_q|truncated rounding in hd_mul_q'
   'div_trunc|s@if (rem >= ud - rem) { /\* HD_DIV_Q_ROUNDING@if (rem > ud) { /* MUTANT@|hd_div_q|truncated rounding in hd_div_q'
+  'sin_fast_trunc|s@(int32_t)((s31 + 1u) >> 1); /\* HD_SIN_FAST_ROUNDING@(int32_t)(s31 >> 1); /* MUTANT@|hd_sin_turn_fast|truncated rounding in hd_sin_turn_fast'
   'add_wrap|s@return hd_sat32((int64_t)a + (int64_t)b); /\* HD_ADD_SAT_SATURATION@return (int32_t)((int64_t)a + (int64_t)b); /* MUTANT@|hd_add_sat|wrap-around instead of saturation in hd_add_sat'
 )
 # bite SOURCE IMAGE MUTANT...: each mutant is a sed-altered copy of SOURCE under

@@ -177,6 +177,7 @@ RUN_BEGIN(run_div64_rnd, 4, 2) hd_gv_put64(out, hd_div64_rnd(hd_gv_get64(in), hd
 RUN_BEGIN(run_exp_neg_q16, 1, 1) out[0] = hd_exp_neg_q16(in[0]); RUN_END
 RUN_BEGIN(run_sincos_turn, 1, 2) hd_sincos_turn(hd_gv_s2u(in[0]), &out[0], &out[1]); RUN_END
 RUN_BEGIN(run_sincos_turn_fast, 1, 2) hd_sincos_turn_fast(hd_gv_s2u(in[0]), &out[0], &out[1]); RUN_END
+RUN_BEGIN(run_sin_turn_fast, 1, 1) out[0] = hd_sin_turn_fast(hd_gv_s2u(in[0])); RUN_END
 RUN_BEGIN(run_sign_smooth_q30, 2, 1) out[0] = hd_sign_smooth_q30(in[0], in[1]); RUN_END
 RUN_BEGIN(run_isqrt64, 2, 1)
     const uint64_t x = ((uint64_t)hd_gv_s2u(in[1]) << 32) | (uint64_t)hd_gv_s2u(in[0]);
@@ -256,6 +257,14 @@ static void cost_sincos_turn_fast(void)
     sink32 = c;
 }
 
+static void cost_sin_turn_fast(void)
+{
+    const uint32_t ang = hd_gv_s2u(cv_a);
+    hd_gv_cost_mark();
+    sink32 = hd_sin_turn_fast(ang);
+    hd_gv_cost_mark();
+}
+
 /* ---- registry -------------------------------------------------------- */
 
 const hd_gv_kernel_t hd_gv_fixed_kernels[] = {
@@ -284,6 +293,7 @@ const hd_gv_kernel_t hd_gv_fixed_kernels[] = {
     {"hd_exp_neg_q16", 1, 1, 2u * GV_N, gen_exp, run_exp_neg_q16, cost_exp_neg_q16},
     {"hd_sincos_turn", 1, 2, 2u * GV_N, gen_e32, run_sincos_turn, cost_sincos_turn},
     {"hd_sincos_turn_fast", 1, 2, 2u * GV_N, gen_e32, run_sincos_turn_fast, cost_sincos_turn_fast},
+    {"hd_sin_turn_fast", 1, 1, 2u * GV_N, gen_e32, run_sin_turn_fast, cost_sin_turn_fast},
     {"hd_sign_smooth_q30", 2, 1, GV_N, gen_sign, run_sign_smooth_q30, cost_sign_smooth_q30},
     {"hd_isqrt64", 2, 1, GV_N, gen_e64, run_isqrt64, cost_isqrt64},
 };
