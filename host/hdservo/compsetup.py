@@ -76,6 +76,14 @@ ENABLE_BITS: dict[str, int] = {"stribeck": 1, "lugre": 2, "maxwell": 4, "preisac
 # moves (parameters appr_*, firmware/core/hd_trajectory.h, docs/control.md "Repeatability").
 
 
+#: Stribeck feed-forward's steady-motion threshold (``str_steady_vs``), in Stribeck velocities of the
+#: model: while |v_ref| >= vs / 32 the map takes the reference velocity (the axis has to slide with
+#: the reference), below it (rest, reversals, the final arrival) the measured velocity.  On the
+#: measured velocity a moving reference that never cruises (a sine) drives a stick-slip oscillation
+#: of the feed-forward; vs / 32 (0.036 deg/s on the reference axis) is the lowest of the measured
+#: thresholds vs/32..vs/4 and the best on the reversal peak (docs/compensators.md section 11).
+STR_STEADY_VS = 1.0 / 32.0
+
 #: The best combination of the comparison (``hdservo compare`` / ``make demo``; docs/demo.md): one drive
 #: configuration for every procedure.  Stribeck friction feed-forward on the *measured* velocity
 #: (``str_w_ref`` 0: with the reference velocity the feed-forward differs between the fast and the
@@ -92,7 +100,8 @@ BEST_NAMES: tuple[str, ...] = ("stribeck", "approach")
 #: Procedure options of the best combination: the stabilisation test in the drive's STAB mode (gyro).
 BEST_PROC_ARGS: dict[str, list[str]] = {"stabilisation": ["--stab-mode", "stab"]}
 #: Retuned drive parameters of the best combination (table units), on top of the model's compensator parameters.
-BEST_GAINS: dict[str, float] = {"pos_kp": 60.0, "str_w_ref": 0.0, "str_cruise_ticks": 200.0, "hold_ticks": 2000.0}
+BEST_GAINS: dict[str, float] = {"pos_kp": 60.0, "str_w_ref": 0.0, "str_cruise_ticks": 200.0,
+                                "str_steady_vs": STR_STEADY_VS, "hold_ticks": 2000.0}
 
 
 #: Fair-comparison rule (docs/compensators.md, "Fair baselines"): every row of a comparison -- the PID
@@ -106,7 +115,8 @@ FAIR_PROC_ARGS: dict[str, list[str]] = {"stabilisation": ["--stab-mode", "stab"]
 #: Settings a compensator carries when it is on (its configuration, the same on every axis): the
 #: Stribeck feed-forward on the measured velocity, on the reference velocity while the reference
 #: cruises at a constant rate (docs/compensators.md section 1).
-COMPONENT_PARAMS: dict[str, dict[str, float]] = {"stribeck": {"str_w_ref": 0.0, "str_cruise_ticks": 200.0}}
+COMPONENT_PARAMS: dict[str, dict[str, float]] = {"stribeck": {"str_w_ref": 0.0, "str_cruise_ticks": 200.0,
+                                                              "str_steady_vs": STR_STEADY_VS}}
 #: Motion strategies, reported as their own rows: name -> (cb_enable names, drive parameters).
 #: ``hold``: the standstill hunt breaker (fades the friction feed-forward at rest); ``approach``: the
 #: one-direction final approach of PTP moves.

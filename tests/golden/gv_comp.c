@@ -29,14 +29,14 @@ static volatile int32_t sink32;
 static const hd_stribeck_cfg_t st_cfg = {
     { 655360, 1048576, 11930465, 6553600 },    /* fc 10, fs 16 N.m, vs 1 deg/s, fv 100 N.m/(turn/s) */
     { 720896, 1179648, 8947849, 7864320 },     /* asymmetric negative side */
-    2u, 11930, 1 << 29, 100 << 16, 0u
+    2u, 11930, 1 << 29, 100 << 16, 0u, 0
 };
 
 /* the same with cruise detection (str_cruise_ticks 8) and the estimate outside a cruise */
 static const hd_stribeck_cfg_t st_cruise_cfg = {
     { 655360, 1048576, 11930465, 6553600 },
     { 720896, 1179648, 8947849, 7864320 },
-    2u, 11930, 0, 100 << 16, 8u
+    2u, 11930, 0, 100 << 16, 8u, 0
 };
 
 static void gen_two_vel(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
