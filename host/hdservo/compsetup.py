@@ -77,12 +77,14 @@ ENABLE_BITS: dict[str, int] = {"stribeck": 1, "lugre": 2, "maxwell": 4, "preisac
 
 
 #: Stribeck feed-forward's steady-motion threshold (``str_steady_vs``), in Stribeck velocities of the
-#: model: while |v_ref| >= vs / 32 the map takes the reference velocity (the axis has to slide with
-#: the reference), below it (rest, reversals, the final arrival) the measured velocity.  On the
-#: measured velocity a moving reference that never cruises (a sine) drives a stick-slip oscillation
-#: of the feed-forward; vs / 32 (0.036 deg/s on the reference axis) is the lowest of the measured
-#: thresholds vs/32..vs/4 and the best on the reversal peak (docs/compensators.md section 11).
-STR_STEADY_VS = 1.0 / 32.0
+#: model: once the axis follows a reference moving at |v_ref| >= vs / 8, the map takes the reference
+#: velocity until the reference falls below that speed or reverses; near rest, at reversals and in
+#: the final arrival it takes the measured velocity.  On the measured velocity a moving reference
+#: that never cruises (a sine) drives a stick-slip oscillation of the feed-forward.  vs / 8 is the
+#: lowest threshold above the peak rate of the slow tracking sine (0.1 deg/s = 0.087 vs on the
+#: reference axis): lower thresholds (vs / 16, vs / 32) lower the reversal peak of the faster sine
+#: but raise the slow sine's tracking peak 4-6x (docs/compensators.md section 11).
+STR_STEADY_VS = 1.0 / 8.0
 
 #: The best combination of the comparison (``hdservo compare`` / ``make demo``; docs/demo.md): one drive
 #: configuration for every procedure.  Stribeck friction feed-forward on the *measured* velocity
