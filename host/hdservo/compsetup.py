@@ -89,7 +89,8 @@ STR_STEADY_VS = 1.0 / 8.0
 #: The best combination of the comparison (``hdservo compare`` / ``make demo``; docs/demo.md): one drive
 #: configuration for every procedure.  Stribeck friction feed-forward on the *measured* velocity
 #: (``str_w_ref`` 0: with the reference velocity the feed-forward differs between the fast and the
-#: slow final arrivals, ISO R 3.7 arcsec) except while the reference cruises at a constant rate
+#: slow final arrivals, ISO R 3.7 arcsec) except in steady motion above ``STR_STEADY_VS`` and while
+#: the reference cruises at a constant rate
 #: (``str_cruise_ticks`` 200 = 20 ms of constant reference velocity: then the reference velocity; on
 #: the measured velocity the map is a relay in the velocity loop, a ~95 Hz +-12 N.m limit cycle that
 #: makes 0.001 deg/s jerky; docs/compensators.md), the one-direction final approach of PTP moves,
@@ -116,7 +117,7 @@ FAIR_GAINS: dict[str, float] = {"pos_kp": 60.0}
 FAIR_PROC_ARGS: dict[str, list[str]] = {"stabilisation": ["--stab-mode", "stab"]}
 #: Settings a compensator carries when it is on (its configuration, the same on every axis): the
 #: Stribeck feed-forward on the measured velocity, on the reference velocity while the reference
-#: cruises at a constant rate (docs/compensators.md section 1).
+#: cruises at a constant rate or the axis follows it above vs / 8 (docs/compensators.md section 1).
 COMPONENT_PARAMS: dict[str, dict[str, float]] = {"stribeck": {"str_w_ref": 0.0, "str_cruise_ticks": 200.0,
                                                               "str_steady_vs": STR_STEADY_VS}}
 #: Motion strategies, reported as their own rows: name -> (cb_enable names, drive parameters).

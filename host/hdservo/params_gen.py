@@ -109,7 +109,7 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef(76, 'str_w_ref', 0x2810, 11, 'i32', '1', 30, 0.0, 1.0, 1.0, 0, 1073741824, 1073741824, 'Stribeck FF: weight of the reference velocity (1 - weight: estimate)'),
     ParamDef(77, 'str_tau_max', 0x2810, 12, 'i32', 'N.m', 16, 0.001, 1000.0, 30.0, 66, 65536000, 1966080, 'Stribeck FF: output clamp'),
     ParamDef(78, 'str_cruise_ticks', 0x2810, 13, 'u32', 'period', 0, 0.0, 100000.0, 0.0, 0, 100000, 0, 'Stribeck FF: periods of constant reference velocity after which the FF uses the reference velocity (cruise; 0 = off, str_w_ref always)'),
-    ParamDef(79, 'str_steady_vs', 0x2810, 14, 'i32', '1', 16, 0.0, 64.0, 0.0, 0, 4194304, 0, 'Stribeck FF: the FF uses the reference velocity while |v_ref| >= this multiple of the Stribeck velocity of its direction (0 = off)'),
+    ParamDef(79, 'str_steady_vs', 0x2810, 14, 'i32', '1', 16, 0.0, 64.0, 0.0, 0, 4194304, 0, 'Stribeck FF: the FF uses the reference velocity once the axis follows a reference faster than this multiple of the Stribeck velocity of its direction (0 = off)'),
     ParamDef(80, 'lug_fc', 0x2820, 1, 'i32', 'N.m', 16, 0.0, 1000.0, 7.209000000000001, 0, 65536000, 472449, 'LuGre: Coulomb torque (output)'),
     ParamDef(81, 'lug_fs', 0x2820, 2, 'i32', 'N.m', 16, 0.0, 1000.0, 10.326, 0, 65536000, 676725, 'LuGre: breakaway torque'),
     ParamDef(82, 'lug_vs', 0x2820, 3, 'i32', 'turn/s', 32, 1e-09, 0.49, 0.003183098861837907, 4, 2104533975, 13671306, 'LuGre: Stribeck velocity'),
