@@ -50,6 +50,7 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
     c->str.w_ref = prm(p, HD_P_STR_W_REF);
     c->str.tau_max = prm(p, HD_P_STR_TAU_MAX);
     c->str.cruise_ticks = (uint32_t)prm(p, HD_P_STR_CRUISE_TICKS);
+    c->str.steady_vs = prm(p, HD_P_STR_STEADY_VS);
 
     /* LuGre */
     c->lug.g.fc = prm(p, HD_P_LUG_FC);

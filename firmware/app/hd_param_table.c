@@ -81,6 +81,7 @@ const hd_param_desc_t hd_param_table[HD_PARAM_COUNT] = {
     {"str_w_ref", 0x2810u, 11u, HD_PTYPE_I32, 30u, 0, 1073741824, 1073741824, "1"},
     {"str_tau_max", 0x2810u, 12u, HD_PTYPE_I32, 16u, 66, 65536000, 1966080, "N.m"},
     {"str_cruise_ticks", 0x2810u, 13u, HD_PTYPE_U32, 0u, 0, 100000, 0, "period"},
+    {"str_steady_vs", 0x2810u, 14u, HD_PTYPE_I32, 16u, 0, 4194304, 0, "1"},
     {"lug_fc", 0x2820u, 1u, HD_PTYPE_I32, 16u, 0, 65536000, 472449, "N.m"},
     {"lug_fs", 0x2820u, 2u, HD_PTYPE_I32, 16u, 0, 65536000, 676725, "N.m"},
     {"lug_vs", 0x2820u, 3u, HD_PTYPE_I32, 32u, 4, 2104533975, 13671306, "turn/s"},

@@ -228,7 +228,7 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x2800u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 63u, INT64_C(0), INT64_C(429496730), INT64_C(59652), NULL},  /* cb_pki_vhi */
     {0x2800u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 64u, INT64_C(0), INT64_C(65536000), INT64_C(131072), NULL},  /* cb_pki_leak */
     {0x2800u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 65u, INT64_C(0), INT64_C(1717986918), INT64_C(11930465), NULL},  /* cb_pki_max */
-    {0x2810u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(13), NULL},  /* highest_sub_index_supported */
+    {0x2810u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(14), NULL},  /* highest_sub_index_supported */
     {0x2810u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 66u, INT64_C(0), INT64_C(65536000), INT64_C(484966), NULL},  /* str_fc_pos */
     {0x2810u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 67u, INT64_C(0), INT64_C(65536000), INT64_C(694682), NULL},  /* str_fs_pos */
     {0x2810u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 68u, INT64_C(4), INT64_C(2104533975), INT64_C(13671306), NULL},  /* str_vs_pos */
@@ -242,120 +242,121 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x2810u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 76u, INT64_C(0), INT64_C(1073741824), INT64_C(1073741824), NULL},  /* str_w_ref */
     {0x2810u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 77u, INT64_C(66), INT64_C(65536000), INT64_C(1966080), NULL},  /* str_tau_max */
     {0x2810u, 13u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 78u, INT64_C(0), INT64_C(100000), INT64_C(0), NULL},  /* str_cruise_ticks */
+    {0x2810u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 79u, INT64_C(0), INT64_C(4194304), INT64_C(0), NULL},  /* str_steady_vs */
     {0x2820u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(10), NULL},  /* highest_sub_index_supported */
-    {0x2820u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 79u, INT64_C(0), INT64_C(65536000), INT64_C(472449), NULL},  /* lug_fc */
-    {0x2820u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 80u, INT64_C(0), INT64_C(65536000), INT64_C(676725), NULL},  /* lug_fs */
-    {0x2820u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 81u, INT64_C(4), INT64_C(2104533975), INT64_C(13671306), NULL},  /* lug_vs */
-    {0x2820u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 82u, INT64_C(1), INT64_C(2), INT64_C(2), NULL},  /* lug_delta */
-    {0x2820u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 83u, INT64_C(256), INT64_C(2048000000), INT64_C(1613665603), NULL},  /* lug_sigma0 */
-    {0x2820u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 84u, INT64_C(0), INT64_C(1966080000), INT64_C(420010329), NULL},  /* lug_sigma1 */
-    {0x2820u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 85u, INT64_C(0), INT64_C(1966080000), INT64_C(2182407), NULL},  /* lug_sigma2 */
-    {0x2820u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 86u, INT64_C(0), INT64_C(655360000), INT64_C(0), NULL},  /* lug_k_obs */
-    {0x2820u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 87u, INT64_C(66), INT64_C(65536000), INT64_C(1966080), NULL},  /* lug_tau_max */
-    {0x2820u, 10u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 88u, INT64_C(0), INT64_C(1), INT64_C(0), NULL},  /* lug_v_src */
+    {0x2820u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 80u, INT64_C(0), INT64_C(65536000), INT64_C(472449), NULL},  /* lug_fc */
+    {0x2820u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 81u, INT64_C(0), INT64_C(65536000), INT64_C(676725), NULL},  /* lug_fs */
+    {0x2820u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 82u, INT64_C(4), INT64_C(2104533975), INT64_C(13671306), NULL},  /* lug_vs */
+    {0x2820u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 83u, INT64_C(1), INT64_C(2), INT64_C(2), NULL},  /* lug_delta */
+    {0x2820u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 84u, INT64_C(256), INT64_C(2048000000), INT64_C(1613665603), NULL},  /* lug_sigma0 */
+    {0x2820u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 85u, INT64_C(0), INT64_C(1966080000), INT64_C(420010329), NULL},  /* lug_sigma1 */
+    {0x2820u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 86u, INT64_C(0), INT64_C(1966080000), INT64_C(2182407), NULL},  /* lug_sigma2 */
+    {0x2820u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 87u, INT64_C(0), INT64_C(655360000), INT64_C(0), NULL},  /* lug_k_obs */
+    {0x2820u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 88u, INT64_C(66), INT64_C(65536000), INT64_C(1966080), NULL},  /* lug_tau_max */
+    {0x2820u, 10u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 89u, INT64_C(0), INT64_C(1), INT64_C(0), NULL},  /* lug_v_src */
     {0x2830u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(19), NULL},  /* highest_sub_index_supported */
-    {0x2830u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 89u, INT64_C(0), INT64_C(8), INT64_C(4), NULL},  /* mx_n */
-    {0x2830u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 90u, INT64_C(2099200), INT64_C(2048000000), INT64_C(76001970), NULL},  /* mx_stiffness */
-    {0x2830u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 91u, INT64_C(66), INT64_C(65536000), INT64_C(1966080), NULL},  /* mx_tau_max */
-    {0x2830u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 92u, INT64_C(0), INT64_C(2048000000), INT64_C(11429961), NULL},  /* mx_k1 */
-    {0x2830u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 93u, INT64_C(0), INT64_C(2048000000), INT64_C(14726749), NULL},  /* mx_k2 */
-    {0x2830u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 94u, INT64_C(0), INT64_C(2048000000), INT64_C(12816006), NULL},  /* mx_k3 */
-    {0x2830u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 95u, INT64_C(0), INT64_C(2048000000), INT64_C(3723036), NULL},  /* mx_k4 */
-    {0x2830u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 96u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* mx_k5 */
-    {0x2830u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 97u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* mx_k6 */
-    {0x2830u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 98u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* mx_k7 */
-    {0x2830u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 99u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* mx_k8 */
-    {0x2830u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 100u, INT64_C(0), INT64_C(2104533975), INT64_C(3418), NULL},  /* mx_d1 */
-    {0x2830u, 13u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 101u, INT64_C(0), INT64_C(2104533975), INT64_C(8612), NULL},  /* mx_d2 */
-    {0x2830u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 102u, INT64_C(0), INT64_C(2104533975), INT64_C(21702), NULL},  /* mx_d3 */
-    {0x2830u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 103u, INT64_C(0), INT64_C(2104533975), INT64_C(54685), NULL},  /* mx_d4 */
-    {0x2830u, 16u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 104u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d5 */
-    {0x2830u, 17u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 105u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d6 */
-    {0x2830u, 18u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 106u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d7 */
-    {0x2830u, 19u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 107u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d8 */
+    {0x2830u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 90u, INT64_C(0), INT64_C(8), INT64_C(4), NULL},  /* mx_n */
+    {0x2830u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 91u, INT64_C(2099200), INT64_C(2048000000), INT64_C(76001970), NULL},  /* mx_stiffness */
+    {0x2830u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 92u, INT64_C(66), INT64_C(65536000), INT64_C(1966080), NULL},  /* mx_tau_max */
+    {0x2830u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 93u, INT64_C(0), INT64_C(2048000000), INT64_C(11429961), NULL},  /* mx_k1 */
+    {0x2830u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 94u, INT64_C(0), INT64_C(2048000000), INT64_C(14726749), NULL},  /* mx_k2 */
+    {0x2830u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 95u, INT64_C(0), INT64_C(2048000000), INT64_C(12816006), NULL},  /* mx_k3 */
+    {0x2830u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 96u, INT64_C(0), INT64_C(2048000000), INT64_C(3723036), NULL},  /* mx_k4 */
+    {0x2830u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 97u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* mx_k5 */
+    {0x2830u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 98u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* mx_k6 */
+    {0x2830u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 99u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* mx_k7 */
+    {0x2830u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 100u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* mx_k8 */
+    {0x2830u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 101u, INT64_C(0), INT64_C(2104533975), INT64_C(3418), NULL},  /* mx_d1 */
+    {0x2830u, 13u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 102u, INT64_C(0), INT64_C(2104533975), INT64_C(8612), NULL},  /* mx_d2 */
+    {0x2830u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 103u, INT64_C(0), INT64_C(2104533975), INT64_C(21702), NULL},  /* mx_d3 */
+    {0x2830u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 104u, INT64_C(0), INT64_C(2104533975), INT64_C(54685), NULL},  /* mx_d4 */
+    {0x2830u, 16u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 105u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d5 */
+    {0x2830u, 17u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 106u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d6 */
+    {0x2830u, 18u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 107u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d7 */
+    {0x2830u, 19u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 108u, INT64_C(0), INT64_C(2104533975), INT64_C(0), NULL},  /* mx_d8 */
     {0x2840u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(8), NULL},  /* highest_sub_index_supported */
-    {0x2840u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 108u, INT64_C(0), INT64_C(64), INT64_C(1), NULL},  /* pr_deadband */
-    {0x2840u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 109u, INT64_C(6554), INT64_C(131072000), INT64_C(1310720), NULL},  /* pr_fc */
-    {0x2840u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 110u, INT64_C(0), INT64_C(1073741824), INT64_C(1015701725), NULL},  /* pr_motor_share */
-    {0x2840u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 111u, INT64_C(0), INT64_C(2), INT64_C(1), NULL},  /* pr_t_src */
-    {0x2840u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 112u, INT64_C(0), INT64_C(1966080000), INT64_C(32768), NULL},  /* pr_jl */
-    {0x2840u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 113u, INT64_C(0), INT64_C(1966080000), INT64_C(0), NULL},  /* pr_mgl */
-    {0x2840u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 114u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* pr_g_off */
-    {0x2840u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 183u, INT64_C(0), INT64_C(1966080000), INT64_C(52429), NULL},  /* pr_jm */
+    {0x2840u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 109u, INT64_C(0), INT64_C(64), INT64_C(1), NULL},  /* pr_deadband */
+    {0x2840u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 110u, INT64_C(6554), INT64_C(131072000), INT64_C(1310720), NULL},  /* pr_fc */
+    {0x2840u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 111u, INT64_C(0), INT64_C(1073741824), INT64_C(1015701725), NULL},  /* pr_motor_share */
+    {0x2840u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 112u, INT64_C(0), INT64_C(2), INT64_C(1), NULL},  /* pr_t_src */
+    {0x2840u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 113u, INT64_C(0), INT64_C(1966080000), INT64_C(32768), NULL},  /* pr_jl */
+    {0x2840u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 114u, INT64_C(0), INT64_C(1966080000), INT64_C(0), NULL},  /* pr_mgl */
+    {0x2840u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 115u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* pr_g_off */
+    {0x2840u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 184u, INT64_C(0), INT64_C(1966080000), INT64_C(52429), NULL},  /* pr_jm */
     {0x2850u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(21), NULL},  /* highest_sub_index_supported */
-    {0x2850u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 115u, INT64_C(0), INT64_C(4), INT64_C(3), NULL},  /* te_n */
-    {0x2850u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 116u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* te_k1 */
-    {0x2850u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 117u, INT64_C(66), INT64_C(65536000), INT64_C(655360), NULL},  /* te_tau_max */
-    {0x2850u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 118u, INT64_C(0), INT64_C(1000), INT64_C(2), NULL},  /* te_order1 */
-    {0x2850u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 119u, INT64_C(-42949673), INT64_C(42949673), INT64_C(59652), NULL},  /* te_amp1 */
-    {0x2850u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 120u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(273426110), NULL},  /* te_phase1 */
-    {0x2850u, 7u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 121u, INT64_C(0), INT64_C(1000), INT64_C(1), NULL},  /* te_order2 */
-    {0x2850u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 122u, INT64_C(-42949673), INT64_C(42949673), INT64_C(9942), NULL},  /* te_amp2 */
-    {0x2850u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 123u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(-820278331), NULL},  /* te_phase2 */
-    {0x2850u, 10u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 124u, INT64_C(0), INT64_C(1000), INT64_C(4), NULL},  /* te_order3 */
-    {0x2850u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 125u, INT64_C(-42949673), INT64_C(42949673), INT64_C(7954), NULL},  /* te_amp3 */
-    {0x2850u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 126u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(1367130551), NULL},  /* te_phase3 */
-    {0x2850u, 13u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 127u, INT64_C(0), INT64_C(1000), INT64_C(0), NULL},  /* te_order4 */
-    {0x2850u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 128u, INT64_C(-42949673), INT64_C(42949673), INT64_C(0), NULL},  /* te_amp4 */
-    {0x2850u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 129u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* te_phase4 */
-    {0x2850u, 16u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 130u, INT64_C(0), INT64_C(64), INT64_C(0), NULL},  /* te_out_order1 */
-    {0x2850u, 17u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 131u, INT64_C(-42949673), INT64_C(42949673), INT64_C(0), NULL},  /* te_out_amp1 */
-    {0x2850u, 18u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 132u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* te_out_phase1 */
-    {0x2850u, 19u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 133u, INT64_C(0), INT64_C(64), INT64_C(0), NULL},  /* te_out_order2 */
-    {0x2850u, 20u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 134u, INT64_C(-42949673), INT64_C(42949673), INT64_C(0), NULL},  /* te_out_amp2 */
-    {0x2850u, 21u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 135u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* te_out_phase2 */
+    {0x2850u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 116u, INT64_C(0), INT64_C(4), INT64_C(3), NULL},  /* te_n */
+    {0x2850u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 117u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* te_k1 */
+    {0x2850u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 118u, INT64_C(66), INT64_C(65536000), INT64_C(655360), NULL},  /* te_tau_max */
+    {0x2850u, 4u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 119u, INT64_C(0), INT64_C(1000), INT64_C(2), NULL},  /* te_order1 */
+    {0x2850u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 120u, INT64_C(-42949673), INT64_C(42949673), INT64_C(59652), NULL},  /* te_amp1 */
+    {0x2850u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 121u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(273426110), NULL},  /* te_phase1 */
+    {0x2850u, 7u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 122u, INT64_C(0), INT64_C(1000), INT64_C(1), NULL},  /* te_order2 */
+    {0x2850u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 123u, INT64_C(-42949673), INT64_C(42949673), INT64_C(9942), NULL},  /* te_amp2 */
+    {0x2850u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 124u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(-820278331), NULL},  /* te_phase2 */
+    {0x2850u, 10u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 125u, INT64_C(0), INT64_C(1000), INT64_C(4), NULL},  /* te_order3 */
+    {0x2850u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 126u, INT64_C(-42949673), INT64_C(42949673), INT64_C(7954), NULL},  /* te_amp3 */
+    {0x2850u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 127u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(1367130551), NULL},  /* te_phase3 */
+    {0x2850u, 13u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 128u, INT64_C(0), INT64_C(1000), INT64_C(0), NULL},  /* te_order4 */
+    {0x2850u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 129u, INT64_C(-42949673), INT64_C(42949673), INT64_C(0), NULL},  /* te_amp4 */
+    {0x2850u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 130u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* te_phase4 */
+    {0x2850u, 16u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 131u, INT64_C(0), INT64_C(64), INT64_C(0), NULL},  /* te_out_order1 */
+    {0x2850u, 17u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 132u, INT64_C(-42949673), INT64_C(42949673), INT64_C(0), NULL},  /* te_out_amp1 */
+    {0x2850u, 18u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 133u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* te_out_phase1 */
+    {0x2850u, 19u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 134u, INT64_C(0), INT64_C(64), INT64_C(0), NULL},  /* te_out_order2 */
+    {0x2850u, 20u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 135u, INT64_C(-42949673), INT64_C(42949673), INT64_C(0), NULL},  /* te_out_amp2 */
+    {0x2850u, 21u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 136u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* te_out_phase2 */
     {0x2860u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(24), NULL},  /* highest_sub_index_supported */
-    {0x2860u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 136u, INT64_C(0), INT64_C(655360000), INT64_C(3263666), NULL},  /* bs_c1 */
-    {0x2860u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 137u, INT64_C(0), INT64_C(655360000), INT64_C(3263666), NULL},  /* bs_c2 */
-    {0x2860u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 138u, INT64_C(66), INT64_C(1966080000), INT64_C(535307), NULL},  /* bs_j */
-    {0x2860u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 139u, INT64_C(0), INT64_C(2048000000), INT64_C(1296447), NULL},  /* bs_ke */
-    {0x2860u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 140u, INT64_C(0), INT64_C(429496730), INT64_C(6836), NULL},  /* bs_eps_w */
-    {0x2860u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 141u, INT64_C(4), INT64_C(2104533975), INT64_C(13671306), NULL},  /* bs_w_s */
-    {0x2860u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 142u, INT64_C(4295), INT64_C(2104533975), INT64_C(42949673), NULL},  /* bs_e1_max */
-    {0x2860u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 143u, INT64_C(66), INT64_C(65536000), INT64_C(3932160), NULL},  /* bs_u_max */
-    {0x2860u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 144u, INT64_C(0), INT64_C(2130706432), INT64_C(8388608), NULL},  /* bs_gamma1 */
-    {0x2860u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 145u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_min1 */
-    {0x2860u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 146u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(2084045), NULL},  /* bs_max1 */
-    {0x2860u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 147u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(484966), NULL},  /* bs_th0_1 */
-    {0x2860u, 13u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 148u, INT64_C(0), INT64_C(2130706432), INT64_C(8388608), NULL},  /* bs_gamma2 */
-    {0x2860u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 149u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_min2 */
-    {0x2860u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 150u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(2084045), NULL},  /* bs_max2 */
-    {0x2860u, 16u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 151u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(209715), NULL},  /* bs_th0_2 */
-    {0x2860u, 17u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 152u, INT64_C(0), INT64_C(2130706432), INT64_C(4194304), NULL},  /* bs_gamma3 */
-    {0x2860u, 18u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 153u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_min3 */
-    {0x2860u, 19u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 154u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(32736099), NULL},  /* bs_max3 */
-    {0x2860u, 20u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 155u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(2182407), NULL},  /* bs_th0_3 */
-    {0x2860u, 21u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 156u, INT64_C(0), INT64_C(2130706432), INT64_C(8388608), NULL},  /* bs_gamma4 */
-    {0x2860u, 22u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 157u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(-1310720), NULL},  /* bs_min4 */
-    {0x2860u, 23u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 158u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(1310720), NULL},  /* bs_max4 */
-    {0x2860u, 24u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 159u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_th0_4 */
+    {0x2860u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 137u, INT64_C(0), INT64_C(655360000), INT64_C(3263666), NULL},  /* bs_c1 */
+    {0x2860u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 138u, INT64_C(0), INT64_C(655360000), INT64_C(3263666), NULL},  /* bs_c2 */
+    {0x2860u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 139u, INT64_C(66), INT64_C(1966080000), INT64_C(535307), NULL},  /* bs_j */
+    {0x2860u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 140u, INT64_C(0), INT64_C(2048000000), INT64_C(1296447), NULL},  /* bs_ke */
+    {0x2860u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 141u, INT64_C(0), INT64_C(429496730), INT64_C(6836), NULL},  /* bs_eps_w */
+    {0x2860u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 142u, INT64_C(4), INT64_C(2104533975), INT64_C(13671306), NULL},  /* bs_w_s */
+    {0x2860u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 143u, INT64_C(4295), INT64_C(2104533975), INT64_C(42949673), NULL},  /* bs_e1_max */
+    {0x2860u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 144u, INT64_C(66), INT64_C(65536000), INT64_C(3932160), NULL},  /* bs_u_max */
+    {0x2860u, 9u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 145u, INT64_C(0), INT64_C(2130706432), INT64_C(8388608), NULL},  /* bs_gamma1 */
+    {0x2860u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 146u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_min1 */
+    {0x2860u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 147u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(2084045), NULL},  /* bs_max1 */
+    {0x2860u, 12u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 148u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(484966), NULL},  /* bs_th0_1 */
+    {0x2860u, 13u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 149u, INT64_C(0), INT64_C(2130706432), INT64_C(8388608), NULL},  /* bs_gamma2 */
+    {0x2860u, 14u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 150u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_min2 */
+    {0x2860u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 151u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(2084045), NULL},  /* bs_max2 */
+    {0x2860u, 16u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 152u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(209715), NULL},  /* bs_th0_2 */
+    {0x2860u, 17u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 153u, INT64_C(0), INT64_C(2130706432), INT64_C(4194304), NULL},  /* bs_gamma3 */
+    {0x2860u, 18u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 154u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_min3 */
+    {0x2860u, 19u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 155u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(32736099), NULL},  /* bs_max3 */
+    {0x2860u, 20u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 156u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(2182407), NULL},  /* bs_th0_3 */
+    {0x2860u, 21u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 157u, INT64_C(0), INT64_C(2130706432), INT64_C(8388608), NULL},  /* bs_gamma4 */
+    {0x2860u, 22u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 158u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(-1310720), NULL},  /* bs_min4 */
+    {0x2860u, 23u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 159u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(1310720), NULL},  /* bs_max4 */
+    {0x2860u, 24u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 160u, INT64_C(-1966080000), INT64_C(1966080000), INT64_C(0), NULL},  /* bs_th0_4 */
     {0x2870u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(2), NULL},  /* highest_sub_index_supported */
-    {0x2870u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 160u, INT64_C(6554), INT64_C(32768000), INT64_C(655360), NULL},  /* dob_fc */
-    {0x2870u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 161u, INT64_C(66), INT64_C(1966080000), INT64_C(85197), NULL},  /* dob_j */
+    {0x2870u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 161u, INT64_C(6554), INT64_C(32768000), INT64_C(655360), NULL},  /* dob_fc */
+    {0x2870u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 162u, INT64_C(66), INT64_C(1966080000), INT64_C(85197), NULL},  /* dob_j */
     {0x2880u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(2), NULL},  /* highest_sub_index_supported */
-    {0x2880u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 162u, INT64_C(0), INT64_C(2147483647), INT64_C(0), NULL},  /* tbl_fr_version */
-    {0x2880u, 2u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 163u, INT64_C(0), INT64_C(2147483647), INT64_C(0), NULL},  /* tbl_te_version */
+    {0x2880u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 163u, INT64_C(0), INT64_C(2147483647), INT64_C(0), NULL},  /* tbl_fr_version */
+    {0x2880u, 2u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 164u, INT64_C(0), INT64_C(2147483647), INT64_C(0), NULL},  /* tbl_te_version */
     {0x2890u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(5), NULL},  /* highest_sub_index_supported */
-    {0x2890u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 164u, INT64_C(2099200), INT64_C(2048000000), INT64_C(49863359), NULL},  /* cp_k1 */
-    {0x2890u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 165u, INT64_C(2099200), INT64_C(2048000000), INT64_C(80424772), NULL},  /* cp_k2 */
-    {0x2890u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 166u, INT64_C(2099200), INT64_C(2048000000), INT64_C(91684240), NULL},  /* cp_k3 */
-    {0x2890u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 167u, INT64_C(0), INT64_C(1966080000), INT64_C(917504), NULL},  /* cp_t1 */
-    {0x2890u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 168u, INT64_C(0), INT64_C(1966080000), INT64_C(3145728), NULL},  /* cp_t2 */
+    {0x2890u, 1u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 165u, INT64_C(2099200), INT64_C(2048000000), INT64_C(49863359), NULL},  /* cp_k1 */
+    {0x2890u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 166u, INT64_C(2099200), INT64_C(2048000000), INT64_C(80424772), NULL},  /* cp_k2 */
+    {0x2890u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 167u, INT64_C(2099200), INT64_C(2048000000), INT64_C(91684240), NULL},  /* cp_k3 */
+    {0x2890u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 168u, INT64_C(0), INT64_C(1966080000), INT64_C(917504), NULL},  /* cp_t1 */
+    {0x2890u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 169u, INT64_C(0), INT64_C(1966080000), INT64_C(3145728), NULL},  /* cp_t2 */
     {0x28A0u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(14), NULL},  /* highest_sub_index_supported */
-    {0x28A0u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 169u, INT64_C(0), INT64_C(1), INT64_C(0), NULL},  /* fe_enable */
-    {0x28A0u, 2u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 170u, INT64_C(0), INT64_C(1), INT64_C(0), NULL},  /* fe_feed */
-    {0x28A0u, 3u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 171u, INT64_C(1), INT64_C(1000), INT64_C(10), NULL},  /* fe_decim */
-    {0x28A0u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 172u, INT64_C(4), INT64_C(429496730), INT64_C(59652), NULL},  /* fe_v_min */
-    {0x28A0u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 173u, INT64_C(4), INT64_C(8589935), INT64_C(596523), NULL},  /* fe_vs_lo */
-    {0x28A0u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 174u, INT64_C(0), INT64_C(42949673), INT64_C(429), NULL},  /* fe_dv_max */
-    {0x28A0u, 7u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 175u, INT64_C(0), INT64_C(100000), INT64_C(300), NULL},  /* fe_settle */
-    {0x28A0u, 8u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 176u, INT64_C(1), INT64_C(1000000), INT64_C(150), NULL},  /* fe_forget */
-    {0x28A0u, 9u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 177u, INT64_C(1), INT64_C(1000000), INT64_C(30), NULL},  /* fe_n_min */
-    {0x28A0u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 178u, INT64_C(66), INT64_C(1048576000), INT64_C(6553600), NULL},  /* fe_tau_max */
-    {0x28A0u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 179u, INT64_C(0), INT64_C(1966080000), INT64_C(196608000), NULL},  /* fe_fv_max */
-    {0x28A0u, 12u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 180u, INT64_C(0), INT64_C(1000000), INT64_C(1000), NULL},  /* fe_ramp */
-    {0x28A0u, 13u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 181u, INT64_C(0), INT64_C(1000000), INT64_C(5), NULL},  /* fe_n_keep */
-    {0x28A0u, 14u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 182u, INT64_C(1), INT64_C(2000000000), INT64_C(30000), NULL},  /* fe_max_age */
+    {0x28A0u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 170u, INT64_C(0), INT64_C(1), INT64_C(0), NULL},  /* fe_enable */
+    {0x28A0u, 2u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 171u, INT64_C(0), INT64_C(1), INT64_C(0), NULL},  /* fe_feed */
+    {0x28A0u, 3u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 172u, INT64_C(1), INT64_C(1000), INT64_C(10), NULL},  /* fe_decim */
+    {0x28A0u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 173u, INT64_C(4), INT64_C(429496730), INT64_C(59652), NULL},  /* fe_v_min */
+    {0x28A0u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 174u, INT64_C(4), INT64_C(8589935), INT64_C(596523), NULL},  /* fe_vs_lo */
+    {0x28A0u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 175u, INT64_C(0), INT64_C(42949673), INT64_C(429), NULL},  /* fe_dv_max */
+    {0x28A0u, 7u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 176u, INT64_C(0), INT64_C(100000), INT64_C(300), NULL},  /* fe_settle */
+    {0x28A0u, 8u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 177u, INT64_C(1), INT64_C(1000000), INT64_C(150), NULL},  /* fe_forget */
+    {0x28A0u, 9u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 178u, INT64_C(1), INT64_C(1000000), INT64_C(30), NULL},  /* fe_n_min */
+    {0x28A0u, 10u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 179u, INT64_C(66), INT64_C(1048576000), INT64_C(6553600), NULL},  /* fe_tau_max */
+    {0x28A0u, 11u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 180u, INT64_C(0), INT64_C(1966080000), INT64_C(196608000), NULL},  /* fe_fv_max */
+    {0x28A0u, 12u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 181u, INT64_C(0), INT64_C(1000000), INT64_C(1000), NULL},  /* fe_ramp */
+    {0x28A0u, 13u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 182u, INT64_C(0), INT64_C(1000000), INT64_C(5), NULL},  /* fe_n_keep */
+    {0x28A0u, 14u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 183u, INT64_C(1), INT64_C(2000000000), INT64_C(30000), NULL},  /* fe_max_age */
     {0x5000u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(7), NULL},  /* highest_sub_index_supported */
     {0x5000u, 1u, 0x05u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(2), INT64_C(0), NULL},  /* capture_control */
     {0x5000u, 2u, 0x05u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(0), NULL},  /* capture_state */

@@ -11,8 +11,8 @@
 #include "hd_co_types.h"
 
 #define HD_CO_OD_VERSION 1u
-#define HD_CO_OD_PARAM_HASH 0x27A38A7Au
-#define HD_CO_OD_COUNT 473u
+#define HD_CO_OD_PARAM_HASH 0xFB88D657u
+#define HD_CO_OD_COUNT 474u
 /* entries 0x1010 keeps in the stored-object record: hd_co_store_words() less
  * its layout word; the host's od_gen.STORED lists them for hdservo config */
 #define HD_CO_OD_STORED 124u

@@ -100,6 +100,8 @@ void hd_stribeck_init(hd_stribeck_t *s, uint32_t ramp_ticks, bool enabled)
     s->v_anchor = 0;
     s->cruise_n = 0u;
     s->cruise = 0u;
+    s->steady = 0u;
+    s->v_steady = 0;
     hd_stribeck_recip(&s->rp, 0);
     hd_stribeck_recip(&s->rn, 0);
 }
@@ -138,6 +140,31 @@ int32_t hd_stribeck_step(hd_stribeck_t *s, const hd_stribeck_cfg_t *c,
     } else {
         s->cruise_n = 0u;
         s->cruise = 0u;
+    }
+    /* steady motion: |v_ref| >= steady_vs * vs_d, vs_d the Stribeck velocity of v_ref's direction
+     * (int64: no overflow; Q16.16 product truncated - the threshold's last LSB does not matter).
+     * It starts once the axis follows: v_est beyond the same threshold in v_ref's direction (after
+     * a reversal or a start the axis is still stuck or sliding the old way, and the map stays on
+     * the estimate); it lasts while the reference stays above the threshold in that direction,
+     * whatever the measured velocity does, so a stick-slip of the axis around the moving reference
+     * does not flip the friction sign.  Near rest and at reversals the measured velocity stays */
+    {
+        bool on = false;
+        if ((c->steady_vs > 0) && (v_ref != 0)) {
+            const int64_t vs_d = (v_ref > 0) ? (int64_t)c->pos.vs : (int64_t)c->neg.vs;
+            const int64_t thr = vs_d * (int64_t)c->steady_vs;                /* Q16 of 2^-32 turn/s */
+            const int64_t mag = (v_ref > 0) ? (int64_t)v_ref : -(int64_t)v_ref;
+            const int64_t fol = (v_ref > 0) ? (int64_t)v_est : -(int64_t)v_est;   /* along v_ref */
+            const bool same_run = (s->steady != 0u) && ((v_ref > 0) == (s->v_steady > 0));
+            if ((vs_d > 0) && (mag * 65536 >= thr) && (same_run || (fol * 65536 >= thr))) {
+                on = true;
+            }
+        }
+        s->steady = on ? 1u : 0u;
+        s->v_steady = on ? v_ref : 0;
+        if (on) {
+            w = HD_Q30_ONE;
+        }
     }
     /* reciprocals of vs: recomputed only when the parameter changed */
     if (s->rp.vs != c->pos.vs) {

@@ -30,6 +30,22 @@
  * immediate (no ramp): at the start and end of a cruise v_est ~ v_ref.
  * cruise_ticks = 0: w = w_ref always (no cruise detection).
  *
+ * Steady motion.  A reference that keeps moving without a constant rate (a sine)
+ * never cruises; on the measured velocity the map then feeds back the friction
+ * sign whenever the axis sticks and slips around a moving reference (a +-20-40"
+ * stick-slip oscillation at 0.3-0.6 deg/s of a 0.1 Hz sine on the reference axis).
+ * With steady_vs > 0 the map also takes the reference velocity (w = 1) while
+ * |v_ref| >= steady_vs * vs_d, vs_d the Stribeck velocity of v_ref's direction,
+ * from the period the measured velocity passes the same threshold in v_ref's
+ * direction (the axis follows) until v_ref falls below it or changes sign: the
+ * axis must slide in the reference's direction to follow it, so the friction
+ * state is known from the reference as in a cruise, and a stick or slip of the
+ * axis within the run does not end it.  Below that speed - near rest,
+ * at reversals, in the arrival and hold of a move - w = w_ref as above (the relay
+ * that dithers the axis onto its target stays).  The threshold is a multiple of the
+ * axis' own Stribeck velocity, so one setting serves every axis.  steady_vs = 0:
+ * off (the feed-forward is bit-identical to the one without this rule).
+ *
  * Formats (all parameters plain int32, output-referred):
  *   v_ref, v_est, v, vs, eps_v : output velocity, 2^-32 turn/s (hd_units.h)
  *   fc, fs, tau, tau_max       : Q15.16 N.m (fc, fs magnitudes >= 0 for both directions)
@@ -37,6 +53,7 @@
  *   w_ref                      : Q30 in [0, 2^30]
  *   delta                      : 1 or 2 (anything else is treated as 2)
  *   cruise_ticks               : control periods (0 = off)
+ *   steady_vs                  : Q16.16 multiple of vs, >= 0 (0 = off)
  * Discretisation: none (static map evaluated each period).
  * Internal: r = |v|/vs in Q8.24 (saturated), x = r^delta in Q16 (rounded,
  * saturated), exp(-x) by hd_exp_neg_q16 (Q30); every product by hd_mul_q
@@ -79,6 +96,7 @@ typedef struct {
     int32_t  w_ref;         /* Q30 weight of v_ref, [0, 2^30] (outside a cruise) */
     int32_t  tau_max;       /* output clamp, Q15.16 N.m, > 0 */
     uint32_t cruise_ticks;  /* periods of constant v_ref before w = 1; 0 = off */
+    int32_t  steady_vs;     /* Q16.16: w = 1 while |v_ref| >= steady_vs * vs_d; 0 = off */
 } hd_stribeck_cfg_t;
 
 /** Reciprocal of a Stribeck velocity: 2^sh / vs ~ m, m in (2^30, 2^31] (vs > 0). */
@@ -96,6 +114,8 @@ typedef struct {
     int32_t v_anchor;       /* v_ref at the start of the current run, 2^-32 turn/s */
     uint32_t cruise_n;      /* consecutive cruising periods (saturates at cruise_ticks) */
     uint32_t cruise;        /* 1 = this period used the reference velocity (cruise) */
+    uint32_t steady;        /* 1 = this period used the reference velocity (steady motion) */
+    int32_t v_steady;       /* v_ref of the last steady period (its sign: the run's direction), 0 = none */
     hd_stribeck_recip_t rp; /* reciprocal of cfg pos.vs (refreshed when it changes) */
     hd_stribeck_recip_t rn; /* reciprocal of cfg neg.vs */
 } hd_stribeck_t;

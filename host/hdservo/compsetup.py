@@ -76,10 +76,21 @@ ENABLE_BITS: dict[str, int] = {"stribeck": 1, "lugre": 2, "maxwell": 4, "preisac
 # moves (parameters appr_*, firmware/core/hd_trajectory.h, docs/control.md "Repeatability").
 
 
+#: Stribeck feed-forward's steady-motion threshold (``str_steady_vs``), in Stribeck velocities of the
+#: model: once the axis follows a reference moving at |v_ref| >= vs / 8, the map takes the reference
+#: velocity until the reference falls below that speed or reverses; near rest, at reversals and in
+#: the final arrival it takes the measured velocity.  On the measured velocity a moving reference
+#: that never cruises (a sine) drives a stick-slip oscillation of the feed-forward.  vs / 8 is the
+#: lowest threshold above the peak rate of the slow tracking sine (0.1 deg/s = 0.087 vs on the
+#: reference axis): lower thresholds (vs / 16, vs / 32) lower the reversal peak of the faster sine
+#: but raise the slow sine's tracking peak 4-6x (docs/compensators.md section 11).
+STR_STEADY_VS = 1.0 / 8.0
+
 #: The best combination of the comparison (``hdservo compare`` / ``make demo``; docs/demo.md): one drive
 #: configuration for every procedure.  Stribeck friction feed-forward on the *measured* velocity
 #: (``str_w_ref`` 0: with the reference velocity the feed-forward differs between the fast and the
-#: slow final arrivals, ISO R 3.7 arcsec) except while the reference cruises at a constant rate
+#: slow final arrivals, ISO R 3.7 arcsec) except in steady motion above ``STR_STEADY_VS`` and while
+#: the reference cruises at a constant rate
 #: (``str_cruise_ticks`` 200 = 20 ms of constant reference velocity: then the reference velocity; on
 #: the measured velocity the map is a relay in the velocity loop, a ~95 Hz +-12 N.m limit cycle that
 #: makes 0.001 deg/s jerky; docs/compensators.md), the one-direction final approach of PTP moves,
@@ -92,7 +103,8 @@ BEST_NAMES: tuple[str, ...] = ("stribeck", "approach")
 #: Procedure options of the best combination: the stabilisation test in the drive's STAB mode (gyro).
 BEST_PROC_ARGS: dict[str, list[str]] = {"stabilisation": ["--stab-mode", "stab"]}
 #: Retuned drive parameters of the best combination (table units), on top of the model's compensator parameters.
-BEST_GAINS: dict[str, float] = {"pos_kp": 60.0, "str_w_ref": 0.0, "str_cruise_ticks": 200.0, "hold_ticks": 2000.0}
+BEST_GAINS: dict[str, float] = {"pos_kp": 60.0, "str_w_ref": 0.0, "str_cruise_ticks": 200.0,
+                                "str_steady_vs": STR_STEADY_VS, "hold_ticks": 2000.0}
 
 
 #: Fair-comparison rule (docs/compensators.md, "Fair baselines"): every row of a comparison -- the PID
@@ -105,8 +117,9 @@ FAIR_GAINS: dict[str, float] = {"pos_kp": 60.0}
 FAIR_PROC_ARGS: dict[str, list[str]] = {"stabilisation": ["--stab-mode", "stab"]}
 #: Settings a compensator carries when it is on (its configuration, the same on every axis): the
 #: Stribeck feed-forward on the measured velocity, on the reference velocity while the reference
-#: cruises at a constant rate (docs/compensators.md section 1).
-COMPONENT_PARAMS: dict[str, dict[str, float]] = {"stribeck": {"str_w_ref": 0.0, "str_cruise_ticks": 200.0}}
+#: cruises at a constant rate or the axis follows it above vs / 8 (docs/compensators.md section 1).
+COMPONENT_PARAMS: dict[str, dict[str, float]] = {"stribeck": {"str_w_ref": 0.0, "str_cruise_ticks": 200.0,
+                                                              "str_steady_vs": STR_STEADY_VS}}
 #: Motion strategies, reported as their own rows: name -> (cb_enable names, drive parameters).
 #: ``hold``: the standstill hunt breaker (fades the friction feed-forward at rest); ``approach``: the
 #: one-direction final approach of PTP moves.

@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 OD_VERSION = 1
-PARAM_HASH = 0x27A38A7A
+PARAM_HASH = 0xFB88D657
 VENDOR_ID = 0x00000EDA
 PRODUCT_CODE = 0x00484453
 REVISION = 0x00010000
@@ -265,6 +265,7 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x2810, 11, 'str_w_ref', 'i32', 'rw', '', '1', 9.313225746154785e-10),
     OdEntry(0x2810, 12, 'str_tau_max', 'i32', 'rw', '', 'N.m', 1.52587890625e-05),
     OdEntry(0x2810, 13, 'str_cruise_ticks', 'u32', 'rw', '', 'period', 1.0),
+    OdEntry(0x2810, 14, 'str_steady_vs', 'i32', 'rw', '', '1', 1.52587890625e-05),
     OdEntry(0x2820, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x2820, 1, 'lug_fc', 'i32', 'rw', '', 'N.m', 1.52587890625e-05),
     OdEntry(0x2820, 2, 'lug_fs', 'i32', 'rw', '', 'N.m', 1.52587890625e-05),

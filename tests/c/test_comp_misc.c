@@ -26,7 +26,7 @@ static int tearDown(void **state) { (void)state; return 0; }
 static void test_blend_ramp_is_bumpless(void **state)
 {
     hd_stribeck_cfg_t c = { { NM(5), NM(8), DEGS, NM(100) }, { NM(5), NM(8), DEGS, NM(100) },
-                            2u, DEGS / 1000, 1 << 30, NM(100), 0u };
+                            2u, DEGS / 1000, 1 << 30, NM(100), 0u, 0 };
     hd_stribeck_t s;
     int32_t prev = 0;
     uint32_t k;
@@ -50,7 +50,7 @@ static void test_blend_ramp_is_bumpless(void **state)
 static void test_stribeck_odd_and_breakaway(void **state)
 {
     hd_stribeck_cfg_t c = { { NM(5), NM(8), DEGS, NM(100) }, { NM(5), NM(8), DEGS, NM(100) },
-                            2u, DEGS / 1000, 1 << 30, NM(100), 0u };
+                            2u, DEGS / 1000, 1 << 30, NM(100), 0u, 0 };
     int32_t v;
     (void)state;
     for (v = -3 * DEGS; v <= 3 * DEGS; v += DEGS / 7) {
@@ -97,7 +97,7 @@ static void test_stribeck_recip_matches_division(void **state)
 static void test_stribeck_sinusoid_peak_is_no_cruise(void **state)
 {
     hd_stribeck_cfg_t c = { { NM(5), NM(8), DEGS, NM(100) }, { NM(5), NM(8), DEGS, NM(100) },
-                            2u, DEGS / 1000, 0, NM(100), 200u };
+                            2u, DEGS / 1000, 0, NM(100), 200u, 0 };
     hd_stribeck_t s;
     const double vpk = 0.01 * DEGS, w = 2.0 * 3.14159265358979 / 4.0;
     uint32_t k, n_cruise = 0u;
@@ -126,7 +126,7 @@ static void test_stribeck_sinusoid_peak_is_no_cruise(void **state)
 static void test_stribeck_cruise_and_vs_change(void **state)
 {
     hd_stribeck_cfg_t c = { { NM(5), NM(8), DEGS, NM(100) }, { NM(5), NM(8), DEGS, NM(100) },
-                            2u, DEGS / 1000, 0, NM(100), 10u };
+                            2u, DEGS / 1000, 0, NM(100), 10u, 0 };
     hd_stribeck_t s;
     uint32_t k;
     int32_t t;
@@ -156,6 +156,63 @@ static void test_stribeck_cruise_and_vs_change(void **state)
     t = hd_stribeck_step(&s, &c, 0, DEGS / 5);
     assert_int_equal(t, hd_stribeck_map(&c, DEGS / 5));
     assert_int_equal(s.rp.vs, DEGS / 7);
+}
+
+/* steady motion: at |v_ref| >= steady_vs * vs of its direction, once the axis follows, the map
+ * follows the reference although the reference changes every period (no cruise) and the axis
+ * sticks or slips back; at a start or reversal, below that speed and with steady_vs 0 the
+ * estimate, as before */
+static void test_stribeck_steady_motion_takes_the_reference(void **state)
+{
+    hd_stribeck_cfg_t c = { { NM(5), NM(8), DEGS, NM(100) }, { NM(5), NM(8), DEGS / 2, NM(100) },
+                            2u, DEGS / 1000, 0, NM(100), 200u, 1 << 15 };   /* steady at 0.5 vs */
+    hd_stribeck_t s;
+    uint32_t k;
+    int32_t t;
+    (void)state;
+    hd_stribeck_init(&s, 0u, true);
+    /* the reference at 0.6 deg/s while the axis is still at rest (a start): the estimate */
+    t = hd_stribeck_step(&s, &c, 6 * (DEGS / 10), 0);
+    assert_int_equal(s.steady, 0u);
+    assert_int_equal(t, hd_stribeck_map(&c, 0));
+    /* the axis follows (0.6 deg/s >= 0.5 vs): steady from here */
+    t = hd_stribeck_step(&s, &c, 6 * (DEGS / 10), 6 * (DEGS / 10));
+    assert_int_equal(s.steady, 1u);
+    for (k = 0; k < 300u; k++) {                     /* a sine's flank: +1000 LSB per period */
+        const int32_t vr = (int32_t)(6 * (DEGS / 10)) + (int32_t)(k * 1000u);
+        t = hd_stribeck_step(&s, &c, vr, -DEGS / 100);
+        assert_int_equal(s.cruise, 0u);
+        assert_int_equal(s.steady, 1u);
+        assert_int_equal(s.v, vr);
+        assert_int_equal(t, hd_stribeck_map(&c, vr));
+        assert_true(t > 0);                          /* the reference's direction, not the estimate's */
+    }
+    /* 0.4 deg/s < 0.5 vs_pos: the estimate (near rest, at reversals) */
+    t = hd_stribeck_step(&s, &c, 4 * (DEGS / 10), -DEGS / 100);
+    assert_int_equal(s.steady, 0u);
+    assert_int_equal(t, hd_stribeck_map(&c, -DEGS / 100));
+    /* negative direction, its own vs (0.5 deg/s): steady from 0.25 deg/s, once the axis follows;
+     * a reversal (the axis still sliding the old way) is not steady */
+    t = hd_stribeck_step(&s, &c, -3 * (DEGS / 10), DEGS / 100);
+    assert_int_equal(s.steady, 0u);
+    assert_true(t > 0);
+    t = hd_stribeck_step(&s, &c, -3 * (DEGS / 10), -DEGS / 4);
+    assert_int_equal(s.steady, 1u);
+    assert_true(t < 0);
+    t = hd_stribeck_step(&s, &c, -3 * (DEGS / 10), DEGS / 100);   /* slips back: still steady */
+    assert_int_equal(s.steady, 1u);
+    assert_true(t < 0);
+    t = hd_stribeck_step(&s, &c, 3 * (DEGS / 10), -DEGS / 4);     /* v_ref reverses: the estimate */
+    assert_int_equal(s.steady, 0u);
+    assert_true(t < 0);
+    t = hd_stribeck_step(&s, &c, -2 * (DEGS / 10), -DEGS / 4);
+    assert_int_equal(s.steady, 0u);
+    assert_int_equal(t, hd_stribeck_map(&c, -DEGS / 4));
+    /* steady_vs 0: off, the estimate at any speed */
+    c.steady_vs = 0;
+    t = hd_stribeck_step(&s, &c, 6 * DEGS, -DEGS / 100);
+    assert_int_equal(s.steady, 0u);
+    assert_int_equal(t, hd_stribeck_map(&c, -DEGS / 100));
 }
 
 static void test_lugre_steady_state_and_hold(void **state)
@@ -698,6 +755,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_stribeck_recip_matches_division, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_stribeck_cruise_and_vs_change, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_stribeck_sinusoid_peak_is_no_cruise, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_stribeck_steady_motion_takes_the_reference, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_lugre_steady_state_and_hold, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_maxwell_saturation, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_te_single_harmonic, setUp, tearDown),

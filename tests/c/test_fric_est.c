@@ -441,7 +441,7 @@ static void test_estimate_bounded(void **state)
 static void test_feed_is_bumpless(void **state)
 {
     hd_stribeck_cfg_t base = {{NM(5), NM(8), (int32_t)DEGS, NM(100)}, {NM(5), NM(8), (int32_t)DEGS, NM(100)},
-                              2u, 0, 1 << 30, NM(100), 0u};
+                              2u, 0, 1 << 30, NM(100), 0u, 0};
     hd_stribeck_cfg_t out;
     int32_t prev;
     uint32_t k;

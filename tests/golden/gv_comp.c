@@ -29,14 +29,21 @@ static volatile int32_t sink32;
 static const hd_stribeck_cfg_t st_cfg = {
     { 655360, 1048576, 11930465, 6553600 },    /* fc 10, fs 16 N.m, vs 1 deg/s, fv 100 N.m/(turn/s) */
     { 720896, 1179648, 8947849, 7864320 },     /* asymmetric negative side */
-    2u, 11930, 1 << 29, 100 << 16, 0u
+    2u, 11930, 1 << 29, 100 << 16, 0u, 0
 };
 
 /* the same with cruise detection (str_cruise_ticks 8) and the estimate outside a cruise */
 static const hd_stribeck_cfg_t st_cruise_cfg = {
     { 655360, 1048576, 11930465, 6553600 },
     { 720896, 1179648, 8947849, 7864320 },
-    2u, 11930, 0, 100 << 16, 8u
+    2u, 11930, 0, 100 << 16, 8u, 0
+};
+
+/* the same with the steady-motion switch (str_steady_vs 0.5 vs) on top of the cruise test */
+static const hd_stribeck_cfg_t st_steady_cfg = {
+    { 655360, 1048576, 11930465, 6553600 },
+    { 720896, 1179648, 8947849, 7864320 },
+    2u, 11930, 0, 100 << 16, 8u, 1 << 15
 };
 
 static void gen_two_vel(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
@@ -67,6 +74,11 @@ static void run_stribeck(const int32_t *in, int32_t *out, uint32_t count)
 static void run_stribeck_cruise(const int32_t *in, int32_t *out, uint32_t count)
 {
     run_stribeck_cfg(&st_cruise_cfg, in, out, count);
+}
+
+static void run_stribeck_steady(const int32_t *in, int32_t *out, uint32_t count)
+{
+    run_stribeck_cfg(&st_steady_cfg, in, out, count);
 }
 
 /* v_ref constant over runs of 16 vectors (odd runs with +-1 LSB jitter, every 4th run 0 or a ramp),
@@ -447,6 +459,7 @@ static void cost_pz_inv32(void)
 const hd_gv_kernel_t hd_gv_comp_kernels[] = {
     { "comp_stribeck_step", 2u, 2u, 256u, gen_two_vel, run_stribeck, cost_stribeck },
     { "comp_stribeck_cruise", 2u, 2u, 256u, gen_cruise_vel, run_stribeck_cruise, NULL },
+    { "comp_stribeck_steady", 2u, 2u, 256u, gen_cruise_vel, run_stribeck_steady, NULL },
     { "comp_lugre_step", 3u, 3u, 256u, gen_lugre, run_lugre, cost_lugre },
     { "comp_maxwell_step_n8", 1u, 3u, 256u, gen_step, run_maxwell, cost_maxwell },
     { "comp_te_step_h4", 2u, 3u, 256u, gen_angle, run_te, cost_te },

@@ -51,6 +51,7 @@ void comp_stribeck_run(const int32_t *cfg, const int32_t *v_ref, const int32_t *
     c.neg.fc = cfg[4]; c.neg.fs = cfg[5]; c.neg.vs = cfg[6]; c.neg.fv = cfg[7];
     c.delta = (uint32_t)cfg[8]; c.eps_v = cfg[9]; c.w_ref = cfg[10]; c.tau_max = cfg[11];
     c.cruise_ticks = (uint32_t)cfg[12];
+    c.steady_vs = 0;                    /* steady-motion rule off: the Python reference has none */
     hd_stribeck_init(&s, 0u, true);
     for (i = 0; i < n; i++) {
         tau[i] = hd_stribeck_step(&s, &c, v_ref[i], v_est[i]);
