@@ -55,9 +55,6 @@ class Settings:
     bic_min: float = 10.0
     p_max: float = 1e-3
     frac_min: float = 0.30
-    #: Size threshold of a later candidate (at least one effect already named) that is
-    #: significant in both residuals on its own (:func:`significant`).
-    later_frac_min: float = 0.15
     max_iter: int = 3
     whiteness_p: float = 0.01
     #: Variants per candidate (best by equation-error evidence) that are also simulated.
@@ -637,7 +634,7 @@ def worse(delta_bic_no_penalty: float, s: Settings) -> bool:
     return -delta_bic_no_penalty > s.bic_min
 
 
-def significant(c: Candidate, s: Settings, later: bool = False) -> bool:
+def significant(c: Candidate, s: Settings) -> bool:
     """Named only if (1) significant in the equation error or in the simulation error
     (Delta BIC > ``bic_min`` and F-test p < ``p_max`` in that residual), (2) the total
     Delta BIC exceeds ``bic_min``, (3) neither residual gets *significantly* worse
@@ -647,23 +644,14 @@ def significant(c: Candidate, s: Settings, later: bool = False) -> bool:
     equation error or of the simulation error, judged over the region where the
     candidate acts (:func:`local_evidence`; the whole record for effects that act
     everywhere): an effect confined to the stops and reversals (Stribeck) is not diluted
-    by the long stretches where it cannot act.
-
-    ``later`` (at least one effect is already in the model): a candidate that is
-    significant in the equation error *and* in the simulation error, each on its own,
-    needs only ``later_frac_min`` of the size.  Once the first effect is in the model what
-    is left is the second effect, the noise and the baseline's own mismatch; the second
-    effect's share of that is smaller than the first's share of the baseline's residual
-    even when it is as large as the threshold meant, and two views of the data agreeing
-    is the stronger evidence that replaces the missing size."""
+    by the long stretches where it cannot act."""
     e = c.evidence
     sim_dbic = e.get("sim_delta_bic", -np.inf)
     sim_frac = e.get("sim_explained_fraction", -np.inf)
     eq_sig = e["delta_bic"] > s.bic_min and e["p_value"] < s.p_max
     sim_sig = sim_dbic > s.bic_min and e.get("sim_p_value", 1.0) < s.p_max
-    need = s.later_frac_min if later and eq_sig and sim_sig else s.frac_min
     return bool((eq_sig or sim_sig) and e.get("total_delta_bic", -np.inf) > s.bic_min
-                and admissible(e, s) and size(e) >= min(need, s.frac_min))
+                and admissible(e, s) and size(e) >= s.frac_min)
 
 
 def size(e: dict[str, float]) -> float:
@@ -929,10 +917,10 @@ class _Path:
         return cls(snapshots=[st_.fit], rms=[st_.fit.rms], sim_rms=[_rms(st_.sim)], sims=[st_.sim])
 
 
-def _ranking_json(ranked: list[Candidate], s: Settings, later: bool = False) -> list[dict[str, Any]]:
+def _ranking_json(ranked: list[Candidate], s: Settings) -> list[dict[str, Any]]:
     """The ranking as reported (effect, evidence, hyper-parameters, significant)."""
     return [json_ready({"effect": c.effect.name, **c.evidence, "hyper": c.variant.hyper,
-                        "significant": significant(c, s, later)}) for c in ranked]
+                        "significant": significant(c, s)}) for c in ranked]
 
 
 def _name_effects(st_: State, lib: list[fx.Effect], s: Settings) -> _Path:
@@ -946,12 +934,11 @@ def _name_effects(st_: State, lib: list[fx.Effect], s: Settings) -> _Path:
     for _ in range(s.max_iter):
         eq_only = not is_physical(st_.fit.params())
         ranked = rank(st_, lib, s, simulate=not eq_only)
-        later = bool(st_.added)
-        path.last_rank = _ranking_json(ranked, s, later)
+        path.last_rank = _ranking_json(ranked, s)
         if path.first_rank is None:
             path.first_rank = path.last_rank
         # the best-ranked candidate that passes the significance and size rules
-        top = next((c for c in ranked if significant(c, s, later)), None)
+        top = next((c for c in ranked if significant(c, s)), None)
         if top is None:
             if eq_only:
                 check_physical(st_.fit.params(), st_.design, library_tried=True)
