@@ -335,6 +335,14 @@ void hd_comp_bank_apply(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
         const hd_blend_t feed = b->fe.feed;
         fe_reset(b, c);
         b->fe.feed = feed;
+    } else {
+        /* new str_* parameters (written after the estimator started, e.g. one SDO at a
+         * time): an estimate without a fit is the model in force, else the feed would put
+         * the start-up map (the defaults) into the FF */
+        hd_stribeck_dir_t init[HD_FE_NDIR];
+        init[HD_FE_DIR_POS] = c->str.pos;
+        init[HD_FE_DIR_NEG] = c->str.neg;
+        hd_fric_est_seed(&b->fe, init);
     }
     b->fe.feed.ramp_ticks = c->fe_ramp;
     if (b->fe.feed.w == 0) {

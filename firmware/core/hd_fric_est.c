@@ -721,6 +721,17 @@ void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_re
     }
 }
 
+void hd_fric_est_seed(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR])
+{
+    uint32_t d;
+    for (d = 0; d < HD_FE_NDIR; d++) {
+        if (e->fits[d] == 0u) {
+            e->est[d] = init[d];
+            e->shape[d] = init[d];
+        }
+    }
+}
+
 void hd_fric_est_set_feed(hd_fric_est_t *e, bool on)
 {
     hd_blend_set_enabled(&e->feed, on);

@@ -237,6 +237,11 @@ void hd_fric_est_observe(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v
 bool hd_fric_est_fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c);
 /** The bin of |v| (0..HD_FE_NBIN-1), or -1 outside the binned range. */
 int32_t hd_fric_est_bin_of(const hd_fric_est_cfg_t *c, int32_t v);
+/** The initial estimate follows new parameters (init, e.g. the Stribeck FF parameters just
+ *  written) in each direction without an accepted fit: until the bins have given a fit the
+ *  estimate is the model in force, not the one at the estimator's start.  A direction with
+ *  a fit keeps it (the bins, not the parameters, inform it). */
+void hd_fric_est_seed(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]);
 /** Switch the feed of the estimate into the Stribeck FF (weight ramps, bumpless). */
 void hd_fric_est_set_feed(hd_fric_est_t *e, bool on);
 /** The Stribeck FF config the drive uses: base with its four parameters per direction

@@ -223,6 +223,8 @@ static void test_online_estimate_feeds_the_ff(void **st)
     in.vel_ref = v;
     in.vel_fb = v;
     /* an estimate unlike the parameters (as a fit would publish it) */
+    b.fe.fits[HD_FE_DIR_POS] = 1u;
+    b.fe.fits[HD_FE_DIR_NEG] = 1u;
     b.fe.est[HD_FE_DIR_POS].fc = 3 << 16;
     b.fe.est[HD_FE_DIR_POS].fs = 5 << 16;
     b.fe.est[HD_FE_DIR_POS].fv = 100 << 16;
@@ -255,6 +257,52 @@ static void test_online_estimate_feeds_the_ff(void **st)
         hd_comp_bank_pre(&b, &c, &in, &out);
     }
     assert_int_equal(out.tff, t_param);
+}
+
+/* The str_* map written after the bank started (the host writes one object at a time, the
+ * estimator already running): with fe_feed and no fit yet the FF is the map just written, in
+ * both directions, not the defaults the estimator started from (an axis with 1/5 of the
+ * default friction got 5x its friction fed forward at every reversal) */
+static void test_online_feed_without_fit_is_the_written_map(void **st)
+{
+    (void)st;
+    int32_t p[HD_PARAM_COUNT];
+    hd_comp_bank_cfg_t c;
+    static hd_comp_bank_t b;
+    hd_comp_bank_in_t in;
+    hd_comp_bank_out_t out;
+    const int32_t v = 11930465 / 4;              /* 0.25 deg/s */
+    hd_params_defaults(p);
+    p[HD_P_CB_ENABLE] = (int32_t)HD_CB_STRIBECK;
+    p[HD_P_FE_ENABLE] = 1;
+    p[HD_P_FE_FEED] = 1;
+    p[HD_P_FE_DECIM] = 10;
+    p[HD_P_FE_RAMP] = 20;
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    hd_comp_bank_init(&b, &c);
+    /* csf17_50-like levels: 1.4 / 1.9 N.m, vs 0.0032 turn/s, fv 8.5 N.m/(turn/s) */
+    p[HD_P_STR_FC_POS] = 91750;
+    p[HD_P_STR_FS_POS] = 124518;
+    p[HD_P_STR_FC_NEG] = 87000;
+    p[HD_P_STR_FS_NEG] = 118000;
+    p[HD_P_STR_VS_POS] = 13743895;
+    p[HD_P_STR_VS_NEG] = 13743895;
+    p[HD_P_STR_FV_POS] = 557056;
+    p[HD_P_STR_FV_NEG] = 557056;
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    hd_comp_bank_apply(&b, &c);
+    memset(&in, 0, sizeof in);
+    for (int k = 0; k < 10 * 25; k++) {
+        hd_comp_bank_fric_est(&b, &c, 0, 0, 0, false);     /* no data: no fit */
+    }
+    for (int sg = -1; sg <= 1; sg += 2) {
+        in.vel_ref = sg * v;
+        in.vel_fb = sg * v;
+        hd_comp_bank_pre(&b, &c, &in, &out);
+        const int32_t t_param = hd_stribeck_map(&c.str, sg * v);
+        assert_true(abs(t_param) > (1 << 16));
+        assert_int_equal(out.tff, t_param);
+    }
 }
 
 /* Maxwell-slip compliance format (2^-44 turn/N.m): a soft gear (5e3 N.m/rad) and a
@@ -682,6 +730,7 @@ int main(void)
         cmocka_unit_test(test_bumpless_switching),
         cmocka_unit_test(test_friction_ff_takes_over),
         cmocka_unit_test(test_online_estimate_feeds_the_ff),
+        cmocka_unit_test(test_online_feed_without_fit_is_the_written_map),
         cmocka_unit_test(test_maxwell_stiffness_range),
         cmocka_unit_test(test_pki_schedule),
         cmocka_unit_test(test_preisach_model_torque),
