@@ -299,6 +299,7 @@ void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     b->cp_dth = 0;
     b->tick = 0u;
     b->pr_yd = 0;
+    b->pr_lp_due = 0u;
     hd_gear_torque_reset(&b->gt);
     ex_reset(&b->mx_x);
     b->te_dth = 0;
@@ -432,11 +433,32 @@ static int32_t pki_step(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd
     return hdf_sat32(hdf_asr64_rnd(b->pki_i, 16u));
 }
 
-/* The transmitted-torque estimate (Preisach and compliance), low-passed at pr_fc at the
- * slow rate; the filtered value is held in b->pr_yd until the next cycle. */
-static void torque_estimate(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in)
+/* The estimate's low-pass at pr_fc: pr_test into pr_t, the filtered value held in b->pr_yd */
+static void torque_lowpass(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    const int64_t tg = hdf_shl64_sat((int64_t)b->pr_test, 16u);
+    b->pr_t = hdf_add64_sat(b->pr_t, hdf_mul64x32_q(hdf_sub64_sat(tg, b->pr_t), c->pr_alpha, 30u));
+    b->pr_yd = hdf_sat32(hdf_asr64_rnd(b->pr_t, 16u));
+    b->pr_lp_due = 0u;
+}
+
+/* The low-pass of a slot-4 estimate, in the next period the bank runs: before a reader of
+ * pr_yd (Preisach, compliance) and before the next estimate, so each estimate is filtered
+ * once and read as if filtered in its own tick (slot 4 then carries the estimate alone) */
+static void torque_lowpass_due(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    if (b->pr_lp_due != 0u) {
+        torque_lowpass(b, c);
+    }
+}
+
+/* The transmitted-torque estimate (Preisach and compliance) into b->pr_test; low-passed at
+ * pr_fc at once (now) or in the next period (slot 4: torque_lowpass_due). */
+static void torque_estimate(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in,
+                            bool now)
 {
     int32_t test;
+    torque_lowpass_due(b, c);           /* the last estimate's, if still due */
     if (c->pr_t_src != 0u) {
         /* model: load-side friction (1 - share) F(v_ref) + J_L a_ref (2 pi J [Q16] acc [2^-24 turn/s^2])
          * + the unbalance */
@@ -461,9 +483,11 @@ static void torque_estimate(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, cons
         test = hdf_sub_sat(b->t_prev, hdf_mul_q(b->str.tau_raw, c->pr_share, 30u));
     }
     b->pr_test = test;
-    const int64_t tg = hdf_shl64_sat((int64_t)test, 16u);
-    b->pr_t = hdf_add64_sat(b->pr_t, hdf_mul64x32_q(hdf_sub64_sat(tg, b->pr_t), c->pr_alpha, 30u));
-    b->pr_yd = hdf_sat32(hdf_asr64_rnd(b->pr_t, 16u));
+    if (now) {
+        torque_lowpass(b, c);
+    } else {
+        b->pr_lp_due = 1u;
+    }
 }
 
 /* One Preisach tick (slots 5 .. 7 of hd_sched.h, k the tick in the cycle): the twist at
@@ -625,14 +649,14 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
         dob_step(b, c, in);
         maxwell(b, c, in, true);
         if (estimate_needed(b)) {
-            torque_estimate(b, c, in);
+            torque_estimate(b, c, in, true);
             preisach(b, (uint32_t)HD_SLOT_PREISACH, UINT32_MAX);           /* the whole search */
             compliance(b, c);
         }
         te_step(b, c, in);
     } else {
         if (c->pr_t_src == 0u && estimate_needed(b)) {
-            torque_estimate(b, c, in);
+            torque_estimate(b, c, in, true);
         }
         ex_tick(&b->mx_x);          /* Maxwell-slip one increment on (its slot samples anew) */
         switch (hd_sched_slot(k)) {
@@ -645,6 +669,7 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
             break;
         case HD_SLOT_LUGRE_FINISH:
             lugre_finish(b, c, in);
+            torque_lowpass_due(b, c);
             compliance(b, c);
             break;
         case HD_SLOT_TE:
@@ -653,10 +678,11 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
         case HD_SLOT_MAXWELL_EST:
             maxwell(b, c, in, false);
             if (c->pr_t_src != 0u && estimate_needed(b)) {
-                torque_estimate(b, c, in);
+                torque_estimate(b, c, in, false);     /* its low-pass in the next tick */
             }
             break;
         default:
+            torque_lowpass_due(b, c);
             preisach(b, k, HD_SCHED_PR_TRIALS);
             break;
         }
