@@ -442,9 +442,10 @@ static void torque_lowpass(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     b->pr_lp_due = 0u;
 }
 
-/* The low-pass of a slot-4 estimate, in the next period the bank runs: before a reader of
- * pr_yd (Preisach, compliance) and before the next estimate, so each estimate is filtered
- * once and read as if filtered in its own tick (slot 4 then carries the estimate alone) */
+/* The low-pass of a slot-4 motor-side estimate (pr_t_src 2), in the next period the bank
+ * runs: before a reader of pr_yd (Preisach, compliance) and before the next estimate, so each
+ * estimate is filtered once and read as if filtered in its own tick (slot 4 then carries the
+ * estimate alone) */
 static void torque_lowpass_due(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
 {
     if (b->pr_lp_due != 0u) {
@@ -678,7 +679,10 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
         case HD_SLOT_MAXWELL_EST:
             maxwell(b, c, in, false);
             if (c->pr_t_src != 0u && estimate_needed(b)) {
-                torque_estimate(b, c, in, false);     /* its low-pass in the next tick */
+                /* the motor-side estimate (pr_t_src 2) fills slot 4: its low-pass in the next
+                 * period (tick 5 is lighter); the model's (pr_t_src 1) here, tick 5 carries the
+                 * first Preisach trial of the full-closed and excitation periods' worst tick */
+                torque_estimate(b, c, in, c->pr_t_src != 2u);
             }
             break;
         default:
