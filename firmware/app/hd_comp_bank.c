@@ -442,10 +442,10 @@ static void torque_lowpass(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     b->pr_lp_due = 0u;
 }
 
-/* The low-pass of a slot-4 motor-side estimate (pr_t_src 2), in the next period the bank
- * runs: before a reader of pr_yd (Preisach, compliance) and before the next estimate, so each
- * estimate is filtered once and read as if filtered in its own tick (slot 4 then carries the
- * estimate alone) */
+/* The low-pass of a slot-4 motor-side estimate (pr_t_src 2), in the next period: before a
+ * reader of pr_yd (Preisach, compliance) and before the next estimate, so each estimate is
+ * filtered once and read as if filtered in its own tick (slot 4 then carries the estimate
+ * alone; the app does not skip the bank while it is due, hd_app.c bank_idle) */
 static void torque_lowpass_due(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
 {
     if (b->pr_lp_due != 0u) {
@@ -453,13 +453,10 @@ static void torque_lowpass_due(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     }
 }
 
-/* The transmitted-torque estimate (Preisach and compliance) into b->pr_test; low-passed at
- * pr_fc at once (now) or in the next period (slot 4: torque_lowpass_due). */
-static void torque_estimate(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in,
-                            bool now)
+/* The transmitted-torque estimate (Preisach and compliance) into b->pr_test, unfiltered */
+static void torque_estimate(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in)
 {
     int32_t test;
-    torque_lowpass_due(b, c);           /* the last estimate's, if still due */
     if (c->pr_t_src != 0u) {
         /* model: load-side friction (1 - share) F(v_ref) + J_L a_ref (2 pi J [Q16] acc [2^-24 turn/s^2])
          * + the unbalance */
@@ -484,11 +481,6 @@ static void torque_estimate(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, cons
         test = hdf_sub_sat(b->t_prev, hdf_mul_q(b->str.tau_raw, c->pr_share, 30u));
     }
     b->pr_test = test;
-    if (now) {
-        torque_lowpass(b, c);
-    } else {
-        b->pr_lp_due = 1u;
-    }
 }
 
 /* One Preisach tick (slots 5 .. 7 of hd_sched.h, k the tick in the cycle): the twist at
@@ -649,15 +641,19 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
         lugre_finish(b, c, in);
         dob_step(b, c, in);
         maxwell(b, c, in, true);
+        torque_lowpass_due(b, c);
         if (estimate_needed(b)) {
-            torque_estimate(b, c, in, true);
+            torque_estimate(b, c, in);
+            torque_lowpass(b, c);
             preisach(b, (uint32_t)HD_SLOT_PREISACH, UINT32_MAX);           /* the whole search */
             compliance(b, c);
         }
         te_step(b, c, in);
     } else {
         if (c->pr_t_src == 0u && estimate_needed(b)) {
-            torque_estimate(b, c, in, true);
+            torque_lowpass_due(b, c);       /* a slot-4 estimate of pr_t_src 2 before a change to 0 */
+            torque_estimate(b, c, in);
+            torque_lowpass(b, c);
         }
         ex_tick(&b->mx_x);          /* Maxwell-slip one increment on (its slot samples anew) */
         switch (hd_sched_slot(k)) {
@@ -682,7 +678,12 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
                 /* the motor-side estimate (pr_t_src 2) fills slot 4: its low-pass in the next
                  * period (tick 5 is lighter); the model's (pr_t_src 1) here, tick 5 carries the
                  * first Preisach trial of the full-closed and excitation periods' worst tick */
-                torque_estimate(b, c, in, c->pr_t_src != 2u);
+                torque_estimate(b, c, in);
+                if (c->pr_t_src == 2u) {
+                    b->pr_lp_due = 1u;
+                } else {
+                    torque_lowpass(b, c);
+                }
             }
             break;
         default:

@@ -576,9 +576,9 @@ static void test_schedule_te_once_per_cycle(void **st)
  * the bank runs, before its readers (the Preisach ticks 5 .. 7, the compliance twist in
  * slot 2) and before the next estimate: slot 4 carries the estimate alone, the filter state
  * then moves once per cycle, in tick 5, by exactly the step of the estimate formed in tick 4.
- * The model's estimate (pr_t_src 1) is filtered in slot 4 itself.  A bank skipped after
- * tick 4 (idle bookkeeping: the tick goes on) filters it when it runs again, once, before
- * the compliance twist reads it. */
+ * The model's estimate (pr_t_src 1) is filtered in slot 4 itself.  A bank not run after
+ * tick 4 until slot 2 filters it when it runs again, once, before the compliance twist
+ * reads it. */
 static void estimate_lowpass_tick(uint32_t src)
 {
     int32_t p[HD_PARAM_COUNT];
@@ -634,7 +634,7 @@ static void estimate_lowpass_tick(uint32_t src)
     hd_comp_bank_pre(&b, &c, &in, &o);
     const int64_t expect = hdf_add64_sat(t3, hdf_mul64x32_q(hdf_sub64_sat(hdf_shl64_sat((int64_t)b.pr_test, 16u), t3),
                                                             c.pr_alpha, 30u));
-    b.tick = 2u;                                         /* ticks 5 .. 1 done by the app's bookkeeping */
+    b.tick = 2u;                                         /* ticks 5 .. 1 not run */
     hd_comp_bank_pre(&b, &c, &in, &o);
     assert_true(b.pr_t == expect);
     assert_int_equal(b.cp_dth, hd_blend_apply(&b.cp_blend, hd_compliance_twist(&c.cp, hdf_sat32(hdf_asr64_rnd(expect, 16u)))));
