@@ -157,7 +157,8 @@ int32_t hd_app_apply_params(hd_app_t *a)
 /* 1 when hd_comp_bank_pre would return zero corrections and change nothing but its
  * bookkeeping (bank_idle_step): no compensator of the pre part enabled or ramping,
  * no scheduled position integral, and every held, extrapolated and filtered
- * correction exactly 0 (or, for the low-passed one, no longer moving).  Evaluated in the parameter-set path and, while a
+ * correction exactly 0 (or, for the low-passed one, no longer moving), no torque estimate
+ * waiting for its low-pass (pr_lp_due).  Evaluated in the parameter-set path and, while a
  * compensator ramps out, after each period's bank step, never in an idle period. */
 static uint32_t bank_idle(const hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
 {
@@ -165,7 +166,7 @@ static uint32_t bank_idle(const hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
         !hd_blend_active(&b->str.blend) && !hd_blend_active(&b->lug.blend) &&
         !hd_blend_active(&b->mx.blend) && !hd_blend_active(&b->pr.blend) &&
         !hd_blend_active(&b->te.blend) && !hd_blend_active(&b->dob_blend) &&
-        !hd_blend_active(&b->cp_blend);
+        !hd_blend_active(&b->cp_blend) && b->pr_lp_due == 0u;    /* a low-pass due: the next step runs it */
     const bool zero = b->lug.tau == 0 && b->dob_d == 0 && b->te.tau == 0 && b->pr_dth == 0 &&
         b->cp_dth == 0 && b->te_dth == 0 && b->te_out_dth == 0 && b->mx_x.v == 0 &&
         b->mx_x.inc == 0 && b->te_slope == 0;

@@ -299,6 +299,7 @@ void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     b->cp_dth = 0;
     b->tick = 0u;
     b->pr_yd = 0;
+    b->pr_lp_due = 0u;
     hd_gear_torque_reset(&b->gt);
     ex_reset(&b->mx_x);
     b->te_dth = 0;
@@ -440,8 +441,27 @@ static int32_t pki_step(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd
     return hdf_sat32(hdf_asr64_rnd(b->pki_i, 16u));
 }
 
-/* The transmitted-torque estimate (Preisach and compliance), low-passed at pr_fc at the
- * slow rate; the filtered value is held in b->pr_yd until the next cycle. */
+/* The estimate's low-pass at pr_fc: pr_test into pr_t, the filtered value held in b->pr_yd */
+static void torque_lowpass(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    const int64_t tg = hdf_shl64_sat((int64_t)b->pr_test, 16u);
+    b->pr_t = hdf_add64_sat(b->pr_t, hdf_mul64x32_q(hdf_sub64_sat(tg, b->pr_t), c->pr_alpha, 30u));
+    b->pr_yd = hdf_sat32(hdf_asr64_rnd(b->pr_t, 16u));
+    b->pr_lp_due = 0u;
+}
+
+/* The low-pass of a slot-4 motor-side estimate (pr_t_src 2), in the next period: before a
+ * reader of pr_yd (Preisach, compliance) and before the next estimate, so each estimate is
+ * filtered once and read as if filtered in its own tick (slot 4 then carries the estimate
+ * alone; the app does not skip the bank while it is due, hd_app.c bank_idle) */
+static void torque_lowpass_due(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    if (b->pr_lp_due != 0u) {
+        torque_lowpass(b, c);
+    }
+}
+
+/* The transmitted-torque estimate (Preisach and compliance) into b->pr_test, unfiltered */
 static void torque_estimate(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_comp_bank_in_t *in)
 {
     int32_t test;
@@ -469,9 +489,6 @@ static void torque_estimate(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, cons
         test = hdf_sub_sat(b->t_prev, hdf_mul_q(b->str.tau_raw, c->pr_share, 30u));
     }
     b->pr_test = test;
-    const int64_t tg = hdf_shl64_sat((int64_t)test, 16u);
-    b->pr_t = hdf_add64_sat(b->pr_t, hdf_mul64x32_q(hdf_sub64_sat(tg, b->pr_t), c->pr_alpha, 30u));
-    b->pr_yd = hdf_sat32(hdf_asr64_rnd(b->pr_t, 16u));
 }
 
 /* One Preisach tick (slots 5 .. 7 of hd_sched.h, k the tick in the cycle): the twist at
@@ -632,15 +649,19 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
         lugre_finish(b, c, in);
         dob_step(b, c, in);
         maxwell(b, c, in, true);
+        torque_lowpass_due(b, c);
         if (estimate_needed(b)) {
             torque_estimate(b, c, in);
+            torque_lowpass(b, c);
             preisach(b, (uint32_t)HD_SLOT_PREISACH, UINT32_MAX);           /* the whole search */
             compliance(b, c);
         }
         te_step(b, c, in);
     } else {
         if (c->pr_t_src == 0u && estimate_needed(b)) {
+            torque_lowpass_due(b, c);       /* a slot-4 estimate of pr_t_src 2 before a change to 0 */
             torque_estimate(b, c, in);
+            torque_lowpass(b, c);
         }
         ex_tick(&b->mx_x);          /* Maxwell-slip one increment on (its slot samples anew) */
         switch (hd_sched_slot(k)) {
@@ -653,6 +674,7 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
             break;
         case HD_SLOT_LUGRE_FINISH:
             lugre_finish(b, c, in);
+            torque_lowpass_due(b, c);
             compliance(b, c);
             break;
         case HD_SLOT_TE:
@@ -661,10 +683,19 @@ void hd_comp_bank_pre(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, const hd_c
         case HD_SLOT_MAXWELL_EST:
             maxwell(b, c, in, false);
             if (c->pr_t_src != 0u && estimate_needed(b)) {
+                /* the motor-side estimate (pr_t_src 2) fills slot 4: its low-pass in the next
+                 * period (tick 5 is lighter); the model's (pr_t_src 1) here, tick 5 carries the
+                 * first Preisach trial of the full-closed and excitation periods' worst tick */
                 torque_estimate(b, c, in);
+                if (c->pr_t_src == 2u) {
+                    b->pr_lp_due = 1u;
+                } else {
+                    torque_lowpass(b, c);
+                }
             }
             break;
         default:
+            torque_lowpass_due(b, c);
             preisach(b, k, HD_SCHED_PR_TRIALS);
             break;
         }

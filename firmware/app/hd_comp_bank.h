@@ -212,6 +212,7 @@ typedef struct {
     int32_t  pr_yd;              /* held transmitted-torque estimate (low-passed), Q15.16 N.m */
     hd_gear_torque_t gt;         /* its motor-side part (pr_t_src 2) */
     uint32_t table_ok;           /* 1 once a table passed the check */
+    uint32_t pr_lp_due;          /* 1: pr_test of slot 4 (pr_t_src 2) not yet low-passed (done in the next period) */
     /* last: 8.3 KiB that would put the fields above out of the short load / store offsets */
     hd_preisach_table_t table;   /* installed Preisach table (checked) */
 } hd_comp_bank_t;

@@ -22,7 +22,8 @@
  *   slot 2                LuGre: bristle update, observer term, torque;
  *                         compliance twist at the held torque estimate
  *   slot 3                TE: motor-side harmonics and output-side lines
- *   slot 4                Maxwell-slip; transmitted-torque estimate (low-pass)
+ *   slot 4                Maxwell-slip; transmitted-torque estimate (low-pass; with
+ *                         pr_t_src 2 the low-pass in the next tick, before slot 5 reads it)
  *   slots 5 .. 7          Preisach twist at the held torque estimate: the
  *                         forward step of a torque -> twist table in slot 5,
  *                         or the inverse's bisection spread over the slots

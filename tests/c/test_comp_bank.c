@@ -620,6 +620,81 @@ static void test_schedule_te_once_per_cycle(void **st)
     assert_true(worst <= 8.0);                                       /* 12" is 38,000 LSB */
 }
 
+/* The motor-side torque estimate of slot 4 (pr_t_src 2) is low-passed in the next period
+ * the bank runs, before its readers (the Preisach ticks 5 .. 7, the compliance twist in
+ * slot 2) and before the next estimate: slot 4 carries the estimate alone, the filter state
+ * then moves once per cycle, in tick 5, by exactly the step of the estimate formed in tick 4.
+ * The model's estimate (pr_t_src 1) is filtered in slot 4 itself.  A bank not run after
+ * tick 4 until slot 2 filters it when it runs again, once, before the compliance twist
+ * reads it. */
+static void estimate_lowpass_tick(uint32_t src)
+{
+    int32_t p[HD_PARAM_COUNT];
+    static hd_comp_bank_cfg_t c;
+    static hd_comp_bank_t b;
+    hd_comp_bank_in_t in;
+    hd_comp_bank_out_t o;
+    const uint32_t lp_tick = (src == 2u) ? (uint32_t)HD_SLOT_PREISACH : (uint32_t)HD_SLOT_MAXWELL_EST;
+    hd_params_defaults(p);
+    p[HD_P_CB_ENABLE] = (int32_t)(HD_CB_PREISACH | HD_CB_COMPLIANCE);
+    p[HD_P_PR_JL] = 1 << 16;
+    p[HD_P_PR_T_SRC] = (int32_t)src;
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    assert_int_equal(c.pr_t_src, src);
+    hd_comp_bank_init(&b, &c);
+    memset(&in, 0, sizeof in);
+    uint32_t steps = 0u;
+    int32_t test_k4 = 0;
+    for (uint32_t n = 0; n < 200u; n++) {
+        /* an acceleration that changes every period: every estimate is new */
+        in.acc_ref = (hd_acc_t)llround((1.0 + 0.01 * n) / (2.0 * TEST_PI) * 16777216.0);
+        const uint32_t k = b.tick & (HD_SCHED_CYCLE - 1u);
+        const int64_t t_before = b.pr_t;
+        const int32_t test_before = b.pr_test;
+        hd_comp_bank_pre(&b, &c, &in, &o);
+        if (n == 0u) {
+            continue;                                   /* the first period: every part at once */
+        }
+        if (k == (uint32_t)HD_SLOT_MAXWELL_EST) {
+            assert_true(b.pr_test != test_before);       /* the estimate itself in its slot */
+            test_k4 = b.pr_test;
+        } else {
+            assert_int_equal(b.pr_test, test_before);
+        }
+        if (k == lp_tick) {
+            /* the step of tick 4's estimate, as the filter's own arithmetic forms it */
+            const int64_t tg = hdf_shl64_sat((int64_t)test_k4, 16u);
+            const int64_t expect = hdf_add64_sat(t_before, hdf_mul64x32_q(hdf_sub64_sat(tg, t_before), c.pr_alpha, 30u));
+            assert_true(b.pr_t == expect);
+            assert_int_equal(b.pr_yd, hdf_sat32(hdf_asr64_rnd(expect, 16u)));
+            assert_true(b.pr_t != t_before);
+            steps++;
+        } else {
+            assert_true(b.pr_t == t_before);             /* once per cycle, in its tick only */
+        }
+    }
+    assert_int_equal(steps, (199u - lp_tick) / HD_SCHED_CYCLE + 1u);
+    /* skipped after tick 4 until tick 2 of the next cycle: filtered once, then read */
+    while ((b.tick & (HD_SCHED_CYCLE - 1u)) != (uint32_t)HD_SLOT_MAXWELL_EST) {
+        hd_comp_bank_pre(&b, &c, &in, &o);
+    }
+    const int64_t t3 = b.pr_t;
+    hd_comp_bank_pre(&b, &c, &in, &o);
+    const int64_t expect = hdf_add64_sat(t3, hdf_mul64x32_q(hdf_sub64_sat(hdf_shl64_sat((int64_t)b.pr_test, 16u), t3),
+                                                            c.pr_alpha, 30u));
+    b.tick = 2u;                                         /* ticks 5 .. 1 not run */
+    hd_comp_bank_pre(&b, &c, &in, &o);
+    assert_true(b.pr_t == expect);
+    assert_int_equal(b.cp_dth, hd_blend_apply(&b.cp_blend, hd_compliance_twist(&c.cp, hdf_sat32(hdf_asr64_rnd(expect, 16u)))));
+}
+
+static void test_schedule_estimate_lowpass_tick(void **st)
+{
+    (void)st;
+    estimate_lowpass_tick(2u);
+    estimate_lowpass_tick(1u);
+}
+
 /* Backstepping on the schedule: the law every period (its output moves with the
  * velocity each period), the adapted parameters only in the backstepping slot,
  * by HD_SCHED_CYCLE periods' worth at once. */
@@ -739,6 +814,7 @@ int main(void)
         cmocka_unit_test(test_preisach_memory_starts_demagnetised),
         cmocka_unit_test(test_te_output_lines),
         cmocka_unit_test(test_schedule_te_once_per_cycle),
+        cmocka_unit_test(test_schedule_estimate_lowpass_tick),
         cmocka_unit_test(test_schedule_backstep_adapts_in_its_slot),
         cmocka_unit_test(test_idle_bank_skipped_bit_identical),
     };
