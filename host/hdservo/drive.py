@@ -79,6 +79,37 @@ def _patch_block_upload_abort() -> None:
 
 
 _patch_block_upload_abort()
+
+
+def _patch_refused_download_close() -> None:
+    """Leave a segmented download the drive refused at its start closed, with nothing to send.
+
+    python canopen's ``WritableStream`` sends its initiate request in ``__init__``; when the
+    drive aborts it, the half-made stream is left open, and the garbage collector later calls
+    its ``close()``, which sends an end segment.  If the collector runs while this thread holds
+    the network's send lock (inside another ``send_message``), that second send waits for the
+    lock forever: the host hangs.  The wrapped ``__init__`` marks such a stream done and closed
+    before the error propagates, so nothing is sent when it is collected.
+    """
+    import io
+    from canopen.sdo.client import WritableStream
+    if getattr(WritableStream.__init__, "_hd_closes_on_refusal", False):
+        return
+    orig = WritableStream.__init__
+
+    def init(self: Any, *args: Any, **kwargs: Any) -> None:
+        try:
+            orig(self, *args, **kwargs)
+        except BaseException:
+            self._done = True
+            io.RawIOBase.close(self)
+            raise
+
+    init._hd_closes_on_refusal = True  # type: ignore[attr-defined]
+    WritableStream.__init__ = init  # type: ignore[method-assign]
+
+
+_patch_refused_download_close()
 #: the drive's SDO server time-out (firmware/canopen/hd_co.h HD_CO_SDO_TIMEOUT_MS): a transfer
 #: silent this long is discarded, so a repeat after it starts clean even if the client's abort
 #: frame was lost
