@@ -360,28 +360,35 @@ static int32_t div_q16_rnd(int32_t num, int32_t den)
 
 /* hd_sat32(hd_div64_rnd(x, n * 65536)) for 1 <= n < 65536: floor(|x| / (n 2^16)) =
  * floor((|x| >> 16) / n), and (|x| >> 16) < 2^48 is divided by n in two 32-bit
- * steps of 16 bits each (two UDIVs); same result as the 64-bit division. */
+ * steps of 16 bits each (two UDIVs); same result as the 64-bit division.
+ * Range, so that the rest is 32-bit words too: the remainder r2 < n <= 65535, so
+ * (r2 2^16 + |x| mod 2^16) < n 2^16 < 2^32; q1 >= 2^15 means |quotient| >= 2^31 (the
+ * limit of the sign of x), else the rounded quotient q1 2^16 + q2 + 1 <= 2^31 fits a
+ * uint32 (2^31 saturates to INT32_MAX when positive, is INT32_MIN when negative). */
 static int32_t div_n_q16_rnd(int64_t x, int32_t n)
 {
     if (n < 1 || n > 65535) {
         return hdf_sat32(hd_div64_rnd(x, (int64_t)n * 65536));
     }
     const uint64_t m = mag64(x);
-    const uint64_t xs = m >> 16;                       /* < 2^48 */
     const uint32_t un = (uint32_t)n;
-    const uint32_t xh = (uint32_t)(xs >> 16);          /* < 2^32 */
+    const uint32_t xh = (uint32_t)(m >> 32);           /* (|x| >> 16) >> 16 */
     const uint32_t q1 = xh / un;
-    const uint32_t r1 = xh - q1 * un;
-    const uint32_t t = (r1 << 16) | ((uint32_t)xs & 0xFFFFu);   /* < n 2^16 <= 2^32 */
+    if (q1 >= 32768u) {
+        return (x < 0) ? INT32_MIN : INT32_MAX;
+    }
+    const uint32_t ml = (uint32_t)m;
+    const uint32_t t = ((xh - q1 * un) << 16) | (ml >> 16);    /* < n 2^16 <= 2^32 */
     const uint32_t q2 = t / un;
-    const uint32_t r2 = t - q2 * un;
-    uint64_t quo = ((uint64_t)q1 << 16) + q2;
-    const uint64_t rem = ((uint64_t)r2 << 16) | (m & 0xFFFFu);
-    const uint64_t d = (uint64_t)un << 16;
-    if (rem >= d - rem) {
+    const uint32_t rem = ((t - q2 * un) << 16) | (ml & 0xFFFFu);  /* < n 2^16 */
+    uint32_t quo = (q1 << 16) + q2;
+    if (rem >= (un << 16) - rem) {
         quo += 1u;
     }
-    return hdf_sat32((x < 0) ? -(int64_t)quo : (int64_t)quo);
+    if (x < 0) {
+        return hdf__s32(0u - quo);
+    }
+    return (quo > (uint32_t)INT32_MAX) ? INT32_MAX : (int32_t)quo;
 }
 
 /* returns 0 or a fault code */
@@ -762,7 +769,7 @@ static void phase_sensors(hd_app_t *a, hd_period_t *p)
         a->mode_changed = 0;
         enter_mode(a, a->mode_req);
     }
-    hd_velobs_step_inline(&a->obs_mot, &a->obs_mot_cfg, a->pos_mot);
+    hd_velobs_step_vel_inline(&a->obs_mot, &a->obs_mot_cfg, a->pos_mot);   /* its err is never read */
     p->n = param_raw(a, HD_P_GEAR_RATIO);
     const hd_vel_out_t v_mot_out = div_n_q16_rnd(hd_velobs_vel48(&a->obs_mot), p->n);
     /* the output-encoder observer only while its velocity is used: the loop's feedback

@@ -59,9 +59,10 @@ typedef struct {
 #define HD_VELOBS_E_HALF (1u << (HD_VELOBS_E_SHIFT - 1u))    /* the rounding offset */
 #define HD_VELOBS_D_MAX ((INT64_C(1) << 27) - 1)      /* |d| clamp, 2^-32 turn */
 
-/** hd_velobs_step inlined into the caller (the control period's observers): the same
- *  words without the call. */
-HD_FX_INLINE void hd_velobs_step_inline(hd_velobs_t *s, const hd_velobs_cfg_t *c, hd_angle_t theta_meas)
+/* The step (hd_velobs_step_inline, hd_velobs_step_vel_inline); keep_err (a constant) 0:
+ * the caller never reads err, so it is not formed (theta, frac and vel are the same words). */
+HD_FX_INLINE void hd__velobs_step(hd_velobs_t *s, const hd_velobs_cfg_t *c, hd_angle_t theta_meas,
+                                  const uint32_t keep_err)
 {
     /* error against the estimate theta, 2^-32 turn */
     /* the saturating difference (ADDS/ADCS and the overflow flag on the M4): the plain
@@ -69,7 +70,9 @@ HD_FX_INLINE void hd_velobs_step_inline(hd_velobs_t *s, const hd_velobs_cfg_t *c
     const int64_t d = hdf_sub64_sat(theta_meas, s->theta);
     /* err = round(d - frac 2^-16) in 2^-32 turn: d, less one when frac > 1/2 (or is
      * 1/2 and d <= 0: the tie goes away from zero) */
-    s->err = hdf_sub_sat(hdf_sat32(d), (s->frac > 32768 || (s->frac == 32768 && d <= 0)) ? 1 : 0);
+    if (keep_err != 0u) {
+        s->err = hdf_sub_sat(hdf_sat32(d), (s->frac > 32768 || (s->frac == 32768 && d <= 0)) ? 1 : 0);
+    }
     /* e = d - frac (2^-48 turn) in 2^-36 turn as an int32: |d| clamped to 2^27 - 1
      * (2^-5 turn; a larger error moves the estimate at that error's rate), so
      * |d 2^16 - frac| < 2^43 and the rounded e < 2^31 */
@@ -89,6 +92,20 @@ HD_FX_INLINE void hd_velobs_step_inline(hd_velobs_t *s, const hd_velobs_cfg_t *c
     const int64_t whole = hdf_asr64_floor(adv, 16u);
     s->frac = (int32_t)(adv - whole * 65536);
     s->theta = hdf_add64_sat(s->theta, whole);
+}
+
+/** hd_velobs_step inlined into the caller: the same words without the call. */
+HD_FX_INLINE void hd_velobs_step_inline(hd_velobs_t *s, const hd_velobs_cfg_t *c, hd_angle_t theta_meas)
+{
+    hd__velobs_step(s, c, theta_meas, 1u);
+}
+
+/** hd_velobs_step_inline for a caller that reads the angle and velocity but never
+ *  err (the control period's motor observer): err keeps its last value (0 after
+ *  hd_velobs_reset / hd_velobs_start); theta, frac and vel are the same words. */
+HD_FX_INLINE void hd_velobs_step_vel_inline(hd_velobs_t *s, const hd_velobs_cfg_t *c, hd_angle_t theta_meas)
+{
+    hd__velobs_step(s, c, theta_meas, 0u);
 }
 
 /** One period with the measured multi-turn angle. */
