@@ -23,12 +23,12 @@ void hd_biquad_reset(hd_biquad_state_t *s)
     s->e2 = 0;
 }
 
-/* One section (formats and range: hd_biquad.h).  Every product is a 32 x 32-bit
- * multiply-accumulate into one int64 (SMLAL); the two roundings are the inline
- * shifts of hd_fixed.h. */
-static inline int32_t biquad_step(hd_biquad_state_t *s, const hd_biquad_coef_t *c, int32_t x_in)
+/* One section on an input already within +-HD_BIQUAD_SIG_MAX (formats and range:
+ * hd_biquad.h).  Every product is a 32 x 32-bit multiply-accumulate into one int64
+ * (SMLAL); the two roundings are the inline shifts of hd_fixed.h.  Its output lies
+ * within +-HD_BIQUAD_SIG_MAX too, so a chain clamps only its own input. */
+static inline int32_t biquad_section(hd_biquad_state_t *s, const hd_biquad_coef_t *c, int32_t x)
 {
-    const int32_t x = hdf_clamp32(x_in, -HD_BIQUAD_SIG_MAX, HD_BIQUAD_SIG_MAX);
     /* the residuals' feedback: |a e| < 2^31 2^29, the sum < 2^61; rounded to < 2^32 */
     int64_t r = (int64_t)c->a1 * s->e1;
     r += (int64_t)c->a2 * s->e2;
@@ -62,7 +62,7 @@ static inline int32_t biquad_step(hd_biquad_state_t *s, const hd_biquad_coef_t *
 
 int32_t hd_biquad_step(hd_biquad_state_t *s, const hd_biquad_coef_t *c, int32_t x)
 {
-    return biquad_step(s, c, x);
+    return biquad_section(s, c, hdf_clamp32(x, -HD_BIQUAD_SIG_MAX, HD_BIQUAD_SIG_MAX));
 }
 
 void hd_biquad_chain_reset(hd_biquad_chain_t *s)
@@ -77,8 +77,13 @@ int32_t hd_biquad_chain_step(hd_biquad_chain_t *s, const hd_biquad_chain_cfg_t *
 {
     uint32_t i;
     const uint32_t n = (c->n < HD_BIQUAD_MAX) ? c->n : HD_BIQUAD_MAX;
+    if (n == 0u) {
+        return x;                       /* no section: the input itself, not clamped */
+    }
+    /* each section's output is within the signal limit: the next one's input needs no clamp */
+    x = hdf_clamp32(x, -HD_BIQUAD_SIG_MAX, HD_BIQUAD_SIG_MAX);
     for (i = 0; i < n; i++) {
-        x = biquad_step(&s->s[i], &c->c[i], x);
+        x = biquad_section(&s->s[i], &c->c[i], x);
     }
     return x;
 }
