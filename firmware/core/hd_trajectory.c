@@ -488,10 +488,11 @@ static void step_sine(hd_traj_t *s)
 
 void hd_traj_step(hd_traj_t *s, const hd_traj_cfg_t *c)
 {
-    switch (s->mode) {
-    case HD_TRAJ_PTP:
+    if (s->mode == HD_TRAJ_PTP) {       /* the usual profile: tested first */
         step_ptp(s, c);
-        break;
+        return;
+    }
+    switch (s->mode) {
     case HD_TRAJ_RATE:
         step_rate(s);
         break;
