@@ -14,6 +14,9 @@
  *   hd_stribeck_g_inv        vs hd_stribeck_g (LuGre's g(v))
  *   hd_app: acceleration FF  one precomputed gain aff_gain j_total 2 pi (parameter set)
  *                            vs the exact product, and it follows a parameter change
+ *   hd_app: motor velocity   / N in 32-bit words vs hd_sat32(hd_div64_rnd(vel48, N 2^16))
+ *   hd_biquad: chain         clamps only its input vs the sections one by one (each clamping)
+ *   hd_velobs: step without  err (the period's motor observer) vs hd_velobs_step
  * The hal is a stub: the sensor sample is set by the test, the command recorded,
  * NVM blank (defaults) and read-only.
  */
@@ -518,6 +521,112 @@ static void test_app_aff_gain_precomputed(void **state)
     }
 }
 
+/* the loop's velocity feedback from the motor observer = round(vel48 / (N 2^16)), saturated
+ * (hd_div64_rnd): gear ratios over the parameter range, the half-way points of each sign,
+ * the saturation edges and random velocities of every magnitude */
+static void test_app_motor_velocity_is_div64_rnd(void **state)
+{
+    static const int32_t ns[] = {1, 2, 3, 7, 100, 160, 999, 1000};
+    uint32_t i, j, nsat = 0u, nmid = 0u;
+    (void)state;
+    app_start(0u, 0u);
+    assert_int_equal(hd_app_param_set(&app, HD_P_VEL_FB_SRC, 0), 0);
+    for (i = 0; i < sizeof ns / sizeof ns[0]; i++) {
+        const int64_t d = (int64_t)ns[i] * 65536;
+        const int64_t edges[] = {0, 1, -1, d / 2, -(d / 2), d / 2 - 1, -(d / 2) + 1, d + d / 2, -(d + d / 2),
+                                 d * INT32_MAX, -d * INT32_MAX, d * INT32_MAX + d / 2 - 1, d * INT32_MAX + d / 2,
+                                 -d * INT32_MAX - d / 2, -d * INT32_MAX - d / 2 - 1, d * 32768 * 65536,
+                                 -d * 32768 * 65536, d * 32768 * 65536 - 1, INT64_MAX, INT64_MIN};
+        const uint32_t ne = (uint32_t)(sizeof edges / sizeof edges[0]);
+        assert_int_equal(hd_app_param_set(&app, HD_P_GEAR_RATIO, ns[i]), 0);
+        for (j = 0; j < ne + 3000u; j++) {
+            /* the observer steps before the division: its estimate on the (still) measurement
+             * makes its error 0, so the step leaves vel as set */
+            const int64_t v = (j < ne) ? edges[j] : s64(rnd64()) / (int64_t)(1ull << (uint32_t)(rnd64() % 63u));
+            app.obs_mot.theta = app.pos_mot;
+            app.obs_mot.frac = 0;
+            app.obs_mot.vel = v;
+            hd_app_step(&app);
+            assert_true(app.obs_mot.vel == v);
+            const int32_t want = hd_sat32(hd_div64_rnd(v, d));
+            assert_int_equal(app.tel.vel_out, want);
+            nsat += (want == INT32_MAX || want == INT32_MIN) ? 1u : 0u;
+            nmid += (want != 0 && want != INT32_MAX && want != INT32_MIN) ? 1u : 0u;
+        }
+    }
+    assert_true(nsat > 50u);
+    assert_true(nmid > 5000u);
+}
+
+/* a chain of 1..4 sections clamps only its input: the same outputs and states as the
+ * sections stepped one by one, each clamping its own input (hd_biquad_step), with
+ * coefficients up to the Q2.30 range (outputs at the signal limit) and inputs beyond it */
+static void test_biquad_chain_is_sections(void **state)
+{
+    uint32_t n, k, r, nlim = 0u;
+    (void)state;
+    for (r = 0; r < 40u; r++) {
+        for (n = 1u; n <= HD_BIQUAD_MAX; n++) {
+            hd_biquad_chain_cfg_t c;
+            hd_biquad_chain_t s;
+            hd_biquad_state_t ref[HD_BIQUAD_MAX];
+            c.n = n;
+            for (k = 0; k < n; k++) {
+                /* every fourth run large coefficients (an unstable or limited section) */
+                const uint32_t sh = ((r & 3u) == 0u) ? 0u : 2u + (uint32_t)(rnd64() % 4u);
+                c.c[k].b0 = s32((uint32_t)rnd64()) >> sh;
+                c.c[k].b1 = s32((uint32_t)rnd64()) >> sh;
+                c.c[k].b2 = s32((uint32_t)rnd64()) >> sh;
+                c.c[k].a1 = s32((uint32_t)rnd64()) >> sh;
+                c.c[k].a2 = s32((uint32_t)rnd64()) >> (sh + 1u);
+                hd_biquad_reset(&ref[k]);
+            }
+            hd_biquad_chain_reset(&s);
+            for (k = 0; k < 300u; k++) {
+                const int32_t x = (k % 7u == 0u) ? s32((uint32_t)rnd64())
+                                                 : s32((uint32_t)rnd64()) >> (3u + (uint32_t)(rnd64() % 20u));
+                int32_t y = x;
+                uint32_t q;
+                for (q = 0; q < n; q++) {
+                    y = hd_biquad_step(&ref[q], &c.c[q], y);
+                }
+                assert_int_equal(hd_biquad_chain_step(&s, &c, x), y);
+                for (q = 0; q < n; q++) {
+                    assert_memory_equal(&s.s[q], &ref[q], sizeof ref[q]);
+                }
+                nlim += (y == HD_BIQUAD_SIG_MAX || y == -HD_BIQUAD_SIG_MAX) ? 1u : 0u;
+            }
+        }
+    }
+    assert_true(nlim > 100u);
+}
+
+/* the control period's motor observer step without err: theta, frac and vel are the words
+ * of hd_velobs_step, err keeps its value */
+static void test_velobs_vel_step_same_words(void **state)
+{
+    hd_velobs_cfg_t c;
+    hd_velobs_t a, b;
+    uint32_t k;
+    (void)state;
+    hd_velobs_design(&c, 300 * 411775, 45875);       /* 2 pi 300 Hz (Q16), zeta 0.7 */
+    hd_velobs_reset(&a, 123456789);
+    hd_velobs_reset(&b, 123456789);
+    b.err = -777;
+    for (k = 0; k < 20000u; k++) {
+        /* slow motion with noise, jumps beyond the error limit every 1000 periods */
+        const int64_t th = (int64_t)k * 3000000 + (int64_t)(s32((uint32_t)rnd64()) >> 12) +
+                           ((k % 1000u == 500u) ? s64(rnd64()) >> 20 : 0);
+        hd_velobs_step(&a, &c, th);
+        hd_velobs_step_vel_inline(&b, &c, th);
+        assert_true(a.theta == b.theta);
+        assert_int_equal(a.frac, b.frac);
+        assert_true(a.vel == b.vel);
+        assert_int_equal(b.err, -777);
+    }
+    assert_true(a.vel != 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -533,6 +642,9 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_stribeck_g_inv_matches_g, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_foc_rounding_matches_biased_form, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_app_aff_gain_precomputed, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_app_motor_velocity_is_div64_rnd, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_biquad_chain_is_sections, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_velobs_vel_step_same_words, setUp, tearDown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
