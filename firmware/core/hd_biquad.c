@@ -40,13 +40,17 @@ static inline int32_t biquad_section(hd_biquad_state_t *s, const hd_biquad_coef_
     acc += (int64_t)c->a2 * (int32_t)(-s->y2);
     acc -= hdf_asr64_rnd(r, 30u);
     const int64_t yr = hdf_asr64_rnd(acc, 30u);              /* |.| < 2^33 */
+    const uint32_t ylo = hdf__lo(yr);
     int32_t y;
     int32_t e;
-    if (yr > (int64_t)HD_BIQUAD_SIG_MAX || yr < -(int64_t)HD_BIQUAD_SIG_MAX) {
+    /* |yr| <= SIG_MAX in 32-bit words: yr is an int32 (its high word is the sign of the
+     * low one) and the low word + SIG_MAX lies in [0, 2 SIG_MAX] (else, mod 2^32, above) */
+    if (hdf__hi(yr) != (uint32_t)(0u - (ylo >> 31)) ||
+        ylo + (uint32_t)HD_BIQUAD_SIG_MAX > 2u * (uint32_t)HD_BIQUAD_SIG_MAX) {
         y = (yr > 0) ? HD_BIQUAD_SIG_MAX : -HD_BIQUAD_SIG_MAX;
         e = 0;                                              /* limited: the residual is dropped */
     } else {
-        y = (int32_t)yr;
+        y = hdf__s32(ylo);
         /* acc - y 2^30 lies in [-2^29, 2^29]: its low word is the value (mod 2^32 exact) */
         const uint32_t u = (uint32_t)((uint64_t)acc & 0xFFFFFFFFu) - ((uint32_t)y << 30);
         e = (u > 0x7FFFFFFFu) ? -(int32_t)(~u) - 1 : (int32_t)u;

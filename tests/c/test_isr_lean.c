@@ -558,9 +558,37 @@ static void test_app_motor_velocity_is_div64_rnd(void **state)
     assert_true(nmid > 5000u);
 }
 
-/* a chain of 1..4 sections clamps only its input: the same outputs and states as the
- * sections stepped one by one, each clamping its own input (hd_biquad_step), with
- * coefficients up to the Q2.30 range (outputs at the signal limit) and inputs beyond it */
+/* one section in the general form (hd_biquad.h): input clamped, the residual feedback
+ * rounded, the output rounded and limited by 64-bit compares */
+static int32_t ref_section(hd_biquad_state_t *s, const hd_biquad_coef_t *c, int32_t x_in)
+{
+    const int32_t x = (x_in > HD_BIQUAD_SIG_MAX) ? HD_BIQUAD_SIG_MAX
+                      : (x_in < -HD_BIQUAD_SIG_MAX) ? -HD_BIQUAD_SIG_MAX : x_in;
+    const int64_t r = (int64_t)c->a1 * s->e1 + (int64_t)c->a2 * s->e2;
+    const int64_t acc = (int64_t)c->b0 * x + (int64_t)c->b1 * s->x1 + (int64_t)c->b2 * s->x2 -
+                        (int64_t)c->a1 * s->y1 - (int64_t)c->a2 * s->y2 - hd_asr64_rnd(r, 30u);
+    const int64_t yr = hd_asr64_rnd(acc, 30u);
+    int32_t y, e;
+    if (yr > (int64_t)HD_BIQUAD_SIG_MAX || yr < -(int64_t)HD_BIQUAD_SIG_MAX) {
+        y = (yr > 0) ? HD_BIQUAD_SIG_MAX : -HD_BIQUAD_SIG_MAX;
+        e = 0;
+    } else {
+        y = (int32_t)yr;
+        e = (int32_t)(acc - yr * 1073741824);
+    }
+    s->x2 = s->x1;
+    s->x1 = x;
+    s->y2 = s->y1;
+    s->y1 = y;
+    s->e2 = s->e1;
+    s->e1 = e;
+    return y;
+}
+
+/* a chain of 1..4 sections clamps only its input and limits each output by 32-bit
+ * compares: the same outputs and states as the general form (ref_section) stepped
+ * section by section, with coefficients up to the Q2.30 range (outputs at and next to
+ * the signal limit) and inputs beyond it */
 static void test_biquad_chain_is_sections(void **state)
 {
     uint32_t n, k, r, nlim = 0u;
@@ -588,7 +616,7 @@ static void test_biquad_chain_is_sections(void **state)
                 int32_t y = x;
                 uint32_t q;
                 for (q = 0; q < n; q++) {
-                    y = hd_biquad_step(&ref[q], &c.c[q], y);
+                    y = ref_section(&ref[q], &c.c[q], y);
                 }
                 assert_int_equal(hd_biquad_chain_step(&s, &c, x), y);
                 for (q = 0; q < n; q++) {
@@ -596,9 +624,32 @@ static void test_biquad_chain_is_sections(void **state)
                 }
                 nlim += (y == HD_BIQUAD_SIG_MAX || y == -HD_BIQUAD_SIG_MAX) ? 1u : 0u;
             }
+            /* a single section through hd_biquad_step (its own input clamp) */
+            hd_biquad_reset(&ref[0]);
+            hd_biquad_state_t one;
+            hd_biquad_reset(&one);
+            for (k = 0; k < 100u; k++) {
+                const int32_t x = s32((uint32_t)rnd64()) >> (uint32_t)(rnd64() % 8u);
+                assert_int_equal(hd_biquad_step(&one, &c.c[0], x), ref_section(&ref[0], &c.c[0], x));
+                assert_memory_equal(&one, &ref[0], sizeof one);
+            }
         }
     }
     assert_true(nlim > 100u);
+    {
+        /* at the limit exactly (kept, with its residual) and one LSB beyond (limited) */
+        const hd_biquad_coef_t c1 = {1 << 30, 1, 0, 0, 0};
+        static const int32_t xs[][2] = {{1 << 28, 1 << 29}, {-(1 << 28), -(1 << 29)}, {1 << 29, 1 << 29}};
+        static const int32_t ys[] = {1 << 29, -(1 << 29), 1 << 29};
+        static const int32_t es[] = {1 << 28, -(1 << 28), 0};
+        for (k = 0; k < 3u; k++) {
+            hd_biquad_state_t one;
+            hd_biquad_reset(&one);
+            (void)hd_biquad_step(&one, &c1, xs[k][0]);
+            assert_int_equal(hd_biquad_step(&one, &c1, xs[k][1]), ys[k]);
+            assert_int_equal(one.e1, es[k]);
+        }
+    }
 }
 
 /* the control period's motor observer step without err: theta, frac and vel are the words
