@@ -130,7 +130,7 @@ static uint32_t ptp_total(const hd_traj_t *s)
 }
 
 /* accel-phase level i (0 <= i < na): the ramp, with the inserted level at ins_k */
-static int64_t ramp_level(const hd_traj_t *s, uint32_t i)
+static inline int64_t ramp_level(const hd_traj_t *s, uint32_t i)
 {
     const uint32_t tj = s->tj, ta = s->ta;
     if (s->tn != 0u) {
