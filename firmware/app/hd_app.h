@@ -183,7 +183,7 @@ typedef struct {
 
     /* controller state */
     hd_pid_t pos_pid, vel_pid;
-    hd_velobs_t obs_mot, obs_out;
+    hd_velobs_t obs_mot, obs_out;    /* obs_mot.err is not kept (hd_velobs_step_vel_inline): nothing reads it */
     uint32_t obs_out_fb;          /* 1: the velocity loop's feedback is the output-encoder observer
                                    * (vel_fb_src 1 in full closed; set in the parameter-set path) */
     uint32_t obs_out_run;         /* 1: the output-encoder observer ran last period */
