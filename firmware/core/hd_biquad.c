@@ -80,10 +80,10 @@ void hd_biquad_chain_reset(hd_biquad_chain_t *s)
 int32_t hd_biquad_chain_step(hd_biquad_chain_t *s, const hd_biquad_chain_cfg_t *c, int32_t x)
 {
     uint32_t i;
-    const uint32_t n = (c->n < HD_BIQUAD_MAX) ? c->n : HD_BIQUAD_MAX;
-    if (n == 0u) {
+    if (c->n == 0u) {
         return x;                       /* no section: the input itself, not clamped */
     }
+    const uint32_t n = (c->n < HD_BIQUAD_MAX) ? c->n : HD_BIQUAD_MAX;
     /* each section's output is within the signal limit: the next one's input needs no clamp */
     x = hdf_clamp32(x, -HD_BIQUAD_SIG_MAX, HD_BIQUAD_SIG_MAX);
     for (i = 0; i < n; i++) {
