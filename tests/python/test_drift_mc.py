@@ -186,3 +186,26 @@ def test_command_line_refuses_unknown_names(capsys: pytest.CaptureFixture[str]) 
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--controllers" in err[0] and "nope" in err[0] and "online" in err[0]
     assert m.main(["--scenarios", "cold"]) == 2
+
+
+def test_online_feed_without_a_fit_is_the_model_given_to_the_drive() -> None:
+    """In a case that gives the online estimator no accepted fit (the reversal sine is never
+    steady) the online-identified feed-forward feeds the model written to the drive: the same
+    error trace as the fixed-model feed-forward, bit for bit, with a model 25 % below the
+    axis' friction.  Its figure differs from the feed-forward of the axis' true map, so an
+    estimate that kept another map (e.g. the drive's start-up defaults, the reference axis'
+    friction) would show."""
+    from hdservo import closedloop_cases as bl
+    m = _script()
+    case = next(c for c in m.cases(quick=True) if c.kind == "reversal")
+    factors = {g: 1.0 for g in m.MODEL_GROUPS}
+    factors.update({"motor_levels": 0.75, "load_levels": 0.75})
+    model = m.perturbed_model("reference", factors)
+    true = m.perturbed_model("reference", {g: 1.0 for g in m.MODEL_GROUPS})
+
+    def error(ctl: str, mdl: dict[str, float]) -> np.ndarray:
+        return bl.error_arcsec(bl.run_case(case, m.controller_table(ctl, "reference", mdl), "reference", 3))
+
+    online, fixed, fixed_true = error("online", model), error("fixed", model), error("fixed", true)
+    assert np.array_equal(online, fixed)
+    assert np.max(np.abs(online - fixed_true)) > 1.0
