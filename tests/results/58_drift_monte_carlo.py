@@ -38,18 +38,22 @@ adaptive variant keeps a gain >= 2 over the PID.
 
 Writes build/results/drift_mc.json and build/results/drift_mc_<axis>.png.
 Options: ``--runs N`` (default 50), ``--jobs N``, ``--quick`` (short cases),
-``--axis NAME``, ``--out DIR``.
+``--axis NAME``, ``--out DIR``, ``--controllers a,b``, ``--scenarios a,b`` (subsets),
+``--checkpoint FILE`` (each finished run is appended to FILE as a JSON line; runs already
+in FILE for the same axis, seed and case set are not run again, so an interrupted study
+resumes and a study can be run controller by controller).
 """
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import math
 import multiprocessing
 import os
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -381,19 +385,74 @@ def plot(res: Mapping[str, Any], axis: str, out: Path) -> list[Path]:
 
 # ------------------------------------------------------------------ main
 
+def _task_key(task: tuple[str, str, str, int, int, bool]) -> str:
+    """Checkpoint key of a task: axis, scenario, controller, run, seed, quick."""
+    axis, scen, ctl, run_, seed, quick = task
+    return f"{axis}|{scen}|{ctl}|{run_}|{seed}|{int(quick)}"
+
+
+def load_checkpoint(path: Path | None) -> dict[str, dict[str, Any]]:
+    """Rows of a checkpoint file (JSON lines ``{"key": ..., "row": ...}``) by task key.
+
+    A missing file gives no rows; an unreadable line (a run cut off while it was written)
+    is skipped, so that run is done again.
+    """
+    out: dict[str, dict[str, Any]] = {}
+    if path is None or not path.is_file():
+        return out
+    for line in path.read_text().splitlines():
+        try:
+            rec = json.loads(line)
+            out[str(rec["key"])] = dict(rec["row"])
+        except (ValueError, KeyError, TypeError):
+            continue
+    return out
+
+
+def run_tasks(tasks: Sequence[tuple[str, str, str, int, int, bool]], jobs: int | None,
+              checkpoint: Path | None = None) -> list[dict[str, Any]]:
+    """Rows of the tasks, in task order; those in ``checkpoint`` are taken from it, the others
+    run (in parallel processes when ``jobs`` > 1) and are appended to it as they finish."""
+    done = load_checkpoint(checkpoint)
+    todo = [t for t in tasks if _task_key(t) not in done]
+    fh = None
+    if checkpoint is not None:
+        checkpoint.parent.mkdir(parents=True, exist_ok=True)
+        fh = checkpoint.open("a")
+
+    def keep(t: tuple[str, str, str, int, int, bool], row: dict[str, Any]) -> None:
+        done[_task_key(t)] = row
+        if fh is not None:
+            fh.write(json.dumps({"key": _task_key(t), "row": row}) + "\n")
+            fh.flush()
+
+    try:
+        nj = max(1, min(jobs or (os.cpu_count() or 1), max(len(todo), 1)))
+        if nj == 1:
+            for t in todo:
+                keep(t, run_task(t))
+        else:
+            ctx = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods() else None)
+            with ProcessPoolExecutor(max_workers=nj, mp_context=ctx) as ex:
+                futs = {ex.submit(run_task, t): t for t in todo}
+                for f in as_completed(futs):
+                    keep(futs[f], f.result())
+    finally:
+        if fh is not None:
+            fh.close()
+    return [done[_task_key(t)] for t in tasks]
+
+
 def run(axis: str = "reference", runs: int = RUNS_DEFAULT, jobs: int | None = None, quick: bool = False,
         controllers: Sequence[str] = CONTROLLERS, scenarios: Sequence[str] = SCENARIOS, seed: int = 1,
-        out: Path = OUT, plots: bool = True) -> dict[str, Any]:
-    """Run the study and write ``out/drift_mc.json`` (and the plot); returns the JSON object."""
+        out: Path = OUT, plots: bool = True, checkpoint: Path | None = None) -> dict[str, Any]:
+    """Run the study and write ``out/drift_mc.json`` (and the plot); returns the JSON object.
+
+    ``checkpoint``: a JSON-lines file of finished runs (:func:`run_tasks`), or None.
+    """
     t0 = time.time()
     tasks = [(axis, s, c, r, seed, quick) for s in scenarios for c in controllers for r in range(runs)]
-    nj = max(1, min(jobs or (os.cpu_count() or 1), len(tasks)))
-    if nj == 1:
-        rows = [run_task(t) for t in tasks]
-    else:
-        ctx = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods() else None)
-        with ProcessPoolExecutor(max_workers=nj, mp_context=ctx) as ex:
-            rows = list(ex.map(run_task, tasks, chunksize=1))
+    rows = run_tasks(tasks, jobs, checkpoint)
     res: dict[str, Any] = {"format": FORMAT, "version": VERSION, "axis": axis, "quick": quick,
                            "runs_per_controller": runs, "model_error": MODEL_ERROR, "seed": seed,
                            "controllers": list(controllers), "scenarios": list(scenarios),
@@ -408,6 +467,17 @@ def run(axis: str = "reference", runs: int = RUNS_DEFAULT, jobs: int | None = No
     return res
 
 
+def _names(text: str, allowed: Sequence[str], opt: str) -> list[str] | None:
+    """A comma-separated subset of ``allowed`` in the order given; None (after one error line) if a name is unknown."""
+    names = [x.strip() for x in text.split(",") if x.strip()]
+    bad = [x for x in names if x not in allowed]
+    if bad or not names:
+        print(f"58_drift_monte_carlo: {opt}: unknown name {bad[0] if bad else repr(text)}; "
+              f"expected a comma-separated subset of {', '.join(allowed)}", file=sys.stderr)
+        return None
+    return names
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--axis", default="reference", help="axis key or TOML path (default reference)")
@@ -415,11 +485,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--jobs", type=int, default=None, help="parallel processes (default: CPU count)")
     ap.add_argument("--quick", action="store_true", help="short cases (a smoke run, not the study)")
     ap.add_argument("--out", type=Path, default=OUT, help="output directory (default build/results)")
+    ap.add_argument("--controllers", default=",".join(CONTROLLERS),
+                    help=f"comma-separated controllers (default all: {','.join(CONTROLLERS)})")
+    ap.add_argument("--scenarios", default=",".join(SCENARIOS),
+                    help=f"comma-separated scenarios (default all: {','.join(SCENARIOS)})")
+    ap.add_argument("--checkpoint", type=Path, default=None,
+                    help="JSON-lines file of finished runs: appended to, and runs in it are not run again")
     a = ap.parse_args(argv)
     if a.runs < 1:
         print(f"58_drift_monte_carlo: --runs: expected an integer >= 1, found {a.runs}", file=sys.stderr)
         return 2
-    res = run(a.axis, a.runs, a.jobs, a.quick, out=a.out)
+    ctls = _names(a.controllers, CONTROLLERS, "--controllers")
+    scens = _names(a.scenarios, SCENARIOS, "--scenarios")
+    if ctls is None or scens is None:
+        return 2
+    res = run(a.axis, a.runs, a.jobs, a.quick, controllers=ctls, scenarios=scens, out=a.out,
+              checkpoint=a.checkpoint)
     for s in res["scenarios"]:
         for c in res["controllers"]:
             m = res["stats"][s][c]
