@@ -47,6 +47,41 @@ IDENTIFIABLE: dict[str, tuple[str, ...]] = {
 #: The phrase the workflow reports for an effect its signals cannot show.
 NOT_IDENTIFIABLE = "not identifiable from these signals"
 
+#: Why a Coulomb asymmetry is not identifiable next to a constant torque offset.  Friction
+#: with fc+ != fc- (and fs+ != fs- in the same proportion) is, in motion *and* at standstill,
+#: symmetric friction of level (fc+ + fc-)/2 plus a constant torque (fc+ - fc-)/2: the
+#: torque while moving is fc+ or -fc- either way, the static band [-fs-, fs+] either way, and
+#: the jump at a reversal is fc+ + fc- either way.  A baseline that carries an unknown
+#: constant load (the rigid default) therefore cannot tell the two apart, whatever the
+#: motion; the direction-dependent viscous part of an asymmetry is not a constant and stays
+#: identifiable.
+COULOMB_ASYMMETRY_WHY = ("symmetric Coulomb friction plus a constant load torque gives the same torque in "
+                         "motion and at standstill; identifiable with offset = false in --model (an axis known "
+                         "to carry no constant load)")
+
+
+def not_identifiable_parts(structure: str, offset: bool | None = None) -> dict[str, dict[str, str]]:
+    """Parts of an effect that the baseline cannot tell from its own terms, although the
+    effect's candidate is ranked for the rest of it: effect -> part -> why.
+
+    Parameters
+    ----------
+    structure : str
+        The baseline's structure, ``"rigid"`` or ``"two_mass"``.
+    offset : bool, optional
+        The baseline's constant torque offset as in :func:`hdservo.discrepancy.workflow.run`
+        (None: the default, the standstill offset of a rigid baseline, none on a two-mass one).
+
+    Returns
+    -------
+    dict
+        ``{"asymmetric_friction": {"coulomb": why}}`` when the baseline has an offset (a
+        rigid baseline unless ``offset`` is False, a two-mass one only with ``offset`` True),
+        else empty.
+    """
+    has_offset = offset is not False if structure == "rigid" else offset is True
+    return {"asymmetric_friction": {"coulomb": COULOMB_ASYMMETRY_WHY}} if has_offset else {}
+
 
 def identifiability(angles: str) -> dict[str, str]:
     """Per effect of :data:`EFFECT_NAMES`: ``"identifiable"`` or :data:`NOT_IDENTIFIABLE`.
