@@ -36,7 +36,9 @@ SIGNAL_SETS: tuple[str, ...] = ("both", "motor", "output")
 #: current-loop lag needs the motor angle: the output angle sees the torque through the
 #: gear's spring, which below the torsional mode delays it like a lag of 2 zeta/omega_0
 #: (0.5-1.5 ms on the catalogue axes, the lag of a 100-300 Hz current loop), so an
-#: output-only log shows a lag whether the current loop has one or not.
+#: output-only log shows a lag whether the current loop has one or not.  A ranked effect can
+#: still have a part the baseline cannot tell from its own terms (the Coulomb part of an
+#: asymmetry next to a constant offset): :func:`not_identifiable_parts`.
 IDENTIFIABLE: dict[str, tuple[str, ...]] = {
     "both": EFFECT_NAMES,
     "motor": ("stribeck_friction", "asymmetric_friction", "cogging_torque", "gravity_unbalance",
