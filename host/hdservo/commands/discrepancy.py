@@ -150,13 +150,12 @@ def run(args: argparse.Namespace) -> int:
             print(f"  updated axis file: {closed.updated}")
     if not res.iterations:
         print("  no significant missing effect")
+    from ..discrepancy import NOT_IDENTIFIABLE
     hidden = [e for e, v in res.identifiability.items() if v != "identifiable"]
     if hidden:
-        from ..discrepancy import NOT_IDENTIFIABLE
         print(f"  {NOT_IDENTIFIABLE} ({res.angles} encoder{'s' if res.angles == 'both' else ''} + torque): "
               + ", ".join(hidden))
     for e, parts in res.not_identifiable_parts.items():
-        from ..discrepancy import NOT_IDENTIFIABLE
         for part, why in parts.items():
             print(f"  {e}: its {part} part is {NOT_IDENTIFIABLE} ({why})")
     for n in res.notes:
