@@ -58,8 +58,10 @@ def read_model(path: Path) -> dict[str, Any]:
     unknown = set(m) - {"structure", "offset"}
     if unknown:
         raise UserError(f"{path}: [model]: unknown key '{sorted(unknown)[0]}' (expected structure, offset)")
-    st = m.get("structure", "two_mass")
-    if st not in ("two_mass", "rigid"):
+    # no structure: the log's default (two-mass with both angles, rigid with one), so that
+    # `offset = false` alone works on a one-encoder log
+    st = m.get("structure")
+    if st is not None and st not in ("two_mass", "rigid"):
         raise UserError(f"{path}: [model] structure: expected \"two_mass\" or \"rigid\", found {st!r}")
     off = m.get("offset")
     if off is not None and not isinstance(off, bool):
@@ -148,11 +150,14 @@ def run(args: argparse.Namespace) -> int:
             print(f"  updated axis file: {closed.updated}")
     if not res.iterations:
         print("  no significant missing effect")
+    from ..discrepancy import NOT_IDENTIFIABLE
     hidden = [e for e, v in res.identifiability.items() if v != "identifiable"]
     if hidden:
-        from ..discrepancy import NOT_IDENTIFIABLE
         print(f"  {NOT_IDENTIFIABLE} ({res.angles} encoder{'s' if res.angles == 'both' else ''} + torque): "
               + ", ".join(hidden))
+    for e, parts in res.not_identifiable_parts.items():
+        for part, why in parts.items():
+            print(f"  {e}: its {part} part is {NOT_IDENTIFIABLE} ({why})")
     for n in res.notes:
         print(f"[discrepancy] note: {n}", file=sys.stderr)
     return 0

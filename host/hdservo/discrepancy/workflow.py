@@ -30,7 +30,7 @@ from typing import Any, Callable
 import numpy as np
 import scipy.stats as st
 
-from . import identifiability
+from . import identifiability, not_identifiable_parts
 from . import regression as bl
 from . import effects as fx
 from ..fileio import json_ready
@@ -704,6 +704,10 @@ class Result:
     #: show it (:func:`hdservo.discrepancy.identifiability`).
     angles: str = "both"
     identifiability: dict[str, str] = field(default_factory=dict)
+    #: Parts of a ranked effect the baseline cannot tell from its own terms, effect -> part
+    #: -> why (:func:`hdservo.discrepancy.not_identifiable_parts`: a Coulomb asymmetry next
+    #: to a constant offset).
+    not_identifiable_parts: dict[str, dict[str, str]] = field(default_factory=dict)
 
     def named_by_size(self) -> list[str]:
         """The kept names, largest first by their share of the baseline's equation-error
@@ -723,7 +727,8 @@ class Result:
                 "final_whiteness": self.whiteness, "noise_floor": self.floor,
                 "sim_floor_rad": self.sim_floor, "notes": list(self.notes),
                 "signals": self.angles, "identifiability": dict(self.identifiability),
-                "not_identifiable": [e for e, v in self.identifiability.items() if v != "identifiable"]})
+                "not_identifiable": [e for e, v in self.identifiability.items() if v != "identifiable"],
+                "not_identifiable_parts": {e: dict(v) for e, v in self.not_identifiable_parts.items()}})
 
 
 SIGNAL_TEXT = ("equation error of the measured motor torque (motor and rigid-body equations stacked), "
@@ -846,7 +851,8 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
                   final_model=final, rms_history=path.rms, state=st_, base_fit=base_fit, snapshots=path.snapshots,
                   ranking_last=path.last_rank, whiteness=white, base_rel_pct=base_rel,
                   ranking_first=path.first_rank or [], sim_rms_history=path.sim_rms, sims=path.sims, floor=floor,
-                  sim_floor=sim_floor, notes=notes, angles=sig.angles, identifiability=ident)
+                  sim_floor=sim_floor, notes=notes, angles=sig.angles, identifiability=ident,
+                  not_identifiable_parts=not_identifiable_parts(sig.kind, offset))
 
 
 def explained_shares(st_: State, base_fit: bl.Fit) -> list[float]:

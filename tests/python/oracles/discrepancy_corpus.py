@@ -39,12 +39,16 @@ from typing import Any
 import numpy as np
 
 from hdservo import logio, sim
-from hdservo.discrepancy import EFFECT_NAMES, IDENTIFIABLE
+from hdservo.discrepancy import EFFECT_NAMES, IDENTIFIABLE, not_identifiable_parts
 from hdservo.discrepancy.closeloop import axis_text
 from hdservo.tomltext import basic_string
 
 #: Effects that can be hidden (every name of the workflow's library).
 EFFECTS: tuple[str, ...] = EFFECT_NAMES
+#: The part of an effect the corpus hides where the workflow's identifiability table tells
+#: parts apart (:func:`hdservo.discrepancy.not_identifiable_parts`): the asymmetry is
+#: Coulomb only (fc and fs of one direction scaled, the viscous friction symmetric).
+HIDDEN_PART: dict[str, str] = {"asymmetric_friction": "coulomb"}
 #: Pairs not hidden together: both act through the same plant section (the spring).
 EXCLUSIVE = {frozenset({"nonlinear_stiffness", "backlash"})}
 #: The fixed split: seeds 1-1000 are calibration, 100001-101000 held apart.
@@ -85,8 +89,12 @@ class CorpusCase:
         return f"s{self.seed}-{h}-{self.controller.get('kind')}-{self.log_rate_Hz / 1000:g}k-{self.angles}"
 
     def identifiable(self) -> list[str]:
-        """The hidden effects the log's signals can show (the identifiability table)."""
-        return [e for e, _ in self.hidden if e in IDENTIFIABLE[self.angles]]
+        """The hidden effects the log's signals can show (the identifiability table; the
+        workflow's default offset for the log's baseline structure): a Coulomb-only
+        asymmetry on a rigid baseline with its constant offset is not one of them."""
+        parts = not_identifiable_parts(self.structure)
+        return [e for e, _ in self.hidden if e in IDENTIFIABLE[self.angles]
+                and HIDDEN_PART.get(e) not in parts.get(e, {})]
 
 
 def _lerp_log(a: float, b: float, u: float) -> float:
