@@ -22,9 +22,10 @@ Models (output-referred; docs/compensators.md section 8):
   ``F(x) = Fs (1 - exp(-sigma0_l x / Fs))`` fitted by ``n`` stop elements,
   turned into twist by the tangent stiffness of the gear (K1 + hysteresis
   elements);
-* Preisach: the gear's static twist -> transmitted-torque operator (linear K1,
-  the Maxwell-slip elements of the plant and its Preisach part), its Everett
-  function evaluated in closed form / by density integration, quantised;
+* Preisach: the gear's static twist -> transmitted-torque operator of the plant
+  (its three-slope or cubic spring, its Maxwell-slip elements, its Preisach part
+  about the part's centre line), Everett function in closed form plus the
+  plant's own Everett table, over the twist at +-2 T1, quantised;
 * TE: the wave-generator harmonics (per motor revolution) and the two largest
   output-side harmonics (per output revolution, evaluated at the loop's output position);
 * backstepping: the gains of docs/compensators.md section 6, scaled by J.
