@@ -22,6 +22,7 @@ import pytest
 
 from hdservo import axisgen, sim
 from hdservo import compsetup as cs
+from hdservo.preisach_table import PreisachTable
 
 ROOT = Path(__file__).resolve().parents[2]
 LIB = ROOT / "build" / "lib" / "libhdcomp.so"
@@ -69,7 +70,7 @@ def plant_twist(axis: str, levels: list[float]) -> np.ndarray:
     return r["torsion_rad"][ends]
 
 
-def table_twist(lib: C.CDLL, table, levels: list[float]) -> np.ndarray:
+def table_twist(lib: C.CDLL, table: PreisachTable, levels: list[float]) -> np.ndarray:
     """The drive's twist prediction (rad): the firmware inverse of ``table`` along the same torques."""
     torque, ends = _profile(levels, 60, 1)
     yd = np.ascontiguousarray(np.round(torque * 65536.0), dtype=np.int64)
