@@ -61,9 +61,9 @@ VEL_LOOP_HZ = 25.0
 #: resonance against the held motor, sqrt(K1 / J_L) / 2 pi, is below this multiple of the crossover of the
 #: velocity loop the drive runs (:func:`velocity_loop_hz`).  Measured by
 #: tests/results/27_twist_source_edge.py on axes no rule was set on (docs/compensators.md section 13): the
-#: motor side pays at ratios up to 1.27 (1.03-1.50x; one axis at 0.93 loses 15 %) and from 1.59 on costs
-#: up to 12 % and gains at most 8 %, also on two heavy axes with their loop moved from 40 to 15 Hz; every
-#: factor between 1.28 and 1.58 makes the same choices there.
+#: motor side pays on seven of eight rows at ratios up to 1.27 (1.06-2.75x; one axis at 0.93 loses) and
+#: costs on five of seven from 1.59 on (1.6-3.8x), also on axes with their loop moved from 40 to 15 Hz;
+#: every factor between 1.28 and 1.58 makes the same choices there.
 RESONANCE_LOOP_RATIO = 1.5
 #: Reference-speed schedule of the scheduled position integral (cb_pki_vlo / cb_pki_vhi), deg/s.
 PKI_V_LO_DEG_S = 0.002
