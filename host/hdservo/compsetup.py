@@ -720,5 +720,7 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
 
 __all__ = ["MOTOR_SHARE_KEY", "RESONANCE_LOOP_RATIO", "VEL_LOOP_HZ", "design_vel_kp", "load_resonance_hz",
            "twist_torque_source", "velocity_loop_hz", "BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
-           "FAIR_GAINS", "FAIR_PROC_ARGS", "GROUPS", "STRATEGIES", "best_gains", "compensator_params", "controller", "enable_mask", "gear_everett", "preisach_table",
+           "FAIR_GAINS", "FAIR_PROC_ARGS", "GROUPS", "STRATEGIES", "TABLE_LATTICE_LSB", "TABLE_TORQUE_T1", "best_gains",
+           "compensator_params", "controller", "elastic_torque", "enable_mask", "gear_everett", "preisach_table",
+           "table_range_rad",
            "write_preisach_table"]
