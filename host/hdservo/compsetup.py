@@ -22,9 +22,10 @@ Models (output-referred; docs/compensators.md section 8):
   ``F(x) = Fs (1 - exp(-sigma0_l x / Fs))`` fitted by ``n`` stop elements,
   turned into twist by the tangent stiffness of the gear (K1 + hysteresis
   elements);
-* Preisach: the gear's static twist -> transmitted-torque operator (linear K1,
-  the Maxwell-slip elements of the plant and its Preisach part), its Everett
-  function evaluated in closed form / by density integration, quantised;
+* Preisach: the gear's static twist -> transmitted-torque operator of the plant
+  (its three-slope or cubic spring, its Maxwell-slip elements, its Preisach part
+  about the part's centre line), Everett function in closed form plus the
+  plant's own Everett table, over the twist at +-2 T1, quantised;
 * TE: the wave-generator harmonics (per motor revolution) and the two largest
   output-side harmonics (per output revolution, evaluated at the loop's output position);
 * backstepping: the gains of docs/compensators.md section 6, scaled by J.
@@ -60,9 +61,9 @@ VEL_LOOP_HZ = 25.0
 #: resonance against the held motor, sqrt(K1 / J_L) / 2 pi, is below this multiple of the crossover of the
 #: velocity loop the drive runs (:func:`velocity_loop_hz`).  Measured by
 #: tests/results/27_twist_source_edge.py on axes no rule was set on (docs/compensators.md section 13): the
-#: motor side pays at ratios up to 1.16 and gains nothing from 1.59 on, also on one axis with its loop
-#: moved from 40 to 15 Hz; every factor between 1.17 and 1.58 makes the same choices there (one heavy
-#: axis does not follow the ratio with the axis file's Preisach table, and does with its identified one).
+#: motor side pays on seven of eight rows at ratios up to 1.27 (1.06-2.75x; one axis at 0.93 loses) and
+#: costs on five of seven from 1.59 on (1.6-3.8x), also on axes with their loop moved from 40 to 15 Hz;
+#: every factor between 1.28 and 1.58 makes the same choices there.
 RESONANCE_LOOP_RATIO = 1.5
 #: Reference-speed schedule of the scheduled position integral (cb_pki_vlo / cb_pki_vhi), deg/s.
 PKI_V_LO_DEG_S = 0.002
@@ -203,37 +204,107 @@ def _lost_motion_elements(model: Mapping[str, float] | None, k_nm_per_rad: float
     return [gi * k_nm_per_rad for gi in g], d
 
 
+#: The axis-file Preisach table covers the gear's twist at +-TABLE_TORQUE_T1 x T1 of its elastic curve:
+#: the torque range of the reversal curves ``hdservo identify`` fits its own table on (the gear's
+#: hysteresis lives below about T1, beyond it only the spring stiffens).  A table that ends inside the
+#: torque swings of a move saturates there: its memory is wiped out and every later stop is predicted on
+#: the major loop's branch, a wider loop than the gear shows.
+TABLE_TORQUE_T1 = 2.0
+#: Twist lattice step of the axis-file table, in 2^-32 turn (2^10: 1.46 urad, 0.30"): the inverse
+#: rounds the predicted twist to half of it.  The sub-steps per grid level follow from the range.
+TABLE_LATTICE_LSB = 2 ** 10
+#: Twist range of a table whose gear has no usable stiffness (rad).
+TABLE_RANGE_FALLBACK_RAD = 2.5e-4
+
+
+def elastic_torque(get: Callable[[str], float], u: np.ndarray) -> np.ndarray:
+    """Single-valued torque of the gear at twist ``u`` (rad), N.m: the stiffness curve of the plant
+    (three-slope, or cubic) plus the centre line of its Preisach part (docs/plant.md).
+
+    Parameters
+    ----------
+    get : callable
+        Model reader, ``"section.key"`` -> value.
+    u : numpy.ndarray
+        Twist, rad (output-referred).
+
+    Returns
+    -------
+    numpy.ndarray
+        Torque, N.m; odd and non-decreasing in ``u``.
+    """
+    x = np.asarray(u, dtype=float)
+    t = np.zeros_like(x)
+    if get("stiffness.enabled"):
+        k1, k2, k3 = (get(f"stiffness.k{i}_Nm_per_rad") for i in (1, 2, 3))
+        t1 = get("stiffness.t1_Nm")
+        t2 = max(get("stiffness.t2_Nm"), t1)
+        p1 = t1 / k1 if k1 > 0 else 0.0
+        p2 = p1 + ((t2 - t1) / k2 if k2 > 0 else 0.0)
+        t += k3 * x + (k1 - k2) * np.clip(x, -p1, p1) + (k2 - k3) * np.clip(x, -p2, p2)
+    if _has(get, "stiffness_cubic.enabled") and get("stiffness_cubic.enabled"):
+        t += get("stiffness_cubic.k1_Nm_per_rad") * x + get("stiffness_cubic.k3_Nm_per_rad3") * x ** 3
+    if get("hysteresis_preisach.enabled"):
+        et, m = _plant_preisach(get)
+        xc = np.clip(x, -m, m)
+        t += np.array([et(v, -m) - et(m, v) for v in xc.ravel()]).reshape(x.shape)
+    return t
+
+
+def _plant_preisach(get: Callable[[str], float]) -> tuple[preisach.EverettTable, float]:
+    """The plant's Preisach part: its Everett table (the plant's own grid and interpolation) and u_max, rad."""
+    m = get("hysteresis_preisach.u_max_rad")
+    return preisach.everett_table_plant(m, get("hysteresis_preisach.t_sat_Nm"), get("hysteresis_preisach.r0_rad"),
+                                        get("hysteresis_preisach.s_rad")), m
+
+
 def gear_everett(get: Callable[[str], float], u_grid: np.ndarray) -> np.ndarray:
     """Everett grid (N.m) of the gear's twist -> torque operator on ``u_grid`` (rad).
 
-    E(a, b) = (K1 + t_sat/u_max) (a - b)/2 + sum_i min(k_i (a - b), 2 w_i)/2 - E_P(a, b),
-    where E_P is the plant's Preisach part (density exp(-r/r0) exp(-m^2/(2 s^2)),
-    scaled to t_sat at saturation).
+    The plant's gear torque is ``S(phi) + sum_i sat(k_i (phi - xi_i), w_i) + P_mean(phi) - P[phi]``
+    (spring ``S``, Maxwell-slip elements, the Preisach part ``P`` about its centre line ``P_mean``), so
+
+    E(a, b) = (F(a) - F(b))/2 + sum_i min(k_i (a - b), 2 w_i)/2 - E_P(a, b),
+
+    with the single-valued ``F = S + P_mean`` (:func:`elastic_torque`) and E_P the plant's own Everett
+    table of the Preisach part (inputs held at its u_max, as the plant holds them).
     """
     u = np.asarray(u_grid, dtype=float)
     a, b = np.meshgrid(u, u, indexing="ij")
     d = np.clip(a - b, 0.0, None)
-    k_lin = get("stiffness.k1_Nm_per_rad") if get("stiffness.enabled") else 0.0
-    e = np.zeros_like(d)
+    f = elastic_torque(get, u)
+    e = 0.5 * (f[:, None] - f[None, :])
     if get("hysteresis_preisach.enabled"):
-        umax, tsat = get("hysteresis_preisach.u_max_rad"), get("hysteresis_preisach.t_sat_Nm")
-        mu = preisach.preisach_exponential_gaussian_density(get("hysteresis_preisach.r0_rad"),
-                                                            get("hysteresis_preisach.s_rad"))
-        full = preisach.everett_from_density(mu, np.array([-umax, umax]), n_sub=200)[1, 0]
-        ug = np.clip(u, -umax, umax)
-        ep = preisach.everett_from_density(mu, ug, n_sub=6) * (tsat / full)
-        e -= np.tril(ep)
-        k_lin += tsat / umax
-    e += k_lin * d / 2
+        et, m = _plant_preisach(get)
+        uc = np.clip(u, -m, m)
+        e -= np.array([[et(uc[i], uc[j]) if j < i else 0.0 for j in range(len(u))] for i in range(len(u))])
     if get("hysteresis_maxwell.enabled"):
         for i in range(1, int(get("hysteresis_maxwell.n_elements")) + 1):
             k, w = get(f"hysteresis_maxwell.e{i}_k_Nm_per_rad"), get(f"hysteresis_maxwell.e{i}_w_Nm")
             e += np.minimum(k * d, 2 * w) / 2
-    return np.tril(e)
+    return np.tril(e, -1)
 
 
-def preisach_table(axis: str = "reference", levels: int = 48, sub_bits: int = 3,
-                   range_rad: float = 2.5e-4, version: int = 1) -> pt.PreisachTable:
+def table_range_rad(get: Callable[[str], float]) -> float:
+    """Twist half-range of the axis-file Preisach table, rad: the elastic curve's twist at
+    ``TABLE_TORQUE_T1`` x T1 (:func:`elastic_torque`; the fallback without a stiffness)."""
+    t1 = get("stiffness.t1_Nm") if _has(get, "stiffness.t1_Nm") else 0.0
+    target = TABLE_TORQUE_T1 * abs(t1)
+    hi = 1e-2
+    if not target > 0.0 or not float(elastic_torque(get, np.array([hi]))[0]) > target:
+        return TABLE_RANGE_FALLBACK_RAD
+    lo = 0.0
+    for _ in range(60):                       # the elastic curve is monotone: bisection
+        mid = 0.5 * (lo + hi)
+        if float(elastic_torque(get, np.array([mid]))[0]) < target:
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
+def preisach_table(axis: str = "reference", levels: int = 64, sub_bits: int | None = None,
+                   range_rad: float | None = None, version: int = 1) -> pt.PreisachTable:
     """Quantised Everett table of the gear twist (input, 2^-32 turn) -> torque (Q15.16 N.m).
 
     Parameters
@@ -242,10 +313,11 @@ def preisach_table(axis: str = "reference", levels: int = 48, sub_bits: int = 3,
         "reference", "minimal" or an axis TOML path.
     levels : int
         Grid levels L.
-    sub_bits : int
-        Lattice steps per grid cell = 2**sub_bits.
-    range_rad : float
-        Twist range +-range_rad (output rad) covered by the lattice.
+    sub_bits : int, optional
+        Lattice steps per grid cell = 2**sub_bits; default the fewest that keep the lattice step at
+        ``TABLE_LATTICE_LSB`` over the range.
+    range_rad : float, optional
+        Twist range +-range_rad (output rad) covered by the lattice; default :func:`table_range_rad`.
     version : int
         Table version.
 
@@ -256,7 +328,11 @@ def preisach_table(axis: str = "reference", levels: int = 48, sub_bits: int = 3,
     """
     get = _reader(axis)
     lsb_turn = 2.0 ** -32
-    span = 2 * range_rad / TWO_PI / lsb_turn               # lattice span in 2^-32 turn
+    rng = table_range_rad(get) if range_rad is None else float(range_rad)
+    span = 2 * rng / TWO_PI / lsb_turn               # lattice span in 2^-32 turn
+    if sub_bits is None:
+        need = span / ((levels - 1) * TABLE_LATTICE_LSB)
+        sub_bits = min(max(0, math.ceil(math.log2(need))), pt.SUB_MAX) if need > 1 else 0
     p_top = (levels - 1) << sub_bits
     in_shift = max(0, math.ceil(math.log2(span / p_top)))
     step = 2 ** in_shift
@@ -644,5 +720,7 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
 
 __all__ = ["MOTOR_SHARE_KEY", "RESONANCE_LOOP_RATIO", "VEL_LOOP_HZ", "design_vel_kp", "load_resonance_hz",
            "twist_torque_source", "velocity_loop_hz", "BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
-           "FAIR_GAINS", "FAIR_PROC_ARGS", "GROUPS", "STRATEGIES", "best_gains", "compensator_params", "controller", "enable_mask", "gear_everett", "preisach_table",
+           "FAIR_GAINS", "FAIR_PROC_ARGS", "GROUPS", "STRATEGIES", "TABLE_LATTICE_LSB", "TABLE_TORQUE_T1", "best_gains",
+           "compensator_params", "controller", "elastic_torque", "enable_mask", "gear_everett", "preisach_table",
+           "table_range_rad",
            "write_preisach_table"]

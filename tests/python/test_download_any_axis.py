@@ -38,6 +38,14 @@ def _true_model(a: dict) -> dict:
         for k in ("order", "amp_rad", "phase_rad"):
             v = te[f"wg{i}_{k}"]
             tm["transmission_error"][f"wg{i}_{k}"] = int(v) if k == "order" else float(v)
+    # the output-side lines, numbered from 1 without gaps as `hdservo identify` writes them
+    n_out = 0
+    for i in range(1, 5):
+        if int(te.get(f"out{i}_order", 0)) > 0 and float(te.get(f"out{i}_amp_rad", 0.0)) != 0.0:
+            n_out += 1
+            for k in ("order", "amp_rad", "phase_rad"):
+                v = te[f"out{i}_{k}"]
+                tm["transmission_error"][f"out{n_out}_{k}"] = int(v) if k == "order" else float(v)
     # lost motion: the output friction turned over in its presliding distance, through K1
     fl = a["friction_load"]
     z = fl["fs_pos_Nm"] / fl["sigma0_Nm_per_rad"]
@@ -66,6 +74,27 @@ def test_download_plan_fits_the_drive_on_catalogue_axes(tmp_path: Path, seed: in
         assert p["mx_n"] == 3 and p["mx_k1"] > 0
         assert 0 < p["str_fs_pos"] <= truth.friction_total(a)["fs_pos_Nm"] * (1 + 1e-12)
     assert min(ratios) <= 50 and max(ratios) >= 100          # the catalogue's range is covered
+
+
+def test_true_model_downloads_the_output_side_te(tmp_path: Path) -> None:
+    """The true model of an axis (the studies' stand-in for an identified one) carries the axis' largest
+    output-side TE line into the download, as an identified model does: without it a semi-closed
+    study leaves that line (a few arcsec per output revolution) uncompensated."""
+    import math
+    import tomllib
+    path = ag.write_axes(tmp_path / "axes", 1, 55)[0]
+    with open(path, "rb") as f:
+        a = tomllib.load(f)
+    te = a["transmission_error"]
+    lines = [(abs(te[f"out{i}_amp_rad"]), int(te[f"out{i}_order"])) for i in range(1, 5)
+             if int(te[f"out{i}_order"]) > 0 and te[f"out{i}_amp_rad"] != 0.0]
+    assert lines, "the drawn axis has an output-side TE line"
+    amp, order = max(lines)
+    mp = tmp_path / "true.model.toml"
+    write_toml(mp, _true_model(a))
+    p = dl.plan_download(mp, axis=str(path))["params"]
+    assert p["te_out_order1"] == order
+    assert p["te_out_amp1"] * 2 * math.pi == pytest.approx(amp, rel=1e-9)
 
 
 def test_velocity_loop_of_the_design_rule_fits_the_drive_on_heavy_axes(tmp_path: Path) -> None:

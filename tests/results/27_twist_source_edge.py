@@ -7,8 +7,8 @@ each velocity-loop crossover of ``--bandwidths`` (the design rule's PI at that c
 procedure (``--quick``, semi-closed, sensor-noise seed ``--seed``) with the fair PID and with
 Stribeck + TE + Preisach twice, the twist torque from the model (``pr_t_src`` 1) and from the motor
 side (``pr_t_src`` 2), the axis' true model downloaded with the Preisach table built from the
-axis file's hysteresis sections (:func:`hdservo.compsetup.preisach_table`; with it the motor-side
-estimate overshoots more than with an identified table, docs/compensators.md section 13).
+axis file's spring and hysteresis sections (:func:`hdservo.compsetup.preisach_table`, the plant's
+twist -> torque operator; docs/compensators.md section 13).
 :func:`band_summary` gives, below and above the rule's edge (``compsetup.RESONANCE_LOOP_RATIO``
 x the crossover), the range of A(model) / A(motor side): the rule is right when the motor side
 never loses much below the edge and never gains much above it.
