@@ -196,7 +196,7 @@ def main(argv: Optional[list[str]] = None) -> int:
             r["compensator_rule"] = compensator_rule(abl)
             r["min_smooth_rate_deg_s"] = min_rates(abl)
         doc["axes"][name] = r
-        print(f"  exit {rc}, {el:.0f} s", flush=True)
+        print(f"{name}: exit {rc}, " + ("run time unknown" if el is None else f"{el:.0f} s"), flush=True)
     write_json_atomic(a.out / "demo_seeds.json", doc)
     print(f"wrote {a.out / 'demo_seeds.json'}")
     return 1 if rc_all else 0
