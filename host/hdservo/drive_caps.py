@@ -53,6 +53,8 @@ from .errors import UserError
 
 #: SDO aborts that mean "this drive has no such object / sub-index"
 ABSENT_ABORTS = (0x06020000, 0x06090011)
+#: attempts of one probe upload answered by a stale SDO response (:func:`_upload`)
+STALE_ATTEMPTS = 3
 #: identity of the hdservo firmware (0x1018:1 / :2); its vendor objects are probed only then
 HDSERVO_VENDOR_ID = od_gen.VENDOR_ID
 HDSERVO_PRODUCT_CODE = od_gen.PRODUCT_CODE
@@ -327,15 +329,37 @@ class DriveCaps:
         return out
 
 
+def _stale(e: Exception) -> bool:
+    """Whether an SDO error is a response that belongs to an earlier request (python canopen's wording)."""
+    msg = str(e)
+    return "instead" in msg or "Unexpected response" in msg
+
+
 def _upload(sdo: SdoLike, index: int, sub: int) -> tuple[bool, Optional[bytes]]:
-    """(present, value) of one object; absent on 0x06020000 / 0x06090011, present on other aborts."""
+    """(present, value) of one object; absent on 0x06020000 / 0x06090011, present on other aborts.
+
+    python canopen repeats a request after a response time-out, so on a loaded link the late
+    answer to the first request and the answer to the repeat both arrive, and the second can be
+    taken for the answer of the next upload ("Node returned a value for ... instead").  An upload
+    is idempotent: after such a stale answer it waits one response time-out, so the stragglers
+    land (python canopen drops them at the next request), and asks again, up to
+    :data:`STALE_ATTEMPTS` times.
+    """
+    import time
+
     import canopen
-    try:
-        return True, bytes(sdo.upload(index, sub))
-    except canopen.SdoAbortedError as e:
-        if e.code in ABSENT_ABORTS:
-            return False, None
-        return True, None
+    for attempt in range(STALE_ATTEMPTS):
+        try:
+            return True, bytes(sdo.upload(index, sub))
+        except canopen.SdoAbortedError as e:
+            if e.code in ABSENT_ABORTS:
+                return False, None
+            return True, None
+        except canopen.SdoCommunicationError as e:
+            if attempt + 1 >= STALE_ATTEMPTS or not _stale(e):
+                raise
+            time.sleep(float(getattr(sdo, "RESPONSE_TIMEOUT", 0.3)))
+    raise AssertionError("unreachable")
 
 
 def _eds_mappable(eds: Optional[Any], index: int, sub: int) -> Optional[bool]:

@@ -343,3 +343,41 @@ def test_generic_bench_rig_refuses_at_once() -> None:
         with pytest.raises(RigError, match="generic CiA 402 drive has no test rig"):
             act()
         assert time.monotonic() - t0 < 1.0          # not a rig command waiting for an answer
+
+
+class _StaleSdo(_FakeSdo):
+    """An SDO client whose first answer to one object is a stale response to an earlier request."""
+
+    RESPONSE_TIMEOUT = 0.01
+
+    def __init__(self, values: dict[tuple[int, int], int], stale_at: tuple[int, int], times: int) -> None:
+        super().__init__(values)
+        self.stale_at, self.left = stale_at, times
+
+    def upload(self, index: int, sub: int) -> bytes:
+        if (index, sub) == self.stale_at and self.left > 0:
+            self.left -= 1
+            self.asked.append(index)
+            raise canopen.SdoCommunicationError("Node returned a value for 0x1A02:01 instead, maybe there is "
+                                                "another SDO client communicating on the same SDO channel?")
+        return super().upload(index, sub)
+
+
+def test_probe_asks_again_after_a_stale_sdo_response() -> None:
+    """A late answer of a loaded link taken for the next upload is not the end of the probe."""
+    sdo = _StaleSdo(_third_party(0x9A, 0x1), (0x6502, 0), times=2)
+    caps = drive_caps.probe(sdo, use_eds=False)
+    assert caps.modes == ("PP", "PV", "HM", "CSP", "CSV") and sdo.left == 0
+    assert sdo.asked.count(0x6502) == 3                  # two stale answers, then the value
+    # a drive that keeps answering out of turn, or does not answer at all, is still an error
+    with pytest.raises(canopen.SdoCommunicationError, match="instead"):
+        drive_caps.probe(_StaleSdo(_third_party(0x9A, 0x1), (0x6502, 0), times=drive_caps.STALE_ATTEMPTS), use_eds=False)
+
+    class _Silent(_FakeSdo):
+        def upload(self, index: int, sub: int) -> bytes:
+            self.asked.append(index)
+            raise canopen.SdoCommunicationError("No SDO response received")
+    silent = _Silent({})
+    with pytest.raises(canopen.SdoCommunicationError, match="No SDO response"):
+        drive_caps.probe(silent, use_eds=False)
+    assert len(silent.asked) == 1                        # a time-out is python canopen's to repeat, not ours
