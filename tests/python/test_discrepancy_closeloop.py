@@ -159,6 +159,27 @@ def test_later_names_need_the_larger_share() -> None:
     assert cl.confirm(1.0, 0.75, cl.CONFIRM_SHRINK_LATER)
 
 
+def test_a_later_name_is_judged_on_the_gap_above_the_quantisation_floor() -> None:
+    """The replay's figures of calibration seed 102 (nonlinear stiffness, then cogging, both
+    hidden): after the stiffness the replay is 1.3e-6 rad over a floor of 9.9e-7 rad, and the
+    cogging cuts the gap above the floor by a fifth (raw RMS by 9.5 %); the asymmetric
+    friction named third (not hidden) cuts it by 7 %.  A replay at its floor confirms nothing."""
+    floor, control = 9.9e-7, 1.315e-6
+    share = cl.CONFIRM_SHRINK_LATER
+    cogging, asymmetry = 1.19e-6, 1.28e-6
+    assert not cl.confirm(control, cogging, share)                  # the raw RMS: not enough
+    assert cl.confirm(control, cogging, share, floor)
+    assert not cl.confirm(control, asymmetry, share, floor)
+    gb, ga = cl.gap_above_floor(control, floor), cl.gap_above_floor(cogging, floor)
+    assert ga <= (1 - share) * gb < cogging
+    # at the floor the replay cannot tell a model from a better one
+    assert not cl.confirm(1.01 * floor, 0.9 * floor, share, floor)
+    assert not cl.confirm(1.01 * floor, 0.5 * floor, cl.CONFIRM_SHRINK, floor)
+    # a worse replay never confirms, and floor 0 is the raw rule
+    assert not cl.confirm(control, 1.1 * control, share, floor)
+    assert cl.confirm(1.0, 0.75, share, 0.0) and not cl.confirm(1.0, 0.85, share, 0.0)
+
+
 #: A calibration log with two hidden effects: asymmetric friction (x1.02) and transmission
 #: error (x1.10), both encoders, the drive's firmware, logged at 10 kHz.
 TWO_SEED = 7
