@@ -180,6 +180,52 @@ def test_a_later_name_is_judged_on_the_gap_above_the_quantisation_floor() -> Non
     assert cl.confirm(1.0, 0.75, share, 0.0) and not cl.confirm(1.0, 0.85, share, 0.0)
 
 
+def _scripted_close(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, names: list[str], rms: dict[str, float],
+                    control: float, floor: float) -> cl.Closed:
+    """:func:`closeloop.close` on a stand-in result whose replays return the RMS of ``rms``
+    (by axis file suffix: ``baseline``, ``updated-1``, ...), whose control replay returns
+    ``control`` and whose encoders' quantisation floor is ``floor``."""
+    from types import SimpleNamespace
+    sig = SimpleNamespace(kind="two_mass", angles="both")
+    its = [{"named_effect": n, "params": {}} for n in names]
+    res = SimpleNamespace(iterations=its, snapshots=[_Snap(k) for k in range(len(names) + 1)],
+                          state=SimpleNamespace(design=SimpleNamespace(sig=sig)))
+    secs = {"axis": {"defaults": "minimal"}}
+    monkeypatch.setattr(cl, "baseline_sections", lambda sig, p: dict(secs))
+    monkeypatch.setattr(cl, "_model_sections", lambda *a, **k: dict(secs))
+    monkeypatch.setattr(cl, "fit_on_replay", lambda name, x, cost: (x, {"factors": [1.0]}))
+    monkeypatch.setattr(cl, "control_gap", lambda *a, **k: (control, None))
+    monkeypatch.setattr(cl, "quantisation_floor", lambda sig, count_load: floor)
+
+    def replay(sig: object, axis: Path, *a: object, **k: object) -> cl.Replay:
+        key = axis.name.split(".")[1]
+        return cl.Replay(axis=axis, rms_rad=rms[key], motor=np.zeros(1), load=np.zeros(1))
+    monkeypatch.setattr(cl, "replay", replay)
+    return cl.close(res, tmp_path, "s")
+
+
+def test_a_second_name_that_closes_a_fifth_of_the_gap_above_the_floor_is_kept(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Calibration seed 102's replays: nonlinear stiffness first (3.47e-6 -> 1.45e-6 rad),
+    then cogging (control 1.315e-6, after 1.19e-6) over a floor of 9.9e-7 rad: the cogging
+    cuts the raw RMS by 9.5 % but the gap above the floor by 22 %, and is kept."""
+    c = _scripted_close(tmp_path, monkeypatch, ["nonlinear_stiffness", "cogging_torque"],
+                        {"baseline": 3.47e-6, "updated-1": 1.45e-6, "updated-2": 1.19e-6}, 1.315e-6, 9.9e-7)
+    assert [it["named_effect"] for it in c.iterations] == ["nonlinear_stiffness", "cogging_torque"]
+    assert not c.dropped and c.iterations[1]["confirmed"] is True
+    assert c.updated is not None and c.updated.exists()
+
+
+def test_the_first_name_is_judged_on_the_raw_replay(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Calibration seed 16 (clean): a false asymmetric friction cuts the raw replay RMS by
+    8.4 % (the gap above its 6.2e-7 rad floor by 14 %); the first name's share is of the
+    raw RMS, so it is dropped."""
+    c = _scripted_close(tmp_path, monkeypatch, ["asymmetric_friction"],
+                        {"baseline": 9.86e-7, "updated-1": 9.03e-7}, float("nan"), 6.19e-7)
+    assert not c.iterations and [d["named_effect"] for d in c.dropped] == ["asymmetric_friction"]
+    assert c.updated is None
+
+
 #: A calibration log with two hidden effects: asymmetric friction (x1.02) and transmission
 #: error (x1.10), both encoders, the drive's firmware, logged at 10 kHz.
 TWO_SEED = 7

@@ -913,9 +913,13 @@ def close(res: Any, out_dir: Path, stem: str, user_axis: Path | None = None) -> 
             rec["sim_rms_control_rad"] = ctrl
             if math.isfinite(ctrl):
                 ref = min(before, ctrl)
+        # a later name is judged on the gap above the quantisation floor (the replay of the
+        # model before it is often within a few floors); the first on the raw RMS, on which
+        # its share was set (a clean log's replay is near its floor: a false first name cut
+        # the raw RMS of calibration seed 16 by 8 %, the gap above the floor by 14 %)
         need = CONFIRM_SHRINK_LATER if cl.iterations else CONFIRM_SHRINK
         fl = quantisation_floor(sig, tm)
-        ok = confirm(ref, r.rms_rad, need, fl)
+        ok = confirm(ref, r.rms_rad, need, fl if cl.iterations else 0.0)
         gb, ga = gap_above_floor(before, fl), gap_above_floor(r.rms_rad, fl)
         rec.update({"axis_after": str(path), "sim_rms_after_rad": r.rms_rad, "confirmed": ok,
                     "shrink": before / r.rms_rad if math.isfinite(before) and r.rms_rad > 0 else None,
