@@ -875,6 +875,31 @@ def close(res: Any, out_dir: Path, stem: str, user_axis: Path | None = None) -> 
             prev = replay(sig, prev.axis, offset_of(fits[j - 1]), two_mass=False, count_load=True)
             before = prev.rms_rad
             rec["sim_rms_before_rad"] = before
+        # a later name competes with its control: the model before it, on the same re-fitted
+        # baseline, with the previous name's replay factors fitted once more (:func:`control_gap`).
+        # The new name's model starts from those re-fitted factors too, so the two differ only
+        # by the new name's section: otherwise the control alone gets the re-fit (calibration
+        # seed 151: the Stribeck friction's factors re-fitted on the regression with the
+        # cogging take the replay from 6.3e-6 to 4.6e-6 rad, which the cogging's model lacked)
+        ref = before
+        prev_factors: tuple[float, ...] | None = None
+        if effects[:-1] and math.isfinite(before):
+            ctrl, rec["control_fit"] = control_gap(sig, effects[:-1], factors, p_after,
+                                                   base0 if user_axis is not None else None, stem,
+                                                   out_dir / f"{stem}.control-{k + 1}.toml", offset_of(p_after), tm)
+            rec["sim_rms_control_rad"] = ctrl
+            if math.isfinite(ctrl):
+                ref = min(before, ctrl)
+                cf = (rec["control_fit"] or {}).get("factors")
+                if cf and factors:
+                    prev_factors = tuple(float(a) * float(b) for a, b in zip(factors[-1], cf))
+                    s2 = _model_sections(sig, effects, factors[:-1] + [prev_factors], p_after,
+                                         base0 if user_axis is not None else None, stem)
+                    if s2 is not None:
+                        secs = s2
+                        rec["previous_factors"] = list(prev_factors)
+                    else:
+                        prev_factors = None
         trial = out_dir / f"{stem}.fitting-{k + 1}.toml"
 
         def cost(x: Sections, trial: Path = trial, p_after: Mapping[str, float] = p_after, tm: bool = tm) -> float:
@@ -903,16 +928,6 @@ def close(res: Any, out_dir: Path, stem: str, user_axis: Path | None = None) -> 
             cl.pairs.append((prev, None))
             prev = None
             return
-        # a later name competes with its control: the model before it, on the same re-fitted
-        # baseline, with the previous name's replay factors fitted once more (:func:`control_gap`)
-        ref = before
-        if effects[:-1] and math.isfinite(before):
-            ctrl, rec["control_fit"] = control_gap(sig, effects[:-1], factors, p_after,
-                                                   base0 if user_axis is not None else None, stem,
-                                                   out_dir / f"{stem}.control-{k + 1}.toml", offset_of(p_after), tm)
-            rec["sim_rms_control_rad"] = ctrl
-            if math.isfinite(ctrl):
-                ref = min(before, ctrl)
         # a later name is judged on the gap above the quantisation floor (the replay of the
         # model before it is often within a few floors); the first on the raw RMS, on which
         # its share was set (a clean log's replay is near its floor: a false first name cut
@@ -942,6 +957,8 @@ def close(res: Any, out_dir: Path, stem: str, user_axis: Path | None = None) -> 
         cl.iterations.append(rec)
         cl.replays.append(r)
         cl.pairs.append((prev, r))
+        if prev_factors is not None:            # the kept model carries the re-fitted previous name
+            factors[-1] = prev_factors
         factors.append(tuple(rec["replay_fit"]["factors"]))
         prev = r
 
