@@ -1001,7 +1001,8 @@ def apply(res: Any, cl: Closed) -> None:
                    "axis_before": rec["axis_before"], "axis_after": rec["axis_after"],
                    "simulator_confirmed": rec["confirmed"], "simulator_horizon_s": rec["horizon_s"],
                    **{x: rec[x] for x in ("sim_floor_rad", "sim_gap_before_rad", "sim_gap_after_rad",
-                                          "replay_fit", "sim_rms_control_rad", "judged_again") if x in rec}})
+                                          "replay_fit", "sim_rms_control_rad", "previous_factors", "judged_again")
+                                          if x in rec}})
     for d in cl.dropped:
         res.notes.append(f"{d['named_effect']} is not kept: {d['reason']} (the stop rule, docs/discrepancy.md)")
     order = [rec["index"] for rec in cl.iterations]
