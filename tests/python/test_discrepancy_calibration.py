@@ -188,3 +188,34 @@ def test_refresh_applies_the_current_identifiability_table() -> None:
     assert r["named"] == ["gravity_unbalance"] and [c["effect"] for c in r["ranking_first"]] == ["gravity_unbalance"]
     assert r["refreshed"] == ["cogging_torque"] and r["identifiable"] == []
     assert rec["named"] == ["cogging_torque", "gravity_unbalance"]            # the input is not modified
+
+
+def _two(seed: int, hidden: list[str], named: list[str], workflow: list[str], ident: int = 2) -> dict:
+    return {"seed": seed, "hidden": hidden, "identifiable": hidden[:ident], "named": named,
+            "named_workflow": workflow, "angles": "both", "ranking_first": []}
+
+
+def test_two_effect_census_sorts_logs_by_where_the_second_name_is_lost() -> None:
+    m = _script()
+    recs = [_two(1, ["a", "b"], ["b", "a"], ["b", "a", "c"]),        # both kept, a third dropped
+            _two(2, ["a", "b"], ["a"], ["a", "b"]),                  # the simulator drops b
+            _two(3, ["a", "b"], ["a", "c"], ["a", "c"]),             # the workflow names c, not b
+            _two(4, ["a", "b"], [], []),
+            _two(5, ["a", "b"], ["a"], ["a"], ident=1),              # b not identifiable: not counted
+            _two(6, ["a"], ["a"], ["a"]),
+            {**_two(7, ["a", "b"], [], []), "error": "UserError: x"}]
+    t = m.two_effects(recs)
+    assert t["logs"] == [1, 2, 3, 4]
+    assert t["both_named"] == [1] and t["both_by_workflow"] == [1, 2] and t["lost_by_simulator"] == [2]
+    assert t["one_missed"] == [3, 4] and t["spurious"] == [3]
+    assert t["both_named_fraction"]["k"] == 1 and t["both_named_fraction"]["n"] == 4
+
+
+def test_two_effect_seeds_are_calibration_seeds_with_two_identifiable_effects() -> None:
+    from oracles import discrepancy_corpus as corpus
+    seeds = _script().two_effect_seeds(corpus.CALIBRATION_SEEDS, 3)
+    assert seeds == [1, 7, 10]
+    for s in seeds:
+        c = corpus.draw(s)
+        assert len(c.hidden) == 2 and len(c.identifiable()) == 2
+    assert all(s not in corpus.HELD_APART_SEEDS for s in seeds)

@@ -159,6 +159,84 @@ def test_later_names_need_the_larger_share() -> None:
     assert cl.confirm(1.0, 0.75, cl.CONFIRM_SHRINK_LATER)
 
 
+def _scripted_close(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, names: list[str], rms: dict[str, float],
+                    control: float, floor: float, control_fit: dict | None = None) -> cl.Closed:
+    """:func:`closeloop.close` on a stand-in result whose replays return the RMS of ``rms``
+    (by axis file suffix: ``baseline``, ``updated-1``, ...; ``+refit`` when the names before
+    the last carry re-fitted replay factors), whose control replay returns ``control`` (and
+    the previous name's re-fitted factors ``control_fit``) and whose encoders' quantisation
+    floor is ``floor``."""
+    from types import SimpleNamespace
+    sig = SimpleNamespace(kind="two_mass", angles="both")
+    its = [{"named_effect": n, "params": {}} for n in names]
+    res = SimpleNamespace(iterations=its, snapshots=[_Snap(k) for k in range(len(names) + 1)],
+                          state=SimpleNamespace(design=SimpleNamespace(sig=sig)))
+    secs = {"axis": {"defaults": "minimal"}}
+
+    def model_sections(sig: object, effects: list, factors: list, *a: object) -> dict:
+        # the axis text says whether the names before the last were built with re-fitted factors
+        refit = any(f != (1.0,) * len(f) for f in factors[:len(effects) - 1])
+        return {"axis": {"defaults": "minimal", "name": "refit" if refit else "plain"}}
+    monkeypatch.setattr(cl, "baseline_sections", lambda sig, p: dict(secs))
+    monkeypatch.setattr(cl, "_model_sections", model_sections)
+    monkeypatch.setattr(cl, "fit_on_replay",
+                        lambda name, x, cost: (x, {"factors": [1.0] * cl.tune_dims(name)}))
+    monkeypatch.setattr(cl, "control_gap", lambda *a, **k: (control, control_fit))
+    monkeypatch.setattr(cl, "quantisation_floor", lambda sig, count_load: floor)
+
+    def replay(sig: object, axis: Path, *a: object, **k: object) -> cl.Replay:
+        key = axis.name.split(".")[1]
+        if '"refit"' in axis.read_text():
+            key += "+refit"
+        return cl.Replay(axis=axis, rms_rad=rms[key], motor=np.zeros(1), load=np.zeros(1))
+    monkeypatch.setattr(cl, "replay", replay)
+    return cl.close(res, tmp_path, "s")
+
+
+def test_a_later_name_is_judged_on_the_raw_replay_not_the_gap_above_the_floor(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Calibration seed 102's replays: nonlinear stiffness (3.47e-6 -> 1.45e-6 rad), cogging
+    (control 1.315e-6, 1.184e-6), then a false asymmetric friction (control 1.25e-6, 1.117e-6)
+    over a floor of 9.9e-7 rad.  Above the floor the asymmetry cuts the gap by 20 %; on the
+    raw RMS it cuts 5.7 % (and the cogging 10.0 %), so neither later name is kept."""
+    c = _scripted_close(tmp_path, monkeypatch, ["nonlinear_stiffness", "cogging_torque", "asymmetric_friction"],
+                        {"baseline": 3.47e-6, "updated-1": 1.45e-6, "updated-2": 1.184e-6, "updated-3": 1.117e-6},
+                        1.25e-6, 9.9e-7)
+    assert [it["named_effect"] for it in c.iterations] == ["nonlinear_stiffness"]
+    assert [d["named_effect"] for d in c.dropped] == ["cogging_torque", "asymmetric_friction"]
+    gb, ga = cl.gap_above_floor(1.25e-6, 9.9e-7), cl.gap_above_floor(1.117e-6, 9.9e-7)
+    assert ga <= (1 - cl.CONFIRM_SHRINK_LATER) * gb            # what a floor-relative rule would keep
+
+
+def test_the_first_name_is_judged_on_the_raw_replay(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Calibration seed 16 (clean): a false asymmetric friction cuts the raw replay RMS by
+    8.4 % (the gap above its 6.2e-7 rad floor by 14 %); the share is of the raw RMS, so it
+    is dropped."""
+    c = _scripted_close(tmp_path, monkeypatch, ["asymmetric_friction"],
+                        {"baseline": 9.86e-7, "updated-1": 9.03e-7}, float("nan"), 6.19e-7)
+    assert not c.iterations and [d["named_effect"] for d in c.dropped] == ["asymmetric_friction"]
+    assert c.updated is None
+
+
+def test_a_later_name_gets_the_re_fit_its_control_gets(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Calibration seed 151's replays: Stribeck friction first (2.61e-5 -> 6.31e-6 rad); on
+    the regression re-fitted with the cogging, the Stribeck factors fitted once more take
+    the control to 4.63e-6 rad.  The cogging's model is built with those re-fitted factors
+    too, so it is judged on its own section: with them 3.5e-6 rad (kept), without them
+    5.64e-6 (worse than the control)."""
+    rms = {"baseline": 2.61e-5, "updated-1": 6.31e-6, "updated-2": 5.64e-6, "updated-2+refit": 3.5e-6}
+    c = _scripted_close(tmp_path, monkeypatch, ["stribeck_friction", "cogging_torque"], rms, 4.63e-6, 0.0,
+                        {"factors": [0.8, 1.25]})
+    assert [it["named_effect"] for it in c.iterations] == ["stribeck_friction", "cogging_torque"]
+    second = c.iterations[1]
+    assert second["previous_factors"] == [0.8, 1.25] and second["sim_rms_after_rad"] == 3.5e-6
+    assert second["sim_rms_control_rad"] == 4.63e-6
+    # without re-fitted factors the control is the raw model before it: nothing changes
+    c = _scripted_close(tmp_path / "b", monkeypatch, ["stribeck_friction", "cogging_torque"], rms, 6.0e-6, 0.0,
+                        {"factors": [1.0, 1.0]})
+    assert [d["named_effect"] for d in c.dropped] == ["cogging_torque"]
+
+
 #: A calibration log with two hidden effects: asymmetric friction (x1.02) and transmission
 #: error (x1.10), both encoders, the drive's firmware, logged at 10 kHz.
 TWO_SEED = 7

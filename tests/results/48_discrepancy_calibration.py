@@ -18,6 +18,9 @@ the report from its cases without running anything; several JSONs separated by `
 merged by seed), ``HDSERVO_CALIB_CLEAN`` (signal sets, default ``motor,output``, empty for none: also every
 clean calibration seed of those sets, a census of the logs the threshold rule needs where
 the first seeds hold few; they enter the rule's inputs, not the report's figures),
+``HDSERVO_CALIB_TWO`` (default 0: how many calibration seeds with two hidden effects the log's
+signals can show to add, in seed order beyond the first seeds: a census of the two-effect logs,
+which enter :func:`two_effects` and not the report's other figures),
 ``HDSERVO_CALIB_SETS`` (signal sets: of the first seeds, only the logs of these sets; a run
 after a change that acts on those sets only, merged before the previous run with
 ``HDSERVO_CALIB_FROM``), ``HDSERVO_CALIB_OUT`` (the JSON written), ``HDSERVO_CALIB_PACKAGE=1`` (also
@@ -234,6 +237,50 @@ def census_seeds(sets: Sequence[str], seeds: Iterable[int]) -> list[int]:
     return out
 
 
+def two_effect_seeds(seeds: Iterable[int], n: int) -> list[int]:
+    """The first ``n`` of ``seeds`` whose log hides two effects its signals can both show (the
+    corpus' own draw, nothing simulated)."""
+    from oracles import discrepancy_corpus as corpus
+    out: list[int] = []
+    for s in seeds:
+        if len(out) >= n:
+            break
+        c = corpus.draw(s)
+        if len(c.hidden) == 2 and len(c.identifiable()) == 2:
+            out.append(int(s))
+    return out
+
+
+def two_effects(records: Iterable[dict[str, Any]]) -> dict[str, Any]:
+    """Logs with two hidden effects the signals can show (first seeds and census alike):
+    ``both_named`` (the simulator keeps both), ``both_by_workflow`` (the workflow names both,
+    before the simulator's stop rule), ``lost_by_simulator`` (named by the workflow, dropped
+    by the simulator), ``one_missed`` (the workflow names at most one of them) and
+    ``spurious`` (a kept name not hidden), with the seeds of each."""
+    out: dict[str, list[int]] = {"logs": [], "both_named": [], "both_by_workflow": [], "lost_by_simulator": [],
+                                 "one_missed": [], "spurious": []}
+    for r in records:
+        if r.get("error") or len(r["hidden"]) != 2 or len(r["identifiable"]) != 2:
+            continue
+        h, kept, wf = set(r["hidden"]), set(r["named"]), set(r.get("named_workflow", r["named"]))
+        s = int(r["seed"])
+        out["logs"].append(s)
+        if h <= kept:
+            out["both_named"].append(s)
+        if h <= wf:
+            out["both_by_workflow"].append(s)
+            if not h <= kept:
+                out["lost_by_simulator"].append(s)
+        else:
+            out["one_missed"].append(s)
+        if kept - h:
+            out["spurious"].append(s)
+    m = _heldout()
+    n = len(out["logs"])
+    return {**{k: sorted(v) for k, v in out.items()},
+            **{f"{k}_fraction": m._frac(len(out[k]), n) for k in ("both_named", "both_by_workflow", "spurious")}}
+
+
 def sample(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
     """The records of the first ``HDSERVO_CALIB_N`` seeds (the census' extra clean logs out)."""
     return [r for r in records if not r.get("census")]
@@ -287,6 +334,8 @@ def main() -> int:
             seeds = [s for s in seeds if corpus.draw(s).angles in only]
         sets = [a for a in os.environ.get("HDSERVO_CALIB_CLEAN", "motor,output").split(",") if a]
         extra = [s for s in census_seeds(sets, corpus.CALIBRATION_SEEDS) if s not in seeds]
+        n_two = int(os.environ.get("HDSERVO_CALIB_TWO", "0"))
+        extra += [s for s in two_effect_seeds(corpus.CALIBRATION_SEEDS, n_two) if s not in seeds and s not in extra]
         recs = []
         with ProcessPoolExecutor(max_workers=JOBS) as ex:
             for r in ex.map(analyse, seeds + extra):
@@ -302,6 +351,7 @@ def main() -> int:
     doc = {"set": "calibration", "report": report(sample(recs)), "cases": recs, "wall_s": wall,
            "threshold_inputs": threshold_inputs(recs, Settings().frac_min, wall)}
     doc["report"]["frac_min_rule"]["chosen_with_census"] = choose_frac_min(recs, Settings().frac_min)
+    doc["report"]["two_effects"] = two_effects(recs)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out, doc)
     if os.environ.get("HDSERVO_CALIB_PACKAGE") == "1":
