@@ -852,10 +852,10 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
     if const_share >= CONSTANT_NOTE_SHARE:
         held = "offset" in getattr(d, "_fixed_names", set())
         notes.append(f"the baseline's equation error is {100 * const_share:.0f} % a constant "
-                     f"({bl.residual_mean(base_fit):.3g} N.m at the motor"
+                     f"({bl.residual_mean(base_fit):.3g} {sig.units.get('torque', 'N.m')} at the motor"
                      + ("; the torque while moving differs from the offset held at the standstill torque" if held else "")
-                     + "): an effect that cannot make up a constant (a gravity unbalance) is sized against it, so one "
-                     "smaller than that constant is not named")
+                     + "): an effect that cannot make up a constant (a gravity unbalance) is sized against it, and one "
+                     "much smaller than that constant goes unnamed")
     if biased:
         notes.append(f"the baseline fit is not a mechanical axis ({', '.join(unphysical(baseline))}): it cannot be simulated, so "
                      f"{path.iterations[0]['named_effect']} was named on the equation error alone (its simulation-error "
