@@ -348,6 +348,38 @@ def equation_weights(fit: Fit) -> dict[str, float]:
     return out
 
 
+def constant_share(fit: Fit, weights: dict[str, float] | None = None) -> float:
+    """Share of a fit's weighted residual sum of squares that is the residual's mean.
+
+    Per equation the sum of squares splits into n mean^2 (the constant) and the sum of
+    squares about the mean; the shares are pooled over the equations with ``weights``
+    (1/scale per equation, 1 where absent).  A residual that is mostly a constant (a
+    rigid baseline whose offset, held at the standstill torque, differs from the mean
+    torque while moving) leaves no room for a candidate that cannot make up a constant
+    (a centred unbalance): its explained fraction is taken against that constant.
+
+    Returns
+    -------
+    float
+        In [0, 1]; 0 for a zero residual.
+    """
+    w = weights or {}
+    const = total = 0.0
+    for e, r in fit.resid.items():
+        rw = np.asarray(r, dtype=float) * w.get(e, 1.0)
+        if rw.size == 0:
+            continue
+        const += rw.size * float(np.mean(rw)) ** 2
+        total += float(np.sum(rw ** 2))
+    return const / total if total > 0 else 0.0
+
+
+def residual_mean(fit: Fit) -> float:
+    """Mean of the unweighted residual over every equation, N.m (motor side)."""
+    allr = np.concatenate(list(fit.resid.values()))
+    return float(np.mean(allr)) if allr.size else 0.0
+
+
 def physical_params(fit: Fit, sig: Signals) -> dict[str, float]:
     """Baseline parameters in SI units (two-mass: output-side K, c, load friction; motor-side J_m, motor friction)."""
     return fit.params()

@@ -69,6 +69,10 @@ class Settings:
         return replace(self, frac_min=max(self.frac_min, self.frac_min_by_signals.get(angles, self.frac_min)))
 
 
+#: Share of the baseline's equation error (:func:`hdservo.discrepancy.regression.constant_share`)
+#: from which the constant is the larger part of it and the run says so in ``notes``.
+CONSTANT_NOTE_SHARE = 0.5
+
 #: Log-bisection steps of :func:`oe_fit` towards the best-scoring level when it is not
 #: admissible.
 OE_BISECT = 3
@@ -708,6 +712,9 @@ class Result:
     #: -> why (:func:`hdservo.discrepancy.not_identifiable_parts`: a Coulomb asymmetry next
     #: to a constant offset).
     not_identifiable_parts: dict[str, dict[str, str]] = field(default_factory=dict)
+    #: Share of the baseline's weighted equation-error sum of squares that is its mean
+    #: (:func:`hdservo.discrepancy.regression.constant_share`).
+    base_constant_share: float = 0.0
 
     def named_by_size(self) -> list[str]:
         """The kept names, largest first by their share of the baseline's equation-error
@@ -719,7 +726,8 @@ class Result:
     def to_json(self) -> dict[str, Any]:
         # JSON has no inf/NaN: a figure that does not exist (a biased baseline's simulation
         # error) is null
-        return json_ready({"baseline": self.baseline, "baseline_relative_error_pct": self.base_rel_pct, "iterations": self.iterations, "named_effects": self.named,
+        return json_ready({"baseline": self.baseline, "baseline_relative_error_pct": self.base_rel_pct,
+                "baseline_constant_share": self.base_constant_share, "iterations": self.iterations, "named_effects": self.named,
                 "named_by_size": self.named_by_size(), "final_model": self.final_model, "residual_unit": "N.m at the motor (N for a linear axis)",
                 "rms_history": self.rms_history, "sim_rms_history_rad": self.sim_rms_history,
                 "sim_signal": SIM_TEXT, "first_ranking": self.ranking_first,
@@ -840,6 +848,14 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
     for it, share in zip(path.iterations, explained_shares(st_, base_fit)):
         it["explained_share"] = share
     notes = [zero_note] if zero_note else []
+    const_share = bl.constant_share(base_fit, st_.weights)
+    if const_share >= CONSTANT_NOTE_SHARE:
+        held = "offset" in getattr(d, "_fixed_names", set())
+        notes.append(f"the baseline's equation error is {100 * const_share:.0f} % a constant "
+                     f"({bl.residual_mean(base_fit):.3g} {sig.units.get('torque', 'N.m')} at the motor"
+                     + ("; the torque while moving differs from the offset held at the standstill torque" if held else "")
+                     + "): an effect that cannot make up a constant (a gravity unbalance) is sized against it, and one "
+                     "much smaller than that constant goes unnamed")
     if biased:
         notes.append(f"the baseline fit is not a mechanical axis ({', '.join(unphysical(baseline))}): it cannot be simulated, so "
                      f"{path.iterations[0]['named_effect']} was named on the equation error alone (its simulation-error "
@@ -852,7 +868,7 @@ def run(sig: Signals, settings: Settings | None = None, offset: bool | None = No
                   ranking_last=path.last_rank, whiteness=white, base_rel_pct=base_rel,
                   ranking_first=path.first_rank or [], sim_rms_history=path.sim_rms, sims=path.sims, floor=floor,
                   sim_floor=sim_floor, notes=notes, angles=sig.angles, identifiability=ident,
-                  not_identifiable_parts=not_identifiable_parts(sig.kind, offset))
+                  not_identifiable_parts=not_identifiable_parts(sig.kind, offset), base_constant_share=const_share)
 
 
 def explained_shares(st_: State, base_fit: bl.Fit) -> list[float]:
