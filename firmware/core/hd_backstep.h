@@ -90,6 +90,7 @@ typedef struct {
     int32_t shape;                 /* Stribeck regressor's shape exp(-(omega/w_s)^2), Q30, at its last refresh */
     hd_divinv_t inv_ws;            /* reciprocal of cfg w_s (refreshed by step / preload when it changes) */
     int32_t wd_prev;               /* omega_d of the last step (cruise test of the regressor) */
+    uint32_t wide;                 /* 1: T_load's widened box applies to the last step's adaptation */
 } hd_backstep_t;
 
 /** Parameters start at th0 (Q15.16, clamped into the bounds). */
