@@ -37,8 +37,8 @@ static void hd__th_round(hd_backstep_t *s)
     }
 }
 
-/* Projection of parameter i onto its box; moving: the reference moves slowly (hd__slow).
- * While it does, T_load's box (i = 3) is the configured one widened on both sides
+/* Projection of parameter i onto its box; moving: the axis can stick (hd__wide).
+ * While it can, T_load's box (i = 3) is the configured one widened on both sides
  * by the largest static friction the friction boxes admit, th_max_0 + th_max_1 (Fc + (Fs - Fc)).
  * Why: when the axis sticks at a reversal the friction regressor's sign s(omega) is about 0
  * (omega is noise about 0), so the static friction the axis must break shows up in e2 and only
@@ -51,10 +51,16 @@ static void hd__th_round(hd_backstep_t *s)
  * the static friction (measured: final errors of 20-110 arcsec after point-to-point moves).
  * Above 4 w_s the axis slides and cannot stick; there the wider box would only let T_load wind
  * up on the rigid model's mismatch during fast moves (measured: positioning A 0.33 instead of
- * 0.19 arcsec under a friction drift). */
-/* the reference moves, at most 4 w_s fast: where the axis can stick at a reversal or an arrival */
+ * 0.19 arcsec under a friction drift).  The widening follows the reason it exists, the
+ * regressor's sign about 0 at a stuck axis: while the reference cruises the regressor takes the
+ * reference's sign and its friction terms carry the breakaway, and an axis moving faster than
+ * w_s slides.  In both, T_load, the law's 25 Hz integral on e2, would only swing through the
+ * widened box (up to 6 Fs of the model wide): on the CSF-17-50 axis a 20 Hz limit cycle of
+ * +-1000 arcsec at the 0.01 deg/s sinusoid, and 4-25x the gyro mode's stabilisation error. */
 static bool hd__cruise(int32_t wd_prev, const hd_backstep_in_t *in);
 
+/* the axis can stick: the reference moves at most 4 w_s fast and does not cruise (the regressor
+ * takes the axis' velocity), and the axis moves at most w_s fast */
 static bool hd__wide(const hd_backstep_cfg_t *c, int32_t wd_prev, const hd_backstep_in_t *in)
 {
     const int64_t ws4 = 4 * (int64_t)c->w_s;
@@ -185,7 +191,8 @@ void hd_backstep_preload(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
     s->shape = hd__shape(&s->inv_ws, c, hd__wr(s->wd_prev, in));
     const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th_q16, s->shape, s->wd_prev, c, in);
     const int64_t du = hdf_sub64_sat((int64_t)u_now, u);              /* Q16; phi_3 = 1 */
-    s->th[3] = hd__project(c, 3u, hdf_add64_sat(s->th[3], hdf_shl64_sat(du, 32u)), hd__wide(c, s->wd_prev, in));
+    s->wide = hd__wide(c, s->wd_prev, in) ? 1u : 0u;
+    s->th[3] = hd__project(c, 3u, hdf_add64_sat(s->th[3], hdf_shl64_sat(du, 32u)), s->wide != 0u);
     hd__th_round(s);
     s->u_bs = hdf_sat32(hd__law(&s->e1, &s->e2, s->phi, s->th_q16, s->shape, s->wd_prev, c, in));
     s->u = u_now;
@@ -204,16 +211,16 @@ int32_t hd_backstep_step(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
     s->saturated = ((int64_t)s->u_bs != u) ? 1u : 0u;
     (void)hd_blend_update(&s->blend);
     s->u = hd_blend_mix(&s->blend, u_base, s->u_bs);
+    s->wide = hd__wide(c, s->wd_prev, in) ? 1u : 0u;
     /* adaptation (for the next period): frozen while saturated or blended out */
     if (s->saturated == 0u && s->blend.w != 0) {
         for (i = 0; i < HD_BS_NP; i++) {
             const int32_t pe = hdf_mul_q(s->phi[i], s->e2, 30u);           /* 2^-32 turn/s */
             const int64_t d = hdf_asr64_rnd((int64_t)c->gamma_dt[i] * (int64_t)pe, 8u); /* Q48 */
-            s->th[i] = hd__project(c, i, hdf_sub64_sat(s->th[i], d), hd__wide(c, s->wd_prev, in));
+            s->th[i] = hd__project(c, i, hdf_sub64_sat(s->th[i], d), s->wide != 0u);
         }
         hd__th_round(s);
     }
-    s->wide = hd__wide(c, s->wd_prev, in) ? 1u : 0u;
     s->wd_prev = in->omega_d;
     return s->u;
 }
@@ -227,7 +234,6 @@ int32_t hd_backstep_step_held(hd_backstep_t *s, const hd_backstep_cfg_t *c, cons
     s->saturated = ((int64_t)s->u_bs != u) ? 1u : 0u;
     (void)hd_blend_update(&s->blend);
     s->u = hd_blend_mix(&s->blend, u_base, s->u_bs);
-    s->wide = hd__wide(c, s->wd_prev, in) ? 1u : 0u;
     s->wd_prev = in->omega_d;
     return s->u;
 }
@@ -236,6 +242,7 @@ void hd_backstep_regressor(hd_backstep_t *s, const hd_backstep_cfg_t *c, const h
 {
     hd__inv_ws(s, c);
     s->shape = hd__shape(&s->inv_ws, c, hd__wr(s->wd_prev, in));
+    s->wide = hd__wide(c, s->wd_prev, in) ? 1u : 0u;    /* T_load's box of this cycle's adaptation */
 }
 
 void hd_backstep_adapt(hd_backstep_t *s, const hd_backstep_cfg_t *c, uint32_t log2_n)
@@ -249,7 +256,7 @@ void hd_backstep_adapt(hd_backstep_t *s, const hd_backstep_cfg_t *c, uint32_t lo
         /* 2^log2_n periods of gamma_dt: round(gamma_dt pe 2^log2_n / 2^8); |gamma_dt pe| < 2^62 */
         const int32_t pe = hdf_mul_q(s->phi[i], s->e2, 30u);
         const int64_t d = hdf_asr64_rnd((int64_t)c->gamma_dt[i] * (int64_t)pe, 8u - log2_n);
-        s->th[i] = hd__project(c, i, hdf_sub64_sat(s->th[i], d), s->wide != 0u);   /* omega_d of step_held */
+        s->th[i] = hd__project(c, i, hdf_sub64_sat(s->th[i], d), s->wide != 0u);   /* set by hd_backstep_regressor */
     }
     hd__th_round(s);
 }
