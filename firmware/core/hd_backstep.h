@@ -113,7 +113,8 @@ int32_t hd_backstep_step(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
 int32_t hd_backstep_step_held(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in,
                               int32_t u_base);
 /** Refresh the held Stribeck shape of the regressor at this period's regressor velocity
- *  (omega_d while the reference cruises, omega otherwise: see phi above). */
+ *  (omega_d while the reference cruises, omega otherwise: see phi above) and T_load's box of
+ *  the next hd_backstep_adapt (widened while the axis can stick). */
 void hd_backstep_regressor(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in);
 /** The adaptation of 2^log2_n periods (log2_n <= 8) at once, from the regressor and e2
  *  of the last hd_backstep_step_held (frozen while it saturated or blended out). */
