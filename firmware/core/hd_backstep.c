@@ -37,8 +37,8 @@ static void hd__th_round(hd_backstep_t *s)
     }
 }
 
-/* Projection of parameter i onto its box; moving: the reference moves slowly (hd__slow).
- * While it does, T_load's box (i = 3) is the configured one widened on both sides
+/* Projection of parameter i onto its box; moving: the axis can stick (hd__wide).
+ * While it can, T_load's box (i = 3) is the configured one widened on both sides
  * by the largest static friction the friction boxes admit, th_max_0 + th_max_1 (Fc + (Fs - Fc)).
  * Why: when the axis sticks at a reversal the friction regressor's sign s(omega) is about 0
  * (omega is noise about 0), so the static friction the axis must break shows up in e2 and only
@@ -51,12 +51,22 @@ static void hd__th_round(hd_backstep_t *s)
  * the static friction (measured: final errors of 20-110 arcsec after point-to-point moves).
  * Above 4 w_s the axis slides and cannot stick; there the wider box would only let T_load wind
  * up on the rigid model's mismatch during fast moves (measured: positioning A 0.33 instead of
- * 0.19 arcsec under a friction drift). */
-/* the reference moves, at most 4 w_s fast: where the axis can stick at a reversal or an arrival */
-static bool hd__slow(const hd_backstep_cfg_t *c, int32_t wd)
+ * 0.19 arcsec under a friction drift).  The widening follows the reason it exists, the
+ * regressor's sign about 0 at a stuck axis: while the reference cruises the regressor takes the
+ * reference's sign and its friction terms carry the breakaway, and an axis moving faster than
+ * w_s slides.  In both, T_load, the law's 25 Hz integral on e2, would only swing through the
+ * widened box (up to 6 Fs of the model wide): on the CSF-17-50 axis a 20 Hz limit cycle of
+ * +-1000 arcsec at the 0.01 deg/s sinusoid, and 4-25x the gyro mode's stabilisation error. */
+static bool hd__cruise(int32_t wd_prev, const hd_backstep_in_t *in);
+
+/* the axis can stick: the reference moves at most 4 w_s fast and does not cruise (the regressor
+ * takes the axis' velocity), and the axis moves at most w_s fast */
+static bool hd__wide(const hd_backstep_cfg_t *c, int32_t wd_prev, const hd_backstep_in_t *in)
 {
-    const int64_t a = (wd < 0) ? -(int64_t)wd : (int64_t)wd;
-    return (wd != 0) && (a <= 4 * (int64_t)c->w_s);
+    const int64_t ws4 = 4 * (int64_t)c->w_s;
+    const int64_t a = (in->omega_d < 0) ? -(int64_t)in->omega_d : (int64_t)in->omega_d;
+    const int64_t b = (in->omega < 0) ? -(int64_t)in->omega : (int64_t)in->omega;
+    return (in->omega_d != 0) && (a <= ws4) && (b <= (int64_t)c->w_s) && !hd__cruise(wd_prev, in);
 }
 
 static int64_t hd__project(const hd_backstep_cfg_t *c, uint32_t i, int64_t v, bool moving)
@@ -89,6 +99,7 @@ void hd_backstep_init(hd_backstep_t *s, const hd_backstep_cfg_t *c, const int32_
     s->saturated = 0u;
     s->shape = HD_Q30_ONE;
     s->wd_prev = 0;
+    s->wide = 0u;
     hd_divinv_init(&s->inv_ws, 0u);
     hd__th_round(s);
 }
@@ -122,11 +133,15 @@ static int32_t hd__shape(const hd_divinv_t *inv_ws, const hd_backstep_cfg_t *c, 
  * the load term T_load has to carry the friction as well as the load.  With an unbalance on top
  * that exceeds T_load's projection bound, the position error stays, the cascade's velocity PID
  * winds up and the drive trips on torque saturation. */
-static int32_t hd__wr(int32_t wd_prev, const hd_backstep_in_t *in)
+static bool hd__cruise(int32_t wd_prev, const hd_backstep_in_t *in)
 {
     const int64_t dwd = (int64_t)in->omega_d - (int64_t)wd_prev;
-    const bool cruise = (in->omega_d != 0) && (dwd <= HD_BS_WD_STEADY) && (dwd >= -HD_BS_WD_STEADY);
-    return cruise ? in->omega_d : in->omega;
+    return (in->omega_d != 0) && (dwd <= HD_BS_WD_STEADY) && (dwd >= -HD_BS_WD_STEADY);
+}
+
+static int32_t hd__wr(int32_t wd_prev, const hd_backstep_in_t *in)
+{
+    return hd__cruise(wd_prev, in) ? in->omega_d : in->omega;
 }
 
 /* Errors, regressor (with the given Stribeck shape of hd__wr) and the law; fills e1, e2, phi. */
@@ -176,7 +191,8 @@ void hd_backstep_preload(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
     s->shape = hd__shape(&s->inv_ws, c, hd__wr(s->wd_prev, in));
     const int64_t u = hd__law(&s->e1, &s->e2, s->phi, s->th_q16, s->shape, s->wd_prev, c, in);
     const int64_t du = hdf_sub64_sat((int64_t)u_now, u);              /* Q16; phi_3 = 1 */
-    s->th[3] = hd__project(c, 3u, hdf_add64_sat(s->th[3], hdf_shl64_sat(du, 32u)), hd__slow(c, in->omega_d));
+    s->wide = hd__wide(c, s->wd_prev, in) ? 1u : 0u;
+    s->th[3] = hd__project(c, 3u, hdf_add64_sat(s->th[3], hdf_shl64_sat(du, 32u)), s->wide != 0u);
     hd__th_round(s);
     s->u_bs = hdf_sat32(hd__law(&s->e1, &s->e2, s->phi, s->th_q16, s->shape, s->wd_prev, c, in));
     s->u = u_now;
@@ -195,12 +211,13 @@ int32_t hd_backstep_step(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
     s->saturated = ((int64_t)s->u_bs != u) ? 1u : 0u;
     (void)hd_blend_update(&s->blend);
     s->u = hd_blend_mix(&s->blend, u_base, s->u_bs);
+    s->wide = hd__wide(c, s->wd_prev, in) ? 1u : 0u;
     /* adaptation (for the next period): frozen while saturated or blended out */
     if (s->saturated == 0u && s->blend.w != 0) {
         for (i = 0; i < HD_BS_NP; i++) {
             const int32_t pe = hdf_mul_q(s->phi[i], s->e2, 30u);           /* 2^-32 turn/s */
             const int64_t d = hdf_asr64_rnd((int64_t)c->gamma_dt[i] * (int64_t)pe, 8u); /* Q48 */
-            s->th[i] = hd__project(c, i, hdf_sub64_sat(s->th[i], d), hd__slow(c, in->omega_d));
+            s->th[i] = hd__project(c, i, hdf_sub64_sat(s->th[i], d), s->wide != 0u);
         }
         hd__th_round(s);
     }
@@ -225,6 +242,7 @@ void hd_backstep_regressor(hd_backstep_t *s, const hd_backstep_cfg_t *c, const h
 {
     hd__inv_ws(s, c);
     s->shape = hd__shape(&s->inv_ws, c, hd__wr(s->wd_prev, in));
+    s->wide = hd__wide(c, s->wd_prev, in) ? 1u : 0u;    /* T_load's box of this cycle's adaptation */
 }
 
 void hd_backstep_adapt(hd_backstep_t *s, const hd_backstep_cfg_t *c, uint32_t log2_n)
@@ -238,7 +256,7 @@ void hd_backstep_adapt(hd_backstep_t *s, const hd_backstep_cfg_t *c, uint32_t lo
         /* 2^log2_n periods of gamma_dt: round(gamma_dt pe 2^log2_n / 2^8); |gamma_dt pe| < 2^62 */
         const int32_t pe = hdf_mul_q(s->phi[i], s->e2, 30u);
         const int64_t d = hdf_asr64_rnd((int64_t)c->gamma_dt[i] * (int64_t)pe, 8u - log2_n);
-        s->th[i] = hd__project(c, i, hdf_sub64_sat(s->th[i], d), hd__slow(c, s->wd_prev));   /* omega_d of step_held */
+        s->th[i] = hd__project(c, i, hdf_sub64_sat(s->th[i], d), s->wide != 0u);   /* set by hd_backstep_regressor */
     }
     hd__th_round(s);
 }

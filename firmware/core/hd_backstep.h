@@ -10,8 +10,8 @@
  *   alpha1'= acc_d - c1 (omega - omega_d)
  *   u      = J (alpha1' - c2 e2) - ke e1 + phi^T theta_hat
  *   theta_hat' = -Gamma phi e2, projected onto [th_min, th_max] per parameter; while the
- *            reference moves at most 4 w_s fast (0 < |omega_d| <= 4 w_s) T_load's box is
- *            widened on both sides by
+ *            axis can stick (0 < |omega_d| <= 4 w_s, the reference not cruising, |omega| <= w_s)
+ *            T_load's box is widened on both sides by
  *            th_max_0 + th_max_1 (the largest static friction: when the axis sticks at a
  *            reversal the friction regressor is about 0 and T_load carries the breakaway)
  *   phi    = [ s(w), exp(-(w/w_s)^2) s(w), w [turn/s], 1 ],  w = omega_d while the reference
@@ -90,6 +90,7 @@ typedef struct {
     int32_t shape;                 /* Stribeck regressor's shape exp(-(omega/w_s)^2), Q30, at its last refresh */
     hd_divinv_t inv_ws;            /* reciprocal of cfg w_s (refreshed by step / preload when it changes) */
     int32_t wd_prev;               /* omega_d of the last step (cruise test of the regressor) */
+    uint32_t wide;                 /* 1: T_load's widened box in the adaptation (set by step, preload, regressor) */
 } hd_backstep_t;
 
 /** Parameters start at th0 (Q15.16, clamped into the bounds). */
@@ -112,7 +113,8 @@ int32_t hd_backstep_step(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_
 int32_t hd_backstep_step_held(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in,
                               int32_t u_base);
 /** Refresh the held Stribeck shape of the regressor at this period's regressor velocity
- *  (omega_d while the reference cruises, omega otherwise: see phi above). */
+ *  (omega_d while the reference cruises, omega otherwise: see phi above) and T_load's box of
+ *  the next hd_backstep_adapt (widened while the axis can stick). */
 void hd_backstep_regressor(hd_backstep_t *s, const hd_backstep_cfg_t *c, const hd_backstep_in_t *in);
 /** The adaptation of 2^log2_n periods (log2_n <= 8) at once, from the regressor and e2
  *  of the last hd_backstep_step_held (frozen while it saturated or blended out). */

@@ -654,8 +654,8 @@ static void test_te_fit32_same_words(void **state)
  * torque breaks it away: Fs 10 N.m, Fc 7 N.m) under a load torque of 12 N.m, larger than the
  * breakaway, with T_load's configured box +-14 N.m: it holds the load, not the load plus Fs.
  * While the axis sticks the friction regressor's sign is 0 and only T_load's integral can
- * supply the breakaway, so while the reference moves slowly (at most 4 w_s) T_load may leave
- * the configured box (by
+ * supply the breakaway, so while the axis can stick (the reference moves at most 4 w_s fast and
+ * does not cruise, the axis at most w_s fast) T_load may leave the configured box (by
  * at most the friction boxes' Fc + (Fs - Fc)); the reversal error then stays near the one of a
  * load inside the box.  With a box of the load alone the error at the reversal against the load
  * is the one the e1 terms need to break the axis away, several times that. */
@@ -736,12 +736,33 @@ static void test_backstep_reversal_against_a_load_beyond_the_box(void **state)
             (void)hd_backstep_step(&s, &c, &in, 0);
         }
         assert_true(s.th[3] == ((int64_t)NM(14) << 32));
-        in.omega_d = DEGS / 100;                                   /* the reference moves slowly: wider */
+        /* a slow reference that cruises (constant omega_d): the friction regressor takes its
+         * sign and carries the breakaway, so the configured box holds */
+        in.omega_d = DEGS / 100;
         for (k = 0; k < 2000u; k++) {
             (void)hd_backstep_step(&s, &c, &in, 0);
         }
+        assert_true(s.th[3] == ((int64_t)NM(14) << 32));
+        /* the reference moves slowly and changes (a reversal; the regressor takes the axis'
+         * velocity) while the axis sticks: wider */
+        for (k = 0; k < 2000u; k++) {
+            in.omega_d = DEGS / 100 + (int32_t)((k & 1u) * 1000u);
+            (void)hd_backstep_step(&s, &c, &in, 0);
+        }
         assert_true(s.th[3] > ((int64_t)NM(14) << 32) && s.th[3] <= ((int64_t)NM(14 + 60) << 32));
-        in.omega_d = 5 * DEGS;                                     /* faster than 4 w_s: the load box */
+        /* the axis slides faster than w_s: it cannot stick, the load box */
+        in.omega = 2 * DEGS;
+        in.omega_d = DEGS / 100;
+        (void)hd_backstep_step(&s, &c, &in, 0);
+        assert_true(s.th[3] <= ((int64_t)NM(14) << 32));
+        /* the reference faster than 4 w_s: the load box */
+        in.omega = 0;
+        for (k = 0; k < 200u; k++) {
+            in.omega_d = DEGS / 100 + (int32_t)((k & 1u) * 1000u);
+            (void)hd_backstep_step(&s, &c, &in, 0);
+        }
+        assert_true(s.th[3] > ((int64_t)NM(14) << 32));
+        in.omega_d = 5 * DEGS;
         (void)hd_backstep_step(&s, &c, &in, 0);
         assert_true(s.th[3] <= ((int64_t)NM(14) << 32));
     }

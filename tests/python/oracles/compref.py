@@ -225,10 +225,11 @@ def backstep_run(cfg: Sequence[int], th0: Sequence[int], theta: np.ndarray, thet
         ub = float(np.clip(u, -u_max, u_max))
         u_out[i] = ub
         if ub == u:
-            # while the reference moves at most 4 w_s fast, T_load's box is widened by the friction
-            # bounds (Fc + Fs - Fc)
+            # while the axis can stick (the reference at most 4 w_s fast and not cruising, the
+            # axis at most w_s fast), T_load's box is widened by the friction bounds (Fc + Fs - Fc)
             lo_i, hi_i = lo.copy(), hi.copy()
-            if omega_d[i] != 0 and abs(float(omega_d[i])) <= 4.0 * w_s:
+            if (omega_d[i] != 0 and abs(float(omega_d[i])) <= 4.0 * w_s and not cruise
+                    and abs(w) <= w_s):
                 fs = (max(float(cfg[16]), 0.0) + max(float(cfg[17]), 0.0)) * Q32
                 lo_i[3] -= fs
                 hi_i[3] += fs
