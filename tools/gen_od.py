@@ -112,6 +112,7 @@ class Pdo:
     enabled: bool
     mapping: list[tuple[int, int]]
     event: int = 0
+    inhibit: int = 0             # 100 us units (0x1800:3): least time between two sends of a TPDO
 
 
 @dataclass
@@ -225,7 +226,7 @@ def _pdo_objects(pdos: list[Pdo], n_pdo: int, n_map: int) -> list[Obj]:
             subs.append(cobv)
             subs.append(Var(comm_base + i, 2, "transmission_type", "u8", "rw", default=trans, min=0,
                             max=255, flags=["store"], cfield=f"{arr}_type[{i}]"))
-            subs.append(Var(comm_base + i, 3, "inhibit_time", "u16", "rw", default=0, min=0,
+            subs.append(Var(comm_base + i, 3, "inhibit_time", "u16", "rw", default=p.inhibit if p else 0, min=0,
                             max=0xFFFF, flags=["store"], unit="100 us", cfield=f"{arr}_inhibit[{i}]"))
             subs.append(Var(comm_base + i, 5, "event_timer", "u16", "rw", default=p.event if p else 0, min=0,
                             max=0xFFFF, flags=["store"], unit="ms", cfield=f"{arr}_event[{i}]"))
@@ -329,7 +330,11 @@ def load(params_path: Path, canopen_path: Path) -> Od:
             event = _int(e.get("event", 0), where, "event")
             if not 0 <= event <= 0xFFFF:
                 raise OdError(f"{where}: event must be 0..65535 ms")
-            pdos.append(Pdo(direction[0], num, trans, bool(e.get("enabled", True)), mp, event))  # type: ignore[arg-type]
+            inhibit = _int(e.get("inhibit", 0), where, "inhibit")
+            if not 0 <= inhibit <= 0xFFFF:
+                raise OdError(f"{where}: inhibit must be 0..65535 (100 us units)")
+            pdos.append(Pdo(direction[0], num, trans, bool(e.get("enabled", True)), mp, event,  # type: ignore[arg-type]
+                            inhibit))
     # manufacturer parameters from params.toml
     by_index: dict[int, list[Var]] = {}
     for i, p in enumerate(params):

@@ -98,7 +98,7 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x1800u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(6), NULL},  /* highest_sub_index_supported */
     {0x1800u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE|HD_CO_F_NODEID), HD_CO_K_VAR, OFF(tpdo_cob[0]), INT64_C(0), INT64_C(4294967295), INT64_C(384), NULL},  /* cob_id */
     {0x1800u, 2u, 0x05u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_VAR, OFF(tpdo_type[0]), INT64_C(0), INT64_C(255), INT64_C(255), NULL},  /* transmission_type */
-    {0x1800u, 3u, 0x06u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_VAR, OFF(tpdo_inhibit[0]), INT64_C(0), INT64_C(65535), INT64_C(0), NULL},  /* inhibit_time */
+    {0x1800u, 3u, 0x06u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_VAR, OFF(tpdo_inhibit[0]), INT64_C(0), INT64_C(65535), INT64_C(100), NULL},  /* inhibit_time */
     {0x1800u, 5u, 0x06u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_VAR, OFF(tpdo_event[0]), INT64_C(0), INT64_C(65535), INT64_C(100), NULL},  /* event_timer */
     {0x1800u, 6u, 0x05u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_VAR, OFF(tpdo_sync_start[0]), INT64_C(0), INT64_C(240), INT64_C(0), NULL},  /* sync_start_value */
     {0x1801u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(6), NULL},  /* highest_sub_index_supported */

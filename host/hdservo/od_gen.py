@@ -581,7 +581,7 @@ STORED: tuple[StoredEntry, ...] = (
     StoredEntry(0x1603, 8, 'mapped_object_8', 'u32', False, 0, 0, 4294967295, ''),
     StoredEntry(0x1800, 1, 'cob_id', 'u32', True, 384, 0, 4294967295, ''),
     StoredEntry(0x1800, 2, 'transmission_type', 'u8', False, 255, 0, 255, ''),
-    StoredEntry(0x1800, 3, 'inhibit_time', 'u16', False, 0, 0, 65535, '100 us'),
+    StoredEntry(0x1800, 3, 'inhibit_time', 'u16', False, 100, 0, 65535, '100 us'),
     StoredEntry(0x1800, 5, 'event_timer', 'u16', False, 100, 0, 65535, 'ms'),
     StoredEntry(0x1800, 6, 'sync_start_value', 'u8', False, 0, 0, 240, ''),
     StoredEntry(0x1801, 1, 'cob_id', 'u32', True, 640, 0, 4294967295, ''),

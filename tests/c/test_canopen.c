@@ -35,6 +35,7 @@ typedef struct {
     uint16_t app_fault;
     uint32_t tick;
     uint32_t filtered;           /* accesses refused by t_filter */
+    bool chatter;                /* internal limit on and off at loop rate (a hunting axis) */
 } ctx_t;
 
 static bool t_send(void *c, const hd_can_frame_t *f)
@@ -136,6 +137,8 @@ static void t_actual(void *c, hd_co_actual_t *a)
     a->standstill = 1u;
     a->fault_code = x->app_fault;
     a->fault_emcy = x->app_fault != 0u ? 0x8611u : 0u;
+    /* irregular on/off (a multiplicative hash of the tick), so no inhibit time samples one phase only */
+    a->internal_limit = (x->chatter && ((x->tick * 2654435761u) >> 31) != 0u) ? 1u : 0u;
 }
 static void t_fault_reset(void *c) { ((ctx_t *)c)->fault_resets++; ((ctx_t *)c)->app_fault = 0u; }
 static void t_comm_fault(void *c, uint16_t code) { (void)code; ((ctx_t *)c)->comm_faults++; }
@@ -1106,6 +1109,66 @@ static void test_profile_plugged_in_or_plain_301(void **st)
     assert_int_equal(f->data[0], 0u);
 }
 
+/* A statusword that changes every period (an axis hunting about its target toggles
+ * target reached / internal limit at loop rate) must not put a TPDO1 on the bus every
+ * period: at 10 kHz the change-of-state TPDO would fill the bus ahead of the SDO
+ * answers (0x180+n outranks 0x580+n) and the master would lose the drive.  The default
+ * inhibit time (0x1800:3) spaces them; the last state still goes out. */
+static void test_tpdo1_chatter_is_spaced_by_the_inhibit_time(void **st)
+{
+    (void)st;
+    setup_dev();
+    uint32_t inhibit = 0u;
+    assert_int_equal(sdo_read(0x1800u, 3u, &inhibit), 0);
+    uint8_t start[2] = {0x01, 0};
+    rx(0, 2, start);
+    tick(10);
+    flush();
+    X.chatter = true;
+    const uint32_t periods = 10000u;                 /* 1 s of drive time */
+    uint32_t n = 0u;
+    uint32_t last_tick = 0u;
+    uint32_t min_gap = UINT32_MAX;
+    uint16_t sw = 0u;                                /* the last statusword the master has seen */
+    uint32_t with_limit = 0u;
+    for (uint32_t k = 0u; k < periods; k += 100u) {
+        tick(100u);
+        for (uint32_t i = 0u; i < X.ntx; i++) {
+            const hd_can_frame_t *f = &X.tx[i];
+            if (f->id != 0x180u + NODE) {
+                continue;
+            }
+            const uint32_t t = u32le(&f->data[4]);
+            if (n > 0u && t - last_tick < min_gap) {
+                min_gap = t - last_tick;
+            }
+            last_tick = t;
+            sw = (uint16_t)(f->data[0] | (f->data[1] << 8));
+            with_limit += (sw & 0x0800u) != 0u ? 1u : 0u;
+            n++;
+        }
+        assert_false(X.tx_full);
+        flush();
+    }
+    /* at most one TPDO1 per millisecond whatever the statusword does; the changes are still
+     * reported, one per inhibit time (0x1800:3, 100 us units) */
+    assert_true(n <= periods / 10u + 1u);
+    assert_true(min_gap >= 10u);
+    assert_true(inhibit >= 10u && min_gap >= inhibit);
+    assert_true(n >= periods / inhibit / 2u);
+    assert_true(with_limit > 0u && with_limit < n);  /* both states were reported */
+    /* the chatter ends in the limit-free state: it reaches the master within one inhibit time */
+    X.chatter = false;
+    tick(inhibit + 1u);
+    const hd_can_frame_t *f;
+    while ((f = next_tx()) != NULL) {
+        if (f->id == 0x180u + NODE) {
+            sw = (uint16_t)(f->data[0] | (f->data[1] << 8));
+        }
+    }
+    assert_int_equal(sw & 0x0800u, 0u);
+}
+
 static void test_cobid_rules(void **st)
 {
     static const uint32_t restricted[] = {0x001, 0x07F, 0x101, 0x17F, 0x180, 0x581, 0x580 + NODE, 0x5FF,
@@ -1196,6 +1259,7 @@ int main(void)
         cmocka_unit_test(test_402_new_setpoint_edge_latched_at_write),
         cmocka_unit_test(test_heartbeat_consumer),
         cmocka_unit_test(test_pdo_mapping_and_stream),
+        cmocka_unit_test(test_tpdo1_chatter_is_spaced_by_the_inhibit_time),
         cmocka_unit_test(test_object_filter),
         cmocka_unit_test(test_nmt_leaving_operational_applies_0x6007),
         cmocka_unit_test(test_nmt_without_reaction),

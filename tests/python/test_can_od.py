@@ -67,6 +67,24 @@ def test_generator_bad_input_one_line_no_output(tmp_path: Path) -> None:
     assert not out.exists()
 
 
+def test_tpdo1_has_an_inhibit_time_and_a_bad_one_is_refused(tmp_path: Path) -> None:
+    """TPDO1 (change of state) carries its canopen.toml inhibit time into the EDS, so a
+    chattering statusword cannot fill the bus; an inhibit outside 0..65535 is one error line."""
+    od = canopen.import_od(str(EDS))
+    assert od[0x1800][3].default >= 10                         # >= 1 ms (100 us units)
+    text = (ROOT / "firmware" / "params" / "canopen.toml").read_text()
+    assert "inhibit = 100" in text
+    bad = tmp_path / "canopen.toml"
+    bad.write_text(text.replace("inhibit = 100", "inhibit = 70000", 1))
+    out = tmp_path / "out"
+    r = subprocess.run([sys.executable, str(ROOT / "tools" / "gen_od.py"), "--canopen", str(bad),
+                        "--out-dir", str(out)], capture_output=True, text=True)
+    assert r.returncode == 1
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "tpdo 1" in lines[0] and "inhibit" in lines[0]
+    assert not out.exists()
+
+
 @pytest.mark.skipif(not SIM.exists(), reason="hdservo-sim not built")
 def test_socketcan_without_kernel_can_says_so() -> None:
     r = subprocess.run([str(SIM), "serve", "--transport", "socketcan", "--channel", "hdnosuch0"],
