@@ -184,9 +184,10 @@ def everett_from_forcs(T: np.ndarray, phi: np.ndarray, cmd: np.ndarray, levels: 
     levels, step_Nm, u0_Nm : int, float, float
         Table grid (L levels, spacing, first level), in the input's unit.
     signed : bool
-        Cell masses of either sign (least squares) instead of a non-negative density (NNLS).  The
-        gear's twist -> torque operator has a negative Preisach part (the plant's P_mean - P,
-        docs/plant.md): a non-negative projection would distort it.
+        Cell masses of either sign instead of a non-negative density (NNLS).  The gear's twist ->
+        torque operator has a negative Preisach part (the plant's P_mean - P, docs/plant.md): a
+        non-negative projection would distort it.  Signed masses reproduce any grid table, so the
+        table is then the interpolated samples themselves (no projection).
 
     Returns
     -------
@@ -237,16 +238,18 @@ def everett_from_forcs(T: np.ndarray, phi: np.ndarray, cmd: np.ndarray, levels: 
             srt = np.argsort(x)
             target[i, j] = float(np.interp(grid[i], x[srt], y[srt]))
             weight[i, j] = 1.0 if grid[i] <= al[ok].max() + 0.5 * step_Nm else 0.2
-    A, cells, pts = cell_sum_matrix(levels)
-    w = np.array([weight[i, j] for i, j in pts])
-    b = np.array([target[i, j] for i, j in pts])
     if signed:
-        mu = np.linalg.lstsq(A * w[:, None], b * w, rcond=None)[0]
+        E = np.tril(target, -1)
+        fit_rms = 0.0
     else:
+        A, cells, pts = cell_sum_matrix(levels)
+        w = np.array([weight[i, j] for i, j in pts])
+        b = np.array([target[i, j] for i, j in pts])
         mu, _ = nnls(A * w[:, None], b * w, maxiter=50 * A.shape[1])
-    E = np.zeros((levels, levels))
-    for r, (i, j) in enumerate(pts):
-        E[i, j] = float(A[r] @ mu)
+        E = np.zeros((levels, levels))
+        for r, (i, j) in enumerate(pts):
+            E[i, j] = float(A[r] @ mu)
+        fit_rms = float(np.sqrt(np.mean(((A @ mu) - b) ** 2)))
     # offset: centre of the major loop (twist at the lowest and highest torque)
     lo = phi[np.argmin(T)]
     hi = phi[np.argmax(T)]
@@ -254,8 +257,7 @@ def everett_from_forcs(T: np.ndarray, phi: np.ndarray, cmd: np.ndarray, levels: 
     ev.offset_rad = 0.5 * (float(lo) + float(hi)) - 0.0
     # the model spans +-E_total around the offset: align with the measured extremes
     ev.offset_rad = float(0.5 * (lo + hi))
-    return ev, {"forcs": len(forcs), "alphas_Nm": al.tolist(), "fit_rms_rad": float(
-        np.sqrt(np.mean(((A @ mu) - b) ** 2)))}
+    return ev, {"forcs": len(forcs), "alphas_Nm": al.tolist(), "fit_rms_rad": fit_rms}
 
 
 def grid_for(torque_range_Nm: float, levels: int) -> tuple[float, float]:
@@ -415,7 +417,8 @@ class MinorLoopCheck:
 
 
 def loop_width(T: np.ndarray, phi: np.ndarray, cmd: np.ndarray) -> float:
-    """Largest twist gap between a descending and the following ascending stretch at equal torque (rad)."""
+    """Largest output gap between a descending and the following ascending stretch at equal input
+    (twist at equal torque, rad; or torque at equal twist, N.m)."""
     st = split_reversals(cmd)
     best = 0.0
     for (a0, a1), (b0, b1) in zip(st[:-1], st[1:]):
@@ -428,7 +431,9 @@ def loop_width(T: np.ndarray, phi: np.ndarray, cmd: np.ndarray) -> float:
             g = np.linspace(lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo), 20)
             sa = np.interp(g, np.maximum.accumulate(ta), pa)
             sb = np.interp(g, np.maximum.accumulate(tb), pb)
-            best = max(best, float(np.max(sa - sb)))
+            # the larger gap, whichever branch lies above (twist: the descending one; torque at
+            # equal twist, :func:`gear_table_from_forcs`: the ascending one)
+            best = max(best, float(np.max(sa - sb)), float(np.max(sb - sa)))
     return best
 
 
