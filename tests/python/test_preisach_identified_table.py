@@ -77,3 +77,23 @@ def test_identified_table_has_the_gears_loop_width(lib: C.CDLL, heavy_axis: str,
               f"identified table {w_drive:.2f}\"")
         assert w_plant > 0.0
         assert abs(w_drive - w_plant) <= 0.15 * w_plant + lattice, (which, k, w_plant, w_drive)
+
+
+def test_twist_grid_rule() -> None:
+    """Lattice step 2^10, at most 64 levels, every level inside the measured range; a range of less
+    than one grid cell is refused."""
+    from hdservo.errors import UserError
+    from hdservo.ident import hysteresis as hy
+    for rng in (1e-4, 5.8e-4, 7.4e-4, 2.5e-3, 2e-2):
+        levels, sub, shift, u0 = hy.twist_grid(rng)
+        cell = (1 << shift) << sub
+        assert 2 <= levels <= hy.TWIST_LEVELS_MAX
+        assert shift >= 10 and (shift == 10 or sub == 8)
+        assert -u0 * hy.TWIST_LSB_RAD <= rng + 1e-15                 # inside the data
+        assert (-u0 + cell / 2) * hy.TWIST_LSB_RAD > rng or levels == hy.TWIST_LEVELS_MAX  # as many as fit
+        # the fewest sub-steps: with half the grid step the range needs more than 64 levels
+        assert sub == 0 or 2 * rng / ((cell / 2) * hy.TWIST_LSB_RAD) > hy.TWIST_LEVELS_MAX - 1 - 1e-9
+    with pytest.raises(UserError, match="twist range"):
+        hy.twist_grid(0.0)
+    with pytest.raises(UserError, match="grid level"):
+        hy.twist_grid(1e-9)
