@@ -502,13 +502,14 @@ static void preisach_tick(hd_comp_bank_t *b, uint32_t k, uint32_t budget)
     if (b->table_ok == 0u) {
         u = 0;
     } else if (b->table.unit == HD_PREISACH_UNIT_TORQUE_TWIST) {
-        /* an identified image (hdservo identify) is the gear's torque -> twist
-         * operator itself: its forward output at the torque is the twist (once per cycle) */
+        /* a torque -> twist image is the twist operator itself: its forward
+         * output at the torque is the twist (once per cycle) */
         if (k == (uint32_t)HD_SLOT_PREISACH) {
             u = hdf_sat32(hd_preisach_step_p(&b->pr.fwd, &b->table, hd_preisach_quantise(&b->table, b->pr_yd)));
         }
     } else if (hd_preisach_inv_search(&b->pr, &b->table, (int64_t)b->pr_yd, budget)) {
-        /* a twist -> torque image (compsetup): the twist is its inverse at the torque; the
+        /* a twist -> torque image (the gear's direction: hdservo identify, compsetup): the
+         * twist is its inverse at the torque; the
          * bisection runs HD_SCHED_PR_TRIALS trials per tick, the twist changes when it ends */
         u = hd_preisach_dequantise(&b->table, b->pr.fwd.p_prev);
     }

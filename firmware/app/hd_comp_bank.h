@@ -14,9 +14,10 @@
  *   LuGre      torque FF/observer, v = v_ref or v_fb, e = pos_out - pos_ref      -> tff
  *   Maxwell    x = pos_ref; lost-motion twist F / K                             -> position correction
  *   Preisach   the gear twist at the transmitted-torque estimate from the table:
- *              a torque -> twist image (HD_PREISACH_UNIT_TORQUE_TWIST, what
- *              hdservo identify writes) runs forward, a twist -> torque image
- *              (other units, compsetup's) through its inverse; the estimate is
+ *              a torque -> twist image (HD_PREISACH_UNIT_TORQUE_TWIST) runs
+ *              forward, a twist -> torque image (other units: the gear's own
+ *              direction, what hdservo identify and compsetup write) through
+ *              its inverse; the estimate is
  *              low-passed at pr_fc:
  *                pr_t_src 1 (model): (1 - share) Stribeck(v_ref) + J_L a_ref
  *                           + mgl cos(2 pi (pos_out + g_off)) (load-side friction, load

@@ -337,6 +337,8 @@ def _print_summary(s: dict) -> None:
               f"over {m['n_elements']} elements, fit residual {m['rms_residual_rad'] * 206264.8:.3g}\" RMS")
     if "preisach" in s:
         p = s["preisach"]
-        print(f"Preisach: L = {p['levels']}, {p['forcs']} FORCs, held-out minor loops RMS "
-              f"{100 * p['minor_loops']['rms_over_width']:.2f} % of loop width (quantised "
-              f"{100 * p['minor_loops_quantised']['rms_over_width']:.2f} %), CRC 0x{p['crc']:08x}")
+        g = p.get("gear_table", {})
+        print(f"Preisach: torque -> twist L = {p['levels']}, {p['forcs']} FORCs, held-out minor loops RMS "
+              f"{100 * p['minor_loops']['rms_over_width']:.2f} % of loop width; drive table twist -> torque "
+              f"L = {g.get('levels', p['levels'])} (torque at the held-out twist "
+              f"{100 * p['minor_loops_quantised']['rms_over_width']:.2f} % of loop width), CRC 0x{p['crc']:08x}")

@@ -170,17 +170,24 @@ def split_reversals(cmd: np.ndarray) -> list[tuple[int, int]]:
 
 
 def everett_from_forcs(T: np.ndarray, phi: np.ndarray, cmd: np.ndarray, levels: int, step_Nm: float,
-                       u0_Nm: float) -> tuple[Everett, dict[str, Any]]:
+                       u0_Nm: float, signed: bool = False) -> tuple[Everett, dict[str, Any]]:
     """Everett table from first-order reversal curves.
 
     Parameters
     ----------
     T, phi : numpy.ndarray
-        Measured torque (N.m) and twist (rad).
+        Measured input (torque, N.m) and output (twist, rad); :func:`gear_table_from_forcs` passes
+        the twist as the input and the torque as the output (the same reversals: the gear's
+        branches are monotone).
     cmd : numpy.ndarray
         The commanded torque (its direction changes mark the reversals).
     levels, step_Nm, u0_Nm : int, float, float
-        Table grid (L levels, spacing, first level).
+        Table grid (L levels, spacing, first level), in the input's unit.
+    signed : bool
+        Cell masses of either sign instead of a non-negative density (NNLS).  The gear's twist ->
+        torque operator has a negative Preisach part (the plant's P_mean - P, docs/plant.md): a
+        non-negative projection would distort it.  Signed masses reproduce any grid table, so the
+        table is then the interpolated samples themselves (no projection).
 
     Returns
     -------
@@ -231,13 +238,18 @@ def everett_from_forcs(T: np.ndarray, phi: np.ndarray, cmd: np.ndarray, levels: 
             srt = np.argsort(x)
             target[i, j] = float(np.interp(grid[i], x[srt], y[srt]))
             weight[i, j] = 1.0 if grid[i] <= al[ok].max() + 0.5 * step_Nm else 0.2
-    A, cells, pts = cell_sum_matrix(levels)
-    w = np.array([weight[i, j] for i, j in pts])
-    b = np.array([target[i, j] for i, j in pts])
-    mu, _ = nnls(A * w[:, None], b * w, maxiter=50 * A.shape[1])
-    E = np.zeros((levels, levels))
-    for r, (i, j) in enumerate(pts):
-        E[i, j] = float(A[r] @ mu)
+    if signed:
+        E = np.tril(target, -1)
+        fit_rms = 0.0
+    else:
+        A, cells, pts = cell_sum_matrix(levels)
+        w = np.array([weight[i, j] for i, j in pts])
+        b = np.array([target[i, j] for i, j in pts])
+        mu, _ = nnls(A * w[:, None], b * w, maxiter=50 * A.shape[1])
+        E = np.zeros((levels, levels))
+        for r, (i, j) in enumerate(pts):
+            E[i, j] = float(A[r] @ mu)
+        fit_rms = float(np.sqrt(np.mean(((A @ mu) - b) ** 2)))
     # offset: centre of the major loop (twist at the lowest and highest torque)
     lo = phi[np.argmin(T)]
     hi = phi[np.argmax(T)]
@@ -245,8 +257,7 @@ def everett_from_forcs(T: np.ndarray, phi: np.ndarray, cmd: np.ndarray, levels: 
     ev.offset_rad = 0.5 * (float(lo) + float(hi)) - 0.0
     # the model spans +-E_total around the offset: align with the measured extremes
     ev.offset_rad = float(0.5 * (lo + hi))
-    return ev, {"forcs": len(forcs), "alphas_Nm": al.tolist(), "fit_rms_rad": float(
-        np.sqrt(np.mean(((A @ mu) - b) ** 2)))}
+    return ev, {"forcs": len(forcs), "alphas_Nm": al.tolist(), "fit_rms_rad": fit_rms}
 
 
 def grid_for(torque_range_Nm: float, levels: int) -> tuple[float, float]:
@@ -254,6 +265,104 @@ def grid_for(torque_range_Nm: float, levels: int) -> tuple[float, float]:
     raw = 2.0 * torque_range_Nm / (levels - 1)
     step = 2.0 ** math.ceil(math.log2(raw))
     return -0.5 * (levels - 1) * step, step
+
+
+#: Twist lattice step of the identified twist -> torque table, 2^-32 turn (2^10: 1.46 urad, 0.30"; the
+#: axis-file table's ``compsetup.TABLE_LATTICE_LSB``): the drive's inverse rounds the twist to half of it.
+TWIST_LATTICE_LSB = 2 ** 10
+#: Grid levels of the identified twist -> torque table at most: the firmware's limit (64; 8.3 KB of
+#: table, one bisection trial per period, a new twist every 5 cycles at 64 levels, docs/compensators.md).
+TWIST_LEVELS_MAX = 64
+
+
+@dataclass
+class GearTable:
+    """The gear's twist -> torque operator identified from the reversal curves (the table the drive runs
+    through its inverse).
+
+    Attributes
+    ----------
+    everett : Everett
+        Input twist (rad, centred: ``u0_Nm``/``step_Nm`` hold rad here), output torque, N.m.
+    table : hdservo.preisach_table.PreisachTable
+        Firmware image, unit generic (twist in 2^-32 turn -> torque Q15.16 N.m).
+    twist_offset_rad : float
+        Measured twist at the centre of the major loop (subtracted before the fit).
+    """
+
+    everett: Everett
+    table: pt.PreisachTable
+    twist_offset_rad: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"levels": self.everett.levels, "u0_rad": self.everett.u0_Nm, "step_rad": self.everett.step_Nm,
+                "sub_bits": self.table.sub_bits, "in_shift": self.table.in_shift, "crc": int(self.table.crc),
+                "twist_offset_rad": self.twist_offset_rad, "e_total_Nm": float(self.everett.table[-1, 0])}
+
+
+def twist_grid(range_rad: float, levels_max: int = TWIST_LEVELS_MAX) -> tuple[int, int, int, int]:
+    """Lattice of the twist -> torque table over the measured twist +-``range_rad``.
+
+    Rule: the lattice step stays at :data:`TWIST_LATTICE_LSB` (coarser only when ``levels_max`` grid
+    cells of the most sub-steps cannot span the range); the grid step is that lattice step times the
+    fewest power-of-two sub-steps that span the range with at most ``levels_max`` levels, and the
+    levels are as many as fit *inside* the measured range, so that every level has reversal data.
+
+    Returns
+    -------
+    tuple of int
+        (levels, sub_bits, in_shift, u0) with u0 in 2^-32 turn.
+    """
+    span = 2.0 * float(range_rad) / TWIST_LSB_RAD
+    if not span > 0.0:
+        raise UserError(f"preisach: measured twist range {range_rad} rad, expected > 0")
+    need = span / ((levels_max - 1) * TWIST_LATTICE_LSB)
+    sub = min(max(0, math.ceil(math.log2(need))), pt.SUB_MAX) if need > 1 else 0
+    in_shift = max(int(math.log2(TWIST_LATTICE_LSB)), math.ceil(math.log2(span / ((levels_max - 1) << sub))))
+    cell = (1 << in_shift) << sub
+    levels = min(levels_max, int(math.floor(span / cell)) + 1)
+    if levels < pt.L_MIN:
+        raise UserError(f"preisach: measured twist range {range_rad:.3g} rad spans {levels} grid level(s), "
+                        f"expected at least {pt.L_MIN}")
+    return levels, sub, in_shift, -((levels - 1) * cell) // 2
+
+
+def gear_table_from_forcs(T: np.ndarray, phi: np.ndarray, cmd: np.ndarray,
+                          levels_max: int = TWIST_LEVELS_MAX, version: int = 1) -> GearTable:
+    """The gear's twist -> torque table from the reversal curves of the ``forc`` experiment.
+
+    The gear is a twist-input operator (spring, Maxwell-slip elements, Preisach part): fitted in
+    that direction the table has the gear's minor loops; the torque -> twist Preisach model of the
+    same curves (:func:`everett_from_forcs`) is congruent in torque, the gear is not, and its minor
+    loops at swings of 0.25-1 T1 are 15-45 % narrower than the gear's.
+
+    Parameters
+    ----------
+    T, phi : numpy.ndarray
+        Measured torque (N.m) and twist (rad).
+    cmd : numpy.ndarray
+        The commanded torque.
+    levels_max : int
+        Grid levels at most (:func:`twist_grid`).
+    version : int
+        Table version.
+
+    Returns
+    -------
+    GearTable
+    """
+    T = np.asarray(T, dtype=float)
+    phi = np.asarray(phi, dtype=float)
+    off = 0.5 * (float(phi[np.argmin(T)]) + float(phi[np.argmax(T)]))
+    pc = phi - off
+    rng = 0.5 * float(np.max(pc) - np.min(pc))
+    levels, sub, in_shift, u0 = twist_grid(rng, levels_max)
+    cell = (1 << in_shift) << sub
+    ev, _ = everett_from_forcs(pc, T, cmd, levels, cell * TWIST_LSB_RAD, u0 * TWIST_LSB_RAD, signed=True)
+    ev.offset_rad = 0.0
+    tab = pt.quantise_everett(ev.table, 1.0 / TORQUE_LSB_NM, sub_bits=sub, in_shift=in_shift, u0=int(u0),
+                              unit=pt.UNIT_GENERIC, version=version)
+    return GearTable(everett=ev, table=tab, twist_offset_rad=off)
 
 
 #: Lattice steps per grid cell of the identified table, as a power of two: the drive interpolates the
@@ -286,6 +395,12 @@ def dequantise_table(tab: pt.PreisachTable, offset_rad: float = 0.0) -> Everett:
     return Everett(u0_Nm=tab.u0 * TORQUE_LSB_NM, step_Nm=step, table=g, offset_rad=offset_rad)
 
 
+def dequantise_gear_table(tab: pt.PreisachTable) -> Everett:
+    """Back from the twist -> torque image of :func:`gear_table_from_forcs` (input rad, output N.m)."""
+    step = 2.0 ** (tab.in_shift + tab.sub_bits) * TWIST_LSB_RAD
+    return Everett(u0_Nm=tab.u0 * TWIST_LSB_RAD, step_Nm=step, table=tab.grid().astype(float) * TORQUE_LSB_NM)
+
+
 @dataclass
 class MinorLoopCheck:
     """Preisach prediction of validation minor loops."""
@@ -302,7 +417,8 @@ class MinorLoopCheck:
 
 
 def loop_width(T: np.ndarray, phi: np.ndarray, cmd: np.ndarray) -> float:
-    """Largest twist gap between a descending and the following ascending stretch at equal torque (rad)."""
+    """Largest output gap between a descending and the following ascending stretch at equal input
+    (twist at equal torque, rad; or torque at equal twist, N.m)."""
     st = split_reversals(cmd)
     best = 0.0
     for (a0, a1), (b0, b1) in zip(st[:-1], st[1:]):
@@ -315,7 +431,9 @@ def loop_width(T: np.ndarray, phi: np.ndarray, cmd: np.ndarray) -> float:
             g = np.linspace(lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo), 20)
             sa = np.interp(g, np.maximum.accumulate(ta), pa)
             sb = np.interp(g, np.maximum.accumulate(tb), pb)
-            best = max(best, float(np.max(sa - sb)))
+            # the larger gap, whichever branch lies above (twist: the descending one; torque at
+            # equal twist, :func:`gear_table_from_forcs`: the ascending one)
+            best = max(best, float(np.max(sa - sb)), float(np.max(sb - sa)))
     return best
 
 

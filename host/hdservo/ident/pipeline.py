@@ -230,14 +230,19 @@ class Pipeline:
             self.progress("fit: Preisach Everett function from reversal curves")
             ev, info = self._timed("preisach", lambda: hy.everett_from_forcs(
                 s["load_torque_Nm"], phi, s["torque_cmd_Nm"], L, step, u0))
-            table = hy.quantise_table(ev)
-            out: dict[str, Any] = {"everett": ev, "table": table, "info": info}
+            # the drive's table: the gear's own direction, twist -> torque, run through the inverse
+            # (the torque -> twist model `ev` stays for the predictions on the host)
+            gear = self._timed("preisach_gear", lambda: hy.gear_table_from_forcs(
+                s["load_torque_Nm"], phi, s["torque_cmd_Nm"]))
+            out: dict[str, Any] = {"everett": ev, "table": gear.table, "gear": gear, "info": info}
             m = self._get(ex.MinorLoops(torque_range_Nm=rng))
             ms = m.segment(0)
             mphi = stf.twist_of(ms, m.gear_ratio, te)
             out["minor_loops"] = hy.check_minor_loops(ev, ms["load_torque_Nm"], mphi, ms["torque_cmd_Nm"])
-            out["minor_loops_quantised"] = hy.check_minor_loops(hy.dequantise_table(table, ev.offset_rad),
-                                                                ms["load_torque_Nm"], mphi, ms["torque_cmd_Nm"])
+            # the downloaded image, quantised: torque predicted from the twist of the held-out loops
+            out["minor_loops_quantised"] = hy.check_minor_loops(hy.dequantise_gear_table(gear.table),
+                                                                mphi - gear.twist_offset_rad,
+                                                                ms["load_torque_Nm"], ms["torque_cmd_Nm"])
             self.results["preisach"] = out
         return self.results["preisach"]
 
@@ -274,6 +279,8 @@ def summary(results: dict[str, Any]) -> dict[str, Any]:
         out["preisach"] = {**p["everett"].to_dict(), **p["info"], "crc": int(p["table"].crc),
                            "minor_loops": p["minor_loops"].to_dict(),
                            "minor_loops_quantised": p["minor_loops_quantised"].to_dict()}
+        if "gear" in p:
+            out["preisach"]["gear_table"] = p["gear"].to_dict()
     if "sweep" in results:
         s = results["sweep"]
         out["friction_sweep_points"] = {"v_rad_s": s.v_rad_s.tolist(), "torque_Nm": s.torque_Nm.tolist(),
