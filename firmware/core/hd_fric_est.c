@@ -14,8 +14,11 @@ static const int32_t fe_qoct[4] = {1073741824, 1276901417, 1518500250, 180581130
 #define FE_INV_SQRT2_Q30 759250125      /* round(2^30 / sqrt 2) */
 #define FE_NO_FIT INT64_MAX
 #define HD_FE_SNAP_BINS 3u   /* bins per snapshot part (a part: 3 exp) */
-#define HD_FE_SUM_BINS 4u    /* bins per part of the solution's sums and of the residual */
+#define HD_FE_SUM_BINS 4u    /* bins per part of the solution's sums */
 #define FE_SUM_PARTS (HD_FE_NBIN / HD_FE_SUM_BINS)
+#define HD_FE_SSE_BINS 6u    /* bins per part of the residual: 4 parts, so that the last
+                              * candidate's pass with the close of a fit (4 parts) has 8 parts */
+#define FE_SSE_PARTS (HD_FE_NBIN / HD_FE_SSE_BINS)
 
 /* bit i of a bin mask (i < HD_FE_NBIN <= 32) */
 static uint32_t bin_bit(uint32_t i)
@@ -149,9 +152,13 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
     e->fit_m[2] = 0;
     e->fin_ok = 0u;
     e->fin_best = 0u;
+    e->fit_best = 0u;
     for (i = 0; i < 4u; i++) {
         e->fin[i] = 0;
+        e->fin_n[i] = 0u;
     }
+    e->fin_v[0] = 0;
+    e->fin_v[1] = 0;
     e->fit_mask = 0u;
     e->fit_ok = 0u;
     e->fit_s[0] = 0;
@@ -515,19 +522,14 @@ static int32_t lerp16(int32_t a, int32_t b, int32_t w)
 }
 
 /* After the last candidate of direction d: best vs, excitation check, bounds, publish */
-/* in two parts: the best candidate refined (fit_finish_pick), then the bins' check and the
- * publication (fit_finish_publish) */
+/* in four parts of bounded cost: the best candidate (kept by the residual parts) refined
+ * (fit_finish_pick), where the valid bins lie relative to its vs (fit_finish_bins, two halves),
+ * then the check and the publication (fit_finish_publish) */
 static void fit_finish_pick(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
 {
-    uint32_t j;
-    uint32_t best = 0u;
+    const uint32_t best = e->fit_best;      /* the residual parts kept the least (fit_part) */
     int32_t vs, fc, dfs, fv;
     e->fin_ok = 0u;
-    for (j = 1; j < HD_FE_NGRID; j++) {
-        if (e->sse[j] < e->sse[best]) {
-            best = j;
-        }
-    }
     if (e->sse[best] == FE_NO_FIT) {
         e->conf[d] = 0u;
         return;
@@ -560,32 +562,48 @@ static void fit_finish_pick(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32
     e->fin[3] = fv;
 }
 
+/* where the valid bins lo .. lo + n - 1 lie relative to the picked vs (the bins of this step,
+ * in bin order) -> fin_n (counts), fin_v (slowest and fastest valid bin) */
+static void fit_finish_bins(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d, uint32_t lo, uint32_t n)
+{
+    const int32_t vs = e->fin[0];
+    uint32_t i;
+    if (e->fin_ok == 0u) {
+        return;
+    }
+    if (lo == 0u) {
+        for (i = 0; i < 4u; i++) {
+            e->fin_n[i] = 0u;
+        }
+        e->fin_v[0] = INT32_MAX;
+        e->fin_v[1] = 0;
+    }
+    for (i = lo; i < lo + n; i++) {
+        const hd_fe_bin_t *b = &e->bin[d][i];
+        if (bin_valid(e, c, b)) {
+            e->fin_n[3]++;
+            e->fin_v[0] = (b->v < e->fin_v[0]) ? b->v : e->fin_v[0];
+            e->fin_v[1] = (b->v > e->fin_v[1]) ? b->v : e->fin_v[1];
+            if (b->v < vs / 2) {
+                e->fin_n[0]++;
+            } else if (b->v <= 2 * (int64_t)vs) {
+                e->fin_n[1]++;
+            } else {
+                e->fin_n[2]++;
+            }
+        }
+    }
+}
+
 static void fit_finish_publish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
 {
-    uint32_t nlo = 0u, nmid = 0u, nhi = 0u, nvalid = 0u;
-    int32_t vmin_valid = INT32_MAX, vmax_valid = 0;
-    uint32_t i;
     const uint32_t best = e->fin_best;
+    const uint32_t nlo = e->fin_n[0], nmid = e->fin_n[1], nhi = e->fin_n[2], nvalid = e->fin_n[3];
+    const int32_t vmin_valid = e->fin_v[0], vmax_valid = e->fin_v[1];
     const int32_t vs = e->fin[0], dfs = e->fin[2], fv = e->fin[3];
     int32_t fc = e->fin[1];
     if (e->fin_ok == 0u) {
         return;
-    }
-    /* where the valid bins lie relative to vs */
-    for (i = 0; i < HD_FE_NBIN; i++) {
-        const hd_fe_bin_t *b = &e->bin[d][i];
-        if (bin_valid(e, c, b)) {
-            nvalid++;
-            vmin_valid = (b->v < vmin_valid) ? b->v : vmin_valid;
-            vmax_valid = (b->v > vmax_valid) ? b->v : vmax_valid;
-            if (b->v < vs / 2) {
-                nlo++;
-            } else if (b->v <= 2 * (int64_t)vs) {
-                nmid++;
-            } else {
-                nhi++;
-            }
-        }
     }
     e->conf[d] = 1000u * ((nlo < 2u) ? nlo : 2u) * ((nmid < 2u) ? nmid : 2u) * ((nhi < 2u) ? nhi : 2u) / 8u;
     /* vs two octaves inside the binned range (the drop and both plateaus seen), five bins */
@@ -607,8 +625,8 @@ static void fit_finish_publish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uin
     e->fits[d]++;
 }
 
-/* One part of the fit's pass in progress (bounded cost, HD_FE_PASS_PARTS per pass, one
- * more for the close of a fit); true when the pass is complete (then the next is set up). */
+/* One part of the fit's pass in progress (bounded cost: 4 snapshot parts, 6 parts of sums +
+ * the solution, or 4 residual parts + 4 for the close of a fit: at most 8 per step); true when the pass is complete (then the next is set up). */
 static bool fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
 {
     const uint32_t k = e->fit_part;
@@ -636,11 +654,16 @@ static bool fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
         break;
     default:
         /* the residual, HD_FE_SUM_BINS bins per part; after the last candidate the close */
-        if (k < FE_SUM_PARTS) {
-            fit_sse(e, j, k * HD_FE_SUM_BINS, HD_FE_SUM_BINS);
-            done = (k + 1u == FE_SUM_PARTS) && (j + 1u < HD_FE_NGRID);
-        } else if (k == FE_SUM_PARTS) {
+        if (k < FE_SSE_PARTS) {
+            fit_sse(e, j, k * HD_FE_SSE_BINS, HD_FE_SSE_BINS);
+            if (k + 1u == FE_SSE_PARTS && (j == 0u || e->sse[j] < e->sse[e->fit_best])) {
+                e->fit_best = j;            /* the close's pick without its own scan of the sums */
+            }
+            done = (k + 1u == FE_SSE_PARTS) && (j + 1u < HD_FE_NGRID);
+        } else if (k < FE_SSE_PARTS + 1u) {
             fit_finish_pick(e, c, e->fit_dir);
+        } else if (k < FE_SSE_PARTS + 3u) {
+            fit_finish_bins(e, c, e->fit_dir, (k - FE_SSE_PARTS - 1u) * (HD_FE_NBIN / 2u), HD_FE_NBIN / 2u);
         } else {
             fit_finish_publish(e, c, e->fit_dir);
             done = true;

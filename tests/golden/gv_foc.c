@@ -36,7 +36,8 @@
  *                   Stribeck identification on (fe_enable 1) and one kind of its
  *                   work in the measured period: its step's observation, a
  *                   snapshot part, a part of the solution's sums, the solution,
- *                   a residual part, the two parts of the close of a fit (cost only).
+ *                   a residual part, the parts of the close of a fit: the pick, a half of
+ *                   the bins' scan, the check and publication (cost only).
  * The app step uses the stub hal of gv_app.c (linked into the same images).
  */
 #include "gv.h"
@@ -467,7 +468,8 @@ static void cost_isr_fe_snapshot(void) { cost_isr_en(ISR_ALL, 3u, FE_J31, 0u, fa
 static void cost_isr_fe_sums(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 0u, false, false); }
 static void cost_isr_fe_solve(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 6u, false, false); }
 static void cost_isr_fe_sse(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 0u, false, false); }
-static void cost_isr_fe_pick(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 6u, false, false); }
+static void cost_isr_fe_pick(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 4u, false, false); }
+static void cost_isr_fe_bins(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 5u, false, false); }
 static void cost_isr_fe_publish(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 7u, false, false); }
 
 const hd_gv_kernel_t hd_gv_foc_kernels[] = {
@@ -513,6 +515,7 @@ const hd_gv_kernel_t hd_gv_foc_kernels[] = {
     {"isr_worst_case_fe_solve", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_solve},
     {"isr_worst_case_fe_sse", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_sse},
     {"isr_worst_case_fe_pick", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_pick},
+    {"isr_worst_case_fe_bins", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_bins},
     {"isr_worst_case_fe_publish", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_publish},
 };
 const uint32_t hd_gv_foc_count = sizeof hd_gv_foc_kernels / sizeof hd_gv_foc_kernels[0];
