@@ -626,7 +626,8 @@ static void fit_finish_publish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uin
 }
 
 /* One part of the fit's pass in progress (bounded cost: 4 snapshot parts, 6 parts of sums +
- * the solution, or 4 residual parts + 4 for the close of a fit: at most 8 per step); true when the pass is complete (then the next is set up). */
+ * the solution, or 4 residual parts + 4 for the close of a fit: at most 8 per step); true
+ * when the pass is complete (then the next is set up). */
 static bool fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
 {
     const uint32_t k = e->fit_part;
