@@ -410,8 +410,9 @@ static uint32_t popcount24(uint32_t m)
     return n;
 }
 
-/* The solution in three parts: the means (fit_solve_begin), the centred sums over a range
- * of bins (fit_solve_sums, in bin order), the scaled normal equations (fit_solve_end). */
+/* The solution in four parts: the means (fit_solve_begin), the centred sums over a range
+ * of bins (fit_solve_sums, in bin order), the scaled normal equations' determinant and
+ * numerators (fit_solve_cramer), their quotients (fit_solve_end). */
 static void fit_solve_begin(hd_fric_est_t *e)
 {
     const uint32_t nb = popcount24(e->fit_mask);
@@ -434,31 +435,41 @@ static void fit_solve_begin(hd_fric_est_t *e)
 
 static void fit_solve_sums(hd_fric_est_t *e, uint32_t lo, uint32_t n)
 {
+    /* the sums in locals (registers, not five 64-bit read-modify-writes per bin); the shape
+     * and velocity columns' centred values fit 32 bits: their products are 32 x 32 -> 64 */
+    const int32_t me = e->fit_m[0], mu = e->fit_m[1], mf = e->fit_m[2];
+    int64_t see = e->fit_q[0], suu = e->fit_q[1], seu = e->fit_q[2], sef = e->fit_q[3], suf = e->fit_q[4];
     uint32_t i;
     if (e->fit_nb < 4u) {
         return;
     }
     for (i = lo; i < lo + n; i++) {
         if ((e->fit_mask & bin_bit(i)) != 0u) {
-            const int64_t ec = (int64_t)e->fit_e[i] - e->fit_m[0];  /* |.| <= 2^16 */
-            const int64_t uc = (int64_t)e->fit_u[i] - e->fit_m[1];  /* |.| <= 2^20 */
-            const int64_t fcn = (int64_t)e->fit_f[i] - e->fit_m[2]; /* |.| <= 2^31 */
-            e->fit_q[0] += ec * ec;                                 /* see <= 2^37 */
-            e->fit_q[1] += uc * uc;                                 /* suu <= 2^45 */
-            e->fit_q[2] += ec * uc;                                 /* seu */
-            e->fit_q[3] += ec * fcn;                                /* sef <= 2^52 */
-            e->fit_q[4] += uc * fcn;                                /* suf <= 2^56 */
+            const int32_t ec = e->fit_e[i] - me;                    /* |.| <= 2^16 */
+            const int32_t uc = e->fit_u[i] - mu;                    /* |.| <= 2^20 */
+            const int64_t fcn = (int64_t)e->fit_f[i] - mf;          /* |.| <= 2^31 */
+            see += (int64_t)ec * ec;                                /* see <= 2^37 */
+            suu += (int64_t)uc * uc;                                /* suu <= 2^45 */
+            seu += (int64_t)ec * uc;                                /* seu */
+            sef += ec * fcn;                                        /* sef <= 2^52 */
+            suf += uc * fcn;                                        /* suf <= 2^56 */
         }
     }
+    e->fit_q[0] = see;
+    e->fit_q[1] = suu;
+    e->fit_q[2] = seu;
+    e->fit_q[3] = sef;
+    e->fit_q[4] = suf;
 }
 
-static void fit_solve_end(hd_fric_est_t *e, uint32_t j)
+/* the scaled normal equations in two parts: the determinant and Cramer's numerators
+ * (fit_solve_cramer, into fit_q[0..2]: the sums are not needed after it), then the two
+ * quotients and fc (fit_solve_end) */
+static void fit_solve_cramer(hd_fric_est_t *e)
 {
     const int64_t see = e->fit_q[0], suu = e->fit_q[1], seu = e->fit_q[2], sef = e->fit_q[3], suf = e->fit_q[4];
-    const int32_t me = e->fit_m[0], mu = e->fit_m[1], mf = e->fit_m[2];
     uint32_t s_e, s_u, h;
-    int64_t a, b, cc, det, nbeta, ngam;
-    int32_t dfs, fv, fc;
+    int64_t a, b, cc, det;
     if (e->fit_nb < 4u) {
         return;
     }
@@ -473,15 +484,26 @@ static void fit_solve_end(hd_fric_est_t *e, uint32_t j)
     cc = hdf_asr64_rnd(suu, s_u);
     b = hdf_asr64_rnd(seu, h);
     b = hdf_clamp64(b, -((int64_t)1 << 30), (int64_t)1 << 30);
-    det = a * cc - b * b;                                   /* <= 2^60 */
-    if (det <= 0 || a == 0) {
+    det = a * cc - b * b;                                   /* <= 2^60; a == 0 gives det <= 0 */
+    e->fit_q[0] = det;
+    if (det <= 0) {
         return;                             /* the shape column carries no information */
     }
     /* (dF, fv) det / 2^30 by Cramer's rule on the scaled sums */
-    nbeta = hdf_sub64_sat(hdf_mul64x32_q(hdf_asr64_rnd(sef, s_e), (int32_t)cc, 30u),
-                          hdf_mul64x32_q(hdf_asr64_rnd(suf, h), (int32_t)b, 30u));
-    ngam = hdf_sub64_sat(hdf_mul64x32_q(hdf_asr64_rnd(suf, s_u), (int32_t)a, 30u),
-                         hdf_mul64x32_q(hdf_asr64_rnd(sef, h), (int32_t)b, 30u));
+    e->fit_q[1] = hdf_sub64_sat(hdf_mul64x32_q(hdf_asr64_rnd(sef, s_e), (int32_t)cc, 30u),
+                                hdf_mul64x32_q(hdf_asr64_rnd(suf, h), (int32_t)b, 30u));
+    e->fit_q[2] = hdf_sub64_sat(hdf_mul64x32_q(hdf_asr64_rnd(suf, s_u), (int32_t)a, 30u),
+                                hdf_mul64x32_q(hdf_asr64_rnd(sef, h), (int32_t)b, 30u));
+}
+
+static void fit_solve_end(hd_fric_est_t *e, uint32_t j)
+{
+    const int64_t det = e->fit_q[0], nbeta = e->fit_q[1], ngam = e->fit_q[2];
+    const int32_t me = e->fit_m[0], mu = e->fit_m[1], mf = e->fit_m[2];
+    int32_t dfs, fv, fc;
+    if (e->fit_nb < 4u || det <= 0) {
+        return;
+    }
     dfs = hdf_sat32(div_approx(nbeta, (uint64_t)det, 46u));              /* Q16 N.m (e in Q16) */
     fv = hdf_sat32(div_approx(ngam, (uint64_t)det, 30u + HD_FE_U_SHIFT + 10u)); /* per 2^-21 -> per turn/s */
     fc = hdf_sat32((int64_t)mf - hdf_mul64x32_q((int64_t)dfs, me, 16u) -
@@ -626,7 +648,7 @@ static void fit_finish_publish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uin
 }
 
 /* One part of the fit's pass in progress (bounded cost: 4 snapshot parts, 6 parts of sums +
- * the solution, or 4 residual parts + 4 for the close of a fit: at most 8 per step); true
+ * 2 of the solution, or 4 residual parts + 4 for the close of a fit: at most 8 per step); true
  * when the pass is complete (then the next is set up). */
 static bool fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
 {
@@ -648,6 +670,8 @@ static bool fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
         }
         if (k < FE_SUM_PARTS) {
             fit_solve_sums(e, k * HD_FE_SUM_BINS, HD_FE_SUM_BINS);
+        } else if (k == FE_SUM_PARTS) {
+            fit_solve_cramer(e);
         } else {
             fit_solve_end(e, j);
             done = true;
