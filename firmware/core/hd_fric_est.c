@@ -14,8 +14,11 @@ static const int32_t fe_qoct[4] = {1073741824, 1276901417, 1518500250, 180581130
 #define FE_INV_SQRT2_Q30 759250125      /* round(2^30 / sqrt 2) */
 #define FE_NO_FIT INT64_MAX
 #define HD_FE_SNAP_BINS 3u   /* bins per snapshot part (a part: 3 exp) */
-#define HD_FE_SUM_BINS 4u    /* bins per part of the solution's sums and of the residual */
+#define HD_FE_SUM_BINS 4u    /* bins per part of the solution's sums */
 #define FE_SUM_PARTS (HD_FE_NBIN / HD_FE_SUM_BINS)
+#define HD_FE_SSE_BINS 6u    /* bins per part of the residual: 4 parts, so that the last
+                              * candidate's pass with the close of a fit (4 parts) has 8 parts */
+#define FE_SSE_PARTS (HD_FE_NBIN / HD_FE_SSE_BINS)
 
 /* bit i of a bin mask (i < HD_FE_NBIN <= 32) */
 static uint32_t bin_bit(uint32_t i)
@@ -149,9 +152,13 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
     e->fit_m[2] = 0;
     e->fin_ok = 0u;
     e->fin_best = 0u;
+    e->fit_best = 0u;
     for (i = 0; i < 4u; i++) {
         e->fin[i] = 0;
+        e->fin_n[i] = 0u;
     }
+    e->fin_v[0] = 0;
+    e->fin_v[1] = 0;
     e->fit_mask = 0u;
     e->fit_ok = 0u;
     e->fit_s[0] = 0;
@@ -403,8 +410,9 @@ static uint32_t popcount24(uint32_t m)
     return n;
 }
 
-/* The solution in three parts: the means (fit_solve_begin), the centred sums over a range
- * of bins (fit_solve_sums, in bin order), the scaled normal equations (fit_solve_end). */
+/* The solution in four parts: the means (fit_solve_begin), the centred sums over a range
+ * of bins (fit_solve_sums, in bin order), the scaled normal equations' determinant and
+ * numerators (fit_solve_cramer), their quotients (fit_solve_end). */
 static void fit_solve_begin(hd_fric_est_t *e)
 {
     const uint32_t nb = popcount24(e->fit_mask);
@@ -427,31 +435,41 @@ static void fit_solve_begin(hd_fric_est_t *e)
 
 static void fit_solve_sums(hd_fric_est_t *e, uint32_t lo, uint32_t n)
 {
+    /* the sums in locals (registers, not five 64-bit read-modify-writes per bin); the shape
+     * and velocity columns' centred values fit 32 bits: their products are 32 x 32 -> 64 */
+    const int32_t me = e->fit_m[0], mu = e->fit_m[1], mf = e->fit_m[2];
+    int64_t see = e->fit_q[0], suu = e->fit_q[1], seu = e->fit_q[2], sef = e->fit_q[3], suf = e->fit_q[4];
     uint32_t i;
     if (e->fit_nb < 4u) {
         return;
     }
     for (i = lo; i < lo + n; i++) {
         if ((e->fit_mask & bin_bit(i)) != 0u) {
-            const int64_t ec = (int64_t)e->fit_e[i] - e->fit_m[0];  /* |.| <= 2^16 */
-            const int64_t uc = (int64_t)e->fit_u[i] - e->fit_m[1];  /* |.| <= 2^20 */
-            const int64_t fcn = (int64_t)e->fit_f[i] - e->fit_m[2]; /* |.| <= 2^31 */
-            e->fit_q[0] += ec * ec;                                 /* see <= 2^37 */
-            e->fit_q[1] += uc * uc;                                 /* suu <= 2^45 */
-            e->fit_q[2] += ec * uc;                                 /* seu */
-            e->fit_q[3] += ec * fcn;                                /* sef <= 2^52 */
-            e->fit_q[4] += uc * fcn;                                /* suf <= 2^56 */
+            const int32_t ec = e->fit_e[i] - me;                    /* |.| <= 2^16 */
+            const int32_t uc = e->fit_u[i] - mu;                    /* |.| <= 2^20 */
+            const int64_t fcn = (int64_t)e->fit_f[i] - mf;          /* |.| <= 2^31 */
+            see += (int64_t)ec * ec;                                /* see <= 2^37 */
+            suu += (int64_t)uc * uc;                                /* suu <= 2^45 */
+            seu += (int64_t)ec * uc;                                /* seu */
+            sef += ec * fcn;                                        /* sef <= 2^52 */
+            suf += uc * fcn;                                        /* suf <= 2^56 */
         }
     }
+    e->fit_q[0] = see;
+    e->fit_q[1] = suu;
+    e->fit_q[2] = seu;
+    e->fit_q[3] = sef;
+    e->fit_q[4] = suf;
 }
 
-static void fit_solve_end(hd_fric_est_t *e, uint32_t j)
+/* the scaled normal equations in two parts: the determinant and Cramer's numerators
+ * (fit_solve_cramer, into fit_q[0..2]: the sums are not needed after it), then the two
+ * quotients and fc (fit_solve_end) */
+static void fit_solve_cramer(hd_fric_est_t *e)
 {
     const int64_t see = e->fit_q[0], suu = e->fit_q[1], seu = e->fit_q[2], sef = e->fit_q[3], suf = e->fit_q[4];
-    const int32_t me = e->fit_m[0], mu = e->fit_m[1], mf = e->fit_m[2];
     uint32_t s_e, s_u, h;
-    int64_t a, b, cc, det, nbeta, ngam;
-    int32_t dfs, fv, fc;
+    int64_t a, b, cc, det;
     if (e->fit_nb < 4u) {
         return;
     }
@@ -466,15 +484,26 @@ static void fit_solve_end(hd_fric_est_t *e, uint32_t j)
     cc = hdf_asr64_rnd(suu, s_u);
     b = hdf_asr64_rnd(seu, h);
     b = hdf_clamp64(b, -((int64_t)1 << 30), (int64_t)1 << 30);
-    det = a * cc - b * b;                                   /* <= 2^60 */
-    if (det <= 0 || a == 0) {
+    det = a * cc - b * b;                                   /* <= 2^60; a == 0 gives det <= 0 */
+    e->fit_q[0] = det;
+    if (det <= 0) {
         return;                             /* the shape column carries no information */
     }
     /* (dF, fv) det / 2^30 by Cramer's rule on the scaled sums */
-    nbeta = hdf_sub64_sat(hdf_mul64x32_q(hdf_asr64_rnd(sef, s_e), (int32_t)cc, 30u),
-                          hdf_mul64x32_q(hdf_asr64_rnd(suf, h), (int32_t)b, 30u));
-    ngam = hdf_sub64_sat(hdf_mul64x32_q(hdf_asr64_rnd(suf, s_u), (int32_t)a, 30u),
-                         hdf_mul64x32_q(hdf_asr64_rnd(sef, h), (int32_t)b, 30u));
+    e->fit_q[1] = hdf_sub64_sat(hdf_mul64x32_q(hdf_asr64_rnd(sef, s_e), (int32_t)cc, 30u),
+                                hdf_mul64x32_q(hdf_asr64_rnd(suf, h), (int32_t)b, 30u));
+    e->fit_q[2] = hdf_sub64_sat(hdf_mul64x32_q(hdf_asr64_rnd(suf, s_u), (int32_t)a, 30u),
+                                hdf_mul64x32_q(hdf_asr64_rnd(sef, h), (int32_t)b, 30u));
+}
+
+static void fit_solve_end(hd_fric_est_t *e, uint32_t j)
+{
+    const int64_t det = e->fit_q[0], nbeta = e->fit_q[1], ngam = e->fit_q[2];
+    const int32_t me = e->fit_m[0], mu = e->fit_m[1], mf = e->fit_m[2];
+    int32_t dfs, fv, fc;
+    if (e->fit_nb < 4u || det <= 0) {
+        return;
+    }
     dfs = hdf_sat32(div_approx(nbeta, (uint64_t)det, 46u));              /* Q16 N.m (e in Q16) */
     fv = hdf_sat32(div_approx(ngam, (uint64_t)det, 30u + HD_FE_U_SHIFT + 10u)); /* per 2^-21 -> per turn/s */
     fc = hdf_sat32((int64_t)mf - hdf_mul64x32_q((int64_t)dfs, me, 16u) -
@@ -515,19 +544,14 @@ static int32_t lerp16(int32_t a, int32_t b, int32_t w)
 }
 
 /* After the last candidate of direction d: best vs, excitation check, bounds, publish */
-/* in two parts: the best candidate refined (fit_finish_pick), then the bins' check and the
- * publication (fit_finish_publish) */
+/* in four parts of bounded cost: the best candidate (kept by the residual parts) refined
+ * (fit_finish_pick), where the valid bins lie relative to its vs (fit_finish_bins, two halves),
+ * then the check and the publication (fit_finish_publish) */
 static void fit_finish_pick(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
 {
-    uint32_t j;
-    uint32_t best = 0u;
+    const uint32_t best = e->fit_best;      /* the residual parts kept the least (fit_part) */
     int32_t vs, fc, dfs, fv;
     e->fin_ok = 0u;
-    for (j = 1; j < HD_FE_NGRID; j++) {
-        if (e->sse[j] < e->sse[best]) {
-            best = j;
-        }
-    }
     if (e->sse[best] == FE_NO_FIT) {
         e->conf[d] = 0u;
         return;
@@ -560,32 +584,48 @@ static void fit_finish_pick(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32
     e->fin[3] = fv;
 }
 
+/* where the valid bins lo .. lo + n - 1 lie relative to the picked vs (the bins of this step,
+ * in bin order) -> fin_n (counts), fin_v (slowest and fastest valid bin) */
+static void fit_finish_bins(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d, uint32_t lo, uint32_t n)
+{
+    const int32_t vs = e->fin[0];
+    uint32_t i;
+    if (e->fin_ok == 0u) {
+        return;
+    }
+    if (lo == 0u) {
+        for (i = 0; i < 4u; i++) {
+            e->fin_n[i] = 0u;
+        }
+        e->fin_v[0] = INT32_MAX;
+        e->fin_v[1] = 0;
+    }
+    for (i = lo; i < lo + n; i++) {
+        const hd_fe_bin_t *b = &e->bin[d][i];
+        if (bin_valid(e, c, b)) {
+            e->fin_n[3]++;
+            e->fin_v[0] = (b->v < e->fin_v[0]) ? b->v : e->fin_v[0];
+            e->fin_v[1] = (b->v > e->fin_v[1]) ? b->v : e->fin_v[1];
+            if (b->v < vs / 2) {
+                e->fin_n[0]++;
+            } else if (b->v <= 2 * (int64_t)vs) {
+                e->fin_n[1]++;
+            } else {
+                e->fin_n[2]++;
+            }
+        }
+    }
+}
+
 static void fit_finish_publish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
 {
-    uint32_t nlo = 0u, nmid = 0u, nhi = 0u, nvalid = 0u;
-    int32_t vmin_valid = INT32_MAX, vmax_valid = 0;
-    uint32_t i;
     const uint32_t best = e->fin_best;
+    const uint32_t nlo = e->fin_n[0], nmid = e->fin_n[1], nhi = e->fin_n[2], nvalid = e->fin_n[3];
+    const int32_t vmin_valid = e->fin_v[0], vmax_valid = e->fin_v[1];
     const int32_t vs = e->fin[0], dfs = e->fin[2], fv = e->fin[3];
     int32_t fc = e->fin[1];
     if (e->fin_ok == 0u) {
         return;
-    }
-    /* where the valid bins lie relative to vs */
-    for (i = 0; i < HD_FE_NBIN; i++) {
-        const hd_fe_bin_t *b = &e->bin[d][i];
-        if (bin_valid(e, c, b)) {
-            nvalid++;
-            vmin_valid = (b->v < vmin_valid) ? b->v : vmin_valid;
-            vmax_valid = (b->v > vmax_valid) ? b->v : vmax_valid;
-            if (b->v < vs / 2) {
-                nlo++;
-            } else if (b->v <= 2 * (int64_t)vs) {
-                nmid++;
-            } else {
-                nhi++;
-            }
-        }
     }
     e->conf[d] = 1000u * ((nlo < 2u) ? nlo : 2u) * ((nmid < 2u) ? nmid : 2u) * ((nhi < 2u) ? nhi : 2u) / 8u;
     /* vs two octaves inside the binned range (the drop and both plateaus seen), five bins */
@@ -607,8 +647,9 @@ static void fit_finish_publish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uin
     e->fits[d]++;
 }
 
-/* One part of the fit's pass in progress (bounded cost, HD_FE_PASS_PARTS per pass, one
- * more for the close of a fit); true when the pass is complete (then the next is set up). */
+/* One part of the fit's pass in progress (bounded cost: 4 snapshot parts, 6 parts of sums +
+ * 2 of the solution, or 4 residual parts + 4 for the close of a fit: at most 8 per step); true
+ * when the pass is complete (then the next is set up). */
 static bool fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
 {
     const uint32_t k = e->fit_part;
@@ -629,6 +670,8 @@ static bool fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
         }
         if (k < FE_SUM_PARTS) {
             fit_solve_sums(e, k * HD_FE_SUM_BINS, HD_FE_SUM_BINS);
+        } else if (k == FE_SUM_PARTS) {
+            fit_solve_cramer(e);
         } else {
             fit_solve_end(e, j);
             done = true;
@@ -636,11 +679,16 @@ static bool fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
         break;
     default:
         /* the residual, HD_FE_SUM_BINS bins per part; after the last candidate the close */
-        if (k < FE_SUM_PARTS) {
-            fit_sse(e, j, k * HD_FE_SUM_BINS, HD_FE_SUM_BINS);
-            done = (k + 1u == FE_SUM_PARTS) && (j + 1u < HD_FE_NGRID);
-        } else if (k == FE_SUM_PARTS) {
+        if (k < FE_SSE_PARTS) {
+            fit_sse(e, j, k * HD_FE_SSE_BINS, HD_FE_SSE_BINS);
+            if (k + 1u == FE_SSE_PARTS && (j == 0u || e->sse[j] < e->sse[e->fit_best])) {
+                e->fit_best = j;            /* the close's pick without its own scan of the sums */
+            }
+            done = (k + 1u == FE_SSE_PARTS) && (j + 1u < HD_FE_NGRID);
+        } else if (k < FE_SSE_PARTS + 1u) {
             fit_finish_pick(e, c, e->fit_dir);
+        } else if (k < FE_SSE_PARTS + 3u) {
+            fit_finish_bins(e, c, e->fit_dir, (k - FE_SSE_PARTS - 1u) * (HD_FE_NBIN / 2u), HD_FE_NBIN / 2u);
         } else {
             fit_finish_publish(e, c, e->fit_dir);
             done = true;

@@ -192,10 +192,14 @@ typedef struct {
     uint32_t fit_part;                  /* the pass's next part (hd_fric_est_fit_part) */
     uint32_t fit_due;                   /* 1 while the pass of the last step has parts left */
     uint32_t fit_nb;                    /* valid bins of the snapshot (pass 2) */
-    int64_t  fit_q[5];                  /* pass 2: centred sums (see, suu, seu, sef, suf); pass 3: residual */
+    int64_t  fit_q[5];                  /* pass 2: centred sums (see, suu, seu, sef, suf), then det and Cramer's
+                                         * numerators in [0..2]; pass 3: residual */
     int32_t  fit_m[3];                  /* pass 2: means of shape, velocity column, torque */
     uint32_t fin_ok;                    /* close of a fit: 1 when a candidate was picked */
     uint32_t fin_best;                  /* its best candidate */
+    uint32_t fit_best;                  /* least residual so far in the sweep (first of equals) */
+    uint32_t fin_n[4];                  /* close: valid bins below vs / 2, within [vs / 2, 2 vs], above, all */
+    int32_t  fin_v[2];                  /* close: slowest and fastest valid bin, 2^-32 turn/s */
     int32_t  fin[4];                    /* its refined (vs, fc, fs - fc, fv) */
     uint32_t fit_mask;                  /* valid bins of the candidate's snapshot (bit per bin) */
     uint32_t fit_ok;                    /* 1: pass 2 solved the candidate */
@@ -229,7 +233,7 @@ void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_re
 /** hd_fric_est_step in parts of bounded cost: the observation (steadiness, bins; it first
  *  completes the last step's pass if parts of it are left), then its pass of the fit one
  *  part per call of hd_fric_est_fit_part (4 snapshot parts of 3 bins, or 6 parts of the
- *  solution's sums of 4 bins + the solution, or 6 parts of the residual of 4 bins + 2 for
+ *  solution's sums of 4 bins + 2 of the solution, or 4 parts of the residual of 6 bins + 4 for
  *  the close of a fit), which returns true while
  *  parts are left.  observe + every part = hd_fric_est_step, bit for bit. */
 void hd_fric_est_observe(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,

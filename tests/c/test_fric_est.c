@@ -517,6 +517,40 @@ static void test_parts_equal_step(void **state)
     assert_true(est.fits[HD_FE_DIR_POS] > 0u && est.fits[HD_FE_DIR_NEG] > 0u);
 }
 
+/* The close of a fit picks the candidate of the least residual of its sweep, the first of
+ * equal ones (the residual parts keep it as they go): at every close, the scan of the
+ * sweep's sums gives the same candidate. */
+static void test_pick_is_the_least_residual(void **state)
+{
+    static const double vv[] = {0.01, 0.1, 0.4, 1.0, 2.5, 10.0, -0.03, -0.2, -0.7, -1.5, -4.0, -6.5};
+    uint32_t closes = 0u, picked = 0u, i, k, j;
+    (void)state;
+    for (i = 0; i < 2u * sizeof vv / sizeof vv[0]; i++) {
+        const double vd = vv[i % (sizeof vv / sizeof vv[0])];
+        const int32_t v = (int32_t)lround(vd * DEGS);
+        for (k = 0; k < 700u; k++) {
+            const int32_t t = NM((vd >= 0 ? 1.0 : -1.0) * g_of(&REF, vd) + 0.01 * (double)(k % 7u));
+            const int32_t vk = (k < 600u) ? v : 0;
+            const bool close = (est.fit_j == HD_FE_NGRID - 1u) && (est.fit_pass == 3u);
+            hd_fric_est_step(&est, &cfg, vk, vk, t, true);
+            if (close) {
+                uint32_t best = 0u;
+                for (j = 1; j < HD_FE_NGRID; j++) {
+                    best = (est.sse[j] < est.sse[best]) ? j : best;
+                }
+                closes++;
+                assert_int_equal(est.fin_ok, (est.sse[best] != INT64_MAX) ? 1u : 0u);
+                if (est.fin_ok != 0u) {
+                    assert_int_equal(est.fin_best, best);
+                    picked++;
+                }
+            }
+        }
+    }
+    print_message("# %u closes, %u with a pick\n", closes, picked);
+    assert_true(picked > 4u);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -534,6 +568,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_feed_is_bumpless, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_bins, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_parts_equal_step, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_pick_is_the_least_residual, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_viscous_kept_through_a_ramp, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_viscous_kept_with_a_trend_in_each_move, setUp, tearDown),
     };

@@ -35,8 +35,10 @@
  *   isr_worst_case_fe_<part>  isr_worst_case's worst tick (3) with the online
  *                   Stribeck identification on (fe_enable 1) and one kind of its
  *                   work in the measured period: its step's observation, a
- *                   snapshot part, a part of the solution's sums, the solution,
- *                   a residual part, the two parts of the close of a fit (cost only).
+ *                   snapshot part, a part of the solution's sums, the solution's
+ *                   determinant and numerators (solve), its quotients (divide),
+ *                   a residual part, the parts of the close of a fit: the pick, a half of
+ *                   the bins' scan, the check and publication (cost only).
  * The app step uses the stub hal of gv_app.c (linked into the same images).
  */
 #include "gv.h"
@@ -466,8 +468,10 @@ static void cost_isr_fe_observe(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, FE
 static void cost_isr_fe_snapshot(void) { cost_isr_en(ISR_ALL, 3u, FE_J31, 0u, false, false); }
 static void cost_isr_fe_sums(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 0u, false, false); }
 static void cost_isr_fe_solve(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 6u, false, false); }
+static void cost_isr_fe_divide(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 7u, false, false); }
 static void cost_isr_fe_sse(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 0u, false, false); }
-static void cost_isr_fe_pick(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 6u, false, false); }
+static void cost_isr_fe_pick(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 4u, false, false); }
+static void cost_isr_fe_bins(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 5u, false, false); }
 static void cost_isr_fe_publish(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 7u, false, false); }
 
 const hd_gv_kernel_t hd_gv_foc_kernels[] = {
@@ -511,8 +515,10 @@ const hd_gv_kernel_t hd_gv_foc_kernels[] = {
     {"isr_worst_case_fe_snapshot", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_snapshot},
     {"isr_worst_case_fe_sums", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_sums},
     {"isr_worst_case_fe_solve", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_solve},
+    {"isr_worst_case_fe_divide", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_divide},
     {"isr_worst_case_fe_sse", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_sse},
     {"isr_worst_case_fe_pick", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_pick},
+    {"isr_worst_case_fe_bins", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_bins},
     {"isr_worst_case_fe_publish", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_publish},
 };
 const uint32_t hd_gv_foc_count = sizeof hd_gv_foc_kernels / sizeof hd_gv_foc_kernels[0];
