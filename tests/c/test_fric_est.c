@@ -31,6 +31,13 @@ static double g_of(const map_t *m, double v_degs)
     return m->fc + (m->fs - m->fc) * exp(-r * r) + m->fv_per_degs * fabs(v_degs);
 }
 
+/* Torque of sample k of a constant-velocity visit at vd (deg/s) on the reference map, with a
+ * small periodic ripple so the fits see varying data. */
+static int32_t steps_torque(double vd, uint32_t k)
+{
+    return NM((vd >= 0 ? 1.0 : -1.0) * g_of(&REF, vd) + 0.01 * (double)(k % 7u));
+}
+
 static hd_fric_est_cfg_t cfg;
 static hd_fric_est_t est;
 
@@ -497,7 +504,7 @@ static void test_parts_equal_step(void **state)
         const double vd = vv[i % (sizeof vv / sizeof vv[0])];
         const int32_t v = (int32_t)lround(vd * DEGS);
         for (k = 0; k < 700u; k++) {
-            const int32_t t = NM((vd >= 0 ? 1.0 : -1.0) * g_of(&REF, vd) + 0.01 * (double)(k % 7u));
+            const int32_t t = steps_torque(vd, k);
             const int32_t vk = (k < 600u) ? v : 0;
             uint32_t n = 0u;
             hd_fric_est_step(&est, &cfg, vk, vk, t, true);
@@ -529,7 +536,7 @@ static void test_pick_is_the_least_residual(void **state)
         const double vd = vv[i % (sizeof vv / sizeof vv[0])];
         const int32_t v = (int32_t)lround(vd * DEGS);
         for (k = 0; k < 700u; k++) {
-            const int32_t t = NM((vd >= 0 ? 1.0 : -1.0) * g_of(&REF, vd) + 0.01 * (double)(k % 7u));
+            const int32_t t = steps_torque(vd, k);
             const int32_t vk = (k < 600u) ? v : 0;
             const bool close = (est.fit_j == HD_FE_NGRID - 1u) && (est.fit_pass == 3u);
             hd_fric_est_step(&est, &cfg, vk, vk, t, true);
