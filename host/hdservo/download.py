@@ -174,6 +174,7 @@ def plan_download(model_path: Path, axis: str = "reference", preisach: Path | No
     from . import compsetup, sim
     from .drive import TABLE_GROUPS
     from .params_gen import BY_NAME as PARAMS
+    from .ident.model_reader import preisach_table_file
     from .preisach_table import PreisachTable
     model = read_model(model_path)
     ax = axis if axis in ("reference", "minimal") else str(Path(axis).resolve())
@@ -212,13 +213,14 @@ def plan_download(model_path: Path, axis: str = "reference", preisach: Path | No
     blob = None
     ptab = preisach
     if ptab is None:
-        name = model.get("identified", {}).get("preisach_table")
+        name = preisach_table_file(model)
         if name:
-            ptab = model_path.parent / str(name)
+            ptab = model_path.parent / name
     if ptab is not None:
         if not ptab.is_file():
+            where = "[preisach_drive_table] file" if "preisach_drive_table" in model else "[identified] preisach_table"
             raise UserError(f"{ptab}: Preisach table file not found"
-                            + ("" if preisach is not None else f" (named by {model_path} [identified] preisach_table)"))
+                            + ("" if preisach is not None else f" (named by {model_path} {where})"))
         try:
             try:
                 blob = ptab.read_bytes()

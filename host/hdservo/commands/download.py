@@ -10,8 +10,8 @@ harmonics, FRF inertias); keys the model does not have come from ``--axis``
 * the drive parameters (SDO, 0x28xx by name) are written and read back;
 * 0x5100:2 (friction group: Stribeck + LuGre) and 0x5100:3 (TE group) are
   downloaded as parameter groups (all or nothing on the drive) and read back;
-* 0x5100:1, the identified Preisach image ``MODEL.preisach.bin`` (named in
-  ``[identified] preisach_table``), is checked here (magic, sizes, CRC,
+* 0x5100:1, the identified twist -> torque Preisach image ``MODEL.preisach.bin``
+  (named in ``[preisach_drive_table] file``), is checked here (magic, sizes, CRC,
   diagonal), downloaded and read back.
 
 Any refusal or read-back mismatch is one error line and exit status 2; what

@@ -11,6 +11,15 @@ arithmetic divides by it, and the keys that come in groups are complete
 order/amplitude/phase of every TE harmonic).  A bad file is one
 :class:`ModelError` line ``FILE: key 'section.key': expected ..., got ...``.
 Keys the reader does not know are kept as they are (a model may carry notes).
+
+The two Preisach operators have their own sections: ``[preisach_host_model]`` (the host's
+torque -> twist model, never downloaded) and ``[preisach_drive_table]`` (the drive's
+twist -> torque table, the image ``file`` downloaded to 0x5100:1, its CRC-32 ``crc``); a
+``direction`` key, when present, must name the section's own direction.  Files written before
+these sections carried both in ``[identified]`` as ``preisach_u0_Nm``, ``preisach_step_Nm``,
+``preisach_levels``, ``preisach_offset_rad`` (the host's model) and ``preisach_table``,
+``preisach_crc`` (the drive's table); they read as before, and :func:`preisach_table_file` /
+:func:`preisach_table_crc` give the drive's table of either layout.
 """
 from __future__ import annotations
 
@@ -46,7 +55,13 @@ KEYS: dict[str, dict[str, str]] = {
                    "preisach_u0_Nm": "num", "preisach_step_Nm": "num", "preisach_levels": "int",
                    "preisach_crc": "int", "preisach_table": "str",
                    "lost_motion_reversal_rad": "num"},
+    "preisach_host_model": {"direction": "str", "u0_Nm": "num", "step_Nm": "pos", "levels": "int",
+                            "offset_rad": "num"},
+    "preisach_drive_table": {"direction": "str", "file": "str", "crc": "int", "levels": "int", "u0_rad": "num",
+                             "step_rad": "pos", "sub_bits": "int", "twist_offset_rad": "num"},
 }
+#: The direction (input -> output) each Preisach section names in its ``direction`` key.
+DIRECTIONS: dict[str, str] = {"preisach_host_model": "torque -> twist", "preisach_drive_table": "twist -> torque"}
 #: Keys a section needs when it is present.
 _REQUIRED: dict[str, tuple[str, ...]] = {
     "gear": ("ratio",),
@@ -155,7 +170,33 @@ def check_model(data: Any, where: str = "model") -> Model:
             if k not in body:
                 raise ModelError(f"{where}: key '{sec}.{k}': expected {_EXPECT[kinds[k]]}, got nothing")
         out[sec] = {k: (check_value(where, f"{sec}.{k}", v, kinds[k]) if k in kinds else v) for k, v in body.items()}
+        want = DIRECTIONS.get(sec)
+        if want is not None and out[sec].get("direction", want) != want:
+            raise ModelError(f"{where}: key '{sec}.direction': expected \"{want}\", got {_got(out[sec]['direction'])}")
     return out
+
+
+def preisach_table_file(model: Model) -> str | None:
+    """File name of the drive's twist -> torque Preisach image a checked model names, or None.
+
+    ``[preisach_drive_table] file``; a file of the earlier layout names it as
+    ``[identified] preisach_table``.
+    """
+    name = model.get("preisach_drive_table", {}).get("file")
+    if name is None:
+        name = model.get("identified", {}).get("preisach_table")
+    return None if name is None else str(name)
+
+
+def preisach_table_crc(model: Model) -> int | None:
+    """CRC-32 of the drive's Preisach image a checked model records, or None.
+
+    ``[preisach_drive_table] crc``; a file of the earlier layout records it as ``[identified] preisach_crc``.
+    """
+    crc = model.get("preisach_drive_table", {}).get("crc")
+    if crc is None:
+        crc = model.get("identified", {}).get("preisach_crc")
+    return None if crc is None else int(crc)
 
 
 def read_model(path: str | os.PathLike[str]) -> Model:
@@ -204,4 +245,5 @@ def parse_model(raw: bytes, where: str = "model") -> Model:
     return check_model(data, where)
 
 
-__all__ = ["KEYS", "MAX_ELEMENTS", "Model", "ModelError", "check_model", "check_value", "parse_model", "read_model"]
+__all__ = ["DIRECTIONS", "KEYS", "MAX_ELEMENTS", "Model", "ModelError", "check_model", "check_value", "parse_model",
+           "preisach_table_crc", "preisach_table_file", "read_model"]

@@ -16,10 +16,16 @@ Sections written (only those identified):
   viscous_Nms_per_rad; ``[friction_motor]`` sigma0_Nm_per_rad (+ sigma1)
   from the locked-output presliding (motor units);
 * ``[identified]`` hysteresis_loss_rad, lost_motion_rad,
-  f_antiresonance_Hz, f_resonance_Hz, preisach_table (file name),
-  preisach_offset_rad, preisach_crc.
+  f_antiresonance_Hz, f_resonance_Hz;
+* ``[preisach_host_model]`` -- the host's Preisach model, input torque -> output twist
+  (the host's twist predictions; never downloaded): direction, u0_Nm, step_Nm, levels,
+  offset_rad;
+* ``[preisach_drive_table]`` -- the drive's table, input twist -> output torque, the image
+  downloaded to 0x5100:1: direction, file (the ``.preisach.bin`` beside the model), crc,
+  levels, u0_rad, step_rad, sub_bits, twist_offset_rad.
 
-Written atomically (temp file + rename).
+Each of the two Preisach sections carries a comment line saying which it is
+(:data:`SECTION_NOTES`).  Written atomically (temp file + rename).
 """
 from __future__ import annotations
 
@@ -46,13 +52,40 @@ def _fmt(v: Any) -> str:
     raise TypeError(f"cannot write {type(v).__name__} to TOML")
 
 
-def format_toml(sections: Mapping[str, Mapping[str, Any]], header: str = "") -> str:
-    """TOML text of ``{section: {key: value}}`` (numbers, bools, strings)."""
+#: Direction of each Preisach operator (the ``direction`` key of its section).
+HOST_MODEL_DIRECTION = "torque -> twist"
+DRIVE_TABLE_DIRECTION = "twist -> torque"
+
+#: Comment line written above a section: what a reader cannot tell from the keys alone.
+SECTION_NOTES: dict[str, str] = {
+    "preisach_host_model": "The host's Preisach model, input torque (N.m) -> output twist (rad): the host's "
+                           "twist predictions. Not downloaded.",
+    "preisach_drive_table": "The drive's Preisach table, input twist (rad) -> output torque (N.m): the image "
+                            "`file` that hdservo download writes to 0x5100:1 (its CRC-32 `crc`).",
+}
+
+
+def format_toml(sections: Mapping[str, Mapping[str, Any]], header: str = "",
+                notes: Mapping[str, str] | None = None) -> str:
+    """TOML text of ``{section: {key: value}}`` (numbers, bools, strings).
+
+    Parameters
+    ----------
+    sections : mapping
+        Section name -> key -> value.
+    header : str
+        Comment lines at the top of the file.
+    notes : mapping, optional
+        Section name -> a comment line written above that section (default :data:`SECTION_NOTES`).
+    """
+    notes = SECTION_NOTES if notes is None else notes
     out = [f"# {line}" for line in header.splitlines()]
     for name, kv in sections.items():
         if not kv:
             continue
         out.append("")
+        if name in notes:
+            out.append(f"# {notes[name]}")
         out.append(f"[{name}]")
         for k, v in kv.items():
             if v is None:
@@ -124,14 +157,20 @@ def model_sections(results: Mapping[str, Any], ratio: float) -> dict[str, dict[s
             lt[f"e{i}_d_rad"] = d
         s["lost_motion"] = lt
         ident["lost_motion_reversal_rad"] = lmr.lost_motion_rad
+    s["identified"] = ident
     pz = results.get("preisach")
     if pz is not None:
-        ident["preisach_offset_rad"] = pz["everett"].offset_rad
-        ident["preisach_u0_Nm"] = pz["everett"].u0_Nm
-        ident["preisach_step_Nm"] = pz["everett"].step_Nm
-        ident["preisach_levels"] = pz["everett"].levels
-        ident["preisach_crc"] = int(pz["table"].crc)
+        ev = pz["everett"]
+        s["preisach_host_model"] = {"direction": HOST_MODEL_DIRECTION, "u0_Nm": ev.u0_Nm, "step_Nm": ev.step_Nm,
+                                    "levels": ev.levels, "offset_rad": ev.offset_rad}
+        tab = pz["table"]
+        dt: dict[str, Any] = {"direction": DRIVE_TABLE_DIRECTION}
         if pz.get("file"):
-            ident["preisach_table"] = str(pz["file"])
-    s["identified"] = ident
+            dt["file"] = str(pz["file"])
+        dt["crc"] = int(tab.crc)
+        gear = pz.get("gear")
+        if gear is not None:        # the twist grid in rad (the Everett's u0_Nm / step_Nm hold rad here)
+            dt.update({"levels": gear.everett.levels, "u0_rad": gear.everett.u0_Nm, "step_rad": gear.everett.step_Nm,
+                       "sub_bits": int(tab.sub_bits), "twist_offset_rad": gear.twist_offset_rad})
+        s["preisach_drive_table"] = dt
     return s
