@@ -28,6 +28,11 @@ def _row(m: Any, scen: str, ctl: str, run: int, values: dict[str, float | None])
             **{f: values.get(f) for f in m.FIGURES}}
 
 
+def _figures(row: dict[str, Any]) -> dict[str, Any]:
+    """A row without its run time."""
+    return {k: v for k, v in row.items() if k != "run_time_s"}
+
+
 def test_statistics_and_target_rule() -> None:
     m = _script()
     rng = np.random.default_rng(3)
@@ -167,7 +172,9 @@ def test_checkpoint_resumes_without_running_again(tmp_path: Path, monkeypatch: p
     # a run cut off while it was written is done again
     lines = ck.read_text().splitlines()
     ck.write_text("\n".join(lines[:-1] + [lines[-1][:20]]) + "\n")
-    assert m.run_tasks(tasks, jobs=1, checkpoint=ck) == rows and calls == [("nominal", "fixed", 2)]
+    # (the row run again has its own run_time_s; the figures are the same)
+    again = m.run_tasks(tasks, jobs=1, checkpoint=ck)
+    assert [_figures(r) for r in again] == [_figures(r) for r in rows] and calls == [("nominal", "fixed", 2)]
     # another seed is another task
     calls.clear()
     m.run_tasks([("reference", "nominal", "pid", 0, 2, True)], jobs=1, checkpoint=ck)
@@ -209,3 +216,39 @@ def test_online_feed_without_a_fit_is_the_model_given_to_the_drive() -> None:
     online, fixed, fixed_true = error("online", model), error("fixed", model), error("fixed", true)
     assert np.array_equal(online, fixed)
     assert np.max(np.abs(online - fixed_true)) > 1.0
+
+
+def test_run_time_is_the_sum_of_the_runs_not_the_merge(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``run_time_s`` is the sum of the runs' own times, carried through the checkpoint: a study merged
+    from a finished checkpoint reports the runs' time, and its own (merge) time apart."""
+    m = _script()
+    now = [1000.0]
+
+    def fake(task: tuple[str, str, str, int, int, bool]) -> dict[str, Any]:
+        axis, scen, ctl, run, seed, quick = task
+        now[0] += 10.0 * (run + 1)          # run r takes 10 (r + 1) s on the study's clock
+        return _row(m, scen, ctl, run, {f: 1.0 + run + (ctl == "pid") for f in m.FIGURES})
+
+    monkeypatch.setattr(m, "run_task", fake)
+    monkeypatch.setattr(m.time, "perf_counter", lambda: now[0])
+    ck = tmp_path / "ck.jsonl"
+    kw = dict(jobs=1, quick=True, controllers=("pid", "fixed"), scenarios=("nominal",), out=tmp_path, plots=False,
+              checkpoint=ck)
+    first = m.run("reference", runs=3, **kw)
+    assert [r["run_time_s"] for r in first["runs"]] == [10.0, 20.0, 30.0] * 2
+    assert first["run_time_s"] == 120.0 and first["runs_timed"] == 6 and first["runs_without_time"] == 0
+    assert first["wall_time_s"] == 120.0 and first["merge_time_s"] == 0.0
+    # the merge of the finished checkpoint: nothing runs, the study's time is still its runs' 120 s
+    now[0] += 6.0
+    merged = m.run("reference", runs=3, **kw)
+    on_disk = json.loads((tmp_path / "drift_mc.json").read_text())
+    assert merged["run_time_s"] == on_disk["run_time_s"] == 120.0
+    assert merged["wall_time_s"] == merged["merge_time_s"] == 0.0
+    # a checkpoint row written without its time is counted apart, not as 0 s silently
+    old = _row(m, "nominal", "pid", 3, {f: 2.0 for f in m.FIGURES})
+    with ck.open("a") as fh:
+        fh.write(json.dumps({"key": m._task_key(("reference", "nominal", "pid", 3, 1, True)), "row": old}) + "\n")
+    four = m.run("reference", runs=4, **kw)
+    assert four["run_time_s"] == 120.0 + 40.0            # fixed run 3 ran now; pid run 3 came untimed
+    assert four["runs_timed"] == 7 and four["runs_without_time"] == 1
+    assert four["wall_time_s"] == 40.0 and four["merge_time_s"] == 0.0

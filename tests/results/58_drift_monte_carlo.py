@@ -409,10 +409,26 @@ def load_checkpoint(path: Path | None) -> dict[str, dict[str, Any]]:
     return out
 
 
+def timed_task(task: tuple[str, str, str, int, int, bool]) -> dict[str, Any]:
+    """:func:`run_task` with its own wall-clock time in the row (``run_time_s``, s), so that the time a
+    run took travels with it through a checkpoint into the study that merges it."""
+    t0 = time.perf_counter()
+    row = run_task(task)
+    return {**row, "run_time_s": time.perf_counter() - t0}
+
+
+def time_of_runs(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """Sum of the runs' own times (s) and how many rows carry one (checkpoint rows written without it
+    count in ``runs_without_time``)."""
+    t = [float(r["run_time_s"]) for r in rows if isinstance(r.get("run_time_s"), (int, float))]
+    return {"run_time_s": float(sum(t)), "runs_timed": len(t), "runs_without_time": len(rows) - len(t)}
+
+
 def run_tasks(tasks: Sequence[tuple[str, str, str, int, int, bool]], jobs: int | None,
               checkpoint: Path | None = None) -> list[dict[str, Any]]:
     """Rows of the tasks, in task order; those in ``checkpoint`` are taken from it, the others
-    run (in parallel processes when ``jobs`` > 1) and are appended to it as they finish."""
+    run (in parallel processes when ``jobs`` > 1) and are appended to it as they finish.  Each row
+    that runs here carries its own time, ``run_time_s`` (:func:`timed_task`)."""
     done = load_checkpoint(checkpoint)
     todo = [t for t in tasks if _task_key(t) not in done]
     fh = None
@@ -430,11 +446,11 @@ def run_tasks(tasks: Sequence[tuple[str, str, str, int, int, bool]], jobs: int |
         nj = max(1, min(jobs or (os.cpu_count() or 1), max(len(todo), 1)))
         if nj == 1:
             for t in todo:
-                keep(t, run_task(t))
+                keep(t, timed_task(t))
         else:
             ctx = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods() else None)
             with ProcessPoolExecutor(max_workers=nj, mp_context=ctx) as ex:
-                futs = {ex.submit(run_task, t): t for t in todo}
+                futs = {ex.submit(timed_task, t): t for t in todo}
                 for f in as_completed(futs):
                     keep(futs[f], f.result())
     finally:
@@ -449,10 +465,18 @@ def run(axis: str = "reference", runs: int = RUNS_DEFAULT, jobs: int | None = No
     """Run the study and write ``out/drift_mc.json`` (and the plot); returns the JSON object.
 
     ``checkpoint``: a JSON-lines file of finished runs (:func:`run_tasks`), or None.
+
+    Times (s): ``run_time_s`` is the study's: the sum of its runs' own times, whichever
+    invocation ran them (a study merged from a checkpoint counts the runs it took from there);
+    ``wall_time_s`` is this invocation's wall-clock time and ``merge_time_s`` the part of it
+    outside the runs it made (the checkpoint, the statistics, the plots, the file).
     """
-    t0 = time.time()
+    t0 = time.perf_counter()
     tasks = [(axis, s, c, r, seed, quick) for s in scenarios for c in controllers for r in range(runs)]
+    t_runs = time.perf_counter()
+    n_done = len(load_checkpoint(checkpoint).keys() & {_task_key(t) for t in tasks})
     rows = run_tasks(tasks, jobs, checkpoint)
+    runs_wall = time.perf_counter() - t_runs if n_done < len(tasks) else 0.0
     res: dict[str, Any] = {"format": FORMAT, "version": VERSION, "axis": axis, "quick": quick,
                            "runs_per_controller": runs, "model_error": MODEL_ERROR, "seed": seed,
                            "controllers": list(controllers), "scenarios": list(scenarios),
@@ -462,7 +486,9 @@ def run(axis: str = "reference", runs: int = RUNS_DEFAULT, jobs: int | None = No
     res["runs"] = rows
     out.mkdir(parents=True, exist_ok=True)
     res["plots"] = [p.name for p in plot(res, axis, out)] if plots else []
-    res["run_time_s"] = time.time() - t0
+    res.update(time_of_runs(rows))
+    res["wall_time_s"] = time.perf_counter() - t0
+    res["merge_time_s"] = res["wall_time_s"] - runs_wall
     write_json_atomic(out / "drift_mc.json", res, indent=1)
     return res
 
@@ -510,7 +536,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     t = res["target"]
     print(f"target on {', '.join(t['figures']) or 'no figure'}: fixed-model loses its gain in "
           f"{', '.join(t['where_fixed_loses']) or 'no scenario'}; adaptive gain >= {TARGET_GAIN:g} there: {t['met']}")
-    print(f"wrote {a.out / 'drift_mc.json'} ({res['run_time_s']:.0f} s)")
+    print(f"wrote {a.out / 'drift_mc.json'} (runs {res['run_time_s']:.0f} s in all over {res['runs_timed']} timed "
+          f"runs; this invocation {res['wall_time_s']:.0f} s, of which {res['merge_time_s']:.0f} s outside the runs)")
     return 0
 
 
