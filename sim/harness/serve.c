@@ -61,7 +61,12 @@
  * Pacing: realtime = one period per 100 us of wall-clock; fast = as fast as
  * the client reads (the TCP output blocks when its buffer is full, so no
  * frame is lost; a client whose socket accepts nothing for --client-timeout S,
- * default 5 s, is dropped, and SIGINT/SIGTERM end the wait at once); sync = K periods per SYNC received (lock-step with the host); frames
+ * default 5 s, is dropped, and SIGINT/SIGTERM end the wait at once).  In fast
+ * pacing the drive runs ahead of its client by at most FAST_KEEP bytes of its
+ * own output buffer and the socket's FAST_SNDBUF (the kernel doubles it): about
+ * 500 frames, as a CAN interface's bounded receive FIFO, so a master streaming
+ * TPDOs every period gets its SDO answers behind at most those frames, not behind
+ * the megabytes an autotuned socket buffer holds; sync = K periods per SYNC received (lock-step with the host); frames
  * and rig commands are then read only between SYNC credits, so a run repeats exactly.
  * Bus model (--bitrate B > 0): every frame costs its bit-stuffed length at B;
  * frames wait in a 64-frame controller queue and are dropped (counted) when
@@ -92,6 +97,10 @@
 
 #define BUSQ 64u
 #define TXQ 4096u
+/* fast pacing: output the drive may hold for a client that reads slower than it runs (bytes;
+ * a frame is about 40), and the send buffer of the client's socket (SO_SNDBUF; Linux doubles it) */
+#define FAST_KEEP 4096u
+#define FAST_SNDBUF 8192u
 #define DOM_TEST 4u          /* 0x5F20:11, the 64 KiB conformance-test domain */
 #define DOM_CAP (65536u + 64u)
 
@@ -797,6 +806,7 @@ int hd_sim_serve_main(int argc, char **argv)
          * give the client up after --client-timeout without progress */
         s->scd->stop = &g_stop;
         s->scd->stall_ms = (uint32_t)llround(client_timeout * 1000.0);
+        if (pace == 1) s->scd->sndbuf = FAST_SNDBUF;
         printf("listening on 127.0.0.1:%u\n", (unsigned)s->scd->port);
     }
     fflush(stdout);
@@ -880,7 +890,7 @@ int hd_sim_serve_main(int argc, char **argv)
             if (s->bus_credit_bits > 2.0 * s->bitrate * dt + 200.0) s->bus_credit_bits = 2.0 * s->bitrate * dt + 200.0;
         }
         drain_tx(s);
-        if (!s->use_scan) hd_scd_flush(s->scd, pace == 1, pace == 1 ? 65536u : HD_SCD_OUT_CAP);
+        if (!s->use_scan) hd_scd_flush(s->scd, pace == 1, pace == 1 ? FAST_KEEP : HD_SCD_OUT_CAP);
         if (pace == 0) {
             double due = t0 + (double)k * dt;
             double now = wall_s();

@@ -58,6 +58,7 @@ int32_t hd_scd_open(hd_scd_t *s, uint16_t port, char *err, uint32_t errlen)
     s->stall_ms = HD_SCD_STALL_MS;
     s->stalled = 0u;
     s->quiet_ms = HD_SCD_QUIET_MS;
+    s->sndbuf = 0u;
     s->listen_fd = socket(AF_INET, SOCK_STREAM, 0);
     if (s->listen_fd < 0) {
         snprintf(err, errlen, "socketcand: socket: %s", strerror(errno));
@@ -234,6 +235,11 @@ int32_t hd_scd_poll(hd_scd_t *s, int32_t timeout_ms, hd_can_frame_t *rx, uint32_
         s->fd = c;
         int one = 1;
         (void)setsockopt(c, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+        if (s->sndbuf > 0u) {
+            /* before any byte is queued: a fixed buffer also turns the kernel's autotuning off */
+            int sb = (int)s->sndbuf;
+            (void)setsockopt(c, SOL_SOCKET, SO_SNDBUF, &sb, sizeof sb);
+        }
         set_nonblock(c);
         s->clients++;
         s->stage = 0u;

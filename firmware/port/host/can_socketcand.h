@@ -13,7 +13,8 @@
  * One client at a time; a new client may connect after the old one left.
  * Outgoing frames are buffered (HD_SCD_OUT_CAP bytes); hd_scd_flush(block)
  * waits for the socket when asked (back-pressure for fast pacing), otherwise
- * frames that do not fit are dropped and counted.
+ * frames that do not fit are dropped and counted.  sndbuf bounds what the
+ * kernel buffers for the client (see hd_scd_t).
  */
 #ifndef HD_CAN_SOCKETCAND_H
 #define HD_CAN_SOCKETCAND_H
@@ -47,6 +48,10 @@ typedef struct {
     uint32_t stall_ms;
     uint32_t stalled;
     uint32_t quiet_ms;           /* pause after "rawmode" (HD_SCD_QUIET_MS; tests may shorten it) */
+    /* SO_SNDBUF of each accepted client socket in bytes (0: the system's, autotuned up to
+     * megabytes).  A server that waits for its client (fast pacing) sets it small: whatever
+     * the kernel holds unsent is a backlog every later frame, an SDO answer too, waits behind. */
+    uint32_t sndbuf;
 } hd_scd_t;
 
 /** Listen on 127.0.0.1:port (0 = ephemeral).  0 ok, -1 with a message in err. */
