@@ -124,7 +124,9 @@ def test_sigterm_stops_serve_while_the_client_stalls(server_procs: list[subproce
         assert time.monotonic() - t0 < 3.0
         assert proc.returncode == 0, err
         st = _stats(err)
-        assert st["periods"] > 1000 and st["frames_to_bus"] > 3000
+        # the drive streamed, then waited for its client: fast pacing bounds its lead to about
+        # 500 frames (docs/can.md) beyond what the client took before it stopped reading
+        assert st["periods"] > 100 and 300 < st["frames_to_bus"] <= 4000, st
         assert st["client_timeouts"] == 0
     finally:
         sock.close()
