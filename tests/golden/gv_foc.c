@@ -34,7 +34,10 @@
  *                   tick (cost only).
  *   isr_worst_case_fe_<part>  isr_worst_case's worst tick (3) with the online
  *                   Stribeck identification on (fe_enable 1) and one kind of its
- *                   work in the measured period: its step's observation, a
+ *                   work in the measured period: its step's observation without a
+                   sample (observe) and with one (sample: an established visit paired
+                   with the other direction, both estimates published), no work due
+                   (wait), a
  *                   snapshot part, a part of the solution's sums, the solution's
  *                   determinant and numerators (solve), its quotients (divide),
  *                   a residual part, the parts of the close of a fit: the pick, a half of
@@ -302,6 +305,7 @@ int32_t gv_app_to_tick(hd_app_t *a, uint32_t tick, uint32_t *mot, uint32_t *out)
  * measured period (parts == FE_OBSERVE: the observation, bins, feed), or that step done and
  * `parts` parts of its pass, the measured period running the next part. */
 #define FE_OBSERVE 0xFFFFFFFFu
+#define FE_SAMPLE 0xFFFFFFFEu
 static void isr_fe_setup(hd_app_t *a, uint32_t steps, uint32_t parts)
 {
     hd_fric_est_t *e = &a->cb.fe;
@@ -325,7 +329,7 @@ static void isr_fe_setup(hd_app_t *a, uint32_t steps, uint32_t parts)
     for (k = 0; k < steps; k++) {
         hd_fric_est_step(e, c, e->v_prev, e->v_lp, e->bin[HD_FE_DIR_POS][8].f, true);
     }
-    if (parts == FE_OBSERVE) {
+    if (parts == FE_OBSERVE || parts == FE_SAMPLE) {
         a->cb.fe_tick = a->cb_cfg.fe_decim - 1u;
         return;
     }
@@ -334,6 +338,47 @@ static void isr_fe_setup(hd_app_t *a, uint32_t steps, uint32_t parts)
         (void)hd_fric_est_fit_part(e, c);
     }
     a->cb.fe_tick = 0u;
+}
+
+/* The online identification of isr_app taking a sample in the measured period: its step due,
+ * the reference of that period steady (its own value in the last step, the low-passed
+ * velocity on it, the settle count full, a visit in progress), the visited bin established
+ * and a recent visit of the other direction (the common mode solves for scale and bias), a
+ * fit accepted in both directions (both estimates published).  0 when the period's reference
+ * is outside the bins (the caller then sets no marks: the bench fails, never under-reports). */
+static hd_app_t isr_fe_probe;
+static int32_t isr_fe_sample_setup(hd_app_t *a)
+{
+    hd_fric_est_t *e = &a->cb.fe;
+    const hd_fric_est_cfg_t *c = &a->cb_cfg.fe;
+    int32_t v, k;
+    isr_fe_probe = *a;                       /* the measured period's reference and measured velocity */
+    hd_app_step(&isr_fe_probe);
+    v = isr_fe_probe.cb.fe.v_prev;
+    k = hd_fric_est_bin_of(c, v);
+    if (v <= 0 || k < 0) {
+        return 0;
+    }
+    e->v_prev = v;
+    /* the low-passed velocity lands on v after the period's measured velocity */
+    e->v_lp = hdf_sat32((int64_t)v - ((int64_t)isr_fe_probe.tel.vel_out - (int64_t)v) / 31);
+    e->steady_n = c->settle;
+    e->visit = 1u;
+    e->vis_bin = (uint32_t)HD_FE_DIR_POS * HD_FE_NBIN + (uint32_t)k;
+    e->vis_g = e->bin[HD_FE_DIR_POS][k].f;
+    e->vis_n = 3u;
+    e->vis_m = e->vis_g;
+    e->vis_s0 = e->scale;
+    e->vis_b0 = e->bias;
+    e->vis_k = 3u;
+    e->vis_a = e->vis_g;
+    e->vis_n0 = e->bin[HD_FE_DIR_POS][k].n;
+    e->oth_m[HD_FE_DIR_NEG] = hdf_neg_sat(e->vis_g);
+    e->oth_g[HD_FE_DIR_NEG] = e->vis_g;
+    e->oth_t[HD_FE_DIR_NEG] = e->steps;
+    e->fits[HD_FE_DIR_POS] = 1u;
+    e->fits[HD_FE_DIR_NEG] = 1u;
+    return 1;
 }
 
 /* excitation in the measured runs: a multisine of 4 lines (10 .. 900 Hz, the exc_step kernel's
@@ -395,6 +440,11 @@ static void cost_isr_en(uint32_t cb_enable, uint32_t slot, uint32_t fe_steps, ui
     }
     (void)hd_app_param_set(&isr_app, HD_P_CB_ENABLE, (int32_t)cb_enable);
     if (fe_steps != 0u) {
+        if (fe_parts == FE_SAMPLE) {
+            /* bins from 2^12 (1e-6 turn/s): the reference of the measured period (the start
+             * of the PTP move) is binned */
+            (void)hd_app_param_set(&isr_app, HD_P_FE_V_MIN, 1 << 12);
+        }
         (void)hd_app_param_set(&isr_app, HD_P_FE_ENABLE, 1);
     }
     for (k = 0; k < 16u; k++) {                  /* PTP moving, every weight fully on (ramp 4) */
@@ -411,6 +461,9 @@ static void cost_isr_en(uint32_t cb_enable, uint32_t slot, uint32_t fe_steps, ui
     }
     if (fe_steps != 0u) {
         isr_fe_setup(&isr_app, fe_steps, fe_parts);
+        if (fe_parts == FE_SAMPLE && isr_fe_sample_setup(&isr_app) == 0) {
+            return;                              /* no marks: the bench fails */
+        }
     }
     vol_in[0] = 2100; vol_in[1] = 1990; vol_in[2] = 3000; vol_in[3] = 5 * 65536;
     const int32_t ra = vol_in[0], rb = vol_in[1], rv = vol_in[2], iq = vol_in[3];
@@ -465,6 +518,8 @@ static void cost_isr_semi_t2_s6(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 
 static void cost_isr_semi_t2_s7(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 7u, 0u, 0u, false, true); }
 
 static void cost_isr_fe_observe(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, FE_OBSERVE, false, false); }
+static void cost_isr_fe_sample(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, FE_SAMPLE, false, false); }
+static void cost_isr_fe_wait(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 8u, false, false); }
 static void cost_isr_fe_snapshot(void) { cost_isr_en(ISR_ALL, 3u, FE_J31, 0u, false, false); }
 static void cost_isr_fe_sums(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 0u, false, false); }
 static void cost_isr_fe_solve(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 6u, false, false); }
@@ -512,6 +567,8 @@ const hd_gv_kernel_t hd_gv_foc_kernels[] = {
     {"isr_worst_case_semi_t2.s6", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_s6},
     {"isr_worst_case_semi_t2.s7", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_s7},
     {"isr_worst_case_fe_observe", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_observe},
+    {"isr_worst_case_fe_sample", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_sample},
+    {"isr_worst_case_fe_wait", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_wait},
     {"isr_worst_case_fe_snapshot", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_snapshot},
     {"isr_worst_case_fe_sums", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_sums},
     {"isr_worst_case_fe_solve", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_solve},

@@ -68,3 +68,14 @@ def test_every_mode_against_the_target() -> None:
     assert out["isr_worst_case_semi_t2"]["worst_tick"] == 0
     assert out["isr_worst_case"]["cycles"] == round(2992 * m.CPI + sum(m.ALLOW_CYCLES.values()))
     assert out["isr_worst_case"]["cpu_load"] == pytest.approx(out["isr_worst_case"]["cycles"] / 17000, abs=1e-4)
+
+
+def test_the_estimator_check_fails_above_the_target() -> None:
+    m = _load()
+    ok, line = m.estimator_check(m.with_online_estimator({"isr_worst_case_fe_sample": {"instructions": 2992}}))
+    assert ok is True and "within" in line
+    ok, line = m.estimator_check(m.with_online_estimator({"isr_worst_case_fe_sample": {"instructions": 2993},
+                                                          "isr_worst_case_fe_sse": {"instructions": 2000}}))
+    assert ok is False and "FAILED" in line and "sample" in line
+    ok, line = m.estimator_check(None)
+    assert ok is False and "no isr_worst_case_fe_" in line
