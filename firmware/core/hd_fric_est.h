@@ -133,6 +133,8 @@
 #define HD_FE_SCALE_MAX (HD_FE_SCALE_ONE * 8)
 #define HD_FE_SCALE_SHIFT 5u /* weight of scale and bias at a visit's start: 2^5 samples (32 ms at 1 kHz) */
 
+#define HD_FE_STEP_PARTS 23u  /* most parts of one step's work: its sample (7) and a pass (16) */
+
 #define HD_FE_PAIR_AGE 4096u  /* the other direction's visit pairs with this one if not older, steps */
 #define HD_FE_KEEP_MIN 1024u  /* least memory of an established bin, samples (the shape moves slowly) */
 
@@ -201,12 +203,28 @@ typedef struct {
     uint32_t fin_n[4];                  /* close: valid bins below vs / 2, within [vs / 2, 2 vs], above, all */
     int32_t  fin_v[2];                  /* close: slowest and fastest valid bin, 2^-32 turn/s */
     int32_t  fin[4];                    /* its refined (vs, fc, fs - fc, fv) */
+    int32_t  fit_a[3];                  /* pass 2: the scaled normal matrix (a, b, c), < 2^30 + 1 */
+    uint32_t fit_sh[3];                 /* ... its shifts (shape, velocity, cross term) */
+    int32_t  fit_dfs;                   /* pass 2: fs - fc of the candidate, Q15.16 N.m */
+    int32_t  fin_x;                     /* close: the parabola's vertex, Q16 grid steps */
+    uint32_t fin_par;                   /* close: 1 when the vertex refines the best candidate */
+    uint32_t fin_acc;                   /* close: 1 when the check accepts the fit */
     uint32_t fit_mask;                  /* valid bins of the candidate's snapshot (bit per bin) */
     uint32_t fit_ok;                    /* 1: pass 2 solved the candidate */
     int64_t  fit_s[3];                  /* snapshot sums of shape, velocity column, torque */
     int32_t  fit_e[HD_FE_NBIN];         /* snapshot: shape, Q16 */
     int32_t  fit_u[HD_FE_NBIN];         /* snapshot: velocity column, 2^-21 turn/s */
     int32_t  fit_f[HD_FE_NBIN];         /* snapshot: mean torque, Q15.16 N.m */
+    uint32_t smp_stage;                 /* the step's sample: its next part, 1..7 (0: none due) */
+    int32_t  smp_v;                     /* its reference velocity, 2^-32 turn/s */
+    int32_t  smp_tau;                   /* its torque, Q15.16 N.m */
+    uint32_t smp_first;                 /* 1: the first sample of a visit */
+    int32_t  smp_k;                     /* its bin (-1: outside the bins) */
+    int32_t  smp_tc;                    /* its torque bounded by tau_max, Q15.16 N.m */
+    int64_t  smp_st;                    /* the common mode's scale from the visit, Q16 (unbounded) */
+    int64_t  smp_bt;                    /* ... and its bias, Q15.16 N.m (unbounded) */
+    int32_t  smp_f;                     /* the sample normalised by scale and bias, Q15.16 N.m */
+    uint32_t smp_cap;                   /* the bin's memory for this sample, samples */
     int32_t  v_prev;                    /* v_ref of the last step */
     int32_t  v_lp;                      /* low-passed measured velocity, 2^-32 turn/s */
     uint32_t steady_n;                  /* steady steps (saturates at settle) */
