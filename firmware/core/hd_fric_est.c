@@ -189,6 +189,16 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
     e->vis_k = 0u;
     e->vis_a = 0;
     e->vis_n0 = 0u;
+    for (i = 0; i < HD_FE_QLEN; i++) {
+        e->q[i].v = 0;
+        e->q[i].tau = 0;
+        e->q[i].flags = 0u;
+    }
+    e->q_head = 0u;
+    e->q_tail = 0u;
+    e->q_drop = 0u;
+    e->in_step = 0u;
+    e->busy = 0u;
     e->smp_stage = 0u;
     e->smp_v = 0;
     e->smp_tau = 0;
@@ -835,14 +845,24 @@ static bool fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
     return true;
 }
 
+/* an entry for the background (hd_fric_est_work): a full queue loses it, counted */
+static void queue_push(hd_fric_est_t *e, int32_t v, int32_t tau, uint32_t flags)
+{
+    const uint32_t head = e->q_head;
+    if ((uint32_t)(head - e->q_tail) >= HD_FE_QLEN) {
+        e->q_drop++;
+        return;
+    }
+    e->q[head % HD_FE_QLEN].v = v;
+    e->q[head % HD_FE_QLEN].tau = tau;
+    e->q[head % HD_FE_QLEN].flags = flags;
+    e->q_head = head + 1u;                  /* after the entry: the background reads it whole */
+}
+
 void hd_fric_est_observe(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
                          bool active)
 {
-    /* the last step's pass first (its parts did not all run yet): the passes see the bins
-     * of their own step, as in hd_fric_est_step */
-    while (hd_fric_est_fit_part(e, c)) {
-    }
-    e->steps++;
+    uint32_t flags = 0u;
     /* the measured velocity, low-passed (the observer's noise at slow rates) */
     e->v_lp = hdf_sat32((int64_t)e->v_lp + hdf_asr64_rnd((int64_t)v_meas - (int64_t)e->v_lp, HD_FE_VLP_SHIFT));
     if (!active) {
@@ -863,39 +883,79 @@ void hd_fric_est_observe(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v
         }
         e->v_prev = v_ref;
         if (same && e->steady_n >= c->settle) {
-            /* the sample: its parts run first in the step's work (sample_part) */
-            e->smp_v = v_ref;
-            e->smp_tau = tau;
-            e->smp_first = (e->visit == 0u) ? 1u : 0u;
-            e->smp_stage = 1u;
+            flags = HD_FE_OBS_SAMPLE | ((e->visit == 0u) ? HD_FE_OBS_FIRST : 0u);
             e->visit = 1u;
         } else {
             e->visit = 0u;
         }
     }
-    e->fit_due = 1u;                        /* a quarter of a fit candidate per step */
+    queue_push(e, v_ref, tau, flags);
 }
 
-bool hd_fric_est_fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
+void hd_fric_est_queue_feed(hd_fric_est_t *e)
 {
-    if (e->smp_stage != 0u) {
-        /* the step's sample first (as bin_update before the pass in hd_fric_est_step) */
+    queue_push(e, 0, 0, HD_FE_OBS_FEED);
+}
+
+/* the next step of the queue: its count, its sample (the first part of the step's work),
+ * then a quarter of a fit candidate */
+static void work_begin(hd_fric_est_t *e, const hd_fe_obs_t *o)
+{
+    if ((o->flags & HD_FE_OBS_FEED) != 0u) {
+        return;                             /* no step: done at once (the caller's feed only) */
+    }
+    e->steps++;
+    if ((o->flags & HD_FE_OBS_SAMPLE) != 0u) {
+        e->smp_v = o->v;
+        e->smp_tau = o->tau;
+        e->smp_first = ((o->flags & HD_FE_OBS_FIRST) != 0u) ? 1u : 0u;
+        e->smp_stage = 1u;
+    }
+    e->fit_due = 1u;
+    e->in_step = 1u;
+}
+
+bool hd_fric_est_work(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
+{
+    const uint32_t tail = e->q_tail;
+    e->busy = 1u;
+    if (e->in_step == 0u) {
+        if (tail == e->q_head) {
+            e->busy = 0u;
+            return false;
+        }
+        work_begin(e, &e->q[tail % HD_FE_QLEN]);
+    }
+    if (e->in_step == 0u) {
+        e->q_tail = tail + 1u;              /* a feed-only entry */
+    } else if (e->smp_stage != 0u) {
+        /* the step's sample first (as bin_update before the pass) */
         const uint32_t st = e->smp_stage;
         e->smp_stage = (st < FE_SMP_PARTS) ? st + 1u : 0u;
         sample_part(e, c, st);
-        return (e->smp_stage != 0u) || (e->fit_due != 0u);
+    } else if (e->fit_due != 0u) {
+        (void)fit_part(e, c);
     }
-    if (e->fit_due == 0u) {
-        return false;
+    if (e->in_step != 0u && e->smp_stage == 0u && e->fit_due == 0u) {
+        e->in_step = 0u;
+        e->q_tail = tail + 1u;              /* the step done: its entry is free */
     }
-    return !fit_part(e, c);
+    e->busy = 0u;
+    return (e->in_step != 0u) || (e->q_tail != e->q_head);
+}
+
+void hd_fric_est_work_feed(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, hd_stribeck_cfg_t *out)
+{
+    e->busy = 1u;
+    hd_fric_est_feed(e, base, out);
+    e->busy = 0u;
 }
 
 void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
                       bool active)
 {
     hd_fric_est_observe(e, c, v_ref, v_meas, tau, active);
-    while (hd_fric_est_fit_part(e, c)) {
+    while (hd_fric_est_work(e, c)) {
     }
 }
 

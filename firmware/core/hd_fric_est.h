@@ -166,6 +166,17 @@ typedef struct {
     uint32_t stamp;          /* step count of its last sample */
 } hd_fe_bin_t;
 
+/* One observation for the background (hd_fric_est_observe -> hd_fric_est_work). */
+#define HD_FE_QLEN 8u                  /* observations queued (8 ms at 1 kHz) */
+#define HD_FE_OBS_SAMPLE 1u            /* flags: a steady sample ... */
+#define HD_FE_OBS_FIRST 2u             /* ... the first of its visit */
+#define HD_FE_OBS_FEED 4u              /* no step: the feed's step only (estimator off, feed ramping out) */
+typedef struct {
+    int32_t  v;              /* v_ref, 2^-32 turn/s */
+    int32_t  tau;            /* torque applied, Q15.16 N.m */
+    uint32_t flags;          /* HD_FE_OBS_* */
+} hd_fe_obs_t;
+
 typedef struct {
     hd_fe_bin_t bin[HD_FE_NDIR][HD_FE_NBIN];
     hd_stribeck_dir_t est[HD_FE_NDIR];  /* published estimate (magnitudes): shape x scale */
@@ -215,6 +226,13 @@ typedef struct {
     int32_t  fit_e[HD_FE_NBIN];         /* snapshot: shape, Q16 */
     int32_t  fit_u[HD_FE_NBIN];         /* snapshot: velocity column, 2^-21 turn/s */
     int32_t  fit_f[HD_FE_NBIN];         /* snapshot: mean torque, Q15.16 N.m */
+    hd_fe_obs_t q[HD_FE_QLEN];          /* observations not yet worked (ring) */
+    volatile uint32_t q_head;           /* observations queued (wraps; written by the observation) */
+    volatile uint32_t q_tail;           /* steps worked (wraps; written by the background) */
+    uint32_t q_drop;                    /* observations lost to a full queue (wraps) */
+    uint32_t in_step;                   /* 1 while the background works a step */
+    volatile uint32_t busy;             /* 1 inside hd_fric_est_work (the control period then
+                                         * leaves the background's state alone) */
     uint32_t smp_stage;                 /* the step's sample: its next part, 1..7 (0: none due) */
     int32_t  smp_v;                     /* its reference velocity, 2^-32 turn/s */
     int32_t  smp_tau;                   /* its torque, Q15.16 N.m */
@@ -248,15 +266,33 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
  *  (forgets the steadiness). */
 void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
                       bool active);
-/** hd_fric_est_step in parts of bounded cost: the observation (steadiness, bins; it first
- *  completes the last step's pass if parts of it are left), then its pass of the fit one
- *  part per call of hd_fric_est_fit_part (4 snapshot parts of 3 bins, or 6 parts of the
- *  solution's sums of 4 bins + 2 of the solution, or 4 parts of the residual of 6 bins + 4 for
- *  the close of a fit), which returns true while
- *  parts are left.  observe + every part = hd_fric_est_step, bit for bit. */
+/** hd_fric_est_step split between the control period and the background.
+ *  hd_fric_est_observe (the control period, every step): the low-passed velocity and the
+ *  steadiness test only; the step goes into a queue of HD_FE_QLEN observations (a full queue
+ *  loses it: q_drop).  It touches only the observation's own fields (v_lp, v_prev, steady_n,
+ *  visit) and the queue's head.
+ *  hd_fric_est_work (the background, below the control period): one part of the oldest
+ *  queued step per call (the step's count, its sample in 7 parts, then its pass of the fit:
+ *  12 snapshot parts of one bin, 12 parts of the solution's sums of 2 bins + 4 of the
+ *  solution, or 8 residual parts of 3 bins + 8 for the close of a fit); true while work is
+ *  left.  Every step is worked whole and in order: observe + work until false =
+ *  hd_fric_est_step, bit for bit.  busy is 1 inside a call: the control period changes the
+ *  background's state (hd_fric_est_init, hd_fric_est_seed, the config the background uses)
+ *  only while it is 0 (hd_comp_bank_fric_est). */
 void hd_fric_est_observe(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
                          bool active);
-bool hd_fric_est_fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c);
+bool hd_fric_est_work(hd_fric_est_t *e, const hd_fric_est_cfg_t *c);
+/** A feed-only entry for the background (the estimator off, its feed ramping out: the
+ *  weight's step without an estimator step); a full queue loses it (q_drop). */
+void hd_fric_est_queue_feed(hd_fric_est_t *e);
+/** The background's feed after a worked entry: hd_fric_est_feed inside the busy mark (the
+ *  weight and out are the background's; the control period copies out between parts). */
+void hd_fric_est_work_feed(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, hd_stribeck_cfg_t *out);
+/** True inside hd_fric_est_work (a part in progress). */
+static inline bool hd_fric_est_busy(const hd_fric_est_t *e)
+{
+    return e->busy != 0u;
+}
 /** The bin of |v| (0..HD_FE_NBIN-1), or -1 outside the binned range. */
 int32_t hd_fric_est_bin_of(const hd_fric_est_cfg_t *c, int32_t v);
 /** The initial estimate follows new parameters (init, e.g. the Stribeck FF parameters just

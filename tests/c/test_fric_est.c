@@ -489,10 +489,10 @@ static void test_bins(void **state)
     assert_int_equal(hd_fric_est_config(&cfg, 0, 1, 0, 1u, 1u, 1u, 1u, 1u, 1, 0), -1);
 }
 
-/* The step in parts (hd_fric_est_observe, then hd_fric_est_fit_part once per period, as the
- * bank runs it: the sample's parts, then the pass's) gives the very state of
- * hd_fric_est_step, with at most HD_FE_STEP_PARTS parts per step, and that many in some step
- * (the bound is the one the bank's schedule relies on). */
+/* The step split between the control period and the background (hd_fric_est_observe, then
+ * hd_fric_est_work one part at a time: the sample's parts, then the pass's) gives the very
+ * state of hd_fric_est_step, with at most HD_FE_STEP_PARTS parts per step, and that many in
+ * some step. */
 static void test_parts_equal_step(void **state)
 {
     static hd_fric_est_t split;
@@ -513,7 +513,7 @@ static void test_parts_equal_step(void **state)
             hd_fric_est_observe(&split, &cfg, vk, vk, t, true);
             while (n < 64u) {
                 n++;                                    /* a part per period: the last one ends the step */
-                if (!hd_fric_est_fit_part(&split, &cfg)) {
+                if (!hd_fric_est_work(&split, &cfg)) {
                     break;
                 }
             }
