@@ -372,7 +372,7 @@ static void isr_fe_setup(hd_app_t *a, uint32_t steps, uint32_t parts)
         for (k = FE_PART; k < parts; k++) {
             (void)hd_fric_est_work(e, c);
         }
-        a->cb.fe_tick = 0u;
+        a->cb.fe_tick = 1u;                 /* the measured period: between observation and feed */
         return;
     }
     hd_fric_est_observe(e, c, e->v_prev, e->v_lp, e->bin[HD_FE_DIR_POS][8].f, true);
