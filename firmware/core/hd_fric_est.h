@@ -108,13 +108,17 @@
  *   bin velocity                        : 2^-32 turn/s; r16 = |v| / vs_lo in Q16
  *   e (shape)                           : Q16 inside the fit (exp(-x) by hd_exp_neg_q16)
  *   fit velocity column                 : |v| / 2^HD_FE_U_SHIFT (2^-21 turn/s)
- * Cost: a bin update is a few multiplies and one 32-bit division; a step adds
- *   one quarter of a candidate: 12 exp, or the 2x2 solution (two reciprocals),
- *   or the residual over 24 bins (+ the closing of a fit after the last one)
- *   (Cortex-M4 instructions per step: tests/bench/10_cm4_cost.sh, docs/compensators.md).
- *   In the drive a step runs in parts of bounded cost, the observation, then its
- *   pass one part per control period (hd_fric_est_observe, hd_fric_est_fit_part).
- * Memory: hd_fric_est_t, about 2.2 KiB.
+ * Cost: a step is its observation (the low-passed velocity, the steadiness test, the
+ *   queue: hd_fric_est_observe, the control period's only share, about 80 Cortex-M4
+ *   instructions), its sample (the bin update and the common mode: five approximate
+ *   divisions) and a quarter of a fit candidate: 12 exp, or the 2x2 solution (two
+ *   reciprocals), or the residual over 24 bins (+ the closing of a fit after the last
+ *   one).  The sample and the pass run in the background (hd_fric_est_work) in parts of
+ *   at most one division, one exp or a few bins each: the sample in 7 parts, a pass in at
+ *   most 16 (HD_FE_STEP_PARTS in all); a step's background work is at most about 6,800
+ *   instructions with the app's calls (tests/bench/10_cm4_cost.sh fe_background_step,
+ *   docs/firmware.md).
+ * Memory: hd_fric_est_t, about 2.4 KiB (the queue of HD_FE_QLEN observations included).
  */
 #ifndef HD_FRIC_EST_H
 #define HD_FRIC_EST_H
