@@ -808,7 +808,8 @@ void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_ve
         return;                 /* off and not ramping out: no cost, the bins keep their data */
     }
     fe_sync(b, c);              /* a parameter change the background's part delayed */
-    t = ++b->fe_tick;
+    b->fe_tick++;
+    t = b->fe_tick;
     /* the observation in the first period of the step, the fed FF config in its last
      * (fe_decim >= 2: each period carries one of them) */
     if (t == 1u || c->fe_decim == 1u) {
