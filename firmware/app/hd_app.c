@@ -1082,6 +1082,11 @@ void hd_app_phase_mark(void);
 #define PHASE_MARK() ((void)0)
 #endif
 
+bool hd_app_background(hd_app_t *a)
+{
+    return hd_comp_bank_fric_est_work(&a->cb);
+}
+
 void hd_app_step(hd_app_t *a)
 {
     hd_period_t p;

@@ -254,6 +254,11 @@ typedef struct {
 void hd_app_init(hd_app_t *a);
 /** One control period (see the contract above). */
 void hd_app_step(hd_app_t *a);
+/** Background work below the control period: one part of the online Stribeck
+ *  identification's queued steps (hd_comp_bank_fric_est_work, at most a few hundred
+ *  instructions); true while work is left.  The port calls it from its main loop, the
+ *  simulator after every period until it returns false. */
+bool hd_app_background(hd_app_t *a);
 
 /* ---- command API (harness, CANopen) ------------------------------------ */
 /** Request a mode; 0 ok, -1 refused (faulted and mode != OFF, or bad mode). */

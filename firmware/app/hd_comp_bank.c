@@ -254,6 +254,43 @@ static void fe_reset(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     b->fe_vs_lo = c->fe.vs_lo;
 }
 
+/* The estimator's side of a parameter change (new binning: empty bins; new str_* map: the
+ * estimate without a fit follows it; the config the background works with).  The background
+ * (hd_comp_bank_fric_est_work) may be inside a part, preempted by the control period: then
+ * its state is left alone and the change is applied in the first period in which no part is
+ * in progress (hd_comp_bank_fric_est). */
+#define FE_PEND_RESET 1u
+#define FE_PEND_SEED 2u
+#define FE_PEND_CFG 4u
+static void fe_sync(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    if (b->fe_pend == 0u || hd_fric_est_busy(&b->fe)) {
+        return;
+    }
+    if ((b->fe_pend & FE_PEND_RESET) != 0u) {
+        const hd_blend_t feed = b->fe.feed;
+        fe_reset(b, c);
+        b->fe.feed = feed;
+    } else if ((b->fe_pend & FE_PEND_SEED) != 0u) {
+        /* new str_* parameters (written after the estimator started, e.g. one SDO at a
+         * time): an estimate without a fit is the model in force, else the feed would put
+         * the start-up map (the defaults) into the FF */
+        hd_stribeck_dir_t init[HD_FE_NDIR];
+        init[HD_FE_DIR_POS] = c->str.pos;
+        init[HD_FE_DIR_NEG] = c->str.neg;
+        hd_fric_est_seed(&b->fe, init);
+    }
+    b->fe_cfg = c->fe;
+    b->fe_base = c->str;
+    b->fe.feed.ramp_ticks = c->fe_ramp;
+    if (b->fe.feed.w == 0) {
+        b->fe_str = c->str;     /* a feed switched on starts from the parameters in force */
+        b->fe_next = c->str;
+    }
+    hd_fric_est_set_feed(&b->fe, (c->fe_on & c->fe_feed) != 0u);
+    b->fe_pend = 0u;
+}
+
 void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
 {
     const uint32_t en = c->enable;
@@ -308,6 +345,10 @@ void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     b->te_slope = 0;
     set_blend_ramps(b, r);
     fe_reset(b, c);
+    b->fe_cfg = c->fe;
+    b->fe_base = c->str;
+    b->fe_next = c->str;
+    b->fe_pend = 0u;
 }
 
 void hd_comp_bank_apply(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
@@ -331,25 +372,12 @@ void hd_comp_bank_apply(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
         hd_backstep_set_enabled(&b->bs, on);
     }
     b->enabled = en;
-    /* the estimator: new binning empties the bins; the feed switch ramps */
-    if (c->fe.v_min != b->fe_v_min || c->fe.vs_lo != b->fe_vs_lo) {
-        const hd_blend_t feed = b->fe.feed;
-        fe_reset(b, c);
-        b->fe.feed = feed;
-    } else {
-        /* new str_* parameters (written after the estimator started, e.g. one SDO at a
-         * time): an estimate without a fit is the model in force, else the feed would put
-         * the start-up map (the defaults) into the FF */
-        hd_stribeck_dir_t init[HD_FE_NDIR];
-        init[HD_FE_DIR_POS] = c->str.pos;
-        init[HD_FE_DIR_NEG] = c->str.neg;
-        hd_fric_est_seed(&b->fe, init);
-    }
-    b->fe.feed.ramp_ticks = c->fe_ramp;
-    if (b->fe.feed.w == 0) {
-        b->fe_str = c->str;     /* a feed switched on starts from the parameters in force */
-    }
-    hd_fric_est_set_feed(&b->fe, (c->fe_on & c->fe_feed) != 0u);
+    /* the estimator: new binning empties the bins, new str_* parameters seed an estimate
+     * without a fit (fe_sync: at once, or after the background's part in progress); the
+     * feed switch ramps */
+    b->fe_pend |= FE_PEND_CFG | ((c->fe.v_min != b->fe_v_min || c->fe.vs_lo != b->fe_vs_lo) ? FE_PEND_RESET
+                                                                                              : FE_PEND_SEED);
+    fe_sync(b, c);
 }
 
 /* A new table's memory: the gear demagnetised at rest (input 0: no torque, no twist), not
@@ -775,22 +803,43 @@ void hd_comp_bank_end(hd_comp_bank_t *b, int32_t t_applied)
 void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_vel_out_t v_ref, hd_vel_out_t v_fb,
                            int32_t tau, bool active)
 {
+    uint32_t t;
     if (c->fe_on == 0u && !hd_fric_est_feeding(&b->fe)) {
         return;                 /* off and not ramping out: no cost, the bins keep their data */
     }
-    if (++b->fe_tick < c->fe_decim) {
-        /* the step's fit pass one part per period in the periods after it (at most 8 parts:
-         * the pass is done before the next step for fe_decim >= 9; else that step completes it) */
+    fe_sync(b, c);              /* a parameter change the background's part delayed */
+    b->fe_tick++;
+    t = b->fe_tick;
+    /* the observation in the first period of the step, the fed FF config in its last
+     * (fe_decim >= 2: each period carries one of them) */
+    if (t == 1u || c->fe_decim == 1u) {
         if (c->fe_on != 0u) {
-            (void)hd_fric_est_fit_part(&b->fe, &c->fe);
+            /* the observation only: the step's sample and fit are the background's
+             * (hd_comp_bank_fric_est_work) */
+            hd_fric_est_observe(&b->fe, &c->fe, v_ref, v_fb, tau, active);
+        } else {
+            hd_fric_est_queue_feed(&b->fe);     /* off: the feed ramps out */
         }
+    }
+    if (t < c->fe_decim) {
         return;
     }
     b->fe_tick = 0u;
-    if (c->fe_on != 0u) {
-        hd_fric_est_observe(&b->fe, &c->fe, v_ref, v_fb, tau, active);
+    if (!hd_fric_est_busy(&b->fe)) {
+        /* the background's fed config of its last entry (whole between its parts) */
+        b->fe_str = b->fe_next;
     }
-    hd_fric_est_feed(&b->fe, &c->str, &b->fe_str);
+}
+
+bool hd_comp_bank_fric_est_work(hd_comp_bank_t *b)
+{
+    const uint32_t tail = b->fe.q_tail;
+    const bool more = hd_fric_est_work(&b->fe, &b->fe_cfg);
+    if (b->fe.q_tail != tail) {
+        /* an entry done: the feed's step (weight, fed config) */
+        hd_fric_est_work_feed(&b->fe, &b->fe_base, &b->fe_next);
+    }
+    return more;
 }
 
 bool hd_comp_bank_active(const hd_comp_bank_t *b)

@@ -201,6 +201,10 @@ typedef struct {
     int32_t  cp_dth;             /* weighted compliance twist, 2^-32 turn */
     hd_fric_est_t fe;            /* online Stribeck identification */
     hd_stribeck_cfg_t fe_str;    /* the Stribeck FF config with the estimate fed in (while feeding) */
+    hd_fric_est_cfg_t fe_cfg;    /* the estimator's config as the background uses it (fe_sync) */
+    hd_stribeck_cfg_t fe_base;   /* ... the Stribeck FF parameters it feeds from */
+    hd_stribeck_cfg_t fe_next;   /* the background's fed FF config (copied to fe_str between its parts) */
+    uint32_t fe_pend;            /* estimator changes waiting for the background's part to end */
     uint32_t fe_tick;            /* periods since the last estimator step */
     int32_t  fe_v_min;           /* binning of the bins in fe (a change empties them) */
     int32_t  fe_vs_lo;
@@ -242,10 +246,15 @@ void hd_comp_bank_end(hd_comp_bank_t *b, int32_t t_applied);
 /** The slow slot of the online Stribeck identification (hd_fric_est.h): call once per
  *  control period with the reference velocity before the bank's corrections and the
  *  velocity-loop feedback (2^-32 turn/s), the output torque applied (Q15.16 N.m) and
- *  whether the position loops ran; every fe_decim-th call runs one estimator step and
- *  refreshes the fed Stribeck FF config. */
+ *  whether the position loops ran; every fe_decim-th call queues one observation for the
+ *  background and refreshes the fed Stribeck FF config (not while a background part is in
+ *  progress: the estimate is whole between parts). */
 void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_vel_out_t v_ref, hd_vel_out_t v_fb,
                            int32_t tau, bool active);
+/** The background of the online identification: one part of the oldest queued step
+ *  (hd_fric_est_work); true while work is left.  Call it below the control period (the
+ *  port's main loop; the simulator after every period until false). */
+bool hd_comp_bank_fric_est_work(hd_comp_bank_t *b);
 /** True while any compensator output may be non-zero. */
 bool hd_comp_bank_active(const hd_comp_bank_t *b);
 

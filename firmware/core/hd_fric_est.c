@@ -13,12 +13,13 @@ static const int32_t fe_qoct[4] = {1073741824, 1276901417, 1518500250, 180581130
 
 #define FE_INV_SQRT2_Q30 759250125      /* round(2^30 / sqrt 2) */
 #define FE_NO_FIT INT64_MAX
-#define HD_FE_SNAP_BINS 3u   /* bins per snapshot part (a part: 3 exp) */
-#define HD_FE_SUM_BINS 4u    /* bins per part of the solution's sums */
+#define HD_FE_SNAP_BINS 1u   /* bins per snapshot part (a part: one exp) */
+#define HD_FE_SUM_BINS 2u    /* bins per part of the solution's sums */
 #define FE_SUM_PARTS (HD_FE_NBIN / HD_FE_SUM_BINS)
-#define HD_FE_SSE_BINS 6u    /* bins per part of the residual: 4 parts, so that the last
-                              * candidate's pass with the close of a fit (4 parts) has 8 parts */
+#define HD_FE_SSE_BINS 3u    /* bins per part of the residual */
 #define FE_SSE_PARTS (HD_FE_NBIN / HD_FE_SSE_BINS)
+#define HD_FE_SCAN_BINS 6u   /* bins per part of the close's scan of the bins */
+#define FE_SCAN_PARTS (HD_FE_NBIN / HD_FE_SCAN_BINS)
 
 /* bit i of a bin mask (i < HD_FE_NBIN <= 32) */
 static uint32_t bin_bit(uint32_t i)
@@ -159,6 +160,14 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
     }
     e->fin_v[0] = 0;
     e->fin_v[1] = 0;
+    for (i = 0; i < 3u; i++) {
+        e->fit_a[i] = 0;
+        e->fit_sh[i] = 0u;
+    }
+    e->fit_dfs = 0;
+    e->fin_x = 0;
+    e->fin_par = 0u;
+    e->fin_acc = 0u;
     e->fit_mask = 0u;
     e->fit_ok = 0u;
     e->fit_s[0] = 0;
@@ -180,6 +189,26 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
     e->vis_k = 0u;
     e->vis_a = 0;
     e->vis_n0 = 0u;
+    for (i = 0; i < HD_FE_QLEN; i++) {
+        e->q[i].v = 0;
+        e->q[i].tau = 0;
+        e->q[i].flags = 0u;
+    }
+    e->q_head = 0u;
+    e->q_tail = 0u;
+    e->q_drop = 0u;
+    e->in_step = 0u;
+    e->busy = 0u;
+    e->smp_stage = 0u;
+    e->smp_v = 0;
+    e->smp_tau = 0;
+    e->smp_first = 0u;
+    e->smp_k = -1;
+    e->smp_tc = 0;
+    e->smp_st = 0;
+    e->smp_bt = 0;
+    e->smp_f = 0;
+    e->smp_cap = 0u;
     e->v_prev = 0;
     e->v_lp = 0;
     e->visit = 0u;
@@ -217,138 +246,186 @@ static int64_t visit_blend(int64_t a, int64_t t, uint32_t n)
     return a + div_approx((t - a) * (int64_t)n, (uint64_t)n + (1u << HD_FE_SCALE_SHIFT), 0u);
 }
 
-/* Common mode from the visit in progress (direction d, sign sg, the visited bin's mean g0 when
- * the visit began, the visit's mean signed torque m over n samples).  The model is
- * m = sg scale g0 + bias.  With a recent visit of the other direction (mean mo of a bin of
- * mean go) the two equations give both unknowns; without one, the bias stays and the visit
- * gives the scale.  The result is blended with the values at the visit's start. */
-static void common_update(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d, int32_t sg, uint32_t n)
+/* The sample in parts (bin_update of a step, one part per call of sample_part, each with
+ * at most one approximate division; hd_fric_est.h "Cost"):
+ *   1 the bin and the visit (a new one: its mean when it began, the scale and bias of its
+ *     start, the old mean's weight), the visit's mean signed torque; the common mode's
+ *     scale from the visit (established bins only, as every part of the common mode),
+ *   2 its bias (with a recent visit of the other direction),
+ *   3 the scale blended with its value at the visit's start,
+ *   4 the bias likewise, and this direction's visit for the other's pairing,
+ *   5 the sample normalised by the scale (established: the visit's mean torque),
+ *   6 the bin's means, count, Q16 velocity and stamp,
+ *   7 the published estimates (the new scale).
+ * The model of the common mode is m = sg scale g0 + bias (direction d, sign sg, the visited
+ * bin's mean g0 when the visit began, the visit's mean signed torque m over n samples).
+ * With a recent visit of the other direction (mean mo of a bin of mean go) the two
+ * equations give both unknowns; without one, the bias stays and the visit gives the scale.
+ * The result is blended with the values at the visit's start. */
+#define FE_SMP_PARTS 7u
+
+/* the other direction's last established visit pairs with this one (recent enough) */
+static bool smp_paired(const hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t o)
 {
-    const uint32_t o = (d == (uint32_t)HD_FE_DIR_POS) ? (uint32_t)HD_FE_DIR_NEG : (uint32_t)HD_FE_DIR_POS;
-    const int64_t m = e->vis_m;
-    const int64_t g0 = e->vis_g;
-    int64_t s_t;
-    int64_t b_t = e->vis_b0;
     const uint32_t age = (c->max_age < HD_FE_PAIR_AGE) ? c->max_age : HD_FE_PAIR_AGE;
-    if (e->oth_g[o] > 0 && (uint32_t)(e->steps - e->oth_t[o]) <= age) {
-        /* pos: mp = s gp + b, neg: mn = -s gn + b  ->  s = (mp - mn) / (gp + gn),
-         * b = (mp gn + mn gp) / (gp + gn) */
-        const int64_t mo = e->oth_m[o];
-        const int64_t go = e->oth_g[o];
-        const uint64_t den = (uint64_t)(g0 + go);
-        const int64_t mp = (sg > 0) ? m : mo;
-        const int64_t mn = (sg > 0) ? mo : m;
-        const int64_t gp = (sg > 0) ? g0 : go;
-        const int64_t gn = (sg > 0) ? go : g0;
-        s_t = div_approx(mp - mn, den, 16u);                                       /* Q16 */
-        b_t = div_approx(mp * gn + mn * gp, den, 0u);                             /* Q16 N.m */
-    } else {
-        const int64_t f = (sg > 0) ? m - (int64_t)e->vis_b0 : (int64_t)e->vis_b0 - m;
-        s_t = div_approx(f, (uint64_t)g0, 16u);
-    }
-    s_t = hdf_clamp64(s_t, HD_FE_SCALE_MIN, HD_FE_SCALE_MAX);
-    b_t = hdf_clamp64(b_t, -(int64_t)c->tau_max, (int64_t)c->tau_max);
-    e->scale = hdf_sat32(visit_blend(e->vis_s0, s_t, n));
-    e->bias = hdf_sat32(visit_blend(e->vis_b0, b_t, n));
+    return e->oth_g[o] > 0 && (uint32_t)(e->steps - e->oth_t[o]) <= age;
 }
 
-static void bin_update(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t tau, bool first)
+static void sample_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t stage)
 {
-    const int32_t k = hd_fric_est_bin_of(c, v_ref);
+    const int32_t v_ref = e->smp_v;
     const uint32_t d = (v_ref > 0) ? (uint32_t)HD_FE_DIR_POS : (uint32_t)HD_FE_DIR_NEG;
+    const uint32_t o = (d == (uint32_t)HD_FE_DIR_POS) ? (uint32_t)HD_FE_DIR_NEG : (uint32_t)HD_FE_DIR_POS;
     const int32_t sg = (v_ref > 0) ? 1 : -1;
-    hd_fe_bin_t *b;
-    uint32_t n1;
-    uint32_t cap;
-    int32_t f;
-    int32_t tc;
-    int64_t fn;
-    if (k < 0) {
+    const int64_t m = e->vis_m;
+    const int64_t g0 = e->vis_g;
+    switch (stage) {
+    case 1u: {
+        const int32_t k = hd_fric_est_bin_of(c, v_ref);
+        hd_fe_bin_t *b;
+        e->smp_k = k;
+        if (k < 0) {
+            return;
+        }
+        b = &e->bin[d][k];
+        /* excitation check of the common mode: the bin held n_min samples of earlier visits
+         * when this visit began; the visit is compared with that mean, held for the whole
+         * visit (a comparison with the running mean would take the visit's own settling for
+         * a drift).  A visit of the common mode is one bin: a reference that creeps (within
+         * dv_max) into the next bin starts a new one there. */
+        if (e->smp_first != 0u || e->vis_bin != d * HD_FE_NBIN + (uint32_t)k) {
+            e->vis_bin = d * HD_FE_NBIN + (uint32_t)k;
+            e->vis_g = (b->n >= c->n_min && b->f > 0) ? b->f : 0;
+            e->vis_n = 0u;
+            e->vis_m = 0;
+            e->vis_s0 = e->scale;
+            e->vis_b0 = e->bias;
+            e->vis_k = 0u;
+            e->vis_a = 0;
+            e->vis_n0 = b->n;
+        }
+        if (e->smp_first != 0u) {
+            /* a new visit: the old mean weighs as n_keep samples, but at least HD_FE_KEEP_MIN:
+             * a common-mode change is the scale's to follow; a bin that forgot faster would
+             * take it into the shape before the scale sees it */
+            const uint32_t keep = (c->n_keep > HD_FE_KEEP_MIN) ? c->n_keep : HD_FE_KEEP_MIN;
+            b->n = (b->n > keep) ? keep : b->n;
+            e->vis_n0 = b->n;
+        }
+        e->smp_tc = hdf_clamp32(e->smp_tau, hdf_neg_sat(c->tau_max), c->tau_max);
+        if (e->vis_g > 0) {
+            /* samples of the visit, 1..n_forget (n_forget >= 1 by hd_fric_est_config) */
+            e->vis_n = (e->vis_n < c->n_forget) ? e->vis_n + 1u : ((c->n_forget > 0u) ? c->n_forget : 1u);
+            e->vis_m = mean_step(e->vis_m, e->smp_tc, e->vis_n);
+            if (smp_paired(e, c, o)) {
+                /* pos: mp = s gp + b, neg: mn = -s gn + b  ->  s = (mp - mn) / (gp + gn) */
+                const int64_t mo = e->oth_m[o];
+                const int64_t mv = e->vis_m;
+                e->smp_st = div_approx((sg > 0) ? mv - mo : mo - mv, (uint64_t)((int64_t)e->vis_g + e->oth_g[o]), 16u);
+            } else {
+                const int64_t f = (sg > 0) ? (int64_t)e->vis_m - (int64_t)e->vis_b0
+                                           : (int64_t)e->vis_b0 - (int64_t)e->vis_m;
+                e->smp_st = div_approx(f, (uint64_t)(int64_t)e->vis_g, 16u);
+            }
+        }
         return;
     }
-    b = &e->bin[d][k];
-    /* excitation check of the common mode: the bin held n_min samples of earlier visits when
-     * this visit began; the visit is compared with that mean, held for the whole visit (a
-     * comparison with the running mean would take the visit's own settling for a drift) */
-    /* a visit of the common mode is one bin: a reference that creeps (within dv_max) into
-     * the next bin starts a new one there (its samples are compared with that bin's mean) */
-    if (first || e->vis_bin != d * HD_FE_NBIN + (uint32_t)k) {
-        e->vis_bin = d * HD_FE_NBIN + (uint32_t)k;
-        e->vis_g = (b->n >= c->n_min && b->f > 0) ? b->f : 0;
-        e->vis_n = 0u;
-        e->vis_m = 0;
-        e->vis_s0 = e->scale;
-        e->vis_b0 = e->bias;
-        e->vis_k = 0u;
-        e->vis_a = 0;
-        e->vis_n0 = b->n;
-    }
-    if (first) {
-        /* a new visit: the old mean weighs as n_keep samples, but at least HD_FE_KEEP_MIN: a
-         * common-mode change is the scale's to follow; a bin that forgot faster would take
-         * it into the shape before the scale sees it */
-        const uint32_t keep = (c->n_keep > HD_FE_KEEP_MIN) ? c->n_keep : HD_FE_KEEP_MIN;
-        b->n = (b->n > keep) ? keep : b->n;
-        e->vis_n0 = b->n;
-    }
-    tc = hdf_clamp32(tau, hdf_neg_sat(c->tau_max), c->tau_max);
-    if (e->vis_g > 0) {
-        /* samples of the visit, 1..n_forget (n_forget >= 1 by hd_fric_est_config) */
-        e->vis_n = (e->vis_n < c->n_forget) ? e->vis_n + 1u : ((c->n_forget > 0u) ? c->n_forget : 1u);
-        e->vis_m = mean_step(e->vis_m, tc, e->vis_n);
-        common_update(e, c, d, sg, e->vis_n);
-        e->oth_m[d] = e->vis_m;
-        e->oth_g[d] = e->vis_g;
-        e->oth_t[d] = e->steps;
-    }
-    /* an established bin (the common mode follows its visits) forgets over at least
-     * HD_FE_KEEP_MIN samples: its shape changes slowly, the scale takes the level */
-    cap = (e->vis_g > 0 && c->n_forget < HD_FE_KEEP_MIN) ? HD_FE_KEEP_MIN : c->n_forget;
-    if (e->vis_g > 0) {
-        /* established: the bin is its old mean and the visit's mean torque normalised by the
-         * present scale and bias, weighed k : n0 (hd_fric_est.h: a sample normalised by the
-         * scale of its moment would be compared with the visit's running mean) */
-        e->vis_k = (e->vis_k < cap) ? e->vis_k + 1u : cap;
-        e->vis_a = mean_step(e->vis_a, tc, e->vis_k);
-        fn = (int64_t)e->vis_a - (int64_t)e->bias;
-        fn = (v_ref > 0) ? fn : -fn;
-        fn = hdf_clamp64(fn, -(int64_t)c->tau_max, (int64_t)c->tau_max);
-        f = hdf_clamp32(hdf_sat32(div_approx(fn, (uint64_t)(uint32_t)e->scale, 16u)), hdf_neg_sat(c->tau_max),
-                        c->tau_max);
-        n1 = (e->vis_n0 < UINT32_MAX - e->vis_k) ? e->vis_n0 + e->vis_k : UINT32_MAX;
-        {
-            /* k / (n0 + k) in Q16 by a 32-bit division: both shifted to below 2^15 */
-            const uint32_t sh = (n1 >= 32768u) ? 32u - (uint32_t)__builtin_clz(n1) - 15u : 0u;
-            const uint32_t den = n1 >> sh;
-            const uint32_t w16 = (((e->vis_k >> sh) << 16) + den / 2u) / den;
-            b->f = hdf_clamp32(hdf_sat32((int64_t)e->vis_g +
-                                         hdf_mul64x32_q((int64_t)f - (int64_t)e->vis_g, (int32_t)w16, 16u)),
-                               hdf_neg_sat(c->tau_max), c->tau_max);
+    case 2u:
+        e->smp_bt = e->vis_b0;
+        if (e->smp_k >= 0 && g0 > 0 && smp_paired(e, c, o)) {
+            /* b = (mp gn + mn gp) / (gp + gn) */
+            const int64_t mo = e->oth_m[o];
+            const int64_t go = e->oth_g[o];
+            const int64_t mp = (sg > 0) ? m : mo;
+            const int64_t mn = (sg > 0) ? mo : m;
+            const int64_t gp = (sg > 0) ? g0 : go;
+            const int64_t gn = (sg > 0) ? go : g0;
+            e->smp_bt = div_approx(mp * gn + mn * gp, (uint64_t)(g0 + go), 0u);                 /* Q16 N.m */
         }
-        n1 = (n1 < cap) ? n1 : cap;
-        b->v = mean_step(b->v, hdf_abs_sat(v_ref), n1);
-    } else {
-        /* friction magnitude of the direction, the unbalance taken off and normalised by the
-         * scale: the bins hold the shape of the map, the scale its present level */
-        fn = (int64_t)tc - (int64_t)e->bias;
-        fn = (v_ref > 0) ? fn : -fn;
-        f = hdf_clamp32(hdf_sat32(div_approx(fn, (uint64_t)(uint32_t)e->scale, 16u)), hdf_neg_sat(c->tau_max),
-                        c->tau_max);
-        n1 = (b->n < cap) ? b->n + 1u : cap;
-        b->v = mean_step(b->v, hdf_abs_sat(v_ref), n1);
-        b->f = mean_step(b->f, f, n1);
-    }
-    b->n = n1;
-    b->r16 = r16_of(c, b->v);
-    b->stamp = e->steps;
-    e->samples++;
-    /* the levels follow the scale once the bins have given a fit (before it, the initial
-     * estimate stays: excitation check 2) */
-    if (e->fits[HD_FE_DIR_POS] != 0u) {
-        publish(e, c, HD_FE_DIR_POS);
-    }
-    if (e->fits[HD_FE_DIR_NEG] != 0u) {
-        publish(e, c, HD_FE_DIR_NEG);
+        return;
+    case 3u:
+        if (e->smp_k >= 0 && g0 > 0) {
+            const int64_t s_t = hdf_clamp64(e->smp_st, HD_FE_SCALE_MIN, HD_FE_SCALE_MAX);
+            e->scale = hdf_sat32(visit_blend(e->vis_s0, s_t, e->vis_n));
+        }
+        return;
+    case 4u:
+        if (e->smp_k >= 0 && g0 > 0) {
+            const int64_t b_t = hdf_clamp64(e->smp_bt, -(int64_t)c->tau_max, (int64_t)c->tau_max);
+            e->bias = hdf_sat32(visit_blend(e->vis_b0, b_t, e->vis_n));
+            e->oth_m[d] = e->vis_m;
+            e->oth_g[d] = e->vis_g;
+            e->oth_t[d] = e->steps;
+        }
+        return;
+    case 5u:
+        if (e->smp_k >= 0) {
+            /* an established bin (the common mode follows its visits) forgets over at least
+             * HD_FE_KEEP_MIN samples: its shape changes slowly, the scale takes the level */
+            const uint32_t cap = (e->vis_g > 0 && c->n_forget < HD_FE_KEEP_MIN) ? HD_FE_KEEP_MIN : c->n_forget;
+            int64_t fn;
+            if (e->vis_g > 0) {
+                /* established: the bin is its old mean and the visit's mean torque normalised
+                 * by the present scale and bias, weighed k : n0 (hd_fric_est.h: a sample
+                 * normalised by the scale of its moment would be compared with the visit's
+                 * running mean) */
+                e->vis_k = (e->vis_k < cap) ? e->vis_k + 1u : cap;
+                e->vis_a = mean_step(e->vis_a, e->smp_tc, e->vis_k);
+                fn = (int64_t)e->vis_a - (int64_t)e->bias;
+            } else {
+                /* friction magnitude of the direction, the unbalance taken off and normalised
+                 * by the scale: the bins hold the shape of the map, the scale its level */
+                fn = (int64_t)e->smp_tc - (int64_t)e->bias;
+            }
+            fn = (v_ref > 0) ? fn : -fn;
+            fn = hdf_clamp64(fn, -(int64_t)c->tau_max, (int64_t)c->tau_max);
+            e->smp_f = hdf_clamp32(hdf_sat32(div_approx(fn, (uint64_t)(uint32_t)e->scale, 16u)),
+                                   hdf_neg_sat(c->tau_max), c->tau_max);
+            e->smp_cap = cap;
+        }
+        return;
+    case 6u:
+        if (e->smp_k >= 0) {
+            hd_fe_bin_t *b = &e->bin[d][e->smp_k];
+            const uint32_t cap = e->smp_cap;
+            const int32_t f = e->smp_f;
+            uint32_t n1;
+            if (e->vis_g > 0) {
+                n1 = (e->vis_n0 < UINT32_MAX - e->vis_k) ? e->vis_n0 + e->vis_k : UINT32_MAX;
+                {
+                    /* k / (n0 + k) in Q16 by a 32-bit division: both shifted to below 2^15 */
+                    const uint32_t sh = (n1 >= 32768u) ? 32u - (uint32_t)__builtin_clz(n1) - 15u : 0u;
+                    const uint32_t den = n1 >> sh;
+                    const uint32_t w16 = (((e->vis_k >> sh) << 16) + den / 2u) / den;
+                    b->f = hdf_clamp32(hdf_sat32((int64_t)e->vis_g +
+                                                 hdf_mul64x32_q((int64_t)f - (int64_t)e->vis_g, (int32_t)w16, 16u)),
+                                       hdf_neg_sat(c->tau_max), c->tau_max);
+                }
+                n1 = (n1 < cap) ? n1 : cap;
+                b->v = mean_step(b->v, hdf_abs_sat(v_ref), n1);
+            } else {
+                n1 = (b->n < cap) ? b->n + 1u : cap;
+                b->v = mean_step(b->v, hdf_abs_sat(v_ref), n1);
+                b->f = mean_step(b->f, f, n1);
+            }
+            b->n = n1;
+            b->r16 = r16_of(c, b->v);
+            b->stamp = e->steps;
+            e->samples++;
+        }
+        return;
+    default:
+        /* the levels follow the scale once the bins have given a fit (before it, the
+         * initial estimate stays: excitation check 2) */
+        if (e->smp_k >= 0) {
+            if (e->fits[HD_FE_DIR_POS] != 0u) {
+                publish(e, c, HD_FE_DIR_POS);
+            }
+            if (e->fits[HD_FE_DIR_NEG] != 0u) {
+                publish(e, c, HD_FE_DIR_NEG);
+            }
+        }
+        return;
     }
 }
 
@@ -462,14 +539,15 @@ static void fit_solve_sums(hd_fric_est_t *e, uint32_t lo, uint32_t n)
     e->fit_q[4] = suf;
 }
 
-/* the scaled normal equations in two parts: the determinant and Cramer's numerators
- * (fit_solve_cramer, into fit_q[0..2]: the sums are not needed after it), then the two
- * quotients and fc (fit_solve_end) */
-static void fit_solve_cramer(hd_fric_est_t *e)
+/* the scaled normal equations in four parts: the scaling and the determinant
+ * (fit_solve_det, into fit_q[0]: the sums of shape and velocity are not needed after it),
+ * Cramer's numerators (fit_solve_num, into fit_q[1..2]), then the two quotients and fc
+ * (fit_solve_dfs, fit_solve_end) */
+static void fit_solve_det(hd_fric_est_t *e)
 {
-    const int64_t see = e->fit_q[0], suu = e->fit_q[1], seu = e->fit_q[2], sef = e->fit_q[3], suf = e->fit_q[4];
+    const int64_t see = e->fit_q[0], suu = e->fit_q[1], seu = e->fit_q[2];
     uint32_t s_e, s_u, h;
-    int64_t a, b, cc, det;
+    int64_t a, b, cc;
     if (e->fit_nb < 4u) {
         return;
     }
@@ -484,27 +562,47 @@ static void fit_solve_cramer(hd_fric_est_t *e)
     cc = hdf_asr64_rnd(suu, s_u);
     b = hdf_asr64_rnd(seu, h);
     b = hdf_clamp64(b, -((int64_t)1 << 30), (int64_t)1 << 30);
-    det = a * cc - b * b;                                   /* <= 2^60; a == 0 gives det <= 0 */
-    e->fit_q[0] = det;
-    if (det <= 0) {
+    e->fit_q[0] = a * cc - b * b;           /* <= 2^60; a == 0 gives det <= 0 */
+    e->fit_a[0] = (int32_t)a;               /* a, cc < 2^30 + 1, |b| <= 2^30 */
+    e->fit_a[1] = (int32_t)b;
+    e->fit_a[2] = (int32_t)cc;
+    e->fit_sh[0] = s_e;
+    e->fit_sh[1] = s_u;
+    e->fit_sh[2] = h;
+}
+
+static void fit_solve_num(hd_fric_est_t *e)
+{
+    const int64_t sef = e->fit_q[3], suf = e->fit_q[4];
+    const int32_t a = e->fit_a[0], b = e->fit_a[1], cc = e->fit_a[2];
+    const uint32_t s_e = e->fit_sh[0], s_u = e->fit_sh[1], h = e->fit_sh[2];
+    if (e->fit_nb < 4u || e->fit_q[0] <= 0) {
         return;                             /* the shape column carries no information */
     }
     /* (dF, fv) det / 2^30 by Cramer's rule on the scaled sums */
-    e->fit_q[1] = hdf_sub64_sat(hdf_mul64x32_q(hdf_asr64_rnd(sef, s_e), (int32_t)cc, 30u),
-                                hdf_mul64x32_q(hdf_asr64_rnd(suf, h), (int32_t)b, 30u));
-    e->fit_q[2] = hdf_sub64_sat(hdf_mul64x32_q(hdf_asr64_rnd(suf, s_u), (int32_t)a, 30u),
-                                hdf_mul64x32_q(hdf_asr64_rnd(sef, h), (int32_t)b, 30u));
+    e->fit_q[1] = hdf_sub64_sat(hdf_mul64x32_q(hdf_asr64_rnd(sef, s_e), cc, 30u),
+                                hdf_mul64x32_q(hdf_asr64_rnd(suf, h), b, 30u));
+    e->fit_q[2] = hdf_sub64_sat(hdf_mul64x32_q(hdf_asr64_rnd(suf, s_u), a, 30u),
+                                hdf_mul64x32_q(hdf_asr64_rnd(sef, h), b, 30u));
+}
+
+static void fit_solve_dfs(hd_fric_est_t *e)
+{
+    if (e->fit_nb < 4u || e->fit_q[0] <= 0) {
+        return;
+    }
+    e->fit_dfs = hdf_sat32(div_approx(e->fit_q[1], (uint64_t)e->fit_q[0], 46u));   /* Q16 N.m (e in Q16) */
 }
 
 static void fit_solve_end(hd_fric_est_t *e, uint32_t j)
 {
-    const int64_t det = e->fit_q[0], nbeta = e->fit_q[1], ngam = e->fit_q[2];
+    const int64_t det = e->fit_q[0], ngam = e->fit_q[2];
     const int32_t me = e->fit_m[0], mu = e->fit_m[1], mf = e->fit_m[2];
-    int32_t dfs, fv, fc;
+    const int32_t dfs = e->fit_dfs;
+    int32_t fv, fc;
     if (e->fit_nb < 4u || det <= 0) {
         return;
     }
-    dfs = hdf_sat32(div_approx(nbeta, (uint64_t)det, 46u));              /* Q16 N.m (e in Q16) */
     fv = hdf_sat32(div_approx(ngam, (uint64_t)det, 30u + HD_FE_U_SHIFT + 10u)); /* per 2^-21 -> per turn/s */
     fc = hdf_sat32((int64_t)mf - hdf_mul64x32_q((int64_t)dfs, me, 16u) -
                    hdf_mul64x32_q((int64_t)fv, mu, 21u));
@@ -543,23 +641,22 @@ static int32_t lerp16(int32_t a, int32_t b, int32_t w)
     return hdf_sat32((int64_t)a + hdf_mul64x32_q((int64_t)b - (int64_t)a, w, 16u));
 }
 
-/* After the last candidate of direction d: best vs, excitation check, bounds, publish */
-/* in four parts of bounded cost: the best candidate (kept by the residual parts) refined
- * (fit_finish_pick), where the valid bins lie relative to its vs (fit_finish_bins, two halves),
- * then the check and the publication (fit_finish_publish) */
-static void fit_finish_pick(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
+/* After the last candidate of direction d: best vs, excitation check, bounds, publish, in
+ * parts of bounded cost: the best candidate (kept by the residual parts) and the parabola's
+ * vertex (fit_finish_vertex), the refined parameters (fit_finish_pick), where the valid
+ * bins lie relative to its vs (fit_finish_bins, in parts), the check (fit_finish_check),
+ * the publication (fit_finish_publish) */
+static void fit_finish_vertex(hd_fric_est_t *e)
 {
     const uint32_t best = e->fit_best;      /* the residual parts kept the least (fit_part) */
-    int32_t vs, fc, dfs, fv;
     e->fin_ok = 0u;
+    e->fin_x = 0;
+    e->fin_par = 0u;
     if (e->sse[best] == FE_NO_FIT) {
-        e->conf[d] = 0u;
         return;
     }
-    vs = vs_of(c, best);
-    fc = e->th[best][0];
-    dfs = e->th[best][1];
-    fv = e->th[best][2];
+    e->fin_ok = 1u;
+    e->fin_best = best;
     if (best > 0u && best < HD_FE_NGRID - 1u && e->sse[best - 1u] != FE_NO_FIT &&
         e->sse[best + 1u] != FE_NO_FIT) {
         /* parabola through the three sums: minimum at x = (a - c) / (2 (a - 2b + c)) grid steps */
@@ -567,17 +664,33 @@ static void fit_finish_pick(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32
         const int64_t den = hdf_add64_sat(hdf_sub64_sat(sa, sb), hdf_sub64_sat(sc, sb));
         if (den > 0) {
             const int64_t x15 = div_approx(hdf_sub64_sat(sa, sc), (uint64_t)den, 15u);    /* x in Q16 */
-            const int32_t x = hdf_sat32(hdf_clamp64(x15, -32768, 32768));
-            const uint32_t nbj = (x > 0) ? best + 1u : best - 1u;
-            const int32_t w = hdf_abs_sat(x);
-            vs = lerp16(vs, vs_of(c, nbj), w);
-            fc = lerp16(fc, e->th[nbj][0], w);
-            dfs = lerp16(dfs, e->th[nbj][1], w);
-            fv = lerp16(fv, e->th[nbj][2], w);
+            e->fin_x = hdf_sat32(hdf_clamp64(x15, -32768, 32768));
+            e->fin_par = 1u;
         }
     }
-    e->fin_ok = 1u;
-    e->fin_best = best;
+}
+
+static void fit_finish_pick(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
+{
+    const uint32_t best = e->fin_best;
+    int32_t vs, fc, dfs, fv;
+    if (e->fin_ok == 0u) {
+        e->conf[d] = 0u;
+        return;
+    }
+    vs = vs_of(c, best);
+    fc = e->th[best][0];
+    dfs = e->th[best][1];
+    fv = e->th[best][2];
+    if (e->fin_par != 0u) {
+        const int32_t x = e->fin_x;
+        const uint32_t nbj = (x > 0) ? best + 1u : best - 1u;
+        const int32_t w = hdf_abs_sat(x);
+        vs = lerp16(vs, vs_of(c, nbj), w);
+        fc = lerp16(fc, e->th[nbj][0], w);
+        dfs = lerp16(dfs, e->th[nbj][1], w);
+        fv = lerp16(fv, e->th[nbj][2], w);
+    }
     e->fin[0] = vs;
     e->fin[1] = fc;
     e->fin[2] = dfs;
@@ -617,13 +730,13 @@ static void fit_finish_bins(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32
     }
 }
 
-static void fit_finish_publish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
+static void fit_finish_check(hd_fric_est_t *e, uint32_t d)
 {
     const uint32_t best = e->fin_best;
     const uint32_t nlo = e->fin_n[0], nmid = e->fin_n[1], nhi = e->fin_n[2], nvalid = e->fin_n[3];
     const int32_t vmin_valid = e->fin_v[0], vmax_valid = e->fin_v[1];
-    const int32_t vs = e->fin[0], dfs = e->fin[2], fv = e->fin[3];
-    int32_t fc = e->fin[1];
+    const int32_t vs = e->fin[0], fc = e->fin[1], dfs = e->fin[2], fv = e->fin[3];
+    e->fin_acc = 0u;
     if (e->fin_ok == 0u) {
         return;
     }
@@ -638,6 +751,16 @@ static void fit_finish_publish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uin
     if (dfs < 0 || hdf_mul64x32_q((int64_t)fv, vmax_valid, 32u) < -(int64_t)(fc / 8)) {
         return;
     }
+    e->fin_acc = 1u;
+}
+
+static void fit_finish_publish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uint32_t d)
+{
+    const int32_t vs = e->fin[0], dfs = e->fin[2], fv = e->fin[3];
+    int32_t fc = e->fin[1];
+    if (e->fin_acc == 0u) {
+        return;
+    }
     fc = hdf_clamp32(fc, 0, c->tau_max);
     e->shape[d].fc = fc;
     e->shape[d].fs = hdf_clamp32(hdf_add_sat(fc, dfs), fc, c->tau_max);
@@ -647,9 +770,8 @@ static void fit_finish_publish(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, uin
     e->fits[d]++;
 }
 
-/* One part of the fit's pass in progress (bounded cost: 4 snapshot parts, 6 parts of sums +
- * 2 of the solution, or 4 residual parts + 4 for the close of a fit: at most 8 per step); true
- * when the pass is complete (then the next is set up). */
+/* One part of the fit's pass in progress (bounded cost: hd_fric_est.h "Cost"); true when
+ * the pass is complete (then the next is set up). */
 static bool fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
 {
     const uint32_t k = e->fit_part;
@@ -664,31 +786,39 @@ static bool fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
         break;
     case 2u:
         /* the solution: the means and HD_FE_SUM_BINS bins of the sums per part, then the
-         * normal equations */
+         * normal equations in four parts */
         if (k == 0u) {
             fit_solve_begin(e);
         }
         if (k < FE_SUM_PARTS) {
             fit_solve_sums(e, k * HD_FE_SUM_BINS, HD_FE_SUM_BINS);
         } else if (k == FE_SUM_PARTS) {
-            fit_solve_cramer(e);
+            fit_solve_det(e);
+        } else if (k == FE_SUM_PARTS + 1u) {
+            fit_solve_num(e);
+        } else if (k == FE_SUM_PARTS + 2u) {
+            fit_solve_dfs(e);
         } else {
             fit_solve_end(e, j);
             done = true;
         }
         break;
     default:
-        /* the residual, HD_FE_SUM_BINS bins per part; after the last candidate the close */
+        /* the residual, HD_FE_SSE_BINS bins per part; after the last candidate the close */
         if (k < FE_SSE_PARTS) {
             fit_sse(e, j, k * HD_FE_SSE_BINS, HD_FE_SSE_BINS);
             if (k + 1u == FE_SSE_PARTS && (j == 0u || e->sse[j] < e->sse[e->fit_best])) {
                 e->fit_best = j;            /* the close's pick without its own scan of the sums */
             }
             done = (k + 1u == FE_SSE_PARTS) && (j + 1u < HD_FE_NGRID);
-        } else if (k < FE_SSE_PARTS + 1u) {
+        } else if (k == FE_SSE_PARTS) {
+            fit_finish_vertex(e);
+        } else if (k == FE_SSE_PARTS + 1u) {
             fit_finish_pick(e, c, e->fit_dir);
-        } else if (k < FE_SSE_PARTS + 3u) {
-            fit_finish_bins(e, c, e->fit_dir, (k - FE_SSE_PARTS - 1u) * (HD_FE_NBIN / 2u), HD_FE_NBIN / 2u);
+        } else if (k < FE_SSE_PARTS + 2u + FE_SCAN_PARTS) {
+            fit_finish_bins(e, c, e->fit_dir, (k - FE_SSE_PARTS - 2u) * HD_FE_SCAN_BINS, HD_FE_SCAN_BINS);
+        } else if (k == FE_SSE_PARTS + 2u + FE_SCAN_PARTS) {
+            fit_finish_check(e, e->fit_dir);
         } else {
             fit_finish_publish(e, c, e->fit_dir);
             done = true;
@@ -715,15 +845,24 @@ static bool fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
     return true;
 }
 
+/* an entry for the background (hd_fric_est_work): a full queue loses it, counted */
+static void queue_push(hd_fric_est_t *e, int32_t v, int32_t tau, uint32_t flags)
+{
+    const uint32_t head = e->q_head;
+    if ((uint32_t)(head - e->q_tail) >= HD_FE_QLEN) {
+        e->q_drop++;
+        return;
+    }
+    e->q[head % HD_FE_QLEN].v = v;
+    e->q[head % HD_FE_QLEN].tau = tau;
+    e->q[head % HD_FE_QLEN].flags = flags;
+    e->q_head = head + 1u;                  /* after the entry: the background reads it whole */
+}
+
 void hd_fric_est_observe(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
                          bool active)
 {
-    /* the last step's pass first (its parts did not all run yet): the passes see the bins
-     * of their own step, as in hd_fric_est_step */
-    while (e->fit_due != 0u) {
-        (void)fit_part(e, c);
-    }
-    e->steps++;
+    uint32_t flags = 0u;
     /* the measured velocity, low-passed (the observer's noise at slow rates) */
     e->v_lp = hdf_sat32((int64_t)e->v_lp + hdf_asr64_rnd((int64_t)v_meas - (int64_t)e->v_lp, HD_FE_VLP_SHIFT));
     if (!active) {
@@ -744,28 +883,79 @@ void hd_fric_est_observe(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v
         }
         e->v_prev = v_ref;
         if (same && e->steady_n >= c->settle) {
-            bin_update(e, c, v_ref, tau, e->visit == 0u);
+            flags = HD_FE_OBS_SAMPLE | ((e->visit == 0u) ? HD_FE_OBS_FIRST : 0u);
             e->visit = 1u;
         } else {
             e->visit = 0u;
         }
     }
-    e->fit_due = 1u;                        /* a quarter of a fit candidate per step */
+    queue_push(e, v_ref, tau, flags);
 }
 
-bool hd_fric_est_fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
+void hd_fric_est_queue_feed(hd_fric_est_t *e)
 {
-    if (e->fit_due == 0u) {
-        return false;
+    queue_push(e, 0, 0, HD_FE_OBS_FEED);
+}
+
+/* the next step of the queue: its count, its sample (the first part of the step's work),
+ * then a quarter of a fit candidate */
+static void work_begin(hd_fric_est_t *e, const hd_fe_obs_t *o)
+{
+    if ((o->flags & HD_FE_OBS_FEED) != 0u) {
+        return;                             /* no step: done at once (the caller's feed only) */
     }
-    return !fit_part(e, c);
+    e->steps++;
+    if ((o->flags & HD_FE_OBS_SAMPLE) != 0u) {
+        e->smp_v = o->v;
+        e->smp_tau = o->tau;
+        e->smp_first = ((o->flags & HD_FE_OBS_FIRST) != 0u) ? 1u : 0u;
+        e->smp_stage = 1u;
+    }
+    e->fit_due = 1u;
+    e->in_step = 1u;
+}
+
+bool hd_fric_est_work(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
+{
+    const uint32_t tail = e->q_tail;
+    e->busy = 1u;
+    if (e->in_step == 0u) {
+        if (tail == e->q_head) {
+            e->busy = 0u;
+            return false;
+        }
+        work_begin(e, &e->q[tail % HD_FE_QLEN]);
+    }
+    if (e->in_step == 0u) {
+        e->q_tail = tail + 1u;              /* a feed-only entry */
+    } else if (e->smp_stage != 0u) {
+        /* the step's sample first (as bin_update before the pass) */
+        const uint32_t st = e->smp_stage;
+        e->smp_stage = (st < FE_SMP_PARTS) ? st + 1u : 0u;
+        sample_part(e, c, st);
+    } else if (e->fit_due != 0u) {
+        (void)fit_part(e, c);
+    }
+    if (e->in_step != 0u && e->smp_stage == 0u && e->fit_due == 0u) {
+        e->in_step = 0u;
+        e->q_tail = tail + 1u;              /* the step done: its entry is free */
+    }
+    e->busy = 0u;
+    return (e->in_step != 0u) || (e->q_tail != e->q_head);
+}
+
+void hd_fric_est_work_feed(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, hd_stribeck_cfg_t *out)
+{
+    e->busy = 1u;
+    hd_fric_est_feed(e, base, out);
+    e->busy = 0u;
 }
 
 void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
                       bool active)
 {
     hd_fric_est_observe(e, c, v_ref, v_meas, tau, active);
-    while (hd_fric_est_fit_part(e, c)) {
+    while (hd_fric_est_work(e, c)) {
     }
 }
 

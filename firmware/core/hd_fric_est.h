@@ -108,13 +108,17 @@
  *   bin velocity                        : 2^-32 turn/s; r16 = |v| / vs_lo in Q16
  *   e (shape)                           : Q16 inside the fit (exp(-x) by hd_exp_neg_q16)
  *   fit velocity column                 : |v| / 2^HD_FE_U_SHIFT (2^-21 turn/s)
- * Cost: a bin update is a few multiplies and one 32-bit division; a step adds
- *   one quarter of a candidate: 12 exp, or the 2x2 solution (two reciprocals),
- *   or the residual over 24 bins (+ the closing of a fit after the last one)
- *   (Cortex-M4 instructions per step: tests/bench/10_cm4_cost.sh, docs/compensators.md).
- *   In the drive a step runs in parts of bounded cost, the observation, then its
- *   pass one part per control period (hd_fric_est_observe, hd_fric_est_fit_part).
- * Memory: hd_fric_est_t, about 2.2 KiB.
+ * Cost: a step is its observation (the low-passed velocity, the steadiness test, the
+ *   queue: hd_fric_est_observe, the control period's only share, about 80 Cortex-M4
+ *   instructions), its sample (the bin update and the common mode: five approximate
+ *   divisions) and a quarter of a fit candidate: 12 exp, or the 2x2 solution (two
+ *   reciprocals), or the residual over 24 bins (+ the closing of a fit after the last
+ *   one).  The sample and the pass run in the background (hd_fric_est_work) in parts of
+ *   at most one division, one exp or a few bins each: the sample in 7 parts, a pass in at
+ *   most 16 (HD_FE_STEP_PARTS in all); a step's background work is at most about 6,800
+ *   instructions with the app's calls (tests/bench/10_cm4_cost.sh fe_background_step,
+ *   docs/firmware.md).
+ * Memory: hd_fric_est_t, about 2.4 KiB (the queue of HD_FE_QLEN observations included).
  */
 #ifndef HD_FRIC_EST_H
 #define HD_FRIC_EST_H
@@ -132,6 +136,8 @@
 #define HD_FE_SCALE_MIN (HD_FE_SCALE_ONE / 8)   /* bounds of the scale: x1/8 .. x8 */
 #define HD_FE_SCALE_MAX (HD_FE_SCALE_ONE * 8)
 #define HD_FE_SCALE_SHIFT 5u /* weight of scale and bias at a visit's start: 2^5 samples (32 ms at 1 kHz) */
+
+#define HD_FE_STEP_PARTS 23u  /* most parts of one step's work: its sample (7) and a pass (16) */
 
 #define HD_FE_PAIR_AGE 4096u  /* the other direction's visit pairs with this one if not older, steps */
 #define HD_FE_KEEP_MIN 1024u  /* least memory of an established bin, samples (the shape moves slowly) */
@@ -163,6 +169,17 @@ typedef struct {
     uint32_t n;              /* samples (saturates at n_forget) */
     uint32_t stamp;          /* step count of its last sample */
 } hd_fe_bin_t;
+
+/* One observation for the background (hd_fric_est_observe -> hd_fric_est_work). */
+#define HD_FE_QLEN 8u                  /* observations queued (8 ms at 1 kHz) */
+#define HD_FE_OBS_SAMPLE 1u            /* flags: a steady sample ... */
+#define HD_FE_OBS_FIRST 2u             /* ... the first of its visit */
+#define HD_FE_OBS_FEED 4u              /* no step: the feed's step only (estimator off, feed ramping out) */
+typedef struct {
+    int32_t  v;              /* v_ref, 2^-32 turn/s */
+    int32_t  tau;            /* torque applied, Q15.16 N.m */
+    uint32_t flags;          /* HD_FE_OBS_* */
+} hd_fe_obs_t;
 
 typedef struct {
     hd_fe_bin_t bin[HD_FE_NDIR][HD_FE_NBIN];
@@ -201,12 +218,35 @@ typedef struct {
     uint32_t fin_n[4];                  /* close: valid bins below vs / 2, within [vs / 2, 2 vs], above, all */
     int32_t  fin_v[2];                  /* close: slowest and fastest valid bin, 2^-32 turn/s */
     int32_t  fin[4];                    /* its refined (vs, fc, fs - fc, fv) */
+    int32_t  fit_a[3];                  /* pass 2: the scaled normal matrix (a, b, c), < 2^30 + 1 */
+    uint32_t fit_sh[3];                 /* ... its shifts (shape, velocity, cross term) */
+    int32_t  fit_dfs;                   /* pass 2: fs - fc of the candidate, Q15.16 N.m */
+    int32_t  fin_x;                     /* close: the parabola's vertex, Q16 grid steps */
+    uint32_t fin_par;                   /* close: 1 when the vertex refines the best candidate */
+    uint32_t fin_acc;                   /* close: 1 when the check accepts the fit */
     uint32_t fit_mask;                  /* valid bins of the candidate's snapshot (bit per bin) */
     uint32_t fit_ok;                    /* 1: pass 2 solved the candidate */
     int64_t  fit_s[3];                  /* snapshot sums of shape, velocity column, torque */
     int32_t  fit_e[HD_FE_NBIN];         /* snapshot: shape, Q16 */
     int32_t  fit_u[HD_FE_NBIN];         /* snapshot: velocity column, 2^-21 turn/s */
     int32_t  fit_f[HD_FE_NBIN];         /* snapshot: mean torque, Q15.16 N.m */
+    hd_fe_obs_t q[HD_FE_QLEN];          /* observations not yet worked (ring) */
+    volatile uint32_t q_head;           /* observations queued (wraps; written by the observation) */
+    volatile uint32_t q_tail;           /* steps worked (wraps; written by the background) */
+    uint32_t q_drop;                    /* observations lost to a full queue (wraps) */
+    uint32_t in_step;                   /* 1 while the background works a step */
+    volatile uint32_t busy;             /* 1 inside hd_fric_est_work (the control period then
+                                         * leaves the background's state alone) */
+    uint32_t smp_stage;                 /* the step's sample: its next part, 1..7 (0: none due) */
+    int32_t  smp_v;                     /* its reference velocity, 2^-32 turn/s */
+    int32_t  smp_tau;                   /* its torque, Q15.16 N.m */
+    uint32_t smp_first;                 /* 1: the first sample of a visit */
+    int32_t  smp_k;                     /* its bin (-1: outside the bins) */
+    int32_t  smp_tc;                    /* its torque bounded by tau_max, Q15.16 N.m */
+    int64_t  smp_st;                    /* the common mode's scale from the visit, Q16 (unbounded) */
+    int64_t  smp_bt;                    /* ... and its bias, Q15.16 N.m (unbounded) */
+    int32_t  smp_f;                     /* the sample normalised by scale and bias, Q15.16 N.m */
+    uint32_t smp_cap;                   /* the bin's memory for this sample, samples */
     int32_t  v_prev;                    /* v_ref of the last step */
     int32_t  v_lp;                      /* low-passed measured velocity, 2^-32 turn/s */
     uint32_t steady_n;                  /* steady steps (saturates at settle) */
@@ -230,15 +270,33 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
  *  (forgets the steadiness). */
 void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
                       bool active);
-/** hd_fric_est_step in parts of bounded cost: the observation (steadiness, bins; it first
- *  completes the last step's pass if parts of it are left), then its pass of the fit one
- *  part per call of hd_fric_est_fit_part (4 snapshot parts of 3 bins, or 6 parts of the
- *  solution's sums of 4 bins + 2 of the solution, or 4 parts of the residual of 6 bins + 4 for
- *  the close of a fit), which returns true while
- *  parts are left.  observe + every part = hd_fric_est_step, bit for bit. */
+/** hd_fric_est_step split between the control period and the background.
+ *  hd_fric_est_observe (the control period, every step): the low-passed velocity and the
+ *  steadiness test only; the step goes into a queue of HD_FE_QLEN observations (a full queue
+ *  loses it: q_drop).  It touches only the observation's own fields (v_lp, v_prev, steady_n,
+ *  visit) and the queue's head.
+ *  hd_fric_est_work (the background, below the control period): one part of the oldest
+ *  queued step per call (the step's count, its sample in 7 parts, then its pass of the fit:
+ *  12 snapshot parts of one bin, 12 parts of the solution's sums of 2 bins + 4 of the
+ *  solution, or 8 residual parts of 3 bins + 8 for the close of a fit); true while work is
+ *  left.  Every step is worked whole and in order: observe + work until false =
+ *  hd_fric_est_step, bit for bit.  busy is 1 inside a call: the control period changes the
+ *  background's state (hd_fric_est_init, hd_fric_est_seed, the config the background uses)
+ *  only while it is 0 (hd_comp_bank_fric_est). */
 void hd_fric_est_observe(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
                          bool active);
-bool hd_fric_est_fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c);
+bool hd_fric_est_work(hd_fric_est_t *e, const hd_fric_est_cfg_t *c);
+/** A feed-only entry for the background (the estimator off, its feed ramping out: the
+ *  weight's step without an estimator step); a full queue loses it (q_drop). */
+void hd_fric_est_queue_feed(hd_fric_est_t *e);
+/** The background's feed after a worked entry: hd_fric_est_feed inside the busy mark (the
+ *  weight and out are the background's; the control period copies out between parts). */
+void hd_fric_est_work_feed(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, hd_stribeck_cfg_t *out);
+/** True inside hd_fric_est_work (a part in progress). */
+static inline bool hd_fric_est_busy(const hd_fric_est_t *e)
+{
+    return e->busy != 0u;
+}
 /** The bin of |v| (0..HD_FE_NBIN-1), or -1 outside the binned range. */
 int32_t hd_fric_est_bin_of(const hd_fric_est_cfg_t *c, int32_t v);
 /** The initial estimate follows new parameters (init, e.g. the Stribeck FF parameters just

@@ -426,6 +426,10 @@ static void sim_step(hd_sim_t *s, double *row, int64_t stride)
     double t0 = 0.0, t1 = 0.0, t2 = 0.0;
     if (timed) t0 = now_s();
     hd_app_step(&s->app);
+    /* the drive's background below the control period (hd_app_background): on the drive
+     * it works the queued steps between the periods, here to completion in every period */
+    while (hd_app_background(&s->app)) {
+    }
     hd_host_port_end_period(&s->port);
     const hd_hal_command_t *cmd = hd_host_port_command(&s->port);
 

@@ -242,6 +242,8 @@ static void test_online_estimate_feeds_the_ff(void **st)
     prev = t_param;
     for (int k = 0; k < 10 * 25; k++) {
         hd_comp_bank_fric_est(&b, &c, 0, 0, 0, false);     /* no data: the estimate stays */
+        while (hd_comp_bank_fric_est_work(&b)) {            /* the background, as the simulator runs it */
+        }
         hd_comp_bank_pre(&b, &c, &in, &out);
         /* monotone, at most 1/20 of the difference (+ rounding) per estimator step */
         assert_true(abs(out.tff - prev) <= abs(t_est - t_param) / 20 + 2);
@@ -254,9 +256,93 @@ static void test_online_estimate_feeds_the_ff(void **st)
     hd_comp_bank_apply(&b, &c);
     for (int k = 0; k < 10 * 25; k++) {
         hd_comp_bank_fric_est(&b, &c, 0, 0, 0, false);
+        while (hd_comp_bank_fric_est_work(&b)) {
+        }
         hd_comp_bank_pre(&b, &c, &in, &out);
     }
     assert_int_equal(out.tff, t_param);
+}
+
+/* The control period's share of the online identification is its observation: with the
+ * estimator on and steady data, hd_comp_bank_fric_est alone (the control period) neither
+ * samples nor fits (the sample's 7 parts and a fit pass's up to 16 are the background's,
+ * hd_comp_bank_fric_est_work: no period carries them); the background then takes the
+ * queued steps' samples. */
+static void test_fric_est_period_only_observes(void **st)
+{
+    (void)st;
+    int32_t p[HD_PARAM_COUNT];
+    hd_comp_bank_cfg_t c;
+    static hd_comp_bank_t b;
+    const int32_t v = 2 * 11930465;              /* 2 deg/s */
+    uint32_t k;
+    hd_params_defaults(p);
+    p[HD_P_CB_ENABLE] = (int32_t)HD_CB_STRIBECK;
+    p[HD_P_FE_ENABLE] = 1;
+    p[HD_P_FE_DECIM] = 10;
+    p[HD_P_FE_SETTLE] = 2;
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    hd_comp_bank_init(&b, &c);
+    for (k = 0; k < 10u * 100u; k++) {
+        hd_comp_bank_fric_est(&b, &c, v, v, 7 << 16, true);
+    }
+    assert_int_equal(b.fe.samples, 0u);
+    assert_int_equal(b.fe.fits[HD_FE_DIR_POS] + b.fe.fits[HD_FE_DIR_NEG], 0u);
+    for (k = 0; k < HD_FE_NBIN; k++) {
+        assert_int_equal(b.fe.bin[HD_FE_DIR_POS][k].n, 0u);
+    }
+    /* the observations beyond the queue were lost while no background ran (counted); with
+     * the background the steady steps are sampled */
+    assert_int_equal(b.fe.q_drop, 100u - HD_FE_QLEN);
+    while (hd_comp_bank_fric_est_work(&b)) {
+    }
+    for (k = 0; k < 10u * 100u; k++) {
+        hd_comp_bank_fric_est(&b, &c, v, v, 7 << 16, true);
+        while (hd_comp_bank_fric_est_work(&b)) {
+        }
+    }
+    assert_true(b.fe.samples > 50u);
+    assert_int_equal(b.fe.q_drop, 100u - HD_FE_QLEN);
+}
+
+/* A parameter change that empties the bins (new binning) while the background is inside a
+ * part (the control period preempted it) leaves the background's state alone and applies
+ * in the first period after that part: the part never sees half-changed state. */
+static void test_fric_est_change_waits_for_the_background(void **st)
+{
+    (void)st;
+    int32_t p[HD_PARAM_COUNT];
+    hd_comp_bank_cfg_t c;
+    static hd_comp_bank_t b;
+    const int32_t v = 2 * 11930465;
+    uint32_t k;
+    hd_params_defaults(p);
+    p[HD_P_CB_ENABLE] = (int32_t)HD_CB_STRIBECK;
+    p[HD_P_FE_ENABLE] = 1;
+    p[HD_P_FE_DECIM] = 10;
+    p[HD_P_FE_SETTLE] = 2;
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    hd_comp_bank_init(&b, &c);
+    for (k = 0; k < 10u * 100u; k++) {
+        hd_comp_bank_fric_est(&b, &c, v, v, 7 << 16, true);
+        while (hd_comp_bank_fric_est_work(&b)) {
+        }
+    }
+    const uint32_t n = b.fe.samples;
+    assert_true(n > 10u);
+    b.fe.busy = 1u;                              /* a background part in progress */
+    p[HD_P_FE_V_MIN] = p[HD_P_FE_V_MIN] * 2;
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    hd_comp_bank_apply(&b, &c);
+    hd_comp_bank_fric_est(&b, &c, v, v, 7 << 16, true);
+    assert_int_equal(b.fe.samples, n);           /* untouched */
+    assert_true(b.fe_cfg.v_min != c.fe.v_min);
+    assert_true(b.fe_pend != 0u);
+    b.fe.busy = 0u;                              /* the part ends */
+    hd_comp_bank_fric_est(&b, &c, v, v, 7 << 16, true);
+    assert_int_equal(b.fe.samples, 0u);          /* the new binning: empty bins */
+    assert_int_equal(b.fe_cfg.v_min, c.fe.v_min);
+    assert_int_equal(b.fe_pend, 0u);
 }
 
 /* The str_* map written after the bank started (the host writes one object at a time, the
@@ -294,6 +380,8 @@ static void test_online_feed_without_fit_is_the_written_map(void **st)
     memset(&in, 0, sizeof in);
     for (int k = 0; k < 10 * 25; k++) {
         hd_comp_bank_fric_est(&b, &c, 0, 0, 0, false);     /* no data: no fit */
+        while (hd_comp_bank_fric_est_work(&b)) {
+        }
     }
     for (int sg = -1; sg <= 1; sg += 2) {
         in.vel_ref = sg * v;
@@ -801,6 +889,8 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_config_defaults),
+        cmocka_unit_test(test_fric_est_period_only_observes),
+        cmocka_unit_test(test_fric_est_change_waits_for_the_background),
         cmocka_unit_test(test_table_install),
         cmocka_unit_test(test_bumpless_switching),
         cmocka_unit_test(test_friction_ff_takes_over),

@@ -489,8 +489,10 @@ static void test_bins(void **state)
     assert_int_equal(hd_fric_est_config(&cfg, 0, 1, 0, 1u, 1u, 1u, 1u, 1u, 1, 0), -1);
 }
 
-/* The step in parts (hd_fric_est_observe, then hd_fric_est_fit_part once per period, as the
- * bank runs it) gives the very state of hd_fric_est_step, with at most 8 parts per step. */
+/* The step split between the control period and the background (hd_fric_est_observe, then
+ * hd_fric_est_work one part at a time: the sample's parts, then the pass's) gives the very
+ * state of hd_fric_est_step, with at most HD_FE_STEP_PARTS parts per step, and that many in
+ * some step. */
 static void test_parts_equal_step(void **state)
 {
     static hd_fric_est_t split;
@@ -509,9 +511,9 @@ static void test_parts_equal_step(void **state)
             uint32_t n = 0u;
             hd_fric_est_step(&est, &cfg, vk, vk, t, true);
             hd_fric_est_observe(&split, &cfg, vk, vk, t, true);
-            while (n < 9u) {
-                n++;                                    /* a part per period: the last one ends the pass */
-                if (!hd_fric_est_fit_part(&split, &cfg)) {
+            while (n < 64u) {
+                n++;                                    /* a part per period: the last one ends the step */
+                if (!hd_fric_est_work(&split, &cfg)) {
                     break;
                 }
             }
@@ -520,8 +522,93 @@ static void test_parts_equal_step(void **state)
         }
     }
     print_message("# at most %u parts after a step; fits %u / %u\n", most, est.fits[0], est.fits[1]);
-    assert_true(most <= 8u);
+    assert_int_equal(most, HD_FE_STEP_PARTS);
     assert_true(est.fits[HD_FE_DIR_POS] > 0u && est.fits[HD_FE_DIR_NEG] > 0u);
+}
+
+/* The learning state of two estimators (not the queue, the observation's or the feed's). */
+static void assert_learning_equal(const hd_fric_est_t *a, const hd_fric_est_t *b)
+{
+    assert_memory_equal(a->bin, b->bin, sizeof a->bin);
+    assert_memory_equal(a->est, b->est, sizeof a->est);
+    assert_memory_equal(a->shape, b->shape, sizeof a->shape);
+    assert_memory_equal(a->sse, b->sse, sizeof a->sse);
+    assert_memory_equal(a->th, b->th, sizeof a->th);
+    assert_memory_equal(a->conf, b->conf, sizeof a->conf);
+    assert_memory_equal(a->fits, b->fits, sizeof a->fits);
+    assert_int_equal(a->scale, b->scale);
+    assert_int_equal(a->bias, b->bias);
+    assert_int_equal(a->samples, b->samples);
+    assert_int_equal(a->steps, b->steps);
+    assert_int_equal(a->fit_j, b->fit_j);
+    assert_int_equal(a->fit_dir, b->fit_dir);
+}
+
+/* The background works the queued steps whenever it gets the CPU: 0 to 40 parts between two
+ * observations (a queue of up to HD_FE_QLEN steps, drained in bursts) gives, once drained,
+ * the very state of hd_fric_est_step on the same observations; nothing is lost while the
+ * queue has room. */
+static void test_background_in_any_rhythm_equals_step(void **state)
+{
+    static hd_fric_est_t bg;
+    static const double vv[] = {0.01, 0.1, 0.4, 1.0, 2.5, 10.0, -0.03, -0.2, -0.7, -1.5, -4.0, -6.5};
+    const hd_stribeck_dir_t init[HD_FE_NDIR] = {{NM(1), NM(2), (int32_t)DEGS, NM(10)},
+                                                {NM(1), NM(2), (int32_t)DEGS, NM(10)}};
+    uint32_t rng = 12345u, most = 0u, i, k;
+    (void)state;
+    hd_fric_est_init(&bg, init, 100u, false);
+    for (i = 0; i < 2u * sizeof vv / sizeof vv[0]; i++) {
+        const double vd = vv[i % (sizeof vv / sizeof vv[0])];
+        const int32_t v = (int32_t)lround(vd * DEGS);
+        for (k = 0; k < 700u; k++) {
+            const int32_t t = steps_torque(vd, k);
+            const int32_t vk = (k < 600u) ? v : 0;
+            uint32_t n, j;
+            hd_fric_est_step(&est, &cfg, vk, vk, t, true);
+            hd_fric_est_observe(&bg, &cfg, vk, vk, t, true);
+            rng = rng * 1103515245u + 12345u;
+            n = (rng >> 16) % 41u;                      /* the background's parts this time */
+            for (j = 0; j < n; j++) {
+                (void)hd_fric_est_work(&bg, &cfg);
+            }
+            most = (bg.q_head - bg.q_tail > most) ? bg.q_head - bg.q_tail : most;
+            if (bg.q_head - bg.q_tail == HD_FE_QLEN) {
+                while (hd_fric_est_work(&bg, &cfg)) {  /* full: drained before the next */
+                }
+            }
+        }
+        while (hd_fric_est_work(&bg, &cfg)) {
+        }
+        assert_learning_equal(&est, &bg);
+    }
+    print_message("# queue held up to %u steps; %u samples, fits %u / %u\n", most, bg.samples, bg.fits[0], bg.fits[1]);
+    assert_int_equal(bg.q_drop, 0u);
+    assert_true(most > 1u);
+    assert_true(bg.fits[HD_FE_DIR_POS] > 0u && bg.fits[HD_FE_DIR_NEG] > 0u);
+}
+
+/* A background that does not get the CPU for more than HD_FE_QLEN steps loses the
+ * observations that do not fit the queue (counted), never the ones queued: they are worked
+ * whole and in order. */
+static void test_full_queue_loses_the_newest(void **state)
+{
+    const int32_t v = (int32_t)lround(0.4 * DEGS);
+    uint32_t k;
+    (void)state;
+    for (k = 0; k < HD_FE_QLEN + 5u; k++) {
+        hd_fric_est_observe(&est, &cfg, v, v, steps_torque(0.4, k), true);
+    }
+    assert_int_equal(est.q_drop, 5u);
+    assert_int_equal(est.q_head - est.q_tail, HD_FE_QLEN);
+    assert_int_equal(est.steps, 0u);
+    k = 0u;
+    while (hd_fric_est_work(&est, &cfg)) {
+        k++;
+    }
+    assert_int_equal(est.steps, HD_FE_QLEN);
+    assert_int_equal(est.q_head, est.q_tail);
+    assert_true(k >= HD_FE_QLEN * 4u);               /* every step's pass, one part per call */
+    assert_false(hd_fric_est_busy(&est));
 }
 
 /* The close of a fit picks the candidate of the least residual of its sweep, the first of
@@ -575,6 +662,8 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_feed_is_bumpless, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_bins, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_parts_equal_step, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_background_in_any_rhythm_equals_step, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_full_queue_loses_the_newest, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_pick_is_the_least_residual, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_viscous_kept_through_a_ramp, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_viscous_kept_with_a_trend_in_each_move, setUp, tearDown),

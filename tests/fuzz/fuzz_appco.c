@@ -285,6 +285,8 @@ static void period(uint32_t how, uint32_t rnd)
     hd_host_port_latch(&port, &se);
     const uint8_t st = hd_co402_state(&ac.p402);
     hd_app_step(&app);
+    while (hd_app_background(&app)) {          /* the background between the periods, as on the drive */
+    }
     const hd_hal_command_t *c = hd_host_port_command(&port);
     if (c->enable != 0u) {
         FUZZ_ASSERT(st == HD_CO402_OP_ENABLED || st == HD_CO402_QUICK_STOP);

@@ -32,13 +32,16 @@
  *                   compensator on too) with the twist torque of the Preisach inverse
  *                   estimated from the motor side (pr_t_src 2, hd_gear_torque), per
  *                   tick (cost only).
- *   isr_worst_case_fe_<part>  isr_worst_case's worst tick (3) with the online
- *                   Stribeck identification on (fe_enable 1) and one kind of its
- *                   work in the measured period: its step's observation, a
- *                   snapshot part, a part of the solution's sums, the solution's
- *                   determinant and numerators (solve), its quotients (divide),
- *                   a residual part, the parts of the close of a fit: the pick, a half of
- *                   the bins' scan, the check and publication (cost only).
+ *   isr_worst_case_fe_<kind>  isr_worst_case's worst tick (3) with the online
+ *                   Stribeck identification on (fe_enable 1): the period of an
+ *                   observation without a sample (observe), with one (sample: an
+ *                   established visit paired with the other direction), the step's
+ *                   last period with the estimate fed into the Stribeck FF, the weight
+ *                   ramping (feed), and a period between them with a step queued for
+ *                   the background (wait) (cost only).
+ *   fe_background_step  the background's work of one step at its longest
+ *                   (hd_app_background until false: the sample above, the last
+ *                   candidate's residual and the close of a fit) (cost only).
  * The app step uses the stub hal of gv_app.c (linked into the same images).
  */
 #include "gv.h"
@@ -302,6 +305,9 @@ int32_t gv_app_to_tick(hd_app_t *a, uint32_t tick, uint32_t *mot, uint32_t *out)
  * measured period (parts == FE_OBSERVE: the observation, bins, feed), or that step done and
  * `parts` parts of its pass, the measured period running the next part. */
 #define FE_OBSERVE 0xFFFFFFFFu
+#define FE_SAMPLE 0xFFFFFFFEu
+#define FE_PART 0x100u
+#define FE_FEED 0xFFFFFFFDu
 static void isr_fe_setup(hd_app_t *a, uint32_t steps, uint32_t parts)
 {
     hd_fric_est_t *e = &a->cb.fe;
@@ -322,18 +328,99 @@ static void isr_fe_setup(hd_app_t *a, uint32_t steps, uint32_t parts)
     e->fit_dir = HD_FE_DIR_POS;
     e->fit_j = 0u;
     e->fit_pass = 0u;
+    e->fit_part = 0u;                       /* nothing of the app's own steps pending */
+    e->fit_due = 0u;
+    e->smp_stage = 0u;
+    e->in_step = 0u;
+    e->q_head = 0u;                         /* the app's observations (no background here) */
+    e->q_tail = 0u;
     for (k = 0; k < steps; k++) {
         hd_fric_est_step(e, c, e->v_prev, e->v_lp, e->bin[HD_FE_DIR_POS][8].f, true);
     }
-    if (parts == FE_OBSERVE) {
-        a->cb.fe_tick = a->cb_cfg.fe_decim - 1u;
+    if (parts == FE_OBSERVE || parts == FE_SAMPLE) {
+        a->cb.fe_tick = 0u;                 /* the measured period is the step's first */
+        return;
+    }
+    if (parts == FE_FEED) {
+        a->cb.fe_tick = a->cb_cfg.fe_decim - 1u;   /* ... its last: the feed */
+        return;
+    }
+    if (parts >= FE_PART) {
+        /* the step's observation takes a sample of an established visit of bin 8, paired with
+         * a recent visit of the other direction, both directions fitted (every part of the
+         * sample on its longest path), then parts - FE_PART of its work */
+        const int32_t v = e->bin[HD_FE_DIR_POS][8].v;
+        e->v_prev = v;
+        e->v_lp = v;
+        e->steady_n = c->settle;
+        e->visit = 1u;
+        e->vis_bin = (uint32_t)HD_FE_DIR_POS * HD_FE_NBIN + 8u;
+        e->vis_g = e->bin[HD_FE_DIR_POS][8].f;
+        e->vis_n = 3u;
+        e->vis_m = e->vis_g;
+        e->vis_s0 = e->scale;
+        e->vis_b0 = e->bias;
+        e->vis_k = 3u;
+        e->vis_a = e->vis_g;
+        e->vis_n0 = e->bin[HD_FE_DIR_POS][8].n;
+        e->oth_m[HD_FE_DIR_NEG] = hdf_neg_sat(e->vis_g);
+        e->oth_g[HD_FE_DIR_NEG] = e->vis_g;
+        e->oth_t[HD_FE_DIR_NEG] = e->steps + 1u;
+        e->fits[HD_FE_DIR_POS] = 1u;
+        e->fits[HD_FE_DIR_NEG] = 1u;
+        hd_fric_est_observe(e, c, v, v, hdf_add_sat(e->vis_g, 1000), true);
+        for (k = FE_PART; k < parts; k++) {
+            (void)hd_fric_est_work(e, c);
+        }
+        a->cb.fe_tick = 1u;                 /* the measured period: between observation and feed */
         return;
     }
     hd_fric_est_observe(e, c, e->v_prev, e->v_lp, e->bin[HD_FE_DIR_POS][8].f, true);
     for (k = 0; k < parts; k++) {
-        (void)hd_fric_est_fit_part(e, c);
+        (void)hd_fric_est_work(e, c);
     }
     a->cb.fe_tick = 0u;
+}
+
+/* The online identification of isr_app taking a sample in the measured period: its step due,
+ * the reference of that period steady (its own value in the last step, the low-passed
+ * velocity on it, the settle count full, a visit in progress), the visited bin established
+ * and a recent visit of the other direction (the common mode solves for scale and bias), a
+ * fit accepted in both directions (both estimates published).  0 when the period's reference
+ * is outside the bins (the caller then sets no marks: the bench fails, never under-reports). */
+static hd_app_t isr_fe_probe;
+static int32_t isr_fe_sample_setup(hd_app_t *a)
+{
+    hd_fric_est_t *e = &a->cb.fe;
+    const hd_fric_est_cfg_t *c = &a->cb_cfg.fe;
+    int32_t v, k;
+    isr_fe_probe = *a;                       /* the measured period's reference and measured velocity */
+    hd_app_step(&isr_fe_probe);
+    v = isr_fe_probe.cb.fe.v_prev;
+    k = hd_fric_est_bin_of(c, v);
+    if (v <= 0 || k < 0) {
+        return 0;
+    }
+    e->v_prev = v;
+    /* the low-passed velocity lands on v after the period's measured velocity */
+    e->v_lp = hdf_sat32((int64_t)v - ((int64_t)isr_fe_probe.tel.vel_out - (int64_t)v) / 31);
+    e->steady_n = c->settle;
+    e->visit = 1u;
+    e->vis_bin = (uint32_t)HD_FE_DIR_POS * HD_FE_NBIN + (uint32_t)k;
+    e->vis_g = e->bin[HD_FE_DIR_POS][k].f;
+    e->vis_n = 3u;
+    e->vis_m = e->vis_g;
+    e->vis_s0 = e->scale;
+    e->vis_b0 = e->bias;
+    e->vis_k = 3u;
+    e->vis_a = e->vis_g;
+    e->vis_n0 = e->bin[HD_FE_DIR_POS][k].n;
+    e->oth_m[HD_FE_DIR_NEG] = hdf_neg_sat(e->vis_g);
+    e->oth_g[HD_FE_DIR_NEG] = e->vis_g;
+    e->oth_t[HD_FE_DIR_NEG] = e->steps;
+    e->fits[HD_FE_DIR_POS] = 1u;
+    e->fits[HD_FE_DIR_NEG] = 1u;
+    return 1;
 }
 
 /* excitation in the measured runs: a multisine of 4 lines (10 .. 900 Hz, the exc_step kernel's
@@ -354,19 +441,12 @@ static void isr_exc_cfg(hd_exc_cfg_t *c)
     c->seed = 0x5Au;
 }
 
-static void cost_isr_en(uint32_t cb_enable, uint32_t slot, uint32_t fe_steps, uint32_t fe_parts, bool exc, bool semi)
+/* isr_app as control_step_full at the given tick, the estimator set up; 0: no tick */
+static int32_t isr_prepare(uint32_t cb_enable, uint32_t slot, uint32_t fe_steps, uint32_t fe_parts, bool exc,
+                           bool semi)
 {
-    hd_foc_t s;
-    hd_foc_cfg_t c;
-    hd_enc_t e;
-    hd_ssi_reading_t rd;
     hd_gv_rng_t r;
-    int32_t duty[3];
     uint32_t k;
-    uint8_t buf[6] = {0xA0u, 0x12u, 0x34u, 0x56u, 0x78u, 0x3Fu};
-    foc_cfg(&c);
-    hd_foc_reset(&s);
-    hd_enc_init(&e, 0u, 0, 2500u);
     /* the app exactly as gv_comp_bank.c's control_step_full (stub hal of gv_app.c) */
     r.s = 4242u;
     isr_sensors(0u, &r, 0u);
@@ -395,6 +475,15 @@ static void cost_isr_en(uint32_t cb_enable, uint32_t slot, uint32_t fe_steps, ui
     }
     (void)hd_app_param_set(&isr_app, HD_P_CB_ENABLE, (int32_t)cb_enable);
     if (fe_steps != 0u) {
+        if (fe_parts == FE_SAMPLE) {
+            /* bins from 2^12 (1e-6 turn/s): the reference of the measured period (the start
+             * of the PTP move) is binned */
+            (void)hd_app_param_set(&isr_app, HD_P_FE_V_MIN, 1 << 12);
+        }
+        if (fe_parts == FE_FEED) {
+            /* the estimate fed into the Stribeck FF, the weight ramping (every parameter mixed) */
+            (void)hd_app_param_set(&isr_app, HD_P_FE_FEED, 1);
+        }
         (void)hd_app_param_set(&isr_app, HD_P_FE_ENABLE, 1);
     }
     for (k = 0; k < 16u; k++) {                  /* PTP moving, every weight fully on (ramp 4) */
@@ -405,12 +494,32 @@ static void cost_isr_en(uint32_t cb_enable, uint32_t slot, uint32_t fe_steps, ui
         /* on to the tick measured (gv_comp_bank.c), then the period's encoder inputs */
         uint32_t mot = 15u * 781u, outc = 1000u + 8u;
         if (gv_app_to_tick(&isr_app, slot, &mot, &outc) == 0) {
-            return;                              /* no marks: the bench fails, never under-reports */
+            return 0;
         }
         gv_app_stub_sensors((mot + 5u) & 0x1FFFFu, (outc + 1u) & 0xFFFFFFu);
     }
     if (fe_steps != 0u) {
         isr_fe_setup(&isr_app, fe_steps, fe_parts);
+        if (fe_parts == FE_SAMPLE && isr_fe_sample_setup(&isr_app) == 0) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+static void cost_isr_en(uint32_t cb_enable, uint32_t slot, uint32_t fe_steps, uint32_t fe_parts, bool exc, bool semi)
+{
+    hd_foc_t s;
+    hd_foc_cfg_t c;
+    hd_enc_t e;
+    hd_ssi_reading_t rd;
+    int32_t duty[3];
+    uint8_t buf[6] = {0xA0u, 0x12u, 0x34u, 0x56u, 0x78u, 0x3Fu};
+    foc_cfg(&c);
+    hd_foc_reset(&s);
+    hd_enc_init(&e, 0u, 0, 2500u);
+    if (isr_prepare(cb_enable, slot, fe_steps, fe_parts, exc, semi) == 0) {
+        return;                                  /* no marks: the bench fails, never under-reports */
     }
     vol_in[0] = 2100; vol_in[1] = 1990; vol_in[2] = 3000; vol_in[3] = 5 * 65536;
     const int32_t ra = vol_in[0], rb = vol_in[1], rv = vol_in[2], iq = vol_in[3];
@@ -465,14 +574,26 @@ static void cost_isr_semi_t2_s6(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 
 static void cost_isr_semi_t2_s7(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 7u, 0u, 0u, false, true); }
 
 static void cost_isr_fe_observe(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, FE_OBSERVE, false, false); }
-static void cost_isr_fe_snapshot(void) { cost_isr_en(ISR_ALL, 3u, FE_J31, 0u, false, false); }
-static void cost_isr_fe_sums(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 0u, false, false); }
-static void cost_isr_fe_solve(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 6u, false, false); }
-static void cost_isr_fe_divide(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 2u, 7u, false, false); }
-static void cost_isr_fe_sse(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 0u, false, false); }
-static void cost_isr_fe_pick(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 4u, false, false); }
-static void cost_isr_fe_bins(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 5u, false, false); }
-static void cost_isr_fe_publish(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, 7u, false, false); }
+/* the estimator's kernels in the bank's worst tick (the observation lands on every tick:
+ * fe_decim 10 against a cycle of 8) */
+#define FE_PART_TICK 3u
+/* the background's work of one step at its longest (hd_app_background until false): the
+ * sample of an established visit paired with the other direction, the last candidate's
+ * residual and the close of the fit with its publication */
+static void cost_fe_background_step(void)
+{
+    if (isr_prepare(ISR_ALL, FE_PART_TICK, FE_J31 + 3u, FE_PART, false, false) == 0) {
+        return;
+    }
+    hd_gv_cost_mark();
+    while (hd_app_background(&isr_app)) {
+    }
+    hd_gv_cost_mark();
+    vol_out = isr_app.cb.fe.est[HD_FE_DIR_POS].fc;
+}
+static void cost_isr_fe_sample(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, FE_SAMPLE, false, false); }
+static void cost_isr_fe_feed(void) { cost_isr_en(ISR_ALL, FE_PART_TICK, FE_J31 + 3u, FE_FEED, false, false); }
+static void cost_isr_fe_wait(void) { cost_isr_en(ISR_ALL, FE_PART_TICK, FE_J31 + 3u, FE_PART, false, false); }
 
 const hd_gv_kernel_t hd_gv_foc_kernels[] = {
     {"foc_step", 6u, 7u, 384u, gen_foc, run_foc, cost_foc},
@@ -512,13 +633,9 @@ const hd_gv_kernel_t hd_gv_foc_kernels[] = {
     {"isr_worst_case_semi_t2.s6", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_s6},
     {"isr_worst_case_semi_t2.s7", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_s7},
     {"isr_worst_case_fe_observe", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_observe},
-    {"isr_worst_case_fe_snapshot", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_snapshot},
-    {"isr_worst_case_fe_sums", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_sums},
-    {"isr_worst_case_fe_solve", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_solve},
-    {"isr_worst_case_fe_divide", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_divide},
-    {"isr_worst_case_fe_sse", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_sse},
-    {"isr_worst_case_fe_pick", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_pick},
-    {"isr_worst_case_fe_bins", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_bins},
-    {"isr_worst_case_fe_publish", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_publish},
+    {"isr_worst_case_fe_sample", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_sample},
+    {"isr_worst_case_fe_feed", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_feed},
+    {"isr_worst_case_fe_wait", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_wait},
+    {"fe_background_step", 1u, 3u, 4u, gen_enc, run_enc, cost_fe_background_step},
 };
 const uint32_t hd_gv_foc_count = sizeof hd_gv_foc_kernels / sizeof hd_gv_foc_kernels[0];

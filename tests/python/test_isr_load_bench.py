@@ -68,3 +68,25 @@ def test_every_mode_against_the_target() -> None:
     assert out["isr_worst_case_semi_t2"]["worst_tick"] == 0
     assert out["isr_worst_case"]["cycles"] == round(2992 * m.CPI + sum(m.ALLOW_CYCLES.values()))
     assert out["isr_worst_case"]["cpu_load"] == pytest.approx(out["isr_worst_case"]["cycles"] / 17000, abs=1e-4)
+
+
+def test_the_estimator_check_fails_above_the_target() -> None:
+    m = _load()
+    ok, line = m.estimator_check(m.with_online_estimator({"isr_worst_case_fe_sample": {"instructions": 2992}}))
+    assert ok is True and "within" in line
+    ok, line = m.estimator_check(m.with_online_estimator({"isr_worst_case_fe_sample": {"instructions": 2993},
+                                                          "isr_worst_case_fe_sse": {"instructions": 2000}}))
+    assert ok is False and "FAILED" in line and "sample" in line
+    ok, line = m.estimator_check(None)
+    assert ok is False and "no isr_worst_case_fe_" in line
+
+
+def test_the_background_load() -> None:
+    m = _load()
+    assert m.background({}) is None
+    bg = m.background({"fe_background_step": {"instructions": 6500}}, fe_decim=10)
+    assert bg is not None and bg["step_instructions"] == 6500
+    assert bg["cpu_load"] == round(6500 * 1.3 / 170000, 4)
+    assert bg["fits_beside_isr"] is True
+    assert m.background({"fe_background_step": {"instructions": 6500}}, fe_decim=1)["fits_beside_isr"] is True
+    assert m.background({"fe_background_step": {"instructions": 200000}}, fe_decim=1)["fits_beside_isr"] is False

@@ -18,7 +18,9 @@
  *       app through firmware/canopen/hd_app_co.c), hd_app_step(), hd_co_tick()
  *       (heartbeat, TPDOs, CiA 402, time-outs); then the watchdog is
  *       refreshed (only here: a stuck control step resets the MCU).
- * main() initialises everything and sleeps (WFI).
+ * main() initialises everything, then runs the background below every interrupt
+ * (hd_app_background: the online friction identification's queued steps, one short
+ * part per call) and sleeps (WFI) when it has none.
  *
  * Static state: this file holds the port's driver state (the application
  * struct, FOC state, encoder state, CAN queues, the NVM image, the latched
@@ -368,6 +370,10 @@ int main(void)
     hd_g474_nvic_enable(IRQ_ADC1_2, 0u);
     hd_g474_adc_init();                       /* conversions (and the 20 kHz interrupt) start */
     for (;;) {
-        __asm__ volatile("wfi");
+        /* background below the control period (PendSV preempts it): the online friction
+         * identification's queued steps, one part per call; sleep when none is left */
+        if (!hd_app_background(&app)) {
+            __asm__ volatile("wfi");
+        }
     }
 }
