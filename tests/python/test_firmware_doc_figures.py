@@ -72,13 +72,13 @@ def totals(b: Bench, text: str) -> list[float]:
     for row in _table_rows(text, "### Totals"):
         names = re.findall(r"`([a-z0-9_<>]+)`", row[0].split("(")[0])
         for name in names:
-            if name == "isr_worst_case_fe_<part>":
+            if name.startswith("isr_worst_case_fe_<"):
                 out.append(float(b["isr_load"]["with_online_estimator"]["instructions"]))
             else:
                 out.append(kernel(b, name))
         if len(row) > 2 and row[2].strip():
             name = names[0]
-            load = (b["isr_load"]["with_online_estimator"]["cpu_load"] if name == "isr_worst_case_fe_<part>"
+            load = (b["isr_load"]["with_online_estimator"]["cpu_load"] if name.startswith("isr_worst_case_fe_<")
                     else b["isr_load"]["modes"][name]["cpu_load"])
             out.append(100.0 * float(load))
     return out
