@@ -1,280 +1,47 @@
 """The instruction counts docs/firmware.md quotes are the ones ``make bench`` measures.
 
-Each claim below names a sentence or table of docs/firmware.md (a regular expression whose
-groups are the quoted figures) and where the same figures are in ``build/bench/*.json``
-(``cm4_cost.json``, ``phase_cost.json``, ``isr_load.json``, ``profile.json``).  When the bench
-JSON is present and newer than the firmware it measured, every quoted figure must equal the
-measured one within the claim's tolerance: :data:`TOL_INSTRUCTIONS` for instruction and cycle
-counts (QEMU counts repeat to the instruction), :data:`TOL_LOAD_PCT` for loads and
-:data:`TOL_US` for times, which the docs round to one decimal.  Without the JSON (``make test``
-does not run ``make bench``) the same comparison runs on a small example, and the claims must
-still each find their figures in the docs, so the check cannot go quiet when a sentence changes.
+The claims (where docs/firmware.md quotes each figure and where ``build/bench/*.json`` has it)
+and the check and fixer live in ``tools/firmware_doc_figures.py`` (``make docs-figures``
+rewrites the figures after ``make bench``).  When the bench JSON is present and newer than the
+firmware it measured, every quoted figure must equal the measured one within its claim's
+tolerance.  Without the JSON (``make test`` does not run ``make bench``) the claims must still
+each find their figures in the docs, so the check cannot go quiet when a sentence changes, and
+the check and the fixer run on small synthetic docs.
 """
 from __future__ import annotations
 
+import importlib.util
 import json
 import re
-from dataclasses import dataclass
+import sys
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from types import ModuleType
+from typing import Any
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).parents[2]
 DOC = ROOT / "docs" / "firmware.md"
-BENCH = ROOT / "build" / "bench"
-FILES = ("cm4_cost", "phase_cost", "isr_load", "profile")
-
-#: instructions / cycles: exact (two QEMU runs agree to the instruction)
-TOL_INSTRUCTIONS = 0.0
-#: CPU load in percent: the docs give one decimal
-TOL_LOAD_PCT = 0.05
-#: times in microseconds: one decimal
-TOL_US = 0.05
-
-#: what the bench's numbers come from: newer than the JSON means the JSON is stale
-SOURCES = ("firmware/core", "firmware/app", "firmware/canopen", "firmware/hal", "firmware/port/qemu-m4",
-           "tests/golden", "tests/bench/phase")
-IMAGES = ("build/golden/cost_m4.elf",)
-
-Bench = Mapping[str, Any]
-PHASE_NAMES = {"sensors": "sensors", "references": "references", "compensator bank": "comp_bank",
-               "hunt breaker": "hunt_breaker", "loops": "loops", "limits and faults": "limits_faults",
-               "command": "command", "telemetry": "telemetry"}
-#: the compensator bank's phase budget, instructions per tick (docs/firmware.md, tests/bench/50_isr_load.py)
-BANK_BUDGET = 850.0
-TICK_ROWS = {"full closed": "control_step_full", "semi-closed": "control_step_semi",
-             "semi-closed, `pr_t_src` 2": "isr_worst_case_semi_t2", "dual-loop": "control_step_dual"}
 
 
-def num(s: str) -> float:
-    """A figure as the docs write it (thousands with commas)."""
-    return float(s.replace(",", ""))
+def _tool() -> ModuleType:
+    name = "firmware_doc_figures"
+    if name in sys.modules:
+        return sys.modules[name]
+    spec = importlib.util.spec_from_file_location(name, ROOT / "tools" / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    m = importlib.util.module_from_spec(spec)
+    sys.modules[name] = m          # the dataclasses look their module up while it loads
+    spec.loader.exec_module(m)
+    return m
 
 
-def kernel(b: Bench, name: str) -> float:
-    return float(b["cm4_cost"]["kernels"][name]["instructions"])
-
-
-def bank(b: Bench, name: str) -> list[float]:
-    """The compensator bank's phase per tick and its worst (phase_cost.json)."""
-    t = [float(x) for x in b["phase_cost"]["kernels"][name]["ticks"]["comp_bank"]]
-    return t + [max(t)]
-
-
-def phases(b: Bench, name: str) -> Mapping[str, float]:
-    return b["phase_cost"]["kernels"][name]["phases_instructions"]
-
-
-def totals(b: Bench, text: str) -> list[float]:
-    """The Totals table: per row, the kernels named in its first cell and their counts (and load)."""
-    out: list[float] = []
-    for row in _table_rows(text, "### Totals"):
-        names = re.findall(r"`([a-z0-9_<>]+)`", row[0].split("(")[0])
-        for name in names:
-            if name.startswith("isr_worst_case_fe_<"):
-                out.append(float(b["isr_load"]["with_online_estimator"]["instructions"]))
-            else:
-                out.append(kernel(b, name))
-        if len(row) > 2 and row[2].strip():
-            name = names[0]
-            load = (b["isr_load"]["with_online_estimator"]["cpu_load"] if name.startswith("isr_worst_case_fe_<")
-                    else b["isr_load"]["modes"][name]["cpu_load"])
-            out.append(100.0 * float(load))
-    return out
-
-
-def _table_rows(text: str, heading: str) -> list[list[str]]:
-    """The cells of each body row of the first table below ``heading``."""
-    start = text.index(heading)
-    lines = text[start:].splitlines()
-    rows: list[list[str]] = []
-    seen = False
-    for ln in lines[1:]:
-        if ln.startswith("|"):
-            seen = True
-            cells = [c.strip() for c in ln.strip().strip("|").split("|")]
-            if set(cells[0]) <= set("-: ") or cells[0] in ("kernel", "function"):
-                continue
-            rows.append(cells)
-        elif seen:
-            break
-    return rows
-
-
-@dataclass(frozen=True)
-class Claim:
-    """Figures the docs quote (``doc``: the text -> figures) and the bench's (``bench``)."""
-
-    name: str
-    doc: Callable[[str], list[float]]
-    bench: Callable[[Bench, str], list[float]]
-    tol: float | tuple[float, ...] = TOL_INSTRUCTIONS
-
-
-def pattern(rx: str) -> Callable[[str], list[float]]:
-    """Figures of the one match of ``rx`` in the docs (its groups, in order)."""
-    def get(text: str) -> list[float]:
-        m = re.findall(rx, text, flags=re.S)
-        if len(m) != 1:
-            raise LookupError(f"docs/firmware.md: expected one match of {rx!r}, found {len(m)}")
-        groups = m[0] if isinstance(m[0], tuple) else (m[0],)
-        return [num(g) for g in groups]
-    return get
-
-
-def totals_figures(text: str) -> list[float]:
-    out: list[float] = []
-    for row in _table_rows(text, "### Totals"):
-        out += [num(x.strip()) for x in row[1].split("/")]
-        if len(row) > 2 and row[2].strip():
-            out.append(num(row[2].replace("%", "").strip()))
-    return out
-
-
-def totals_tolerances(text: str) -> tuple[float, ...]:
-    tol: list[float] = []
-    for row in _table_rows(text, "### Totals"):
-        tol += [TOL_INSTRUCTIONS] * len(row[1].split("/"))
-        if len(row) > 2 and row[2].strip():
-            tol.append(TOL_LOAD_PCT)
-    return tuple(tol)
-
-
-def tick_rows(text: str) -> list[float]:
-    out: list[float] = []
-    for label in TICK_ROWS:
-        m = re.search(r"^\| " + re.escape(label) + r" \|((?: [\d,]+ \|){9})$", text, flags=re.M)
-        if m is None:
-            raise LookupError(f"docs/firmware.md: no row '{label}' of the bank's phase per tick")
-        out += [num(x) for x in m.group(1).split("|") if x.strip()]
-    return out
-
-
-def phase_sentence(text: str) -> list[float]:
-    m = re.search(r"Per phase with every form \(`phase_cost\.json`; baseline / the full\s+step's worst tick\): (.*?)"
-                  r"; `control_step_baseline` ([\d,]+),\s+`control_step_full` ([\d,]+) \(worst tick (\d)[^)]*\),"
-                  r"\s+`isr_worst_case` ([\d,]+)\.", text, flags=re.S)
-    if m is None:
-        raise LookupError("docs/firmware.md: no 'Per phase with every form' sentence")
-    out: list[float] = []
-    for label, key in PHASE_NAMES.items():
-        p = re.search(re.escape(label) + r"\s+([\d,]+) / ([\d,]+)", m.group(1))
-        if p is None:
-            raise LookupError(f"docs/firmware.md: phase '{label}' missing from the 'Per phase' sentence")
-        out += [num(p.group(1)), num(p.group(2))]
-    return out + [num(m.group(i)) for i in (2, 3, 4, 5)]
-
-
-def phase_sentence_bench(b: Bench, text: str) -> list[float]:
-    base, full = phases(b, "control_step_baseline"), phases(b, "control_step_full")
-    out: list[float] = []
-    for key in PHASE_NAMES.values():
-        out += [float(base[key]), float(full[key])]
-    return out + [kernel(b, "control_step_baseline"), kernel(b, "control_step_full"),
-                  float(b["cm4_cost"]["kernels"]["control_step_full"]["worst_slot"]), kernel(b, "isr_worst_case")]
-
-
-def profile_bench(b: Bench, text: str) -> list[float]:
-    """Each profile row's functions summed from profile.json; a row without one is the rest."""
-    by = b["profile"]["by_symbol"]
-    rows, _ = profile_rows(text)
-    named = [float(sum(by.get(s, 0) for s in names)) if names else None for names, _ in rows]
-    rest = float(b["profile"]["instructions"]) - sum(x for x in named if x is not None)
-    return [rest if x is None else x for x in named]
-
-
-def slack(b: Bench, text: str) -> list[float]:
-    s10, s20 = b["isr_load"]["slack"]["10kHz"], b["isr_load"]["slack"]["20kHz"]
-    return [float(s10["slack_cycles"]), float(s10["slack_us"]), float(s20["slack_cycles"]), float(s20["slack_us"]),
-            100.0 * float(s20["cpu_load"])]
-
-
-def worst_banks(b: Bench, text: str) -> list[float]:
-    c = b["isr_load"]["comp_bank_phase"]
-    return [float(c[k]["worst_instructions"]) for k in ("control_step_full", "control_step_semi", "control_step_dual")]
-
-
-def profile_rows(text: str) -> tuple[list[tuple[list[str], float]], float]:
-    """The per-function profile of the worst period: (backticked names, instructions) per row, the total."""
-    total = pattern(r"their caller; ([\d,]+) in all\)")(text)[0]
-    rows = []
-    for row in _table_rows(text, "### Where the worst period goes"):
-        if row[0] == "function":
-            continue
-        rows.append((re.findall(r"`([A-Za-z0-9_]+)`", row[0]), num(row[1])))
-    return rows, total
-
-
-CLAIMS: tuple[Claim, ...] = (
-    Claim("Totals table", totals_figures, totals, tol=()),      # tolerances per cell: totals_tolerances
-    Claim("profile of the worst period: total", pattern(r"their caller; ([\d,]+) in all\)"),
-          lambda b, t: [float(b["profile"]["instructions"])]),
-    Claim("profile of the worst period: its tick", pattern(r"`isr_worst_case` in its worst tick\s+\((\d),"),
-          lambda b, t: [float(b["profile"]["tick"])]),
-    Claim("bank's phase per tick", tick_rows,
-          lambda b, t: [x for k in TICK_ROWS.values() for x in bank(b, k)]),
-    Claim("targets: the bank's worst ticks",
-          pattern(r"it\s+takes ([\d,]+) / ([\d,]+) / ([\d,]+) instructions \(full-closed / semi-closed / dual-loop; "
-                  r"([\d,]+)\s+semi-closed with `pr_t_src` 2\)"),
-          lambda b, t: worst_banks(b, t) + [bank(b, "isr_worst_case_semi_t2")[-1]]),
-    Claim("what the targets need: the bank's worst ticks",
-          pattern(r"Left to do: the bank's phase <= 850 in every tick \(([\d,]+) / ([\d,]+) / ([\d,]+); ([\d,]+) with"),
-          lambda b, t: worst_banks(b, t) + [bank(b, "isr_worst_case_semi_t2")[-1]]),
-    Claim("the bank's worst ticks over the budget",
-          pattern(r"the worst tick is ([\d,]+) \(full closed\),\s+([\d,]+) \(semi-closed\), ([\d,]+) \(semi-closed, "
-                  r"`pr_t_src` 2\) and ([\d,]+) \(dual-loop\)\s+instructions over it"),
-          lambda b, t: [bank(b, k)[-1] - BANK_BUDGET for k in ("control_step_full", "control_step_semi",
-                                                               "isr_worst_case_semi_t2", "control_step_dual")]),
-    Claim("targets: how far the bank is over its budget", pattern(r"\), ([\d,]+) to ([\d,]+) over the budget"),
-          lambda b, t: [min(over := [bank(b, k)[-1] - BANK_BUDGET for k in (*TICK_ROWS.values(),)]), max(over)]),
-    Claim("profile of the worst period: per function", lambda t: [n for _, n in profile_rows(t)[0]],
-          lambda b, t: profile_bench(b, t)),
-    Claim("per phase, baseline / full worst tick", phase_sentence, phase_sentence_bench),
-    Claim("slack of the worst period",
-          pattern(r"Slack of the worst period \(`isr_worst_case`\): ([\d,]+) cycles \(([\d.]+) us\) at\s+10 kHz; "
-                  r"([\d,]+) cycles \(([\d.]+) us, load ([\d.]+) %\) at 20 kHz"),
-          slack, tol=(TOL_INSTRUCTIONS, TOL_US, TOL_INSTRUCTIONS, TOL_US, TOL_LOAD_PCT)),
-    Claim("semi-closed pr_t_src 2: every tick",
-          pattern(r"\(ticks\s+([\d,]+), ([\d,]+), ([\d,]+), ([\d,]+), ([\d,]+), ([\d,]+), ([\d,]+), ([\d,]+)\)"),
-          lambda b, t: [float(x) for x in b["cm4_cost"]["kernels"]["isr_worst_case_semi_t2"]["slots"]]),
-    Claim("targets: excitation and semi-closed pr_t_src 2 periods",
-          pattern(r"the excitation mode \(([\d,]+)\) and the semi-closed period\s+with `pr_t_src` 2 \(([\d,]+)\)"),
-          lambda b, t: [kernel(b, "isr_worst_case_exc"), kernel(b, "isr_worst_case_semi_t2")]),
-    Claim("first period after a start", pattern(r"`control_step_entry`, ([\d,]+) instructions, once per\s+start"),
-          lambda b, t: [kernel(b, "control_step_entry")]),
-)
-
-
-def mismatches(text: str, b: Bench, claims: tuple[Claim, ...] | None = None) -> list[str]:
-    """Every quoted figure that differs from the bench's by more than its tolerance, one line each
-    (``claims``: default :data:`CLAIMS`)."""
-    out: list[str] = []
-    for c in CLAIMS if claims is None else claims:
-        quoted, measured = c.doc(text), c.bench(b, text)
-        tol = totals_tolerances(text) if c.name == "Totals table" else c.tol
-        tols = tol if isinstance(tol, tuple) else (tol,) * len(quoted)
-        if len(measured) != len(quoted) or len(tols) != len(quoted):
-            out.append(f"{c.name}: the docs quote {len(quoted)} figures, the bench gives {len(measured)}")
-            continue
-        for i, (q, m, t) in enumerate(zip(quoted, measured, tols)):
-            if abs(q - m) > t + 1e-9:
-                out.append(f"{c.name}: figure {i + 1} quoted {q:g}, make bench measured {m:g} (tolerance {t:g})")
-    return out
-
-
-def bench_json() -> dict[str, Any] | None:
-    """The bench's JSON when every file is there and newer than what it measured, else None."""
-    paths = [BENCH / f"{f}.json" for f in FILES]
-    if not all(p.is_file() for p in paths):
-        return None
-    made = min(p.stat().st_mtime for p in paths)
-    inputs = [ROOT / i for i in IMAGES if (ROOT / i).is_file()]
-    for d in SOURCES:
-        inputs += [p for p in (ROOT / d).rglob("*") if p.suffix in (".c", ".h", ".S", ".ld")]
-    if any(p.stat().st_mtime > made for p in inputs):
-        return None
-    return {f: json.loads((BENCH / f"{f}.json").read_text()) for f in FILES}
+fdf = _tool()
+CLAIMS = fdf.CLAIMS
+BANK_BUDGET = fdf.BANK_BUDGET
+mismatches = fdf.mismatches
+profile_rows = fdf.profile_rows
 
 
 # ------------------------------------------------------------------ tests
@@ -283,7 +50,7 @@ def test_every_claim_finds_its_figures_in_the_docs() -> None:
     text = DOC.read_text()
     for c in CLAIMS:
         assert c.doc(text), c.name
-    assert len(totals_figures(text)) >= 14
+    assert len(CLAIMS[0].doc(text)) >= 14
 
 
 def test_profile_rows_add_up_to_the_total_they_quote() -> None:
@@ -310,7 +77,7 @@ def test_the_check_flags_a_figure_a_few_instructions_off() -> None:
 
 
 def test_docs_quote_what_make_bench_measured() -> None:
-    b = bench_json()
+    b = fdf.bench_json()
     if b is None:
         pytest.skip("no build/bench JSON newer than the firmware (make bench)")
     bad = mismatches(DOC.read_text(), b)
@@ -339,3 +106,142 @@ def test_profile_sums_instructions_per_function() -> None:
           "00001020 00000004 T hd_gv_cost_mark\n00002000 00000004 D some_data\n")
     pcs = "PC 0x1000 3\nPC 0x100e 2\nPC 0x1011 5\nPC 0x1010 1\nPC 0x1022 1\nPC 0x1018 4\n"
     assert m.profile(pcs, nm) == {"map_recip": 6, "hd_app_step": 5, "?": 4, "hd_gv_cost_mark": 1}
+
+
+# ------------------------------------------------------------------ the fixer
+
+SMALL_DOC = """# x
+
+### Totals
+
+| kernel | instructions | load at 10 kHz |
+|---|---:|---:|
+| `isr_worst_case` (worst) | 2,812 | 23.6 % |
+| `control_step_semi` / `control_step_dual` (worst) | 999 / 2,248 | |
+| `foc_step` | 240 | |
+
+Slack of the worst period (`isr_worst_case`): 12,984 cycles (76.4 us) at
+10 kHz; 4,968 cycles (29.2 us, load 41.6 %) at 20 kHz.  Worst 2,812 stays.
+"""
+
+
+def small_bench() -> dict[str, Any]:
+    """Bench JSON for :data:`SMALL_DOC`: two instruction counts, a load and a slack time moved."""
+    k = {"isr_worst_case": 2816, "control_step_semi": 1003, "control_step_dual": 2248, "foc_step": 240}
+    return {"cm4_cost": {"kernels": {n: {"instructions": v} for n, v in k.items()}},
+            "isr_load": {"modes": {"isr_worst_case": {"cpu_load": 0.2384}},
+                         "slack": {"10kHz": {"slack_cycles": 12984, "slack_us": 76.44},
+                                   "20kHz": {"slack_cycles": 4963, "slack_us": 29.19, "cpu_load": 0.4163}}}}
+
+
+def small_claims() -> tuple[Any, ...]:
+    return tuple(c for c in CLAIMS if c.name in ("Totals table", "slack of the worst period"))
+
+
+def test_the_fixer_rewrites_exactly_the_stale_figures() -> None:
+    new, stale = fdf.fixed(SMALL_DOC, small_bench(), small_claims())
+    expected = (SMALL_DOC.replace("| 2,812 | 23.6 % |", "| 2,816 | 23.8 % |")
+                .replace("999 / 2,248", "1,003 / 2,248")
+                .replace("4,968 cycles", "4,963 cycles"))
+    assert new == expected                      # 76.4 / 29.2 / 41.6 are within a tenth: kept
+    assert [(s.quoted, s.measured) for s in stale] == [(2812.0, 2816.0), (23.6, pytest.approx(23.84)),
+                                                       (999.0, 1003.0), (4968.0, 4963.0)]
+
+
+def test_fix_then_check_is_clean_and_a_second_fix_changes_nothing() -> None:
+    b = small_bench()
+    assert len(mismatches(SMALL_DOC, b, small_claims())) == 4
+    new, _ = fdf.fixed(SMALL_DOC, b, small_claims())
+    assert mismatches(new, b, small_claims()) == []
+    assert fdf.fixed(new, b, small_claims()) == (new, [])
+
+
+def test_figures_keep_the_docs_format() -> None:
+    assert fdf.fmt(1003.0, "999") == "1,003"
+    assert fdf.fmt(998.0, "1,001") == "998"
+    assert fdf.fmt(12345.0, "12345") == "12345"
+    assert fdf.fmt(23.84, "23.6") == "23.8"
+    assert fdf.fmt(3.0, "4") == "3"
+
+
+def synthetic_bench(text: str, seed: int) -> dict[str, Any]:
+    """Bench JSON with every figure the claims read from it, at random values (the bank over budget)."""
+    rng = np.random.default_rng(seed)
+    ints = lambda lo, hi, n=None: rng.integers(lo, hi, size=n).tolist()      # noqa: E731
+    names = {n for row in fdf._table_rows(text, "### Totals")
+             for n in re.findall(r"`([a-z0-9_<>]+)`", row[0][0].split("(")[0])}
+    names |= {"control_step_baseline", "control_step_full", "isr_worst_case", "isr_worst_case_exc",
+              "isr_worst_case_semi_t2", "control_step_entry", "control_step_semi", "control_step_dual"}
+    kernels: dict[str, Any] = {n: {"instructions": ints(200, 5000)} for n in names}
+    kernels["control_step_full"]["worst_slot"] = ints(0, 8)
+    kernels["isr_worst_case_semi_t2"]["slots"] = ints(2500, 3000, 8)
+    phase_keys = list(fdf.PHASE_NAMES.values())
+    pk: dict[str, Any] = {}
+    for k in fdf.TICK_ROWS.values():
+        pk[k] = {"ticks": {"comp_bank": ints(700, 1000, 8)}, "phases_instructions": dict(zip(phase_keys, ints(10, 999, 8)))}
+    for k in ("control_step_baseline", "control_step_full"):
+        pk.setdefault(k, {})["phases_instructions"] = dict(zip(phase_keys, ints(10, 999, 8)))
+    pk["control_step_full"]["ticks"]["comp_bank"][0] = 990          # the bank over budget in each mode
+    for k in fdf.TICK_ROWS.values():
+        pk[k]["ticks"]["comp_bank"][1] = 900
+    worst = {k: {"worst_instructions": max(pk[k]["ticks"]["comp_bank"])} for k in fdf.TICK_ROWS.values()}
+    by = {n: ints(10, 900) for names_, _ in fdf.profile_row_spans(text) for n in names_}
+    return {"cm4_cost": {"kernels": kernels}, "phase_cost": {"kernels": pk},
+            "isr_load": {"modes": {n: {"cpu_load": float(rng.uniform(0.1, 0.4))} for n in names},
+                         "with_online_estimator": {"instructions": ints(2500, 3000), "cpu_load": 0.2468},
+                         "comp_bank_phase": worst,
+                         "slack": {"10kHz": {"slack_cycles": ints(9000, 14000), "slack_us": float(rng.uniform(50, 90))},
+                                   "20kHz": {"slack_cycles": ints(1000, 6000), "slack_us": float(rng.uniform(5, 35)),
+                                             "cpu_load": float(rng.uniform(0.3, 0.6))}}},
+            "profile": {"instructions": sum(by.values()) + ints(20, 60), "tick": ints(0, 8), "by_symbol": by}}
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_the_fixer_on_the_docs_changes_figures_only_and_leaves_nothing_stale(seed: int) -> None:
+    text = DOC.read_text()
+    b = synthetic_bench(text, seed)
+    new, stale = fdf.fixed(text, b)
+    assert len(stale) > 60
+    assert mismatches(new, b) == []
+    assert fdf.NUMBER.sub("#", new) == fdf.NUMBER.sub("#", text)       # only figures changed
+    rows, total = profile_rows(new)
+    assert sum(n for _, n in rows) == total
+
+
+def _bench_dir(tmp: Path, b: dict[str, Any]) -> Path:
+    d = tmp / "bench"
+    d.mkdir()
+    for f in fdf.FILES:
+        (d / f"{f}.json").write_text(json.dumps(b.get(f, {})))
+    return d
+
+
+def test_command_line_check_fix_and_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    text = DOC.read_text()
+    doc = tmp_path / "firmware.md"
+    doc.write_text(text)
+    bench = _bench_dir(tmp_path, synthetic_bench(text, 3))
+    assert fdf.main(["--doc", str(doc), "--bench", str(bench)]) == 1
+    assert "make bench measured" in capsys.readouterr().out
+    assert fdf.main(["--fix", "--doc", str(doc), "--bench", str(bench)]) == 0
+    assert doc.read_text() != text
+    assert fdf.main(["check", "--doc", str(doc), "--bench", str(bench)]) == 0
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []      # no temporary left
+    capsys.readouterr()
+    fixed_text = doc.read_text()
+    profile = (bench / "profile.json").read_text()
+    (bench / "profile.json").unlink()
+    assert fdf.main(["--fix", "--doc", str(doc), "--bench", str(bench)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "profile.json" in err and "Traceback" not in err
+    assert doc.read_text() == fixed_text
+    doc.write_text(text.replace("Slack of the worst period", "Slack of the period"))
+    (bench / "profile.json").write_text(profile)
+    assert fdf.main(["--fix", "--doc", str(doc), "--bench", str(bench)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Slack of the worst period" in err
+    (bench / "isr_load.json").write_text("{}")
+    doc.write_text(fixed_text)
+    assert fdf.main(["check", "--doc", str(doc), "--bench", str(bench)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no figure for 'Totals table'" in err
