@@ -61,13 +61,14 @@ CTEST_SRC := $(wildcard tests/c/test_*.c)
 CTEST_BIN := $(patsubst tests/c/%.c,$(B)/host/tests/%,$(CTEST_SRC))
 CTEST_HELPERS := $(wildcard tests/c/support/*.c)
 
-.PHONY: all setup test build-tests bench results demo clean firmware-objs m4-objs help
+.PHONY: all setup test build-tests bench results demo clean firmware-objs m4-objs help docs-figures
 all: build-tests
 
 help:
 	@echo "make setup    install missing Debian packages and the Python venv (.venv)"
 	@echo "make test     build and run every test; last line 'N passed, N failed'"
 	@echo "make bench    measure (never fails on time); JSON under build/bench/"
+	@echo "make docs-figures  rewrite docs/firmware.md's bench figures from build/bench/ (after make bench)"
 	@echo "make results  closed-loop figures; JSON under build/results/"
 	@echo "make demo     the end-to-end demo on the simulated reference axis"
 
@@ -125,6 +126,11 @@ bench: setup
 	@$(MAKE) --no-print-directory build-tests $(BUILD_TESTS_EXTRA)
 	@mkdir -p $(B)/bench
 	@bash tools/run_dir.sh tests/bench
+
+# The figures docs/firmware.md quotes from build/bench/ (cm4_cost, phase_cost, isr_load,
+# profile), rewritten in place; `tools/firmware_doc_figures.py` alone only checks them.
+docs-figures: setup
+	@$(PY) tools/firmware_doc_figures.py --fix
 
 results: setup
 	@$(MAKE) --no-print-directory build-tests $(BUILD_TESTS_EXTRA)

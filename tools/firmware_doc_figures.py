@@ -486,16 +486,24 @@ def bench_json(bench: Path = BENCH, root: Path = ROOT) -> dict[str, Any] | None:
     return {f: json.loads((bench / f"{f}.json").read_text()) for f in FILES}
 
 
+def _shown(path: Path) -> str:
+    """``path`` relative to the working directory when it is below it."""
+    try:
+        return str(path.resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
+
+
 def _load_bench(bench: Path) -> dict[str, Any]:
     missing = [f"{f}.json" for f in FILES if not (bench / f"{f}.json").is_file()]
     if missing:
-        raise FigureError(f"{bench}: no {', '.join(missing)}; expected the JSON of make bench (run make bench)")
+        raise FigureError(f"{_shown(bench)}: no {', '.join(missing)}; expected the JSON of make bench (run make bench)")
     try:
         b = bench_json(bench)
     except json.JSONDecodeError as e:
-        raise FigureError(f"{bench}: a bench file is not JSON ({e}); expected the JSON of make bench") from None
+        raise FigureError(f"{_shown(bench)}: a bench file is not JSON ({e}); expected the JSON of make bench") from None
     if b is None:
-        raise FigureError(f"{bench}: the bench JSON is older than the firmware it measured; "
+        raise FigureError(f"{_shown(bench)}: the bench JSON is older than the firmware it measured; "
                           "expected a fresh make bench (run make bench)")
     return b
 
@@ -514,23 +522,23 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             text = args.doc.read_text(encoding="utf-8")
         except OSError as e:
-            raise FigureError(f"{args.doc}: cannot read the docs ({e.strerror})") from None
+            raise FigureError(f"{_shown(args.doc)}: cannot read the docs ({e.strerror})") from None
         b = _load_bench(args.bench)
         if args.fix:
             new, stale = fixed(text, b)
             if stale:
                 write_text_atomic(args.doc, new)
             assert not stale_figures(new, b), "a rewritten figure is still stale"
-            print(f"{args.doc}: {len(stale)} stale figure(s) rewritten from {args.bench}")
+            print(f"{_shown(args.doc)}: {len(stale)} stale figure(s) rewritten from {_shown(args.bench)}")
             return 0
         stale = stale_figures(text, b)
     except FigureError as e:
         print(f"firmware_doc_figures: error: {e}", file=sys.stderr)
         return 2
     for s in stale:
-        print(f"{args.doc}: {s.line()}")
+        print(f"{_shown(args.doc)}: {s.line()}")
     n = sum(len(c.spans(text)) for c in CLAIMS)
-    print(f"{args.doc}: {n - len(stale)} of {n} figures agree with {args.bench}"
+    print(f"{_shown(args.doc)}: {n - len(stale)} of {n} figures agree with {_shown(args.bench)}"
           + ("; run tools/firmware_doc_figures.py --fix (make docs-figures)" if stale else ""))
     return 1 if stale else 0
 
