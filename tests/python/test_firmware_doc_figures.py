@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import os
 import re
 import sys
 from pathlib import Path
@@ -240,8 +241,13 @@ def test_command_line_check_fix_and_bad_input(tmp_path: Path, capsys: pytest.Cap
     assert fdf.main(["--fix", "--doc", str(doc), "--bench", str(bench)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "Slack of the worst period" in err
-    (bench / "isr_load.json").write_text("{}")
     doc.write_text(fixed_text)
+    for f in bench.iterdir():
+        os.utime(f, (0, 0))                     # older than the firmware: stale, never used
+    assert fdf.main(["--fix", "--doc", str(doc), "--bench", str(bench)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "older than the firmware" in err
+    (bench / "isr_load.json").write_text("{}")
     assert fdf.main(["check", "--doc", str(doc), "--bench", str(bench)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no figure for 'Totals table'" in err
