@@ -247,6 +247,8 @@ def test_command_line_check_fix_and_bad_input(tmp_path: Path, capsys: pytest.Cap
     assert fdf.main(["--fix", "--doc", str(doc), "--bench", str(bench)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "older than the firmware" in err
+    for f in bench.iterdir():
+        os.utime(f)                             # fresh again
     (bench / "isr_load.json").write_text("{}")
     assert fdf.main(["check", "--doc", str(doc), "--bench", str(bench)]) == 2
     err = capsys.readouterr().err
