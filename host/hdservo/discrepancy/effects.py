@@ -69,6 +69,12 @@ class Effect:
     def valid(self, fit: Fit, v: Variant) -> bool:
         return True
 
+    def own_evidence(self, d: Design, fit: Fit, v: Variant) -> dict[str, float]:
+        """Explained fractions of the effect's own signature outside the torque residuals
+        (counted by the size rule, :func:`hdservo.discrepancy.workflow.size`); none by
+        default."""
+        return {}
+
     def region_bands(self, d: Design, v: Variant) -> dict[str, float] | None:
         """Where the effect can act, from the data and the variant (never from the truth).
 
@@ -618,6 +624,36 @@ class Compliance(Effect):
     def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
         s = d.sig
         yield Variant({}, [Column("J_l_kgm2", None, (s.a_l - s.a_m / s.ratio) / s.ratio)])
+
+    def own_evidence(self, d: Design, fit: Fit, v: Variant) -> dict[str, float]:
+        """Share of the measured twist that a spring explains: ``twist_fraction``.
+
+        A rigid model puts the load at the motor angle / N, so on a two-encoder log its
+        error on the load angle is the measured twist phi = theta_m/N - theta_l.  A spring
+        makes it follow the transmitted torque, N (tau - J_m a_m - motor friction) =
+        K phi + c phi': phi is regressed on tau, a_m, w_m, sgn w_m, phi' and a constant
+        (the encoders' zeros) over the fitted samples, and the fraction is the share of
+        phi's variance about its mean that the regression explains, 0 unless the
+        torque's coefficient is a positive compliance N/K.  Quantisation of the twist
+        (a coarse encoder on a stiff axis) does not follow the torque and stays
+        unexplained.  The twist is the compliance's own signature, which the equation
+        error of the rigid model weighs only through the twist acceleration.
+        """
+        s = d.sig
+        if not s.has_load:
+            return {}
+        N = s.ratio
+        cols = [s.tau, s.a_m, s.w_m, smooth_sign(s.w_m, 0.1 * d.v_eps * N), s.dphi, np.ones_like(s.tau)]
+        X = np.column_stack([d.dec(f"twist:{k}", c)[d.mask] for k, c in enumerate(cols)])
+        y = d.dec("twist:phi", s.phi)[d.mask]
+        sc = np.sqrt(np.sum(X ** 2, axis=0))
+        sc[sc == 0] = 1.0
+        coef, *_ = np.linalg.lstsq(X / sc, y, rcond=None)
+        coef = coef / sc
+        r = y - X @ coef
+        ss0 = float(np.sum((y - np.mean(y)) ** 2))
+        frac = 1.0 - float(np.sum(r ** 2)) / ss0 if ss0 > 0 else 0.0
+        return {"twist_fraction": frac if coef[0] > 0 else 0.0}
 
 
 class CurrentLag(Effect):
