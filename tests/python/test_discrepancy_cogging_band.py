@@ -87,10 +87,10 @@ def test_coarse_encoder_cogging_is_sized_where_its_line_is_in_band(tmp_path: Pat
     s = _settings(case.angles)
     (c,) = workflow.rank(st, [fx.Cogging()], s)
     assert c.variant.hyper["order_per_motor_rev"] == p
+    assert workflow.significant(c, s)
     bands = c.effect.region_bands(st.design, c.variant)
     assert bands is not None and bands["m"] == pytest.approx(2 * math.pi * st.design.sig.fc_Hz / p)
     e = c.evidence
     # over the whole record the coarse encoder's noise dwarfs it; where its line is in
     # band it is the larger part of the residual
     assert e["explained_fraction"] < s.frac_min <= e["explained_fraction_local"]
-    assert workflow.significant(c, s)
