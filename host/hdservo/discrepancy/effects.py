@@ -69,6 +69,12 @@ class Effect:
     def valid(self, fit: Fit, v: Variant) -> bool:
         return True
 
+    def own_evidence(self, d: Design, fit: Fit, v: Variant) -> dict[str, float]:
+        """Explained fractions of the effect's own signature outside the torque residuals
+        (counted by the size rule, :func:`hdservo.discrepancy.workflow.size`); none by
+        default."""
+        return {}
+
     def region_bands(self, d: Design, v: Variant) -> dict[str, float] | None:
         """Where the effect can act, from the data and the variant (never from the truth).
 
@@ -319,26 +325,44 @@ class Cogging(Effect):
 
     def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
         s = d.sig
-        from .residuals import order_spectrum
-        orders, amp = order_spectrum(d, resid, s.raw_th_m, self.max_order)
-        sel = orders >= self.min_order
-        if not np.any(sel):
-            return
-        # Fisher-type periodicity test with a Bonferroni correction over the searched
-        # orders: the power of a line of a residual without periodic content is about
-        # exponential with the mean line power (estimated robustly, median / ln 2); the
-        # largest of M lines exceeds mean * ln(M / alpha) with probability alpha.  Only
-        # orders above that level are candidate cogging orders (else a line found among
-        # ~200 would fit whatever happens at a few reversal angles).
-        pw = amp[sel] ** 2
-        mean_pw = float(np.median(pw)) / np.log(2.0)
-        level = mean_pw * np.log(len(pw) / self.alpha)
-        ok = pw >= level
+        from .residuals import line_statistics
+        orders = np.arange(self.min_order, self.max_order + 1)
+        # Each order is tested on the samples where its line lies inside the log's band
+        # (p |w_m| / 2 pi below the angle cutoff): above it the parallel filter has taken
+        # the line out of torque and column alike, and at 1 kHz (cutoff 100 Hz) a line of
+        # order 48-72 is in band on only 3-8 % of the moving samples of a closed-loop log,
+        # which a spectrum over the whole record dilutes below its noise.
+        stat, _, _ = line_statistics(d, resid, s.raw_th_m, d.dec("state:wm", s.w_m)[d.mask], orders)
+        ok = np.isfinite(stat)
         if not np.any(ok):
             return
-        cand, cpw = orders[sel][ok], pw[ok]
-        for p in cand[np.argsort(cpw)[::-1][:3]]:
+        # Fisher-type periodicity test with a Bonferroni correction over the tested
+        # orders: the statistic of an order without a line is about exponential (chi-square
+        # with 2 degrees of freedom for a white residual); its mean is estimated robustly
+        # over the orders (median / ln 2), which absorbs the residual's colour.  The
+        # largest of M such values exceeds mean * ln(M / alpha) with probability alpha.
+        # Only orders above that level are candidate cogging orders (else a line found
+        # among ~200 would fit whatever happens at a few reversal angles).
+        st = stat[ok]
+        level = float(np.median(st)) / np.log(2.0) * np.log(len(st) / self.alpha)
+        hit = st >= level
+        if not np.any(hit):
+            return
+        cand, cst = orders[ok][hit], st[hit]
+        for p in cand[np.argsort(cst)[::-1][:3]]:
             yield self.variant_at(d, int(p))
+
+    def region_bands(self, d: Design, v: Variant) -> dict[str, float] | None:
+        """Motor speeds at which the line of order p stays inside the log's band
+        (p |w_m| / 2 pi below the angle cutoff); the output side at that speed / N.
+
+        Faster, the parallel filter takes the line out of torque and columns alike, so the
+        effect's size is judged where the log can show it."""
+        w = 2 * np.pi * d.sig.fc_Hz / float(v.hyper["order_per_motor_rev"])
+        b = {"m": w}
+        if d.sig.kind != "rigid":
+            b["l"] = w / d.sig.ratio
+        return b
 
     def variant_at(self, d: Design, p: int) -> Variant:
         """Lines at ``p`` and ``2 p`` per motor revolution."""
@@ -600,6 +624,36 @@ class Compliance(Effect):
     def variants(self, d: Design, resid: np.ndarray) -> Iterator[Variant]:
         s = d.sig
         yield Variant({}, [Column("J_l_kgm2", None, (s.a_l - s.a_m / s.ratio) / s.ratio)])
+
+    def own_evidence(self, d: Design, fit: Fit, v: Variant) -> dict[str, float]:
+        """Share of the measured twist that a spring explains: ``twist_fraction``.
+
+        A rigid model puts the load at the motor angle / N, so on a two-encoder log its
+        error on the load angle is the measured twist phi = theta_m/N - theta_l.  A spring
+        makes it follow the transmitted torque, N (tau - J_m a_m - motor friction) =
+        K phi + c phi': phi is regressed on tau, a_m, w_m, sgn w_m, phi' and a constant
+        (the encoders' zeros) over the fitted samples, and the fraction is the share of
+        phi's variance about its mean that the regression explains, 0 unless the
+        torque's coefficient is a positive compliance N/K.  Quantisation of the twist
+        (a coarse encoder on a stiff axis) does not follow the torque and stays
+        unexplained.  The twist is the compliance's own signature, which the equation
+        error of the rigid model weighs only through the twist acceleration.
+        """
+        s = d.sig
+        if not s.has_load:
+            return {}
+        N = s.ratio
+        cols = [s.tau, s.a_m, s.w_m, smooth_sign(s.w_m, 0.1 * d.v_eps * N), s.dphi, np.ones_like(s.tau)]
+        X = np.column_stack([d.dec(f"twist:{k}", c)[d.mask] for k, c in enumerate(cols)])
+        y = d.dec("twist:phi", s.phi)[d.mask]
+        sc = np.sqrt(np.sum(X ** 2, axis=0))
+        sc[sc == 0] = 1.0
+        coef, *_ = np.linalg.lstsq(X / sc, y, rcond=None)
+        coef = coef / sc
+        r = y - X @ coef
+        ss0 = float(np.sum((y - np.mean(y)) ** 2))
+        frac = 1.0 - float(np.sum(r ** 2)) / ss0 if ss0 > 0 else 0.0
+        return {"twist_fraction": frac if coef[0] > 0 else 0.0}
 
 
 class CurrentLag(Effect):

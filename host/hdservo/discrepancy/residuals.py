@@ -57,6 +57,68 @@ def order_spectrum(d: "Design", resid: np.ndarray, angle: np.ndarray, max_order:
     return k[sel], spec[sel]
 
 
+def line_statistics(d: "Design", resid: np.ndarray, angle: np.ndarray, speed: np.ndarray, orders: np.ndarray,
+                    min_samples: int = 50) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per order of an angle, the line's power in a residual over the samples where the
+    line lies inside the log's band.
+
+    A line of order p (cycles per revolution) of an angle turning at speed w is at
+    p |w| / 2 pi Hz; above the angle low-pass' cutoff ``fc_Hz`` the parallel filter has
+    taken it out of the torque and of every column alike, so those samples carry nothing of
+    it.  For each order the residual is regressed on cos/sin(p angle) over the used samples
+    below that speed only, and the statistic is the regression's sum of squares over the
+    residual's mean square there (chi-square with 2 degrees of freedom for a white residual
+    without the line, whatever the number of samples).
+
+    Parameters
+    ----------
+    d : Design
+        The design whose used samples ``resid`` belongs to (first equation block).
+    resid : numpy.ndarray
+        Residual over the used decimated samples, N.m.
+    angle : numpy.ndarray
+        Angle at the log rate, rad.
+    speed : numpy.ndarray
+        Speed of the angle over the used decimated samples, rad/s.
+    orders : numpy.ndarray
+        Orders searched (cycles per revolution).
+    min_samples : int
+        Fewest in-band samples for an order to be tested.
+
+    Returns
+    -------
+    stat, amplitude, n : numpy.ndarray
+        Per order: the statistic (NaN where not tested), the line's amplitude (N.m) and
+        the number of in-band samples.
+    """
+    q = max(d.sig.q, 1)
+    ang = angle[::q][: len(d.mask)][d.mask]
+    r = np.asarray(resid, dtype=float)[: len(ang)]
+    w = np.abs(np.asarray(speed, dtype=float))[: len(ang)]
+    stat = np.full(len(orders), np.nan)
+    amp = np.zeros(len(orders))
+    n = np.zeros(len(orders), dtype=int)
+    for i, p in enumerate(orders):
+        sel = float(p) * w / (2 * np.pi) < d.sig.fc_Hz
+        n[i] = int(sel.sum())
+        if n[i] < min_samples:
+            continue
+        rs = r[sel] - np.mean(r[sel])
+        X = np.column_stack([np.cos(p * ang[sel]), np.sin(p * ang[sel])])
+        X = X - X.mean(axis=0)
+        G = X.T @ X
+        # the in-band samples must cover the line's period (else cos/sin are a drift)
+        if np.linalg.cond(G) > 100.0:
+            continue
+        coef = np.linalg.solve(G, X.T @ rs)
+        ms = float(np.mean(rs ** 2))
+        if ms <= 0:
+            continue
+        stat[i] = float(coef @ G @ coef) / ms
+        amp[i] = float(np.hypot(*coef))
+    return stat, amp, n
+
+
 def autocorr(x: np.ndarray, lags: int) -> np.ndarray:
     """Normalised autocorrelation r(1..lags)."""
     x = x - np.mean(x)

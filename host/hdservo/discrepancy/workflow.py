@@ -456,12 +456,14 @@ def rank(state: State, lib: list[fx.Effect], s: Settings | None = None,
             if cands:
                 best = cands[0]
                 best.evidence.update(local_evidence(state, best, None))
+                best.evidence.update(best.effect.own_evidence(d, best.fit, best.variant))
                 best.evidence["total_delta_bic"] = best.evidence["delta_bic"]
                 best.evidence["score"] = score(best.evidence)
         for c in (cands[: s.sim_variants] if simulate else []):
             e1 = state.simulate(c.fit, c.variant)
             c.evidence.update(sim_evidence(sse0, e1, len(c.variant.columns) + c.variant.n_hyper, n_sim))
             c.evidence.update(local_evidence(state, c, e1))
+            c.evidence.update(c.effect.own_evidence(d, c.fit, c.variant))
             c.evidence["total_delta_bic"] = c.evidence["delta_bic"] + c.evidence["sim_delta_bic"]
             c.evidence["score"] = score(c.evidence)
             # the candidate's representative: its best admissible variant (neither
@@ -660,9 +662,12 @@ def significant(c: Candidate, s: Settings) -> bool:
 
 def size(e: dict[str, float]) -> float:
     """Effect size: the largest explained fraction, whole record or the candidate's region,
-    of the equation error and of the simulation error (NaN entries ignored)."""
+    of the equation error and of the simulation error, and of the effect's own signature
+    where it has one (:meth:`hdservo.discrepancy.effects.Effect.own_evidence`: the twist
+    of a compliance); NaN entries ignored."""
     xs = [e.get(k, np.nan) for k in ("explained_fraction", "sim_explained_fraction",
-                                      "explained_fraction_local", "sim_explained_fraction_local")]
+                                      "explained_fraction_local", "sim_explained_fraction_local",
+                                      "twist_fraction")]
     xs = [x for x in xs if x is not None and np.isfinite(x)]
     return float(max(xs)) if xs else -np.inf
 
