@@ -176,7 +176,8 @@ def steady_motion_vs(sides: "list[dict[str, float]]", vs_rad_s: float, vel_kp_Nm
 #: The best combination of the comparison (``hdservo compare`` / ``make demo``; docs/demo.md): one drive
 #: configuration for every procedure.  Stribeck friction feed-forward on the *measured* velocity
 #: (``str_w_ref`` 0: with the reference velocity the feed-forward differs between the fast and the
-#: slow final arrivals, ISO R 3.7 arcsec) except in steady motion above ``STR_STEADY_VS`` and while
+#: slow final arrivals, ISO R 3.7 arcsec) except in steady motion above the threshold of
+#: :func:`steady_motion_vs` (from the model's parameters) and while
 #: the reference cruises at a constant rate
 #: (``str_cruise_ticks`` 200 = 20 ms of constant reference velocity: then the reference velocity; on
 #: the measured velocity the map is a relay in the velocity loop, a ~95 Hz +-12 N.m limit cycle that
