@@ -52,6 +52,10 @@ MX_STIFFNESS_MIN = 8200.0
 #: Model key (``{"section.key": value}`` of :func:`compensator_params`) of the motor side's share of the
 #: identified total friction, 0..1; set by :func:`hdservo.download.model_overrides`.
 MOTOR_SHARE_KEY = "friction_total.motor_share"
+#: Model key of the identified Stribeck shape exponent delta of the total friction (the drive's
+#: feed-forward runs delta 2; the steady-motion rule, :func:`steady_motion_vs`, takes the plant's
+#: friction drop in the shape the identification fitted); set by :func:`hdservo.download.model_overrides`.
+FRICTION_DELTA_KEY = "friction_total.delta"
 
 #: Velocity-loop crossover of the PID design rule, Hz (:func:`hdservo.closedloop_cases.velocity_pi`); the
 #: crossover the drive runs is vel_kp / (2 pi J_tot) (:func:`velocity_loop_hz`), lower where vel_kp
@@ -78,19 +82,102 @@ ENABLE_BITS: dict[str, int] = {"stribeck": 1, "lugre": 2, "maxwell": 4, "preisac
 
 
 #: Stribeck feed-forward's steady-motion threshold (``str_steady_vs``), in Stribeck velocities of the
-#: model: once the axis follows a reference moving at |v_ref| >= vs / 8, the map takes the reference
-#: velocity until the reference falls below that speed or reverses; near rest, at reversals and in
-#: the final arrival it takes the measured velocity.  On the measured velocity a moving reference
-#: that never cruises (a sine) drives a stick-slip oscillation of the feed-forward.  vs / 8 is the
-#: lowest threshold above the peak rate of the slow tracking sine (0.1 deg/s = 0.087 vs on the
-#: reference axis): lower thresholds (vs / 16, vs / 32) lower the reversal peak of the faster sine
-#: but raise the slow sine's tracking peak 4-6x (docs/compensators.md section 11).
+#: model, where the friction drop is no threat to the velocity loop: once the axis follows a reference
+#: moving at |v_ref| >= vs / 8, the map takes the reference velocity until the reference falls below
+#: that speed or reverses; near rest, at reversals and in the final arrival it takes the measured
+#: velocity.  On the measured velocity a moving reference that never cruises (a sine) drives a
+#: stick-slip oscillation of the feed-forward.  vs / 8 is the lowest threshold above the peak rate of
+#: the slow tracking sine on the reference axis (0.1 deg/s = 0.087 vs): lower thresholds (vs / 16,
+#: vs / 32) lower the reversal peak of the faster sine but raise the slow sine's tracking peak 4-6x
+#: (docs/compensators.md section 11).  Where the friction drop is steeper than the velocity loop's
+#: damping the threshold is higher (:func:`steady_motion_vs`).
 STR_STEADY_VS = 1.0 / 8.0
+#: Largest ``str_steady_vs`` the drive takes (its parameter range).
+STR_STEADY_VS_MAX = 64.0
+
+
+def friction_slope(v_rad_s: np.ndarray, sides: "list[dict[str, float]]") -> np.ndarray:
+    """Slope dF/dv of the static friction map at v > 0, N.m.s/rad (output-referred).
+
+    ``F(v) = sum over sides [Fc + (Fs - Fc) exp(-(v/vs)^delta)] + Fv v`` (positive direction); in the
+    Stribeck hump the slope is negative: the friction drops as the speed rises.
+
+    Parameters
+    ----------
+    v_rad_s : ndarray
+        Speeds > 0, rad/s (output).
+    sides : list of dict
+        Per side ``fc``, ``fs`` (N.m), ``vs`` (rad/s), ``delta``, ``fv`` (N.m.s/rad), output-referred.
+
+    Returns
+    -------
+    ndarray
+        dF/dv at each speed, N.m.s/rad.
+    """
+    v = np.asarray(v_rad_s, dtype=float)
+    out = np.zeros_like(v)
+    for sd in sides:
+        vs, d = float(sd["vs"]), float(sd["delta"])
+        out += sd["fv"]
+        if vs > 0.0 and d > 0.0 and sd["fs"] != sd["fc"]:
+            r = v / vs
+            out -= (sd["fs"] - sd["fc"]) * d * r ** (d - 1.0) / vs * np.exp(-r ** d)
+    return out
+
+
+def steady_motion_vs(sides: "list[dict[str, float]]", vs_rad_s: float, vel_kp_Nms_per_rad: float) -> float:
+    """``str_steady_vs`` by the documented rule: the reference velocity only where the loop can hold steady sliding.
+
+    In steady motion the map takes the reference velocity, so its torque no longer falls with the
+    measured speed and the plant's own friction slope dF/dv acts on the velocity loop uncompensated.
+    Sliding at v is then stable only while the loop's damping ``vel_kp`` exceeds the drop,
+    ``-dF/dv < vel_kp``; below that the axis stick-slips around the reference (on the measured velocity
+    the map cancels the drop).  The threshold is :data:`STR_STEADY_VS` where the whole map's drop stays
+    below ``vel_kp``, else the speed above the Stribeck hump from which on it does.
+
+    Parameters
+    ----------
+    sides : list of dict
+        The friction sides (:func:`friction_slope`), output-referred; both directions are checked
+        (keys ``fc``/``fs`` of the positive, ``fcn``/``fsn`` of the negative direction when present).
+    vs_rad_s : float
+        Stribeck velocity of the feed-forward (the unit of ``str_steady_vs``), rad/s.
+    vel_kp_Nms_per_rad : float
+        Velocity-loop gain the drive runs, N.m.s/rad.
+
+    Returns
+    -------
+    float
+        Threshold in units of ``vs_rad_s``, within [:data:`STR_STEADY_VS`, :data:`STR_STEADY_VS_MAX`].
+    """
+    if not (vs_rad_s > 0.0) or not sides:
+        return STR_STEADY_VS
+    kp = max(float(vel_kp_Nms_per_rad), 0.0)
+    dirs = [list(sides), [{**sd, "fc": sd.get("fcn", sd["fc"]), "fs": sd.get("fsn", sd["fs"])} for sd in sides]]
+    r = np.geomspace(1e-4, STR_STEADY_VS_MAX, 4000)            # speeds in units of vs
+    unstable = np.zeros(r.size, dtype=bool)
+    for sd in dirs:
+        unstable |= -friction_slope(r * vs_rad_s, sd) >= kp
+    if not unstable.any():
+        return STR_STEADY_VS
+    i = int(np.flatnonzero(unstable)[-1])
+    if i + 1 >= r.size:
+        return STR_STEADY_VS_MAX
+    # the drop falls through vel_kp between r[i] and r[i + 1]: bisect there
+    lo, hi = float(r[i]), float(r[i + 1])
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        if any(-float(friction_slope(np.array([mid * vs_rad_s]), sd)[0]) >= kp for sd in dirs):
+            lo = mid
+        else:
+            hi = mid
+    return float(min(max(STR_STEADY_VS, hi), STR_STEADY_VS_MAX))
 
 #: The best combination of the comparison (``hdservo compare`` / ``make demo``; docs/demo.md): one drive
 #: configuration for every procedure.  Stribeck friction feed-forward on the *measured* velocity
 #: (``str_w_ref`` 0: with the reference velocity the feed-forward differs between the fast and the
-#: slow final arrivals, ISO R 3.7 arcsec) except in steady motion above ``STR_STEADY_VS`` and while
+#: slow final arrivals, ISO R 3.7 arcsec) except in steady motion above the threshold of
+#: :func:`steady_motion_vs` (from the model's parameters) and while
 #: the reference cruises at a constant rate
 #: (``str_cruise_ticks`` 200 = 20 ms of constant reference velocity: then the reference velocity; on
 #: the measured velocity the map is a relay in the velocity loop, a ~95 Hz +-12 N.m limit cycle that
@@ -105,7 +192,7 @@ BEST_NAMES: tuple[str, ...] = ("stribeck", "approach")
 BEST_PROC_ARGS: dict[str, list[str]] = {"stabilisation": ["--stab-mode", "stab"]}
 #: Retuned drive parameters of the best combination (table units), on top of the model's compensator parameters.
 BEST_GAINS: dict[str, float] = {"pos_kp": 60.0, "str_w_ref": 0.0, "str_cruise_ticks": 200.0,
-                                "str_steady_vs": STR_STEADY_VS, "hold_ticks": 2000.0}
+                                "hold_ticks": 2000.0}
 
 
 #: Fair-comparison rule (docs/compensators.md, "Fair baselines"): every row of a comparison -- the PID
@@ -118,9 +205,10 @@ FAIR_GAINS: dict[str, float] = {"pos_kp": 60.0}
 FAIR_PROC_ARGS: dict[str, list[str]] = {"stabilisation": ["--stab-mode", "stab"]}
 #: Settings a compensator carries when it is on (its configuration, the same on every axis): the
 #: Stribeck feed-forward on the measured velocity, on the reference velocity while the reference
-#: cruises at a constant rate or the axis follows it above vs / 8 (docs/compensators.md section 1).
-COMPONENT_PARAMS: dict[str, dict[str, float]] = {"stribeck": {"str_w_ref": 0.0, "str_cruise_ticks": 200.0,
-                                                              "str_steady_vs": STR_STEADY_VS}}
+#: cruises at a constant rate or the axis follows it above the steady-motion threshold (docs/compensators.md
+#: section 1).  The threshold ``str_steady_vs`` is not here: it depends on the axis' friction and velocity
+#: loop and comes with the model's parameters (:func:`compensator_params`, :func:`steady_motion_vs`).
+COMPONENT_PARAMS: dict[str, dict[str, float]] = {"stribeck": {"str_w_ref": 0.0, "str_cruise_ticks": 200.0}}
 #: Motion strategies, reported as their own rows: name -> (cb_enable names, drive parameters).
 #: ``hold``: the standstill hunt breaker (fades the friction feed-forward at rest); ``approach``: the
 #: one-direction final approach of PTP moves.
@@ -616,6 +704,16 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     share = float(model[MOTOR_SHARE_KEY]) if model is not None and MOTOR_SHARE_KEY in model else 1.0
     stribeck, vs_turn, fv = _stribeck_params(m, ld, fm, fl, eps_rad, share)
     out.update(stribeck)
+    # the velocity loop the drive runs: the twist torque rule's crossover and the steady-motion threshold
+    jt = get("load.jl_kgm2") + n * n * get("motor.jm_kgm2")
+    kp_run = (design_vel_kp(jt) if jt > 0.0 else 0.0) if vel_kp is None else float(vel_kp)
+    # steady-motion threshold from the plant's friction drop (the whole levels, not the fed-forward
+    # share: the reference velocity leaves all of it to the loop) in the shape the identification fitted
+    d_id = float(model[FRICTION_DELTA_KEY]) if model is not None and FRICTION_DELTA_KEY in model else None
+    sides = [{"fc": sd["fcp"], "fs": sd["fsp"], "fcn": sd["fcn"], "fsn": sd["fsn"], "vs": sd["vs"],
+              "delta": d_id if d_id is not None else sd["delta"], "fv": sd["fv"]}
+             for sd, on in ((m, fm), (ld, fl)) if on]
+    out["str_steady_vs"] = steady_motion_vs(sides, vs_turn * TWO_PI, kp_run)
     lugre, z_l = _lugre_params(m, ld, vs_turn, fv)
     out.update(lugre)
     out["mx_n"] = n_maxwell
@@ -643,8 +741,7 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     out["pr_jl"] = get("load.jl_kgm2")
     out["pr_jm"] = n * n * get("motor.jm_kgm2")
     # the rule's crossover: the velocity-loop gain the drive runs over the model's total inertia
-    jt = out["pr_jl"] + out["pr_jm"]
-    f_v = math.inf if jt <= 0.0 else velocity_loop_hz(design_vel_kp(jt) if vel_kp is None else vel_kp, jt)
+    f_v = math.inf if jt <= 0.0 else velocity_loop_hz(kp_run, jt)
     out["pr_t_src"] = twist_torque_source(get("stiffness.k1_Nm_per_rad"), out["pr_jl"], f_v)
     out.update(_unbalance_params(get))
     out.update(_te_params(get))
@@ -718,7 +815,8 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
     return ctl
 
 
-__all__ = ["MOTOR_SHARE_KEY", "RESONANCE_LOOP_RATIO", "VEL_LOOP_HZ", "design_vel_kp", "load_resonance_hz",
+__all__ = ["FRICTION_DELTA_KEY", "MOTOR_SHARE_KEY", "STR_STEADY_VS", "STR_STEADY_VS_MAX", "friction_slope",
+           "steady_motion_vs", "RESONANCE_LOOP_RATIO", "VEL_LOOP_HZ", "design_vel_kp", "load_resonance_hz",
            "twist_torque_source", "velocity_loop_hz", "BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
            "FAIR_GAINS", "FAIR_PROC_ARGS", "GROUPS", "STRATEGIES", "TABLE_LATTICE_LSB", "TABLE_TORQUE_T1", "best_gains",
            "compensator_params", "controller", "elastic_torque", "enable_mask", "gear_everett", "preisach_table",

@@ -74,6 +74,9 @@ def model_overrides(model: Mapping[str, Mapping[str, Any]], axis_get) -> tuple[d
                   "friction_motor.vs_rad_s": ft["vs_rad_s"] * n,
                   "friction_motor.viscous_Nms_per_rad": ft["viscous_Nms_per_rad"] / n ** 2,
                   "friction_motor.delta": 2.0})
+        if "delta" in ft:               # the fitted shape of the plant's drop (the drive's map runs delta 2)
+            from .compsetup import FRICTION_DELTA_KEY
+            o[FRICTION_DELTA_KEY] = float(ft["delta"])
         share = motor_share(model)
         if share is not None:
             from .compsetup import MOTOR_SHARE_KEY
