@@ -394,3 +394,46 @@ def test_a_small_later_name_is_kept_on_the_windows_where_it_acts(tmp_path: Path,
             second_it = c.iterations[1]
             assert second_it["sim_rms_after_rad"] > (1 - cl.CONFIRM_SHRINK_LATER) * second_it["sim_rms_before_rad"]
             assert second_it["sim_acting"]["windows"] == 20
+
+
+def test_a_name_after_a_dropped_one_is_judged_on_the_regression_of_the_kept_names(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Calibration seed 83's shape: a hysteresis the simulator drops, then a current-loop lag.
+    The workflow's fit after the lag carries the hysteresis' columns; the lag's axis file is
+    built on the regression of the baseline and the lag alone (its parameters from that fit
+    too), which is what its replay is judged on."""
+    from types import SimpleNamespace
+    sig = SimpleNamespace(kind="two_mass", angles="both", t=np.zeros(1), dt=1e-3, ratio=1.0, th_m=np.zeros(1),
+                          th_l=np.zeros(1))
+    its = [{"named_effect": n, "params": {"from": "workflow"}} for n in ("hysteresis", "current_loop_lag")]
+    res = SimpleNamespace(iterations=its, snapshots=[_Snap(k) for k in range(3)],
+                          state=SimpleNamespace(design=SimpleNamespace(sig=sig)))
+    asked: list[list[int]] = []
+
+    def fit_of_names(res: object, idx: list[int]) -> tuple[dict, list[dict]]:
+        asked.append(list(idx))
+        return {"fit": -1.0}, [{"from": "kept names"} for _ in idx]
+    built: list[tuple[list, dict]] = []
+
+    def model_sections(sig: object, effects: list, factors: list, p: dict, *a: object) -> dict:
+        built.append(([e for _, e in effects], dict(p)))
+        return {"axis": {"defaults": "minimal", "name": "sub" if p["fit"] < 0 else "plain"}}
+    monkeypatch.setattr(cl, "fit_of_names", fit_of_names, raising=False)
+    monkeypatch.setattr(cl, "baseline_sections", lambda sig, p: {"axis": {"defaults": "minimal"}})
+    monkeypatch.setattr(cl, "_model_sections", model_sections)
+    monkeypatch.setattr(cl, "fit_on_replay", lambda name, x, cost: (x, {"factors": [1.0] * cl.tune_dims(name)}))
+    monkeypatch.setattr(cl, "quantisation_floor", lambda sig, count_load: 0.0)
+    # the hysteresis is judged once more after the lag is kept (look again), and dropped again
+    rms = {"baseline": 3.08e-6, "updated-1": 3.59e-6, "updated-2": 4.18e-6, "updated-2+sub": 2.5e-6}
+    monkeypatch.setattr(cl, "control_gap", lambda *a, **k: (float("nan"), None))
+
+    def replay(sig: object, axis: Path, *a: object, **k: object) -> cl.Replay:
+        key = axis.name.split(".")[1] + ("+sub" if '"sub"' in axis.read_text() else "")
+        return cl.Replay(axis=axis, rms_rad=rms[key], motor=np.zeros(1), load=np.zeros(1))
+    monkeypatch.setattr(cl, "replay", replay)
+    c = cl.close(res, tmp_path, "s")
+    assert asked == [[1]]
+    assert [it["named_effect"] for it in c.iterations] == ["current_loop_lag"]
+    assert c.iterations[0]["fit_of_names"] == ["current_loop_lag"] and c.iterations[0]["sim_rms_after_rad"] == 2.5e-6
+    assert ([{"from": "kept names"}], {"fit": -1.0}) in built
+    assert [d["named_effect"] for d in c.dropped] == ["hysteresis"]
