@@ -1043,13 +1043,16 @@ def close(res: Any, out_dir: Path, stem: str, user_axis: Path | None = None) -> 
         # carries the columns of names dropped before it (fit_of_names)
         idx = [rec["index"] for rec in cl.iterations] + [k]
         sub = fit_of_names(res, idx) if set(idx) != set(range(j)) else None
+        rec_fit: dict[str, float] | None = None
         if sub is not None:
             p_after = sub[0]
+            rec_fit = dict(p_after)
             effects[:] = [(nm, pe) for (nm, _), pe in zip(effects, sub[1])]
         secs = _model_sections(sig, effects, factors, p_after, base0 if user_axis is not None else None, stem)
         before = prev.rms_rad if prev is not None else float("nan")
         rec: dict[str, Any] = {"named_effect": name, "index": k, "fit_index": j,
                                "fit_of_names": None if sub is None else [res.iterations[i]["named_effect"] for i in idx],
+                               "fit_params": rec_fit,
                                "axis_before": str(prev.axis) if prev else None,
                                "sim_rms_before_rad": before, "horizon_s": HORIZON_S}
         if secs is None:
@@ -1211,7 +1214,8 @@ def apply(res: Any, cl: Closed) -> None:
                    "axis_before": rec["axis_before"], "axis_after": rec["axis_after"],
                    "simulator_confirmed": rec["confirmed"], "simulator_horizon_s": rec["horizon_s"],
                    **{x: rec[x] for x in ("sim_floor_rad", "sim_gap_before_rad", "sim_gap_after_rad",
-                                          "replay_fit", "sim_rms_control_rad", "previous_factors", "judged_again")
+                                          "replay_fit", "sim_rms_control_rad", "previous_factors", "judged_again",
+                                          "sim_acting", "fit_of_names")
                                           if x in rec}})
     for d in cl.dropped:
         res.notes.append(f"{d['named_effect']} is not kept: {d['reason']} (the stop rule, docs/discrepancy.md)")
@@ -1224,6 +1228,10 @@ def apply(res: Any, cl: Closed) -> None:
         res.final_model["effects"] = {it["named_effect"]: it["params"] for it in res.iterations}
         res.final_model["params"] = res.snapshots[max(rec["fit_index"] for rec in cl.iterations)
                                                   if cl.iterations else 0].params()
+        last = cl.iterations[-1] if cl.iterations else {}
+        if last.get("fit_of_names") and set(last["fit_of_names"]) == set(res.named) and last.get("fit_params"):
+            # the kept names' own regression (fit_of_names), not the one with a dropped name's columns
+            res.final_model["params"] = dict(last["fit_params"])
         _reshare(res, order)
     res.notes.extend(cl.notes)
 
