@@ -22,8 +22,9 @@ its axis file (parameters fitted on the replay) brings the replay's gap down by 
 :data:`CONFIRM_SHRINK` of what it was.  A later name must also beat its control
 (:func:`control_gap`: the model before it on the re-fitted baseline, the previous name's
 parameters fitted on the replay once more) by :data:`CONFIRM_SHRINK_LATER`, so what the
-re-fit alone closes is not credited to it.  A name that fails is dropped and the next one
-is judged without it.
+re-fit alone closes is not credited to it, over the whole record or over the windows where
+its section acts (:func:`acting_gap`).  A name that fails is dropped and the next one is
+judged without it, on the regression of the kept names (:func:`fit_of_names`).
 The first name of a one-encoder log (EMPS: a linear axis the rotary plant replays only
 roughly), or one without a replay before it (the baseline is not a mechanical axis),
 stands on the workflow's evidence alone.
