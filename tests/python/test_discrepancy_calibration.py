@@ -211,6 +211,19 @@ def test_two_effect_census_sorts_logs_by_where_the_second_name_is_lost() -> None
     assert t["both_named_fraction"]["k"] == 1 and t["both_named_fraction"]["n"] == 4
 
 
+def test_two_effect_census_counts_both_named_as_the_held_apart_score() -> None:
+    """The calibration's two-effect figure and the held-apart one count the same logs and the
+    same hits (two hidden effects the signals can show, both among the simulator's kept names)."""
+    m = _script()
+    recs = [_two(1, ["a", "b"], ["b", "a"], ["b", "a", "c"]), _two(2, ["a", "b"], ["a"], ["a", "b"]),
+            _two(3, ["a", "b"], ["a", "c", "b"], ["a", "c", "b"]), _two(4, ["a", "b"], [], []),
+            _two(5, ["a", "b"], ["a", "b"], ["a", "b"], ident=1), _two(6, ["a"], ["a"], ["a"]),
+            {**_two(7, ["a", "b"], ["a", "b"], ["a", "b"]), "error": "UserError: x"}]
+    calib = m.two_effects(recs)["both_named_fraction"]
+    held = m._heldout().score(recs)["two_both_named"]
+    assert (calib["k"], calib["n"]) == (held["k"], held["n"]) == (2, 4)
+
+
 def test_two_effect_seeds_are_calibration_seeds_with_two_identifiable_effects() -> None:
     from oracles import discrepancy_corpus as corpus
     seeds = _script().two_effect_seeds(corpus.CALIBRATION_SEEDS, 3)

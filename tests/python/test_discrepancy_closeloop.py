@@ -167,7 +167,9 @@ def _scripted_close(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, names: list
     the previous name's re-fitted factors ``control_fit``) and whose encoders' quantisation
     floor is ``floor``."""
     from types import SimpleNamespace
-    sig = SimpleNamespace(kind="two_mass", angles="both")
+    # a one-row log: no replay window to measure where a name acts (acting_gap)
+    sig = SimpleNamespace(kind="two_mass", angles="both", t=np.zeros(1), dt=1e-3, ratio=1.0, th_m=np.zeros(1),
+                          th_l=np.zeros(1))
     its = [{"named_effect": n, "params": {}} for n in names]
     res = SimpleNamespace(iterations=its, snapshots=[_Snap(k) for k in range(len(names) + 1)],
                           state=SimpleNamespace(design=SimpleNamespace(sig=sig)))
@@ -265,3 +267,173 @@ def test_two_effects_both_kept_by_the_simulator_and_ordered_by_size(tmp_path: Pa
     assert ordered == sorted(shares, reverse=True)
     assert by_size[0] == "asymmetric_friction"
     assert res.to_json()["named_by_size"] == by_size
+
+
+def _spring_torque(secs: dict, phi: np.ndarray) -> np.ndarray:
+    """Torque of a linear spring and its Maxwell-slip elements along the twist ``phi``."""
+    from hdservo.discrepancy.effects import stop_operator
+    K = float(secs["stiffness"]["k1_Nm_per_rad"])
+    assert secs["stiffness"]["k1_Nm_per_rad"] == secs["stiffness"]["k3_Nm_per_rad"]
+    h = secs["hysteresis_maxwell"]
+    out = K * phi
+    for i in range(1, h["n_elements"] + 1):
+        k, w = float(h[f"e{i}_k_Nm_per_rad"]), float(h[f"e{i}_w_Nm"])
+        assert k > 0 and w > 0
+        out = out + k * stop_operator(phi, w / k)
+    return out
+
+
+def test_hysteresis_elements_of_either_sign_go_into_the_plant_with_their_spring() -> None:
+    """The regression fits the hysteresis elements with free signs; the plant holds positive
+    ones only.  A spring of 3.2e4 N.m/rad with an element of -2e3 N.m/rad that never slips
+    (threshold above the twist) is a spring of 3e4: written as the plant's spring and
+    positive elements, the axis file carries the torque the regression fitted (dropping
+    the negative element would leave the spring 2e3 N.m/rad too stiff)."""
+    from types import SimpleNamespace
+    t = np.arange(20000) * 1e-3
+    phi = 1e-4 * np.sin(2 * np.pi * 0.5 * t) * (0.3 + 0.7 * np.abs(np.sin(2 * np.pi * 0.05 * t)))
+    sig = SimpleNamespace(phi=phi, q=1, ratio=100.0, kind="two_mass")
+    thresholds, ks = [1e-5, 4e-5, 5e-4], [5e3, 3e3, -2e3]
+    e = {f"e{i + 1}_{q}": v for i, (D, k) in enumerate(zip(thresholds, ks))
+         for q, v in (("k_Nm_per_rad", k), ("w_Nm", k * D))}
+    K = 3.2e4
+    p = {"K_Nm_per_rad": K}
+    secs = {"stiffness": {"enabled": True, "k1_Nm_per_rad": K, "k2_Nm_per_rad": K, "k3_Nm_per_rad": K,
+                          "damping_Nms_per_rad": 1.0}}
+    out = cl.merged(secs, cl.effect_sections(sig, "hysteresis", e, secs, p))  # type: ignore[arg-type]
+    from hdservo.discrepancy.effects import stop_operator
+    fitted = K * phi + sum(k * stop_operator(phi, D) for D, k in zip(thresholds, ks))
+    hyst = fitted - 3.0e4 * phi
+    err = _spring_torque(out, phi) - fitted
+    assert np.sqrt(np.mean(err ** 2)) < 0.01 * np.sqrt(np.mean(hyst ** 2))
+    assert out["stiffness"]["k1_Nm_per_rad"] == pytest.approx(3.0e4, rel=1e-3)
+    assert out["hysteresis_maxwell"]["n_elements"] == 2
+
+
+def test_maxwell_projection_keeps_the_plants_number_of_elements() -> None:
+    """Twelve fitted elements become at most the plant's eight, the spring re-fitted with them."""
+    t = np.arange(5000) * 1e-3
+    phi = 2e-4 * np.sin(2 * np.pi * 0.7 * t) * np.sin(2 * np.pi * 0.11 * t)
+    els = [(D, 1e3 * (-1) ** i) for i, D in enumerate(np.geomspace(4e-6, 1.8e-4, 12))]
+    K, out = cl.maxwell_projection(phi, 2e4, els)
+    assert 0 < len(out) <= cl.PLANT_MAXWELL and K > 0
+    assert all(w > 0 and k > 0 for w, k in out)
+    assert [w / k for w, k in out] == sorted(w / k for w, k in out)
+
+
+def _windows_log(n_windows: int = 200) -> tuple[object, np.ndarray, np.ndarray]:
+    """A two-encoder log at rest (1 kHz, 20-sample windows) and two error patterns per row,
+    rad: ``rest`` (3 cycles in every window: what the rest of the model leaves) and
+    ``bump`` (1.5 times that in 20 of the windows only: a small effect's)."""
+    from types import SimpleNamespace
+    dt = 1e-3
+    per = int(round(cl.HORIZON_S / dt))
+    n = n_windows * per
+    t = np.arange(n) * dt
+    sig = SimpleNamespace(kind="two_mass", angles="both", t=t, dt=dt, ratio=50.0, th_m=np.zeros(n),
+                          th_l=np.zeros(n))
+    u = np.arange(n) % per / per
+    rest = 1e-6 * np.sin(2 * np.pi * 3 * u)
+    acts = (np.arange(n) // per) % (n_windows // 20) == 0
+    bump = 1.5e-6 * np.sin(2 * np.pi * 2 * u + 0.4) * acts
+    return sig, rest, bump
+
+
+def _rep(sig: object, err: np.ndarray, name: str = "a.toml") -> cl.Replay:
+    """A replay whose output angle (and motor angle / N) is off by ``err``."""
+    return cl.Replay(axis=Path(name), rms_rad=float("nan"), motor=sig.ratio * err, load=err.copy())  # type: ignore[attr-defined]
+
+
+def test_the_gap_where_a_name_acts_is_measured_on_its_windows() -> None:
+    """A small effect that closes its own error in 10 % of the windows cuts the whole
+    record's RMS by about 10 %, and the RMS over the windows where its section moves the
+    replay (those 20 windows) by more than 20 %; a section that moves other windows without
+    following the measurement adds error there."""
+    sig, rest, bump = _windows_log()
+    ref, right, wrong = _rep(sig, rest + bump), _rep(sig, rest), _rep(sig, rest + bump + 0.9 * bump[::-1])
+    whole = [cl.gap_rms(sig, r.motor, r.load) for r in (ref, right)]  # type: ignore[arg-type]
+    assert not cl.confirm(whole[0], whole[1], cl.CONFIRM_SHRINK_LATER)
+    g = cl.acting_gap(sig, ref, right, True)  # type: ignore[arg-type]
+    assert g["windows"] == 20 and g["share"] == pytest.approx(0.1)
+    assert cl.confirm(g["before"], g["after"], cl.CONFIRM_SHRINK_LATER)
+    g = cl.acting_gap(sig, ref, wrong, True)  # type: ignore[arg-type]
+    assert g["windows"] >= cl.ACTING_MIN_WINDOWS and g["after"] > g["before"]
+    # a section that moves too few windows is not measured there
+    few = _rep(sig, rest + bump * (np.arange(len(rest)) >= 5 * 10 * 20))     # 5 windows move
+    assert math.isnan(cl.acting_gap(sig, ref, few, True)["before"])  # type: ignore[arg-type]
+
+
+def test_a_small_later_name_is_kept_on_the_windows_where_it_acts(tmp_path: Path,
+                                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    """Calibration seed 157's shape: a transmission error first, then a cogging torque whose
+    own error is in a tenth of the windows.  Over the whole record the second name cuts the
+    replay by under the 20 % a later name needs; over the windows where it acts, by more:
+    it is kept.  A name whose section moves those windows the wrong way is dropped."""
+    sig, rest, bump = _windows_log()
+    for second, kept in ((rest, True), (rest + bump + 0.9 * bump[::-1], False)):
+        errs = {"baseline": 3 * (rest + bump), "updated-1": rest + bump, "updated-2": second}
+        its = [{"named_effect": n, "params": {}} for n in ("transmission_error", "cogging_torque")]
+        from types import SimpleNamespace
+        res = SimpleNamespace(iterations=its, snapshots=[_Snap(k) for k in range(3)],
+                              state=SimpleNamespace(design=SimpleNamespace(sig=sig)))
+        monkeypatch.setattr(cl, "baseline_sections", lambda sig, p: {"axis": {"defaults": "minimal"}})
+        monkeypatch.setattr(cl, "_model_sections", lambda *a: {"axis": {"defaults": "minimal"}})
+        monkeypatch.setattr(cl, "fit_on_replay", lambda name, x, cost: (x, {"factors": [1.0] * cl.tune_dims(name)}))
+        monkeypatch.setattr(cl, "control_gap", lambda *a, **k: (float("nan"), None))
+        monkeypatch.setattr(cl, "quantisation_floor", lambda sig, count_load: 0.0)
+
+        def replay(sig: object, axis: Path, *a: object, errs: dict = errs, **k: object) -> cl.Replay:
+            r = _rep(sig, errs[axis.name.split(".")[1]], axis.name)
+            r.rms_rad = cl.gap_rms(sig, r.motor, r.load)  # type: ignore[arg-type]
+            return r
+        monkeypatch.setattr(cl, "replay", replay)
+        c = cl.close(res, tmp_path / str(kept), "s")
+        names = [it["named_effect"] for it in c.iterations]
+        assert names == (["transmission_error", "cogging_torque"] if kept else ["transmission_error"])
+        if kept:
+            second_it = c.iterations[1]
+            assert second_it["sim_rms_after_rad"] > (1 - cl.CONFIRM_SHRINK_LATER) * second_it["sim_rms_before_rad"]
+            assert second_it["sim_acting"]["windows"] == 20
+
+
+def test_a_name_after_a_dropped_one_is_judged_on_the_regression_of_the_kept_names(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Calibration seed 83's shape: a hysteresis the simulator drops, then a current-loop lag.
+    The workflow's fit after the lag carries the hysteresis' columns; the lag's axis file is
+    built on the regression of the baseline and the lag alone (its parameters from that fit
+    too), which is what its replay is judged on."""
+    from types import SimpleNamespace
+    sig = SimpleNamespace(kind="two_mass", angles="both", t=np.zeros(1), dt=1e-3, ratio=1.0, th_m=np.zeros(1),
+                          th_l=np.zeros(1))
+    its = [{"named_effect": n, "params": {"from": "workflow"}} for n in ("hysteresis", "current_loop_lag")]
+    res = SimpleNamespace(iterations=its, snapshots=[_Snap(k) for k in range(3)],
+                          state=SimpleNamespace(design=SimpleNamespace(sig=sig)))
+    asked: list[list[int]] = []
+
+    def fit_of_names(res: object, idx: list[int]) -> tuple[dict, list[dict]]:
+        asked.append(list(idx))
+        return {"fit": -1.0}, [{"from": "kept names"} for _ in idx]
+    built: list[tuple[list, dict]] = []
+
+    def model_sections(sig: object, effects: list, factors: list, p: dict, *a: object) -> dict:
+        built.append(([e for _, e in effects], dict(p)))
+        return {"axis": {"defaults": "minimal", "name": "sub" if p["fit"] < 0 else "plain"}}
+    monkeypatch.setattr(cl, "fit_of_names", fit_of_names, raising=False)
+    monkeypatch.setattr(cl, "baseline_sections", lambda sig, p: {"axis": {"defaults": "minimal"}})
+    monkeypatch.setattr(cl, "_model_sections", model_sections)
+    monkeypatch.setattr(cl, "fit_on_replay", lambda name, x, cost: (x, {"factors": [1.0] * cl.tune_dims(name)}))
+    monkeypatch.setattr(cl, "quantisation_floor", lambda sig, count_load: 0.0)
+    # the hysteresis is judged once more after the lag is kept (look again), and dropped again
+    rms = {"baseline": 3.08e-6, "updated-1": 3.59e-6, "updated-2": 4.18e-6, "updated-2+sub": 2.5e-6}
+    monkeypatch.setattr(cl, "control_gap", lambda *a, **k: (float("nan"), None))
+
+    def replay(sig: object, axis: Path, *a: object, **k: object) -> cl.Replay:
+        key = axis.name.split(".")[1] + ("+sub" if '"sub"' in axis.read_text() else "")
+        return cl.Replay(axis=axis, rms_rad=rms[key], motor=np.zeros(1), load=np.zeros(1))
+    monkeypatch.setattr(cl, "replay", replay)
+    c = cl.close(res, tmp_path, "s")
+    assert asked == [[1]]
+    assert [it["named_effect"] for it in c.iterations] == ["current_loop_lag"]
+    assert c.iterations[0]["fit_of_names"] == ["current_loop_lag"] and c.iterations[0]["sim_rms_after_rad"] == 2.5e-6
+    assert ([{"from": "kept names"}], {"fit": -1.0}) in built
+    assert [d["named_effect"] for d in c.dropped] == ["hysteresis"]
