@@ -182,6 +182,7 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
     /* online Stribeck identification */
     c->fe_on = (prm(p, HD_P_FE_ENABLE) != 0) ? 1u : 0u;
     c->fe_feed = (prm(p, HD_P_FE_FEED) != 0) ? 1u : 0u;
+    c->fe_share = prm(p, HD_P_FE_SHARE);
     c->fe_decim = (prm(p, HD_P_FE_DECIM) > 0) ? (uint32_t)prm(p, HD_P_FE_DECIM) : 1u;
     c->fe_ramp = (uint32_t)prm(p, HD_P_FE_RAMP);
     if (hd_fric_est_config(&c->fe, prm(p, HD_P_FE_V_MIN), prm(p, HD_P_FE_VS_LO), prm(p, HD_P_FE_DV_MAX),
@@ -790,7 +791,7 @@ void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_ve
     if (c->fe_on != 0u) {
         hd_fric_est_observe(&b->fe, &c->fe, v_ref, v_fb, tau, active);
     }
-    hd_fric_est_feed(&b->fe, &c->str, &b->fe_str);
+    hd_fric_est_feed_share(&b->fe, &c->str, c->fe_share, &b->fe_str);
 }
 
 bool hd_comp_bank_active(const hd_comp_bank_t *b)

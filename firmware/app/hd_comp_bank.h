@@ -145,6 +145,7 @@ typedef struct {
     hd_fric_est_cfg_t fe;        /* online Stribeck identification (parameters fe_*) */
     uint32_t fe_on;              /* 1: the estimator runs (fe_enable) */
     uint32_t fe_feed;            /* 1: the Stribeck FF uses the estimate (fe_feed, with fe_on) */
+    int32_t  fe_share;           /* share of the estimated levels fed, Q16 (fe_share) */
     uint32_t fe_decim;           /* control periods per estimator step */
     uint32_t fe_ramp;            /* estimator steps of the feed ramp */
 } hd_comp_bank_cfg_t;

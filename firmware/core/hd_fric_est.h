@@ -252,6 +252,11 @@ void hd_fric_est_set_feed(hd_fric_est_t *e, bool on);
  *  moved to the estimate by the feed weight, out = base + w (est - base); the weight
  *  advances one ramp step per call (call once per estimator step). */
 void hd_fric_est_feed(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, hd_stribeck_cfg_t *out);
+/** hd_fric_est_feed with the estimate's levels (fc, fs) times share (Q16, 0..1: the share of the
+ *  total friction the FF relays, as the written levels carry it).  The estimate is fed once both
+ *  directions have an accepted fit; until then the fed map is base. */
+void hd_fric_est_feed_share(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, int32_t share,
+                            hd_stribeck_cfg_t *out);
 /** True while the feed weight is not 0. */
 static inline bool hd_fric_est_feeding(const hd_fric_est_t *e)
 {

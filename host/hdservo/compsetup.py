@@ -616,6 +616,8 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     share = float(model[MOTOR_SHARE_KEY]) if model is not None and MOTOR_SHARE_KEY in model else 1.0
     stribeck, vs_turn, fv = _stribeck_params(m, ld, fm, fl, eps_rad, share)
     out.update(stribeck)
+    # the online estimator measures the total steady friction: its feed relays the same share
+    out["fe_share"] = share
     lugre, z_l = _lugre_params(m, ld, vs_turn, fv)
     out.update(lugre)
     out["mx_n"] = n_maxwell
