@@ -10,11 +10,19 @@ the axis' PID design and ``FAIR_GAINS``):
   estimator (``fe_enable`` 1, ``fe_feed`` 1), started from the same model;
 * ``backstep`` -- adaptive backstepping, its initial parameters from the model.
 
-Scenarios (plant options of ``sim/plant``, docs/sim.md "Parameter drifts"), timed on
-each case's measurement window W (after the case's transient skip S):
+Run-in (default; ``--no-run-in`` leaves it out): every case starts with two cycles of the
+normal motion profile of the online identification (:func:`run_in_legs`), the same for every
+controller; the case's setpoint follows.  The drive's online estimator runs during normal
+motion: the first cycle fills its bins on the nominal axis, the drift happens at the start
+of the second, which runs on the drifted axis before the figure is measured.
+
+Scenarios (plant options of ``sim/plant``, docs/sim.md "Parameter drifts"), timed on a
+window W: with the run-in the first :data:`RUN_IN_DRIFT_SHARE` of its last cycle, without it
+each case's measurement window (after the case's transient skip S):
 
 * ``nominal`` -- the axis file as is;
-* ``friction_warm_cold`` -- friction x1.5 over 0.05-0.35 W, held, back to x1 over 0.65-0.95 W;
+* ``friction_warm_cold`` -- friction x1.5 over 0.05-0.35 W, held, back to x1 over 0.65-0.95 W
+  (with the run-in: back to x1 over 0.65-0.95 of the measurement window);
 * ``inertia_x2`` -- load inertia doubled in one step at 0.3 W;
 * ``gravity_appears`` -- an extra unbalance ramps in over 0.1-0.5 W; its size is the
   axis' output-side breakaway torque (motor static friction x ratio + load static friction);
@@ -37,7 +45,7 @@ wherever the fixed-model compensation loses its gain under a drift (retention < 
 adaptive variant keeps a gain >= 2 over the PID.
 
 Writes build/results/drift_mc.json and build/results/drift_mc_<axis>.png.
-Options: ``--runs N`` (default 50), ``--jobs N``, ``--quick`` (short cases),
+Options: ``--runs N`` (default 50), ``--jobs N``, ``--quick`` (short cases), ``--no-run-in``,
 ``--axis NAME``, ``--out DIR``, ``--controllers a,b``, ``--scenarios a,b`` (subsets),
 ``--checkpoint FILE`` (each finished run is appended to FILE as a JSON line; runs already
 in FILE for the same axis, seed and case set are not run again, so an interrupted study
