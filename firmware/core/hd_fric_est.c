@@ -815,7 +815,7 @@ void hd_fric_est_feed_share(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, int
         } else {
             /* the estimate is the total steady friction; the FF relays the share the written
              * levels carry (on the measured velocity the output side's friction sits behind
-             * the gear's spring, docs/compensators.md): levels times share, shape kept */
+             * the gear's spring, docs/compensators.md section 13): levels times share, shape kept */
             fed[d].fc = hdf_sat32(hdf_mul64x32_q((int64_t)fed[d].fc, share, 16u));
             fed[d].fs = hdf_sat32(hdf_mul64x32_q((int64_t)fed[d].fs, share, 16u));
         }
