@@ -182,6 +182,7 @@ int32_t hd_comp_bank_config(hd_comp_bank_cfg_t *c, const int32_t param[HD_PARAM_
     /* online Stribeck identification */
     c->fe_on = (prm(p, HD_P_FE_ENABLE) != 0) ? 1u : 0u;
     c->fe_feed = (prm(p, HD_P_FE_FEED) != 0) ? 1u : 0u;
+    c->fe_share = prm(p, HD_P_FE_SHARE);
     c->fe_decim = (prm(p, HD_P_FE_DECIM) > 0) ? (uint32_t)prm(p, HD_P_FE_DECIM) : 1u;
     c->fe_ramp = (uint32_t)prm(p, HD_P_FE_RAMP);
     if (hd_fric_est_config(&c->fe, prm(p, HD_P_FE_V_MIN), prm(p, HD_P_FE_VS_LO), prm(p, HD_P_FE_DV_MAX),
@@ -282,6 +283,7 @@ static void fe_sync(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     }
     b->fe_cfg = c->fe;
     b->fe_base = c->str;
+    b->fe_base_share = c->fe_share;
     b->fe.feed.ramp_ticks = c->fe_ramp;
     if (b->fe.feed.w == 0) {
         b->fe_str = c->str;     /* a feed switched on starts from the parameters in force */
@@ -347,6 +349,7 @@ void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     fe_reset(b, c);
     b->fe_cfg = c->fe;
     b->fe_base = c->str;
+    b->fe_base_share = c->fe_share;
     b->fe_next = c->str;
     b->fe_pend = 0u;
 }
@@ -837,7 +840,7 @@ bool hd_comp_bank_fric_est_work(hd_comp_bank_t *b)
     const bool more = hd_fric_est_work(&b->fe, &b->fe_cfg);
     if (b->fe.q_tail != tail) {
         /* an entry done: the feed's step (weight, fed config) */
-        hd_fric_est_work_feed(&b->fe, &b->fe_base, &b->fe_next);
+        hd_fric_est_work_feed(&b->fe, &b->fe_base, b->fe_base_share, &b->fe_next);
     }
     return more;
 }

@@ -145,6 +145,7 @@ typedef struct {
     hd_fric_est_cfg_t fe;        /* online Stribeck identification (parameters fe_*) */
     uint32_t fe_on;              /* 1: the estimator runs (fe_enable) */
     uint32_t fe_feed;            /* 1: the Stribeck FF uses the estimate (fe_feed, with fe_on) */
+    int32_t  fe_share;           /* share of the estimated levels fed, Q16 (fe_share) */
     uint32_t fe_decim;           /* control periods per estimator step */
     uint32_t fe_ramp;            /* estimator steps of the feed ramp */
 } hd_comp_bank_cfg_t;
@@ -203,6 +204,7 @@ typedef struct {
     hd_stribeck_cfg_t fe_str;    /* the Stribeck FF config with the estimate fed in (while feeding) */
     hd_fric_est_cfg_t fe_cfg;    /* the estimator's config as the background uses it (fe_sync) */
     hd_stribeck_cfg_t fe_base;   /* ... the Stribeck FF parameters it feeds from */
+    int32_t  fe_base_share;      /* ... and the share of the estimated levels it feeds, Q16 */
     hd_stribeck_cfg_t fe_next;   /* the background's fed FF config (copied to fe_str between its parts) */
     uint32_t fe_pend;            /* estimator changes waiting for the background's part to end */
     uint32_t fe_tick;            /* periods since the last estimator step */

@@ -186,5 +186,6 @@ const hd_param_desc_t hd_param_table[HD_PARAM_COUNT] = {
     {"fe_ramp", 0x28A0u, 12u, HD_PTYPE_U32, 0u, 0, 1000000, 1000, "step"},
     {"fe_n_keep", 0x28A0u, 13u, HD_PTYPE_U32, 0u, 0, 1000000, 5, "sample"},
     {"fe_max_age", 0x28A0u, 14u, HD_PTYPE_U32, 0u, 1, 2000000000, 30000, "step"},
+    {"fe_share", 0x28A0u, 15u, HD_PTYPE_I32, 16u, 0, 65536, 65536, "1"},
     {"pr_jm", 0x2840u, 8u, HD_PTYPE_I32, 16u, 0, 1966080000, 52429, "kg.m^2"},
 };

@@ -9,8 +9,8 @@
 #include <stdint.h>
 
 #define HD_PARAM_VERSION 1u
-#define HD_PARAM_TABLE_HASH 0xFB88D657u
-#define HD_PARAM_COUNT 185u
+#define HD_PARAM_TABLE_HASH 0xE2623EA7u
+#define HD_PARAM_COUNT 186u
 
 typedef enum {
     HD_P_GEAR_RATIO = 0,
@@ -197,7 +197,8 @@ typedef enum {
     HD_P_FE_RAMP = 181,
     HD_P_FE_N_KEEP = 182,
     HD_P_FE_MAX_AGE = 183,
-    HD_P_PR_JM = 184,
+    HD_P_FE_SHARE = 184,
+    HD_P_PR_JM = 185,
 } hd_param_id_t;
 
 #define HD_PTYPE_I32 0u

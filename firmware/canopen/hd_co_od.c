@@ -282,7 +282,7 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x2840u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 113u, INT64_C(0), INT64_C(1966080000), INT64_C(32768), NULL},  /* pr_jl */
     {0x2840u, 6u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 114u, INT64_C(0), INT64_C(1966080000), INT64_C(0), NULL},  /* pr_mgl */
     {0x2840u, 7u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 115u, INT64_C(-2147483648), INT64_C(2147483219), INT64_C(0), NULL},  /* pr_g_off */
-    {0x2840u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 184u, INT64_C(0), INT64_C(1966080000), INT64_C(52429), NULL},  /* pr_jm */
+    {0x2840u, 8u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 185u, INT64_C(0), INT64_C(1966080000), INT64_C(52429), NULL},  /* pr_jm */
     {0x2850u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(21), NULL},  /* highest_sub_index_supported */
     {0x2850u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 116u, INT64_C(0), INT64_C(4), INT64_C(3), NULL},  /* te_n */
     {0x2850u, 2u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 117u, INT64_C(0), INT64_C(2048000000), INT64_C(0), NULL},  /* te_k1 */
@@ -342,7 +342,7 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x2890u, 3u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 167u, INT64_C(2099200), INT64_C(2048000000), INT64_C(91684240), NULL},  /* cp_k3 */
     {0x2890u, 4u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 168u, INT64_C(0), INT64_C(1966080000), INT64_C(917504), NULL},  /* cp_t1 */
     {0x2890u, 5u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 169u, INT64_C(0), INT64_C(1966080000), INT64_C(3145728), NULL},  /* cp_t2 */
-    {0x28A0u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(14), NULL},  /* highest_sub_index_supported */
+    {0x28A0u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(15), NULL},  /* highest_sub_index_supported */
     {0x28A0u, 1u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 170u, INT64_C(0), INT64_C(1), INT64_C(0), NULL},  /* fe_enable */
     {0x28A0u, 2u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 171u, INT64_C(0), INT64_C(1), INT64_C(0), NULL},  /* fe_feed */
     {0x28A0u, 3u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 172u, INT64_C(1), INT64_C(1000), INT64_C(10), NULL},  /* fe_decim */
@@ -357,6 +357,7 @@ const hd_co_entry_t hd_co_od[HD_CO_OD_COUNT] = {
     {0x28A0u, 12u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 181u, INT64_C(0), INT64_C(1000000), INT64_C(1000), NULL},  /* fe_ramp */
     {0x28A0u, 13u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 182u, INT64_C(0), INT64_C(1000000), INT64_C(5), NULL},  /* fe_n_keep */
     {0x28A0u, 14u, 0x07u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 183u, INT64_C(1), INT64_C(2000000000), INT64_C(30000), NULL},  /* fe_max_age */
+    {0x28A0u, 15u, 0x04u, HD_CO_A_RW, (uint8_t)(HD_CO_F_STORE), HD_CO_K_PARAM, 184u, INT64_C(0), INT64_C(65536), INT64_C(65536), NULL},  /* fe_share */
     {0x5000u, 0u, 0x05u, HD_CO_A_CONST, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(7), NULL},  /* highest_sub_index_supported */
     {0x5000u, 1u, 0x05u, HD_CO_A_RW, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(2), INT64_C(0), NULL},  /* capture_control */
     {0x5000u, 2u, 0x05u, HD_CO_A_RO, (uint8_t)(0), HD_CO_K_SPECIAL, 0u, INT64_C(0), INT64_C(255), INT64_C(0), NULL},  /* capture_state */

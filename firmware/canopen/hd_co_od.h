@@ -11,8 +11,8 @@
 #include "hd_co_types.h"
 
 #define HD_CO_OD_VERSION 1u
-#define HD_CO_OD_PARAM_HASH 0xFB88D657u
-#define HD_CO_OD_COUNT 474u
+#define HD_CO_OD_PARAM_HASH 0xE2623EA7u
+#define HD_CO_OD_COUNT 475u
 /* entries 0x1010 keeps in the stored-object record: hd_co_store_words() less
  * its layout word; the host's od_gen.STORED lists them for hdservo config */
 #define HD_CO_OD_STORED 124u

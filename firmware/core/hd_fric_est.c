@@ -944,10 +944,11 @@ bool hd_fric_est_work(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
     return (e->in_step != 0u) || (e->q_tail != e->q_head);
 }
 
-void hd_fric_est_work_feed(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, hd_stribeck_cfg_t *out)
+void hd_fric_est_work_feed(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, int32_t share,
+                           hd_stribeck_cfg_t *out)
 {
     e->busy = 1u;
-    hd_fric_est_feed(e, base, out);
+    hd_fric_est_feed_share(e, base, share, out);
     e->busy = 0u;
 }
 
@@ -984,13 +985,38 @@ static void mix_dir(const hd_blend_t *w, const hd_stribeck_dir_t *base, const hd
     out->fv = hd_blend_mix(w, base->fv, est->fv);
 }
 
-void hd_fric_est_feed(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, hd_stribeck_cfg_t *out)
+void hd_fric_est_feed_share(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, int32_t share,
+                            hd_stribeck_cfg_t *out)
 {
+    hd_stribeck_dir_t fed[HD_FE_NDIR];
+    uint32_t d;
     *out = *base;
     if (hd_blend_update(&e->feed) == 0) {
         return;
     }
-    mix_dir(&e->feed, &base->pos, &e->est[HD_FE_DIR_POS], &out->pos);
-    mix_dir(&e->feed, &base->neg, &e->est[HD_FE_DIR_NEG], &out->neg);
+    for (d = 0u; d < (uint32_t)HD_FE_NDIR; d++) {
+        fed[d] = e->est[d];
+        /* the torque turns from -g_neg to +g_pos at a reversal; the bins of a direction hold
+         * g_d plus any direction-independent torque present while they filled (an unbalance,
+         * + in one direction, - in the other): a fit of one direction with the model in the
+         * other would carry that torque into the jump, so the estimate is fed once both
+         * directions have a fit (the pair's jump is g_pos + g_neg) */
+        if (e->fits[HD_FE_DIR_POS] == 0u || e->fits[HD_FE_DIR_NEG] == 0u) {
+            fed[d] = (d == (uint32_t)HD_FE_DIR_POS) ? base->pos : base->neg;
+        } else {
+            /* the estimate is the total steady friction; the FF relays the share the written
+             * levels carry (on the measured velocity the output side's friction sits behind
+             * the gear's spring, docs/compensators.md section 13): levels times share, shape kept */
+            fed[d].fc = hdf_sat32(hdf_mul64x32_q((int64_t)fed[d].fc, share, 16u));
+            fed[d].fs = hdf_sat32(hdf_mul64x32_q((int64_t)fed[d].fs, share, 16u));
+        }
+    }
+    mix_dir(&e->feed, &base->pos, &fed[HD_FE_DIR_POS], &out->pos);
+    mix_dir(&e->feed, &base->neg, &fed[HD_FE_DIR_NEG], &out->neg);
     out->delta = 2u;                        /* the estimate's shape */
+}
+
+void hd_fric_est_feed(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, hd_stribeck_cfg_t *out)
+{
+    hd_fric_est_feed_share(e, base, HD_FE_SCALE_ONE, out);
 }

@@ -289,9 +289,10 @@ bool hd_fric_est_work(hd_fric_est_t *e, const hd_fric_est_cfg_t *c);
 /** A feed-only entry for the background (the estimator off, its feed ramping out: the
  *  weight's step without an estimator step); a full queue loses it (q_drop). */
 void hd_fric_est_queue_feed(hd_fric_est_t *e);
-/** The background's feed after a worked entry: hd_fric_est_feed inside the busy mark (the
- *  weight and out are the background's; the control period copies out between parts). */
-void hd_fric_est_work_feed(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, hd_stribeck_cfg_t *out);
+/** The background's feed after a worked entry: hd_fric_est_feed_share inside the busy mark
+ *  (the weight and out are the background's; the control period copies out between parts). */
+void hd_fric_est_work_feed(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, int32_t share,
+                           hd_stribeck_cfg_t *out);
 /** True inside hd_fric_est_work (a part in progress). */
 static inline bool hd_fric_est_busy(const hd_fric_est_t *e)
 {
@@ -310,6 +311,11 @@ void hd_fric_est_set_feed(hd_fric_est_t *e, bool on);
  *  moved to the estimate by the feed weight, out = base + w (est - base); the weight
  *  advances one ramp step per call (call once per estimator step). */
 void hd_fric_est_feed(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, hd_stribeck_cfg_t *out);
+/** hd_fric_est_feed with the estimate's levels (fc, fs) times share (Q16, 0..1: the share of the
+ *  total friction the FF relays, as the written levels carry it).  The estimate is fed once both
+ *  directions have an accepted fit; until then the fed map is base. */
+void hd_fric_est_feed_share(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, int32_t share,
+                            hd_stribeck_cfg_t *out);
 /** True while the feed weight is not 0. */
 static inline bool hd_fric_est_feeding(const hd_fric_est_t *e)
 {

@@ -714,6 +714,8 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
               "delta": d_id if d_id is not None else sd["delta"], "fv": sd["fv"]}
              for sd, on in ((m, fm), (ld, fl)) if on]
     out["str_steady_vs"] = steady_motion_vs(sides, vs_turn * TWO_PI, kp_run)
+    # the online estimator measures the total steady friction: its feed relays the same share
+    out["fe_share"] = share
     lugre, z_l = _lugre_params(m, ld, vs_turn, fv)
     out.update(lugre)
     out["mx_n"] = n_maxwell

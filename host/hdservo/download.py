@@ -23,7 +23,7 @@ class DownloadTransportError(UserError):
 
 
 #: parameters written by SDO one by one (the groups of 0x5100:2/3 go as tables)
-SDO_PREFIXES = ("cb_ramp_ticks", "cb_dpos_fc", "cp_", "mx_", "pr_", "bs_", "dob_", "te_k1", "te_out_")
+SDO_PREFIXES = ("cb_ramp_ticks", "cb_dpos_fc", "cp_", "mx_", "pr_", "bs_", "dob_", "te_k1", "te_out_", "fe_share")
 
 
 # ----------------------------------------------------------------- model -> compsetup keys

@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 OD_VERSION = 1
-PARAM_HASH = 0xFB88D657
+PARAM_HASH = 0xE2623EA7
 VENDOR_ID = 0x00000EDA
 PRODUCT_CODE = 0x00484453
 REVISION = 0x00010000
@@ -380,6 +380,7 @@ ENTRIES: tuple[OdEntry, ...] = (
     OdEntry(0x28A0, 12, 'fe_ramp', 'u32', 'rw', '', 'step', 1.0),
     OdEntry(0x28A0, 13, 'fe_n_keep', 'u32', 'rw', '', 'sample', 1.0),
     OdEntry(0x28A0, 14, 'fe_max_age', 'u32', 'rw', '', 'step', 1.0),
+    OdEntry(0x28A0, 15, 'fe_share', 'i32', 'rw', '', '1', 1.52587890625e-05),
     OdEntry(0x5000, 0, 'highest_sub_index_supported', 'u8', 'const', '', '', 1.0),
     OdEntry(0x5000, 1, 'capture_control', 'u8', 'rw', '', '', 1.0),
     OdEntry(0x5000, 2, 'capture_state', 'u8', 'ro', '', '', 1.0),

@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 VERSION = 1
-TABLE_HASH = 0xFB88D657
+TABLE_HASH = 0xE2623EA7
 
 
 class ParamDef(NamedTuple):
@@ -201,7 +201,7 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef(168, 'cp_t1', 0x2890, 4, 'i32', 'N.m', 16, 0.0, 30000.0, 14.0, 0, 1966080000, 917504, 'Compliance: torque at the end of the first slope'),
     ParamDef(169, 'cp_t2', 0x2890, 5, 'i32', 'N.m', 16, 0.0, 30000.0, 48.0, 0, 1966080000, 3145728, 'Compliance: torque at the end of the second slope (>= cp_t1)'),
     ParamDef(170, 'fe_enable', 0x28A0, 1, 'u32', '1', 0, 0.0, 1.0, 0.0, 0, 1, 0, 'Online Stribeck identification: 1 = run the estimator (position modes, every fe_decim periods)'),
-    ParamDef(171, 'fe_feed', 0x28A0, 2, 'u32', '1', 0, 0.0, 1.0, 0.0, 0, 1, 0, 'Online Stribeck identification: 1 = the Stribeck FF uses the estimate (ramped in and out over fe_ramp steps, shape delta 2)'),
+    ParamDef(171, 'fe_feed', 0x28A0, 2, 'u32', '1', 0, 0.0, 1.0, 0.0, 0, 1, 0, 'Online Stribeck identification: 1 = the Stribeck FF uses the estimate once both directions have an accepted fit (ramped in and out over fe_ramp steps, shape delta 2, levels times fe_share)'),
     ParamDef(172, 'fe_decim', 0x28A0, 3, 'u32', 'period', 0, 1.0, 1000.0, 10.0, 1, 1000, 10, 'Online Stribeck identification: control periods per estimator step (10: 1 kHz)'),
     ParamDef(173, 'fe_v_min', 0x28A0, 4, 'i32', 'turn/s', 32, 1e-09, 0.1, 1.3888888888888888e-05, 4, 429496730, 59652, 'Online Stribeck identification: lowest binned velocity (24 half-octave bins per direction from here)'),
     ParamDef(174, 'fe_vs_lo', 0x28A0, 5, 'i32', 'turn/s', 32, 1e-09, 0.002, 0.0001388888888888889, 4, 8589935, 596523, 'Online Stribeck identification: smallest candidate Stribeck velocity (32 quarter-octave candidates from here)'),
@@ -214,6 +214,7 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef(181, 'fe_ramp', 0x28A0, 12, 'u32', 'step', 0, 0.0, 1000000.0, 1000.0, 0, 1000000, 1000, 'Online Stribeck identification: estimator steps of the feed ramp (bumpless switch of fe_feed)'),
     ParamDef(182, 'fe_n_keep', 0x28A0, 13, 'u32', 'sample', 0, 0.0, 1000000.0, 5.0, 0, 1000000, 5, "Online Stribeck identification: weight of a bin's old mean at the start of each new visit (forgetting across visits; at least 1024 once the bin is established)"),
     ParamDef(183, 'fe_max_age', 0x28A0, 14, 'u32', 'step', 0, 1.0, 2000000000.0, 30000.0, 1, 2000000000, 30000, 'Online Stribeck identification: a bin not updated for longer than this is left out of the fit (30000: 30 s at 1 kHz)'),
-    ParamDef(184, 'pr_jm', 0x2840, 8, 'i32', 'kg.m^2', 16, 0.0, 30000.0, 0.8, 0, 1966080000, 52429, 'Twist torque estimate (pr_t_src 2): motor-side inertia N^2 J_m, output-referred'),
+    ParamDef(184, 'fe_share', 0x28A0, 15, 'i32', '1', 16, 0.0, 1.0, 1.0, 0, 65536, 65536, "Online Stribeck identification: share of the estimated levels (fc, fs) the feed puts into the Stribeck FF, the share the str_* levels carry of the total friction (the motor side's; hdservo download writes it)"),
+    ParamDef(185, 'pr_jm', 0x2840, 8, 'i32', 'kg.m^2', 16, 0.0, 30000.0, 0.8, 0, 1966080000, 52429, 'Twist torque estimate (pr_t_src 2): motor-side inertia N^2 J_m, output-referred'),
 )
 BY_NAME: dict[str, ParamDef] = {p.name: p for p in PARAMS}

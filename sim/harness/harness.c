@@ -41,6 +41,8 @@ struct hd_sim {
     int64_t timed;              /* periods actually timed (every 32nd) */
     int64_t periods_run;        /* periods run with timing on */
     int ptp_started;            /* setpoint "ptp": drive mode PTP entered */
+    int fe_snap_taken;          /* 1: fe_snap holds the online friction estimator at the end of the run-in */
+    hd_fric_est_t fe_snap;      /* (the setpoint's t0 of a scenario with a run-in; meta "fric_est") */
 };
 
 
@@ -403,7 +405,7 @@ static void sim_step(hd_sim_t *s, double *row, int64_t stride)
             break;
         }
         hd_app_set_position(&s->app, hd_bridge_rad_to_q32_turns(r));
-        if (smooth_profile(sc->sp.type)) {
+        if (smooth_profile(sc->sp.type) || (sc->sp.n_run_in > 0 && tau < sc->sp.t0_s)) {
             double r1 = hd_scenario_setpoint(&sc->sp, tau + dt, sc->seed);
             hd_app_set_velocity(&s->app, hd_bridge_rad_s_to_vel_out((r1 - r) / dt));
         }
@@ -417,6 +419,12 @@ static void sim_step(hd_sim_t *s, double *row, int64_t stride)
         break;
     case HD_SC_MODE_OFF:
         break;
+    }
+
+    /* the estimator as the run-in leaves it (what the measurement after t0 starts from) */
+    if (sc->sp.n_run_in > 0 && !s->fe_snap_taken && tau >= sc->sp.t0_s) {
+        s->fe_snap = s->app.cb.fe;
+        s->fe_snap_taken = 1;
     }
 
     /* 3. firmware */
@@ -531,6 +539,30 @@ int hd_sim_run_columns(hd_sim_t *s, double *cols, char *err, size_t errlen)
     return sim_run(s, cols, 1, hd_sim_n_rows(s), err, errlen);
 }
 
+/* Stribeck map of both directions (output side, SI) as a JSON object */
+static void fe_dirs_json(char *buf, size_t cap, size_t *n, const hd_stribeck_dir_t *pos,
+                         const hd_stribeck_dir_t *neg)
+{
+    const hd_stribeck_dir_t *d[2] = {pos, neg};
+    for (int i = 0; i < 2; i++)
+        hd_json_add(buf, cap, n, "%s\"%s\": {\"fc_Nm\": %.9g, \"fs_Nm\": %.9g, \"vs_rad_s\": %.9g, "
+                    "\"viscous_Nms_per_rad\": %.9g}", i ? ", " : "{", i ? "neg" : "pos",
+                    hd_bridge_from_q16(d[i]->fc), hd_bridge_from_q16(d[i]->fs),
+                    hd_bridge_vel_out_to_rad_s(d[i]->vs), hd_bridge_from_q16(d[i]->fv) / (2.0 * M_PI));
+    hd_json_add(buf, cap, n, "}");
+}
+
+/* accepted fits, confidence, common mode and published estimate of the online friction estimator */
+static void fe_state_json(char *buf, size_t cap, size_t *n, const hd_fric_est_t *e)
+{
+    hd_json_add(buf, cap, n, "{\"fits\": [%u, %u], \"confidence\": [%g, %g], \"samples\": %u, \"scale\": %.9g, "
+                "\"bias_Nm\": %.9g, \"estimate\": ", (unsigned)e->fits[0], (unsigned)e->fits[1],
+                1e-3 * (double)e->conf[0], 1e-3 * (double)e->conf[1], (unsigned)e->samples,
+                (double)e->scale / (double)HD_FE_SCALE_ONE, hd_bridge_from_q16(e->bias));
+    fe_dirs_json(buf, cap, n, &e->est[HD_FE_DIR_POS], &e->est[HD_FE_DIR_NEG]);
+    hd_json_add(buf, cap, n, "}");
+}
+
 size_t hd_sim_meta_json(const hd_sim_t *s, char *buf, size_t cap)
 {
     size_t n = 0;
@@ -578,7 +610,19 @@ size_t hd_sim_meta_json(const hd_sim_t *s, char *buf, size_t cap)
         hd_json_add(buf, cap, &n, "%s{\"t_s\": %.17g, \"type\": \"%s\"}", i ? ", " : "", f->t_s,
                     hd_scenario_fault_name(f->type));
     }
-    hd_json_add(buf, cap, &n, "],\n  \"columns\": [");
+    hd_json_add(buf, cap, &n, "],\n");
+    if (s->app.cb_cfg.fe_on != 0u) {
+        hd_json_add(buf, cap, &n, "  \"fric_est\": {\"model\": ");
+        fe_dirs_json(buf, cap, &n, &s->app.cb_cfg.str.pos, &s->app.cb_cfg.str.neg);
+        if (s->fe_snap_taken) {
+            hd_json_add(buf, cap, &n, ",\n    \"run_in_end\": ");
+            fe_state_json(buf, cap, &n, &s->fe_snap);
+        }
+        hd_json_add(buf, cap, &n, ",\n    \"end\": ");
+        fe_state_json(buf, cap, &n, &s->app.cb.fe);
+        hd_json_add(buf, cap, &n, "},\n");
+    }
+    hd_json_add(buf, cap, &n, "  \"columns\": [");
     for (int32_t c = 0; c < HD_SIM_NCOL; c++)
         hd_json_add(buf, cap, &n, "%s\"%s\"", c ? ", " : "", hd_sim_column_name(c, (int32_t)s->sc.mode));
     hd_json_add(buf, cap, &n, "]\n}\n");

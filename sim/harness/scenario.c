@@ -141,6 +141,72 @@ static const char *const FAULTS[] = {"encoder_glitch", "encoder_dropout", "curre
                                      "load_step"};
 static const char *const ENCODERS[] = {"motor", "load"};
 
+static double move_time(double d, double vmax, double amax);
+
+/* Optional run-in of a position setpoint: moves through run_in_targets_rad (relative to
+ * initial) at run_in_speeds_rad_s, one after another from run_in_t0_s; the last one ends
+ * at initial (the setpoint's start) no later than t0_s, so the setpoint is continuous. */
+static int parse_run_in(ctx_t *c, hd_scenario_t *sc)
+{
+    hd_sc_setpoint_t *sp = &sc->sp;
+    const double *tg = NULL, *vv = NULL;
+    size_t nt = 0, nv = 0;
+    int rt = hd_toml_get_num_array(c->doc, "setpoint.run_in_targets_rad", &tg, &nt, c->err, c->errlen);
+    int rv = hd_toml_get_num_array(c->doc, "setpoint.run_in_speeds_rad_s", &vv, &nv, c->err, c->errlen);
+    double acc = 0.0, t0r = 0.0;
+    int ra = num(c, "setpoint.run_in_accel_rad_s2", 1e-12, 1e9, &acc);
+    int r0 = num(c, "setpoint.run_in_t0_s", 0.0, HD_SC_MAX_DURATION_S, &t0r);
+    if (rt < 0 || rv < 0 || ra < 0 || r0 < 0) return -1;
+    if (rt == 0 && rv == 0 && ra == 0 && r0 == 0) return 0;
+    const hd_toml_entry_t *e = hd_toml_find(c->doc, rt ? "setpoint.run_in_targets_rad"
+                                                       : rv ? "setpoint.run_in_speeds_rad_s"
+                                                       : ra ? "setpoint.run_in_accel_rad_s2" : "setpoint.run_in_t0_s");
+    if (sc->mode != HD_SC_MODE_POSITION || sp->type == HD_SP_PTP) {
+        hd_toml_entry_error(c->doc, e, c->err, c->errlen,
+                            "expected a run-in only with controller mode \"position\" and a setpoint other than \"ptp\"");
+        return -1;
+    }
+    if (rt == 0 || rv == 0 || ra == 0) {
+        hd_toml_entry_error(c->doc, e, c->err, c->errlen,
+                            "expected run_in_targets_rad, run_in_speeds_rad_s and run_in_accel_rad_s2 together");
+        return -1;
+    }
+    if (nt == 0 || nt != nv || nt > HD_SC_MAX_RUN_IN) {
+        char msg[160];
+        snprintf(msg, sizeof msg, "expected 1..%d run-in targets and as many speeds, found %zu targets and %zu speeds",
+                 HD_SC_MAX_RUN_IN, nt, nv);
+        hd_toml_entry_error(c->doc, hd_toml_find(c->doc, "setpoint.run_in_targets_rad"), c->err, c->errlen, msg);
+        return -1;
+    }
+    double t = t0r, prev = 0.0;
+    for (size_t i = 0; i < nt; i++) {
+        if (!(vv[i] > 0.0 && vv[i] < 1e9) || !(fabs(tg[i]) < 1e9)) {
+            char msg[160];
+            snprintf(msg, sizeof msg, "expected finite targets and speeds > 0, found target %.17g speed %.17g (move %zu)",
+                     tg[i], vv[i], i + 1);
+            hd_toml_entry_error(c->doc, hd_toml_find(c->doc, "setpoint.run_in_speeds_rad_s"), c->err, c->errlen, msg);
+            return -1;
+        }
+        sp->run_in_target[i] = tg[i];
+        sp->run_in_speed[i] = vv[i];
+        sp->run_in_start[i] = t;
+        t += move_time(tg[i] - prev, vv[i], acc);
+        prev = tg[i];
+    }
+    sp->run_in_start[nt] = t;
+    if (tg[nt - 1] != 0.0 || t > sp->t0_s) {
+        char msg[200];
+        snprintf(msg, sizeof msg, "expected the run-in to end at the setpoint's initial value (last target 0) "
+                 "by t0_s = %.6g s, found last target %.6g rad, end %.6g s", sp->t0_s, tg[nt - 1], t);
+        hd_toml_entry_error(c->doc, hd_toml_find(c->doc, "setpoint.run_in_targets_rad"), c->err, c->errlen, msg);
+        return -1;
+    }
+    sp->n_run_in = (int32_t)nt;
+    sp->run_in_accel = acc;
+    sp->run_in_t0_s = t0r;
+    return 0;
+}
+
 static int parse_setpoint(ctx_t *c, hd_scenario_t *sc)
 {
     static const char *const VU[] = {"", "_Nm", "_rad_s", "_rad", "_rad_s"};
@@ -231,6 +297,7 @@ static int parse_setpoint(ctx_t *c, hd_scenario_t *sc)
         if (num(c, "setpoint.t1_s", 0.0, HD_SC_MAX_DURATION_S, &sp->t1_s) < 0) return -1;
         break;
     }
+    if (parse_run_in(c, sc)) return -1;
     /* excitation ends at the end of the run unless told */
     if ((sp->type == HD_SP_CHIRP || sp->type == HD_SP_MULTISINE || sp->type == HD_SP_PRBS) &&
         sp->t1_s <= 0.0)
@@ -649,10 +716,35 @@ static double move_pos(double d, double vmax, double amax, double tau)
     return s * x;
 }
 
+/* duration of move_pos's move of signed distance d */
+static double move_time(double d, double vmax, double amax)
+{
+    double D = fabs(d), ta = vmax / amax;
+    if (amax * ta * ta > D) return 2.0 * sqrt(D / amax);   /* triangular */
+    return 2.0 * ta + (D - amax * ta * ta) / vmax;
+}
+
+/* run-in position at t (before t0): the move under way (binary search), else where the last ended */
+static double run_in_pos(const hd_sc_setpoint_t *sp, double t)
+{
+    const int32_t n = sp->n_run_in;
+    if (t < sp->run_in_start[0]) return sp->initial;
+    if (t >= sp->run_in_start[n]) return sp->initial + sp->run_in_target[n - 1];
+    int32_t lo = 0, hi = n - 1;              /* start[lo] <= t < start[hi + 1] */
+    while (lo < hi) {
+        int32_t mid = (lo + hi + 1) / 2;
+        if (sp->run_in_start[mid] <= t) lo = mid;
+        else hi = mid - 1;
+    }
+    double from = lo > 0 ? sp->run_in_target[lo - 1] : 0.0;
+    return sp->initial + from + move_pos(sp->run_in_target[lo] - from, sp->run_in_speed[lo], sp->run_in_accel,
+                                         t - sp->run_in_start[lo]);
+}
+
 double hd_scenario_setpoint(const hd_sc_setpoint_t *sp, double t, uint64_t seed)
 {
     double tau = t - sp->t0_s;
-    if (tau < 0.0) return sp->initial;
+    if (tau < 0.0) return sp->n_run_in > 0 ? run_in_pos(sp, t) : sp->initial;
     switch (sp->type) {
     case HD_SP_CONSTANT:
         return sp->initial;

@@ -9,6 +9,9 @@
  *   [compensators.<name>]  drive parameters by name (table units, like gains);
  *                 [compensators.preisach] table = "file" (Preisach image, hdservo.compsetup)
  *   [setpoint]    type = constant | step | ramp | move | sine | chirp | multisine | prbs
+ *                 (+ position mode: run_in_targets_rad, run_in_speeds_rad_s,
+ *                 run_in_accel_rad_s2, run_in_t0_s: moves before t0, e.g. a normal
+ *                 motion profile that lets the drive's estimators see the axis)
  *                 values carry the unit of the mode: _rad (position),
  *                 _rad_s (velocity), _Nm (torque), rates _rad_s / _rad_s2 / _Nm_per_s
  *   [disturbance] load_torque_Nm, load_step_Nm + load_step_t_s,
@@ -29,6 +32,7 @@
 #define HD_SC_MAX_FAULTS     64
 #define HD_SC_MAX_COMP       16
 #define HD_SC_MAX_DURATION_S 3600.0
+#define HD_SC_MAX_RUN_IN     512     /* moves of a setpoint's run-in */
 
 typedef enum {
     HD_SC_MODE_OFF = 0,
@@ -66,6 +70,14 @@ typedef struct {
     double f0_Hz, f1_Hz;   /* chirp sweep / multisine band */
     int32_t n_lines;       /* multisine lines */
     double bit_period_s;   /* prbs */
+    /* run-in (position mode): moves from initial through initial + run_in_target[i] at
+     * run_in_speed[i], from run_in_t0_s on; the last one ends at initial, before t0 */
+    int32_t n_run_in;                          /* moves, 0 = no run-in */
+    double run_in_t0_s;                        /* start of the first move */
+    double run_in_accel;                       /* acceleration of every move, rad/s^2 */
+    double run_in_target[HD_SC_MAX_RUN_IN];    /* end of each move relative to initial, rad */
+    double run_in_speed[HD_SC_MAX_RUN_IN];     /* cruise speed of each move, rad/s */
+    double run_in_start[HD_SC_MAX_RUN_IN + 1]; /* start of each move; [n_run_in]: end of the run-in, s */
 } hd_sc_setpoint_t;
 
 typedef enum {

@@ -103,7 +103,12 @@ int32_t hd_simlib_run_columns(hd_simlib_t *h, double *cols, char *err, size_t er
     return hd_sim_run_columns(h->sim, cols, err, errlen) ? -1 : 0;
 }
 
-const char *hd_simlib_meta(hd_simlib_t *h) { return h->meta; }
+const char *hd_simlib_meta(hd_simlib_t *h)
+{
+    /* again after a run: the sidecar also reports state the run leaves (the online friction estimator) */
+    if (h->sim) hd_sim_meta_json(h->sim, h->meta, sizeof h->meta);
+    return h->meta;
+}
 
 int32_t hd_simlib_write_log(hd_simlib_t *h, const double *rows, int64_t n_rows, const char *csv_path,
                             char *err, size_t errlen)

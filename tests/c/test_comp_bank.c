@@ -393,6 +393,78 @@ static void test_online_feed_without_fit_is_the_written_map(void **st)
     }
 }
 
+/* Drive the bank's estimator steps (no data) until its feed ramp (fe_ramp 20) has settled. */
+static void run_fe_steps(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    for (int k = 0; k < 10 * 25; k++) {
+        hd_comp_bank_fric_est(b, c, 0, 0, 0, false);
+        while (hd_comp_bank_fric_est_work(b)) {         /* the background, as the simulator runs it */
+        }
+    }
+}
+
+/* fe_feed: the reversal's torque jump is g_pos + g_neg; an unbalance present while the bins
+ * filled is + d0 in one direction's estimate and - d0 in the other's.  With a fit of one
+ * direction only the FF keeps the written map in both (the fit's d0 would go into the jump);
+ * once both directions have a fit it feeds both, levels times fe_share (the written levels'
+ * share of the total friction), shape (vs, fv) as estimated. */
+static void test_online_feed_needs_both_directions_and_relays_the_share(void **st)
+{
+    (void)st;
+    int32_t p[HD_PARAM_COUNT];
+    hd_comp_bank_cfg_t c;
+    static hd_comp_bank_t b;
+    hd_comp_bank_in_t in;
+    hd_comp_bank_out_t out;
+    hd_stribeck_cfg_t fed;
+    const int32_t v = 2 * 11930465;              /* 2 deg/s */
+    hd_params_defaults(p);
+    p[HD_P_CB_ENABLE] = (int32_t)HD_CB_STRIBECK;
+    p[HD_P_FE_ENABLE] = 1;
+    p[HD_P_FE_FEED] = 1;
+    p[HD_P_FE_DECIM] = 10;
+    p[HD_P_FE_RAMP] = 20;
+    p[HD_P_FE_SHARE] = 3 << 14;                  /* 0.75 */
+    assert_int_equal(hd_comp_bank_config(&c, p), 0);
+    assert_int_equal(c.fe_share, 3 << 14);
+    hd_comp_bank_init(&b, &c);
+    memset(&in, 0, sizeof in);
+    /* a fit of the positive direction only: 4 / 6 N.m (the friction + an unbalance of 2 N.m) */
+    b.fe.fits[HD_FE_DIR_POS] = 3u;
+    b.fe.est[HD_FE_DIR_POS].fc = 4 << 16;
+    b.fe.est[HD_FE_DIR_POS].fs = 6 << 16;
+    run_fe_steps(&b, &c);
+    for (int sg = -1; sg <= 1; sg += 2) {
+        in.vel_ref = sg * v;
+        in.vel_fb = sg * v;
+        hd_comp_bank_pre(&b, &c, &in, &out);
+        fed = c.str;
+        fed.delta = 2u;
+        assert_int_equal(out.tff, hd_stribeck_map(&fed, sg * v));
+    }
+    /* the negative direction's fit arrives: 0.5 / 2 N.m (- 2 N.m of the unbalance) */
+    b.fe.fits[HD_FE_DIR_NEG] = 1u;
+    b.fe.est[HD_FE_DIR_NEG].fc = 1 << 15;
+    b.fe.est[HD_FE_DIR_NEG].fs = 2 << 16;
+    run_fe_steps(&b, &c);
+    fed = c.str;
+    fed.delta = 2u;
+    fed.pos = b.fe.est[HD_FE_DIR_POS];
+    fed.neg = b.fe.est[HD_FE_DIR_NEG];
+    fed.pos.fc = 3 << 16;                        /* levels x 0.75 */
+    fed.pos.fs = (9 << 16) / 2;
+    fed.neg.fc = 3 << 13;
+    fed.neg.fs = 3 << 15;
+    assert_memory_equal(&b.fe_str.pos, &fed.pos, sizeof fed.pos);
+    assert_memory_equal(&b.fe_str.neg, &fed.neg, sizeof fed.neg);
+    for (int sg = -1; sg <= 1; sg += 2) {
+        in.vel_ref = sg * v;
+        in.vel_fb = sg * v;
+        hd_comp_bank_pre(&b, &c, &in, &out);
+        assert_int_equal(out.tff, hd_stribeck_map(&fed, sg * v));
+    }
+}
+
 /* Maxwell-slip compliance format (2^-44 turn/N.m): a soft gear (5e3 N.m/rad) and a
  * stiff one (2e5 N.m/rad) both fit, within 1e-6 relative; below 2^13 N.m/turn refused. */
 static void test_maxwell_stiffness_range(void **st)
@@ -907,6 +979,7 @@ int main(void)
         cmocka_unit_test(test_schedule_estimate_lowpass_tick),
         cmocka_unit_test(test_schedule_backstep_adapts_in_its_slot),
         cmocka_unit_test(test_idle_bank_skipped_bit_identical),
+        cmocka_unit_test(test_online_feed_needs_both_directions_and_relays_the_share),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

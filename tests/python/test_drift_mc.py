@@ -110,7 +110,7 @@ def test_tiny_run_writes_json(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
     short = [c for c in quick if c.name == "tracking_0.01"] + [c for c in quick if c.kind == "ptp"][:1]
     monkeypatch.setattr(m, "cases", lambda quick=False: short)
     res = m.run("reference", runs=2, jobs=2, quick=True, controllers=("pid", "fixed"),
-                scenarios=("nominal", "inertia_x2"), out=tmp_path, plots=True)
+                scenarios=("nominal", "inertia_x2"), out=tmp_path, plots=True, run_in=False)
     data = json.loads((tmp_path / "drift_mc.json").read_text())
     assert data["format"] == m.FORMAT and data["runs_per_controller"] == 2
     assert (tmp_path / data["plots"][0]).is_file()
@@ -156,8 +156,8 @@ def test_checkpoint_resumes_without_running_again(tmp_path: Path, monkeypatch: p
     m = _script()
     calls: list[tuple[str, str, int]] = []
 
-    def fake(task: tuple[str, str, str, int, int, bool]) -> dict[str, Any]:
-        axis, scen, ctl, run, seed, quick = task
+    def fake(task: tuple[Any, ...]) -> dict[str, Any]:
+        axis, scen, ctl, run, seed, quick = task[:6]
         calls.append((scen, ctl, run))
         return _row(m, scen, ctl, run, {f: 1.0 + run + (ctl == "pid") for f in m.FIGURES})
 
@@ -182,8 +182,11 @@ def test_checkpoint_resumes_without_running_again(tmp_path: Path, monkeypatch: p
     # the study over both controllers from the file: pid 1 worse than fixed on every run
     calls.clear()
     res = m.run("reference", runs=3, jobs=1, quick=True, controllers=("pid", "fixed"), scenarios=("nominal",),
-                out=tmp_path, plots=False, checkpoint=ck)
+                out=tmp_path, plots=False, checkpoint=ck, run_in=False)
     assert calls == []
+    # the same runs with the run-in are other tasks
+    m.run_tasks([("reference", "nominal", "pid", 0, 1, True, True)], jobs=1, checkpoint=ck)
+    assert calls == [("nominal", "pid", 0)]
     assert res["gain"]["nominal"]["fixed"][m.TARGET_FIGURE] == pytest.approx(3.0 / 2.0)
 
 
@@ -224,8 +227,8 @@ def test_run_time_is_the_sum_of_the_runs_not_the_merge(tmp_path: Path, monkeypat
     m = _script()
     now = [1000.0]
 
-    def fake(task: tuple[str, str, str, int, int, bool]) -> dict[str, Any]:
-        axis, scen, ctl, run, seed, quick = task
+    def fake(task: tuple[Any, ...]) -> dict[str, Any]:
+        axis, scen, ctl, run, seed, quick = task[:6]
         now[0] += 10.0 * (run + 1)          # run r takes 10 (r + 1) s on the study's clock
         return _row(m, scen, ctl, run, {f: 1.0 + run + (ctl == "pid") for f in m.FIGURES})
 
@@ -233,7 +236,7 @@ def test_run_time_is_the_sum_of_the_runs_not_the_merge(tmp_path: Path, monkeypat
     monkeypatch.setattr(m.time, "perf_counter", lambda: now[0])
     ck = tmp_path / "ck.jsonl"
     kw = dict(jobs=1, quick=True, controllers=("pid", "fixed"), scenarios=("nominal",), out=tmp_path, plots=False,
-              checkpoint=ck)
+              checkpoint=ck, run_in=False)
     first = m.run("reference", runs=3, **kw)
     assert [r["run_time_s"] for r in first["runs"]] == [10.0, 20.0, 30.0] * 2
     assert first["run_time_s"] == 120.0 and first["runs_timed"] == 6 and first["runs_without_time"] == 0
@@ -252,3 +255,78 @@ def test_run_time_is_the_sum_of_the_runs_not_the_merge(tmp_path: Path, monkeypat
     assert four["run_time_s"] == 120.0 + 40.0            # fixed run 3 ran now; pid run 3 came untimed
     assert four["runs_timed"] == 7 and four["runs_without_time"] == 1
     assert four["wall_time_s"] == 40.0 and four["merge_time_s"] == 0.0
+
+
+def test_run_in_comes_before_the_case_and_the_drift_before_its_last_cycle() -> None:
+    """With the run-in a case's setpoint starts after the run-in's moves (every controller the
+    same), its measurement is as long as without, and each drift takes place at the start of
+    the run-in's last cycle: after the drive has run the profile on the nominal axis, before
+    the measurement (the warm-up's return to cold in the measurement window)."""
+    m = _script()
+    c0 = next(c for c in m.cases(quick=False) if c.kind == "reversal")
+    c = m.with_run_in(c0, True)
+    assert m.with_run_in(c0, False) == c0
+    tg, sp, starts = m.run_in_legs(m.RUN_IN_CYCLES)
+    assert len(starts) == m.RUN_IN_CYCLES + 1 and tg[-1] == 0.0 and len(tg) == len(sp)
+    assert min(sp) == pytest.approx(math.radians(0.01)) and max(sp) == pytest.approx(math.radians(10.0))
+    t_run = c.setpoint["run_in_t0_s"]
+    assert c.setpoint["t0_s"] >= t_run + starts[-1] + m.RUN_IN_HOLD_S
+    assert c.duration_s - c.setpoint["t0_s"] == pytest.approx(c0.duration_s - c0.setpoint["t0_s"])
+    s, w = m._window(c)
+    assert s == pytest.approx(c.setpoint["t0_s"] - 0.1 + c.skip_s)
+    last = t_run + starts[-2]
+    for name, key in (("inertia_x2", "inertia_drift"), ("gravity_appears", "gravity_drift"),
+                      ("stiffness_m20", "stiffness_drift")):
+        p = m.scenario_plant(name, c, "reference")
+        assert last <= p[f"{key}.t_start_s"] and p[f"{key}.t_start_s"] + p[f"{key}.ramp_s"] < t_run + starts[-1]
+    p = m.scenario_plant("friction_warm_cold", c, "reference")
+    assert last <= p["friction_drift.t_start_s"]
+    back = p["friction_drift.t_start_s"] + p["friction_drift.ramp_s"] + p["friction_drift.hold_s"]
+    assert back == pytest.approx(s + 0.65 * w)
+    assert back + p["friction_drift.return_s"] <= s + w + 1e-9
+    # without the run-in the drifts stay in the measurement window
+    s0, w0 = m._window(c0)
+    assert m.scenario_plant("inertia_x2", c0, "reference")["inertia_drift.t_start_s"] == pytest.approx(s0 + 0.3 * w0)
+
+
+def test_run_in_gives_the_online_feed_an_estimate_of_both_directions() -> None:
+    """The run-in's normal motion lets the drive's estimator fit both directions before the
+    measurement, so the online feed-forward measures its own estimate, not the model given to
+    the drive: with a model 25 % low the fed levels move (above the model) and the reversal's
+    error differs from the fixed-model feed-forward's; the row reports the fits and the change."""
+    from hdservo import closedloop_cases as bl
+    m = _script()
+    case = m.with_run_in(next(c for c in m.cases(quick=True) if c.kind == "reversal"), True)
+    factors = {g: 1.0 for g in m.MODEL_GROUPS}
+    factors.update({"motor_levels": 0.75, "load_levels": 0.75})
+    model = m.perturbed_model("reference", factors)
+    r_on = bl.run_case(case, m.controller_table("online", "reference", model), "reference", 3)
+    r_fix = bl.run_case(case, m.controller_table("fixed", "reference", model), "reference", 3)
+    est = m.estimator_state(r_on.meta)
+    assert est is not None and m.estimator_state(r_fix.meta) is None
+    assert min(est["fits"]) > 0
+    assert est["change"]["fc_pos"] > 0.1 and est["change"]["fs_neg"] > 0.0
+    assert np.max(np.abs(bl.error_arcsec(r_on) - bl.error_arcsec(r_fix))) > 1.0
+    summ = m.estimator_summary([{"scenario": "nominal", "controller": "online", "fric_est": est}], ["nominal"])
+    assert summ["nominal"]["runs_fitted"] == 1
+    assert summ["nominal"]["max_abs_change_median"] == pytest.approx(max(abs(v) for v in est["change"].values()))
+
+
+def test_study_gives_every_friction_feed_forward_the_motor_share() -> None:
+    """The model given to the drive carries the motor side's share of the friction, as
+    ``hdservo download`` writes it: the Stribeck levels and the online feed relay that share."""
+    from hdservo import compsetup as cs, sim
+    m = _script()
+    true = m.perturbed_model("reference", {g: 1.0 for g in m.MODEL_GROUPS})
+    n = sim.axis_param("gear.ratio")
+    fm = n * (sim.axis_param("friction_motor.fs_pos_Nm") + sim.axis_param("friction_motor.fs_neg_Nm"))
+    fl = sim.axis_param("friction_load.fs_pos_Nm") + sim.axis_param("friction_load.fs_neg_Nm")
+    share = true[cs.MOTOR_SHARE_KEY]
+    assert 0.5 < share < 1.0 and share == pytest.approx(fm / (fm + fl))
+    g = m.controller_table("online", "reference", true)["gains"]
+    assert g["fe_share"] == pytest.approx(share)
+    assert g["str_fs_pos"] == pytest.approx(share * (n * sim.axis_param("friction_motor.fs_pos_Nm")
+                                                     + sim.axis_param("friction_load.fs_pos_Nm")))
+    # a model with another motor/load split gives another share
+    other = m.perturbed_model("reference", {**{g: 1.0 for g in m.MODEL_GROUPS}, "load_levels": 1.3})
+    assert other[cs.MOTOR_SHARE_KEY] < share

@@ -10,11 +10,19 @@ the axis' PID design and ``FAIR_GAINS``):
   estimator (``fe_enable`` 1, ``fe_feed`` 1), started from the same model;
 * ``backstep`` -- adaptive backstepping, its initial parameters from the model.
 
-Scenarios (plant options of ``sim/plant``, docs/sim.md "Parameter drifts"), timed on
-each case's measurement window W (after the case's transient skip S):
+Run-in (default; ``--no-run-in`` leaves it out): every case starts with two cycles of the
+normal motion profile of the online identification (:func:`run_in_legs`), the same for every
+controller; the case's setpoint follows.  The drive's online estimator runs during normal
+motion: the first cycle fills its bins on the nominal axis, the drift happens at the start
+of the second, which runs on the drifted axis before the figure is measured.
+
+Scenarios (plant options of ``sim/plant``, docs/sim.md "Parameter drifts"), timed on a
+window W: with the run-in the first :data:`RUN_IN_DRIFT_SHARE` of its last cycle, without it
+each case's measurement window (after the case's transient skip S):
 
 * ``nominal`` -- the axis file as is;
-* ``friction_warm_cold`` -- friction x1.5 over 0.05-0.35 W, held, back to x1 over 0.65-0.95 W;
+* ``friction_warm_cold`` -- friction x1.5 over 0.05-0.35 W, held, back to x1 over 0.65-0.95 W
+  (with the run-in: back to x1 over 0.65-0.95 of the measurement window);
 * ``inertia_x2`` -- load inertia doubled in one step at 0.3 W;
 * ``gravity_appears`` -- an extra unbalance ramps in over 0.1-0.5 W; its size is the
   axis' output-side breakaway torque (motor static friction x ratio + load static friction);
@@ -37,7 +45,7 @@ wherever the fixed-model compensation loses its gain under a drift (retention < 
 adaptive variant keeps a gain >= 2 over the PID.
 
 Writes build/results/drift_mc.json and build/results/drift_mc_<axis>.png.
-Options: ``--runs N`` (default 50), ``--jobs N``, ``--quick`` (short cases),
+Options: ``--runs N`` (default 50), ``--jobs N``, ``--quick`` (short cases), ``--no-run-in``,
 ``--axis NAME``, ``--out DIR``, ``--controllers a,b``, ``--scenarios a,b`` (subsets),
 ``--checkpoint FILE`` (each finished run is appended to FILE as a JSON line; runs already
 in FILE for the same axis, seed and case set are not run again, so an interrupted study
@@ -66,6 +74,7 @@ from hdservo import closedloop_cases as bl  # noqa: E402
 from hdservo import compsetup as cs  # noqa: E402
 from hdservo import sim  # noqa: E402
 from hdservo.fileio import write_json_atomic  # noqa: E402
+from hdservo.ident import stribeck_online as so  # noqa: E402
 
 OUT = ROOT / "build" / "results"
 FORMAT = "hdservo-drift-mc"
@@ -88,6 +97,17 @@ TARGET_GAIN = 2.0
 MIN_NOMINAL_GAIN = 1.5
 #: The fixed-model compensation "loses" its gain under a drift when it keeps less than this share.
 LOSS_RETENTION = 0.9
+#: Run-in (default on): cycles of the normal motion profile before every case, the same
+#: for every controller; the drift happens at the start of the last cycle (:func:`with_run_in`).
+RUN_IN_DEFAULT = True
+#: Cycles of the normal motion profile in the run-in.
+RUN_IN_CYCLES = 2
+#: Acceleration of the run-in's moves, deg/s^2 (the normal profile's).
+RUN_IN_AMAX_DEG_S2 = 100.0
+#: Rest at the start position between the run-in's end and the case's setpoint, s.
+RUN_IN_HOLD_S = 1.0
+#: With a run-in, the drifts take place within this share of its last cycle, from its start.
+RUN_IN_DRIFT_SHARE = 0.1
 #: Model groups perturbed together: group -> keys of the axis model (SI).
 MODEL_GROUPS: dict[str, tuple[str, ...]] = {
     "motor_levels": ("friction_motor.fc_pos_Nm", "friction_motor.fc_neg_Nm", "friction_motor.fs_pos_Nm",
@@ -137,8 +157,74 @@ def cases(quick: bool = False) -> list[bl.Case]:
 
 def _window(case: bl.Case) -> tuple[float, float]:
     """Start and length of a case's measurement window, s (after its transient skip)."""
-    s = float(case.skip_s)
+    t0 = float(case.setpoint.get("t0_s", 0.1)) - 0.1      # 0 without a run-in
+    s = t0 + float(case.skip_s)
     return s, max(float(case.duration_s) - s, 1e-3)
+
+
+def run_in_legs(cycles: int = 2, v_min_deg_s: float = 0.01, v_max_deg_s: float = 10.0
+                ) -> tuple[list[float], list[float], list[float]]:
+    """The run-in: ``cycles`` cycles of the normal motion profile, then back to the start.
+
+    The profile is the online identification's (:func:`hdservo.ident.stribeck_online.normal_profile`):
+    10 log-spaced speeds from ``v_min`` to ``v_max``, a move each way per speed, each entered in
+    its own direction; a last move at ``v_max`` returns to the start so that the case's
+    setpoint begins where the run-in ends.
+
+    Returns
+    -------
+    (list of float, list of float, list of float)
+        Move end positions relative to the start (rad), cruise speeds (rad/s) and the start
+        time of each cycle after the run-in's start (s; trapezoid moves at
+        :data:`RUN_IN_AMAX_DEG_S2`, one after another), with the run-in's length last.
+    """
+    legs = so.normal_profile(v_min_deg_s, v_max_deg_s) * cycles
+    targets = [float(g.target_rad) for g in legs] + [0.0]
+    speeds = [float(g.v_rad_s) for g in legs] + [math.radians(v_max_deg_s)]
+    per = len(legs) // cycles
+    amax = math.radians(RUN_IN_AMAX_DEG_S2)
+    t, prev, starts = 0.0, 0.0, []
+    for i, (x, v) in enumerate(zip(targets, speeds)):
+        if i % per == 0 and len(starts) < cycles:
+            starts.append(t)
+        d = abs(x - prev)
+        ta = v / amax
+        t += 2.0 * math.sqrt(d / amax) if amax * ta * ta > d else 2.0 * ta + (d - amax * ta * ta) / v
+        prev = x
+    return targets, speeds, starts + [t]
+
+
+def with_run_in(case: bl.Case, run_in: bool) -> bl.Case:
+    """The case with the run-in before its setpoint (and the same setpoint, later), or as is.
+
+    The run-in (:func:`run_in_legs`, :data:`RUN_IN_CYCLES` cycles) starts at the case's t0
+    (0.1 s); the case's setpoint starts :data:`RUN_IN_HOLD_S` after its end (rounded up to
+    0.1 s), the case's duration after that and its skip are kept.
+    """
+    if not run_in:
+        return case
+    tg, sp, starts = run_in_legs(RUN_IN_CYCLES)
+    t_run = float(case.setpoint.get("t0_s", 0.1))
+    t0 = math.ceil((t_run + starts[-1] + RUN_IN_HOLD_S) * 10.0) / 10.0
+    setpoint = {**case.setpoint, "t0_s": t0, "run_in_targets_rad": tg, "run_in_speeds_rad_s": sp,
+                "run_in_accel_rad_s2": math.radians(RUN_IN_AMAX_DEG_S2), "run_in_t0_s": t_run}
+    return dataclasses.replace(case, setpoint=setpoint, duration_s=float(case.duration_s) + (t0 - t_run))
+
+
+def _drift_window(case: bl.Case) -> tuple[float, float]:
+    """Start and length of the window a drift is timed on, s.
+
+    Without a run-in the case's measurement window (the drift happens while the figure is
+    measured).  With one, the first :data:`RUN_IN_DRIFT_SHARE` of the run-in's last cycle:
+    the drive has run the profile on the nominal axis before (the estimator's bins are
+    established, as in a drive that has been in service), the drift happens, and the last
+    cycle runs on the drifted axis before the measurement.
+    """
+    if "run_in_t0_s" not in case.setpoint:
+        return _window(case)
+    _, _, starts = run_in_legs(RUN_IN_CYCLES)
+    t_run = float(case.setpoint["run_in_t0_s"])
+    return t_run + starts[-2], RUN_IN_DRIFT_SHARE * (starts[-1] - starts[-2])
 
 
 def breakaway_Nm(axis: str) -> float:
@@ -170,10 +256,17 @@ def scenario_plant(name: str, case: bl.Case, axis: str) -> dict[str, float | boo
     dict
         ``{"section.key": value}`` (SI); empty for ``nominal``.
     """
-    s, w = _window(case)
+    s, w = _drift_window(case)
     if name == "nominal":
         return {}
     if name == "friction_warm_cold":
+        if "run_in_t0_s" in case.setpoint:
+            # warm during the run-in, back to cold over 0.65-0.95 of the measurement window
+            ms, mw = _window(case)
+            t_warm = s + 0.35 * w
+            return {"friction_drift.enabled": True, "friction_drift.t_start_s": s + 0.05 * w,
+                    "friction_drift.ramp_s": 0.3 * w, "friction_drift.scale": 1.5,
+                    "friction_drift.hold_s": ms + 0.65 * mw - t_warm, "friction_drift.return_s": 0.3 * mw}
         return {"friction_drift.enabled": True, "friction_drift.t_start_s": s + 0.05 * w,
                 "friction_drift.ramp_s": 0.3 * w, "friction_drift.scale": 1.5,
                 "friction_drift.hold_s": 0.3 * w, "friction_drift.return_s": 0.3 * w}
@@ -200,12 +293,24 @@ def model_factors(run: int, seed: int = 1) -> dict[str, float]:
 
 
 def perturbed_model(axis: str, factors: Mapping[str, float]) -> dict[str, float]:
-    """The model given to the drive: the axis' true values times the group factors (SI)."""
+    """The model given to the drive: the axis' true values times the group factors (SI).
+
+    With it the motor side's share of the total friction, as ``hdservo download`` writes it
+    (:func:`hdservo.download.motor_share`: motor breakaway x ratio / total breakaway, here
+    of the perturbed levels): the Stribeck levels and the online estimator's feed
+    (``fe_share``) relay that share, in every friction feed-forward of the study.
+    """
     spec = bl._axis_spec(axis)
     out: dict[str, float] = {}
     for g, keys in MODEL_GROUPS.items():
         for k in keys:
             out[k] = float(sim.axis_param(k, spec)) * float(factors[g])
+    n = float(sim.axis_param("gear.ratio", spec))
+    on = {sec: bool(sim.axis_param(f"{sec}.enabled", spec)) for sec in ("friction_motor", "friction_load")}
+    fsm = n * (out["friction_motor.fs_pos_Nm"] + out["friction_motor.fs_neg_Nm"]) if on["friction_motor"] else 0.0
+    fsl = (out["friction_load.fs_pos_Nm"] + out["friction_load.fs_neg_Nm"]) if on["friction_load"] else 0.0
+    if fsm > 0.0:
+        out[cs.MOTOR_SHARE_KEY] = min(1.0, fsm / (fsm + fsl))
     return out
 
 
@@ -256,18 +361,60 @@ def figures_of(figs: Mapping[str, Any]) -> dict[str, float | None]:
     return {k: (None if v is None or not math.isfinite(float(v)) else float(v)) for k, v in out.items()}
 
 
-def run_task(task: tuple[str, str, str, int, int, bool]) -> dict[str, Any]:
-    """One Monte Carlo sample: (axis, scenario, controller, run, seed, quick) -> figures row."""
-    axis, scen, ctl, run, seed, quick = task
+def estimator_state(meta: Mapping[str, Any]) -> dict[str, Any] | None:
+    """The online friction estimator when the measurement starts, from a run's sidecar.
+
+    Parameters
+    ----------
+    meta : mapping
+        :attr:`hdservo.sim.SimResult.meta` (its ``fric_est``: the model given to the drive,
+        the estimator at the end of the run-in and at the end of the run).
+
+    Returns
+    -------
+    dict or None
+        ``fits`` [pos, neg] (accepted fits), ``confidence`` [pos, neg], ``scale``, ``bias_Nm``
+        and ``change`` {``fc_pos``, ``fs_pos``, ``vs_pos``, ``fc_neg``, ...}: the fed estimate
+        relative to the model given to the drive (0: unchanged); None without the estimator.
+    """
+    fe = meta.get("fric_est")
+    if not fe:
+        return None
+    st = fe.get("run_in_end", fe["end"])
+    change = {}
+    for d in ("pos", "neg"):
+        for k, key in (("fc", "fc_Nm"), ("fs", "fs_Nm"), ("vs", "vs_rad_s")):
+            m = float(fe["model"][d][key])
+            change[f"{k}_{d}"] = float(st["estimate"][d][key]) / m - 1.0 if m > 0 else 0.0
+    return {"fits": [int(x) for x in st["fits"]], "confidence": [float(x) for x in st["confidence"]],
+            "scale": float(st["scale"]), "bias_Nm": float(st["bias_Nm"]), "change": change}
+
+
+def run_task(task: tuple[str, str, str, int, int, bool] | tuple[str, str, str, int, int, bool, bool]
+             ) -> dict[str, Any]:
+    """One Monte Carlo sample: (axis, scenario, controller, run, seed, quick[, run_in]) -> figures row.
+
+    With the online estimator the row also holds ``fric_est`` (:func:`estimator_state` of the
+    reversal case: the estimate the reversal peak is measured with).
+    """
+    axis, scen, ctl, run, seed, quick = task[:6]
+    run_in = bool(task[6]) if len(task) > 6 else False
     factors = model_factors(run, seed)
     table = controller_table(ctl, axis, perturbed_model(axis, factors))
     runs = []
-    for c in cases(quick):
+    est = None
+    for c0 in cases(quick):
+        c = with_run_in(c0, run_in)
         r = bl.run_case(c, table, axis, seed + run, params=scenario_plant(scen, c, axis) or None)
         runs.append(bl.analyse(c, r))
+        if c.kind == "reversal":
+            est = estimator_state(r.meta)
     figs = bl.collect(runs)
-    return {"scenario": scen, "controller": ctl, "run": run, "factors": factors,
-            "faults": int(figs["faults"]), **figures_of(figs)}
+    row = {"scenario": scen, "controller": ctl, "run": run, "factors": factors,
+           "faults": int(figs["faults"]), **figures_of(figs)}
+    if est is not None:
+        row["fric_est"] = est
+    return row
 
 
 # ------------------------------------------------------------------ statistics
@@ -348,6 +495,49 @@ def summarise(rows: Sequence[Mapping[str, Any]], controllers: Sequence[str],
     return {"stats": st, "gain": gain, "retention": ret, "target": target_all}
 
 
+def run_in_info(run_in: bool) -> dict[str, Any]:
+    """How the cases start: the run-in's rule, moves and length, and where the drifts happen."""
+    if not run_in:
+        return {"enabled": False, "drifts": "in each case's measurement window"}
+    tg, _, starts = run_in_legs(RUN_IN_CYCLES)
+    c = with_run_in(cases(False)[0], True)
+    t_run = float(c.setpoint["run_in_t0_s"])
+    return {"enabled": True, "rule": f"{RUN_IN_CYCLES} cycles of hdservo.ident.stribeck_online.normal_profile "
+                                     "(10 log-spaced speeds 0.01..10 deg/s, a move each way per speed, each "
+                                     "entered in its own direction), then back to the start; the same for every "
+                                     "controller and case",
+            "cycles": RUN_IN_CYCLES, "moves": len(tg), "start_s": t_run,
+            "cycle_start_s": [t_run + x for x in starts[:-1]], "end_s": t_run + starts[-1],
+            "measurement_setpoint_start_s": float(c.setpoint["t0_s"]),
+            "drifts": f"within the first {RUN_IN_DRIFT_SHARE:g} of the last cycle (friction_warm_cold: warm "
+                      "there, back to cold over 0.65-0.95 of the measurement window)"}
+
+
+def estimator_summary(rows: Sequence[Mapping[str, Any]], scenarios: Sequence[str]) -> dict[str, Any]:
+    """What the online estimator did before the reversal case's measurement, per scenario.
+
+    Returns
+    -------
+    dict
+        {scenario: ``runs``, ``runs_fitted`` (an accepted fit in both directions),
+        ``fits_median`` [pos, neg], ``max_abs_change_median`` (median over the runs of the
+        largest relative change of fc, fs, vs of the fed estimate against the model given to
+        the drive), ``scale_median``, ``bias_Nm_median``}; scenarios without online rows are left out.
+    """
+    out: dict[str, Any] = {}
+    for s in scenarios:
+        sel = [r["fric_est"] for r in rows if r["scenario"] == s and r.get("fric_est")]
+        if not sel:
+            continue
+        out[s] = {"runs": len(sel), "runs_fitted": sum(1 for e in sel if min(e["fits"]) > 0),
+                  "fits_median": [float(np.median([e["fits"][i] for e in sel])) for i in (0, 1)],
+                  "max_abs_change_median": float(np.median([max(abs(v) for v in e["change"].values())
+                                                            for e in sel])),
+                  "scale_median": float(np.median([e["scale"] for e in sel])),
+                  "bias_Nm_median": float(np.median([e["bias_Nm"] for e in sel]))}
+    return out
+
+
 # ------------------------------------------------------------------ plots
 
 def plot(res: Mapping[str, Any], axis: str, out: Path) -> list[Path]:
@@ -385,10 +575,11 @@ def plot(res: Mapping[str, Any], axis: str, out: Path) -> list[Path]:
 
 # ------------------------------------------------------------------ main
 
-def _task_key(task: tuple[str, str, str, int, int, bool]) -> str:
-    """Checkpoint key of a task: axis, scenario, controller, run, seed, quick."""
-    axis, scen, ctl, run_, seed, quick = task
-    return f"{axis}|{scen}|{ctl}|{run_}|{seed}|{int(quick)}"
+def _task_key(task: tuple[str, str, str, int, int, bool] | tuple[str, str, str, int, int, bool, bool]) -> str:
+    """Checkpoint key of a task: axis, scenario, controller, run, seed, quick (and ``run-in``)."""
+    axis, scen, ctl, run_, seed, quick = task[:6]
+    key = f"{axis}|{scen}|{ctl}|{run_}|{seed}|{int(quick)}"
+    return key + "|run-in" if len(task) > 6 and task[6] else key
 
 
 def load_checkpoint(path: Path | None) -> dict[str, dict[str, Any]]:
@@ -409,7 +600,7 @@ def load_checkpoint(path: Path | None) -> dict[str, dict[str, Any]]:
     return out
 
 
-def timed_task(task: tuple[str, str, str, int, int, bool]) -> dict[str, Any]:
+def timed_task(task: tuple[Any, ...]) -> dict[str, Any]:
     """:func:`run_task` with its own wall-clock time in the row (``run_time_s``, s), so that the time a
     run took travels with it through a checkpoint into the study that merges it."""
     t0 = time.perf_counter()
@@ -424,7 +615,7 @@ def time_of_runs(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     return {"run_time_s": float(sum(t)), "runs_timed": len(t), "runs_without_time": len(rows) - len(t)}
 
 
-def run_tasks(tasks: Sequence[tuple[str, str, str, int, int, bool]], jobs: int | None,
+def run_tasks(tasks: Sequence[tuple[Any, ...]], jobs: int | None,
               checkpoint: Path | None = None) -> list[dict[str, Any]]:
     """Rows of the tasks, in task order; those in ``checkpoint`` are taken from it, the others
     run (in parallel processes when ``jobs`` > 1) and are appended to it as they finish.  Each row
@@ -436,7 +627,7 @@ def run_tasks(tasks: Sequence[tuple[str, str, str, int, int, bool]], jobs: int |
         checkpoint.parent.mkdir(parents=True, exist_ok=True)
         fh = checkpoint.open("a")
 
-    def keep(t: tuple[str, str, str, int, int, bool], row: dict[str, Any]) -> None:
+    def keep(t: tuple[Any, ...], row: dict[str, Any]) -> None:
         done[_task_key(t)] = row
         if fh is not None:
             fh.write(json.dumps({"key": _task_key(t), "row": row}) + "\n")
@@ -461,10 +652,12 @@ def run_tasks(tasks: Sequence[tuple[str, str, str, int, int, bool]], jobs: int |
 
 def run(axis: str = "reference", runs: int = RUNS_DEFAULT, jobs: int | None = None, quick: bool = False,
         controllers: Sequence[str] = CONTROLLERS, scenarios: Sequence[str] = SCENARIOS, seed: int = 1,
-        out: Path = OUT, plots: bool = True, checkpoint: Path | None = None) -> dict[str, Any]:
+        out: Path = OUT, plots: bool = True, checkpoint: Path | None = None,
+        run_in: bool = RUN_IN_DEFAULT) -> dict[str, Any]:
     """Run the study and write ``out/drift_mc.json`` (and the plot); returns the JSON object.
 
     ``checkpoint``: a JSON-lines file of finished runs (:func:`run_tasks`), or None.
+    ``run_in``: every case starts with the run-in (:func:`with_run_in`), the drifts in it.
 
     Times (s): ``run_time_s`` is the study's: the sum of its runs' own times, whichever
     invocation ran them (a study merged from a checkpoint counts the runs it took from there);
@@ -472,7 +665,7 @@ def run(axis: str = "reference", runs: int = RUNS_DEFAULT, jobs: int | None = No
     outside the runs it made (the checkpoint, the statistics, the plots, the file).
     """
     t0 = time.perf_counter()
-    tasks = [(axis, s, c, r, seed, quick) for s in scenarios for c in controllers for r in range(runs)]
+    tasks = [(axis, s, c, r, seed, quick, run_in) for s in scenarios for c in controllers for r in range(runs)]
     t_runs = time.perf_counter()
     n_done = len(load_checkpoint(checkpoint).keys() & {_task_key(t) for t in tasks})
     rows = run_tasks(tasks, jobs, checkpoint)
@@ -481,8 +674,9 @@ def run(axis: str = "reference", runs: int = RUNS_DEFAULT, jobs: int | None = No
                            "runs_per_controller": runs, "model_error": MODEL_ERROR, "seed": seed,
                            "controllers": list(controllers), "scenarios": list(scenarios),
                            "figures": dict(FIGURES), "model_groups": {g: list(k) for g, k in MODEL_GROUPS.items()},
-                           "cases": [c.name for c in cases(quick)]}
+                           "cases": [c.name for c in cases(quick)], "run_in": run_in_info(run_in)}
     res.update(summarise(rows, controllers, scenarios))
+    res["estimator"] = estimator_summary(rows, scenarios)
     res["runs"] = rows
     out.mkdir(parents=True, exist_ok=True)
     res["plots"] = [p.name for p in plot(res, axis, out)] if plots else []
@@ -517,6 +711,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help=f"comma-separated scenarios (default all: {','.join(SCENARIOS)})")
     ap.add_argument("--checkpoint", type=Path, default=None,
                     help="JSON-lines file of finished runs: appended to, and runs in it are not run again")
+    ap.add_argument("--no-run-in", action="store_true",
+                    help="no run-in: each case starts its setpoint at once and the drift happens while it is measured")
     a = ap.parse_args(argv)
     if a.runs < 1:
         print(f"58_drift_monte_carlo: --runs: expected an integer >= 1, found {a.runs}", file=sys.stderr)
@@ -526,7 +722,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if ctls is None or scens is None:
         return 2
     res = run(a.axis, a.runs, a.jobs, a.quick, controllers=ctls, scenarios=scens, out=a.out,
-              checkpoint=a.checkpoint)
+              checkpoint=a.checkpoint, run_in=not a.no_run_in)
     for s in res["scenarios"]:
         for c in res["controllers"]:
             m = res["stats"][s][c]
