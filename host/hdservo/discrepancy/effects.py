@@ -31,6 +31,7 @@ import numpy as np
 import scipy.signal as sps
 
 from .regression import Column, Design, Fit, smooth_sign
+from .residuals import lost_motion
 
 
 @dataclass
@@ -481,6 +482,16 @@ class Backlash(Effect):
     def valid(self, fit: Fit, v: Variant) -> bool:
         K = _idx(fit, "K_Nm_per_rad")
         return K > 0 and (K + _idx(fit, "dk_gap_Nm_per_rad")) < 0.25 * K
+
+    def own_evidence(self, d: Design, fit: Fit, v: Variant) -> dict[str, float]:
+        """The lost-motion test at the torque reversals (:func:`hdservo.discrepancy.residuals.lost_motion`):
+        the motor's travel beyond the spring's while the transmitted torque reverses.
+
+        Reported with the candidate and not counted by the size rule: its spring part
+        needs the motor-side torque, and on the calibration logs the error of the fitted
+        motor inertia and friction there outweighs zones of a few output counts
+        (docs/discrepancy.md, "Lost motion at the torque reversals")."""
+        return lost_motion(d, fit.params())
 
     def params(self, fit: Fit, v: Variant) -> dict[str, Any]:
         K = _idx(fit, "K_Nm_per_rad")
