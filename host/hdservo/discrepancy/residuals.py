@@ -8,6 +8,8 @@
 * Spectra (Welch), order spectrum of a residual against an angle (bin means over one
   revolution, FFT -> amplitude per order), Ljung-Box whiteness test, effective sample
   count of a coloured residual.
+* The lost-motion test of a backlash at the reversals of the transmitted torque
+  (:func:`lost_motion`).
 """
 from __future__ import annotations
 
@@ -167,27 +169,30 @@ def lost_motion(d: "Design", params: dict[str, float]) -> dict[str, float]:
 
     At a reversal of the transmitted torque T a backlash of half gap b lets the motor
     travel through the zone, 2 b at the output, while the output stands still; a spring
-    alone twists by the change of T over its stiffness K.  For each passage of the
-    smoothed T from below -band to above +band (or back; band: :data:`LOST_MOTION_BAND`
-    of the 99th percentile of abs(T)) during which the motor keeps its direction (its
-    Coulomb friction then has one sign and T is defined), the excess
-    e = sgn(dT) (d phi - dT / K) is the twist change beyond the spring's, where
-    phi = theta_m/N - theta_l and T = N (tau - J_m a_m - Fv_m w_m - Fc_m sgn w_m) from the
-    fitted motor-side parameters.  A backlash gives e = 2 b at every reversal; the test is
-    the one-sided Student t test of mean(e) > 0 over the reversals.
+    alone twists by the change of T times its compliance.  The twist change is resolved
+    by the motor encoder times N even where the zone spans a few counts of the output
+    encoder.
 
-    The twist change is resolved by the motor encoder times N even where the zone spans a
-    few counts of the output encoder, but the spring's part depends on the fitted motor
-    inertia and friction: an error dT_err of the transmitted torque shifts e by
-    dT_err / K.
+    1. T = N (tau - J_m a_m - Fv_m w_m - Fc_m sgn w_m), each term smoothed over a quarter
+       period of the angle cutoff; a reversal is a passage of T from below -band to
+       above +band (or back; band: :data:`LOST_MOTION_BAND` of the 99th percentile of
+       abs(T)) during which the motor moves and keeps its direction (its Coulomb
+       friction then has one sign).
+    2. The spring's twist: phi = theta_m/N - theta_l regressed on a constant, N tau,
+       N a_m, N w_m, N sgn w_m and sgn T over the samples outside the band where the
+       motor moves.  T is then taken from that regression's inertia and friction and
+       steps 1-2 run once more.
+    3. Per reversal e = sgn(dT) (d phi - d phi_spring); a backlash gives e = 2 b.  The
+       test is the one-sided Student t test of mean(e) > 0.
 
     Parameters
     ----------
     d : Design
         The design (a two-encoder log).
     params : dict
-        Fitted parameters: ``K_Nm_per_rad`` (N.m/rad at the output), ``J_m_kgm2``,
-        ``Fv_motor_Nms_per_rad``, ``Fc_motor_Nm`` (motor side).
+        Fitted parameters: ``K_Nm_per_rad`` (N.m/rad at the output; the test needs a
+        spring, K > 0), ``J_m_kgm2`` (kg.m^2), ``Fv_motor_Nms_per_rad`` (N.m.s/rad),
+        ``Fc_motor_Nm`` (N.m): the first pass' transmitted torque.
 
     Returns
     -------
