@@ -17,7 +17,7 @@ plots show: the coordinate in :attr:`Effect.coordinate` reveals the effect.
 | cogging_torque | M,R | cos/sin(p theta_m), cos/sin(2p theta_m) | order p >= 5 |
 | nonlinear_stiffness | M | phi abs(phi)/N, phi^3/N, or a knee sat_b(phi)/N with K_in/K >= 0.25 | form, b |
 | hysteresis | M | stop operators S_D[phi]/N at 12 thresholds, 2-90 % of the twist span (Maxwell-slip) | - |
-| backlash | M | sat_b(phi)/N with K_in/K < 0.25 (soft/lost-motion zone) | b |
+| backlash | M | sat_b(phi)/N with K_in/K < 0.25 (soft/lost-motion zone); reports the lost-motion test | b |
 | gravity_unbalance | R | cos(theta_l)/N, sin(theta_l)/N | - |
 | unmodelled_compliance | R (rigid baseline) | (a_l - a_m/N)/N, coefficient J_l | - |
 | current_loop_lag | lhs | tau -> first-order lag of tau | T |
@@ -31,6 +31,7 @@ import numpy as np
 import scipy.signal as sps
 
 from .regression import Column, Design, Fit, smooth_sign
+from .residuals import lost_motion
 
 
 @dataclass
@@ -481,6 +482,17 @@ class Backlash(Effect):
     def valid(self, fit: Fit, v: Variant) -> bool:
         K = _idx(fit, "K_Nm_per_rad")
         return K > 0 and (K + _idx(fit, "dk_gap_Nm_per_rad")) < 0.25 * K
+
+    def own_evidence(self, d: Design, fit: Fit, v: Variant) -> dict[str, float]:
+        """The lost-motion test at the torque reversals (:func:`hdservo.discrepancy.residuals.lost_motion`):
+        the motor's travel beyond the spring's while the transmitted torque reverses.
+
+        Reported with the candidate and not counted by the size rule: on the calibration
+        logs it finds none of the zones of 1-4 output counts that the torque residuals
+        miss (too few reversals during which the motor keeps its direction) and finds a
+        lost motion on some nonlinear-stiffness logs (docs/discrepancy.md, "Lost motion
+        at the torque reversals")."""
+        return lost_motion(d, fit.params())
 
     def params(self, fit: Fit, v: Variant) -> dict[str, Any]:
         K = _idx(fit, "K_Nm_per_rad")

@@ -8,6 +8,8 @@
 * Spectra (Welch), order spectrum of a residual against an angle (bin means over one
   revolution, FFT -> amplitude per order), Ljung-Box whiteness test, effective sample
   count of a coloured residual.
+* The lost-motion test of a backlash at the reversals of the transmitted torque
+  (:func:`lost_motion`).
 """
 from __future__ import annotations
 
@@ -152,3 +154,109 @@ def spectrum(x: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
     """Welch amplitude spectral density of a residual (unit/sqrt(Hz)) at rate fs (Hz)."""
     f, p = sps.welch(x - np.mean(x), fs=fs, nperseg=min(len(x), 1024))
     return f, np.sqrt(p)
+
+
+
+#: Torque band of the lost-motion test, as a fraction of the 99th percentile of the
+#: transmitted torque: a reversal is the passage from below -band to above +band (or back).
+LOST_MOTION_BAND = 0.05
+#: Fewest usable reversals for the lost-motion test to report anything.
+LOST_MOTION_MIN_EVENTS = 5
+
+
+def lost_motion(d: "Design", params: dict[str, float]) -> dict[str, float]:
+    """Lost motion at the reversals of the transmitted torque, against the spring's travel.
+
+    At a reversal of the transmitted torque T a backlash of half gap b lets the motor
+    travel through the zone, 2 b at the output, while the output stands still; a spring
+    alone twists by the change of T times its compliance.  The twist change is resolved
+    by the motor encoder times N even where the zone spans a few counts of the output
+    encoder.
+
+    1. T = N (tau - J_m a_m - Fv_m w_m - Fc_m sgn w_m), each term smoothed over a quarter
+       period of the angle cutoff; a reversal is a passage of T from below -band to
+       above +band (or back; band: :data:`LOST_MOTION_BAND` of the 99th percentile of
+       abs(T)) during which the motor moves and keeps its direction (its Coulomb
+       friction then has one sign).
+    2. The spring's twist: phi = theta_m/N - theta_l regressed on a constant, N tau,
+       N a_m, N w_m, N sgn w_m and sgn T over the samples outside the band where the
+       motor moves.  T is then taken from that regression's inertia and friction and
+       steps 1-2 run once more.
+    3. Per reversal e = sgn(dT) (d phi - d phi_spring); a backlash gives e = 2 b.  The
+       test is the one-sided Student t test of mean(e) > 0.
+
+    Parameters
+    ----------
+    d : Design
+        The design (a two-encoder log).
+    params : dict
+        Fitted parameters: ``K_Nm_per_rad`` (N.m/rad at the output; the test needs a
+        spring, K > 0), ``J_m_kgm2`` (kg.m^2), ``Fv_motor_Nms_per_rad`` (N.m.s/rad),
+        ``Fc_motor_Nm`` (N.m): the first pass' transmitted torque.
+
+    Returns
+    -------
+    dict
+        ``lost_motion_half_gap_rad``: mean(e) / 2, rad at the output;
+        ``lost_motion_t``: its t statistic; ``lost_motion_p_value``: one-sided p of
+        mean(e) > 0; ``lost_motion_events``: the reversals used;
+        ``lost_motion_counts``: mean(e) in steps of the output encoder (the smallest
+        non-zero step of the raw output angle).  Empty without an output angle, without
+        a positive K, or with fewer than :data:`LOST_MOTION_MIN_EVENTS` reversals.
+    """
+    s = d.sig
+    K = float(params.get("K_Nm_per_rad", 0.0))
+    if s.th_l is None or s.raw_th_l is None or not K > 0:
+        return {}
+    N = s.ratio
+    eps = d.v_eps * N
+    moving = np.abs(s.w_m) > eps
+    # smooth over a quarter period of the angle filter's cutoff (the states' bandwidth)
+    w = max(1, int(round(0.25 / (s.fc_Hz * s.dt))))
+    A = np.column_stack([N * s.tau, N * s.a_m, N * s.w_m, N * np.sign(s.w_m)])
+    A = np.column_stack([np.convolve(a, np.ones(w) / w, mode="same") for a in A.T])
+    T = A @ np.array([1.0, -params.get("J_m_kgm2", 0.0), -params.get("Fv_motor_Nms_per_rad", 0.0),
+                      -params.get("Fc_motor_Nm", 0.0)])
+    phi = s.phi
+    spring = np.zeros_like(T)
+    for _ in range(2):
+        band = LOST_MOTION_BAND * float(np.percentile(np.abs(T), 99))
+        side = np.where(T >= band, 1, np.where(T <= -band, -1, 0))
+        # the twist the spring alone gives, phi regressed on the motor-side terms of T
+        # (the output's quantisation is then noise of the regressed variable and does
+        # not bias the coefficients as it biases the fitted K), with sgn(T) so that a
+        # lost motion does not enter them; T is then taken from that regression's
+        # inertia and friction (the second pass)
+        out = (side != 0) & moving
+        if int(out.sum()) < 10 or len(np.unique(side[out])) < 2:
+            return {}
+        X = np.column_stack([np.ones(int(out.sum())), A[out], np.sign(T[out])])
+        sc = np.sqrt(np.sum(X ** 2, axis=0))
+        sc[sc == 0] = 1.0
+        coef, *_ = np.linalg.lstsq(X / sc, phi[out], rcond=None)
+        coef = coef / sc
+        if not coef[1] > 0:
+            return {}
+        spring = A @ coef[1:5]
+        T = spring / coef[1]
+    idx = np.flatnonzero(side != 0)
+    ev = []
+    for i0, i1 in zip(idx[:-1].tolist(), idx[1:].tolist()):
+        if side[i0] == side[i1] or not (np.all(moving[i0:i1 + 1]) and abs(np.sum(np.sign(s.w_m[i0:i1 + 1])))
+                                        == i1 + 1 - i0):
+            continue
+        dT = float(T[i1] - T[i0])
+        ev.append(np.sign(dT) * (float(phi[i1] - phi[i0]) - float(spring[i1] - spring[i0])))
+    if len(ev) < LOST_MOTION_MIN_EVENTS:
+        return {}
+    e = np.asarray(ev)
+    sd = float(np.std(e, ddof=1))
+    if not sd > 0:
+        return {}
+    tstat = float(np.mean(e)) / sd * float(np.sqrt(len(e)))
+    steps = np.abs(np.diff(s.raw_th_l))
+    steps = steps[steps > 0]
+    q = float(np.min(steps)) if len(steps) else float("nan")
+    return {"lost_motion_half_gap_rad": float(np.mean(e)) / 2, "lost_motion_t": tstat,
+            "lost_motion_p_value": float(st.t.sf(tstat, len(e) - 1)), "lost_motion_events": float(len(e)),
+            "lost_motion_counts": float(np.mean(e)) / q if q > 0 else float("nan")}
