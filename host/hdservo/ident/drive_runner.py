@@ -701,6 +701,24 @@ class DriveRunner:
             meta["locked_output"] = "virtual rig (serve --rig): brake, gear torque + emulated sensor"
             return self._finish(design, parts, meta)
         parts = []
+        # segments that ask for a higher torque limit (the FRF on a high-friction gear) get it for
+        # this experiment only; the drive's own limit comes back afterwards
+        floor = max((float(s.get("torque_limit_Nm", 0.0)) for s in plan), default=0.0)
+        old_limit = float(self.drive.get_param("torque_limit")) if floor > 0 else 0.0
+        if floor > old_limit:
+            self._say(f"{design.kind}: drive torque limit {old_limit:.4g} -> {min(1000.0, floor):.4g} N.m "
+                      "for this experiment")
+            self.drive.set_param("torque_limit", min(1000.0, floor))
+        try:
+            self._velocity_plan(design, plan, parts)
+        finally:
+            if floor > old_limit:
+                self.drive.set_param("torque_limit", old_limit)
+        return self._finish(design, parts, meta)
+
+    def _velocity_plan(self, design: Any, plan: list[dict[str, Any]],
+                       parts: list[tuple[dict[str, np.ndarray], dict[str, Any]]]) -> None:
+        """Run the velocity-mode segments of ``plan`` (CSV), appending (columns, segment) to ``parts``."""
         self._enable("CYCLIC SYNCHRONOUS VELOCITY")
         try:
             self._advance(200)
@@ -726,7 +744,6 @@ class DriveRunner:
             self._advance(2000)
         finally:
             self._disable()
-        return self._finish(design, parts, meta)
 
     def _finish(self, design: Any, parts: list[tuple[dict[str, np.ndarray], dict[str, Any]]],
                 meta: dict[str, Any]) -> ex.ExperimentData:

@@ -154,7 +154,10 @@ class Pipeline:
 
     def frf(self) -> list[frfm.FRFResult]:
         if "frf" not in self.results:
-            d = self._get(ex.FRFExcitation())
+            # the multisine on top of the bias speed's friction: the drive's torque limit at least
+            # the gear's torque (--torque-max), as the locked experiments (ex.FRFExcitation)
+            tlim = 0.0 if "torque_limit" in self.settings.fixed_gains else self.settings.torque_max_Nm
+            d = self._get(ex.FRFExcitation(torque_limit_Nm=tlim))
             self.progress("fit: frequency response")
             self.results["frf"] = self._timed("frf", lambda: frfm.fit_frf(d))
             self._retune_from_frf()
