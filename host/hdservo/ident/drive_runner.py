@@ -356,6 +356,10 @@ class DriveRunner:
         """The drive's commissioned total inertia ``j_total`` (J_L + N^2 J_m), kg.m^2."""
         return float(self.drive.get_param("j_total"))
 
+    def torque_limit_Nm(self) -> float:
+        """The drive's torque limit ``torque_limit`` (output side), N.m."""
+        return float(self.drive.get_param("torque_limit"))
+
     def set_gains(self, gains: Mapping[str, float]) -> None:
         """Set drive gains for the following experiments; :meth:`close` restores the drive's own values."""
         for k, v in gains.items():
@@ -701,24 +705,6 @@ class DriveRunner:
             meta["locked_output"] = "virtual rig (serve --rig): brake, gear torque + emulated sensor"
             return self._finish(design, parts, meta)
         parts = []
-        # segments that ask for a higher torque limit (the FRF on a high-friction gear) get it for
-        # this experiment only; the drive's own limit comes back afterwards
-        floor = max((float(s.get("torque_limit_Nm", 0.0)) for s in plan), default=0.0)
-        old_limit = float(self.drive.get_param("torque_limit")) if floor > 0 else 0.0
-        if floor > old_limit:
-            self._say(f"{design.kind}: drive torque limit {old_limit:.4g} -> {min(1000.0, floor):.4g} N.m "
-                      "for this experiment")
-            self.drive.set_param("torque_limit", min(1000.0, floor))
-        try:
-            self._velocity_plan(design, plan, parts)
-        finally:
-            if floor > old_limit:
-                self.drive.set_param("torque_limit", old_limit)
-        return self._finish(design, parts, meta)
-
-    def _velocity_plan(self, design: Any, plan: list[dict[str, Any]],
-                       parts: list[tuple[dict[str, np.ndarray], dict[str, Any]]]) -> None:
-        """Run the velocity-mode segments of ``plan`` (CSV), appending (columns, segment) to ``parts``."""
         self._enable("CYCLIC SYNCHRONOUS VELOCITY")
         try:
             self._advance(200)
@@ -744,6 +730,7 @@ class DriveRunner:
             self._advance(2000)
         finally:
             self._disable()
+        return self._finish(design, parts, meta)
 
     def _finish(self, design: Any, parts: list[tuple[dict[str, np.ndarray], dict[str, Any]]],
                 meta: dict[str, Any]) -> ex.ExperimentData:

@@ -406,14 +406,6 @@ class FRFExcitation:
 
     The closed-loop FRF is G = S_ry / S_ru (r reference, u motor torque,
     y motor angle), unbiased by the feedback.  Run at each amplitude.
-
-    The multisine rides on the torque that holds the bias speed (the sliding friction of both
-    sides plus the unbalance): on a gear whose friction is a large share of the drive's torque
-    limit, the excitation's torque peaks reach the limit, the loop clamps (the FRF is no longer
-    that of a linear loop) and the drive trips on torque saturation.  Over CAN the segments
-    therefore run with the drive's ``torque_limit`` raised to at least ``torque_limit_Nm``
-    (the torque the gear takes, ``hdservo identify --torque-max``; 0 keeps the drive's own
-    limit) and the drive's own limit restored afterwards.
     """
 
     bias_rad_s: float = 0.08
@@ -422,16 +414,13 @@ class FRFExcitation:
     f1_Hz: float = 200.0
     lines: int = 200
     periods: int = 8
-    #: lowest drive torque limit during the segments, N.m output side (0: the drive's own)
-    torque_limit_Nm: float = 0.0
     kind: str = "frf"
 
     def plan(self, ratio: float) -> list[dict[str, Any]]:
         period = (self.lines - 1) / (self.f1_Hz - self.f0_Hz)
         return [{"mode": "velocity_multisine", "bias_rad_s": self.bias_rad_s, "amplitude_rad_s": a,
                  "f0_Hz": self.f0_Hz, "f1_Hz": self.f1_Hz, "lines": self.lines, "period_s": period,
-                 "settle_s": 1.0, "duration_s": 1.0 + self.periods * period,
-                 "torque_limit_Nm": self.torque_limit_Nm} for a in self.amplitudes_rad_s]
+                 "settle_s": 1.0, "duration_s": 1.0 + self.periods * period} for a in self.amplitudes_rad_s]
 
 
 EXPERIMENTS: dict[str, type] = {c.kind: c for c in (FrictionSweep, GravitySine, TERotation, LockedCycle,  # type: ignore[attr-defined]
@@ -531,6 +520,11 @@ class SimRunner:
         val = {k: float(self.params.get(k, sim.axis_param(k, ax))) for k in ("gear.ratio", "motor.jm_kgm2",
                                                                               "load.jl_kgm2")}
         return val["load.jl_kgm2"] + val["gear.ratio"] ** 2 * val["motor.jm_kgm2"]
+
+    def torque_limit_Nm(self) -> float:
+        """The simulated drive's torque limit (a gain set here, else the drive's default), N.m output side."""
+        from ..params_gen import BY_NAME
+        return float(self.gains.get("torque_limit", BY_NAME["torque_limit"].default))
 
     def set_gains(self, gains: Mapping[str, float]) -> None:
         """Drive gains for the following closed-loop experiments (by parameter name, table units)."""
