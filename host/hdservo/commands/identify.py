@@ -71,7 +71,8 @@ def register(p: argparse.ArgumentParser) -> None:
                    help="drive gain override for the closed-loop experiments (repeatable), e.g. vel_kp=27.5")
     p.add_argument("--gain", dest="set", action="append", help=argparse.SUPPRESS)   # older spelling
     p.add_argument("--torque-max", type=float, default=67.0, metavar="NM",
-                   help="stiffness-cycle amplitude, N.m output (>= 1.3 T2; default 67)")
+                   help="the gear's torque, N.m output (>= 1.3 T2; default 67): the stiffness-cycle "
+                   "amplitude and the lowest drive torque limit the experiments run with")
     p.add_argument("--rated-torque", type=float, metavar="NM", help="rated torque for lost motion (+-4 %%)")
     p.add_argument("-o", "--output", type=Path, metavar="MODEL.toml", help="write the identified model")
     p.add_argument("--json", type=Path, metavar="PATH", help="write the JSON report")

@@ -356,6 +356,10 @@ class DriveRunner:
         """The drive's commissioned total inertia ``j_total`` (J_L + N^2 J_m), kg.m^2."""
         return float(self.drive.get_param("j_total"))
 
+    def torque_limit_Nm(self) -> float:
+        """The drive's torque limit ``torque_limit`` (output side), N.m."""
+        return float(self.drive.get_param("torque_limit"))
+
     def set_gains(self, gains: Mapping[str, float]) -> None:
         """Set drive gains for the following experiments; :meth:`close` restores the drive's own values."""
         for k, v in gains.items():

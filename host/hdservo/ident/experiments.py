@@ -521,6 +521,11 @@ class SimRunner:
                                                                               "load.jl_kgm2")}
         return val["load.jl_kgm2"] + val["gear.ratio"] ** 2 * val["motor.jm_kgm2"]
 
+    def torque_limit_Nm(self) -> float:
+        """The simulated drive's torque limit (a gain set here, else the drive's default), N.m output side."""
+        from ..params_gen import BY_NAME
+        return float(self.gains.get("torque_limit", BY_NAME["torque_limit"].default))
+
     def set_gains(self, gains: Mapping[str, float]) -> None:
         """Drive gains for the following closed-loop experiments (by parameter name, table units)."""
         self.gains = {**dict(self.gains), **{k: float(v) for k, v in gains.items()}}

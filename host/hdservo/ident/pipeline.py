@@ -17,6 +17,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..errors import UserError
+from ..params_gen import BY_NAME
 from . import experiments as ex
 from . import friction as fr
 from . import frf as frfm
@@ -67,6 +68,7 @@ class Pipeline:
         if self.runner is None:
             raise UserError(f"no '{design.kind}' data given and no simulator/drive to run the experiment")
         if "tuning" not in self.results:
+            self._torque_limit_for_experiments()
             self._tune_commissioned()
         t0 = time.perf_counter()
         d = self.runner.run(design)
@@ -88,6 +90,36 @@ class Pipeline:
             self.progress(f"velocity loop for J = {j_kgm2:.4g} kg.m^2 ({source}): "
                           + ", ".join(f"{k} {v:.4g}" for k, v in g.items()))
         self.results.setdefault("tuning", []).append({"j_total_kgm2": j_kgm2, "source": source, "gains": g})
+
+    def _torque_limit_for_experiments(self) -> None:
+        """Before the first experiment: the drive's torque limit at least the gear's torque (``torque_max_Nm``).
+
+        The moving experiments hold the axis at speed against the sliding friction of both sides
+        plus the unbalance, and the FRF adds its multisine on top.  A drive commissioned with a
+        torque limit below what the gear needs (the default 60 N.m on a large gear with high
+        friction) clamps, and after ``torque_sat_time`` saturated periods trips on torque
+        saturation (fault 1).  The gear's torque the user gives (``--torque-max``, also the
+        stiffness cycle's amplitude) is the limit the identification runs with; the drive's own
+        limit comes back when the runner closes (:meth:`DriveRunner.close`).  A limit the user
+        fixes (``--set torque_limit=...``) stays; a runner that cannot read its limit (the
+        standard-objects path) keeps it.
+        """
+        rec: dict[str, Any] = {"gear_torque_Nm": float(self.settings.torque_max_Nm)}
+        self.results["torque_limit"] = rec
+        if "torque_limit" in self.settings.fixed_gains or not hasattr(self.runner, "torque_limit_Nm"):
+            rec["source"] = "the drive's own (fixed by the user or not settable)"
+            return
+        old = float(self.runner.torque_limit_Nm())
+        new = min(BY_NAME["torque_limit"].max, float(self.settings.torque_max_Nm))   # the parameter's range
+        rec["drive_Nm"] = old
+        rec["experiments_Nm"] = max(old, new)
+        if new > old:
+            self.runner.set_gains({"torque_limit": new})
+            rec["source"] = "raised to the gear's torque (--torque-max)"
+            self.progress(f"torque limit for the experiments: {new:.4g} N.m (the gear's torque, --torque-max; "
+                          f"the drive's own {old:.4g} N.m comes back at the end)")
+        else:
+            rec["source"] = "the drive's own (covers the gear's torque)"
 
     def _tune_commissioned(self) -> None:
         """Before the first experiment: the loop for the inertia the drive is commissioned with."""
@@ -265,6 +297,8 @@ def summary(results: dict[str, Any]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     if results.get("tuning"):
         out["velocity_loop_tuning"] = list(results["tuning"])
+    if results.get("torque_limit"):
+        out["experiment_torque_limit"] = dict(results["torque_limit"])
     for k in ("te", "gravity", "stribeck", "stiffness", "presliding", "lost_motion"):
         if k in results:
             out[k] = results[k].to_dict()
