@@ -175,8 +175,11 @@ typedef struct {
 #define HD_FE_OBS_SAMPLE 1u            /* flags: a steady sample ... */
 #define HD_FE_OBS_FIRST 2u             /* ... the first of its visit */
 #define HD_FE_OBS_FEED 4u              /* no step: the feed's step only (estimator off, feed ramping out) */
+#define HD_FE_OBS_ACTIVE 8u            /* the loops ran the step (the steadiness test applies) */
+#define HD_FE_OBS_GAP 16u              /* steps before it were not queued (lost or not observed) */
 typedef struct {
     int32_t  v;              /* v_ref, 2^-32 turn/s */
+    int32_t  v_meas;         /* measured velocity, 2^-32 turn/s */
     int32_t  tau;            /* torque applied, Q15.16 N.m */
     uint32_t flags;          /* HD_FE_OBS_* */
 } hd_fe_obs_t;
@@ -234,6 +237,8 @@ typedef struct {
     volatile uint32_t q_head;           /* observations queued (wraps; written by the observation) */
     volatile uint32_t q_tail;           /* steps worked (wraps; written by the background) */
     uint32_t q_drop;                    /* observations lost to a full queue (wraps) */
+    uint32_t q_gap;                     /* 1: a step not queued since the last observation queued
+                                         * (the control period's; the next entry carries it) */
     uint32_t in_step;                   /* 1 while the background works a step */
     volatile uint32_t busy;             /* 1 inside hd_fric_est_work (the control period then
                                          * leaves the background's state alone) */
@@ -271,10 +276,12 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
 void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
                       bool active);
 /** hd_fric_est_step split between the control period and the background.
- *  hd_fric_est_observe (the control period, every step): the low-passed velocity and the
- *  steadiness test only; the step goes into a queue of HD_FE_QLEN observations (a full queue
- *  loses it: q_drop).  It touches only the observation's own fields (v_lp, v_prev, steady_n,
- *  visit) and the queue's head.
+ *  hd_fric_est_observe (the control period, every step): the step's reference, measured
+ *  velocity, torque and activity go into a queue of HD_FE_QLEN observations (a full queue
+ *  loses it: q_drop); it touches only the queue's head and q_gap.  The background takes the
+ *  low-passed velocity and the steadiness test (v_lp, v_prev, steady_n, visit) with the
+ *  entry, in order; an entry after steps that were not queued (a full queue,
+ *  hd_fric_est_skip) starts with the steadiness forgotten, as after a step without the loops.
  *  hd_fric_est_work (the background, below the control period): one part of the oldest
  *  queued step per call (the step's count, its sample in 7 parts, then its pass of the fit:
  *  12 snapshot parts of one bin, 12 parts of the solution's sums of 2 bins + 4 of the
@@ -286,6 +293,12 @@ void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_re
 void hd_fric_est_observe(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
                          bool active);
 bool hd_fric_est_work(hd_fric_est_t *e, const hd_fric_est_cfg_t *c);
+/** A step not observed (an identification experiment, not normal motion): nothing queued,
+ *  the next observation's steadiness starts afresh (HD_FE_OBS_GAP). */
+static inline void hd_fric_est_skip(hd_fric_est_t *e)
+{
+    e->q_gap = 1u;
+}
 /** A feed-only entry for the background (the estimator off, its feed ramping out: the
  *  weight's step without an estimator step); a full queue loses it (q_drop). */
 void hd_fric_est_queue_feed(hd_fric_est_t *e);

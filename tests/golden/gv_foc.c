@@ -400,7 +400,12 @@ static int32_t isr_fe_sample_setup(hd_app_t *a)
     int32_t v, k;
     isr_fe_probe = *a;                       /* the measured period's reference and measured velocity */
     hd_app_step(&isr_fe_probe);
-    v = isr_fe_probe.cb.fe.v_prev;
+    {
+        /* the reference the period's observation queued (the steadiness test is the
+         * background's) */
+        const hd_fric_est_t *pe = &isr_fe_probe.cb.fe;
+        v = (pe->q_head != e->q_head) ? pe->q[(pe->q_head - 1u) % HD_FE_QLEN].v : 0;
+    }
     k = hd_fric_est_bin_of(c, v);
     if (v <= 0 || k < 0) {
         return 0;
