@@ -803,8 +803,8 @@ void hd_comp_bank_end(hd_comp_bank_t *b, int32_t t_applied)
     b->t_prev = t_applied;
 }
 
-void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_vel_out_t v_ref, hd_vel_out_t v_fb,
-                           int32_t tau, bool active)
+void hd_comp_bank_fric_est_rare(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_vel_out_t v_ref,
+                                hd_vel_out_t v_fb, int32_t tau, bool active)
 {
     uint32_t t;
     if (c->fe_on == 0u && !hd_fric_est_feeding(&b->fe)) {

@@ -251,8 +251,33 @@ void hd_comp_bank_end(hd_comp_bank_t *b, int32_t t_applied);
  *  whether the position loops ran; every fe_decim-th call queues one observation for the
  *  background and refreshes the fed Stribeck FF config (not while a background part is in
  *  progress: the estimate is whole between parts). */
-void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_vel_out_t v_ref, hd_vel_out_t v_fb,
-                           int32_t tau, bool active);
+void hd_comp_bank_fric_est_rare(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_vel_out_t v_ref,
+                                hd_vel_out_t v_fb, int32_t tau, bool active);
+static inline void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_vel_out_t v_ref,
+                                         hd_vel_out_t v_fb, int32_t tau, bool active)
+{
+    /* inline, the periods of a running estimator without a pending change: the observation's
+     * few stores or the fed config's copy share the bank's worst tick in every mode
+     * (docs/firmware.md); the rest (fe off, its feed ramping out, a parameter change,
+     * fe_decim 1) is hd_comp_bank_fric_est_rare */
+    const uint32_t t = b->fe_tick + 1u;
+    if (c->fe_on == 0u || b->fe_pend != 0u || c->fe_decim < 2u) {
+        hd_comp_bank_fric_est_rare(b, c, v_ref, v_fb, tau, active);
+        return;
+    }
+    if (t == 1u) {
+        b->fe_tick = t;
+        hd_fric_est_observe(&b->fe, &c->fe, v_ref, v_fb, tau, active);
+    } else if (t < c->fe_decim) {
+        b->fe_tick = t;
+    } else {
+        b->fe_tick = 0u;
+        if (!hd_fric_est_busy(&b->fe)) {
+            /* the background's fed config of its last entry (whole between its parts) */
+            b->fe_str = b->fe_next;
+        }
+    }
+}
 /** The background of the online identification: one part of the oldest queued step
  *  (hd_fric_est_work); true while work is left.  Call it below the control period (the
  *  port's main loop; the simulator after every period until false). */

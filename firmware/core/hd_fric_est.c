@@ -856,23 +856,16 @@ static void queue_push(hd_fric_est_t *e, int32_t v, int32_t v_meas, int32_t tau,
     hd_fe_obs_t *o;
     if ((uint32_t)(head - e->q_tail) >= HD_FE_QLEN) {
         e->q_drop++;
-        e->q_gap = 1u;
+        e->q_gap = HD_FE_OBS_GAP;
         return;
     }
     o = &e->q[head % HD_FE_QLEN];
     o->v = v;
     o->v_meas = v_meas;
     o->tau = tau;
-    o->flags = flags | ((e->q_gap != 0u) ? HD_FE_OBS_GAP : 0u);
+    o->flags = flags | e->q_gap;
     e->q_gap = 0u;
     e->q_head = head + 1u;                  /* after the entry: the background reads it whole */
-}
-
-void hd_fric_est_observe(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
-                         bool active)
-{
-    (void)c;        /* the steadiness test is the background's (classify): the period only queues */
-    queue_push(e, v_ref, v_meas, tau, active ? HD_FE_OBS_ACTIVE : 0u);
 }
 
 void hd_fric_est_queue_feed(hd_fric_est_t *e)

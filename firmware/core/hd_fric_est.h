@@ -237,8 +237,8 @@ typedef struct {
     volatile uint32_t q_head;           /* observations queued (wraps; written by the observation) */
     volatile uint32_t q_tail;           /* steps worked (wraps; written by the background) */
     uint32_t q_drop;                    /* observations lost to a full queue (wraps) */
-    uint32_t q_gap;                     /* 1: a step not queued since the last observation queued
-                                         * (the control period's; the next entry carries it) */
+    uint32_t q_gap;                     /* HD_FE_OBS_GAP: a step not queued since the last entry
+                                         * (0: none; the control period's, the next entry carries it) */
     uint32_t in_step;                   /* 1 while the background works a step */
     volatile uint32_t busy;             /* 1 inside hd_fric_est_work (the control period then
                                          * leaves the background's state alone) */
@@ -290,14 +290,33 @@ void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_re
  *  hd_fric_est_step, bit for bit.  busy is 1 inside a call: the control period changes the
  *  background's state (hd_fric_est_init, hd_fric_est_seed, the config the background uses)
  *  only while it is 0 (hd_comp_bank_fric_est). */
-void hd_fric_est_observe(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
-                         bool active);
+static inline void hd_fric_est_observe(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref,
+                                       int32_t v_meas, int32_t tau, bool active)
+{
+    /* inline: a few stores in the control period's worst tick (the steadiness test, config c,
+     * is the background's) */
+    const uint32_t head = e->q_head;
+    hd_fe_obs_t *o;
+    (void)c;
+    if ((uint32_t)(head - e->q_tail) >= HD_FE_QLEN) {
+        e->q_drop++;
+        e->q_gap = HD_FE_OBS_GAP;
+        return;
+    }
+    o = &e->q[head % HD_FE_QLEN];
+    o->v = v_ref;
+    o->v_meas = v_meas;
+    o->tau = tau;
+    o->flags = (active ? HD_FE_OBS_ACTIVE : 0u) | e->q_gap;
+    e->q_gap = 0u;
+    e->q_head = head + 1u;                  /* after the entry: the background reads it whole */
+}
 bool hd_fric_est_work(hd_fric_est_t *e, const hd_fric_est_cfg_t *c);
 /** A step not observed (an identification experiment, not normal motion): nothing queued,
  *  the next observation's steadiness starts afresh (HD_FE_OBS_GAP). */
 static inline void hd_fric_est_skip(hd_fric_est_t *e)
 {
-    e->q_gap = 1u;
+    e->q_gap = HD_FE_OBS_GAP;
 }
 /** A feed-only entry for the background (the estimator off, its feed ramping out: the
  *  weight's step without an estimator step); a full queue loses it (q_drop). */
