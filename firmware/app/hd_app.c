@@ -1112,8 +1112,11 @@ void hd_app_step(hd_app_t *a)
     if (a->fe_idle == 0u && a->mode == HD_MODE_EXCITATION) {
         hd_fric_est_skip(&a->cb.fe);
     } else if (a->fe_idle == 0u) {
-        hd_comp_bank_fric_est(&a->cb, &a->cb_cfg, p.vff_plain, a->tel.vel_out, p.cmd.enable ? p.t_cmd : 0,
-                              p.loops == HD_LOOPS_POS_VEL && p.cmd.enable != 0);
+        if (hd_comp_bank_fric_est_tick(&a->cb, &a->cb_cfg)) {
+            /* the step's observation (its inputs computed only in its period) */
+            hd_fric_est_observe(&a->cb.fe, &a->cb_cfg.fe, p.vff_plain, a->tel.vel_out, p.cmd.enable ? p.t_cmd : 0,
+                                p.loops == HD_LOOPS_POS_VEL && p.cmd.enable != 0);
+        }
         if (a->cb_cfg.fe_on == 0u) {
             a->fe_idle = fe_idle(&a->cb, &a->cb_cfg);      /* the feed ramped out? */
         }
