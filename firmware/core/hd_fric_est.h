@@ -108,9 +108,8 @@
  *   bin velocity                        : 2^-32 turn/s; r16 = |v| / vs_lo in Q16
  *   e (shape)                           : Q16 inside the fit (exp(-x) by hd_exp_neg_q16)
  *   fit velocity column                 : |v| / 2^HD_FE_U_SHIFT (2^-21 turn/s)
- * Cost: a step is its observation (the low-passed velocity, the steadiness test, the
- *   queue: hd_fric_est_observe, the control period's only share, about 80 Cortex-M4
- *   instructions), its sample (the bin update and the common mode: five approximate
+ * Cost: a step is its observation (a queue entry: hd_fric_est_observe, inline, the
+ *   control period's only share, a few stores), its steadiness test and sample (the bin update and the common mode: five approximate
  *   divisions) and a quarter of a fit candidate: 12 exp, or the 2x2 solution (two
  *   reciprocals), or the residual over 24 bins (+ the closing of a fit after the last
  *   one).  The sample and the pass run in the background (hd_fric_est_work) in parts of
