@@ -184,19 +184,44 @@ def totals_tolerances(text: str) -> tuple[float, ...]:
     return tuple(tol)
 
 
+def _with_estimator(b: Bench, name: str) -> dict[str, Any]:
+    """A mode's worst period with the online estimator on (``<mode>_fe_<kind>`` in the table).
+
+    Parameters
+    ----------
+    b : Bench
+        The bench JSON.
+    name : str
+        The table's kernel name, ``<mode>_fe_<kind>``.
+
+    Returns
+    -------
+    dict[str, Any]
+        ``isr_load.json`` ``with_online_estimator_modes[<mode>]`` (``with_online_estimator``
+        for the full-closed PTP period of a bench without the per-mode figures).
+    """
+    mode = name.split("_fe_<")[0]
+    modes = b["isr_load"].get("with_online_estimator_modes")
+    if modes is None and mode == "isr_worst_case":
+        return b["isr_load"]["with_online_estimator"]
+    if modes is None or modes.get(mode) is None:
+        raise FigureError(f"isr_load.json: no figure with the online estimator for {mode}")
+    return modes[mode]
+
+
 def totals(b: Bench, text: str) -> list[float]:
     """The Totals table: per row, the kernels named in its first cell and their counts (and load)."""
     out: list[float] = []
     for row in _table_rows(text, "### Totals"):
         names = re.findall(r"`([a-z0-9_<>]+)`", row[0][0].split("(")[0])
         for name in names:
-            if name.startswith("isr_worst_case_fe_<"):
-                out.append(float(b["isr_load"]["with_online_estimator"]["instructions"]))
+            if "_fe_<" in name:
+                out.append(float(_with_estimator(b, name)["instructions"]))
             else:
                 out.append(kernel(b, name))
         if len(row) > 2 and row[2][0]:
             name = names[0]
-            load = (b["isr_load"]["with_online_estimator"]["cpu_load"] if name.startswith("isr_worst_case_fe_<")
+            load = (_with_estimator(b, name)["cpu_load"] if "_fe_<" in name
                     else b["isr_load"]["modes"][name]["cpu_load"])
             out.append(100.0 * float(load))
     return out

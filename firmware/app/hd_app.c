@@ -1105,10 +1105,18 @@ void hd_app_step(hd_app_t *a)
     PHASE_MARK();
     phase_command(a, &p);
     PHASE_MARK();
-    /* slow slot: online Stribeck identification (steady reference velocity, torque applied) */
-    if (a->fe_idle == 0u) {
-        hd_comp_bank_fric_est(&a->cb, &a->cb_cfg, p.vff_plain, a->tel.vel_out, p.cmd.enable ? p.t_cmd : 0,
-                              p.loops == HD_LOOPS_POS_VEL && p.cmd.enable != 0);
+    /* slow slot: online Stribeck identification (steady reference velocity, torque applied);
+     * an excitation is an identification experiment, not the normal motion the estimator
+     * learns from: its steps are not observed, and its fed config and pending parameter
+     * changes wait for the end of the experiment */
+    if (a->fe_idle == 0u && a->mode == HD_MODE_EXCITATION) {
+        hd_fric_est_skip(&a->cb.fe);
+    } else if (a->fe_idle == 0u) {
+        if (hd_comp_bank_fric_est_tick(&a->cb, &a->cb_cfg)) {
+            /* the step's observation (its inputs computed only in its period) */
+            hd_fric_est_observe(&a->cb.fe, &a->cb_cfg.fe, p.vff_plain, a->tel.vel_out, p.cmd.enable ? p.t_cmd : 0,
+                                p.loops == HD_LOOPS_POS_VEL && p.cmd.enable != 0);
+        }
         if (a->cb_cfg.fe_on == 0u) {
             a->fe_idle = fe_idle(&a->cb, &a->cb_cfg);      /* the feed ramped out? */
         }

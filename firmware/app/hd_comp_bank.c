@@ -263,9 +263,18 @@ static void fe_reset(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
 #define FE_PEND_RESET 1u
 #define FE_PEND_SEED 2u
 #define FE_PEND_CFG 4u
+/* 1 when the control period's part is the inline one (hd_comp_bank_fric_est): the estimator
+ * on, nothing pending, fe_decim >= 2 (the observation and the fed config in periods of their
+ * own) */
+static void fe_fast_set(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    b->fe_fast = (c->fe_on != 0u && b->fe_pend == 0u && c->fe_decim >= 2u) ? 1u : 0u;
+}
+
 static void fe_sync(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
 {
     if (b->fe_pend == 0u || hd_fric_est_busy(&b->fe)) {
+        fe_fast_set(b, c);
         return;
     }
     if ((b->fe_pend & FE_PEND_RESET) != 0u) {
@@ -291,6 +300,7 @@ static void fe_sync(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     }
     hd_fric_est_set_feed(&b->fe, (c->fe_on & c->fe_feed) != 0u);
     b->fe_pend = 0u;
+    fe_fast_set(b, c);
 }
 
 void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
@@ -352,6 +362,7 @@ void hd_comp_bank_init(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
     b->fe_base_share = c->fe_share;
     b->fe_next = c->str;
     b->fe_pend = 0u;
+    fe_fast_set(b, c);
 }
 
 void hd_comp_bank_apply(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
@@ -803,35 +814,37 @@ void hd_comp_bank_end(hd_comp_bank_t *b, int32_t t_applied)
     b->t_prev = t_applied;
 }
 
-void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_vel_out_t v_ref, hd_vel_out_t v_fb,
-                           int32_t tau, bool active)
+bool hd_comp_bank_fric_est_rare(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
 {
     uint32_t t;
+    bool obs = false;
     if (c->fe_on == 0u && !hd_fric_est_feeding(&b->fe)) {
-        return;                 /* off and not ramping out: no cost, the bins keep their data */
+        b->fe_fast = 0u;
+        return false;           /* off and not ramping out: no cost, the bins keep their data */
     }
-    fe_sync(b, c);              /* a parameter change the background's part delayed */
+    fe_sync(b, c);              /* a parameter change the background's part delayed (fe_fast) */
     b->fe_tick++;
     t = b->fe_tick;
     /* the observation in the first period of the step, the fed FF config in its last
      * (fe_decim >= 2: each period carries one of them) */
     if (t == 1u || c->fe_decim == 1u) {
         if (c->fe_on != 0u) {
-            /* the observation only: the step's sample and fit are the background's
-             * (hd_comp_bank_fric_est_work) */
-            hd_fric_est_observe(&b->fe, &c->fe, v_ref, v_fb, tau, active);
+            /* the observation only (the caller's): the step's sample and fit are the
+             * background's (hd_comp_bank_fric_est_work) */
+            obs = true;
         } else {
             hd_fric_est_queue_feed(&b->fe);     /* off: the feed ramps out */
         }
     }
     if (t < c->fe_decim) {
-        return;
+        return obs;
     }
     b->fe_tick = 0u;
     if (!hd_fric_est_busy(&b->fe)) {
         /* the background's fed config of its last entry (whole between its parts) */
         b->fe_str = b->fe_next;
     }
+    return obs;
 }
 
 bool hd_comp_bank_fric_est_work(hd_comp_bank_t *b)

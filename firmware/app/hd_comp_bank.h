@@ -208,6 +208,8 @@ typedef struct {
     hd_stribeck_cfg_t fe_next;   /* the background's fed FF config (copied to fe_str between its parts) */
     uint32_t fe_pend;            /* estimator changes waiting for the background's part to end */
     uint32_t fe_tick;            /* periods since the last estimator step */
+    uint32_t fe_fast;            /* 1: the estimator's period is the inline one (fe on, nothing
+                                  * pending, fe_decim >= 2; hd_comp_bank_fric_est) */
     int32_t  fe_v_min;           /* binning of the bins in fe (a change empties them) */
     int32_t  fe_vs_lo;
     uint32_t tick;               /* schedule tick (hd_sched.h), counts the pre() calls */
@@ -251,8 +253,41 @@ void hd_comp_bank_end(hd_comp_bank_t *b, int32_t t_applied);
  *  whether the position loops ran; every fe_decim-th call queues one observation for the
  *  background and refreshes the fed Stribeck FF config (not while a background part is in
  *  progress: the estimate is whole between parts). */
-void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_vel_out_t v_ref, hd_vel_out_t v_fb,
-                           int32_t tau, bool active);
+bool hd_comp_bank_fric_est_rare(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c);
+/** The period's part of hd_comp_bank_fric_est without the observation: true when the
+ *  observation is due in this period (then hd_fric_est_observe on b->fe with c->fe).  Split
+ *  so that the caller computes the observation's inputs only in its period: inline, the
+ *  periods of a running estimator without a pending change (fe_fast) cost a counter and, in
+ *  the step's last period, the fed config's copy; the rest (fe off, its feed ramping out, a
+ *  parameter change, fe_decim 1) is hd_comp_bank_fric_est_rare. */
+static inline bool hd_comp_bank_fric_est_tick(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c)
+{
+    const uint32_t t = b->fe_tick + 1u;
+    if (b->fe_fast == 0u) {
+        return hd_comp_bank_fric_est_rare(b, c);
+    }
+    if (t == 1u) {
+        b->fe_tick = t;
+        return true;
+    }
+    if (t < c->fe_decim) {
+        b->fe_tick = t;
+        return false;
+    }
+    b->fe_tick = 0u;
+    if (!hd_fric_est_busy(&b->fe)) {
+        /* the background's fed config of its last entry (whole between its parts) */
+        b->fe_str = b->fe_next;
+    }
+    return false;
+}
+static inline void hd_comp_bank_fric_est(hd_comp_bank_t *b, const hd_comp_bank_cfg_t *c, hd_vel_out_t v_ref,
+                                         hd_vel_out_t v_fb, int32_t tau, bool active)
+{
+    if (hd_comp_bank_fric_est_tick(b, c)) {
+        hd_fric_est_observe(&b->fe, &c->fe, v_ref, v_fb, tau, active);
+    }
+}
 /** The background of the online identification: one part of the oldest queued step
  *  (hd_fric_est_work); true while work is left.  Call it below the control period (the
  *  port's main loop; the simulator after every period until false). */

@@ -191,12 +191,14 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
     e->vis_n0 = 0u;
     for (i = 0; i < HD_FE_QLEN; i++) {
         e->q[i].v = 0;
+        e->q[i].v_meas = 0;
         e->q[i].tau = 0;
         e->q[i].flags = 0u;
     }
     e->q_head = 0u;
     e->q_tail = 0u;
     e->q_drop = 0u;
+    e->q_gap = 0u;
     e->in_step = 0u;
     e->busy = 0u;
     e->smp_stage = 0u;
@@ -846,26 +848,46 @@ static bool fit_part(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
 }
 
 /* an entry for the background (hd_fric_est_work): a full queue loses it, counted */
-static void queue_push(hd_fric_est_t *e, int32_t v, int32_t tau, uint32_t flags)
+/* the control period's part of a step: the entry whole, then the head (the background reads
+ * only entries below the head) */
+static void queue_push(hd_fric_est_t *e, int32_t v, int32_t v_meas, int32_t tau, uint32_t flags)
 {
     const uint32_t head = e->q_head;
+    hd_fe_obs_t *o;
     if ((uint32_t)(head - e->q_tail) >= HD_FE_QLEN) {
         e->q_drop++;
+        e->q_gap = HD_FE_OBS_GAP;
         return;
     }
-    e->q[head % HD_FE_QLEN].v = v;
-    e->q[head % HD_FE_QLEN].tau = tau;
-    e->q[head % HD_FE_QLEN].flags = flags;
+    o = &e->q[head % HD_FE_QLEN];
+    o->v = v;
+    o->v_meas = v_meas;
+    o->tau = tau;
+    o->flags = flags | e->q_gap;
+    e->q_gap = 0u;
     e->q_head = head + 1u;                  /* after the entry: the background reads it whole */
 }
 
-void hd_fric_est_observe(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
-                         bool active)
+void hd_fric_est_queue_feed(hd_fric_est_t *e)
 {
+    queue_push(e, 0, 0, 0, HD_FE_OBS_FEED);
+}
+
+/* the step's low-passed velocity and steadiness test, in the order of the steps: whether its
+ * sample is taken (HD_FE_OBS_SAMPLE) and the first of its visit (HD_FE_OBS_FIRST) */
+static uint32_t classify(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, const hd_fe_obs_t *o)
+{
+    const int32_t v_ref = o->v;
     uint32_t flags = 0u;
+    if ((o->flags & HD_FE_OBS_GAP) != 0u) {
+        /* steps missing before it: a steady segment across them is not known to be one */
+        e->steady_n = 0u;
+        e->v_prev = 0;
+        e->visit = 0u;
+    }
     /* the measured velocity, low-passed (the observer's noise at slow rates) */
-    e->v_lp = hdf_sat32((int64_t)e->v_lp + hdf_asr64_rnd((int64_t)v_meas - (int64_t)e->v_lp, HD_FE_VLP_SHIFT));
-    if (!active) {
+    e->v_lp = hdf_sat32((int64_t)e->v_lp + hdf_asr64_rnd((int64_t)o->v_meas - (int64_t)e->v_lp, HD_FE_VLP_SHIFT));
+    if ((o->flags & HD_FE_OBS_ACTIVE) == 0u) {
         e->steady_n = 0u;
         e->v_prev = 0;
         e->visit = 0u;
@@ -889,26 +911,23 @@ void hd_fric_est_observe(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v
             e->visit = 0u;
         }
     }
-    queue_push(e, v_ref, tau, flags);
-}
-
-void hd_fric_est_queue_feed(hd_fric_est_t *e)
-{
-    queue_push(e, 0, 0, HD_FE_OBS_FEED);
+    return flags;
 }
 
 /* the next step of the queue: its count, its sample (the first part of the step's work),
  * then a quarter of a fit candidate */
-static void work_begin(hd_fric_est_t *e, const hd_fe_obs_t *o)
+static void work_begin(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, const hd_fe_obs_t *o)
 {
+    uint32_t flags;
     if ((o->flags & HD_FE_OBS_FEED) != 0u) {
         return;                             /* no step: done at once (the caller's feed only) */
     }
+    flags = classify(e, c, o);
     e->steps++;
-    if ((o->flags & HD_FE_OBS_SAMPLE) != 0u) {
+    if ((flags & HD_FE_OBS_SAMPLE) != 0u) {
         e->smp_v = o->v;
         e->smp_tau = o->tau;
-        e->smp_first = ((o->flags & HD_FE_OBS_FIRST) != 0u) ? 1u : 0u;
+        e->smp_first = ((flags & HD_FE_OBS_FIRST) != 0u) ? 1u : 0u;
         e->smp_stage = 1u;
     }
     e->fit_due = 1u;
@@ -924,7 +943,7 @@ bool hd_fric_est_work(hd_fric_est_t *e, const hd_fric_est_cfg_t *c)
             e->busy = 0u;
             return false;
         }
-        work_begin(e, &e->q[tail % HD_FE_QLEN]);
+        work_begin(e, c, &e->q[tail % HD_FE_QLEN]);
     }
     if (e->in_step == 0u) {
         e->q_tail = tail + 1u;              /* a feed-only entry */

@@ -108,9 +108,8 @@
  *   bin velocity                        : 2^-32 turn/s; r16 = |v| / vs_lo in Q16
  *   e (shape)                           : Q16 inside the fit (exp(-x) by hd_exp_neg_q16)
  *   fit velocity column                 : |v| / 2^HD_FE_U_SHIFT (2^-21 turn/s)
- * Cost: a step is its observation (the low-passed velocity, the steadiness test, the
- *   queue: hd_fric_est_observe, the control period's only share, about 80 Cortex-M4
- *   instructions), its sample (the bin update and the common mode: five approximate
+ * Cost: a step is its observation (a queue entry: hd_fric_est_observe, inline, the
+ *   control period's only share, a few stores), its steadiness test and sample (the bin update and the common mode: five approximate
  *   divisions) and a quarter of a fit candidate: 12 exp, or the 2x2 solution (two
  *   reciprocals), or the residual over 24 bins (+ the closing of a fit after the last
  *   one).  The sample and the pass run in the background (hd_fric_est_work) in parts of
@@ -175,8 +174,11 @@ typedef struct {
 #define HD_FE_OBS_SAMPLE 1u            /* flags: a steady sample ... */
 #define HD_FE_OBS_FIRST 2u             /* ... the first of its visit */
 #define HD_FE_OBS_FEED 4u              /* no step: the feed's step only (estimator off, feed ramping out) */
+#define HD_FE_OBS_ACTIVE 8u            /* the loops ran the step (the steadiness test applies) */
+#define HD_FE_OBS_GAP 16u              /* steps before it were not queued (lost or not observed) */
 typedef struct {
     int32_t  v;              /* v_ref, 2^-32 turn/s */
+    int32_t  v_meas;         /* measured velocity, 2^-32 turn/s */
     int32_t  tau;            /* torque applied, Q15.16 N.m */
     uint32_t flags;          /* HD_FE_OBS_* */
 } hd_fe_obs_t;
@@ -234,6 +236,8 @@ typedef struct {
     volatile uint32_t q_head;           /* observations queued (wraps; written by the observation) */
     volatile uint32_t q_tail;           /* steps worked (wraps; written by the background) */
     uint32_t q_drop;                    /* observations lost to a full queue (wraps) */
+    uint32_t q_gap;                     /* HD_FE_OBS_GAP: a step not queued since the last entry
+                                         * (0: none; the control period's, the next entry carries it) */
     uint32_t in_step;                   /* 1 while the background works a step */
     volatile uint32_t busy;             /* 1 inside hd_fric_est_work (the control period then
                                          * leaves the background's state alone) */
@@ -271,10 +275,12 @@ void hd_fric_est_init(hd_fric_est_t *e, const hd_stribeck_dir_t init[HD_FE_NDIR]
 void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
                       bool active);
 /** hd_fric_est_step split between the control period and the background.
- *  hd_fric_est_observe (the control period, every step): the low-passed velocity and the
- *  steadiness test only; the step goes into a queue of HD_FE_QLEN observations (a full queue
- *  loses it: q_drop).  It touches only the observation's own fields (v_lp, v_prev, steady_n,
- *  visit) and the queue's head.
+ *  hd_fric_est_observe (the control period, every step): the step's reference, measured
+ *  velocity, torque and activity go into a queue of HD_FE_QLEN observations (a full queue
+ *  loses it: q_drop); it touches only the queue's head and q_gap.  The background takes the
+ *  low-passed velocity and the steadiness test (v_lp, v_prev, steady_n, visit) with the
+ *  entry, in order; an entry after steps that were not queued (a full queue,
+ *  hd_fric_est_skip) starts with the steadiness forgotten, as after a step without the loops.
  *  hd_fric_est_work (the background, below the control period): one part of the oldest
  *  queued step per call (the step's count, its sample in 7 parts, then its pass of the fit:
  *  12 snapshot parts of one bin, 12 parts of the solution's sums of 2 bins + 4 of the
@@ -283,9 +289,34 @@ void hd_fric_est_step(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_re
  *  hd_fric_est_step, bit for bit.  busy is 1 inside a call: the control period changes the
  *  background's state (hd_fric_est_init, hd_fric_est_seed, the config the background uses)
  *  only while it is 0 (hd_comp_bank_fric_est). */
-void hd_fric_est_observe(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref, int32_t v_meas, int32_t tau,
-                         bool active);
+static inline void hd_fric_est_observe(hd_fric_est_t *e, const hd_fric_est_cfg_t *c, int32_t v_ref,
+                                       int32_t v_meas, int32_t tau, bool active)
+{
+    /* inline: a few stores in the control period's worst tick (the steadiness test, config c,
+     * is the background's) */
+    const uint32_t head = e->q_head;
+    hd_fe_obs_t *o;
+    (void)c;
+    if ((uint32_t)(head - e->q_tail) >= HD_FE_QLEN) {
+        e->q_drop++;
+        e->q_gap = HD_FE_OBS_GAP;
+        return;
+    }
+    o = &e->q[head % HD_FE_QLEN];
+    o->v = v_ref;
+    o->v_meas = v_meas;
+    o->tau = tau;
+    o->flags = (active ? HD_FE_OBS_ACTIVE : 0u) | e->q_gap;
+    e->q_gap = 0u;
+    e->q_head = head + 1u;                  /* after the entry: the background reads it whole */
+}
 bool hd_fric_est_work(hd_fric_est_t *e, const hd_fric_est_cfg_t *c);
+/** A step not observed (an identification experiment, not normal motion): nothing queued,
+ *  the next observation's steadiness starts afresh (HD_FE_OBS_GAP). */
+static inline void hd_fric_est_skip(hd_fric_est_t *e)
+{
+    e->q_gap = HD_FE_OBS_GAP;
+}
 /** A feed-only entry for the background (the estimator off, its feed ramping out: the
  *  weight's step without an estimator step); a full queue loses it (q_drop). */
 void hd_fric_est_queue_feed(hd_fric_est_t *e);

@@ -596,6 +596,37 @@ static void test_app_excitation_capture(void **st)
     }
 }
 
+/* An excitation is an identification experiment, not the normal motion the online friction
+ * estimator learns from: with the estimator on, its periods queue no observation, and the
+ * first observation after it starts the steadiness afresh (HD_FE_OBS_GAP). */
+static void test_app_excitation_not_observed(void **st)
+{
+    (void)st;
+    hd_exc_cfg_t c;
+    uint32_t head;
+    assert_int_equal(hd_app_param_set(&app, HD_P_FE_ENABLE, 1), 0);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_POSITION), 0);
+    run(40);
+    head = app.cb.fe.q_head;
+    assert_true(head >= 3u);                                 /* holding: observed every step */
+    while (hd_app_background(&app)) {
+    }
+    memset(&c, 0, sizeof c);
+    c.kind = HD_EXC_PRBS;
+    c.amp = 1 << 10;
+    c.n = 7;
+    c.hold = 2;
+    c.seed = 1;
+    assert_int_equal(hd_app_set_excitation(&app, &c, HD_INJ_POS_REF), 0);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_EXCITATION), 0);
+    run(100);
+    assert_int_equal(app.cb.fe.q_head, head);                /* 10 steps, none observed */
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_POSITION), 0);
+    run(20);
+    assert_true(app.cb.fe.q_head > head);
+    assert_true((app.cb.fe.q[head % HD_FE_QLEN].flags & HD_FE_OBS_GAP) != 0u);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -607,6 +638,7 @@ int main(void)
         cmocka_unit_test_setup(test_app_rate_low_speed, setup),
         cmocka_unit_test_setup(test_app_faults, setup),
         cmocka_unit_test_setup(test_app_excitation_capture, setup),
+        cmocka_unit_test_setup(test_app_excitation_not_observed, setup),
         cmocka_unit_test_setup(test_app_stabilise, setup),
         cmocka_unit_test_setup(test_app_hunt_breaker, setup),
     };

@@ -611,6 +611,33 @@ static void test_full_queue_loses_the_newest(void **state)
     assert_false(hd_fric_est_busy(&est));
 }
 
+/* A step lost to a full queue breaks the steady segment: the step queued after it starts the
+ * steadiness afresh (its settle again), as after a step without the loops, never a sample
+ * across the gap. */
+static void test_lost_step_restarts_the_steadiness(void **state)
+{
+    const int32_t v = (int32_t)lround(0.4 * DEGS);
+    uint32_t k, s0;
+    (void)state;
+    for (k = 0; k < cfg.settle + 100u; k++) {       /* the low-passed velocity in, then settled */
+        hd_fric_est_step(&est, &cfg, v, v, steps_torque(0.4, k), true);
+    }
+    assert_true(est.samples > 0u);                   /* steady: sampling */
+    for (k = 0; k < HD_FE_QLEN + 1u; k++) {          /* the background away: one step lost */
+        hd_fric_est_observe(&est, &cfg, v, v, steps_torque(0.4, k), true);
+    }
+    assert_int_equal(est.q_drop, 1u);
+    while (hd_fric_est_work(&est, &cfg)) {
+    }
+    s0 = est.samples;
+    for (k = 0; k < cfg.settle; k++) {               /* after the gap: settling, no sample */
+        hd_fric_est_step(&est, &cfg, v, v, steps_torque(0.4, k), true);
+        assert_int_equal(est.samples, s0);
+    }
+    hd_fric_est_step(&est, &cfg, v, v, steps_torque(0.4, k), true);
+    assert_int_equal(est.samples, s0 + 1u);          /* settled again: sampling */
+}
+
 /* The close of a fit picks the candidate of the least residual of its sweep, the first of
  * equal ones (the residual parts keep it as they go): at every close, the scan of the
  * sweep's sums gives the same candidate. */
@@ -664,6 +691,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_parts_equal_step, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_background_in_any_rhythm_equals_step, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_full_queue_loses_the_newest, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_lost_step_restarts_the_steadiness, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_pick_is_the_least_residual, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_viscous_kept_through_a_ramp, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_viscous_kept_with_a_trend_in_each_move, setUp, tearDown),

@@ -39,6 +39,10 @@
  *                   last period with the estimate fed into the Stribeck FF, the weight
  *                   ramping (feed), and a period between them with a step queued for
  *                   the background (wait) (cost only).
+ *   isr_worst_case_exc_fe_<kind>, isr_worst_case_semi_t2_fe_<kind>  the excitation and the
+ *                   semi-closed (pr_t_src 2) periods with the online identification on, per
+ *                   tick: the observation (observe), with a sample (sample, semi-closed: the
+ *                   PTP move's reference is steady) and the feed's period (feed) (cost only).
  *   fe_background_step  the background's work of one step at its longest
  *                   (hd_app_background until false: the sample above, the last
  *                   candidate's residual and the close of a fit) (cost only).
@@ -396,7 +400,12 @@ static int32_t isr_fe_sample_setup(hd_app_t *a)
     int32_t v, k;
     isr_fe_probe = *a;                       /* the measured period's reference and measured velocity */
     hd_app_step(&isr_fe_probe);
-    v = isr_fe_probe.cb.fe.v_prev;
+    {
+        /* the reference the period's observation queued (the steadiness test is the
+         * background's) */
+        const hd_fric_est_t *pe = &isr_fe_probe.cb.fe;
+        v = (pe->q_head != e->q_head) ? pe->q[(pe->q_head - 1u) % HD_FE_QLEN].v : 0;
+    }
     k = hd_fric_est_bin_of(c, v);
     if (v <= 0 || k < 0) {
         return 0;
@@ -592,6 +601,49 @@ static void cost_fe_background_step(void)
     vol_out = isr_app.cb.fe.est[HD_FE_DIR_POS].fc;
 }
 static void cost_isr_fe_sample(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, FE_SAMPLE, false, false); }
+/* every mode with the online estimator on, per tick of the schedule (the observation and the
+ * feed's period land on every tick: fe_decim 10 against a cycle of 8): the excitation mode and
+ * the semi-closed period with pr_t_src 2 (the full-closed PTP period: the kernels above) */
+static void cost_isr_exc_fe_observe_s0(void) { cost_isr_en(ISR_ALL, 0u, FE_J31 + 3u, FE_OBSERVE, true, false); }
+static void cost_isr_exc_fe_observe_s1(void) { cost_isr_en(ISR_ALL, 1u, FE_J31 + 3u, FE_OBSERVE, true, false); }
+static void cost_isr_exc_fe_observe_s2(void) { cost_isr_en(ISR_ALL, 2u, FE_J31 + 3u, FE_OBSERVE, true, false); }
+static void cost_isr_exc_fe_observe_s3(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, FE_OBSERVE, true, false); }
+static void cost_isr_exc_fe_observe_s4(void) { cost_isr_en(ISR_ALL, 4u, FE_J31 + 3u, FE_OBSERVE, true, false); }
+static void cost_isr_exc_fe_observe_s5(void) { cost_isr_en(ISR_ALL, 5u, FE_J31 + 3u, FE_OBSERVE, true, false); }
+static void cost_isr_exc_fe_observe_s6(void) { cost_isr_en(ISR_ALL, 6u, FE_J31 + 3u, FE_OBSERVE, true, false); }
+static void cost_isr_exc_fe_observe_s7(void) { cost_isr_en(ISR_ALL, 7u, FE_J31 + 3u, FE_OBSERVE, true, false); }
+static void cost_isr_exc_fe_feed_s0(void) { cost_isr_en(ISR_ALL, 0u, FE_J31 + 3u, FE_FEED, true, false); }
+static void cost_isr_exc_fe_feed_s1(void) { cost_isr_en(ISR_ALL, 1u, FE_J31 + 3u, FE_FEED, true, false); }
+static void cost_isr_exc_fe_feed_s2(void) { cost_isr_en(ISR_ALL, 2u, FE_J31 + 3u, FE_FEED, true, false); }
+static void cost_isr_exc_fe_feed_s3(void) { cost_isr_en(ISR_ALL, 3u, FE_J31 + 3u, FE_FEED, true, false); }
+static void cost_isr_exc_fe_feed_s4(void) { cost_isr_en(ISR_ALL, 4u, FE_J31 + 3u, FE_FEED, true, false); }
+static void cost_isr_exc_fe_feed_s5(void) { cost_isr_en(ISR_ALL, 5u, FE_J31 + 3u, FE_FEED, true, false); }
+static void cost_isr_exc_fe_feed_s6(void) { cost_isr_en(ISR_ALL, 6u, FE_J31 + 3u, FE_FEED, true, false); }
+static void cost_isr_exc_fe_feed_s7(void) { cost_isr_en(ISR_ALL, 7u, FE_J31 + 3u, FE_FEED, true, false); }
+static void cost_isr_semi_t2_fe_observe_s0(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 0u, FE_J31 + 3u, FE_OBSERVE, false, true); }
+static void cost_isr_semi_t2_fe_observe_s1(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 1u, FE_J31 + 3u, FE_OBSERVE, false, true); }
+static void cost_isr_semi_t2_fe_observe_s2(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 2u, FE_J31 + 3u, FE_OBSERVE, false, true); }
+static void cost_isr_semi_t2_fe_observe_s3(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 3u, FE_J31 + 3u, FE_OBSERVE, false, true); }
+static void cost_isr_semi_t2_fe_observe_s4(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 4u, FE_J31 + 3u, FE_OBSERVE, false, true); }
+static void cost_isr_semi_t2_fe_observe_s5(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 5u, FE_J31 + 3u, FE_OBSERVE, false, true); }
+static void cost_isr_semi_t2_fe_observe_s6(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 6u, FE_J31 + 3u, FE_OBSERVE, false, true); }
+static void cost_isr_semi_t2_fe_observe_s7(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 7u, FE_J31 + 3u, FE_OBSERVE, false, true); }
+static void cost_isr_semi_t2_fe_feed_s0(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 0u, FE_J31 + 3u, FE_FEED, false, true); }
+static void cost_isr_semi_t2_fe_feed_s1(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 1u, FE_J31 + 3u, FE_FEED, false, true); }
+static void cost_isr_semi_t2_fe_feed_s2(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 2u, FE_J31 + 3u, FE_FEED, false, true); }
+static void cost_isr_semi_t2_fe_feed_s3(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 3u, FE_J31 + 3u, FE_FEED, false, true); }
+static void cost_isr_semi_t2_fe_feed_s4(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 4u, FE_J31 + 3u, FE_FEED, false, true); }
+static void cost_isr_semi_t2_fe_feed_s5(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 5u, FE_J31 + 3u, FE_FEED, false, true); }
+static void cost_isr_semi_t2_fe_feed_s6(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 6u, FE_J31 + 3u, FE_FEED, false, true); }
+static void cost_isr_semi_t2_fe_feed_s7(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 7u, FE_J31 + 3u, FE_FEED, false, true); }
+static void cost_isr_semi_t2_fe_sample_s0(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 0u, FE_J31 + 3u, FE_SAMPLE, false, true); }
+static void cost_isr_semi_t2_fe_sample_s1(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 1u, FE_J31 + 3u, FE_SAMPLE, false, true); }
+static void cost_isr_semi_t2_fe_sample_s2(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 2u, FE_J31 + 3u, FE_SAMPLE, false, true); }
+static void cost_isr_semi_t2_fe_sample_s3(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 3u, FE_J31 + 3u, FE_SAMPLE, false, true); }
+static void cost_isr_semi_t2_fe_sample_s4(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 4u, FE_J31 + 3u, FE_SAMPLE, false, true); }
+static void cost_isr_semi_t2_fe_sample_s5(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 5u, FE_J31 + 3u, FE_SAMPLE, false, true); }
+static void cost_isr_semi_t2_fe_sample_s6(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 6u, FE_J31 + 3u, FE_SAMPLE, false, true); }
+static void cost_isr_semi_t2_fe_sample_s7(void) { cost_isr_en(ISR_ALL | HD_CB_COMPLIANCE, 7u, FE_J31 + 3u, FE_SAMPLE, false, true); }
 static void cost_isr_fe_feed(void) { cost_isr_en(ISR_ALL, FE_PART_TICK, FE_J31 + 3u, FE_FEED, false, false); }
 static void cost_isr_fe_wait(void) { cost_isr_en(ISR_ALL, FE_PART_TICK, FE_J31 + 3u, FE_PART, false, false); }
 
@@ -636,6 +688,46 @@ const hd_gv_kernel_t hd_gv_foc_kernels[] = {
     {"isr_worst_case_fe_sample", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_sample},
     {"isr_worst_case_fe_feed", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_feed},
     {"isr_worst_case_fe_wait", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_fe_wait},
+    {"isr_worst_case_exc_fe_observe.s0", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_fe_observe_s0},
+    {"isr_worst_case_exc_fe_observe.s1", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_fe_observe_s1},
+    {"isr_worst_case_exc_fe_observe.s2", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_fe_observe_s2},
+    {"isr_worst_case_exc_fe_observe.s3", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_fe_observe_s3},
+    {"isr_worst_case_exc_fe_observe.s4", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_fe_observe_s4},
+    {"isr_worst_case_exc_fe_observe.s5", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_fe_observe_s5},
+    {"isr_worst_case_exc_fe_observe.s6", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_fe_observe_s6},
+    {"isr_worst_case_exc_fe_observe.s7", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_fe_observe_s7},
+    {"isr_worst_case_exc_fe_feed.s0", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_fe_feed_s0},
+    {"isr_worst_case_exc_fe_feed.s1", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_fe_feed_s1},
+    {"isr_worst_case_exc_fe_feed.s2", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_fe_feed_s2},
+    {"isr_worst_case_exc_fe_feed.s3", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_fe_feed_s3},
+    {"isr_worst_case_exc_fe_feed.s4", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_fe_feed_s4},
+    {"isr_worst_case_exc_fe_feed.s5", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_fe_feed_s5},
+    {"isr_worst_case_exc_fe_feed.s6", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_fe_feed_s6},
+    {"isr_worst_case_exc_fe_feed.s7", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_exc_fe_feed_s7},
+    {"isr_worst_case_semi_t2_fe_observe.s0", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_observe_s0},
+    {"isr_worst_case_semi_t2_fe_observe.s1", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_observe_s1},
+    {"isr_worst_case_semi_t2_fe_observe.s2", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_observe_s2},
+    {"isr_worst_case_semi_t2_fe_observe.s3", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_observe_s3},
+    {"isr_worst_case_semi_t2_fe_observe.s4", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_observe_s4},
+    {"isr_worst_case_semi_t2_fe_observe.s5", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_observe_s5},
+    {"isr_worst_case_semi_t2_fe_observe.s6", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_observe_s6},
+    {"isr_worst_case_semi_t2_fe_observe.s7", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_observe_s7},
+    {"isr_worst_case_semi_t2_fe_feed.s0", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_feed_s0},
+    {"isr_worst_case_semi_t2_fe_feed.s1", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_feed_s1},
+    {"isr_worst_case_semi_t2_fe_feed.s2", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_feed_s2},
+    {"isr_worst_case_semi_t2_fe_feed.s3", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_feed_s3},
+    {"isr_worst_case_semi_t2_fe_feed.s4", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_feed_s4},
+    {"isr_worst_case_semi_t2_fe_feed.s5", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_feed_s5},
+    {"isr_worst_case_semi_t2_fe_feed.s6", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_feed_s6},
+    {"isr_worst_case_semi_t2_fe_feed.s7", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_feed_s7},
+    {"isr_worst_case_semi_t2_fe_sample.s0", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_sample_s0},
+    {"isr_worst_case_semi_t2_fe_sample.s1", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_sample_s1},
+    {"isr_worst_case_semi_t2_fe_sample.s2", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_sample_s2},
+    {"isr_worst_case_semi_t2_fe_sample.s3", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_sample_s3},
+    {"isr_worst_case_semi_t2_fe_sample.s4", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_sample_s4},
+    {"isr_worst_case_semi_t2_fe_sample.s5", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_sample_s5},
+    {"isr_worst_case_semi_t2_fe_sample.s6", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_sample_s6},
+    {"isr_worst_case_semi_t2_fe_sample.s7", 1u, 3u, 4u, gen_enc, run_enc, cost_isr_semi_t2_fe_sample_s7},
     {"fe_background_step", 1u, 3u, 4u, gen_enc, run_enc, cost_fe_background_step},
 };
 const uint32_t hd_gv_foc_count = sizeof hd_gv_foc_kernels / sizeof hd_gv_foc_kernels[0];

@@ -190,6 +190,9 @@ def synthetic_bench(text: str, seed: int) -> dict[str, Any]:
     return {"cm4_cost": {"kernels": kernels}, "phase_cost": {"kernels": pk},
             "isr_load": {"modes": {n: {"cpu_load": float(rng.uniform(0.1, 0.4))} for n in names},
                          "with_online_estimator": {"instructions": ints(2500, 3000), "cpu_load": 0.2468},
+                         "with_online_estimator_modes": {
+                             m: {"instructions": ints(2500, 3000), "cpu_load": float(rng.uniform(0.2, 0.3))}
+                             for m in ("isr_worst_case", "isr_worst_case_exc", "isr_worst_case_semi_t2")},
                          "comp_bank_phase": worst,
                          "slack": {"10kHz": {"slack_cycles": ints(9000, 14000), "slack_us": float(rng.uniform(50, 90))},
                                    "20kHz": {"slack_cycles": ints(1000, 6000), "slack_us": float(rng.uniform(5, 35)),

@@ -72,13 +72,25 @@ def test_every_mode_against_the_target() -> None:
 
 def test_the_estimator_check_fails_above_the_target() -> None:
     m = _load()
-    ok, line = m.estimator_check(m.with_online_estimator({"isr_worst_case_fe_sample": {"instructions": 2992}}))
+    k = {"isr_worst_case_fe_sample": {"instructions": 2992},
+         "isr_worst_case_exc_fe_observe": {"instructions": 2950},
+         "isr_worst_case_exc_fe_observe.s3": {"instructions": 2950},
+         "isr_worst_case_semi_t2_fe_feed": {"instructions": 2900}}
+    fe = m.estimator_modes(k)
+    assert fe["isr_worst_case_exc"]["parts_instructions"] == {"observe": 2950}     # ticks folded, not parts
+    ok, line = m.estimator_check(fe)
     assert ok is True and "within" in line
-    ok, line = m.estimator_check(m.with_online_estimator({"isr_worst_case_fe_sample": {"instructions": 2993},
-                                                          "isr_worst_case_fe_sse": {"instructions": 2000}}))
-    assert ok is False and "FAILED" in line and "sample" in line
-    ok, line = m.estimator_check(None)
-    assert ok is False and "no isr_worst_case_fe_" in line
+    # one mode over the target fails the check, named
+    k["isr_worst_case_semi_t2_fe_observe"] = {"instructions": 2993}
+    ok, line = m.estimator_check(m.estimator_modes(k))
+    assert ok is False and "FAILED (isr_worst_case_semi_t2)" in line and "observe" in line
+    # a mode not measured fails
+    del k["isr_worst_case_exc_fe_observe"], k["isr_worst_case_exc_fe_observe.s3"]
+    k["isr_worst_case_semi_t2_fe_observe"] = {"instructions": 2000}
+    ok, line = m.estimator_check(m.estimator_modes(k))
+    assert ok is False and "no isr_worst_case_exc_fe_*" in line
+    ok, line = m.estimator_check(m.estimator_modes({}))
+    assert ok is False and "no isr_worst_case_fe_*" in line
 
 
 def test_the_background_load() -> None:
