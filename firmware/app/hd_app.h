@@ -163,15 +163,6 @@ typedef struct {
 } hd_telemetry_t;
 
 typedef struct {
-    /* parameters (raw, see hd_param_table.h) and their store */
-    int32_t  param[HD_PARAM_COUNT];
-    uint32_t pstore_seq;
-    int32_t  pstore_status;       /* hd_pstore_status_t of the last load */
-    /* the Preisach table's store (hd_table_store.h) */
-    uint32_t tstore_seq;
-    int32_t  tstore_status;       /* hd_tstore_status_t of the boot load */
-    uint32_t tstore_sync;         /* 1 if the NVM holds the table in force (or "none" and none) */
-
     /* derived controller configs (from param by hd_app_apply_params) */
     hd_pid_cfg_t pos_cfg, vel_cfg;
     hd_velobs_cfg_t obs_mot_cfg, obs_out_cfg;
@@ -241,6 +232,16 @@ typedef struct {
     uint32_t fe_idle;             /* 1: online Stribeck identification off and not feeding: its slow
                                    * slot is skipped (both set like cb_idle) */
     hd_comp_bank_cfg_t cb_cfg;
+    /* parameters (raw, see hd_param_table.h) and their store: behind the period's fields (the
+     * period reads the derived configs, not these), so a parameter added to the table moves
+     * none of them toward the end of the short load / store offsets */
+    int32_t  param[HD_PARAM_COUNT];
+    uint32_t pstore_seq;
+    int32_t  pstore_status;       /* hd_pstore_status_t of the last load */
+    /* the Preisach table's store (hd_table_store.h) */
+    uint32_t tstore_seq;
+    int32_t  tstore_status;       /* hd_tstore_status_t of the boot load */
+    uint32_t tstore_sync;         /* 1 if the NVM holds the table in force (or "none" and none) */
     hd_comp_bank_t cb;
 
     /* capture, last: its sample buffer (32 KiB) and the bank's Preisach table (at the end
