@@ -31,3 +31,12 @@ def test_two_effects_named_and_ordered_by_explained_variance(tmp_path: Path) -> 
     i = [e.name for e, _ in st_.added].index("nonlinear_stiffness")
     without = replace(st_, added=st_.added[:i] + st_.added[i + 1:]).solve()
     assert shares["nonlinear_stiffness"] == (without.rss_w - st_.fit.rss_w) / res.base_fit.rss_w
+    # the second name is judged against what the first left: its explained fractions are
+    # taken on the residuals of the model that already holds the first name, not on the
+    # baseline's (where the first effect would make up most of the drop)
+    ev = res.iterations[1]["evidence"]
+    before, after = res.snapshots[1], res.snapshots[2]
+    assert abs(ev["explained_fraction"] - (1 - after.rss_w / before.rss_w)) < 1e-9
+    assert ev["explained_fraction"] < 1 - after.rss_w / res.base_fit.rss_w - 0.05
+    sse = [float((s ** 2).sum()) for s in res.sims]
+    assert abs(ev["sim_explained_fraction"] - (1 - sse[2] / sse[1])) < 1e-9
