@@ -998,11 +998,12 @@ int32_t hd_fric_est_fed_scale(const hd_fric_est_t *e)
         return e->scale;
     }
     over = age - HD_FE_LEVEL_AGE;
-    if (over >= (1u << HD_FE_LEVEL_FADE_SHIFT)) {
+    if (over >= ((uint32_t)1u << HD_FE_LEVEL_FADE_SHIFT)) {
         return HD_FE_SCALE_ONE;
     }
-    /* linear over 2^HD_FE_LEVEL_FADE_SHIFT steps: a shift, no division; scale - 1 < 2^19 */
-    return e->scale - (int32_t)(((int64_t)(e->scale - HD_FE_SCALE_ONE) * (int64_t)over) >> HD_FE_LEVEL_FADE_SHIFT);
+    /* linear over 2^HD_FE_LEVEL_FADE_SHIFT steps: a shift, no division; scale - 1 < 2^19 and
+     * over < 2^12, so the product fits 31 bits */
+    return e->scale - (int32_t)(((uint32_t)(e->scale - HD_FE_SCALE_ONE) * over) >> HD_FE_LEVEL_FADE_SHIFT);
 }
 
 /* the published estimate of a direction at the fed scale (publish() with s for the scale; s <= the
