@@ -1004,17 +1004,62 @@ static void mix_dir(const hd_blend_t *w, const hd_stribeck_dir_t *base, const hd
     out->fv = hd_blend_mix(w, base->fv, est->fv);
 }
 
+int32_t hd_fric_est_fed_scale(const hd_fric_est_t *e)
+{
+    const uint32_t a_pos = e->steps - e->oth_t[HD_FE_DIR_POS];
+    const uint32_t a_neg = e->steps - e->oth_t[HD_FE_DIR_NEG];
+    const uint32_t age = (a_pos < a_neg) ? a_pos : a_neg;
+    uint32_t over;
+    /* a level below the bins' is fed as it is: under-compensation costs little at a reversal
+     * (the peak is flat below the friction level and steep above it, docs/compensators.md
+     * section 11); a raised level is the friction of its last established visit */
+    if (e->scale <= HD_FE_SCALE_ONE || age <= HD_FE_LEVEL_AGE) {
+        return e->scale;
+    }
+    over = age - HD_FE_LEVEL_AGE;
+    if (over >= ((uint32_t)1u << HD_FE_LEVEL_FADE_SHIFT)) {
+        return HD_FE_SCALE_ONE;
+    }
+    /* linear over 2^HD_FE_LEVEL_FADE_SHIFT steps: a shift, no division; scale - 1 < 2^19 and
+     * over < 2^12, so the product fits 31 bits */
+    return e->scale - (int32_t)(((uint32_t)(e->scale - HD_FE_SCALE_ONE) * over) >> HD_FE_LEVEL_FADE_SHIFT);
+}
+
+/* the published estimate of a direction at the fed scale (publish() with s for the scale; s <= the
+ * scale, so the levels stay within the bounds publish() gave them and fs >= fc holds) */
+static hd_stribeck_dir_t est_at_scale(const hd_fric_est_t *e, uint32_t d, int32_t s)
+{
+    hd_stribeck_dir_t r;
+    const hd_stribeck_dir_t *sh = &e->shape[d];
+    if (s == e->scale) {
+        return e->est[d];
+    }
+    /* below the published level: the bounds publish() applied (tau_max, fv_max) hold through
+     * the minimum with it */
+    r.fc = hdf_sat32(hdf_mul64x32_q((int64_t)sh->fc, s, 16u));
+    r.fc = (r.fc > e->est[d].fc) ? e->est[d].fc : r.fc;
+    r.fs = hdf_sat32(hdf_mul64x32_q((int64_t)sh->fs, s, 16u));
+    r.fs = (r.fs > e->est[d].fs) ? e->est[d].fs : r.fs;
+    r.fs = (r.fs < r.fc) ? r.fc : r.fs;
+    r.vs = sh->vs;
+    r.fv = hdf_sat32(hdf_mul64x32_q((int64_t)sh->fv, s, 16u));
+    r.fv = (r.fv > e->est[d].fv) ? e->est[d].fv : r.fv;
+    return r;
+}
+
 void hd_fric_est_feed_share(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, int32_t share,
                             hd_stribeck_cfg_t *out)
 {
     hd_stribeck_dir_t fed[HD_FE_NDIR];
+    int32_t s;
     uint32_t d;
     *out = *base;
     if (hd_blend_update(&e->feed) == 0) {
         return;
     }
+    s = hd_fric_est_fed_scale(e);
     for (d = 0u; d < (uint32_t)HD_FE_NDIR; d++) {
-        fed[d] = e->est[d];
+        fed[d] = est_at_scale(e, d, s);
         /* the torque turns from -g_neg to +g_pos at a reversal; the bins of a direction hold
          * g_d plus any direction-independent torque present while they filled (an unbalance,
          * + in one direction, - in the other): a fit of one direction with the model in the

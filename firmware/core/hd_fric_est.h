@@ -67,6 +67,14 @@
  *   refreshed at every sample once a fit of the direction was accepted.  A steady
  *   unbalance present from the start is in the bins (it looks like asymmetric friction);
  *   one that appears or changes goes to the bias, not to the friction levels.
+ *   Stale levels (the feed only, hd_fric_est_fed_scale): a scale above 1 is the friction of
+ *   the last established visit (a warm axis); while the axis only reverses or rests no visit
+ *   tells whether it stays there or cools back.  Past HD_FE_LEVEL_AGE steps without an
+ *   established visit of either direction the feed takes the scale linearly back to 1 (the
+ *   bins' level) over 2^HD_FE_LEVEL_FADE_SHIFT steps: a fed level above the axis' gives a
+ *   reversal peak worse than no compensation, one below it costs little (the peak is flat
+ *   there), so an unconfirmed raise is not kept.  The estimate stays; the next established
+ *   visit feeds it again.  A scale at or below 1 is fed as it is.
  *   Cost per sample of an established visit: three approximate divisions (div_approx,
  *   no 64-bit division), the normalisation of the visit's mean and its weight in the
  *   bin (two more).
@@ -140,6 +148,9 @@
 
 #define HD_FE_PAIR_AGE 4096u  /* the other direction's visit pairs with this one if not older, steps */
 #define HD_FE_KEEP_MIN 1024u  /* least memory of an established bin, samples (the shape moves slowly) */
+#define HD_FE_LEVEL_AGE HD_FE_PAIR_AGE /* a raised scale is fed in full this long after the last
+                                        * established visit, steps (the pairing's horizon) */
+#define HD_FE_LEVEL_FADE_SHIFT 12u    /* ... then falls to 1 over 2^12 steps (4.1 s at 1 kHz) */
 
 typedef enum {
     HD_FE_DIR_POS = 0,
@@ -347,6 +358,11 @@ void hd_fric_est_feed(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, hd_stribe
  *  directions have an accepted fit; until then the fed map is base. */
 void hd_fric_est_feed_share(hd_fric_est_t *e, const hd_stribeck_cfg_t *base, int32_t share,
                             hd_stribeck_cfg_t *out);
+/** The scale the feed uses (Q16): the common-mode scale while an established visit of either
+ *  direction is at most HD_FE_LEVEL_AGE steps old or the scale is at most 1; past that a scale
+ *  above 1 falls linearly to 1 over 2^HD_FE_LEVEL_FADE_SHIFT steps (the stale-level rule,
+ *  above).  The estimate itself (est, scale) is kept: the next established visit feeds it again. */
+int32_t hd_fric_est_fed_scale(const hd_fric_est_t *e);
 /** True while the feed weight is not 0. */
 static inline bool hd_fric_est_feeding(const hd_fric_est_t *e)
 {

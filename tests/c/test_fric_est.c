@@ -476,6 +476,106 @@ static void test_feed_is_bumpless(void **state)
     assert_false(hd_fric_est_feeding(&est));
 }
 
+/* A reversal sine (1 deg, 0.5 Hz) for n steps: never steady, so no sample; the feed steps along. */
+static void reversals(uint32_t n, const hd_stribeck_cfg_t *base, hd_stribeck_cfg_t *out, int32_t *fc_max_step)
+{
+    uint32_t k;
+    int32_t prev = out->pos.fc;
+    for (k = 0; k < n; k++) {
+        const double w = 2.0 * 3.14159265358979 * 0.5;
+        const int32_t v = (int32_t)lround(w * cos(w * (double)k / 1000.0) * DEGS);
+        hd_fric_est_step(&est, &cfg, v, v, 0, true);
+        hd_fric_est_feed(&est, base, out);
+        if (abs(out->pos.fc - prev) > *fc_max_step) {
+            *fc_max_step = abs(out->pos.fc - prev);
+        }
+        prev = out->pos.fc;
+    }
+}
+
+/* Stale levels: a raised scale (the axis warmed by 30 %) is fed while established visits
+ * confirm it; after HD_FE_LEVEL_AGE steps of reversals only (no steady sample) the feed takes it
+ * back to the bins' level, linearly over 2^HD_FE_LEVEL_FADE_SHIFT steps (bumpless); the estimate
+ * itself is kept, and the next steady move feeds the raised level again. */
+static void test_stale_raised_level_fades_to_the_bins(void **state)
+{
+    hd_stribeck_cfg_t base = {{NM(5), NM(8), (int32_t)DEGS, NM(100)}, {NM(5), NM(8), (int32_t)DEGS, NM(100)},
+                              2u, 0, 1 << 30, NM(100), 0u, 0};
+    hd_stribeck_cfg_t out;
+    hd_fric_est_t warm;
+    const uint32_t fade = 1u << HD_FE_LEVEL_FADE_SHIFT;
+    int32_t step_max = 0;
+    uint32_t r, n0;
+    (void)state;
+    cfg.n_forget = 200u;
+    profile(&REF, 500u, 1.0, 0.0);
+    profile(&REF, 100u, 1.0, 0.0);
+    for (r = 0; r < 6u; r++) {
+        profile(&REF, 500u, 1.3, 0.0);
+    }
+    assert_true(est.scale > (int32_t)(1.25 * HD_FE_SCALE_ONE));
+    hd_fric_est_set_feed(&est, true);
+    est.feed.w = 1 << 30;                       /* fed in full (the ramp is test_feed_is_bumpless') */
+    hd_fric_est_feed(&est, &base, &out);
+    warm = est;
+    /* fresh: the published (warm) estimate */
+    assert_memory_equal(&out.pos, &est.est[HD_FE_DIR_POS], sizeof out.pos);
+    assert_int_equal(hd_fric_est_fed_scale(&est), est.scale);
+    /* reversals up to the horizon: still the warm estimate */
+    n0 = est.samples;
+    reversals(HD_FE_LEVEL_AGE - 200u, &base, &out, &step_max);
+    assert_int_equal(est.samples, n0);
+    assert_memory_equal(&out.pos, &est.est[HD_FE_DIR_POS], sizeof out.pos);
+    /* half-way through the fade: between the bins' level and the warm one */
+    reversals(200u + fade / 2u, &base, &out, &step_max);
+    assert_true(out.pos.fc < est.est[HD_FE_DIR_POS].fc);
+    assert_true(out.pos.fc > est.shape[HD_FE_DIR_POS].fc);
+    /* after the fade: the bins' level (scale 1), the reference axis' friction; vs kept */
+    reversals(fade / 2u + 100u, &base, &out, &step_max);
+    assert_int_equal(est.samples, n0);
+    assert_int_equal(hd_fric_est_fed_scale(&est), HD_FE_SCALE_ONE);
+    print_message("# stale: fed fc %.3f (est %.3f, ref %.3f), largest step %.4f N.m\n", out.pos.fc / 65536.0,
+                  est.est[HD_FE_DIR_POS].fc / 65536.0, REF.fc, step_max / 65536.0);
+    assert_true(rel(out.pos.fc / 65536.0, REF.fc) < 0.03);
+    assert_true(rel(out.neg.fs / 65536.0, REF.fs) < 0.03);
+    assert_int_equal(out.pos.vs, est.est[HD_FE_DIR_POS].vs);
+    /* bumpless: no step larger than the fade's slope (0.3 fc over 2^12 steps) */
+    assert_true(step_max <= (int32_t)(0.31 * REF.fc * 65536.0) / (int32_t)fade + 2);
+    /* the estimate itself is unchanged by the ageing */
+    assert_int_equal(est.scale, warm.scale);
+    assert_memory_equal(&est.est[HD_FE_DIR_POS], &warm.est[HD_FE_DIR_POS], sizeof est.est[0]);
+    /* a steady move of an established bin confirms the level: fed again */
+    leg(&REF, 1.0, 500u, 1.3, 0.0);
+    hd_fric_est_feed(&est, &base, &out);
+    assert_memory_equal(&out.pos, &est.est[HD_FE_DIR_POS], sizeof out.pos);
+    assert_true(rel(out.pos.fc / 65536.0, 1.3 * REF.fc) < 0.03);
+}
+
+/* A lowered scale (the axis cooled below the bins' level) is fed as it is, however stale. */
+static void test_stale_lowered_level_is_kept(void **state)
+{
+    hd_stribeck_cfg_t base = {{NM(5), NM(8), (int32_t)DEGS, NM(100)}, {NM(5), NM(8), (int32_t)DEGS, NM(100)},
+                              2u, 0, 1 << 30, NM(100), 0u, 0};
+    hd_stribeck_cfg_t out;
+    int32_t step_max = 0;
+    uint32_t r;
+    (void)state;
+    cfg.n_forget = 200u;
+    profile(&REF, 500u, 1.0, 0.0);
+    profile(&REF, 100u, 1.0, 0.0);
+    for (r = 0; r < 6u; r++) {
+        profile(&REF, 500u, 0.8, 0.0);
+    }
+    assert_true(est.scale < (int32_t)(0.85 * HD_FE_SCALE_ONE));
+    hd_fric_est_set_feed(&est, true);
+    est.feed.w = 1 << 30;
+    hd_fric_est_feed(&est, &base, &out);
+    reversals(HD_FE_LEVEL_AGE + (2u << HD_FE_LEVEL_FADE_SHIFT), &base, &out, &step_max);
+    assert_int_equal(hd_fric_est_fed_scale(&est), est.scale);
+    assert_memory_equal(&out.pos, &est.est[HD_FE_DIR_POS], sizeof out.pos);
+    assert_true(rel(out.pos.fc / 65536.0, 0.8 * REF.fc) < 0.03);
+}
+
 /* bins: half octaves from v_min, none below it or above the top */
 static void test_bins(void **state)
 {
@@ -687,6 +787,8 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_creeping_reference_changes_the_visited_bin, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_estimate_bounded, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_feed_is_bumpless, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_stale_raised_level_fades_to_the_bins, setUp, tearDown),
+        cmocka_unit_test_setup_teardown(test_stale_lowered_level_is_kept, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_bins, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_parts_equal_step, setUp, tearDown),
         cmocka_unit_test_setup_teardown(test_background_in_any_rhythm_equals_step, setUp, tearDown),

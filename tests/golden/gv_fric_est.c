@@ -9,6 +9,7 @@
  * all exercised.  cost(): one step (a bin update and a quarter of a fit
  * candidate over 24 valid bins) in each pass: snapshot of half the bins
  * (fric_est_legs), the solution, the residual, and the step that closes a fit.
+ * fric_est_stale_feed: the feed's stale-level rule (hd_fric_est_fed_scale) and the fed map.
  */
 #include "gv.h"
 #include "hd_fixed.h"
@@ -150,10 +151,57 @@ static void cost_finish(void)
     hd_gv_cost_mark();
 }
 
+/* The feed's stale-level rule (hd_fric_est_fed_scale): one vector is an estimate (shape of both
+ * directions, common-mode scale 0.5 .. 3) whose last established visit is 0 .. 9000 steps old,
+ * fed in full with the share 0.944; out: the fed scale and the fed map. */
+static void gen_stale(uint32_t idx, hd_gv_rng_t *r, int32_t *in)
+{
+    (void)idx;
+    in[0] = hd_gv_rand_range(r, HD_FE_SCALE_ONE / 2, 3 * HD_FE_SCALE_ONE);
+    in[1] = hd_gv_rand_range(r, 0, 9000);
+    in[2] = hd_gv_rand_range(r, 0, NM(50));
+    in[3] = hd_gv_rand_range(r, 0, NM(20));
+    in[4] = hd_gv_rand_range(r, 0, NM(500));
+}
+
+static void run_stale(const int32_t *in, int32_t *out, uint32_t count)
+{
+    static hd_fric_est_t e;
+    hd_stribeck_cfg_t fed;
+    uint32_t k;
+    uint32_t d;
+    for (k = 0; k < count; k++) {
+        const int32_t sc = in[5u * k], fc = in[5u * k + 2u], fs = hdf_add_sat(fc, in[5u * k + 3u]);
+        const hd_stribeck_dir_t init[HD_FE_NDIR] = {{fc, fs, DEGS, in[5u * k + 4u]}, {fc, fs, DEGS / 2, in[5u * k + 4u]}};
+        hd_fric_est_init(&e, init, 0u, true);
+        e.scale = sc;
+        for (d = 0; d < HD_FE_NDIR; d++) {
+            /* the published estimate (shape x scale, bounded by tau_max 100 N.m, fv_max 3000) */
+            e.fits[d] = 1u;
+            e.est[d].fc = hdf_clamp32(hdf_sat32(hdf_mul64x32_q((int64_t)init[d].fc, sc, 16u)), 0, NM(100));
+            e.est[d].fs = hdf_clamp32(hdf_sat32(hdf_mul64x32_q((int64_t)init[d].fs, sc, 16u)), e.est[d].fc, NM(100));
+            e.est[d].fv = hdf_clamp32(hdf_sat32(hdf_mul64x32_q((int64_t)init[d].fv, sc, 16u)), 0, NM(3000));
+        }
+        e.steps = 100000u + hd_gv_s2u(in[5u * k + 1u]);
+        e.oth_t[HD_FE_DIR_POS] = 100000u;
+        e.oth_t[HD_FE_DIR_NEG] = 99950u;
+        hd_fric_est_feed_share(&e, &fe_map, 61866, &fed);          /* share 0.944 */
+        out[8u * k] = hd_fric_est_fed_scale(&e);
+        out[8u * k + 1u] = fed.pos.fc;
+        out[8u * k + 2u] = fed.pos.fs;
+        out[8u * k + 3u] = fed.pos.vs;
+        out[8u * k + 4u] = fed.pos.fv;
+        out[8u * k + 5u] = fed.neg.fc;
+        out[8u * k + 6u] = fed.neg.fs;
+        out[8u * k + 7u] = fed.neg.fv;
+    }
+}
+
 const hd_gv_kernel_t hd_gv_fric_est_kernels[] = {
     { "fric_est_legs", 3u, 12u, 48u, gen_leg, run_legs, cost_snapshot },
     { "fric_est_step_solve", 3u, 12u, 1u, gen_leg, run_legs, cost_solve },
     { "fric_est_step_sse", 3u, 12u, 1u, gen_leg, run_legs, cost_sse },
     { "fric_est_step_fit_finish", 3u, 12u, 1u, gen_leg, run_legs, cost_finish },
+    { "fric_est_stale_feed", 5u, 8u, 64u, gen_stale, run_stale, 0 },
 };
 const uint32_t hd_gv_fric_est_count = sizeof hd_gv_fric_est_kernels / sizeof hd_gv_fric_est_kernels[0];

@@ -330,3 +330,27 @@ def test_study_gives_every_friction_feed_forward_the_motor_share() -> None:
     # a model with another motor/load split gives another share
     other = m.perturbed_model("reference", {**{g: 1.0 for g in m.MODEL_GROUPS}, "load_levels": 1.3})
     assert other[cs.MOTOR_SHARE_KEY] < share
+
+
+def test_online_feed_does_not_keep_a_warm_level_while_the_axis_cools_and_only_reverses() -> None:
+    """``friction_warm_cold`` with the run-in: the estimator learns the warm friction (x1.5) in the
+    run-in, then the axis cools back during the reversal sine, which gives it no steady sample.
+    A raised level no steady visit has confirmed for HD_FE_LEVEL_AGE steps fades back to the bins'
+    level (hd_fric_est_fed_scale), so the online feed-forward's reversal peak stays below the fair
+    PID's and near the fixed model's (a feed that kept the warm levels over-compensates: about
+    1.6x the PID's peak for this model draw)."""
+    from hdservo import closedloop_cases as bl
+    m = _script()
+    case = m.with_run_in(next(c for c in m.cases(quick=False) if c.kind == "reversal"), True)
+    model = m.perturbed_model("reference", m.model_factors(0, 1))
+    plant = m.scenario_plant("friction_warm_cold", case, "reference")
+
+    def peak(ctl: str) -> float:
+        r = bl.run_case(case, m.controller_table(ctl, "reference", model), "reference", 1, params=plant)
+        v = m.figures_of(bl.collect([bl.analyse(case, r)]))["reversal_peak_arcsec"]
+        assert v is not None
+        return float(v)
+
+    online, fixed, pid = peak("online"), peak("fixed"), peak("pid")
+    assert online < 0.5 * pid
+    assert online < 1.25 * fixed
