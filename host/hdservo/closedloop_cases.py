@@ -199,6 +199,53 @@ def velocity_pi(j_total_kgm2: float, f_v_hz: float = 25.0) -> dict[str, float]:
     return {"vel_kp": kp, "vel_ki": min(kp * 2.0 * math.pi * f_v_hz / 4.0, BY_NAME["vel_ki"].max)}
 
 
+#: the gear's torque the drive of a comparison may command, as a multiple of the gear's catalogue
+#: torque T2 (``stiffness.t2_Nm``): the same figure ``hdservo identify --torque-max`` cycles the gear to
+GEAR_TORQUE_PER_T2 = 1.3
+
+
+def axis_torque_limit(ratio: float, kt_Nm_per_A: float, peak_current_A: float, t2_Nm: float) -> float:
+    """The drive's output torque limit ``torque_limit`` a comparison runs with on an axis, N.m.
+
+    One rule for every row of a comparison (the fair PID and every compensated row alike):
+    the peak torque the motor gives at the output, ``N Kt I_peak``, bounded by the gear's
+    torque ``1.3 T2`` (the stiffness cycle's amplitude of identification), and never below the
+    parameter's default (60 N.m, the limit the reference design runs with), nor above the
+    parameter's range.  A drive is commissioned for its axis: a large gear with high friction
+    needs more than the default to move, a small gear keeps the default, whose clamp its own
+    motor never reaches.
+
+    Parameters
+    ----------
+    ratio : float
+        Gear ratio N (> 0).
+    kt_Nm_per_A : float
+        Motor torque constant, N.m/A (> 0).
+    peak_current_A : float
+        Current loop's peak current, A (> 0).
+    t2_Nm : float
+        The gear's catalogue torque T2 (the second stiffness knee), N.m (> 0).
+
+    Returns
+    -------
+    float
+        ``torque_limit`` in N.m at the output.
+
+    Raises
+    ------
+    ValueError
+        A non-finite or non-positive input.
+    """
+    from .params_gen import BY_NAME
+    for name, v in (("gear ratio", ratio), ("motor kt", kt_Nm_per_A), ("peak current", peak_current_A),
+                    ("gear T2", t2_Nm)):
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"torque limit rule: {name} {v!r}: expected a finite number > 0")
+    p = BY_NAME["torque_limit"]
+    reach = min(ratio * kt_Nm_per_A * peak_current_A, GEAR_TORQUE_PER_T2 * t2_Nm)
+    return float(min(max(reach, p.default), p.max))
+
+
 def axis_controller(axis: str = "reference") -> dict[str, Any]:
     """The PID baseline ``[controller]`` table for an axis.
 
@@ -207,7 +254,10 @@ def axis_controller(axis: str = "reference") -> dict[str, Any]:
     rules applied to its own axis file (velocity PI at 25 Hz, :func:`velocity_pi`:
     ``kp = J_tot 2 pi 25``, ``ki = kp 2 pi 25 / 4`` within the drive's range; position P at 6 Hz as the
     defaults; notch at the coupled resonance ``sqrt(K1 (J1 + J2) / (J1 J2))``,
-    40 Hz wide, -20 dB) -- nothing is tuned by hand for either axis.
+    40 Hz wide, -20 dB; drive torque limit by :func:`axis_torque_limit` from the axis' motor
+    and gear) -- nothing is tuned by hand for either axis.  The reference axis' defaults
+    include its torque limit, 60 N.m (the rule would give 1.3 T2 = 62.4 N.m, a clamp its
+    procedures never reach).
 
     Parameters
     ----------
@@ -224,7 +274,8 @@ def axis_controller(axis: str = "reference") -> dict[str, Any]:
     if spec == "reference":
         return {"mode": "position", "gains": "defaults", "compensators": []}
     p = {k: sim.axis_param(k, spec) for k in ("gear.ratio", "motor.jm_kgm2", "load.jl_kgm2",
-                                                "stiffness.k1_Nm_per_rad")}
+                                                "stiffness.k1_Nm_per_rad", "motor.kt_Nm_per_A",
+                                                "current_loop.peak_A", "stiffness.t2_Nm")}
     j1 = p["gear.ratio"] ** 2 * p["motor.jm_kgm2"]
     j2 = p["load.jl_kgm2"]
     jt = j1 + j2
@@ -233,6 +284,8 @@ def axis_controller(axis: str = "reference") -> dict[str, Any]:
     gains: dict[str, float] = velocity_pi(jt, 25.0)
     for k, r in filters.export_params("f1", raw).items():
         gains[k] = r / filters.Q30            # table unit of a Q2.30 coefficient: exact
+    gains["torque_limit"] = axis_torque_limit(p["gear.ratio"], p["motor.kt_Nm_per_A"], p["current_loop.peak_A"],
+                                              p["stiffness.t2_Nm"])
     return {"mode": "position", "gains": gains, "compensators": []}
 
 
@@ -887,6 +940,6 @@ def quick_cases() -> list[Case]:
 
 
 __all__ = ["ARCSEC_PER_RAD", "AXES", "Case", "CaseRun", "PTP_TARGETS_DEG", "TRACKING_SPEEDS_DEG_S", "analyse",
-           "axis_controller", "collect", "error_arcsec", "improvement", "move_end_s", "plot_axis", "ptp_final",
+           "axis_controller", "axis_torque_limit", "collect", "error_arcsec", "improvement", "move_end_s", "plot_axis", "ptp_final",
            "quick_cases", "reversal_figures", "rms_max", "run_case", "run_cases", "scenario_text",
            "standard_cases", "speed_key", "step_figures", "tracking_figures"]
