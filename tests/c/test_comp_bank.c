@@ -263,6 +263,19 @@ static void test_online_estimate_feeds_the_ff(void **st)
     assert_int_equal(out.tff, t_param);
 }
 
+/* The bank with the Stribeck FF and the online estimator on (a step every 10 periods,
+ * 2 steps to settle), configured from the defaults and initialised. */
+static void fe_bank_start(int32_t p[HD_PARAM_COUNT], hd_comp_bank_cfg_t *c, hd_comp_bank_t *b)
+{
+    hd_params_defaults(p);
+    p[HD_P_CB_ENABLE] = (int32_t)HD_CB_STRIBECK;
+    p[HD_P_FE_ENABLE] = 1;
+    p[HD_P_FE_DECIM] = 10;
+    p[HD_P_FE_SETTLE] = 2;
+    assert_int_equal(hd_comp_bank_config(c, p), 0);
+    hd_comp_bank_init(b, c);
+}
+
 /* The control period's share of the online identification is its observation: with the
  * estimator on and steady data, hd_comp_bank_fric_est alone (the control period) neither
  * samples nor fits (the sample's 7 parts and a fit pass's up to 16 are the background's,
@@ -276,13 +289,7 @@ static void test_fric_est_period_only_observes(void **st)
     static hd_comp_bank_t b;
     const int32_t v = 2 * 11930465;              /* 2 deg/s */
     uint32_t k;
-    hd_params_defaults(p);
-    p[HD_P_CB_ENABLE] = (int32_t)HD_CB_STRIBECK;
-    p[HD_P_FE_ENABLE] = 1;
-    p[HD_P_FE_DECIM] = 10;
-    p[HD_P_FE_SETTLE] = 2;
-    assert_int_equal(hd_comp_bank_config(&c, p), 0);
-    hd_comp_bank_init(&b, &c);
+    fe_bank_start(p, &c, &b);
     for (k = 0; k < 10u * 100u; k++) {
         hd_comp_bank_fric_est(&b, &c, v, v, 7 << 16, true);
     }
@@ -316,13 +323,7 @@ static void test_fric_est_change_waits_for_the_background(void **st)
     static hd_comp_bank_t b;
     const int32_t v = 2 * 11930465;
     uint32_t k;
-    hd_params_defaults(p);
-    p[HD_P_CB_ENABLE] = (int32_t)HD_CB_STRIBECK;
-    p[HD_P_FE_ENABLE] = 1;
-    p[HD_P_FE_DECIM] = 10;
-    p[HD_P_FE_SETTLE] = 2;
-    assert_int_equal(hd_comp_bank_config(&c, p), 0);
-    hd_comp_bank_init(&b, &c);
+    fe_bank_start(p, &c, &b);
     for (k = 0; k < 10u * 100u; k++) {
         hd_comp_bank_fric_est(&b, &c, v, v, 7 << 16, true);
         while (hd_comp_bank_fric_est_work(&b)) {
