@@ -164,3 +164,41 @@ def test_gyro_integration_and_pointing_error() -> None:
     pe = mt.pointing_error(ang)
     assert pe["rms_arcsec"] == pytest.approx(10 / math.sqrt(2), rel=0.02)
     assert pe["peak_arcsec"] == pytest.approx(10, rel=0.15)   # the straight-line removal tilts the sine
+
+
+def _stops(twist_up: np.ndarray, twist_dn: np.ndarray, motor: float = 2.0, te: tuple = (-3.0, 1.0)) -> dict:
+    """Synthetic rig stops (runs x 2 targets): a constant motor deviation, a TE per target, the twists given."""
+    def side(tw: np.ndarray) -> dict:
+        te_a = np.broadcast_to(np.asarray(te), tw.shape)
+        return {"motor_dev_arcsec": np.full(tw.shape, motor).tolist(), "te_arcsec": te_a.tolist(),
+                "twist_arcsec": tw.tolist(), "gear_torque_Nm": np.full(tw.shape, 6.0).tolist(),
+                "out_dev_arcsec": (motor + te_a - tw).tolist()}
+    return {"up": side(twist_up), "down": side(twist_dn)}
+
+
+def test_stop_error_parts_splits_the_output_deviation() -> None:
+    # twist 10" at the first target and 12" at the second; 1" more after an approach from below;
+    # the later runs repeat to 0.2" (run-to-run s = 0.2), the first run's upward stops 2" off
+    base = np.array([10.0, 12.0])
+    jit = np.array([0.0, 0.2, -0.2, 0.0])[:, None]
+    up = base + 1.0 + jit
+    up[0] -= 2.0
+    dn = base + jit
+    r = mt.stop_error_parts(_stops(up, dn))
+    assert r["sum_check_arcsec"] < 1e-12
+    tw = r["parts"]["minus_twist_arcsec"]
+    assert tw["direction"] == pytest.approx(abs(up.mean(0) - dn.mean(0)).max())
+    assert tw["first_run"] == pytest.approx(2.0)
+    assert tw["systematic"] == pytest.approx(max(up.mean(0).max(), dn.mean(0).max())
+                                             - min(up.mean(0).min(), dn.mean(0).min()))
+    assert tw["scatter"] == pytest.approx(np.std(up[:, 0], ddof=1))
+    # TE differs between the targets only: systematic, never direction, scatter or first run
+    te = r["parts"]["te_arcsec"]
+    assert te["systematic"] == pytest.approx(4.0) and te["direction"] == 0.0 and te["scatter"] == 0.0
+    assert r["parts"]["motor_dev_arcsec"]["systematic"] == 0.0
+    # the output is the sum: its ISO A with and without the first run (which holds the outlier)
+    out = r["output"]
+    o_up, o_dn = 2.0 + np.array([-3.0, 1.0]) - up, 2.0 + np.array([-3.0, 1.0]) - dn
+    assert out["A"] == pytest.approx(mt.iso230_2(np.zeros(2), o_up, o_dn)["A"])
+    assert out["A_after_first_run"] == pytest.approx(mt.iso230_2(np.zeros(2), o_up[1:], o_dn[1:])["A"])
+    assert out["A_after_first_run"] < out["A"]

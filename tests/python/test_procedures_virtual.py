@@ -134,6 +134,15 @@ def test_positioning_and_min_rate_short() -> None:
     dn = np.asarray(p.series["down"])
     assert iso["B"] == pytest.approx(np.max(np.abs(up.mean(0) - dn.mean(0))), rel=1e-6)
     assert 0.0 < p.headline["positioning_accuracy_arcsec"] < 30.0
+    # the rig's instruments at every stop: the output deviation is the one ISO 230-2 used, and it is
+    # the motor angle / N's deviation + TE - twist; the payload's unbalance is the held gear torque
+    rig = p.figures["rig_at_stops"]
+    np.testing.assert_allclose(rig["up"]["out_dev_arcsec"], up, atol=1e-6)
+    np.testing.assert_allclose(rig["down"]["out_dev_arcsec"], dn, atol=1e-6)
+    parts = p.figures["stop_error_parts_arcsec"]
+    assert parts["sum_check_arcsec"] < 1e-6
+    assert parts["output"]["A"] == pytest.approx(p.headline["positioning_accuracy_arcsec"], rel=1e-6)
+    assert 0.5 < parts["gear_torque_Nm"]["mean"] < 5.0
     lad = {x["rate_deg_s"]: x for x in m.figures["ladder"]}
     assert lad[0.1]["monotone"] and lad[0.1]["accuracy"] < 0.05
     assert m.headline["min_smooth_rate_deg_s"] is not None and m.headline["min_smooth_rate_deg_s"] <= 0.1

@@ -452,6 +452,41 @@ def _plot_stabilisation(res: Result, d: Path, fmt: str) -> list[Path]:
 
 # ---- positioning (ISO 230-2) ------------------------------------------------------------------
 
+#: The virtual rig's instruments kept at every positioning stop (means over the measuring window):
+#: the gear's transmitted torque, its twist, the transmission error and the motor angle / N, the last
+#: three as deviations in arcsec; the output's deviation from the target is
+#: ``motor_dev_arcsec + te_arcsec - twist_arcsec`` (plant: theta_L = theta_M / N + TE - twist).
+RIG_AT_STOPS: tuple[str, ...] = ("out_dev_arcsec", "motor_dev_arcsec", "te_arcsec", "twist_arcsec",
+                                 "gear_torque_Nm")
+
+
+def rig_at_stop(rec: "dict[str, np.ndarray]", ratio: float, target_rad: float) -> dict[str, float]:
+    """The rig's instruments at one stop (:data:`RIG_AT_STOPS`) from a record of the measuring window.
+
+    Parameters
+    ----------
+    rec : dict of ndarray
+        The virtual rig's record (``load_angle_true_rad``, ``motor_angle_true_rad``, ``te_rad``,
+        ``torsion_rad``, ``gear_torque_Nm``; rad and N.m, output side).
+    ratio : float
+        Gear ratio N.
+    target_rad : float
+        The stop's target, rad (output).
+
+    Returns
+    -------
+    dict
+        Means over the window: the output's and the motor angle / N's deviation from the target,
+        the TE and the twist (arcsec), the gear torque (N.m); a channel the record lacks is NaN.
+    """
+    def mean(k: str) -> float:
+        return float(np.mean(rec[k])) if k in rec and len(rec[k]) else float("nan")
+    return {"out_dev_arcsec": (mean("load_angle_true_rad") - target_rad) / mt.ARCSEC,
+            "motor_dev_arcsec": (mean("motor_angle_true_rad") / ratio - target_rad) / mt.ARCSEC,
+            "te_arcsec": mean("te_rad") / mt.ARCSEC, "twist_arcsec": mean("torsion_rad") / mt.ARCSEC,
+            "gear_torque_Nm": mean("gear_torque_Nm")}
+
+
 def positioning(bench: Bench, targets_deg: Optional[Sequence[float]] = None, runs: int = 5,
                 overrun_deg: float = 1.0, dwell_s: float = 1.5, measure_s: float = 0.2,
                 progress: Optional[Progress] = None) -> Result:
@@ -471,13 +506,16 @@ def positioning(bench: Bench, targets_deg: Optional[Sequence[float]] = None, run
     dn = np.zeros((runs, m))
     up_enc = np.zeros((runs, m))
     dn_enc = np.zeros((runs, m))
+    # virtual rig: its instruments at every stop (run x target), per approach direction
+    stop_rig: dict[str, dict[str, np.ndarray]] = {d: {k: np.full((runs, m), np.nan) for k in RIG_AT_STOPS}
+                                                  for d in ("up", "down")}
     bench.rig.brake(False)
     bench.enable("PROFILED POSITION")
     ov = math.radians(overrun_deg)
     total = runs * 2 * m
     done = 0
 
-    def measure() -> tuple[float, float]:
+    def measure(direction: str, j: int, i: int) -> tuple[float, float]:
         bench.wait(dwell_s)
         decim = 10
         frames = max(2, int(round(measure_s / (decim * DT))))
@@ -485,6 +523,8 @@ def positioning(bench: Bench, targets_deg: Optional[Sequence[float]] = None, run
             with bench.rig.record(decim) as rec:
                 cap = bench.capture(["pos_out_lo", "pos_out_hi"], frames, decim)
             ref = float(np.mean(rec["load_angle_true_rad"]))
+            for k, v in rig_at_stop(rec, bench.ratio, float(tg[i])).items():
+                stop_rig[direction][k][j, i] = v
         else:
             cap = bench.capture(["pos_out_lo", "pos_out_hi"], frames, decim)
             ref = float("nan")
@@ -495,14 +535,14 @@ def positioning(bench: Bench, targets_deg: Optional[Sequence[float]] = None, run
         pp_move(bench, tg[0] - ov)
         for i in range(m):
             pp_move(bench, tg[i])
-            up[j, i], up_enc[j, i] = measure()
+            up[j, i], up_enc[j, i] = measure("up", j, i)
             done += 1
             if progress:
                 progress(done / total, f"run {j + 1} up {math.degrees(tg[i]):+.1f} deg")
         pp_move(bench, tg[-1] + ov)
         for i in reversed(range(m)):
             pp_move(bench, tg[i])
-            dn[j, i], dn_enc[j, i] = measure()
+            dn[j, i], dn_enc[j, i] = measure("down", j, i)
             done += 1
             if progress:
                 progress(done / total, f"run {j + 1} down {math.degrees(tg[i]):+.1f} deg")
@@ -515,6 +555,9 @@ def positioning(bench: Bench, targets_deg: Optional[Sequence[float]] = None, run
                                           else "output encoder", "setup": AXIS_SETUP.name})
     r.figures = {"iso230_2_arcsec": iso, "output_encoder_iso230_2_arcsec": {k: iso_enc[k] for k in
                                                                           ("A", "R", "B", "E", "M")}}
+    if bench.rig.virtual:
+        r.figures["rig_at_stops"] = {d: {k: v.tolist() for k, v in q.items()} for d, q in stop_rig.items()}
+        r.figures["stop_error_parts_arcsec"] = mt.stop_error_parts(r.figures["rig_at_stops"])
     r.headline = {"positioning_accuracy_arcsec": iso["A"], "repeatability_arcsec": iso["R"],
                   "reversal_arcsec": iso["B"], "systematic_deviation_arcsec": iso["E"]}
     r.series = {"targets_deg": np.asarray(targets_deg, float), "up": (up - tg) / mt.ARCSEC, "down": (dn - tg) / mt.ARCSEC}
@@ -753,6 +796,6 @@ def bandwidth(bench: Bench, amplitude_arcsec: float = 60.0, period_samples: int 
     return r
 
 
-__all__ = ["AXIS_SETUP", "MIN_WINDOW_ARCSEC", "PEAK_OVERDRIVE", "RATE_LADDER_DEG_S", "SETTLE_WINDOWS", "PEAK_WINDOW", "STAB_MODE", "STAB_MODES", "bandwidth", "bandwidth_lines",
+__all__ = ["AXIS_SETUP", "RIG_AT_STOPS", "rig_at_stop", "MIN_WINDOW_ARCSEC", "PEAK_OVERDRIVE", "RATE_LADDER_DEG_S", "SETTLE_WINDOWS", "PEAK_WINDOW", "STAB_MODE", "STAB_MODES", "bandwidth", "bandwidth_lines",
            "bandwidth_signal", "drive_has_stab", "enable_stab", "min_rate", "peak_torque", "positioning", "pp_move",
            "rate_window_rad", "reference_angle_rad", "rung_settle_s", "stab_setup", "stabilisation"]

@@ -371,6 +371,67 @@ def iso230_2(targets: np.ndarray, up: np.ndarray, down: np.ndarray) -> dict[str,
     }
 
 
+
+#: Parts of a stop's output deviation (:func:`stop_error_parts`): where the loop put the motor (motor angle
+#: / N - target), the transmission error and minus the gear's twist; they sum to the output's deviation.
+STOP_PARTS: tuple[str, ...] = ("motor_dev_arcsec", "te_arcsec", "minus_twist_arcsec")
+
+
+def _part_stats(up: np.ndarray, down: np.ndarray) -> dict[str, float]:
+    """Systematic spread, direction difference, run-to-run scatter and first-run offset of one part."""
+    mu, md = np.nanmean(up, 0), np.nanmean(down, 0)
+    out = {"mean": float(np.nanmean(np.concatenate([up.ravel(), down.ravel()]))),
+           "systematic": float(max(mu.max(), md.max()) - min(mu.min(), md.min())),
+           "direction": float(np.max(np.abs(mu - md))),
+           "scatter": float(max(np.nanmax(np.nanstd(up, 0, ddof=1)), np.nanmax(np.nanstd(down, 0, ddof=1))))
+           if up.shape[0] >= 2 else float("nan"),
+           "first_run": float("nan")}
+    if up.shape[0] >= 2:
+        rest_u, rest_d = np.nanmean(up[1:], 0), np.nanmean(down[1:], 0)
+        out["first_run"] = float(max(np.max(np.abs(up[0] - rest_u)), np.max(np.abs(down[0] - rest_d))))
+    return out
+
+
+def stop_error_parts(stops: "dict[str, dict[str, Any]]") -> dict[str, Any]:
+    """What the output's deviation at the positioning stops is made of (virtual rig).
+
+    Each stop's output deviation is the sum of :data:`STOP_PARTS`: the motor angle / N's deviation
+    from the target (in full closed the loop's reaction to the output encoder, in semi-closed the
+    drive's predicted offset plus the loop error), the transmission error and minus the twist of
+    the gear at the torque it holds (plant: theta_L = theta_M / N + TE - twist).  Per part and for
+    the output itself the ISO 230-2 building blocks: the spread of the per-target means over both
+    directions (``systematic``, E), the largest difference between the two approach directions
+    (``direction``, B), the largest run-to-run standard deviation at one target and direction
+    (``scatter``, s) and the largest offset of the first run from the later ones (``first_run``).
+
+    Parameters
+    ----------
+    stops : dict
+        ``{"up": {key: runs x targets}, "down": {...}}`` with the keys of
+        :data:`hdservo.procedures.closedloop.RIG_AT_STOPS` (arcsec; gear torque N.m).
+
+    Returns
+    -------
+    dict
+        ``parts``: part -> statistics (arcsec); ``output``: the output deviation's statistics plus
+        ``A`` (ISO 230-2 accuracy over all runs) and ``A_after_first_run`` (without the first run,
+        None with fewer than 3 runs); ``gear_torque_Nm``: the held torque's statistics;
+        ``sum_check_arcsec``: the largest |output - sum of the parts| (0 up to the rig's rounding).
+    """
+    arr = {d: {k: np.asarray(v, float) for k, v in stops[d].items()} for d in ("up", "down")}
+    parts = {d: {"motor_dev_arcsec": arr[d]["motor_dev_arcsec"], "te_arcsec": arr[d]["te_arcsec"],
+                 "minus_twist_arcsec": -arr[d]["twist_arcsec"]} for d in arr}
+    out_u, out_d = arr["up"]["out_dev_arcsec"], arr["down"]["out_dev_arcsec"]
+    check = max(float(np.nanmax(np.abs(arr[d]["out_dev_arcsec"] - sum(parts[d].values())))) for d in arr)
+    res_out = _part_stats(out_u, out_d)
+    zeros = np.zeros(out_u.shape[1])
+    res_out["A"] = iso230_2(zeros, out_u, out_d)["A"] if out_u.shape[0] >= 2 else None
+    res_out["A_after_first_run"] = iso230_2(zeros, out_u[1:], out_d[1:])["A"] if out_u.shape[0] >= 3 else None
+    return {"parts": {k: _part_stats(parts["up"][k], parts["down"][k]) for k in STOP_PARTS},
+            "output": res_out,
+            "gear_torque_Nm": _part_stats(arr["up"]["gear_torque_Nm"], arr["down"]["gear_torque_Nm"]),
+            "sum_check_arcsec": check}
+
 # ---- frequency responses -----------------------------------------------------------------
 
 def welch_frf(u: np.ndarray, y: np.ndarray, fs_Hz: float, nperseg: int) -> dict[str, np.ndarray]:
@@ -455,7 +516,7 @@ def line_response(r: np.ndarray, y: np.ndarray, lines: Sequence[int]) -> np.ndar
     return yf[ix] / rf[ix]
 
 
-__all__ = ["ARCSEC", "ARCMIN", "DEG", "three_slope_fit", "linear_stiffness", "branches", "twist_at_torque",
+__all__ = ["ARCSEC", "ARCMIN", "DEG", "STOP_PARTS", "stop_error_parts", "three_slope_fit", "linear_stiffness", "branches", "twist_at_torque",
            "hysteresis_loss", "lost_motion", "transmission_error", "transmission_accuracy", "fixed_angle_rates",
            "rate_stability", "min_smooth_rate", "inertial_angle_from_gyro", "pointing_error", "iso230_2",
            "welch_frf", "resonances", "bandwidth_3db", "schroeder_multisine", "line_response"]
