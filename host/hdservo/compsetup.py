@@ -101,6 +101,53 @@ def feedforward_clamp(levels_Nm: "list[float] | tuple[float, ...]") -> float:
     top = max((abs(float(v)) for v in levels_Nm if math.isfinite(float(v))), default=0.0)
     return max(FF_TAU_MAX_MIN, top)
 
+
+def stribeck_clamp(directions: "list[tuple[float, float]]", vs_rad_s: float, vel_kp_Nms_per_rad: float) -> float:
+    """``str_tau_max`` by the documented rule: the fed-forward level, cut where the map's drop beats the loop.
+
+    On the measured velocity the Stribeck map (the drive runs delta 2) feeds its own drop
+    ``-dg/dv`` into the velocity loop, through the estimate's lag.  Where the whole map's drop stays
+    within the loop's damping ``vel_kp`` (the criterion of :func:`steady_motion_vs`), the clamp is the
+    map's static level Fs (:func:`feedforward_clamp`).  Where it does not, the clamp cuts the map at
+    the highest level below which its drop does: the map is flat above the clamp (a relay of the
+    clamp near rest) and keeps the part of the hump the loop holds.  Per direction with
+    ``r = v / vs``: the drop of ``Fc + (Fs - Fc) exp(-r^2)`` is ``(Fs - Fc) 2 r exp(-r^2) / vs``,
+    largest at ``r = 1/sqrt(2)``; the cut is at the smallest ``r >= 1/sqrt(2)`` with the drop
+    <= ``vel_kp``, i.e. ``Fc + (Fs - Fc) exp(-r^2)``.  One clamp holds both directions: the lower cut
+    where a direction needs one, else the larger static level; never below :data:`FF_TAU_MAX_MIN`.
+
+    Parameters
+    ----------
+    directions : list of (float, float)
+        (Fs, Fc) of each direction as fed forward, N.m (output-referred).
+    vs_rad_s : float
+        Stribeck velocity of the map, rad/s (output).
+    vel_kp_Nms_per_rad : float
+        Velocity-loop gain the drive runs, N.m.s/rad.
+
+    Returns
+    -------
+    float
+        Clamp, N.m.
+    """
+    kp = max(float(vel_kp_Nms_per_rad), 0.0)
+    levels, cuts = [], []
+    for fs, fc in directions:
+        fs, fc = abs(float(fs)), abs(float(fc))
+        levels.append(max(fs, fc))
+        hump = fs - fc
+        if not (hump > 0.0 and vs_rad_s > 0.0) or hump / vs_rad_s * math.sqrt(2.0 / math.e) <= kp:
+            continue
+        lo, hi = 1.0 / math.sqrt(2.0), 64.0           # the drop falls monotonically beyond 1/sqrt(2)
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            if hump * 2.0 * mid * math.exp(-mid * mid) / vs_rad_s > kp:
+                lo = mid
+            else:
+                hi = mid
+        cuts.append(fc + hump * math.exp(-hi * hi))
+    return feedforward_clamp([min(cuts)] if cuts else levels)
+
 ENABLE_BITS: dict[str, int] = {"stribeck": 1, "lugre": 2, "maxwell": 4, "preisach": 8, "te": 16, "backstep": 32,
                                "dob": 64, "approach": 128, "compliance": 256}
 # "approach" is not a bank compensator: the drive's one-direction final approach of PTP
@@ -752,6 +799,9 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
               "delta": d_id if d_id is not None else sd["delta"], "fv": sd["fv"]}
              for sd, on in ((m, fm), (ld, fl)) if on]
     out["str_steady_vs"] = steady_motion_vs(sides, vs_turn * TWO_PI, kp_run)
+    # the map's clamp: its static level, cut where the fed-forward map's own drop beats the loop
+    out["str_tau_max"] = stribeck_clamp([(out["str_fs_pos"], out["str_fc_pos"]), (out["str_fs_neg"], out["str_fc_neg"])],
+                                        vs_turn * TWO_PI, kp_run)
     # the online estimator measures the total steady friction: its feed relays the same share
     out["fe_share"] = share
     lugre, z_l = _lugre_params(m, ld, vs_turn, fv)
@@ -856,7 +906,7 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
     return ctl
 
 
-__all__ = ["FF_TAU_MAX_MIN", "feedforward_clamp", "FRICTION_DELTA_KEY", "MOTOR_SHARE_KEY", "STR_STEADY_VS", "STR_STEADY_VS_MAX", "friction_slope",
+__all__ = ["FF_TAU_MAX_MIN", "feedforward_clamp", "stribeck_clamp", "FRICTION_DELTA_KEY", "MOTOR_SHARE_KEY", "STR_STEADY_VS", "STR_STEADY_VS_MAX", "friction_slope",
            "steady_motion_vs", "RESONANCE_LOOP_RATIO", "VEL_LOOP_HZ", "design_vel_kp", "load_resonance_hz",
            "twist_torque_source", "velocity_loop_hz", "BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
            "FAIR_GAINS", "FAIR_PROC_ARGS", "GROUPS", "STRATEGIES", "TABLE_LATTICE_LSB", "TABLE_TORQUE_T1", "best_gains",
