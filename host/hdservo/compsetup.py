@@ -81,12 +81,13 @@ FF_TAU_MAX_MIN = float(PARAM_DEFS["str_tau_max"].default)
 
 
 def feedforward_clamp(levels_Nm: "list[float] | tuple[float, ...]") -> float:
-    """Output clamp of a friction feed-forward (``str_tau_max``, ``lug_tau_max``) by the documented rule.
+    """Output clamp of a friction feed-forward that does not cut its map: the largest level it carries.
 
-    The clamp never cuts the model's own map: it is the largest static level the feed-forward
-    carries (either direction, output-referred), and at least :data:`FF_TAU_MAX_MIN`.  A clamp below
-    the static level turns the map into a relay of the clamp at every reversal and leaves the rest
-    of the friction to the velocity loop (docs/compensators.md section 1, "The feed-forward's clamp").
+    The largest static level of the feed-forward (either direction, output-referred), and at least
+    :data:`FF_TAU_MAX_MIN`.  A clamp below the static level turns the map into a relay of the clamp
+    at every reversal and leaves the rest of the friction to the velocity loop (docs/compensators.md
+    section 1, "The feed-forward's clamp"); :func:`friction_clamp` cuts it only where the friction
+    drop beats the loop.
 
     Parameters
     ----------
@@ -102,51 +103,37 @@ def feedforward_clamp(levels_Nm: "list[float] | tuple[float, ...]") -> float:
     return max(FF_TAU_MAX_MIN, top)
 
 
-def stribeck_clamp(directions: "list[tuple[float, float]]", vs_rad_s: float, vel_kp_Nms_per_rad: float) -> float:
-    """``str_tau_max`` by the documented rule: the fed-forward level, cut where the map's drop beats the loop.
+def friction_clamp(directions: "list[tuple[float, float]]", steady_vs: float) -> float:
+    """``str_tau_max`` / ``lug_tau_max`` by the documented rule: the fed-forward level, cut where the
+    friction drop beats the loop.
 
-    On the measured velocity the Stribeck map (the drive runs delta 2) feeds its own drop
-    ``-dg/dv`` into the velocity loop, through the estimate's lag.  Where the whole map's drop stays
-    within the loop's damping ``vel_kp`` (the criterion of :func:`steady_motion_vs`), the clamp is the
-    map's static level Fs (:func:`feedforward_clamp`).  Where it does not, the clamp cuts the map at
-    the highest level below which its drop does: the map is flat above the clamp (a relay of the
-    clamp near rest) and keeps the part of the hump the loop holds.  Per direction with
-    ``r = v / vs``: the drop of ``Fc + (Fs - Fc) exp(-r^2)`` is ``(Fs - Fc) 2 r exp(-r^2) / vs``,
-    largest at ``r = 1/sqrt(2)``; the cut is at the smallest ``r >= 1/sqrt(2)`` with the drop
-    <= ``vel_kp``, i.e. ``Fc + (Fs - Fc) exp(-r^2)``.  One clamp holds both directions: the lower cut
-    where a direction needs one, else the larger static level; never below :data:`FF_TAU_MAX_MIN`.
+    Near rest a friction map relays its level into the velocity loop (the Stribeck map on the
+    measured velocity, LuGre on the reference's).  Where the
+    model's friction drop stays within the velocity loop's damping (the steady-motion threshold of
+    :func:`steady_motion_vs` is its base value :data:`STR_STEADY_VS`), the clamp is the map's static
+    level (:func:`feedforward_clamp`).  Where the drop beats the loop below a speed v* (the
+    threshold > :data:`STR_STEADY_VS`), the clamp is the map's level at v*: below v* the map is flat
+    (a relay of the sliding level the loop can hold), above it the map is the model's.  With the
+    drive's delta-2 map that level is ``Fc + (Fs - Fc) exp(-(v*/vs)^2)`` per direction; one clamp
+    holds both directions (the lower); never below :data:`FF_TAU_MAX_MIN`.
 
     Parameters
     ----------
     directions : list of (float, float)
         (Fs, Fc) of each direction as fed forward, N.m (output-referred).
-    vs_rad_s : float
-        Stribeck velocity of the map, rad/s (output).
-    vel_kp_Nms_per_rad : float
-        Velocity-loop gain the drive runs, N.m.s/rad.
+    steady_vs : float
+        The steady-motion threshold ``str_steady_vs`` of the model, in Stribeck velocities of the map.
 
     Returns
     -------
     float
         Clamp, N.m.
     """
-    kp = max(float(vel_kp_Nms_per_rad), 0.0)
-    levels, cuts = [], []
-    for fs, fc in directions:
-        fs, fc = abs(float(fs)), abs(float(fc))
-        levels.append(max(fs, fc))
-        hump = fs - fc
-        if not (hump > 0.0 and vs_rad_s > 0.0) or hump / vs_rad_s * math.sqrt(2.0 / math.e) <= kp:
-            continue
-        lo, hi = 1.0 / math.sqrt(2.0), 64.0           # the drop falls monotonically beyond 1/sqrt(2)
-        for _ in range(60):
-            mid = 0.5 * (lo + hi)
-            if hump * 2.0 * mid * math.exp(-mid * mid) / vs_rad_s > kp:
-                lo = mid
-            else:
-                hi = mid
-        cuts.append(fc + hump * math.exp(-hi * hi))
-    return feedforward_clamp([min(cuts)] if cuts else levels)
+    levels = [max(abs(float(fs)), abs(float(fc))) for fs, fc in directions]
+    if not steady_vs > STR_STEADY_VS:
+        return feedforward_clamp(levels)
+    w = math.exp(-float(steady_vs) ** 2)
+    return feedforward_clamp([min(abs(float(fc)) + (abs(float(fs)) - abs(float(fc))) * w for fs, fc in directions)])
 
 ENABLE_BITS: dict[str, int] = {"stribeck": 1, "lugre": 2, "maxwell": 4, "preisach": 8, "te": 16, "backstep": 32,
                                "dob": 64, "approach": 128, "compliance": 256}
@@ -561,8 +548,8 @@ def _lugre_params(m: dict[str, float], ld: dict[str, float], vs_turn: float, fv:
              "lug_sigma0": min(sigma0 * TWO_PI, 8.0e6),
              "lug_sigma1": min((m["s1"] + ld["s1"]) * TWO_PI, PARAM_DEFS["lug_sigma1"].max),
              "lug_sigma2": fv, "lug_k_obs": 0.0,
-             "lug_tau_max": feedforward_clamp([m["fsp"] + ld["fsp"], m["fsn"] + ld["fsn"],
-                                               m["fcp"] + ld["fcp"], m["fcn"] + ld["fcn"]]), "lug_v_src": 0}, z_l)
+             # the clamp follows the levels and the velocity loop (compensator_params, friction_clamp)
+             "lug_tau_max": FF_TAU_MAX_MIN, "lug_v_src": 0}, z_l)
 
 
 def _tangent_stiffness(get: Callable[[str], float]) -> float:
@@ -799,13 +786,16 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
               "delta": d_id if d_id is not None else sd["delta"], "fv": sd["fv"]}
              for sd, on in ((m, fm), (ld, fl)) if on]
     out["str_steady_vs"] = steady_motion_vs(sides, vs_turn * TWO_PI, kp_run)
-    # the map's clamp: its static level, cut where the fed-forward map's own drop beats the loop
-    out["str_tau_max"] = stribeck_clamp([(out["str_fs_pos"], out["str_fc_pos"]), (out["str_fs_neg"], out["str_fc_neg"])],
-                                        vs_turn * TWO_PI, kp_run)
+    # the map's clamp: its static level, or its level at the threshold where the drop beats the loop
+    out["str_tau_max"] = friction_clamp([(out["str_fs_pos"], out["str_fc_pos"]), (out["str_fs_neg"], out["str_fc_neg"])],
+                                        out["str_steady_vs"])
     # the online estimator measures the total steady friction: its feed relays the same share
     out["fe_share"] = share
     lugre, z_l = _lugre_params(m, ld, vs_turn, fv)
     out.update(lugre)
+    # LuGre's clamp by the same rule, on its (total) levels
+    out["lug_tau_max"] = friction_clamp([(m["fsp"] + ld["fsp"], m["fcp"] + ld["fcp"]),
+                                         (m["fsn"] + ld["fsn"], m["fcn"] + ld["fcn"])], out["str_steady_vs"])
     out["mx_n"] = n_maxwell
     # the firmware compliance (2^-44 turn/N.m, int32) needs K > 2^13 N.m/turn (1.3e3 N.m/rad)
     out["mx_stiffness"] = min(max(_tangent_stiffness(get) * TWO_PI, MX_STIFFNESS_MIN),
@@ -906,7 +896,7 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
     return ctl
 
 
-__all__ = ["FF_TAU_MAX_MIN", "feedforward_clamp", "stribeck_clamp", "FRICTION_DELTA_KEY", "MOTOR_SHARE_KEY", "STR_STEADY_VS", "STR_STEADY_VS_MAX", "friction_slope",
+__all__ = ["FF_TAU_MAX_MIN", "feedforward_clamp", "friction_clamp", "FRICTION_DELTA_KEY", "MOTOR_SHARE_KEY", "STR_STEADY_VS", "STR_STEADY_VS_MAX", "friction_slope",
            "steady_motion_vs", "RESONANCE_LOOP_RATIO", "VEL_LOOP_HZ", "design_vel_kp", "load_resonance_hz",
            "twist_torque_source", "velocity_loop_hz", "BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
            "FAIR_GAINS", "FAIR_PROC_ARGS", "GROUPS", "STRATEGIES", "TABLE_LATTICE_LSB", "TABLE_TORQUE_T1", "best_gains",
