@@ -75,8 +75,8 @@ PKI_V_HI_DEG_S = 0.005
 #: Backstepping: corner of the integral action of the T_load adaptation, Hz.
 BS_F_INT_HZ = 25.0
 #: Smallest output clamp of the friction feed-forwards (``str_tau_max``, ``lug_tau_max``), N.m: the
-#: parameters' default.  An axis whose fed-forward static friction is larger gets that level as its clamp
-#: (:func:`feedforward_clamp`).
+#: parameters' default.  An axis whose fed-forward friction is larger gets a clamp from its levels
+#: (:func:`feedforward_clamp`, :func:`friction_clamp`).
 FF_TAU_MAX_MIN = float(PARAM_DEFS["str_tau_max"].default)
 
 
@@ -526,6 +526,7 @@ def _stribeck_params(m: dict[str, float], ld: dict[str, float], fm: bool, fl: bo
              "str_fs_neg": share * (m["fsn"] + ld["fsn"]),
              "str_vs_neg": vs_turn, "str_fv_neg": fv, "str_delta": 2, "str_eps_v": eps_rad / TWO_PI,
              "str_w_ref": 1.0,
+             # the clamp follows the levels and the velocity loop (compensator_params, friction_clamp)
              "str_tau_max": feedforward_clamp([share * (m["fsp"] + ld["fsp"]), share * (m["fsn"] + ld["fsn"]),
                                                share * (m["fcp"] + ld["fcp"]), share * (m["fcn"] + ld["fcn"])])},
             vs_turn, fv)
@@ -898,7 +899,8 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
     return ctl
 
 
-__all__ = ["FF_TAU_MAX_MIN", "feedforward_clamp", "friction_clamp", "FRICTION_DELTA_KEY", "MOTOR_SHARE_KEY", "STR_STEADY_VS", "STR_STEADY_VS_MAX", "friction_slope",
+__all__ = ["FF_TAU_MAX_MIN", "feedforward_clamp", "friction_clamp",
+           "FRICTION_DELTA_KEY", "MOTOR_SHARE_KEY", "STR_STEADY_VS", "STR_STEADY_VS_MAX", "friction_slope",
            "steady_motion_vs", "RESONANCE_LOOP_RATIO", "VEL_LOOP_HZ", "design_vel_kp", "load_resonance_hz",
            "twist_torque_source", "velocity_loop_hz", "BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
            "FAIR_GAINS", "FAIR_PROC_ARGS", "GROUPS", "STRATEGIES", "TABLE_LATTICE_LSB", "TABLE_TORQUE_T1", "best_gains",
