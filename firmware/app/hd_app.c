@@ -1005,7 +1005,14 @@ static void phase_limits_faults(hd_app_t *a, const hd_period_t *p)
     }
     const uint32_t fen = p->fen;
     const int32_t tlim = param_raw(a, HD_P_TORQUE_LIMIT);
-    if (hdf_abs_sat(p->t_cmd) >= tlim || (p->loops != HD_LOOPS_NONE && a->vel_pid.saturated)) {
+    /* The velocity PI's clamp counts only while its output is the torque the drive applies:
+     * while the backstepping law drives the position loops (blending in, at full weight or
+     * blending out) the PI runs alongside unapplied, and its integrator winds on a position
+     * error the law holds (a heavy axis' friction lag) into its clamp with the applied torque
+     * far below the limit; the applied torque's own clamp (t_cmd) still counts */
+    const bool pi_applied = (p->loops != HD_LOOPS_NONE) &&
+                            !((p->loops == HD_LOOPS_POS_VEL) && (a->bs_idle == 0u));
+    if (hdf_abs_sat(p->t_cmd) >= tlim || (pi_applied && a->vel_pid.saturated)) {
         a->sat_count++;
     } else {
         a->sat_count = 0;

@@ -967,8 +967,10 @@ def _prepare(procedures: Sequence[str], model: Optional[Path], axis: str, bus: O
     blob = None
     if model is not None:
         from .download import plan_download
-        # the twist torque rule takes the velocity loop every row runs (the axis' PID design)
-        plan = plan_download(model, axis, vel_kp=design_gains(axis).get("vel_kp"))
+        # the twist torque rule takes the velocity loop every row runs (the axis' PID design), the
+        # backstepping law's clamp the torque limit every row runs
+        dg = design_gains(axis)
+        plan = plan_download(model, axis, vel_kp=dg.get("vel_kp"), torque_limit=dg.get("torque_limit"))
     elif bus is None and need_preisach:
         from . import compsetup
         blob = compsetup.preisach_table(axis).to_bytes()

@@ -74,6 +74,65 @@ PKI_V_LO_DEG_S = 0.002
 PKI_V_HI_DEG_S = 0.005
 #: Backstepping: corner of the integral action of the T_load adaptation, Hz.
 BS_F_INT_HZ = 25.0
+#: Smallest output clamp of the friction feed-forwards (``str_tau_max``, ``lug_tau_max``), N.m: the
+#: parameters' default.  An axis whose fed-forward friction is larger gets a clamp from its levels
+#: (:func:`feedforward_clamp`, :func:`friction_clamp`).
+FF_TAU_MAX_MIN = float(PARAM_DEFS["str_tau_max"].default)
+
+
+def feedforward_clamp(levels_Nm: "list[float] | tuple[float, ...]") -> float:
+    """Output clamp of a friction feed-forward that does not cut its map: the largest level it carries.
+
+    The largest static level of the feed-forward (either direction, output-referred), and at least
+    :data:`FF_TAU_MAX_MIN`.  A clamp below the static level turns the map into a relay of the clamp
+    at every reversal and leaves the rest of the friction to the velocity loop (docs/compensators.md
+    section 1, "The feed-forward's clamp"); :func:`friction_clamp` cuts it only where the friction
+    drop beats the loop.
+
+    Parameters
+    ----------
+    levels_Nm : sequence of float
+        The feed-forward's levels (Fs and Fc of each direction), N.m, output-referred.
+
+    Returns
+    -------
+    float
+        Clamp, N.m.
+    """
+    top = max((abs(float(v)) for v in levels_Nm if math.isfinite(float(v))), default=0.0)
+    return max(FF_TAU_MAX_MIN, top)
+
+
+def friction_clamp(directions: "list[tuple[float, float]]", steady_vs: float) -> float:
+    """``str_tau_max`` by the documented rule: the fed-forward level, cut where the friction drop beats
+    the loop.
+
+    Near rest the Stribeck map runs on the measured velocity and relays its level.  Where the
+    model's friction drop stays within the velocity loop's damping (the steady-motion threshold of
+    :func:`steady_motion_vs` is its base value :data:`STR_STEADY_VS`), the clamp is the map's static
+    level (:func:`feedforward_clamp`).  Where the drop beats the loop below a speed v* (the
+    threshold > :data:`STR_STEADY_VS`), the clamp is the map's level at v*: below v* the map is flat
+    (a relay of the sliding level the loop can hold), above it the map is the model's.  With the
+    drive's delta-2 map that level is ``Fc + (Fs - Fc) exp(-(v*/vs)^2)`` per direction; one clamp
+    holds both directions (the lower); never below :data:`FF_TAU_MAX_MIN`.
+
+    Parameters
+    ----------
+    directions : list of (float, float)
+        (Fs, Fc) of each direction as fed forward, N.m (output-referred).
+    steady_vs : float
+        The steady-motion threshold ``str_steady_vs`` of the model, in Stribeck velocities of the map.
+
+    Returns
+    -------
+    float
+        Clamp, N.m.
+    """
+    levels = [max(abs(float(fs)), abs(float(fc))) for fs, fc in directions]
+    if not steady_vs > STR_STEADY_VS:
+        return feedforward_clamp(levels)
+    w = math.exp(-float(steady_vs) ** 2)
+    return feedforward_clamp([min(abs(float(fc)) + (abs(float(fs)) - abs(float(fc))) * w for fs, fc in directions)])
 
 ENABLE_BITS: dict[str, int] = {"stribeck": 1, "lugre": 2, "maxwell": 4, "preisach": 8, "te": 16, "backstep": 32,
                                "dob": 64, "approach": 128, "compliance": 256}
@@ -466,7 +525,11 @@ def _stribeck_params(m: dict[str, float], ld: dict[str, float], fm: bool, fl: bo
              "str_vs_pos": vs_turn, "str_fv_pos": fv, "str_fc_neg": share * (m["fcn"] + ld["fcn"]),
              "str_fs_neg": share * (m["fsn"] + ld["fsn"]),
              "str_vs_neg": vs_turn, "str_fv_neg": fv, "str_delta": 2, "str_eps_v": eps_rad / TWO_PI,
-             "str_w_ref": 1.0, "str_tau_max": 30.0}, vs_turn, fv)
+             "str_w_ref": 1.0,
+             # the clamp follows the levels and the velocity loop (compensator_params, friction_clamp)
+             "str_tau_max": feedforward_clamp([share * (m["fsp"] + ld["fsp"]), share * (m["fsn"] + ld["fsn"]),
+                                               share * (m["fcp"] + ld["fcp"]), share * (m["fcn"] + ld["fcn"])])},
+            vs_turn, fv)
 
 
 def _lugre_params(m: dict[str, float], ld: dict[str, float], vs_turn: float, fv: float) -> tuple[dict[str, float], float]:
@@ -484,7 +547,9 @@ def _lugre_params(m: dict[str, float], ld: dict[str, float], vs_turn: float, fv:
              "lug_fs": 0.5 * (m["fsp"] + m["fsn"] + ld["fsp"] + ld["fsn"]), "lug_vs": vs_turn, "lug_delta": 2,
              "lug_sigma0": min(sigma0 * TWO_PI, 8.0e6),
              "lug_sigma1": min((m["s1"] + ld["s1"]) * TWO_PI, PARAM_DEFS["lug_sigma1"].max),
-             "lug_sigma2": fv, "lug_k_obs": 0.0, "lug_tau_max": 30.0, "lug_v_src": 0}, z_l)
+             "lug_sigma2": fv, "lug_k_obs": 0.0,
+             # the clamp follows the levels and the velocity loop (compensator_params, friction_clamp)
+             "lug_tau_max": FF_TAU_MAX_MIN, "lug_v_src": 0}, z_l)
 
 
 def _tangent_stiffness(get: Callable[[str], float]) -> float:
@@ -559,9 +624,9 @@ def _unbalance_params(get: Callable[[str], float]) -> dict[str, float]:
 
 
 def _backstepping_params(get: Callable[[str], float], n: float, vs_turn: float, fv: float, eps_rad: float,
-                         str_fc: float, str_fs: float) -> dict[str, float]:
-    """Backstepping (docs/compensators.md 6): c = 2 pi f_bs, f_bs = f_a / 5, ke = J c1 c2 / 4, and
-    the adaptation gains and bounds."""
+                         str_fc: float, str_fs: float, torque_limit_Nm: float) -> dict[str, float]:
+    """Backstepping (docs/compensators.md 6): c = 2 pi f_bs, f_bs = f_a / 5, ke = J c1 c2 / 4, the
+    adaptation gains and bounds, and the law's torque clamp ``bs_u_max`` = the drive's ``torque_limit``."""
     jl, jm = get("load.jl_kgm2"), get("motor.jm_kgm2")
     jt = jl + n * n * jm
     f_a = math.sqrt(get("stiffness.k1_Nm_per_rad") / jl) / TWO_PI
@@ -569,7 +634,11 @@ def _backstepping_params(get: Callable[[str], float], n: float, vs_turn: float, 
     j_turn = TWO_PI * jt
     scale = jt / 1.3
     out = {"bs_c1": c, "bs_c2": c, "bs_j": j_turn, "bs_ke": j_turn * c * c / 4, "bs_eps_w": eps_rad / TWO_PI,
-           "bs_w_s": vs_turn, "bs_e1_max": 0.01, "bs_u_max": 60.0}
+           "bs_w_s": vs_turn, "bs_e1_max": 0.01,
+           # the law's clamp is the torque the drive applies: a lower one stops the law short of the
+           # friction and load of a heavy axis (a following-error fault), and its anti-windup (the
+           # adaptation frozen while clamped) then acts where the drive is not limited at all
+           "bs_u_max": float(torque_limit_Nm)}
     # T_load adaptation is the law's integral action on e2: Gamma_4 = J (2 pi f_i)^2 with f_i = 25 Hz,
     # the velocity-loop bandwidth of the PID design (baseline.axis_controller); the slower
     # friction adaptations keep the section 6 values.  Gamma T in Q7.24 (Gamma_4 T = 20.2 here).
@@ -659,7 +728,7 @@ def twist_torque_source(k1_Nm_per_rad: float, jl_kgm2: float, vel_loop_hz: float
 
 def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
                        model: Mapping[str, float] | None = None,
-                       vel_kp: float | None = None) -> dict[str, float]:
+                       vel_kp: float | None = None, torque_limit: float | None = None) -> dict[str, float]:
     """Compensator-bank parameters of an axis (table units; docs/parameters.md).
 
     Parameters
@@ -674,6 +743,9 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
         Velocity-loop gain the drive runs, N.m.s/rad (default: the design rule's for the model's
         J_tot, :func:`design_vel_kp`); with the model's J_tot it gives the crossover of the
         twist torque rule (:func:`twist_torque_source`).
+    torque_limit : float, optional
+        Output torque limit the drive runs (``torque_limit``), N.m (default: the parameter's default,
+        60 N.m); the backstepping law's clamp ``bs_u_max``.
 
     Returns
     -------
@@ -714,10 +786,19 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
               "delta": d_id if d_id is not None else sd["delta"], "fv": sd["fv"]}
              for sd, on in ((m, fm), (ld, fl)) if on]
     out["str_steady_vs"] = steady_motion_vs(sides, vs_turn * TWO_PI, kp_run)
+    # the map's clamp: its static level, or its level at the threshold where the drop beats the loop
+    out["str_tau_max"] = friction_clamp([(out["str_fs_pos"], out["str_fc_pos"]), (out["str_fs_neg"], out["str_fc_neg"])],
+                                        out["str_steady_vs"])
     # the online estimator measures the total steady friction: its feed relays the same share
     out["fe_share"] = share
     lugre, z_l = _lugre_params(m, ld, vs_turn, fv)
     out.update(lugre)
+    # LuGre's clamp: its static level where the friction drop is no threat to the loop; where it is,
+    # the map on the reference velocity has no level the loop holds beyond the Coulomb one (a clamp
+    # above it tracks 7x worse on the CSF-40-100 of docs/compensators.md section 1): the default
+    lug_levels = [m["fsp"] + ld["fsp"], m["fcp"] + ld["fcp"], m["fsn"] + ld["fsn"], m["fcn"] + ld["fcn"]]
+    out["lug_tau_max"] = (feedforward_clamp(lug_levels) if not out["str_steady_vs"] > STR_STEADY_VS
+                          else FF_TAU_MAX_MIN)
     out["mx_n"] = n_maxwell
     # the firmware compliance (2^-44 turn/N.m, int32) needs K > 2^13 N.m/turn (1.3e3 N.m/rad)
     out["mx_stiffness"] = min(max(_tangent_stiffness(get) * TWO_PI, MX_STIFFNESS_MIN),
@@ -747,7 +828,8 @@ def compensator_params(axis: str = "reference", *, n_maxwell: int = 4,
     out["pr_t_src"] = twist_torque_source(get("stiffness.k1_Nm_per_rad"), out["pr_jl"], f_v)
     out.update(_unbalance_params(get))
     out.update(_te_params(get))
-    out.update(_backstepping_params(get, n, vs_turn, fv, eps_rad, m["fcp"] + ld["fcp"], m["fsp"] + ld["fsp"]))
+    t_lim = float(PARAM_DEFS["torque_limit"].default) if torque_limit is None else float(torque_limit)
+    out.update(_backstepping_params(get, n, vs_turn, fv, eps_rad, m["fcp"] + ld["fcp"], m["fsp"] + ld["fsp"], t_lim))
     # disturbance observer: Q-filter bandwidth (Hz) and nominal inertia
     out["dob_fc"] = 10.0
     out["dob_j"] = get("load.jl_kgm2") + n * n * get("motor.jm_kgm2")
@@ -817,7 +899,8 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
     return ctl
 
 
-__all__ = ["FRICTION_DELTA_KEY", "MOTOR_SHARE_KEY", "STR_STEADY_VS", "STR_STEADY_VS_MAX", "friction_slope",
+__all__ = ["FF_TAU_MAX_MIN", "feedforward_clamp", "friction_clamp",
+           "FRICTION_DELTA_KEY", "MOTOR_SHARE_KEY", "STR_STEADY_VS", "STR_STEADY_VS_MAX", "friction_slope",
            "steady_motion_vs", "RESONANCE_LOOP_RATIO", "VEL_LOOP_HZ", "design_vel_kp", "load_resonance_hz",
            "twist_torque_source", "velocity_loop_hz", "BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
            "FAIR_GAINS", "FAIR_PROC_ARGS", "GROUPS", "STRATEGIES", "TABLE_LATTICE_LSB", "TABLE_TORQUE_T1", "best_gains",

@@ -162,12 +162,13 @@ def model_overrides(model: Mapping[str, Mapping[str, Any]], axis_get) -> tuple[d
 
 
 def plan_download(model_path: Path, axis: str = "reference", preisach: Path | None = None,
-                  version: int = 1, vel_kp: float | None = None) -> dict[str, Any]:
+                  version: int = 1, vel_kp: float | None = None, torque_limit: float | None = None) -> dict[str, Any]:
     """Everything to write: ``params`` (name -> table unit), ``groups`` (sub -> raw dict), ``preisach`` bytes.
 
     ``vel_kp`` (N.m.s/rad) is the velocity-loop gain the drive runs with the download (default: the
     design rule's for the model's total inertia); it sets the crossover of the twist torque rule
-    (:func:`hdservo.compsetup.twist_torque_source`).
+    (:func:`hdservo.compsetup.twist_torque_source`).  ``torque_limit`` (N.m) is the drive's output torque
+    limit, the backstepping law's clamp ``bs_u_max`` (default: the parameter's default).
 
     Raises
     ------
@@ -185,7 +186,7 @@ def plan_download(model_path: Path, axis: str = "reference", preisach: Path | No
         raise UserError(f"{axis}: axis file not found")
     over, notes = model_overrides(model, lambda k: float(sim.axis_param(k, ax)))
     try:
-        cp = compsetup.compensator_params(ax, model=over, vel_kp=vel_kp)
+        cp = compsetup.compensator_params(ax, model=over, vel_kp=vel_kp, torque_limit=torque_limit)
     except (ValueError, KeyError, ZeroDivisionError, TypeError, OverflowError) as e:
         raise UserError(f"{model_path}: cannot compute the compensator parameters: {e}") from None
     cp.pop("cb_enable", None)

@@ -407,6 +407,59 @@ static void test_app_faults(void **st)
     assert_int_equal(app.fault, HD_FAULT_OVERSPEED);
 }
 
+/* The backstepping law drives the position loops; the cascade's velocity PI runs alongside
+ * unapplied.  With the adaptation off (its estimates held at 0) the law holds a 5 N.m load
+ * on its error terms alone, as it holds any load its estimates have not caught up with: the
+ * position error swings by several hundred arcsec for seconds (ke 5064 N.m/turn is a soft
+ * spring).  The PI integrates that error into its clamp for longer than the trip time while
+ * the applied torque stays near the load, far below the limit.  A clamp
+ * of a PI whose output is not applied is no torque saturation: no TORQUE_SAT.  The same PI
+ * driving (backstepping off) with the axis blocked still trips it. */
+static void test_app_backstep_unapplied_pi_is_no_saturation(void **st)
+{
+    (void)st;
+    run(5);
+    static const hd_param_id_t GAMMA[] = {HD_P_BS_GAMMA1, HD_P_BS_GAMMA2, HD_P_BS_GAMMA3, HD_P_BS_GAMMA4};
+    for (size_t i = 0; i < sizeof GAMMA / sizeof GAMMA[0]; i++) {
+        assert_int_equal(hd_app_param_set(&app, GAMMA[i], 0), 0);     /* estimates held ... */
+    }
+    static const hd_param_id_t TH0[] = {HD_P_BS_TH0_1, HD_P_BS_TH0_2, HD_P_BS_TH0_3, HD_P_BS_TH0_4};
+    for (size_t i = 0; i < sizeof TH0 / sizeof TH0[0]; i++) {
+        assert_int_equal(hd_app_param_set(&app, TH0[i], 0), 0);       /* ... at 0: the stub has no friction */
+    }
+    assert_int_equal(hd_app_param_set(&app, HD_P_CB_ENABLE, (int32_t)HD_CB_BACKSTEP), 0);
+    P.t_load = 5.0;
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_POSITION), 0);
+    const uint32_t sat_time = 1000u;                /* 0.1 s: the law's slow e1 swings outlast it */
+    assert_int_equal(hd_app_param_set(&app, HD_P_TORQUE_SAT_TIME, (int32_t)sat_time), 0);
+    uint32_t pi_sat = 0u, pi_sat_max = 0u;
+    double t_max = 0.0, e_max = 0.0;
+    for (uint32_t k = 0; k < 20000u; k++) {
+        hd_app_step(&app);
+        pi_sat = (app.vel_pid.saturated != 0u) ? pi_sat + 1u : 0u;
+        pi_sat_max = (pi_sat > pi_sat_max) ? pi_sat : pi_sat_max;
+        const double t_out = fabs((double)P.cmd.torque / 65536.0 * P.n);
+        t_max = (t_out > t_max) ? t_out : t_max;
+        e_max = (fabs(arcsec(app.tel.pos_err)) > e_max) ? fabs(arcsec(app.tel.pos_err)) : e_max;
+    }
+    printf("# backstepping holding 5 N.m: |error| <= %.0f arcsec, PI clamped for up to %u periods, "
+           "applied torque <= %.2f N.m\n", e_max, pi_sat_max, t_max);
+    assert_int_equal(app.fault, HD_FAULT_NONE);
+    assert_true(pi_sat_max > sat_time);             /* the PI sits in its clamp longer than the trip time */
+    assert_true(t_max < 30.0);                      /* what the drive applies stays far from the 60 N.m limit */
+
+    /* the PI's own clamp with the PI driving: a blocked axis in a move -> TORQUE_SAT */
+    setup(NULL);
+    run(5);
+    P.t_load = -2000.0;
+    P.j = 1e6;
+    assert_int_equal(hd_app_param_set(&app, HD_P_TORQUE_SAT_TIME, (int32_t)sat_time), 0);
+    assert_int_equal(hd_app_move_to(&app, app.pos_out + (1LL << 28)), 0);
+    assert_int_equal(hd_app_set_mode(&app, HD_MODE_PTP), 0);
+    for (uint32_t k = 0; k < 30000u && app.fault == HD_FAULT_NONE; k++) hd_app_step(&app);
+    assert_int_equal(app.fault, HD_FAULT_TORQUE_SAT);
+}
+
 /* STAB on the rigid stub with the base rocking 0.5 deg at 1 Hz: the inertial angle
  * (output angle + base angle) is held; an invalid gyro faults; the inertial rate
  * command scans the payload at that rate in inertial space. */
@@ -637,6 +690,7 @@ int main(void)
         cmocka_unit_test_setup(test_app_position_hold_and_ptp, setup),
         cmocka_unit_test_setup(test_app_rate_low_speed, setup),
         cmocka_unit_test_setup(test_app_faults, setup),
+        cmocka_unit_test_setup(test_app_backstep_unapplied_pi_is_no_saturation, setup),
         cmocka_unit_test_setup(test_app_excitation_capture, setup),
         cmocka_unit_test_setup(test_app_excitation_not_observed, setup),
         cmocka_unit_test_setup(test_app_stabilise, setup),
