@@ -1,6 +1,6 @@
 """Hysteresis is named only when it shows its loop: it must explain the equation error
 better than its memoryless twin, the elements' first-loading springs sat_D(phi)/N at the
-same slip twists (``workflow.loop_evidence``, ``workflow.has_loop``).
+same slip twists (``workflow.twin_evidence``, ``workflow.beats_twin``).
 
 Between two reversals of a symmetric twist cycle the twelve free-sign Maxwell-slip
 elements can follow any odd memoryless spring, so they also fit a lost-motion zone, a
@@ -53,8 +53,8 @@ def test_a_clean_log_whose_hysteresis_has_no_loop_does_not_name_it(clean65: work
     # every rule but the loop passes: the candidate would have been named
     assert workflow.size(h) >= s.frac_min
     assert workflow.admissible(h, s) and h["total_delta_bic"] > s.bic_min
-    assert h["loop_delta_bic"] < s.bic_min
-    assert not workflow.has_loop(h, s)
+    assert h["twin_delta_bic"] < s.bic_min
+    assert not workflow.beats_twin(h, s)
     assert h["significant"] is False
     assert "hysteresis" not in res.named
 
@@ -65,7 +65,7 @@ def test_hidden_hysteresis_shows_its_loop_and_is_named_first(tmp_path: Path) -> 
     res = _run(53, tmp_path)
     h = _hysteresis(res)
     s = workflow.Settings().for_signals(res.angles)
-    assert h["loop_delta_bic"] > 10 * s.bic_min
+    assert h["twin_delta_bic"] > 10 * s.bic_min
     assert h["significant"] is True
     assert res.named[:1] == ["hysteresis"]
 
@@ -77,7 +77,7 @@ def test_the_twin_has_the_same_slip_twists_and_no_memory(clean65: workflow.Resul
     d = res.state.design
     hyst = fx.Hysteresis()
     (v,) = list(hyst.variants(d, next(iter(res.base_fit.resid.values()))))
-    tw = hyst.memoryless_twin(d, v)
+    tw = hyst.twin(d, v)
     assert tw.hyper["thresholds_rad"] == v.hyper["thresholds_rad"]
     assert len(tw.columns) == len(v.columns)
     phi = d.sig.phi

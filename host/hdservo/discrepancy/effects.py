@@ -76,13 +76,15 @@ class Effect:
         default."""
         return {}
 
-    def memoryless_twin(self, d: Design, v: Variant) -> Variant | None:
-        """The same columns without the effect's memory, for an effect whose defining
-        signature is a dependence on the path (hysteresis); None by default.
+    def twin(self, d: Design, v: Variant) -> Variant | None:
+        """A look-alike of the variant without the effect's defining signature, for an
+        effect whose columns also fit something else (None by default): hysteresis without
+        its memory.
 
         :func:`hdservo.discrepancy.workflow.rank` fits the twin as well and reports how much
-        better the effect explains the residuals than its twin (``loop_delta_bic``,
-        ``sim_loop_delta_bic``); without that margin the effect is not significant."""
+        better the effect explains the residuals than its twin (``twin_delta_bic``,
+        ``sim_twin_delta_bic``); without that margin the effect is not significant
+        (:func:`hdservo.discrepancy.workflow.beats_twin`)."""
         return None
 
     def region_bands(self, d: Design, v: Variant) -> dict[str, float] | None:
@@ -561,7 +563,7 @@ class Hysteresis(Effect):
     def rebuild(self, d: Design, v: Variant) -> Variant:
         return self._keep(self.variant_at(d, [float(x) for x in v.hyper["thresholds_rad"]]), v)
 
-    def memoryless_twin(self, d: Design, v: Variant) -> Variant:
+    def twin(self, d: Design, v: Variant) -> Variant:
         """The elements' first-loading curves sat_D(phi)/N at the same slip twists: the
         spring the Maxwell-slip elements make along a monotone twist, without their memory.
 
