@@ -13,8 +13,9 @@ Calibration seeds of the corpus (never held-apart ones), logs from the C simulat
   passes every other rule (47 % of the simulation error) and was named, but its twin
   explains as much of the equation error (loop Delta BIC about 7): hysteresis is not
   named now.
-* 53: hysteresis hidden (1.23x), a P-PI cascade at 2 kHz, 17/21 bits: the loop is clear
-  (loop Delta BIC about 990) and hysteresis is still named first.
+* 173: hysteresis hidden (1.27x), the drive at 1 kHz, 19/24 bits: the loop is clear and
+  hysteresis is still named first (as on every calibration hysteresis log measured,
+  docs/discrepancy.md "Hysteresis or a memoryless spring").
 """
 from __future__ import annotations
 
@@ -48,21 +49,21 @@ def test_a_clean_log_whose_hysteresis_has_no_loop_does_not_name_it(clean65: work
     case = corpus.draw(65)
     assert case.hidden == [] and case.angles == "both"
     res = clean65
+    assert "hysteresis" not in res.named
     h = _hysteresis(res)
+    assert h["significant"] is False
     s = workflow.Settings().for_signals(res.angles)
-    # every rule but the loop passes: the candidate would have been named
+    # every rule but the loop passes: without it the candidate would be named
     assert workflow.size(h) >= s.frac_min
     assert workflow.admissible(h, s) and h["total_delta_bic"] > s.bic_min
     assert h["twin_delta_bic"] < s.bic_min
     assert not workflow.beats_twin(h, s)
-    assert h["significant"] is False
-    assert "hysteresis" not in res.named
 
 
 def test_hidden_hysteresis_shows_its_loop_and_is_named_first(tmp_path: Path) -> None:
-    case = corpus.draw(53)
+    case = corpus.draw(173)
     assert [e for e, _ in case.hidden] == ["hysteresis"] and case.angles == "both"
-    res = _run(53, tmp_path)
+    res = _run(173, tmp_path)
     h = _hysteresis(res)
     s = workflow.Settings().for_signals(res.angles)
     assert h["twin_delta_bic"] > 10 * s.bic_min
