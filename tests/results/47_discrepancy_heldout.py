@@ -147,7 +147,7 @@ def _cache_dir() -> Path:
 #: Evidence figures of a ranked candidate kept per log (the calibration's statistics).
 RANK_KEYS = ("score", "delta_bic", "p_value", "sim_delta_bic", "sim_p_value", "total_delta_bic",
              "explained_fraction", "sim_explained_fraction", "explained_fraction_local",
-             "sim_explained_fraction_local", "n_eff", "sim_n_eff", "significant")
+             "sim_explained_fraction_local", "n_eff", "sim_n_eff", "twin_delta_bic", "significant")
 
 
 def ranking_summary(ranking: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:

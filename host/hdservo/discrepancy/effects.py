@@ -76,6 +76,17 @@ class Effect:
         default."""
         return {}
 
+    def twin(self, d: Design, v: Variant) -> Variant | None:
+        """A look-alike of the variant without the effect's defining signature, for an
+        effect whose columns also fit something else (None by default): hysteresis without
+        its memory.
+
+        :func:`hdservo.discrepancy.workflow.rank` fits the twin as well and reports how much
+        better the effect explains the residuals than its twin (``twin_delta_bic``,
+        ``sim_twin_delta_bic``); without that margin the effect is not significant
+        (:func:`hdservo.discrepancy.workflow.beats_twin`)."""
+        return None
+
     def region_bands(self, d: Design, v: Variant) -> dict[str, float] | None:
         """Where the effect can act, from the data and the variant (never from the truth).
 
@@ -551,6 +562,22 @@ class Hysteresis(Effect):
 
     def rebuild(self, d: Design, v: Variant) -> Variant:
         return self._keep(self.variant_at(d, [float(x) for x in v.hyper["thresholds_rad"]]), v)
+
+    def twin(self, d: Design, v: Variant) -> Variant:
+        """The elements' first-loading curves sat_D(phi)/N at the same slip twists: the
+        spring the Maxwell-slip elements make along a monotone twist, without their memory.
+
+        Between two reversals of a symmetric cycle the free-sign elements can follow any
+        odd memoryless spring (a lost-motion zone, a stiffening), so the hysteresis columns
+        fit a backlash or a nonlinear stiffness nearly as well as those effects' own
+        columns; what only hysteresis has is the loop, the torque at equal twist depending
+        on the direction the twist came from.  The twin has as many columns, so the
+        difference of the two fits is that loop alone."""
+        N = d.sig.ratio
+        # like the stop operators, taken along the measured twist in the simulation error
+        cols = [Column(f"twin{i + 1}_k_Nm_per_rad", sat(d.sig.phi, float(D)) / N, None, key=f"sat{float(D):.6g}")
+                for i, D in enumerate(v.hyper["thresholds_rad"])]
+        return Variant({"thresholds_rad": list(v.hyper["thresholds_rad"]), "memoryless": True}, cols)
 
     def params(self, fit: Fit, v: Variant) -> dict[str, Any]:
         out: dict[str, Any] = {}

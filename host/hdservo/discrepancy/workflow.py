@@ -472,9 +472,37 @@ def rank(state: State, lib: list[fx.Effect], s: Settings | None = None,
                                 > (admissible(best.evidence, s), best.evidence["score"])):
                 best = c
         if best is not None:
+            best.evidence.update(twin_evidence(state, best, sse0, n_eff, n_sim, simulate))
             out.append(best)
     out.sort(key=lambda c: -c.evidence["score"])
     return out
+
+
+def twin_evidence(state: State, c: Candidate, sse0: float, n_eff: float, n_sim: float,
+                  simulate: bool = True) -> dict[str, float]:
+    """How much better a candidate explains the residuals than its twin
+    (:meth:`hdservo.discrepancy.effects.Effect.twin`: the look-alike without the effect's
+    defining signature): ``twin_delta_bic`` = n_eff ln(RSS_twin / RSS) in the equation
+    error, ``sim_twin_delta_bic`` likewise in the simulation error (reported; with
+    ``simulate`` False not computed).  Empty for a candidate without a twin."""
+    tw = c.effect.twin(state.design, c.variant)
+    if tw is None:
+        return {}
+    try:
+        ft = state.solve(tw)
+    except np.linalg.LinAlgError:
+        return {}
+    eq = n_eff * np.log(max(ft.rss_w, 1e-300) / max(c.fit.rss_w, 1e-300))
+    out = {"twin_delta_bic": float(eq), "twin_explained_fraction": float(1 - ft.rss_w / state.fit.rss_w)}
+    if not simulate:
+        return out
+    e_t = state.simulate(ft, tw)
+    sse_c = sse0 * (1.0 - c.evidence.get("sim_explained_fraction", np.nan))
+    sse_t = _sse(e_t)
+    sim = (n_sim * np.log(sse_t / sse_c) if np.isfinite(sse_t) and np.isfinite(sse_c) and sse_c > 0
+           else (np.inf if not np.isfinite(sse_t) else -np.inf))
+    return out | {"sim_twin_delta_bic": float(sim),
+                  "twin_sim_explained_fraction": float(1 - sse_t / sse0) if sse0 > 0 else np.nan}
 
 
 #: Halvings of the output-error level step when a named effect is re-fitted (2^(1/4),
@@ -657,7 +685,19 @@ def significant(c: Candidate, s: Settings) -> bool:
     eq_sig = e["delta_bic"] > s.bic_min and e["p_value"] < s.p_max
     sim_sig = sim_dbic > s.bic_min and e.get("sim_p_value", 1.0) < s.p_max
     return bool((eq_sig or sim_sig) and e.get("total_delta_bic", -np.inf) > s.bic_min
-                and admissible(e, s) and size(e) >= s.frac_min)
+                and admissible(e, s) and size(e) >= s.frac_min and beats_twin(e, s))
+
+
+def beats_twin(e: dict[str, float], s: Settings) -> bool:
+    """A candidate with a twin (:func:`twin_evidence`) explains the equation error better
+    than that look-alike by more than ``bic_min``, the evidence a candidate needs: a
+    hysteresis shows its loop (its memoryless twin fits a lost-motion zone, a stiffening or
+    a clean log's mismatch as well between reversals).  True for candidates without a
+    twin."""
+    if "twin_delta_bic" not in e:
+        return True
+    tb = e["twin_delta_bic"]
+    return bool(tb is not None and np.isfinite(tb) and tb > s.bic_min)
 
 
 def size(e: dict[str, float]) -> float:
