@@ -51,6 +51,17 @@ def test_a_later_name_significant_in_both_residuals_needs_the_later_size() -> No
     assert workflow.significant(_candidate(s.frac_min, 100.0, 5.0), s, later=True)
 
 
+def test_a_candidate_at_frac_min_goes_before_one_at_the_later_size() -> None:
+    s = workflow.Settings(frac_min_by_signals={})
+    small = _candidate(0.5 * (s.frac_min_later + s.frac_min), 300.0, 50.0)    # ranked first
+    large = _candidate(0.75, 200.0, 5.0)                                        # eq. error only
+    assert workflow.choose([small, large], s, later=True) is large
+    assert workflow.choose([small], s, later=True) is small
+    # the first name: frac_min only
+    assert workflow.choose([small], s, later=False) is None
+    assert workflow.choose([small, large], s, later=False) is large
+
+
 def test_the_unbalance_named_after_the_asymmetry_that_took_part_of_it(tmp_path: Path) -> None:
     case = corpus.draw(SEED)
     assert sorted(e for e, _ in case.hidden) == ["asymmetric_friction", "gravity_unbalance"]
