@@ -124,17 +124,6 @@ def _positive(text: str) -> float:
     return v
 
 
-def _count(text: str) -> int:
-    """A non-negative whole number (``--exercise``)."""
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got '{text}'") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got '{text}'")
-    return v
-
-
 def register(p: argparse.ArgumentParser) -> None:
     """Options of ``hdservo test``."""
     p.add_argument("procedure", choices=sorted(PROCEDURES) + ["all"], help="procedure to run ('all' = every one)")
@@ -174,7 +163,7 @@ def register(p: argparse.ArgumentParser) -> None:
                         "stabilisation mode (CiA 402 mode -1), 'auto' = stab when 0x6502 advertises mode -1")
     g.add_argument("--targets", type=_floats, default=None, help="positioning targets, deg (12 over -55..55)")
     g.add_argument("--runs", type=int, default=5, help="positioning bidirectional runs (5)")
-    g.add_argument("--exercise", type=_count, default=cl.EXERCISE_PASSES,
+    g.add_argument("--exercise", type=int, default=cl.EXERCISE_PASSES,
                    help=f"positioning: exercise passes over the target range before the first run "
                         f"({cl.EXERCISE_PASSES}; 0 = none)")
     g.add_argument("--peak-request", type=_positive, default=None, help="peak-torque request, N.m (torque_limit)")
@@ -240,6 +229,8 @@ def run(args: argparse.Namespace) -> int:
     """Run one procedure (or all), print the summary, write JSON/plots."""
     if args.runs < 2:
         raise UserError("--runs must be >= 2 (ISO 230-2 needs a standard deviation)")
+    if args.exercise < 0:
+        raise UserError(f"--exercise {args.exercise}: expected a whole number of passes >= 0")
     if args.windows < 2:
         raise UserError("--windows must be >= 2")
     if min(args.rates) <= 0:
