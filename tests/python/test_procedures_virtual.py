@@ -148,11 +148,11 @@ def test_positioning_and_min_rate_short() -> None:
     assert m.headline["min_smooth_rate_deg_s"] is not None and m.headline["min_smooth_rate_deg_s"] <= 0.1
 
 
-def test_positioning_exercise_pass_removes_the_virgin_first_run() -> None:
+def test_positioning_exercise_run_removes_the_virgin_first_run() -> None:
     """Semi-closed, the gear's twist sets where the output lands.  Started from the gear's virgin
     hysteresis state, the first run's twist is apart from the later runs (0.68" on the reference
-    axis over +-40 deg, against a run-to-run s of 0.39"); the default exercise pass over the target
-    range before the first run gives the gear its load history, and the first run joins the others
+    axis over +-40 deg, against a run-to-run s of 0.39"); the default unmeasured exercise run before
+    the first run gives the gear the load history of a run, and the first run joins the others
     (0.03").  Lock-step, so that the host's load does not move the stops."""
     kw = dict(targets_deg=[-40.0, 40.0], runs=3, dwell_s=1.0, measure_s=0.1)
     first = {}
@@ -163,7 +163,7 @@ def test_positioning_exercise_pass_removes_the_virgin_first_run() -> None:
         first[ex] = p.figures["stop_error_parts_arcsec"]["parts"]["minus_twist_arcsec"]["first_run"]
     assert cl.EXERCISE_PASSES >= 1
     assert first[0] > 0.45                      # the virgin first run is an outlier without the exercise
-    assert first[None] < 0.2                    # ... and not with the default exercise pass
+    assert first[None] < 0.2                    # ... and not with the default exercise run
     assert first[None] < 0.25 * first[0]
 
 

@@ -164,7 +164,7 @@ def register(p: argparse.ArgumentParser) -> None:
     g.add_argument("--targets", type=_floats, default=None, help="positioning targets, deg (12 over -55..55)")
     g.add_argument("--runs", type=int, default=5, help="positioning bidirectional runs (5)")
     g.add_argument("--exercise", type=int, default=cl.EXERCISE_PASSES,
-                   help=f"positioning: exercise passes over the target range before the first run "
+                   help=f"positioning: unmeasured exercise runs before the first run "
                         f"({cl.EXERCISE_PASSES}; 0 = none)")
     g.add_argument("--peak-request", type=_positive, default=None, help="peak-torque request, N.m (torque_limit)")
     g.add_argument("--track-rates", type=_floats, default=list(tr.TRACK_RATES_DEG_S),
@@ -230,7 +230,7 @@ def run(args: argparse.Namespace) -> int:
     if args.runs < 2:
         raise UserError("--runs must be >= 2 (ISO 230-2 needs a standard deviation)")
     if args.exercise < 0:
-        raise UserError(f"--exercise {args.exercise}: expected a whole number of passes >= 0")
+        raise UserError(f"--exercise {args.exercise}: expected a whole number of runs >= 0")
     if args.windows < 2:
         raise UserError("--windows must be >= 2")
     if min(args.rates) <= 0:

@@ -487,7 +487,7 @@ def rig_at_stop(rec: "dict[str, np.ndarray]", ratio: float, target_rad: float) -
             "gear_torque_Nm": mean("gear_torque_Nm")}
 
 
-#: positioning: exercise passes over the target range before the first run (default of every row)
+#: positioning: unmeasured exercise runs before the first run (the default of every row)
 EXERCISE_PASSES = 1
 
 
@@ -496,12 +496,12 @@ def positioning(bench: Bench, targets_deg: Optional[Sequence[float]] = None, run
                 progress: Optional[Progress] = None, exercise: int = EXERCISE_PASSES) -> Result:
     """Positioning accuracy and repeatability, ISO 230-2 style (5 bidirectional runs, 12 targets).
 
-    Before the first run the axis is exercised ``exercise`` times over the
-    whole target range (a move to the overrun below the first target, one to
-    the overrun above the last, no measurement; ISO 230-2 allows this warm-up):
-    a gear in service always has a load history, and without it the first run
-    starts from the hysteresis' virgin state and lands apart from the later
-    runs.  Each run approaches every target from below (ascending order) and
+    Before the first run the axis is exercised with ``exercise`` runs that
+    are not measured (the same approaches, stops and dwells as a run; ISO 230-2
+    allows this warm-up): a gear in service always has a load history, and
+    without it the first run starts from the hysteresis' virgin state and lands
+    apart from the later runs.  A plain move over the range and back is not
+    enough: the state at a stop depends on the stops and dwells before it.  Each run approaches every target from below (ascending order) and
     then from above (descending), with an ``overrun`` past the first/last
     target so that every approach has the right direction; position measured
     after ``dwell_s`` as the mean over ``measure_s``: by the reference
@@ -511,10 +511,10 @@ def positioning(bench: Bench, targets_deg: Optional[Sequence[float]] = None, run
     Parameters
     ----------
     exercise : int
-        Exercise passes over the target range before the first run (0 = none).
+        Unmeasured exercise runs before the first run (0 = none).
     """
     if exercise < 0:
-        raise ValueError(f"positioning: exercise passes must be >= 0, got {exercise}")
+        raise ValueError(f"positioning: exercise runs must be >= 0, got {exercise}")
     if targets_deg is None:
         targets_deg = list(np.linspace(-55.0, 55.0, 12))
     tg = np.radians(np.asarray(targets_deg, float))
@@ -549,10 +549,18 @@ def positioning(bench: Bench, targets_deg: Optional[Sequence[float]] = None, run
         return (ref if math.isfinite(ref) else enc), enc
 
     for k in range(exercise):
+        # the whole approach sequence of a run, its dwells included, nothing measured: the gear's
+        # state at each stop depends on the stops and dwells before it, not only on the range
         if progress:
-            progress(0.0, f"exercise pass {k + 1} of {exercise}")
+            progress(0.0, f"exercise run {k + 1} of {exercise}")
         pp_move(bench, tg[0] - ov)
+        for i in range(m):
+            pp_move(bench, tg[i])
+            bench.wait(dwell_s + measure_s)
         pp_move(bench, tg[-1] + ov)
+        for i in reversed(range(m)):
+            pp_move(bench, tg[i])
+            bench.wait(dwell_s + measure_s)
     for j in range(runs):
         pp_move(bench, tg[0] - ov)
         for i in range(m):

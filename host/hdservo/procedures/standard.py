@@ -98,9 +98,8 @@ def positioning(runner: Any, targets_deg: Optional[Sequence[float]] = None, runs
                 progress: Optional[Progress] = None, exercise: int = 1) -> Result:
     """ISO 230-2 positioning (bidirectional, ``runs`` runs) with host-made moves on 0x607A.
 
-    Before the first run the axis is exercised ``exercise`` times over the target range
-    (overrun below the first target, overrun above the last; no measurement), as
-    :func:`hdservo.procedures.closedloop.positioning` does.  Each approach: a smooth move to the target, ``dwell_s`` of standstill, the mean of 0x6064
+    Before the first run the axis makes ``exercise`` runs that are not measured (the same
+    approaches and dwells), as :func:`hdservo.procedures.closedloop.positioning` does.  Each approach: a smooth move to the target, ``dwell_s`` of standstill, the mean of 0x6064
     over the last ``measure_s``.  All runs are one CSP stream (the axis never disables between
     targets).
     """
@@ -129,7 +128,11 @@ def positioning(runner: Any, targets_deg: Optional[Sequence[float]] = None, runs
 
     for _ in range(exercise):
         go(tg[0] - ov)
+        for i in range(tg.size):
+            go(float(tg[i]))
         go(tg[-1] + ov)
+        for i in reversed(range(tg.size)):
+            go(float(tg[i]))
     for _ in range(runs):
         go(tg[0] - ov)
         for i in range(tg.size):
