@@ -159,9 +159,9 @@ def test_positioning_exercise_run_removes_the_virgin_first_run() -> None:
     for ex in (0, None):
         with open_bench(Target(), cl.AXIS_SETUP, lockstep=True) as b, b.params({"fb_config": 1.0}):
             p = cl.positioning(b, **kw) if ex is None else cl.positioning(b, exercise=ex, **kw)
-        assert p.conditions["exercise_passes"] == (cl.EXERCISE_PASSES if ex is None else ex)
+        assert p.conditions["exercise_runs"] == (cl.EXERCISE_RUNS if ex is None else ex)
         first[ex] = p.figures["stop_error_parts_arcsec"]["parts"]["minus_twist_arcsec"]["first_run"]
-    assert cl.EXERCISE_PASSES >= 1
+    assert cl.EXERCISE_RUNS >= 1
     assert first[0] > 0.45                      # the virgin first run is an outlier without the exercise
     assert first[None] < 0.2                    # ... and not with the default exercise run
     assert first[None] < 0.25 * first[0]

@@ -163,9 +163,9 @@ def register(p: argparse.ArgumentParser) -> None:
                         "stabilisation mode (CiA 402 mode -1), 'auto' = stab when 0x6502 advertises mode -1")
     g.add_argument("--targets", type=_floats, default=None, help="positioning targets, deg (12 over -55..55)")
     g.add_argument("--runs", type=int, default=5, help="positioning bidirectional runs (5)")
-    g.add_argument("--exercise", type=int, default=cl.EXERCISE_PASSES,
+    g.add_argument("--exercise", type=int, default=cl.EXERCISE_RUNS,
                    help=f"positioning: unmeasured exercise runs before the first run "
-                        f"({cl.EXERCISE_PASSES}; 0 = none)")
+                        f"({cl.EXERCISE_RUNS}; 0 = none)")
     g.add_argument("--peak-request", type=_positive, default=None, help="peak-torque request, N.m (torque_limit)")
     g.add_argument("--track-rates", type=_floats, default=list(tr.TRACK_RATES_DEG_S),
                    help="tracking: peak rates of the sinusoids, deg/s (default "

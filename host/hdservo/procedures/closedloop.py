@@ -488,12 +488,12 @@ def rig_at_stop(rec: "dict[str, np.ndarray]", ratio: float, target_rad: float) -
 
 
 #: positioning: unmeasured exercise runs before the first run (the default of every row)
-EXERCISE_PASSES = 1
+EXERCISE_RUNS = 1
 
 
 def positioning(bench: Bench, targets_deg: Optional[Sequence[float]] = None, runs: int = 5,
                 overrun_deg: float = 1.0, dwell_s: float = 1.5, measure_s: float = 0.2,
-                progress: Optional[Progress] = None, exercise: int = EXERCISE_PASSES) -> Result:
+                progress: Optional[Progress] = None, exercise: int = EXERCISE_RUNS) -> Result:
     """Positioning accuracy and repeatability, ISO 230-2 style (5 bidirectional runs, 12 targets).
 
     Before the first run the axis is exercised with ``exercise`` runs that
@@ -501,7 +501,9 @@ def positioning(bench: Bench, targets_deg: Optional[Sequence[float]] = None, run
     allows this warm-up): a gear in service always has a load history, and
     without it the first run starts from the hysteresis' virgin state and lands
     apart from the later runs.  A plain move over the range and back is not
-    enough: the state at a stop depends on the stops and dwells before it.  Each run approaches every target from below (ascending order) and
+    enough: the state at a stop depends on the stops and dwells before it.
+
+    Each run approaches every target from below (ascending order) and
     then from above (descending), with an ``overrun`` past the first/last
     target so that every approach has the right direction; position measured
     after ``dwell_s`` as the mean over ``measure_s``: by the reference
@@ -580,7 +582,8 @@ def positioning(bench: Bench, targets_deg: Optional[Sequence[float]] = None, run
     iso = mt.iso230_2(tg / mt.ARCSEC, up / mt.ARCSEC, dn / mt.ARCSEC)
     iso_enc = mt.iso230_2(tg / mt.ARCSEC, up_enc / mt.ARCSEC, dn_enc / mt.ARCSEC)
     r = Result("positioning", conditions={"targets_deg": list(map(float, targets_deg)), "runs": runs,
-                                          "exercise_passes": exercise, "overrun_deg": overrun_deg, "dwell_s": dwell_s, "measure_s": measure_s,
+                                          "exercise_runs": exercise, "overrun_deg": overrun_deg, "dwell_s": dwell_s,
+                                          "measure_s": measure_s,
                                           "reference": "rig (true output angle)" if bench.rig.virtual
                                           else "output encoder", "setup": AXIS_SETUP.name})
     r.figures = {"iso230_2_arcsec": iso, "output_encoder_iso230_2_arcsec": {k: iso_enc[k] for k in

@@ -99,7 +99,8 @@ def positioning(runner: Any, targets_deg: Optional[Sequence[float]] = None, runs
     """ISO 230-2 positioning (bidirectional, ``runs`` runs) with host-made moves on 0x607A.
 
     Before the first run the axis makes ``exercise`` runs that are not measured (the same
-    approaches and dwells), as :func:`hdservo.procedures.closedloop.positioning` does.  Each approach: a smooth move to the target, ``dwell_s`` of standstill, the mean of 0x6064
+    approaches and dwells), as :func:`hdservo.procedures.closedloop.positioning` does.
+    Each approach: a smooth move to the target, ``dwell_s`` of standstill, the mean of 0x6064
     over the last ``measure_s``.  All runs are one CSP stream (the axis never disables between
     targets).
     """
@@ -155,7 +156,7 @@ def positioning(runner: Any, targets_deg: Optional[Sequence[float]] = None, runs
         cnt[d][i] += 1
     iso = mt.iso230_2(tg / mt.ARCSEC, up / mt.ARCSEC, dn / mt.ARCSEC)
     res = Result("positioning", conditions={"targets_deg": list(map(float, targets_deg)), "runs": runs,
-                                            "exercise_passes": exercise, "overrun_deg": overrun_deg, "dwell_s": dwell_s, "measure_s": measure_s,
+                                            "exercise_runs": exercise, "overrun_deg": overrun_deg, "dwell_s": dwell_s, "measure_s": measure_s,
                                             "reference": "output position 0x6064 (the drive's encoder)",
                                             **_setup(runner)})
     res.figures = {"iso230_2_arcsec": iso}
