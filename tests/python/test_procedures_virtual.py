@@ -148,6 +148,25 @@ def test_positioning_and_min_rate_short() -> None:
     assert m.headline["min_smooth_rate_deg_s"] is not None and m.headline["min_smooth_rate_deg_s"] <= 0.1
 
 
+def test_positioning_exercise_run_removes_the_virgin_first_run() -> None:
+    """Semi-closed, the gear's twist sets where the output lands.  Started from the gear's virgin
+    hysteresis state, the first run's twist is apart from the later runs (0.68" on the reference
+    axis over +-40 deg, against a run-to-run s of 0.39"); the default unmeasured exercise run before
+    the first run gives the gear the load history of a run, and the first run joins the others
+    (0.03").  Lock-step, so that the host's load does not move the stops."""
+    kw = dict(targets_deg=[-40.0, 40.0], runs=3, dwell_s=1.0, measure_s=0.1)
+    first = {}
+    for ex in (0, None):
+        with open_bench(Target(), cl.AXIS_SETUP, lockstep=True) as b, b.params({"fb_config": 1.0}):
+            p = cl.positioning(b, **kw) if ex is None else cl.positioning(b, exercise=ex, **kw)
+        assert p.conditions["exercise_runs"] == (cl.EXERCISE_RUNS if ex is None else ex)
+        first[ex] = p.figures["stop_error_parts_arcsec"]["parts"]["minus_twist_arcsec"]["first_run"]
+    assert cl.EXERCISE_RUNS >= 1
+    assert first[0] > 0.45                      # the virgin first run is an outlier without the exercise
+    assert first[None] < 0.2                    # ... and not with the default exercise run
+    assert first[None] < 0.25 * first[0]
+
+
 def test_reference_moved_throughout_flags_a_stopped_reference() -> None:
     moving = (np.arange(50, dtype=np.int64) * 12345 + 2 ** 32 - 300000) % 2 ** 32      # wraps, still forward
     assert cl.reference_moved_throughout(moving)
@@ -196,6 +215,11 @@ def test_cli_json_and_bad_input(tmp_path: Path) -> None:
                          capture_output=True, text=True, env=env, timeout=60)
     assert bad.returncode == 2
     assert len(bad.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "x.json").exists()
+    bad3 = subprocess.run(env_py + ["positioning", "--sim", "--exercise", "-1", "--json", str(tmp_path / "x.json")],
+                          capture_output=True, text=True, env=env, timeout=60)
+    assert bad3.returncode == 2 and "--exercise" in bad3.stderr and ">= 0" in bad3.stderr
+    assert len(bad3.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "x.json").exists()
     bad2 = subprocess.run(env_py + ["stiffness", "--sim", str(tmp_path / "none.toml")],
                           capture_output=True, text=True, env=env, timeout=60)

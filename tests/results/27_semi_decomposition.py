@@ -97,6 +97,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     ap.add_argument("--model", type=Path, default=None, help="identified model to download (default: the axis' true model)")
     ap.add_argument("--rows", default=",".join(DEFAULT_ROWS), help="comma-separated rows (hdservo compare names)")
     ap.add_argument("--noise-seed", type=int, default=1, help="sensor-noise seed (default 1)")
+    ap.add_argument("--exercise", type=int, default=None,
+                    help="positioning exercise passes before the first run (default: the procedure's)")
     ap.add_argument("-o", "--out", type=Path, default=ROOT / "build" / "results")
     a = ap.parse_args(argv)
     work = a.out / "semi_decomposition"
@@ -109,12 +111,13 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     rows = [cmp.fair_row([] if n == "pid" else n.split("+"), "semi-closed", "baseline" if n == "pid" else "custom",
                          name=n, axis=str(axis)) for n in a.rows.split(",") if n]
     t0 = time.monotonic()
-    doc = cmp.run_compare(work / "compare", rows, ["positioning"], proc_extra=cmp.QUICK_ARGS, axis=str(axis),
+    extra = [*cmp.QUICK_ARGS, *([] if a.exercise is None else ["--exercise", str(a.exercise)])]
+    doc = cmp.run_compare(work / "compare", rows, ["positioning"], proc_extra=extra, axis=str(axis),
                           seed=a.noise_seed, model=model, progress=False, jobs=1)
     res = row_parts(work / "compare", doc)
     out = {"axis": str(axis.relative_to(ROOT) if axis.is_relative_to(ROOT) else axis.name), "axis_seed": a.seed,
            "model": "true" if a.model is None else a.model.name, "noise_seed": a.noise_seed,
-           "run_time_s": time.monotonic() - t0, "rows": res}
+           "exercise": a.exercise, "run_time_s": time.monotonic() - t0, "rows": res}
     write_json_atomic(a.out / "semi_decomposition.json", out)
     print(table(res))
     print(f"wrote {a.out / 'semi_decomposition.json'} ({out['run_time_s']:.0f} s)")

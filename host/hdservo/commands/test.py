@@ -65,7 +65,8 @@ PROCEDURES: dict[str, Proc] = {
                       lambda b, a, p: cl.stabilisation(b, duration_s=a.duration, progress=p,
                                                        mode=getattr(a, "stab_mode", "hold"))),
     "positioning": (lambda a: cl.AXIS_SETUP, False,
-                    lambda b, a, p: cl.positioning(b, targets_deg=a.targets, runs=a.runs, progress=p)),
+                    lambda b, a, p: cl.positioning(b, targets_deg=a.targets, runs=a.runs, progress=p,
+                                                   exercise=a.exercise)),
     # lock-step on the virtual drive: the saturated step lasts its drive time whatever the host's latency
     # (with fast pacing a slow capture upload let the drive run on past torque_sat_time: a TORQUE_SAT fault)
     "peak-torque": (lambda a: cl.AXIS_SETUP, True,
@@ -83,7 +84,8 @@ PROCEDURES: dict[str, Proc] = {
 STD_PROCEDURES: dict[str, Callable[..., Result]] = {
     "min-rate": lambda r, a, p: std.min_rate(r, rates_deg_s=a.rates, bound=a.bound, windows=a.windows,
                                              settle_s=a.settle, progress=p),
-    "positioning": lambda r, a, p: std.positioning(r, targets_deg=a.targets, runs=a.runs, progress=p),
+    "positioning": lambda r, a, p: std.positioning(r, targets_deg=a.targets, runs=a.runs, progress=p,
+                                                   exercise=a.exercise),
     "bandwidth": lambda r, a, p: std.bandwidth(r, amplitude_arcsec=a.amplitude_arcsec),
     "peak-torque": lambda r, a, p: std.peak_torque(r, request_Nm=a.peak_request or 0.0,
                                                    output_locked=a.output_locked),
@@ -161,6 +163,9 @@ def register(p: argparse.ArgumentParser) -> None:
                         "stabilisation mode (CiA 402 mode -1), 'auto' = stab when 0x6502 advertises mode -1")
     g.add_argument("--targets", type=_floats, default=None, help="positioning targets, deg (12 over -55..55)")
     g.add_argument("--runs", type=int, default=5, help="positioning bidirectional runs (5)")
+    g.add_argument("--exercise", type=int, default=cl.EXERCISE_RUNS,
+                   help=f"positioning: unmeasured exercise runs before the first run "
+                        f"({cl.EXERCISE_RUNS}; 0 = none)")
     g.add_argument("--peak-request", type=_positive, default=None, help="peak-torque request, N.m (torque_limit)")
     g.add_argument("--track-rates", type=_floats, default=list(tr.TRACK_RATES_DEG_S),
                    help="tracking: peak rates of the sinusoids, deg/s (default "
@@ -224,6 +229,8 @@ def run(args: argparse.Namespace) -> int:
     """Run one procedure (or all), print the summary, write JSON/plots."""
     if args.runs < 2:
         raise UserError("--runs must be >= 2 (ISO 230-2 needs a standard deviation)")
+    if args.exercise < 0:
+        raise UserError(f"--exercise {args.exercise}: expected a whole number of runs >= 0")
     if args.windows < 2:
         raise UserError("--windows must be >= 2")
     if min(args.rates) <= 0:

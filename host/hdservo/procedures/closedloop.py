@@ -487,17 +487,36 @@ def rig_at_stop(rec: "dict[str, np.ndarray]", ratio: float, target_rad: float) -
             "gear_torque_Nm": mean("gear_torque_Nm")}
 
 
+#: positioning: unmeasured exercise runs before the first run (the default of every row)
+EXERCISE_RUNS = 1
+
+
 def positioning(bench: Bench, targets_deg: Optional[Sequence[float]] = None, runs: int = 5,
                 overrun_deg: float = 1.0, dwell_s: float = 1.5, measure_s: float = 0.2,
-                progress: Optional[Progress] = None) -> Result:
+                progress: Optional[Progress] = None, exercise: int = EXERCISE_RUNS) -> Result:
     """Positioning accuracy and repeatability, ISO 230-2 style (5 bidirectional runs, 12 targets).
 
-    Each run approaches every target from below (ascending order) and then
-    from above (descending), with an ``overrun`` past the first/last target
-    so that every approach has the right direction; position measured after
-    ``dwell_s`` as the mean over ``measure_s``: by the reference instrument
-    (virtual rig: true output angle) or, on a real bench, the output encoder.
+    Before the first run the axis is exercised with ``exercise`` runs that
+    are not measured (the same approaches, stops and dwells as a run; ISO 230-2
+    allows this warm-up): a gear in service always has a load history, and
+    without it the first run starts from the hysteresis' virgin state and lands
+    apart from the later runs.  A plain move over the range and back is not
+    enough: the state at a stop depends on the stops and dwells before it.
+
+    Each run approaches every target from below (ascending order) and
+    then from above (descending), with an ``overrun`` past the first/last
+    target so that every approach has the right direction; position measured
+    after ``dwell_s`` as the mean over ``measure_s``: by the reference
+    instrument (virtual rig: true output angle) or, on a real bench, the
+    output encoder.
+
+    Parameters
+    ----------
+    exercise : int
+        Unmeasured exercise runs before the first run (0 = none).
     """
+    if exercise < 0:
+        raise ValueError(f"positioning: exercise runs must be >= 0, got {exercise}")
     if targets_deg is None:
         targets_deg = list(np.linspace(-55.0, 55.0, 12))
     tg = np.radians(np.asarray(targets_deg, float))
@@ -531,6 +550,19 @@ def positioning(bench: Bench, targets_deg: Optional[Sequence[float]] = None, run
         enc = float(np.mean((cap["pos_out_hi"] * 2.0 ** 32 + cap["pos_out_lo"]) / 2.0 ** 32 * TURN))
         return (ref if math.isfinite(ref) else enc), enc
 
+    for k in range(exercise):
+        # the whole approach sequence of a run, its dwells included, nothing measured: the gear's
+        # state at each stop depends on the stops and dwells before it, not only on the range
+        if progress:
+            progress(0.0, f"exercise run {k + 1} of {exercise}")
+        pp_move(bench, tg[0] - ov)
+        for i in range(m):
+            pp_move(bench, tg[i])
+            bench.wait(dwell_s + measure_s)
+        pp_move(bench, tg[-1] + ov)
+        for i in reversed(range(m)):
+            pp_move(bench, tg[i])
+            bench.wait(dwell_s + measure_s)
     for j in range(runs):
         pp_move(bench, tg[0] - ov)
         for i in range(m):
@@ -550,7 +582,8 @@ def positioning(bench: Bench, targets_deg: Optional[Sequence[float]] = None, run
     iso = mt.iso230_2(tg / mt.ARCSEC, up / mt.ARCSEC, dn / mt.ARCSEC)
     iso_enc = mt.iso230_2(tg / mt.ARCSEC, up_enc / mt.ARCSEC, dn_enc / mt.ARCSEC)
     r = Result("positioning", conditions={"targets_deg": list(map(float, targets_deg)), "runs": runs,
-                                          "overrun_deg": overrun_deg, "dwell_s": dwell_s, "measure_s": measure_s,
+                                          "exercise_runs": exercise, "overrun_deg": overrun_deg, "dwell_s": dwell_s,
+                                          "measure_s": measure_s,
                                           "reference": "rig (true output angle)" if bench.rig.virtual
                                           else "output encoder", "setup": AXIS_SETUP.name})
     r.figures = {"iso230_2_arcsec": iso, "output_encoder_iso230_2_arcsec": {k: iso_enc[k] for k in

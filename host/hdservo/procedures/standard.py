@@ -95,9 +95,11 @@ def move_profile(start_rad: float, end_rad: float, vmax_rad_s: float, dt: float)
 
 def positioning(runner: Any, targets_deg: Optional[Sequence[float]] = None, runs: int = 5, overrun_deg: float = 1.0,
                 vmax_deg_s: float = 20.0, dwell_s: float = 1.5, measure_s: float = 0.2,
-                progress: Optional[Progress] = None) -> Result:
+                progress: Optional[Progress] = None, exercise: int = 1) -> Result:
     """ISO 230-2 positioning (bidirectional, ``runs`` runs) with host-made moves on 0x607A.
 
+    Before the first run the axis makes ``exercise`` runs that are not measured (the same
+    approaches and dwells), as :func:`hdservo.procedures.closedloop.positioning` does.
     Each approach: a smooth move to the target, ``dwell_s`` of standstill, the mean of 0x6064
     over the last ``measure_s``.  All runs are one CSP stream (the axis never disables between
     targets).
@@ -107,6 +109,8 @@ def positioning(runner: Any, targets_deg: Optional[Sequence[float]] = None, runs
     tg = np.radians(np.asarray(targets_deg, float))
     if runs < 2 or tg.size < 1:
         raise UserError("positioning: needs at least 2 runs and 1 target")
+    if exercise < 0:
+        raise UserError(f"positioning: --exercise must be >= 0, got {exercise}")
     dt = runner.sync_period_s
     ov = math.radians(overrun_deg)
     vmax = math.radians(vmax_deg_s)
@@ -123,6 +127,13 @@ def positioning(runner: Any, targets_deg: Optional[Sequence[float]] = None, runs
         if mark is not None:
             marks.append((sum(len(p) for p in pieces), mark[0], mark[1]))
 
+    for _ in range(exercise):
+        go(tg[0] - ov)
+        for i in range(tg.size):
+            go(float(tg[i]))
+        go(tg[-1] + ov)
+        for i in reversed(range(tg.size)):
+            go(float(tg[i]))
     for _ in range(runs):
         go(tg[0] - ov)
         for i in range(tg.size):
@@ -145,7 +156,7 @@ def positioning(runner: Any, targets_deg: Optional[Sequence[float]] = None, runs
         cnt[d][i] += 1
     iso = mt.iso230_2(tg / mt.ARCSEC, up / mt.ARCSEC, dn / mt.ARCSEC)
     res = Result("positioning", conditions={"targets_deg": list(map(float, targets_deg)), "runs": runs,
-                                            "overrun_deg": overrun_deg, "dwell_s": dwell_s, "measure_s": measure_s,
+                                            "exercise_runs": exercise, "overrun_deg": overrun_deg, "dwell_s": dwell_s, "measure_s": measure_s,
                                             "reference": "output position 0x6064 (the drive's encoder)",
                                             **_setup(runner)})
     res.figures = {"iso230_2_arcsec": iso}
