@@ -199,7 +199,8 @@ BEST_GAINS: dict[str, float] = {"pos_kp": 60.0, "str_w_ref": 0.0, "str_cruise_ti
 #: baseline, each compensator, the best combination, the leave-one-out rows -- runs with the loop gains
 #: of the compensated set: the velocity PI and filters of the axis' PID design (velocity loop at 25 Hz on
 #: every axis, :func:`hdservo.closedloop_cases.axis_controller`) and this position P, 60 1/s = 2 pi 25 Hz / 2.6
-#: (the position loop a factor 2.6 below the velocity loop, the same on every axis).
+#: (the position loop a factor 2.6 below the velocity loop), scaled down on an axis whose load resonance is
+#: below 1.5 x the velocity loop (:func:`fair_gains`).
 FAIR_GAINS: dict[str, float] = {"pos_kp": 60.0}
 
 
