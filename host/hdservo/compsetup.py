@@ -204,6 +204,29 @@ BEST_GAINS: dict[str, float] = {"pos_kp": 60.0, "str_w_ref": 0.0, "str_cruise_ti
 FAIR_GAINS: dict[str, float] = {"pos_kp": 60.0}
 
 
+def position_gain_scale(axis: str = "reference") -> float:
+    """Factor on the position P for the bandwidth the load follows (:func:`fair_gains`).
+
+    Parameters
+    ----------
+    axis : str
+        "reference", "minimal", a shipped axis name or an axis TOML path (its K1 and J_L).
+
+    Returns
+    -------
+    float
+        min(1, f_load / (``RESONANCE_LOOP_RATIO`` x :data:`VEL_LOOP_HZ`)), f_load = sqrt(K1 / J_L) / 2 pi
+        (:func:`load_resonance_hz`); 1 for an axis whose K1 or J_L cannot be read.
+    """
+    from .closedloop_cases import _axis_spec
+    try:
+        get = _reader(_axis_spec(axis))
+        f_load = load_resonance_hz(get("stiffness.k1_Nm_per_rad"), get("load.jl_kgm2"))
+    except (KeyError, ValueError, OSError, sim.SimError):
+        return 1.0
+    return min(1.0, f_load / (RESONANCE_LOOP_RATIO * VEL_LOOP_HZ))
+
+
 def fair_gains(axis: str = "reference") -> dict[str, float]:
     """The fair loop gains of an axis (table units): :data:`FAIR_GAINS` with the position P the load follows.
 
@@ -221,22 +244,16 @@ def fair_gains(axis: str = "reference") -> dict[str, float]:
     Parameters
     ----------
     axis : str
-        "reference", "minimal" or an axis TOML path (its K1 and J_L).
+        "reference", "minimal", a shipped axis name or an axis TOML path (its K1 and J_L).
 
     Returns
     -------
     dict
-        ``{"pos_kp": 1/s}``; :data:`FAIR_GAINS` for an axis whose K1 or J_L cannot be read.
+        ``{"pos_kp": 1/s}`` (:func:`position_gain_scale` x :data:`FAIR_GAINS`).
     """
-    from .closedloop_cases import _axis_spec
-    out = dict(FAIR_GAINS)
-    try:
-        get = _reader(_axis_spec(axis))
-        f_load = load_resonance_hz(get("stiffness.k1_Nm_per_rad"), get("load.jl_kgm2"))
-    except (KeyError, ValueError, OSError, sim.SimError):
-        return out
-    out["pos_kp"] = FAIR_GAINS["pos_kp"] * min(1.0, f_load / (RESONANCE_LOOP_RATIO * VEL_LOOP_HZ))
-    return out
+    return {k: (float(v) * position_gain_scale(axis) if k == "pos_kp" else float(v)) for k, v in FAIR_GAINS.items()}
+
+
 #: Every row runs each procedure in the same drive mode: the stabilisation test in the gyro mode (STAB).
 FAIR_PROC_ARGS: dict[str, list[str]] = {"stabilisation": ["--stab-mode", "stab"]}
 #: Settings a compensator carries when it is on (its configuration, the same on every axis): the
@@ -274,9 +291,12 @@ DEFAULT_BEST: tuple[str, ...] = ("stribeck",)
 
 
 def best_gains(axis: str = "reference") -> dict[str, float]:
-    """Drive parameters the best combination sets after the model download (table units): :data:`BEST_GAINS`
-    with the axis' fair position P (:func:`fair_gains`)."""
-    return dict(BEST_GAINS, **fair_gains(axis))
+    """Drive parameters the best combination sets after the model download (table units): :data:`BEST_GAINS`,
+    its position P times :func:`position_gain_scale` (the same factor as the fair gains, :func:`fair_gains`)."""
+    g = {k: float(v) for k, v in BEST_GAINS.items()}
+    if "pos_kp" in g:
+        g["pos_kp"] *= position_gain_scale(axis)
+    return g
 
 
 def _reader(axis: str) -> Callable[[str], float]:
@@ -857,7 +877,7 @@ def controller(axis: str, names: "list[str] | tuple[str, ...]", base: Mapping[st
 __all__ = ["FRICTION_DELTA_KEY", "MOTOR_SHARE_KEY", "STR_STEADY_VS", "STR_STEADY_VS_MAX", "friction_slope",
            "steady_motion_vs", "RESONANCE_LOOP_RATIO", "VEL_LOOP_HZ", "design_vel_kp", "load_resonance_hz",
            "twist_torque_source", "velocity_loop_hz", "BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
-           "FAIR_GAINS", "FAIR_PROC_ARGS", "fair_gains", "GROUPS", "STRATEGIES", "TABLE_LATTICE_LSB", "TABLE_TORQUE_T1", "best_gains",
+           "FAIR_GAINS", "FAIR_PROC_ARGS", "fair_gains", "position_gain_scale", "GROUPS", "STRATEGIES", "TABLE_LATTICE_LSB", "TABLE_TORQUE_T1", "best_gains",
            "compensator_params", "controller", "elastic_torque", "enable_mask", "gear_everett", "preisach_table",
            "table_range_rad",
            "write_preisach_table"]
