@@ -350,7 +350,8 @@ def fair_row(parts: Sequence[str], feedback: str = "full-closed", kind: str = "c
     from . import compsetup as cs
     comps: list[str] = []
     gains: dict[str, float] = design_gains(axis)
-    gains.update({k: float(v) for k, v in cs.FAIR_GAINS.items()})
+    fair = {k: float(v) for k, v in cs.fair_gains(axis).items()}
+    gains.update(fair)
     for part in parts:
         if part in cs.STRATEGIES:
             en, prm = cs.STRATEGIES[part]
@@ -367,7 +368,7 @@ def fair_row(parts: Sequence[str], feedback: str = "full-closed", kind: str = "c
     base = name or ("pid" if not parts else "+".join(parts))
     what = "fair PID" + ("".join(f" + {p}" for p in parts))
     desc = (f"{what}, {feedback}; loop gains of the compensated set ("
-            + ", ".join(f"{k} = {v:g}" for k, v in cs.FAIR_GAINS.items())
+            + ", ".join(f"{k} = {v:.4g}" for k, v in fair.items())
             + "), stabilisation in the gyro mode")
     return Controller(row_name(base, feedback), comps, gains, desc, {k: list(v) for k, v in cs.FAIR_PROC_ARGS.items()},
                       feedback, kind, list(parts))

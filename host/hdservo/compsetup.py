@@ -258,8 +258,61 @@ BEST_GAINS: dict[str, float] = {"pos_kp": 60.0, "str_w_ref": 0.0, "str_cruise_ti
 #: baseline, each compensator, the best combination, the leave-one-out rows -- runs with the loop gains
 #: of the compensated set: the velocity PI and filters of the axis' PID design (velocity loop at 25 Hz on
 #: every axis, :func:`hdservo.closedloop_cases.axis_controller`) and this position P, 60 1/s = 2 pi 25 Hz / 2.6
-#: (the position loop a factor 2.6 below the velocity loop, the same on every axis).
+#: (the position loop a factor 2.6 below the velocity loop), scaled down on an axis whose load resonance is
+#: below 1.5 x the velocity loop (:func:`fair_gains`).
 FAIR_GAINS: dict[str, float] = {"pos_kp": 60.0}
+
+
+def position_gain_scale(axis: str = "reference") -> float:
+    """Factor on the position P for the bandwidth the load follows (:func:`fair_gains`).
+
+    Parameters
+    ----------
+    axis : str
+        "reference", "minimal", a shipped axis name or an axis TOML path (its K1 and J_L).
+
+    Returns
+    -------
+    float
+        min(1, f_load / (``RESONANCE_LOOP_RATIO`` x :data:`VEL_LOOP_HZ`)), f_load = sqrt(K1 / J_L) / 2 pi
+        (:func:`load_resonance_hz`); 1 for an axis whose K1 or J_L cannot be read.
+    """
+    from .closedloop_cases import _axis_spec
+    try:
+        get = _reader(_axis_spec(axis))
+        f_load = load_resonance_hz(get("stiffness.k1_Nm_per_rad"), get("load.jl_kgm2"))
+    except (KeyError, ValueError, OSError, sim.SimError):
+        return 1.0
+    return min(1.0, f_load / (RESONANCE_LOOP_RATIO * VEL_LOOP_HZ))
+
+
+def fair_gains(axis: str = "reference") -> dict[str, float]:
+    """The fair loop gains of an axis (table units): :data:`FAIR_GAINS` with the position P the load follows.
+
+    The position P is 2.6 times below the velocity loop the *load* follows.  The load follows the
+    motor's velocity loop only below its own resonance on the gear: from
+    ``RESONANCE_LOOP_RATIO`` x the velocity loop (:data:`VEL_LOOP_HZ`) down, the crossover the load
+    sees is the load resonance over that ratio (the same boundary as the twist torque rule,
+    :func:`twist_torque_source`), and the position P scales with it::
+
+        pos_kp = 60 min(1, f_load / (RESONANCE_LOOP_RATIO VEL_LOOP_HZ)),   f_load = sqrt(K1 / J_L) / 2 pi
+
+    Above that, a friction feed-forward that removes the friction's damping leaves the position loop
+    on a load that rocks on the gear (docs/compensators.md section 13: stops hunting at ~12 Hz).
+
+    Parameters
+    ----------
+    axis : str
+        "reference", "minimal", a shipped axis name or an axis TOML path (its K1 and J_L).
+
+    Returns
+    -------
+    dict
+        ``{"pos_kp": 1/s}`` (:func:`position_gain_scale` x :data:`FAIR_GAINS`).
+    """
+    return {k: (float(v) * position_gain_scale(axis) if k == "pos_kp" else float(v)) for k, v in FAIR_GAINS.items()}
+
+
 #: Every row runs each procedure in the same drive mode: the stabilisation test in the gyro mode (STAB).
 FAIR_PROC_ARGS: dict[str, list[str]] = {"stabilisation": ["--stab-mode", "stab"]}
 #: Settings a compensator carries when it is on (its configuration, the same on every axis): the
@@ -297,8 +350,12 @@ DEFAULT_BEST: tuple[str, ...] = ("stribeck",)
 
 
 def best_gains(axis: str = "reference") -> dict[str, float]:
-    """Drive parameters the best combination sets after the model download (table units; same for every axis)."""
-    return dict(BEST_GAINS)
+    """Drive parameters the best combination sets after the model download (table units): :data:`BEST_GAINS`,
+    its position P times :func:`position_gain_scale` (the same factor as the fair gains, :func:`fair_gains`)."""
+    g = {k: float(v) for k, v in BEST_GAINS.items()}
+    if "pos_kp" in g:
+        g["pos_kp"] *= position_gain_scale(axis)
+    return g
 
 
 def _reader(axis: str) -> Callable[[str], float]:
@@ -903,7 +960,7 @@ __all__ = ["FF_TAU_MAX_MIN", "feedforward_clamp", "friction_clamp",
            "FRICTION_DELTA_KEY", "MOTOR_SHARE_KEY", "STR_STEADY_VS", "STR_STEADY_VS_MAX", "friction_slope",
            "steady_motion_vs", "RESONANCE_LOOP_RATIO", "VEL_LOOP_HZ", "design_vel_kp", "load_resonance_hz",
            "twist_torque_source", "velocity_loop_hz", "BEST_GAINS", "BEST_NAMES", "BEST_PROC_ARGS", "COMPONENT_PARAMS", "DEFAULT_BEST", "ENABLE_BITS", "EXCLUSIVE", "MOTOR_SIDE_PAIRS",
-           "FAIR_GAINS", "FAIR_PROC_ARGS", "GROUPS", "STRATEGIES", "TABLE_LATTICE_LSB", "TABLE_TORQUE_T1", "best_gains",
+           "FAIR_GAINS", "FAIR_PROC_ARGS", "fair_gains", "position_gain_scale", "GROUPS", "STRATEGIES", "TABLE_LATTICE_LSB", "TABLE_TORQUE_T1", "best_gains",
            "compensator_params", "controller", "elastic_torque", "enable_mask", "gear_everett", "preisach_table",
            "table_range_rad",
            "write_preisach_table"]
