@@ -175,13 +175,14 @@ def plan_download(model_path: Path, axis: str = "reference", preisach: Path | No
     UserError
         Unreadable model, a value outside a parameter's range, a bad Preisach image.
     """
-    from . import compsetup, sim
+    from . import compsetup, resources, sim
     from .drive import TABLE_GROUPS
     from .params_gen import BY_NAME as PARAMS
     from .ident.model_reader import preisach_table_file
     from .preisach_table import PreisachTable
     model = read_model(model_path)
-    ax = axis if axis in ("reference", "minimal") else str(Path(axis).resolve())
+    # a shipped axis' name ("csf17_50") is its file, as for every --sim AXIS
+    ax = axis if axis in ("reference", "minimal") else str(Path(resources.axis_arg(axis)).resolve())
     if ax not in ("reference", "minimal") and not Path(ax).is_file():
         raise UserError(f"{axis}: axis file not found")
     over, notes = model_overrides(model, lambda k: float(sim.axis_param(k, ax)))

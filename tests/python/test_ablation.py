@@ -462,3 +462,14 @@ def test_stribeck_velocity_of_a_model_without_a_hump(tmp_path: Path) -> None:
     assert p["params"]["lug_vs"] == pytest.approx(0.0115 / (2 * math.pi))
     # an axis with a hump on both sides keeps its weighted mean
     assert compsetup.compensator_params("reference")["str_vs_pos"] == pytest.approx(0.02 / (2 * math.pi))
+
+
+def test_download_plan_takes_a_shipped_axis_by_name(tmp_path: Path) -> None:
+    """``--sim=csf17_50`` names a shipped axis: the plan is the one of its file, not "axis file not found"."""
+    from hdservo.commands.download import plan_download
+    m = tmp_path / "model.toml"
+    m.write_text(BAD_HUMP_MODEL)
+    by_file = plan_download(m, str(Path(__file__).resolve().parents[2] / "sim" / "axes" / "csf17_50.toml"))
+    by_name = plan_download(m, "csf17_50")
+    assert by_name["params"] == by_file["params"]
+    assert by_name["params"] != plan_download(m, "reference")["params"]
