@@ -297,8 +297,8 @@ def fair_gains(axis: str = "reference") -> dict[str, float]:
 
         pos_kp = 60 min(1, f_load / (RESONANCE_LOOP_RATIO VEL_LOOP_HZ)),   f_load = sqrt(K1 / J_L) / 2 pi
 
-    Above that, a friction feed-forward that removes the friction's damping leaves the position loop
-    on a load that rocks on the gear (docs/compensators.md section 13: stops hunting at ~12 Hz).
+    With the full P on such an axis, a friction feed-forward that removes the friction's damping leaves
+    the position loop on a load that rocks on the gear (docs/compensators.md section 13: stops hunting at ~12 Hz).
 
     Parameters
     ----------
